@@ -1,0 +1,125 @@
+//! Conditions: predicates over the control-system state and the current time.
+
+use crate::{Duration, Instant};
+
+/// A condition evaluated against the application's control system `C` and the sequencer time
+/// (the seed's `Condition::validate`).
+///
+/// A condition may keep its own state between evaluations: a toggle button, "not moved for
+/// 5 s". Monitors evaluate their condition in the tick at the owner's polling period.
+/// Closures `FnMut(&C, Instant) -> bool` are conditions too.
+///
+/// ```
+/// use rtseq::{Condition, Instant};
+/// struct OverCurrent { limit: f32 }
+/// impl Condition<f32> for OverCurrent {
+///     fn validate(&mut self, current: &f32, _now: Instant) -> bool { *current > self.limit }
+/// }
+/// let mut c = OverCurrent { limit: 2.0 };
+/// assert!(c.is_true(&2.5, Instant::from_ticks(0)));
+/// ```
+pub trait Condition<C> {
+    /// Evaluates the condition. Must be short and must not block: it runs in the tick.
+    fn validate(&mut self, control: &C, now: Instant) -> bool;
+
+    /// The seed's `isTrue()`: evaluates the condition now.
+    fn is_true(&mut self, control: &C, now: Instant) -> bool {
+        self.validate(control, now)
+    }
+}
+
+impl<C, F> Condition<C> for F
+where
+    F: FnMut(&C, Instant) -> bool,
+{
+    fn validate(&mut self, control: &C, now: Instant) -> bool {
+        self(control, now)
+    }
+}
+
+/// A toggle-button condition (seed §1.6): true after the first press, false after the next.
+///
+/// `pressed` reads the raw button; a press is a rising edge of it.
+///
+/// ```
+/// use rtseq::{Condition, Instant, Toggle};
+/// let mut t = Toggle::new(|b: &bool| *b);
+/// let now = Instant::from_ticks(0);
+/// assert!(!t.validate(&false, now));
+/// assert!(t.validate(&true, now));   // pressed: on
+/// assert!(t.validate(&false, now));  // released: stays on
+/// assert!(!t.validate(&true, now));  // pressed again: off
+/// ```
+pub struct Toggle<F> {
+    pressed: F,
+    last: bool,
+    on: bool,
+}
+
+impl<F> Toggle<F> {
+    /// A toggle that is off until the first press.
+    pub const fn new(pressed: F) -> Self {
+        Toggle {
+            pressed,
+            last: false,
+            on: false,
+        }
+    }
+}
+
+impl<C, F: FnMut(&C) -> bool> Condition<C> for Toggle<F> {
+    fn validate(&mut self, control: &C, _now: Instant) -> bool {
+        let now_pressed = (self.pressed)(control);
+        if now_pressed && !self.last {
+            self.on = !self.on;
+        }
+        self.last = now_pressed;
+        self.on
+    }
+}
+
+/// True once a value has stayed within `tolerance` of where it was for at least `window`
+/// (seed §1.6: "the robot has not moved in the last 5 seconds").
+///
+/// ```
+/// use rtseq::{Condition, Duration, Instant, Stable};
+/// let mut still = Stable::new(|pos: &f32| *pos, 0.01, Duration::from_secs(5));
+/// assert!(!still.validate(&1.0, Instant::from_ticks(0)));
+/// assert!(!still.validate(&1.0, Instant::from_ticks(4_000_000)));
+/// assert!(still.validate(&1.0, Instant::from_ticks(5_000_000)));
+/// assert!(!still.validate(&2.0, Instant::from_ticks(6_000_000))); // moved: starts over
+/// ```
+pub struct Stable<F> {
+    value: F,
+    tolerance: f32,
+    window: Duration,
+    anchor: Option<(f32, Instant)>,
+}
+
+impl<F> Stable<F> {
+    /// Watches `value`, which counts as unchanged while within `tolerance` of its anchor.
+    pub const fn new(value: F, tolerance: f32, window: Duration) -> Self {
+        Stable {
+            value,
+            tolerance,
+            window,
+            anchor: None,
+        }
+    }
+}
+
+impl<C, F: FnMut(&C) -> f32> Condition<C> for Stable<F> {
+    fn validate(&mut self, control: &C, now: Instant) -> bool {
+        let v = (self.value)(control);
+        match self.anchor {
+            Some((a, since)) if (v - a).abs() <= self.tolerance => {
+                now.checked_duration_since(since)
+                    .is_some_and(|held| held >= self.window)
+            }
+            _ => {
+                self.anchor = Some((v, now));
+                false
+            }
+        }
+    }
+}

@@ -1,0 +1,165 @@
+//! The object-safe view of a [`Sequencer`] that contexts and handles use, so user code is
+//! generic only over the control system `C`, not over the sequencer's capacities.
+
+use core::task::{Poll, Waker};
+
+use crate::control_block::flag;
+use crate::sequencer::{Gate, Mode};
+use crate::{Cause, Counters, Error, Instant, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
+
+/// A consistent snapshot of one control block, for [`Handle`](crate::Handle).
+#[derive(Clone, Debug)]
+pub(crate) struct Info {
+    pub(crate) name: &'static str,
+    pub(crate) state: RunningState,
+    pub(crate) stack: heapless::Vec<SeqId, MAX_DEPTH>,
+    pub(crate) blocking: u8,
+    pub(crate) exception_active: bool,
+    pub(crate) active_exception: Option<Cause>,
+    pub(crate) counters: Counters,
+    pub(crate) outcome: Option<Outcome>,
+}
+
+pub(crate) trait Engine<C> {
+    fn now(&self) -> Instant;
+    fn begin(&self, id: SeqId, caller: Option<SeqId>, mode: Mode) -> Result<(), Error>;
+    /// Parks `waker` for `id`'s lane and says what an await point must do.
+    fn gate(&self, id: SeqId, waker: &Waker) -> Gate;
+    /// Like `gate`, but `Go` only when the tick said a polled condition is due.
+    fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate;
+    fn poll_wait(&self, id: SeqId, on: bool);
+    fn restarted(&self, id: SeqId);
+    fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate>;
+    fn finished(&self, id: SeqId, outcome: Outcome);
+    fn declare_lane(&self, id: SeqId) -> Result<(), Error>;
+    fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
+    fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
+    fn info(&self, id: SeqId) -> Option<Info>;
+    fn request(&self, id: SeqId, bit: u8) -> Result<(), Error>;
+    fn find(&self, name: &str) -> Option<SeqId>;
+}
+
+impl<C, const N: usize, const T: usize> Engine<C> for Sequencer<C, N, T> {
+    fn now(&self) -> Instant {
+        Sequencer::now(self)
+    }
+
+    fn begin(&self, id: SeqId, caller: Option<SeqId>, mode: Mode) -> Result<(), Error> {
+        self.with(|s| s.begin(id, caller, mode, Cause::Start))
+    }
+
+    fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
+        self.with(|s| {
+            s.park(id, waker);
+            s.gate(id)
+        })
+    }
+
+    fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
+        self.with(|s| {
+            s.park(id, waker);
+            match s.gate(id) {
+                Gate::Go => match s.block_mut(id) {
+                    Ok(b) if b.has(flag::POLL_DUE) => {
+                        b.set(flag::POLL_DUE, false);
+                        Gate::Go
+                    }
+                    _ => Gate::Hold,
+                },
+                other => other,
+            }
+        })
+    }
+
+    fn poll_wait(&self, id: SeqId, on: bool) {
+        self.with(|s| {
+            if let Ok(b) = s.block_mut(id) {
+                b.set(flag::POLL_WAIT, on);
+                b.set(flag::POLL_DUE, false);
+            }
+        })
+    }
+
+    fn restarted(&self, id: SeqId) {
+        self.with(|s| s.restarted(id))
+    }
+
+    fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
+        self.with(|s| s.end(id, outcome))
+    }
+
+    fn finished(&self, id: SeqId, outcome: Outcome) {
+        self.with(|s| s.finished(id, outcome))
+    }
+
+    fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
+        self.with(|s| {
+            s.block_mut(id)?.set(flag::HAS_LANE, true);
+            Ok(())
+        })
+    }
+
+    fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
+        self.with(|s| {
+            let Ok(b) = s.block_mut(id) else { return false };
+            match &b.waker {
+                Some(w) if w.will_wake(waker) => {}
+                _ => b.waker = Some(waker.clone()),
+            }
+            let pending = b.has(flag::START_PENDING);
+            b.set(flag::START_PENDING, false);
+            pending
+        })
+    }
+
+    fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>> {
+        self.with(|s| {
+            let Ok(b) = s.block_mut(target) else {
+                return Poll::Ready(Err(Error::UnknownSequence(target)));
+            };
+            if b.state == RunningState::Idle {
+                return Poll::Ready(Err(Error::NeverStarted(target)));
+            }
+            match b.outcome {
+                Some(o) if !b.state.is_active() && !b.has(flag::START_PENDING) => {
+                    Poll::Ready(Ok(o))
+                }
+                // Running, or ended but its framework has not returned yet.
+                _ => {
+                    b.joiner = Some(joiner);
+                    Poll::Pending
+                }
+            }
+        })
+    }
+
+    fn info(&self, id: SeqId) -> Option<Info> {
+        self.with(|s| {
+            let b = s.block(id).ok()?;
+            Some(Info {
+                name: b.name,
+                state: b.state,
+                stack: b
+                    .stack
+                    .iter()
+                    .take(usize::from(b.depth))
+                    .map(|&c| SeqId(c))
+                    .collect(),
+                blocking: b.blocking,
+                exception_active: b.has(flag::EXCEPTION_ACTIVE),
+                active_exception: b.active_exception,
+                counters: b.counters,
+                outcome: b.outcome,
+            })
+        })
+    }
+
+    fn request(&self, id: SeqId, bit: u8) -> Result<(), Error> {
+        self.with(|s| s.request(id, bit))
+    }
+
+    fn find(&self, name: &str) -> Option<SeqId> {
+        self.sequence_by_name(name).map(|h| h.id())
+    }
+}
+

@@ -1,0 +1,57 @@
+//! Configuration and start errors. rtseq never panics: every misuse is one of these.
+
+use crate::SeqId;
+
+/// Everything that can go wrong when configuring or commanding the sequencer.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Error {
+    /// A sequence or monitor was registered with an empty name.
+    EmptyName,
+    /// A sequence with this name is already registered.
+    DuplicateName(&'static str),
+    /// The sequencer's capacity (its const generic `N`) is exhausted.
+    SequenceCapacityExceeded,
+    /// The monitor table's capacity (its const generic `M`) is exhausted.
+    MonitorCapacityExceeded,
+    /// No sequence with this id is registered here.
+    UnknownSequence(SeqId),
+    /// The sequence is already running (or paused, aborting, restarting).
+    AlreadyRunning(SeqId),
+    /// The request needs a running (or paused) sequence.
+    NotRunning(SeqId),
+    /// Resume was requested for a sequence that is not paused.
+    NotPaused(SeqId),
+    /// Starting would nest callers deeper than [`MAX_DEPTH`](crate::MAX_DEPTH).
+    CallerDepthExceeded(SeqId),
+    /// A non-blocking start of a sequence that has no lane to run in.
+    NoLane(SeqId),
+    /// A polling time or timeout of zero or longer than `u32::MAX` microseconds.
+    DurationOutOfRange,
+    /// A join on a sequence that was never started.
+    NeverStarted(SeqId),
+    /// A sequence object is already bound to this id.
+    AlreadyBound(SeqId),
+}
+
+impl core::fmt::Display for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Error::EmptyName => write!(f, "empty name"),
+            Error::DuplicateName(n) => write!(f, "duplicate name `{n}`"),
+            Error::SequenceCapacityExceeded => write!(f, "sequence capacity exceeded"),
+            Error::MonitorCapacityExceeded => write!(f, "monitor capacity exceeded"),
+            Error::UnknownSequence(id) => write!(f, "unknown sequence {}", id.index()),
+            Error::AlreadyRunning(id) => write!(f, "sequence {} is already running", id.index()),
+            Error::NotRunning(id) => write!(f, "sequence {} is not running", id.index()),
+            Error::NotPaused(id) => write!(f, "sequence {} is not paused", id.index()),
+            Error::CallerDepthExceeded(id) => {
+                write!(f, "starting sequence {} exceeds the caller depth", id.index())
+            }
+            Error::NoLane(id) => write!(f, "sequence {} has no lane", id.index()),
+            Error::DurationOutOfRange => write!(f, "duration is zero or too long"),
+            Error::NeverStarted(id) => write!(f, "sequence {} was never started", id.index()),
+            Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),
+        }
+    }
+}

@@ -1,0 +1,127 @@
+//! Handles: inspect and command a registered sequence from anywhere.
+
+use crate::control_block::request;
+use crate::engine::Engine;
+use crate::sequencer::Mode;
+use crate::{Cause, Counters, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
+
+/// A callers list (`callerStack` or `callerStackBlocking`), outermost first.
+pub type CallerStack = heapless::Vec<SeqId, MAX_DEPTH>;
+
+/// A handle to one registered sequence: state, callers, exceptions, counters; start, pause,
+/// resume, abort.
+///
+/// Commands that stop or hold a sequence (pause, resume, abort) are requests applied by the
+/// next tick, so every such transition happens in one place at a well-defined time.
+///
+/// ```
+/// use rtseq::{RunningState, SeqConfig, Sequencer};
+/// let seq: Sequencer<(), 4> = Sequencer::new();
+/// let id = seq.register(SeqConfig::new("homing")).unwrap();
+/// let h = seq.sequence_by_id(id).unwrap();
+/// assert_eq!(h.name(), "homing");
+/// assert_eq!(h.state(), RunningState::Idle);
+/// assert!(h.caller().is_none());
+/// assert!(h.pause().is_err()); // not running
+/// ```
+#[derive(Clone, Copy)]
+pub struct Handle<'a, C> {
+    engine: &'a dyn Engine<C>,
+    id: SeqId,
+}
+
+impl<'a, C> Handle<'a, C> {
+    pub(crate) fn new<const N: usize, const T: usize>(seq: &'a Sequencer<C, N, T>, id: SeqId) -> Self {
+        Handle { engine: seq, id }
+    }
+
+    pub(crate) fn from_engine(engine: &'a dyn Engine<C>, id: SeqId) -> Self {
+        Handle { engine, id }
+    }
+
+    /// The sequence's id.
+    pub fn id(&self) -> SeqId {
+        self.id
+    }
+
+    /// The registered name.
+    pub fn name(&self) -> &'static str {
+        self.engine.info(self.id).map_or("", |i| i.name)
+    }
+
+    /// The current running state.
+    pub fn state(&self) -> RunningState {
+        self.engine
+            .info(self.id)
+            .map_or(RunningState::Idle, |i| i.state)
+    }
+
+    /// `callerSequence`: who started the current (or last) run; `None` for a main sequence.
+    pub fn caller(&self) -> Option<SeqId> {
+        self.engine.info(self.id).and_then(|i| i.stack.last().copied())
+    }
+
+    /// `callerStack`: all callers up to the main sequence, outermost first, not itself.
+    pub fn caller_stack(&self) -> CallerStack {
+        self.engine.info(self.id).map(|i| i.stack).unwrap_or_default()
+    }
+
+    /// `callerStackBlocking`: the callers this sequence blocks (up to the first
+    /// non-blocking start), outermost first.
+    pub fn caller_stack_blocking(&self) -> CallerStack {
+        self.engine
+            .info(self.id)
+            .map(|i| {
+                let skip = i.stack.len().saturating_sub(usize::from(i.blocking));
+                i.stack.iter().skip(skip).copied().collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
+    /// sequence was aborted because of it.
+    pub fn exception_is_active(&self) -> bool {
+        self.engine.info(self.id).is_some_and(|i| i.exception_active)
+    }
+
+    /// `activeException`: the monitor or timeout of the active (or last) exception.
+    pub fn active_exception(&self) -> Option<Cause> {
+        self.engine.info(self.id).and_then(|i| i.active_exception)
+    }
+
+    /// Runs, completions, skips, aborts, restarts, exceptions.
+    pub fn counters(&self) -> Counters {
+        self.engine.info(self.id).map(|i| i.counters).unwrap_or_default()
+    }
+
+    /// The outcome of the last finished run.
+    pub fn last_outcome(&self) -> Option<Outcome> {
+        self.engine.info(self.id).and_then(|i| i.outcome)
+    }
+
+    /// Starts the sequence non-blocking in its lane, as a main sequence (no caller).
+    pub fn start(&self) -> Result<(), Error> {
+        self.engine.begin(self.id, None, Mode::Lane)
+    }
+
+    /// Requests a pause of the sequence and the sequences it blocks (next tick).
+    pub fn pause(&self) -> Result<(), Error> {
+        self.engine.request(self.id, request::PAUSE)
+    }
+
+    /// Requests that a paused sequence resume where it stopped (next tick).
+    pub fn resume(&self) -> Result<(), Error> {
+        self.engine.request(self.id, request::RESUME)
+    }
+
+    /// Requests an abort of the sequence and all its sub-sequences (next tick).
+    pub fn abort(&self) -> Result<(), Error> {
+        self.engine.request(self.id, request::ABORT)
+    }
+
+    /// Declares that a lane runs this sequence, so it can be started non-blocking before the
+    /// lane first ran (e.g. from RTIC `init`). [`lane`](crate::lane) declares it too.
+    pub fn declare_lane(&self) -> Result<(), Error> {
+        self.engine.declare_lane(self.id)
+    }
+}

@@ -1,0 +1,47 @@
+//! Lanes: statically declared execution contexts for non-blocking sequences.
+//!
+//! A lane is the seed's "thread that is put to sleep at once", without a thread: a future
+//! (an RTIC async software task, or one of several futures joined in one task) that sleeps
+//! until its sequence is started, runs it, and sleeps again.
+
+use core::convert::Infallible;
+use core::future::poll_fn;
+use core::task::Poll;
+
+use crate::engine::Engine;
+use crate::sequence::{framework, SeqBody};
+use crate::{Seq, Sequence, Sequencer};
+
+/// Runs `seq` every time it is started non-blocking, forever.
+///
+/// In RTIC, one async software task per lane:
+///
+/// ```ignore
+/// #[task(priority = 1, local = [homing])]
+/// async fn homing_lane(cx: homing_lane::Context) {
+///     rtseq::lane(&SEQ, &CONTROL, cx.local.homing).await;
+/// }
+/// ```
+///
+/// On the host, [`Sim::lane`](crate::sim::Sim::lane) does the same.
+pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize>(
+    sequencer: &Sequencer<C, N, T>,
+    control: &C,
+    seq: &mut Seq<S>,
+) -> Infallible {
+    let engine: &dyn Engine<C> = sequencer;
+    let id = seq.id;
+    // The id is ours by construction (`Seq` exists once per id), so this cannot fail.
+    let _ = engine.declare_lane(id);
+    loop {
+        poll_fn(|w| {
+            if engine.take_start(id, w.waker()) {
+                Poll::Ready(())
+            } else {
+                Poll::Pending
+            }
+        })
+        .await;
+        framework(engine, control, id, &mut SeqBody(&mut seq.body)).await;
+    }
+}

@@ -1,0 +1,62 @@
+//! # rtseq — a hard-real-time sequencer for microcontroller motor controllers
+//!
+//! rtseq implements the sequencer of the EEROS robotics framework — a tree of sequences and
+//! steps, started blocking or non-blocking, with pre- and exit conditions, monitors
+//! (condition + exception sequence + behaviour), a timeout monitor on every sequence and
+//! seven running states — without threads, heap or polling loops:
+//!
+//! * the tree is statically allocated: control blocks live in the [`Sequencer`] (usually a
+//!   `static`), sequence futures in their lanes' static task storage;
+//! * a sequence's action is an `async fn`, i.e. a cooperative, statically sized state
+//!   machine; a blocking start is an `.await` inside the caller ([`Cx::run`], [`Cx::step`]),
+//!   a non-blocking start runs the sequence in its [`lane`] ([`Cx::start`]);
+//! * the heartbeat [`Sequencer::tick`], called from a periodic timer interrupt, evaluates
+//!   monitors and timeouts at each sequence's polling period and wakes exactly the lanes
+//!   that must act;
+//! * the [`sim`] module (feature `std`) runs the same code on the host in simulated time.
+//!
+//! See the README for the mapping of every term of the specification to rtseq.
+#![no_std]
+#![deny(missing_docs)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
+mod condition;
+mod config;
+mod context;
+mod control_block;
+mod engine;
+mod error;
+mod handle;
+mod id;
+mod lane;
+mod monitor;
+mod sequence;
+mod sequencer;
+mod state;
+mod tick;
+mod time;
+mod trace;
+mod wait;
+
+#[cfg(feature = "std")]
+pub mod sim;
+
+pub use condition::{Condition, Stable, Toggle};
+pub use config::SeqConfig;
+pub use context::Cx;
+pub use control_block::Counters;
+pub use error::Error;
+pub use handle::{CallerStack, Handle};
+pub use id::{MonitorId, SeqId};
+pub use lane::lane;
+pub use monitor::{Behaviour, Monitor, Monitors, Trigger, DEFAULT_RESTART_LIMIT};
+pub use sequence::{Seq, Sequence, Step};
+pub use sequencer::Sequencer;
+pub use state::{Cause, Outcome, RunningState};
+pub use time::{Duration, Instant};
+pub use trace::Transition;
+pub use wait::Wait;
+
+/// Maximum nesting of callers (`callerStack` length). Starting deeper is an
+/// [`Error::CallerDepthExceeded`].
+pub const MAX_DEPTH: usize = 8;

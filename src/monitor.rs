@@ -1,0 +1,211 @@
+//! Monitors: a condition, an optional exception sequence and a behaviour (seed §1.7).
+
+use crate::{Condition, Error, MonitorId, SeqId};
+
+/// What happens after a monitor fired and its exception sequence (if any) ended.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Behaviour {
+    /// The owner continues where it was.
+    Nothing,
+    /// The owner and all its sub-sequences (blocking and non-blocking) are aborted; the
+    /// owner's blocking caller gets [`Outcome::Aborted`](crate::Outcome::Aborted) and continues.
+    AbortOwner,
+    /// The owner's sub-sequences are aborted and the owner runs again from its pre-condition.
+    RestartOwner,
+    /// Like `AbortOwner`, one level up: the owner's caller (the owner itself for a main sequence).
+    AbortCallerOfOwner,
+    /// Like `RestartOwner`, one level up: the owner's caller (the owner itself for a main sequence).
+    RestartCallerOfOwner,
+}
+
+impl Behaviour {
+    /// True for the two restarting behaviours, which the restart limit bounds.
+    pub const fn is_restart(self) -> bool {
+        matches!(self, Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner)
+    }
+
+    /// The abort behaviour a restart escalates to once the restart limit is reached.
+    pub const fn escalated(self) -> Behaviour {
+        match self {
+            Behaviour::RestartOwner => Behaviour::AbortOwner,
+            Behaviour::RestartCallerOfOwner => Behaviour::AbortCallerOfOwner,
+            other => other,
+        }
+    }
+
+    /// True for the behaviours that act on the owner's caller.
+    pub const fn targets_caller(self) -> bool {
+        matches!(
+            self,
+            Behaviour::AbortCallerOfOwner | Behaviour::RestartCallerOfOwner
+        )
+    }
+}
+
+/// When a monitor fires.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Trigger {
+    /// On the rising edge of the condition (default): no exception storm while it stays true.
+    RisingEdge,
+    /// At every evaluation while the condition is true and no exception of the owner is active.
+    Level,
+}
+
+/// Default number of restarts a monitor may cause per run of its target before escalating.
+pub const DEFAULT_RESTART_LIMIT: u8 = 3;
+
+/// A monitor definition: build it, then add it to a [`Monitors`] table.
+///
+/// ```
+/// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqConfig, Sequencer, Trigger};
+/// struct Ctrl { following_error: f32 }
+/// let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+/// let moving = seq.register(SeqConfig::new("move")).unwrap();
+/// let safe_stop = seq.register(SeqConfig::new("safe stop")).unwrap();
+/// let mut too_far = |c: &Ctrl, _: Instant| c.following_error > 0.05;
+/// let mut monitors: Monitors<Ctrl, 4> = Monitors::new();
+/// monitors
+///     .add(
+///         moving,
+///         Monitor::new("following error", &mut too_far, Behaviour::RestartCallerOfOwner)
+///             .exception(safe_stop)
+///             .restart_limit(3)
+///             .trigger(Trigger::RisingEdge),
+///     )
+///     .unwrap();
+/// ```
+pub struct Monitor<'a, C> {
+    pub(crate) name: &'static str,
+    pub(crate) condition: &'a mut dyn Condition<C>,
+    pub(crate) behaviour: Behaviour,
+    pub(crate) exception: Option<SeqId>,
+    pub(crate) trigger: Trigger,
+    pub(crate) restart_limit: u8,
+}
+
+impl<'a, C> Monitor<'a, C> {
+    /// A rising-edge monitor with no exception sequence and the default restart limit.
+    pub fn new(
+        name: &'static str,
+        condition: &'a mut dyn Condition<C>,
+        behaviour: Behaviour,
+    ) -> Self {
+        Monitor {
+            name,
+            condition,
+            behaviour,
+            exception: None,
+            trigger: Trigger::RisingEdge,
+            restart_limit: DEFAULT_RESTART_LIMIT,
+        }
+    }
+
+    /// The exception sequence to run (in its lane, while the owner is held) when this fires.
+    pub fn exception(mut self, sequence: SeqId) -> Self {
+        self.exception = Some(sequence);
+        self
+    }
+
+    /// Rising edge (default) or level trigger.
+    pub fn trigger(mut self, trigger: Trigger) -> Self {
+        self.trigger = trigger;
+        self
+    }
+
+    /// How many restarts this monitor may cause per run of its target before a restarting
+    /// behaviour escalates to the matching abort.
+    pub fn restart_limit(mut self, limit: u8) -> Self {
+        self.restart_limit = limit;
+        self
+    }
+}
+
+/// A registered monitor plus the bookkeeping the tick keeps for it.
+pub(crate) struct Entry<'a, C> {
+    pub(crate) def: Monitor<'a, C>,
+    pub(crate) owner: SeqId,
+    /// Position in the table (its `MonitorId`).
+    pub(crate) index: u8,
+    /// Last evaluated value, for edge detection.
+    pub(crate) last: bool,
+    /// The owner's run epoch when `last` was taken; a new epoch resets the edge.
+    pub(crate) epoch_seen: u16,
+    /// Restarts caused in the current run of the target.
+    pub(crate) restarts: u8,
+    /// The target's run counter when `restarts` was last reset.
+    pub(crate) target_runs_seen: u16,
+    /// How often this monitor fired.
+    pub(crate) fired: u16,
+}
+
+/// The monitors of an application, owned by the tick (the timer interrupt).
+///
+/// Conditions keep state and are evaluated only by the tick, so this table is not shared:
+/// in RTIC it is a `local` resource of the timer task. `M` is the capacity.
+pub struct Monitors<'a, C, const M: usize> {
+    pub(crate) entries: heapless::Vec<Entry<'a, C>, M>,
+}
+
+impl<C, const M: usize> Default for Monitors<'_, C, M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<'a, C, const M: usize> Monitors<'a, C, M> {
+    /// An empty table.
+    pub const fn new() -> Self {
+        const { assert!(M <= 256, "at most 256 monitors") };
+        Monitors {
+            entries: heapless::Vec::new(),
+        }
+    }
+
+    /// Adds a monitor owned by `owner`. Errors on an empty name or a full table.
+    pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C>) -> Result<MonitorId, Error> {
+        if monitor.name.is_empty() {
+            return Err(Error::EmptyName);
+        }
+        let id = u8::try_from(self.entries.len()).map_err(|_| Error::MonitorCapacityExceeded)?;
+        self.entries
+            .push(Entry {
+                def: monitor,
+                owner,
+                index: id,
+                last: false,
+                epoch_seen: 0,
+                restarts: 0,
+                target_runs_seen: 0,
+                fired: 0,
+            })
+            .map_err(|_| Error::MonitorCapacityExceeded)?;
+        Ok(MonitorId(id))
+    }
+
+    /// Number of registered monitors.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// True when no monitor is registered.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// The name a monitor was registered with.
+    pub fn name(&self, id: MonitorId) -> Option<&'static str> {
+        self.entries.get(id.index()).map(|e| e.def.name)
+    }
+
+    /// The owner of a monitor.
+    pub fn owner(&self, id: MonitorId) -> Option<SeqId> {
+        self.entries.get(id.index()).map(|e| e.owner)
+    }
+
+    /// How often a monitor fired.
+    pub fn fired(&self, id: MonitorId) -> u16 {
+        self.entries.get(id.index()).map_or(0, |e| e.fired)
+    }
+}

@@ -1,0 +1,475 @@
+//! The sequencer: registry of control blocks, the transition function, starts and requests.
+
+use core::cell::RefCell;
+use core::marker::PhantomData;
+use core::task::Waker;
+
+use crate::control_block::{flag, request, ControlBlock, DISARMED};
+use crate::{
+    time, Cause, Error, Handle, Instant, Outcome, RunningState, SeqConfig, SeqId, Transition,
+    MAX_DEPTH,
+};
+
+/// How a sequence is started.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Mode {
+    /// Inside the caller's future; the caller waits.
+    Blocking,
+    /// In the sequence's own lane; the caller continues.
+    Lane,
+}
+
+/// What a framework await point must do, decided by the control block.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Gate {
+    /// Advance.
+    Go,
+    /// Paused or an exception is being handled: stay at this await point.
+    Hold,
+    /// Aborted: unwind with this cause; no further line of the action runs.
+    Aborted(Cause),
+    /// Restarting: drop the action and run again from the pre-condition.
+    Restart,
+}
+
+/// The mutable state, guarded by a critical section.
+pub(crate) struct Inner<C, const N: usize, const T: usize> {
+    pub(crate) now: u64,
+    pub(crate) count: u8,
+    pub(crate) blocks: [ControlBlock; N],
+    pub(crate) hooks: [Option<fn(&C)>; N],
+    /// Earliest `next_poll` of any active sequence.
+    pub(crate) next_due: u64,
+    /// Requests or finished exception sequences wait for the tick.
+    pub(crate) work: bool,
+    pub(crate) abort_all: bool,
+    pub(crate) trace: heapless::Deque<Transition, T>,
+    pub(crate) trace_lost: u32,
+    /// Exceptions whose sequence could not run (no lane, already running, too deep).
+    pub(crate) exceptions_not_run: u16,
+}
+
+/// The sequencer (seed §1.1): one per application, usually a `static`.
+///
+/// `C` is the application's control system: conditions, steps and sequences get typed `&C`
+/// access to it (use atomics or [`critical_section::Mutex`] inside `C` for commands). `N` is
+/// the capacity of sequences and steps, `T` of the transition trace buffer.
+///
+/// ```
+/// use rtseq::{SeqConfig, Sequencer, Error};
+/// static SEQ: Sequencer<(), 8> = Sequencer::new();
+/// let main = SEQ.register(SeqConfig::new("main")).unwrap();
+/// assert_eq!(SEQ.register(SeqConfig::new("main")), Err(Error::DuplicateName("main")));
+/// assert_eq!(SEQ.sequence_by_name("main").map(|h| h.id()), Some(main));
+/// ```
+pub struct Sequencer<C, const N: usize, const T: usize = 64> {
+    pub(crate) inner: critical_section::Mutex<RefCell<Inner<C, N, T>>>,
+    _control: PhantomData<fn(&C)>,
+}
+
+impl<C, const N: usize, const T: usize> Default for Sequencer<C, N, T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
+    /// An empty sequencer; `const`, so it can be a `static`.
+    pub const fn new() -> Self {
+        const { assert!(N <= 255, "at most 255 sequences") };
+        Sequencer {
+            inner: critical_section::Mutex::new(RefCell::new(Inner {
+                now: 0,
+                count: 0,
+                blocks: [ControlBlock::EMPTY; N],
+                hooks: [None; N],
+                next_due: u64::MAX,
+                work: false,
+                abort_all: false,
+                trace: heapless::Deque::new(),
+                trace_lost: 0,
+                exceptions_not_run: 0,
+            })),
+            _control: PhantomData,
+        }
+    }
+
+    /// Runs `f` on the state inside a (short) critical section.
+    pub(crate) fn with<R>(&self, f: impl FnOnce(&mut Inner<C, N, T>) -> R) -> R {
+        critical_section::with(|cs| f(&mut self.inner.borrow_ref_mut(cs)))
+    }
+
+    /// Registers a sequence or step. Errors on an empty or duplicate name, an out-of-range
+    /// duration, or when all `N` slots are taken.
+    pub fn register(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
+        if config.name.is_empty() {
+            return Err(Error::EmptyName);
+        }
+        let polling = time::to_micros_u32(config.polling)
+            .filter(|&p| p > 0)
+            .ok_or(Error::DurationOutOfRange)?;
+        let timeout = match config.timeout {
+            Some(t) => time::to_micros_u32(t)
+                .filter(|&t| t > 0)
+                .ok_or(Error::DurationOutOfRange)?,
+            None => 0,
+        };
+        self.with(|s| {
+            let used = usize::from(s.count);
+            if s.blocks.iter().take(used).any(|b| b.name == config.name) {
+                return Err(Error::DuplicateName(config.name));
+            }
+            let slot = s
+                .blocks
+                .get_mut(used)
+                .ok_or(Error::SequenceCapacityExceeded)?;
+            slot.name = config.name;
+            slot.polling = polling;
+            slot.timeout = timeout;
+            slot.timeout_behaviour = config.timeout_behaviour;
+            slot.timeout_exception = config.timeout_exception;
+            slot.timeout_restart_limit = config.timeout_restart_limit;
+            if let Some(h) = s.hooks.get_mut(used) {
+                *h = config.on_abort;
+            }
+            let id = SeqId(s.count);
+            s.count = s.count.saturating_add(1);
+            Ok(id)
+        })
+    }
+
+    /// Binds the sequence or step object `body` to a registered id; each id binds once.
+    pub fn bind<S>(&self, id: SeqId, body: S) -> Result<crate::Seq<S>, Error> {
+        self.with(|s| {
+            let b = s.block_mut(id)?;
+            if b.has(flag::BOUND) {
+                return Err(Error::AlreadyBound(id));
+            }
+            b.set(flag::BOUND, true);
+            Ok(crate::Seq { id, body })
+        })
+    }
+
+    /// [`register`](Self::register) and [`bind`](Self::bind) in one.
+    ///
+    /// ```
+    /// use rtseq::{Cx, SeqConfig, Sequencer, Step};
+    /// struct Enable;
+    /// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let enable = seq.add(SeqConfig::new("enable"), Enable).unwrap();
+    /// assert_eq!(seq.sequence_by_id(enable.id()).unwrap().name(), "enable");
+    /// ```
+    pub fn add<S>(&self, config: SeqConfig<C>, body: S) -> Result<crate::Seq<S>, Error> {
+        let id = self.register(config)?;
+        self.bind(id, body)
+    }
+
+    /// The seed's `getSequenceByID`.
+    pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'_, C>> {
+        let known = self.with(|s| s.block(id).is_ok());
+        known.then(|| Handle::new(self, id))
+    }
+
+    /// The seed's `getSequenceByName`.
+    pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'_, C>> {
+        let id = self.with(|s| {
+            s.blocks
+                .iter()
+                .take(usize::from(s.count))
+                .position(|b| b.name == name)
+                .and_then(|i| u8::try_from(i).ok())
+        })?;
+        Some(Handle::new(self, SeqId(id)))
+    }
+
+    /// Number of registered sequences and steps.
+    pub fn len(&self) -> usize {
+        self.with(|s| usize::from(s.count))
+    }
+
+    /// True when nothing is registered.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The last tick's time.
+    pub fn now(&self) -> Instant {
+        self.with(|s| Instant::from_ticks(s.now))
+    }
+
+    /// Requests that every running sequence be aborted (e.g. by the safety system). Applied
+    /// by the next tick, innermost sequences first. Safe to call from any priority.
+    pub fn abort_all(&self) {
+        self.with(|s| {
+            s.abort_all = true;
+            s.work = true;
+        });
+    }
+
+    /// Passes the buffered transitions, oldest first, to `f` and empties the buffer.
+    /// Returns how many were lost to overflow since the last call.
+    pub fn drain_trace(&self, mut f: impl FnMut(Transition)) -> u32 {
+        loop {
+            let (t, lost) = self.with(|s| {
+                let t = s.trace.pop_front();
+                let lost = if t.is_none() {
+                    core::mem::take(&mut s.trace_lost)
+                } else {
+                    0
+                };
+                (t, lost)
+            });
+            match t {
+                Some(t) => f(t),
+                None => return lost,
+            }
+        }
+    }
+
+    /// Exceptions whose sequence could not run (it had no lane, was already running, or
+    /// would nest too deep); their behaviour was applied at once.
+    pub fn exceptions_not_run(&self) -> u16 {
+        self.with(|s| s.exceptions_not_run)
+    }
+}
+
+impl<C, const N: usize, const T: usize> Inner<C, N, T> {
+    pub(crate) fn block(&self, id: SeqId) -> Result<&ControlBlock, Error> {
+        if id.0 >= self.count {
+            return Err(Error::UnknownSequence(id));
+        }
+        self.blocks.get(id.index()).ok_or(Error::UnknownSequence(id))
+    }
+
+    pub(crate) fn block_mut(&mut self, id: SeqId) -> Result<&mut ControlBlock, Error> {
+        if id.0 >= self.count {
+            return Err(Error::UnknownSequence(id));
+        }
+        self.blocks
+            .get_mut(id.index())
+            .ok_or(Error::UnknownSequence(id))
+    }
+
+    /// THE transition function: every state change goes through here. Illegal transitions
+    /// are refused (returns false) and change nothing.
+    pub(crate) fn transition(&mut self, id: SeqId, to: RunningState, cause: Cause) -> bool {
+        let now = self.now;
+        let Ok(b) = self.block_mut(id) else {
+            return false;
+        };
+        let from = b.state;
+        if !from.can_transition_to(to) {
+            return false;
+        }
+        b.state = to;
+        let c = &mut b.counters;
+        match to {
+            RunningState::Aborted => c.aborts = c.aborts.wrapping_add(1),
+            RunningState::Restarting => c.restarts = c.restarts.wrapping_add(1),
+            RunningState::Terminated if cause == Cause::PreConditionFalse => {
+                c.skipped = c.skipped.wrapping_add(1)
+            }
+            RunningState::Terminated => c.completed = c.completed.wrapping_add(1),
+            RunningState::Running if from != RunningState::Paused && cause != Cause::Restart => {
+                c.runs = c.runs.wrapping_add(1)
+            }
+            _ => {}
+        }
+        let record = Transition {
+            time: Instant::from_ticks(now),
+            sequence: id,
+            from,
+            to,
+            cause,
+        };
+        if self.trace.push_back(record).is_err() {
+            // Keep the newest records: the oldest are the least useful to a live observer.
+            let _ = self.trace.pop_front();
+            let _ = self.trace.push_back(record);
+            self.trace_lost = self.trace_lost.saturating_add(1);
+        }
+        true
+    }
+
+    /// Starts `id` (blocking in `caller`'s lane, or in its own lane).
+    pub(crate) fn begin(
+        &mut self,
+        id: SeqId,
+        caller: Option<SeqId>,
+        mode: Mode,
+        cause: Cause,
+    ) -> Result<(), Error> {
+        let b = self.block(id)?;
+        if b.state.is_active() {
+            return Err(Error::AlreadyRunning(id));
+        }
+        if mode == Mode::Lane && !b.has(flag::HAS_LANE) {
+            return Err(Error::NoLane(id));
+        }
+        let mut stack = [0u8; MAX_DEPTH];
+        let (depth, blocking, root) = match caller {
+            Some(c) => {
+                let cb = self.block(c)?;
+                let d = usize::from(cb.depth);
+                if d >= MAX_DEPTH {
+                    return Err(Error::CallerDepthExceeded(id));
+                }
+                stack = cb.stack;
+                if let Some(slot) = stack.get_mut(d) {
+                    *slot = c.0;
+                }
+                match mode {
+                    Mode::Blocking => (cb.depth + 1, cb.blocking.saturating_add(1), cb.root),
+                    Mode::Lane => (cb.depth + 1, 0, id.0),
+                }
+            }
+            None => (0, 0, id.0),
+        };
+        let now = self.now;
+        if !self.transition(id, RunningState::Running, cause) {
+            return Err(Error::AlreadyRunning(id));
+        }
+        let b = self.block_mut(id)?;
+        b.stack = stack;
+        b.depth = depth;
+        b.blocking = blocking;
+        b.root = root;
+        b.flags &= flag::HAS_LANE | flag::BOUND;
+        b.requests = 0;
+        b.active_exception = None;
+        b.pending = None;
+        b.exception_of = None;
+        b.outcome = None;
+        b.next_poll = now.saturating_add(u64::from(b.polling));
+        b.deadline = b.arm_deadline(now);
+        let next = b.next_poll;
+        if mode == Mode::Lane {
+            b.set(flag::START_PENDING, true);
+            b.wake();
+        }
+        self.next_due = self.next_due.min(next);
+        Ok(())
+    }
+
+    /// Wakes the lane that drives `id`.
+    pub(crate) fn wake(&self, id: SeqId) {
+        if let Ok(b) = self.block(id) {
+            if let Ok(r) = self.block(SeqId(b.root)) {
+                r.wake();
+            }
+        }
+    }
+
+    /// Parks `waker` as the waker of `id`'s lane.
+    pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
+        let Ok(root) = self.block(id).map(|b| SeqId(b.root)) else {
+            return;
+        };
+        if let Ok(r) = self.block_mut(root) {
+            match &r.waker {
+                Some(w) if w.will_wake(waker) => {}
+                _ => r.waker = Some(waker.clone()),
+            }
+        }
+    }
+
+    /// What an await point of `id` must do now.
+    pub(crate) fn gate(&self, id: SeqId) -> Gate {
+        let Ok(b) = self.block(id) else {
+            return Gate::Aborted(Cause::Abort);
+        };
+        match b.state {
+            RunningState::Running if !b.has(flag::EXCEPTION_ACTIVE) => Gate::Go,
+            RunningState::Running | RunningState::Paused => Gate::Hold,
+            RunningState::Restarting => Gate::Restart,
+            RunningState::Aborting | RunningState::Aborted => Gate::Aborted(b.last_cause),
+            // Not started by this run: treat as aborted so nothing of it advances.
+            RunningState::Idle | RunningState::Terminated => Gate::Aborted(b.last_cause),
+        }
+    }
+
+    /// A `Restarting` sequence runs again: fresh timeout and polling schedule.
+    pub(crate) fn restarted(&mut self, id: SeqId) {
+        if !self.transition(id, RunningState::Running, Cause::Restart) {
+            return;
+        }
+        let now = self.now;
+        if let Ok(b) = self.block_mut(id) {
+            b.set(flag::EXCEPTION_ACTIVE, false);
+            b.set(flag::POLL_WAIT, false);
+            b.set(flag::POLL_DUE, false);
+            b.pending = None;
+            b.next_poll = now.saturating_add(u64::from(b.polling));
+            b.deadline = b.arm_deadline(now);
+            let next = b.next_poll;
+            self.next_due = self.next_due.min(next);
+        }
+    }
+
+    /// Ends a run normally (`Completed` or `Skipped`). If the sequence was aborted or
+    /// restarted meanwhile, returns what the gate says instead.
+    pub(crate) fn end(&mut self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
+        let cause = match outcome {
+            Outcome::Skipped => Cause::PreConditionFalse,
+            _ => Cause::Completed,
+        };
+        if self.gate(id) == Gate::Go && self.transition(id, RunningState::Terminated, cause) {
+            if let Ok(b) = self.block_mut(id) {
+                b.set(flag::POLL_WAIT, false);
+            }
+            Ok(outcome)
+        } else {
+            Err(self.gate(id))
+        }
+    }
+
+    /// After a run's framework returned: store the outcome, wake a joiner, report the end of
+    /// an exception sequence to the tick.
+    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) {
+        let Ok(b) = self.block_mut(id) else { return };
+        b.outcome = Some(outcome);
+        let joiner = b.joiner.take();
+        let owner = b.exception_of.take();
+        if let Some(j) = joiner {
+            self.wake(j);
+        }
+        if let Some(o) = owner {
+            if let Ok(ob) = self.block_mut(o) {
+                ob.set(flag::EXCEPTION_DONE, true);
+                self.work = true;
+            }
+        }
+    }
+
+    /// Queues a pause, resume or abort request for the next tick.
+    pub(crate) fn request(&mut self, id: SeqId, bit: u8) -> Result<(), Error> {
+        let b = self.block_mut(id)?;
+        let ok = match bit {
+            request::RESUME => b.state == RunningState::Paused,
+            request::PAUSE => b.state == RunningState::Running,
+            _ => b.state.is_active(),
+        };
+        if !ok {
+            return Err(if bit == request::RESUME {
+                Error::NotPaused(id)
+            } else {
+                Error::NotRunning(id)
+            });
+        }
+        b.requests |= bit;
+        self.work = true;
+        Ok(())
+    }
+}
+
+impl ControlBlock {
+    /// The timeout deadline for a run starting (or restarting) at `now`.
+    pub(crate) fn arm_deadline(&self, now: u64) -> u64 {
+        if self.timeout == 0 {
+            DISARMED
+        } else {
+            now.saturating_add(u64::from(self.timeout))
+        }
+    }
+}

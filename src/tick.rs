@@ -1,0 +1,429 @@
+//! The heartbeat: `Sequencer::tick`, called from a periodic timer interrupt.
+//!
+//! The tick is the only place where sequences are stopped: it applies requests (pause,
+//! resume, abort, abort-all), evaluates the monitors and timeouts that are due, starts
+//! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
+//! User conditions and cleanup hooks run outside the critical sections.
+
+use crate::control_block::{flag, request, DISARMED};
+use crate::monitor::Entry;
+use crate::sequencer::Mode;
+use crate::{
+    Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH,
+};
+
+/// What the due scan saw of one sequence.
+#[derive(Clone, Copy, Default)]
+struct Due {
+    due: bool,
+    epoch: u16,
+}
+
+/// Restart bookkeeping of one monitor (or timeout monitor).
+struct RestartBook {
+    restarts: u8,
+    runs_seen: u16,
+    limit: u8,
+}
+
+impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
+    /// The heartbeat (one call per timer interrupt): sets the sequencer time to `now`, applies
+    /// pending requests, evaluates the monitors and timeouts of every sequence whose polling
+    /// period is due, and wakes the lanes that must act.
+    ///
+    /// A tick with nothing due returns after one short critical section.
+    ///
+    /// ```
+    /// use rtseq::{Instant, Monitors, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let mut monitors: Monitors<(), 4> = Monitors::new();
+    /// seq.tick(Instant::from_ticks(1_000), &(), &mut monitors);
+    /// assert_eq!(seq.now().as_ticks(), 1_000);
+    /// ```
+    pub fn tick<const M: usize>(
+        &self,
+        now: Instant,
+        control: &C,
+        monitors: &mut Monitors<'_, C, M>,
+    ) {
+        let now_us = now.as_ticks();
+        let (work, any_due) = self.with(|s| {
+            s.now = now_us;
+            (core::mem::take(&mut s.work), now_us >= s.next_due)
+        });
+        if work {
+            self.apply_requests(control);
+        }
+        if !any_due {
+            return;
+        }
+        let due = self.scan(now_us);
+        for entry in monitors.entries.iter_mut() {
+            let Some(d) = due.get(entry.owner.index()).copied() else {
+                continue;
+            };
+            if d.due {
+                self.evaluate(entry, d.epoch, now, control);
+            }
+        }
+        for (i, d) in due.iter().enumerate() {
+            if d.due {
+                if let Ok(i) = u8::try_from(i) {
+                    self.timeout_and_exit(SeqId(i), now_us, control);
+                }
+            }
+        }
+    }
+
+    /// Marks due sequences, advances their polling schedule and recomputes `next_due`.
+    fn scan(&self, now: u64) -> [Due; N] {
+        let mut due = [Due::default(); N];
+        let count = self.with(|s| usize::from(s.count));
+        let mut next_due = u64::MAX;
+        for (i, d) in due.iter_mut().enumerate().take(count) {
+            self.with(|s| {
+                let Some(b) = s.blocks.get_mut(i) else { return };
+                if !matches!(b.state, RunningState::Running | RunningState::Paused) {
+                    return;
+                }
+                if now >= b.next_poll {
+                    d.due = true;
+                    d.epoch = b.epoch();
+                    b.next_poll = b.next_poll.saturating_add(u64::from(b.polling));
+                    if b.next_poll <= now {
+                        // Missed periods (a late tick) are not replayed.
+                        b.next_poll = now.saturating_add(u64::from(b.polling));
+                    }
+                }
+                next_due = next_due.min(b.next_poll);
+            });
+        }
+        self.with(|s| s.next_due = next_due);
+        due
+    }
+
+    /// Evaluates one due monitor and raises its exception on a trigger.
+    fn evaluate(&self, entry: &mut Entry<'_, C>, epoch: u16, now: Instant, control: &C) {
+        if entry.epoch_seen != epoch {
+            // A new run or restart of the owner: the edge starts from "false".
+            entry.epoch_seen = epoch;
+            entry.last = false;
+        }
+        let value = entry.def.condition.validate(control, now);
+        let fire = match entry.def.trigger {
+            crate::Trigger::RisingEdge => value && !entry.last,
+            crate::Trigger::Level => value,
+        };
+        entry.last = value;
+        if !fire {
+            return;
+        }
+        let mut book = RestartBook {
+            restarts: entry.restarts,
+            runs_seen: entry.target_runs_seen,
+            limit: entry.def.restart_limit,
+        };
+        let cause = Cause::Monitor(crate::MonitorId(entry.index));
+        if self.raise(
+            control,
+            entry.owner,
+            cause,
+            entry.def.behaviour,
+            entry.def.exception,
+            &mut book,
+        ) {
+            entry.fired = entry.fired.wrapping_add(1);
+        }
+        entry.restarts = book.restarts;
+        entry.target_runs_seen = book.runs_seen;
+    }
+
+    /// Checks the timeout monitor of a due sequence and wakes it if it waits for its exit
+    /// condition.
+    fn timeout_and_exit(&self, id: SeqId, now: u64, control: &C) {
+        let expired = self.with(|s| {
+            let Ok(b) = s.block_mut(id) else { return None };
+            if b.state == RunningState::Running
+                && b.deadline != DISARMED
+                && now >= b.deadline
+                && b.accepts_exception()
+            {
+                b.deadline = DISARMED;
+                Some((
+                    b.timeout_behaviour,
+                    b.timeout_exception,
+                    RestartBook {
+                        restarts: b.timeout_restarts,
+                        runs_seen: b.timeout_runs_seen,
+                        limit: b.timeout_restart_limit,
+                    },
+                ))
+            } else {
+                None
+            }
+        });
+        if let Some((behaviour, exception, mut book)) = expired {
+            self.raise(control, id, Cause::Timeout(id), behaviour, exception, &mut book);
+            self.with(|s| {
+                if let Ok(b) = s.block_mut(id) {
+                    b.timeout_restarts = book.restarts;
+                    b.timeout_runs_seen = book.runs_seen;
+                }
+            });
+        }
+        self.with(|s| {
+            let Ok(b) = s.block_mut(id) else { return };
+            if b.state == RunningState::Running && b.has(flag::POLL_WAIT) {
+                b.set(flag::POLL_DUE, true);
+                s.wake(id);
+            }
+        });
+    }
+
+    /// A monitor (or timeout) of `owner` fired: mark the exception, then start the
+    /// exception sequence (the behaviour waits for its end) or apply the behaviour now.
+    /// Returns false when the owner could not take an exception any more.
+    fn raise(
+        &self,
+        control: &C,
+        owner: SeqId,
+        cause: Cause,
+        behaviour: Behaviour,
+        exception: Option<SeqId>,
+        book: &mut RestartBook,
+    ) -> bool {
+        let Some((target, target_runs)) = self.with(|s| {
+            let b = s.block(owner).ok()?;
+            if !b.accepts_exception() {
+                return None;
+            }
+            let target = if behaviour.targets_caller() {
+                b.caller().unwrap_or(owner)
+            } else {
+                owner
+            };
+            Some((target, s.block(target).ok()?.counters.runs))
+        }) else {
+            return false;
+        };
+        let mut behaviour = behaviour;
+        if behaviour.is_restart() {
+            if book.runs_seen != target_runs {
+                book.runs_seen = target_runs;
+                book.restarts = 0;
+            }
+            if book.restarts >= book.limit {
+                behaviour = behaviour.escalated();
+            } else {
+                book.restarts = book.restarts.saturating_add(1);
+            }
+        }
+        let deferred = self.with(|s| {
+            if let Ok(b) = s.block_mut(owner) {
+                b.set(flag::EXCEPTION_ACTIVE, true);
+                b.active_exception = Some(cause);
+                b.counters.exceptions = b.counters.exceptions.wrapping_add(1);
+            }
+            let Some(e) = exception else { return false };
+            if s.begin(e, Some(owner), Mode::Lane, cause).is_err() {
+                s.exceptions_not_run = s.exceptions_not_run.saturating_add(1);
+                return false;
+            }
+            if let Ok(eb) = s.block_mut(e) {
+                eb.exception_of = Some(owner);
+            }
+            if let Ok(b) = s.block_mut(owner) {
+                b.pending = Some((behaviour, target, cause));
+            }
+            true
+        });
+        if !deferred {
+            self.apply(control, owner, behaviour, target, cause);
+        }
+        true
+    }
+
+    /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
+    fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
+        match behaviour {
+            Behaviour::Nothing => self.with(|s| {
+                if let Ok(b) = s.block_mut(owner) {
+                    b.set(flag::EXCEPTION_ACTIVE, false);
+                }
+                s.wake(owner);
+            }),
+            Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => {
+                self.tear_down(control, target, cause, false)
+            }
+            Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => {
+                self.tear_down(control, target, cause, true)
+            }
+        }
+    }
+
+    /// Aborts `target` and every active sub-sequence of it (blocking and non-blocking),
+    /// innermost first, each through `Aborting` (cleanup hook) to `Aborted`. With `restart`,
+    /// the target itself goes to `Restarting` instead.
+    fn tear_down(&self, control: &C, target: SeqId, cause: Cause, restart: bool) {
+        // depth + 1 of each affected sequence, 0 = unaffected.
+        let mut affected = [0u8; N];
+        for (i, a) in affected.iter_mut().enumerate() {
+            self.with(|s| {
+                let Some(b) = s.blocks.get(i).filter(|_| i < usize::from(s.count)) else {
+                    return;
+                };
+                let hit = i == target.index() || b.descends_from(target);
+                if hit && b.state.is_active() && b.state != RunningState::Aborting {
+                    *a = b.depth.saturating_add(1);
+                }
+            });
+        }
+        for depth in (1..=MAX_DEPTH as u8 + 1).rev() {
+            for (i, a) in affected.iter().enumerate() {
+                let Ok(id) = u8::try_from(i).map(SeqId) else {
+                    continue;
+                };
+                if *a != depth {
+                    continue;
+                }
+                if restart && id == target {
+                    self.stop(control, id, cause, RunningState::Restarting);
+                } else {
+                    self.stop(control, id, cause, RunningState::Aborting);
+                }
+            }
+        }
+    }
+
+    /// Moves one sequence to `Aborting → Aborted` or to `Restarting`, running its hook.
+    fn stop(&self, control: &C, id: SeqId, cause: Cause, to: RunningState) {
+        let hook = self.with(|s| {
+            if !s.transition(id, to, cause) {
+                return None;
+            }
+            if let Ok(b) = s.block_mut(id) {
+                b.last_cause = cause;
+                b.requests = 0;
+            }
+            Some(s.hooks.get(id.index()).copied().flatten())
+        });
+        let Some(hook) = hook else { return };
+        if let Some(h) = hook {
+            h(control);
+        }
+        self.with(|s| {
+            if to == RunningState::Aborting && s.transition(id, RunningState::Aborted, cause) {
+                // A blocking sequence's framework is dropped by its aborted caller and never
+                // reports back, so the outcome is recorded here.
+                if let Ok(b) = s.block_mut(id) {
+                    b.outcome = Some(crate::Outcome::Aborted(cause));
+                    if let Some(j) = b.joiner.take() {
+                        s.wake(j);
+                    }
+                }
+            }
+            s.wake(id);
+        });
+    }
+
+    /// Applies abort-all, finished exception sequences, and abort/pause/resume requests.
+    fn apply_requests(&self, control: &C) {
+        if self.with(|s| core::mem::take(&mut s.abort_all)) {
+            let count = self.with(|s| s.count);
+            for depth in (0..=MAX_DEPTH as u8).rev() {
+                for i in 0..count {
+                    let id = SeqId(i);
+                    let hit = self.with(|s| {
+                        s.block(id)
+                            .is_ok_and(|b| b.depth == depth && b.state.is_active())
+                    });
+                    if hit {
+                        self.stop(control, id, Cause::AbortAll, RunningState::Aborting);
+                    }
+                }
+            }
+        }
+        let count = self.with(|s| s.count);
+        for i in 0..count {
+            let id = SeqId(i);
+            let (req, done) = self.with(|s| {
+                let Ok(b) = s.block_mut(id) else {
+                    return (0, None);
+                };
+                let req = core::mem::take(&mut b.requests);
+                let done = if b.has(flag::EXCEPTION_DONE) {
+                    b.set(flag::EXCEPTION_DONE, false);
+                    b.pending.take()
+                } else {
+                    None
+                };
+                (req, done)
+            });
+            if let Some((behaviour, target, cause)) = done {
+                let still = self.with(|s| {
+                    s.block(id).is_ok_and(|b| {
+                        matches!(b.state, RunningState::Running | RunningState::Paused)
+                    })
+                });
+                if still {
+                    self.apply(control, id, behaviour, target, cause);
+                }
+            }
+            if req & request::ABORT != 0 {
+                self.tear_down(control, id, Cause::Abort, false);
+            } else if req & request::PAUSE != 0 {
+                self.pause_tree(id, true);
+            } else if req & request::RESUME != 0 {
+                self.pause_tree(id, false);
+            }
+        }
+    }
+
+    /// Pauses (or resumes) `target` and the sequences it blocks in its lane.
+    fn pause_tree(&self, target: SeqId, pause: bool) {
+        let (from, to, cause) = if pause {
+            (RunningState::Running, RunningState::Paused, Cause::Pause)
+        } else {
+            (RunningState::Paused, RunningState::Running, Cause::Resume)
+        };
+        let Some((root, depth)) = self.with(|s| {
+            s.block(target)
+                .ok()
+                .filter(|b| b.state == from)
+                .map(|b| (b.root, b.depth))
+        }) else {
+            return;
+        };
+        for d in depth..=MAX_DEPTH as u8 {
+            let count = self.with(|s| s.count);
+            for i in 0..count {
+                let id = SeqId(i);
+                self.with(|s| {
+                    let now = s.now;
+                    let Ok(b) = s.block(id) else { return };
+                    let inside = id == target
+                        || (b.root == root
+                            && b.depth > depth
+                            && b.stack.get(usize::from(depth)) == Some(&target.0));
+                    if !(inside && b.depth == d && b.state == from) {
+                        return;
+                    }
+                    if s.transition(id, to, cause) {
+                        if let Ok(b) = s.block_mut(id) {
+                            // A paused timeout keeps its remaining time, not a deadline.
+                            if b.deadline != DISARMED {
+                                b.deadline = if pause {
+                                    b.deadline.saturating_sub(now)
+                                } else {
+                                    now.saturating_add(b.deadline)
+                                };
+                            }
+                        }
+                        s.wake(id);
+                    }
+                });
+            }
+        }
+    }
+}
+

@@ -1,0 +1,28 @@
+//! Sequencer time: microsecond instants and durations from the heartbeat tick.
+//!
+//! All sequencer time is the time handed to [`Sequencer::tick`](crate::Sequencer::tick), so a
+//! host simulation is exact and deterministic, and on target it is whatever monotonic time
+//! base the timer interrupt provides.
+
+/// A point in sequencer time, in microseconds since an arbitrary epoch (usually boot).
+///
+/// ```
+/// use rtseq::Instant;
+/// let t = Instant::from_ticks(1_500);
+/// assert_eq!(t.duration_since_epoch().as_millis(), 1);
+/// ```
+pub type Instant = fugit::MonotonicTimerInstantU64<1_000_000>;
+
+/// A span of sequencer time, in microseconds.
+///
+/// ```
+/// use rtseq::Duration;
+/// let d = Duration::from_millis(10);
+/// assert_eq!(d.as_ticks(), 10_000);
+/// ```
+pub type Duration = fugit::MicrosDurationU64;
+
+/// Converts a duration to the compact `u32` microsecond form stored in control blocks.
+pub(crate) fn to_micros_u32(d: Duration) -> Option<u32> {
+    u32::try_from(d.as_ticks()).ok()
+}
