@@ -20,6 +20,12 @@ impl SeqId {
     pub const fn index(self) -> usize {
         self.0 as usize
     }
+
+    /// The id at registry position `index` (ids are handed out in registration order).
+    /// Saturates at 255, which is never a valid id of a smaller sequencer.
+    pub const fn from_index(index: usize) -> Self {
+        SeqId(if index > 255 { 255 } else { index as u8 })
+    }
 }
 
 /// Identifies a monitor registered in a [`Monitors`](crate::Monitors) table.

@@ -1,0 +1,198 @@
+//! Each of the five behaviours, with and without an exception sequence, on exact traces.
+//!
+//! Tree: main ─run→ P ─run→ A ─step→ S (exit: flag 1). Monitor `m` on A watches flag 0,
+//! which pulses at 5 ms; flag 1 comes at 10 ms. The exception sequence E waits 2 ms.
+
+mod common;
+use common::*;
+use rtseq::sim::Sim;
+use rtseq::Cause::{Completed, Monitor as Mon, Start, Restart};
+use rtseq::RunningState::*;
+use rtseq::{
+    Behaviour, Duration, Monitor, MonitorId, Monitors, Outcome, SeqConfig, SeqId, Sequencer,
+    Transition, Wait,
+};
+
+struct Ids {
+    main: SeqId,
+    p: SeqId,
+    a: SeqId,
+    s: SeqId,
+    e: SeqId,
+    w: SeqId,
+}
+
+fn run(behaviour: Behaviour, with_exception: bool) -> (Vec<Transition>, Ids, MonitorId, Ctrl) {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let a = seq.add(SeqConfig::new("A"), Node::of(vec![])).unwrap();
+    let p = seq.add(SeqConfig::new("P"), Node::of(vec![])).unwrap();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![])).unwrap();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let ids = Ids {
+        main: main.id(),
+        p: p.id(),
+        a: a.id(),
+        s: s.id(),
+        e: SeqId::from_index(5),
+        w: w.id(),
+    };
+    let e = seq.add(SeqConfig::new("E"), Node::of(vec![Op::Wait(w)])).unwrap();
+    assert_eq!(e.id(), ids.e);
+    let (mut a, mut p, mut main) = (a, p, main);
+    a.body_mut().ops.push(Op::Step(s));
+    p.body_mut().ops.push(Op::Run(a));
+    main.body_mut().ops.push(Op::Run(p));
+
+    let mut flag0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    let mut def = Monitor::new("m", &mut flag0, behaviour);
+    if with_exception {
+        def = def.exception(ids.e);
+    }
+    let m = monitors.add(ids.a, def).unwrap();
+    let trace = {
+        let mut sim = Sim::new(&seq, &ctrl, monitors);
+        sim.lane(main);
+        sim.lane(e);
+        sim.before_tick(|t, c| {
+            c.set(0, ms(t) == 5);
+            c.set(1, ms(t) >= 10);
+        });
+        sim.start(ids.main).unwrap();
+        assert_eq!(sim.run_until_idle(Duration::from_millis(50)).map(ms), Some(10).filter(|_| {
+            !(matches!(behaviour, Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner))
+        }).or(Some(if with_exception { 8 } else { 5 })));
+        assert_eq!(sim.lost(), 0);
+        sim.take_trace()
+    };
+    (trace, ids, m, ctrl)
+}
+
+/// The prefix every scenario shares: everything starts at 0 ms.
+fn start(i: &Ids) -> Vec<Transition> {
+    vec![
+        tr(0, i.main, Idle, Running, Start),
+        tr(0, i.p, Idle, Running, Start),
+        tr(0, i.a, Idle, Running, Start),
+        tr(0, i.s, Idle, Running, Start),
+    ]
+}
+
+/// The exception sequence E runs from 5 to 7 ms; its behaviour applies at the next tick.
+fn exception(i: &Ids, m: MonitorId) -> Vec<Transition> {
+    vec![
+        tr(5, i.e, Idle, Running, Mon(m)),
+        tr(5, i.w, Idle, Running, Start),
+        tr(7, i.w, Running, Terminated, Completed),
+        tr(7, i.e, Running, Terminated, Completed),
+    ]
+}
+
+fn aborted(t: u64, seqs: &[SeqId], cause: rtseq::Cause) -> Vec<Transition> {
+    seqs.iter()
+        .flat_map(|&s| [tr(t, s, Running, Aborting, cause), tr(t, s, Aborting, Aborted, cause)])
+        .collect()
+}
+
+fn completed(t: u64, seqs: &[SeqId]) -> Vec<Transition> {
+    seqs.iter().map(|&s| tr(t, s, Running, Terminated, Completed)).collect()
+}
+
+fn check(behaviour: Behaviour, with_exception: bool) {
+    let (trace, i, m, ctrl) = run(behaviour, with_exception);
+    let mut want = start(&i);
+    let t = if with_exception {
+        want.extend(exception(&i, m));
+        8
+    } else {
+        5
+    };
+    let cause = Mon(m);
+    match behaviour {
+        Behaviour::Nothing => want.extend(completed(10, &[i.s, i.a, i.p, i.main])),
+        Behaviour::AbortOwner => {
+            want.extend(aborted(t, &[i.s, i.a], cause));
+            want.extend(completed(t, &[i.p, i.main]));
+        }
+        Behaviour::AbortCallerOfOwner => {
+            want.extend(aborted(t, &[i.s, i.a, i.p], cause));
+            want.extend(completed(t, &[i.main]));
+        }
+        Behaviour::RestartOwner => {
+            want.extend(aborted(t, &[i.s], cause));
+            want.push(tr(t, i.a, Running, Restarting, cause));
+            want.push(tr(t, i.a, Restarting, Running, Restart));
+            want.push(tr(t, i.s, Aborted, Running, Start));
+            want.extend(completed(10, &[i.s, i.a, i.p, i.main]));
+        }
+        Behaviour::RestartCallerOfOwner => {
+            want.extend(aborted(t, &[i.s, i.a], cause));
+            want.push(tr(t, i.p, Running, Restarting, cause));
+            want.push(tr(t, i.p, Restarting, Running, Restart));
+            want.push(tr(t, i.a, Aborted, Running, Start));
+            want.push(tr(t, i.s, Aborted, Running, Start));
+            want.extend(completed(10, &[i.s, i.a, i.p, i.main]));
+        }
+    }
+    assert_eq!(trace, want, "\n got:\n{}\nwant:\n{}", show(&trace), show(&want));
+    assert_lines_ran_live(&ctrl);
+    // What the owner's caller got back.
+    let returned_to_p: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == i.p)
+        .map(|r| (r.ms, r.result))
+        .collect();
+    let expected_p = match behaviour {
+        Behaviour::AbortOwner => vec![(t, Ok(Outcome::Aborted(cause)))],
+        Behaviour::AbortCallerOfOwner => vec![],
+        _ => vec![(10, Ok(Outcome::Completed))],
+    };
+    assert_eq!(returned_to_p, expected_p);
+}
+
+#[test]
+fn nothing_without_exception_sequence() {
+    check(Behaviour::Nothing, false);
+}
+#[test]
+fn nothing_with_exception_sequence() {
+    check(Behaviour::Nothing, true);
+}
+#[test]
+fn abort_owner_without_exception_sequence() {
+    check(Behaviour::AbortOwner, false);
+}
+#[test]
+fn abort_owner_with_exception_sequence() {
+    check(Behaviour::AbortOwner, true);
+}
+#[test]
+fn restart_owner_without_exception_sequence() {
+    check(Behaviour::RestartOwner, false);
+}
+#[test]
+fn restart_owner_with_exception_sequence() {
+    check(Behaviour::RestartOwner, true);
+}
+#[test]
+fn abort_caller_of_owner_without_exception_sequence() {
+    check(Behaviour::AbortCallerOfOwner, false);
+}
+#[test]
+fn abort_caller_of_owner_with_exception_sequence() {
+    check(Behaviour::AbortCallerOfOwner, true);
+}
+#[test]
+fn restart_caller_of_owner_without_exception_sequence() {
+    check(Behaviour::RestartCallerOfOwner, false);
+}
+#[test]
+fn restart_caller_of_owner_with_exception_sequence() {
+    check(Behaviour::RestartCallerOfOwner, true);
+}

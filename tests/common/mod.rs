@@ -1,0 +1,189 @@
+//! Test harness: a control system of flags, a generic step and a generic sequence tree,
+//! and a log of every action line with the state it ran in.
+#![allow(dead_code)]
+
+use std::boxed::Box;
+use std::cell::{Cell, RefCell};
+use std::future::Future;
+use std::pin::Pin;
+
+use rtseq::{
+    Cause, Cx, Error, Instant, Outcome, RunningState, Seq, SeqId, Sequence, Step, Transition, Wait,
+};
+
+/// One executed line of action code.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Line {
+    pub ms: u64,
+    pub seq: SeqId,
+    pub line: usize,
+    pub state: RunningState,
+    pub held: bool,
+}
+
+/// What a started child returned to its caller.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Returned {
+    pub ms: u64,
+    pub seq: SeqId,
+    pub line: usize,
+    pub result: Result<Outcome, Error>,
+}
+
+pub const END: usize = usize::MAX;
+
+#[derive(Default)]
+pub struct Ctrl {
+    pub flags: [Cell<bool>; 16],
+    pub lines: RefCell<Vec<Line>>,
+    pub returned: RefCell<Vec<Returned>>,
+}
+
+impl Ctrl {
+    pub fn flag(&self, i: usize) -> bool {
+        self.flags[i].get()
+    }
+    pub fn set(&self, i: usize, v: bool) {
+        self.flags[i].set(v)
+    }
+    fn line(&self, cx: &Cx<'_, Ctrl>, line: usize) {
+        let h = cx.sequence_by_id(cx.id()).unwrap();
+        self.lines.borrow_mut().push(Line {
+            ms: cx.now().as_ticks() / 1000,
+            seq: cx.id(),
+            line,
+            state: h.state(),
+            held: h.exception_is_active(),
+        });
+    }
+    fn returned(&self, cx: &Cx<'_, Ctrl>, line: usize, result: Result<Outcome, Error>) {
+        self.returned.borrow_mut().push(Returned {
+            ms: cx.now().as_ticks() / 1000,
+            seq: cx.id(),
+            line,
+            result,
+        });
+    }
+    pub fn lines_of(&self, seq: SeqId) -> Vec<(u64, usize)> {
+        self.lines
+            .borrow()
+            .iter()
+            .filter(|l| l.seq == seq)
+            .map(|l| (l.ms, l.line))
+            .collect()
+    }
+}
+
+/// A step whose pre- and exit conditions are flags (none = true).
+#[derive(Default)]
+pub struct Leaf {
+    pub pre: Option<usize>,
+    pub exit: Option<usize>,
+}
+
+impl Leaf {
+    pub fn until(flag: usize) -> Self {
+        Leaf { pre: None, exit: Some(flag) }
+    }
+}
+
+impl Step<Ctrl> for Leaf {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        cx.control().line(cx, 0);
+    }
+    fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        self.pre.is_none_or(|f| cx.control().flag(f))
+    }
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        self.exit.is_none_or(|f| cx.control().flag(f))
+    }
+}
+
+/// One line of a [`Node`]'s action.
+pub enum Op {
+    Step(Seq<Leaf>),
+    Wait(Seq<Wait>),
+    Run(Seq<Node>),
+    Start(SeqId),
+    Join(SeqId),
+}
+
+/// A sequence whose action runs its ops in order, logging each line and result.
+#[derive(Default)]
+pub struct Node {
+    pub ops: Vec<Op>,
+    pub pre: Option<usize>,
+    pub exit: Option<usize>,
+}
+
+impl Node {
+    pub fn of(ops: Vec<Op>) -> Self {
+        Node { ops, pre: None, exit: None }
+    }
+}
+
+type Boxed<'f> = Pin<Box<dyn Future<Output = Result<Outcome, Error>> + 'f>>;
+
+impl Sequence<Ctrl> for Node {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        for (i, op) in self.ops.iter_mut().enumerate() {
+            cx.control().line(cx, i);
+            let r = match op {
+                Op::Step(s) => cx.step(s).await,
+                Op::Wait(s) => cx.step(s).await,
+                Op::Run(s) => {
+                    // Boxed: a `Node` may run a `Node` (the tree is recursive in type).
+                    let f: Boxed<'_> = Box::pin(cx.run(s));
+                    f.await
+                }
+                Op::Start(id) => cx.start(*id).map(|()| Outcome::Completed),
+                Op::Join(id) => cx.join(*id).await,
+            };
+            cx.control().returned(cx, i, r);
+        }
+        cx.control().line(cx, END);
+    }
+    fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        self.pre.is_none_or(|f| cx.control().flag(f))
+    }
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        self.exit.is_none_or(|f| cx.control().flag(f))
+    }
+}
+
+/// `Transition::at_millis`, shorter.
+pub fn tr(ms: u64, seq: SeqId, from: RunningState, to: RunningState, cause: Cause) -> Transition {
+    Transition::at_millis(ms, seq, from, to, cause)
+}
+
+pub fn ms(t: Instant) -> u64 {
+    t.as_ticks() / 1000
+}
+
+/// Every line ran while its sequence was running and not held by an exception.
+pub fn assert_lines_ran_live(ctrl: &Ctrl) {
+    for l in ctrl.lines.borrow().iter() {
+        assert_eq!(
+            (l.state, l.held),
+            (RunningState::Running, false),
+            "action line ran while not live: {l:?}"
+        );
+    }
+}
+
+/// Pretty trace for failure messages.
+pub fn show(trace: &[Transition]) -> String {
+    trace
+        .iter()
+        .map(|t| {
+            format!(
+                "{:>5} ms  #{} {:?} -> {:?} ({:?})\n",
+                t.time.as_ticks() / 1000,
+                t.sequence.index(),
+                t.from,
+                t.to,
+                t.cause
+            )
+        })
+        .collect()
+}
