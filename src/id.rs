@@ -48,4 +48,9 @@ impl MonitorId {
     pub const fn index(self) -> usize {
         self.0 as usize
     }
+
+    /// The id at table position `index` (ids are handed out in order). Saturates at 255.
+    pub const fn from_index(index: usize) -> Self {
+        MonitorId(if index > 255 { 255 } else { index as u8 })
+    }
 }

@@ -1,0 +1,575 @@
+//! The core scenarios of the sequencer on exact traces (times, sequences, states, causes).
+
+mod common;
+use common::*;
+use rtseq::sim::Sim;
+use rtseq::Cause::{self, Completed, Monitor as Mon, PreConditionFalse, Start, Timeout};
+use rtseq::RunningState::{self, *};
+use rtseq::{
+    Behaviour, Duration, Error, Monitor, Monitors, Outcome, SeqConfig, SeqId, Sequencer,
+    Transition, Trigger,
+};
+
+type Seqr = Sequencer<Ctrl, 16>;
+
+fn aborted(t: u64, seqs: &[SeqId], cause: Cause) -> Vec<Transition> {
+    seqs.iter()
+        .flat_map(|&s| [tr(t, s, Running, Aborting, cause), tr(t, s, Aborting, Aborted, cause)])
+        .collect()
+}
+
+fn completed(t: u64, seqs: &[SeqId]) -> Vec<Transition> {
+    seqs.iter().map(|&s| tr(t, s, Running, Terminated, Completed)).collect()
+}
+
+fn started(t: u64, seqs: &[SeqId]) -> Vec<Transition> {
+    seqs.iter().map(|&s| tr(t, s, Idle, Running, Start)).collect()
+}
+
+fn assert_trace(got: &[Transition], want: &[Transition]) {
+    assert_eq!(got, want, "\n got:\n{}\nwant:\n{}", show(got), show(want));
+}
+
+fn pulse(flag: usize, at_ms: u64) -> impl FnMut(rtseq::Instant, &Ctrl) {
+    move |t, c| c.set(flag, ms(t) == at_ms)
+}
+
+#[test]
+fn monitor_on_outermost_of_three_nested_fires_while_innermost_step_waits() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let (si, x3) = (s.id(), seq.add(SeqConfig::new("X3"), Node::of(vec![Op::Step(s)])).unwrap());
+    let x3i = x3.id();
+    let x2 = seq.add(SeqConfig::new("X2"), Node::of(vec![Op::Run(x3)])).unwrap();
+    let x2i = x2.id();
+    let x1 = seq.add(SeqConfig::new("X1"), Node::of(vec![Op::Run(x2)])).unwrap();
+    let x1i = x1.id();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(x1)])).unwrap();
+    let mi = main.id();
+    let mut c0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(x1i, Monitor::new("outer", &mut c0, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.before_tick(pulse(0, 5));
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    let h = sim.handle(si).unwrap();
+    assert_eq!(h.caller(), Some(x3i));
+    assert_eq!(h.caller_stack().as_slice(), &[mi, x1i, x2i, x3i]);
+    assert_eq!(h.caller_stack_blocking().as_slice(), &[mi, x1i, x2i, x3i]);
+    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(5));
+    let mut want = started(0, &[mi, x1i, x2i, x3i, si]);
+    want.extend(aborted(5, &[si, x3i, x2i, x1i], Mon(m)));
+    want.extend(completed(5, &[mi]));
+    assert_trace(sim.trace(), &want);
+    assert_lines_ran_live(&ctrl);
+    assert_eq!(
+        ctrl.returned.borrow().last().map(|r| (r.seq, r.result)),
+        Some((mi, Ok(Outcome::Aborted(Mon(m)))))
+    );
+    assert!(sim.handle(x1i).unwrap().exception_is_active());
+    assert_eq!(sim.handle(x1i).unwrap().active_exception(), Some(Mon(m)));
+}
+
+/// main ─run→ A ─step→ S (exit flag 1, never): the timeout sits on S or on A.
+fn timeout_world(on_step: bool) -> (Vec<Transition>, [SeqId; 3], Vec<Returned>) {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let three = Duration::from_millis(3);
+    let cfg = |n| SeqConfig::new(n);
+    let s = seq
+        .add(if on_step { cfg("S").timeout(three) } else { cfg("S") }, Leaf::until(1))
+        .unwrap();
+    let si = s.id();
+    let a = seq
+        .add(if on_step { cfg("A") } else { cfg("A").timeout(three) }, Node::of(vec![Op::Step(s)]))
+        .unwrap();
+    let ai = a.id();
+    let main = seq.add(cfg("main"), Node::of(vec![Op::Run(a)])).unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(3));
+    let trace = sim.take_trace();
+    drop(sim);
+    let returned = ctrl.returned.borrow().clone();
+    (trace, [mi, ai, si], returned)
+}
+
+#[test]
+fn timeout_on_a_step_aborts_the_step_only() {
+    let (trace, [mi, ai, si], returned) = timeout_world(true);
+    let mut want = started(0, &[mi, ai, si]);
+    want.extend(aborted(3, &[si], Timeout(si)));
+    want.extend(completed(3, &[ai, mi]));
+    assert_trace(&trace, &want);
+    assert_eq!(returned[0].seq, ai);
+    assert_eq!(returned[0].result, Ok(Outcome::Aborted(Timeout(si))));
+}
+
+#[test]
+fn timeout_on_the_caller_aborts_caller_and_step() {
+    let (trace, [mi, ai, si], returned) = timeout_world(false);
+    let mut want = started(0, &[mi, ai, si]);
+    want.extend(aborted(3, &[si, ai], Timeout(ai)));
+    want.extend(completed(3, &[mi]));
+    assert_trace(&trace, &want);
+    assert_eq!(returned.len(), 1);
+    assert_eq!((returned[0].seq, returned[0].result), (mi, Ok(Outcome::Aborted(Timeout(ai)))));
+}
+
+#[test]
+fn restart_limit_escalates_to_abort() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let si = s.id();
+    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let ai = a.id();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)])).unwrap();
+    let mi = main.id();
+    let mut c0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(ai, Monitor::new("stuck", &mut c0, Behaviour::RestartOwner).restart_limit(3))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    // The fault appears at 5 ms and stays: every restart sees it again at its first poll.
+    sim.before_tick(|t, c| c.set(0, ms(t) >= 5));
+    sim.start(mi).unwrap();
+    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(8));
+    let mut want = started(0, &[mi, ai, si]);
+    for t in 5..=7 {
+        want.extend(aborted(t, &[si], Mon(m)));
+        want.push(tr(t, ai, Running, Restarting, Mon(m)));
+        want.push(tr(t, ai, Restarting, Running, Cause::Restart));
+        want.push(tr(t, si, Aborted, Running, Start));
+    }
+    want.extend(aborted(8, &[si, ai], Mon(m)));
+    want.extend(completed(8, &[mi]));
+    assert_trace(sim.trace(), &want);
+    let c = sim.handle(ai).unwrap().counters();
+    assert_eq!((c.runs, c.restarts, c.aborts, c.exceptions), (1, 3, 1, 4));
+    assert_eq!(sim.monitors().fired(m), 4);
+    assert_lines_ran_live(&ctrl);
+}
+
+/// A `Nothing` monitor whose condition stays true from 5 to 9 ms; its exception sequence
+/// E counts the firings.
+fn storm(trigger: Trigger) -> (u16, u16, Vec<Transition>, SeqId) {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let ai = a.id();
+    let e = seq.add(SeqConfig::new("E"), Node::of(vec![])).unwrap();
+    let ei = e.id();
+    let mut c0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(ai, Monitor::new("m", &mut c0, Behaviour::Nothing).exception(ei).trigger(trigger))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(a);
+    sim.lane(e);
+    sim.before_tick(|t, c| {
+        c.set(0, (5..=9).contains(&ms(t)));
+        c.set(1, ms(t) >= 15);
+    });
+    sim.start(ai).unwrap();
+    assert_eq!(sim.run_until_idle(Duration::from_millis(30)).map(ms), Some(15));
+    let e_trace = sim.trace().iter().filter(|t| t.sequence == ei).copied().collect();
+    (sim.monitors().fired(m), sim.handle(ei).unwrap().counters().runs, e_trace, ei)
+}
+
+#[test]
+fn rising_edge_trigger_fires_once_while_condition_stays_true() {
+    let (fired, runs, e_trace, ei) = storm(Trigger::RisingEdge);
+    assert_eq!((fired, runs), (1, 1));
+    assert_eq!(
+        e_trace,
+        vec![
+            tr(5, ei, Idle, Running, Mon(rtseq::MonitorId::from_index(0))),
+            tr(5, ei, Running, Terminated, Completed)
+        ]
+    );
+}
+
+#[test]
+fn level_trigger_fires_at_every_poll_once_the_exception_is_over() {
+    let (fired, runs, e_trace, _) = storm(Trigger::Level);
+    // 5 ms: fires, E runs and ends; 6 ms: the behaviour (Nothing) is applied, then the
+    // still-true condition fires again; and so on up to 9 ms.
+    assert_eq!((fired, runs), (5, 5));
+    let times: Vec<u64> = e_trace.iter().filter(|t| t.to == Running).map(|t| ms(t.time)).collect();
+    assert_eq!(times, vec![5, 6, 7, 8, 9]);
+}
+
+#[test]
+fn pause_freezes_the_timeout_and_resume_continues_at_the_same_point() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq
+        .add(SeqConfig::new("S").timeout(Duration::from_millis(10)), Leaf::until(1))
+        .unwrap();
+    let si = s.id();
+    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let ai = a.id();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)])).unwrap();
+    let mi = main.id();
+    let mut c2 = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(si, Monitor::new("while paused", &mut c2, Behaviour::Nothing))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.before_tick(pulse(2, 12));
+    sim.start(mi).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(3_000));
+    sim.pause(ai).unwrap(); // applied by the tick at 4 ms: A and the step it waits for
+    sim.run_until(rtseq::Instant::from_ticks(20_000));
+    assert_eq!(sim.state(si), Paused);
+    assert_eq!(sim.resume(si), Ok(())); // a paused step may be resumed on its own too
+    sim.resume(ai).unwrap(); // at 21 ms; 6 ms of the timeout are left
+    assert_eq!(sim.run_until_idle(Duration::from_millis(40)).map(ms), Some(27));
+    let mut want = started(0, &[mi, ai, si]);
+    want.push(tr(4, ai, Running, Paused, Cause::Pause));
+    want.push(tr(4, si, Running, Paused, Cause::Pause));
+    want.push(tr(21, si, Paused, Running, Cause::Resume));
+    want.push(tr(21, ai, Paused, Running, Cause::Resume));
+    want.extend(aborted(27, &[si], Timeout(si)));
+    want.extend(completed(27, &[ai, mi]));
+    assert_trace(sim.trace(), &want);
+    // The monitor stayed active while paused (fired at 12 ms) without moving anything;
+    // the timeout is the step's second exception.
+    assert_eq!(sim.monitors().fired(m), 1);
+    assert_eq!(sim.handle(si).unwrap().counters().exceptions, 2);
+    assert_eq!(ctrl.lines_of(ai), vec![(0, 0), (27, END)]);
+}
+
+#[test]
+fn non_blocking_child_is_aborted_with_its_parent() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s2 = seq.add(SeqConfig::new("S2"), Leaf::until(2)).unwrap();
+    let s2i = s2.id();
+    let q = seq.add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)])).unwrap();
+    let qi = q.id();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let si = s.id();
+    let p = seq
+        .add(SeqConfig::new("P"), Node::of(vec![Op::Start(qi), Op::Step(s)]))
+        .unwrap();
+    let pi = p.id();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(p)])).unwrap();
+    let mi = main.id();
+    let mut c0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(pi, Monitor::new("m", &mut c0, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(q);
+    sim.before_tick(pulse(0, 5));
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    let h = sim.handle(s2i).unwrap();
+    assert_eq!(h.caller_stack().as_slice(), &[mi, pi, qi]);
+    assert_eq!(h.caller_stack_blocking().as_slice(), &[qi]);
+    assert_eq!(sim.handle(qi).unwrap().caller_stack_blocking().as_slice(), &[] as &[SeqId]);
+    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(5));
+    let mut want = started(0, &[mi, pi, qi, si, s2i]);
+    // Innermost first: S2 (depth 3), then Q and S (depth 2, id order), then P.
+    want.extend(aborted(5, &[s2i, qi, si, pi], Mon(m)));
+    want.extend(completed(5, &[mi]));
+    assert_trace(sim.trace(), &want);
+    assert_lines_ran_live(&ctrl);
+    assert_eq!(sim.handle(qi).unwrap().last_outcome(), Some(Outcome::Aborted(Mon(m))));
+}
+
+#[test]
+fn exception_sequence_whose_own_monitor_fires() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let si = s.id();
+    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let ai = a.id();
+    let se = seq.add(SeqConfig::new("SE"), Leaf::until(3)).unwrap();
+    let sei = se.id();
+    let e = seq.add(SeqConfig::new("E"), Node::of(vec![Op::Step(se)])).unwrap();
+    let ei = e.id();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)])).unwrap();
+    let mi = main.id();
+    let (mut c0, mut c2) = (|c: &Ctrl, _| c.flag(0), |c: &Ctrl, _| c.flag(2));
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    let m1 = monitors
+        .add(ai, Monitor::new("m1", &mut c0, Behaviour::AbortOwner).exception(ei))
+        .unwrap();
+    let m2 = monitors
+        .add(ei, Monitor::new("m2", &mut c2, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(e);
+    sim.before_tick(|t, c| {
+        c.set(0, ms(t) == 5);
+        c.set(2, ms(t) == 7);
+    });
+    sim.start(mi).unwrap();
+    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(8));
+    let mut want = started(0, &[mi, ai, si]);
+    want.push(tr(5, ei, Idle, Running, Mon(m1)));
+    want.push(tr(5, sei, Idle, Running, Start));
+    want.extend(aborted(7, &[sei, ei], Mon(m2)));
+    want.extend(aborted(8, &[si, ai], Mon(m1)));
+    want.extend(completed(8, &[mi]));
+    assert_trace(sim.trace(), &want);
+    assert_eq!(sim.handle(ei).unwrap().caller(), Some(ai));
+}
+
+#[test]
+fn pre_condition_false_skips_steps_and_sequences() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq
+        .add(SeqConfig::new("S"), Leaf { pre: Some(5), exit: None })
+        .unwrap();
+    let si = s.id();
+    let mut b = Node::of(vec![]);
+    b.pre = Some(5);
+    let b = seq.add(SeqConfig::new("B"), b).unwrap();
+    let bi = b.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(s), Op::Run(b)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    let want = vec![
+        tr(0, mi, Idle, Running, Start),
+        tr(0, si, Idle, Running, Start),
+        tr(0, si, Running, Terminated, PreConditionFalse),
+        tr(0, bi, Idle, Running, Start),
+        tr(0, bi, Running, Terminated, PreConditionFalse),
+        tr(0, mi, Running, Terminated, Completed),
+    ];
+    assert_trace(sim.trace(), &want);
+    let r: Vec<_> = ctrl.returned.borrow().iter().map(|r| r.result).collect();
+    assert_eq!(r, vec![Ok(Outcome::Skipped), Ok(Outcome::Skipped)]);
+    assert!(ctrl.lines_of(si).is_empty(), "a skipped step's action must not run");
+    assert_eq!(sim.handle(si).unwrap().counters().skipped, 1);
+}
+
+#[test]
+fn monitor_and_exit_condition_due_in_the_same_tick_monitor_first() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let si = s.id();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)])).unwrap();
+    let mi = main.id();
+    let mut c0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(si, Monitor::new("m", &mut c0, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.before_tick(|t, c| {
+        c.set(0, ms(t) == 5);
+        c.set(1, ms(t) >= 5);
+    });
+    sim.start(mi).unwrap();
+    sim.run_until_idle(Duration::from_millis(20));
+    let mut want = started(0, &[mi, si]);
+    want.extend(aborted(5, &[si], Mon(m)));
+    want.extend(completed(5, &[mi]));
+    assert_trace(sim.trace(), &want);
+}
+
+#[test]
+fn reaction_bound_condition_true_before_tick_k_aborts_during_tick_k() {
+    for k in [1u64, 7, 13] {
+        let seq = Seqr::new();
+        let ctrl = Ctrl::default();
+        let s1 = seq.add(SeqConfig::new("S1"), Leaf::until(1)).unwrap();
+        let s2 = seq.add(SeqConfig::new("S2"), Leaf::default()).unwrap();
+        let a = seq
+            .add(SeqConfig::new("A"), Node::of(vec![Op::Step(s1), Op::Step(s2)]))
+            .unwrap();
+        let ai = a.id();
+        let mut c0 = |c: &Ctrl, _| c.flag(0);
+        let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+        monitors
+            .add(ai, Monitor::new("m", &mut c0, Behaviour::AbortOwner))
+            .unwrap();
+        let mut sim = Sim::new(&seq, &ctrl, monitors);
+        sim.lane(a);
+        // Both the fault and S1's exit condition appear just before tick k.
+        sim.before_tick(move |t, c| {
+            c.set(0, ms(t) >= k);
+            c.set(1, ms(t) >= k);
+        });
+        sim.start(ai).unwrap();
+        sim.run_until(rtseq::Instant::from_ticks(k * 1000));
+        assert_eq!(sim.state(ai), Aborted, "k = {k}");
+        let aborted_at = sim.trace().iter().find(|t| t.sequence == ai && t.to == Aborted);
+        assert_eq!(aborted_at.map(|t| ms(t.time)), Some(k));
+        sim.run_for(Duration::from_millis(5));
+        assert_eq!(ctrl.lines_of(ai), vec![(0, 0)], "no further action code of A after its abort");
+    }
+}
+
+#[test]
+fn starting_a_running_sequence_is_an_error() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s2 = seq.add(SeqConfig::new("S2"), Leaf::until(2)).unwrap();
+    let q = seq.add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)])).unwrap();
+    let qi = q.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Start(qi), Op::Start(qi), Op::Join(qi)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(q);
+    sim.start(mi).unwrap();
+    assert_eq!(sim.start(mi), Err(Error::AlreadyRunning(mi)));
+    sim.before_tick(|t, c| c.set(2, ms(t) >= 4));
+    sim.run_until_idle(Duration::from_millis(10));
+    let r: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == mi)
+        .map(|r| (r.ms, r.result))
+        .collect();
+    assert_eq!(
+        r,
+        vec![
+            (0, Ok(Outcome::Completed)),
+            (0, Err(Error::AlreadyRunning(qi))),
+            (4, Ok(Outcome::Completed)),
+        ]
+    );
+    // A finished sequence may be started again.
+    assert_eq!(sim.start(mi), Ok(()));
+}
+
+#[test]
+fn registry_errors_are_reported_not_panicked() {
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    assert_eq!(seq.register(SeqConfig::new("")), Err(Error::EmptyName));
+    let a = seq.register(SeqConfig::new("a")).unwrap();
+    assert_eq!(seq.register(SeqConfig::new("a")), Err(Error::DuplicateName("a")));
+    assert_eq!(
+        seq.register(SeqConfig::new("z").polling(Duration::from_ticks(0))),
+        Err(Error::DurationOutOfRange)
+    );
+    seq.register(SeqConfig::new("b")).unwrap();
+    assert_eq!(seq.register(SeqConfig::new("c")), Err(Error::SequenceCapacityExceeded));
+    let _bound = seq.bind(a, Leaf::default()).unwrap();
+    assert!(matches!(seq.bind(a, Leaf::default()), Err(Error::AlreadyBound(x)) if x == a));
+    assert_eq!(seq.sequence_by_id(a).unwrap().start(), Err(Error::NoLane(a)));
+    assert!(seq.sequence_by_id(SeqId::from_index(7)).is_none());
+    assert!(seq.sequence_by_name("nope").is_none());
+    let mut t = |_: &Ctrl, _| true;
+    let mut t2 = |_: &Ctrl, _| true;
+    let mut t0 = |_: &Ctrl, _| true;
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    assert!(matches!(
+        monitors.add(a, Monitor::new("", &mut t0, Behaviour::Nothing)),
+        Err(Error::EmptyName)
+    ));
+    monitors.add(a, Monitor::new("m", &mut t, Behaviour::Nothing)).unwrap();
+    assert!(matches!(
+        monitors.add(a, Monitor::new("m2", &mut t2, Behaviour::Nothing)),
+        Err(Error::MonitorCapacityExceeded)
+    ));
+}
+
+#[test]
+fn transition_table_is_exactly_the_documented_one() {
+    let legal = [
+        (Idle, Running),
+        (Terminated, Running),
+        (Aborted, Running),
+        (Running, Paused),
+        (Running, Aborting),
+        (Running, Restarting),
+        (Running, Terminated),
+        (Paused, Running),
+        (Paused, Aborting),
+        (Paused, Restarting),
+        (Restarting, Running),
+        (Restarting, Aborting),
+        (Aborting, Aborted),
+    ];
+    for from in RunningState::ALL {
+        for to in RunningState::ALL {
+            assert_eq!(
+                from.can_transition_to(to),
+                legal.contains(&(from, to)),
+                "{from:?} -> {to:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn abort_all_aborts_every_running_sequence_innermost_first() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s2 = seq.add(SeqConfig::new("S2"), Leaf::until(2)).unwrap();
+    let s2i = s2.id();
+    let q = seq.add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)])).unwrap();
+    let qi = q.id();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let si = s.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Start(qi), Op::Step(s)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(q);
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    sim.abort_all();
+    sim.step();
+    let mut want = started(0, &[mi, qi, si, s2i]);
+    want.extend(aborted(4, &[s2i, qi, si, mi], Cause::AbortAll));
+    assert_trace(sim.trace(), &want);
+    assert!(!sim.any_active());
+    assert_lines_ran_live(&ctrl);
+    assert_eq!(ctrl.lines_of(mi), vec![(0, 0), (0, 1)]);
+}
+
+#[test]
+fn handle_requests_check_the_state() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)])).unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    assert_eq!(sim.pause(mi), Err(Error::NotRunning(mi)));
+    sim.start(mi).unwrap();
+    assert_eq!(sim.resume(mi), Err(Error::NotPaused(mi)));
+    sim.abort(mi).unwrap();
+    sim.step();
+    assert_eq!(sim.state(mi), Aborted);
+    assert_eq!(sim.handle(mi).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
+}
