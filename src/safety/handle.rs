@@ -1,0 +1,189 @@
+//! The lock-free, shared part of the safety system.
+
+use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
+
+use super::event::{EventId, PublicEvent};
+use super::level::SafetyLevel;
+use super::properties::bit_of;
+
+/// The shared, lock-free part of the safety system: lower-priority code
+/// (sequences, conditions, other tasks) triggers public events and reads
+/// the current level through a plain `&SafetyHandle`, while the
+/// highest-priority safety task owns the [`SafetySystem`](super::SafetySystem)
+/// and runs its cycle.
+///
+/// Everything is a single atomic operation (no lock, no critical
+/// section): triggering is one `fetch_or` on a 32-bit pending-event
+/// bitmask, reading the level is one load. Triggering the same event
+/// several times before the next cycle counts once. Needs 8- and 32-bit
+/// atomics with compare-and-swap (Cortex-M3 and up).
+///
+/// Const-constructible, so it lives in a `static`:
+///
+/// ```
+/// use rtseq::safety::{PublicEvent, SafetyHandle, SafetyLevel};
+/// static SAFETY: SafetyHandle = SafetyHandle::new();
+/// const START: PublicEvent = PublicEvent::new(0);
+///
+/// // In a sequence (any priority):
+/// SAFETY.trigger(START);
+/// let ready = SAFETY.level() >= SafetyLevel::new(2);
+/// # let _ = ready;
+/// ```
+///
+/// Only public events can be triggered here; a private event does not
+/// compile:
+///
+/// ```compile_fail,E0308
+/// use rtseq::safety::{PrivateEvent, SafetyHandle};
+/// static SAFETY: SafetyHandle = SafetyHandle::new();
+/// const EMERGENCY: PrivateEvent = PrivateEvent::new(0);
+/// SAFETY.trigger(EMERGENCY); // expected `SafetyEvent<Public>`, found `SafetyEvent<Private>`
+/// ```
+#[derive(Debug)]
+pub struct SafetyHandle {
+    pending: AtomicU32,
+    level: AtomicU8,
+    bound: AtomicBool,
+    cycles: AtomicU32,
+    out_of_range: AtomicU32,
+    last_out_of_range: AtomicU8,
+}
+
+impl SafetyHandle {
+    /// A handle with no pending events, level 0 (the safest) until a
+    /// [`SafetySystem`](super::SafetySystem) is built on it, which
+    /// publishes its entry level.
+    ///
+    /// ```
+    /// use rtseq::safety::{SafetyHandle, SafetyLevel};
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// assert_eq!(SAFETY.level(), SafetyLevel::SAFEST);
+    /// ```
+    pub const fn new() -> Self {
+        Self {
+            pending: AtomicU32::new(0),
+            level: AtomicU8::new(0),
+            bound: AtomicBool::new(false),
+            cycles: AtomicU32::new(0),
+            out_of_range: AtomicU32::new(0),
+            last_out_of_range: AtomicU8::new(0),
+        }
+    }
+
+    /// Triggers a public event; the safety system resolves it against its
+    /// level at the start of its next cycle. Lock-free, wait-free on
+    /// Cortex-M (one `LDREX`/`STREX` loop), callable from any priority.
+    ///
+    /// An event with an id `>= 32` cannot be in any valid table; it is
+    /// counted as an unknown event in the next cycle.
+    ///
+    /// ```
+    /// use rtseq::safety::{PublicEvent, SafetyHandle};
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// SAFETY.trigger(PublicEvent::new(2));
+    /// assert_eq!(SAFETY.pending_events(), 1 << 2);
+    /// ```
+    pub fn trigger(&self, event: PublicEvent) {
+        let index = event.id().index();
+        let bit = bit_of(usize::from(index));
+        if bit == 0 {
+            self.last_out_of_range.store(index, Ordering::Relaxed);
+            self.out_of_range.fetch_add(1, Ordering::Release);
+        } else {
+            self.pending.fetch_or(bit, Ordering::Release);
+        }
+    }
+
+    /// The current safety level (as of the last applied transition).
+    ///
+    /// ```
+    /// use rtseq::safety::{SafetyHandle, SafetyLevel};
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// let moving_allowed = SAFETY.level() >= SafetyLevel::new(3);
+    /// assert!(!moving_allowed);
+    /// ```
+    pub fn level(&self) -> SafetyLevel {
+        SafetyLevel::new(self.level.load(Ordering::Acquire))
+    }
+
+    /// Public events triggered but not yet consumed by a cycle (bit `i` =
+    /// public event `i`).
+    ///
+    /// ```
+    /// use rtseq::safety::SafetyHandle;
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// assert_eq!(SAFETY.pending_events(), 0);
+    /// ```
+    pub fn pending_events(&self) -> u32 {
+        self.pending.load(Ordering::Acquire)
+    }
+
+    /// Number of safety cycles run so far (wraps), e.g. to wait "one
+    /// safety cycle" after triggering an event.
+    ///
+    /// ```
+    /// use rtseq::safety::SafetyHandle;
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// assert_eq!(SAFETY.cycles(), 0);
+    /// ```
+    pub fn cycles(&self) -> u32 {
+        self.cycles.load(Ordering::Acquire)
+    }
+
+    /// Whether a [`SafetySystem`](super::SafetySystem) currently owns the
+    /// handle.
+    ///
+    /// ```
+    /// use rtseq::safety::SafetyHandle;
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// assert!(!SAFETY.is_bound());
+    /// ```
+    pub fn is_bound(&self) -> bool {
+        self.bound.load(Ordering::Acquire)
+    }
+
+    pub(crate) fn bind(&self) -> bool {
+        self.bound
+            .compare_exchange(false, true, Ordering::AcqRel, Ordering::Acquire)
+            .is_ok()
+    }
+
+    pub(crate) fn release(&self) {
+        self.bound.store(false, Ordering::Release);
+    }
+
+    pub(crate) fn publish_level(&self, level: SafetyLevel) {
+        self.level.store(level.id(), Ordering::Release);
+    }
+
+    pub(crate) fn count_cycle(&self) {
+        // Only the owning SafetySystem writes; load + store is enough.
+        let n = self.cycles.load(Ordering::Relaxed).wrapping_add(1);
+        self.cycles.store(n, Ordering::Release);
+    }
+
+    pub(crate) fn take_pending(&self) -> u32 {
+        if self.pending.load(Ordering::Relaxed) == 0 {
+            0
+        } else {
+            self.pending.swap(0, Ordering::Acquire)
+        }
+    }
+
+    /// (count, last) of out-of-range public events since the last call.
+    pub(crate) fn take_out_of_range(&self) -> (u32, EventId) {
+        if self.out_of_range.load(Ordering::Relaxed) == 0 {
+            return (0, EventId::public(0));
+        }
+        let n = self.out_of_range.swap(0, Ordering::Acquire);
+        let last = self.last_out_of_range.load(Ordering::Relaxed);
+        (n, EventId::public(last))
+    }
+}
+
+impl Default for SafetyHandle {
+    fn default() -> Self {
+        Self::new()
+    }
+}

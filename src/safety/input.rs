@@ -1,0 +1,422 @@
+//! Critical inputs and the per-level input actions.
+
+use core::marker::PhantomData;
+
+use super::event::{EventId, EventVisibility, SafetyEvent};
+use super::io::{InputId, IoKind, IoType, IoValue};
+
+/// A critical input of type `T` (`bool`, `i32` or `f32`): an index plus a
+/// name. Declared as a constant; its typed methods build the per-level
+/// [`InputAction`]s, so an action's values always match the input's type.
+///
+/// ```
+/// use rtseq::safety::{CriticalInput, PrivateEvent};
+/// const ESTOP_IN: CriticalInput<bool> = CriticalInput::new(0, "emergency stop (NC)");
+/// const CURRENT: CriticalInput<f32> = CriticalInput::new(1, "motor current [A]");
+/// const FAULT: PrivateEvent = PrivateEvent::new(0);
+/// let _a = ESTOP_IN.check(true, FAULT);      // fires when the NC contact opens
+/// let _b = CURRENT.range(-10.0, 10.0, FAULT); // fires outside [-10, 10]
+/// ```
+pub struct CriticalInput<T> {
+    id: InputId,
+    name: &'static str,
+    _type: PhantomData<fn() -> T>,
+}
+
+impl<T> Clone for CriticalInput<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for CriticalInput<T> {}
+impl<T> core::fmt::Debug for CriticalInput<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("CriticalInput")
+            .field("id", &self.id)
+            .field("name", &self.name)
+            .finish()
+    }
+}
+
+impl<T: IoType> CriticalInput<T> {
+    /// Declares critical input `index` (`0..32`, its position in the
+    /// properties' input list) with a name for diagnostics.
+    ///
+    /// ```
+    /// use rtseq::safety::CriticalInput;
+    /// const DOOR: CriticalInput<bool> = CriticalInput::new(2, "door closed");
+    /// assert_eq!(DOOR.name(), "door closed");
+    /// ```
+    pub const fn new(index: u8, name: &'static str) -> Self {
+        Self {
+            id: InputId(index),
+            name,
+            _type: PhantomData,
+        }
+    }
+
+    /// The input's id.
+    ///
+    /// ```
+    /// use rtseq::safety::CriticalInput;
+    /// assert_eq!(CriticalInput::<bool>::new(2, "door").id().index(), 2);
+    /// ```
+    pub const fn id(self) -> InputId {
+        self.id
+    }
+
+    /// The input's name.
+    ///
+    /// ```
+    /// use rtseq::safety::CriticalInput;
+    /// assert_eq!(CriticalInput::<i32>::new(0, "adc0").name(), "adc0");
+    /// ```
+    pub const fn name(self) -> &'static str {
+        self.name
+    }
+
+    /// The type-erased declaration for
+    /// [`SafetyProperties::new`](super::SafetyProperties::new).
+    ///
+    /// ```
+    /// use rtseq::safety::{CriticalInput, CriticalInputInfo, IoKind};
+    /// const DOOR: CriticalInput<bool> = CriticalInput::new(0, "door");
+    /// const INPUTS: [CriticalInputInfo; 1] = [DOOR.info()];
+    /// assert_eq!(INPUTS[0].kind(), IoKind::Bool);
+    /// ```
+    pub const fn info(self) -> CriticalInputInfo {
+        CriticalInputInfo {
+            id: self.id,
+            name: self.name,
+            kind: T::KIND,
+        }
+    }
+
+    /// Input action: do not read the input in this level.
+    ///
+    /// ```
+    /// use rtseq::safety::{CriticalInput, InputCheck};
+    /// const DOOR: CriticalInput<bool> = CriticalInput::new(0, "door");
+    /// assert_eq!(DOOR.ignore().check(), InputCheck::Ignore);
+    /// ```
+    pub const fn ignore(self) -> InputAction {
+        InputAction {
+            input: self.id,
+            kind: T::KIND,
+            check: InputCheck::Ignore,
+        }
+    }
+}
+
+macro_rules! check_method {
+    ($t:ty, $variant:ident, $example:literal) => {
+        impl CriticalInput<$t> {
+            /// Input action: trigger `event` in every cycle the input does
+            /// **not** equal `expected`.
+            ///
+            /// ```
+            /// use rtseq::safety::*;
+            #[doc = $example]
+            /// const FAULT: PrivateEvent = PrivateEvent::new(0);
+            /// let action = IN.check(EXPECTED, FAULT);
+            /// assert_eq!(action.check(), InputCheck::Check {
+            ///     expected: EXPECTED.into(),
+            ///     event: FAULT.id(),
+            /// });
+            /// ```
+            pub const fn check<K: EventVisibility>(
+                self,
+                expected: $t,
+                event: SafetyEvent<K>,
+            ) -> InputAction {
+                InputAction {
+                    input: self.id,
+                    kind: <$t as IoType>::KIND,
+                    check: InputCheck::Check {
+                        expected: IoValue::$variant(expected),
+                        event: event.id(),
+                    },
+                }
+            }
+        }
+    };
+}
+
+check_method!(
+    bool,
+    Bool,
+    "const IN: CriticalInput<bool> = CriticalInput::new(0, \"estop\"); const EXPECTED: bool = false;"
+);
+check_method!(
+    i32,
+    Int,
+    "const IN: CriticalInput<i32> = CriticalInput::new(0, \"mode switch\"); const EXPECTED: i32 = 2;"
+);
+check_method!(
+    f32,
+    Float,
+    "const IN: CriticalInput<f32> = CriticalInput::new(0, \"supply [V]\"); const EXPECTED: f32 = 24.0;"
+);
+
+macro_rules! range_methods {
+    ($t:ty, $variant:ident, $example:literal) => {
+        impl CriticalInput<$t> {
+            /// Input action: trigger `event` in every cycle the input is
+            /// **outside** `[min, max]` (bounds inclusive; a NaN reading
+            /// also triggers).
+            ///
+            /// ```
+            /// use rtseq::safety::*;
+            #[doc = $example]
+            /// const OVER: PrivateEvent = PrivateEvent::new(0);
+            /// let action = IN.range(MIN, MAX, OVER);
+            /// assert_eq!(action.check(), InputCheck::Range {
+            ///     min: MIN.into(), max: MAX.into(), event: OVER.id(),
+            /// });
+            /// ```
+            pub const fn range<K: EventVisibility>(
+                self,
+                min: $t,
+                max: $t,
+                event: SafetyEvent<K>,
+            ) -> InputAction {
+                InputAction {
+                    input: self.id,
+                    kind: <$t as IoType>::KIND,
+                    check: InputCheck::Range {
+                        min: IoValue::$variant(min),
+                        max: IoValue::$variant(max),
+                        event: event.id(),
+                    },
+                }
+            }
+
+            /// Input action (EEROS `range(..., offRange = true)`): trigger
+            /// `event` in every cycle the input is strictly **inside**
+            /// `(min, max)` (a NaN reading also triggers). Typical use: a
+            /// dead band that must be left, e.g. a speed that must not
+            /// stall.
+            ///
+            /// ```
+            /// use rtseq::safety::*;
+            #[doc = $example]
+            /// const STALL: PublicEvent = PublicEvent::new(0);
+            /// let action = IN.off_range(MIN, MAX, STALL);
+            /// assert_eq!(action.check(), InputCheck::OffRange {
+            ///     min: MIN.into(), max: MAX.into(), event: STALL.id(),
+            /// });
+            /// ```
+            pub const fn off_range<K: EventVisibility>(
+                self,
+                min: $t,
+                max: $t,
+                event: SafetyEvent<K>,
+            ) -> InputAction {
+                InputAction {
+                    input: self.id,
+                    kind: <$t as IoType>::KIND,
+                    check: InputCheck::OffRange {
+                        min: IoValue::$variant(min),
+                        max: IoValue::$variant(max),
+                        event: event.id(),
+                    },
+                }
+            }
+        }
+    };
+}
+
+range_methods!(
+    i32,
+    Int,
+    "const IN: CriticalInput<i32> = CriticalInput::new(0, \"adc\"); const MIN: i32 = 100; const MAX: i32 = 3900;"
+);
+range_methods!(
+    f32,
+    Float,
+    "const IN: CriticalInput<f32> = CriticalInput::new(0, \"current\"); const MIN: f32 = -5.0; const MAX: f32 = 5.0;"
+);
+
+/// Type-erased declaration of a critical input (id, name, kind), as
+/// listed in [`SafetyProperties::new`](super::SafetyProperties::new).
+///
+/// ```
+/// use rtseq::safety::CriticalInput;
+/// let info = CriticalInput::<i32>::new(3, "adc3").info();
+/// assert_eq!((info.id().index(), info.name()), (3, "adc3"));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CriticalInputInfo {
+    id: InputId,
+    name: &'static str,
+    kind: IoKind,
+}
+
+impl CriticalInputInfo {
+    /// The input's id.
+    ///
+    /// ```
+    /// use rtseq::safety::CriticalInput;
+    /// assert_eq!(CriticalInput::<bool>::new(1, "x").info().id().index(), 1);
+    /// ```
+    pub const fn id(&self) -> InputId {
+        self.id
+    }
+
+    /// The input's name.
+    ///
+    /// ```
+    /// use rtseq::safety::CriticalInput;
+    /// assert_eq!(CriticalInput::<bool>::new(1, "x").info().name(), "x");
+    /// ```
+    pub const fn name(&self) -> &'static str {
+        self.name
+    }
+
+    /// The input's kind.
+    ///
+    /// ```
+    /// use rtseq::safety::{CriticalInput, IoKind};
+    /// assert_eq!(CriticalInput::<i32>::new(1, "x").info().kind(), IoKind::Int);
+    /// ```
+    pub const fn kind(&self) -> IoKind {
+        self.kind
+    }
+}
+
+/// What a level does with one critical input in every cycle.
+///
+/// ```
+/// use rtseq::safety::{CriticalInput, InputCheck, PrivateEvent};
+/// const IN: CriticalInput<i32> = CriticalInput::new(0, "adc");
+/// const E: PrivateEvent = PrivateEvent::new(0);
+/// assert!(matches!(IN.range(0, 10, E).check(), InputCheck::Range { .. }));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum InputCheck {
+    /// The input is not read.
+    Ignore,
+    /// `event` fires while the input differs from `expected`.
+    Check {
+        /// The expected (healthy) value.
+        expected: IoValue,
+        /// The event triggered on a mismatch.
+        event: EventId,
+    },
+    /// `event` fires while the input is outside `[min, max]`.
+    Range {
+        /// Lower healthy bound (inclusive).
+        min: IoValue,
+        /// Upper healthy bound (inclusive).
+        max: IoValue,
+        /// The event triggered outside the bounds.
+        event: EventId,
+    },
+    /// `event` fires while the input is strictly inside `(min, max)`.
+    OffRange {
+        /// Lower bound of the forbidden band (exclusive).
+        min: IoValue,
+        /// Upper bound of the forbidden band (exclusive).
+        max: IoValue,
+        /// The event triggered inside the band.
+        event: EventId,
+    },
+}
+
+impl InputCheck {
+    /// The event this check triggers for the reading `value`, if any.
+    /// Readings of the wrong kind and NaN readings fail every check
+    /// except `Ignore` (fail-safe).
+    ///
+    /// ```
+    /// use rtseq::safety::{CriticalInput, IoValue, PrivateEvent};
+    /// const IN: CriticalInput<f32> = CriticalInput::new(0, "current");
+    /// const OVER: PrivateEvent = PrivateEvent::new(0);
+    /// let c = IN.range(-1.0, 1.0, OVER).check();
+    /// assert_eq!(c.evaluate(IoValue::Float(0.5)), None);
+    /// assert_eq!(c.evaluate(IoValue::Float(1.5)), Some(OVER.id()));
+    /// assert_eq!(c.evaluate(IoValue::Float(f32::NAN)), Some(OVER.id()));
+    /// ```
+    pub fn evaluate(&self, value: IoValue) -> Option<EventId> {
+        match *self {
+            InputCheck::Ignore => None,
+            InputCheck::Check { expected, event } => (!value.same_as(expected)).then_some(event),
+            InputCheck::Range { min, max, event } => (!value.within(min, max)).then_some(event),
+            InputCheck::OffRange { min, max, event } => {
+                (!value.outside_open(min, max)).then_some(event)
+            }
+        }
+    }
+
+    /// The event this check can trigger (`None` for `Ignore`).
+    ///
+    /// ```
+    /// use rtseq::safety::{CriticalInput, PrivateEvent};
+    /// const IN: CriticalInput<bool> = CriticalInput::new(0, "estop");
+    /// assert_eq!(IN.check(false, PrivateEvent::new(1)).check().event(), Some(PrivateEvent::new(1).id()));
+    /// assert_eq!(IN.ignore().check().event(), None);
+    /// ```
+    pub const fn event(&self) -> Option<EventId> {
+        match *self {
+            InputCheck::Ignore => None,
+            InputCheck::Check { event, .. }
+            | InputCheck::Range { event, .. }
+            | InputCheck::OffRange { event, .. } => Some(event),
+        }
+    }
+}
+
+/// One level's action for one critical input: the input plus an
+/// [`InputCheck`]. Built with the typed methods of [`CriticalInput`]
+/// (`ignore`, `check`, `range`, `off_range`).
+///
+/// ```
+/// use rtseq::safety::{CriticalInput, PublicEvent};
+/// const ADC: CriticalInput<i32> = CriticalInput::new(4, "adc4");
+/// let a = ADC.range(0, 4095, PublicEvent::new(0));
+/// assert_eq!(a.input(), ADC.id());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct InputAction {
+    input: InputId,
+    kind: IoKind,
+    check: InputCheck,
+}
+
+impl InputAction {
+    /// The input this action reads.
+    ///
+    /// ```
+    /// use rtseq::safety::CriticalInput;
+    /// const IN: CriticalInput<bool> = CriticalInput::new(1, "door");
+    /// assert_eq!(IN.ignore().input().index(), 1);
+    /// ```
+    pub const fn input(&self) -> InputId {
+        self.input
+    }
+
+    /// The check applied to the reading.
+    ///
+    /// ```
+    /// use rtseq::safety::{CriticalInput, InputCheck};
+    /// const IN: CriticalInput<bool> = CriticalInput::new(1, "door");
+    /// assert_eq!(IN.ignore().check(), InputCheck::Ignore);
+    /// ```
+    pub const fn check(&self) -> InputCheck {
+        self.check
+    }
+
+    /// The kind of the input this action was built for.
+    ///
+    /// ```
+    /// use rtseq::safety::{CriticalInput, IoKind};
+    /// const IN: CriticalInput<f32> = CriticalInput::new(1, "v");
+    /// assert_eq!(IN.ignore().kind(), IoKind::Float);
+    /// ```
+    pub const fn kind(&self) -> IoKind {
+        self.kind
+    }
+}

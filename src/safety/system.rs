@@ -1,0 +1,599 @@
+//! The owned part of the safety system and its cycle.
+
+use core::fmt;
+
+use super::context::{PendingEvents, SafetyContext};
+use super::error::SafetyError;
+use super::event::EventId;
+use super::handle::SafetyHandle;
+use super::input::InputCheck;
+use super::io::SafetyIo;
+use super::level::{AbortPolicy, LevelStats, SafetyLevel};
+use super::output::OutputMode;
+use super::properties::{bit_of, SafetyProperties};
+
+/// Something whose running sequences the safety system can abort (the
+/// rtseq `Sequencer` implements it). Called from the safety cycle, at the
+/// highest priority: it must only *request* the abort (e.g. set flags and
+/// wake lanes) and return in bounded time.
+///
+/// ```
+/// use core::sync::atomic::{AtomicU32, Ordering};
+/// use rtseq::safety::AbortSequences;
+/// struct AbortCounter(AtomicU32);
+/// impl AbortSequences for AbortCounter {
+///     fn abort_all(&self) { self.0.fetch_add(1, Ordering::Relaxed); }
+/// }
+/// let c = AbortCounter(AtomicU32::new(0));
+/// c.abort_all();
+/// assert_eq!(c.0.load(Ordering::Relaxed), 1);
+/// ```
+pub trait AbortSequences {
+    /// Requests that every running sequence be aborted.
+    fn abort_all(&self);
+}
+
+impl<T: AbortSequences + ?Sized> AbortSequences for &T {
+    fn abort_all(&self) {
+        (**self).abort_all();
+    }
+}
+
+/// An [`AbortSequences`] for applications without a sequencer (or tests):
+/// does nothing.
+///
+/// ```
+/// use rtseq::safety::{AbortSequences, NoSequences};
+/// NoSequences.abort_all();
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NoSequences;
+
+impl AbortSequences for NoSequences {
+    fn abort_all(&self) {}
+}
+
+/// A level change applied at the start of a cycle.
+///
+/// ```
+/// use rtseq::safety::{LevelChange, SafetyLevel};
+/// let first = LevelChange { from: None, to: SafetyLevel::new(1) }; // entering the entry level
+/// # let _ = first;
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LevelChange {
+    /// The level left (`None` in the very first cycle).
+    pub from: Option<SafetyLevel>,
+    /// The level entered.
+    pub to: SafetyLevel,
+}
+
+/// An event that had no transition from the level it was resolved in.
+///
+/// ```
+/// use rtseq::safety::{EventId, SafetyLevel, UnknownEvent};
+/// let u = UnknownEvent { event: EventId::public(3), level: SafetyLevel::new(1) };
+/// # let _ = u;
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct UnknownEvent {
+    /// The event.
+    pub event: EventId,
+    /// The level it was resolved in.
+    pub level: SafetyLevel,
+}
+
+/// What one [`SafetySystem::cycle`] did — enough for a trace.
+///
+/// ```
+/// use rtseq::safety::*;
+/// # struct Io;
+/// # impl SafetyIo for Io {
+/// #     fn read_input(&mut self, _: InputId) -> IoValue { IoValue::Bool(false) }
+/// #     fn write_output(&mut self, _: OutputId, _: IoValue) {}
+/// # }
+/// const OFF: SafetyLevel = SafetyLevel::new(0);
+/// static PROPS: SafetyProperties<'static, Io, 1> =
+///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+/// static HANDLE: SafetyHandle = SafetyHandle::new();
+/// let mut safety = SafetySystem::new(&PROPS, &HANDLE)?;
+/// let report = safety.cycle(&mut Io, &NoSequences);
+/// assert_eq!(report.change, Some(LevelChange { from: None, to: OFF }));
+/// assert_eq!(report.level, OFF);
+/// # Ok::<(), SafetyError>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CycleReport {
+    /// The level whose inputs, action and outputs ran in this cycle.
+    pub level: SafetyLevel,
+    /// The transition applied at the start of this cycle, if any.
+    pub change: Option<LevelChange>,
+    /// Bit `i` set: the action of critical input `i` fired (triggered its
+    /// event) in this cycle.
+    pub input_events: u32,
+    /// Whether [`AbortSequences::abort_all`] was called in this cycle.
+    pub aborted: bool,
+    /// Number of unknown events found at the start of this cycle.
+    pub unknown_events: u32,
+}
+
+/// The owned part of the safety system (EEROS `SafetySystem`): the
+/// current level, the counters, the events triggered inside the system.
+/// Owned by the highest-priority task, which calls
+/// [`cycle`](Self::cycle) at the safety period; everyone else uses the
+/// shared [`SafetyHandle`].
+///
+/// Heap-free and panic-free; its size is 8 bytes of counters per level
+/// plus a few words (see the README section for figures).
+///
+/// ```
+/// use rtseq::safety::*;
+///
+/// const OFF: SafetyLevel = SafetyLevel::new(0);
+/// const ON: SafetyLevel = SafetyLevel::new(1);
+/// const START: PublicEvent = PublicEvent::new(0);
+/// const ESTOP: PrivateEvent = PrivateEvent::new(0);
+/// const ESTOP_IN: CriticalInput<bool> = CriticalInput::new(0, "estop pressed");
+/// const ENABLE: CriticalOutput<bool> = CriticalOutput::new(0, "drive enable");
+///
+/// struct Io { estop_pressed: bool, enable: bool }
+/// impl SafetyIo for Io {
+///     fn read_input(&mut self, _input: InputId) -> IoValue { self.estop_pressed.into() }
+///     fn write_output(&mut self, _output: OutputId, value: IoValue) {
+///         self.enable = value == IoValue::Bool(true);
+///     }
+/// }
+///
+/// static PROPS: SafetyProperties<'static, Io, 2> = SafetyProperties::new(
+///     [
+///         LevelDef::new(OFF, "off").inputs(&[ESTOP_IN.ignore()]).outputs(&[ENABLE.set(false)]),
+///         LevelDef::new(ON, "on").inputs(&[ESTOP_IN.check(false, ESTOP)]).outputs(&[ENABLE.set(true)]),
+///     ],
+///     &[ESTOP_IN.info()],
+///     &[ENABLE.info()],
+///     &[Transition::on(OFF, START, ON), Transition::on(ON, ESTOP, OFF)],
+///     OFF,
+/// );
+/// static SAFETY: SafetyHandle = SafetyHandle::new();
+///
+/// let mut safety = SafetySystem::new(&PROPS, &SAFETY)?;
+/// let mut io = Io { estop_pressed: false, enable: false };
+/// safety.cycle(&mut io, &NoSequences); // enters OFF
+/// SAFETY.trigger(START);               // from a sequence
+/// safety.cycle(&mut io, &NoSequences);
+/// assert_eq!((SAFETY.level(), io.enable), (ON, true));
+/// io.estop_pressed = true;
+/// safety.cycle(&mut io, &NoSequences); // the input check fires ESTOP ...
+/// safety.cycle(&mut io, &NoSequences); // ... which is applied here
+/// assert_eq!((SAFETY.level(), io.enable), (OFF, false));
+/// # Ok::<(), SafetyError>(())
+/// ```
+pub struct SafetySystem<'a, IO, const L: usize> {
+    props: &'a SafetyProperties<'a, IO, L>,
+    handle: &'a SafetyHandle,
+    current: SafetyLevel,
+    started: bool,
+    stats: [LevelStats; L],
+    toggle: u32,
+    pending: PendingEvents,
+    unknown_count: u32,
+    last_unknown: Option<UnknownEvent>,
+}
+
+impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
+    /// Validates `props`, binds `handle` (a handle serves one system at a
+    /// time) and publishes the entry level on it. The entry level is
+    /// entered (entry action, activation) in the first [`cycle`](Self::cycle).
+    ///
+    /// Errors: every [`SafetyError`] of
+    /// [`SafetyProperties::validate`], or [`SafetyError::HandleInUse`].
+    ///
+    /// ```
+    /// use rtseq::safety::*;
+    /// # struct Io;
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// static PROPS: SafetyProperties<'static, Io, 1> =
+    ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let first = SafetySystem::new(&PROPS, &HANDLE);
+    /// assert!(first.is_ok());
+    /// assert_eq!(SafetySystem::new(&PROPS, &HANDLE).err(), Some(SafetyError::HandleInUse));
+    /// ```
+    pub fn new(
+        props: &'a SafetyProperties<'a, IO, L>,
+        handle: &'a SafetyHandle,
+    ) -> Result<Self, SafetyError> {
+        props.validate()?;
+        if !handle.bind() {
+            return Err(SafetyError::HandleInUse);
+        }
+        let entry = props.entry_level();
+        handle.publish_level(entry);
+        Ok(Self {
+            props,
+            handle,
+            current: entry,
+            started: false,
+            stats: [LevelStats::ZERO; L],
+            toggle: 0,
+            pending: PendingEvents::new(),
+            unknown_count: 0,
+            last_unknown: None,
+        })
+    }
+
+    /// The current level (the entry level before the first cycle).
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// assert_eq!(safety.level(), OFF);
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn level(&self) -> SafetyLevel {
+        self.current
+    }
+
+    /// The name of the current level.
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// assert_eq!(safety.level_name(), "off");
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn level_name(&self) -> &'static str {
+        self.props.level(self.current).map_or("", |d| d.name())
+    }
+
+    /// Whether the first cycle has run.
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # impl SafetyIo for Io {
+    /// #     fn read_input(&mut self, _: InputId) -> IoValue { IoValue::Bool(false) }
+    /// #     fn write_output(&mut self, _: OutputId, _: IoValue) {}
+    /// # }
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let mut safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// assert!(!safety.is_started());
+    /// safety.cycle(&mut Io, &NoSequences);
+    /// assert!(safety.is_started());
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn is_started(&self) -> bool {
+        self.started
+    }
+
+    /// The counters of `level` (`None` if not defined).
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # impl SafetyIo for Io {
+    /// #     fn read_input(&mut self, _: InputId) -> IoValue { IoValue::Bool(false) }
+    /// #     fn write_output(&mut self, _: OutputId, _: IoValue) {}
+    /// # }
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let mut safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// assert_eq!(safety.stats(OFF), Some(LevelStats { activations: 0, cycles: 0 }));
+    /// safety.cycle(&mut Io, &NoSequences);
+    /// safety.cycle(&mut Io, &NoSequences);
+    /// assert_eq!(safety.stats(OFF), Some(LevelStats { activations: 1, cycles: 2 }));
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn stats(&self, level: SafetyLevel) -> Option<LevelStats> {
+        self.stats.get(level.index()).copied()
+    }
+
+    /// Number of events that had no transition from the level they were
+    /// resolved in (saturating).
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # impl SafetyIo for Io {
+    /// #     fn read_input(&mut self, _: InputId) -> IoValue { IoValue::Bool(false) }
+    /// #     fn write_output(&mut self, _: OutputId, _: IoValue) {}
+    /// # }
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let mut safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// safety.cycle(&mut Io, &NoSequences);
+    /// HANDLE.trigger(PublicEvent::new(5)); // no transition anywhere
+    /// safety.cycle(&mut Io, &NoSequences);
+    /// assert_eq!(safety.unknown_events(), 1);
+    /// assert_eq!(safety.last_unknown_event(),
+    ///            Some(UnknownEvent { event: EventId::public(5), level: OFF }));
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn unknown_events(&self) -> u32 {
+        self.unknown_count
+    }
+
+    /// The last event without a transition (within one cycle, events are
+    /// resolved public ones by ascending id, then private ones by
+    /// ascending id, then out-of-range ones). See
+    /// [`unknown_events`](Self::unknown_events) for an example.
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// assert_eq!(safety.last_unknown_event(), None);
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn last_unknown_event(&self) -> Option<UnknownEvent> {
+        self.last_unknown
+    }
+
+    /// The shared handle this system is bound to.
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// assert!(core::ptr::eq(safety.handle(), &HANDLE));
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn handle(&self) -> &'a SafetyHandle {
+        self.handle
+    }
+
+    /// The properties this system runs.
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> =
+    /// #     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// assert_eq!(safety.properties().entry_level(), OFF);
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn properties(&self) -> &'a SafetyProperties<'a, IO, L> {
+        self.props
+    }
+
+    fn record_unknown(&mut self, event: EventId, count: u32, report: &mut CycleReport) {
+        self.unknown_count = self.unknown_count.saturating_add(count);
+        report.unknown_events = report.unknown_events.saturating_add(count);
+        self.last_unknown = Some(UnknownEvent {
+            event,
+            level: self.current,
+        });
+    }
+
+    /// Resolves the events of one bitmask (ascending ids) against the
+    /// current level, keeping the safest destination in `best`.
+    fn resolve_mask(
+        &mut self,
+        mut mask: u32,
+        make: fn(u8) -> EventId,
+        mut best: Option<SafetyLevel>,
+        report: &mut CycleReport,
+    ) -> Option<SafetyLevel> {
+        while mask != 0 {
+            let index = mask.trailing_zeros() as u8;
+            mask &= mask.wrapping_sub(1);
+            let event = make(index);
+            match self.props.destination(self.current, event) {
+                Some(to) => {
+                    best = Some(match best {
+                        Some(b) if b <= to => b,
+                        _ => to,
+                    });
+                }
+                None => self.record_unknown(event, 1, report),
+            }
+        }
+        best
+    }
+
+    /// Resolves every pending event against the current level; returns
+    /// the safest destination.
+    fn resolve_pending(&mut self, report: &mut CycleReport) -> Option<SafetyLevel> {
+        let public = self.handle.take_pending() | core::mem::take(&mut self.pending.public);
+        let private = core::mem::take(&mut self.pending.private);
+        let best = self.resolve_mask(public, EventId::public, None, report);
+        let best = self.resolve_mask(private, EventId::private, best, report);
+        let (count, event) = self.handle.take_out_of_range();
+        if count != 0 {
+            self.record_unknown(event, count, report);
+        }
+        let count = core::mem::take(&mut self.pending.out_of_range);
+        if let Some(event) = self.pending.last_out_of_range.take() {
+            self.record_unknown(event, count, report);
+        }
+        best
+    }
+}
+
+impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
+    /// Runs one safety cycle, in this order:
+    ///
+    /// 1. resolve every pending event (public ones from the handle, and
+    ///    the public and private ones triggered inside the system in the
+    ///    previous cycle) against the current level; the **safest**
+    ///    (lowest) destination wins, events without a transition are
+    ///    counted as unknown. If it differs from the current level: exit
+    ///    action of the old level, publish the new level on the handle,
+    ///    count the activation, entry action of the new level. (In the
+    ///    first cycle: enter the entry level, no exit action.)
+    /// 2. abort all sequences through `sequences` if the level demands it
+    ///    ([`AbortPolicy`]);
+    /// 3. input actions, in the level's order (events they trigger are
+    ///    resolved in the next cycle);
+    /// 4. the level action;
+    /// 5. the output actions.
+    ///
+    /// So a new level's inputs, action and outputs run in the cycle it is
+    /// entered, and an event triggered before cycle *n* (by a sequence, or
+    /// by an input or action in cycle *n − 1*) has its level's outputs
+    /// applied and its sequences aborted in cycle *n*.
+    ///
+    /// Bounded: O(levels' inputs + outputs) without events, plus
+    /// O(pending events × transition rows) when events are pending. See
+    /// [`SafetySystem`] for an example.
+    ///
+    /// ```
+    /// # use rtseq::safety::*;
+    /// # struct Io;
+    /// # impl SafetyIo for Io {
+    /// #     fn read_input(&mut self, _: InputId) -> IoValue { IoValue::Bool(false) }
+    /// #     fn write_output(&mut self, _: OutputId, _: IoValue) {}
+    /// # }
+    /// # const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// # static PROPS: SafetyProperties<'static, Io, 1> = SafetyProperties::new(
+    /// #     [LevelDef::new(OFF, "off").abort_sequences(AbortPolicy::OnEntry)], &[], &[], &[], OFF);
+    /// # static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let mut safety = SafetySystem::new(&PROPS, &HANDLE)?;
+    /// let report = safety.cycle(&mut Io, &NoSequences);
+    /// assert!(report.aborted); // OFF aborts all sequences on entry
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn cycle<A: AbortSequences + ?Sized>(&mut self, io: &mut IO, sequences: &A) -> CycleReport {
+        let props = self.props;
+        let mut report = CycleReport {
+            level: self.current,
+            change: None,
+            input_events: 0,
+            aborted: false,
+            unknown_events: 0,
+        };
+
+        // 1. Pending transition.
+        let (next, from) = if self.started {
+            (self.resolve_pending(&mut report), Some(self.current))
+        } else {
+            (Some(props.entry_level()), None)
+        };
+        let mut entered = false;
+        if let Some(to) = next {
+            if from != Some(to) {
+                if let Some(exit) = from.and_then(|l| props.level(l)).and_then(|d| d.exit_fn()) {
+                    exit(io);
+                }
+                self.current = to;
+                self.started = true;
+                self.toggle = 0;
+                self.handle.publish_level(to);
+                if let Some(s) = self.stats.get_mut(to.index()) {
+                    s.activations = s.activations.saturating_add(1);
+                }
+                entered = true;
+                report.change = Some(LevelChange { from, to });
+            }
+        }
+        report.level = self.current;
+        let level = self.current;
+        let Some(def) = props.level(level) else {
+            // Unreachable for validated properties.
+            return report;
+        };
+        if entered {
+            if let Some(entry) = def.entry_fn() {
+                entry(&mut SafetyContext::new(&mut self.pending, level), io);
+            }
+        }
+
+        // 2. Abort all sequences if the level demands it.
+        let abort = match def.abort_policy() {
+            AbortPolicy::Never => false,
+            AbortPolicy::OnEntry => entered,
+            AbortPolicy::WhileActive => true,
+        };
+        if abort {
+            sequences.abort_all();
+            report.aborted = true;
+        }
+        if let Some(s) = self.stats.get_mut(level.index()) {
+            s.cycles = s.cycles.saturating_add(1);
+        }
+
+        // 3. Input actions.
+        for action in def.input_actions() {
+            let check = action.check();
+            if matches!(check, InputCheck::Ignore) {
+                continue;
+            }
+            let value = io.read_input(action.input());
+            if let Some(event) = check.evaluate(value) {
+                self.pending.add(event);
+                report.input_events |= bit_of(action.input().index());
+            }
+        }
+
+        // 4. Level action.
+        if let Some(action) = def.action_fn() {
+            action(&mut SafetyContext::new(&mut self.pending, level), io);
+        }
+
+        // 5. Output actions.
+        for action in def.output_actions() {
+            match action.mode() {
+                OutputMode::Set(value) => io.write_output(action.output(), value),
+                OutputMode::Leave => {}
+                OutputMode::Toggle { low, high } => {
+                    let bit = bit_of(action.output().index());
+                    let value = if self.toggle & bit == 0 { low } else { high };
+                    self.toggle ^= bit;
+                    io.write_output(action.output(), value);
+                }
+            }
+        }
+
+        self.handle.count_cycle();
+        report
+    }
+}
+
+impl<IO, const L: usize> Drop for SafetySystem<'_, IO, L> {
+    fn drop(&mut self) {
+        self.handle.release();
+    }
+}
+
+impl<IO, const L: usize> fmt::Debug for SafetySystem<'_, IO, L> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("SafetySystem")
+            .field("level", &self.current)
+            .field("started", &self.started)
+            .field("stats", &self.stats)
+            .field("unknown_events", &self.unknown_count)
+            .field("last_unknown", &self.last_unknown)
+            .finish()
+    }
+}
