@@ -112,10 +112,9 @@ impl<C, F: FnMut(&C) -> f32> Condition<C> for Stable<F> {
     fn validate(&mut self, control: &C, now: Instant) -> bool {
         let v = (self.value)(control);
         match self.anchor {
-            Some((a, since)) if (v - a).abs() <= self.tolerance => {
-                now.checked_duration_since(since)
-                    .is_some_and(|held| held >= self.window)
-            }
+            Some((a, since)) if (v - a).abs() <= self.tolerance => now
+                .checked_duration_since(since)
+                .is_some_and(|held| held >= self.window),
             _ => {
                 self.anchor = Some((v, now));
                 false

@@ -47,7 +47,13 @@ impl<'a, C> Cx<'a, C> {
     /// action until it may advance again (sticky abort: an aborted action never resumes).
     pub async fn run<S: Sequence<C>>(&self, child: &mut Seq<S>) -> Result<Outcome, Error> {
         self.engine.begin(child.id, Some(self.id), Mode::Blocking)?;
-        let outcome = framework(self.engine, self.control, child.id, &mut SeqBody(&mut child.body)).await;
+        let outcome = framework(
+            self.engine,
+            self.control,
+            child.id,
+            &mut SeqBody(&mut child.body),
+        )
+        .await;
         self.resume_point().await;
         Ok(outcome)
     }
@@ -56,7 +62,13 @@ impl<'a, C> Cx<'a, C> {
     /// period.
     pub async fn step<S: Step<C>>(&self, step: &mut Seq<S>) -> Result<Outcome, Error> {
         self.engine.begin(step.id, Some(self.id), Mode::Blocking)?;
-        let outcome = framework(self.engine, self.control, step.id, &mut StepBody(&mut step.body)).await;
+        let outcome = framework(
+            self.engine,
+            self.control,
+            step.id,
+            &mut StepBody(&mut step.body),
+        )
+        .await;
         self.resume_point().await;
         Ok(outcome)
     }
@@ -96,7 +108,9 @@ impl<'a, C> Cx<'a, C> {
 
     /// A handle to any registered sequence (the seed's `getSequenceByID`).
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'a, C>> {
-        self.engine.info(id).map(|_| Handle::from_engine(self.engine, id))
+        self.engine
+            .info(id)
+            .map(|_| Handle::from_engine(self.engine, id))
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByName`).

@@ -162,4 +162,3 @@ impl<C, const N: usize, const T: usize> Engine<C> for Sequencer<C, N, T> {
         self.sequence_by_name(name).map(|h| h.id())
     }
 }
-

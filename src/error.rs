@@ -46,7 +46,11 @@ impl core::fmt::Display for Error {
             Error::NotRunning(id) => write!(f, "sequence {} is not running", id.index()),
             Error::NotPaused(id) => write!(f, "sequence {} is not paused", id.index()),
             Error::CallerDepthExceeded(id) => {
-                write!(f, "starting sequence {} exceeds the caller depth", id.index())
+                write!(
+                    f,
+                    "starting sequence {} exceeds the caller depth",
+                    id.index()
+                )
             }
             Error::NoLane(id) => write!(f, "sequence {} has no lane", id.index()),
             Error::DurationOutOfRange => write!(f, "duration is zero or too long"),

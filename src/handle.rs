@@ -31,7 +31,10 @@ pub struct Handle<'a, C> {
 }
 
 impl<'a, C> Handle<'a, C> {
-    pub(crate) fn new<const N: usize, const T: usize>(seq: &'a Sequencer<C, N, T>, id: SeqId) -> Self {
+    pub(crate) fn new<const N: usize, const T: usize>(
+        seq: &'a Sequencer<C, N, T>,
+        id: SeqId,
+    ) -> Self {
         Handle { engine: seq, id }
     }
 
@@ -58,12 +61,17 @@ impl<'a, C> Handle<'a, C> {
 
     /// `callerSequence`: who started the current (or last) run; `None` for a main sequence.
     pub fn caller(&self) -> Option<SeqId> {
-        self.engine.info(self.id).and_then(|i| i.stack.last().copied())
+        self.engine
+            .info(self.id)
+            .and_then(|i| i.stack.last().copied())
     }
 
     /// `callerStack`: all callers up to the main sequence, outermost first, not itself.
     pub fn caller_stack(&self) -> CallerStack {
-        self.engine.info(self.id).map(|i| i.stack).unwrap_or_default()
+        self.engine
+            .info(self.id)
+            .map(|i| i.stack)
+            .unwrap_or_default()
     }
 
     /// `callerStackBlocking`: the callers this sequence blocks (up to the first
@@ -81,7 +89,9 @@ impl<'a, C> Handle<'a, C> {
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
     /// sequence was aborted because of it.
     pub fn exception_is_active(&self) -> bool {
-        self.engine.info(self.id).is_some_and(|i| i.exception_active)
+        self.engine
+            .info(self.id)
+            .is_some_and(|i| i.exception_active)
     }
 
     /// `activeException`: the monitor or timeout of the active (or last) exception.
@@ -91,7 +101,10 @@ impl<'a, C> Handle<'a, C> {
 
     /// Runs, completions, skips, aborts, restarts, exceptions.
     pub fn counters(&self) -> Counters {
-        self.engine.info(self.id).map(|i| i.counters).unwrap_or_default()
+        self.engine
+            .info(self.id)
+            .map(|i| i.counters)
+            .unwrap_or_default()
     }
 
     /// The outcome of the last finished run.

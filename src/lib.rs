@@ -18,7 +18,12 @@
 //! See the README for the mapping of every term of the specification to rtseq.
 #![no_std]
 #![deny(missing_docs)]
-#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 mod condition;
 mod config;

@@ -22,7 +22,10 @@ pub enum Behaviour {
 impl Behaviour {
     /// True for the two restarting behaviours, which the restart limit bounds.
     pub const fn is_restart(self) -> bool {
-        matches!(self, Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner)
+        matches!(
+            self,
+            Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner
+        )
     }
 
     /// The abort behaviour a restart escalates to once the restart limit is reached.

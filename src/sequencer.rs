@@ -239,7 +239,9 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
         if id.0 >= self.count {
             return Err(Error::UnknownSequence(id));
         }
-        self.blocks.get(id.index()).ok_or(Error::UnknownSequence(id))
+        self.blocks
+            .get(id.index())
+            .ok_or(Error::UnknownSequence(id))
     }
 
     pub(crate) fn block_mut(&mut self, id: SeqId) -> Result<&mut ControlBlock, Error> {

@@ -179,7 +179,8 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
         if let Some(f) = self.before_tick.as_mut() {
             f(self.now, self.control);
         }
-        self.sequencer.tick(self.now, self.control, &mut self.monitors);
+        self.sequencer
+            .tick(self.now, self.control, &mut self.monitors);
         self.settle();
     }
 

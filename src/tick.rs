@@ -8,9 +8,7 @@
 use crate::control_block::{flag, request, DISARMED};
 use crate::monitor::Entry;
 use crate::sequencer::Mode;
-use crate::{
-    Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH,
-};
+use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// What the due scan saw of one sequence.
 #[derive(Clone, Copy, Default)]
@@ -163,7 +161,14 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
             }
         });
         if let Some((behaviour, exception, mut book)) = expired {
-            self.raise(control, id, Cause::Timeout(id), behaviour, exception, &mut book);
+            self.raise(
+                control,
+                id,
+                Cause::Timeout(id),
+                behaviour,
+                exception,
+                &mut book,
+            );
             self.with(|s| {
                 if let Ok(b) = s.block_mut(id) {
                     b.timeout_restarts = book.restarts;
@@ -426,4 +431,3 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
         }
     }
 }
-

@@ -6,7 +6,7 @@
 mod common;
 use common::*;
 use rtseq::sim::Sim;
-use rtseq::Cause::{Completed, Monitor as Mon, Start, Restart};
+use rtseq::Cause::{Completed, Monitor as Mon, Restart, Start};
 use rtseq::RunningState::*;
 use rtseq::{
     Behaviour, Duration, Monitor, MonitorId, Monitors, Outcome, SeqConfig, SeqId, Sequencer,
@@ -40,7 +40,9 @@ fn run(behaviour: Behaviour, with_exception: bool) -> (Vec<Transition>, Ids, Mon
         e: SeqId::from_index(5),
         w: w.id(),
     };
-    let e = seq.add(SeqConfig::new("E"), Node::of(vec![Op::Wait(w)])).unwrap();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
     assert_eq!(e.id(), ids.e);
     let (mut a, mut p, mut main) = (a, p, main);
     a.body_mut().ops.push(Op::Step(s));
@@ -63,9 +65,17 @@ fn run(behaviour: Behaviour, with_exception: bool) -> (Vec<Transition>, Ids, Mon
             c.set(1, ms(t) >= 10);
         });
         sim.start(ids.main).unwrap();
-        assert_eq!(sim.run_until_idle(Duration::from_millis(50)).map(ms), Some(10).filter(|_| {
-            !(matches!(behaviour, Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner))
-        }).or(Some(if with_exception { 8 } else { 5 })));
+        assert_eq!(
+            sim.run_until_idle(Duration::from_millis(50)).map(ms),
+            Some(10)
+                .filter(|_| {
+                    !(matches!(
+                        behaviour,
+                        Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner
+                    ))
+                })
+                .or(Some(if with_exception { 8 } else { 5 }))
+        );
         assert_eq!(sim.lost(), 0);
         sim.take_trace()
     };
@@ -94,12 +104,19 @@ fn exception(i: &Ids, m: MonitorId) -> Vec<Transition> {
 
 fn aborted(t: u64, seqs: &[SeqId], cause: rtseq::Cause) -> Vec<Transition> {
     seqs.iter()
-        .flat_map(|&s| [tr(t, s, Running, Aborting, cause), tr(t, s, Aborting, Aborted, cause)])
+        .flat_map(|&s| {
+            [
+                tr(t, s, Running, Aborting, cause),
+                tr(t, s, Aborting, Aborted, cause),
+            ]
+        })
         .collect()
 }
 
 fn completed(t: u64, seqs: &[SeqId]) -> Vec<Transition> {
-    seqs.iter().map(|&s| tr(t, s, Running, Terminated, Completed)).collect()
+    seqs.iter()
+        .map(|&s| tr(t, s, Running, Terminated, Completed))
+        .collect()
 }
 
 fn check(behaviour: Behaviour, with_exception: bool) {
@@ -138,7 +155,13 @@ fn check(behaviour: Behaviour, with_exception: bool) {
             want.extend(completed(10, &[i.s, i.a, i.p, i.main]));
         }
     }
-    assert_eq!(trace, want, "\n got:\n{}\nwant:\n{}", show(&trace), show(&want));
+    assert_eq!(
+        trace,
+        want,
+        "\n got:\n{}\nwant:\n{}",
+        show(&trace),
+        show(&want)
+    );
     assert_lines_ran_live(&ctrl);
     // What the owner's caller got back.
     let returned_to_p: Vec<_> = ctrl

@@ -14,16 +14,25 @@ type Seqr = Sequencer<Ctrl, 16>;
 
 fn aborted(t: u64, seqs: &[SeqId], cause: Cause) -> Vec<Transition> {
     seqs.iter()
-        .flat_map(|&s| [tr(t, s, Running, Aborting, cause), tr(t, s, Aborting, Aborted, cause)])
+        .flat_map(|&s| {
+            [
+                tr(t, s, Running, Aborting, cause),
+                tr(t, s, Aborting, Aborted, cause),
+            ]
+        })
         .collect()
 }
 
 fn completed(t: u64, seqs: &[SeqId]) -> Vec<Transition> {
-    seqs.iter().map(|&s| tr(t, s, Running, Terminated, Completed)).collect()
+    seqs.iter()
+        .map(|&s| tr(t, s, Running, Terminated, Completed))
+        .collect()
 }
 
 fn started(t: u64, seqs: &[SeqId]) -> Vec<Transition> {
-    seqs.iter().map(|&s| tr(t, s, Idle, Running, Start)).collect()
+    seqs.iter()
+        .map(|&s| tr(t, s, Idle, Running, Start))
+        .collect()
 }
 
 fn assert_trace(got: &[Transition], want: &[Transition]) {
@@ -39,13 +48,23 @@ fn monitor_on_outermost_of_three_nested_fires_while_innermost_step_waits() {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
-    let (si, x3) = (s.id(), seq.add(SeqConfig::new("X3"), Node::of(vec![Op::Step(s)])).unwrap());
+    let (si, x3) = (
+        s.id(),
+        seq.add(SeqConfig::new("X3"), Node::of(vec![Op::Step(s)]))
+            .unwrap(),
+    );
     let x3i = x3.id();
-    let x2 = seq.add(SeqConfig::new("X2"), Node::of(vec![Op::Run(x3)])).unwrap();
+    let x2 = seq
+        .add(SeqConfig::new("X2"), Node::of(vec![Op::Run(x3)]))
+        .unwrap();
     let x2i = x2.id();
-    let x1 = seq.add(SeqConfig::new("X1"), Node::of(vec![Op::Run(x2)])).unwrap();
+    let x1 = seq
+        .add(SeqConfig::new("X1"), Node::of(vec![Op::Run(x2)]))
+        .unwrap();
     let x1i = x1.id();
-    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(x1)])).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(x1)]))
+        .unwrap();
     let mi = main.id();
     let mut c0 = |c: &Ctrl, _| c.flag(0);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
@@ -61,7 +80,10 @@ fn monitor_on_outermost_of_three_nested_fires_while_innermost_step_waits() {
     assert_eq!(h.caller(), Some(x3i));
     assert_eq!(h.caller_stack().as_slice(), &[mi, x1i, x2i, x3i]);
     assert_eq!(h.caller_stack_blocking().as_slice(), &[mi, x1i, x2i, x3i]);
-    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(5));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)).map(ms),
+        Some(5)
+    );
     let mut want = started(0, &[mi, x1i, x2i, x3i, si]);
     want.extend(aborted(5, &[si, x3i, x2i, x1i], Mon(m)));
     want.extend(completed(5, &[mi]));
@@ -82,11 +104,25 @@ fn timeout_world(on_step: bool) -> (Vec<Transition>, [SeqId; 3], Vec<Returned>) 
     let three = Duration::from_millis(3);
     let cfg = |n| SeqConfig::new(n);
     let s = seq
-        .add(if on_step { cfg("S").timeout(three) } else { cfg("S") }, Leaf::until(1))
+        .add(
+            if on_step {
+                cfg("S").timeout(three)
+            } else {
+                cfg("S")
+            },
+            Leaf::until(1),
+        )
         .unwrap();
     let si = s.id();
     let a = seq
-        .add(if on_step { cfg("A") } else { cfg("A").timeout(three) }, Node::of(vec![Op::Step(s)]))
+        .add(
+            if on_step {
+                cfg("A")
+            } else {
+                cfg("A").timeout(three)
+            },
+            Node::of(vec![Op::Step(s)]),
+        )
         .unwrap();
     let ai = a.id();
     let main = seq.add(cfg("main"), Node::of(vec![Op::Run(a)])).unwrap();
@@ -94,7 +130,10 @@ fn timeout_world(on_step: bool) -> (Vec<Transition>, [SeqId; 3], Vec<Returned>) 
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
     sim.start(mi).unwrap();
-    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(3));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)).map(ms),
+        Some(3)
+    );
     let trace = sim.take_trace();
     drop(sim);
     let returned = ctrl.returned.borrow().clone();
@@ -120,7 +159,10 @@ fn timeout_on_the_caller_aborts_caller_and_step() {
     want.extend(completed(3, &[mi]));
     assert_trace(&trace, &want);
     assert_eq!(returned.len(), 1);
-    assert_eq!((returned[0].seq, returned[0].result), (mi, Ok(Outcome::Aborted(Timeout(ai)))));
+    assert_eq!(
+        (returned[0].seq, returned[0].result),
+        (mi, Ok(Outcome::Aborted(Timeout(ai))))
+    );
 }
 
 #[test]
@@ -129,21 +171,31 @@ fn restart_limit_escalates_to_abort() {
     let ctrl = Ctrl::default();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
     let si = s.id();
-    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let a = seq
+        .add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
     let ai = a.id();
-    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)])).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)]))
+        .unwrap();
     let mi = main.id();
     let mut c0 = |c: &Ctrl, _| c.flag(0);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
     let m = monitors
-        .add(ai, Monitor::new("stuck", &mut c0, Behaviour::RestartOwner).restart_limit(3))
+        .add(
+            ai,
+            Monitor::new("stuck", &mut c0, Behaviour::RestartOwner).restart_limit(3),
+        )
         .unwrap();
     let mut sim = Sim::new(&seq, &ctrl, monitors);
     sim.lane(main);
     // The fault appears at 5 ms and stays: every restart sees it again at its first poll.
     sim.before_tick(|t, c| c.set(0, ms(t) >= 5));
     sim.start(mi).unwrap();
-    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(8));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)).map(ms),
+        Some(8)
+    );
     let mut want = started(0, &[mi, ai, si]);
     for t in 5..=7 {
         want.extend(aborted(t, &[si], Mon(m)));
@@ -166,14 +218,21 @@ fn storm(trigger: Trigger) -> (u16, u16, Vec<Transition>, SeqId) {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
-    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let a = seq
+        .add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
     let ai = a.id();
     let e = seq.add(SeqConfig::new("E"), Node::of(vec![])).unwrap();
     let ei = e.id();
     let mut c0 = |c: &Ctrl, _| c.flag(0);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
     let m = monitors
-        .add(ai, Monitor::new("m", &mut c0, Behaviour::Nothing).exception(ei).trigger(trigger))
+        .add(
+            ai,
+            Monitor::new("m", &mut c0, Behaviour::Nothing)
+                .exception(ei)
+                .trigger(trigger),
+        )
         .unwrap();
     let mut sim = Sim::new(&seq, &ctrl, monitors);
     sim.lane(a);
@@ -183,9 +242,22 @@ fn storm(trigger: Trigger) -> (u16, u16, Vec<Transition>, SeqId) {
         c.set(1, ms(t) >= 15);
     });
     sim.start(ai).unwrap();
-    assert_eq!(sim.run_until_idle(Duration::from_millis(30)).map(ms), Some(15));
-    let e_trace = sim.trace().iter().filter(|t| t.sequence == ei).copied().collect();
-    (sim.monitors().fired(m), sim.handle(ei).unwrap().counters().runs, e_trace, ei)
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(30)).map(ms),
+        Some(15)
+    );
+    let e_trace = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == ei)
+        .copied()
+        .collect();
+    (
+        sim.monitors().fired(m),
+        sim.handle(ei).unwrap().counters().runs,
+        e_trace,
+        ei,
+    )
 }
 
 #[test]
@@ -207,7 +279,11 @@ fn level_trigger_fires_at_every_poll_once_the_exception_is_over() {
     // 5 ms: fires, E runs and ends; 6 ms: the behaviour (Nothing) is applied, then the
     // still-true condition fires again; and so on up to 9 ms.
     assert_eq!((fired, runs), (5, 5));
-    let times: Vec<u64> = e_trace.iter().filter(|t| t.to == Running).map(|t| ms(t.time)).collect();
+    let times: Vec<u64> = e_trace
+        .iter()
+        .filter(|t| t.to == Running)
+        .map(|t| ms(t.time))
+        .collect();
     assert_eq!(times, vec![5, 6, 7, 8, 9]);
 }
 
@@ -216,17 +292,27 @@ fn pause_freezes_the_timeout_and_resume_continues_at_the_same_point() {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
     let s = seq
-        .add(SeqConfig::new("S").timeout(Duration::from_millis(10)), Leaf::until(1))
+        .add(
+            SeqConfig::new("S").timeout(Duration::from_millis(10)),
+            Leaf::until(1),
+        )
         .unwrap();
     let si = s.id();
-    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let a = seq
+        .add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
     let ai = a.id();
-    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)])).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)]))
+        .unwrap();
     let mi = main.id();
     let mut c2 = |c: &Ctrl, _| c.flag(2);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
     let m = monitors
-        .add(si, Monitor::new("while paused", &mut c2, Behaviour::Nothing))
+        .add(
+            si,
+            Monitor::new("while paused", &mut c2, Behaviour::Nothing),
+        )
         .unwrap();
     let mut sim = Sim::new(&seq, &ctrl, monitors);
     sim.lane(main);
@@ -238,7 +324,10 @@ fn pause_freezes_the_timeout_and_resume_continues_at_the_same_point() {
     assert_eq!(sim.state(si), Paused);
     assert_eq!(sim.resume(si), Ok(())); // a paused step may be resumed on its own too
     sim.resume(ai).unwrap(); // at 21 ms; 6 ms of the timeout are left
-    assert_eq!(sim.run_until_idle(Duration::from_millis(40)).map(ms), Some(27));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(40)).map(ms),
+        Some(27)
+    );
     let mut want = started(0, &[mi, ai, si]);
     want.push(tr(4, ai, Running, Paused, Cause::Pause));
     want.push(tr(4, si, Running, Paused, Cause::Pause));
@@ -260,15 +349,22 @@ fn non_blocking_child_is_aborted_with_its_parent() {
     let ctrl = Ctrl::default();
     let s2 = seq.add(SeqConfig::new("S2"), Leaf::until(2)).unwrap();
     let s2i = s2.id();
-    let q = seq.add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)])).unwrap();
+    let q = seq
+        .add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)]))
+        .unwrap();
     let qi = q.id();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
     let si = s.id();
     let p = seq
-        .add(SeqConfig::new("P"), Node::of(vec![Op::Start(qi), Op::Step(s)]))
+        .add(
+            SeqConfig::new("P"),
+            Node::of(vec![Op::Start(qi), Op::Step(s)]),
+        )
         .unwrap();
     let pi = p.id();
-    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(p)])).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(p)]))
+        .unwrap();
     let mi = main.id();
     let mut c0 = |c: &Ctrl, _| c.flag(0);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
@@ -284,15 +380,24 @@ fn non_blocking_child_is_aborted_with_its_parent() {
     let h = sim.handle(s2i).unwrap();
     assert_eq!(h.caller_stack().as_slice(), &[mi, pi, qi]);
     assert_eq!(h.caller_stack_blocking().as_slice(), &[qi]);
-    assert_eq!(sim.handle(qi).unwrap().caller_stack_blocking().as_slice(), &[] as &[SeqId]);
-    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(5));
+    assert_eq!(
+        sim.handle(qi).unwrap().caller_stack_blocking().as_slice(),
+        &[] as &[SeqId]
+    );
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)).map(ms),
+        Some(5)
+    );
     let mut want = started(0, &[mi, pi, qi, si, s2i]);
     // Innermost first: S2 (depth 3), then Q and S (depth 2, id order), then P.
     want.extend(aborted(5, &[s2i, qi, si, pi], Mon(m)));
     want.extend(completed(5, &[mi]));
     assert_trace(sim.trace(), &want);
     assert_lines_ran_live(&ctrl);
-    assert_eq!(sim.handle(qi).unwrap().last_outcome(), Some(Outcome::Aborted(Mon(m))));
+    assert_eq!(
+        sim.handle(qi).unwrap().last_outcome(),
+        Some(Outcome::Aborted(Mon(m)))
+    );
 }
 
 #[test]
@@ -301,18 +406,27 @@ fn exception_sequence_whose_own_monitor_fires() {
     let ctrl = Ctrl::default();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
     let si = s.id();
-    let a = seq.add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)])).unwrap();
+    let a = seq
+        .add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
     let ai = a.id();
     let se = seq.add(SeqConfig::new("SE"), Leaf::until(3)).unwrap();
     let sei = se.id();
-    let e = seq.add(SeqConfig::new("E"), Node::of(vec![Op::Step(se)])).unwrap();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Step(se)]))
+        .unwrap();
     let ei = e.id();
-    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)])).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)]))
+        .unwrap();
     let mi = main.id();
     let (mut c0, mut c2) = (|c: &Ctrl, _| c.flag(0), |c: &Ctrl, _| c.flag(2));
     let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
     let m1 = monitors
-        .add(ai, Monitor::new("m1", &mut c0, Behaviour::AbortOwner).exception(ei))
+        .add(
+            ai,
+            Monitor::new("m1", &mut c0, Behaviour::AbortOwner).exception(ei),
+        )
         .unwrap();
     let m2 = monitors
         .add(ei, Monitor::new("m2", &mut c2, Behaviour::AbortOwner))
@@ -325,7 +439,10 @@ fn exception_sequence_whose_own_monitor_fires() {
         c.set(2, ms(t) == 7);
     });
     sim.start(mi).unwrap();
-    assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(ms), Some(8));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)).map(ms),
+        Some(8)
+    );
     let mut want = started(0, &[mi, ai, si]);
     want.push(tr(5, ei, Idle, Running, Mon(m1)));
     want.push(tr(5, sei, Idle, Running, Start));
@@ -341,7 +458,13 @@ fn pre_condition_false_skips_steps_and_sequences() {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
     let s = seq
-        .add(SeqConfig::new("S"), Leaf { pre: Some(5), exit: None })
+        .add(
+            SeqConfig::new("S"),
+            Leaf {
+                pre: Some(5),
+                exit: None,
+            },
+        )
         .unwrap();
     let si = s.id();
     let mut b = Node::of(vec![]);
@@ -349,7 +472,10 @@ fn pre_condition_false_skips_steps_and_sequences() {
     let b = seq.add(SeqConfig::new("B"), b).unwrap();
     let bi = b.id();
     let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(s), Op::Run(b)]))
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Step(s), Op::Run(b)]),
+        )
         .unwrap();
     let mi = main.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
@@ -366,7 +492,10 @@ fn pre_condition_false_skips_steps_and_sequences() {
     assert_trace(sim.trace(), &want);
     let r: Vec<_> = ctrl.returned.borrow().iter().map(|r| r.result).collect();
     assert_eq!(r, vec![Ok(Outcome::Skipped), Ok(Outcome::Skipped)]);
-    assert!(ctrl.lines_of(si).is_empty(), "a skipped step's action must not run");
+    assert!(
+        ctrl.lines_of(si).is_empty(),
+        "a skipped step's action must not run"
+    );
     assert_eq!(sim.handle(si).unwrap().counters().skipped, 1);
 }
 
@@ -376,7 +505,9 @@ fn monitor_and_exit_condition_due_in_the_same_tick_monitor_first() {
     let ctrl = Ctrl::default();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
     let si = s.id();
-    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)])).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
     let mi = main.id();
     let mut c0 = |c: &Ctrl, _| c.flag(0);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
@@ -405,7 +536,10 @@ fn reaction_bound_condition_true_before_tick_k_aborts_during_tick_k() {
         let s1 = seq.add(SeqConfig::new("S1"), Leaf::until(1)).unwrap();
         let s2 = seq.add(SeqConfig::new("S2"), Leaf::default()).unwrap();
         let a = seq
-            .add(SeqConfig::new("A"), Node::of(vec![Op::Step(s1), Op::Step(s2)]))
+            .add(
+                SeqConfig::new("A"),
+                Node::of(vec![Op::Step(s1), Op::Step(s2)]),
+            )
             .unwrap();
         let ai = a.id();
         let mut c0 = |c: &Ctrl, _| c.flag(0);
@@ -423,10 +557,17 @@ fn reaction_bound_condition_true_before_tick_k_aborts_during_tick_k() {
         sim.start(ai).unwrap();
         sim.run_until(rtseq::Instant::from_ticks(k * 1000));
         assert_eq!(sim.state(ai), Aborted, "k = {k}");
-        let aborted_at = sim.trace().iter().find(|t| t.sequence == ai && t.to == Aborted);
+        let aborted_at = sim
+            .trace()
+            .iter()
+            .find(|t| t.sequence == ai && t.to == Aborted);
         assert_eq!(aborted_at.map(|t| ms(t.time)), Some(k));
         sim.run_for(Duration::from_millis(5));
-        assert_eq!(ctrl.lines_of(ai), vec![(0, 0)], "no further action code of A after its abort");
+        assert_eq!(
+            ctrl.lines_of(ai),
+            vec![(0, 0)],
+            "no further action code of A after its abort"
+        );
     }
 }
 
@@ -435,10 +576,15 @@ fn starting_a_running_sequence_is_an_error() {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
     let s2 = seq.add(SeqConfig::new("S2"), Leaf::until(2)).unwrap();
-    let q = seq.add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)])).unwrap();
+    let q = seq
+        .add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)]))
+        .unwrap();
     let qi = q.id();
     let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Start(qi), Op::Start(qi), Op::Join(qi)]))
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(qi), Op::Start(qi), Op::Join(qi)]),
+        )
         .unwrap();
     let mi = main.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
@@ -472,16 +618,25 @@ fn registry_errors_are_reported_not_panicked() {
     let seq: Sequencer<Ctrl, 2> = Sequencer::new();
     assert_eq!(seq.register(SeqConfig::new("")), Err(Error::EmptyName));
     let a = seq.register(SeqConfig::new("a")).unwrap();
-    assert_eq!(seq.register(SeqConfig::new("a")), Err(Error::DuplicateName("a")));
+    assert_eq!(
+        seq.register(SeqConfig::new("a")),
+        Err(Error::DuplicateName("a"))
+    );
     assert_eq!(
         seq.register(SeqConfig::new("z").polling(Duration::from_ticks(0))),
         Err(Error::DurationOutOfRange)
     );
     seq.register(SeqConfig::new("b")).unwrap();
-    assert_eq!(seq.register(SeqConfig::new("c")), Err(Error::SequenceCapacityExceeded));
+    assert_eq!(
+        seq.register(SeqConfig::new("c")),
+        Err(Error::SequenceCapacityExceeded)
+    );
     let _bound = seq.bind(a, Leaf::default()).unwrap();
     assert!(matches!(seq.bind(a, Leaf::default()), Err(Error::AlreadyBound(x)) if x == a));
-    assert_eq!(seq.sequence_by_id(a).unwrap().start(), Err(Error::NoLane(a)));
+    assert_eq!(
+        seq.sequence_by_id(a).unwrap().start(),
+        Err(Error::NoLane(a))
+    );
     assert!(seq.sequence_by_id(SeqId::from_index(7)).is_none());
     assert!(seq.sequence_by_name("nope").is_none());
     let mut t = |_: &Ctrl, _| true;
@@ -492,7 +647,9 @@ fn registry_errors_are_reported_not_panicked() {
         monitors.add(a, Monitor::new("", &mut t0, Behaviour::Nothing)),
         Err(Error::EmptyName)
     ));
-    monitors.add(a, Monitor::new("m", &mut t, Behaviour::Nothing)).unwrap();
+    monitors
+        .add(a, Monitor::new("m", &mut t, Behaviour::Nothing))
+        .unwrap();
     assert!(matches!(
         monitors.add(a, Monitor::new("m2", &mut t2, Behaviour::Nothing)),
         Err(Error::MonitorCapacityExceeded)
@@ -533,12 +690,17 @@ fn abort_all_aborts_every_running_sequence_innermost_first() {
     let ctrl = Ctrl::default();
     let s2 = seq.add(SeqConfig::new("S2"), Leaf::until(2)).unwrap();
     let s2i = s2.id();
-    let q = seq.add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)])).unwrap();
+    let q = seq
+        .add(SeqConfig::new("Q"), Node::of(vec![Op::Step(s2)]))
+        .unwrap();
     let qi = q.id();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
     let si = s.id();
     let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Start(qi), Op::Step(s)]))
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(qi), Op::Step(s)]),
+        )
         .unwrap();
     let mi = main.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
@@ -561,7 +723,9 @@ fn handle_requests_check_the_state() {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
     let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
-    let main = seq.add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)])).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
     let mi = main.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
@@ -571,5 +735,8 @@ fn handle_requests_check_the_state() {
     sim.abort(mi).unwrap();
     sim.step();
     assert_eq!(sim.state(mi), Aborted);
-    assert_eq!(sim.handle(mi).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
+    assert_eq!(
+        sim.handle(mi).unwrap().last_outcome(),
+        Some(Outcome::Aborted(Cause::Abort))
+    );
 }

@@ -83,7 +83,10 @@ pub struct Leaf {
 
 impl Leaf {
     pub fn until(flag: usize) -> Self {
-        Leaf { pre: None, exit: Some(flag) }
+        Leaf {
+            pre: None,
+            exit: Some(flag),
+        }
     }
 }
 
@@ -118,7 +121,11 @@ pub struct Node {
 
 impl Node {
     pub fn of(ops: Vec<Op>) -> Self {
-        Node { ops, pre: None, exit: None }
+        Node {
+            ops,
+            pre: None,
+            exit: None,
+        }
     }
 }
 
