@@ -1,0 +1,97 @@
+//! Failure-path firmware for the QEMU test suite, selected by its first semihosting
+//! argument:
+//!
+//! - `panic` (default): a lane panics at tick 5 → the panic handler logs the message and ends
+//!   QEMU with exit code 101;
+//! - `hardfault`: executes a permanently undefined instruction (`udf`) → UsageFault escalates
+//!   to HardFault → logged, exit code 102;
+//! - `fail`: the firmware reports a failure it detected itself → exit code 1;
+//! - `hang`: never exits (the host runner's time limit must end it, exit code 124).
+//!
+//! Built with `--features no-panic` it must NOT link (it contains an explicit `panic!`): that
+//! is the negative half of the no-panic proof.
+#![no_std]
+#![no_main]
+
+use rtseq_qemu_f405 as board;
+
+/// What the firmware was asked to do.
+#[derive(Clone, Copy, PartialEq, Eq, defmt::Format)]
+enum Mode {
+    Panic,
+    HardFault,
+    Fail,
+    Hang,
+}
+
+/// Reads the mode from the semihosting command line (`qemu-run panic.elf hardfault`).
+fn mode() -> Mode {
+    let mut buf = [0u8; 128];
+    let mode = match board::args::args(&mut buf).next() {
+        Some("hardfault") => Mode::HardFault,
+        Some("fail") => Mode::Fail,
+        Some("hang") => Mode::Hang,
+        _ => Mode::Panic,
+    };
+    mode
+}
+
+#[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
+mod app {
+    use super::{board, mode, Mode};
+    use board::clock::TickTimer;
+    use board::signal::TickSignal;
+
+    static TO_LANE: TickSignal = TickSignal::new();
+
+    #[shared]
+    struct Shared {}
+
+    #[local]
+    struct Local {
+        timer: TickTimer,
+        mode: Mode,
+    }
+
+    #[init]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let mode = mode();
+        defmt::info!("panic firmware: mode {}", mode);
+        let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
+        lane::spawn().ok();
+        (Shared {}, Local { timer, mode })
+    }
+
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    #[task(binds = TIM2, priority = 2, local = [timer])]
+    fn tick(cx: tick::Context) {
+        TO_LANE.signal(cx.local.timer.on_interrupt());
+    }
+
+    #[task(priority = 1, local = [mode])]
+    async fn lane(cx: lane::Context) {
+        let mode = *cx.local.mode;
+        loop {
+            let now = TO_LANE.wait().await;
+            if now.as_ticks() < 5_000 {
+                continue;
+            }
+            match mode {
+                Mode::Panic => panic!("deliberate panic at {} us", now.as_ticks()),
+                // SAFETY: deliberately faulting.
+                Mode::HardFault => cortex_m::asm::udf(),
+                Mode::Fail => {
+                    defmt::error!("deliberate failure at {=u64} us", now.as_ticks());
+                    board::exit_failure()
+                }
+                Mode::Hang => {}
+            }
+        }
+    }
+}
