@@ -1,0 +1,178 @@
+//! Homing on the host simulator: move slowly to the negative end stop (with a timeout),
+//! set zero, back off. Run with `cargo run --example homing`.
+//!
+//! The plant is a 1-D axis whose position integrates the commanded velocity every tick; the
+//! end stop closes at -50 mm. A second run has a broken end stop: the 5 s timeout fires, the
+//! safe-stop exception sequence stops the axis, and homing ends `Aborted`.
+
+use core::cell::Cell;
+
+use rtseq::sim::Sim;
+use rtseq::{
+    Behaviour, Cx, Duration, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer, Step,
+    Transition,
+};
+
+/// The application's control system: what sequences command and conditions read.
+#[derive(Default)]
+pub struct Axis {
+    /// Measured position, mm.
+    pub position: Cell<f32>,
+    /// Commanded velocity, mm/s.
+    pub velocity: Cell<f32>,
+    /// Position of the encoder zero, mm.
+    pub zero: Cell<f32>,
+    /// The end stop is wired (false: broken cable).
+    pub end_stop_works: Cell<bool>,
+}
+
+impl Axis {
+    const END_STOP_MM: f32 = -50.0;
+
+    fn end_stop(&self) -> bool {
+        self.end_stop_works.get() && self.position.get() <= Self::END_STOP_MM
+    }
+
+    /// Integrates the velocity over one tick (the simulated plant).
+    pub fn step(&self, dt_s: f32) {
+        let p = self.position.get() + self.velocity.get() * dt_s;
+        // The mechanical stop a few millimetres past the switch.
+        self.position.set(p.max(Self::END_STOP_MM - 3.0));
+    }
+
+    /// Position relative to the homed zero.
+    pub fn homed_position(&self) -> f32 {
+        self.position.get() - self.zero.get()
+    }
+}
+
+/// Drive towards the negative end stop until it closes.
+pub struct SeekEndStop;
+impl Step<Axis> for SeekEndStop {
+    fn action(&mut self, cx: &Cx<'_, Axis>) {
+        cx.control().velocity.set(-20.0);
+    }
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
+        cx.control().end_stop()
+    }
+}
+
+/// Stop and take the current position as zero.
+pub struct SetZero;
+impl Step<Axis> for SetZero {
+    fn action(&mut self, cx: &Cx<'_, Axis>) {
+        let axis = cx.control();
+        axis.velocity.set(0.0);
+        axis.zero.set(axis.position.get());
+    }
+}
+
+/// Move off the switch to +2 mm.
+pub struct BackOff;
+impl Step<Axis> for BackOff {
+    fn action(&mut self, cx: &Cx<'_, Axis>) {
+        cx.control().velocity.set(5.0);
+    }
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
+        let axis = cx.control();
+        let done = axis.homed_position() >= 2.0;
+        if done {
+            axis.velocity.set(0.0);
+        }
+        done
+    }
+}
+
+/// The homing sequence: seek, zero, back off.
+pub struct Homing {
+    seek: Seq<SeekEndStop>,
+    zero: Seq<SetZero>,
+    back_off: Seq<BackOff>,
+}
+
+impl Sequence<Axis> for Homing {
+    async fn action(&mut self, cx: &Cx<'_, Axis>) {
+        if cx.step(&mut self.seek).await != Ok(Outcome::Completed) {
+            return;
+        }
+        if cx.step(&mut self.zero).await != Ok(Outcome::Completed) {
+            return;
+        }
+        let _ = cx.step(&mut self.back_off).await;
+    }
+}
+
+/// The timeout's exception sequence: stop the axis.
+pub struct SafeStop;
+impl Sequence<Axis> for SafeStop {
+    async fn action(&mut self, cx: &Cx<'_, Axis>) {
+        cx.control().velocity.set(0.0);
+    }
+}
+
+/// Runs homing once; returns its outcome, the end time in ms and the trace.
+pub fn run(end_stop_works: bool) -> (Option<Outcome>, u64, Vec<Transition>, Vec<&'static str>) {
+    let seq: Sequencer<Axis, 8> = Sequencer::new();
+    let axis = Axis::default();
+    axis.end_stop_works.set(end_stop_works);
+    let add = |name| SeqConfig::new(name).polling(Duration::from_millis(10));
+    let safe_stop = seq.add(add("safe stop"), SafeStop).unwrap();
+    let homing = Homing {
+        seek: seq.add(add("seek end stop"), SeekEndStop).unwrap(),
+        zero: seq.add(add("set zero"), SetZero).unwrap(),
+        back_off: seq.add(add("back off"), BackOff).unwrap(),
+    };
+    let homing = seq
+        .add(
+            add("homing")
+                .timeout(Duration::from_secs(5))
+                .timeout_exception(safe_stop.id())
+                .timeout_behaviour(Behaviour::AbortOwner),
+            homing,
+        )
+        .unwrap();
+    let id = homing.id();
+    let mut sim = Sim::new(&seq, &axis, Monitors::<Axis, 1>::new());
+    sim.lane(homing);
+    sim.lane(safe_stop);
+    sim.before_tick(|_, axis| axis.step(0.001));
+    sim.start(id).unwrap();
+    let end = sim
+        .run_until_idle(Duration::from_secs(10))
+        .map_or(u64::MAX, |t| t.as_ticks() / 1000);
+    let names = (0..seq.len())
+        .map(|i| {
+            seq.sequence_by_id(rtseq::SeqId::from_index(i))
+                .unwrap()
+                .name()
+        })
+        .collect();
+    (
+        sim.handle(id).unwrap().last_outcome(),
+        end,
+        sim.take_trace(),
+        names,
+    )
+}
+
+#[allow(dead_code)] // also compiled into the homing test, which has its own main
+fn main() {
+    for works in [true, false] {
+        println!(
+            "--- homing, end stop {} ---",
+            if works { "wired" } else { "broken" }
+        );
+        let (outcome, end, trace, names) = run(works);
+        for t in trace {
+            println!(
+                "{:>6} ms  {:<14} {:?} -> {:?} ({:?})",
+                t.time.as_ticks() / 1000,
+                names[t.sequence.index()],
+                t.from,
+                t.to,
+                t.cause
+            );
+        }
+        println!("outcome {outcome:?} at {end} ms\n");
+    }
+}
