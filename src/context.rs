@@ -106,6 +106,11 @@ impl<'a, C> Cx<'a, C> {
         self.engine.poll_wait(self.id, false);
     }
 
+    /// The seed's `getSafetySystem()`: trigger public events, read the level.
+    pub fn safety_system(&self) -> Option<&'static crate::safety::SafetyHandle> {
+        self.engine.safety()
+    }
+
     /// A handle to any registered sequence (the seed's `getSequenceByID`).
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'a, C>> {
         self.engine

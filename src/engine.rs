@@ -37,6 +37,7 @@ pub(crate) trait Engine<C> {
     fn info(&self, id: SeqId) -> Option<Info>;
     fn request(&self, id: SeqId, bit: u8) -> Result<(), Error>;
     fn find(&self, name: &str) -> Option<SeqId>;
+    fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
 impl<C, const N: usize, const T: usize> Engine<C> for Sequencer<C, N, T> {
@@ -156,6 +157,10 @@ impl<C, const N: usize, const T: usize> Engine<C> for Sequencer<C, N, T> {
 
     fn request(&self, id: SeqId, bit: u8) -> Result<(), Error> {
         self.with(|s| s.request(id, bit))
+    }
+
+    fn safety(&self) -> Option<&'static crate::safety::SafetyHandle> {
+        self.safety_system()
     }
 
     fn find(&self, name: &str) -> Option<SeqId> {

@@ -14,12 +14,18 @@ use crate::{Seq, Sequence, Sequencer};
 
 /// Runs `seq` every time it is started non-blocking, forever.
 ///
-/// In RTIC, one async software task per lane:
+/// In RTIC, one async software task per lane; its body is one line:
 ///
-/// ```ignore
-/// #[task(priority = 1, local = [homing])]
-/// async fn homing_lane(cx: homing_lane::Context) {
-///     rtseq::lane(&SEQ, &CONTROL, cx.local.homing).await;
+/// ```
+/// use rtseq::{lane, Cx, Seq, Sequence, Sequencer};
+/// struct Blink;
+/// impl Sequence<()> for Blink {
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+/// }
+/// static SEQ: Sequencer<(), 4> = Sequencer::new();
+/// // #[task(priority = 1, local = [blink])]
+/// async fn blink_lane(blink: &mut Seq<Blink>) {
+///     lane(&SEQ, &(), blink).await;
 /// }
 /// ```
 ///

@@ -43,6 +43,7 @@ mod time;
 mod trace;
 mod wait;
 
+pub mod safety;
 #[cfg(feature = "std")]
 pub mod sim;
 

@@ -5,6 +5,7 @@ use core::marker::PhantomData;
 use core::task::Waker;
 
 use crate::control_block::{flag, request, ControlBlock, DISARMED};
+use crate::safety::{AbortSequences, SafetyHandle};
 use crate::{
     time, Cause, Error, Handle, Instant, Outcome, RunningState, SeqConfig, SeqId, Transition,
     MAX_DEPTH,
@@ -47,6 +48,8 @@ pub(crate) struct Inner<C, const N: usize, const T: usize> {
     pub(crate) trace_lost: u32,
     /// Exceptions whose sequence could not run (no lane, already running, too deep).
     pub(crate) exceptions_not_run: u16,
+    /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
+    pub(crate) safety: Option<&'static SafetyHandle>,
 }
 
 /// The sequencer (seed §1.1): one per application, usually a `static`.
@@ -89,6 +92,7 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
                 trace: heapless::Deque::new(),
                 trace_lost: 0,
                 exceptions_not_run: 0,
+                safety: None,
             })),
             _control: PhantomData,
         }
@@ -207,6 +211,27 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
         });
     }
 
+    /// Connects the safety system: sequences reach it through
+    /// [`Cx::safety_system`](crate::Cx::safety_system) to trigger public events and read the
+    /// level.
+    ///
+    /// ```
+    /// use rtseq::safety::{PublicEvent, SafetyHandle};
+    /// use rtseq::Sequencer;
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// static SEQ: Sequencer<(), 4> = Sequencer::new();
+    /// SEQ.set_safety_system(&SAFETY);
+    /// SEQ.safety_system().unwrap().trigger(PublicEvent::new(0));
+    /// ```
+    pub fn set_safety_system(&self, safety: &'static SafetyHandle) {
+        self.with(|s| s.safety = Some(safety));
+    }
+
+    /// The seed's `getSafetySystem()`: the connected safety system's handle.
+    pub fn safety_system(&self) -> Option<&'static SafetyHandle> {
+        self.with(|s| s.safety)
+    }
+
     /// Passes the buffered transitions, oldest first, to `f` and empties the buffer.
     /// Returns how many were lost to overflow since the last call.
     pub fn drain_trace(&self, mut f: impl FnMut(Transition)) -> u32 {
@@ -231,6 +256,13 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
     /// would nest too deep); their behaviour was applied at once.
     pub fn exceptions_not_run(&self) -> u16 {
         self.with(|s| s.exceptions_not_run)
+    }
+}
+
+/// A safety level that demands it aborts every sequence through the sequencer.
+impl<C, const N: usize, const T: usize> AbortSequences for Sequencer<C, N, T> {
+    fn abort_all(&self) {
+        Sequencer::abort_all(self);
     }
 }
 
