@@ -45,9 +45,13 @@ fn require_tools() {
             .ok()
             .filter(|o| o.status.success())
             .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
-        let has_target = sysroot.is_some_and(|s| s.join("lib/rustlib").join(TARGET).join("lib").is_dir());
+        let has_target =
+            sysroot.is_some_and(|s| s.join("lib/rustlib").join(TARGET).join("lib").is_dir());
         if !has_target {
-            missing.push(format!("the Rust target {TARGET} is not installed; {}", qemu_run::SETUP_HINT));
+            missing.push(format!(
+                "the Rust target {TARGET} is not installed; {}",
+                qemu_run::SETUP_HINT
+            ));
         }
         if missing.is_empty() {
             Ok(())
@@ -76,7 +80,15 @@ fn board_cargo(features: &str, bins: &[&str]) -> Command {
     for b in bins {
         cmd.args(["--bin", b]);
     }
-    for v in ["CARGO_TARGET_DIR", "CARGO_BUILD_TARGET", "RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "CARGO_MAKEFLAGS", "MAKEFLAGS", "MFLAGS"] {
+    for v in [
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_TARGET",
+        "RUSTFLAGS",
+        "CARGO_ENCODED_RUSTFLAGS",
+        "CARGO_MAKEFLAGS",
+        "MAKEFLAGS",
+        "MFLAGS",
+    ] {
         cmd.env_remove(v);
     }
     cmd
@@ -88,10 +100,15 @@ fn try_build(features: &str, bins: &[&str]) -> Result<(), String> {
     static LOCK: Mutex<()> = Mutex::new(());
     let _g = LOCK.lock().unwrap_or_else(|e| e.into_inner());
     let t = Instant::now();
-    let out = board_cargo(features, bins).output().map_err(|e| format!("cannot run cargo: {e}"))?;
+    let out = board_cargo(features, bins)
+        .output()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     if out.status.success() {
-        eprintln!("qemu suite: built firmware (features '{features}', bins {bins:?}) in {:.1?}", t.elapsed());
+        eprintln!(
+            "qemu suite: built firmware (features '{features}', bins {bins:?}) in {:.1?}",
+            t.elapsed()
+        );
         Ok(())
     } else {
         Err(stderr)
@@ -145,7 +162,12 @@ pub fn run_with(bin: &str, args: &[&str], timeout: Duration) -> Outcome {
 
 /// Asserts the exit code, showing the whole log otherwise.
 pub fn expect_exit(out: &Outcome, code: i32) {
-    assert_eq!(out.exit_code(), code, "unexpected exit code; log:\n{}", out.transcript());
+    assert_eq!(
+        out.exit_code(),
+        code,
+        "unexpected exit code; log:\n{}",
+        out.transcript()
+    );
 }
 
 /// Asserts that a line with exactly this message was logged; returns it.
@@ -171,7 +193,10 @@ fn smoke_tick_lanes_and_safety_run_100_ticks() {
         let l = expect_line(&out, &format!("lane_main: wake {n} at {} us", n * 1000));
         // The lane runs in the same tick it was woken in (virtual time, µs).
         let t = l.time_us.expect("timestamp");
-        assert!((n * 1000..n * 1000 + 1000).contains(&t), "lane woke at {t} us for tick {n}");
+        assert!(
+            (n * 1000..n * 1000 + 1000).contains(&t),
+            "lane woke at {t} us for tick {n}"
+        );
     }
     expect_line(
         &out,
@@ -184,9 +209,19 @@ fn smoke_tick_lanes_and_safety_run_100_ticks() {
 fn panic_exits_101_with_message() {
     let out = run("panic", &["panic"]);
     expect_exit(&out, 101);
-    let l = out.find("PANIC: ").unwrap_or_else(|| panic!("no PANIC line:\n{}", out.transcript()));
-    assert!(l.message.contains("deliberate panic at 5000 us"), "{}", out.transcript());
-    assert!(l.message.contains("src/bin/panic.rs"), "{}", out.transcript());
+    let l = out
+        .find("PANIC: ")
+        .unwrap_or_else(|| panic!("no PANIC line:\n{}", out.transcript()));
+    assert!(
+        l.message.contains("deliberate panic at 5000 us"),
+        "{}",
+        out.transcript()
+    );
+    assert!(
+        l.message.contains("src/bin/panic.rs"),
+        "{}",
+        out.transcript()
+    );
     assert_eq!(l.level, Some("ERROR"));
 }
 
@@ -220,10 +255,19 @@ fn hanging_firmware_hits_the_time_limit() {
 fn bench_counts_instructions_exactly() {
     let out = run("bench", &[]);
     expect_exit(&out, 0);
-    expect_line(&out, "bench: empty region raw = 1 instructions (measure::OVERHEAD = 1)");
+    expect_line(
+        &out,
+        "bench: empty region raw = 1 instructions (measure::OVERHEAD = 1)",
+    );
     expect_line(&out, "bench: 10 x nop = 10 instructions");
-    let l = out.find("bench: counted_loop(1000) = ").expect("counted loop line");
-    assert!(l.message.ends_with("per iteration = 2"), "{}", out.transcript());
+    let l = out
+        .find("bench: counted_loop(1000) = ")
+        .expect("counted loop line");
+    assert!(
+        l.message.ends_with("per iteration = 2"),
+        "{}",
+        out.transcript()
+    );
     expect_line(&out, "bench: counted_loop(1500000) = 3000009 instructions");
 }
 

@@ -12,5 +12,9 @@ pub fn cmdline(buf: &mut [u8]) -> Option<&str> {
 
 /// The arguments after the program name, split on spaces.
 pub fn args(buf: &mut [u8]) -> impl Iterator<Item = &str> {
-    cmdline(buf).unwrap_or("").split(' ').filter(|a| !a.is_empty()).skip(1)
+    cmdline(buf)
+        .unwrap_or("")
+        .split(' ')
+        .filter(|a| !a.is_empty())
+        .skip(1)
 }

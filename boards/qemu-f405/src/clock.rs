@@ -72,12 +72,19 @@ pub fn now_fine() -> Instant {
         // An update that happened but was not yet counted by the ISR (we may be running
         // inside a higher-priority task, or with interrupts masked).
         let pending = tim.sr().read().uif().bit_is_set();
-        (TICKS.borrow(cs).get(), cnt.wrapping_sub(LAST_TICK_CNT.borrow(cs).get()), pending)
+        (
+            TICKS.borrow(cs).get(),
+            cnt.wrapping_sub(LAST_TICK_CNT.borrow(cs).get()),
+            pending,
+        )
     });
     let (ticks, us_in_tick) = if pending {
         (ticks.wrapping_add(1), 0)
     } else {
-        (ticks, u64::from(since_tick / (TIMER_HZ / 1_000_000)).min(TICK.as_ticks() - 1))
+        (
+            ticks,
+            u64::from(since_tick / (TIMER_HZ / 1_000_000)).min(TICK.as_ticks() - 1),
+        )
     };
     Instant::from_ticks(ticks.wrapping_mul(TICK.as_ticks()).wrapping_add(us_in_tick))
 }

@@ -40,7 +40,11 @@ unsafe impl Sync for Cell {}
 static STATE: Cell = Cell(UnsafeCell::new(State {
     restore: critical_section::RestoreState::invalid(),
     encoder: defmt::Encoder::new(),
-    sink: Sink { out: None, buf: [0; BUF_LEN], len: 0 },
+    sink: Sink {
+        out: None,
+        buf: [0; BUF_LEN],
+        len: 0,
+    },
 }));
 
 /// 0 = free, 1 = a frame is being written, 2 = a nested frame is being dropped.
@@ -90,7 +94,11 @@ unsafe impl defmt::Logger for Logger {
         }
         DEPTH.store(1, Ordering::Relaxed);
         // SAFETY: exclusive: inside the critical section and DEPTH was 0.
-        let State { restore: r, encoder, sink } = unsafe { &mut *STATE.0.get() };
+        let State {
+            restore: r,
+            encoder,
+            sink,
+        } = unsafe { &mut *STATE.0.get() };
         *r = restore;
         encoder.start_frame(|b| sink.push(b));
     }
@@ -105,7 +113,11 @@ unsafe impl defmt::Logger for Logger {
             return;
         }
         // SAFETY: we own the logger (DEPTH == 1, critical section held).
-        let State { restore, encoder, sink } = unsafe { &mut *STATE.0.get() };
+        let State {
+            restore,
+            encoder,
+            sink,
+        } = unsafe { &mut *STATE.0.get() };
         encoder.end_frame(|b| sink.push(b));
         sink.flush();
         let restore = *restore;

@@ -72,7 +72,11 @@ pub fn exit(code: i32) -> ! {
     let block: [usize; 2] = [ADP_STOPPED_APPLICATION_EXIT, code as usize];
     // SAFETY: valid SYS_EXIT_EXTENDED block.
     unsafe { call(SYS_EXIT_EXTENDED, block.as_ptr() as usize) };
-    let reason = if code == 0 { ADP_STOPPED_APPLICATION_EXIT } else { ADP_STOPPED_RUN_TIME_ERROR_UNKNOWN };
+    let reason = if code == 0 {
+        ADP_STOPPED_APPLICATION_EXIT
+    } else {
+        ADP_STOPPED_RUN_TIME_ERROR_UNKNOWN
+    };
     // SAFETY: on 32-bit ARM, SYS_EXIT takes the reason code itself in r1.
     unsafe { call(SYS_EXIT, reason) };
     // Not under a semihosting host: stop here.

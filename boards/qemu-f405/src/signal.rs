@@ -30,7 +30,10 @@ impl Default for TickSignal {
 impl TickSignal {
     /// An empty signal (for a `static`).
     pub const fn new() -> Self {
-        Self { value: Mutex::new(Cell::new(None)), waker: Mutex::new(Cell::new(None)) }
+        Self {
+            value: Mutex::new(Cell::new(None)),
+            waker: Mutex::new(Cell::new(None)),
+        }
     }
 
     /// Stores `now` (replacing an unread value) and wakes the waiting lane, if any.

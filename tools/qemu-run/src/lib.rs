@@ -168,7 +168,10 @@ impl Outcome {
             }
             s.push('\n');
         }
-        s.push_str(&format!("-- status: {:?}, {} malformed, wall {:?}\n", self.status, self.malformed, self.wall));
+        s.push_str(&format!(
+            "-- status: {:?}, {} malformed, wall {:?}\n",
+            self.status, self.malformed, self.wall
+        ));
         if !self.qemu_stderr.is_empty() {
             s.push_str("-- qemu stderr:\n");
             s.push_str(&self.qemu_stderr);
@@ -179,11 +182,20 @@ impl Outcome {
 
 /// Checks that the QEMU binary can be started; returns its version line.
 pub fn check_qemu(cfg: &Config) -> Result<String, Error> {
-    match Command::new(&cfg.qemu).arg("--version").stdin(Stdio::null()).output() {
-        Ok(o) if o.status.success() => {
-            Ok(String::from_utf8_lossy(&o.stdout).lines().next().unwrap_or("").to_string())
-        }
-        Ok(o) => err(format!("`{} --version` failed ({}); {SETUP_HINT}", cfg.qemu, o.status)),
+    match Command::new(&cfg.qemu)
+        .arg("--version")
+        .stdin(Stdio::null())
+        .output()
+    {
+        Ok(o) if o.status.success() => Ok(String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .next()
+            .unwrap_or("")
+            .to_string()),
+        Ok(o) => err(format!(
+            "`{} --version` failed ({}); {SETUP_HINT}",
+            cfg.qemu, o.status
+        )),
         Err(e) => err(format!("cannot run `{}` ({e}); {SETUP_HINT}", cfg.qemu)),
     }
 }
@@ -197,19 +209,30 @@ fn qemu_opt_escape(s: &str) -> String {
 pub fn qemu_command(elf: &Path, cfg: &Config) -> Command {
     let mut semi = String::from("enable=on,target=native");
     if !cfg.firmware_args.is_empty() {
-        let name = elf.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = elf
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
         for a in std::iter::once(&name).chain(cfg.firmware_args.iter()) {
             semi.push_str(",arg=");
             semi.push_str(&qemu_opt_escape(a));
         }
     }
     let mut cmd = Command::new(&cfg.qemu);
-    cmd.args(["-machine", &cfg.machine, "-cpu", "cortex-m4", "-nographic", "-monitor", "none"])
-        .args(["-serial", "null", "-semihosting-config", &semi])
-        .args(["-icount", "shift=0,sleep=off"])
-        .args(&cfg.extra_qemu_args)
-        .arg("-kernel")
-        .arg(elf);
+    cmd.args([
+        "-machine",
+        &cfg.machine,
+        "-cpu",
+        "cortex-m4",
+        "-nographic",
+        "-monitor",
+        "none",
+    ])
+    .args(["-serial", "null", "-semihosting-config", &semi])
+    .args(["-icount", "shift=0,sleep=off"])
+    .args(&cfg.extra_qemu_args)
+    .arg("-kernel")
+    .arg(elf);
     cmd
 }
 
@@ -231,7 +254,9 @@ impl<'t> Decoder<'t> {
                         .as_ref()
                         .and_then(|l| l.get(&frame.index()))
                         .map(|l| format!("{}:{}", l.file.display(), l.line));
-                    let time_us = frame.display_timestamp().and_then(|t| parse_seconds_us(&t.to_string()));
+                    let time_us = frame
+                        .display_timestamp()
+                        .and_then(|t| parse_seconds_us(&t.to_string()));
                     out.push(LogLine {
                         time_us,
                         level: frame.level().map(|l| level_name(l.as_str())),
@@ -297,11 +322,22 @@ fn echo_line(line: &LogLine, cfg: &Config) {
 
 /// Runs `elf` in QEMU until it exits or the time limit passes.
 pub fn run(elf: &Path, cfg: &Config) -> Result<Outcome, Error> {
-    let bytes = std::fs::read(elf).map_err(|e| Error(format!("cannot read ELF {}: {e}", elf.display())))?;
+    let bytes =
+        std::fs::read(elf).map_err(|e| Error(format!("cannot read ELF {}: {e}", elf.display())))?;
     let table = match Table::parse(&bytes) {
         Ok(Some(t)) => t,
-        Ok(None) => return err(format!("{}: no .defmt section (not a defmt firmware?)", elf.display())),
-        Err(e) => return err(format!("{}: cannot read the defmt table: {e}", elf.display())),
+        Ok(None) => {
+            return err(format!(
+                "{}: no .defmt section (not a defmt firmware?)",
+                elf.display()
+            ))
+        }
+        Err(e) => {
+            return err(format!(
+                "{}: cannot read the defmt table: {e}",
+                elf.display()
+            ))
+        }
     };
     let locations = table.get_locations(&bytes).ok().filter(|l| !l.is_empty());
 
@@ -312,13 +348,24 @@ pub fn run(elf: &Path, cfg: &Config) -> Result<Outcome, Error> {
         .spawn()
         .map_err(|e| Error(format!("cannot start `{}` ({e}); {SETUP_HINT}", cfg.qemu)))?;
     let start = Instant::now();
-    let mut stdout = child.stdout.take().ok_or_else(|| Error("no stdout pipe".into()))?;
-    let mut stderr = child.stderr.take().ok_or_else(|| Error("no stderr pipe".into()))?;
+    let mut stdout = child
+        .stdout
+        .take()
+        .ok_or_else(|| Error("no stdout pipe".into()))?;
+    let mut stderr = child
+        .stderr
+        .take()
+        .ok_or_else(|| Error("no stderr pipe".into()))?;
 
     std::thread::scope(|scope| {
         let (line_tx, line_rx) = mpsc::channel::<LogLine>();
         let reader = scope.spawn(move || -> Result<usize, Error> {
-            let mut dec = Decoder { table: &table, locations, stream: table.new_stream_decoder(), malformed: 0 };
+            let mut dec = Decoder {
+                table: &table,
+                locations,
+                stream: table.new_stream_decoder(),
+                malformed: 0,
+            };
             let mut buf = [0u8; 4096];
             let mut lines = Vec::new();
             loop {
@@ -353,10 +400,18 @@ pub fn run(elf: &Path, cfg: &Config) -> Result<Outcome, Error> {
         });
 
         let status = wait_with_timeout(&mut child, cfg.timeout)?;
-        let malformed = reader.join().map_err(|_| Error("decoder thread panicked".into()))??;
+        let malformed = reader
+            .join()
+            .map_err(|_| Error("decoder thread panicked".into()))??;
         let qemu_stderr = err_reader.join().unwrap_or_default();
         let lines: Vec<LogLine> = line_rx.try_iter().collect();
-        Ok(Outcome { status, lines, qemu_stderr, malformed, wall: start.elapsed() })
+        Ok(Outcome {
+            status,
+            lines,
+            qemu_stderr,
+            malformed,
+            wall: start.elapsed(),
+        })
     })
 }
 
@@ -413,7 +468,12 @@ mod tests {
 
     #[test]
     fn line_display() {
-        let l = LogLine { time_us: Some(1_000_250), level: Some("INFO"), message: "hi".into(), location: None };
+        let l = LogLine {
+            time_us: Some(1_000_250),
+            level: Some("INFO"),
+            message: "hi".into(),
+            location: None,
+        };
         assert_eq!(l.to_string(), "   1.000250 INFO  hi");
     }
 }

@@ -25,7 +25,10 @@ fn usage() -> ExitCode {
 }
 
 fn main() -> ExitCode {
-    let mut cfg = Config { echo: Echo::Stdout, ..Config::default() };
+    let mut cfg = Config {
+        echo: Echo::Stdout,
+        ..Config::default()
+    };
     if let Ok(t) = std::env::var("QEMU_RUN_TIMEOUT") {
         match t.parse::<f64>() {
             Ok(s) if s > 0.0 => cfg.timeout = Duration::from_secs_f64(s),
@@ -42,7 +45,12 @@ fn main() -> ExitCode {
             Some((f, v)) if f.starts_with("--") => (f.to_string(), Some(v.to_string())),
             _ => (a.clone(), None),
         };
-        let mut value = |name: &str| inline.clone().or_else(|| args.next()).ok_or_else(|| format!("{name} needs a value"));
+        let mut value = |name: &str| {
+            inline
+                .clone()
+                .or_else(|| args.next())
+                .ok_or_else(|| format!("{name} needs a value"))
+        };
         match flag.as_str() {
             "--timeout" => match value("--timeout").map(|v| v.parse::<f64>()) {
                 Ok(Ok(s)) if s > 0.0 => cfg.timeout = Duration::from_secs_f64(s),
@@ -76,7 +84,10 @@ fn main() -> ExitCode {
         }
     };
     if outcome.malformed > 0 {
-        eprintln!("qemu-run: {} malformed defmt frame(s) skipped", outcome.malformed);
+        eprintln!(
+            "qemu-run: {} malformed defmt frame(s) skipped",
+            outcome.malformed
+        );
     }
     match outcome.status {
         Status::Exited(0) => {}

@@ -74,7 +74,11 @@ mod app {
     #[task(priority = 1)]
     async fn run(_: run::Context) {
         let (raw, ()) = measure_raw(|| ());
-        defmt::info!("bench: empty region raw = {=u32} instructions (measure::OVERHEAD = {=u32})", raw, OVERHEAD);
+        defmt::info!(
+            "bench: empty region raw = {=u32} instructions (measure::OVERHEAD = {=u32})",
+            raw,
+            OVERHEAD
+        );
         let nops = measure(|| {
             cortex_m::asm::nop();
             cortex_m::asm::nop();
@@ -110,7 +114,10 @@ mod app {
             }
             let entry = ENTRY_CNT.load(Ordering::Relaxed);
             if let Some(p) = prev {
-                defmt::info!("bench: tick period = {=u32} TIM2 counts", entry.wrapping_sub(p));
+                defmt::info!(
+                    "bench: tick period = {=u32} TIM2 counts",
+                    entry.wrapping_sub(p)
+                );
             }
             prev = Some(entry);
         }

@@ -23,7 +23,10 @@ mod app {
 
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
-        defmt::info!("demo: rtseq heartbeat at {=u32} Hz on the emulated STM32F405", clock::TICK_HZ);
+        defmt::info!(
+            "demo: rtseq heartbeat at {=u32} Hz on the emulated STM32F405",
+            clock::TICK_HZ
+        );
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
         lane::spawn().ok();
         (Shared {}, Local { timer })
@@ -48,7 +51,11 @@ mod app {
             let now = TO_LANE.wait().await;
             wakes += 1;
             if wakes % 100 == 0 {
-                defmt::info!("demo: lane woke {=u32} times, t = {=u64} ms", wakes, now.as_ticks() / 1000);
+                defmt::info!(
+                    "demo: lane woke {=u32} times, t = {=u64} ms",
+                    wakes,
+                    now.as_ticks() / 1000
+                );
             }
             if wakes >= 1000 {
                 defmt::info!("demo: done");

@@ -60,9 +60,20 @@ mod app {
         lane_main::spawn().ok();
         lane_parallel::spawn().ok();
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
-        defmt::info!("smoke: start, {=u32} ticks at {=u32} Hz", RUN_TICKS, clock::TICK_HZ);
+        defmt::info!(
+            "smoke: start, {=u32} ticks at {=u32} Hz",
+            RUN_TICKS,
+            clock::TICK_HZ
+        );
         (
-            Shared { stats: Stats { ticks: 0, safety_cycles: 0, main_wakes: 0, parallel_wakes: 0 } },
+            Shared {
+                stats: Stats {
+                    ticks: 0,
+                    safety_cycles: 0,
+                    main_wakes: 0,
+                    parallel_wakes: 0,
+                },
+            },
             Local { timer },
         )
     }
@@ -75,8 +86,10 @@ mod app {
             // Check and sleep with interrupts masked: WFI still wakes on a pending interrupt,
             // and one that fires between the check and WFI cannot be missed.
             cortex_m::interrupt::disable();
-            let (t, sc, mw, pw) =
-                cx.shared.stats.lock(|s| (s.ticks, s.safety_cycles, s.main_wakes, s.parallel_wakes));
+            let (t, sc, mw, pw) = cx
+                .shared
+                .stats
+                .lock(|s| (s.ticks, s.safety_cycles, s.main_wakes, s.parallel_wakes));
             if t >= RUN_TICKS {
                 defmt::info!(
                     "smoke: done ticks={=u32} safety_cycles={=u32} main_wakes={=u32} parallel_wakes={=u32} now_us={=u64}",
