@@ -164,7 +164,9 @@ impl IoKind {
     pub(crate) const fn same(self, other: IoKind) -> bool {
         matches!(
             (self, other),
-            (IoKind::Bool, IoKind::Bool) | (IoKind::Int, IoKind::Int) | (IoKind::Float, IoKind::Float)
+            (IoKind::Bool, IoKind::Bool)
+                | (IoKind::Int, IoKind::Int)
+                | (IoKind::Float, IoKind::Float)
         )
     }
 }

@@ -188,7 +188,11 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
     /// assert_eq!(P.destination(OFF, GO), Some(ON));
     /// assert_eq!(P.destination(ON, GO.id()), None);
     /// ```
-    pub fn destination(&self, level: SafetyLevel, event: impl Into<EventId>) -> Option<SafetyLevel> {
+    pub fn destination(
+        &self,
+        level: SafetyLevel,
+        event: impl Into<EventId>,
+    ) -> Option<SafetyLevel> {
         let event = event.into();
         self.transitions
             .iter()
@@ -297,10 +301,7 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
             if !t.event().is_in_range() {
                 return Err(SafetyError::EventOutOfRange { event: t.event() });
             }
-            if !t.from_low().le(t.from_high())
-                || t.from_low().index() >= L
-                || t.to().index() >= L
-            {
+            if !t.from_low().le(t.from_high()) || t.from_low().index() >= L || t.to().index() >= L {
                 return Err(SafetyError::InvalidTransition { index });
             }
             // Conflicts with every later row.
