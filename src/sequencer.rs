@@ -354,8 +354,12 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
                     *slot = c.0;
                 }
                 match mode {
-                    Mode::Blocking => (cb.depth + 1, cb.blocking.saturating_add(1), cb.root),
-                    Mode::Lane => (cb.depth + 1, 0, id.0),
+                    Mode::Blocking => (
+                        cb.depth.saturating_add(1),
+                        cb.blocking.saturating_add(1),
+                        cb.root,
+                    ),
+                    Mode::Lane => (cb.depth.saturating_add(1), 0, id.0),
                 }
             }
             None => (0, 0, id.0),

@@ -175,7 +175,7 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
 
     /// One tick: advance time, run the before-tick hook, tick, let the woken lanes run.
     pub fn step(&mut self) {
-        self.now += self.period;
+        self.now = self.later(self.now, self.period);
         if let Some(f) = self.before_tick.as_mut() {
             f(self.now, self.control);
         }
@@ -186,13 +186,13 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
 
     /// Runs ticks for `d` of simulated time.
     pub fn run_for(&mut self, d: Duration) {
-        let end = self.now + d;
+        let end = self.later(self.now, d);
         self.run_until(end);
     }
 
     /// Runs ticks until the time reaches `t`.
     pub fn run_until(&mut self, t: Instant) {
-        while self.now + self.period <= t {
+        while self.later(self.now, self.period) <= t && self.now < t {
             self.step();
         }
     }
@@ -200,12 +200,12 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
     /// Runs ticks until no sequence is active any more or `limit` has passed; returns the
     /// time at which everything was idle.
     pub fn run_until_idle(&mut self, limit: Duration) -> Option<Instant> {
-        let end = self.now + limit;
+        let end = self.later(self.now, limit);
         loop {
             if !self.any_active() {
                 return Some(self.now);
             }
-            if self.now + self.period > end {
+            if self.later(self.now, self.period) > end || self.now >= end {
                 return None;
             }
             self.step();
@@ -260,23 +260,36 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
         self.control
     }
 
+    /// `t + d`, saturating at the end of time.
+    fn later(&self, t: Instant, d: Duration) -> Instant {
+        t.checked_add_duration(d)
+            .unwrap_or(Instant::from_ticks(u64::MAX))
+    }
+
+    /// Moves the sequencer's buffered transitions into the trace.
+    fn drain(&mut self) {
+        let trace = &mut self.trace;
+        let lost = self.sequencer.drain_trace(|t| trace.push(t));
+        self.lost = self.lost.saturating_add(lost);
+    }
+
     /// Polls woken lanes, in declaration order, until none is woken.
     fn settle(&mut self) {
-        let mut polls = 0;
+        let mut polls: usize = 0;
         loop {
             let mut any = false;
             for lane in self.lanes.iter_mut() {
                 if lane.flag.0.swap(false, Ordering::SeqCst) {
                     any = true;
-                    polls += 1;
+                    polls = polls.saturating_add(1);
                     let mut cx = Context::from_waker(&lane.waker);
                     let _ = lane.future.as_mut().poll(&mut cx);
                     let trace = &mut self.trace;
-                    self.lost += self.sequencer.drain_trace(|t| trace.push(t));
+                    let lost = self.sequencer.drain_trace(|t| trace.push(t));
+                    self.lost = self.lost.saturating_add(lost);
                 }
             }
-            let trace = &mut self.trace;
-            self.lost += self.sequencer.drain_trace(|t| trace.push(t));
+            self.drain();
             if !any {
                 return;
             }

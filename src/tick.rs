@@ -10,6 +10,9 @@ use crate::monitor::Entry;
 use crate::sequencer::Mode;
 use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
+/// `depth + 1` of the deepest possible sequence.
+const DEPTH_LIMIT: u8 = MAX_DEPTH as u8 + 1;
+
 /// What the due scan saw of one sequence.
 #[derive(Clone, Copy, Default)]
 struct Due {
@@ -283,7 +286,7 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
                 }
             });
         }
-        for depth in (1..=MAX_DEPTH as u8 + 1).rev() {
+        for depth in (1..=DEPTH_LIMIT).rev() {
             for (i, a) in affected.iter().enumerate() {
                 let Ok(id) = u8::try_from(i).map(SeqId) else {
                     continue;

@@ -147,6 +147,7 @@ struct Outcome {
     not_run: u16,
 }
 
+#[allow(clippy::needless_range_loop)] // node indices are ids: index loops read best
 fn simulate(p: &Plan) -> Outcome {
     let seq: Sequencer<Ctrl, 24, 256> = Sequencer::new();
     let ctrl = Ctrl::default();
