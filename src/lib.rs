@@ -66,3 +66,8 @@ pub use wait::Wait;
 /// Maximum nesting of callers (`callerStack` length). Starting deeper is an
 /// [`Error::CallerDepthExceeded`].
 pub const MAX_DEPTH: usize = 8;
+
+/// The README's examples are compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
