@@ -1598,3 +1598,34 @@ fn sizes_are_small() {
     assert_eq!(size_of::<SafetyLevel>(), 1);
     assert_eq!(size_of::<PublicEvent>(), 1);
 }
+
+#[test]
+fn compile_time_validated_properties() {
+    // The whole table of this file, proven valid by the compiler.
+    static VALID: ValidProperties<'static, Sim, 6> = match SafetyProperties::new(
+        *PROPS.levels(),
+        PROPS.inputs(),
+        PROPS.outputs(),
+        PROPS.transitions(),
+        OFF,
+    )
+    .validated()
+    {
+        Ok(valid) => valid,
+        Err(_) => panic!("invalid safety properties"),
+    };
+    let log: Log = Rc::default();
+    let mut sim = Sim::new(&log);
+    let handle = SafetyHandle::new();
+    let mut ss = SafetySystem::new_validated(&VALID, &handle).unwrap();
+    assert_eq!(ss.cycle(&mut sim, &NoSequences).level, OFF);
+    handle.trigger(SWITCH_ON);
+    assert_eq!(
+        ss.cycle(&mut sim, &NoSequences).change,
+        change(OFF, POWER_ON)
+    );
+    assert_eq!(
+        SafetySystem::new_validated(&VALID, &handle).err(),
+        Some(SafetyError::HandleInUse)
+    );
+}

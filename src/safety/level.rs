@@ -343,6 +343,13 @@ impl<'a, IO> LevelDef<'a, IO> {
     }
 }
 
+impl<IO> Clone for LevelDef<'_, IO> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<IO> Copy for LevelDef<'_, IO> {}
+
 impl<IO> fmt::Debug for LevelDef<'_, IO> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("LevelDef")

@@ -186,7 +186,7 @@ pub use input::{CriticalInput, CriticalInputInfo, InputAction, InputCheck};
 pub use io::{InputId, IoKind, IoType, IoValue, OutputId, SafetyIo};
 pub use level::{AbortPolicy, ExitFn, LevelDef, LevelFn, LevelStats, SafetyLevel};
 pub use output::{CriticalOutput, CriticalOutputInfo, OutputAction, OutputMode};
-pub use properties::SafetyProperties;
+pub use properties::{SafetyProperties, ValidProperties};
 pub use system::{
     AbortSequences, CycleReport, LevelChange, NoSequences, SafetySystem, UnknownEvent,
 };

@@ -256,6 +256,25 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
         Ok(())
     }
 
+    /// [`validate`](Self::validate)s and wraps the properties in a
+    /// [`ValidProperties`], the proof that they are valid.
+    ///
+    /// ```
+    /// use rtseq::safety::*;
+    /// # struct Io;
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// const DOOR: CriticalInput<bool> = CriticalInput::new(0, "door");
+    /// const P: SafetyProperties<'static, Io, 1> =
+    ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[DOOR.info()], &[], &[], OFF);
+    /// assert!(matches!(P.validated(), Err(SafetyError::MissingInputAction { .. })));
+    /// ```
+    pub const fn validated(self) -> Result<ValidProperties<'a, IO, L>, SafetyError> {
+        match self.validate() {
+            Ok(()) => Ok(ValidProperties(self)),
+            Err(e) => Err(e),
+        }
+    }
+
     const fn validate_io_lists(&self) -> Result<(), SafetyError> {
         if self.inputs.len() > MAX_INPUTS {
             return Err(SafetyError::TooManyInputs {
@@ -485,6 +504,50 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
             rest = tail;
         }
         Ok(())
+    }
+}
+
+/// [`SafetyProperties`] proven valid: only
+/// [`SafetyProperties::validated`] creates it. Build it in a `static`
+/// (the check then runs in the compiler, an invalid table is a compile
+/// error) and start the system with
+/// [`SafetySystem::new_validated`](super::SafetySystem::new_validated),
+/// which skips the run-time validation — and its ~0.9 KiB of code on
+/// Cortex-M.
+///
+/// ```
+/// use rtseq::safety::*;
+/// # struct Io;
+/// const OFF: SafetyLevel = SafetyLevel::new(0);
+/// static PROPS: ValidProperties<'static, Io, 1> =
+///     match SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF).validated() {
+///         Ok(valid) => valid,
+///         Err(_) => panic!("invalid safety properties"), // a compile error, never a run-time panic
+///     };
+/// assert_eq!(PROPS.properties().entry_level(), OFF);
+/// ```
+pub struct ValidProperties<'a, IO, const L: usize>(SafetyProperties<'a, IO, L>);
+
+impl<'a, IO, const L: usize> ValidProperties<'a, IO, L> {
+    /// The validated properties.
+    ///
+    /// ```
+    /// use rtseq::safety::*;
+    /// # struct Io;
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// const P: SafetyProperties<'static, Io, 1> =
+    ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+    /// let valid = P.validated().unwrap();
+    /// assert_eq!(valid.properties().levels().len(), 1);
+    /// ```
+    pub const fn properties(&self) -> &SafetyProperties<'a, IO, L> {
+        &self.0
+    }
+}
+
+impl<IO, const L: usize> fmt::Debug for ValidProperties<'_, IO, L> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_tuple("ValidProperties").field(&self.0).finish()
     }
 }
 

@@ -10,7 +10,7 @@ use super::input::InputCheck;
 use super::io::SafetyIo;
 use super::level::{AbortPolicy, LevelStats, SafetyLevel};
 use super::output::OutputMode;
-use super::properties::{bit_of, SafetyProperties};
+use super::properties::{bit_of, SafetyProperties, ValidProperties};
 
 /// Something whose running sequences the safety system can abort (the
 /// rtseq `Sequencer` implements it). Called from the safety cycle, at the
@@ -207,6 +207,39 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         handle: &'a SafetyHandle,
     ) -> Result<Self, SafetyError> {
         props.validate()?;
+        Self::bind(props, handle)
+    }
+
+    /// Like [`new`](Self::new) for properties already proven valid (at
+    /// compile time, see [`ValidProperties`]): no run-time validation, so
+    /// the validation code is not linked. Only fails with
+    /// [`SafetyError::HandleInUse`].
+    ///
+    /// ```
+    /// use rtseq::safety::*;
+    /// # struct Io;
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// static PROPS: ValidProperties<'static, Io, 1> =
+    ///     match SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF).validated() {
+    ///         Ok(valid) => valid,
+    ///         Err(_) => panic!("invalid safety properties"),
+    ///     };
+    /// static HANDLE: SafetyHandle = SafetyHandle::new();
+    /// let safety = SafetySystem::new_validated(&PROPS, &HANDLE)?;
+    /// assert_eq!(safety.level(), OFF);
+    /// # Ok::<(), SafetyError>(())
+    /// ```
+    pub fn new_validated(
+        props: &'a ValidProperties<'a, IO, L>,
+        handle: &'a SafetyHandle,
+    ) -> Result<Self, SafetyError> {
+        Self::bind(props.properties(), handle)
+    }
+
+    fn bind(
+        props: &'a SafetyProperties<'a, IO, L>,
+        handle: &'a SafetyHandle,
+    ) -> Result<Self, SafetyError> {
         if !handle.bind() {
             return Err(SafetyError::HandleInUse);
         }
