@@ -81,7 +81,7 @@ pub const DEFAULT_RESTART_LIMIT: u8 = 3;
 /// ```
 pub struct Monitor<'a, C> {
     pub(crate) name: &'static str,
-    pub(crate) condition: &'a mut dyn Condition<C>,
+    pub(crate) condition: &'a mut (dyn Condition<C> + Send),
     pub(crate) behaviour: Behaviour,
     pub(crate) exception: Option<SeqId>,
     pub(crate) trigger: Trigger,
@@ -92,7 +92,7 @@ impl<'a, C> Monitor<'a, C> {
     /// A rising-edge monitor with no exception sequence and the default restart limit.
     pub fn new(
         name: &'static str,
-        condition: &'a mut dyn Condition<C>,
+        condition: &'a mut (dyn Condition<C> + Send),
         behaviour: Behaviour,
     ) -> Self {
         Monitor {
@@ -146,7 +146,8 @@ pub(crate) struct Entry<'a, C> {
 /// The monitors of an application, owned by the tick (the timer interrupt).
 ///
 /// Conditions keep state and are evaluated only by the tick, so this table is not shared:
-/// in RTIC it is a `local` resource of the timer task. `M` is the capacity.
+/// in RTIC it is a `local` resource of the timer task (hence conditions are `Send`: `init`
+/// hands the table over). `M` is the capacity.
 pub struct Monitors<'a, C, const M: usize> {
     pub(crate) entries: heapless::Vec<Entry<'a, C>, M>,
 }

@@ -248,12 +248,12 @@ fn simulate(p: &Plan) -> Outcome {
     main.body_mut().ops = main_ops;
 
     // Monitors.
-    let mut conds: Vec<Box<dyn rtseq::Condition<Ctrl>>> = p
+    let mut conds: Vec<Box<dyn rtseq::Condition<Ctrl> + Send>> = p
         .monitors
         .iter()
         .map(|mp| {
             let f = mp.flag;
-            Box::new(move |c: &Ctrl, _: Instant| c.flag(f)) as Box<dyn rtseq::Condition<Ctrl>>
+            Box::new(move |c: &Ctrl, _: Instant| c.flag(f)) as Box<dyn rtseq::Condition<Ctrl> + Send>
         })
         .collect();
     let seq_nodes: Vec<usize> = (0..n).collect();
