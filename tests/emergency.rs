@@ -1,0 +1,605 @@
+//! Emergency scenario on the host (issue 4): the safety system runs in the simulator's
+//! before-tick hook — the order the RTIC priorities give on the chip, where the safety
+//! task (highest priority) is woken first by the tick interrupt and runs before the
+//! sequencer's tick at the same instant — with the `Sequencer` as its `AbortSequences`.
+//!
+//! A sequence tree with blocking and non-blocking sequences powers the machine up through
+//! the safety system (a step triggers public events through `cx.safety_system()` and its
+//! exit condition waits for the level), then an emergency arrives while everything runs:
+//!
+//! * the emergency-stop input (a private event raised by the input check), or
+//! * a public event triggered by a sequence.
+//!
+//! Proven with the exact sequencer trace and the exact safety cycle reports: the cycle that
+//! enters the emergency level drives the safe outputs and requests abort-all, and the tick
+//! at the same instant aborts every running sequence, innermost first.
+
+mod common;
+
+use std::cell::{Cell, RefCell};
+use std::rc::Rc;
+
+use common::{ms, show, tr};
+use rtseq::safety::*;
+use rtseq::sim::Sim;
+use rtseq::Cause::{AbortAll, Completed, Start};
+use rtseq::RunningState::{Aborted, Aborting, Idle, Running, Terminated};
+use rtseq::{Cx, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
+
+// ---------------------------------------------------------------------------------------
+// The safety system: five levels, one critical input, two critical outputs.
+// ---------------------------------------------------------------------------------------
+
+const EMERGENCY: SafetyLevel = SafetyLevel::new(0);
+const OFF: SafetyLevel = SafetyLevel::new(1);
+const POWERING: SafetyLevel = SafetyLevel::new(2);
+const READY: SafetyLevel = SafetyLevel::new(3);
+const MOVING: SafetyLevel = SafetyLevel::new(4);
+
+const SWITCH_ON: PublicEvent = PublicEvent::new(0);
+const START_MOVING: PublicEvent = PublicEvent::new(1);
+const FAULT: PublicEvent = PublicEvent::new(2);
+const RESET: PublicEvent = PublicEvent::new(3);
+const ESTOP: PrivateEvent = PrivateEvent::new(0);
+const POWERED: PrivateEvent = PrivateEvent::new(1);
+
+const ESTOP_IN: CriticalInput<bool> = CriticalInput::new(0, "estop pressed");
+const ENABLE: CriticalOutput<bool> = CriticalOutput::new(0, "drive enable");
+const LAMP: CriticalOutput<bool> = CriticalOutput::new(1, "status lamp");
+
+/// Cycles the power stage needs in `POWERING` before the level action reports `POWERED`.
+const POWER_UP_CYCLES: u32 = 2;
+
+/// The control system: the machine's IO (shared with the safety system) and a log of what
+/// the sequences' action lines saw.
+#[derive(Default)]
+struct Ctrl {
+    estop: Cell<bool>,
+    fault: Cell<bool>,
+    enable: Cell<bool>,
+    lamp: Cell<bool>,
+    powering_cycles: Cell<u32>,
+    log: RefCell<Vec<String>>,
+}
+
+impl Ctrl {
+    fn note(&self, cx: &Cx<'_, Ctrl>, what: &str) {
+        self.log
+            .borrow_mut()
+            .push(format!("{} ms #{}: {what}", ms(cx.now()), cx.id().index()));
+    }
+}
+
+/// The safety system's IO is the control system itself (cells), so the sequences see the
+/// outputs the safety system drives.
+type Io = &'static Ctrl;
+
+impl SafetyIo for &'static Ctrl {
+    fn read_input(&mut self, _input: InputId) -> IoValue {
+        self.estop.get().into()
+    }
+    fn write_output(&mut self, output: OutputId, value: IoValue) {
+        let on = value == IoValue::Bool(true);
+        if output == ENABLE.id() {
+            self.enable.set(on);
+        } else {
+            self.lamp.set(on);
+        }
+    }
+}
+
+fn power_up(ctx: &mut SafetyContext<'_>, io: &mut Io) {
+    let n = io.powering_cycles.get() + 1;
+    io.powering_cycles.set(n);
+    if n == POWER_UP_CYCLES {
+        ctx.trigger(POWERED);
+    }
+}
+
+const WATCH_ESTOP: [InputAction; 1] = [ESTOP_IN.check(false, ESTOP)];
+
+static PROPS: ValidProperties<'static, Io, 5> = match SafetyProperties::new(
+    [
+        LevelDef::new(EMERGENCY, "emergency")
+            .inputs(&WATCH_ESTOP)
+            .outputs(&[ENABLE.set(false), LAMP.toggle()])
+            .abort_sequences(AbortPolicy::WhileActive),
+        LevelDef::new(OFF, "off")
+            .inputs(&WATCH_ESTOP)
+            .outputs(&[ENABLE.set(false), LAMP.set(false)]),
+        LevelDef::new(POWERING, "powering")
+            .inputs(&WATCH_ESTOP)
+            .outputs(&[ENABLE.set(false), LAMP.toggle()])
+            .level_action(power_up),
+        LevelDef::new(READY, "ready")
+            .inputs(&WATCH_ESTOP)
+            .outputs(&[ENABLE.set(true), LAMP.set(true)]),
+        LevelDef::new(MOVING, "moving")
+            .inputs(&WATCH_ESTOP)
+            .outputs(&[ENABLE.set(true), LAMP.set(true)]),
+    ],
+    &[ESTOP_IN.info()],
+    &[ENABLE.info(), LAMP.info()],
+    &[
+        Transition::on_level_and_above(EMERGENCY, ESTOP, EMERGENCY),
+        Transition::on_level_and_above(OFF, FAULT, EMERGENCY),
+        Transition::on(EMERGENCY, RESET, OFF),
+        Transition::on(OFF, SWITCH_ON, POWERING),
+        Transition::on(POWERING, POWERED, READY),
+        Transition::on(READY, START_MOVING, MOVING),
+    ],
+    OFF,
+)
+.validated()
+{
+    Ok(valid) => valid,
+    Err(_) => panic!("invalid safety properties"),
+};
+
+// ---------------------------------------------------------------------------------------
+// The sequences.
+// ---------------------------------------------------------------------------------------
+
+/// A step that triggers a public event through the sequencer's safety system
+/// (`cx.safety_system()`, the seed's `getSafetySystem()`) and is done when the safety level
+/// has become `until`: a level change observed by a sequence's exit condition.
+struct Request {
+    event: PublicEvent,
+    until: SafetyLevel,
+}
+
+impl Step<Ctrl> for Request {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        let safety = cx.safety_system().expect("safety system connected");
+        safety.trigger(self.event);
+        cx.control().note(cx, "trigger");
+    }
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        cx.safety_system()
+            .is_some_and(|safety| safety.level() == self.until)
+    }
+}
+
+/// A long motion that never ends by itself; with `watch_fault`, it ends when the axis
+/// detects a fault (the control system's `fault` flag).
+struct Travel {
+    watch_fault: bool,
+}
+
+impl Step<Ctrl> for Travel {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        cx.control().note(cx, "travel");
+    }
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        self.watch_fault && cx.control().fault.get()
+    }
+}
+
+/// Blocking child of `main`: request MOVING, then travel.
+struct MoveA {
+    start: Seq<Request>,
+    travel: Seq<Travel>,
+}
+
+impl Sequence<Ctrl> for MoveA {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        let r = cx.step(&mut self.start).await;
+        cx.control().note(cx, &format!("start -> {r:?}"));
+        let r = cx.step(&mut self.travel).await;
+        cx.control().note(cx, &format!("travel -> {r:?}"));
+    }
+}
+
+/// Non-blocking (own lane): travel; if the axis reports a fault, trigger the public `FAULT`
+/// event and wait for the emergency level.
+struct AxisB {
+    travel: Seq<Travel>,
+    report: Seq<Request>,
+}
+
+impl Sequence<Ctrl> for AxisB {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        let r = cx.step(&mut self.travel).await;
+        cx.control().note(cx, &format!("travel -> {r:?}"));
+        let r = cx.step(&mut self.report).await;
+        cx.control().note(cx, &format!("report -> {r:?}"));
+    }
+}
+
+/// The main sequence: power on (blocking step), start axis B (non-blocking), run axis A
+/// (blocking).
+struct Main {
+    power_on: Seq<Request>,
+    axis_b: SeqId,
+    move_a: Seq<MoveA>,
+}
+
+impl Sequence<Ctrl> for Main {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        let r = cx.step(&mut self.power_on).await;
+        cx.control().note(cx, &format!("power on -> {r:?}"));
+        let r = cx.start(self.axis_b);
+        cx.control().note(cx, &format!("start axis B -> {r:?}"));
+        let r = cx.run(&mut self.move_a).await;
+        cx.control().note(cx, &format!("move A -> {r:?}"));
+    }
+}
+
+type Seqr = Sequencer<Ctrl, 16>;
+
+/// Ids of the tree, in registration order.
+#[derive(Clone, Copy, Debug)]
+struct Ids {
+    power_on: SeqId,
+    start: SeqId,
+    travel_a: SeqId,
+    move_a: SeqId,
+    travel_b: SeqId,
+    report: SeqId,
+    axis_b: SeqId,
+    main: SeqId,
+}
+
+/// One safety cycle as recorded by the hook: time, report, outputs after the cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Cycle {
+    ms: u64,
+    report: CycleReport,
+    enable: bool,
+    lamp: bool,
+}
+
+fn cycle(ms: u64, level: SafetyLevel, change: Option<(Option<SafetyLevel>, SafetyLevel)>) -> Cycle {
+    let (enable, lamp) = match level {
+        READY | MOVING => (true, true),
+        _ => (false, false),
+    };
+    Cycle {
+        ms,
+        report: CycleReport {
+            level,
+            change: change.map(|(from, to)| LevelChange { from, to }),
+            input_events: 0,
+            aborted: level == EMERGENCY,
+            unknown_events: 0,
+        },
+        enable,
+        lamp,
+    }
+}
+
+/// What an emergency test sees.
+struct World {
+    trace: Vec<rtseq::Transition>,
+    cycles: Vec<Cycle>,
+    log: Vec<String>,
+    ids: Ids,
+    states: Vec<(SeqId, rtseq::RunningState, Option<Outcome>)>,
+    any_active: bool,
+    handle: &'static SafetyHandle,
+}
+
+/// Builds the tree and the safety system, runs the safety cycle every `safety_every` ticks
+/// (1 ms period) in the before-tick hook, applies `inject(ms, ctrl)` before each tick's
+/// safety cycle, runs for `run_ms`.
+fn run(safety_every: u64, run_ms: u64, inject: impl Fn(u64, &Ctrl) + 'static) -> World {
+    let ctrl: &'static Ctrl = Box::leak(Box::default());
+    let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
+    let seq = Seqr::new();
+    seq.set_safety_system(handle);
+
+    let cfg = SeqConfig::new;
+    let request = |event, until| Request { event, until };
+    let power_on = seq.add(cfg("power on"), request(SWITCH_ON, READY)).unwrap();
+    let start = seq
+        .add(cfg("start moving"), request(START_MOVING, MOVING))
+        .unwrap();
+    let travel_a = seq
+        .add(cfg("travel A"), Travel { watch_fault: false })
+        .unwrap();
+    let ids_a = (power_on.id(), start.id(), travel_a.id());
+    let move_a = seq
+        .add(
+            cfg("move A"),
+            MoveA {
+                start,
+                travel: travel_a,
+            },
+        )
+        .unwrap();
+    let travel_b = seq
+        .add(cfg("travel B"), Travel { watch_fault: true })
+        .unwrap();
+    let report = seq
+        .add(cfg("report fault"), request(FAULT, EMERGENCY))
+        .unwrap();
+    let ids_b = (travel_b.id(), report.id());
+    let axis_b = seq
+        .add(
+            cfg("axis B"),
+            AxisB {
+                travel: travel_b,
+                report,
+            },
+        )
+        .unwrap();
+    let (move_a_id, axis_b_id) = (move_a.id(), axis_b.id());
+    let main = seq
+        .add(
+            cfg("main"),
+            Main {
+                power_on,
+                axis_b: axis_b_id,
+                move_a,
+            },
+        )
+        .unwrap();
+    let ids = Ids {
+        power_on: ids_a.0,
+        start: ids_a.1,
+        travel_a: ids_a.2,
+        move_a: move_a_id,
+        travel_b: ids_b.0,
+        report: ids_b.1,
+        axis_b: axis_b_id,
+        main: main.id(),
+    };
+
+    let cycles: Rc<RefCell<Vec<Cycle>>> = Rc::default();
+    let mut safety = SafetySystem::new_validated(&PROPS, handle).unwrap();
+    let mut sim = Sim::new(&seq, ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(axis_b);
+    {
+        let cycles = cycles.clone();
+        let sequencer = &seq;
+        let mut io: Io = ctrl;
+        sim.before_tick(move |now, c| {
+            let t = ms(now);
+            inject(t, c);
+            if t % safety_every == 0 {
+                let report = safety.cycle(&mut io, sequencer);
+                cycles.borrow_mut().push(Cycle {
+                    ms: t,
+                    report,
+                    enable: c.enable.get(),
+                    lamp: c.lamp.get(),
+                });
+            }
+        });
+    }
+    // Let the safety system enter its entry level before anything starts.
+    while cycles.borrow().is_empty() {
+        sim.step();
+    }
+    sim.start(ids.main).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(run_ms * 1000));
+    let states = (0..seq.len())
+        .map(|i| {
+            let h = sim.handle(SeqId::from_index(i)).unwrap();
+            (h.id(), h.state(), h.last_outcome())
+        })
+        .collect();
+    let any_active = sim.any_active();
+    let trace = sim.take_trace();
+    drop(sim);
+    let cycles = cycles.borrow().clone();
+    World {
+        trace,
+        cycles,
+        log: ctrl.log.borrow().clone(),
+        ids,
+        states,
+        any_active,
+        handle,
+    }
+}
+
+fn assert_trace(got: &[rtseq::Transition], want: &[rtseq::Transition]) {
+    assert_eq!(got, want, "\n got:\n{}\nwant:\n{}", show(got), show(want));
+}
+
+/// The trace of powering up and starting both axes (common to every scenario): main starts
+/// at 1 ms; the power-on step triggers SWITCH_ON at 1 ms; the safety system goes OFF →
+/// POWERING at 2 ms, reports POWERED in its 2nd powering cycle (3 ms) and is READY at 4 ms,
+/// when the power-on step's exit condition sees it; main then starts axis B (non-blocking)
+/// and runs move A (blocking), whose first step triggers START_MOVING; MOVING at 5 ms.
+fn power_up_trace(i: Ids) -> Vec<rtseq::Transition> {
+    vec![
+        tr(1, i.main, Idle, Running, Start),
+        tr(1, i.power_on, Idle, Running, Start),
+        tr(4, i.power_on, Running, Terminated, Completed),
+        tr(4, i.axis_b, Idle, Running, Start),
+        tr(4, i.move_a, Idle, Running, Start),
+        tr(4, i.start, Idle, Running, Start),
+        tr(4, i.travel_b, Idle, Running, Start),
+        tr(5, i.start, Running, Terminated, Completed),
+        tr(5, i.travel_a, Idle, Running, Start),
+    ]
+}
+
+/// The safety cycles of powering up (one per millisecond from 1 to 9 ms).
+fn power_up_cycles() -> Vec<Cycle> {
+    let mut c = vec![
+        cycle(1, OFF, Some((None, OFF))),
+        cycle(2, POWERING, Some((Some(OFF), POWERING))),
+        cycle(3, POWERING, None),
+        cycle(4, READY, Some((Some(POWERING), READY))),
+        cycle(5, MOVING, Some((Some(READY), MOVING))),
+    ];
+    // POWERING toggles the lamp: low in the entering cycle, then high.
+    c[2].lamp = true;
+    c.extend((6..10).map(|t| cycle(t, MOVING, None)));
+    c
+}
+
+fn aborted(t: u64, seqs: &[SeqId]) -> Vec<rtseq::Transition> {
+    seqs.iter()
+        .flat_map(|&s| {
+            [
+                tr(t, s, Running, Aborting, AbortAll),
+                tr(t, s, Aborting, Aborted, AbortAll),
+            ]
+        })
+        .collect()
+}
+
+/// After an emergency: every sequence that ran is `Aborted` (cause abort-all) or was
+/// already `Terminated` before (`completed`) or never started (`idle`); nothing is active.
+fn assert_all_stopped(w: &World, completed: &[SeqId], idle: &[SeqId]) {
+    assert!(!w.any_active, "{:?}", w.states);
+    for &(id, state, outcome) in &w.states {
+        if idle.contains(&id) {
+            assert_eq!((state, outcome), (Idle, None), "#{}", id.index());
+        } else if completed.contains(&id) {
+            assert_eq!(
+                (state, outcome),
+                (Terminated, Some(Outcome::Completed)),
+                "#{}",
+                id.index()
+            );
+        } else {
+            assert_eq!(
+                (state, outcome),
+                (Aborted, Some(Outcome::Aborted(AbortAll))),
+                "#{}",
+                id.index()
+            );
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Scenarios
+// ---------------------------------------------------------------------------------------
+
+/// The emergency-stop input is pressed at 10 ms (before that tick's safety cycle). The
+/// input check fires ESTOP in the 10 ms cycle (a private event, resolved in the next
+/// cycle); the 11 ms cycle enters EMERGENCY, drives the safe outputs and requests
+/// abort-all, and the tick at 11 ms aborts all five running sequences, innermost first.
+#[test]
+fn estop_input_during_a_running_tree_aborts_everything_within_one_safety_cycle() {
+    let w = run(1, 14, |t, c| {
+        if t == 10 {
+            c.estop.set(true);
+        }
+    });
+    let i = w.ids;
+
+    let mut want = power_up_cycles();
+    let mut fired = cycle(10, MOVING, None);
+    fired.report.input_events = 1 << ESTOP_IN.id().index();
+    want.push(fired);
+    // From 11 ms on: EMERGENCY, drive disabled, lamp blinking, abort-all every cycle
+    // (`WhileActive`); the pressed button keeps firing ESTOP, which keeps the level.
+    for (t, lamp) in [(11, false), (12, true), (13, false), (14, true)] {
+        let mut c = cycle(t, EMERGENCY, (t == 11).then_some((Some(MOVING), EMERGENCY)));
+        c.report.input_events = 1;
+        c.lamp = lamp;
+        want.push(c);
+    }
+    assert_eq!(w.cycles, want);
+
+    let mut trace = power_up_trace(i);
+    // Depth 2 (steps) by id, then depth 1 (move A, axis B), then main.
+    trace.extend(aborted(
+        11,
+        &[i.travel_a, i.travel_b, i.move_a, i.axis_b, i.main],
+    ));
+    assert_trace(&w.trace, &trace);
+    assert_all_stopped(&w, &[i.power_on, i.start], &[i.report]);
+    assert_eq!(w.handle.level(), EMERGENCY);
+
+    // No action line ran after the abort (sticky): the log ends with the travels' starts.
+    assert_eq!(
+        w.log,
+        [
+            format!("1 ms #{}: trigger", i.power_on.index()),
+            format!("4 ms #{}: power on -> Ok(Completed)", i.main.index()),
+            format!("4 ms #{}: start axis B -> Ok(())", i.main.index()),
+            format!("4 ms #{}: trigger", i.start.index()),
+            format!("4 ms #{}: travel", i.travel_b.index()),
+            format!("5 ms #{}: start -> Ok(Completed)", i.move_a.index()),
+            format!("5 ms #{}: travel", i.travel_a.index()),
+        ]
+    );
+}
+
+/// Axis B (a non-blocking sequence) detects a fault at 10 ms and triggers the public FAULT
+/// event through `cx.safety_system()` in the same tick. The very next safety cycle (11 ms)
+/// enters EMERGENCY and the tick at 11 ms aborts everything: from the event to every
+/// sequence `Aborted` is one safety period.
+#[test]
+fn public_fault_event_from_a_sequence_aborts_everything_in_the_next_safety_cycle() {
+    let w = run(1, 12, |t, c| {
+        if t == 10 {
+            c.fault.set(true);
+        }
+    });
+    let i = w.ids;
+
+    let mut want = power_up_cycles();
+    want.push(cycle(10, MOVING, None));
+    want.push(cycle(11, EMERGENCY, Some((Some(MOVING), EMERGENCY))));
+    let mut c = cycle(12, EMERGENCY, None);
+    c.lamp = true;
+    want.push(c);
+    assert_eq!(w.cycles, want);
+
+    // Axis B's travel sees the fault at 10 ms and its report step triggers FAULT; at 11 ms
+    // the five running sequences are aborted, innermost first.
+    let mut trace = power_up_trace(i);
+    trace.extend([
+        tr(10, i.travel_b, Running, Terminated, Completed),
+        tr(10, i.report, Idle, Running, Start),
+    ]);
+    trace.extend(aborted(
+        11,
+        &[i.travel_a, i.report, i.move_a, i.axis_b, i.main],
+    ));
+    assert_trace(&w.trace, &trace);
+    assert_all_stopped(&w, &[i.power_on, i.start, i.travel_b], &[]);
+    let log_tail: Vec<String> = w.log[7..].to_vec();
+    assert_eq!(
+        log_tail,
+        [
+            format!("10 ms #{}: travel -> Ok(Completed)", i.axis_b.index()),
+            format!("10 ms #{}: trigger", i.report.index()),
+        ]
+    );
+}
+
+/// With the safety cycle every 5 ticks (5 ms) the bound is one *safety* period: axis B
+/// triggers FAULT at 42 ms, the next safety cycle (45 ms) enters EMERGENCY and the tick at
+/// the same instant (the safety task runs first) aborts everything. Abort-all never lags the
+/// safety cycle by a tick here; it would if the safety task ran after the sequencer tick
+/// (lower priority, or its own unaligned timer): then the bound is one safety period plus
+/// one tick.
+#[test]
+fn with_a_slower_safety_period_the_bound_is_one_safety_period() {
+    let w = run(5, 50, |t, c| {
+        if t == 42 {
+            c.fault.set(true);
+        }
+    });
+    let i = w.ids;
+    let times: Vec<u64> = w.cycles.iter().map(|c| c.ms).collect();
+    assert_eq!(times, (1..=10).map(|k| 5 * k).collect::<Vec<_>>());
+    let entered: Vec<&Cycle> = w
+        .cycles
+        .iter()
+        .filter(|c| c.report.change.is_some_and(|ch| ch.to == EMERGENCY))
+        .collect();
+    assert_eq!(entered.len(), 1);
+    assert_eq!(entered[0].ms, 45);
+    assert_eq!(
+        (entered[0].enable, entered[0].report.aborted),
+        (false, true)
+    );
+    assert!(w
+        .log
+        .contains(&format!("42 ms #{}: trigger", i.report.index())));
+    let tail = aborted(45, &[i.travel_a, i.report, i.move_a, i.axis_b, i.main]);
+    assert_trace(&w.trace[w.trace.len() - tail.len()..], &tail);
+    assert_all_stopped(&w, &[i.power_on, i.start, i.travel_b], &[]);
+}
