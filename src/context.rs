@@ -3,8 +3,11 @@
 use core::future::poll_fn;
 use core::task::Poll;
 
+use core::future::Future;
+
 use crate::engine::Engine;
-use crate::sequence::{framework, poll_due, SeqBody, StepBody};
+use crate::run::Run;
+use crate::sequence::{framework, SeqBody, StepBody};
 use crate::sequencer::{Gate, Mode};
 use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
@@ -45,32 +48,29 @@ impl<'a, C> Cx<'a, C> {
     ///
     /// If this sequence is aborted or paused meanwhile, the call does not return into the
     /// action until it may advance again (sticky abort: an aborted action never resumes).
-    pub async fn run<S: Sequence<C>>(&self, child: &mut Seq<S>) -> Result<Outcome, Error> {
-        self.engine.begin(child.id, Some(self.id), Mode::Blocking)?;
-        let outcome = framework(
-            self.engine,
-            self.control,
-            child.id,
-            &mut SeqBody(&mut child.body),
-        )
-        .await;
-        self.resume_point().await;
-        Ok(outcome)
+    ///
+    /// The returned future borrows `child` but not this context (it copies what it needs),
+    /// so a hand-written action future can hold it.
+    pub fn run<'s, S: Sequence<C>>(
+        &self,
+        child: &'s mut Seq<S>,
+    ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
+        let Seq { id, body, slot } = child;
+        let id = *id;
+        let framework = framework(self.engine, self.control, id, SeqBody(body), slot);
+        Run::new(self.engine, self.id, id, slot, framework)
     }
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling
     /// period.
-    pub async fn step<S: Step<C>>(&self, step: &mut Seq<S>) -> Result<Outcome, Error> {
-        self.engine.begin(step.id, Some(self.id), Mode::Blocking)?;
-        let outcome = framework(
-            self.engine,
-            self.control,
-            step.id,
-            &mut StepBody(&mut step.body),
-        )
-        .await;
-        self.resume_point().await;
-        Ok(outcome)
+    pub fn step<'s, S: Step<C>>(
+        &self,
+        step: &'s mut Seq<S>,
+    ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
+        let Seq { id, body, slot } = step;
+        let id = *id;
+        let framework = framework(self.engine, self.control, id, StepBody(body), slot);
+        Run::new(self.engine, self.id, id, slot, framework)
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
@@ -80,30 +80,39 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Waits until non-blocking sequence `id` has ended and returns its outcome.
-    pub async fn join(&self, id: SeqId) -> Result<Outcome, Error> {
-        let r = poll_fn(|w| {
-            if self.engine.gate(self.id, w.waker()) != Gate::Go {
+    pub fn join(&self, id: SeqId) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
+        let (engine, me) = (self.engine, self.id);
+        poll_fn(move |w| {
+            // Only while this sequence may advance: an aborted joiner never resumes.
+            if engine.gate(me, w.waker()) != Gate::Go {
                 return Poll::Pending;
             }
-            self.engine.join(self.id, id)
+            engine.join(me, id)
         })
-        .await;
-        self.resume_point().await;
-        r
     }
 
     /// Waits, without a control block of its own, until `condition` holds; it is checked now
     /// and then at this sequence's polling period. Prefer a [`Step`] with an exit condition
     /// where the wait deserves its own timeout or monitors.
-    pub async fn wait_until(&self, mut condition: impl FnMut(&Self) -> bool) {
-        self.engine.poll_wait(self.id, true);
-        while !condition(self) {
-            if poll_due(self.engine, self.id).await != Gate::Go {
-                // Aborted or restarting: park here; the framework's guard drops this future.
-                core::future::pending::<()>().await;
+    pub fn wait_until<'s, F: FnMut(&Self) -> bool + 's>(
+        &'s self,
+        mut condition: F,
+    ) -> impl Future<Output = ()> + use<'s, 'a, C, F> {
+        let mut first = true;
+        poll_fn(move |w| {
+            let go = if core::mem::take(&mut first) {
+                self.engine.poll_wait(self.id, true);
+                self.engine.gate(self.id, w.waker()) == Gate::Go
+            } else {
+                self.engine.poll_due(self.id, w.waker()) == Gate::Go
+            };
+            if go && condition(self) {
+                self.engine.poll_wait(self.id, false);
+                Poll::Ready(())
+            } else {
+                Poll::Pending
             }
-        }
-        self.engine.poll_wait(self.id, false);
+        })
     }
 
     /// The seed's `getSafetySystem()`: trigger public events, read the level.
@@ -123,15 +132,5 @@ impl<'a, C> Cx<'a, C> {
         self.engine
             .find(name)
             .map(|id| Handle::from_engine(self.engine, id))
-    }
-
-    /// Returns only when this sequence may advance; pending forever once it is aborted or
-    /// restarting (its guard then drops the future that awaits this).
-    async fn resume_point(&self) {
-        poll_fn(|w| match self.engine.gate(self.id, w.waker()) {
-            Gate::Go => Poll::Ready(()),
-            _ => Poll::Pending,
-        })
-        .await
     }
 }

@@ -5,7 +5,8 @@
 //! until its sequence is started, runs it, and sleeps again.
 
 use core::convert::Infallible;
-use core::future::poll_fn;
+use core::future::{poll_fn, Future};
+use core::pin::pin;
 use core::task::Poll;
 
 use crate::engine::Engine;
@@ -25,7 +26,9 @@ use crate::{Seq, Sequence, Sequencer};
 /// static SEQ: Sequencer<(), 4> = Sequencer::new();
 /// // #[task(priority = 1, local = [blink])]
 /// async fn blink_lane(blink: &mut Seq<Blink>) {
-///     lane(&SEQ, &(), blink).await;
+///     // `lane` never returns; matching on its `Infallible` tells the compiler so, and the
+///     // task's future then has no "resumed after completion" panic path.
+///     match lane(&SEQ, &(), blink).await {}
 /// }
 /// ```
 ///
@@ -48,6 +51,18 @@ pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize>(
             }
         })
         .await;
-        framework(engine, control, id, &mut SeqBody(&mut seq.body)).await;
+        let Seq { body, slot, .. } = &mut *seq;
+        let mut run = pin!(framework(engine, control, id, SeqBody(body), slot));
+        poll_fn(|w| {
+            match run.as_mut().poll(w) {
+                Poll::Pending => {}
+                Poll::Ready(never) => match never {},
+            }
+            match slot.take() {
+                Some(_) => Poll::Ready(()),
+                None => Poll::Pending,
+            }
+        })
+        .await;
     }
 }

@@ -17,7 +17,7 @@
 //!
 //! See the README for the mapping of every term of the specification to rtseq.
 #![no_std]
-#![deny(missing_docs)]
+#![deny(missing_docs, unsafe_op_in_unsafe_fn)]
 #![deny(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -35,6 +35,7 @@ mod handle;
 mod id;
 mod lane;
 mod monitor;
+mod run;
 mod sequence;
 mod sequencer;
 mod state;

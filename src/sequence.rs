@@ -1,8 +1,10 @@
 //! Sequences and steps (seed §1.3–§1.5), and the framework loop that runs them
 //! (the seed's `actionFramework`).
 
+use core::cell::Cell;
+use core::convert::Infallible;
 use core::future::{poll_fn, Future};
-use core::pin::pin;
+use core::pin::{pin, Pin};
 use core::task::Poll;
 
 use crate::engine::Engine;
@@ -27,6 +29,40 @@ use crate::{Cx, Outcome, SeqId};
 ///         if cx.step(&mut self.enable).await != Ok(Outcome::Completed) {
 ///             return;
 ///         }
+///     }
+/// }
+/// ```
+///
+/// # Panic-free actions
+///
+/// rtseq itself has no panic path (the board's no-panic build proves it), but every
+/// `async fn` that returns carries a compiler-generated "`async fn` resumed after completion"
+/// panic path of its own. Firmware that must be provably panic-free implements `action` as a
+/// plain function returning a hand-written future (the futures of [`Cx::run`] and
+/// [`Cx::step`] borrow only the child, not the context, so they can be stored in it):
+///
+/// ```
+/// use core::future::Future;
+/// use core::pin::Pin;
+/// use core::task::{Context, Poll};
+/// use rtseq::{Cx, Seq, Sequence, Step};
+/// struct Enable;
+/// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// struct PowerOn { enable: Seq<Enable> }
+/// impl Sequence<()> for PowerOn {
+///     fn action<'a, 'b, 'c>(&'a mut self, cx: &'b Cx<'c, ()>)
+///         -> impl Future<Output = ()> + use<'a, 'b, 'c>
+///     {
+///         // Drop the outcome: a future adapter that cannot panic.
+///         struct Ignore<F>(F);
+///         impl<F: Future> Future for Ignore<F> {
+///             type Output = ();
+///             fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
+///                 // SAFETY: `0` is structurally pinned, never moved out.
+///                 unsafe { self.map_unchecked_mut(|s| &mut s.0) }.poll(w).map(|_| ())
+///             }
+///         }
+///         Ignore(cx.step(&mut self.enable))
 ///     }
 /// }
 /// ```
@@ -86,6 +122,8 @@ pub trait Step<C> {
 pub struct Seq<S> {
     pub(crate) id: SeqId,
     pub(crate) body: S,
+    /// Where the framework leaves the outcome of a run for the future that started it.
+    pub(crate) slot: Cell<Option<Outcome>>,
 }
 
 impl<S> Seq<S> {
@@ -107,7 +145,7 @@ impl<S> Seq<S> {
 
 /// What the framework needs of a sequence or a step.
 pub(crate) trait Body<C> {
-    async fn act(&mut self, cx: &Cx<'_, C>);
+    fn act<'s>(&'s mut self, cx: &'s Cx<'_, C>) -> impl Future<Output = ()>;
     fn pre(&mut self, cx: &Cx<'_, C>) -> bool;
     fn exit(&mut self, cx: &Cx<'_, C>) -> bool;
 }
@@ -116,19 +154,7 @@ pub(crate) struct SeqBody<'s, S>(pub(crate) &'s mut S);
 pub(crate) struct StepBody<'s, S>(pub(crate) &'s mut S);
 
 impl<C, S: Sequence<C>> Body<C> for SeqBody<'_, S> {
-    async fn act(&mut self, cx: &Cx<'_, C>) {
-        self.0.action(cx).await
-    }
-    fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_pre_condition(cx)
-    }
-    fn exit(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_exit_condition(cx)
-    }
-}
-
-impl<C, S: Step<C>> Body<C> for StepBody<'_, S> {
-    async fn act(&mut self, cx: &Cx<'_, C>) {
+    fn act<'s>(&'s mut self, cx: &'s Cx<'_, C>) -> impl Future<Output = ()> {
         self.0.action(cx)
     }
     fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
@@ -139,44 +165,66 @@ impl<C, S: Step<C>> Body<C> for StepBody<'_, S> {
     }
 }
 
-/// Waits at an await point until the gate opens; never returns `Hold`.
-pub(crate) async fn gate<C>(engine: &dyn Engine<C>, id: SeqId) -> Gate {
-    poll_fn(|w| match engine.gate(id, w.waker()) {
+impl<C, S: Step<C>> Body<C> for StepBody<'_, S> {
+    fn act<'s>(&'s mut self, cx: &'s Cx<'_, C>) -> impl Future<Output = ()> {
+        // The command runs at the first poll, i.e. only once the gate said go.
+        let step = &mut *self.0;
+        poll_fn(move |_| {
+            step.action(cx);
+            Poll::Ready(())
+        })
+    }
+    fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
+        self.0.check_pre_condition(cx)
+    }
+    fn exit(&mut self, cx: &Cx<'_, C>) -> bool {
+        self.0.check_exit_condition(cx)
+    }
+}
+
+// The futures below are `poll_fn`s or `async fn`s that never return: a returning `async fn`
+// carries a compiler-generated "resumed after completion" panic path, and rtseq has none.
+
+/// Waits at an await point until the gate opens; never yields `Hold`.
+pub(crate) fn gate<C>(engine: &dyn Engine<C>, id: SeqId) -> impl Future<Output = Gate> + '_ {
+    poll_fn(move |w| match engine.gate(id, w.waker()) {
         Gate::Hold => Poll::Pending,
         other => Poll::Ready(other),
     })
-    .await
 }
 
 /// Polls `fut` only while the gate of `id` is open: a held sequence does not advance, an
 /// aborted or restarting one never runs another line of it.
-async fn guarded<C>(engine: &dyn Engine<C>, id: SeqId, fut: impl Future<Output = ()>) -> Gate {
-    let mut fut = pin!(fut);
-    poll_fn(|w| match engine.gate(id, w.waker()) {
+fn guarded<'f, C, F: Future<Output = ()>>(
+    engine: &'f dyn Engine<C>,
+    id: SeqId,
+    mut fut: Pin<&'f mut F>,
+) -> impl Future<Output = Gate> + 'f {
+    poll_fn(move |w| match engine.gate(id, w.waker()) {
         Gate::Go => fut.as_mut().poll(w).map(|()| Gate::Go),
         Gate::Hold => Poll::Pending,
         other => Poll::Ready(other),
     })
-    .await
 }
 
 /// Waits for the next due poll of a polled condition.
-pub(crate) async fn poll_due<C>(engine: &dyn Engine<C>, id: SeqId) -> Gate {
-    poll_fn(|w| match engine.poll_due(id, w.waker()) {
+pub(crate) fn poll_due<C>(engine: &dyn Engine<C>, id: SeqId) -> impl Future<Output = Gate> + '_ {
+    poll_fn(move |w| match engine.poll_due(id, w.waker()) {
         Gate::Hold => Poll::Pending,
         other => Poll::Ready(other),
     })
-    .await
 }
 
 /// The seed's `actionFramework`: exceptions → pre-condition → action → exit condition every
-/// polling period, repeated from the pre-condition on restart.
+/// polling period, repeated from the pre-condition on restart. It leaves the outcome in
+/// `slot` and then never completes (see above); its owner drops it.
 pub(crate) async fn framework<C, B: Body<C>>(
     engine: &dyn Engine<C>,
     control: &C,
     id: SeqId,
-    body: &mut B,
-) -> Outcome {
+    mut body: B,
+    slot: &Cell<Option<Outcome>>,
+) -> Infallible {
     let cx = Cx::new(engine, control, id);
     let outcome = 'run: loop {
         // Each arm that leaves this iteration says how: on with the run, the outcome, or
@@ -203,7 +251,10 @@ pub(crate) async fn framework<C, B: Body<C>>(
                 }
             }
         }
-        on!(guarded(engine, id, body.act(&cx)).await);
+        {
+            let act = pin!(body.act(&cx));
+            on!(guarded(engine, id, act).await);
+        }
         engine.poll_wait(id, true);
         loop {
             if body.exit(&cx) {
@@ -217,5 +268,6 @@ pub(crate) async fn framework<C, B: Body<C>>(
     };
     engine.poll_wait(id, false);
     engine.finished(id, outcome);
-    outcome
+    slot.set(Some(outcome));
+    core::future::pending::<Infallible>().await
 }

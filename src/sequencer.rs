@@ -1,6 +1,6 @@
 //! The sequencer: registry of control blocks, the transition function, starts and requests.
 
-use core::cell::RefCell;
+use core::cell::UnsafeCell;
 use core::marker::PhantomData;
 use core::task::Waker;
 
@@ -66,7 +66,7 @@ pub(crate) struct Inner<C, const N: usize, const T: usize> {
 /// assert_eq!(SEQ.sequence_by_name("main").map(|h| h.id()), Some(main));
 /// ```
 pub struct Sequencer<C, const N: usize, const T: usize = 64> {
-    pub(crate) inner: critical_section::Mutex<RefCell<Inner<C, N, T>>>,
+    pub(crate) inner: critical_section::Mutex<UnsafeCell<Inner<C, N, T>>>,
     _control: PhantomData<fn(&C)>,
 }
 
@@ -81,7 +81,7 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
     pub const fn new() -> Self {
         const { assert!(N <= 255, "at most 255 sequences") };
         Sequencer {
-            inner: critical_section::Mutex::new(RefCell::new(Inner {
+            inner: critical_section::Mutex::new(UnsafeCell::new(Inner {
                 now: 0,
                 count: 0,
                 blocks: [ControlBlock::EMPTY; N],
@@ -99,8 +99,18 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
     }
 
     /// Runs `f` on the state inside a (short) critical section.
+    ///
+    /// This is the crate's only access to `Inner`. A `RefCell` would add a panic path (the
+    /// "already borrowed" check) to every operation; instead exclusivity rests on two facts:
+    /// the critical section keeps every other context out, and no closure passed here calls
+    /// `with` again (they only touch `Inner`, and the wakers they call only flag a task).
     pub(crate) fn with<R>(&self, f: impl FnOnce(&mut Inner<C, N, T>) -> R) -> R {
-        critical_section::with(|cs| f(&mut self.inner.borrow_ref_mut(cs)))
+        critical_section::with(|cs| {
+            // SAFETY: see above — inside the critical section and without re-entry this is
+            // the only reference to `Inner`.
+            let inner = unsafe { &mut *self.inner.borrow(cs).get() };
+            f(inner)
+        })
     }
 
     /// Registers a sequence or step. Errors on an empty or duplicate name, an out-of-range
@@ -150,7 +160,11 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
                 return Err(Error::AlreadyBound(id));
             }
             b.set(flag::BOUND, true);
-            Ok(crate::Seq { id, body })
+            Ok(crate::Seq {
+                id,
+                body,
+                slot: core::cell::Cell::new(None),
+            })
         })
     }
 
