@@ -413,6 +413,19 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
         }
     }
 
+    /// True when one of the callers `id` blocks is not free to advance (paused, held for an
+    /// exception, or being stopped), so `id` is frozen at its await point.
+    pub(crate) fn blocked_by_held_caller(&self, id: SeqId) -> bool {
+        let Ok(b) = self.block(id) else { return false };
+        let depth = usize::from(b.depth);
+        let first = depth.saturating_sub(usize::from(b.blocking));
+        b.stack
+            .iter()
+            .take(depth)
+            .skip(first)
+            .any(|&c| self.gate(SeqId(c)) != Gate::Go)
+    }
+
     /// Parks `waker` as the waker of `id`'s lane.
     pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
         let Ok(root) = self.block(id).map(|b| SeqId(b.root)) else {

@@ -40,6 +40,7 @@ struct SimLane<'a> {
     future: Pin<Box<dyn Future<Output = Infallible> + 'a>>,
     flag: Arc<Flag>,
     waker: Waker,
+    polls: usize,
 }
 
 type BeforeTick<'a, C> = Box<dyn FnMut(Instant, &C) + 'a>;
@@ -134,6 +135,7 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
             future,
             flag,
             waker,
+            polls: 0,
         });
         self.settle();
     }
@@ -250,6 +252,12 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
         self.stalled
     }
 
+    /// How often each lane was polled, in the order the lanes were added: the tick wakes only
+    /// lanes that must act, so an idle or frozen lane is not polled at all.
+    pub fn lane_polls(&self) -> Vec<usize> {
+        self.lanes.iter().map(|l| l.polls).collect()
+    }
+
     /// The monitor table (e.g. to read how often a monitor fired).
     pub fn monitors(&self) -> &Monitors<'a, C, M> {
         &self.monitors
@@ -282,6 +290,7 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
                 if lane.flag.0.swap(false, Ordering::SeqCst) {
                     any = true;
                     polls = polls.saturating_add(1);
+                    lane.polls = lane.polls.saturating_add(1);
                     let mut cx = Context::from_waker(&lane.waker);
                     let _ = lane.future.as_mut().poll(&mut cx);
                     let trace = &mut self.trace;

@@ -183,7 +183,11 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
             let Ok(b) = s.block_mut(id) else { return };
             if b.state == RunningState::Running && b.has(flag::POLL_WAIT) {
                 b.set(flag::POLL_DUE, true);
-                s.wake(id);
+                // A sequence frozen by a caller it blocks (paused, or holding for an
+                // exception) cannot act: its lane is woken when that caller goes on.
+                if !s.blocked_by_held_caller(id) {
+                    s.wake(id);
+                }
             }
         });
     }

@@ -740,3 +740,66 @@ fn handle_requests_check_the_state() {
         Some(Outcome::Aborted(Cause::Abort))
     );
 }
+
+#[test]
+fn the_tick_wakes_only_the_lanes_that_must_act() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq
+        .add(
+            SeqConfig::new("S").polling(Duration::from_millis(10)),
+            Leaf::until(1),
+        )
+        .unwrap();
+    let a = seq
+        .add(
+            SeqConfig::new("A").polling(Duration::from_millis(10)),
+            Node::of(vec![Op::Step(s)]),
+        )
+        .unwrap();
+    let ai = a.id();
+    let w = seq
+        .add(
+            SeqConfig::new("W"),
+            rtseq::Wait::new(Duration::from_millis(30)),
+        )
+        .unwrap();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let ei = e.id();
+    let idle = seq.add(SeqConfig::new("idle"), Node::of(vec![])).unwrap();
+    let mut c0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    monitors
+        .add(
+            ai,
+            Monitor::new("m", &mut c0, Behaviour::Nothing).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(a);
+    sim.lane(e);
+    sim.lane(idle);
+    assert_eq!(sim.lane_polls(), vec![1, 1, 1]); // each lane parks once
+    sim.start(ai).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(100_000));
+    // A: the start, then one poll per 10 ms period of its step's exit condition.
+    assert_eq!(sim.lane_polls(), vec![1 + 1 + 10, 1, 1]);
+    // The monitor fires at 110 ms; E waits 30 ms (polled every 1 ms: 30 polls + start); A's
+    // step is frozen meanwhile and its lane is not woken until the behaviour is applied.
+    sim.before_tick(|t, c| c.set(0, ms(t) == 110));
+    sim.run_until(rtseq::Instant::from_ticks(200_000));
+    let polls = sim.lane_polls();
+    assert_eq!(polls[1], 1 + 1 + 30, "exception lane");
+    assert_eq!(polls[2], 1, "an idle lane is never woken");
+    assert_eq!(
+        ctrl.lines_of(ai).len(),
+        1,
+        "A's action line ran once, at the start"
+    );
+    // A's lane: 12 polls up to 100 ms; at 110 the monitor fires and the due poll of the held
+    // step does not wake it, nor do 120 and 130; E ends at 140, the behaviour (Nothing) is
+    // applied at 141 and wakes A once; then its polls at 150 ... 200.
+    assert_eq!(polls[0], 12 + 1 + 6, "A's lane: {polls:?}");
+}
