@@ -37,6 +37,7 @@ pub(crate) trait Engine<C> {
     fn info(&self, id: SeqId) -> Option<Info>;
     fn request(&self, id: SeqId, bit: u8) -> Result<(), Error>;
     fn find(&self, name: &str) -> Option<SeqId>;
+    fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
@@ -161,6 +162,13 @@ impl<C, const N: usize, const T: usize> Engine<C> for Sequencer<C, N, T> {
 
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle> {
         self.safety_system()
+    }
+
+    fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {
+        self.with(|s| {
+            s.block_mut(id)?.timeout = micros;
+            Ok(())
+        })
     }
 
     fn find(&self, name: &str) -> Option<SeqId> {

@@ -3,7 +3,7 @@
 use crate::control_block::request;
 use crate::engine::Engine;
 use crate::sequencer::Mode;
-use crate::{Cause, Counters, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
+use crate::{Cause, Counters, Duration, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// A callers list (`callerStack` or `callerStackBlocking`), outermost first.
 pub type CallerStack = heapless::Vec<SeqId, MAX_DEPTH>;
@@ -130,6 +130,26 @@ impl<'a, C> Handle<'a, C> {
     /// Requests an abort of the sequence and all its sub-sequences (next tick).
     pub fn abort(&self) -> Result<(), Error> {
         self.engine.request(self.id, request::ABORT)
+    }
+
+    /// Sets (or with `None` switches off) the timeout monitor; it applies from the next
+    /// start or restart, like EEROS's `setTimeoutTime`.
+    ///
+    /// ```
+    /// use rtseq::{Duration, Error, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let h = seq.sequence_by_id(seq.register(SeqConfig::new("move")).unwrap()).unwrap();
+    /// assert_eq!(h.set_timeout(Some(Duration::from_secs(2))), Ok(()));
+    /// assert_eq!(h.set_timeout(Some(Duration::from_ticks(0))), Err(Error::DurationOutOfRange));
+    /// ```
+    pub fn set_timeout(&self, timeout: Option<Duration>) -> Result<(), Error> {
+        let micros = match timeout {
+            Some(t) => crate::time::to_micros_u32(t)
+                .filter(|&t| t > 0)
+                .ok_or(Error::DurationOutOfRange)?,
+            None => 0,
+        };
+        self.engine.set_timeout(self.id, micros)
     }
 
     /// Declares that a lane runs this sequence, so it can be started non-blocking before the
