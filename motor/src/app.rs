@@ -1,0 +1,734 @@
+//! The whole application in one registration call, plus fault injection and the run's
+//! summary — so the QEMU firmware and the host tests build the *same* application.
+//!
+//! # Using it
+//!
+//! ```
+//! use rtseq::sim::Sim;
+//! use rtseq::{Duration, Monitors, Sequencer};
+//! use rtseq_motor::app::{self, AppConfig, Conditions, FaultPlan};
+//! use rtseq_motor::control_system::{ControlSystem, Phase};
+//!
+//! let seq: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
+//! let cs = ControlSystem::new(AppConfig::DEFAULT.start_position);
+//! cs.set_fault_plan(FaultPlan::NONE);
+//! let mut conditions = Conditions::new(&AppConfig::DEFAULT);
+//! let mut monitors: Monitors<ControlSystem, { app::MONITORS }> = Monitors::new();
+//! let app = app::register(&seq, &mut monitors, &mut conditions, &AppConfig::DEFAULT).unwrap();
+//! let main = app.ids.main;
+//!
+//! let mut sim = Sim::new(&seq, &cs, monitors);
+//! for lane in app.lanes() { lane.add_to(&mut sim); }
+//! sim.before_tick(|now, cs| cs.control_tick(now, 0.001)); // the control interrupt
+//! sim.start(main).unwrap();
+//! sim.run_until_idle(Duration::from_secs(10)).unwrap();
+//! assert_eq!(cs.phase(), Phase::Done);
+//! assert_eq!(usize::from(cs.summary().moves_done), AppConfig::DEFAULT.move_count);
+//! ```
+//!
+//! In RTIC firmware: a `static` [`Sequencer`] and [`ControlSystem`], the [`Monitors`] and
+//! the [`Conditions`] as `local` resources of the timer task (`Conditions::new` is
+//! `const`), [`register`] in `init`, one async task per lane of [`App`] (or all of them
+//! joined in one task with [`App::run`]), and in the timer interrupt:
+//! `CS.control_tick(now, 0.001); SEQ.tick(now, &CS, monitors);`.
+
+use core::convert::Infallible;
+use core::future::{poll_fn, Future};
+use core::pin::pin;
+use core::task::Poll;
+
+use rtseq::{
+    Behaviour, Condition, Duration, Instant, MonitorId, Monitors, Seq, SeqConfig, SeqId,
+    Sequencer, Toggle, Wait,
+};
+
+use crate::control_system::{ControlSystem, Phase};
+use crate::sequences::{
+    FeedHold, FeedResume, Halt, Homing, Main, MoveLoop, MoveTo, PowerOff, PowerOn, QuickStop,
+    SafeStop, SeekEndStop, SetZero, StatusBlink,
+};
+
+/// Maximum number of point-to-point moves.
+pub const MAX_MOVES: usize = 8;
+/// Maximum number of planned faults.
+pub const MAX_FAULTS: usize = 4;
+/// Sequences and steps [`register`] adds: the minimum sequencer capacity `N`.
+pub const SEQUENCES: usize = 18;
+/// Monitors [`register`] adds: the minimum monitor capacity `M`.
+pub const MONITORS: usize = 4;
+
+/// The application's parameters (SI units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AppConfig {
+    /// Machine position at power-up, m (the negative end stop is at 0).
+    pub start_position: f32,
+    /// Homing jog speed, m/s.
+    pub homing_speed: f32,
+    /// Homing timeout (seek, halt, zero, back off).
+    pub homing_timeout: Duration,
+    /// Back-off position after zeroing, m.
+    pub back_off: f32,
+    /// Move targets, m (homed coordinates); the first `move_count` are used.
+    pub targets: [f32; MAX_MOVES],
+    /// Number of moves (≤ [`MAX_MOVES`]).
+    pub move_count: usize,
+    /// Dwell after each move.
+    pub dwell: Duration,
+    /// Timeout of one move (paused time excluded).
+    pub move_timeout: Duration,
+    /// Following-error limit of the monitor, m.
+    pub following_error_limit: f32,
+    /// Restart limit of the following-error monitor.
+    pub restart_limit: u8,
+}
+
+impl AppConfig {
+    /// 20 mm from the end stop; homing at 20 mm/s (5 s timeout), back off to 5 mm; three
+    /// moves to 100, 50 and 150 mm with 100 ms dwell; 2 mm following-error limit, three
+    /// restarts. A fault-free run lasts about 3.7 s.
+    pub const DEFAULT: AppConfig = AppConfig {
+        start_position: 0.020,
+        homing_speed: 0.020,
+        homing_timeout: Duration::from_secs(5),
+        back_off: 0.005,
+        targets: [0.100, 0.050, 0.150, 0.0, 0.0, 0.0, 0.0, 0.0],
+        move_count: 3,
+        dwell: Duration::from_millis(100),
+        move_timeout: Duration::from_secs(3),
+        following_error_limit: 0.002,
+        restart_limit: 3,
+    };
+}
+
+/// A fault to inject at a virtual time (see [`ControlSystem::inject`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Fault {
+    /// The axis jams at `at` (and stays jammed): a following error.
+    FollowingError {
+        /// Injection time.
+        at: Instant,
+    },
+    /// The current sensor reads [`OVERCURRENT_OFFSET`](crate::control_system::OVERCURRENT_OFFSET)
+    /// A high from `at`: an over-current for the safety system.
+    OverCurrent {
+        /// Injection time.
+        at: Instant,
+    },
+    /// The positive end-stop switch closes at `at` (and stays closed).
+    EndStop {
+        /// Injection time.
+        at: Instant,
+    },
+    /// The emergency-stop button is pressed at `at` (and stays pressed).
+    EStop {
+        /// Injection time.
+        at: Instant,
+    },
+}
+
+/// The kind of a [`Fault`], without its time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FaultKind {
+    /// [`Fault::FollowingError`].
+    FollowingError,
+    /// [`Fault::OverCurrent`].
+    OverCurrent,
+    /// [`Fault::EndStop`].
+    EndStop,
+    /// [`Fault::EStop`].
+    EStop,
+}
+
+impl Fault {
+    /// The injection time.
+    pub const fn at(self) -> Instant {
+        match self {
+            Fault::FollowingError { at }
+            | Fault::OverCurrent { at }
+            | Fault::EndStop { at }
+            | Fault::EStop { at } => at,
+        }
+    }
+
+    /// The kind.
+    pub const fn kind(self) -> FaultKind {
+        match self {
+            Fault::FollowingError { .. } => FaultKind::FollowingError,
+            Fault::OverCurrent { .. } => FaultKind::OverCurrent,
+            Fault::EndStop { .. } => FaultKind::EndStop,
+            Fault::EStop { .. } => FaultKind::EStop,
+        }
+    }
+}
+
+/// A pause window: the pause button is pressed at `start` (pause) and again at `end`
+/// (resume).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PauseWindow {
+    /// First press.
+    pub start: Instant,
+    /// Second press.
+    pub end: Instant,
+}
+
+/// What to inject during a run.
+///
+/// ```
+/// use rtseq::Instant;
+/// use rtseq_motor::app::{Fault, FaultPlan};
+/// let ms = |m: u64| Instant::from_ticks(m * 1000);
+/// let plan = FaultPlan::NONE
+///     .with(Fault::FollowingError { at: ms(2000) })
+///     .with_pause(ms(1600), ms(2100));
+/// assert_eq!(plan.faults[0], Some(Fault::FollowingError { at: ms(2000) }));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FaultPlan {
+    /// Faults, each at its time.
+    pub faults: [Option<Fault>; MAX_FAULTS],
+    /// The pause window.
+    pub pause: Option<PauseWindow>,
+}
+
+impl FaultPlan {
+    /// No fault, no pause.
+    pub const NONE: FaultPlan = FaultPlan {
+        faults: [None; MAX_FAULTS],
+        pause: None,
+    };
+
+    /// Adds a fault (ignored when [`MAX_FAULTS`] are planned already).
+    pub const fn with(mut self, fault: Fault) -> Self {
+        let mut i = 0;
+        while i < MAX_FAULTS {
+            if self.faults[i].is_none() {
+                self.faults[i] = Some(fault);
+                return self;
+            }
+            i += 1;
+        }
+        self
+    }
+
+    /// Sets the pause window.
+    pub const fn with_pause(mut self, start: Instant, end: Instant) -> Self {
+        self.pause = Some(PauseWindow { start, end });
+        self
+    }
+}
+
+/// The reaction to one kind of injected fault, in virtual time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Reaction {
+    /// When the fault was injected.
+    pub injected: Option<Instant>,
+    /// When the application reacted: the safe stop started (following error), the moves
+    /// were aborted (end stop), the safety system withdrew the drive permit (over-current,
+    /// e-stop).
+    pub reacted: Option<Instant>,
+    /// When the motor was first stopped after the reaction (|v| ≤ 5 mm/s, |i| ≤ 0.3 A).
+    pub stopped: Option<Instant>,
+}
+
+impl Reaction {
+    /// Nothing injected.
+    pub const NONE: Reaction = Reaction {
+        injected: None,
+        reacted: None,
+        stopped: None,
+    };
+
+    /// Injection → reaction.
+    pub fn latency(&self) -> Option<Duration> {
+        self.reacted?.checked_duration_since(self.injected?)
+    }
+
+    /// Injection → motor stopped.
+    pub fn stop_latency(&self) -> Option<Duration> {
+        self.stopped?.checked_duration_since(self.injected?)
+    }
+}
+
+/// The run's summary, filled during the run ([`ControlSystem::summary`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Summary {
+    /// Homing completed.
+    pub homed_at: Option<Instant>,
+    /// Moves completed (over all runs of the move loop).
+    pub moves_done: u16,
+    /// When move `i` completed (in position and settled).
+    pub move_done_at: [Option<Instant>; MAX_MOVES],
+    /// Safe stops run.
+    pub safe_stops: u16,
+    /// First feed hold.
+    pub paused_at: Option<Instant>,
+    /// First feed resume.
+    pub resumed_at: Option<Instant>,
+    /// Following-error fault.
+    pub following_error: Reaction,
+    /// Over-current fault.
+    pub over_current: Reaction,
+    /// End-stop fault.
+    pub end_stop: Reaction,
+    /// Emergency-stop fault.
+    pub estop: Reaction,
+    /// The main sequence ended.
+    pub finished_at: Option<Instant>,
+}
+
+impl Summary {
+    /// Nothing happened yet.
+    pub const EMPTY: Summary = Summary {
+        homed_at: None,
+        moves_done: 0,
+        move_done_at: [None; MAX_MOVES],
+        safe_stops: 0,
+        paused_at: None,
+        resumed_at: None,
+        following_error: Reaction::NONE,
+        over_current: Reaction::NONE,
+        end_stop: Reaction::NONE,
+        estop: Reaction::NONE,
+        finished_at: None,
+    };
+
+    /// The reaction record of a fault kind.
+    pub fn reaction(&self, kind: FaultKind) -> Reaction {
+        match kind {
+            FaultKind::FollowingError => self.following_error,
+            FaultKind::OverCurrent => self.over_current,
+            FaultKind::EndStop => self.end_stop,
+            FaultKind::EStop => self.estop,
+        }
+    }
+
+    pub(crate) fn reaction_mut(&mut self, kind: FaultKind) -> &mut Reaction {
+        match kind {
+            FaultKind::FollowingError => &mut self.following_error,
+            FaultKind::OverCurrent => &mut self.over_current,
+            FaultKind::EndStop => &mut self.end_stop,
+            FaultKind::EStop => &mut self.estop,
+        }
+    }
+
+    pub(crate) fn reactions_mut(&mut self) -> [&mut Reaction; 4] {
+        [
+            &mut self.following_error,
+            &mut self.over_current,
+            &mut self.end_stop,
+            &mut self.estop,
+        ]
+    }
+}
+
+impl Default for Summary {
+    fn default() -> Self {
+        Summary::EMPTY
+    }
+}
+
+/// Monitor condition: |following error| above a limit (m).
+pub struct FollowingErrorAbove {
+    /// The limit, m.
+    pub limit: f32,
+}
+
+impl Condition<ControlSystem> for FollowingErrorAbove {
+    fn validate(&mut self, cs: &ControlSystem, _now: Instant) -> bool {
+        cs.following_error().abs() > self.limit
+    }
+}
+
+/// Monitor condition: an end-stop switch is closed.
+pub struct EndStopHit;
+
+impl Condition<ControlSystem> for EndStopHit {
+    fn validate(&mut self, cs: &ControlSystem, _now: Instant) -> bool {
+        cs.any_end_stop()
+    }
+}
+
+/// The raw pause button, as a `fn` pointer (nameable, so conditions can be `static`).
+pub type Button = fn(&ControlSystem) -> bool;
+
+/// The pause toggle: on after the first press of the pause button, off after the next.
+pub type PauseToggle = Toggle<Button>;
+
+/// Monitor condition of the resume monitor: the pause toggle is off again while the moves
+/// are paused. It keeps its own copy of the toggle, which sees exactly the same presses as
+/// the pause monitor's (both monitors belong to the moves sequence, so both are evaluated
+/// at the same polls).
+pub struct ResumePressed {
+    toggle: PauseToggle,
+}
+
+impl Condition<ControlSystem> for ResumePressed {
+    fn validate(&mut self, cs: &ControlSystem, now: Instant) -> bool {
+        let on = self.toggle.validate(cs, now);
+        !on && cs.phase() == Phase::Paused
+    }
+}
+
+/// The monitor conditions (they keep state; the monitor table borrows them). In firmware,
+/// a `local` resource of the timer task: `Conditions::new` is `const`.
+pub struct Conditions {
+    following_error: FollowingErrorAbove,
+    end_stop: EndStopHit,
+    pause: PauseToggle,
+    resume: ResumePressed,
+}
+
+impl Conditions {
+    /// The conditions for `config`.
+    pub const fn new(config: &AppConfig) -> Self {
+        Conditions {
+            following_error: FollowingErrorAbove {
+                limit: config.following_error_limit,
+            },
+            end_stop: EndStopHit,
+            pause: Toggle::new(ControlSystem::pause_button as Button),
+            resume: ResumePressed {
+                toggle: Toggle::new(ControlSystem::pause_button as Button),
+            },
+        }
+    }
+}
+
+/// The ids of everything [`register`] added (for tests, logs and traces).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Ids {
+    /// Main sequence.
+    pub main: SeqId,
+    /// Status sequence.
+    pub status: SeqId,
+    /// Its blink wait.
+    pub blink: SeqId,
+    /// Power-on step.
+    pub power_on: SeqId,
+    /// Homing sequence.
+    pub homing: SeqId,
+    /// Seek step.
+    pub seek: SeqId,
+    /// Halt step of homing.
+    pub halt: SeqId,
+    /// Set-zero step.
+    pub set_zero: SeqId,
+    /// Back-off step.
+    pub back_off: SeqId,
+    /// Move loop sequence.
+    pub moves: SeqId,
+    /// Move step.
+    pub move_step: SeqId,
+    /// Dwell step.
+    pub dwell: SeqId,
+    /// Safe-stop exception sequence.
+    pub safe_stop: SeqId,
+    /// Its quick-stop step.
+    pub quick_stop: SeqId,
+    /// Feed-hold exception sequence.
+    pub feed_hold: SeqId,
+    /// Feed-resume exception sequence.
+    pub feed_resume: SeqId,
+    /// Main's halt step after a failure.
+    pub main_halt: SeqId,
+    /// Power-off step.
+    pub power_off: SeqId,
+    /// Following-error monitor (owner: move step).
+    pub following_error: MonitorId,
+    /// End-stop monitor (owner: moves).
+    pub end_stop: MonitorId,
+    /// Pause monitor (owner: moves).
+    pub pause: MonitorId,
+    /// Resume monitor (owner: moves).
+    pub resume: MonitorId,
+}
+
+/// The registered application: the sequence objects that need a lane, and the ids.
+pub struct App {
+    /// Lane: the main sequence (start it with its handle or `Sim::start`).
+    pub main: Seq<Main>,
+    /// Lane: the status sequence (started by main).
+    pub status: Seq<StatusBlink>,
+    /// Lane: the safe-stop exception sequence.
+    pub safe_stop: Seq<SafeStop>,
+    /// Lane: the feed-hold exception sequence.
+    pub feed_hold: Seq<FeedHold>,
+    /// Lane: the feed-resume exception sequence.
+    pub feed_resume: Seq<FeedResume>,
+    /// Every id.
+    pub ids: Ids,
+}
+
+/// One lane of an [`App`] (for the host simulator: [`AppLane::add_to`]).
+pub enum AppLane {
+    /// Main.
+    Main(Seq<Main>),
+    /// Status.
+    Status(Seq<StatusBlink>),
+    /// Safe stop.
+    SafeStop(Seq<SafeStop>),
+    /// Feed hold.
+    FeedHold(Seq<FeedHold>),
+    /// Feed resume.
+    FeedResume(Seq<FeedResume>),
+}
+
+#[cfg(feature = "std")]
+impl AppLane {
+    /// Adds this lane to a host simulation.
+    pub fn add_to<'a, const N: usize, const T: usize, const M: usize>(
+        self,
+        sim: &mut rtseq::sim::Sim<'a, ControlSystem, N, T, M>,
+    ) {
+        match self {
+            AppLane::Main(s) => sim.lane(s),
+            AppLane::Status(s) => sim.lane(s),
+            AppLane::SafeStop(s) => sim.lane(s),
+            AppLane::FeedHold(s) => sim.lane(s),
+            AppLane::FeedResume(s) => sim.lane(s),
+        }
+    }
+}
+
+impl App {
+    /// The five lanes, in the order they should be polled (main first).
+    pub fn lanes(self) -> [AppLane; 5] {
+        [
+            AppLane::Main(self.main),
+            AppLane::Status(self.status),
+            AppLane::SafeStop(self.safe_stop),
+            AppLane::FeedHold(self.feed_hold),
+            AppLane::FeedResume(self.feed_resume),
+        ]
+    }
+
+    /// All five lanes joined in one future (for a single RTIC task): never returns.
+    ///
+    /// Each wake polls the five lane futures in order; a lane that has nothing to do returns
+    /// `Pending` at once (rtseq's await points tolerate spurious polls).
+    pub async fn run<const N: usize, const T: usize>(
+        self,
+        sequencer: &Sequencer<ControlSystem, N, T>,
+        cs: &ControlSystem,
+    ) -> Infallible {
+        let App {
+            mut main,
+            mut status,
+            mut safe_stop,
+            mut feed_hold,
+            mut feed_resume,
+            ..
+        } = self;
+        let mut a = pin!(rtseq::lane(sequencer, cs, &mut main));
+        let mut b = pin!(rtseq::lane(sequencer, cs, &mut status));
+        let mut c = pin!(rtseq::lane(sequencer, cs, &mut safe_stop));
+        let mut d = pin!(rtseq::lane(sequencer, cs, &mut feed_hold));
+        let mut e = pin!(rtseq::lane(sequencer, cs, &mut feed_resume));
+        poll_fn(|w| {
+            // A lane never ends (`Infallible`): every poll returns `Pending`.
+            let _ = a.as_mut().poll(w);
+            let _ = b.as_mut().poll(w);
+            let _ = c.as_mut().poll(w);
+            let _ = d.as_mut().poll(w);
+            let _ = e.as_mut().poll(w);
+            Poll::Pending
+        })
+        .await
+    }
+}
+
+fn add<S, const N: usize, const T: usize>(
+    seq: &Sequencer<ControlSystem, N, T>,
+    config: SeqConfig<ControlSystem>,
+    body: S,
+) -> Result<Seq<S>, rtseq::Error> {
+    seq.add(config, body)
+}
+
+/// Registers the whole application into `sequencer` and `monitors` and returns the
+/// sequence objects the lanes need.
+///
+/// Sequences (polling 1 ms unless noted): `main`; `status` (10 ms) with its `blink` wait;
+/// `power on`; `homing` (timeout `homing_timeout`, exception `safe stop`, abort) with `seek
+/// end stop`, `halt`, `set zero`, `back off`; `moves` with `move` (timeout `move_timeout`)
+/// and `dwell`; the exception sequences `safe stop` (with `quick stop`), `feed hold`, `feed
+/// resume`; `main halt`, `power off`. `moves` and `move` stop the axis when aborted
+/// ([`ControlSystem::abort_hook`]).
+///
+/// Monitors:
+///
+/// | monitor | owner | condition | exception | behaviour |
+/// |---|---|---|---|---|
+/// | `following error` | `move` | \|setpoint − position\| > limit | `safe stop` | `RestartCallerOfOwner`, limit `restart_limit` |
+/// | `end stop` | `moves` | an end-stop switch closed | — | `AbortOwner` |
+/// | `pause` | `moves` | [`Toggle`] of the pause button | `feed hold` | `Nothing` |
+/// | `resume` | `moves` | toggle off again while paused | `feed resume` | `Nothing` |
+///
+/// The end-stop monitor belongs to the whole move loop, not to one move: hitting a limit
+/// must end the motion program (the moves and the move in progress are aborted, main gets
+/// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
+///
+/// Errors: capacity (`N` < [`SEQUENCES`], `M` < [`MONITORS`]), or names already taken.
+pub fn register<'a, const N: usize, const T: usize, const M: usize>(
+    sequencer: &Sequencer<ControlSystem, N, T>,
+    monitors: &mut Monitors<'a, ControlSystem, M>,
+    conditions: &'a mut Conditions,
+    config: &AppConfig,
+) -> Result<App, rtseq::Error> {
+    let s = sequencer;
+    let ms = Duration::from_millis;
+    let cfg = SeqConfig::new;
+
+    let quick_stop = add(s, cfg("quick stop"), QuickStop)?;
+    let quick_stop_id = quick_stop.id();
+    let safe_stop = add(s, cfg("safe stop"), SafeStop { stop: quick_stop })?;
+    let safe_stop_id = safe_stop.id();
+
+    let blink = add(s, cfg("blink").polling(ms(10)), Wait::new(ms(125)))?;
+    let blink_id = blink.id();
+    let status = add(s, cfg("status").polling(ms(10)), StatusBlink { blink })?;
+
+    let power_on = add(s, cfg("power on"), PowerOn)?;
+    let seek = add(
+        s,
+        cfg("seek end stop"),
+        SeekEndStop {
+            speed: config.homing_speed,
+        },
+    )?;
+    let halt = add(s, cfg("halt"), Halt)?;
+    let set_zero = add(s, cfg("set zero"), SetZero)?;
+    let back_off = add(
+        s,
+        cfg("back off"),
+        MoveTo {
+            target: config.back_off,
+        },
+    )?;
+    let (power_on_id, seek_id, halt_id, set_zero_id, back_off_id) = (
+        power_on.id(),
+        seek.id(),
+        halt.id(),
+        set_zero.id(),
+        back_off.id(),
+    );
+    let homing = add(
+        s,
+        cfg("homing")
+            .timeout(config.homing_timeout)
+            .timeout_exception(safe_stop_id)
+            .timeout_behaviour(Behaviour::AbortOwner)
+            .on_abort(ControlSystem::abort_hook),
+        Homing {
+            seek,
+            halt,
+            zero: set_zero,
+            back_off,
+        },
+    )?;
+    let homing_id = homing.id();
+
+    let move_step = add(
+        s,
+        cfg("move")
+            .timeout(config.move_timeout)
+            .on_abort(ControlSystem::abort_hook),
+        MoveTo { target: 0.0 },
+    )?;
+    let move_id = move_step.id();
+    let dwell = add(s, cfg("dwell"), Wait::new(config.dwell))?;
+    let dwell_id = dwell.id();
+    let moves = add(
+        s,
+        cfg("moves").on_abort(ControlSystem::abort_hook),
+        MoveLoop::new(move_step, dwell, config.targets, config.move_count),
+    )?;
+    let moves_id = moves.id();
+
+    let feed_hold = add(s, cfg("feed hold"), FeedHold { moves: moves_id })?;
+    let feed_resume = add(s, cfg("feed resume"), FeedResume { moves: moves_id })?;
+    let main_halt = add(s, cfg("main halt"), QuickStop)?;
+    let power_off = add(s, cfg("power off"), PowerOff)?;
+    let (main_halt_id, power_off_id) = (main_halt.id(), power_off.id());
+    let main = add(
+        s,
+        cfg("main"),
+        Main {
+            status: status.id(),
+            power_on,
+            homing,
+            moves,
+            halt: main_halt,
+            power_off,
+        },
+    )?;
+
+    let Conditions {
+        following_error,
+        end_stop,
+        pause,
+        resume,
+    } = conditions;
+    let following_error = monitors.add(
+        move_id,
+        rtseq::Monitor::new(
+            "following error",
+            following_error,
+            Behaviour::RestartCallerOfOwner,
+        )
+        .exception(safe_stop_id)
+        .restart_limit(config.restart_limit),
+    )?;
+    let end_stop = monitors.add(
+        moves_id,
+        rtseq::Monitor::new("end stop", end_stop, Behaviour::AbortOwner),
+    )?;
+    let pause = monitors.add(
+        moves_id,
+        rtseq::Monitor::new("pause", pause, Behaviour::Nothing).exception(feed_hold.id()),
+    )?;
+    let resume = monitors.add(
+        moves_id,
+        rtseq::Monitor::new("resume", resume, Behaviour::Nothing).exception(feed_resume.id()),
+    )?;
+
+    let ids = Ids {
+        main: main.id(),
+        status: status.id(),
+        blink: blink_id,
+        power_on: power_on_id,
+        homing: homing_id,
+        seek: seek_id,
+        halt: halt_id,
+        set_zero: set_zero_id,
+        back_off: back_off_id,
+        moves: moves_id,
+        move_step: move_id,
+        dwell: dwell_id,
+        safe_stop: safe_stop_id,
+        quick_stop: quick_stop_id,
+        feed_hold: feed_hold.id(),
+        feed_resume: feed_resume.id(),
+        main_halt: main_halt_id,
+        power_off: power_off_id,
+        following_error,
+        end_stop,
+        pause,
+        resume,
+    };
+    Ok(App {
+        main,
+        status,
+        safe_stop,
+        feed_hold,
+        feed_resume,
+        ids,
+    })
+}

@@ -1,0 +1,679 @@
+//! The application's control system: the type `C` that every rtseq sequence, step and
+//! condition of this application gets `&C` access to.
+//!
+//! # Contexts and sharing
+//!
+//! One [`ControlSystem`] (usually a `static`) is shared by
+//!
+//! * the **control interrupt**, which calls [`ControlSystem::inject`] and
+//!   [`ControlSystem::control_step`] every control period (in the host simulator: the
+//!   [`Sim::before_tick`](rtseq::sim::Sim::before_tick) hook), followed by the sequencer's
+//!   `tick`;
+//! * the **safety task**, which reads the critical inputs and drives the critical outputs
+//!   ([`crate::safety`]);
+//! * the **lanes** (sequences, steps) and the **tick** (monitor conditions), which send
+//!   commands and read measurements.
+//!
+//! There is no `RefCell` shared across contexts: every piece of state is a `Copy` struct in
+//! a [`critical_section::Mutex`]`<`[`Cell`]`>`, and every access is one copy in or out inside
+//! a critical section (a `memcpy` of at most ~200 bytes, bounded). The computation of a
+//! control step runs outside any critical section on a private copy of the plant and
+//! controller state, which only the control step writes (call it from one context only).
+//!
+//! Commands are **requests**: they are queued in a mailbox and applied by the next control
+//! step, which then acknowledges them ([`ControlSystem::commands_done`]); steps use that in
+//! their exit conditions, so a measurement read after the acknowledgement always refers to
+//! the new command (e.g. "in position" to the new target, never to the previous one).
+//!
+//! # Coordinates
+//!
+//! Positions are in metres in **homed coordinates**: the encoder position minus the zero
+//! set by [`ControlSystem::set_zero`] (before homing, the zero is the power-up position).
+//!
+//! ```
+//! use rtseq::Instant;
+//! use rtseq_motor::control_system::ControlSystem;
+//! let cs = ControlSystem::new(0.02);
+//! cs.enable(true);
+//! cs.control_step(0.001); // applies the enable
+//! assert!(cs.commands_done() && cs.status().enabled);
+//! cs.move_to(0.01);
+//! for ms in 1..=300 {
+//!     cs.inject(Instant::from_ticks(ms * 1000));
+//!     cs.control_step(0.001);
+//! }
+//! assert!(cs.in_position());
+//! assert!((cs.position() - 0.01).abs() < 20e-6);
+//! ```
+
+use core::cell::Cell;
+
+use critical_section::Mutex;
+use rtseq::{Duration, Instant};
+
+use crate::app::{Fault, FaultPlan, Reaction, Summary, MAX_FAULTS};
+use crate::controller::{Gains, Limits, Profile, Servo};
+use crate::plant::{Plant, PlantFaults};
+
+/// "In position": |target − position| within this, m (20 µm = 16 encoder counts).
+pub const POSITION_TOLERANCE: f32 = 20e-6;
+/// "At standstill": |measured velocity| within this, m/s (4 encoder counts per ms).
+pub const STANDSTILL_VELOCITY: f32 = 5e-3;
+/// "Settled": in position and at standstill continuously for this long, s.
+pub const SETTLE_TIME: f32 = 0.020;
+/// "Motor stopped" for the reaction records: |true current| within this, A.
+pub const STOPPED_CURRENT: f32 = 0.3;
+/// Current-sensor offset injected by [`Fault::OverCurrent`], A (reads above the trip level).
+pub const OVERCURRENT_OFFSET: f32 = 12.0;
+/// How long an injected press of the pause button lasts, µs.
+pub const BUTTON_PRESS_US: u64 = 20_000;
+
+/// What the application is doing; the status sequence blinks the LED at a rate per phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Phase {
+    /// Not started.
+    #[default]
+    Off,
+    /// Enabling the drive.
+    PowerOn,
+    /// Homing.
+    Homing,
+    /// Point-to-point moves.
+    Moving,
+    /// Moves paused (feed hold).
+    Paused,
+    /// A safe stop is running.
+    SafeStop,
+    /// All moves done.
+    Done,
+    /// Ended after a fault (moves or homing aborted).
+    Fault,
+}
+
+impl Phase {
+    /// True when the application has ended (the status sequence stops blinking).
+    pub const fn is_final(self) -> bool {
+        matches!(self, Phase::Done | Phase::Fault)
+    }
+}
+
+/// A motion command of the mailbox.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Motion {
+    /// Point-to-point move to a position, m (homed coordinates).
+    MoveTo(f32),
+    /// Jog at a velocity, m/s.
+    Jog(f32),
+    /// Decelerate to a standstill at the normal deceleration, then hold.
+    Stop,
+    /// Re-synchronise the setpoint with the measured state and stop at the quick-stop
+    /// deceleration; the servo integrator is emptied.
+    QuickStop,
+    /// Feed hold: decelerate, keep the move to resume it.
+    FeedHold,
+    /// Resume a held move.
+    FeedResume,
+}
+
+/// The command mailbox (written by lanes, taken by the control step).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Requests {
+    enable: Option<bool>,
+    brake: Option<bool>,
+    zero: bool,
+    motion: Option<Motion>,
+    issued: u32,
+}
+
+/// Plant and controller: written only by the control step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Core {
+    plant: Plant,
+    profile: Profile,
+    servo: Servo,
+    gains: Gains,
+    /// Encoder position of the homed zero, m.
+    zero: f32,
+    homed: bool,
+    enabled: bool,
+    brake: bool,
+    settled_for: f32,
+    acked: u32,
+}
+
+/// Inputs and outputs that are not the control loop's: injected faults, the pause button,
+/// the safety system's outputs, the time of the last control tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Io {
+    now: Instant,
+    plant_faults: PlantFaults,
+    pause_button: bool,
+    drive_permit: bool,
+    brake_forced: bool,
+}
+
+/// Application bookkeeping: phase, status LED, fault plan, summary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct AppState {
+    phase: Phase,
+    led: bool,
+    plan: FaultPlan,
+    summary: Summary,
+}
+
+/// A consistent snapshot of the measurements and drive state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Status {
+    /// Measured position (encoder, homed coordinates), m.
+    pub position: f32,
+    /// Measured velocity (encoder difference), m/s.
+    pub velocity: f32,
+    /// Measured current (current sensor, including an injected offset), A.
+    pub current: f32,
+    /// True motor current (simulation truth, for checks), A.
+    pub true_current: f32,
+    /// Current command of the servo, A.
+    pub current_command: f32,
+    /// Profile (setpoint) position, m.
+    pub setpoint: f32,
+    /// Target of the current move, m.
+    pub target: Option<f32>,
+    /// Following error = setpoint − measured position, m.
+    pub following_error: f32,
+    /// The profile is done, the axis within [`POSITION_TOLERANCE`] of the setpoint and at
+    /// standstill, for [`SETTLE_TIME`].
+    pub in_position: bool,
+    /// |measured velocity| within [`STANDSTILL_VELOCITY`] and the profile at rest.
+    pub standstill: bool,
+    /// Negative end-stop switch closed.
+    pub end_stop_neg: bool,
+    /// Positive end-stop switch closed.
+    pub end_stop_pos: bool,
+    /// Emergency-stop button pressed.
+    pub estop: bool,
+    /// Pause button pressed (raw).
+    pub pause_button: bool,
+    /// Drive enabled (commanded and permitted by the safety system).
+    pub enabled: bool,
+    /// Brake engaged.
+    pub brake: bool,
+    /// The zero was set by homing.
+    pub homed: bool,
+}
+
+/// The motor controller's control system: plant (simulated machine), controller, command
+/// mailbox, fault injection and application bookkeeping. See the [module docs](self).
+pub struct ControlSystem {
+    core: Mutex<Cell<Core>>,
+    requests: Mutex<Cell<Requests>>,
+    io: Mutex<Cell<Io>>,
+    app: Mutex<Cell<AppState>>,
+}
+
+impl ControlSystem {
+    /// A machine at rest at machine position `start` (m; the negative end stop is at 0),
+    /// drive disabled, brake engaged, no faults planned. `const`: can be a `static`.
+    pub const fn new(start: f32) -> Self {
+        ControlSystem {
+            core: Mutex::new(Cell::new(Core {
+                plant: Plant::new(start),
+                profile: Profile::new(0.0, Limits::MOVE),
+                servo: Servo::new(),
+                gains: Gains::DEFAULT,
+                zero: 0.0,
+                homed: false,
+                enabled: false,
+                brake: true,
+                settled_for: 0.0,
+                acked: 0,
+            })),
+            requests: Mutex::new(Cell::new(Requests {
+                enable: None,
+                brake: None,
+                zero: false,
+                motion: None,
+                issued: 0,
+            })),
+            io: Mutex::new(Cell::new(Io {
+                now: Instant::from_ticks(0),
+                plant_faults: PlantFaults::NONE,
+                pause_button: false,
+                drive_permit: true,
+                brake_forced: false,
+            })),
+            app: Mutex::new(Cell::new(AppState {
+                phase: Phase::Off,
+                led: false,
+                plan: FaultPlan::NONE,
+                summary: Summary::EMPTY,
+            })),
+        }
+    }
+
+    /// Sets the fault plan (before the run; e.g. from the firmware's command line). The
+    /// encoder's power-up position becomes the zero until homing sets it.
+    pub fn set_fault_plan(&self, plan: FaultPlan) {
+        self.update_app(|a| a.plan = plan);
+    }
+
+    /// The fault plan.
+    pub fn fault_plan(&self) -> FaultPlan {
+        self.read_app().plan
+    }
+
+    // ---- the control loop -------------------------------------------------------------
+
+    /// Applies the fault plan at time `now` (the control tick's time, also used for the
+    /// summary's records): faults whose time has come are switched on, the pause button is
+    /// pressed for [`BUTTON_PRESS_US`] at the start and at the end of the pause window.
+    /// Call it right before [`control_step`](Self::control_step).
+    pub fn inject(&self, now: Instant) {
+        let plan = self.read_app().plan;
+        let mut faults = PlantFaults::default();
+        let mut injected: [Option<(Fault, Instant)>; MAX_FAULTS] = [None; MAX_FAULTS];
+        for (slot, fault) in injected.iter_mut().zip(plan.faults.iter()) {
+            let Some(fault) = *fault else { continue };
+            let at = fault.at();
+            if now < at {
+                continue;
+            }
+            match fault {
+                Fault::FollowingError { .. } => faults.jammed = true,
+                Fault::OverCurrent { .. } => faults.current_sensor_offset = OVERCURRENT_OFFSET,
+                Fault::EndStop { .. } => faults.end_stop_pos_closed = true,
+                Fault::EStop { .. } => faults.estop_pressed = true,
+            }
+            *slot = Some((fault, at));
+        }
+        let pressed = |t: Instant| {
+            now.checked_duration_since(t)
+                .is_some_and(|d| d < Duration::from_ticks(BUTTON_PRESS_US))
+        };
+        let button = plan
+            .pause
+            .is_some_and(|w| pressed(w.start) || pressed(w.end));
+        critical_section::with(|cs| {
+            let io = self.io.borrow(cs);
+            let mut v = io.get();
+            v.now = now;
+            v.plant_faults = faults;
+            v.pause_button = button;
+            io.set(v);
+        });
+        self.update_app(|a| {
+            for (fault, at) in injected.iter().flatten() {
+                let r = a.summary.reaction_mut(fault.kind());
+                if r.injected.is_none() {
+                    r.injected = Some(*at);
+                }
+            }
+        });
+    }
+
+    /// One control period of `dt` seconds: applies the pending commands, runs the setpoint
+    /// generator and the servo on the encoder reading, and advances the plant.
+    ///
+    /// Call it from one context only (the control interrupt).
+    pub fn control_step(&self, dt: f32) {
+        let req = critical_section::with(|cs| {
+            let cell = self.requests.borrow(cs);
+            let r = cell.get();
+            cell.set(Requests {
+                issued: r.issued,
+                ..Requests::default()
+            });
+            r
+        });
+        let io = self.read_io();
+        let mut c = critical_section::with(|cs| self.core.borrow(cs).get());
+        *c.plant.faults_mut() = io.plant_faults;
+
+        let measured = c.plant.encoder_position() - c.zero;
+        if let Some(on) = req.enable {
+            c.enabled = on;
+            // Start (or stop) from where the axis is: no jump of the setpoint.
+            c.profile.reset(measured);
+            c.servo.clear_integral();
+        }
+        if let Some(on) = req.brake {
+            c.brake = on;
+        }
+        if req.zero {
+            c.zero = c.plant.encoder_position();
+            c.homed = true;
+            c.profile.reset(0.0);
+            c.servo.reset();
+        }
+        let measured = c.plant.encoder_position() - c.zero;
+        if let Some(m) = req.motion {
+            match m {
+                Motion::MoveTo(t) => c.profile.move_to(t),
+                Motion::Jog(v) => c.profile.jog(v),
+                Motion::Stop | Motion::FeedHold => c.profile.stop(),
+                Motion::FeedResume => c.profile.resume(),
+                Motion::QuickStop => {
+                    c.profile.quick_stop(measured, c.servo.velocity());
+                    c.servo.clear_integral();
+                }
+            }
+        }
+        c.acked = req.issued;
+
+        let active = c.enabled && io.drive_permit;
+        c.plant.set_enabled(active);
+        c.plant.set_brake(c.brake || io.brake_forced || !active);
+        let i_cmd = if active {
+            // The servo compares the setpoint and the measurement of the same instant; the
+            // profile's acceleration over the coming period is the feed-forward.
+            let (p_ref, v_ref) = (c.profile.position(), c.profile.velocity());
+            c.profile.step(dt);
+            let sp = (p_ref, v_ref, c.profile.acceleration());
+            c.servo.step(&c.gains, sp, measured, dt)
+        } else {
+            // Disabled: the setpoint follows the axis, the integrator stays empty.
+            c.profile.reset(measured);
+            c.servo.idle(measured, dt);
+            0.0
+        };
+        c.plant.step(i_cmd, dt);
+
+        let in_tol = (c.profile.position() - measured).abs() <= POSITION_TOLERANCE
+            && c.servo.velocity().abs() <= STANDSTILL_VELOCITY
+            && c.profile.done();
+        c.settled_for = if in_tol { c.settled_for + dt } else { 0.0 };
+        critical_section::with(|cs| self.core.borrow(cs).set(c));
+
+        // Reaction records: the first time the motor is stopped after a reaction.
+        let stopped = c.plant.velocity().abs() <= STANDSTILL_VELOCITY
+            && c.plant.current().abs() <= STOPPED_CURRENT;
+        if stopped {
+            self.update_app(|a| {
+                for r in a.summary.reactions_mut() {
+                    if r.reacted.is_some() && r.stopped.is_none() {
+                        r.stopped = Some(io.now);
+                    }
+                }
+            });
+        }
+    }
+
+    /// [`inject`](Self::inject) then [`control_step`](Self::control_step): the whole control
+    /// interrupt.
+    pub fn control_tick(&self, now: Instant, dt: f32) {
+        self.inject(now);
+        self.control_step(dt);
+    }
+
+    // ---- commands (requests applied by the next control step) --------------------------
+
+    fn request(&self, f: impl FnOnce(&mut Requests)) {
+        critical_section::with(|cs| {
+            let cell = self.requests.borrow(cs);
+            let mut r = cell.get();
+            f(&mut r);
+            r.issued = r.issued.wrapping_add(1);
+            cell.set(r);
+        });
+    }
+
+    /// Enables (or disables) the drive; the setpoint starts at the measured position.
+    pub fn enable(&self, on: bool) {
+        self.request(|r| r.enable = Some(on));
+    }
+
+    /// Engages (or releases) the holding brake.
+    pub fn brake(&self, on: bool) {
+        self.request(|r| r.brake = Some(on));
+    }
+
+    /// Starts a point-to-point move to `target` (m, homed coordinates).
+    pub fn move_to(&self, target: f32) {
+        self.request(|r| r.motion = Some(Motion::MoveTo(target)));
+    }
+
+    /// Jogs at `velocity` (m/s).
+    pub fn jog(&self, velocity: f32) {
+        self.request(|r| r.motion = Some(Motion::Jog(velocity)));
+    }
+
+    /// Decelerates to a standstill and holds.
+    pub fn stop(&self) {
+        self.request(|r| r.motion = Some(Motion::Stop));
+    }
+
+    /// Quick stop: setpoint re-synchronised with the axis, ramp down at the quick-stop
+    /// deceleration, integrator emptied. The safe stop of this application.
+    pub fn quick_stop(&self) {
+        self.request(|r| r.motion = Some(Motion::QuickStop));
+    }
+
+    /// Feed hold: decelerate the current move and keep it for [`feed_resume`](Self::feed_resume).
+    pub fn feed_hold(&self) {
+        self.request(|r| r.motion = Some(Motion::FeedHold));
+    }
+
+    /// Resumes a held move.
+    pub fn feed_resume(&self) {
+        self.request(|r| r.motion = Some(Motion::FeedResume));
+    }
+
+    /// Takes the current encoder position as zero (homing) and holds there.
+    pub fn set_zero(&self) {
+        self.request(|r| r.zero = true);
+    }
+
+    /// Stops the axis: an abort hook for [`SeqConfig::on_abort`](rtseq::SeqConfig::on_abort)
+    /// (runs in the tick; only queues a [`quick_stop`](Self::quick_stop)). Records the
+    /// reaction to an injected end-stop fault.
+    pub fn abort_hook(cs: &ControlSystem) {
+        cs.quick_stop();
+        cs.record_reaction(crate::app::FaultKind::EndStop);
+    }
+
+    /// True when every command sent so far has been applied by a control step.
+    pub fn commands_done(&self) -> bool {
+        let issued = critical_section::with(|cs| self.requests.borrow(cs).get().issued);
+        let acked = critical_section::with(|cs| self.core.borrow(cs).get().acked);
+        issued == acked
+    }
+
+    // ---- measurements -----------------------------------------------------------------
+
+    /// A consistent snapshot of every measurement.
+    pub fn status(&self) -> Status {
+        let mut c = critical_section::with(|cs| self.core.borrow(cs).get());
+        let io = self.read_io();
+        // Sensor faults show at once, not only from the next control step.
+        *c.plant.faults_mut() = io.plant_faults;
+        let position = c.plant.encoder_position() - c.zero;
+        Status {
+            position,
+            velocity: c.servo.velocity(),
+            current: c.plant.measured_current(),
+            true_current: c.plant.current(),
+            current_command: c.servo.command(),
+            setpoint: c.profile.position(),
+            target: c.profile.target(),
+            following_error: c.profile.position() - position,
+            in_position: c.settled_for >= SETTLE_TIME - 1e-6,
+            standstill: c.servo.velocity().abs() <= STANDSTILL_VELOCITY && c.profile.done(),
+            end_stop_neg: c.plant.end_stop_neg(),
+            end_stop_pos: c.plant.end_stop_pos(),
+            estop: c.plant.estop(),
+            pause_button: io.pause_button,
+            enabled: c.plant.enabled(),
+            brake: c.plant.brake(),
+            homed: c.homed,
+        }
+    }
+
+    /// Measured position, m (homed coordinates).
+    pub fn position(&self) -> f32 {
+        self.status().position
+    }
+
+    /// Measured velocity, m/s.
+    pub fn velocity(&self) -> f32 {
+        self.status().velocity
+    }
+
+    /// Measured current (the current sensor), A: the safety system's critical input.
+    pub fn current(&self) -> f32 {
+        self.status().current
+    }
+
+    /// Following error (setpoint − measured position), m.
+    pub fn following_error(&self) -> f32 {
+        self.status().following_error
+    }
+
+    /// In position and settled (see [`Status::in_position`]).
+    pub fn in_position(&self) -> bool {
+        self.status().in_position
+    }
+
+    /// At standstill (see [`Status::standstill`]).
+    pub fn standstill(&self) -> bool {
+        self.status().standstill
+    }
+
+    /// Negative end-stop switch closed.
+    pub fn end_stop_neg(&self) -> bool {
+        self.status().end_stop_neg
+    }
+
+    /// Either end-stop switch closed.
+    pub fn any_end_stop(&self) -> bool {
+        let s = self.status();
+        s.end_stop_neg || s.end_stop_pos
+    }
+
+    /// Emergency-stop button pressed.
+    pub fn estop(&self) -> bool {
+        self.status().estop
+    }
+
+    /// The raw pause button (pressed = true).
+    pub fn pause_button(&self) -> bool {
+        self.read_io().pause_button
+    }
+
+    /// The simulated machine (truth: machine coordinates, true current).
+    pub fn plant(&self) -> Plant {
+        critical_section::with(|cs| self.core.borrow(cs).get()).plant
+    }
+
+    // ---- safety system outputs -----------------------------------------------------------
+
+    /// The safety system's drive-enable output: without the permit the power stage is off
+    /// whatever the sequences command. Default: permitted (no safety system). A permit
+    /// withdrawn while an over-current or e-stop fault is injected records the reaction.
+    pub fn set_drive_permit(&self, on: bool) {
+        let was = critical_section::with(|cs| {
+            let cell = self.io.borrow(cs);
+            let mut io = cell.get();
+            let was = io.drive_permit;
+            io.drive_permit = on;
+            cell.set(io);
+            was
+        });
+        if was && !on {
+            self.record_reaction(crate::app::FaultKind::OverCurrent);
+            self.record_reaction(crate::app::FaultKind::EStop);
+        }
+    }
+
+    /// The safety system's brake output (true: brake forced on).
+    pub fn set_brake_output(&self, on: bool) {
+        critical_section::with(|cs| {
+            let cell = self.io.borrow(cs);
+            let mut io = cell.get();
+            io.brake_forced = on;
+            cell.set(io);
+        });
+    }
+
+    /// The drive permit as last set by the safety system.
+    pub fn drive_permit(&self) -> bool {
+        self.read_io().drive_permit
+    }
+
+    // ---- application state ---------------------------------------------------------------
+
+    /// The time of the last control tick ([`inject`](Self::inject)).
+    pub fn now(&self) -> Instant {
+        self.read_io().now
+    }
+
+    /// The application phase.
+    pub fn phase(&self) -> Phase {
+        self.read_app().phase
+    }
+
+    /// Sets the application phase.
+    pub fn set_phase(&self, phase: Phase) {
+        self.update_app(|a| a.phase = phase);
+    }
+
+    /// The status LED output.
+    pub fn led(&self) -> bool {
+        self.read_app().led
+    }
+
+    /// Drives the status LED output.
+    pub fn set_led(&self, on: bool) {
+        self.update_app(|a| a.led = on);
+    }
+
+    /// The run's summary so far.
+    pub fn summary(&self) -> Summary {
+        self.read_app().summary
+    }
+
+    /// Records the reaction to an injected fault of `kind` now (the first one only).
+    pub fn record_reaction(&self, kind: crate::app::FaultKind) {
+        let now = self.now();
+        self.update_app(|a| {
+            let r: &mut Reaction = a.summary.reaction_mut(kind);
+            if r.injected.is_some() && r.reacted.is_none() {
+                r.reacted = Some(now);
+            }
+        });
+    }
+
+    /// Updates the summary (for the sequences of [`crate::sequences`]).
+    pub fn update_summary(&self, f: impl FnOnce(&mut Summary, Instant)) {
+        let now = self.now();
+        self.update_app(|a| f(&mut a.summary, now));
+    }
+
+    /// Records that move number `index` (0-based) completed now.
+    pub fn record_move_done(&self, index: usize) {
+        self.update_summary(|s, now| {
+            s.moves_done = s.moves_done.saturating_add(1);
+            if let Some(slot) = s.move_done_at.get_mut(index) {
+                *slot = Some(now);
+            }
+        });
+    }
+
+    fn read_io(&self) -> Io {
+        critical_section::with(|cs| self.io.borrow(cs).get())
+    }
+
+    fn read_app(&self) -> AppState {
+        critical_section::with(|cs| self.app.borrow(cs).get())
+    }
+
+    fn update_app(&self, f: impl FnOnce(&mut AppState)) {
+        critical_section::with(|cs| {
+            let cell = self.app.borrow(cs);
+            let mut a = cell.get();
+            f(&mut a);
+            cell.set(a);
+        });
+    }
+}

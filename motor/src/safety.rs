@@ -1,0 +1,209 @@
+//! The motor controller's safety levels for rtseq's safety system ([`rtseq::safety`]).
+//!
+//! | level | drive enable | brake | e-stop | current | end stops | entered by |
+//! |---|---|---|---|---|---|---|
+//! | `EMERGENCY` (0) | off | on | ignore | ignore | ignore | `EMERGENCY_STOP` (private) from any level ≥ `OFF`; aborts every sequence while active |
+//! | `OFF` (1) | off | on | check | range ±[`CURRENT_TRIP`] | ignore | start; `SWITCH_OFF`; `RESET` from `EMERGENCY` |
+//! | `POWER_ON` (2) | on | off | check | range | ignore (homing seeks the switch) | [`SWITCH_ON`] from `OFF`; `LIMIT` from `HOMED` |
+//! | `HOMED` (3) | on | off | check | range | check open → `LIMIT` | [`HOMED_EVENT`] from `POWER_ON` |
+//!
+//! The e-stop and over-current input checks trigger the private `EMERGENCY_STOP` event,
+//! applied in the next safety cycle: drive off, brake on, every sequence aborted.
+//!
+//! The safety task samples the [`ControlSystem`] into a [`DriveIo`], runs one cycle and
+//! writes the outputs back — [`safety_cycle`] does the three:
+//!
+//! ```
+//! use rtseq::safety::{SafetyHandle, SafetySystem};
+//! use rtseq::Sequencer;
+//! use rtseq_motor::control_system::ControlSystem;
+//! use rtseq_motor::safety::{self, PROPERTIES};
+//! static HANDLE: SafetyHandle = SafetyHandle::new();
+//! static SEQ: Sequencer<ControlSystem, 4> = Sequencer::new();
+//! let cs = ControlSystem::new(0.02);
+//! let mut system = SafetySystem::new(&PROPERTIES, &HANDLE).unwrap();
+//! safety::safety_cycle(&cs, &mut system, &SEQ);
+//! assert_eq!(HANDLE.level(), safety::OFF);
+//! assert!(!cs.drive_permit());
+//! HANDLE.trigger(safety::SWITCH_ON);
+//! safety::safety_cycle(&cs, &mut system, &SEQ);
+//! assert_eq!(HANDLE.level(), safety::POWER_ON);
+//! assert!(cs.drive_permit());
+//! ```
+
+use rtseq::safety::{
+    AbortPolicy, AbortSequences, CriticalInput, CriticalOutput, CycleReport, InputAction, InputId,
+    IoValue, LevelDef, OutputAction, OutputId, PrivateEvent, PublicEvent, SafetyIo,
+    SafetyLevel, SafetyProperties, SafetySystem, Transition,
+};
+
+use crate::control_system::ControlSystem;
+
+/// Emergency: drive off, brake on, sequences aborted.
+pub const EMERGENCY: SafetyLevel = SafetyLevel::new(0);
+/// Off: drive off, brake on.
+pub const OFF: SafetyLevel = SafetyLevel::new(1);
+/// Power on: drive permitted (homing).
+pub const POWER_ON: SafetyLevel = SafetyLevel::new(2);
+/// Homed: drive permitted, end stops watched.
+pub const HOMED: SafetyLevel = SafetyLevel::new(3);
+
+/// Public: off → power on (the power-on step).
+pub const SWITCH_ON: PublicEvent = PublicEvent::new(0);
+/// Public: power on → homed (main, after homing).
+pub const HOMED_EVENT: PublicEvent = PublicEvent::new(1);
+/// Public: power on / homed → off (the power-off step).
+pub const SWITCH_OFF: PublicEvent = PublicEvent::new(2);
+/// Public: emergency → off (acknowledge).
+pub const RESET: PublicEvent = PublicEvent::new(3);
+/// Private: e-stop pressed or over-current.
+pub const EMERGENCY_STOP: PrivateEvent = PrivateEvent::new(0);
+/// Private: an end stop closed while homed.
+pub const LIMIT: PrivateEvent = PrivateEvent::new(1);
+
+/// Over-current trip level of the current input, A (the drive limit is 4 A).
+pub const CURRENT_TRIP: f32 = 6.0;
+
+/// Critical input: e-stop button pressed.
+pub const ESTOP_IN: CriticalInput<bool> = CriticalInput::new(0, "estop pressed");
+/// Critical input: measured motor current, A.
+pub const CURRENT_IN: CriticalInput<f32> = CriticalInput::new(1, "motor current [A]");
+/// Critical input: negative end stop closed.
+pub const END_NEG_IN: CriticalInput<bool> = CriticalInput::new(2, "end stop -");
+/// Critical input: positive end stop closed.
+pub const END_POS_IN: CriticalInput<bool> = CriticalInput::new(3, "end stop +");
+/// Critical output: drive enable (permit).
+pub const ENABLE_OUT: CriticalOutput<bool> = CriticalOutput::new(0, "drive enable");
+/// Critical output: brake engaged.
+pub const BRAKE_OUT: CriticalOutput<bool> = CriticalOutput::new(1, "brake");
+
+const WATCH: [InputAction; 4] = [
+    ESTOP_IN.check(false, EMERGENCY_STOP),
+    CURRENT_IN.range(-CURRENT_TRIP, CURRENT_TRIP, EMERGENCY_STOP),
+    END_NEG_IN.ignore(),
+    END_POS_IN.ignore(),
+];
+const WATCH_HOMED: [InputAction; 4] = [
+    ESTOP_IN.check(false, EMERGENCY_STOP),
+    CURRENT_IN.range(-CURRENT_TRIP, CURRENT_TRIP, EMERGENCY_STOP),
+    END_NEG_IN.check(false, LIMIT),
+    END_POS_IN.check(false, LIMIT),
+];
+const IGNORE_ALL: [InputAction; 4] = [
+    ESTOP_IN.ignore(),
+    CURRENT_IN.ignore(),
+    END_NEG_IN.ignore(),
+    END_POS_IN.ignore(),
+];
+const SAFE: [OutputAction; 2] = [ENABLE_OUT.set(false), BRAKE_OUT.set(true)];
+const DRIVE: [OutputAction; 2] = [ENABLE_OUT.set(true), BRAKE_OUT.set(false)];
+
+/// The safety properties (validated at compile time).
+pub static PROPERTIES: SafetyProperties<'static, DriveIo, 4> = SafetyProperties::new(
+    [
+        LevelDef::new(EMERGENCY, "emergency")
+            .inputs(&IGNORE_ALL)
+            .outputs(&SAFE)
+            .abort_sequences(AbortPolicy::WhileActive),
+        LevelDef::new(OFF, "off").inputs(&WATCH).outputs(&SAFE),
+        LevelDef::new(POWER_ON, "power on")
+            .inputs(&WATCH)
+            .outputs(&DRIVE),
+        LevelDef::new(HOMED, "homed")
+            .inputs(&WATCH_HOMED)
+            .outputs(&DRIVE),
+    ],
+    &[
+        ESTOP_IN.info(),
+        CURRENT_IN.info(),
+        END_NEG_IN.info(),
+        END_POS_IN.info(),
+    ],
+    &[ENABLE_OUT.info(), BRAKE_OUT.info()],
+    &[
+        Transition::on_level_and_above(OFF, EMERGENCY_STOP, EMERGENCY),
+        Transition::on(EMERGENCY, RESET, OFF),
+        Transition::on(OFF, SWITCH_ON, POWER_ON),
+        Transition::on(POWER_ON, HOMED_EVENT, HOMED),
+        Transition::on(HOMED, LIMIT, POWER_ON),
+        Transition::on_levels_between(POWER_ON, HOMED, SWITCH_OFF, OFF),
+    ],
+    OFF,
+);
+
+const _: () = assert!(PROPERTIES.validate().is_ok());
+
+/// The safety system's view of the drive for one cycle: inputs sampled from the control
+/// system, outputs collected and written back by [`DriveIo::apply`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DriveIo {
+    /// E-stop pressed.
+    pub estop: bool,
+    /// Measured current, A.
+    pub current: f32,
+    /// Negative end stop closed.
+    pub end_neg: bool,
+    /// Positive end stop closed.
+    pub end_pos: bool,
+    /// Output: drive enable.
+    pub enable: bool,
+    /// Output: brake.
+    pub brake: bool,
+}
+
+impl DriveIo {
+    /// Samples the critical inputs (outputs keep the control system's current values).
+    pub fn sample(cs: &ControlSystem) -> Self {
+        let s = cs.status();
+        DriveIo {
+            estop: s.estop,
+            current: s.current,
+            end_neg: s.end_stop_neg,
+            end_pos: s.end_stop_pos,
+            enable: cs.drive_permit(),
+            brake: s.brake,
+        }
+    }
+
+    /// Writes the critical outputs to the control system.
+    pub fn apply(&self, cs: &ControlSystem) {
+        cs.set_drive_permit(self.enable);
+        cs.set_brake_output(self.brake);
+    }
+}
+
+impl SafetyIo for DriveIo {
+    fn read_input(&mut self, input: InputId) -> IoValue {
+        if input == ESTOP_IN.id() {
+            self.estop.into()
+        } else if input == CURRENT_IN.id() {
+            self.current.into()
+        } else if input == END_NEG_IN.id() {
+            self.end_neg.into()
+        } else {
+            self.end_pos.into()
+        }
+    }
+
+    fn write_output(&mut self, output: OutputId, value: IoValue) {
+        let on = value == IoValue::Bool(true);
+        if output == ENABLE_OUT.id() {
+            self.enable = on;
+        } else if output == BRAKE_OUT.id() {
+            self.brake = on;
+        }
+    }
+}
+
+/// One safety cycle on the control system: sample, cycle, apply. Call it from the safety
+/// task (highest priority) at the safety period; `sequences` is the sequencer (abort-all).
+pub fn safety_cycle<const L: usize, A: AbortSequences + ?Sized>(
+    cs: &ControlSystem,
+    system: &mut SafetySystem<'_, DriveIo, L>,
+    sequences: &A,
+) -> CycleReport {
+    let mut io = DriveIo::sample(cs);
+    let report = system.cycle(&mut io, sequences);
+    io.apply(cs);
+    report
+}

@@ -1,0 +1,122 @@
+//! Test harness: the application on the host simulator, with or without the safety system.
+#![allow(dead_code)]
+
+use rtseq::safety::{SafetyHandle, SafetySystem};
+use rtseq::sim::Sim;
+use rtseq::{Duration, Instant, Monitors, Outcome, RunningState, SeqId, Sequencer, Transition};
+use rtseq_motor::app::{self, AppConfig, Conditions, FaultPlan, Ids};
+use rtseq_motor::control_system::ControlSystem;
+use rtseq_motor::safety::{self, PROPERTIES};
+
+pub const N: usize = app::SEQUENCES;
+pub const M: usize = app::MONITORS;
+pub type Seqr = Sequencer<ControlSystem, N, 256>;
+
+pub struct World {
+    pub sim: Sim<'static, ControlSystem, N, 256, M>,
+    pub seq: &'static Seqr,
+    pub cs: &'static ControlSystem,
+    pub ids: Ids,
+    pub safety: Option<&'static SafetyHandle>,
+}
+
+pub fn ms(t: u64) -> Instant {
+    Instant::from_ticks(t * 1000)
+}
+
+pub fn to_ms(t: Instant) -> u64 {
+    t.as_ticks() / 1000
+}
+
+impl World {
+    pub fn new(plan: FaultPlan, with_safety: bool) -> World {
+        Self::with_config(plan, with_safety, AppConfig::DEFAULT)
+    }
+
+    pub fn with_config(plan: FaultPlan, with_safety: bool, config: AppConfig) -> World {
+        let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
+        let cs: &'static ControlSystem =
+            Box::leak(Box::new(ControlSystem::new(config.start_position)));
+        cs.set_fault_plan(plan);
+        let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&config)));
+        let mut monitors: Monitors<'static, ControlSystem, M> = Monitors::new();
+        let app = app::register(seq, &mut monitors, conditions, &config).unwrap();
+        let ids = app.ids;
+        let mut sim = Sim::new(seq, cs, monitors);
+        for lane in app.lanes() {
+            lane.add_to(&mut sim);
+        }
+        let safety = if with_safety {
+            let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
+            seq.set_safety_system(handle);
+            let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
+            sim.before_tick(move |now, cs: &ControlSystem| {
+                cs.inject(now);
+                safety::safety_cycle(cs, &mut system, seq);
+                cs.control_step(0.001);
+            });
+            Some(handle)
+        } else {
+            sim.before_tick(|now, cs: &ControlSystem| cs.control_tick(now, 0.001));
+            None
+        };
+        World {
+            sim,
+            seq,
+            cs,
+            ids,
+            safety,
+        }
+    }
+
+    /// Starts main and runs until everything is idle (at most 15 s); returns the end time.
+    pub fn run(&mut self) -> u64 {
+        self.sim.start(self.ids.main).unwrap();
+        let end = self
+            .sim
+            .run_until_idle(Duration::from_secs(15))
+            .expect("the application did not end within 15 s");
+        assert!(!self.sim.stalled());
+        assert_eq!(self.sim.lost(), 0);
+        to_ms(end)
+    }
+
+    pub fn outcome(&self, id: SeqId) -> Option<Outcome> {
+        self.sim.handle(id).unwrap().last_outcome()
+    }
+
+    pub fn state(&self, id: SeqId) -> RunningState {
+        self.sim.state(id)
+    }
+
+    pub fn name(&self, id: SeqId) -> &'static str {
+        self.seq.sequence_by_id(id).unwrap().name()
+    }
+
+    /// The transitions of one sequence.
+    pub fn of(&self, id: SeqId) -> Vec<Transition> {
+        self.sim
+            .trace()
+            .iter()
+            .filter(|t| t.sequence == id)
+            .copied()
+            .collect()
+    }
+
+    pub fn show(&self) -> String {
+        self.sim
+            .trace()
+            .iter()
+            .map(|t| {
+                format!(
+                    "{:>6} ms  {:<16} {:?} -> {:?} ({:?})\n",
+                    to_ms(t.time),
+                    self.name(t.sequence),
+                    t.from,
+                    t.to,
+                    t.cause
+                )
+            })
+            .collect()
+    }
+}
