@@ -43,15 +43,30 @@ fn pulse(flag: usize, at_ms: u64) -> impl FnMut(rtseq::Instant, &Ctrl) {
     move |t, c| c.set(flag, ms(t) == at_ms)
 }
 
+fn hook_s(c: &Ctrl) {
+    c.hooks.borrow_mut().push("S");
+}
+fn hook_x3(c: &Ctrl) {
+    c.hooks.borrow_mut().push("X3");
+}
+fn hook_x1(c: &Ctrl) {
+    c.hooks.borrow_mut().push("X1");
+}
+
 #[test]
 fn monitor_on_outermost_of_three_nested_fires_while_innermost_step_waits() {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
-    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let s = seq
+        .add(SeqConfig::new("S").on_abort(hook_s), Leaf::until(1))
+        .unwrap();
     let (si, x3) = (
         s.id(),
-        seq.add(SeqConfig::new("X3"), Node::of(vec![Op::Step(s)]))
-            .unwrap(),
+        seq.add(
+            SeqConfig::new("X3").on_abort(hook_x3),
+            Node::of(vec![Op::Step(s)]),
+        )
+        .unwrap(),
     );
     let x3i = x3.id();
     let x2 = seq
@@ -59,7 +74,10 @@ fn monitor_on_outermost_of_three_nested_fires_while_innermost_step_waits() {
         .unwrap();
     let x2i = x2.id();
     let x1 = seq
-        .add(SeqConfig::new("X1"), Node::of(vec![Op::Run(x2)]))
+        .add(
+            SeqConfig::new("X1").on_abort(hook_x1),
+            Node::of(vec![Op::Run(x2)]),
+        )
         .unwrap();
     let x1i = x1.id();
     let main = seq
@@ -95,6 +113,8 @@ fn monitor_on_outermost_of_three_nested_fires_while_innermost_step_waits() {
     );
     assert!(sim.handle(x1i).unwrap().exception_is_active());
     assert_eq!(sim.handle(x1i).unwrap().active_exception(), Some(Mon(m)));
+    // Cleanup hooks ran while Aborting, innermost first (X2 has none).
+    assert_eq!(*ctrl.hooks.borrow(), vec!["S", "X3", "X1"]);
 }
 
 /// main ─run→ A ─step→ S (exit flag 1, never): the timeout sits on S or on A.

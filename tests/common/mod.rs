@@ -37,6 +37,8 @@ pub struct Ctrl {
     pub flags: [Cell<bool>; 16],
     pub lines: RefCell<Vec<Line>>,
     pub returned: RefCell<Vec<Returned>>,
+    /// Names recorded by cleanup hooks (`SeqConfig::on_abort`), in call order.
+    pub hooks: RefCell<Vec<&'static str>>,
 }
 
 impl Ctrl {
