@@ -38,8 +38,8 @@ use core::pin::pin;
 use core::task::Poll;
 
 use rtseq::{
-    Behaviour, Condition, Duration, Instant, MonitorId, Monitors, Seq, SeqConfig, SeqId,
-    Sequencer, Toggle, Wait,
+    Behaviour, Condition, Duration, Instant, MonitorId, Monitors, Seq, SeqConfig, SeqId, Sequencer,
+    Toggle, Wait,
 };
 
 use crate::control_system::{ControlSystem, Phase};
@@ -204,14 +204,15 @@ impl FaultPlan {
 
     /// Adds a fault (ignored when [`MAX_FAULTS`] are planned already).
     pub const fn with(mut self, fault: Fault) -> Self {
-        let mut i = 0;
-        while i < MAX_FAULTS {
-            if self.faults[i].is_none() {
-                self.faults[i] = Some(fault);
-                return self;
-            }
-            i += 1;
-        }
+        let f = Some(fault);
+        let [a, b, c, d] = self.faults;
+        self.faults = match (a, b, c, d) {
+            (None, ..) => [f, b, c, d],
+            (_, None, ..) => [a, f, c, d],
+            (_, _, None, _) => [a, b, f, d],
+            (_, _, _, None) => [a, b, c, f],
+            _ => [a, b, c, d],
+        };
         self
     }
 

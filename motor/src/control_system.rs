@@ -34,8 +34,9 @@
 //! use rtseq::Instant;
 //! use rtseq_motor::control_system::ControlSystem;
 //! let cs = ControlSystem::new(0.02);
+//! cs.brake(false);
 //! cs.enable(true);
-//! cs.control_step(0.001); // applies the enable
+//! cs.control_step(0.001); // applies the brake release and the enable
 //! assert!(cs.commands_done() && cs.status().enabled);
 //! cs.move_to(0.01);
 //! for ms in 1..=300 {

@@ -33,8 +33,8 @@
 
 use rtseq::safety::{
     AbortPolicy, AbortSequences, CriticalInput, CriticalOutput, CycleReport, InputAction, InputId,
-    IoValue, LevelDef, OutputAction, OutputId, PrivateEvent, PublicEvent, SafetyIo,
-    SafetyLevel, SafetyProperties, SafetySystem, Transition,
+    IoValue, LevelDef, OutputAction, OutputId, PrivateEvent, PublicEvent, SafetyIo, SafetyLevel,
+    SafetyProperties, SafetySystem, Transition,
 };
 
 use crate::control_system::ControlSystem;

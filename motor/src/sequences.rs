@@ -186,7 +186,12 @@ pub struct MoveLoop {
 
 impl MoveLoop {
     /// A loop over `targets[..count]` (at most [`MAX_MOVES`]).
-    pub fn new(step: Seq<MoveTo>, dwell: Seq<Wait>, targets: [f32; MAX_MOVES], count: usize) -> Self {
+    pub fn new(
+        step: Seq<MoveTo>,
+        dwell: Seq<Wait>,
+        targets: [f32; MAX_MOVES],
+        count: usize,
+    ) -> Self {
         MoveLoop {
             step,
             dwell,

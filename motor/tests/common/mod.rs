@@ -71,14 +71,29 @@ impl World {
 
     /// Starts main and runs until everything is idle (at most 15 s); returns the end time.
     pub fn run(&mut self) -> u64 {
+        self.run_sampling(|_| {})
+    }
+
+    /// Like [`run`](Self::run), calling `sample` after every tick.
+    pub fn run_sampling(&mut self, mut sample: impl FnMut(&World)) -> u64 {
         self.sim.start(self.ids.main).unwrap();
-        let end = self
-            .sim
-            .run_until_idle(Duration::from_secs(15))
-            .expect("the application did not end within 15 s");
+        let limit = ms(15_000);
+        while self.sim.any_active() {
+            assert!(
+                self.sim.now() < limit,
+                "the application did not end within 15 s"
+            );
+            self.sim.step();
+            sample(self);
+        }
         assert!(!self.sim.stalled());
         assert_eq!(self.sim.lost(), 0);
-        to_ms(end)
+        to_ms(self.sim.now())
+    }
+
+    /// Lets the plant run on for `d` ms after the sequences ended.
+    pub fn settle(&mut self, d: u64) {
+        self.sim.run_for(Duration::from_millis(d));
     }
 
     pub fn outcome(&self, id: SeqId) -> Option<Outcome> {
