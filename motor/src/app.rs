@@ -556,7 +556,7 @@ fn add<S, const N: usize, const T: usize>(
 /// Registers the whole application into `sequencer` and `monitors` and returns the
 /// sequence objects the lanes need.
 ///
-/// Sequences (polling 1 ms unless noted): `main`; `status` (10 ms) with its `blink` wait;
+/// Sequences (polling 1 ms unless noted): `main`; `status` (5 ms) with its `blink` wait;
 /// `power on`; `homing` (timeout `homing_timeout`, exception `safe stop`, abort) with `seek
 /// end stop`, `halt`, `set zero`, `back off`; `moves` with `move` (timeout `move_timeout`)
 /// and `dwell`; the exception sequences `safe stop` (with `quick stop`), `feed hold`, `feed
@@ -592,9 +592,9 @@ pub fn register<'a, const N: usize, const T: usize, const M: usize>(
     let safe_stop = add(s, cfg("safe stop"), SafeStop { stop: quick_stop })?;
     let safe_stop_id = safe_stop.id();
 
-    let blink = add(s, cfg("blink").polling(ms(10)), Wait::new(ms(125)))?;
+    let blink = add(s, cfg("blink").polling(ms(5)), Wait::new(ms(125)))?;
     let blink_id = blink.id();
-    let status = add(s, cfg("status").polling(ms(10)), StatusBlink { blink })?;
+    let status = add(s, cfg("status").polling(ms(5)), StatusBlink { blink })?;
 
     let power_on = add(s, cfg("power on"), PowerOn)?;
     let seek = add(

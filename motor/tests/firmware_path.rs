@@ -1,0 +1,92 @@
+//! The firmware's way of running the application: all lanes joined in one future
+//! ([`App::run`]), polled by a minimal executor after every tick — same results as the
+//! simulator's one-lane-per-sequence run; and the e-stop through the safety system.
+
+mod common;
+use std::future::Future;
+use std::pin::pin;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::task::{Context, Wake, Waker};
+
+use common::*;
+use rtseq::safety::{SafetyHandle, SafetySystem};
+use rtseq::{Cause, Monitors, Outcome, Sequencer};
+use rtseq_motor::app::{self, AppConfig, Conditions, Fault, FaultPlan};
+use rtseq_motor::control_system::{ControlSystem, Phase};
+use rtseq_motor::safety::{self, PROPERTIES};
+
+struct Flag(AtomicBool);
+impl Wake for Flag {
+    fn wake(self: Arc<Self>) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+}
+
+#[test]
+fn joined_lanes_give_the_same_run_as_the_simulator() {
+    let (seq, cs): (Seqr, ControlSystem) = (Sequencer::new(), ControlSystem::new(0.02));
+    let mut conditions = Conditions::new(&AppConfig::DEFAULT);
+    let mut monitors: Monitors<ControlSystem, M> = Monitors::new();
+    let app = app::register(&seq, &mut monitors, &mut conditions, &AppConfig::DEFAULT).unwrap();
+    let main = app.ids.main;
+    let flag = Arc::new(Flag(AtomicBool::new(true)));
+    let waker = Waker::from(flag.clone());
+    let mut lanes = pin!(app.run(&seq, &cs));
+    let mut polls = 0u32;
+    macro_rules! poll {
+        () => {
+            while flag.0.swap(false, Ordering::SeqCst) {
+                polls += 1;
+                let _ = lanes.as_mut().poll(&mut Context::from_waker(&waker));
+            }
+        };
+    }
+    poll!();
+    seq.sequence_by_id(main).unwrap().start().unwrap();
+    poll!();
+    let mut now_ms = 0;
+    while cs.phase() != Phase::Done && now_ms < 10_000 {
+        now_ms += 1;
+        cs.control_tick(ms(now_ms), 0.001);
+        seq.tick(ms(now_ms), &cs, &mut monitors);
+        poll!();
+    }
+    assert_eq!(cs.phase(), Phase::Done);
+    let joined = cs.summary();
+
+    let mut w = World::new(FaultPlan::NONE, false);
+    w.run();
+    assert_eq!(joined.moves_done, 3);
+    assert_eq!(joined.move_done_at, w.cs.summary().move_done_at);
+    assert_eq!(joined.homed_at, w.cs.summary().homed_at);
+    // One wake per tick at most (the move step polls its exit condition every 1 ms).
+    assert!(
+        polls <= now_ms as u32 + 2,
+        "{polls} polls in {now_ms} ticks"
+    );
+}
+
+#[test]
+fn estop_enters_emergency_and_aborts_every_sequence() {
+    let mut w = World::new(FaultPlan::NONE.with(Fault::EStop { at: ms(2000) }), true);
+    w.run();
+    assert_eq!(w.safety.unwrap().level(), safety::EMERGENCY);
+    assert_eq!(
+        w.outcome(w.ids.main),
+        Some(Outcome::Aborted(Cause::AbortAll))
+    );
+    w.settle(100);
+    let r = w.cs.summary().estop;
+    assert_eq!(r.latency(), Some(rtseq::Duration::from_millis(1)));
+    assert!(r.stop_latency().unwrap() <= rtseq::Duration::from_millis(30));
+    assert!(w.cs.plant().current().abs() < 0.01);
+    assert_eq!(w.cs.plant().velocity(), 0.0);
+}
+
+#[test]
+fn safety_properties_are_complete() {
+    assert_eq!(PROPERTIES.validate(), Ok(()));
+    let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
+    assert!(SafetySystem::new(&PROPERTIES, handle).is_ok());
+}
