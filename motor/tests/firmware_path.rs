@@ -60,7 +60,7 @@ fn joined_lanes_give_the_same_run_as_the_simulator() {
     assert_eq!(joined.moves_done, 3);
     assert_eq!(joined.move_done_at, w.cs.summary().move_done_at);
     assert_eq!(joined.homed_at, w.cs.summary().homed_at);
-    // One wake per tick at most (the move step polls its exit condition every 1 ms).
+    // About one wake per tick (the move step polls its exit condition every 1 ms).
     assert!(
         polls <= now_ms as u32 + 2,
         "{polls} polls in {now_ms} ticks"
