@@ -52,6 +52,10 @@ impl Behaviour {
 pub enum Trigger {
     /// On the rising edge of the condition (default): no exception storm while it stays true.
     RisingEdge,
+    /// On the falling edge of the condition (e.g. a button released, a fault cleared).
+    FallingEdge,
+    /// On every change of the condition (e.g. a toggle switched on and off again).
+    Change,
     /// At every evaluation while the condition is true and no exception of the owner is active.
     Level,
 }

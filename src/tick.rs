@@ -113,6 +113,8 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
         let value = entry.def.condition.validate(control, now);
         let fire = match entry.def.trigger {
             crate::Trigger::RisingEdge => value && !entry.last,
+            crate::Trigger::FallingEdge => !value && entry.last,
+            crate::Trigger::Change => value != entry.last,
             crate::Trigger::Level => value,
         };
         entry.last = value;

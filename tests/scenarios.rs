@@ -823,3 +823,38 @@ fn the_tick_wakes_only_the_lanes_that_must_act() {
     // applied at 141 and wakes A once; then its polls at 150 ... 200.
     assert_eq!(polls[0], 12 + 1 + 6, "A's lane: {polls:?}");
 }
+
+#[test]
+fn triggers_rising_falling_change_and_level() {
+    let fired = |trigger: Trigger| {
+        let seq = Seqr::new();
+        let ctrl = Ctrl::default();
+        let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+        let si = s.id();
+        let main = seq
+            .add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)]))
+            .unwrap();
+        let mi = main.id();
+        let mut c0 = |c: &Ctrl, _| c.flag(0);
+        let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+        let m = monitors
+            .add(
+                si,
+                Monitor::new("m", &mut c0, Behaviour::Nothing).trigger(trigger),
+            )
+            .unwrap();
+        let mut sim = Sim::new(&seq, &ctrl, monitors);
+        sim.lane(main);
+        // True from 5 to 7 ms, and again from 12 to 13 ms.
+        sim.before_tick(|t, c| c.set(0, matches!(ms(t), 5..=7 | 12..=13)));
+        sim.start(mi).unwrap();
+        sim.run_for(Duration::from_millis(20));
+        let fired = sim.monitors().fired(m);
+        assert_eq!(sim.handle(si).unwrap().counters().exceptions, fired);
+        fired
+    };
+    assert_eq!(fired(Trigger::RisingEdge), 2); // 5, 12
+    assert_eq!(fired(Trigger::FallingEdge), 2); // 8, 14
+    assert_eq!(fired(Trigger::Change), 4); // 5, 8, 12, 14
+    assert_eq!(fired(Trigger::Level), 5); // 5, 6, 7, 12, 13
+}
