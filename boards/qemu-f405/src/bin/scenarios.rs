@@ -1,0 +1,226 @@
+//! Scenario firmware: runs one scenario of `rtseq-scenarios` under RTIC and prints its
+//! transition trace, for `tests/qemu_scenarios.rs` to compare with the host simulator.
+//!
+//! `cargo fw-run scenarios -- NAME` (NAME from `rtseq_scenarios::SCENARIOS`).
+//!
+//! - `init`: looks the scenario up by the command line, registers it into the `static`
+//!   sequencer, declares the lanes, starts the main sequences at time 0, starts TIM2.
+//! - `tick` (TIM2, 1 kHz, priority 2): the scenario's script, then `SEQ.tick`. After the
+//!   scenario's last tick it stops the timer.
+//! - `lane0..2` (priority 1): `rtseq::lane(&SEQ, &CTRL, seq)`, in the host's lane order.
+//! - `idle`: drains the trace (`SEQ.drain_trace`) and prints each transition as integers
+//!   (`T time_us seq from to cause_kind cause_arg`, see `rtseq_scenarios::encode`); after the
+//!   last tick prints the action summary and exits 0 (1 if transitions were lost).
+#![no_std]
+#![no_main]
+
+use rtseq_qemu_f405 as board;
+
+#[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
+mod app {
+    use super::board;
+    use board::clock::TickTimer;
+    use core::sync::atomic::{AtomicBool, Ordering};
+    use rtseq::{Seq, Sequencer};
+    use rtseq_scenarios::{encode, Conds, Ctrl, Mons, Root, Scenario, Seqr, SCENARIOS};
+
+    /// The sequencer, shared by the tick and the lanes.
+    static SEQ: Seqr = Sequencer::new();
+    /// The control system the scenario's script and conditions use.
+    static CTRL: Ctrl = Ctrl::new();
+    /// Set by the tick after the scenario's last tick.
+    static DONE: AtomicBool = AtomicBool::new(false);
+
+    #[shared]
+    struct Shared {}
+
+    #[local]
+    struct Local {
+        timer: TickTimer,
+        scenario: &'static Scenario,
+        monitors: Mons<'static>,
+        lane0: Option<Seq<Root>>,
+        lane1: Option<Seq<Root>>,
+        lane2: Option<Seq<Root>>,
+    }
+
+    #[init(local = [conds: Conds = Conds::new()])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let mut buf = [0u8; 128];
+        let name = first_arg(&mut buf);
+        let Some(scenario) = SCENARIOS.iter().find(|s| s.name.as_bytes() == name) else {
+            defmt::error!(
+                "scenarios: unknown scenario '{=str}'",
+                core::str::from_utf8(name).unwrap_or("?")
+            );
+            for s in SCENARIOS {
+                defmt::info!("scenarios: known: {=str}", s.name);
+            }
+            board::exit_failure();
+        };
+        let mut monitors = Mons::new();
+        let lanes = match (scenario.register)(&SEQ, &mut monitors, cx.local.conds) {
+            Ok(l) => l,
+            Err(e) => {
+                defmt::error!("scenarios: registration failed: {}", e);
+                board::exit_failure();
+            }
+        };
+        for lane in lanes.lanes.iter() {
+            if let Some(h) = SEQ.sequence_by_id(lane.id()) {
+                let _ = h.declare_lane();
+            }
+        }
+        for &id in lanes.start.iter() {
+            if let Err(e) = SEQ.sequence_by_id(id).map_or(Ok(()), |h| h.start()) {
+                defmt::error!("scenarios: start failed: {}", e);
+                board::exit_failure();
+            }
+        }
+        // `pop` from the back, not `into_iter` (heapless' iterator slices: a panic path).
+        let mut v = lanes.lanes;
+        let lane2 = if v.len() > 2 { v.pop() } else { None };
+        let lane1 = if v.len() > 1 { v.pop() } else { None };
+        let lane0 = v.pop();
+        // Spawning from init cannot fail (each task once); `.ok()` keeps the no-panic proof.
+        lane0::spawn().ok();
+        lane1::spawn().ok();
+        lane2::spawn().ok();
+        defmt::info!(
+            "scenarios: {=str}, {=u32} ticks, {=usize} sequences, {=usize} monitors",
+            scenario.name,
+            scenario.ticks,
+            SEQ.len(),
+            monitors.len()
+        );
+        let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
+        (
+            Shared {},
+            Local {
+                timer,
+                scenario,
+                monitors,
+                lane0,
+                lane1,
+                lane2,
+            },
+        )
+    }
+
+    /// The first argument after the program name. By hand, not with `str::split`, whose
+    /// slicing keeps a panic path (the no-panic proof covers this firmware).
+    fn first_arg(buf: &mut [u8]) -> &[u8] {
+        let line = board::args::cmdline(buf).unwrap_or("").as_bytes();
+        let start = line
+            .iter()
+            .position(|&c| c == b' ')
+            .map_or(line.len(), |p| p.saturating_add(1));
+        let rest = line.get(start..).unwrap_or(&[]);
+        let end = rest.iter().position(|&c| c == b' ').unwrap_or(rest.len());
+        rest.get(..end).unwrap_or(&[])
+    }
+
+    /// Prints the buffered transitions; returns how many were lost.
+    fn drain() -> u32 {
+        SEQ.drain_trace(|t| {
+            let [time, seq, from, to, kind, arg] = encode(&t);
+            defmt::info!(
+                "T {=u32} {=u32} {=u32} {=u32} {=u32} {=u32}",
+                time,
+                seq,
+                from,
+                to,
+                kind,
+                arg
+            );
+        })
+    }
+
+    /// Lowest priority: drains the trace whenever every lane sleeps; ends the run.
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        let mut lost: u32 = 0;
+        loop {
+            lost = lost.saturating_add(drain());
+            // Check and sleep with interrupts masked: a tick between check and WFI still
+            // wakes the WFI.
+            cortex_m::interrupt::disable();
+            if DONE.load(Ordering::Relaxed) {
+                // The last tick and its lanes have run (idle runs only when they sleep).
+                lost = lost.saturating_add(drain());
+                let s = CTRL.summary();
+                defmt::info!(
+                    "S lines={=u32} dead={=u32} returns={=u32} digest={=u32} lost={=u32}",
+                    s.lines,
+                    s.dead_lines,
+                    s.returns,
+                    s.digest,
+                    lost
+                );
+                if lost == 0 {
+                    board::exit_success();
+                }
+                board::exit_failure();
+            }
+            cortex_m::asm::wfi();
+            // SAFETY: not inside a critical section of ours; RTIC uses BASEPRI, not PRIMASK.
+            unsafe { cortex_m::interrupt::enable() };
+        }
+    }
+
+    /// The heartbeat: script, then the sequencer tick.
+    #[task(binds = TIM2, priority = 2, local = [timer, scenario, monitors, n: u32 = 0])]
+    fn tick(cx: tick::Context) {
+        let now = cx.local.timer.on_interrupt();
+        let n = cx.local.n.saturating_add(1);
+        *cx.local.n = n;
+        let scenario = *cx.local.scenario;
+        if n > scenario.ticks {
+            return;
+        }
+        if now.as_ticks() != u64::from(n).wrapping_mul(1_000) {
+            // A lost tick would desynchronise the script from the host's.
+            defmt::error!("scenarios: tick {=u32} at {=u64} us", n, now.as_ticks());
+            board::exit_failure();
+        }
+        (scenario.script)(n, &CTRL, &SEQ);
+        SEQ.tick(now, &CTRL, cx.local.monitors);
+        if n == scenario.ticks {
+            cx.local.timer.stop();
+            DONE.store(true, Ordering::Relaxed);
+        }
+    }
+
+    /// Lane 0 (polled first, as the host simulator's first lane).
+    #[task(priority = 1, local = [lane0])]
+    async fn lane0(cx: lane0::Context) {
+        if let Some(seq) = cx.local.lane0 {
+            match rtseq::lane(&SEQ, &CTRL, seq).await {}
+        }
+        loop {
+            core::future::pending::<()>().await;
+        }
+    }
+
+    /// Lane 1.
+    #[task(priority = 1, local = [lane1])]
+    async fn lane1(cx: lane1::Context) {
+        if let Some(seq) = cx.local.lane1 {
+            match rtseq::lane(&SEQ, &CTRL, seq).await {}
+        }
+        loop {
+            core::future::pending::<()>().await;
+        }
+    }
+
+    /// Lane 2.
+    #[task(priority = 1, local = [lane2])]
+    async fn lane2(cx: lane2::Context) {
+        if let Some(seq) = cx.local.lane2 {
+            match rtseq::lane(&SEQ, &CTRL, seq).await {}
+        }
+        loop {
+            core::future::pending::<()>().await;
+        }
+    }
+}

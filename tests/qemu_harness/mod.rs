@@ -1,0 +1,170 @@
+//! Shared QEMU harness for the root test suites that run firmware from `boards/qemu-f405`
+//! (the approach of `tests/qemu.rs`): check the tools, build the firmware once with a nested
+//! cargo into `target/firmware`, snapshot the ELFs, run one in QEMU through `qemu_run` and
+//! return its decoded log.
+//!
+//! Missing QEMU or target is a test FAILURE with the way to fix it (`./x setup`), never a
+//! skip.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::{Mutex, OnceLock};
+use std::time::{Duration, Instant};
+
+pub use qemu_run::{Config, Echo, Outcome};
+
+pub const TARGET: &str = "thumbv7em-none-eabihf";
+pub const BOARD: &str = "boards/qemu-f405";
+/// Host-time limit for one firmware run.
+pub const RUN_TIMEOUT: Duration = Duration::from_secs(60);
+
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Fails (with the way to fix it) unless QEMU and the target are installed. Checked once.
+pub fn require_tools() {
+    static CHECK: OnceLock<Result<(), String>> = OnceLock::new();
+    let r = CHECK.get_or_init(|| {
+        let mut missing = Vec::new();
+        if let Err(e) = qemu_run::check_qemu(&Config::default()) {
+            missing.push(e.to_string());
+        }
+        let sysroot = Command::new(std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into()))
+            .args(["--print", "sysroot"])
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
+        let has_target =
+            sysroot.is_some_and(|s| s.join("lib/rustlib").join(TARGET).join("lib").is_dir());
+        if !has_target {
+            missing.push(format!(
+                "the Rust target {TARGET} is not installed; {}",
+                qemu_run::SETUP_HINT
+            ));
+        }
+        if missing.is_empty() {
+            Ok(())
+        } else {
+            Err(missing.join("\n"))
+        }
+    });
+    if let Err(e) = r {
+        panic!("QEMU suite cannot run:\n{e}");
+    }
+}
+
+/// The nested cargo command for the board, free of the outer cargo's settings.
+pub fn board_cargo(features: &str, bins: &[&str]) -> Command {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.current_dir(root()) // so the root .cargo/config.toml (runner, linker args) applies
+        .args(["build", "--release", "--target", TARGET])
+        .arg("--manifest-path")
+        .arg(root().join(BOARD).join("Cargo.toml"))
+        .arg("--target-dir")
+        .arg(root().join("target/firmware"));
+    if !features.is_empty() {
+        cmd.args(["--features", features]);
+    }
+    for b in bins {
+        cmd.args(["--bin", b]);
+    }
+    for v in [
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_TARGET",
+        "RUSTFLAGS",
+        "CARGO_ENCODED_RUSTFLAGS",
+        "CARGO_MAKEFLAGS",
+        "MAKEFLAGS",
+        "MFLAGS",
+    ] {
+        cmd.env_remove(v);
+    }
+    cmd
+}
+
+/// Builds the given bins (all if empty) with `features`; Err(cargo's stderr) on failure.
+/// Builds are serialized within this test binary.
+pub fn try_build(features: &str, bins: &[&str]) -> Result<(), String> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    let _g = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let t = Instant::now();
+    let out = board_cargo(features, bins)
+        .output()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    if out.status.success() {
+        eprintln!(
+            "qemu harness: built firmware (features '{features}', bins {bins:?}) in {:.1?}",
+            t.elapsed()
+        );
+        Ok(())
+    } else {
+        Err(stderr)
+    }
+}
+
+/// Path of firmware `bin` built with the default features (all bins built on first use),
+/// snapshotted into `target/firmware/<snapshot>/` so a later build with other features
+/// cannot swap it under a running test.
+pub fn firmware(bin: &str) -> PathBuf {
+    require_tools();
+    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    let dir = BUILT.get_or_init(|| {
+        try_build("", &[])?;
+        let release = root().join("target/firmware").join(TARGET).join("release");
+        let snapshot = root().join("target/firmware/qemu-harness");
+        std::fs::create_dir_all(&snapshot).map_err(|e| e.to_string())?;
+        for entry in std::fs::read_dir(&release).map_err(|e| e.to_string())? {
+            let path = entry.map_err(|e| e.to_string())?.path();
+            if path.is_file() && path.extension().is_none() {
+                let to = snapshot.join(path.file_name().unwrap_or_default());
+                std::fs::copy(&path, &to).map_err(|e| format!("copy {}: {e}", path.display()))?;
+            }
+        }
+        Ok(snapshot)
+    });
+    match dir {
+        Ok(d) => d.join(bin),
+        Err(e) => panic!("building the QEMU firmware failed:\n{e}"),
+    }
+}
+
+/// Runs firmware `bin` in QEMU with `args` on its command line; `echo` the log to stderr.
+pub fn run_quiet(bin: &str, args: &[&str], echo: bool) -> Outcome {
+    let elf = firmware(bin);
+    let cfg = Config {
+        timeout: RUN_TIMEOUT,
+        echo: if echo { Echo::Stderr } else { Echo::None },
+        firmware_args: args.iter().map(|s| s.to_string()).collect(),
+        ..Config::default()
+    };
+    qemu_run::run(&elf, &cfg).unwrap_or_else(|e| panic!("running {bin} in QEMU: {e}"))
+}
+
+/// Runs firmware `bin` in QEMU with `args`, echoing its log.
+pub fn run(bin: &str, args: &[&str]) -> Outcome {
+    eprintln!("--- qemu: {bin} {}", args.join(" "));
+    run_quiet(bin, args, true)
+}
+
+/// Asserts the exit code, showing the whole log otherwise.
+pub fn expect_exit(out: &Outcome, code: i32) {
+    assert_eq!(
+        out.exit_code(),
+        code,
+        "unexpected exit code; log:\n{}",
+        out.transcript()
+    );
+}
+
+/// Asserts that a line with exactly this message was logged; returns it.
+pub fn expect_line<'a>(out: &'a Outcome, message: &str) -> &'a qemu_run::LogLine {
+    out.lines
+        .iter()
+        .find(|l| l.message == message)
+        .unwrap_or_else(|| panic!("no line {message:?} in the log:\n{}", out.transcript()))
+}
