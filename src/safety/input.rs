@@ -100,11 +100,7 @@ impl<T: IoType> CriticalInput<T> {
     /// assert_eq!(DOOR.ignore().check(), InputCheck::Ignore);
     /// ```
     pub const fn ignore(self) -> InputAction {
-        InputAction {
-            input: self.id,
-            kind: T::KIND,
-            check: InputCheck::Ignore,
-        }
+        InputAction::new(self.id, T::KIND, InputCheck::Ignore)
     }
 }
 
@@ -129,14 +125,14 @@ macro_rules! check_method {
                 expected: $t,
                 event: SafetyEvent<K>,
             ) -> InputAction {
-                InputAction {
-                    input: self.id,
-                    kind: <$t as IoType>::KIND,
-                    check: InputCheck::Check {
+                InputAction::new(
+                    self.id,
+                    <$t as IoType>::KIND,
+                    InputCheck::Check {
                         expected: IoValue::$variant(expected),
                         event: event.id(),
                     },
-                }
+                )
             }
         }
     };
@@ -180,15 +176,15 @@ macro_rules! range_methods {
                 max: $t,
                 event: SafetyEvent<K>,
             ) -> InputAction {
-                InputAction {
-                    input: self.id,
-                    kind: <$t as IoType>::KIND,
-                    check: InputCheck::Range {
+                InputAction::new(
+                    self.id,
+                    <$t as IoType>::KIND,
+                    InputCheck::Range {
                         min: IoValue::$variant(min),
                         max: IoValue::$variant(max),
                         event: event.id(),
                     },
-                }
+                )
             }
 
             /// Input action (EEROS `range(..., offRange = true)`): trigger
@@ -212,15 +208,15 @@ macro_rules! range_methods {
                 max: $t,
                 event: SafetyEvent<K>,
             ) -> InputAction {
-                InputAction {
-                    input: self.id,
-                    kind: <$t as IoType>::KIND,
-                    check: InputCheck::OffRange {
+                InputAction::new(
+                    self.id,
+                    <$t as IoType>::KIND,
+                    InputCheck::OffRange {
                         min: IoValue::$variant(min),
                         max: IoValue::$variant(max),
                         event: event.id(),
                     },
-                }
+                )
             }
         }
     };
@@ -383,10 +379,120 @@ impl InputCheck {
 pub struct InputAction {
     input: InputId,
     kind: IoKind,
-    check: InputCheck,
+    op: CheckOp,
+    /// The event (`EventId::public(0)`, unused, for `Ignore`).
+    event: EventId,
+    /// `expected` or `min`, as an ordered key (see `key`).
+    a: i32,
+    /// `max` as an ordered key (0 for `Check` and `Ignore`).
+    b: i32,
+}
+
+/// An `f32` as an `i32` with the same order (for non-NaN values, `-0.0`
+/// and `0.0` both map to 0): sign and magnitude to two's complement.
+#[inline(always)]
+const fn float_key(f: f32) -> i32 {
+    let bits = f.to_bits();
+    let magnitude = (bits & 0x7fff_ffff) as i32;
+    if bits & 0x8000_0000 != 0 {
+        -magnitude
+    } else {
+        magnitude
+    }
+}
+
+/// The inverse of [`float_key`] (`-0.0` comes back as `0.0`).
+const fn float_from_key(k: i32) -> f32 {
+    if k < 0 {
+        f32::from_bits(k.unsigned_abs() | 0x8000_0000)
+    } else {
+        f32::from_bits(k as u32)
+    }
+}
+
+/// The ordered key of a value: `bool` 0/1, `i32` itself, `f32` by
+/// [`float_key`] (a NaN bound keeps its bits; no valid check has one).
+const fn key(v: IoValue) -> i32 {
+    match v {
+        IoValue::Bool(b) => b as i32,
+        IoValue::Int(i) => i,
+        IoValue::Float(f) => float_key(f),
+    }
+}
+
+/// The value of `kind` whose key is `k`.
+const fn unkey(kind: IoKind, k: i32) -> IoValue {
+    match kind {
+        IoKind::Bool => IoValue::Bool(k != 0),
+        IoKind::Int => IoValue::Int(k),
+        IoKind::Float => IoValue::Float(float_from_key(k)),
+    }
+}
+
+/// The compiled form of an [`InputCheck`]: what the cycle evaluates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum CheckOp {
+    Ignore,
+    Equal,
+    Within,
+    Outside,
 }
 
 impl InputAction {
+    /// Compiles `check` (whose values are of `kind`, as the typed
+    /// constructors guarantee) into the compact form.
+    const fn new(input: InputId, kind: IoKind, check: InputCheck) -> Self {
+        let (op, event, a, b) = match check {
+            InputCheck::Ignore => (CheckOp::Ignore, EventId::public(0), 0, 0),
+            InputCheck::Check { expected, event } => (CheckOp::Equal, event, key(expected), 0),
+            InputCheck::Range { min, max, event } => (CheckOp::Within, event, key(min), key(max)),
+            InputCheck::OffRange { min, max, event } => {
+                (CheckOp::Outside, event, key(min), key(max))
+            }
+        };
+        InputAction {
+            input,
+            kind,
+            op,
+            event,
+            a,
+            b,
+        }
+    }
+
+    /// Whether the input is not read at all (`ignore`).
+    #[inline(always)]
+    pub(crate) fn is_ignored(&self) -> bool {
+        self.op == CheckOp::Ignore
+    }
+
+    /// The event of a firing check (meaningless for `Ignore`).
+    #[inline(always)]
+    pub(crate) fn event(&self) -> EventId {
+        self.event
+    }
+
+    /// Whether `value` fires the check: the same result as
+    /// [`InputCheck::evaluate`], on machine words (the bounds are stored as
+    /// ordered integer keys, see `key`). A value of another kind than the
+    /// input's, and NaN, fire (fail-safe).
+    #[inline(always)]
+    pub(crate) fn fires(&self, value: IoValue) -> bool {
+        let v = match (value, self.kind) {
+            (IoValue::Bool(b), IoKind::Bool) => i32::from(b),
+            (IoValue::Int(i), IoKind::Int) => i,
+            (IoValue::Float(f), IoKind::Float) if !f.is_nan() => float_key(f),
+            _ => return true,
+        };
+        match self.op {
+            CheckOp::Ignore => false,
+            CheckOp::Equal => v != self.a,
+            CheckOp::Within => v < self.a || v > self.b,
+            CheckOp::Outside => v > self.a && v < self.b,
+        }
+    }
+
     /// The input this action reads.
     ///
     /// ```
@@ -406,7 +512,24 @@ impl InputAction {
     /// assert_eq!(IN.ignore().check(), InputCheck::Ignore);
     /// ```
     pub const fn check(&self) -> InputCheck {
-        self.check
+        let event = self.event;
+        match self.op {
+            CheckOp::Ignore => InputCheck::Ignore,
+            CheckOp::Equal => InputCheck::Check {
+                expected: unkey(self.kind, self.a),
+                event,
+            },
+            CheckOp::Within => InputCheck::Range {
+                min: unkey(self.kind, self.a),
+                max: unkey(self.kind, self.b),
+                event,
+            },
+            CheckOp::Outside => InputCheck::OffRange {
+                min: unkey(self.kind, self.a),
+                max: unkey(self.kind, self.b),
+                event,
+            },
+        }
     }
 
     /// The kind of the input this action was built for.

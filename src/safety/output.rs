@@ -98,11 +98,7 @@ impl<T: IoType> CriticalOutput<T> {
     /// assert_eq!(LED.leave().mode(), OutputMode::Leave);
     /// ```
     pub const fn leave(self) -> OutputAction {
-        OutputAction {
-            output: self.id,
-            kind: T::KIND,
-            mode: OutputMode::Leave,
-        }
+        OutputAction::new(self.id, T::KIND, OutputMode::Leave)
     }
 }
 
@@ -117,11 +113,11 @@ macro_rules! set_method {
             /// assert_eq!(OUT.set(VALUE).mode(), OutputMode::Set(VALUE.into()));
             /// ```
             pub const fn set(self, value: $t) -> OutputAction {
-                OutputAction {
-                    output: self.id,
-                    kind: <$t as IoType>::KIND,
-                    mode: OutputMode::Set(IoValue::$variant(value)),
-                }
+                OutputAction::new(
+                    self.id,
+                    <$t as IoType>::KIND,
+                    OutputMode::Set(IoValue::$variant(value)),
+                )
             }
         }
     };
@@ -156,14 +152,14 @@ impl CriticalOutput<bool> {
     /// });
     /// ```
     pub const fn toggle(self) -> OutputAction {
-        OutputAction {
-            output: self.id,
-            kind: IoKind::Bool,
-            mode: OutputMode::Toggle {
+        OutputAction::new(
+            self.id,
+            IoKind::Bool,
+            OutputMode::Toggle {
                 low: IoValue::Bool(false),
                 high: IoValue::Bool(true),
             },
-        }
+        )
     }
 }
 
@@ -182,14 +178,14 @@ macro_rules! toggle_method {
             /// });
             /// ```
             pub const fn toggle(self, low: $t, high: $t) -> OutputAction {
-                OutputAction {
-                    output: self.id,
-                    kind: <$t as IoType>::KIND,
-                    mode: OutputMode::Toggle {
+                OutputAction::new(
+                    self.id,
+                    <$t as IoType>::KIND,
+                    OutputMode::Toggle {
                         low: IoValue::$variant(low),
                         high: IoValue::$variant(high),
                     },
-                }
+                )
             }
         }
     };
@@ -291,10 +287,56 @@ pub enum OutputMode {
 pub struct OutputAction {
     output: OutputId,
     kind: IoKind,
-    mode: OutputMode,
+    op: OutputOp,
+    /// The `set` value or the toggle's `low`.
+    low: IoValue,
+    /// The toggle's `high` (equal to `low` otherwise).
+    high: IoValue,
+}
+
+/// The compiled form of an [`OutputMode`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum OutputOp {
+    Set,
+    Leave,
+    Toggle,
 }
 
 impl OutputAction {
+    /// Compiles `mode` (whose values are of `kind`, as the typed
+    /// constructors guarantee) into the compact form.
+    const fn new(output: OutputId, kind: IoKind, mode: OutputMode) -> Self {
+        let (op, low, high) = match mode {
+            OutputMode::Set(v) => (OutputOp::Set, v, v),
+            OutputMode::Leave => (OutputOp::Leave, IoValue::Bool(false), IoValue::Bool(false)),
+            OutputMode::Toggle { low, high } => (OutputOp::Toggle, low, high),
+        };
+        OutputAction {
+            output,
+            kind,
+            op,
+            low,
+            high,
+        }
+    }
+
+    /// The value to write in this cycle (`None` for `leave`); a toggle
+    /// flips the output's bit in `toggles`.
+    #[inline(always)]
+    pub(crate) fn drive(&self, toggles: &mut u32) -> Option<IoValue> {
+        match self.op {
+            OutputOp::Leave => None,
+            OutputOp::Set => Some(self.low),
+            OutputOp::Toggle => {
+                let bit = super::properties::bit_of(self.output.index());
+                let high = *toggles & bit != 0;
+                *toggles ^= bit;
+                Some(if high { self.high } else { self.low })
+            }
+        }
+    }
+
     /// The output this action drives.
     ///
     /// ```
@@ -314,7 +356,14 @@ impl OutputAction {
     /// assert_eq!(EN.leave().mode(), OutputMode::Leave);
     /// ```
     pub const fn mode(&self) -> OutputMode {
-        self.mode
+        match self.op {
+            OutputOp::Set => OutputMode::Set(self.low),
+            OutputOp::Leave => OutputMode::Leave,
+            OutputOp::Toggle => OutputMode::Toggle {
+                low: self.low,
+                high: self.high,
+            },
+        }
     }
 
     /// The kind of the output this action was built for.

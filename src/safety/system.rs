@@ -6,10 +6,8 @@ use super::context::{PendingEvents, SafetyContext};
 use super::error::SafetyError;
 use super::event::EventId;
 use super::handle::SafetyHandle;
-use super::input::InputCheck;
 use super::io::SafetyIo;
 use super::level::{AbortPolicy, LevelStats, SafetyLevel};
-use super::output::OutputMode;
 use super::properties::{bit_of, SafetyProperties, ValidProperties};
 
 /// Something whose running sequences the safety system can abort (the
@@ -578,14 +576,13 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
 
         // 3. Input actions.
         for action in def.input_actions() {
-            let check = action.check();
-            if matches!(check, InputCheck::Ignore) {
+            if action.is_ignored() {
                 continue;
             }
-            let value = io.read_input(action.input());
-            if let Some(event) = check.evaluate(value) {
-                self.pending.add(event);
-                report.input_events |= bit_of(action.input().index());
+            let input = action.input();
+            if action.fires(io.read_input(input)) {
+                self.pending.add(action.event());
+                report.input_events |= bit_of(input.index());
             }
         }
 
@@ -596,15 +593,9 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
 
         // 5. Output actions.
         for action in def.output_actions() {
-            match action.mode() {
-                OutputMode::Set(value) => io.write_output(action.output(), value),
-                OutputMode::Leave => {}
-                OutputMode::Toggle { low, high } => {
-                    let bit = bit_of(action.output().index());
-                    let value = if self.toggle & bit == 0 { low } else { high };
-                    self.toggle ^= bit;
-                    io.write_output(action.output(), value);
-                }
+            let output = action.output();
+            if let Some(value) = action.drive(&mut self.toggle) {
+                io.write_output(output, value);
             }
         }
 
