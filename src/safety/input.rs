@@ -395,7 +395,7 @@ const fn float_key(f: f32) -> i32 {
     let bits = f.to_bits();
     let magnitude = (bits & 0x7fff_ffff) as i32;
     if bits & 0x8000_0000 != 0 {
-        -magnitude
+        magnitude.wrapping_neg()
     } else {
         magnitude
     }
