@@ -99,6 +99,15 @@ impl AppConfig {
         following_error_limit: 0.002,
         restart_limit: 3,
     };
+
+    /// The QEMU demo's program (`./x demo`): [`DEFAULT`](Self::DEFAULT) with eight moves
+    /// (100, 50, 150, 30, 120, 80, 160, 10 mm), so the fault-free run lasts about 6.5 s and
+    /// faults or a pause at 2…6 s hit the moves. The host tests of the demo use it too.
+    pub const DEMO: AppConfig = AppConfig {
+        targets: [0.100, 0.050, 0.150, 0.030, 0.120, 0.080, 0.160, 0.010],
+        move_count: MAX_MOVES,
+        ..AppConfig::DEFAULT
+    };
 }
 
 /// A fault to inject at a virtual time (see [`ControlSystem::inject`]).
