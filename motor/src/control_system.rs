@@ -54,6 +54,7 @@ use rtseq::{Duration, Instant};
 
 use crate::app::{Fault, FaultPlan, Reaction, Summary, MAX_FAULTS};
 use crate::controller::{Gains, Limits, Profile, Servo};
+use crate::hardware::{DriveCommand, Measurements};
 use crate::plant::{Plant, PlantFaults};
 
 /// "In position": |target − position| within this, m (20 µm = 16 encoder counts).
@@ -142,6 +143,12 @@ struct Core {
     brake: bool,
     settled_for: f32,
     acked: u32,
+    /// The last sample of a real drive ([`ControlSystem::control_step_measured`],
+    /// [`ControlSystem::update_measurements`]; raw: without injected sensor faults);
+    /// `None` while the simulated plant is the drive.
+    hw: Option<Measurements>,
+    /// The last command to the power stage.
+    drive: DriveCommand,
 }
 
 /// Inputs and outputs that are not the control loop's: injected faults, the pause button,
@@ -151,6 +158,8 @@ struct Io {
     now: Instant,
     plant_faults: PlantFaults,
     pause_button: bool,
+    /// The sampled pause button of a real drive.
+    hw_pause_button: bool,
     drive_permit: bool,
     brake_forced: bool,
 }
@@ -230,6 +239,8 @@ impl ControlSystem {
                 brake: true,
                 settled_for: 0.0,
                 acked: 0,
+                hw: None,
+                drive: DriveCommand::SAFE,
             })),
             requests: Mutex::new(Cell::new(Requests {
                 enable: None,
@@ -242,6 +253,7 @@ impl ControlSystem {
                 now: Instant::from_ticks(0),
                 plant_faults: PlantFaults::NONE,
                 pause_button: false,
+                hw_pause_button: false,
                 drive_permit: true,
                 brake_forced: false,
             })),
@@ -314,12 +326,107 @@ impl ControlSystem {
         });
     }
 
-    /// One control period of `dt` seconds: applies the pending commands, runs the setpoint
-    /// generator and the servo on the encoder reading, and advances the plant.
+    /// One control period of `dt` seconds on the simulated machine: reads its sensors,
+    /// applies the pending commands, runs the setpoint generator and the servo on the
+    /// encoder reading (the same code as [`control_step_measured`](Self::control_step_measured)),
+    /// and advances the plant with the resulting [`DriveCommand`].
     ///
     /// Call it from one context only (the control interrupt).
     pub fn control_step(&self, dt: f32) {
-        let req = critical_section::with(|cs| {
+        let req = self.take_requests();
+        let io = self.read_io();
+        let mut c = critical_section::with(|cs| self.core.borrow(cs).get());
+        *c.plant.faults_mut() = io.plant_faults;
+        let m = Measurements::of_plant(&c.plant);
+        let cmd = regulate(&mut c, req, &io, &m, dt);
+        c.plant.set_enabled(cmd.enable);
+        c.plant.set_brake(cmd.brake);
+        c.plant.step(cmd.current, dt);
+        critical_section::with(|cs| self.core.borrow(cs).set(c));
+
+        // Reaction records: the first time the motor is stopped after a reaction.
+        self.record_stopped(
+            &io,
+            c.plant.velocity().abs() <= STANDSTILL_VELOCITY
+                && c.plant.current().abs() <= STOPPED_CURRENT,
+        );
+    }
+
+    /// One control period of `dt` seconds on a **real drive**: `m` is the sample of its
+    /// sensors taken at the start of the period (raw: the sensor faults of the fault plan
+    /// are applied here), the result is what to write to the power stage until the next
+    /// call. Applies the pending commands and runs the setpoint generator and the servo
+    /// exactly like [`control_step`](Self::control_step); from the first call on, every
+    /// measurement this control system reports ([`status`](Self::status), the safety
+    /// system's inputs, the monitors' conditions) comes from these samples, and
+    /// [`plant`](Self::plant) is no longer stepped.
+    ///
+    /// Call it from one context only (the control interrupt), after
+    /// [`inject`](Self::inject) (which sets the time).
+    pub fn control_step_measured(&self, m: &Measurements, dt: f32) -> DriveCommand {
+        let req = self.take_requests();
+        let io = self.read_io();
+        let mut c = critical_section::with(|cs| self.core.borrow(cs).get());
+        let sample = m.with_sensor_faults(&io.plant_faults);
+        let cmd = regulate(&mut c, req, &io, &sample, dt);
+        c.hw = Some(*m);
+        critical_section::with(|cs| {
+            self.core.borrow(cs).set(c);
+            self.set_hw_pause_button(cs, m.pause_button);
+        });
+
+        // Reaction records: no simulation truth here, the measurements decide (the raw
+        // current: an injected sensor offset must not hide a stopped motor).
+        self.record_stopped(
+            &io,
+            c.servo.velocity().abs() <= STANDSTILL_VELOCITY && m.current.abs() <= STOPPED_CURRENT,
+        );
+        cmd
+    }
+
+    /// [`inject`](Self::inject) then [`control_step_measured`](Self::control_step_measured):
+    /// the whole control interrupt of a real board.
+    pub fn control_tick_measured(&self, now: Instant, m: &Measurements, dt: f32) -> DriveCommand {
+        self.inject(now);
+        self.control_step_measured(m, dt)
+    }
+
+    /// Stores a newer sample of a real drive without running the controller: what
+    /// [`status`](Self::status), the safety system and the monitors see until the next
+    /// control step. For drives sampled faster than the control period, and for machines
+    /// simulated in the loop, whose state at the end of the period is known at once (then
+    /// the run is bit-identical to [`control_step`](Self::control_step) on the same plant).
+    ///
+    /// Call it from the context that runs the control step.
+    pub fn update_measurements(&self, m: &Measurements) {
+        critical_section::with(|cs| {
+            let cell = self.core.borrow(cs);
+            let mut c = cell.get();
+            c.hw = Some(*m);
+            cell.set(c);
+            self.set_hw_pause_button(cs, m.pause_button);
+        });
+    }
+
+    fn set_hw_pause_button(&self, cs: critical_section::CriticalSection<'_>, on: bool) {
+        let cell = self.io.borrow(cs);
+        let mut v = cell.get();
+        v.hw_pause_button = on;
+        cell.set(v);
+    }
+
+    /// The last command the control step sent to the power stage.
+    pub fn drive_command(&self) -> DriveCommand {
+        critical_section::with(|cs| self.core.borrow(cs).get()).drive
+    }
+
+    /// The faults of the fault plan active now (both sensor and mechanical ones).
+    pub fn injected_faults(&self) -> PlantFaults {
+        self.read_io().plant_faults
+    }
+
+    fn take_requests(&self) -> Requests {
+        critical_section::with(|cs| {
             let cell = self.requests.borrow(cs);
             let r = cell.get();
             cell.set(Requests {
@@ -327,69 +434,10 @@ impl ControlSystem {
                 ..Requests::default()
             });
             r
-        });
-        let io = self.read_io();
-        let mut c = critical_section::with(|cs| self.core.borrow(cs).get());
-        *c.plant.faults_mut() = io.plant_faults;
+        })
+    }
 
-        let measured = c.plant.encoder_position() - c.zero;
-        if let Some(on) = req.enable {
-            c.enabled = on;
-            // Start (or stop) from where the axis is: no jump of the setpoint.
-            c.profile.reset(measured);
-            c.servo.clear_integral();
-        }
-        if let Some(on) = req.brake {
-            c.brake = on;
-        }
-        if req.zero {
-            c.zero = c.plant.encoder_position();
-            c.homed = true;
-            c.profile.reset(0.0);
-            c.servo.reset();
-        }
-        let measured = c.plant.encoder_position() - c.zero;
-        if let Some(m) = req.motion {
-            match m {
-                Motion::MoveTo(t) => c.profile.move_to(t),
-                Motion::Jog(v) => c.profile.jog(v),
-                Motion::Stop | Motion::FeedHold => c.profile.stop(),
-                Motion::FeedResume => c.profile.resume(),
-                Motion::QuickStop => {
-                    c.profile.quick_stop(measured, c.servo.velocity());
-                    c.servo.clear_integral();
-                }
-            }
-        }
-        c.acked = req.issued;
-
-        let active = c.enabled && io.drive_permit;
-        c.plant.set_enabled(active);
-        c.plant.set_brake(c.brake || io.brake_forced || !active);
-        let i_cmd = if active {
-            // The servo compares the setpoint and the measurement of the same instant; the
-            // profile's acceleration over the coming period is the feed-forward.
-            let (p_ref, v_ref) = (c.profile.position(), c.profile.velocity());
-            c.profile.step(dt);
-            let sp = (p_ref, v_ref, c.profile.acceleration());
-            c.servo.step(&c.gains, sp, measured, dt)
-        } else {
-            // Disabled: the setpoint follows the axis, the integrator stays empty.
-            c.profile.reset(measured);
-            c.servo.idle(measured, dt);
-            0.0
-        };
-        c.plant.step(i_cmd, dt);
-
-        let in_tol = (c.profile.position() - measured).abs() <= POSITION_TOLERANCE
-            && c.servo.velocity().abs() <= STANDSTILL_VELOCITY
-            && c.profile.done();
-        c.settled_for = if in_tol { c.settled_for + dt } else { 0.0 };
-        critical_section::with(|cs| self.core.borrow(cs).set(c));
-
-        // Reaction records: the first time the motor is stopped after a reaction.
-        let stopped = c.plant.velocity().abs() <= STANDSTILL_VELOCITY
-            && c.plant.current().abs() <= STOPPED_CURRENT;
+    fn record_stopped(&self, io: &Io, stopped: bool) {
         if stopped {
             self.update_app(|a| {
                 for r in a.summary.reactions_mut() {
@@ -483,10 +531,37 @@ impl ControlSystem {
 
     // ---- measurements -----------------------------------------------------------------
 
-    /// A consistent snapshot of every measurement.
+    /// A consistent snapshot of every measurement (on a real drive: of the last sample
+    /// given to [`control_step_measured`](Self::control_step_measured) or
+    /// [`update_measurements`](Self::update_measurements); `true_current` is then the
+    /// measured current without an injected offset).
     pub fn status(&self) -> Status {
         let mut c = critical_section::with(|cs| self.core.borrow(cs).get());
         let io = self.read_io();
+        if let Some(raw) = c.hw {
+            // Sensor faults show at once, as on the simulated plant.
+            let m = raw.with_sensor_faults(&io.plant_faults);
+            let position = m.position - c.zero;
+            return Status {
+                position,
+                velocity: c.servo.velocity(),
+                current: m.current,
+                true_current: raw.current,
+                current_command: c.servo.command(),
+                setpoint: c.profile.position(),
+                target: c.profile.target(),
+                following_error: c.profile.position() - position,
+                in_position: c.settled_for >= SETTLE_TIME - 1e-6,
+                standstill: c.servo.velocity().abs() <= STANDSTILL_VELOCITY && c.profile.done(),
+                end_stop_neg: m.end_stop_neg,
+                end_stop_pos: m.end_stop_pos,
+                estop: m.estop,
+                pause_button: io.pause_button || io.hw_pause_button,
+                enabled: c.drive.enable,
+                brake: c.drive.brake,
+                homed: c.homed,
+            };
+        }
         // Sensor faults show at once, not only from the next control step.
         *c.plant.faults_mut() = io.plant_faults;
         let position = c.plant.encoder_position() - c.zero;
@@ -557,12 +632,15 @@ impl ControlSystem {
         self.status().estop
     }
 
-    /// The raw pause button (pressed = true).
+    /// The raw pause button (pressed = true): the injected presses, and on a real drive the
+    /// sampled button.
     pub fn pause_button(&self) -> bool {
-        self.read_io().pause_button
+        let io = self.read_io();
+        io.pause_button || io.hw_pause_button
     }
 
-    /// The simulated machine (truth: machine coordinates, true current).
+    /// The simulated machine (truth: machine coordinates, true current). On a real drive
+    /// ([`control_step_measured`](Self::control_step_measured)) it is not stepped.
     pub fn plant(&self) -> Plant {
         critical_section::with(|cs| self.core.borrow(cs).get()).plant
     }
@@ -677,4 +755,69 @@ impl ControlSystem {
             cell.set(a);
         });
     }
+}
+
+/// The controller of one control period on the working copy `c` of the core: applies the
+/// pending commands `req`, runs the setpoint generator and the servo on the sample `m`,
+/// updates the settle timer, and returns the power stage's command (also kept in
+/// `c.drive`). Shared by the simulated and the real drive, so both run the same arithmetic
+/// in the same order.
+fn regulate(c: &mut Core, req: Requests, io: &Io, m: &Measurements, dt: f32) -> DriveCommand {
+    let measured = m.position - c.zero;
+    if let Some(on) = req.enable {
+        c.enabled = on;
+        // Start (or stop) from where the axis is: no jump of the setpoint.
+        c.profile.reset(measured);
+        c.servo.clear_integral();
+    }
+    if let Some(on) = req.brake {
+        c.brake = on;
+    }
+    if req.zero {
+        c.zero = m.position;
+        c.homed = true;
+        c.profile.reset(0.0);
+        c.servo.reset();
+    }
+    let measured = m.position - c.zero;
+    if let Some(motion) = req.motion {
+        match motion {
+            Motion::MoveTo(t) => c.profile.move_to(t),
+            Motion::Jog(v) => c.profile.jog(v),
+            Motion::Stop | Motion::FeedHold => c.profile.stop(),
+            Motion::FeedResume => c.profile.resume(),
+            Motion::QuickStop => {
+                c.profile.quick_stop(measured, c.servo.velocity());
+                c.servo.clear_integral();
+            }
+        }
+    }
+    c.acked = req.issued;
+
+    let active = c.enabled && io.drive_permit;
+    let brake = c.brake || io.brake_forced || !active;
+    let current = if active {
+        // The servo compares the setpoint and the measurement of the same instant; the
+        // profile's acceleration over the coming period is the feed-forward.
+        let (p_ref, v_ref) = (c.profile.position(), c.profile.velocity());
+        c.profile.step(dt);
+        let sp = (p_ref, v_ref, c.profile.acceleration());
+        c.servo.step(&c.gains, sp, measured, dt)
+    } else {
+        // Disabled: the setpoint follows the axis, the integrator stays empty.
+        c.profile.reset(measured);
+        c.servo.idle(measured, dt);
+        0.0
+    };
+
+    let in_tol = (c.profile.position() - measured).abs() <= POSITION_TOLERANCE
+        && c.servo.velocity().abs() <= STANDSTILL_VELOCITY
+        && c.profile.done();
+    c.settled_for = if in_tol { c.settled_for + dt } else { 0.0 };
+    c.drive = DriveCommand {
+        current,
+        enable: active,
+        brake,
+    };
+    c.drive
 }
