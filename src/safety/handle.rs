@@ -171,6 +171,12 @@ impl SafetyHandle {
         }
     }
 
+    /// Whether out-of-range public events wait for the next cycle.
+    #[inline(always)]
+    pub(crate) fn has_out_of_range(&self) -> bool {
+        self.out_of_range.load(Ordering::Relaxed) != 0
+    }
+
     /// (count, last) of out-of-range public events since the last call.
     pub(crate) fn take_out_of_range(&self) -> (u32, EventId) {
         if self.out_of_range.load(Ordering::Relaxed) == 0 {

@@ -382,73 +382,71 @@ pub struct InputAction {
     op: CheckOp,
     /// The event (`EventId::public(0)`, unused, for `Ignore`).
     event: EventId,
-    /// `expected` or `min`, as an ordered key (see `key`).
-    a: i32,
-    /// `max` as an ordered key (0 for `Check` and `Ignore`).
-    b: i32,
+    /// `expected` or `min`, as raw bits (see [`bits`]).
+    a: u32,
+    /// `max` as raw bits (0 for `Check` and `Ignore`).
+    b: u32,
 }
 
-/// An `f32` as an `i32` with the same order (for non-NaN values, `-0.0`
-/// and `0.0` both map to 0): sign and magnitude to two's complement.
-#[inline(always)]
-const fn float_key(f: f32) -> i32 {
-    let bits = f.to_bits();
-    let magnitude = (bits & 0x7fff_ffff) as i32;
-    if bits & 0x8000_0000 != 0 {
-        magnitude.wrapping_neg()
-    } else {
-        magnitude
-    }
-}
-
-/// The inverse of [`float_key`] (`-0.0` comes back as `0.0`).
-const fn float_from_key(k: i32) -> f32 {
-    if k < 0 {
-        f32::from_bits(k.unsigned_abs() | 0x8000_0000)
-    } else {
-        f32::from_bits(k as u32)
-    }
-}
-
-/// The ordered key of a value: `bool` 0/1, `i32` itself, `f32` by
-/// [`float_key`] (a NaN bound keeps its bits; no valid check has one).
-const fn key(v: IoValue) -> i32 {
+/// A value's payload as 32 raw bits (`bool` 0/1, `i32` two's complement,
+/// `f32` IEEE 754).
+const fn bits(v: IoValue) -> u32 {
     match v {
-        IoValue::Bool(b) => b as i32,
-        IoValue::Int(i) => i,
-        IoValue::Float(f) => float_key(f),
+        IoValue::Bool(b) => b as u32,
+        IoValue::Int(i) => i as u32,
+        IoValue::Float(f) => f.to_bits(),
     }
 }
 
-/// The value of `kind` whose key is `k`.
-const fn unkey(kind: IoKind, k: i32) -> IoValue {
+/// The value of `kind` whose raw bits are `b`.
+const fn unbits(kind: IoKind, b: u32) -> IoValue {
     match kind {
-        IoKind::Bool => IoValue::Bool(k != 0),
-        IoKind::Int => IoValue::Int(k),
-        IoKind::Float => IoValue::Float(float_from_key(k)),
+        IoKind::Bool => IoValue::Bool(b != 0),
+        IoKind::Int => IoValue::Int(b as i32),
+        IoKind::Float => IoValue::Float(f32::from_bits(b)),
     }
 }
 
-/// The compiled form of an [`InputCheck`]: what the cycle evaluates.
+/// The compiled form of an [`InputCheck`] with its kind: one code, so the
+/// cycle dispatches once (a jump table) and compares machine words.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 enum CheckOp {
     Ignore,
-    Equal,
-    Within,
-    Outside,
+    BoolEqual,
+    IntEqual,
+    IntWithin,
+    IntOutside,
+    FloatEqual,
+    FloatWithin,
+    FloatOutside,
 }
 
 impl InputAction {
     /// Compiles `check` (whose values are of `kind`, as the typed
     /// constructors guarantee) into the compact form.
     const fn new(input: InputId, kind: IoKind, check: InputCheck) -> Self {
-        let (op, event, a, b) = match check {
-            InputCheck::Ignore => (CheckOp::Ignore, EventId::public(0), 0, 0),
-            InputCheck::Check { expected, event } => (CheckOp::Equal, event, key(expected), 0),
-            InputCheck::Range { min, max, event } => (CheckOp::Within, event, key(min), key(max)),
-            InputCheck::OffRange { min, max, event } => {
-                (CheckOp::Outside, event, key(min), key(max))
+        let (op, event, a, b) = match (check, kind) {
+            (InputCheck::Ignore, _) => (CheckOp::Ignore, EventId::public(0), 0, 0),
+            (InputCheck::Check { expected, event }, k) => {
+                let op = match k {
+                    IoKind::Bool => CheckOp::BoolEqual,
+                    IoKind::Int => CheckOp::IntEqual,
+                    IoKind::Float => CheckOp::FloatEqual,
+                };
+                (op, event, bits(expected), 0)
+            }
+            (InputCheck::Range { min, max, event }, IoKind::Float) => {
+                (CheckOp::FloatWithin, event, bits(min), bits(max))
+            }
+            (InputCheck::Range { min, max, event }, _) => {
+                (CheckOp::IntWithin, event, bits(min), bits(max))
+            }
+            (InputCheck::OffRange { min, max, event }, IoKind::Float) => {
+                (CheckOp::FloatOutside, event, bits(min), bits(max))
+            }
+            (InputCheck::OffRange { min, max, event }, _) => {
+                (CheckOp::IntOutside, event, bits(min), bits(max))
             }
         };
         InputAction {
@@ -474,22 +472,22 @@ impl InputAction {
     }
 
     /// Whether `value` fires the check: the same result as
-    /// [`InputCheck::evaluate`], on machine words (the bounds are stored as
-    /// ordered integer keys, see `key`). A value of another kind than the
-    /// input's, and NaN, fire (fail-safe).
+    /// [`InputCheck::evaluate`], with one dispatch. A value of another kind
+    /// than the input's, and NaN, fire (fail-safe).
     #[inline(always)]
     pub(crate) fn fires(&self, value: IoValue) -> bool {
-        let v = match (value, self.kind) {
-            (IoValue::Bool(b), IoKind::Bool) => i32::from(b),
-            (IoValue::Int(i), IoKind::Int) => i,
-            (IoValue::Float(f), IoKind::Float) if !f.is_nan() => float_key(f),
-            _ => return true,
-        };
-        match self.op {
-            CheckOp::Ignore => false,
-            CheckOp::Equal => v != self.a,
-            CheckOp::Within => v < self.a || v > self.b,
-            CheckOp::Outside => v > self.a && v < self.b,
+        let (ia, ib) = (self.a as i32, self.b as i32);
+        let (fa, fb) = (f32::from_bits(self.a), f32::from_bits(self.b));
+        match (self.op, value) {
+            (CheckOp::Ignore, _) => false,
+            (CheckOp::BoolEqual, IoValue::Bool(v)) => i32::from(v) != ia,
+            (CheckOp::IntEqual, IoValue::Int(v)) => v != ia,
+            (CheckOp::IntWithin, IoValue::Int(v)) => v < ia || v > ib,
+            (CheckOp::IntOutside, IoValue::Int(v)) => v > ia && v < ib,
+            (CheckOp::FloatEqual, IoValue::Float(v)) => v != fa,
+            (CheckOp::FloatWithin, IoValue::Float(v)) => !(fa <= v && v <= fb),
+            (CheckOp::FloatOutside, IoValue::Float(v)) => !(v <= fa || v >= fb),
+            _ => true,
         }
     }
 
@@ -515,18 +513,18 @@ impl InputAction {
         let event = self.event;
         match self.op {
             CheckOp::Ignore => InputCheck::Ignore,
-            CheckOp::Equal => InputCheck::Check {
-                expected: unkey(self.kind, self.a),
+            CheckOp::BoolEqual | CheckOp::IntEqual | CheckOp::FloatEqual => InputCheck::Check {
+                expected: unbits(self.kind, self.a),
                 event,
             },
-            CheckOp::Within => InputCheck::Range {
-                min: unkey(self.kind, self.a),
-                max: unkey(self.kind, self.b),
+            CheckOp::IntWithin | CheckOp::FloatWithin => InputCheck::Range {
+                min: unbits(self.kind, self.a),
+                max: unbits(self.kind, self.b),
                 event,
             },
-            CheckOp::Outside => InputCheck::OffRange {
-                min: unkey(self.kind, self.a),
-                max: unkey(self.kind, self.b),
+            CheckOp::IntOutside | CheckOp::FloatOutside => InputCheck::OffRange {
+                min: unbits(self.kind, self.a),
+                max: unbits(self.kind, self.b),
                 event,
             },
         }

@@ -298,6 +298,7 @@ pub struct OutputAction {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 enum OutputOp {
+    // `Set` first: the common case is one compare with zero.
     Set,
     Leave,
     Toggle,
@@ -321,19 +322,26 @@ impl OutputAction {
         }
     }
 
-    /// The value to write in this cycle (`None` for `leave`); a toggle
-    /// flips the output's bit in `toggles`.
+    /// Drives the output for one cycle: writes the `set` value, or the
+    /// toggle's current value (flipping its bit in `toggles`), or nothing
+    /// (`leave`). `set` is the inline fast path.
     #[inline(always)]
-    pub(crate) fn drive(&self, toggles: &mut u32) -> Option<IoValue> {
-        match self.op {
-            OutputOp::Leave => None,
-            OutputOp::Set => Some(self.low),
-            OutputOp::Toggle => {
-                let bit = super::properties::bit_of(self.output.index());
-                let high = *toggles & bit != 0;
-                *toggles ^= bit;
-                Some(if high { self.high } else { self.low })
-            }
+    pub(crate) fn apply<IO: super::io::SafetyIo>(&self, io: &mut IO, toggles: &mut u32) {
+        if let OutputOp::Set = self.op {
+            io.write_output(self.output, self.low);
+        } else {
+            self.apply_other(io, toggles);
+        }
+    }
+
+    /// `leave` and `toggle`.
+    #[inline(never)]
+    fn apply_other<IO: super::io::SafetyIo>(&self, io: &mut IO, toggles: &mut u32) {
+        if let OutputOp::Toggle = self.op {
+            let bit = super::properties::bit_of(self.output.index());
+            let high = *toggles & bit != 0;
+            *toggles ^= bit;
+            io.write_output(self.output, if high { self.high } else { self.low });
         }
     }
 

@@ -6,6 +6,7 @@ use super::context::{PendingEvents, SafetyContext};
 use super::error::SafetyError;
 use super::event::EventId;
 use super::handle::SafetyHandle;
+use super::input::InputAction;
 use super::io::SafetyIo;
 use super::level::{AbortPolicy, LevelStats, SafetyLevel};
 use super::properties::{bit_of, SafetyProperties, ValidProperties};
@@ -454,9 +455,41 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
     }
 
     /// Resolves every pending event against the current level; returns
-    /// the safest destination.
+    /// the safest destination. The common case (nothing pending) is a few
+    /// loads; the rest is out of line.
+    #[inline(always)]
     fn resolve_pending(&mut self, report: &mut CycleReport) -> Option<SafetyLevel> {
-        let public = self.handle.take_pending() | core::mem::take(&mut self.pending.public);
+        let public = self.handle.take_pending();
+        if public | self.pending.public | self.pending.private | self.pending.out_of_range == 0
+            && !self.handle.has_out_of_range()
+        {
+            return None;
+        }
+        self.resolve_events(public, report)
+    }
+
+    /// Records the events of the fired input actions (bit `i` of `fired`
+    /// = `actions[i]`); returns the report's input bits.
+    #[cold]
+    #[inline(never)]
+    fn record_fired(&mut self, actions: &[InputAction], mut fired: u32) -> u32 {
+        let mut inputs = 0;
+        while fired != 0 {
+            let i = fired.trailing_zeros() as usize;
+            fired &= fired.wrapping_sub(1);
+            if let Some(action) = actions.get(i) {
+                self.pending.add(action.event());
+                inputs |= bit_of(action.input().index());
+            }
+        }
+        inputs
+    }
+
+    /// [`resolve_pending`](Self::resolve_pending) when something is pending.
+    #[cold]
+    #[inline(never)]
+    fn resolve_events(&mut self, public: u32, report: &mut CycleReport) -> Option<SafetyLevel> {
+        let public = public | core::mem::take(&mut self.pending.public);
         let private = core::mem::take(&mut self.pending.private);
         let best = self.resolve_mask(public, EventId::public, None, report);
         let best = self.resolve_mask(private, EventId::private, best, report);
@@ -473,6 +506,26 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
 }
 
 impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
+    /// Applies a transition: exit action of `from`, publish `to`, count
+    /// the activation (the entry action runs in the caller, with the
+    /// level's definition at hand). Out of line: the common cycle has no
+    /// transition.
+    #[cold]
+    #[inline(never)]
+    fn enter(&mut self, from: Option<SafetyLevel>, to: SafetyLevel, io: &mut IO) {
+        let props = self.props;
+        if let Some(exit) = from.and_then(|l| props.level(l)).and_then(|d| d.exit_fn()) {
+            exit(io);
+        }
+        self.current = to;
+        self.started = true;
+        self.toggle = 0;
+        self.handle.publish_level(to);
+        if let Some(s) = self.stats.get_mut(to.index()) {
+            s.activations = s.activations.saturating_add(1);
+        }
+    }
+
     /// Runs one safety cycle, in this order:
     ///
     /// 1. resolve every pending event (public ones from the handle, and
@@ -534,16 +587,7 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
         let mut entered = false;
         if let Some(to) = next {
             if from != Some(to) {
-                if let Some(exit) = from.and_then(|l| props.level(l)).and_then(|d| d.exit_fn()) {
-                    exit(io);
-                }
-                self.current = to;
-                self.started = true;
-                self.toggle = 0;
-                self.handle.publish_level(to);
-                if let Some(s) = self.stats.get_mut(to.index()) {
-                    s.activations = s.activations.saturating_add(1);
-                }
+                self.enter(from, to, io);
                 entered = true;
                 report.change = Some(LevelChange { from, to });
             }
@@ -574,16 +618,18 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
             s.cycles = s.cycles.saturating_add(1);
         }
 
-        // 3. Input actions.
-        for action in def.input_actions() {
-            if action.is_ignored() {
-                continue;
+        // 3. Input actions. The loop only collects which actions fired (bit
+        // `i` = the level's `i`-th action); their events are recorded out
+        // of line.
+        let actions = def.input_actions();
+        let mut fired: u32 = 0;
+        for (i, action) in actions.iter().enumerate() {
+            if !action.is_ignored() && action.fires(io.read_input(action.input())) {
+                fired |= bit_of(i);
             }
-            let input = action.input();
-            if action.fires(io.read_input(input)) {
-                self.pending.add(action.event());
-                report.input_events |= bit_of(input.index());
-            }
+        }
+        if fired != 0 {
+            report.input_events = self.record_fired(actions, fired);
         }
 
         // 4. Level action.
@@ -593,10 +639,7 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
 
         // 5. Output actions.
         for action in def.output_actions() {
-            let output = action.output();
-            if let Some(value) = action.drive(&mut self.toggle) {
-                io.write_output(output, value);
-            }
+            action.apply(io, &mut self.toggle);
         }
 
         self.handle.count_cycle();

@@ -103,8 +103,26 @@ impl Io {
     pub const fn new() -> Self {
         use IoValue::{Bool as B, Float as F, Int as I};
         Io {
-            inputs: [B(false), F(0.0), I(0), F(25.0), B(false), I(0), F(24.0), B(false)],
-            outputs: [B(false), B(false), I(0), B(false), B(false), B(false), I(0), B(false)],
+            inputs: [
+                B(false),
+                F(0.0),
+                I(0),
+                F(25.0),
+                B(false),
+                I(0),
+                F(24.0),
+                B(false),
+            ],
+            outputs: [
+                B(false),
+                B(false),
+                I(0),
+                B(false),
+                B(false),
+                B(false),
+                I(0),
+                B(false),
+            ],
             request: None,
         }
     }
@@ -137,23 +155,22 @@ impl Default for Io {
 }
 
 impl SafetyIo for Io {
-    // Ids are < 8 (validated properties); the mask keeps the access in bounds without a
-    // branch (and without a panic path).
+    // Ids are < 8 (validated properties); the mask keeps the index provably in bounds, so
+    // the indexing has no panic path and no branch.
     #[inline]
+    #[allow(clippy::indexing_slicing)]
     fn read_input(&mut self, input: InputId) -> IoValue {
-        let i = input.index() & 7;
-        self.inputs.get(i).copied().unwrap_or(IoValue::Float(f32::NAN))
+        self.inputs[input.index() & 7]
     }
     #[inline]
+    #[allow(clippy::indexing_slicing)]
     fn write_output(&mut self, output: OutputId, value: IoValue) {
-        let i = output.index() & 7;
-        if let Some(slot) = self.outputs.get_mut(i) {
-            *slot = value;
-        }
+        self.outputs[output.index() & 7] = value;
     }
 }
 
-/// The level action of every level: raise the private event the plant requested.
+/// The level action of POWER_ON and HOMING: raise the private event the plant requested
+/// (the power stage reports "powered", the homing "homed").
 fn level_action(ctx: &mut SafetyContext<'_>, io: &mut Io) {
     if let Some(event) = io.request.take() {
         ctx.trigger(event);
@@ -205,7 +222,6 @@ pub static PROPS: ValidProperties<'static, Io, 8> = match SafetyProperties::new(
                 LED.set(0),
                 RELAY.set(false),
             ])
-            .level_action(level_action)
             .abort_sequences(AbortPolicy::WhileActive),
         LevelDef::new(OFF, "off")
             .inputs(&[
@@ -227,8 +243,7 @@ pub static PROPS: ValidProperties<'static, Io, 8> = match SafetyProperties::new(
                 BUZZER.set(false),
                 LED.set(1),
                 RELAY.set(false),
-            ])
-            .level_action(level_action),
+            ]),
         LevelDef::new(POWER_ON, "power on")
             .inputs(&[
                 ESTOP_CHECK,
@@ -293,8 +308,7 @@ pub static PROPS: ValidProperties<'static, Io, 8> = match SafetyProperties::new(
                 BUZZER.set(false),
                 LED.set(4),
                 RELAY.set(true),
-            ])
-            .level_action(level_action),
+            ]),
         LevelDef::new(MOVING, "moving")
             .inputs(&WATCH_ALL)
             .outputs(&[
@@ -306,8 +320,7 @@ pub static PROPS: ValidProperties<'static, Io, 8> = match SafetyProperties::new(
                 BUZZER.set(false),
                 LED.set(5),
                 RELAY.set(true),
-            ])
-            .level_action(level_action),
+            ]),
         LevelDef::new(JOGGING, "jogging")
             .inputs(&WATCH_ALL)
             .outputs(&[
@@ -319,8 +332,7 @@ pub static PROPS: ValidProperties<'static, Io, 8> = match SafetyProperties::new(
                 BUZZER.set(false),
                 LED.set(6),
                 RELAY.set(true),
-            ])
-            .level_action(level_action),
+            ]),
         LevelDef::new(FAST, "fast")
             .inputs(&WATCH_ALL)
             .outputs(&[
@@ -332,8 +344,7 @@ pub static PROPS: ValidProperties<'static, Io, 8> = match SafetyProperties::new(
                 BUZZER.set(false),
                 LED.set(7),
                 RELAY.set(true),
-            ])
-            .level_action(level_action),
+            ]),
     ],
     &[
         ESTOP_IN.info(),
@@ -483,36 +494,36 @@ pub const DIGEST_SEED: u32 = 0x811c_9dc5;
 
 /// Expected (level, level entered or -1, input events, unknown events, aborted) per cycle.
 const EXPECT: [(SafetyLevel, i16, u32, u32, bool); CYCLES as usize] = [
-    (OFF, 1, 0, 0, false),       // 1 entry level
-    (POWER_ON, 2, 0, 0, false),  // 2 SWITCH_ON
-    (POWER_ON, -1, 0, 0, false), // 3 level action raises POWERED
-    (HOMING, 3, 0, 0, false),    // 4
-    (HOMING, -1, 0, 0, false),   // 5 level action raises HOMED
-    (READY, 4, 0, 0, false),     // 6
-    (MOVING, 5, 0, 0, false),    // 7 START
-    (READY, 4, 0, 0, false),     // 8 SPEED_UP (FAST) + STOP (READY): READY wins
-    (MOVING, 5, 0, 0, false),    // 9
-    (FAST, 7, 0, 0, false),      // 10
-    (FAST, -1, 0, 1, false),     // 11 NOBODY: unknown
-    (FAST, -1, 0, 0, false),     // 12
+    (OFF, 1, 0, 0, false),        // 1 entry level
+    (POWER_ON, 2, 0, 0, false),   // 2 SWITCH_ON
+    (POWER_ON, -1, 0, 0, false),  // 3 level action raises POWERED
+    (HOMING, 3, 0, 0, false),     // 4
+    (HOMING, -1, 0, 0, false),    // 5 level action raises HOMED
+    (READY, 4, 0, 0, false),      // 6
+    (MOVING, 5, 0, 0, false),     // 7 START
+    (READY, 4, 0, 0, false),      // 8 SPEED_UP (FAST) + STOP (READY): READY wins
+    (MOVING, 5, 0, 0, false),     // 9
+    (FAST, 7, 0, 0, false),       // 10
+    (FAST, -1, 0, 1, false),      // 11 NOBODY: unknown
+    (FAST, -1, 0, 0, false),      // 12
     (FAST, -1, 1 << 1, 0, false), // 13 current 7.5 A: OVERCURRENT fires
-    (OFF, 1, 1 << 1, 0, false),  // 14 -> OFF; fires again (OFF watches the current)
-    (OFF, -1, 1 << 1, 0, false), // 15 still firing; OVERCURRENT -> OFF is a stay
-    (OFF, -1, 0, 0, false),      // 16 current back to 0
-    (POWER_ON, 2, 0, 0, false),  // 17
-    (POWER_ON, -1, 0, 0, false), // 18
-    (HOMING, 3, 0, 0, false),    // 19
-    (HOMING, -1, 0, 0, false),   // 20
-    (READY, 4, 0, 0, false),     // 21
-    (MOVING, 5, 0, 0, false),    // 22
-    (READY, 4, 0, 0, false),     // 23 SPEED_UP (FAST) + JOG (JOGGING) + STOP (READY)
-    (MOVING, 5, 0, 0, false),    // 24
-    (MOVING, -1, 1, 0, false),   // 25 estop pressed: ESTOP fires
-    (EMERGENCY, 0, 1, 0, true),  // 26 emergency: safe outputs, abort-all
-    (EMERGENCY, -1, 1, 0, true), // 27 RESET loses against the pending ESTOP (stay)
-    (EMERGENCY, -1, 0, 0, true), // 28 estop released
-    (OFF, 1, 0, 0, false),       // 29 RESET
-    (OFF, -1, 0, 0, false),      // 30
+    (OFF, 1, 1 << 1, 0, false),   // 14 -> OFF; fires again (OFF watches the current)
+    (OFF, -1, 1 << 1, 0, false),  // 15 still firing; OVERCURRENT -> OFF is a stay
+    (OFF, -1, 0, 0, false),       // 16 current back to 0
+    (POWER_ON, 2, 0, 0, false),   // 17
+    (POWER_ON, -1, 0, 0, false),  // 18
+    (HOMING, 3, 0, 0, false),     // 19
+    (HOMING, -1, 0, 0, false),    // 20
+    (READY, 4, 0, 0, false),      // 21
+    (MOVING, 5, 0, 0, false),     // 22
+    (READY, 4, 0, 0, false),      // 23 SPEED_UP (FAST) + JOG (JOGGING) + STOP (READY)
+    (MOVING, 5, 0, 0, false),     // 24
+    (MOVING, -1, 1, 0, false),    // 25 estop pressed: ESTOP fires
+    (EMERGENCY, 0, 1, 0, true),   // 26 emergency: safe outputs, abort-all
+    (EMERGENCY, -1, 1, 0, true),  // 27 RESET loses against the pending ESTOP (stay)
+    (EMERGENCY, -1, 0, 0, true),  // 28 estop released
+    (OFF, 1, 0, 0, false),        // 29 RESET
+    (OFF, -1, 0, 0, false),       // 30
 ];
 
 /// Checks a record against the expectations: `Err(what)` names the first mismatch.
@@ -542,11 +553,11 @@ pub fn check(r: &Record) -> Result<(), &'static str> {
     let o = r.outputs;
     let want: Option<[i32; 8]> = match r.cycle {
         1 | 16 | 30 => Some([0, 0, 0, 1, 0, 0, 1, 0]),
-        2 => Some([0, 0, 0, 1, 1, 0, 2, 1]),  // POWER_ON: lamp toggles, low first
-        3 => Some([0, 1, 0, 1, 1, 0, 2, 1]),  // ... then high
-        4 => Some([1, 0, 0, 0, 1, 0, 3, 1]),  // HOMING: lamp low, duty toggles 0 ...
-        5 => Some([1, 1, 5, 0, 1, 0, 3, 1]),  // ... then high, 5
-        6 => Some([1, 1, 5, 0, 1, 0, 4, 1]),  // READY: duty left at 5
+        2 => Some([0, 0, 0, 1, 1, 0, 2, 1]), // POWER_ON: lamp toggles, low first
+        3 => Some([0, 1, 0, 1, 1, 0, 2, 1]), // ... then high
+        4 => Some([1, 0, 0, 0, 1, 0, 3, 1]), // HOMING: lamp low, duty toggles 0 ...
+        5 => Some([1, 1, 5, 0, 1, 0, 3, 1]), // ... then high, 5
+        6 => Some([1, 1, 5, 0, 1, 0, 4, 1]), // READY: duty left at 5
         7 => Some([1, 1, 10, 0, 1, 0, 5, 1]), // MOVING: duty toggles 10 ...
         8 => Some([1, 1, 10, 0, 1, 0, 4, 1]), // READY: duty left at 10
         10 => Some([1, 1, 40, 0, 1, 0, 7, 1]), // FAST
