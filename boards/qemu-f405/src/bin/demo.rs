@@ -1,17 +1,1313 @@
-//! Demo firmware (placeholder until the motor-controller demo replaces it): the heartbeat and
-//! one lane, with readable logs, for one second of virtual time. `./x demo` runs it.
+//! The motor-controller demo: the application of `rtseq-motor` (simulated DC servo axis,
+//! cascaded position controller, homing and point-to-point moves, monitors, safety levels)
+//! under RTIC 2 on the emulated STM32F405, with fault injection from the command line and
+//! readable logs. `./x demo [OPTIONS]` runs it; `./x demo --help` lists the options.
+//!
+//! ```text
+//! priority 3  safety       SafetySystem::cycle on the drive's critical inputs/outputs,
+//!                          woken by the tick right after the fault injection
+//! priority 2  tick (TIM2)  1 kHz: inject faults -> safety cycle -> control step ->
+//!                          SEQ.tick (monitors, timeouts, wakes the lanes)
+//! priority 1  lanes        main, status, safe stop, feed hold, feed resume (rtseq::lane)
+//! idle        log + wfi    drains the transition trace and the event queue, prints them,
+//!                          samples the axis every 250 ms, checks the outcome, exits
+//! ```
+//!
+//! The order inside one tick (inject, safety cycle, control step, sequencer tick) is the
+//! host simulator's (`tests/qemu_demo.rs` runs the same application with the same fault
+//! plan in `rtseq::sim::Sim` and compares the traces): both are 1 kHz deterministic.
+//!
+//! The run ends by itself `SETTLE_MS` after the later of "main ended" and "the last planned
+//! fault or pause press", prints a summary, a parseable `RESULT` line and checks the
+//! outcome expected for the options: exit 0 if it is the expected one, 1 otherwise, 2 for
+//! bad options.
 #![no_std]
 #![no_main]
 
+use core::cell::UnsafeCell;
+
+use rtseq::safety::{SafetyHandle, SafetyLevel};
+use rtseq::{Cause, Instant, MonitorId, Outcome, RunningState, SeqId, Sequencer};
+use rtseq_motor::app::{self, AppConfig, Fault, FaultKind, FaultPlan, Ids, MAX_FAULTS};
+use rtseq_motor::control_system::{ControlSystem, Phase};
+use rtseq_motor::safety;
 use rtseq_qemu_f405 as board;
 
-#[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
-mod app {
-    use super::board;
-    use board::clock::{self, TickTimer};
-    use board::signal::TickSignal;
+/// The demo's program: eight moves (see [`AppConfig::DEMO`]).
+const CONFIG: AppConfig = AppConfig::DEMO;
+/// Control period, s (the tick).
+const DT: f32 = 0.001;
+/// The run ends this long after main ended and the last planned event passed, ms.
+const SETTLE_MS: u64 = 300;
+/// Hard limit of a run (virtual time), ms: a run still going then is a failure.
+const LIMIT_MS: u64 = 20_000;
+/// Latest time accepted for a fault or pause press, ms.
+const MAX_EVENT_MS: u64 = 15_000;
+/// Interval of the axis status lines, ms.
+const STATUS_EVERY_MS: u64 = 250;
+/// "Motor stopped" at the end: |true velocity| (m/s) and |true current| (A) below these.
+const STOP_VELOCITY: f32 = 1e-4;
+/// See [`STOP_VELOCITY`].
+const STOP_CURRENT: f32 = 0.05;
 
-    static TO_LANE: TickSignal = TickSignal::new();
+/// The sequencer (default trace buffer: 64 transitions, drained by idle every tick).
+static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
+/// The control system: plant, controller, fault injection, summary.
+static CS: ControlSystem = ControlSystem::new(CONFIG.start_position);
+/// The safety system's lock-free handle (sequences trigger events, everyone reads the level).
+static HANDLE: SafetyHandle = SafetyHandle::new();
+/// Events for the log, from the tick and the safety task to idle.
+static EVENTS: EventQueue = EventQueue::new();
+/// Monitor fire counts, copied by the tick (which owns the monitor table) for idle.
+static FIRED: critical_section::Mutex<core::cell::Cell<[u16; app::MONITORS]>> =
+    critical_section::Mutex::new(core::cell::Cell::new([0; app::MONITORS]));
+
+// ---------------------------------------------------------------------------------------
+// Command line
+// ---------------------------------------------------------------------------------------
+
+/// What the command line asked for.
+#[derive(Clone, Copy)]
+struct Options {
+    plan: FaultPlan,
+    help: bool,
+}
+
+/// A command-line error: the message and the argument it is about.
+struct ArgError<'a> {
+    msg: &'static str,
+    arg: &'a str,
+}
+
+fn arg_err<'a, T>(msg: &'static str, arg: &'a str) -> Result<T, ArgError<'a>> {
+    Err(ArgError { msg, arg })
+}
+
+/// Parses `3s`, `2.5s`, `250ms` into milliseconds.
+fn parse_time(s: &str) -> Option<u64> {
+    if let Some(ms) = s.strip_suffix("ms") {
+        return ms.parse::<u64>().ok();
+    }
+    let secs = s.strip_suffix('s')?;
+    let (int, frac) = secs.split_once('.').unwrap_or((secs, ""));
+    let int: u64 = if int.is_empty() && !frac.is_empty() {
+        0
+    } else {
+        int.parse().ok()?
+    };
+    let scale = match frac.len() {
+        0 => 0,
+        1 => 100,
+        2 => 10,
+        3 => 1,
+        _ => return None,
+    };
+    if !frac.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    let frac: u64 = if frac.is_empty() {
+        0
+    } else {
+        frac.parse().ok()?
+    };
+    int.checked_mul(1000)?.checked_add(frac.checked_mul(scale)?)
+}
+
+fn ms(t: u64) -> Instant {
+    Instant::from_ticks(t.saturating_mul(1000))
+}
+
+fn to_ms(t: Instant) -> u64 {
+    t.as_ticks() / 1000
+}
+
+fn parse_fault(v: &str) -> Result<Fault, ArgError<'_>> {
+    let Some((kind, time)) = v.split_once('@') else {
+        return arg_err("--fault needs KIND@TIME, e.g. --fault overcurrent@5s", v);
+    };
+    let Some(t) = parse_time(time) else {
+        return arg_err("bad time (use e.g. 3s, 2.5s or 1500ms)", time);
+    };
+    if t > MAX_EVENT_MS {
+        return arg_err("fault times must be at most 15s", time);
+    }
+    let at = ms(t);
+    Ok(match kind {
+        "following-error" | "following_error" | "fe" => Fault::FollowingError { at },
+        "overcurrent" | "over-current" | "oc" => Fault::OverCurrent { at },
+        "endstop" | "end-stop" => Fault::EndStop { at },
+        "estop" | "e-stop" | "emergency-stop" => Fault::EStop { at },
+        _ => {
+            return arg_err(
+                "unknown fault (following-error, overcurrent, endstop, estop)",
+                kind,
+            )
+        }
+    })
+}
+
+fn parse_pause(v: &str) -> Result<(Instant, Instant), ArgError<'_>> {
+    let Some((a, b)) = v.split_once("..") else {
+        return arg_err("--pause needs START..END, e.g. --pause 4s..6s", v);
+    };
+    let (Some(a), Some(b)) = (parse_time(a), parse_time(b)) else {
+        return arg_err("bad pause window (use e.g. 4s..6s or 4500ms..5s)", v);
+    };
+    if b <= a {
+        return arg_err("the pause must end after it starts", v);
+    }
+    if b > MAX_EVENT_MS {
+        return arg_err("pause times must be at most 15s", v);
+    }
+    // The button is held for 20 ms: the two presses must not overlap.
+    if b.saturating_sub(a) < 50 {
+        return arg_err("the pause must last at least 50ms", v);
+    }
+    Ok((ms(a), ms(b)))
+}
+
+/// Parses the arguments after the program name.
+fn parse_args<'a>(args: impl Iterator<Item = &'a str>) -> Result<Options, ArgError<'a>> {
+    let mut o = Options {
+        plan: FaultPlan::NONE,
+        help: false,
+    };
+    let mut args = args;
+    let mut faults = 0usize;
+    while let Some(a) = args.next() {
+        let (opt, inline) = match a.split_once('=') {
+            Some((k, v)) if k.starts_with("--") => (k, Some(v)),
+            _ => (a, None),
+        };
+        match opt {
+            "--help" | "-h" => o.help = true,
+            "--fault" | "--pause" => {
+                let Some(v) = inline.or_else(|| args.next()) else {
+                    return arg_err("option needs a value", opt);
+                };
+                if opt == "--fault" {
+                    let f = parse_fault(v)?;
+                    if o.plan.faults.iter().flatten().any(|g| g.kind() == f.kind()) {
+                        return arg_err("each fault kind can be injected once", v);
+                    }
+                    if faults >= MAX_FAULTS {
+                        return arg_err("at most 4 faults", v);
+                    }
+                    faults = faults.saturating_add(1);
+                    o.plan = o.plan.with(f);
+                } else {
+                    if o.plan.pause.is_some() {
+                        return arg_err("one pause window only", v);
+                    }
+                    let (s, e) = parse_pause(v)?;
+                    o.plan = o.plan.with_pause(s, e);
+                }
+            }
+            _ => return arg_err("unknown option (try --help)", a),
+        }
+    }
+    Ok(o)
+}
+
+fn usage() {
+    defmt::info!("usage: ./x demo [--fault KIND@TIME]... [--pause START..END]");
+    defmt::info!(
+        "  KIND: following-error  the axis jams: safe stop, the moves restart (3x), then abort"
+    );
+    defmt::info!("        overcurrent      the current sensor reads +12 A: safety level emergency, all sequences aborted");
+    defmt::info!("        endstop          the + end-stop switch closes: the moves are aborted");
+    defmt::info!(
+        "        estop            the emergency-stop button is pressed: emergency, all aborted"
+    );
+    defmt::info!(
+        "  --pause START..END     the pause button is pressed at START and END: feed hold, resume"
+    );
+    defmt::info!("  times: 3s, 2.5s, 1500ms (virtual time since reset, at most 15s); the fault-free run lasts about 6.6 s");
+    defmt::info!("  e.g. ./x demo --fault following-error@3s   ./x demo --fault overcurrent@5s   ./x demo --pause 4s..6s");
+}
+
+// ---------------------------------------------------------------------------------------
+// Events: tick and safety task -> idle
+// ---------------------------------------------------------------------------------------
+
+/// The application's state when a fault or a pause press was injected (sampled in the
+/// tick, before the sequencer's tick of that millisecond).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Snapshot {
+    main_active: bool,
+    main_started: bool,
+    homed: bool,
+    moves_state: RunningState,
+    moves_done: u16,
+}
+
+#[derive(Clone, Copy)]
+enum Event {
+    /// A planned fault was switched on.
+    Fault {
+        kind: FaultKind,
+        at: u64,
+        snap: Snapshot,
+    },
+    /// The pause button was pressed (`second`: the end of the window).
+    Pause { second: bool, snap: Snapshot },
+    /// The safety system changed level.
+    Level {
+        from: Option<SafetyLevel>,
+        to: SafetyLevel,
+    },
+    /// Critical-input checks fired (bit i = input i), first cycle of a run of firings.
+    Inputs { bits: u32 },
+}
+
+const QUEUE: usize = 32;
+
+/// A bounded multi-producer queue (critical sections; producers at priorities 2 and 3,
+/// consumer idle). Overflow drops the event and counts it.
+struct EventQueue {
+    inner: critical_section::Mutex<UnsafeCell<(heapless::Deque<Event, QUEUE>, u32)>>,
+}
+
+// SAFETY: the contents are only accessed inside `critical_section::with` (single core).
+unsafe impl Sync for EventQueue {}
+
+impl EventQueue {
+    const fn new() -> Self {
+        Self {
+            inner: critical_section::Mutex::new(UnsafeCell::new((heapless::Deque::new(), 0))),
+        }
+    }
+
+    fn push(&self, e: Event) {
+        critical_section::with(|cs| {
+            // SAFETY: exclusive inside the critical section.
+            let (q, lost) = unsafe { &mut *self.inner.borrow(cs).get() };
+            if q.push_back(e).is_err() {
+                *lost = lost.saturating_add(1);
+            }
+        });
+    }
+
+    fn pop(&self) -> Option<Event> {
+        critical_section::with(|cs| {
+            // SAFETY: exclusive inside the critical section.
+            let (q, _) = unsafe { &mut *self.inner.borrow(cs).get() };
+            q.pop_front()
+        })
+    }
+
+    fn is_empty(&self) -> bool {
+        critical_section::with(|cs| {
+            // SAFETY: exclusive inside the critical section.
+            unsafe { (*self.inner.borrow(cs).get()).0.is_empty() }
+        })
+    }
+
+    fn lost(&self) -> u32 {
+        critical_section::with(|cs| {
+            // SAFETY: exclusive inside the critical section.
+            unsafe { (*self.inner.borrow(cs).get()).1 }
+        })
+    }
+}
+
+fn state_of(id: SeqId) -> RunningState {
+    SEQ.sequence_by_id(id)
+        .map_or(RunningState::Idle, |h| h.state())
+}
+
+fn outcome_of(id: SeqId) -> Option<Outcome> {
+    SEQ.sequence_by_id(id).and_then(|h| h.last_outcome())
+}
+
+fn snapshot(ids: &Ids) -> Snapshot {
+    let main = state_of(ids.main);
+    Snapshot {
+        main_active: main.is_active(),
+        main_started: main != RunningState::Idle,
+        homed: CS.summary().homed_at.is_some(),
+        moves_state: state_of(ids.moves),
+        moves_done: CS.summary().moves_done,
+    }
+}
+
+/// The tick's bookkeeping of which planned events were announced.
+struct Injections {
+    faults: [bool; MAX_FAULTS],
+    presses: [bool; 2],
+}
+
+impl Injections {
+    const fn new() -> Self {
+        Self {
+            faults: [false; MAX_FAULTS],
+            presses: [false; 2],
+        }
+    }
+
+    /// Announces the planned faults and pause presses whose time has come.
+    fn check(&mut self, now: Instant, plan: &FaultPlan, ids: &Ids) {
+        let at = to_ms(now);
+        for (done, fault) in self.faults.iter_mut().zip(plan.faults.iter()) {
+            if let Some(f) = fault {
+                if !*done && now >= f.at() {
+                    *done = true;
+                    EVENTS.push(Event::Fault {
+                        kind: f.kind(),
+                        at,
+                        snap: snapshot(ids),
+                    });
+                }
+            }
+        }
+        if let Some(w) = plan.pause {
+            for (i, (done, t)) in self.presses.iter_mut().zip([w.start, w.end]).enumerate() {
+                if !*done && now >= t {
+                    *done = true;
+                    EVENTS.push(Event::Pause {
+                        second: i == 1,
+                        snap: snapshot(ids),
+                    });
+                }
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Formatting
+// ---------------------------------------------------------------------------------------
+
+const SPACES: &str = "                                        ";
+
+/// Spaces that pad a text of `len` characters to `width`.
+fn pad(len: usize, width: usize) -> &'static str {
+    SPACES
+        .get(..width.saturating_sub(len).min(SPACES.len()))
+        .unwrap_or("")
+}
+
+/// A fixed-point number `value / 10^decimals`, right-aligned to `width` characters.
+struct Fixed {
+    value: i32,
+    decimals: u8,
+    width: u8,
+}
+
+impl Fixed {
+    /// `x * 10^decimals` rounded (saturating, NaN -> 0).
+    fn new(x: f32, decimals: u8, width: u8) -> Self {
+        let scale = match decimals {
+            0 => 1.0,
+            1 => 10.0,
+            2 => 100.0,
+            _ => 1000.0,
+        };
+        let v = x * scale;
+        let v = if v >= 0.0 { v + 0.5 } else { v - 0.5 };
+        Fixed {
+            value: v as i32,
+            decimals: decimals.min(3),
+            width,
+        }
+    }
+}
+
+fn digits(mut n: u32) -> usize {
+    let mut d = 1;
+    while n >= 10 {
+        n /= 10;
+        d += 1;
+    }
+    d
+}
+
+impl defmt::Format for Fixed {
+    fn format(&self, f: defmt::Formatter) {
+        let neg = self.value < 0;
+        let a = self.value.unsigned_abs();
+        let (int, frac, div) = match self.decimals {
+            0 => (a, 0, 1),
+            1 => (a / 10, a % 10, 10),
+            2 => (a / 100, a % 100, 100),
+            _ => (a / 1000, a % 1000, 1000),
+        };
+        let len = digits(int)
+            + usize::from(neg)
+            + if div > 1 {
+                usize::from(self.decimals) + 1
+            } else {
+                0
+            };
+        let p = pad(len, usize::from(self.width));
+        let sign = if neg { "-" } else { "" };
+        match self.decimals {
+            0 => defmt::write!(f, "{=str}{=str}{=u32}", p, sign, int),
+            1 => defmt::write!(f, "{=str}{=str}{=u32}.{=u32:01}", p, sign, int, frac),
+            2 => defmt::write!(f, "{=str}{=str}{=u32}.{=u32:02}", p, sign, int, frac),
+            _ => defmt::write!(f, "{=str}{=str}{=u32}.{=u32:03}", p, sign, int, frac),
+        }
+    }
+}
+
+/// Metres as millimetres with 3 decimals.
+fn mm(x: f32, width: u8) -> Fixed {
+    Fixed::new(x * 1000.0, 3, width)
+}
+
+/// A time in ms, printed as seconds (`1.250`).
+struct Secs(u64);
+
+impl defmt::Format for Secs {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "{=u64}.{=u64:03}", self.0 / 1000, self.0 % 1000);
+    }
+}
+
+/// An optional time in ms for the RESULT line (`-` when absent).
+struct OptMs(Option<Instant>);
+
+impl defmt::Format for OptMs {
+    fn format(&self, f: defmt::Formatter) {
+        match self.0 {
+            Some(t) => defmt::write!(f, "{=u64}", to_ms(t)),
+            None => defmt::write!(f, "-"),
+        }
+    }
+}
+
+fn state_name(s: RunningState) -> &'static str {
+    match s {
+        RunningState::Idle => "Idle",
+        RunningState::Running => "Running",
+        RunningState::Paused => "Paused",
+        RunningState::Aborting => "Aborting",
+        RunningState::Aborted => "Aborted",
+        RunningState::Terminated => "Terminated",
+        RunningState::Restarting => "Restarting",
+    }
+}
+
+fn seq_name(id: SeqId) -> &'static str {
+    SEQ.sequence_by_id(id).map_or("?", |h| h.name())
+}
+
+fn monitor_name(ids: &Ids, m: MonitorId) -> &'static str {
+    if m == ids.following_error {
+        "following error"
+    } else if m == ids.end_stop {
+        "end stop"
+    } else if m == ids.pause {
+        "pause"
+    } else if m == ids.resume {
+        "resume"
+    } else {
+        "?"
+    }
+}
+
+/// What a monitor's firing does (for the log).
+fn monitor_effect(ids: &Ids, m: MonitorId) -> &'static str {
+    if m == ids.following_error {
+        "safe stop, then restart the moves (at most 3 times, then abort)"
+    } else if m == ids.end_stop {
+        "abort the moves"
+    } else if m == ids.pause {
+        "feed hold: pause the moves"
+    } else if m == ids.resume {
+        "feed resume: resume the moves"
+    } else {
+        "?"
+    }
+}
+
+/// A cause as text (`tests/qemu_demo.rs` formats the host trace the same way).
+struct CauseText<'a>(Cause, &'a Ids);
+
+impl defmt::Format for CauseText<'_> {
+    fn format(&self, f: defmt::Formatter) {
+        match self.0 {
+            Cause::Start => defmt::write!(f, "start"),
+            Cause::PreConditionFalse => defmt::write!(f, "pre-condition false"),
+            Cause::Completed => defmt::write!(f, "completed"),
+            Cause::Pause => defmt::write!(f, "pause"),
+            Cause::Resume => defmt::write!(f, "resume"),
+            Cause::Abort => defmt::write!(f, "abort"),
+            Cause::AbortAll => defmt::write!(f, "abort all"),
+            Cause::Monitor(m) => defmt::write!(f, "monitor {=str}", monitor_name(self.1, m)),
+            Cause::Timeout(s) => defmt::write!(f, "timeout of {=str}", seq_name(s)),
+            Cause::Restart => defmt::write!(f, "restart"),
+        }
+    }
+}
+
+/// An outcome as text.
+struct OutcomeText<'a>(Option<Outcome>, &'a Ids);
+
+impl defmt::Format for OutcomeText<'_> {
+    fn format(&self, f: defmt::Formatter) {
+        match self.0 {
+            None => defmt::write!(f, "none"),
+            Some(Outcome::Completed) => defmt::write!(f, "completed"),
+            Some(Outcome::Skipped) => defmt::write!(f, "skipped"),
+            Some(Outcome::Aborted(c)) => defmt::write!(f, "aborted ({})", CauseText(c, self.1)),
+        }
+    }
+}
+
+fn level_name(l: SafetyLevel) -> &'static str {
+    safety::PROPERTIES.level(l).map_or("?", |d| d.name())
+}
+
+fn fault_name(k: FaultKind) -> &'static str {
+    match k {
+        FaultKind::FollowingError => "following error",
+        FaultKind::OverCurrent => "over-current",
+        FaultKind::EndStop => "end stop",
+        FaultKind::EStop => "e-stop",
+    }
+}
+
+fn fault_what(k: FaultKind) -> &'static str {
+    match k {
+        FaultKind::FollowingError => "the axis jams",
+        FaultKind::OverCurrent => "the current sensor reads +12 A",
+        FaultKind::EndStop => "the + end-stop switch closes",
+        FaultKind::EStop => "the emergency-stop button is pressed",
+    }
+}
+
+fn phase_name(p: Phase) -> &'static str {
+    match p {
+        Phase::Off => "off",
+        Phase::PowerOn => "power on",
+        Phase::Homing => "homing",
+        Phase::Moving => "moving",
+        Phase::Paused => "paused",
+        Phase::SafeStop => "safe stop",
+        Phase::Done => "done",
+        Phase::Fault => "fault",
+    }
+}
+
+const FAULT_KINDS: [FaultKind; 4] = [
+    FaultKind::FollowingError,
+    FaultKind::OverCurrent,
+    FaultKind::EndStop,
+    FaultKind::EStop,
+];
+
+/// Short key of a fault kind for the RESULT line.
+fn fault_key(k: FaultKind) -> &'static str {
+    match k {
+        FaultKind::FollowingError => "fe",
+        FaultKind::OverCurrent => "oc",
+        FaultKind::EndStop => "es",
+        FaultKind::EStop => "estop",
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Expectations
+// ---------------------------------------------------------------------------------------
+
+/// What a fault must lead to, decided from the state at its injection.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Expect {
+    /// No effect on the sequences (nothing moves any more, or an earlier fault is handled).
+    Nothing,
+    /// Jammed before homing completed: the homing timeout fires, homing is aborted.
+    HomingTimeout,
+    /// Jammed with moves left: safe stop and restart of the moves 3 times, then abort.
+    FollowingErrorAbort,
+    /// End stop with moves left: the end-stop monitor aborts the moves.
+    EndStopAbort,
+    /// Over-current / e-stop: the safety system enters emergency (aborting every sequence
+    /// if main was still running).
+    Emergency { main_active: bool },
+}
+
+/// What the pause window must lead to.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum PauseExpect {
+    /// No pause planned, or pressed when nothing moved any more.
+    Nothing,
+    /// Pressed while moves were left: paused at the first press, resumed at the second.
+    PauseResume,
+    /// The first press came before the moves started: its monitor did not see it, so the
+    /// second press would pause the moves for ever. Not a meaningful demo.
+    TooEarly,
+}
+
+fn expectation(kind: FaultKind, s: &Snapshot, count: usize) -> Expect {
+    let moves_left = usize::from(s.moves_done) < count
+        && !matches!(
+            s.moves_state,
+            RunningState::Terminated | RunningState::Aborted
+        );
+    match kind {
+        FaultKind::OverCurrent | FaultKind::EStop => Expect::Emergency {
+            main_active: s.main_active || !s.main_started,
+        },
+        _ if s.main_started && !s.main_active => Expect::Nothing,
+        FaultKind::FollowingError if !s.homed => Expect::HomingTimeout,
+        FaultKind::FollowingError if moves_left => Expect::FollowingErrorAbort,
+        FaultKind::EndStop if moves_left => Expect::EndStopAbort,
+        _ => Expect::Nothing,
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The log (idle)
+// ---------------------------------------------------------------------------------------
+
+/// Idle's state: what was printed, what is expected.
+struct Log {
+    ids: Ids,
+    plan: FaultPlan,
+    expect: [Option<(FaultKind, u64, Expect)>; MAX_FAULTS],
+    pause: PauseExpect,
+    next_status: u64,
+    moves_done: u16,
+    main_end: Option<u64>,
+    /// Last start of the move step, ms.
+    move_start: Option<u64>,
+    /// When the jam could first show as a following error: the injection, or the next
+    /// move start if the axis stood still then, ms.
+    fe_visible: Option<u64>,
+    /// Monitor fire counts already printed.
+    fired: [u16; app::MONITORS],
+    blinks: u32,
+    trace_lost: u32,
+    reacted: [bool; 4],
+    stopped: [bool; 4],
+    emergency_seen: bool,
+}
+
+impl Log {
+    fn new(ids: Ids, plan: FaultPlan) -> Self {
+        Log {
+            ids,
+            plan,
+            expect: [None; MAX_FAULTS],
+            pause: PauseExpect::Nothing,
+            next_status: STATUS_EVERY_MS,
+            moves_done: 0,
+            main_end: None,
+            move_start: None,
+            fired: [0; app::MONITORS],
+            fe_visible: None,
+            blinks: 0,
+            trace_lost: 0,
+            reacted: [false; 4],
+            stopped: [false; 4],
+            emergency_seen: false,
+        }
+    }
+
+    fn drain_trace(&mut self) {
+        let ids = self.ids;
+        let mut main_end = self.main_end;
+        let mut blinks = self.blinks;
+        let mut move_start = self.move_start;
+        // Monitors first (a firing's exception sequence starts in the same tick).
+        let fired = critical_section::with(|cs| FIRED.borrow(cs).get());
+        for (i, (seen, now)) in self.fired.iter_mut().zip(fired).enumerate() {
+            while *seen < now {
+                *seen = seen.saturating_add(1);
+                let m = MonitorId::from_index(i);
+                defmt::info!(
+                    "monitor   '{=str}' fired ({=u16}): {=str}",
+                    monitor_name(&ids, m),
+                    *seen,
+                    monitor_effect(&ids, m)
+                );
+            }
+        }
+        let lost = SEQ.drain_trace(|t| {
+            if t.sequence == ids.move_step && t.to == RunningState::Running {
+                move_start = Some(to_ms(t.time));
+            }
+            if t.sequence == ids.blink && matches!(t.cause, Cause::Start | Cause::Completed) {
+                if t.to == RunningState::Running {
+                    blinks = blinks.saturating_add(1);
+                }
+            } else {
+                let name = seq_name(t.sequence);
+                let (from, to) = (state_name(t.from), state_name(t.to));
+                defmt::info!(
+                    "seq       {=str}{=str} {=str} -> {=str}{=str} ({})",
+                    name,
+                    pad(name.len(), 14),
+                    from,
+                    to,
+                    pad(from.len() + to.len(), 22),
+                    CauseText(t.cause, &ids)
+                );
+            }
+            if t.sequence == ids.main
+                && matches!(t.to, RunningState::Terminated | RunningState::Aborted)
+            {
+                main_end = Some(to_ms(t.time));
+            }
+        });
+        self.main_end = main_end;
+        self.move_start = move_start;
+        self.blinks = blinks;
+        self.trace_lost = self.trace_lost.saturating_add(lost);
+    }
+
+    fn drain_events(&mut self) {
+        while let Some(e) = EVENTS.pop() {
+            match e {
+                Event::Fault { kind, at, snap } => {
+                    let exp = expectation(kind, &snap, CONFIG.move_count);
+                    defmt::info!(
+                        "FAULT     {=str} injected: {=str}",
+                        fault_name(kind),
+                        fault_what(kind)
+                    );
+                    if let Some(slot) = self.expect.iter_mut().find(|s| s.is_none()) {
+                        *slot = Some((kind, at, exp));
+                    }
+                }
+                Event::Pause { second, snap } => {
+                    defmt::info!(
+                        "BUTTON    pause button pressed ({=str})",
+                        if second { "resume" } else { "pause" }
+                    );
+                    if !second {
+                        let moves_running = matches!(
+                            snap.moves_state,
+                            RunningState::Running | RunningState::Paused | RunningState::Restarting
+                        );
+                        self.pause = if !snap.main_started
+                            || (snap.main_active && !moves_running && !snap.homed)
+                        {
+                            PauseExpect::TooEarly
+                        } else if snap.main_active
+                            && moves_running
+                            && usize::from(snap.moves_done) < CONFIG.move_count
+                        {
+                            PauseExpect::PauseResume
+                        } else {
+                            PauseExpect::Nothing
+                        };
+                    }
+                }
+                Event::Level { from, to } => {
+                    if to == safety::EMERGENCY {
+                        self.emergency_seen = true;
+                    }
+                    match from {
+                        Some(f) => defmt::info!(
+                            "safety    level {=str} -> {=str}",
+                            level_name(f),
+                            level_name(to)
+                        ),
+                        None => {
+                            defmt::info!("safety    level {=str} (entry level)", level_name(to))
+                        }
+                    }
+                }
+                Event::Inputs { bits } => {
+                    let names = [
+                        "e-stop pressed",
+                        "over-current (|i| > 6 A)",
+                        "end stop - closed",
+                        "end stop + closed",
+                    ];
+                    for (i, n) in names.iter().enumerate() {
+                        if bits & (1 << i) != 0 {
+                            defmt::info!("safety    critical input: {=str}", n);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Moves done, reactions, periodic status.
+    fn watch(&mut self, now: u64) {
+        let s = CS.summary();
+        while self.moves_done < s.moves_done {
+            self.moves_done = self.moves_done.saturating_add(1);
+            let i = usize::from(self.moves_done).saturating_sub(1);
+            let target = CONFIG.targets.get(i).copied().unwrap_or(0.0);
+            defmt::info!(
+                "move      {=usize}/{=usize} done: in position at {} mm (target {} mm)",
+                i.saturating_add(1),
+                CONFIG.move_count,
+                mm(CS.position(), 0),
+                mm(target, 0)
+            );
+        }
+        for (i, k) in FAULT_KINDS.iter().enumerate() {
+            let r = s.reaction(*k);
+            if let (Some(flag), Some(_), Some(lat)) =
+                (self.reacted.get_mut(i), r.reacted, r.latency())
+            {
+                if !*flag {
+                    *flag = true;
+                    defmt::info!(
+                        "reaction  {=str}: {=str} {=u64} ms after the fault",
+                        fault_name(*k),
+                        reaction_text(*k),
+                        lat.as_millis()
+                    );
+                    // A jam of a standing axis shows only when the next move starts.
+                    let (inj, react) = (r.injected.map_or(0, to_ms), r.reacted.map_or(0, to_ms));
+                    match self.move_start {
+                        Some(m) if *k == FaultKind::FollowingError && m > inj && m <= react => {
+                            self.fe_visible = Some(m);
+                            defmt::info!(
+                                "reaction  (the axis stood still when it jammed: the following error built up in the {=u64} ms after the next move started)",
+                                react.saturating_sub(m)
+                            );
+                        }
+                        _ if *k == FaultKind::FollowingError => self.fe_visible = Some(inj),
+                        _ => {}
+                    }
+                }
+            }
+            if let (Some(flag), Some(_), Some(lat)) =
+                (self.stopped.get_mut(i), r.stopped, r.stop_latency())
+            {
+                if !*flag {
+                    *flag = true;
+                    defmt::info!(
+                        "reaction  {=str}: motor stopped {=u64} ms after the fault (at {} mm)",
+                        fault_name(*k),
+                        lat.as_millis(),
+                        mm(CS.position(), 0)
+                    );
+                }
+            }
+        }
+        if now >= self.next_status {
+            self.next_status = self.next_status.saturating_add(STATUS_EVERY_MS);
+            status_line();
+        }
+    }
+}
+
+fn reaction_text(k: FaultKind) -> &'static str {
+    match k {
+        FaultKind::FollowingError => "safe stop started",
+        FaultKind::OverCurrent | FaultKind::EStop => "drive permit withdrawn by the safety system",
+        FaultKind::EndStop => "moves aborted, quick stop",
+    }
+}
+
+/// One line of axis status.
+fn status_line() {
+    let st = CS.status();
+    defmt::info!(
+        "axis      x {} mm  v {} mm/s  i {} A  | {=str}, level {=str}, LED {=str}",
+        mm(st.position, 8),
+        Fixed::new(st.velocity * 1000.0, 1, 6),
+        Fixed::new(st.true_current, 2, 5),
+        phase_name(CS.phase()),
+        level_name(HANDLE.level()),
+        if CS.led() { "on" } else { "off" }
+    );
+}
+
+/// Prints a check; returns whether it held.
+fn check(ok: bool, what: &str) -> bool {
+    if ok {
+        defmt::info!("check     ok    {=str}", what);
+    } else {
+        defmt::error!("check     FAIL  {=str}", what);
+    }
+    ok
+}
+
+impl Log {
+    /// The end of the run: summary, RESULT line, checks. Returns whether all held.
+    fn finish(&mut self, now: u64) -> bool {
+        let ids = self.ids;
+        let s = CS.summary();
+        let st = CS.status();
+        let plant = CS.plant();
+        let fired = critical_section::with(|cs| FIRED.borrow(cs).get());
+        let fired_of = |m: MonitorId| fired.get(m.index()).copied().unwrap_or(0);
+        let level = HANDLE.level();
+        status_line();
+        defmt::info!("---------------------------------------- summary");
+        defmt::info!(
+            "summary   moves {=u16} of {=usize} done; homed at {=str}{}; main ended {=str}{} ({})",
+            s.moves_done,
+            CONFIG.move_count,
+            if s.homed_at.is_some() { "" } else { "never" },
+            OptSecs(s.homed_at),
+            if self.main_end.is_some() {
+                "at "
+            } else {
+                "never"
+            },
+            OptSecs(self.main_end.map(ms)),
+            OutcomeText(outcome_of(ids.main), &ids)
+        );
+        defmt::info!(
+            "summary   homing {}, moves {}, safe stops {=u16}, monitors fired: following error {=u16}, end stop {=u16}, pause {=u16}, resume {=u16}",
+            OutcomeText(outcome_of(ids.homing), &ids),
+            OutcomeText(outcome_of(ids.moves), &ids),
+            s.safe_stops,
+            fired_of(ids.following_error),
+            fired_of(ids.end_stop),
+            fired_of(ids.pause),
+            fired_of(ids.resume)
+        );
+        for k in FAULT_KINDS {
+            let r = s.reaction(k);
+            if let Some(inj) = r.injected {
+                defmt::info!(
+                    "summary   {=str} at {} s: reaction {=str}{} ms later, motor stopped {=str}{} ms later",
+                    fault_name(k),
+                    Secs(to_ms(inj)),
+                    if r.latency().is_some() { "" } else { "none" },
+                    OptDur(r.latency()),
+                    if r.stop_latency().is_some() { "" } else { "never" },
+                    OptDur(r.stop_latency())
+                );
+            }
+        }
+        if let Some(w) = self.plan.pause {
+            defmt::info!(
+                "summary   pause window {}..{}: paused at {}, resumed at {}",
+                Secs(to_ms(w.start)),
+                Secs(to_ms(w.end)),
+                OptSecs(s.paused_at),
+                OptSecs(s.resumed_at)
+            );
+        }
+        defmt::info!(
+            "summary   axis at {} mm, {} mm/s, {} A; drive {=str}, brake {=str}; safety level {=str}; LED blinked {=u32} times",
+            mm(st.position, 0),
+            Fixed::new(plant.velocity() * 1000.0, 3, 0),
+            Fixed::new(plant.current(), 3, 0),
+            if st.enabled { "on" } else { "off" },
+            if st.brake { "on" } else { "off" },
+            level_name(level),
+            self.blinks
+        );
+        // The parseable line (tests/qemu_demo.rs).
+        defmt::info!(
+            "RESULT end_ms={=u64}; level={=str}; phase={=str}; main={}; homing={}; moves={}; moves_done={=u16}; safe_stops={=u16}; homed_ms={}; finished_ms={}; paused_ms={}; resumed_ms={}; blinks={=u32}",
+            now,
+            level_name(level),
+            phase_name(CS.phase()),
+            OutcomeText(outcome_of(ids.main), &ids),
+            OutcomeText(outcome_of(ids.homing), &ids),
+            OutcomeText(outcome_of(ids.moves), &ids),
+            s.moves_done,
+            s.safe_stops,
+            OptMs(s.homed_at),
+            OptMs(s.finished_at),
+            OptMs(s.paused_at),
+            OptMs(s.resumed_at),
+            self.blinks
+        );
+        defmt::info!(
+            "RESULT move_done_ms={}; fired_fe={=u16}; fired_es={=u16}; fired_pause={=u16}; fired_resume={=u16}",
+            MoveTimes(s.move_done_at),
+            fired_of(ids.following_error),
+            fired_of(ids.end_stop),
+            fired_of(ids.pause),
+            fired_of(ids.resume)
+        );
+        for k in FAULT_KINDS {
+            let r = s.reaction(k);
+            defmt::info!(
+                "RESULT fault={=str}; injected_ms={}; reacted_ms={}; stopped_ms={}",
+                fault_key(k),
+                OptMs(r.injected),
+                OptMs(r.reacted),
+                OptMs(r.stopped)
+            );
+        }
+        defmt::info!(
+            "RESULT pos_um={=i32}; vel_um_s={=i32}; current_ma={=i32}; enabled={=bool}; brake={=bool}; permit={=bool}",
+            (st.position * 1e6) as i32,
+            (plant.velocity() * 1e6) as i32,
+            (plant.current() * 1e3) as i32,
+            st.enabled,
+            st.brake,
+            CS.drive_permit()
+        );
+
+        defmt::info!("---------------------------------------- checks");
+        let mut ok = true;
+        ok &= check(
+            self.trace_lost == 0 && EVENTS.lost() == 0,
+            "no trace record or event lost",
+        );
+        ok &= check(
+            SEQ.exceptions_not_run() == 0,
+            "every exception sequence ran",
+        );
+        ok &= check(!state_of(ids.main).is_active(), "main has ended");
+        let all_idle = [
+            ids.main,
+            ids.status,
+            ids.homing,
+            ids.moves,
+            ids.move_step,
+            ids.safe_stop,
+            ids.feed_hold,
+            ids.feed_resume,
+        ]
+        .iter()
+        .all(|&id| !state_of(id).is_active());
+        ok &= check(all_idle, "no sequence is still active");
+        ok &= check(
+            plant.velocity().abs() < STOP_VELOCITY && plant.current().abs() < STOP_CURRENT,
+            "the motor stands still without current (|v| < 0.1 mm/s, |i| < 50 mA)",
+        );
+        ok &= check(!st.enabled && st.brake, "drive disabled, brake engaged");
+
+        // The faults: an emergency while main ran decides everything; otherwise the first
+        // fault that hit running moves (later ones find nothing running or are overtaken).
+        let emergency = self
+            .expect
+            .iter()
+            .flatten()
+            .any(|(_, _, e)| *e == Expect::Emergency { main_active: true });
+        let mut decisive = false;
+        let mut any_effect = false;
+        for (kind, at, e) in self.expect.iter().flatten().copied() {
+            let r = s.reaction(kind);
+            match e {
+                Expect::Emergency { main_active } => {
+                    any_effect = true;
+                    ok &= check(
+                        self.emergency_seen && level == safety::EMERGENCY,
+                        "the safety system entered and stays in level emergency",
+                    );
+                    ok &= check(!CS.drive_permit(), "the drive permit is withdrawn");
+                    ok &= check(
+                        r.latency().is_some_and(|l| l.as_millis() <= 2),
+                        "the safety system reacted within 2 ms",
+                    );
+                    if main_active {
+                        ok &= check(
+                            outcome_of(ids.main) == Some(Outcome::Aborted(Cause::AbortAll)),
+                            "every sequence was aborted (main: abort all)",
+                        );
+                    }
+                    let _ = at;
+                }
+                _ if emergency => {}
+                Expect::Nothing => {}
+                _ if decisive => {}
+                Expect::HomingTimeout => {
+                    decisive = true;
+                    any_effect = true;
+                    ok &= check(
+                        outcome_of(ids.homing)
+                            == Some(Outcome::Aborted(Cause::Timeout(ids.homing))),
+                        "jammed while homing: the homing timeout aborted homing",
+                    );
+                    ok &= check(
+                        CS.phase() == Phase::Fault,
+                        "the application ended in phase fault",
+                    );
+                }
+                Expect::FollowingErrorAbort => {
+                    decisive = true;
+                    any_effect = true;
+                    let n = u16::from(CONFIG.restart_limit).saturating_add(1);
+                    ok &= check(
+                        fired_of(ids.following_error) == n && s.safe_stops == n,
+                        "the following-error monitor fired 4 times, each with a safe stop",
+                    );
+                    ok &= check(
+                        SEQ.sequence_by_id(ids.moves).is_some_and(|h| {
+                            h.counters().restarts == u16::from(CONFIG.restart_limit)
+                        }),
+                        "the moves were restarted 3 times",
+                    );
+                    ok &= check(
+                        outcome_of(ids.moves)
+                            == Some(Outcome::Aborted(Cause::Monitor(ids.following_error))),
+                        "then the moves were aborted (restart limit)",
+                    );
+                    ok &= check(
+                        r.reacted.map(to_ms).zip(self.fe_visible).is_some_and(|(t, v)| t.saturating_sub(v) <= 60),
+                        "the safe stop started within 60 ms of the jam (of the next move start if the axis stood still)",
+                    );
+                    ok &= check(
+                        CS.phase() == Phase::Fault
+                            && outcome_of(ids.main) == Some(Outcome::Completed),
+                        "main stopped the axis and powered off (phase fault)",
+                    );
+                }
+                Expect::EndStopAbort => {
+                    decisive = true;
+                    any_effect = true;
+                    ok &= check(
+                        outcome_of(ids.moves)
+                            == Some(Outcome::Aborted(Cause::Monitor(ids.end_stop))),
+                        "the end-stop monitor aborted the moves",
+                    );
+                    ok &= check(
+                        s.moves_done < CONFIG.move_count as u16,
+                        "the move program was cut short",
+                    );
+                    ok &= check(
+                        r.stop_latency().is_some(),
+                        "the motor stopped after the reaction",
+                    );
+                    ok &= check(
+                        CS.phase() == Phase::Fault
+                            && outcome_of(ids.main) == Some(Outcome::Completed),
+                        "main stopped the axis and powered off (phase fault)",
+                    );
+                }
+            }
+        }
+        if let (Some(w), false) = (self.plan.pause, emergency || decisive) {
+            match self.pause {
+                PauseExpect::PauseResume => {
+                    let inside = |t: Option<Instant>, want: Instant| {
+                        t.is_some_and(|t| t >= want && to_ms(t) <= to_ms(want) + 1)
+                    };
+                    ok &= check(
+                        inside(s.paused_at, w.start),
+                        "the moves were paused at the first press (feed hold)",
+                    );
+                    ok &= check(
+                        inside(s.resumed_at, w.end),
+                        "and resumed at the second press (feed resume)",
+                    );
+                    ok &= check(
+                        SEQ.sequence_by_id(ids.move_step).is_some_and(|h| h.counters().aborts == 0),
+                        "the paused move was not aborted (paused time does not count for its timeout)",
+                    );
+                }
+                PauseExpect::TooEarly => {
+                    ok &= check(false, "the pause window must start while the moves run (after homing, about 1.2 s)");
+                }
+                PauseExpect::Nothing => {}
+            }
+        }
+        if !any_effect {
+            ok &= check(
+                CS.phase() == Phase::Done && usize::from(s.moves_done) == CONFIG.move_count,
+                "all moves done, phase done",
+            );
+            ok &= check(
+                level == safety::OFF,
+                "the safety system is back in level off",
+            );
+            let pos = st.position;
+            let last = CONFIG
+                .targets
+                .get(CONFIG.move_count.saturating_sub(1))
+                .copied()
+                .unwrap_or(0.0);
+            ok &= check(
+                (pos - last).abs() <= 20e-6,
+                "the axis is at the last target (within 20 um)",
+            );
+        }
+        ok
+    }
+}
+
+/// An optional time printed as seconds (nothing when absent).
+struct OptSecs(Option<Instant>);
+
+impl defmt::Format for OptSecs {
+    fn format(&self, f: defmt::Formatter) {
+        if let Some(t) = self.0 {
+            defmt::write!(f, "{} s", Secs(to_ms(t)));
+        }
+    }
+}
+
+/// An optional duration in ms (nothing when absent).
+struct OptDur(Option<rtseq::Duration>);
+
+impl defmt::Format for OptDur {
+    fn format(&self, f: defmt::Formatter) {
+        if let Some(d) = self.0 {
+            defmt::write!(f, "{=u64}", d.as_millis());
+        }
+    }
+}
+
+/// The move completion times, comma-separated ms (`-` for moves not done).
+struct MoveTimes([Option<Instant>; app::MAX_MOVES]);
+
+impl defmt::Format for MoveTimes {
+    fn format(&self, f: defmt::Formatter) {
+        for (i, t) in self.0.iter().enumerate() {
+            if i > 0 {
+                defmt::write!(f, ",");
+            }
+            defmt::write!(f, "{}", OptMs(*t));
+        }
+    }
+}
+
+/// Prints the plan at the start.
+fn announce(plan: &FaultPlan) {
+    defmt::info!(
+        "demo      motor controller on the emulated STM32F405: 1 kHz control + sequencer tick (TIM2), safety system at the highest priority, 5 lanes"
+    );
+    defmt::info!(
+        "demo      program: power on, homing (seek the - end stop at 20 mm/s, zero, back off to 5 mm), {=usize} moves, power off",
+        CONFIG.move_count
+    );
+    let mut any = false;
+    for f in plan.faults.iter().flatten() {
+        any = true;
+        defmt::info!(
+            "demo      plan: {=str} at {} s ({=str})",
+            fault_name(f.kind()),
+            Secs(to_ms(f.at())),
+            fault_what(f.kind())
+        );
+    }
+    if let Some(w) = plan.pause {
+        any = true;
+        defmt::info!(
+            "demo      plan: pause button pressed at {} s and at {} s",
+            Secs(to_ms(w.start)),
+            Secs(to_ms(w.end))
+        );
+    }
+    if !any {
+        defmt::info!("demo      plan: no fault (try --help for fault injection)");
+    }
+}
+
+/// When the run ends: `SETTLE_MS` after main ended and after the last planned event.
+fn end_time(plan: &FaultPlan, main_end: Option<u64>) -> Option<u64> {
+    let mut last = main_end?;
+    for f in plan.faults.iter().flatten() {
+        last = last.max(to_ms(f.at()));
+    }
+    if let Some(w) = plan.pause {
+        last = last.max(to_ms(w.end));
+    }
+    Some(last.saturating_add(SETTLE_MS))
+}
+
+#[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX, CAN1_RX0])]
+mod rtic_app {
+    use super::*;
+    use board::clock::TickTimer;
+    use board::signal::TickSignal;
+    use rtseq::safety::SafetySystem;
+    use rtseq::{Monitors, Seq};
+    use rtseq_motor::app::Conditions;
+    use rtseq_motor::sequences::{FeedHold, FeedResume, Main, SafeStop, StatusBlink};
+
+    /// Tick -> safety task.
+    static TO_SAFETY: TickSignal = TickSignal::new();
 
     #[shared]
     struct Shared {}
@@ -19,48 +1315,200 @@ mod app {
     #[local]
     struct Local {
         timer: TickTimer,
+        monitors: Monitors<'static, ControlSystem, { app::MONITORS }>,
+        system: SafetySystem<'static, safety::DriveIo, 4>,
+        ids_tick: Ids,
+        plan_tick: FaultPlan,
+        log: Log,
+        main: Seq<Main>,
+        status: Seq<StatusBlink>,
+        safe_stop: Seq<SafeStop>,
+        feed_hold: Seq<FeedHold>,
+        feed_resume: Seq<FeedResume>,
     }
 
-    #[init]
+    #[init(local = [conditions: Conditions = Conditions::new(&CONFIG), args: [u8; 256] = [0; 256]])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        defmt::info!(
-            "demo: rtseq heartbeat at {=u32} Hz on the emulated STM32F405",
-            clock::TICK_HZ
-        );
+        let opts = match parse_args(board::args::args(cx.local.args)) {
+            Ok(o) => o,
+            Err(e) => {
+                defmt::error!("demo: {=str}: '{=str}'", e.msg, e.arg);
+                usage();
+                board::exit(board::ExitCode::Failure);
+            }
+        };
+        if opts.help {
+            usage();
+            board::exit_success();
+        }
+        let plan = opts.plan;
+        announce(&plan);
+        CS.set_fault_plan(plan);
+        let mut monitors = Monitors::new();
+        let app = match app::register(&SEQ, &mut monitors, cx.local.conditions, &CONFIG) {
+            Ok(a) => a,
+            Err(e) => {
+                defmt::error!("demo: registration failed: {}", e);
+                board::exit_failure();
+            }
+        };
+        let Ok(system) = SafetySystem::new(&safety::PROPERTIES, &HANDLE) else {
+            defmt::error!("demo: the safety system could not start");
+            board::exit_failure();
+        };
+        SEQ.set_safety_system(&HANDLE);
+        let ids = app.ids;
+        // The lanes declare themselves when they first run; declare them now so main
+        // can be started here (its start is applied by the first tick, at 1 ms).
+        for id in [
+            ids.main,
+            ids.status,
+            ids.safe_stop,
+            ids.feed_hold,
+            ids.feed_resume,
+        ] {
+            if let Some(h) = SEQ.sequence_by_id(id) {
+                let _ = h.declare_lane();
+            }
+        }
+        if let Some(Err(e)) = SEQ.sequence_by_id(ids.main).map(|h| h.start()) {
+            defmt::error!("demo: cannot start main: {}", e);
+            board::exit_failure();
+        }
+        // Spawning from init cannot fail (each task once).
+        safety_task::spawn().ok();
+        lane_main::spawn().ok();
+        lane_status::spawn().ok();
+        lane_safe_stop::spawn().ok();
+        lane_feed_hold::spawn().ok();
+        lane_feed_resume::spawn().ok();
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
-        lane::spawn().ok();
-        (Shared {}, Local { timer })
+        (
+            Shared {},
+            Local {
+                timer,
+                monitors,
+                system,
+                ids_tick: ids,
+                plan_tick: plan,
+                log: Log::new(ids, plan),
+                main: app.main,
+                status: app.status,
+                safe_stop: app.safe_stop,
+                feed_hold: app.feed_hold,
+                feed_resume: app.feed_resume,
+            },
+        )
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
+    /// Prints what happened, samples the axis, ends the run.
+    #[idle(local = [log])]
+    fn idle(cx: idle::Context) -> ! {
+        let log = cx.local.log;
         loop {
-            cortex_m::asm::wfi();
-        }
-    }
-
-    #[task(binds = TIM2, priority = 2, local = [timer])]
-    fn tick(cx: tick::Context) {
-        TO_LANE.signal(cx.local.timer.on_interrupt());
-    }
-
-    #[task(priority = 1)]
-    async fn lane(_: lane::Context) {
-        let mut wakes: u32 = 0;
-        loop {
-            let now = TO_LANE.wait().await;
-            wakes += 1;
-            if wakes % 100 == 0 {
-                defmt::info!(
-                    "demo: lane woke {=u32} times, t = {=u64} ms",
-                    wakes,
-                    now.as_ticks() / 1000
+            log.drain_events();
+            log.drain_trace();
+            let now = to_ms(CS.now());
+            log.watch(now);
+            if let Some(end) = end_time(&log.plan, log.main_end) {
+                if now >= end {
+                    let ok = log.finish(now);
+                    if ok {
+                        defmt::info!("demo      outcome as expected: exit 0");
+                        board::exit_success();
+                    }
+                    defmt::error!("demo      outcome NOT as expected: exit 1");
+                    board::exit_failure();
+                }
+            }
+            if now >= LIMIT_MS {
+                let _ = log.finish(now);
+                defmt::error!(
+                    "demo      the run did not end within {=u64} s: exit 1",
+                    LIMIT_MS / 1000
                 );
+                board::exit_failure();
             }
-            if wakes >= 1000 {
-                defmt::info!("demo: done");
-                board::exit_success();
+            // Sleep until the next interrupt; check for news with interrupts masked so a
+            // tick between the check and WFI is not slept through.
+            cortex_m::interrupt::disable();
+            if EVENTS.is_empty() {
+                cortex_m::asm::wfi();
             }
+            // SAFETY: not inside a critical section of ours; RTIC uses BASEPRI.
+            unsafe { cortex_m::interrupt::enable() };
         }
+    }
+
+    /// The 1 kHz heartbeat: fault injection, safety cycle (priority 3, preempts here),
+    /// control step, sequencer tick.
+    #[task(binds = TIM2, priority = 2, local = [timer, monitors, ids_tick, plan_tick, injections: Injections = Injections::new()])]
+    fn tick(cx: tick::Context) {
+        let now = cx.local.timer.on_interrupt();
+        CS.inject(now);
+        cx.local
+            .injections
+            .check(now, cx.local.plan_tick, cx.local.ids_tick);
+        TO_SAFETY.signal(now);
+        // Make sure the safety task has run before the control step (pended above).
+        cortex_m::asm::dsb();
+        cortex_m::asm::isb();
+        CS.control_step(DT);
+        SEQ.tick(now, &CS, cx.local.monitors);
+        let ids = cx.local.ids_tick;
+        let m = &*cx.local.monitors;
+        let fired = [
+            m.fired(ids.following_error),
+            m.fired(ids.end_stop),
+            m.fired(ids.pause),
+            m.fired(ids.resume),
+        ];
+        critical_section::with(|cs| FIRED.borrow(cs).set(fired));
+    }
+
+    /// The safety system: one cycle per tick, highest priority.
+    #[task(priority = 3, local = [system, last_bits: u32 = 0])]
+    async fn safety_task(cx: safety_task::Context) {
+        loop {
+            let _now = TO_SAFETY.wait().await;
+            let r = safety::safety_cycle(&CS, cx.local.system, &SEQ);
+            if let Some(c) = r.change {
+                EVENTS.push(Event::Level {
+                    from: c.from,
+                    to: c.to,
+                });
+            }
+            if r.input_events != 0 && r.input_events != *cx.local.last_bits {
+                EVENTS.push(Event::Inputs {
+                    bits: r.input_events,
+                });
+            }
+            *cx.local.last_bits = r.input_events;
+        }
+    }
+
+    #[task(priority = 1, local = [main])]
+    async fn lane_main(cx: lane_main::Context) {
+        match rtseq::lane(&SEQ, &CS, cx.local.main).await {}
+    }
+
+    #[task(priority = 1, local = [status])]
+    async fn lane_status(cx: lane_status::Context) {
+        match rtseq::lane(&SEQ, &CS, cx.local.status).await {}
+    }
+
+    #[task(priority = 1, local = [safe_stop])]
+    async fn lane_safe_stop(cx: lane_safe_stop::Context) {
+        match rtseq::lane(&SEQ, &CS, cx.local.safe_stop).await {}
+    }
+
+    #[task(priority = 1, local = [feed_hold])]
+    async fn lane_feed_hold(cx: lane_feed_hold::Context) {
+        match rtseq::lane(&SEQ, &CS, cx.local.feed_hold).await {}
+    }
+
+    #[task(priority = 1, local = [feed_resume])]
+    async fn lane_feed_resume(cx: lane_feed_resume::Context) {
+        match rtseq::lane(&SEQ, &CS, cx.local.feed_resume).await {}
     }
 }
