@@ -388,6 +388,38 @@ pub struct InputAction {
     b: u32,
 }
 
+/// An `f32` as an `i32` with the same order for every non-NaN value
+/// (`-0.0` just below `+0.0`): two's complement from sign and magnitude.
+/// A NaN maps above `+inf` (positive sign) or below `-inf` (negative).
+#[inline(always)]
+const fn float_key(f: f32) -> i32 {
+    let b = f.to_bits() as i32;
+    b ^ (((b >> 31) as u32) >> 1) as i32
+}
+
+/// The inverse of [`float_key`].
+const fn float_from_key(k: i32) -> f32 {
+    f32::from_bits((k ^ (((k >> 31) as u32) >> 1) as i32) as u32)
+}
+
+/// The key of a float bound (bits for other kinds); a zero takes the key
+/// of `-0.0` if `low` (so `-0.0` and `+0.0` are both at or above it), of
+/// `+0.0` otherwise.
+const fn bound_key(v: IoValue, low: bool) -> u32 {
+    match v {
+        IoValue::Float(f) => {
+            if f != 0.0 {
+                float_key(f) as u32
+            } else if low {
+                float_key(-0.0) as u32
+            } else {
+                0
+            }
+        }
+        other => bits(other),
+    }
+}
+
 /// A value's payload as 32 raw bits (`bool` 0/1, `i32` two's complement,
 /// `f32` IEEE 754).
 const fn bits(v: IoValue) -> u32 {
@@ -424,7 +456,10 @@ enum CheckOp {
 
 impl InputAction {
     /// Compiles `check` (whose values are of `kind`, as the typed
-    /// constructors guarantee) into the compact form.
+    /// constructors guarantee) into the compact form. Float bounds become
+    /// ordered integer keys ([`float_key`]); a zero bound takes the key of
+    /// the zero that keeps `-0.0 == 0.0` (a lower bound of a range and an
+    /// upper bound of an off-range take `-0.0`, the others `+0.0`).
     const fn new(input: InputId, kind: IoKind, check: InputCheck) -> Self {
         let (op, event, a, b) = match (check, kind) {
             (InputCheck::Ignore, _) => (CheckOp::Ignore, EventId::public(0), 0, 0),
@@ -436,15 +471,21 @@ impl InputAction {
                 };
                 (op, event, bits(expected), 0)
             }
-            (InputCheck::Range { min, max, event }, IoKind::Float) => {
-                (CheckOp::FloatWithin, event, bits(min), bits(max))
-            }
+            (InputCheck::Range { min, max, event }, IoKind::Float) => (
+                CheckOp::FloatWithin,
+                event,
+                bound_key(min, true),
+                bound_key(max, false),
+            ),
             (InputCheck::Range { min, max, event }, _) => {
                 (CheckOp::IntWithin, event, bits(min), bits(max))
             }
-            (InputCheck::OffRange { min, max, event }, IoKind::Float) => {
-                (CheckOp::FloatOutside, event, bits(min), bits(max))
-            }
+            (InputCheck::OffRange { min, max, event }, IoKind::Float) => (
+                CheckOp::FloatOutside,
+                event,
+                bound_key(min, false),
+                bound_key(max, true),
+            ),
             (InputCheck::OffRange { min, max, event }, _) => {
                 (CheckOp::IntOutside, event, bits(min), bits(max))
             }
@@ -472,21 +513,31 @@ impl InputAction {
     }
 
     /// Whether `value` fires the check: the same result as
-    /// [`InputCheck::evaluate`], with one dispatch. A value of another kind
-    /// than the input's, and NaN, fire (fail-safe).
+    /// [`InputCheck::evaluate`], with one dispatch and integer compares
+    /// (floats by their ordered keys). A value of another kind than the
+    /// input's, and NaN, fire (fail-safe).
     #[inline(always)]
     pub(crate) fn fires(&self, value: IoValue) -> bool {
-        let (ia, ib) = (self.a as i32, self.b as i32);
-        let (fa, fb) = (f32::from_bits(self.a), f32::from_bits(self.b));
+        let (a, b) = (self.a as i32, self.b as i32);
         match (self.op, value) {
             (CheckOp::Ignore, _) => false,
-            (CheckOp::BoolEqual, IoValue::Bool(v)) => i32::from(v) != ia,
-            (CheckOp::IntEqual, IoValue::Int(v)) => v != ia,
-            (CheckOp::IntWithin, IoValue::Int(v)) => v < ia || v > ib,
-            (CheckOp::IntOutside, IoValue::Int(v)) => v > ia && v < ib,
-            (CheckOp::FloatEqual, IoValue::Float(v)) => v != fa,
-            (CheckOp::FloatWithin, IoValue::Float(v)) => !(fa <= v && v <= fb),
-            (CheckOp::FloatOutside, IoValue::Float(v)) => !(v <= fa || v >= fb),
+            (CheckOp::BoolEqual, IoValue::Bool(v)) => i32::from(v) != a,
+            (CheckOp::IntEqual, IoValue::Int(v)) => v != a,
+            (CheckOp::IntWithin, IoValue::Int(v)) => v < a || v > b,
+            (CheckOp::IntOutside, IoValue::Int(v)) => v > a && v < b,
+            (CheckOp::FloatEqual, IoValue::Float(v)) => v != f32::from_bits(self.a),
+            // A NaN's key lies outside every range of finite or infinite
+            // bounds, so it fires here without a test of its own.
+            (CheckOp::FloatWithin, IoValue::Float(v)) => {
+                let v = float_key(v);
+                v < a || v > b
+            }
+            (CheckOp::FloatOutside, IoValue::Float(v)) => {
+                v.is_nan() || {
+                    let v = float_key(v);
+                    v > a && v < b
+                }
+            }
             _ => true,
         }
     }
@@ -517,14 +568,24 @@ impl InputAction {
                 expected: unbits(self.kind, self.a),
                 event,
             },
-            CheckOp::IntWithin | CheckOp::FloatWithin => InputCheck::Range {
+            CheckOp::IntWithin => InputCheck::Range {
                 min: unbits(self.kind, self.a),
                 max: unbits(self.kind, self.b),
                 event,
             },
-            CheckOp::IntOutside | CheckOp::FloatOutside => InputCheck::OffRange {
+            CheckOp::IntOutside => InputCheck::OffRange {
                 min: unbits(self.kind, self.a),
                 max: unbits(self.kind, self.b),
+                event,
+            },
+            CheckOp::FloatWithin => InputCheck::Range {
+                min: IoValue::Float(float_from_key(self.a as i32)),
+                max: IoValue::Float(float_from_key(self.b as i32)),
+                event,
+            },
+            CheckOp::FloatOutside => InputCheck::OffRange {
+                min: IoValue::Float(float_from_key(self.a as i32)),
+                max: IoValue::Float(float_from_key(self.b as i32)),
                 event,
             },
         }
@@ -539,5 +600,99 @@ impl InputAction {
     /// ```
     pub const fn kind(&self) -> IoKind {
         self.kind
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::safety::PrivateEvent;
+    use std::vec;
+    use std::vec::Vec;
+
+    const E: PrivateEvent = PrivateEvent::new(1);
+
+    /// The compiled check (`fires`) agrees with `InputCheck::evaluate` (the
+    /// reference semantics) on a grid of values, including ±0, ±inf, NaN,
+    /// extreme integers and values of the wrong kind.
+    #[test]
+    fn compiled_checks_agree_with_the_reference_semantics() {
+        const F: CriticalInput<f32> = CriticalInput::new(0, "f");
+        const I: CriticalInput<i32> = CriticalInput::new(1, "i");
+        const B: CriticalInput<bool> = CriticalInput::new(2, "b");
+        let floats = [
+            f32::NEG_INFINITY,
+            -5.5,
+            -1.0,
+            -0.0,
+            0.0,
+            1e-30,
+            1.0,
+            5.5,
+            f32::INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            f32::MIN,
+            f32::MAX,
+        ];
+        let ints = [i32::MIN, -10, -1, 0, 1, 10, i32::MAX];
+        let mut values: Vec<IoValue> = floats.iter().map(|&f| IoValue::Float(f)).collect();
+        values.extend(ints.iter().map(|&i| IoValue::Int(i)));
+        values.extend([IoValue::Bool(false), IoValue::Bool(true)]);
+        let mut actions = vec![B.ignore(), B.check(false, E), B.check(true, E)];
+        for &a in &floats {
+            actions.push(F.check(a, E));
+            for &b in &floats {
+                if a <= b {
+                    actions.push(F.range(a, b, E));
+                    actions.push(F.off_range(a, b, E));
+                }
+            }
+        }
+        for &a in &ints {
+            actions.push(I.check(a, E));
+            for &b in &ints {
+                if a <= b {
+                    actions.push(I.range(a, b, E));
+                    actions.push(I.off_range(a, b, E));
+                }
+            }
+        }
+        for action in &actions {
+            let reference = action.check();
+            for &v in &values {
+                assert_eq!(
+                    action.fires(v),
+                    reference.evaluate(v).is_some(),
+                    "{reference:?} on {v:?}"
+                );
+            }
+        }
+    }
+
+    /// `check()` gives back the check the action was built from.
+    #[test]
+    fn compiled_checks_round_trip() {
+        const F: CriticalInput<f32> = CriticalInput::new(0, "f");
+        let a = F.range(-2.5, 7.0, E);
+        assert_eq!(
+            a.check(),
+            InputCheck::Range {
+                min: IoValue::Float(-2.5),
+                max: IoValue::Float(7.0),
+                event: E.id()
+            }
+        );
+        let z = F.off_range(0.0, 0.0, E).check();
+        assert_eq!(
+            z,
+            InputCheck::OffRange {
+                min: IoValue::Float(0.0),
+                max: IoValue::Float(0.0),
+                event: E.id()
+            }
+        );
     }
 }

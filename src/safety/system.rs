@@ -419,9 +419,9 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         self.props
     }
 
-    fn record_unknown(&mut self, event: EventId, count: u32, report: &mut CycleReport) {
+    fn record_unknown(&mut self, event: EventId, count: u32, unknown: &mut u32) {
         self.unknown_count = self.unknown_count.saturating_add(count);
-        report.unknown_events = report.unknown_events.saturating_add(count);
+        *unknown = unknown.saturating_add(count);
         self.last_unknown = Some(UnknownEvent {
             event,
             level: self.current,
@@ -435,7 +435,7 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         mut mask: u32,
         make: fn(u8) -> EventId,
         mut best: Option<SafetyLevel>,
-        report: &mut CycleReport,
+        unknown: &mut u32,
     ) -> Option<SafetyLevel> {
         while mask != 0 {
             let index = mask.trailing_zeros() as u8;
@@ -448,7 +448,7 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
                         _ => to,
                     });
                 }
-                None => self.record_unknown(event, 1, report),
+                None => self.record_unknown(event, 1, unknown),
             }
         }
         best
@@ -458,48 +458,43 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
     /// the safest destination. The common case (nothing pending) is a few
     /// loads; the rest is out of line.
     #[inline(always)]
-    fn resolve_pending(&mut self, report: &mut CycleReport) -> Option<SafetyLevel> {
+    fn resolve_pending(&mut self, unknown: &mut u32) -> Option<SafetyLevel> {
         let public = self.handle.take_pending();
         if public | self.pending.public | self.pending.private | self.pending.out_of_range == 0
             && !self.handle.has_out_of_range()
         {
             return None;
         }
-        self.resolve_events(public, report)
+        self.resolve_events(public, unknown)
     }
 
-    /// Records the events of the fired input actions (bit `i` of `fired`
-    /// = `actions[i]`); returns the report's input bits.
+    /// Records the events of the input actions whose inputs fired (bit `i`
+    /// of `fired` = input `i`; a level has one action per input).
     #[cold]
     #[inline(never)]
-    fn record_fired(&mut self, actions: &[InputAction], mut fired: u32) -> u32 {
-        let mut inputs = 0;
-        while fired != 0 {
-            let i = fired.trailing_zeros() as usize;
-            fired &= fired.wrapping_sub(1);
-            if let Some(action) = actions.get(i) {
+    fn record_fired(&mut self, actions: &[InputAction], fired: u32) {
+        for action in actions {
+            if fired & bit_of(action.input().index()) != 0 {
                 self.pending.add(action.event());
-                inputs |= bit_of(action.input().index());
             }
         }
-        inputs
     }
 
     /// [`resolve_pending`](Self::resolve_pending) when something is pending.
     #[cold]
     #[inline(never)]
-    fn resolve_events(&mut self, public: u32, report: &mut CycleReport) -> Option<SafetyLevel> {
+    fn resolve_events(&mut self, public: u32, unknown: &mut u32) -> Option<SafetyLevel> {
         let public = public | core::mem::take(&mut self.pending.public);
         let private = core::mem::take(&mut self.pending.private);
-        let best = self.resolve_mask(public, EventId::public, None, report);
-        let best = self.resolve_mask(private, EventId::private, best, report);
+        let best = self.resolve_mask(public, EventId::public, None, unknown);
+        let best = self.resolve_mask(private, EventId::private, best, unknown);
         let (count, event) = self.handle.take_out_of_range();
         if count != 0 {
-            self.record_unknown(event, count, report);
+            self.record_unknown(event, count, unknown);
         }
         let count = core::mem::take(&mut self.pending.out_of_range);
         if let Some(event) = self.pending.last_out_of_range.take() {
-            self.record_unknown(event, count, report);
+            self.record_unknown(event, count, unknown);
         }
         best
     }
@@ -570,30 +565,30 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
     /// ```
     pub fn cycle<A: AbortSequences + ?Sized>(&mut self, io: &mut IO, sequences: &A) -> CycleReport {
         let props = self.props;
-        let mut report = CycleReport {
-            level: self.current,
-            change: None,
-            input_events: 0,
-            aborted: false,
-            unknown_events: 0,
-        };
+        let mut unknown: u32 = 0;
 
         // 1. Pending transition.
         let (next, from) = if self.started {
-            (self.resolve_pending(&mut report), Some(self.current))
+            (self.resolve_pending(&mut unknown), Some(self.current))
         } else {
             (Some(props.entry_level()), None)
         };
-        let mut entered = false;
+        let mut change = None;
         if let Some(to) = next {
             if from != Some(to) {
                 self.enter(from, to, io);
-                entered = true;
-                report.change = Some(LevelChange { from, to });
+                change = Some(LevelChange { from, to });
             }
         }
-        report.level = self.current;
+        let entered = change.is_some();
         let level = self.current;
+        let mut report = CycleReport {
+            level,
+            change,
+            input_events: 0,
+            aborted: false,
+            unknown_events: unknown,
+        };
         let Some(def) = props.level(level) else {
             // Unreachable for validated properties.
             return report;
@@ -618,18 +613,20 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
             s.cycles = s.cycles.saturating_add(1);
         }
 
-        // 3. Input actions. The loop only collects which actions fired (bit
-        // `i` = the level's `i`-th action); their events are recorded out
-        // of line.
+        // 3. Input actions. The loop only collects which inputs fired (bit
+        // `i` = input `i`, as in the report); their events are recorded
+        // out of line.
         let actions = def.input_actions();
         let mut fired: u32 = 0;
-        for (i, action) in actions.iter().enumerate() {
-            if !action.is_ignored() && action.fires(io.read_input(action.input())) {
-                fired |= bit_of(i);
+        for action in actions {
+            let input = action.input();
+            if !action.is_ignored() && action.fires(io.read_input(input)) {
+                fired |= bit_of(input.index());
             }
         }
         if fired != 0 {
-            report.input_events = self.record_fired(actions, fired);
+            self.record_fired(actions, fired);
+            report.input_events = fired;
         }
 
         // 4. Level action.
