@@ -1,0 +1,414 @@
+//! rtseq's motor-controller application on a real board: NUCLEO-F446RE + X-NUCLEO-IHM07M1
+//! driving a brushed DC motor with a quadrature encoder. The same sequences, monitors and
+//! safety levels as the QEMU demo and the host tests ([`rtseq_motor::app::register`]), over
+//! real peripherals.
+//!
+//! | task | priority | trigger | does |
+//! |---|---|---|---|
+//! | `safety` | 3 (highest) | pended by `control` at the start of every period | one safety cycle ([`rtseq_motor::safety::safety_cycle`]); when the drive permit is withdrawn it switches the bridge off and engages the brake **itself**, at once |
+//! | `control` | 2 | TIM6 update, 1 kHz | fault-plan time, pends `safety`, samples the sensors, [`ControlSystem::control_step_measured`], writes PWM / enables / brake, `SEQ.tick`, feeds the watchdog |
+//! | `lanes` | 1 | woken by the tick | the five lanes of the application joined in one future ([`App::run`]) |
+//! | `idle` | 0 | — | logs the status four times a second, sleeps (`wfi`) |
+//!
+//! Nothing moves until the user button B1 is pressed; from then on B1 is the pause button.
+//! Pins and jumpers: [`pins`]. Safe state everywhere an error can happen: bridge off, brake
+//! engaged (init errors, a panic, a hard fault, a stopped control loop via the watchdog).
+#![no_std]
+#![no_main]
+#![deny(missing_docs)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
+
+use defmt_rtt as _;
+
+pub mod drive;
+pub mod pins;
+pub mod sensors;
+
+use rtseq_motor::control_system::ControlSystem;
+
+/// Control period, s (TIM6 at 1 kHz).
+pub const DT: f32 = 0.001;
+/// Watchdog timeout, ms: the control loop feeds it every period.
+pub const WATCHDOG_MS: u32 = 50;
+
+/// Puts the power stage in its safe state straight through the registers, whatever owns the
+/// pins: EN1–EN3 low (PC10–PC12), the brake engaged (PB12 low), TIM1's outputs off. For the
+/// panic and fault handlers, which cannot borrow the drivers.
+pub fn force_safe_outputs() {
+    // SAFETY: single writes to set/reset registers (BSRR: atomic, no read-modify-write) and
+    // a clear of TIM1's main-output-enable; the panic and fault handlers never return to the
+    // code that owns these peripherals.
+    unsafe {
+        let gpioc = &*stm32f4xx_hal::pac::GPIOC::ptr();
+        gpioc
+            .bsrr()
+            .write(|w| w.br10().set_bit().br11().set_bit().br12().set_bit());
+        let gpiob = &*stm32f4xx_hal::pac::GPIOB::ptr();
+        gpiob.bsrr().write(|w| w.br12().set_bit());
+        let tim1 = &*stm32f4xx_hal::pac::TIM1::ptr();
+        tim1.bdtr()
+            .modify(|_, w| w.moe().clear_bit().aoe().clear_bit());
+    }
+}
+
+/// Panic: outputs safe first, then the message, then a breakpoint-like fault that ends a
+/// `probe-rs run` session.
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    force_safe_outputs();
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    cortex_m::asm::udf()
+}
+
+/// Hard fault: outputs safe, report, stop.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    force_safe_outputs();
+    defmt::error!("hard fault at pc = {=u32:#010x}", frame.pc());
+    loop {
+        cortex_m::asm::bkpt();
+    }
+}
+
+// defmt timestamps: milliseconds of control time.
+defmt::timestamp!(
+    "{=u32}ms",
+    app::TICKS.load(core::sync::atomic::Ordering::Relaxed)
+);
+
+/// The status line of the idle loop.
+fn log_status(cs: &ControlSystem, level: u8, sw: sensors::Switches) {
+    let s = cs.status();
+    defmt::info!(
+        "{} level {=u8} | x = {=f32} mm (target {}) | v = {=f32} mm/s | i = {=f32} A (cmd {=f32}) | enabled {=bool} brake {=bool} | {}",
+        cs.phase(),
+        level,
+        s.position * 1e3,
+        s.target.map(|t| t * 1e3),
+        s.velocity * 1e3,
+        s.current,
+        s.current_command,
+        s.enabled,
+        s.brake,
+        sw
+    );
+}
+
+#[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART6])]
+mod app {
+    use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
+
+    use rtseq::safety::{SafetyHandle, SafetySystem};
+    use rtseq::{Instant, Monitors, SeqId, Sequencer};
+    use rtseq_motor::app::{self, App, AppConfig, Conditions, FaultPlan};
+    use rtseq_motor::control_system::ControlSystem;
+    use rtseq_motor::hardware::DriveCommand;
+    use rtseq_motor::safety::{safety_cycle, DriveIo, PROPERTIES};
+    use stm32f4xx_hal::adc::config::{AdcConfig, Clock};
+    use stm32f4xx_hal::adc::Adc;
+    use stm32f4xx_hal::gpio::PinState;
+    use stm32f4xx_hal::pac;
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::qei::Qei;
+    use stm32f4xx_hal::rcc::Config;
+    use stm32f4xx_hal::timer::{CounterHz, Event, Flag};
+    use stm32f4xx_hal::watchdog::IndependentWatchdog;
+
+    use super::drive::{Bridge, MotorModel};
+    use super::pins;
+    use super::sensors::{Sensors, Switches};
+    use super::{log_status, DT, WATCHDOG_MS};
+
+    /// The power stage with this board's pins.
+    pub type Power =
+        Bridge<pins::In1, pins::In2, pins::En1, pins::En2, pins::En3, pins::BrakeRelease>;
+
+    /// The sequencer: the application's sequences and steps.
+    static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
+    /// The control system (its simulated plant is not used: the sensors are the truth).
+    static CS: ControlSystem = ControlSystem::new(AppConfig::DEFAULT.start_position);
+    /// The lock-free part of the safety system (level, public events).
+    static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// Control periods since start (the defmt timestamp and the sequencer's clock).
+    pub static TICKS: AtomicU32 = AtomicU32::new(0);
+    /// The safety level, for the log.
+    static LEVEL: AtomicU8 = AtomicU8::new(0);
+    /// The switches of the last sample, packed, for the log.
+    static SWITCHES: AtomicU32 = AtomicU32::new(0);
+
+    #[shared]
+    struct Shared {
+        /// The power stage: written by `control` every period, forced off by `safety`.
+        bridge: Power,
+    }
+
+    #[local]
+    struct Local {
+        timer: CounterHz<pac::TIM6>,
+        sensors: Sensors,
+        monitors: Monitors<'static, ControlSystem, { app::MONITORS }>,
+        system: Option<SafetySystem<'static, DriveIo, 4>>,
+        app: Option<App>,
+        main: Option<SeqId>,
+        watchdog: IndependentWatchdog,
+        led: pins::Led,
+        model: MotorModel,
+    }
+
+    #[init(local = [conditions: Conditions = Conditions::new(&AppConfig::DEFAULT)])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let dp = cx.device;
+        // Debugging: keep the debug port alive in `wfi`, freeze the watchdog at a breakpoint.
+        dp.DBGMCU.cr().modify(|_, w| w.dbg_sleep().set_bit());
+        dp.DBGMCU
+            .apb1_fz()
+            .modify(|_, w| w.dbg_iwdg_stop().set_bit());
+
+        // 84 MHz from the internal oscillator (no dependence on the ST-LINK's MCO): APB2
+        // timers (TIM1) at 84 MHz, APB1 timers (TIM2, TIM6) at 84 MHz, ADC at 84 / 4 MHz.
+        let mut rcc = dp
+            .RCC
+            .freeze(Config::hsi().sysclk(84.MHz()).pclk1(42.MHz()));
+
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpioc = dp.GPIOC.split(&mut rcc);
+
+        // Outputs first, in their safe state.
+        let en1 = gpioc.pc10.into_push_pull_output_in_state(PinState::Low);
+        let en2 = gpioc.pc11.into_push_pull_output_in_state(PinState::Low);
+        let en3 = gpioc.pc12.into_push_pull_output_in_state(PinState::Low);
+        let brake = gpiob.pb12.into_push_pull_output_in_state(PinState::Low);
+        let led = gpioa.pa5.into_push_pull_output_in_state(PinState::Low);
+        let (_pwm, (ch1, ch2, ..)) = dp.TIM1.pwm_hz(20.kHz(), &mut rcc);
+        let mut in1 = ch1.with(gpioa.pa8);
+        let mut in2 = ch2.with(gpioa.pa9);
+        in1.set_duty(0);
+        in2.set_duty(0);
+        in1.enable();
+        in2.enable();
+        let mut bridge = Bridge::new(in1, in2, en1, en2, en3, brake);
+        bridge.off();
+
+        // Sensors.
+        let encoder = Qei::new(
+            dp.TIM2,
+            (
+                // JTDI / JTDO after reset: inputs with pull-ups first, then TIM2's AF1.
+                gpioa.pa15.into_pull_up_input(),
+                gpiob.pb3.into_pull_up_input(),
+            ),
+            &mut rcc,
+        );
+        let adc = Adc::new(
+            dp.ADC1,
+            true,
+            AdcConfig::default().clock(Clock::Pclk2_div_4),
+            &mut rcc,
+        );
+        let mut sensors = Sensors::new(
+            encoder,
+            adc,
+            gpioa.pa0.into_analog(),
+            gpioc.pc1.into_analog(),
+            gpioc.pc8.into_pull_up_input(),
+            gpioc.pc6.into_pull_up_input(),
+            gpioc.pc5.into_pull_up_input(),
+            gpioc.pc13.into_floating_input(),
+            gpioa.pa11.into_pull_up_input(),
+        );
+        let (off_u, off_v) = sensors.calibrate();
+        defmt::info!(
+            "current offsets: U {=f32} V {=f32} ADC counts (expected near 2048)",
+            off_u,
+            off_v
+        );
+
+        // The application, its safety system, its lanes.
+        CS.set_fault_plan(FaultPlan::NONE);
+        let mut monitors = Monitors::new();
+        let app = match app::register(
+            &SEQ,
+            &mut monitors,
+            cx.local.conditions,
+            &AppConfig::DEFAULT,
+        ) {
+            Ok(app) => Some(app),
+            Err(e) => {
+                defmt::error!("init: registering the application failed: {}", e);
+                None
+            }
+        };
+        let system = match SafetySystem::new(&PROPERTIES, &SAFETY) {
+            Ok(s) => {
+                SEQ.set_safety_system(&SAFETY);
+                Some(s)
+            }
+            Err(e) => {
+                defmt::error!("init: the safety system cannot start: {}", e);
+                None
+            }
+        };
+        let main = app.as_ref().map(|a| a.ids.main);
+        if let Some(a) = app.as_ref() {
+            for id in [
+                a.ids.main,
+                a.ids.status,
+                a.ids.safe_stop,
+                a.ids.feed_hold,
+                a.ids.feed_resume,
+            ] {
+                if let Some(h) = SEQ.sequence_by_id(id) {
+                    let _ = h.declare_lane();
+                }
+            }
+        }
+
+        let mut timer = dp.TIM6.counter_hz(&mut rcc);
+        let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+        if app.is_some() && system.is_some() {
+            if timer.start(1.kHz()).is_ok() {
+                timer.listen(Event::Update);
+                watchdog.start(WATCHDOG_MS.millis());
+                if lanes::spawn().is_err() {
+                    defmt::error!("init: the lanes task could not be spawned");
+                }
+                defmt::info!(
+                    "ready: press B1 (blue button) to power on, home and move; B1 again pauses / resumes"
+                );
+            } else {
+                defmt::error!("init: the 1 kHz control timer cannot be set; drive stays off");
+            }
+        } else {
+            defmt::error!("init failed: the drive stays off (bridge disabled, brake engaged)");
+        }
+
+        (
+            Shared { bridge },
+            Local {
+                timer,
+                sensors,
+                monitors,
+                system,
+                app,
+                main,
+                watchdog,
+                led,
+                model: MotorModel::DEFAULT,
+            },
+        )
+    }
+
+    /// Logs the status four times a second; sleeps in between.
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        let mut last = 0u32;
+        loop {
+            let now = TICKS.load(Ordering::Relaxed);
+            if now.wrapping_sub(last) >= 250 {
+                last = now;
+                let bits = SWITCHES.load(Ordering::Relaxed);
+                let sw = Switches {
+                    end_neg: bits & 1 != 0,
+                    end_pos: bits & 2 != 0,
+                    estop: bits & 4 != 0,
+                    driver_fault: bits & 8 != 0,
+                    button: bits & 16 != 0,
+                };
+                log_status(&CS, LEVEL.load(Ordering::Relaxed), sw);
+            }
+            cortex_m::asm::wfi();
+        }
+    }
+
+    /// The control loop, 1 kHz: sensors → controller → power stage, then the sequencer's
+    /// heartbeat.
+    #[task(binds = TIM6_DAC, priority = 2, shared = [bridge],
+           local = [timer, sensors, monitors, main, watchdog, led, model,
+                    started: bool = false, button_was: bool = true])]
+    fn control(mut cx: control::Context) {
+        cx.local.timer.clear_flags(Flag::Update);
+        let ticks = TICKS.load(Ordering::Relaxed).wrapping_add(1);
+        TICKS.store(ticks, Ordering::Relaxed);
+        let now = Instant::from_ticks(u64::from(ticks) * 1000);
+
+        // The fault plan's time, then the safety cycle (it preempts right here) on the
+        // measurements of the previous period, as in the host simulation.
+        CS.inject(now);
+        rtic::pend(pac::Interrupt::SPI4);
+
+        let forward = cx.shared.bridge.lock(|b| b.forward());
+        let (m, sw) = cx.local.sensors.sample(forward, *cx.local.started);
+        let cmd: DriveCommand = CS.control_step_measured(&m, DT);
+        let duty = cx
+            .local
+            .model
+            .duty(cmd.current, m.current, CS.status().velocity);
+        cx.shared.bridge.lock(|b| {
+            // The safety task may have withdrawn the permit since the control step: never
+            // switch on against it.
+            if CS.drive_permit() {
+                b.apply(&cmd, duty);
+            } else {
+                b.off();
+            }
+        });
+
+        // Start on the first press of B1 (a falling edge of the raw button).
+        if !*cx.local.started && sw.button && !*cx.local.button_was {
+            if let Some(h) = cx.local.main.and_then(|id| SEQ.sequence_by_id(id)) {
+                match h.start() {
+                    Ok(()) => defmt::info!("B1: main started"),
+                    Err(e) => defmt::error!("B1: main cannot start: {}", e),
+                }
+            }
+            *cx.local.started = true;
+        }
+        *cx.local.button_was = sw.button;
+
+        SEQ.tick(now, &CS, cx.local.monitors);
+
+        if CS.led() {
+            cx.local.led.set_high();
+        } else {
+            cx.local.led.set_low();
+        }
+        let bits = u32::from(sw.end_neg)
+            | u32::from(sw.end_pos) << 1
+            | u32::from(sw.estop) << 2
+            | u32::from(sw.driver_fault) << 3
+            | u32::from(sw.button) << 4;
+        SWITCHES.store(bits, Ordering::Relaxed);
+        cx.local.watchdog.feed();
+    }
+
+    /// The safety system, highest priority: one cycle per control period. Withdrawing the
+    /// drive permit switches the power stage off here, not one period later.
+    #[task(binds = SPI4, priority = 3, shared = [bridge], local = [system])]
+    fn safety(mut cx: safety::Context) {
+        let Some(system) = cx.local.system.as_mut() else {
+            cx.shared.bridge.lock(|b| b.off());
+            return;
+        };
+        let report = safety_cycle(&CS, system, &SEQ);
+        LEVEL.store(report.level.index() as u8, Ordering::Relaxed);
+        if let Some(change) = report.change {
+            defmt::warn!("safety level -> {}", change.to.index() as u8);
+        }
+        if !CS.drive_permit() {
+            cx.shared.bridge.lock(|b| {
+                if b.is_on() {
+                    b.off();
+                }
+            });
+        }
+    }
+
+    /// The application's five lanes, joined (they sleep until the tick wakes them).
+    #[task(priority = 1, local = [app])]
+    async fn lanes(cx: lanes::Context) {
+        if let Some(app) = cx.local.app.take() {
+            match app.run(&SEQ, &CS).await {}
+        }
+    }
+}
