@@ -1,0 +1,663 @@
+//! The motor-controller demo (`boards/qemu-f405/src/bin/demo.rs`, `./x demo`) in QEMU, with
+//! no fault and with each fault option, asserted on its decoded log; and the same
+//! application with the same fault plan on the host simulator (`rtseq::sim::Sim`), which
+//! must give **the same** transition trace and the same `RESULT` values.
+//!
+//! Why equal, not merely close: both run the identical `rtseq-motor` code at 1 kHz in the
+//! same order per tick (fault injection, safety cycle, control step, sequencer tick, lanes),
+//! the firmware's time is the tick count (not the host clock), and the plant's `f32`
+//! arithmetic is IEEE single precision on both (Cortex-M4 FPv4-SP with subnormals, x86-64
+//! SSE; no fused multiply-add, `libm` in software). So every transition time, move time,
+//! reaction time and even the final position in µm must match.
+//!
+//! Run by plain `cargo test` at the repository root. Needs `qemu-system-arm` and the
+//! `thumbv7em-none-eabihf` target (`./x setup`); missing tools fail the tests.
+
+mod qemu_harness;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use qemu_harness::{expect_exit, require_tools, root, try_build, Config, Echo, Outcome, TARGET};
+use rtseq::safety::{SafetyHandle, SafetySystem};
+use rtseq::sim::Sim;
+use rtseq::{Cause, Instant, Monitors, Outcome as SeqOutcome, RunningState, SeqId, Sequencer};
+use rtseq_motor::app::{self, AppConfig, Conditions, Fault, FaultKind, FaultPlan, Ids};
+use rtseq_motor::control_system::{ControlSystem, Phase};
+use rtseq_motor::safety::{self, PROPERTIES};
+
+const CONFIG: AppConfig = AppConfig::DEMO;
+
+// ---------------------------------------------------------------------------------------
+// QEMU side
+// ---------------------------------------------------------------------------------------
+
+/// The demo ELF, built once (only this bin) and snapshotted.
+fn demo_elf() -> PathBuf {
+    require_tools();
+    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    let r = BUILT.get_or_init(|| {
+        try_build("", &["demo"])?;
+        let from = root()
+            .join("target/firmware")
+            .join(TARGET)
+            .join("release/demo");
+        let dir = root().join("target/firmware/qemu-demo");
+        std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+        let to = dir.join("demo");
+        std::fs::copy(&from, &to).map_err(|e| format!("copy {}: {e}", from.display()))?;
+        Ok(to)
+    });
+    match r {
+        Ok(p) => p.clone(),
+        Err(e) => panic!("building the demo firmware failed:\n{e}"),
+    }
+}
+
+fn run_demo(args: &[&str]) -> Outcome {
+    let cfg = Config {
+        echo: Echo::None,
+        firmware_args: args.iter().map(|s| s.to_string()).collect(),
+        ..Config::default()
+    };
+    eprintln!("--- qemu: demo {}", args.join(" "));
+    qemu_run::run(&demo_elf(), &cfg).unwrap_or_else(|e| panic!("running the demo in QEMU: {e}"))
+}
+
+/// One state change as the firmware prints it (and the host trace is formatted).
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Tr {
+    ms: u64,
+    name: String,
+    from: String,
+    to: String,
+    cause: String,
+}
+
+impl std::fmt::Display for Tr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{:>6} ms  {:<14} {} -> {} ({})",
+            self.ms, self.name, self.from, self.to, self.cause
+        )
+    }
+}
+
+/// What a demo run printed.
+struct Demo {
+    out: Outcome,
+    trace: Vec<Tr>,
+    result: BTreeMap<String, String>,
+}
+
+impl Demo {
+    fn get(&self, key: &str) -> &str {
+        self.result
+            .get(key)
+            .unwrap_or_else(|| panic!("no RESULT {key}:\n{}", self.out.transcript()))
+    }
+
+    fn num(&self, key: &str) -> i64 {
+        let v = self.get(key);
+        v.parse()
+            .unwrap_or_else(|_| panic!("RESULT {key}={v} is not a number"))
+    }
+
+    /// Transitions of one sequence.
+    fn of(&self, name: &str) -> Vec<&Tr> {
+        self.trace.iter().filter(|t| t.name == name).collect()
+    }
+
+    fn has_line(&self, needle: &str) -> bool {
+        self.out.lines.iter().any(|l| l.message.contains(needle))
+    }
+}
+
+fn parse_demo(out: Outcome) -> Demo {
+    let mut trace = Vec::new();
+    let mut result = BTreeMap::new();
+    for l in &out.lines {
+        if let Some(rest) = l.message.strip_prefix("seq ") {
+            // "seq       NAME<pad> FROM -> TO<pad> (CAUSE)"; the line's time is the tick's
+            // (idle prints a tick's transitions within that millisecond).
+            let (left, right) = rest.split_once(" -> ").expect("seq line");
+            let left = left.trim();
+            let (name, from) = left.rsplit_once(' ').expect("seq line: name from");
+            let (to, cause) = right.split_once(" (").expect("seq line: to (cause)");
+            trace.push(Tr {
+                ms: l.time_us.expect("timestamp") / 1000,
+                name: name.trim().to_string(),
+                from: from.to_string(),
+                to: to.trim().to_string(),
+                cause: cause.trim_end_matches(')').to_string(),
+            });
+        } else if let Some(rest) = l.message.strip_prefix("RESULT ") {
+            let mut prefix = String::new();
+            for kv in rest.split("; ") {
+                let (k, v) = kv.split_once('=').expect("RESULT key=value");
+                if k == "fault" {
+                    prefix = format!("{v}.");
+                    continue;
+                }
+                result.insert(format!("{prefix}{k}"), v.to_string());
+            }
+        }
+    }
+    Demo { out, trace, result }
+}
+
+// ---------------------------------------------------------------------------------------
+// Host side: the same application, the same plan, the same order per tick
+// ---------------------------------------------------------------------------------------
+
+type Seqr = Sequencer<ControlSystem, { app::SEQUENCES }, 256>;
+
+struct Host {
+    trace: Vec<Tr>,
+    result: BTreeMap<String, String>,
+}
+
+fn phase_name(p: Phase) -> &'static str {
+    match p {
+        Phase::Off => "off",
+        Phase::PowerOn => "power on",
+        Phase::Homing => "homing",
+        Phase::Moving => "moving",
+        Phase::Paused => "paused",
+        Phase::SafeStop => "safe stop",
+        Phase::Done => "done",
+        Phase::Fault => "fault",
+    }
+}
+
+fn monitor_name(ids: &Ids, m: rtseq::MonitorId) -> &'static str {
+    [
+        (ids.following_error, "following error"),
+        (ids.end_stop, "end stop"),
+        (ids.pause, "pause"),
+        (ids.resume, "resume"),
+    ]
+    .iter()
+    .find(|(id, _)| *id == m)
+    .map_or("?", |(_, n)| n)
+}
+
+fn cause_text(seq: &Seqr, ids: &Ids, c: Cause) -> String {
+    match c {
+        Cause::Start => "start".into(),
+        Cause::PreConditionFalse => "pre-condition false".into(),
+        Cause::Completed => "completed".into(),
+        Cause::Pause => "pause".into(),
+        Cause::Resume => "resume".into(),
+        Cause::Abort => "abort".into(),
+        Cause::AbortAll => "abort all".into(),
+        Cause::Monitor(m) => format!("monitor {}", monitor_name(ids, m)),
+        Cause::Timeout(s) => format!("timeout of {}", seq.sequence_by_id(s).unwrap().name()),
+        Cause::Restart => "restart".into(),
+    }
+}
+
+fn outcome_text(seq: &Seqr, ids: &Ids, o: Option<SeqOutcome>) -> String {
+    match o {
+        None => "none".into(),
+        Some(SeqOutcome::Completed) => "completed".into(),
+        Some(SeqOutcome::Skipped) => "skipped".into(),
+        Some(SeqOutcome::Aborted(c)) => format!("aborted ({})", cause_text(seq, ids, c)),
+    }
+}
+
+fn opt_ms(t: Option<Instant>) -> String {
+    t.map_or("-".into(), |t| (t.as_ticks() / 1000).to_string())
+}
+
+/// Runs the demo application on the host simulator until `end_ms` (the firmware's end).
+fn host(plan: FaultPlan, end_ms: u64) -> Host {
+    let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
+    let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(CONFIG.start_position)));
+    cs.set_fault_plan(plan);
+    let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&CONFIG)));
+    let mut monitors: Monitors<'static, ControlSystem, { app::MONITORS }> = Monitors::new();
+    let app = app::register(seq, &mut monitors, conditions, &CONFIG).unwrap();
+    let ids = app.ids;
+    let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
+    seq.set_safety_system(handle);
+    let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
+    let mut sim = Sim::new(seq, cs, monitors);
+    for lane in app.lanes() {
+        lane.add_to(&mut sim);
+    }
+    // The firmware's tick: inject, safety cycle (priority 3), control step; then the
+    // sequencer tick (done by `step`).
+    sim.before_tick(move |now, cs: &ControlSystem| {
+        cs.inject(now);
+        safety::safety_cycle(cs, &mut system, seq);
+        cs.control_step(0.001);
+    });
+    sim.start(ids.main).unwrap();
+    while sim.now().as_ticks() / 1000 < end_ms {
+        sim.step();
+    }
+    assert_eq!(sim.lost(), 0);
+
+    let name = |id: SeqId| seq.sequence_by_id(id).unwrap().name().to_string();
+    let state = |s: RunningState| format!("{s:?}");
+    let mut blinks = 0;
+    let mut trace = Vec::new();
+    for t in sim.trace() {
+        if t.sequence == ids.blink && matches!(t.cause, Cause::Start | Cause::Completed) {
+            if t.to == RunningState::Running {
+                blinks += 1;
+            }
+            continue;
+        }
+        trace.push(Tr {
+            ms: t.time.as_ticks() / 1000,
+            name: name(t.sequence),
+            from: state(t.from),
+            to: state(t.to),
+            cause: cause_text(seq, &ids, t.cause),
+        });
+    }
+    let s = cs.summary();
+    let st = cs.status();
+    let plant = cs.plant();
+    let outcome = |id| outcome_text(seq, &ids, sim.handle(id).unwrap().last_outcome());
+    let m = sim.monitors();
+    let mut r = BTreeMap::new();
+    let mut put = |k: &str, v: String| {
+        r.insert(k.to_string(), v);
+    };
+    put("end_ms", end_ms.to_string());
+    put(
+        "level",
+        PROPERTIES.level(handle.level()).unwrap().name().into(),
+    );
+    put("phase", phase_name(cs.phase()).into());
+    put("main", outcome(ids.main));
+    put("homing", outcome(ids.homing));
+    put("moves", outcome(ids.moves));
+    put("moves_done", s.moves_done.to_string());
+    put("safe_stops", s.safe_stops.to_string());
+    put("homed_ms", opt_ms(s.homed_at));
+    put("finished_ms", opt_ms(s.finished_at));
+    put("paused_ms", opt_ms(s.paused_at));
+    put("resumed_ms", opt_ms(s.resumed_at));
+    put("blinks", blinks.to_string());
+    put(
+        "move_done_ms",
+        s.move_done_at
+            .iter()
+            .map(|t| opt_ms(*t))
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    put("fired_fe", m.fired(ids.following_error).to_string());
+    put("fired_es", m.fired(ids.end_stop).to_string());
+    put("fired_pause", m.fired(ids.pause).to_string());
+    put("fired_resume", m.fired(ids.resume).to_string());
+    for (k, key) in [
+        (FaultKind::FollowingError, "fe"),
+        (FaultKind::OverCurrent, "oc"),
+        (FaultKind::EndStop, "es"),
+        (FaultKind::EStop, "estop"),
+    ] {
+        let x = s.reaction(k);
+        put(&format!("{key}.injected_ms"), opt_ms(x.injected));
+        put(&format!("{key}.reacted_ms"), opt_ms(x.reacted));
+        put(&format!("{key}.stopped_ms"), opt_ms(x.stopped));
+    }
+    put("pos_um", ((st.position * 1e6) as i32).to_string());
+    put("vel_um_s", ((plant.velocity() * 1e6) as i32).to_string());
+    put("current_ma", ((plant.current() * 1e3) as i32).to_string());
+    put("enabled", st.enabled.to_string());
+    put("brake", st.brake.to_string());
+    put("permit", cs.drive_permit().to_string());
+    Host { trace, result: r }
+}
+
+fn ms(t: u64) -> Instant {
+    Instant::from_ticks(t * 1000)
+}
+
+/// Runs the demo in QEMU with `args`, expects exit 0, and checks it against the host run
+/// of `plan`: identical traces and RESULT values. Returns the QEMU run.
+fn demo_equals_host(args: &[&str], plan: FaultPlan) -> Demo {
+    let d = parse_demo(run_demo(args));
+    expect_exit(&d.out, 0);
+    assert_eq!(d.out.malformed, 0, "{}", d.out.transcript());
+    assert!(d.has_line("outcome as expected: exit 0"));
+    assert!(!d.trace.is_empty(), "{}", d.out.transcript());
+    let end = d.num("end_ms") as u64;
+    let h = host(plan, end);
+    if d.trace != h.trace {
+        let show = |t: &[Tr]| t.iter().map(|x| format!("{x}\n")).collect::<String>();
+        panic!(
+            "QEMU and host traces differ for {args:?}\n--- qemu\n{}--- host\n{}",
+            show(&d.trace),
+            show(&h.trace)
+        );
+    }
+    assert_eq!(
+        d.result, h.result,
+        "QEMU and host RESULT values differ for {args:?}"
+    );
+    d
+}
+
+/// The motor stands still without current and the drive is off, at the end.
+fn assert_motor_stopped(d: &Demo) {
+    assert_eq!(d.num("vel_um_s"), 0, "velocity");
+    assert!(d.num("current_ma").abs() < 50, "current");
+    assert_eq!(d.get("enabled"), "false");
+    assert_eq!(d.get("brake"), "true");
+}
+
+/// No sequence is still active: every sequence's last transition ends in Terminated or
+/// Aborted (or Idle for never-started ones).
+fn assert_all_ended(d: &Demo) {
+    let mut last: BTreeMap<&str, &Tr> = BTreeMap::new();
+    for t in &d.trace {
+        last.insert(&t.name, t);
+    }
+    for (name, t) in last {
+        assert!(
+            t.to == "Terminated" || t.to == "Aborted",
+            "{name} still {} at the end",
+            t.to
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Scenarios
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn demo_without_fault_completes_every_move() {
+    let d = demo_equals_host(&[], FaultPlan::NONE);
+    assert_eq!(d.get("phase"), "done");
+    assert_eq!(d.get("level"), "off");
+    assert_eq!(d.get("main"), "completed");
+    assert_eq!(d.get("moves"), "completed");
+    assert_eq!(d.num("moves_done"), CONFIG.move_count as i64);
+    assert_eq!(d.num("safe_stops"), 0);
+    assert!(
+        !d.get("move_done_ms").contains('-'),
+        "{}",
+        d.get("move_done_ms")
+    );
+    // At the last target (10 mm) within the position tolerance (20 µm).
+    assert!(
+        (d.num("pos_um") - 10_000).abs() <= 20,
+        "{}",
+        d.get("pos_um")
+    );
+    assert_motor_stopped(&d);
+    assert_all_ended(&d);
+    // The safety levels went off -> power on -> homed -> off.
+    for l in [
+        "safety    level off -> power on",
+        "safety    level power on -> homed",
+        "safety    level homed -> off",
+    ] {
+        assert!(d.has_line(l), "{l}\n{}", d.out.transcript());
+    }
+    // A readable log: periodic axis lines and one line per completed move.
+    assert!(
+        d.out
+            .lines
+            .iter()
+            .filter(|l| l.message.starts_with("axis "))
+            .count()
+            >= 25
+    );
+    assert!(d.has_line("move      8/8 done: in position at"));
+}
+
+#[test]
+fn demo_following_error_restarts_three_times_then_aborts() {
+    let d = demo_equals_host(
+        &["--fault", "following-error@3s"],
+        FaultPlan::NONE.with(Fault::FollowingError { at: ms(3000) }),
+    );
+    let moves: Vec<(&str, &str, &str)> = d
+        .of("moves")
+        .iter()
+        .map(|t| (t.from.as_str(), t.to.as_str(), t.cause.as_str()))
+        .collect();
+    let fe = "monitor following error";
+    assert_eq!(
+        moves,
+        vec![
+            ("Idle", "Running", "start"),
+            ("Running", "Restarting", fe),
+            ("Restarting", "Running", "restart"),
+            ("Running", "Restarting", fe),
+            ("Restarting", "Running", "restart"),
+            ("Running", "Restarting", fe),
+            ("Restarting", "Running", "restart"),
+            ("Running", "Aborting", fe),
+            ("Aborting", "Aborted", fe),
+        ]
+    );
+    // One safe stop per firing, each started by the monitor.
+    let safe: Vec<&Tr> = d
+        .of("safe stop")
+        .into_iter()
+        .filter(|t| t.to == "Running")
+        .collect();
+    assert_eq!(safe.len(), 4);
+    assert!(safe.iter().all(|t| t.cause == fe));
+    assert_eq!(d.num("fired_fe"), 4);
+    assert_eq!(d.num("safe_stops"), 4);
+    assert_eq!(d.get("moves"), "aborted (monitor following error)");
+    // Main stops the axis, powers off and ends normally, in phase fault.
+    assert_eq!(d.get("main"), "completed");
+    assert_eq!(d.get("phase"), "fault");
+    assert_eq!(d.get("level"), "off");
+    assert_eq!(d.num("moves_done"), 3);
+    // The jam at 3.000 s hits the axis standing in the dwell after move 3: the following
+    // error shows 45 ms after the next move starts (2 mm at 2 m/s² from standstill).
+    let next_move = d
+        .of("move")
+        .into_iter()
+        .find(|t| t.to == "Running" && t.ms >= 3000)
+        .unwrap()
+        .ms;
+    let reacted = d.num("fe.reacted_ms") as u64;
+    assert!(
+        reacted > next_move && reacted - next_move <= 60,
+        "{next_move} {reacted}"
+    );
+    assert!(d.num("fe.stopped_ms") as u64 - reacted <= 25);
+    assert_motor_stopped(&d);
+    assert_all_ended(&d);
+}
+
+#[test]
+fn demo_following_error_while_moving_reacts_within_20_ms() {
+    let d = demo_equals_host(
+        &["--fault", "following-error@2.5s"],
+        FaultPlan::NONE.with(Fault::FollowingError { at: ms(2500) }),
+    );
+    assert_eq!(d.get("moves"), "aborted (monitor following error)");
+    let latency = d.num("fe.reacted_ms") - 2500;
+    assert!((0..=20).contains(&latency), "{latency}");
+    assert_motor_stopped(&d);
+}
+
+#[test]
+fn demo_overcurrent_enters_emergency_and_aborts_everything() {
+    let d = demo_equals_host(
+        &["--fault", "overcurrent@5s"],
+        FaultPlan::NONE.with(Fault::OverCurrent { at: ms(5000) }),
+    );
+    assert_eq!(d.get("level"), "emergency");
+    assert!(d.has_line("safety    level homed -> emergency"));
+    assert!(d.has_line("safety    critical input: over-current"));
+    // Detected in the cycle of 5000 ms, level emergency from the next cycle: every running
+    // sequence aborted (abort all) at 5001 ms, innermost first.
+    let aborted: Vec<(&str, &str)> = d
+        .trace
+        .iter()
+        .filter(|t| t.cause == "abort all" && t.to == "Aborted")
+        .map(|t| {
+            assert_eq!(t.ms, 5001, "{t}");
+            (t.name.as_str(), t.to.as_str())
+        })
+        .collect();
+    for name in ["main", "moves", "move", "status"] {
+        assert!(
+            aborted.iter().any(|(n, _)| *n == name),
+            "{name}: {aborted:?}"
+        );
+    }
+    assert_eq!(d.get("main"), "aborted (abort all)");
+    assert_eq!(d.num("oc.reacted_ms"), 5001);
+    assert!(d.num("oc.stopped_ms") - 5000 <= 30);
+    assert_eq!(d.get("permit"), "false");
+    assert_motor_stopped(&d);
+    assert_all_ended(&d);
+}
+
+#[test]
+fn demo_estop_enters_emergency_and_aborts_everything() {
+    let d = demo_equals_host(
+        &["--fault", "estop@2s"],
+        FaultPlan::NONE.with(Fault::EStop { at: ms(2000) }),
+    );
+    assert_eq!(d.get("level"), "emergency");
+    assert_eq!(d.get("main"), "aborted (abort all)");
+    assert_eq!(d.num("estop.reacted_ms"), 2001);
+    assert!(d.num("estop.stopped_ms") - 2000 <= 30);
+    assert_motor_stopped(&d);
+    assert_all_ended(&d);
+}
+
+#[test]
+fn demo_end_stop_aborts_the_moves() {
+    let d = demo_equals_host(
+        &["--fault", "endstop@2s"],
+        FaultPlan::NONE.with(Fault::EndStop { at: ms(2000) }),
+    );
+    // Detected in the tick the switch closed: move and moves aborted at once.
+    let es = "monitor end stop";
+    let aborted: Vec<String> = d
+        .trace
+        .iter()
+        .filter(|t| t.cause == es)
+        .map(|t| format!("{} {} {}->{}", t.ms, t.name, t.from, t.to))
+        .collect();
+    assert_eq!(
+        aborted,
+        vec![
+            "2000 move Running->Aborting",
+            "2000 move Aborting->Aborted",
+            "2000 moves Running->Aborting",
+            "2000 moves Aborting->Aborted",
+        ]
+    );
+    assert_eq!(d.get("moves"), "aborted (monitor end stop)");
+    assert_eq!(d.get("main"), "completed");
+    assert_eq!(d.get("phase"), "fault");
+    assert_eq!(d.num("es.reacted_ms"), 2000);
+    // Quick stop from 0.2 m/s at 6 m/s²: about 35 ms.
+    assert!(d.num("es.stopped_ms") - 2000 <= 60);
+    // The safety system saw the switch too (homed -> power on), then power off.
+    assert!(d.has_line("safety    level homed -> power on"));
+    assert_eq!(d.get("level"), "off");
+    assert_motor_stopped(&d);
+    assert_all_ended(&d);
+}
+
+#[test]
+fn demo_pause_holds_the_move_and_resumes_it_later() {
+    let d = demo_equals_host(
+        &["--pause", "4s..6s"],
+        FaultPlan::NONE.with_pause(ms(4000), ms(6000)),
+    );
+    let pr: Vec<String> = d
+        .trace
+        .iter()
+        .filter(|t| t.cause == "pause" || t.cause == "resume")
+        .map(|t| format!("{} {} {}->{}", t.ms, t.name, t.from, t.to))
+        .collect();
+    assert_eq!(
+        pr,
+        vec![
+            "4001 moves Running->Paused",
+            "4001 move Running->Paused",
+            "6001 moves Paused->Running",
+            "6001 move Paused->Running",
+        ]
+    );
+    assert_eq!(d.get("paused_ms"), "4000");
+    assert_eq!(d.get("resumed_ms"), "6000");
+    assert_eq!(d.num("fired_pause"), 1);
+    assert_eq!(d.num("fired_resume"), 1);
+    // Everything completes, the moves after the pause exactly 2 s later than without it.
+    assert_eq!(d.get("phase"), "done");
+    assert_eq!(d.num("moves_done"), 8);
+    let free = host(FaultPlan::NONE, 7000);
+    let times = |s: &str| -> Vec<i64> { s.split(',').map(|x| x.parse().unwrap()).collect() };
+    let (paused, plain) = (
+        times(d.get("move_done_ms")),
+        times(&free.result["move_done_ms"]),
+    );
+    for i in 0..8 {
+        let shift = paused[i] - plain[i];
+        if plain[i] < 4000 {
+            assert_eq!(shift, 0, "move {i}");
+        } else {
+            assert!((1990..=2100).contains(&shift), "move {i}: {shift}");
+        }
+    }
+    assert_motor_stopped(&d);
+    assert_all_ended(&d);
+}
+
+#[test]
+fn demo_end_stop_then_overcurrent_after_the_program_ended() {
+    // The end stop ends the program at 2 s; the over-current at 3 s finds nothing running
+    // but still trips the safety system (level off watches the current too).
+    let d = demo_equals_host(
+        &["--fault", "endstop@2s", "--fault=overcurrent@3s"],
+        FaultPlan::NONE
+            .with(Fault::EndStop { at: ms(2000) })
+            .with(Fault::OverCurrent { at: ms(3000) }),
+    );
+    assert_eq!(d.get("moves"), "aborted (monitor end stop)");
+    assert_eq!(d.get("main"), "completed");
+    assert_eq!(d.get("level"), "emergency");
+    assert!(d.has_line("safety    level off -> emergency"));
+    assert_eq!(d.num("end_ms"), 3300);
+    assert_motor_stopped(&d);
+}
+
+#[test]
+fn demo_rejects_bad_options_with_a_clear_error() {
+    for (args, msg) in [
+        (&["--fault", "bogus@3s"][..], "demo: unknown fault"),
+        (&["--fault", "overcurrent@5"][..], "demo: bad time"),
+        (
+            &["--pause", "6s..4s"][..],
+            "demo: the pause must end after it starts",
+        ),
+        (&["--speed", "2"][..], "demo: unknown option"),
+        (&["--fault"][..], "demo: option needs a value"),
+    ] {
+        let d = parse_demo(run_demo(args));
+        expect_exit(&d.out, 1);
+        let l = d
+            .out
+            .find(msg)
+            .unwrap_or_else(|| panic!("{args:?}: no {msg:?}\n{}", d.out.transcript()));
+        assert_eq!(l.level, Some("ERROR"));
+        assert!(d.trace.is_empty(), "{args:?} ran the application");
+    }
+    let help = parse_demo(run_demo(&["--help"]));
+    expect_exit(&help.out, 0);
+    assert!(help.out.find("usage: ./x demo").is_some());
+}
