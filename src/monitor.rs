@@ -60,6 +60,26 @@ pub enum Trigger {
     Level,
 }
 
+impl Trigger {
+    /// Whether a condition going from `last` to `value` fires a monitor with this trigger.
+    ///
+    /// ```
+    /// use rtseq::Trigger;
+    /// assert!(Trigger::RisingEdge.fires(false, true));
+    /// assert!(!Trigger::RisingEdge.fires(true, true));
+    /// assert!(Trigger::Level.fires(true, true));
+    /// ```
+    #[inline]
+    pub const fn fires(self, last: bool, value: bool) -> bool {
+        match self {
+            Trigger::RisingEdge => value && !last,
+            Trigger::FallingEdge => !value && last,
+            Trigger::Change => value != last,
+            Trigger::Level => value,
+        }
+    }
+}
+
 /// Default number of restarts a monitor may cause per run of its target before escalating.
 pub const DEFAULT_RESTART_LIMIT: u8 = 3;
 

@@ -7,7 +7,7 @@
 
 use crate::control_block::{flag, request, DISARMED};
 use crate::monitor::Entry;
-use crate::sequencer::Mode;
+use crate::sequencer::{Gate, Mode};
 use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// `depth + 1` of the deepest possible sequence.
@@ -17,6 +17,10 @@ const DEPTH_LIMIT: u8 = MAX_DEPTH as u8 + 1;
 #[derive(Clone, Copy, Default)]
 struct Due {
     due: bool,
+    /// The timeout deadline has passed (checked after the monitors).
+    expired: bool,
+    /// A polled condition is due: wake the lane (after the monitors).
+    wake: bool,
     epoch: u16,
 }
 
@@ -58,35 +62,66 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
         if !any_due {
             return;
         }
-        let due = self.scan(now_us);
+        let mut due = [Due::default(); N];
+        let mut any_held = self.scan(now_us, &mut due);
+        // The hot loop: one condition per due monitor, firing is the rare, out-of-line path.
         for entry in monitors.entries.iter_mut() {
-            let Some(d) = due.get(entry.owner.index()).copied() else {
+            let Some(d) = due.get(entry.owner.index()) else {
                 continue;
             };
-            if d.due {
-                self.evaluate(entry, d.epoch, now, control);
+            if !d.due {
+                continue;
+            }
+            if entry.epoch_seen != d.epoch {
+                // A new run or restart of the owner: the edge starts from "false".
+                entry.epoch_seen = d.epoch;
+                entry.last = false;
+            }
+            let value = entry.def.condition.validate(control, now);
+            let last = core::mem::replace(&mut entry.last, value);
+            if entry.def.trigger.fires(last, value) {
+                self.fire(entry, control);
+                any_held = true;
             }
         }
+        // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
+        // the same tick comes first.
         for (i, d) in due.iter().enumerate() {
-            if d.due {
-                if let Ok(i) = u8::try_from(i) {
-                    self.timeout_and_exit(SeqId(i), now_us, control);
-                }
+            let Ok(id) = u8::try_from(i).map(SeqId) else {
+                break;
+            };
+            if d.expired {
+                self.timeout(id, control);
+            }
+            if d.wake {
+                // A sequence that is held, or frozen by a caller it blocks (paused, or
+                // holding for an exception), cannot act: its lane is woken when it may.
+                // Nothing can be held unless something is paused or handling an exception.
+                self.with(|s| {
+                    if !any_held || (s.gate(id) == Gate::Go && !s.blocked_by_held_caller(id)) {
+                        s.wake(id);
+                    }
+                });
             }
         }
     }
 
-    /// Marks due sequences, advances their polling schedule and recomputes `next_due`.
-    fn scan(&self, now: u64) -> [Due; N] {
-        let mut due = [Due::default(); N];
+    /// Marks due sequences, advances their polling schedule, wakes lanes whose polled
+    /// condition is due, notes expired timeouts and recomputes `next_due`; one short
+    /// critical section per registered sequence. Returns whether any sequence is paused or
+    /// handling an exception (only then can a sequence be frozen by a held caller).
+    fn scan(&self, now: u64, due: &mut [Due; N]) -> bool {
         let count = self.with(|s| usize::from(s.count));
         let mut next_due = u64::MAX;
+        let mut any_held = false;
         for (i, d) in due.iter_mut().enumerate().take(count) {
             self.with(|s| {
                 let Some(b) = s.blocks.get_mut(i) else { return };
-                if !matches!(b.state, RunningState::Running | RunningState::Paused) {
+                let running = b.state == RunningState::Running;
+                if !running && b.state != RunningState::Paused {
                     return;
                 }
+                any_held |= !running || b.has(flag::EXCEPTION_ACTIVE);
                 if now >= b.next_poll {
                     d.due = true;
                     d.epoch = b.epoch();
@@ -95,32 +130,24 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
                         // Missed periods (a late tick) are not replayed.
                         b.next_poll = now.saturating_add(u64::from(b.polling));
                     }
+                    if running {
+                        d.expired = b.deadline != DISARMED && now >= b.deadline;
+                        if b.has(flag::POLL_WAIT) {
+                            b.set(flag::POLL_DUE, true);
+                            d.wake = true;
+                        }
+                    }
                 }
                 next_due = next_due.min(b.next_poll);
             });
         }
         self.with(|s| s.next_due = next_due);
-        due
+        any_held
     }
 
-    /// Evaluates one due monitor and raises its exception on a trigger.
-    fn evaluate(&self, entry: &mut Entry<'_, C>, epoch: u16, now: Instant, control: &C) {
-        if entry.epoch_seen != epoch {
-            // A new run or restart of the owner: the edge starts from "false".
-            entry.epoch_seen = epoch;
-            entry.last = false;
-        }
-        let value = entry.def.condition.validate(control, now);
-        let fire = match entry.def.trigger {
-            crate::Trigger::RisingEdge => value && !entry.last,
-            crate::Trigger::FallingEdge => !value && entry.last,
-            crate::Trigger::Change => value != entry.last,
-            crate::Trigger::Level => value,
-        };
-        entry.last = value;
-        if !fire {
-            return;
-        }
+    /// A monitor triggered: raise its exception (out of the hot loop).
+    #[inline(never)]
+    fn fire(&self, entry: &mut Entry<'_, C>, control: &C) {
         let mut book = RestartBook {
             restarts: entry.restarts,
             runs_seen: entry.target_runs_seen,
@@ -141,29 +168,25 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
         entry.target_runs_seen = book.runs_seen;
     }
 
-    /// Checks the timeout monitor of a due sequence and wakes it if it waits for its exit
-    /// condition.
-    fn timeout_and_exit(&self, id: SeqId, now: u64, control: &C) {
+    /// The timeout of a due sequence expired: raise its exception unless the sequence no
+    /// longer takes one (then it is checked again at its next poll).
+    #[inline(never)]
+    fn timeout(&self, id: SeqId, control: &C) {
         let expired = self.with(|s| {
             let Ok(b) = s.block_mut(id) else { return None };
-            if b.state == RunningState::Running
-                && b.deadline != DISARMED
-                && now >= b.deadline
-                && b.accepts_exception()
-            {
-                b.deadline = DISARMED;
-                Some((
-                    b.timeout_behaviour,
-                    b.timeout_exception,
-                    RestartBook {
-                        restarts: b.timeout_restarts,
-                        runs_seen: b.timeout_runs_seen,
-                        limit: b.timeout_restart_limit,
-                    },
-                ))
-            } else {
-                None
+            if b.state != RunningState::Running || !b.accepts_exception() {
+                return None;
             }
+            b.deadline = DISARMED;
+            Some((
+                b.timeout_behaviour,
+                b.timeout_exception,
+                RestartBook {
+                    restarts: b.timeout_restarts,
+                    runs_seen: b.timeout_runs_seen,
+                    limit: b.timeout_restart_limit,
+                },
+            ))
         });
         if let Some((behaviour, exception, mut book)) = expired {
             self.raise(
@@ -181,17 +204,6 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
                 }
             });
         }
-        self.with(|s| {
-            let Ok(b) = s.block_mut(id) else { return };
-            if b.state == RunningState::Running && b.has(flag::POLL_WAIT) {
-                b.set(flag::POLL_DUE, true);
-                // A sequence frozen by a caller it blocks (paused, or holding for an
-                // exception) cannot act: its lane is woken when that caller goes on.
-                if !s.blocked_by_held_caller(id) {
-                    s.wake(id);
-                }
-            }
-        });
     }
 
     /// A monitor (or timeout) of `owner` fired: mark the exception, then start the
