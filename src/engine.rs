@@ -4,6 +4,7 @@
 use core::task::{Poll, Waker};
 
 use crate::control_block::flag;
+use crate::lock::Lock;
 use crate::sequencer::{Gate, Mode};
 use crate::{Cause, Counters, Error, Instant, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
@@ -41,7 +42,7 @@ pub(crate) trait Engine<C> {
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
-impl<C, const N: usize, const T: usize> Engine<C> for Sequencer<C, N, T> {
+impl<C, const N: usize, const T: usize, L: Lock> Engine<C> for Sequencer<C, N, T, L> {
     fn now(&self) -> Instant {
         Sequencer::now(self)
     }

@@ -31,8 +31,8 @@ pub struct Handle<'a, C> {
 }
 
 impl<'a, C> Handle<'a, C> {
-    pub(crate) fn new<const N: usize, const T: usize>(
-        seq: &'a Sequencer<C, N, T>,
+    pub(crate) fn new<const N: usize, const T: usize, L: crate::lock::Lock>(
+        seq: &'a Sequencer<C, N, T, L>,
         id: SeqId,
     ) -> Self {
         Handle { engine: seq, id }

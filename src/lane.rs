@@ -10,6 +10,7 @@ use core::pin::pin;
 use core::task::Poll;
 
 use crate::engine::Engine;
+use crate::lock::Lock;
 use crate::sequence::{framework, SeqBody};
 use crate::{Seq, Sequence, Sequencer};
 
@@ -33,8 +34,8 @@ use crate::{Seq, Sequence, Sequencer};
 /// ```
 ///
 /// On the host, [`Sim::lane`](crate::sim::Sim::lane) does the same.
-pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize>(
-    sequencer: &Sequencer<C, N, T>,
+pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize, L: Lock>(
+    sequencer: &Sequencer<C, N, T, L>,
     control: &C,
     seq: &mut Seq<S>,
 ) -> Infallible {

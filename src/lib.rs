@@ -34,6 +34,7 @@ mod error;
 mod handle;
 mod id;
 mod lane;
+pub mod lock;
 mod monitor;
 mod run;
 mod sequence;

@@ -1,10 +1,12 @@
 //! The sequencer: registry of control blocks, the transition function, starts and requests.
 
-use core::cell::UnsafeCell;
+use core::cell::{Cell, UnsafeCell};
 use core::marker::PhantomData;
+use core::sync::atomic::{AtomicBool, Ordering};
 use core::task::Waker;
 
 use crate::control_block::{flag, request, ControlBlock, DISARMED};
+use crate::lock::{CriticalSection, Lock};
 use crate::safety::{AbortSequences, SafetyHandle};
 use crate::{
     time, Cause, Error, Handle, Instant, Outcome, RunningState, SeqConfig, SeqId, Transition,
@@ -43,13 +45,10 @@ pub(crate) struct Inner<C, const N: usize, const T: usize> {
     pub(crate) next_due: u64,
     /// Requests or finished exception sequences wait for the tick.
     pub(crate) work: bool,
-    pub(crate) abort_all: bool,
     pub(crate) trace: heapless::Deque<Transition, T>,
     pub(crate) trace_lost: u32,
     /// Exceptions whose sequence could not run (no lane, already running, too deep).
     pub(crate) exceptions_not_run: u16,
-    /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
-    pub(crate) safety: Option<&'static SafetyHandle>,
 }
 
 /// The sequencer (seed §1.1): one per application, usually a `static`.
@@ -65,10 +64,23 @@ pub(crate) struct Inner<C, const N: usize, const T: usize> {
 /// assert_eq!(SEQ.register(SeqConfig::new("main")), Err(Error::DuplicateName("main")));
 /// assert_eq!(SEQ.sequence_by_name("main").map(|h| h.id()), Some(main));
 /// ```
-pub struct Sequencer<C, const N: usize, const T: usize = 64> {
-    pub(crate) inner: critical_section::Mutex<UnsafeCell<Inner<C, N, T>>>,
+pub struct Sequencer<C, const N: usize, const T: usize = 64, L: Lock = CriticalSection> {
+    pub(crate) inner: UnsafeCell<Inner<C, N, T>>,
+    /// Abort-all requests: an atomic, so any priority may raise one (the safety task sits
+    /// above a priority ceiling).
+    abort_all: AtomicBool,
+    /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
+    safety: critical_section::Mutex<Cell<Option<&'static SafetyHandle>>>,
     _control: PhantomData<fn(&C)>,
+    _lock: PhantomData<L>,
 }
+
+// SAFETY: `inner` is only reached through `Sequencer::with`, which runs under `L`, and `L`
+// keeps every other user of this sequencer out (by its contract; for `PriorityCeiling`, the
+// caller of the `unsafe` constructor promised that no user runs above the ceiling). The
+// other fields are `Sync` themselves. `Inner` is `Send` for every `C` (it holds only plain
+// data, wakers and `fn(&C)` pointers).
+unsafe impl<C, const N: usize, const T: usize, L: Lock> Sync for Sequencer<C, N, T, L> {}
 
 impl<C, const N: usize, const T: usize> Default for Sequencer<C, N, T> {
     fn default() -> Self {
@@ -77,38 +89,64 @@ impl<C, const N: usize, const T: usize> Default for Sequencer<C, N, T> {
 }
 
 impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
-    /// An empty sequencer; `const`, so it can be a `static`.
+    /// An empty sequencer guarded by critical sections; `const`, so it can be a `static`.
     pub const fn new() -> Self {
+        Self::empty()
+    }
+}
+
+#[cfg(feature = "cortex-m")]
+impl<C, const N: usize, const T: usize, const BASEPRI: u8>
+    Sequencer<C, N, T, crate::lock::PriorityCeiling<BASEPRI>>
+{
+    /// An empty sequencer guarded by RTIC's priority ceiling instead of critical sections:
+    /// no interrupt above the ceiling is ever masked by rtseq.
+    ///
+    /// # Safety
+    ///
+    /// `BASEPRI` must be the BASEPRI value ([`rtic_basepri`](crate::lock::rtic_basepri)) of
+    /// the highest priority at which any method of this sequencer is called — normally the
+    /// tick's — and no method other than [`abort_all`](Self::abort_all) and
+    /// [`safety_system`](Self::safety_system) may be called from above it.
+    pub const unsafe fn with_priority_ceiling() -> Self {
+        Self::empty()
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
+    const fn empty() -> Self {
         const { assert!(N <= 255, "at most 255 sequences") };
         Sequencer {
-            inner: critical_section::Mutex::new(UnsafeCell::new(Inner {
+            abort_all: AtomicBool::new(false),
+            safety: critical_section::Mutex::new(Cell::new(None)),
+            _lock: PhantomData,
+            inner: UnsafeCell::new(Inner {
                 now: 0,
                 count: 0,
                 blocks: [ControlBlock::EMPTY; N],
                 hooks: [None; N],
                 next_due: u64::MAX,
                 work: false,
-                abort_all: false,
                 trace: heapless::Deque::new(),
                 trace_lost: 0,
                 exceptions_not_run: 0,
-                safety: None,
-            })),
+            }),
             _control: PhantomData,
         }
     }
 
-    /// Runs `f` on the state inside a (short) critical section.
+    /// Runs `f` on the state inside a short section under the lock `L`.
     ///
     /// This is the crate's only access to `Inner`. A `RefCell` would add a panic path (the
     /// "already borrowed" check) to every operation; instead exclusivity rests on two facts:
-    /// the critical section keeps every other context out, and no closure passed here calls
-    /// `with` again (they only touch `Inner`, and the wakers they call only flag a task).
+    /// the lock keeps every other context out, and no closure passed here calls `with` again
+    /// (they only touch `Inner`, and the wakers they call only flag a task).
+    #[inline]
     pub(crate) fn with<R>(&self, f: impl FnOnce(&mut Inner<C, N, T>) -> R) -> R {
-        critical_section::with(|cs| {
-            // SAFETY: see above — inside the critical section and without re-entry this is
-            // the only reference to `Inner`.
-            let inner = unsafe { &mut *self.inner.borrow(cs).get() };
+        L::lock(|| {
+            // SAFETY: see above — under the lock and without re-entry this is the only
+            // reference to `Inner`.
+            let inner = unsafe { &mut *self.inner.get() };
             f(inner)
         })
     }
@@ -219,10 +257,18 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
     /// Requests that every running sequence be aborted (e.g. by the safety system). Applied
     /// by the next tick, innermost sequences first. Safe to call from any priority.
     pub fn abort_all(&self) {
-        self.with(|s| {
-            s.abort_all = true;
-            s.work = true;
-        });
+        self.abort_all.store(true, Ordering::Release);
+    }
+
+    /// Takes a pending abort-all request (the tick is its only consumer).
+    pub(crate) fn take_abort_all(&self) -> bool {
+        // Load, then store: no compare-and-swap needed. A request raised in between is
+        // served by the abort-all being applied now.
+        let requested = self.abort_all.load(Ordering::Acquire);
+        if requested {
+            self.abort_all.store(false, Ordering::Relaxed);
+        }
+        requested
     }
 
     /// Connects the safety system: sequences reach it through
@@ -238,12 +284,12 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
     /// SEQ.safety_system().unwrap().trigger(PublicEvent::new(0));
     /// ```
     pub fn set_safety_system(&self, safety: &'static SafetyHandle) {
-        self.with(|s| s.safety = Some(safety));
+        critical_section::with(|cs| self.safety.borrow(cs).set(Some(safety)));
     }
 
     /// The seed's `getSafetySystem()`: the connected safety system's handle.
     pub fn safety_system(&self) -> Option<&'static SafetyHandle> {
-        self.with(|s| s.safety)
+        critical_section::with(|cs| self.safety.borrow(cs).get())
     }
 
     /// Passes the buffered transitions, oldest first, to `f` and empties the buffer.
@@ -274,7 +320,7 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
 }
 
 /// A safety level that demands it aborts every sequence through the sequencer.
-impl<C, const N: usize, const T: usize> AbortSequences for Sequencer<C, N, T> {
+impl<C, const N: usize, const T: usize, L: Lock> AbortSequences for Sequencer<C, N, T, L> {
     fn abort_all(&self) {
         Sequencer::abort_all(self);
     }

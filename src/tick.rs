@@ -6,6 +6,7 @@
 //! User conditions and cleanup hooks run outside the critical sections.
 
 use crate::control_block::{flag, request, DISARMED};
+use crate::lock::Lock;
 use crate::monitor::Entry;
 use crate::sequencer::{Gate, Mode};
 use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
@@ -31,7 +32,7 @@ struct RestartBook {
     limit: u8,
 }
 
-impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
+impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
     /// The heartbeat (one call per timer interrupt): sets the sequencer time to `now`, applies
     /// pending requests, evaluates the monitors and timeouts of every sequence whose polling
     /// period is due, and wakes the lanes that must act.
@@ -52,10 +53,14 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
         monitors: &mut Monitors<'_, C, M>,
     ) {
         let now_us = now.as_ticks();
+        let abort_all = self.take_abort_all();
         let (work, any_due) = self.with(|s| {
             s.now = now_us;
             (core::mem::take(&mut s.work), now_us >= s.next_due)
         });
+        if abort_all {
+            self.apply_abort_all(control);
+        }
         if work {
             self.apply_requests(control);
         }
@@ -352,9 +357,10 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
         });
     }
 
-    /// Applies abort-all, finished exception sequences, and abort/pause/resume requests.
-    fn apply_requests(&self, control: &C) {
-        if self.with(|s| core::mem::take(&mut s.abort_all)) {
+    /// Aborts every active sequence, innermost first.
+    #[inline(never)]
+    fn apply_abort_all(&self, control: &C) {
+        {
             let count = self.with(|s| s.count);
             for depth in (0..=MAX_DEPTH as u8).rev() {
                 for i in 0..count {
@@ -369,6 +375,10 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
                 }
             }
         }
+    }
+
+    /// Applies finished exception sequences and abort/pause/resume requests.
+    fn apply_requests(&self, control: &C) {
         let count = self.with(|s| s.count);
         for i in 0..count {
             let id = SeqId(i);
