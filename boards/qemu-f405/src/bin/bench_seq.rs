@@ -93,10 +93,32 @@ mod app {
     const NEVER: u8 = 15;
 
     static CTRL: Ctrl = Ctrl::new();
-    static SEQ1: Sequencer<Ctrl, 1> = Sequencer::new();
-    static SEQ8: Sequencer<Ctrl, 8> = Sequencer::new();
-    static SEQF: Sequencer<Ctrl, 1> = Sequencer::new();
-    static SEQE: Sequencer<Ctrl, 2> = Sequencer::new();
+
+    /// The lock under test: RTIC's priority ceiling (the tick's priority 2), or with the
+    /// board feature `critical-section-lock` the portable default.
+    #[cfg(not(feature = "critical-section-lock"))]
+    type Lk = rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>;
+    #[cfg(feature = "critical-section-lock")]
+    type Lk = rtseq::lock::CriticalSection;
+    type Seqr<const N: usize> = Sequencer<Ctrl, N, 64, Lk>;
+    #[cfg(not(feature = "critical-section-lock"))]
+    macro_rules! sequencer {
+        // SAFETY: every user of these sequencers runs at RTIC priority 2 (the tick) or
+        // below (the lanes at 1, idle at 0).
+        () => {
+            unsafe { Seqr::with_priority_ceiling() }
+        };
+    }
+    #[cfg(feature = "critical-section-lock")]
+    macro_rules! sequencer {
+        () => {
+            Seqr::new()
+        };
+    }
+    static SEQ1: Seqr<1> = sequencer!();
+    static SEQ8: Seqr<8> = sequencer!();
+    static SEQF: Seqr<1> = sequencer!();
+    static SEQE: Seqr<2> = sequencer!();
 
     /// Instructions per tick: [SEQ1, SEQ8, SEQF] × tick.
     static COST: [[AtomicU32; 3]; TICKS] = [const { [const { AtomicU32::new(0) }; 3] }; TICKS];
@@ -225,6 +247,14 @@ mod app {
         // Tick 1 is the first tick after the starts (everything due at once); steady
         // state from tick 2. SEQ8 (2 ms polling) is due at odd ticks.
         let steady = 2..FIRE;
+        defmt::info!(
+            "bench_seq: lock = {=str}",
+            if cfg!(feature = "critical-section-lock") {
+                "critical sections (critical-section crate)"
+            } else {
+                "RTIC priority ceiling (BASEPRI)"
+            }
+        );
         defmt::info!(
             "bench_seq: tick 1 x 4 due, nothing firing = {=u32} instructions",
             max_cost(steady.clone(), 0)
@@ -367,7 +397,7 @@ mod app {
     trait Starter {
         fn start_all(&self);
     }
-    impl<const N: usize> Starter for Sequencer<Ctrl, N> {
+    impl<const N: usize> Starter for Seqr<N> {
         fn start_all(&self) {
             for i in 0..self.len() {
                 if let Some(h) = self.sequence_by_id(rtseq::SeqId::from_index(i)) {

@@ -21,11 +21,13 @@ mod app {
     use super::board;
     use board::clock::TickTimer;
     use core::sync::atomic::{AtomicBool, Ordering};
-    use rtseq::{Seq, Sequencer};
+    use rtseq::Seq;
     use rtseq_scenarios::{encode, Conds, Ctrl, Mons, Root, Scenario, Seqr, SCENARIOS};
 
     /// The sequencer, shared by the tick and the lanes.
-    static SEQ: Seqr = Sequencer::new();
+    // SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1,
+    // idle draining the trace at 0); nothing above priority 2 calls it.
+    static SEQ: Seqr = unsafe { Seqr::with_priority_ceiling() };
     /// The control system the scenario's script and conditions use.
     static CTRL: Ctrl = Ctrl::new();
     /// Set by the tick after the scenario's last tick.
