@@ -39,6 +39,8 @@ pub(crate) mod flag {
     pub const EXCEPTION_DONE: u8 = 1 << 5;
     /// A [`Seq`](crate::Seq) object was bound to this id.
     pub const BOUND: u8 = 1 << 6;
+    /// The timeout monitor is armed (`deadline` is meaningful).
+    pub const TIMEOUT_ARMED: u8 = 1 << 7;
 }
 
 /// Request bits of [`ControlBlock::requests`], applied by the next tick.
@@ -48,8 +50,35 @@ pub(crate) mod request {
     pub const RESUME: u8 = 1 << 2;
 }
 
-/// `deadline` value of a timeout that is not armed.
-pub(crate) const DISARMED: u64 = u64::MAX;
+/// Times in a control block are the low 32 bits of sequencer microseconds, compared by
+/// wrapping difference: correct while every interval (polling period, timeout) is below
+/// 2^31 µs (35 min), which registration enforces. Half the RAM and cheaper arithmetic on a
+/// 32-bit core than `u64`.
+pub(crate) type Micros32 = u32;
+
+/// Whether `now` has reached `at` (wrapping comparison, see [`Micros32`]).
+#[inline]
+pub(crate) fn reached(now: u64, at: Micros32) -> bool {
+    // Truncation is the point: both sides are the low 32 bits.
+    (now as u32).wrapping_sub(at) < 0x8000_0000
+}
+
+/// `now + d` in the low 32 bits.
+#[inline]
+pub(crate) fn after(now: u64, d: u32) -> Micros32 {
+    (now as u32).wrapping_add(d)
+}
+
+/// The absolute time (full width) of `at`, a time not more than 2^31 µs after `now`.
+#[inline]
+pub(crate) fn absolute(now: u64, at: Micros32) -> u64 {
+    let ahead = at.wrapping_sub(now as u32);
+    if ahead >= 0x8000_0000 {
+        now
+    } else {
+        now.saturating_add(u64::from(ahead))
+    }
+}
 
 /// One registered sequence's state.
 pub(crate) struct ControlBlock {
@@ -74,9 +103,10 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_restarts: u8,
     pub(crate) timeout_runs_seen: u16,
     /// Next due poll (µs).
-    pub(crate) next_poll: u64,
-    /// Absolute timeout deadline while running; the remaining time while paused; `DISARMED`.
-    pub(crate) deadline: u64,
+    pub(crate) next_poll: Micros32,
+    /// Timeout deadline while running; the remaining time while paused; only meaningful
+    /// with `flag::TIMEOUT_ARMED`.
+    pub(crate) deadline: Micros32,
     /// `activeException`: the monitor (or timeout) whose exception is active or was last.
     pub(crate) active_exception: Option<Cause>,
     /// Behaviour and target waiting for this sequence's exception sequence to end.
@@ -110,7 +140,7 @@ impl ControlBlock {
         timeout_restarts: 0,
         timeout_runs_seen: 0,
         next_poll: 0,
-        deadline: DISARMED,
+        deadline: 0,
         active_exception: None,
         pending: None,
         exception_of: None,

@@ -144,9 +144,7 @@ impl<'a, C> Handle<'a, C> {
     /// ```
     pub fn set_timeout(&self, timeout: Option<Duration>) -> Result<(), Error> {
         let micros = match timeout {
-            Some(t) => crate::time::to_micros_u32(t)
-                .filter(|&t| t > 0)
-                .ok_or(Error::DurationOutOfRange)?,
+            Some(t) => crate::time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
             None => 0,
         };
         self.engine.set_timeout(self.id, micros)

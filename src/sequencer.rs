@@ -5,7 +5,7 @@ use core::marker::PhantomData;
 use core::sync::atomic::{AtomicBool, Ordering};
 use core::task::Waker;
 
-use crate::control_block::{flag, request, ControlBlock, DISARMED};
+use crate::control_block::{after, flag, request, ControlBlock};
 use crate::lock::{CriticalSection, Lock};
 use crate::safety::{AbortSequences, SafetyHandle};
 use crate::{
@@ -157,13 +157,9 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
         if config.name.is_empty() {
             return Err(Error::EmptyName);
         }
-        let polling = time::to_micros_u32(config.polling)
-            .filter(|&p| p > 0)
-            .ok_or(Error::DurationOutOfRange)?;
+        let polling = time::to_interval(config.polling).ok_or(Error::DurationOutOfRange)?;
         let timeout = match config.timeout {
-            Some(t) => time::to_micros_u32(t)
-                .filter(|&t| t > 0)
-                .ok_or(Error::DurationOutOfRange)?,
+            Some(t) => time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
             None => 0,
         };
         self.with(|s| {
@@ -439,9 +435,9 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
         b.pending = None;
         b.exception_of = None;
         b.outcome = None;
-        b.next_poll = now.saturating_add(u64::from(b.polling));
-        b.deadline = b.arm_deadline(now);
-        let next = b.next_poll;
+        b.next_poll = after(now, b.polling);
+        b.arm_timeout(now);
+        let next = now.saturating_add(u64::from(b.polling));
         if mode == Mode::Lane {
             b.set(flag::START_PENDING, true);
             b.wake();
@@ -511,9 +507,9 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
             b.set(flag::POLL_WAIT, false);
             b.set(flag::POLL_DUE, false);
             b.pending = None;
-            b.next_poll = now.saturating_add(u64::from(b.polling));
-            b.deadline = b.arm_deadline(now);
-            let next = b.next_poll;
+            b.next_poll = after(now, b.polling);
+            b.arm_timeout(now);
+            let next = now.saturating_add(u64::from(b.polling));
             self.next_due = self.next_due.min(next);
         }
     }
@@ -575,12 +571,9 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
 }
 
 impl ControlBlock {
-    /// The timeout deadline for a run starting (or restarting) at `now`.
-    pub(crate) fn arm_deadline(&self, now: u64) -> u64 {
-        if self.timeout == 0 {
-            DISARMED
-        } else {
-            now.saturating_add(u64::from(self.timeout))
-        }
+    /// Arms (or, without a timeout, disarms) the timeout of a run starting at `now`.
+    pub(crate) fn arm_timeout(&mut self, now: u64) {
+        self.set(flag::TIMEOUT_ARMED, self.timeout != 0);
+        self.deadline = after(now, self.timeout);
     }
 }

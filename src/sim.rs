@@ -112,6 +112,14 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
         self
     }
 
+    /// Starts the simulated clock at `t` instead of 0 (e.g. to run across the wrap of the
+    /// control blocks' 32-bit microsecond times at 2^32 µs ≈ 71.6 min).
+    pub fn starting_at(mut self, t: Instant) -> Self {
+        self.now = t;
+        self.sequencer.with(|s| s.now = t.as_ticks());
+        self
+    }
+
     /// Called before every tick with the new time: step the plant, inject faults.
     pub fn before_tick(&mut self, f: impl FnMut(Instant, &C) + 'a) {
         self.before_tick = Some(Box::new(f));

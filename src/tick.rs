@@ -5,7 +5,7 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{flag, request, DISARMED};
+use crate::control_block::{absolute, after, flag, reached, request};
 use crate::lock::Lock;
 use crate::monitor::Entry;
 use crate::sequencer::{Gate, Mode};
@@ -127,23 +127,23 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                     return;
                 }
                 any_held |= !running || b.has(flag::EXCEPTION_ACTIVE);
-                if now >= b.next_poll {
+                if reached(now, b.next_poll) {
                     d.due = true;
                     d.epoch = b.epoch();
-                    b.next_poll = b.next_poll.saturating_add(u64::from(b.polling));
-                    if b.next_poll <= now {
+                    b.next_poll = b.next_poll.wrapping_add(b.polling);
+                    if reached(now, b.next_poll) {
                         // Missed periods (a late tick) are not replayed.
-                        b.next_poll = now.saturating_add(u64::from(b.polling));
+                        b.next_poll = after(now, b.polling);
                     }
                     if running {
-                        d.expired = b.deadline != DISARMED && now >= b.deadline;
+                        d.expired = b.has(flag::TIMEOUT_ARMED) && reached(now, b.deadline);
                         if b.has(flag::POLL_WAIT) {
                             b.set(flag::POLL_DUE, true);
                             d.wake = true;
                         }
                     }
                 }
-                next_due = next_due.min(b.next_poll);
+                next_due = next_due.min(absolute(now, b.next_poll));
             });
         }
         self.with(|s| s.next_due = next_due);
@@ -182,7 +182,7 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
             if b.state != RunningState::Running || !b.accepts_exception() {
                 return None;
             }
-            b.deadline = DISARMED;
+            b.set(flag::TIMEOUT_ARMED, false);
             Some((
                 b.timeout_behaviour,
                 b.timeout_exception,
@@ -447,11 +447,16 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                     if s.transition(id, to, cause) {
                         if let Ok(b) = s.block_mut(id) {
                             // A paused timeout keeps its remaining time, not a deadline.
-                            if b.deadline != DISARMED {
+                            if b.has(flag::TIMEOUT_ARMED) {
                                 b.deadline = if pause {
-                                    b.deadline.saturating_sub(now)
+                                    let left = b.deadline.wrapping_sub(now as u32);
+                                    if left >= 0x8000_0000 {
+                                        0
+                                    } else {
+                                        left
+                                    }
                                 } else {
-                                    now.saturating_add(b.deadline)
+                                    after(now, b.deadline)
                                 };
                             }
                         }

@@ -22,7 +22,10 @@ pub type Instant = fugit::MonotonicTimerInstantU64<1_000_000>;
 /// ```
 pub type Duration = fugit::MicrosDurationU64;
 
-/// Converts a duration to the compact `u32` microsecond form stored in control blocks.
-pub(crate) fn to_micros_u32(d: Duration) -> Option<u32> {
-    u32::try_from(d.as_ticks()).ok()
+/// Converts a polling period or timeout to the compact microsecond form stored in control
+/// blocks: non-zero and below 2^31 µs (35 min), so wrapping comparisons stay correct.
+pub(crate) fn to_interval(d: Duration) -> Option<u32> {
+    u32::try_from(d.as_ticks())
+        .ok()
+        .filter(|&us| us > 0 && us < 0x8000_0000)
 }

@@ -858,3 +858,56 @@ fn triggers_rising_falling_change_and_level() {
     assert_eq!(fired(Trigger::Change), 4); // 5, 8, 12, 14
     assert_eq!(fired(Trigger::Level), 5); // 5, 6, 7, 12, 13
 }
+
+/// The pause/timeout scenario, started at `base`: its trace with times relative to `base`.
+fn pause_timeout_trace(base: u64) -> Vec<(u64, SeqId, RunningState, RunningState, Cause)> {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq
+        .add(
+            SeqConfig::new("S")
+                .timeout(Duration::from_millis(10))
+                .polling(Duration::from_millis(2)),
+            Leaf::until(1),
+        )
+        .unwrap();
+    let si = s.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new())
+        .starting_at(rtseq::Instant::from_ticks(base));
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(base + 3_000));
+    sim.pause(si).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(base + 20_000));
+    sim.resume(si).unwrap();
+    sim.run_until_idle(Duration::from_millis(40));
+    sim.trace()
+        .iter()
+        .map(|t| (t.time.as_ticks() - base, t.sequence, t.from, t.to, t.cause))
+        .collect()
+}
+
+#[test]
+fn control_block_times_wrap_at_32_bits_without_changing_anything() {
+    let reference = pause_timeout_trace(0);
+    // Paused at 4 ms with 6 ms of the timeout left, resumed at 21 ms: due at 27 ms, seen at
+    // the next 2 ms poll, 28 ms.
+    assert_eq!(
+        reference.last().map(|t| (t.0, t.3)),
+        Some((28_000, Terminated)),
+        "{reference:?}"
+    );
+    // Across the wrap of the low 32 bits of microseconds (2^32 µs ≈ 71.6 min).
+    for base in [
+        (1u64 << 32) - 10_000,
+        (1u64 << 32) - 3_000,
+        (5u64 << 32) - 1,
+    ] {
+        let base = base - base % 1_000; // the simulator ticks at whole milliseconds
+        assert_eq!(pause_timeout_trace(base), reference, "base {base}");
+    }
+}
