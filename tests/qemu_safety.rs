@@ -258,7 +258,7 @@ fn qemu_safety_scenario_equals_the_host_and_preempts_the_lane() {
 }
 
 /// The README figures, measured by the safety firmware's `init`: printed here, and guarded
-/// against regressions (the budget is 400; see `src/safety/README_SECTION.md`).
+/// against regressions (the budget is 400; see the README's safety section).
 #[test]
 fn qemu_safety_cycle_figures() {
     let out = run("safety");

@@ -195,11 +195,11 @@ fn scenario_firmware_is_panic_free() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Figures and budgets (issue 3). Printed with `--nocapture`; FIGURES.md explains them.
+// Figures and budgets (issue 3). Printed with `--nocapture`; the README's "Figures" section explains them.
 // ---------------------------------------------------------------------------------------
 
 /// A figure with its budget. Figures that meet their budget are asserted against it; a
-/// known miss (documented in boards/qemu-f405/FIGURES.md) is asserted against its
+/// known miss (documented in the README's "Figures" section) is asserted against its
 /// `ceiling` instead, so it cannot silently get worse.
 fn budget(what: &str, value: u64, budget: u64, ceiling: u64) {
     if value <= budget {
