@@ -253,7 +253,8 @@ fn simulate(p: &Plan) -> Outcome {
         .iter()
         .map(|mp| {
             let f = mp.flag;
-            Box::new(move |c: &Ctrl, _: Instant| c.flag(f)) as Box<dyn rtseq::Condition<Ctrl> + Send>
+            Box::new(move |c: &Ctrl, _: Instant| c.flag(f))
+                as Box<dyn rtseq::Condition<Ctrl> + Send>
         })
         .collect();
     let seq_nodes: Vec<usize> = (0..n).collect();

@@ -700,7 +700,9 @@ fn longest_critical_section_inside_rtseq() {
         eprintln!("figure: critical section {len:>4} instructions at {site}");
     }
     let max = by_len.first().map_or(0, |(_, &l)| l);
-    eprintln!("figure: longest critical section (interrupts masked) inside rtseq: {max} instructions");
+    eprintln!(
+        "figure: longest critical section (interrupts masked) inside rtseq: {max} instructions"
+    );
     budget(
         "longest critical section inside rtseq [instructions]",
         max,
@@ -716,7 +718,10 @@ fn longest_critical_section_inside_rtseq() {
     eprintln!(
         "figure: longest priority-ceiling section inside rtseq (holds off the tick only): {cmax} instructions"
     );
-    assert!(cmax > 0, "the scenario firmware should use the priority-ceiling lock");
+    assert!(
+        cmax > 0,
+        "the scenario firmware should use the priority-ceiling lock"
+    );
     budget(
         "longest priority-ceiling section inside rtseq [instructions]",
         cmax,

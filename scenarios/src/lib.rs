@@ -69,8 +69,12 @@ pub type Seqr = Sequencer<Ctrl, CAPACITY, TRACE>;
 /// The sequencer type every scenario registers into: on the firmware, guarded by RTIC's
 /// priority ceiling (the tick runs at RTIC priority 2 of 4 NVIC priority bits).
 #[cfg(feature = "ceiling")]
-pub type Seqr =
-    Sequencer<Ctrl, CAPACITY, TRACE, rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>>;
+pub type Seqr = Sequencer<
+    Ctrl,
+    CAPACITY,
+    TRACE,
+    rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>,
+>;
 /// The monitor table type of a scenario.
 pub type Mons<'a> = Monitors<'a, Ctrl, MONITORS>;
 

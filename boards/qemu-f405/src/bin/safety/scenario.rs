@@ -333,18 +333,16 @@ pub static PROPS: ValidProperties<'static, Io, 8> = match SafetyProperties::new(
                 LED.set(6),
                 RELAY.set(true),
             ]),
-        LevelDef::new(FAST, "fast")
-            .inputs(&WATCH_ALL)
-            .outputs(&[
-                ENABLE.set(true),
-                LAMP.set(true),
-                DUTY.set(40),
-                BRAKE.set(false),
-                FAN.set(true),
-                BUZZER.set(false),
-                LED.set(7),
-                RELAY.set(true),
-            ]),
+        LevelDef::new(FAST, "fast").inputs(&WATCH_ALL).outputs(&[
+            ENABLE.set(true),
+            LAMP.set(true),
+            DUTY.set(40),
+            BRAKE.set(false),
+            FAN.set(true),
+            BUZZER.set(false),
+            LED.set(7),
+            RELAY.set(true),
+        ]),
     ],
     &[
         ESTOP_IN.info(),
