@@ -15,131 +15,20 @@
 //! existing one, read from its command line with `board::args`), then a test here:
 //! `let out = run("NAME", &["ARGS"]); expect_exit(&out, 0); expect_line(&out, "...");`.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::sync::{Mutex, OnceLock};
-use std::time::{Duration, Instant};
+mod qemu_harness;
 
-use qemu_run::{Config, Echo, Outcome, Status};
+use std::path::PathBuf;
+use std::time::Duration;
 
-const TARGET: &str = "thumbv7em-none-eabihf";
-const BOARD: &str = "boards/qemu-f405";
-/// Host-time limit for one firmware run.
-const RUN_TIMEOUT: Duration = Duration::from_secs(60);
+use qemu_harness::{expect_exit, expect_line, try_build, FirmwareSet, Outcome, RUN_TIMEOUT};
+use qemu_run::Status;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Fails (with the way to fix it) unless QEMU and the target are installed. Checked once.
-fn require_tools() {
-    static CHECK: OnceLock<Result<(), String>> = OnceLock::new();
-    let r = CHECK.get_or_init(|| {
-        let mut missing = Vec::new();
-        if let Err(e) = qemu_run::check_qemu(&Config::default()) {
-            missing.push(e.to_string());
-        }
-        let sysroot = Command::new(std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into()))
-            .args(["--print", "sysroot"])
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
-        let has_target =
-            sysroot.is_some_and(|s| s.join("lib/rustlib").join(TARGET).join("lib").is_dir());
-        if !has_target {
-            missing.push(format!(
-                "the Rust target {TARGET} is not installed; {}",
-                qemu_run::SETUP_HINT
-            ));
-        }
-        if missing.is_empty() {
-            Ok(())
-        } else {
-            Err(missing.join("\n"))
-        }
-    });
-    if let Err(e) = r {
-        panic!("QEMU suite cannot run:\n{e}");
-    }
-}
-
-/// The nested cargo command for the board, free of the outer cargo's settings.
-fn board_cargo(features: &str, bins: &[&str]) -> Command {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(root()) // so the root .cargo/config.toml (runner, linker args) applies
-        .args(["build", "--release", "--target", TARGET])
-        .arg("--manifest-path")
-        .arg(root().join(BOARD).join("Cargo.toml"))
-        .arg("--target-dir")
-        .arg(root().join("target/firmware"));
-    if !features.is_empty() {
-        cmd.args(["--features", features]);
-    }
-    for b in bins {
-        cmd.args(["--bin", b]);
-    }
-    for v in [
-        "CARGO_TARGET_DIR",
-        "CARGO_BUILD_TARGET",
-        "RUSTFLAGS",
-        "CARGO_ENCODED_RUSTFLAGS",
-        "CARGO_MAKEFLAGS",
-        "MAKEFLAGS",
-        "MFLAGS",
-    ] {
-        cmd.env_remove(v);
-    }
-    cmd
-}
-
-/// Builds the given bins (all if empty) with `features`; Err(cargo's stderr) on failure.
-/// Builds are serialized (one cargo at a time on 2 cores).
-fn try_build(features: &str, bins: &[&str]) -> Result<(), String> {
-    static LOCK: Mutex<()> = Mutex::new(());
-    let _g = LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let t = Instant::now();
-    let out = board_cargo(features, bins)
-        .output()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    if out.status.success() {
-        eprintln!(
-            "qemu suite: built firmware (features '{features}', bins {bins:?}) in {:.1?}",
-            t.elapsed()
-        );
-        Ok(())
-    } else {
-        Err(stderr)
-    }
-}
+/// Every bin of the board.
+static FIRMWARE: FirmwareSet = FirmwareSet::new(&[], "qemu-suite");
 
 /// Path of firmware `bin` built with the default features (all bins built on first use).
-///
-/// The ELFs are copied to `target/firmware/qemu-suite/` right after the build, so a later
-/// build with other features (the no-panic proof) cannot swap them under a running test.
 pub fn firmware(bin: &str) -> PathBuf {
-    require_tools();
-    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    let dir = BUILT.get_or_init(|| {
-        try_build("", &[])?;
-        let release = root().join("target/firmware").join(TARGET).join("release");
-        let suite = root().join("target/firmware/qemu-suite");
-        std::fs::create_dir_all(&suite).map_err(|e| e.to_string())?;
-        for entry in std::fs::read_dir(&release).map_err(|e| e.to_string())? {
-            let path = entry.map_err(|e| e.to_string())?.path();
-            if path.is_file() && path.extension().is_none() {
-                let to = suite.join(path.file_name().unwrap_or_default());
-                std::fs::copy(&path, &to).map_err(|e| format!("copy {}: {e}", path.display()))?;
-            }
-        }
-        Ok(suite)
-    });
-    match dir {
-        Ok(d) => d.join(bin),
-        Err(e) => panic!("building the QEMU firmware failed:\n{e}"),
-    }
+    FIRMWARE.path(bin)
 }
 
 /// Runs firmware `bin` in QEMU with `args` on its command line.
@@ -149,33 +38,7 @@ pub fn run(bin: &str, args: &[&str]) -> Outcome {
 
 /// [`run`] with an explicit host-time limit.
 pub fn run_with(bin: &str, args: &[&str], timeout: Duration) -> Outcome {
-    let elf = firmware(bin);
-    let cfg = Config {
-        timeout,
-        echo: Echo::Stderr,
-        firmware_args: args.iter().map(|s| s.to_string()).collect(),
-        ..Config::default()
-    };
-    eprintln!("--- qemu: {bin} {}", args.join(" "));
-    qemu_run::run(&elf, &cfg).unwrap_or_else(|e| panic!("running {bin} in QEMU: {e}"))
-}
-
-/// Asserts the exit code, showing the whole log otherwise.
-pub fn expect_exit(out: &Outcome, code: i32) {
-    assert_eq!(
-        out.exit_code(),
-        code,
-        "unexpected exit code; log:\n{}",
-        out.transcript()
-    );
-}
-
-/// Asserts that a line with exactly this message was logged; returns it.
-pub fn expect_line<'a>(out: &'a Outcome, message: &str) -> &'a qemu_run::LogLine {
-    out.lines
-        .iter()
-        .find(|l| l.message == message)
-        .unwrap_or_else(|| panic!("no line {message:?} in the log:\n{}", out.transcript()))
+    FIRMWARE.run_with(bin, args, timeout, true)
 }
 
 // ---------------------------------------------------------------------------------------

@@ -14,82 +14,28 @@
 //! `tests/qemu.rs` does) and copied to `target/firmware/qemu-safety/` so a later build with
 //! other features cannot swap it under a running test.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::sync::{Mutex, OnceLock};
-use std::time::Duration;
+mod qemu_harness;
 
-use qemu_run::{Config, Echo, Outcome};
+use std::path::PathBuf;
+
+use qemu_harness::{expect_exit, expect_line, try_build, FirmwareSet, Outcome, RUN_TIMEOUT};
 use rtseq::safety::{SafetyHandle, SafetySystem};
 
 #[path = "../boards/qemu-f405/src/bin/safety/scenario.rs"]
 #[allow(dead_code)]
 mod scenario;
 
-const TARGET: &str = "thumbv7em-none-eabihf";
+/// The safety suite's firmware.
+static FIRMWARE: FirmwareSet = FirmwareSet::new(&BINS, "qemu-safety");
 const BINS: [&str; 2] = ["safety", "emergency"];
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The nested board build (release, fat LTO) of `bins` with `features`; Err(stderr).
+/// The nested board build of `bins` with `features` (the no-panic proof).
 fn build(features: &str, bins: &[&str]) -> Result<(), String> {
-    static LOCK: Mutex<()> = Mutex::new(());
-    let _g = LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    if let Err(e) = qemu_run::check_qemu(&Config::default()) {
-        panic!("QEMU suite cannot run: {e}");
-    }
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(root())
-        .args(["build", "--release", "--target", TARGET])
-        .arg("--manifest-path")
-        .arg(root().join("boards/qemu-f405/Cargo.toml"))
-        .arg("--target-dir")
-        .arg(root().join("target/firmware"));
-    if !features.is_empty() {
-        cmd.args(["--features", features]);
-    }
-    for b in bins {
-        cmd.args(["--bin", b]);
-    }
-    for v in [
-        "CARGO_TARGET_DIR",
-        "CARGO_BUILD_TARGET",
-        "RUSTFLAGS",
-        "CARGO_ENCODED_RUSTFLAGS",
-        "CARGO_MAKEFLAGS",
-        "MAKEFLAGS",
-        "MFLAGS",
-    ] {
-        cmd.env_remove(v);
-    }
-    let out = cmd.output().map_err(|e| format!("cannot run cargo: {e}"))?;
-    if out.status.success() {
-        Ok(())
-    } else {
-        Err(String::from_utf8_lossy(&out.stderr).into_owned())
-    }
+    try_build(features, bins)
 }
 
-/// Path of firmware `bin` (default features), built once and snapshotted.
 fn firmware(bin: &str) -> PathBuf {
-    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    let dir = BUILT.get_or_init(|| {
-        build("", &BINS)?;
-        let release = root().join("target/firmware").join(TARGET).join("release");
-        let snap = root().join("target/firmware/qemu-safety");
-        std::fs::create_dir_all(&snap).map_err(|e| e.to_string())?;
-        for b in BINS {
-            std::fs::copy(release.join(b), snap.join(b)).map_err(|e| format!("copy {b}: {e}"))?;
-        }
-        Ok(snap)
-    });
-    match dir {
-        Ok(d) => d.join(bin),
-        Err(e) => panic!("building the safety firmware failed:\n{e}"),
-    }
+    FIRMWARE.path(bin)
 }
 
 fn run(bin: &str) -> Outcome {
@@ -97,28 +43,9 @@ fn run(bin: &str) -> Outcome {
 }
 
 fn run_args(bin: &str, args: &[&str]) -> Outcome {
-    let elf = firmware(bin);
-    let cfg = Config {
-        timeout: Duration::from_secs(60),
-        echo: Echo::Stderr,
-        firmware_args: args.iter().map(|a| a.to_string()).collect(),
-        ..Config::default()
-    };
-    qemu_run::run(&elf, &cfg).unwrap_or_else(|e| panic!("running {bin} in QEMU: {e}"))
+    FIRMWARE.run_with(bin, args, RUN_TIMEOUT, true)
 }
 
-fn expect_exit(out: &Outcome, code: i32) {
-    assert_eq!(out.exit_code(), code, "log:\n{}", out.transcript());
-}
-
-fn expect_line<'a>(out: &'a Outcome, message: &str) -> &'a qemu_run::LogLine {
-    out.lines
-        .iter()
-        .find(|l| l.message == message)
-        .unwrap_or_else(|| panic!("no line {message:?} in the log:\n{}", out.transcript()))
-}
-
-/// The number after `key` in `message` (up to the next space or comma).
 fn number_after(message: &str, key: &str) -> u64 {
     let rest = &message[message
         .find(key)

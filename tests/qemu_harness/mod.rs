@@ -107,47 +107,86 @@ pub fn try_build(features: &str, bins: &[&str]) -> Result<(), String> {
     }
 }
 
-/// The firmware these suites run (built together, once; other bins are not built, so a
-/// work-in-progress firmware elsewhere in the board does not break these suites).
-pub const BINS: &[&str] = &["scenarios", "bench_seq", "smoke"];
+/// Firmware bins built together once (default features) and snapshotted into
+/// `target/firmware/<snapshot>/`, so a later build with other features (the no-panic proofs)
+/// cannot swap an ELF under a running test. Each suite builds only its own bins, so a
+/// work-in-progress firmware elsewhere in the board does not break it.
+pub struct FirmwareSet {
+    /// The bins; empty = every bin of the board.
+    bins: &'static [&'static str],
+    snapshot: &'static str,
+    built: OnceLock<Result<PathBuf, String>>,
+}
 
-/// Path of firmware `bin` (one of [`BINS`]) built with the default features, snapshotted into `target/firmware/<snapshot>/` so a later build with other features
-/// cannot swap it under a running test.
-pub fn firmware(bin: &str) -> PathBuf {
-    require_tools();
-    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    let dir = BUILT.get_or_init(|| {
-        try_build("", BINS)?;
-        let release = root().join("target/firmware").join(TARGET).join("release");
-        let snapshot = root().join("target/firmware/qemu-harness");
-        std::fs::create_dir_all(&snapshot).map_err(|e| e.to_string())?;
-        for bin in BINS {
-            let (from, to) = (release.join(bin), snapshot.join(bin));
-            std::fs::copy(&from, &to).map_err(|e| format!("copy {}: {e}", from.display()))?;
+impl FirmwareSet {
+    pub const fn new(bins: &'static [&'static str], snapshot: &'static str) -> Self {
+        FirmwareSet {
+            bins,
+            snapshot,
+            built: OnceLock::new(),
         }
-        Ok(snapshot)
-    });
-    match dir {
-        Ok(d) => d.join(bin),
-        Err(e) => panic!("building the QEMU firmware failed:\n{e}"),
     }
+
+    /// Path of firmware `bin`, building the set on first use.
+    pub fn path(&self, bin: &str) -> PathBuf {
+        require_tools();
+        let dir = self.built.get_or_init(|| {
+            try_build("", self.bins)?;
+            let release = root().join("target/firmware").join(TARGET).join("release");
+            let snapshot = root().join("target/firmware").join(self.snapshot);
+            std::fs::create_dir_all(&snapshot).map_err(|e| e.to_string())?;
+            for entry in std::fs::read_dir(&release).map_err(|e| e.to_string())? {
+                let path = entry.map_err(|e| e.to_string())?.path();
+                let name = path
+                    .file_name()
+                    .and_then(|n| n.to_str())
+                    .unwrap_or_default();
+                let wanted = self.bins.is_empty() || self.bins.contains(&name);
+                if wanted && path.is_file() && path.extension().is_none() {
+                    std::fs::copy(&path, snapshot.join(name))
+                        .map_err(|e| format!("copy {}: {e}", path.display()))?;
+                }
+            }
+            Ok(snapshot)
+        });
+        match dir {
+            Ok(d) => d.join(bin),
+            Err(e) => panic!("building the QEMU firmware failed:\n{e}"),
+        }
+    }
+
+    /// Runs firmware `bin` in QEMU with `args` on its command line.
+    pub fn run_with(&self, bin: &str, args: &[&str], timeout: Duration, echo: bool) -> Outcome {
+        let elf = self.path(bin);
+        let cfg = Config {
+            timeout,
+            echo: if echo { Echo::Stderr } else { Echo::None },
+            firmware_args: args.iter().map(|s| s.to_string()).collect(),
+            ..Config::default()
+        };
+        if echo {
+            eprintln!("--- qemu: {bin} {}", args.join(" "));
+        }
+        qemu_run::run(&elf, &cfg).unwrap_or_else(|e| panic!("running {bin} in QEMU: {e}"))
+    }
+}
+
+/// The firmware of the scenario suite.
+pub static SCENARIO_FIRMWARE: FirmwareSet =
+    FirmwareSet::new(&["scenarios", "bench_seq", "smoke"], "qemu-harness");
+
+/// Path of a scenario-suite firmware.
+pub fn firmware(bin: &str) -> PathBuf {
+    SCENARIO_FIRMWARE.path(bin)
 }
 
 /// Runs firmware `bin` in QEMU with `args` on its command line; `echo` the log to stderr.
 pub fn run_quiet(bin: &str, args: &[&str], echo: bool) -> Outcome {
-    let elf = firmware(bin);
-    let cfg = Config {
-        timeout: RUN_TIMEOUT,
-        echo: if echo { Echo::Stderr } else { Echo::None },
-        firmware_args: args.iter().map(|s| s.to_string()).collect(),
-        ..Config::default()
-    };
-    qemu_run::run(&elf, &cfg).unwrap_or_else(|e| panic!("running {bin} in QEMU: {e}"))
+    SCENARIO_FIRMWARE.run_with(bin, args, RUN_TIMEOUT, echo)
 }
 
 /// Runs firmware `bin` in QEMU with `args`, echoing its log.
 pub fn run(bin: &str, args: &[&str]) -> Outcome {
-    eprintln!("--- qemu: {bin} {}", args.join(" "));
     run_quiet(bin, args, true)
 }
 
