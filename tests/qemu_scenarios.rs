@@ -558,19 +558,7 @@ fn critical_sections(
     let mut plain_masked = false;
     let mut depth = 0u32;
     let (mut start, mut counted, mut site) = (0usize, false, None::<String>);
-    let mut i = 0usize;
-    for line in trace.lines() {
-        // "Trace 0: 0x7f.. [00800408/08003e56/00000110/ff020201] symbol"
-        let Some(b) = line.find('[') else { continue };
-        let Some(pc) = line[b + 1..]
-            .split('/')
-            .nth(1)
-            .and_then(|h| u32::from_str_radix(h, 16).ok())
-        else {
-            continue;
-        };
-        let sym = line.rsplit("] ").next().unwrap_or("").trim();
-        i += 1;
+    for (i, pc, sym) in executed(trace) {
         if d.cpsid.contains(&pc) {
             if recent.iter().any(|p| d.mrs_primask.contains(p)) {
                 depth += 1;
@@ -607,6 +595,24 @@ fn critical_sections(
     }
 }
 
+/// The executed instructions of a QEMU `-d exec,nochain` trace, numbered from 1:
+/// `(n, pc, symbol)` from lines like
+/// `Trace 0: 0x7f.. [00800408/08003e56/00000110/ff020201] symbol`.
+fn executed(trace: &str) -> impl Iterator<Item = (usize, u32, &str)> {
+    trace
+        .lines()
+        .filter_map(|line| {
+            let b = line.find('[')?;
+            let pc = line[b + 1..]
+                .split('/')
+                .nth(1)
+                .and_then(|h| u32::from_str_radix(h, 16).ok())?;
+            Some((pc, line.rsplit("] ").next().unwrap_or("").trim()))
+        })
+        .enumerate()
+        .map(|(i, (pc, sym))| (i + 1, pc, sym))
+}
+
 /// Priority-ceiling sections (`msr basepri_max` … `msr basepri`) that execute rtseq code:
 /// the longest per site, in instructions. They delay the tick and the lanes, never an
 /// interrupt above the ceiling.
@@ -618,18 +624,7 @@ fn ceiling_sections(
 ) {
     let mut depth = 0u32;
     let (mut start, mut site) = (0usize, None::<String>);
-    let mut i = 0usize;
-    for line in trace.lines() {
-        let Some(b) = line.find('[') else { continue };
-        let Some(pc) = line[b + 1..]
-            .split('/')
-            .nth(1)
-            .and_then(|h| u32::from_str_radix(h, 16).ok())
-        else {
-            continue;
-        };
-        let sym = line.rsplit("] ").next().unwrap_or("").trim();
-        i += 1;
+    for (i, pc, sym) in executed(trace) {
         if d.msr_basepri_max.contains(&pc) {
             if depth == 0 {
                 start = i;
