@@ -22,6 +22,11 @@ mod sealed {
 /// Sealed: rtseq's own implementations are the only ones, because the sequencer's soundness
 /// rests on them.
 pub trait Lock: sealed::Sealed {
+    /// True when a section holds off only the sequencer's own users (not every interrupt),
+    /// so the tick may do a whole pass in one section instead of one per sequence.
+    #[doc(hidden)]
+    const COARSE: bool;
+
     /// Runs `f` with every other context that uses the sequencer kept out.
     #[doc(hidden)]
     fn lock<R>(f: impl FnOnce() -> R) -> R;
@@ -39,6 +44,8 @@ pub struct CriticalSection;
 impl sealed::Sealed for CriticalSection {}
 
 impl Lock for CriticalSection {
+    const COARSE: bool = false;
+
     #[inline]
     fn lock<R>(f: impl FnOnce() -> R) -> R {
         critical_section::with(|_| f())
@@ -60,6 +67,8 @@ impl<const BASEPRI: u8> sealed::Sealed for PriorityCeiling<BASEPRI> {}
 
 #[cfg(feature = "cortex-m")]
 impl<const BASEPRI: u8> Lock for PriorityCeiling<BASEPRI> {
+    const COARSE: bool = true;
+
     #[inline]
     fn lock<R>(f: impl FnOnce() -> R) -> R {
         let old = cortex_m::register::basepri::read();

@@ -1,5 +1,7 @@
 //! Monitors: a condition, an optional exception sequence and a behaviour (seed §1.7).
 
+use core::marker::PhantomData;
+
 use crate::{Condition, Error, MonitorId, SeqId};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
@@ -103,25 +105,68 @@ pub const DEFAULT_RESTART_LIMIT: u8 = 3;
 ///     )
 ///     .unwrap();
 /// ```
-pub struct Monitor<'a, C> {
+pub struct Monitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) name: &'static str,
-    pub(crate) condition: &'a mut (dyn Condition<C> + Send),
+    pub(crate) condition: K,
+    _borrow: PhantomData<Borrows<'a, C>>,
     pub(crate) behaviour: Behaviour,
     pub(crate) exception: Option<SeqId>,
     pub(crate) trigger: Trigger,
     pub(crate) restart_limit: u8,
 }
 
+/// What a monitor definition borrows: the lifetime of a `dyn` condition, the control type.
+type Borrows<'a, C> = (&'a (), fn(&C));
+
+/// The default condition holder of a monitor table: any condition, behind a `dyn` call.
+pub type DynCondition<'a, C> = &'a mut (dyn Condition<C> + Send);
+
+impl<'a, C> Condition<C> for &'a mut (dyn Condition<C> + Send + 'a) {
+    #[inline]
+    fn validate(&mut self, control: &C, now: crate::Instant) -> bool {
+        (**self).validate(control, now)
+    }
+}
+
 impl<'a, C> Monitor<'a, C> {
-    /// A rising-edge monitor with no exception sequence and the default restart limit.
+    /// A rising-edge monitor with no exception sequence and the default restart limit, in a
+    /// table of `dyn` conditions (the default [`Monitors`]).
     pub fn new(
         name: &'static str,
         condition: &'a mut (dyn Condition<C> + Send),
         behaviour: Behaviour,
     ) -> Self {
+        Monitor::with_condition(name, condition, behaviour)
+    }
+}
+
+impl<'a, C, K> Monitor<'a, C, K> {
+    /// Like [`new`](Monitor::new), for a table whose conditions all have the type `K` (e.g.
+    /// an enum of the application's conditions): the tick then calls them without a `dyn`
+    /// call, and a simple condition inlines into its loop.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Condition, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+    /// #[derive(Clone, Copy)]
+    /// enum Fault { OverCurrent, EndStop }
+    /// struct Drive { current: f32, end_stop: bool }
+    /// impl Condition<Drive> for Fault {
+    ///     fn validate(&mut self, d: &Drive, _: Instant) -> bool {
+    ///         match self { Fault::OverCurrent => d.current > 5.0, Fault::EndStop => d.end_stop }
+    ///     }
+    /// }
+    /// let seq: Sequencer<Drive, 4> = Sequencer::new();
+    /// let moving = seq.register(SeqConfig::new("move")).unwrap();
+    /// let mut monitors: Monitors<Drive, 2, Fault> = Monitors::new();
+    /// monitors
+    ///     .add(moving, Monitor::with_condition("end stop", Fault::EndStop, Behaviour::AbortOwner))
+    ///     .unwrap();
+    /// ```
+    pub fn with_condition(name: &'static str, condition: K, behaviour: Behaviour) -> Self {
         Monitor {
             name,
             condition,
+            _borrow: PhantomData,
             behaviour,
             exception: None,
             trigger: Trigger::RisingEdge,
@@ -150,8 +195,8 @@ impl<'a, C> Monitor<'a, C> {
 }
 
 /// A registered monitor plus the bookkeeping the tick keeps for it.
-pub(crate) struct Entry<'a, C> {
-    pub(crate) def: Monitor<'a, C>,
+pub(crate) struct Entry<'a, C, K> {
+    pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
     /// Position in the table (its `MonitorId`).
     pub(crate) index: u8,
@@ -171,18 +216,20 @@ pub(crate) struct Entry<'a, C> {
 ///
 /// Conditions keep state and are evaluated only by the tick, so this table is not shared:
 /// in RTIC it is a `local` resource of the timer task (hence conditions are `Send`: `init`
-/// hands the table over). `M` is the capacity.
-pub struct Monitors<'a, C, const M: usize> {
-    pub(crate) entries: heapless::Vec<Entry<'a, C>, M>,
+/// hands the table over). `M` is the capacity. `K` is the condition holder: by default
+/// `&mut dyn Condition` (any mix of conditions); a single type such as an enum of the
+/// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]).
+pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
+    pub(crate) entries: heapless::Vec<Entry<'a, C, K>, M>,
 }
 
-impl<C, const M: usize> Default for Monitors<'_, C, M> {
+impl<C, const M: usize, K> Default for Monitors<'_, C, M, K> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<'a, C, const M: usize> Monitors<'a, C, M> {
+impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// An empty table.
     pub const fn new() -> Self {
         const { assert!(M <= 256, "at most 256 monitors") };
@@ -192,7 +239,7 @@ impl<'a, C, const M: usize> Monitors<'a, C, M> {
     }
 
     /// Adds a monitor owned by `owner`. Errors on an empty name or a full table.
-    pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C>) -> Result<MonitorId, Error> {
+    pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C, K>) -> Result<MonitorId, Error> {
         if monitor.name.is_empty() {
             return Err(Error::EmptyName);
         }

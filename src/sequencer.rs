@@ -446,6 +446,45 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
         Ok(())
     }
 
+    /// The scan of one control block at `now` (see `Sequencer::tick`): marks it due,
+    /// advances its polling schedule, notes a due exit-condition poll and an expired
+    /// timeout. Returns, for an active sequence, the absolute time of its next poll and
+    /// whether it is paused or handling an exception.
+    #[inline]
+    pub(crate) fn scan_one(
+        &mut self,
+        i: usize,
+        now: u64,
+        d: &mut crate::tick::Due,
+    ) -> Option<(u64, bool)> {
+        use crate::control_block::{absolute, after, reached};
+        let b = self.blocks.get_mut(i)?;
+        let running = b.state == RunningState::Running;
+        if !running && b.state != RunningState::Paused {
+            return None;
+        }
+        if reached(now, b.next_poll) {
+            d.due = true;
+            d.epoch = b.epoch();
+            b.next_poll = b.next_poll.wrapping_add(b.polling);
+            if reached(now, b.next_poll) {
+                // Missed periods (a late tick) are not replayed.
+                b.next_poll = after(now, b.polling);
+            }
+            if running {
+                d.expired = b.has(flag::TIMEOUT_ARMED) && reached(now, b.deadline);
+                if b.has(flag::POLL_WAIT) {
+                    b.set(flag::POLL_DUE, true);
+                    d.wake = true;
+                }
+            }
+        }
+        Some((
+            absolute(now, b.next_poll),
+            !running || b.has(flag::EXCEPTION_ACTIVE),
+        ))
+    }
+
     /// Wakes the lane that drives `id`.
     pub(crate) fn wake(&self, id: SeqId) {
         if let Ok(b) = self.block(id) {

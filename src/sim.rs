@@ -72,10 +72,17 @@ type BeforeTick<'a, C> = Box<dyn FnMut(Instant, &C) + 'a>;
 ///     Transition::at_millis(3, m, Running, Terminated, Cause::Completed),
 /// ]);
 /// ```
-pub struct Sim<'a, C, const N: usize, const T: usize, const M: usize> {
+pub struct Sim<
+    'a,
+    C,
+    const N: usize,
+    const T: usize,
+    const M: usize,
+    K = crate::DynCondition<'a, C>,
+> {
     sequencer: &'a Sequencer<C, N, T>,
     control: &'a C,
-    monitors: Monitors<'a, C, M>,
+    monitors: Monitors<'a, C, M, K>,
     lanes: Vec<SimLane<'a>>,
     period: Duration,
     now: Instant,
@@ -85,12 +92,14 @@ pub struct Sim<'a, C, const N: usize, const T: usize, const M: usize> {
     before_tick: Option<BeforeTick<'a, C>>,
 }
 
-impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> {
+impl<'a, C, const N: usize, const T: usize, const M: usize, K: crate::Condition<C>>
+    Sim<'a, C, N, T, M, K>
+{
     /// A simulation at time 0 with a 1 ms (1 kHz) tick.
     pub fn new(
         sequencer: &'a Sequencer<C, N, T>,
         control: &'a C,
-        monitors: Monitors<'a, C, M>,
+        monitors: Monitors<'a, C, M, K>,
     ) -> Self {
         Sim {
             sequencer,
@@ -267,7 +276,7 @@ impl<'a, C, const N: usize, const T: usize, const M: usize> Sim<'a, C, N, T, M> 
     }
 
     /// The monitor table (e.g. to read how often a monitor fired).
-    pub fn monitors(&self) -> &Monitors<'a, C, M> {
+    pub fn monitors(&self) -> &Monitors<'a, C, M, K> {
         &self.monitors
     }
 

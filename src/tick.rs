@@ -5,9 +5,10 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{absolute, after, flag, reached, request};
+use crate::control_block::{after, flag, request};
 use crate::lock::Lock;
 use crate::monitor::Entry;
+use crate::sequencer::Inner;
 use crate::sequencer::{Gate, Mode};
 use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
@@ -16,13 +17,13 @@ const DEPTH_LIMIT: u8 = MAX_DEPTH as u8 + 1;
 
 /// What the due scan saw of one sequence.
 #[derive(Clone, Copy, Default)]
-struct Due {
-    due: bool,
+pub(crate) struct Due {
+    pub(crate) due: bool,
     /// The timeout deadline has passed (checked after the monitors).
-    expired: bool,
+    pub(crate) expired: bool,
     /// A polled condition is due: wake the lane (after the monitors).
-    wake: bool,
-    epoch: u16,
+    pub(crate) wake: bool,
+    pub(crate) epoch: u16,
 }
 
 /// Restart bookkeeping of one monitor (or timeout monitor).
@@ -46,11 +47,11 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
     /// seq.tick(Instant::from_ticks(1_000), &(), &mut monitors);
     /// assert_eq!(seq.now().as_ticks(), 1_000);
     /// ```
-    pub fn tick<const M: usize>(
+    pub fn tick<const M: usize, K: crate::Condition<C>>(
         &self,
         now: Instant,
         control: &C,
-        monitors: &mut Monitors<'_, C, M>,
+        monitors: &mut Monitors<'_, C, M, K>,
     ) {
         let now_us = now.as_ticks();
         let abort_all = self.take_abort_all();
@@ -92,67 +93,80 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
         for (i, d) in due.iter().enumerate() {
-            let Ok(id) = u8::try_from(i).map(SeqId) else {
-                break;
-            };
             if d.expired {
-                self.timeout(id, control);
-            }
-            if d.wake {
-                // A sequence that is held, or frozen by a caller it blocks (paused, or
-                // holding for an exception), cannot act: its lane is woken when it may.
-                // Nothing can be held unless something is paused or handling an exception.
-                self.with(|s| {
-                    if !any_held || (s.gate(id) == Gate::Go && !s.blocked_by_held_caller(id)) {
-                        s.wake(id);
-                    }
-                });
+                if let Ok(id) = u8::try_from(i).map(SeqId) {
+                    self.timeout(id, control);
+                    any_held = true;
+                }
             }
         }
+        self.wake_due(&due, any_held);
     }
 
-    /// Marks due sequences, advances their polling schedule, wakes lanes whose polled
-    /// condition is due, notes expired timeouts and recomputes `next_due`; one short
-    /// critical section per registered sequence. Returns whether any sequence is paused or
-    /// handling an exception (only then can a sequence be frozen by a held caller).
+    /// Marks due sequences, advances their polling schedule, notes due exit-condition
+    /// polls and expired timeouts, and recomputes `next_due`: one short section per
+    /// registered sequence, or one for all with a coarse lock. Returns whether any sequence
+    /// is paused or handling an exception (only then can a sequence be frozen by a held
+    /// caller).
     fn scan(&self, now: u64, due: &mut [Due; N]) -> bool {
-        let count = self.with(|s| usize::from(s.count));
-        let mut next_due = u64::MAX;
-        let mut any_held = false;
-        for (i, d) in due.iter_mut().enumerate().take(count) {
+        // (earliest next poll, anything held) folded over the active sequences.
+        let fold = |acc: (u64, bool), seen: Option<(u64, bool)>| match seen {
+            Some((next, held)) => (acc.0.min(next), acc.1 | held),
+            None => acc,
+        };
+        let (next_due, any_held) = if L::COARSE {
             self.with(|s| {
-                let Some(b) = s.blocks.get_mut(i) else { return };
-                let running = b.state == RunningState::Running;
-                if !running && b.state != RunningState::Paused {
-                    return;
-                }
-                any_held |= !running || b.has(flag::EXCEPTION_ACTIVE);
-                if reached(now, b.next_poll) {
-                    d.due = true;
-                    d.epoch = b.epoch();
-                    b.next_poll = b.next_poll.wrapping_add(b.polling);
-                    if reached(now, b.next_poll) {
-                        // Missed periods (a late tick) are not replayed.
-                        b.next_poll = after(now, b.polling);
-                    }
-                    if running {
-                        d.expired = b.has(flag::TIMEOUT_ARMED) && reached(now, b.deadline);
-                        if b.has(flag::POLL_WAIT) {
-                            b.set(flag::POLL_DUE, true);
-                            d.wake = true;
-                        }
-                    }
-                }
-                next_due = next_due.min(absolute(now, b.next_poll));
-            });
-        }
-        self.with(|s| s.next_due = next_due);
+                let count = usize::from(s.count);
+                let acc = due
+                    .iter_mut()
+                    .enumerate()
+                    .take(count)
+                    .fold((u64::MAX, false), |acc, (i, d)| {
+                        fold(acc, s.scan_one(i, now, d))
+                    });
+                s.next_due = acc.0;
+                acc
+            })
+        } else {
+            let count = self.with(|s| usize::from(s.count));
+            let acc = due
+                .iter_mut()
+                .enumerate()
+                .take(count)
+                .fold((u64::MAX, false), |acc, (i, d)| {
+                    fold(acc, self.with(|s| s.scan_one(i, now, d)))
+                });
+            self.with(|s| s.next_due = acc.0);
+            acc
+        };
+        let _ = next_due;
         any_held
+    }
+
+    /// Wakes the lanes whose polled condition is due, unless the sequence is held or frozen
+    /// by a caller it blocks (paused, or holding for an exception): such a lane is woken
+    /// when it may go on. Nothing can be held unless `any_held`.
+    fn wake_due(&self, due: &[Due; N], any_held: bool) {
+        let one = |s: &mut Inner<C, N, T>, id: SeqId| {
+            if !any_held || (s.gate(id) == Gate::Go && !s.blocked_by_held_caller(id)) {
+                s.wake(id);
+            }
+        };
+        let ids = due
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| d.wake)
+            .filter_map(|(i, _)| u8::try_from(i).ok().map(SeqId));
+        if L::COARSE {
+            self.with(|s| ids.for_each(|id| one(s, id)));
+        } else {
+            ids.for_each(|id| self.with(|s| one(s, id)));
+        }
     }
 
     /// A monitor triggered: raise its exception (out of the hot loop).
     #[inline(never)]
-    fn fire(&self, entry: &mut Entry<'_, C>, control: &C) {
+    fn fire<K>(&self, entry: &mut Entry<'_, C, K>, control: &C) {
         let mut book = RestartBook {
             restarts: entry.restarts,
             runs_seen: entry.target_runs_seen,

@@ -704,14 +704,18 @@ fn longest_critical_section_inside_rtseq() {
         50,
         400,
     );
+    // Sections the tick itself runs (inlined into its TIM2 handler) are taken at the
+    // ceiling priority the tick already has: they hold off nothing. Those of the lanes
+    // (lower priority) delay the tick: that is the figure.
     let mut by_len: Vec<_> = ceilings.iter().collect();
     by_len.sort_by(|a, b| b.1.cmp(a.1));
-    for (site, len) in by_len.iter().take(8) {
+    for (site, len) in by_len.iter().take(10) {
         eprintln!("figure: priority-ceiling section {len:>4} instructions at {site}");
     }
+    by_len.retain(|(site, _)| !site.ends_with("(in TIM2)"));
     let cmax = by_len.first().map_or(0, |(_, &l)| l);
     eprintln!(
-        "figure: longest priority-ceiling section inside rtseq (holds off the tick only): {cmax} instructions"
+        "figure: longest priority-ceiling section inside rtseq outside the tick (holds off the tick only): {cmax} instructions"
     );
     assert!(
         cmax > 0,

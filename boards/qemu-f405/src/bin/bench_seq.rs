@@ -101,6 +101,21 @@ mod app {
     #[cfg(feature = "critical-section-lock")]
     type Lk = rtseq::lock::CriticalSection;
     type Seqr<const N: usize> = Sequencer<Ctrl, N, 64, Lk>;
+
+    /// The condition holder of the measured monitor tables: `FlagCond` itself (static
+    /// dispatch, the condition inlines into the tick), or with the board feature
+    /// `dyn-conditions` the default `&mut dyn Condition`.
+    #[cfg(not(feature = "dyn-conditions"))]
+    type Cond = FlagCond;
+    #[cfg(feature = "dyn-conditions")]
+    type Cond = rtseq::DynCondition<'static, Ctrl>;
+
+    /// A monitor that never fires.
+    fn quiet(c: &'static mut FlagCond) -> Monitor<'static, Ctrl, Cond> {
+        #[cfg(not(feature = "dyn-conditions"))]
+        let c = *c;
+        Monitor::with_condition("quiet", c, Behaviour::AbortOwner)
+    }
     #[cfg(not(feature = "critical-section-lock"))]
     macro_rules! sequencer {
         // SAFETY: every user of these sequencers runs at RTIC priority 2 (the tick) or
@@ -135,8 +150,8 @@ mod app {
     #[local]
     struct Local {
         timer: TickTimer,
-        m1: Monitors<'static, Ctrl, 4>,
-        m8: Monitors<'static, Ctrl, 32>,
+        m1: Monitors<'static, Ctrl, 4, Cond>,
+        m8: Monitors<'static, Ctrl, 32, Cond>,
         mf: Monitors<'static, Ctrl, 1>,
         me: Monitors<'static, Ctrl, 1>,
         one: Seq<Root>,
@@ -162,7 +177,7 @@ mod app {
             let one = SEQ1.add(SeqConfig::new("one"), waiting())?;
             let mut m1 = Monitors::new();
             for c in cx.local.c1.iter_mut() {
-                m1.add(one.id(), Monitor::new("quiet", c, Behaviour::AbortOwner))?;
+                m1.add(one.id(), quiet(c))?;
             }
             const NAMES: [&str; 8] = ["s0", "s1", "s2", "s3", "s4", "s5", "s6", "s7"];
             let mut m8 = Monitors::new();
@@ -171,7 +186,7 @@ mod app {
             for (slot, name) in eight.iter_mut().zip(NAMES) {
                 let s = SEQ8.add(SeqConfig::new(name).polling(two), waiting())?;
                 for c in conds.by_ref().take(4) {
-                    m8.add(s.id(), Monitor::new("quiet", c, Behaviour::AbortOwner))?;
+                    m8.add(s.id(), quiet(c))?;
                 }
                 *slot = Some(s);
             }
@@ -253,6 +268,14 @@ mod app {
                 "critical sections (critical-section crate)"
             } else {
                 "RTIC priority ceiling (BASEPRI)"
+            }
+        );
+        defmt::info!(
+            "bench_seq: conditions = {=str}",
+            if cfg!(feature = "dyn-conditions") {
+                "&mut dyn Condition (default table)"
+            } else {
+                "one condition type (static dispatch)"
             }
         );
         defmt::info!(
