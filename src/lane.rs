@@ -33,7 +33,7 @@ use crate::{Seq, Sequence, Sequencer};
 /// }
 /// ```
 ///
-/// On the host, [`Sim::lane`](crate::sim::Sim::lane) does the same.
+/// On the host, `sim::Sim::lane` (feature `std`) does the same.
 pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize, L: Lock>(
     sequencer: &Sequencer<C, N, T, L>,
     control: &C,

@@ -13,7 +13,7 @@
 //! * the heartbeat [`Sequencer::tick`], called from a periodic timer interrupt, evaluates
 //!   monitors and timeouts at each sequence's polling period and wakes exactly the lanes
 //!   that must act;
-//! * the [`sim`] module (feature `std`) runs the same code on the host in simulated time.
+//! * the `sim` module (feature `std`) runs the same code on the host in simulated time.
 //!
 //! See the README for the mapping of every term of the specification to rtseq.
 #![no_std]

@@ -5,13 +5,12 @@
 //! * [`CriticalSection`] (the default, [`Sequencer::new`]): the `critical-section` crate —
 //!   interrupts masked on a single-core MCU, a global mutex on the host. Portable, but every
 //!   section also delays interrupts that never touch the sequencer (e.g. the safety task).
-//! * [`PriorityCeiling`] (feature `cortex-m`, [`Sequencer::with_priority_ceiling`]): RTIC's
+//! * `PriorityCeiling` (feature `cortex-m`, `Sequencer::with_priority_ceiling`): RTIC's
 //!   Stack Resource Policy. A section raises BASEPRI to the ceiling (the priority of the
 //!   tick), so lanes and the tick exclude each other while every higher-priority interrupt —
 //!   the safety task first — runs at once: rtseq then masks no interrupt globally.
 //!
 //! [`Sequencer::new`]: crate::Sequencer::new
-//! [`Sequencer::with_priority_ceiling`]: crate::Sequencer::with_priority_ceiling
 
 mod sealed {
     pub trait Sealed {}

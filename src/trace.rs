@@ -6,7 +6,7 @@ use crate::{Cause, Instant, RunningState, SeqId};
 ///
 /// The sequencer keeps the most recent records in a bounded buffer; drain it with
 /// [`Sequencer::drain_trace`](crate::Sequencer::drain_trace). The host
-/// [`Sim`](crate::sim::Sim) collects them all.
+/// `Sim` (feature `std`) collects them all.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Transition {

@@ -476,7 +476,7 @@ pub struct App {
     pub ids: Ids,
 }
 
-/// One lane of an [`App`] (for the host simulator: [`AppLane::add_to`]).
+/// One lane of an [`App`] (for the host simulator: `AppLane::add_to`, feature `std`).
 pub enum AppLane {
     /// Main.
     Main(Seq<Main>),

@@ -7,7 +7,7 @@
 //!
 //! * the **control interrupt**, which calls [`ControlSystem::inject`] and
 //!   [`ControlSystem::control_step`] every control period (in the host simulator: the
-//!   [`Sim::before_tick`](rtseq::sim::Sim::before_tick) hook), followed by the sequencer's
+//!   `Sim::before_tick` hook), followed by the sequencer's
 //!   `tick`;
 //! * the **safety task**, which reads the critical inputs and drives the critical outputs
 //!   ([`crate::safety`]);

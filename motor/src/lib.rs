@@ -1,7 +1,7 @@
 //! # rtseq-motor — the motor-controller application of rtseq
 //!
 //! The application logic of rtseq's motor-controller demo as a reusable `no_std`, heap-free
-//! crate: the same code runs in the host simulator ([`rtseq::sim`], feature `std`) and in
+//! crate: the same code runs in the host simulator (`rtseq::sim`, feature `std`) and in
 //! the QEMU / STM32 firmware.
 //!
 //! | module | concept |

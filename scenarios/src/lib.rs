@@ -4,7 +4,7 @@
 //! plain data: `no_std`, no heap, no recursion, no `async fn` (so a firmware running them
 //! passes the board's no-panic proof). The same [`Scenario`] runs
 //!
-//! * on the host in [`rtseq::sim::Sim`] ([`host::run`], feature `std`), and
+//! * on the host in `rtseq::sim::Sim` (`host::run`, feature `std`), and
 //! * under RTIC on the emulated STM32F405 (`boards/qemu-f405/src/bin/scenarios.rs`),
 //!
 //! and `tests/qemu_scenarios.rs` asserts that both produce the same transition trace.

@@ -64,7 +64,7 @@ pub const MAX_OPS: usize = 4;
 /// `u32::MAX` at the end) and each outcome in the [`Ctrl`] digest.
 ///
 /// The ops are fixed: up to two [`Leaf`] steps, one [`Wait`] step, one blocking child of
-/// type `Child`, any number of non-blocking starts and one join, at most [`MAX_OPS`] in all.
+/// type `Child`, any number of non-blocking starts and one join, at most `MAX_OPS` (4) in all.
 /// Nesting the type gives the depth of the tree ([`N0`] … [`N4`]), so there is neither heap
 /// nor recursion.
 pub struct Node<Child> {
