@@ -13,6 +13,49 @@ use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
 /// What a running sequence or step sees: its id, the time, typed access to the control
 /// system, and the sequencer (start, join and inspect other sequences).
+///
+/// A main sequence that starts a status blinker non-blocking, runs a move blocking, and
+/// waits for the blinker:
+///
+/// ```
+/// use core::cell::Cell;
+/// use rtseq::sim::Sim;
+/// use rtseq::{Cx, Duration, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Wait};
+/// #[derive(Default)]
+/// struct Ctrl { blinks: Cell<u32> }
+/// struct Blink { dwell: Seq<Wait> }
+/// impl Sequence<Ctrl> for Blink {
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+///         for _ in 0..3 {
+///             let _ = cx.step(&mut self.dwell).await;
+///             cx.control().blinks.set(cx.control().blinks.get() + 1);
+///         }
+///     }
+/// }
+/// struct Main { blink: SeqId, dwell: Seq<Wait> }
+/// impl Sequence<Ctrl> for Main {
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+///         cx.start(self.blink).unwrap();                          // non-blocking
+///         assert_eq!(cx.step(&mut self.dwell).await, Ok(Outcome::Completed)); // blocking
+///         assert_eq!(cx.join(self.blink).await, Ok(Outcome::Completed));
+///         assert_eq!(cx.sequence_by_id(self.blink).unwrap().caller(), Some(cx.id()));
+///     }
+/// }
+/// let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+/// let ms = |n| Wait::new(Duration::from_millis(n));
+/// let blink = seq
+///     .add(SeqConfig::new("blink"), Blink { dwell: seq.add(SeqConfig::new("on/off"), ms(10)).unwrap() })
+///     .unwrap();
+/// let main = Main { blink: blink.id(), dwell: seq.add(SeqConfig::new("dwell"), ms(5)).unwrap() };
+/// let main = seq.add(SeqConfig::new("main"), main).unwrap();
+/// let (ctrl, id) = (Ctrl::default(), main.id());
+/// let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+/// sim.lane(main);
+/// sim.lane(blink);
+/// sim.start(id).unwrap();
+/// assert_eq!(sim.run_until_idle(Duration::from_millis(100)).map(|t| t.as_ticks()), Some(30_000));
+/// assert_eq!(ctrl.blinks.get(), 3);
+/// ```
 pub struct Cx<'a, C> {
     engine: &'a dyn Engine<C>,
     control: &'a C,

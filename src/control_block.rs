@@ -5,6 +5,14 @@ use crate::{Behaviour, Cause, Outcome, RunningState, SeqId, MAX_DEPTH};
 use core::task::Waker;
 
 /// How often a sequence did what. Counters wrap at `u16::MAX`.
+///
+/// ```
+/// use rtseq::{SeqConfig, Sequencer};
+/// let seq: Sequencer<(), 1> = Sequencer::new();
+/// let id = seq.register(SeqConfig::new("a")).unwrap();
+/// let c = seq.sequence_by_id(id).unwrap().counters();
+/// assert_eq!((c.runs, c.aborts, c.restarts, c.exceptions), (0, 0, 0, 0));
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Counters {

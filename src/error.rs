@@ -3,6 +3,15 @@
 use crate::SeqId;
 
 /// Everything that can go wrong when configuring or commanding the sequencer.
+///
+/// ```
+/// use rtseq::{Error, SeqConfig, Sequencer};
+/// let seq: Sequencer<(), 1> = Sequencer::new();
+/// seq.register(SeqConfig::new("a")).unwrap();
+/// let e = seq.register(SeqConfig::new("b")).unwrap_err();
+/// assert_eq!(e, Error::SequenceCapacityExceeded);
+/// assert_eq!(e.to_string(), "sequence capacity exceeded");
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error {

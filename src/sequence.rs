@@ -119,6 +119,14 @@ pub trait Step<C> {
 ///
 /// Created by [`Sequencer::add`](crate::Sequencer::add) or
 /// [`Sequencer::bind`](crate::Sequencer::bind), once per id.
+///
+/// ```
+/// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let mut dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5))).unwrap();
+/// dwell.body_mut().set_duration(Duration::from_millis(8)); // configure before the next run
+/// assert_eq!(seq.sequence_by_id(dwell.id()).unwrap().name(), "dwell");
+/// ```
 pub struct Seq<S> {
     pub(crate) id: SeqId,
     pub(crate) body: S,
