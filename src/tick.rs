@@ -114,33 +114,31 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
             Some((next, held)) => (acc.0.min(next), acc.1 | held),
             None => acc,
         };
-        let (next_due, any_held) = if L::COARSE {
+        if L::COARSE {
             self.with(|s| {
                 let count = usize::from(s.count);
-                let acc = due
+                let (next_due, any_held) = due
                     .iter_mut()
                     .enumerate()
                     .take(count)
                     .fold((u64::MAX, false), |acc, (i, d)| {
                         fold(acc, s.scan_one(i, now, d))
                     });
-                s.next_due = acc.0;
-                acc
+                s.next_due = next_due;
+                any_held
             })
         } else {
             let count = self.with(|s| usize::from(s.count));
-            let acc = due
+            let (next_due, any_held) = due
                 .iter_mut()
                 .enumerate()
                 .take(count)
                 .fold((u64::MAX, false), |acc, (i, d)| {
                     fold(acc, self.with(|s| s.scan_one(i, now, d)))
                 });
-            self.with(|s| s.next_due = acc.0);
-            acc
-        };
-        let _ = next_due;
-        any_held
+            self.with(|s| s.next_due = next_due);
+            any_held
+        }
     }
 
     /// Wakes the lanes whose polled condition is due, unless the sequence is held or frozen
@@ -374,18 +372,15 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
     /// Aborts every active sequence, innermost first.
     #[inline(never)]
     fn apply_abort_all(&self, control: &C) {
-        {
-            let count = self.with(|s| s.count);
-            for depth in (0..=MAX_DEPTH as u8).rev() {
-                for i in 0..count {
-                    let id = SeqId(i);
-                    let hit = self.with(|s| {
-                        s.block(id)
-                            .is_ok_and(|b| b.depth == depth && b.state.is_active())
-                    });
-                    if hit {
-                        self.stop(control, id, Cause::AbortAll, RunningState::Aborting);
-                    }
+        let count = self.with(|s| s.count);
+        for depth in (0..=MAX_DEPTH as u8).rev() {
+            for id in (0..count).map(SeqId) {
+                let hit = self.with(|s| {
+                    s.block(id)
+                        .is_ok_and(|b| b.depth == depth && b.state.is_active())
+                });
+                if hit {
+                    self.stop(control, id, Cause::AbortAll, RunningState::Aborting);
                 }
             }
         }
