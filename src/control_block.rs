@@ -1,10 +1,12 @@
 //! The framework-owned control block of one registered sequence (the seed's `BaseSequence`
-//! fields), plus its counters.
+//! fields), plus its optional counters.
 
-use crate::{Behaviour, Cause, Outcome, RunningState, SeqId, MAX_DEPTH};
-use core::task::Waker;
+#[cfg(doc)]
+use crate::MAX_DEPTH;
+use crate::{Behaviour, Cause, Outcome, RunningState, SeqId};
 
-/// How often a sequence did what. Counters wrap at `u16::MAX`.
+/// How often a sequence did what (feature `counters`: 12 bytes per sequence). Counters wrap
+/// at `u16::MAX`.
 ///
 /// ```
 /// use rtseq::{SeqConfig, Sequencer};
@@ -13,6 +15,7 @@ use core::task::Waker;
 /// let c = seq.sequence_by_id(id).unwrap().counters();
 /// assert_eq!((c.runs, c.aborts, c.restarts, c.exceptions), (0, 0, 0, 0));
 /// ```
+#[cfg(feature = "counters")]
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Counters {
@@ -30,32 +33,90 @@ pub struct Counters {
     pub exceptions: u16,
 }
 
+#[cfg(feature = "counters")]
+impl Counters {
+    pub(crate) const ZERO: Counters = Counters {
+        runs: 0,
+        completed: 0,
+        skipped: 0,
+        aborts: 0,
+        restarts: 0,
+        exceptions: 0,
+    };
+
+    /// Counts one transition.
+    pub(crate) fn count(&mut self, from: RunningState, to: RunningState, cause: Cause) {
+        let c = match to {
+            RunningState::Aborted => &mut self.aborts,
+            RunningState::Restarting => &mut self.restarts,
+            RunningState::Terminated if cause == Cause::PreConditionFalse => &mut self.skipped,
+            RunningState::Terminated => &mut self.completed,
+            RunningState::Running if from != RunningState::Paused && cause != Cause::Restart => {
+                &mut self.runs
+            }
+            _ => return,
+        };
+        *c = c.wrapping_add(1);
+    }
+}
+
 /// Flag bits of [`ControlBlock::flags`].
 pub(crate) mod flag {
     /// A lane runs this sequence non-blocking.
-    pub const HAS_LANE: u8 = 1 << 0;
+    pub const HAS_LANE: u16 = 1 << 0;
     /// A non-blocking start waits for the lane to pick it up.
-    pub const START_PENDING: u8 = 1 << 1;
+    pub const START_PENDING: u16 = 1 << 1;
     /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
-    pub const POLL_WAIT: u8 = 1 << 2;
+    pub const POLL_WAIT: u16 = 1 << 2;
     /// The tick says the exit condition is due.
-    pub const POLL_DUE: u8 = 1 << 3;
+    pub const POLL_DUE: u16 = 1 << 3;
     /// `exceptionIsActive`: a monitor of this sequence fired and its handling is pending, or
     /// this sequence was aborted because of it.
-    pub const EXCEPTION_ACTIVE: u8 = 1 << 4;
+    pub const EXCEPTION_ACTIVE: u16 = 1 << 4;
     /// The exception sequence ended; the tick applies the pending behaviour.
-    pub const EXCEPTION_DONE: u8 = 1 << 5;
+    pub const EXCEPTION_DONE: u16 = 1 << 5;
     /// A [`Seq`](crate::Seq) object was bound to this id.
-    pub const BOUND: u8 = 1 << 6;
+    pub const BOUND: u16 = 1 << 6;
     /// The timeout monitor is armed (`deadline` is meaningful).
-    pub const TIMEOUT_ARMED: u8 = 1 << 7;
+    pub const TIMEOUT_ARMED: u16 = 1 << 7;
+    /// A new run or restart began: the tick resets the edge detection of this sequence's
+    /// monitors before their next evaluation.
+    pub const FRESH: u16 = 1 << 8;
+    /// This run is an exception sequence: its caller is the owner whose exception it
+    /// handles, and its end is reported to the tick.
+    pub const HANDLES_EXCEPTION: u16 = 1 << 9;
 }
 
-/// Request bits of [`ControlBlock::requests`], applied by the next tick.
+/// Request bits of [`ControlBlock::flags`], applied by the next tick.
 pub(crate) mod request {
-    pub const ABORT: u8 = 1 << 0;
-    pub const PAUSE: u8 = 1 << 1;
-    pub const RESUME: u8 = 1 << 2;
+    pub const ABORT: u16 = 1 << 10;
+    pub const PAUSE: u16 = 1 << 11;
+    pub const RESUME: u16 = 1 << 12;
+    /// All request bits.
+    pub const ALL: u16 = ABORT | PAUSE | RESUME;
+}
+
+/// The behaviour waiting for the end of an exception sequence, in the top three bits of
+/// [`ControlBlock::flags`] (0 = none).
+mod pending {
+    pub const SHIFT: u32 = 13;
+    pub const MASK: u16 = 0b111 << SHIFT;
+}
+
+/// A 1-byte optional sequence id (`SeqId` values stop at 254).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct Link(u8);
+
+impl Link {
+    pub(crate) const NONE: Link = Link(u8::MAX);
+
+    pub(crate) fn to(id: Option<SeqId>) -> Link {
+        id.map_or(Link::NONE, |i| Link(i.0))
+    }
+
+    pub(crate) fn get(self) -> Option<SeqId> {
+        (self != Link::NONE).then_some(SeqId(self.0))
+    }
 }
 
 /// Times in a control block are the low 32 bits of sequencer microseconds, compared by
@@ -64,11 +125,11 @@ pub(crate) mod request {
 /// 32-bit core than `u64`.
 pub(crate) type Micros32 = u32;
 
-/// Whether `now` has reached `at` (wrapping comparison, see [`Micros32`]).
+/// Whether `now` (the low 32 bits of sequencer time) has reached `at` (wrapping
+/// comparison, see [`Micros32`]).
 #[inline]
-pub(crate) fn reached(now: u64, at: Micros32) -> bool {
-    // Truncation is the point: both sides are the low 32 bits.
-    (now as u32).wrapping_sub(at) < 0x8000_0000
+pub(crate) fn reached32(now: u32, at: Micros32) -> bool {
+    now.wrapping_sub(at) < 0x8000_0000
 }
 
 /// `now + d` in the low 32 bits.
@@ -77,100 +138,77 @@ pub(crate) fn after(now: u64, d: u32) -> Micros32 {
     (now as u32).wrapping_add(d)
 }
 
-/// The absolute time (full width) of `at`, a time not more than 2^31 µs after `now`.
-#[inline]
-pub(crate) fn absolute(now: u64, at: Micros32) -> u64 {
-    let ahead = at.wrapping_sub(now as u32);
-    if ahead >= 0x8000_0000 {
-        now
-    } else {
-        now.saturating_add(u64::from(ahead))
-    }
-}
-
-/// One registered sequence's state.
+/// One registered sequence's state: 44 bytes on a 32-bit target (with its cleanup-hook slot
+/// 48), so a sequencer for 32 sequences needs 1.5 KiB.
+///
+/// The caller stack is not stored: each block links to its caller, and the stack, its depth
+/// and its blocking part are walked from the links (at most [`MAX_DEPTH`] steps). Wakers
+/// live with the lanes, not here; counters only with the feature `counters`.
 pub(crate) struct ControlBlock {
     pub(crate) name: &'static str,
-    pub(crate) state: RunningState,
-    /// `callerStack`: ids of all callers up to the main sequence, outermost first.
-    pub(crate) stack: [u8; MAX_DEPTH],
-    pub(crate) depth: u8,
-    /// How many of the innermost callers this sequence blocks (`callerStackBlocking`).
-    pub(crate) blocking: u8,
-    /// The lane root whose waker drives this sequence.
-    pub(crate) root: u8,
-    pub(crate) flags: u8,
-    pub(crate) requests: u8,
     /// Polling period in µs.
     pub(crate) polling: u32,
     /// Timeout in µs, 0 = off.
     pub(crate) timeout: u32,
-    pub(crate) timeout_behaviour: Behaviour,
-    pub(crate) timeout_exception: Option<SeqId>,
-    pub(crate) timeout_restart_limit: u8,
-    pub(crate) timeout_restarts: u8,
-    pub(crate) timeout_runs_seen: u16,
     /// Next due poll (µs).
     pub(crate) next_poll: Micros32,
     /// Timeout deadline while running; the remaining time while paused; only meaningful
     /// with `flag::TIMEOUT_ARMED`.
     pub(crate) deadline: Micros32,
+    /// [`flag`]s, [`request`]s and the pending behaviour.
+    pub(crate) flags: u16,
+    /// Starts (not restarts): a new run resets the restart books of the monitors.
+    pub(crate) runs: u16,
+    pub(crate) timeout_runs_seen: u16,
     /// `activeException`: the monitor (or timeout) whose exception is active or was last.
     pub(crate) active_exception: Option<Cause>,
-    /// Behaviour and target waiting for this sequence's exception sequence to end.
-    pub(crate) pending: Option<(Behaviour, SeqId, Cause)>,
-    /// For a running exception sequence: the owner whose exception it handles.
-    pub(crate) exception_of: Option<SeqId>,
-    /// A sequence waiting in `join` for this one.
-    pub(crate) joiner: Option<SeqId>,
     /// Cause of the last abort or restart.
     pub(crate) last_cause: Cause,
     pub(crate) outcome: Option<Outcome>,
-    pub(crate) counters: Counters,
-    pub(crate) waker: Option<Waker>,
+    pub(crate) state: RunningState,
+    /// `callerSequence`.
+    pub(crate) caller: Link,
+    /// The lane slot whose waker drives this sequence.
+    pub(crate) lane: u8,
+    pub(crate) timeout_behaviour: Behaviour,
+    pub(crate) timeout_exception: Link,
+    pub(crate) timeout_restart_limit: u8,
+    pub(crate) timeout_restarts: u8,
+    /// A sequence waiting in `join` for this one.
+    pub(crate) joiner: Link,
 }
+
+/// No lane slot.
+pub(crate) const NO_LANE: u8 = u8::MAX;
 
 impl ControlBlock {
     pub(crate) const EMPTY: ControlBlock = ControlBlock {
         name: "",
-        state: RunningState::Idle,
-        stack: [0; MAX_DEPTH],
-        depth: 0,
-        blocking: 0,
-        root: 0,
-        flags: 0,
-        requests: 0,
         polling: crate::config::DEFAULT_POLLING_MICROS,
         timeout: 0,
-        timeout_behaviour: Behaviour::AbortOwner,
-        timeout_exception: None,
-        timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
-        timeout_restarts: 0,
-        timeout_runs_seen: 0,
         next_poll: 0,
         deadline: 0,
+        flags: 0,
+        runs: 0,
+        timeout_runs_seen: 0,
         active_exception: None,
-        pending: None,
-        exception_of: None,
-        joiner: None,
         last_cause: Cause::Start,
         outcome: None,
-        counters: Counters {
-            runs: 0,
-            completed: 0,
-            skipped: 0,
-            aborts: 0,
-            restarts: 0,
-            exceptions: 0,
-        },
-        waker: None,
+        state: RunningState::Idle,
+        caller: Link::NONE,
+        lane: NO_LANE,
+        timeout_behaviour: Behaviour::AbortOwner,
+        timeout_exception: Link::NONE,
+        timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
+        timeout_restarts: 0,
+        joiner: Link::NONE,
     };
 
-    pub(crate) fn has(&self, f: u8) -> bool {
+    pub(crate) fn has(&self, f: u16) -> bool {
         self.flags & f != 0
     }
 
-    pub(crate) fn set(&mut self, f: u8, on: bool) {
+    pub(crate) fn set(&mut self, f: u16, on: bool) {
         if on {
             self.flags |= f;
         } else {
@@ -178,36 +216,40 @@ impl ControlBlock {
         }
     }
 
-    /// The caller that started this sequence (`callerSequence`).
-    pub(crate) fn caller(&self) -> Option<SeqId> {
-        let d = usize::from(self.depth);
-        d.checked_sub(1)
-            .and_then(|i| self.stack.get(i))
-            .map(|&c| SeqId(c))
+    /// Takes the pending request bits.
+    pub(crate) fn take_requests(&mut self) -> u16 {
+        let r = self.flags & request::ALL;
+        self.flags &= !request::ALL;
+        r
     }
 
-    /// True when `ancestor` is in this sequence's caller stack.
-    pub(crate) fn descends_from(&self, ancestor: SeqId) -> bool {
-        self.stack
-            .iter()
-            .take(usize::from(self.depth))
-            .any(|&c| c == ancestor.0)
+    /// The behaviour waiting for this sequence's exception sequence to end.
+    pub(crate) fn pending(&self) -> Option<Behaviour> {
+        match (self.flags & pending::MASK) >> pending::SHIFT {
+            1 => Some(Behaviour::Nothing),
+            2 => Some(Behaviour::AbortOwner),
+            3 => Some(Behaviour::RestartOwner),
+            4 => Some(Behaviour::AbortCallerOfOwner),
+            5 => Some(Behaviour::RestartCallerOfOwner),
+            _ => None,
+        }
+    }
+
+    pub(crate) fn set_pending(&mut self, b: Option<Behaviour>) {
+        let code: u16 = match b {
+            None => 0,
+            Some(Behaviour::Nothing) => 1,
+            Some(Behaviour::AbortOwner) => 2,
+            Some(Behaviour::RestartOwner) => 3,
+            Some(Behaviour::AbortCallerOfOwner) => 4,
+            Some(Behaviour::RestartCallerOfOwner) => 5,
+        };
+        self.flags = (self.flags & !pending::MASK) | (code << pending::SHIFT);
     }
 
     /// Monitors and timeout of this sequence may raise an exception now.
     pub(crate) fn accepts_exception(&self) -> bool {
         matches!(self.state, RunningState::Running | RunningState::Paused)
             && !self.has(flag::EXCEPTION_ACTIVE)
-    }
-
-    /// Run epoch: changes on every start and restart (resets edge detection).
-    pub(crate) fn epoch(&self) -> u16 {
-        self.counters.runs.wrapping_add(self.counters.restarts)
-    }
-
-    pub(crate) fn wake(&self) {
-        if let Some(w) = &self.waker {
-            w.wake_by_ref();
-        }
     }
 }

@@ -3,10 +3,10 @@
 
 use core::task::{Poll, Waker};
 
-use crate::control_block::flag;
+use crate::control_block::{flag, Link};
 use crate::lock::Lock;
 use crate::sequencer::{Gate, Mode};
-use crate::{Cause, Counters, Error, Instant, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
+use crate::{Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// A consistent snapshot of one control block, for [`Handle`](crate::Handle).
 #[derive(Clone, Debug)]
@@ -17,7 +17,8 @@ pub(crate) struct Info {
     pub(crate) blocking: u8,
     pub(crate) exception_active: bool,
     pub(crate) active_exception: Option<Cause>,
-    pub(crate) counters: Counters,
+    #[cfg(feature = "counters")]
+    pub(crate) counters: crate::Counters,
     pub(crate) outcome: Option<Outcome>,
 }
 
@@ -36,13 +37,15 @@ pub(crate) trait Engine<C> {
     fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
-    fn request(&self, id: SeqId, bit: u8) -> Result<(), Error>;
+    fn request(&self, id: SeqId, bit: u16) -> Result<(), Error>;
     fn find(&self, name: &str) -> Option<SeqId>;
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
-impl<C, const N: usize, const T: usize, L: Lock> Engine<C> for Sequencer<C, N, T, L> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
+    for Sequencer<C, N, T, L, W>
+{
     fn now(&self) -> Instant {
         Sequencer::now(self)
     }
@@ -96,19 +99,21 @@ impl<C, const N: usize, const T: usize, L: Lock> Engine<C> for Sequencer<C, N, T
     }
 
     fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
-        self.with(|s| {
-            s.block_mut(id)?.set(flag::HAS_LANE, true);
-            Ok(())
-        })
+        self.with(|s| s.declare_lane(id))
     }
 
     fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
         self.with(|s| {
-            let Ok(b) = s.block_mut(id) else { return false };
-            match &b.waker {
-                Some(w) if w.will_wake(waker) => {}
-                _ => b.waker = Some(waker.clone()),
+            let Some(lane) = s.lane_slot_of(id) else {
+                return false;
+            };
+            if let Some(slot) = s.lanes.get_mut(usize::from(lane)) {
+                match &slot.waker {
+                    Some(w) if w.will_wake(waker) => {}
+                    _ => slot.waker = Some(waker.clone()),
+                }
             }
+            let Ok(b) = s.block_mut(id) else { return false };
             let pending = b.has(flag::START_PENDING);
             b.set(flag::START_PENDING, false);
             pending
@@ -129,7 +134,7 @@ impl<C, const N: usize, const T: usize, L: Lock> Engine<C> for Sequencer<C, N, T
                 }
                 // Running, or ended but its framework has not returned yet.
                 _ => {
-                    b.joiner = Some(joiner);
+                    b.joiner = Link::to(Some(joiner));
                     Poll::Pending
                 }
             }
@@ -142,22 +147,18 @@ impl<C, const N: usize, const T: usize, L: Lock> Engine<C> for Sequencer<C, N, T
             Some(Info {
                 name: b.name,
                 state: b.state,
-                stack: b
-                    .stack
-                    .iter()
-                    .take(usize::from(b.depth))
-                    .map(|&c| SeqId(c))
-                    .collect(),
-                blocking: b.blocking,
+                stack: s.caller_stack(id),
+                blocking: u8::try_from(s.blocking_callers(id).count()).unwrap_or(u8::MAX),
                 exception_active: b.has(flag::EXCEPTION_ACTIVE),
                 active_exception: b.active_exception,
-                counters: b.counters,
+                #[cfg(feature = "counters")]
+                counters: s.counters.get(id.index()).copied().unwrap_or_default(),
                 outcome: b.outcome,
             })
         })
     }
 
-    fn request(&self, id: SeqId, bit: u8) -> Result<(), Error> {
+    fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
         self.with(|s| s.request(id, bit))
     }
 

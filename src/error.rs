@@ -35,6 +35,8 @@ pub enum Error {
     CallerDepthExceeded(SeqId),
     /// A non-blocking start of a sequence that has no lane to run in.
     NoLane(SeqId),
+    /// All `W` lane slots of the sequencer are declared.
+    LaneCapacityExceeded(SeqId),
     /// A polling time or timeout of zero or longer than `u32::MAX` microseconds.
     DurationOutOfRange,
     /// A join on a sequence that was never started.
@@ -62,6 +64,9 @@ impl core::fmt::Display for Error {
                 )
             }
             Error::NoLane(id) => write!(f, "sequence {} has no lane", id.index()),
+            Error::LaneCapacityExceeded(id) => {
+                write!(f, "no lane slot left for sequence {}", id.index())
+            }
             Error::DurationOutOfRange => write!(f, "duration is zero or too long"),
             Error::NeverStarted(id) => write!(f, "sequence {} was never started", id.index()),
             Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),

@@ -3,7 +3,9 @@
 use crate::control_block::request;
 use crate::engine::Engine;
 use crate::sequencer::Mode;
-use crate::{Cause, Counters, Duration, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
+#[cfg(feature = "counters")]
+use crate::Counters;
+use crate::{Cause, Duration, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// A callers list (`callerStack` or `callerStackBlocking`), outermost first.
 pub type CallerStack = heapless::Vec<SeqId, MAX_DEPTH>;
@@ -31,8 +33,8 @@ pub struct Handle<'a, C> {
 }
 
 impl<'a, C> Handle<'a, C> {
-    pub(crate) fn new<const N: usize, const T: usize, L: crate::lock::Lock>(
-        seq: &'a Sequencer<C, N, T, L>,
+    pub(crate) fn new<const N: usize, const T: usize, L: crate::lock::Lock, const W: usize>(
+        seq: &'a Sequencer<C, N, T, L, W>,
         id: SeqId,
     ) -> Self {
         Handle { engine: seq, id }
@@ -99,7 +101,8 @@ impl<'a, C> Handle<'a, C> {
         self.engine.info(self.id).and_then(|i| i.active_exception)
     }
 
-    /// Runs, completions, skips, aborts, restarts, exceptions.
+    /// Runs, completions, skips, aborts, restarts, exceptions (feature `counters`).
+    #[cfg(feature = "counters")]
     pub fn counters(&self) -> Counters {
         self.engine
             .info(self.id)

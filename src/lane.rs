@@ -34,8 +34,8 @@ use crate::{Seq, Sequence, Sequencer};
 /// ```
 ///
 /// On the host, `sim::Sim::lane` (feature `std`) does the same.
-pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize, L: Lock>(
-    sequencer: &Sequencer<C, N, T, L>,
+pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, const W: usize>(
+    sequencer: &Sequencer<C, N, T, L, W>,
     control: &C,
     seq: &mut Seq<S>,
 ) -> Infallible {

@@ -43,6 +43,7 @@ mod state;
 pub(crate) mod tick;
 mod time;
 mod trace;
+mod tree;
 mod wait;
 
 pub mod safety;
@@ -52,6 +53,7 @@ pub mod sim;
 pub use condition::{Condition, Stable, Toggle};
 pub use config::SeqConfig;
 pub use context::Cx;
+#[cfg(feature = "counters")]
 pub use control_block::Counters;
 pub use error::Error;
 pub use handle::{CallerStack, Handle};

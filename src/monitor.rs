@@ -80,6 +80,17 @@ impl Trigger {
             Trigger::Level => value,
         }
     }
+
+    /// The trigger as a truth table: bit `2 * last + value` is set where it fires (the
+    /// tick's branch-free test).
+    pub(crate) const fn truth_table(self) -> u8 {
+        match self {
+            Trigger::RisingEdge => 0b0010,
+            Trigger::FallingEdge => 0b0100,
+            Trigger::Change => 0b0110,
+            Trigger::Level => 0b1010,
+        }
+    }
 }
 
 /// Default number of restarts a monitor may cause per run of its target before escalating.
@@ -198,12 +209,15 @@ impl<'a, C, K> Monitor<'a, C, K> {
 pub(crate) struct Entry<'a, C, K> {
     pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
-    /// Position in the table (its `MonitorId`).
+    /// Entries of the same owner from this one to the end of the owner's group (the table
+    /// is kept sorted by owner, so the tick checks each owner's due mark once per group).
+    pub(crate) rest: u8,
+    /// The trigger as a truth table: bit `2 * last + value` says whether it fires.
+    pub(crate) fires: u8,
+    /// Its `MonitorId`: the order of registration.
     pub(crate) index: u8,
     /// Last evaluated value, for edge detection.
     pub(crate) last: bool,
-    /// The owner's run epoch when `last` was taken; a new epoch resets the edge.
-    pub(crate) epoch_seen: u16,
     /// Restarts caused in the current run of the target.
     pub(crate) restarts: u8,
     /// The target's run counter when `restarts` was last reset.
@@ -244,19 +258,47 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             return Err(Error::EmptyName);
         }
         let id = u8::try_from(self.entries.len()).map_err(|_| Error::MonitorCapacityExceeded)?;
+        // Behind the owner's other monitors (and every lower owner's), in front of the rest.
+        let at = self
+            .entries
+            .iter()
+            .rposition(|e| e.owner <= owner)
+            .map_or(0, |p| p.saturating_add(1));
+        let fires = monitor.trigger.truth_table();
+        let entry = Entry {
+            def: monitor,
+            owner,
+            rest: 1,
+            fires,
+            index: id,
+            last: false,
+            restarts: 0,
+            target_runs_seen: 0,
+            fired: 0,
+        };
         self.entries
-            .push(Entry {
-                def: monitor,
-                owner,
-                index: id,
-                last: false,
-                epoch_seen: 0,
-                restarts: 0,
-                target_runs_seen: 0,
-                fired: 0,
-            })
+            .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;
+        // Move it from the end to `at` (`Vec::insert` would bring an index panic path).
+        if let Some(tail) = self.entries.get_mut(at..) {
+            if !tail.is_empty() {
+                tail.rotate_right(1);
+            }
+        }
+        // Recount the groups, back to front.
+        let mut next: Option<(SeqId, u8)> = None;
+        for e in self.entries.iter_mut().rev() {
+            e.rest = match next {
+                Some((o, n)) if o == e.owner => n.saturating_add(1),
+                _ => 1,
+            };
+            next = Some((e.owner, e.rest));
+        }
         Ok(MonitorId(id))
+    }
+
+    fn entry(&self, id: MonitorId) -> Option<&Entry<'a, C, K>> {
+        self.entries.iter().find(|e| e.index == id.0)
     }
 
     /// Number of registered monitors.
@@ -271,16 +313,16 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
 
     /// The name a monitor was registered with.
     pub fn name(&self, id: MonitorId) -> Option<&'static str> {
-        self.entries.get(id.index()).map(|e| e.def.name)
+        self.entry(id).map(|e| e.def.name)
     }
 
     /// The owner of a monitor.
     pub fn owner(&self, id: MonitorId) -> Option<SeqId> {
-        self.entries.get(id.index()).map(|e| e.owner)
+        self.entry(id).map(|e| e.owner)
     }
 
     /// How often a monitor fired.
     pub fn fired(&self, id: MonitorId) -> u16 {
-        self.entries.get(id.index()).map_or(0, |e| e.fired)
+        self.entry(id).map_or(0, |e| e.fired)
     }
 }

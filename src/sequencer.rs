@@ -3,9 +3,9 @@
 use core::cell::{Cell, UnsafeCell};
 use core::marker::PhantomData;
 use core::sync::atomic::{AtomicBool, Ordering};
-use core::task::Waker;
+use core::task::{RawWakerVTable, Waker};
 
-use crate::control_block::{after, flag, request, ControlBlock};
+use crate::control_block::{after, flag, request, ControlBlock, Link, NO_LANE};
 use crate::lock::{CriticalSection, Lock};
 use crate::safety::{AbortSequences, SafetyHandle};
 use crate::{
@@ -36,11 +36,15 @@ pub(crate) enum Gate {
 }
 
 /// The mutable state, guarded by a critical section.
-pub(crate) struct Inner<C, const N: usize, const T: usize> {
+pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) now: u64,
     pub(crate) count: u8,
     pub(crate) blocks: [ControlBlock; N],
     pub(crate) hooks: [Option<fn(&C)>; N],
+    /// The lanes' wakers: a lane is the only context that polls its sequences.
+    pub(crate) lanes: [LaneSlot; W],
+    #[cfg(feature = "counters")]
+    pub(crate) counters: [crate::Counters; N],
     /// Earliest `next_poll` of any active sequence.
     pub(crate) next_due: u64,
     /// Requests or finished exception sequences wait for the tick.
@@ -51,11 +55,29 @@ pub(crate) struct Inner<C, const N: usize, const T: usize> {
     pub(crate) exceptions_not_run: u16,
 }
 
+/// The waker of one lane, and the sequence that declared it.
+pub(crate) struct LaneSlot {
+    pub(crate) seq: Link,
+    pub(crate) waker: Option<Waker>,
+}
+
+impl LaneSlot {
+    const EMPTY: LaneSlot = LaneSlot {
+        seq: Link::NONE,
+        waker: None,
+    };
+}
+
+/// The identity of a waker (data and vtable pointers, compared, never dereferenced).
+pub(crate) type WakerId = Option<(*const (), *const RawWakerVTable)>;
+
 /// The sequencer (seed §1.1): one per application, usually a `static`.
 ///
 /// `C` is the application's control system: conditions, steps and sequences get typed `&C`
 /// access to it (use atomics or [`critical_section::Mutex`] inside `C` for commands). `N` is
-/// the capacity of sequences and steps, `T` of the transition trace buffer.
+/// the capacity of sequences and steps, `T` of the transition trace buffer, `L` the
+/// [`Lock`], `W` the capacity of lanes (sequences that can run non-blocking; a lane costs
+/// 12 bytes, a sequence 48).
 ///
 /// ```
 /// use rtseq::{SeqConfig, Sequencer, Error};
@@ -64,8 +86,14 @@ pub(crate) struct Inner<C, const N: usize, const T: usize> {
 /// assert_eq!(SEQ.register(SeqConfig::new("main")), Err(Error::DuplicateName("main")));
 /// assert_eq!(SEQ.sequence_by_name("main").map(|h| h.id()), Some(main));
 /// ```
-pub struct Sequencer<C, const N: usize, const T: usize = 64, L: Lock = CriticalSection> {
-    pub(crate) inner: UnsafeCell<Inner<C, N, T>>,
+pub struct Sequencer<
+    C,
+    const N: usize,
+    const T: usize = 64,
+    L: Lock = CriticalSection,
+    const W: usize = 8,
+> {
+    pub(crate) inner: UnsafeCell<Inner<C, N, T, W>>,
     /// Abort-all requests: an atomic, so any priority may raise one (the safety task sits
     /// above a priority ceiling).
     abort_all: AtomicBool,
@@ -80,15 +108,20 @@ pub struct Sequencer<C, const N: usize, const T: usize = 64, L: Lock = CriticalS
 // caller of the `unsafe` constructor promised that no user runs above the ceiling). The
 // other fields are `Sync` themselves. `Inner` is `Send` for every `C` (it holds only plain
 // data, wakers and `fn(&C)` pointers).
-unsafe impl<C, const N: usize, const T: usize, L: Lock> Sync for Sequencer<C, N, T, L> {}
+unsafe impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sync
+    for Sequencer<C, N, T, L, W>
+{
+}
 
-impl<C, const N: usize, const T: usize> Default for Sequencer<C, N, T> {
+impl<C, const N: usize, const T: usize, const W: usize> Default
+    for Sequencer<C, N, T, CriticalSection, W>
+{
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
+impl<C, const N: usize, const T: usize, const W: usize> Sequencer<C, N, T, CriticalSection, W> {
     /// An empty sequencer guarded by critical sections; `const`, so it can be a `static`.
     pub const fn new() -> Self {
         Self::empty()
@@ -96,8 +129,8 @@ impl<C, const N: usize, const T: usize> Sequencer<C, N, T> {
 }
 
 #[cfg(feature = "cortex-m")]
-impl<C, const N: usize, const T: usize, const BASEPRI: u8>
-    Sequencer<C, N, T, crate::lock::PriorityCeiling<BASEPRI>>
+impl<C, const N: usize, const T: usize, const BASEPRI: u8, const W: usize>
+    Sequencer<C, N, T, crate::lock::PriorityCeiling<BASEPRI>, W>
 {
     /// An empty sequencer guarded by RTIC's priority ceiling instead of critical sections:
     /// no interrupt above the ceiling is ever masked by rtseq.
@@ -113,9 +146,10 @@ impl<C, const N: usize, const T: usize, const BASEPRI: u8>
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
     const fn empty() -> Self {
         const { assert!(N <= 255, "at most 255 sequences") };
+        const { assert!(W <= 255, "at most 255 lanes") };
         Sequencer {
             abort_all: AtomicBool::new(false),
             safety: critical_section::Mutex::new(Cell::new(None)),
@@ -125,6 +159,9 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                 count: 0,
                 blocks: [ControlBlock::EMPTY; N],
                 hooks: [None; N],
+                lanes: [LaneSlot::EMPTY; W],
+                #[cfg(feature = "counters")]
+                counters: [crate::Counters::ZERO; N],
                 next_due: u64::MAX,
                 work: false,
                 trace: heapless::Deque::new(),
@@ -142,7 +179,7 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
     /// the lock keeps every other context out, and no closure passed here calls `with` again
     /// (they only touch `Inner`, and the wakers they call only flag a task).
     #[inline]
-    pub(crate) fn with<R>(&self, f: impl FnOnce(&mut Inner<C, N, T>) -> R) -> R {
+    pub(crate) fn with<R>(&self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R {
         L::lock(|| {
             // SAFETY: see above — under the lock and without re-entry this is the only
             // reference to `Inner`.
@@ -175,7 +212,7 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
             slot.polling = polling;
             slot.timeout = timeout;
             slot.timeout_behaviour = config.timeout_behaviour;
-            slot.timeout_exception = config.timeout_exception;
+            slot.timeout_exception = Link::to(config.timeout_exception);
             slot.timeout_restart_limit = config.timeout_restart_limit;
             if let Some(h) = s.hooks.get_mut(used) {
                 *h = config.on_abort;
@@ -316,13 +353,15 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
 }
 
 /// A safety level that demands it aborts every sequence through the sequencer.
-impl<C, const N: usize, const T: usize, L: Lock> AbortSequences for Sequencer<C, N, T, L> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> AbortSequences
+    for Sequencer<C, N, T, L, W>
+{
     fn abort_all(&self) {
         Sequencer::abort_all(self);
     }
 }
 
-impl<C, const N: usize, const T: usize> Inner<C, N, T> {
+impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     pub(crate) fn block(&self, id: SeqId) -> Result<&ControlBlock, Error> {
         if id.0 >= self.count {
             return Err(Error::UnknownSequence(id));
@@ -353,18 +392,14 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
             return false;
         }
         b.state = to;
-        let c = &mut b.counters;
-        match to {
-            RunningState::Aborted => c.aborts = c.aborts.wrapping_add(1),
-            RunningState::Restarting => c.restarts = c.restarts.wrapping_add(1),
-            RunningState::Terminated if cause == Cause::PreConditionFalse => {
-                c.skipped = c.skipped.wrapping_add(1)
-            }
-            RunningState::Terminated => c.completed = c.completed.wrapping_add(1),
-            RunningState::Running if from != RunningState::Paused && cause != Cause::Restart => {
-                c.runs = c.runs.wrapping_add(1)
-            }
-            _ => {}
+        let new_run =
+            to == RunningState::Running && from != RunningState::Paused && cause != Cause::Restart;
+        if new_run {
+            b.runs = b.runs.wrapping_add(1);
+        }
+        #[cfg(feature = "counters")]
+        if let Some(c) = self.counters.get_mut(id.index()) {
+            c.count(from, to, cause);
         }
         let record = Transition {
             time: Instant::from_ticks(now),
@@ -397,125 +432,158 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
         if mode == Mode::Lane && !b.has(flag::HAS_LANE) {
             return Err(Error::NoLane(id));
         }
-        let mut stack = [0u8; MAX_DEPTH];
-        let (depth, blocking, root) = match caller {
-            Some(c) => {
-                let cb = self.block(c)?;
-                let d = usize::from(cb.depth);
-                if d >= MAX_DEPTH {
-                    return Err(Error::CallerDepthExceeded(id));
-                }
-                stack = cb.stack;
-                if let Some(slot) = stack.get_mut(d) {
-                    *slot = c.0;
-                }
-                match mode {
-                    Mode::Blocking => (
-                        cb.depth.saturating_add(1),
-                        cb.blocking.saturating_add(1),
-                        cb.root,
-                    ),
-                    Mode::Lane => (cb.depth.saturating_add(1), 0, id.0),
-                }
-            }
-            None => (0, 0, id.0),
+        let lane = match mode {
+            Mode::Blocking => match caller {
+                Some(c) => self.block(c)?.lane,
+                None => NO_LANE,
+            },
+            Mode::Lane => self.lane_slot_of(id).ok_or(Error::NoLane(id))?,
         };
+        if let Some(c) = caller {
+            self.block(c)?;
+            self.cut_old_links_to(id, c);
+            if usize::from(self.depth(c)) >= MAX_DEPTH {
+                return Err(Error::CallerDepthExceeded(id));
+            }
+        }
         let now = self.now;
         if !self.transition(id, RunningState::Running, cause) {
             return Err(Error::AlreadyRunning(id));
         }
         let b = self.block_mut(id)?;
-        b.stack = stack;
-        b.depth = depth;
-        b.blocking = blocking;
-        b.root = root;
+        b.caller = Link::to(caller);
+        b.lane = lane;
+        // Clears the requests and the pending behaviour too.
         b.flags &= flag::HAS_LANE | flag::BOUND;
-        b.requests = 0;
+        b.set(flag::FRESH, true);
         b.active_exception = None;
-        b.pending = None;
-        b.exception_of = None;
         b.outcome = None;
         b.next_poll = after(now, b.polling);
         b.arm_timeout(now);
         let next = now.saturating_add(u64::from(b.polling));
         if mode == Mode::Lane {
             b.set(flag::START_PENDING, true);
-            b.wake();
+            self.wake(id);
         }
         self.next_due = self.next_due.min(next);
         Ok(())
     }
 
-    /// The scan of one control block at `now` (see `Sequencer::tick`): marks it due,
-    /// advances its polling schedule, notes a due exit-condition poll and an expired
-    /// timeout. Returns, for an active sequence, the absolute time of its next poll and
-    /// whether it is paused or handling an exception.
+    /// The lane slot `id` declared.
+    pub(crate) fn lane_slot_of(&self, id: SeqId) -> Option<u8> {
+        let at = self
+            .lanes
+            .iter()
+            .position(|l| l.seq == Link::to(Some(id)))?;
+        u8::try_from(at).ok()
+    }
+
+    /// Declares a lane for `id` (idempotent).
+    pub(crate) fn declare_lane(&mut self, id: SeqId) -> Result<(), Error> {
+        self.block(id)?;
+        if self.lane_slot_of(id).is_none() {
+            let free = self
+                .lanes
+                .iter_mut()
+                .find(|l| l.seq == Link::NONE)
+                .ok_or(Error::LaneCapacityExceeded(id))?;
+            free.seq = Link::to(Some(id));
+        }
+        self.block_mut(id)?.set(flag::HAS_LANE, true);
+        Ok(())
+    }
+
+    /// The scan of one control block at `now` (see `Sequencer::tick`): when its polling
+    /// period is due, marks it (see [`mark`](crate::tick::mark)), advances its polling
+    /// schedule, notes an expired timeout and a due exit-condition poll. Returns, for an
+    /// active sequence, the time until its next poll (µs).
     #[inline]
-    pub(crate) fn scan_one(
-        &mut self,
-        i: usize,
-        now: u64,
-        d: &mut crate::tick::Due,
-    ) -> Option<(u64, bool)> {
-        use crate::control_block::{absolute, after, reached};
+    pub(crate) fn scan_one(&mut self, i: usize, now: u32, m: &mut u8) -> Option<u32> {
+        use crate::control_block::reached32;
+        use crate::tick::mark;
         let b = self.blocks.get_mut(i)?;
         let running = b.state == RunningState::Running;
         if !running && b.state != RunningState::Paused {
             return None;
         }
-        if reached(now, b.next_poll) {
-            d.due = true;
-            d.epoch = b.epoch();
-            b.next_poll = b.next_poll.wrapping_add(b.polling);
-            if reached(now, b.next_poll) {
-                // Missed periods (a late tick) are not replayed.
-                b.next_poll = after(now, b.polling);
+        if !running || b.has(flag::EXCEPTION_ACTIVE) {
+            *m = mark::HELD;
+        }
+        if !reached32(now, b.next_poll) {
+            return Some(b.next_poll.wrapping_sub(now));
+        }
+        *m |= mark::DUE;
+        if b.has(flag::FRESH) {
+            b.set(flag::FRESH, false);
+            *m |= mark::FRESH;
+        }
+        b.next_poll = b.next_poll.wrapping_add(b.polling);
+        if reached32(now, b.next_poll) {
+            // Missed periods (a late tick) are not replayed.
+            b.next_poll = now.wrapping_add(b.polling);
+        }
+        if running {
+            if b.has(flag::TIMEOUT_ARMED) && reached32(now, b.deadline) {
+                *m |= mark::EXPIRED;
             }
-            if running {
-                d.expired = b.has(flag::TIMEOUT_ARMED) && reached(now, b.deadline);
-                if b.has(flag::POLL_WAIT) {
-                    b.set(flag::POLL_DUE, true);
-                    d.wake = true;
-                }
+            if b.has(flag::POLL_WAIT) {
+                b.set(flag::POLL_DUE, true);
+                *m |= mark::WAKE;
             }
         }
-        Some((
-            absolute(now, b.next_poll),
-            !running || b.has(flag::EXCEPTION_ACTIVE),
-        ))
+        Some(b.next_poll.wrapping_sub(now))
+    }
+
+    /// Wakes the lane of sequence `i` for its due poll, unless the sequence is held or
+    /// frozen by a caller it blocks (paused, or holding for an exception; it is woken when
+    /// it may go on; nothing can be held unless `any_held`). `woken` is the identity of the
+    /// waker woken last in this tick: lanes joined in one task share their waker, which is
+    /// woken once.
+    #[inline]
+    pub(crate) fn wake_due(&self, i: usize, any_held: bool, woken: &mut WakerId) {
+        let Some(b) = self.blocks.get(i) else { return };
+        if any_held {
+            let Ok(id) = u8::try_from(i).map(SeqId) else {
+                return;
+            };
+            if self.gate(id) != Gate::Go
+                || self.blocking_callers(id).any(|c| self.gate(c) != Gate::Go)
+            {
+                return;
+            }
+        }
+        if let Some(w) = self
+            .lanes
+            .get(usize::from(b.lane))
+            .and_then(|l| l.waker.as_ref())
+        {
+            let identity = (w.data(), w.vtable() as *const RawWakerVTable);
+            if *woken != Some(identity) {
+                *woken = Some(identity);
+                w.wake_by_ref();
+            }
+        }
     }
 
     /// Wakes the lane that drives `id`.
     pub(crate) fn wake(&self, id: SeqId) {
-        if let Ok(b) = self.block(id) {
-            if let Ok(r) = self.block(SeqId(b.root)) {
-                r.wake();
-            }
+        let lane = self.block(id).map_or(NO_LANE, |b| b.lane);
+        if let Some(w) = self
+            .lanes
+            .get(usize::from(lane))
+            .and_then(|l| l.waker.as_ref())
+        {
+            w.wake_by_ref();
         }
-    }
-
-    /// True when one of the callers `id` blocks is not free to advance (paused, held for an
-    /// exception, or being stopped), so `id` is frozen at its await point.
-    pub(crate) fn blocked_by_held_caller(&self, id: SeqId) -> bool {
-        let Ok(b) = self.block(id) else { return false };
-        let depth = usize::from(b.depth);
-        let first = depth.saturating_sub(usize::from(b.blocking));
-        b.stack
-            .iter()
-            .take(depth)
-            .skip(first)
-            .any(|&c| self.gate(SeqId(c)) != Gate::Go)
     }
 
     /// Parks `waker` as the waker of `id`'s lane.
     pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
-        let Ok(root) = self.block(id).map(|b| SeqId(b.root)) else {
-            return;
-        };
-        if let Ok(r) = self.block_mut(root) {
-            match &r.waker {
+        let lane = self.block(id).map_or(NO_LANE, |b| b.lane);
+        if let Some(slot) = self.lanes.get_mut(usize::from(lane)) {
+            match &slot.waker {
                 Some(w) if w.will_wake(waker) => {}
-                _ => r.waker = Some(waker.clone()),
+                _ => slot.waker = Some(waker.clone()),
             }
         }
     }
@@ -545,7 +613,8 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
             b.set(flag::EXCEPTION_ACTIVE, false);
             b.set(flag::POLL_WAIT, false);
             b.set(flag::POLL_DUE, false);
-            b.pending = None;
+            b.set(flag::FRESH, true);
+            b.set_pending(None);
             b.next_poll = after(now, b.polling);
             b.arm_timeout(now);
             let next = now.saturating_add(u64::from(b.polling));
@@ -575,8 +644,13 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
     pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) {
         let Ok(b) = self.block_mut(id) else { return };
         b.outcome = Some(outcome);
-        let joiner = b.joiner.take();
-        let owner = b.exception_of.take();
+        let joiner = core::mem::replace(&mut b.joiner, Link::NONE).get();
+        let owner = if b.has(flag::HANDLES_EXCEPTION) {
+            b.set(flag::HANDLES_EXCEPTION, false);
+            b.caller.get()
+        } else {
+            None
+        };
         if let Some(j) = joiner {
             self.wake(j);
         }
@@ -589,7 +663,7 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
     }
 
     /// Queues a pause, resume or abort request for the next tick.
-    pub(crate) fn request(&mut self, id: SeqId, bit: u8) -> Result<(), Error> {
+    pub(crate) fn request(&mut self, id: SeqId, bit: u16) -> Result<(), Error> {
         let b = self.block_mut(id)?;
         let ok = match bit {
             request::RESUME => b.state == RunningState::Paused,
@@ -603,7 +677,7 @@ impl<C, const N: usize, const T: usize> Inner<C, N, T> {
                 Error::NotRunning(id)
             });
         }
-        b.requests |= bit;
+        b.flags |= bit;
         self.work = true;
         Ok(())
     }

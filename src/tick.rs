@@ -5,25 +5,29 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{after, flag, request};
+use crate::control_block::{after, flag, request, Link};
 use crate::lock::Lock;
 use crate::monitor::Entry;
-use crate::sequencer::Inner;
-use crate::sequencer::{Gate, Mode};
+use crate::sequencer::Mode;
 use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// `depth + 1` of the deepest possible sequence.
 const DEPTH_LIMIT: u8 = MAX_DEPTH as u8 + 1;
 
-/// What the due scan saw of one sequence.
-#[derive(Clone, Copy, Default)]
-pub(crate) struct Due {
-    pub(crate) due: bool,
+/// Bits of the mark the due scan leaves for each sequence (a byte per sequence on the
+/// tick's stack, so a tick allocates nothing and touches no shared state for it).
+pub(crate) mod mark {
+    /// Its polling period is due: its monitors are evaluated.
+    pub const DUE: u8 = 1 << 0;
+    /// A new run or restart: its monitors' edge detection starts from "false".
+    pub const FRESH: u8 = 1 << 1;
     /// The timeout deadline has passed (checked after the monitors).
-    pub(crate) expired: bool,
+    pub const EXPIRED: u8 = 1 << 2;
     /// A polled condition is due: wake the lane (after the monitors).
-    pub(crate) wake: bool,
-    pub(crate) epoch: u16,
+    pub const WAKE: u8 = 1 << 3;
+    /// Paused or handling an exception (or a monitor fired this tick): it may hold its
+    /// callees back.
+    pub const HELD: u8 = 1 << 4;
 }
 
 /// Restart bookkeeping of one monitor (or timeout monitor).
@@ -33,7 +37,7 @@ struct RestartBook {
     limit: u8,
 }
 
-impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
     /// The heartbeat (one call per timer interrupt): sets the sequencer time to `now`, applies
     /// pending requests, evaluates the monitors and timeouts of every sequence whose polling
     /// period is due, and wakes the lanes that must act.
@@ -68,97 +72,101 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
         if !any_due {
             return;
         }
-        let mut due = [Due::default(); N];
-        let mut any_held = self.scan(now_us, &mut due);
-        // The hot loop: one condition per due monitor, firing is the rare, out-of-line path.
-        for entry in monitors.entries.iter_mut() {
-            let Some(d) = due.get(entry.owner.index()) else {
-                continue;
+        let mut marks = [0u8; N];
+        let mut seen = self.scan(now_us, &mut marks);
+        // The hot loop, one owner group at a time (the table is sorted by owner): one mark
+        // test per group, then one condition per monitor; firing is the rare, out-of-line
+        // path.
+        let mut rest = monitors.entries.as_mut_slice();
+        while let Some(first) = rest.first() {
+            let m = marks.get(first.owner.index()).copied().unwrap_or(0);
+            let Some((group, tail)) = rest.split_at_mut_checked(usize::from(first.rest.max(1)))
+            else {
+                break;
             };
-            if !d.due {
+            rest = tail;
+            if m & mark::DUE == 0 {
                 continue;
             }
-            if entry.epoch_seen != d.epoch {
-                // A new run or restart of the owner: the edge starts from "false".
-                entry.epoch_seen = d.epoch;
-                entry.last = false;
+            if m & mark::FRESH != 0 {
+                group.iter_mut().for_each(|e| e.last = false);
             }
-            let value = entry.def.condition.validate(control, now);
-            let last = core::mem::replace(&mut entry.last, value);
-            if entry.def.trigger.fires(last, value) {
-                self.fire(entry, control);
-                any_held = true;
+            for entry in group.iter_mut() {
+                let value = entry.def.condition.validate(control, now);
+                let edge = (u8::from(entry.last) << 1) | u8::from(value);
+                entry.last = value;
+                if (entry.fires >> edge) & 1 != 0 {
+                    self.fire(entry, control);
+                    seen |= mark::HELD;
+                }
             }
         }
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
-        for (i, d) in due.iter().enumerate() {
-            if d.expired {
-                if let Ok(id) = u8::try_from(i).map(SeqId) {
-                    self.timeout(id, control);
-                    any_held = true;
+        if seen & mark::EXPIRED != 0 {
+            for (i, m) in marks.iter().enumerate() {
+                if m & mark::EXPIRED != 0 {
+                    if let Ok(id) = u8::try_from(i).map(SeqId) {
+                        self.timeout(id, control);
+                    }
                 }
             }
+            seen |= mark::HELD;
         }
-        self.wake_due(&due, any_held);
+        if seen & mark::WAKE != 0 {
+            self.wake_due(&marks, seen & mark::HELD != 0);
+        }
     }
 
-    /// Marks due sequences, advances their polling schedule, notes due exit-condition
-    /// polls and expired timeouts, and recomputes `next_due`: one short section per
-    /// registered sequence, or one for all with a coarse lock. Returns whether any sequence
-    /// is paused or handling an exception (only then can a sequence be frozen by a held
-    /// caller).
-    fn scan(&self, now: u64, due: &mut [Due; N]) -> bool {
-        // (earliest next poll, anything held) folded over the active sequences.
-        let fold = |acc: (u64, bool), seen: Option<(u64, bool)>| match seen {
-            Some((next, held)) => (acc.0.min(next), acc.1 | held),
-            None => acc,
-        };
+    /// Marks due sequences, advances their polling schedule, notes expired timeouts, wakes
+    /// the lanes of due exit-condition polls and recomputes `next_due`: one short section
+    /// per registered sequence, or one for all with a coarse lock. Returns the union of the
+    /// marks.
+    fn scan(&self, now: u64, marks: &mut [u8; N]) -> u8 {
+        // Truncation is the point: control-block times are the low 32 bits.
+        let now32 = now as u32;
+        // (time to the earliest next poll, union of the marks) over the active sequences.
+        let mut ahead = u32::MAX;
+        let mut seen = 0;
         if L::COARSE {
             self.with(|s| {
                 let count = usize::from(s.count);
-                let (next_due, any_held) = due
-                    .iter_mut()
-                    .enumerate()
-                    .take(count)
-                    .fold((u64::MAX, false), |acc, (i, d)| {
-                        fold(acc, s.scan_one(i, now, d))
-                    });
-                s.next_due = next_due;
-                any_held
-            })
+                for (i, m) in marks.iter_mut().enumerate().take(count) {
+                    if let Some(a) = s.scan_one(i, now32, m) {
+                        ahead = ahead.min(a);
+                        seen |= *m;
+                    }
+                }
+            });
         } else {
             let count = self.with(|s| usize::from(s.count));
-            let (next_due, any_held) = due
-                .iter_mut()
-                .enumerate()
-                .take(count)
-                .fold((u64::MAX, false), |acc, (i, d)| {
-                    fold(acc, self.with(|s| s.scan_one(i, now, d)))
-                });
-            self.with(|s| s.next_due = next_due);
-            any_held
+            for (i, m) in marks.iter_mut().enumerate().take(count) {
+                if let Some(a) = self.with(|s| s.scan_one(i, now32, m)) {
+                    ahead = ahead.min(a);
+                    seen |= *m;
+                }
+            }
         }
+        let next_due = if ahead == u32::MAX {
+            u64::MAX
+        } else {
+            now.saturating_add(u64::from(ahead))
+        };
+        self.with(|s| s.next_due = next_due);
+        seen
     }
 
-    /// Wakes the lanes whose polled condition is due, unless the sequence is held or frozen
-    /// by a caller it blocks (paused, or holding for an exception): such a lane is woken
-    /// when it may go on. Nothing can be held unless `any_held`.
-    fn wake_due(&self, due: &[Due; N], any_held: bool) {
-        let one = |s: &mut Inner<C, N, T>, id: SeqId| {
-            if !any_held || (s.gate(id) == Gate::Go && !s.blocked_by_held_caller(id)) {
-                s.wake(id);
-            }
-        };
-        let ids = due
+    /// Wakes the lanes whose polled condition is due (see `Inner::wake_due`).
+    fn wake_due(&self, marks: &[u8; N], any_held: bool) {
+        let mut woken = None;
+        let due = marks
             .iter()
             .enumerate()
-            .filter(|(_, d)| d.wake)
-            .filter_map(|(i, _)| u8::try_from(i).ok().map(SeqId));
+            .filter(|(_, m)| *m & mark::WAKE != 0);
         if L::COARSE {
-            self.with(|s| ids.for_each(|id| one(s, id)));
+            self.with(|s| due.for_each(|(i, _)| s.wake_due(i, any_held, &mut woken)));
         } else {
-            ids.for_each(|id| self.with(|s| one(s, id)));
+            due.for_each(|(i, _)| self.with(|s| s.wake_due(i, any_held, &mut woken)));
         }
     }
 
@@ -197,7 +205,7 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
             b.set(flag::TIMEOUT_ARMED, false);
             Some((
                 b.timeout_behaviour,
-                b.timeout_exception,
+                b.timeout_exception.get(),
                 RestartBook {
                     restarts: b.timeout_restarts,
                     runs_seen: b.timeout_runs_seen,
@@ -241,11 +249,11 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                 return None;
             }
             let target = if behaviour.targets_caller() {
-                b.caller().unwrap_or(owner)
+                b.caller.get().unwrap_or(owner)
             } else {
                 owner
             };
-            Some((target, s.block(target).ok()?.counters.runs))
+            Some((target, s.block(target).ok()?.runs))
         }) else {
             return false;
         };
@@ -265,7 +273,10 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
             if let Ok(b) = s.block_mut(owner) {
                 b.set(flag::EXCEPTION_ACTIVE, true);
                 b.active_exception = Some(cause);
-                b.counters.exceptions = b.counters.exceptions.wrapping_add(1);
+            }
+            #[cfg(feature = "counters")]
+            if let Some(c) = s.counters.get_mut(owner.index()) {
+                c.exceptions = c.exceptions.wrapping_add(1);
             }
             let Some(e) = exception else { return false };
             if s.begin(e, Some(owner), Mode::Lane, cause).is_err() {
@@ -273,10 +284,10 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                 return false;
             }
             if let Ok(eb) = s.block_mut(e) {
-                eb.exception_of = Some(owner);
+                eb.set(flag::HANDLES_EXCEPTION, true);
             }
             if let Ok(b) = s.block_mut(owner) {
-                b.pending = Some((behaviour, target, cause));
+                b.set_pending(Some(behaviour));
             }
             true
         });
@@ -311,13 +322,14 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
         // depth + 1 of each affected sequence, 0 = unaffected.
         let mut affected = [0u8; N];
         for (i, a) in affected.iter_mut().enumerate() {
+            let Ok(id) = u8::try_from(i).map(SeqId) else {
+                continue;
+            };
             self.with(|s| {
-                let Some(b) = s.blocks.get(i).filter(|_| i < usize::from(s.count)) else {
-                    return;
-                };
-                let hit = i == target.index() || b.descends_from(target);
+                let Ok(b) = s.block(id) else { return };
+                let hit = id == target || s.descends_from(id, target);
                 if hit && b.state.is_active() && b.state != RunningState::Aborting {
-                    *a = b.depth.saturating_add(1);
+                    *a = s.depth(id).saturating_add(1);
                 }
             });
         }
@@ -346,7 +358,7 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
             }
             if let Ok(b) = s.block_mut(id) {
                 b.last_cause = cause;
-                b.requests = 0;
+                b.take_requests();
             }
             Some(s.hooks.get(id.index()).copied().flatten())
         });
@@ -360,7 +372,8 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                 // reports back, so the outcome is recorded here.
                 if let Ok(b) = s.block_mut(id) {
                     b.outcome = Some(crate::Outcome::Aborted(cause));
-                    if let Some(j) = b.joiner.take() {
+                    let joiner = core::mem::replace(&mut b.joiner, Link::NONE);
+                    if let Some(j) = joiner.get() {
                         s.wake(j);
                     }
                 }
@@ -377,7 +390,7 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
             for id in (0..count).map(SeqId) {
                 let hit = self.with(|s| {
                     s.block(id)
-                        .is_ok_and(|b| b.depth == depth && b.state.is_active())
+                        .is_ok_and(|b| b.state.is_active() && s.depth(id) == depth)
                 });
                 if hit {
                     self.stop(control, id, Cause::AbortAll, RunningState::Aborting);
@@ -395,10 +408,21 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                 let Ok(b) = s.block_mut(id) else {
                     return (0, None);
                 };
-                let req = core::mem::take(&mut b.requests);
+                let req = b.take_requests();
                 let done = if b.has(flag::EXCEPTION_DONE) {
                     b.set(flag::EXCEPTION_DONE, false);
-                    b.pending.take()
+                    let behaviour = b.pending();
+                    b.set_pending(None);
+                    let cause = b.active_exception.unwrap_or(Cause::Abort);
+                    let caller = b.caller.get();
+                    behaviour.map(|behaviour| {
+                        let target = if behaviour.targets_caller() {
+                            caller.unwrap_or(id)
+                        } else {
+                            id
+                        };
+                        (behaviour, target, cause)
+                    })
                 } else {
                     None
                 };
@@ -431,11 +455,11 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
         } else {
             (RunningState::Paused, RunningState::Running, Cause::Resume)
         };
-        let Some((root, depth)) = self.with(|s| {
+        let Some((lane, depth)) = self.with(|s| {
             s.block(target)
                 .ok()
                 .filter(|b| b.state == from)
-                .map(|b| (b.root, b.depth))
+                .map(|b| (b.lane, s.depth(target)))
         }) else {
             return;
         };
@@ -446,11 +470,11 @@ impl<C, const N: usize, const T: usize, L: Lock> Sequencer<C, N, T, L> {
                 self.with(|s| {
                     let now = s.now;
                     let Ok(b) = s.block(id) else { return };
-                    let inside = id == target
-                        || (b.root == root
-                            && b.depth > depth
-                            && b.stack.get(usize::from(depth)) == Some(&target.0));
-                    if !(inside && b.depth == d && b.state == from) {
+                    if b.state != from {
+                        return;
+                    }
+                    let inside = id == target || (b.lane == lane && s.descends_from(id, target));
+                    if !(inside && s.depth(id) == d) {
                         return;
                     }
                     if s.transition(id, to, cause) {

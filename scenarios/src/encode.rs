@@ -118,6 +118,7 @@ pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
                 Error::DurationOutOfRange => 10,
                 Error::NeverStarted(_) => 11,
                 Error::AlreadyBound(_) => 12,
+                Error::LaneCapacityExceeded(_) => 13,
             };
             0x8000_0000 | n
         }
