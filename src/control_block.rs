@@ -247,6 +247,45 @@ impl ControlBlock {
         self.flags = (self.flags & !pending::MASK) | (code << pending::SHIFT);
     }
 
+    /// The tick's scan of this block at `now` (the low 32 bits): when its polling period is
+    /// due, marks it (see [`mark`](crate::tick::mark)), advances its polling schedule, notes
+    /// an expired timeout and a due exit-condition poll. Returns, for an active sequence,
+    /// the time until its next poll (µs).
+    #[inline]
+    pub(crate) fn scan(&mut self, now: u32, m: &mut u8) -> Option<u32> {
+        use crate::tick::mark;
+        let running = self.state == RunningState::Running;
+        if !running && self.state != RunningState::Paused {
+            return None;
+        }
+        if !running || self.has(flag::EXCEPTION_ACTIVE) {
+            *m = mark::HELD;
+        }
+        if !reached32(now, self.next_poll) {
+            return Some(self.next_poll.wrapping_sub(now));
+        }
+        *m |= mark::DUE;
+        if self.has(flag::FRESH) {
+            self.set(flag::FRESH, false);
+            *m |= mark::FRESH;
+        }
+        self.next_poll = self.next_poll.wrapping_add(self.polling);
+        if reached32(now, self.next_poll) {
+            // Missed periods (a late tick) are not replayed.
+            self.next_poll = now.wrapping_add(self.polling);
+        }
+        if running {
+            if self.has(flag::TIMEOUT_ARMED) && reached32(now, self.deadline) {
+                *m |= mark::EXPIRED;
+            }
+            if self.has(flag::POLL_WAIT) {
+                self.set(flag::POLL_DUE, true);
+                *m |= mark::WAKE;
+            }
+        }
+        Some(self.next_poll.wrapping_sub(now))
+    }
+
     /// Monitors and timeout of this sequence may raise an exception now.
     pub(crate) fn accepts_exception(&self) -> bool {
         matches!(self.state, RunningState::Running | RunningState::Paused)

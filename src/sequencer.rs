@@ -493,47 +493,6 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         Ok(())
     }
 
-    /// The scan of one control block at `now` (see `Sequencer::tick`): when its polling
-    /// period is due, marks it (see [`mark`](crate::tick::mark)), advances its polling
-    /// schedule, notes an expired timeout and a due exit-condition poll. Returns, for an
-    /// active sequence, the time until its next poll (µs).
-    #[inline]
-    pub(crate) fn scan_one(&mut self, i: usize, now: u32, m: &mut u8) -> Option<u32> {
-        use crate::control_block::reached32;
-        use crate::tick::mark;
-        let b = self.blocks.get_mut(i)?;
-        let running = b.state == RunningState::Running;
-        if !running && b.state != RunningState::Paused {
-            return None;
-        }
-        if !running || b.has(flag::EXCEPTION_ACTIVE) {
-            *m = mark::HELD;
-        }
-        if !reached32(now, b.next_poll) {
-            return Some(b.next_poll.wrapping_sub(now));
-        }
-        *m |= mark::DUE;
-        if b.has(flag::FRESH) {
-            b.set(flag::FRESH, false);
-            *m |= mark::FRESH;
-        }
-        b.next_poll = b.next_poll.wrapping_add(b.polling);
-        if reached32(now, b.next_poll) {
-            // Missed periods (a late tick) are not replayed.
-            b.next_poll = now.wrapping_add(b.polling);
-        }
-        if running {
-            if b.has(flag::TIMEOUT_ARMED) && reached32(now, b.deadline) {
-                *m |= mark::EXPIRED;
-            }
-            if b.has(flag::POLL_WAIT) {
-                b.set(flag::POLL_DUE, true);
-                *m |= mark::WAKE;
-            }
-        }
-        Some(b.next_poll.wrapping_sub(now))
-    }
-
     /// Wakes the lane of sequence `i` for its due poll, unless the sequence is held or
     /// frozen by a caller it blocks (paused, or holding for an exception; it is woken when
     /// it may go on; nothing can be held unless `any_held`). `woken` is the identity of the

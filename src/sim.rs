@@ -79,8 +79,9 @@ pub struct Sim<
     const T: usize,
     const M: usize,
     K = crate::DynCondition<'a, C>,
+    const W: usize = 8,
 > {
-    sequencer: &'a Sequencer<C, N, T>,
+    sequencer: &'a Sequencer<C, N, T, crate::lock::CriticalSection, W>,
     control: &'a C,
     monitors: Monitors<'a, C, M, K>,
     lanes: Vec<SimLane<'a>>,
@@ -92,12 +93,19 @@ pub struct Sim<
     before_tick: Option<BeforeTick<'a, C>>,
 }
 
-impl<'a, C, const N: usize, const T: usize, const M: usize, K: crate::Condition<C>>
-    Sim<'a, C, N, T, M, K>
+impl<
+        'a,
+        C,
+        const N: usize,
+        const T: usize,
+        const M: usize,
+        K: crate::Condition<C>,
+        const W: usize,
+    > Sim<'a, C, N, T, M, K, W>
 {
     /// A simulation at time 0 with a 1 ms (1 kHz) tick.
     pub fn new(
-        sequencer: &'a Sequencer<C, N, T>,
+        sequencer: &'a Sequencer<C, N, T, crate::lock::CriticalSection, W>,
         control: &'a C,
         monitors: Monitors<'a, C, M, K>,
     ) -> Self {

@@ -93,9 +93,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             }
             for entry in group.iter_mut() {
                 let value = entry.def.condition.validate(control, now);
-                let edge = (u8::from(entry.last) << 1) | u8::from(value);
+                let edge = (u32::from(entry.last) << 1) | u32::from(value);
                 entry.last = value;
-                if (entry.fires >> edge) & 1 != 0 {
+                if (u32::from(entry.fires) >> edge) & 1 != 0 {
                     self.fire(entry, control);
                     seen |= mark::HELD;
                 }
@@ -128,31 +128,35 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // (time to the earliest next poll, union of the marks) over the active sequences.
         let mut ahead = u32::MAX;
         let mut seen = 0;
+        let next_due = |ahead: u32| {
+            if ahead == u32::MAX {
+                u64::MAX
+            } else {
+                now.saturating_add(u64::from(ahead))
+            }
+        };
         if L::COARSE {
             self.with(|s| {
                 let count = usize::from(s.count);
-                for (i, m) in marks.iter_mut().enumerate().take(count) {
-                    if let Some(a) = s.scan_one(i, now32, m) {
+                for (b, m) in s.blocks.iter_mut().zip(marks.iter_mut()).take(count) {
+                    if let Some(a) = b.scan(now32, m) {
                         ahead = ahead.min(a);
                         seen |= *m;
                     }
                 }
+                s.next_due = next_due(ahead);
             });
         } else {
             let count = self.with(|s| usize::from(s.count));
             for (i, m) in marks.iter_mut().enumerate().take(count) {
-                if let Some(a) = self.with(|s| s.scan_one(i, now32, m)) {
+                if let Some(Some(a)) = self.with(|s| s.blocks.get_mut(i).map(|b| b.scan(now32, m)))
+                {
                     ahead = ahead.min(a);
                     seen |= *m;
                 }
             }
+            self.with(|s| s.next_due = next_due(ahead));
         }
-        let next_due = if ahead == u32::MAX {
-            u64::MAX
-        } else {
-            now.saturating_add(u64::from(ahead))
-        };
-        self.with(|s| s.next_due = next_due);
         seen
     }
 
