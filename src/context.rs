@@ -7,7 +7,7 @@ use core::future::Future;
 
 use crate::engine::Engine;
 use crate::run::Run;
-use crate::sequence::{framework, SeqBody, StepBody};
+use crate::sequence::{framework, StepFramework};
 use crate::sequencer::{Gate, Mode};
 use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
@@ -18,8 +18,7 @@ use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 /// waits for the blinker:
 ///
 /// ```
-/// use core::cell::Cell;
-/// use rtseq::sim::Sim;
+/// /// use rtseq::sim::Sim;
 /// use rtseq::{Cx, Duration, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Wait};
 /// #[derive(Default)]
 /// struct Ctrl { blinks: Cell<u32> }
@@ -71,6 +70,10 @@ impl<'a, C> Cx<'a, C> {
         }
     }
 
+    pub(crate) fn engine(&self) -> &'a dyn Engine<C> {
+        self.engine
+    }
+
     /// The id of the sequence this context belongs to.
     pub fn id(&self) -> SeqId {
         self.id
@@ -100,7 +103,7 @@ impl<'a, C> Cx<'a, C> {
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { id, body, slot } = child;
         let id = *id;
-        let framework = framework(self.engine, self.control, id, SeqBody(body), slot);
+        let framework = framework(Cx::new(self.engine, self.control, id), body, slot);
         Run::new(self.engine, self.id, id, slot, framework)
     }
 
@@ -112,7 +115,7 @@ impl<'a, C> Cx<'a, C> {
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { id, body, slot } = step;
         let id = *id;
-        let framework = framework(self.engine, self.control, id, StepBody(body), slot);
+        let framework = StepFramework::new(Cx::new(self.engine, self.control, id), body, slot);
         Run::new(self.engine, self.id, id, slot, framework)
     }
 

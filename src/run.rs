@@ -26,14 +26,21 @@ enum Phase {
 /// Hand-written rather than an `async fn` so that it has no "resumed after completion"
 /// panic path, and it returns only when the caller may advance: once the caller is aborted
 /// or restarting it stays pending and the caller's guard drops it (sticky abort).
+///
+/// Only the projection is generic over the framework; `RunCore::poll` serves every child
+/// type.
 pub(crate) struct Run<'e, 's, C, F> {
+    core: RunCore<'e, 's, C>,
+    /// The child's framework; structurally pinned.
+    framework: F,
+}
+
+struct RunCore<'e, 's, C> {
     engine: &'e dyn Engine<C>,
     caller: SeqId,
     child: SeqId,
     slot: &'s Cell<Option<Outcome>>,
     phase: Phase,
-    /// The child's framework; structurally pinned.
-    framework: F,
 }
 
 impl<'e, 's, C, F: Future<Output = Infallible>> Run<'e, 's, C, F> {
@@ -45,11 +52,13 @@ impl<'e, 's, C, F: Future<Output = Infallible>> Run<'e, 's, C, F> {
         framework: F,
     ) -> Self {
         Run {
-            engine,
-            caller,
-            child,
-            slot,
-            phase: Phase::Begin,
+            core: RunCore {
+                engine,
+                caller,
+                child,
+                slot,
+                phase: Phase::Begin,
+            },
             framework,
         }
     }
@@ -60,35 +69,46 @@ impl<C, F: Future<Output = Infallible>> Future for Run<'_, '_, C, F> {
 
     fn poll(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
         // SAFETY: `framework` is structurally pinned: it is never moved out of `self` nor
-        // replaced (only polled in place, and dropped with `self`); every other field is
-        // plain data that may move.
+        // replaced (only polled in place, and dropped with `self`); `core` is plain data
+        // that may move.
         let this = unsafe { self.get_unchecked_mut() };
-        if let Phase::Begin = this.phase {
-            this.slot.set(None);
-            if let Err(e) = this
+        // SAFETY: pinned projection of `framework`, see above.
+        let framework = unsafe { Pin::new_unchecked(&mut this.framework) };
+        this.core.poll(cx, framework)
+    }
+}
+
+impl<C> RunCore<'_, '_, C> {
+    #[inline(never)]
+    fn poll(
+        &mut self,
+        cx: &mut Context<'_>,
+        framework: Pin<&mut dyn Future<Output = Infallible>>,
+    ) -> Poll<Result<Outcome, Error>> {
+        if let Phase::Begin = self.phase {
+            self.slot.set(None);
+            if let Err(e) = self
                 .engine
-                .begin(this.child, Some(this.caller), Mode::Blocking)
+                .begin(self.child, Some(self.caller), Mode::Blocking)
             {
-                this.phase = Phase::Done;
+                self.phase = Phase::Done;
                 return Poll::Ready(Err(e));
             }
-            this.phase = Phase::Running;
+            self.phase = Phase::Running;
         }
-        if let Phase::Running = this.phase {
-            // SAFETY: pinned projection of `framework`, see above.
-            let framework = unsafe { Pin::new_unchecked(&mut this.framework) };
+        if let Phase::Running = self.phase {
             match framework.poll(cx) {
                 Poll::Pending => {}
                 Poll::Ready(never) => match never {},
             }
-            match this.slot.take() {
-                Some(outcome) => this.phase = Phase::Returning(outcome),
+            match self.slot.take() {
+                Some(outcome) => self.phase = Phase::Returning(outcome),
                 None => return Poll::Pending,
             }
         }
-        if let Phase::Returning(outcome) = this.phase {
-            if this.engine.gate(this.caller, cx.waker()) == Gate::Go {
-                this.phase = Phase::Done;
+        if let Phase::Returning(outcome) = self.phase {
+            if self.engine.gate(self.caller, cx.waker()) == Gate::Go {
+                self.phase = Phase::Done;
                 return Poll::Ready(Ok(outcome));
             }
         }
