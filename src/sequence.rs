@@ -4,7 +4,9 @@
 use core::cell::Cell;
 use core::convert::Infallible;
 use core::future::{poll_fn, Future};
+use core::marker::PhantomData;
 use core::pin::{pin, Pin};
+use core::ptr::NonNull;
 use core::task::{Context, Poll};
 
 use crate::sequencer::Gate;
@@ -158,8 +160,8 @@ impl<S> Seq<S> {
 //   `dyn Future` for a running action), so one copy serves every sequence and step type.
 // * A sequence's framework (`framework`) is a thin `async fn`: it only has to keep the
 //   action's future (which borrows the body and the context) in place while it runs.
-// * A step's framework (`StepFramework`) is not generic over the step at all: the step is a
-//   `&mut dyn Step<C>`, its command runs inside `Core`.
+// * A step's framework (`StepFramework`) is not generic over the step at all: the step is
+//   type-erased (`StepRef`), its command runs inside `Core`.
 //
 // Neither returns: a returning `async fn` carries a compiler-generated "resumed after
 // completion" panic path, and rtseq has none. After the run the outcome is in the `Seq`'s
@@ -182,28 +184,78 @@ impl<C, S: Sequence<C>> Conds<C> for SeqConds<'_, S> {
     }
 }
 
-struct StepConds<'s, C>(&'s mut dyn Step<C>);
+/// Which method of a type-erased step to call.
+#[derive(Clone, Copy)]
+enum StepCall {
+    Pre,
+    Action,
+    Exit,
+}
 
-impl<C> Conds<C> for StepConds<'_, C> {
+/// A mutably borrowed step of any type.
+///
+/// Hand-made rather than `&'s mut dyn Step<C>`: a trait object mentioning `C` would require
+/// `C: 's`, which the signature of [`Cx::step`] does not promise.
+pub(crate) struct StepRef<'s, C> {
+    /// The `&'s mut S`.
+    step: NonNull<()>,
+    /// `call::<C, S>`.
+    call: unsafe fn(NonNull<()>, StepCall, &Cx<'_, C>) -> bool,
+    _borrow: PhantomData<&'s mut ()>,
+}
+
+/// # Safety
+/// `step` must point to a live `S` that nothing else accesses meanwhile.
+unsafe fn call<C, S: Step<C>>(step: NonNull<()>, what: StepCall, cx: &Cx<'_, C>) -> bool {
+    // SAFETY: guaranteed by the caller.
+    let step = unsafe { step.cast::<S>().as_mut() };
+    match what {
+        StepCall::Pre => step.check_pre_condition(cx),
+        StepCall::Action => {
+            step.action(cx);
+            true
+        }
+        StepCall::Exit => step.check_exit_condition(cx),
+    }
+}
+
+impl<'s, C> StepRef<'s, C> {
+    pub(crate) fn new<S: Step<C>>(step: &'s mut S) -> Self {
+        StepRef {
+            step: NonNull::from(step).cast(),
+            call: call::<C, S>,
+            _borrow: PhantomData,
+        }
+    }
+
+    fn call(&mut self, what: StepCall, cx: &Cx<'_, C>) -> bool {
+        // SAFETY: `step` is the `&'s mut S` given to `new` and `call` is `call::<C, S>`; the
+        // borrow lives as long as `self` (`_borrow`), and `&mut self` makes this the only
+        // access.
+        unsafe { (self.call)(self.step, what, cx) }
+    }
+}
+
+impl<C> Conds<C> for StepRef<'_, C> {
     fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_pre_condition(cx)
+        self.call(StepCall::Pre, cx)
     }
     fn exit(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_exit_condition(cx)
+        self.call(StepCall::Exit, cx)
     }
 }
 
 /// A step's command as a future: it runs at the first poll, i.e. only once the gate said go.
-struct StepAct<'s, 'c, 'a, C> {
-    step: &'s mut dyn Step<C>,
+struct StepAct<'r, 's, 'c, 'a, C> {
+    step: &'r mut StepRef<'s, C>,
     cx: &'c Cx<'a, C>,
 }
 
-impl<C> Future for StepAct<'_, '_, '_, C> {
+impl<C> Future for StepAct<'_, '_, '_, '_, C> {
     type Output = ();
     fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
         let this = self.get_mut();
-        this.step.action(this.cx);
+        this.step.call(StepCall::Action, this.cx);
         Poll::Ready(())
     }
 }
@@ -213,7 +265,7 @@ impl<C> Future for StepAct<'_, '_, '_, C> {
 enum Phase {
     /// At the await point before the pre-condition: the start, or after a restart.
     Gate,
-    /// The action runs (polled through `Core::act`).
+    /// The action runs (polled through `Frame::act`).
     Act,
     /// The action completed and its future is gone: start polling the exit condition.
     Acted,
@@ -227,32 +279,35 @@ enum Phase {
     Done,
 }
 
-/// The body-independent part of a run's framework (see above).
-pub(crate) struct Core<'s> {
-    slot: &'s Cell<Option<Outcome>>,
-    phase: Phase,
+/// The body-independent part of a run's framework (see above): the sequence's context, the
+/// slot for its outcome and where the run stands.
+pub(crate) struct Frame<'a, 's, C> {
+    pub(crate) cx: Cx<'a, C>,
+    pub(crate) slot: &'s Cell<Option<Outcome>>,
+    phase: Cell<Phase>,
 }
 
-impl<'s> Core<'s> {
-    pub(crate) fn new(slot: &'s Cell<Option<Outcome>>) -> Self {
-        Core {
+impl<'a, 's, C> Frame<'a, 's, C> {
+    pub(crate) fn new(cx: Cx<'a, C>, slot: &'s Cell<Option<Outcome>>) -> Self {
+        Frame {
+            cx,
             slot,
-            phase: Phase::Gate,
+            phase: Cell::new(Phase::Gate),
         }
     }
 
     /// Applies a gate that is not `Go`/`Hold` (the seed's exceptions): `true` if the run goes
     /// on where it is.
-    fn on<C>(&mut self, cx: &Cx<'_, C>, gate: Gate) -> bool {
+    fn on(&self, gate: Gate) -> bool {
         match gate {
             Gate::Go | Gate::Hold => true,
             Gate::Aborted(cause) => {
-                self.phase = Phase::End(Outcome::Aborted(cause));
+                self.phase.set(Phase::End(Outcome::Aborted(cause)));
                 false
             }
             Gate::Restart => {
-                cx.engine().restarted(cx.id());
-                self.phase = Phase::Gate;
+                self.cx.engine().restarted(self.cx.id());
+                self.phase.set(Phase::Gate);
                 false
             }
         }
@@ -261,30 +316,25 @@ impl<'s> Core<'s> {
     /// Runs the framework up to the start of the action (`Ready`: create and poll it now), or
     /// until it must wait (`Pending`). Never `Ready` once the run has ended.
     #[inline(never)]
-    fn drive<C>(
-        &mut self,
-        w: &mut Context<'_>,
-        cx: &Cx<'_, C>,
-        body: &mut dyn Conds<C>,
-    ) -> Poll<()> {
-        let (engine, id) = (cx.engine(), cx.id());
+    fn drive(&self, w: &mut Context<'_>, body: &mut dyn Conds<C>) -> Poll<()> {
+        let (cx, engine, id) = (&self.cx, self.cx.engine(), self.cx.id());
         loop {
-            match self.phase {
+            match self.phase.get() {
                 Phase::Gate => match engine.gate(id, w.waker()) {
                     Gate::Hold => return Poll::Pending,
                     gate => {
-                        if !self.on(cx, gate) {
+                        if !self.on(gate) {
                             continue;
                         }
                         if body.pre(cx) {
-                            self.phase = Phase::Act;
+                            self.phase.set(Phase::Act);
                             return Poll::Ready(());
                         }
                         match engine.end(id, Outcome::Skipped) {
-                            Ok(outcome) => self.phase = Phase::End(outcome),
+                            Ok(outcome) => self.phase.set(Phase::End(outcome)),
                             Err(gate) => {
-                                if self.on(cx, gate) {
-                                    self.phase = Phase::Gate;
+                                if self.on(gate) {
+                                    self.phase.set(Phase::Gate);
                                 }
                             }
                         }
@@ -294,16 +344,16 @@ impl<'s> Core<'s> {
                 Phase::Act => return Poll::Ready(()),
                 Phase::Acted => {
                     engine.poll_wait(id, true);
-                    self.phase = Phase::Exit;
+                    self.phase.set(Phase::Exit);
                 }
                 Phase::Exit => {
-                    self.phase = Phase::Due;
+                    self.phase.set(Phase::Due);
                     if body.exit(cx) {
                         match engine.end(id, Outcome::Completed) {
-                            Ok(outcome) => self.phase = Phase::End(outcome),
+                            Ok(outcome) => self.phase.set(Phase::End(outcome)),
                             // Go/Hold: on to the next due poll.
                             Err(gate) => {
-                                self.on(cx, gate);
+                                self.on(gate);
                             }
                         }
                     }
@@ -311,8 +361,8 @@ impl<'s> Core<'s> {
                 Phase::Due => match engine.poll_due(id, w.waker()) {
                     Gate::Hold => return Poll::Pending,
                     gate => {
-                        if self.on(cx, gate) {
-                            self.phase = Phase::Exit;
+                        if self.on(gate) {
+                            self.phase.set(Phase::Exit);
                         }
                     }
                 },
@@ -320,7 +370,7 @@ impl<'s> Core<'s> {
                     engine.poll_wait(id, false);
                     engine.finished(id, outcome);
                     self.slot.set(Some(outcome));
-                    self.phase = Phase::Done;
+                    self.phase.set(Phase::Done);
                 }
                 Phase::Done => return Poll::Pending,
             }
@@ -331,23 +381,18 @@ impl<'s> Core<'s> {
     /// advance, an aborted or restarting one never runs another line of it. `Ready`: the
     /// action is over (completed, aborted or restarting); drop its future, then `drive`.
     #[inline(never)]
-    fn act<C>(
-        &mut self,
-        w: &mut Context<'_>,
-        cx: &Cx<'_, C>,
-        action: Pin<&mut dyn Future<Output = ()>>,
-    ) -> Poll<()> {
-        match cx.engine().gate(cx.id(), w.waker()) {
+    fn act(&self, w: &mut Context<'_>, action: Pin<&mut dyn Future<Output = ()>>) -> Poll<()> {
+        match self.cx.engine().gate(self.cx.id(), w.waker()) {
             Gate::Go => match action.poll(w) {
                 Poll::Ready(()) => {
-                    self.phase = Phase::Acted;
+                    self.phase.set(Phase::Acted);
                     Poll::Ready(())
                 }
                 Poll::Pending => Poll::Pending,
             },
             Gate::Hold => Poll::Pending,
             gate => {
-                self.on(cx, gate);
+                self.on(gate);
                 Poll::Ready(())
             }
         }
@@ -355,25 +400,20 @@ impl<'s> Core<'s> {
 
     /// A step's whole framework.
     #[inline(never)]
-    fn step<C>(
-        &mut self,
-        w: &mut Context<'_>,
-        cx: &Cx<'_, C>,
-        step: &mut dyn Step<C>,
-    ) -> Poll<Infallible> {
+    pub(crate) fn step(&self, w: &mut Context<'_>, step: &mut StepRef<'_, C>) {
         loop {
-            let ready = if let Phase::Act = self.phase {
+            let ready = if let Phase::Act = self.phase.get() {
                 let mut action = StepAct {
                     step: &mut *step,
-                    cx,
+                    cx: &self.cx,
                 };
                 let action = Pin::new(&mut action);
-                self.act(w, cx, action)
+                self.act(w, action)
             } else {
-                self.drive(w, cx, &mut StepConds(&mut *step))
+                self.drive(w, step)
             };
             if ready.is_pending() {
-                return Poll::Pending;
+                return;
             }
         }
     }
@@ -381,41 +421,15 @@ impl<'s> Core<'s> {
 
 /// The seed's `actionFramework` for a sequence: exceptions → pre-condition → action → exit
 /// condition every polling period, repeated from the pre-condition on restart. It leaves
-/// the outcome in `slot` and then never completes (see above); its owner drops it.
+/// the outcome in the frame's slot and then never completes (see above); its owner drops
+/// it.
 pub(crate) async fn framework<C, S: Sequence<C>>(
-    cx: Cx<'_, C>,
+    frame: Frame<'_, '_, C>,
     body: &mut S,
-    slot: &Cell<Option<Outcome>>,
 ) -> Infallible {
-    let mut core = Core::new(slot);
     loop {
-        poll_fn(|w| core.drive(w, &cx, &mut SeqConds(&mut *body))).await;
-        let mut action = pin!(body.action(&cx));
-        poll_fn(|w| core.act(w, &cx, action.as_mut())).await;
-    }
-}
-
-/// The framework of a step: only this projection is generic over the step type.
-pub(crate) struct StepFramework<'a, 's, C, S> {
-    cx: Cx<'a, C>,
-    step: &'s mut S,
-    core: Core<'s>,
-}
-
-impl<'a, 's, C, S: Step<C>> StepFramework<'a, 's, C, S> {
-    pub(crate) fn new(cx: Cx<'a, C>, step: &'s mut S, slot: &'s Cell<Option<Outcome>>) -> Self {
-        StepFramework {
-            cx,
-            step,
-            core: Core::new(slot),
-        }
-    }
-}
-
-impl<C, S: Step<C>> Future for StepFramework<'_, '_, C, S> {
-    type Output = Infallible;
-    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Infallible> {
-        let this = self.get_mut();
-        this.core.step(w, &this.cx, &mut *this.step)
+        poll_fn(|w| frame.drive(w, &mut SeqConds(&mut *body))).await;
+        let mut action = pin!(body.action(&frame.cx));
+        poll_fn(|w| frame.act(w, action.as_mut())).await;
     }
 }
