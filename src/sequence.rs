@@ -154,14 +154,16 @@ impl<S> Seq<S> {
 
 // The framework is split so that almost nothing of it is generic over the sequence type:
 //
-// * `Core` is the seed's `actionFramework` as a state machine over the gate, the pre- and exit
-//   conditions and the end of a run. It is generic only over the control system `C` and
-//   reaches the body through small trait objects (`Conds` for the conditions, a pinned
-//   `dyn Future` for a running action), so one copy serves every sequence and step type.
+// * `Frame` (the child's context, the outcome slot, the phase) is the seed's
+//   `actionFramework` as a state machine over the gate, the pre- and exit conditions and the
+//   end of a run. It is generic only over the control system `C` and reaches the body
+//   through small trait objects (`Conds` for the conditions, a pinned `dyn Future` for a
+//   running action), so one copy serves every sequence and step type.
 // * A sequence's framework (`framework`) is a thin `async fn`: it only has to keep the
 //   action's future (which borrows the body and the context) in place while it runs.
-// * A step's framework (`StepFramework`) is not generic over the step at all: the step is
-//   type-erased (`StepRef`), its command runs inside `Core`.
+// * A step's framework is not generic over the step at all: the step is type-erased
+//   (`StepRef`), its command runs inside `Frame::step`; a blocking start of a step
+//   (`Run<.., StepRef>`) is one type for every step type.
 //
 // Neither returns: a returning `async fn` carries a compiler-generated "resumed after
 // completion" panic path, and rtseq has none. After the run the outcome is in the `Seq`'s
