@@ -19,7 +19,8 @@ use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 /// waits for the blinker:
 ///
 /// ```
-/// /// use rtseq::sim::Sim;
+/// use core::cell::Cell;
+/// use rtseq::sim::Sim;
 /// use rtseq::{Cx, Duration, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Wait};
 /// #[derive(Default)]
 /// struct Ctrl { blinks: Cell<u32> }
