@@ -1,13 +1,14 @@
 //! The context every action and condition method receives.
 
+use core::cell::Cell;
 use core::future::poll_fn;
 use core::task::Poll;
 
 use core::future::Future;
 
 use crate::engine::Engine;
-use crate::run::Run;
-use crate::sequence::{framework, SeqBody, StepBody};
+use crate::run::{Run, SeqFramework};
+use crate::sequence::{framework, Frame, StepRef};
 use crate::sequencer::{Gate, Mode};
 use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
@@ -71,6 +72,10 @@ impl<'a, C> Cx<'a, C> {
         }
     }
 
+    pub(crate) fn engine(&self) -> &'a dyn Engine<C> {
+        self.engine
+    }
+
     /// The id of the sequence this context belongs to.
     pub fn id(&self) -> SeqId {
         self.id
@@ -99,25 +104,41 @@ impl<'a, C> Cx<'a, C> {
         child: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { id, body, slot } = child;
-        let id = *id;
-        let framework = framework(self.engine, self.control, id, SeqBody(body), slot);
-        Run::new(self.engine, self.id, id, slot, framework)
+        let frame = Frame::new(Cx::new(self.engine, self.control, *id), slot);
+        let framework = framework(
+            Frame::new(Cx::new(self.engine, self.control, *id), slot),
+            body,
+        );
+        Run::new(frame, self.id, SeqFramework(framework))
     }
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling
     /// period.
+    // Out of line (one copy per step type): call sites then pass one pointer.
+    #[inline(never)]
     pub fn step<'s, S: Step<C>>(
         &self,
         step: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { id, body, slot } = step;
-        let id = *id;
-        let framework = framework(self.engine, self.control, id, StepBody(body), slot);
-        Run::new(self.engine, self.id, id, slot, framework)
+        self.step_ref(*id, StepRef::new(body), slot)
+    }
+
+    /// `step` for every step type: one future type, one copy of its code.
+    #[inline(always)]
+    fn step_ref<'s>(
+        &self,
+        id: SeqId,
+        step: StepRef<'s, C>,
+        slot: &'s Cell<Option<Outcome>>,
+    ) -> Run<'a, 's, C, StepRef<'s, C>> {
+        let frame = Frame::new(Cx::new(self.engine, self.control, id), slot);
+        Run::new(frame, self.id, step)
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
     /// it is already running or has no lane.
+    #[inline(never)]
     pub fn start(&self, id: SeqId) -> Result<(), Error> {
         self.engine.begin(id, Some(self.id), Mode::Lane)
     }

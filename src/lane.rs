@@ -11,8 +11,8 @@ use core::task::Poll;
 
 use crate::engine::Engine;
 use crate::lock::Lock;
-use crate::sequence::{framework, SeqBody};
-use crate::{Seq, Sequence, Sequencer};
+use crate::sequence::{framework, Frame};
+use crate::{Cx, Seq, Sequence, Sequencer};
 
 /// Runs `seq` every time it is started non-blocking, forever.
 ///
@@ -53,7 +53,10 @@ pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, co
         })
         .await;
         let Seq { body, slot, .. } = &mut *seq;
-        let mut run = pin!(framework(engine, control, id, SeqBody(body), slot));
+        let mut run = pin!(framework(
+            Frame::new(Cx::new(engine, control, id), slot),
+            body
+        ));
         poll_fn(|w| {
             match run.as_mut().poll(w) {
                 Poll::Pending => {}

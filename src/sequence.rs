@@ -4,10 +4,11 @@
 use core::cell::Cell;
 use core::convert::Infallible;
 use core::future::{poll_fn, Future};
+use core::marker::PhantomData;
 use core::pin::{pin, Pin};
-use core::task::Poll;
+use core::ptr::NonNull;
+use core::task::{Context, Poll};
 
-use crate::engine::Engine;
 use crate::sequencer::Gate;
 use crate::{Cx, Outcome, SeqId};
 
@@ -151,20 +152,32 @@ impl<S> Seq<S> {
     }
 }
 
-/// What the framework needs of a sequence or a step.
-pub(crate) trait Body<C> {
-    fn act<'s>(&'s mut self, cx: &'s Cx<'_, C>) -> impl Future<Output = ()>;
+// The framework is split so that almost nothing of it is generic over the sequence type:
+//
+// * `Frame` (the child's context, the outcome slot, the phase) is the seed's
+//   `actionFramework` as a state machine over the gate, the pre- and exit conditions and the
+//   end of a run. It is generic only over the control system `C` and reaches the body
+//   through small trait objects (`Conds` for the conditions, a pinned `dyn Future` for a
+//   running action), so one copy serves every sequence and step type.
+// * A sequence's framework (`framework`) is a thin `async fn`: it only has to keep the
+//   action's future (which borrows the body and the context) in place while it runs.
+// * A step's framework is not generic over the step at all: the step is type-erased
+//   (`StepRef`), its command runs inside `Frame::step`; a blocking start of a step
+//   (`Run<.., StepRef>`) is one type for every step type.
+//
+// Neither returns: a returning `async fn` carries a compiler-generated "resumed after
+// completion" panic path, and rtseq has none. After the run the outcome is in the `Seq`'s
+// slot and the framework stays pending; its owner drops it.
+
+/// The pre- and exit conditions of a sequence or step, object-safe.
+trait Conds<C> {
     fn pre(&mut self, cx: &Cx<'_, C>) -> bool;
     fn exit(&mut self, cx: &Cx<'_, C>) -> bool;
 }
 
-pub(crate) struct SeqBody<'s, S>(pub(crate) &'s mut S);
-pub(crate) struct StepBody<'s, S>(pub(crate) &'s mut S);
+struct SeqConds<'s, S>(&'s mut S);
 
-impl<C, S: Sequence<C>> Body<C> for SeqBody<'_, S> {
-    fn act<'s>(&'s mut self, cx: &'s Cx<'_, C>) -> impl Future<Output = ()> {
-        self.0.action(cx)
-    }
+impl<C, S: Sequence<C>> Conds<C> for SeqConds<'_, S> {
     fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
         self.0.check_pre_condition(cx)
     }
@@ -173,109 +186,252 @@ impl<C, S: Sequence<C>> Body<C> for SeqBody<'_, S> {
     }
 }
 
-impl<C, S: Step<C>> Body<C> for StepBody<'_, S> {
-    fn act<'s>(&'s mut self, cx: &'s Cx<'_, C>) -> impl Future<Output = ()> {
-        // The command runs at the first poll, i.e. only once the gate said go.
-        let step = &mut *self.0;
-        poll_fn(move |_| {
+/// Which method of a type-erased step to call.
+#[derive(Clone, Copy)]
+enum StepCall {
+    Pre,
+    Action,
+    Exit,
+}
+
+/// A mutably borrowed step of any type.
+///
+/// Hand-made rather than `&'s mut dyn Step<C>`: a trait object mentioning `C` would require
+/// `C: 's`, which the signature of [`Cx::step`] does not promise.
+pub(crate) struct StepRef<'s, C> {
+    /// The `&'s mut S`.
+    step: NonNull<()>,
+    /// `call::<C, S>`.
+    call: unsafe fn(NonNull<()>, StepCall, &Cx<'_, C>) -> bool,
+    _borrow: PhantomData<&'s mut ()>,
+}
+
+/// # Safety
+/// `step` must point to a live `S` that nothing else accesses meanwhile.
+unsafe fn call<C, S: Step<C>>(step: NonNull<()>, what: StepCall, cx: &Cx<'_, C>) -> bool {
+    // SAFETY: guaranteed by the caller.
+    let step = unsafe { step.cast::<S>().as_mut() };
+    match what {
+        StepCall::Pre => step.check_pre_condition(cx),
+        StepCall::Action => {
             step.action(cx);
-            Poll::Ready(())
-        })
+            true
+        }
+        StepCall::Exit => step.check_exit_condition(cx),
     }
+}
+
+impl<'s, C> StepRef<'s, C> {
+    pub(crate) fn new<S: Step<C>>(step: &'s mut S) -> Self {
+        StepRef {
+            step: NonNull::from(step).cast(),
+            call: call::<C, S>,
+            _borrow: PhantomData,
+        }
+    }
+
+    fn call(&mut self, what: StepCall, cx: &Cx<'_, C>) -> bool {
+        // SAFETY: `step` is the `&'s mut S` given to `new` and `call` is `call::<C, S>`; the
+        // borrow lives as long as `self` (`_borrow`), and `&mut self` makes this the only
+        // access.
+        unsafe { (self.call)(self.step, what, cx) }
+    }
+}
+
+impl<C> Conds<C> for StepRef<'_, C> {
     fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_pre_condition(cx)
+        self.call(StepCall::Pre, cx)
     }
     fn exit(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_exit_condition(cx)
+        self.call(StepCall::Exit, cx)
     }
 }
 
-// The futures below are `poll_fn`s or `async fn`s that never return: a returning `async fn`
-// carries a compiler-generated "resumed after completion" panic path, and rtseq has none.
-
-/// Waits at an await point until the gate opens; never yields `Hold`.
-pub(crate) fn gate<C>(engine: &dyn Engine<C>, id: SeqId) -> impl Future<Output = Gate> + '_ {
-    poll_fn(move |w| match engine.gate(id, w.waker()) {
-        Gate::Hold => Poll::Pending,
-        other => Poll::Ready(other),
-    })
+/// A step's command as a future: it runs at the first poll, i.e. only once the gate said go.
+struct StepAct<'r, 's, 'c, 'a, C> {
+    step: &'r mut StepRef<'s, C>,
+    cx: &'c Cx<'a, C>,
 }
 
-/// Polls `fut` only while the gate of `id` is open: a held sequence does not advance, an
-/// aborted or restarting one never runs another line of it.
-fn guarded<'f, C, F: Future<Output = ()>>(
-    engine: &'f dyn Engine<C>,
-    id: SeqId,
-    mut fut: Pin<&'f mut F>,
-) -> impl Future<Output = Gate> + 'f {
-    poll_fn(move |w| match engine.gate(id, w.waker()) {
-        Gate::Go => fut.as_mut().poll(w).map(|()| Gate::Go),
-        Gate::Hold => Poll::Pending,
-        other => Poll::Ready(other),
-    })
+impl<C> Future for StepAct<'_, '_, '_, '_, C> {
+    type Output = ();
+    fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
+        let this = self.get_mut();
+        this.step.call(StepCall::Action, this.cx);
+        Poll::Ready(())
+    }
 }
 
-/// Waits for the next due poll of a polled condition.
-pub(crate) fn poll_due<C>(engine: &dyn Engine<C>, id: SeqId) -> impl Future<Output = Gate> + '_ {
-    poll_fn(move |w| match engine.poll_due(id, w.waker()) {
-        Gate::Hold => Poll::Pending,
-        other => Poll::Ready(other),
-    })
+/// Where a run's framework stands.
+#[derive(Clone, Copy)]
+enum Phase {
+    /// At the await point before the pre-condition: the start, or after a restart.
+    Gate,
+    /// The action runs (polled through `Frame::act`).
+    Act,
+    /// The action completed and its future is gone: start polling the exit condition.
+    Acted,
+    /// Check the exit condition now.
+    Exit,
+    /// Wait for the next due poll of the exit condition.
+    Due,
+    /// The run ended (the action's future is gone): publish the outcome.
+    End(Outcome),
+    /// The outcome is in the slot; pending forever.
+    Done,
 }
 
-/// The seed's `actionFramework`: exceptions → pre-condition → action → exit condition every
-/// polling period, repeated from the pre-condition on restart. It leaves the outcome in
-/// `slot` and then never completes (see above); its owner drops it.
-pub(crate) async fn framework<C, B: Body<C>>(
-    engine: &dyn Engine<C>,
-    control: &C,
-    id: SeqId,
-    mut body: B,
-    slot: &Cell<Option<Outcome>>,
-) -> Infallible {
-    let cx = Cx::new(engine, control, id);
-    let outcome = 'run: loop {
-        // Each arm that leaves this iteration says how: on with the run, the outcome, or
-        // start over after a restart.
-        macro_rules! on {
-            ($gate:expr) => {
-                match $gate {
-                    Gate::Go | Gate::Hold => {}
-                    Gate::Aborted(cause) => break 'run Outcome::Aborted(cause),
-                    Gate::Restart => {
-                        engine.restarted(id);
-                        continue 'run;
+/// The body-independent part of a run's framework (see above): the sequence's context, the
+/// slot for its outcome and where the run stands.
+pub(crate) struct Frame<'a, 's, C> {
+    pub(crate) cx: Cx<'a, C>,
+    pub(crate) slot: &'s Cell<Option<Outcome>>,
+    phase: Cell<Phase>,
+}
+
+impl<'a, 's, C> Frame<'a, 's, C> {
+    pub(crate) fn new(cx: Cx<'a, C>, slot: &'s Cell<Option<Outcome>>) -> Self {
+        Frame {
+            cx,
+            slot,
+            phase: Cell::new(Phase::Gate),
+        }
+    }
+
+    /// Applies a gate that is not `Go`/`Hold` (the seed's exceptions): `true` if the run goes
+    /// on where it is.
+    fn on(&self, gate: Gate) -> bool {
+        match gate {
+            Gate::Go | Gate::Hold => true,
+            Gate::Aborted(cause) => {
+                self.phase.set(Phase::End(Outcome::Aborted(cause)));
+                false
+            }
+            Gate::Restart => {
+                self.cx.engine().restarted(self.cx.id());
+                self.phase.set(Phase::Gate);
+                false
+            }
+        }
+    }
+
+    /// Runs the framework up to the start of the action (`Ready`: create and poll it now), or
+    /// until it must wait (`Pending`). Never `Ready` once the run has ended.
+    #[inline(never)]
+    fn drive(&self, w: &mut Context<'_>, body: &mut dyn Conds<C>) -> Poll<()> {
+        let (cx, engine, id) = (&self.cx, self.cx.engine(), self.cx.id());
+        loop {
+            match self.phase.get() {
+                Phase::Gate => match engine.gate(id, w.waker()) {
+                    Gate::Hold => return Poll::Pending,
+                    gate => {
+                        if !self.on(gate) {
+                            continue;
+                        }
+                        if body.pre(cx) {
+                            self.phase.set(Phase::Act);
+                            return Poll::Ready(());
+                        }
+                        match engine.end(id, Outcome::Skipped) {
+                            Ok(outcome) => self.phase.set(Phase::End(outcome)),
+                            Err(gate) => {
+                                if self.on(gate) {
+                                    self.phase.set(Phase::Gate);
+                                }
+                            }
+                        }
+                    }
+                },
+                // Not reached: the action is polled by `act`.
+                Phase::Act => return Poll::Ready(()),
+                Phase::Acted => {
+                    engine.poll_wait(id, true);
+                    self.phase.set(Phase::Exit);
+                }
+                Phase::Exit => {
+                    self.phase.set(Phase::Due);
+                    if body.exit(cx) {
+                        match engine.end(id, Outcome::Completed) {
+                            Ok(outcome) => self.phase.set(Phase::End(outcome)),
+                            // Go/Hold: on to the next due poll.
+                            Err(gate) => {
+                                self.on(gate);
+                            }
+                        }
                     }
                 }
-            };
-        }
-        on!(gate(engine, id).await);
-        if !body.pre(&cx) {
-            match engine.end(id, Outcome::Skipped) {
-                Ok(o) => break 'run o,
-                Err(g) => {
-                    on!(g);
-                    continue 'run;
+                Phase::Due => match engine.poll_due(id, w.waker()) {
+                    Gate::Hold => return Poll::Pending,
+                    gate => {
+                        if self.on(gate) {
+                            self.phase.set(Phase::Exit);
+                        }
+                    }
+                },
+                Phase::End(outcome) => {
+                    engine.poll_wait(id, false);
+                    engine.finished(id, outcome);
+                    self.slot.set(Some(outcome));
+                    self.phase.set(Phase::Done);
                 }
+                Phase::Done => return Poll::Pending,
             }
         }
-        {
-            let act = pin!(body.act(&cx));
-            on!(guarded(engine, id, act).await);
+    }
+
+    /// Polls the running action only while the gate is open: a held sequence does not
+    /// advance, an aborted or restarting one never runs another line of it. `Ready`: the
+    /// action is over (completed, aborted or restarting); drop its future, then `drive`.
+    #[inline(never)]
+    fn act(&self, w: &mut Context<'_>, action: Pin<&mut dyn Future<Output = ()>>) -> Poll<()> {
+        match self.cx.engine().gate(self.cx.id(), w.waker()) {
+            Gate::Go => match action.poll(w) {
+                Poll::Ready(()) => {
+                    self.phase.set(Phase::Acted);
+                    Poll::Ready(())
+                }
+                Poll::Pending => Poll::Pending,
+            },
+            Gate::Hold => Poll::Pending,
+            gate => {
+                self.on(gate);
+                Poll::Ready(())
+            }
         }
-        engine.poll_wait(id, true);
+    }
+
+    /// A step's whole framework.
+    #[inline(never)]
+    pub(crate) fn step(&self, w: &mut Context<'_>, step: &mut StepRef<'_, C>) {
         loop {
-            if body.exit(&cx) {
-                match engine.end(id, Outcome::Completed) {
-                    Ok(o) => break 'run o,
-                    Err(g) => on!(g),
-                }
+            let ready = if let Phase::Act = self.phase.get() {
+                let mut action = StepAct {
+                    step: &mut *step,
+                    cx: &self.cx,
+                };
+                let action = Pin::new(&mut action);
+                self.act(w, action)
+            } else {
+                self.drive(w, step)
+            };
+            if ready.is_pending() {
+                return;
             }
-            on!(poll_due(engine, id).await);
         }
-    };
-    engine.poll_wait(id, false);
-    engine.finished(id, outcome);
-    slot.set(Some(outcome));
-    core::future::pending::<Infallible>().await
+    }
+}
+
+/// The seed's `actionFramework` for a sequence: exceptions → pre-condition → action → exit
+/// condition every polling period, repeated from the pre-condition on restart. It leaves
+/// the outcome in the frame's slot and then never completes (see above); its owner drops
+/// it.
+pub(crate) async fn framework<C, S: Sequence<C>>(
+    frame: Frame<'_, '_, C>,
+    body: &mut S,
+) -> Infallible {
+    loop {
+        poll_fn(|w| frame.drive(w, &mut SeqConds(&mut *body))).await;
+        let mut action = pin!(body.action(&frame.cx));
+        poll_fn(|w| frame.act(w, action.as_mut())).await;
+    }
 }
