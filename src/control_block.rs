@@ -62,8 +62,7 @@ impl Counters {
 
 /// Flag bits of [`ControlBlock::flags`].
 pub(crate) mod flag {
-    /// A lane runs this sequence non-blocking.
-    pub const HAS_LANE: u16 = 1 << 0;
+    // Bit 0 is free (a declared lane is known by its lane slot).
     /// A non-blocking start waits for the lane to pick it up.
     pub const START_PENDING: u16 = 1 << 1;
     /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
@@ -99,8 +98,17 @@ pub(crate) mod request {
 /// The behaviour waiting for the end of an exception sequence, in the top three bits of
 /// [`ControlBlock::flags`] (0 = none).
 mod pending {
+    use crate::Behaviour;
     pub const SHIFT: u32 = 13;
     pub const MASK: u16 = 0b111 << SHIFT;
+    /// By discriminant.
+    pub const BEHAVIOURS: [Behaviour; 5] = [
+        Behaviour::Nothing,
+        Behaviour::AbortOwner,
+        Behaviour::RestartOwner,
+        Behaviour::AbortCallerOfOwner,
+        Behaviour::RestartCallerOfOwner,
+    ];
 }
 
 /// A 1-byte optional sequence id (`SeqId` values stop at 254).
@@ -225,25 +233,13 @@ impl ControlBlock {
 
     /// The behaviour waiting for this sequence's exception sequence to end.
     pub(crate) fn pending(&self) -> Option<Behaviour> {
-        match (self.flags & pending::MASK) >> pending::SHIFT {
-            1 => Some(Behaviour::Nothing),
-            2 => Some(Behaviour::AbortOwner),
-            3 => Some(Behaviour::RestartOwner),
-            4 => Some(Behaviour::AbortCallerOfOwner),
-            5 => Some(Behaviour::RestartCallerOfOwner),
-            _ => None,
-        }
+        let code = usize::from((self.flags & pending::MASK) >> pending::SHIFT);
+        pending::BEHAVIOURS.get(code.wrapping_sub(1)).copied()
     }
 
     pub(crate) fn set_pending(&mut self, b: Option<Behaviour>) {
-        let code: u16 = match b {
-            None => 0,
-            Some(Behaviour::Nothing) => 1,
-            Some(Behaviour::AbortOwner) => 2,
-            Some(Behaviour::RestartOwner) => 3,
-            Some(Behaviour::AbortCallerOfOwner) => 4,
-            Some(Behaviour::RestartCallerOfOwner) => 5,
-        };
+        // Codes 1..=5 (the enum's discriminant + 1); 0 = none.
+        let code = b.map_or(0, |b| b as u16 + 1);
         self.flags = (self.flags & !pending::MASK) | (code << pending::SHIFT);
     }
 
@@ -290,5 +286,34 @@ impl ControlBlock {
     pub(crate) fn accepts_exception(&self) -> bool {
         matches!(self.state, RunningState::Running | RunningState::Paused)
             && !self.has(flag::EXCEPTION_ACTIVE)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pending_behaviour_round_trips_without_touching_the_flags() {
+        let mut b = ControlBlock::EMPTY;
+        b.flags = flag::BOUND | flag::FRESH | request::PAUSE;
+        for p in pending::BEHAVIOURS.iter().copied().map(Some).chain([None]) {
+            b.set_pending(p);
+            assert_eq!(b.pending(), p);
+            assert_eq!(
+                b.flags & !pending::MASK,
+                flag::BOUND | flag::FRESH | request::PAUSE
+            );
+        }
+        assert_eq!(b.take_requests(), request::PAUSE);
+        assert_eq!(b.flags, flag::BOUND | flag::FRESH);
+    }
+
+    #[test]
+    fn wrapping_times_compare_across_the_wrap() {
+        assert!(reached32(5, 5));
+        assert!(reached32(3, u32::MAX - 2));
+        assert!(!reached32(u32::MAX - 2, 3));
+        assert_eq!(after(u64::from(u32::MAX), 2), 1);
     }
 }

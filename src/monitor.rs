@@ -7,6 +7,7 @@ use crate::{Condition, Error, MonitorId, SeqId};
 /// What happens after a monitor fired and its exception sequence (if any) ended.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
 pub enum Behaviour {
     /// The owner continues where it was.
     Nothing,
@@ -142,6 +143,7 @@ impl<'a, C> Condition<C> for &'a mut (dyn Condition<C> + Send + 'a) {
 impl<'a, C> Monitor<'a, C> {
     /// A rising-edge monitor with no exception sequence and the default restart limit, in a
     /// table of `dyn` conditions (the default [`Monitors`]).
+    #[inline(never)]
     pub fn new(
         name: &'static str,
         condition: &'a mut (dyn Condition<C> + Send),
@@ -173,6 +175,9 @@ impl<'a, C, K> Monitor<'a, C, K> {
     ///     .add(moving, Monitor::with_condition("end stop", Fault::EndStop, Behaviour::AbortOwner))
     ///     .unwrap();
     /// ```
+    // Out of line: set-up code, called once per monitor; inlined, the struct literal
+    // would be copied into every call site.
+    #[inline(never)]
     pub fn with_condition(name: &'static str, condition: K, behaviour: Behaviour) -> Self {
         Monitor {
             name,
@@ -186,12 +191,14 @@ impl<'a, C, K> Monitor<'a, C, K> {
     }
 
     /// The exception sequence to run (in its lane, while the owner is held) when this fires.
+    #[inline(never)]
     pub fn exception(mut self, sequence: SeqId) -> Self {
         self.exception = Some(sequence);
         self
     }
 
     /// Rising edge (default) or level trigger.
+    #[inline(never)]
     pub fn trigger(mut self, trigger: Trigger) -> Self {
         self.trigger = trigger;
         self
@@ -199,6 +206,7 @@ impl<'a, C, K> Monitor<'a, C, K> {
 
     /// How many restarts this monitor may cause per run of its target before a restarting
     /// behaviour escalates to the matching abort.
+    #[inline(never)]
     pub fn restart_limit(mut self, limit: u8) -> Self {
         self.restart_limit = limit;
         self

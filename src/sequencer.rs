@@ -224,18 +224,35 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     }
 
     /// Binds the sequence or step object `body` to a registered id; each id binds once.
+    #[inline(never)]
     pub fn bind<S>(&self, id: SeqId, body: S) -> Result<crate::Seq<S>, Error> {
+        self.claim(id)?;
+        Ok(crate::Seq {
+            id,
+            body,
+            slot: core::cell::Cell::new(None),
+        })
+    }
+
+    /// The part of [`add`](Self::add) that does not depend on the body type (one copy, not
+    /// one per sequence type).
+    #[inline(never)]
+    fn register_bound(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
+        let id = self.register(config)?;
+        self.claim(id)?;
+        Ok(id)
+    }
+
+    /// The part of [`bind`](Self::bind) that does not depend on the body type.
+    #[inline(never)]
+    fn claim(&self, id: SeqId) -> Result<(), Error> {
         self.with(|s| {
             let b = s.block_mut(id)?;
             if b.has(flag::BOUND) {
                 return Err(Error::AlreadyBound(id));
             }
             b.set(flag::BOUND, true);
-            Ok(crate::Seq {
-                id,
-                body,
-                slot: core::cell::Cell::new(None),
-            })
+            Ok(())
         })
     }
 
@@ -249,9 +266,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// let enable = seq.add(SeqConfig::new("enable"), Enable).unwrap();
     /// assert_eq!(seq.sequence_by_id(enable.id()).unwrap().name(), "enable");
     /// ```
+    // Out of line: set-up code; inlined, it is copied into every registration site.
+    #[inline(never)]
     pub fn add<S>(&self, config: SeqConfig<C>, body: S) -> Result<crate::Seq<S>, Error> {
-        let id = self.register(config)?;
-        self.bind(id, body)
+        let id = self.register_bound(config)?;
+        Ok(crate::Seq {
+            id,
+            body,
+            slot: core::cell::Cell::new(None),
+        })
     }
 
     /// The seed's `getSequenceByID`.
@@ -408,12 +431,12 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             to,
             cause,
         };
-        if self.trace.push_back(record).is_err() {
+        if self.trace.is_full() {
             // Keep the newest records: the oldest are the least useful to a live observer.
             let _ = self.trace.pop_front();
-            let _ = self.trace.push_back(record);
             self.trace_lost = self.trace_lost.saturating_add(1);
         }
+        let _ = self.trace.push_back(record);
         true
     }
 
@@ -429,18 +452,18 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         if b.state.is_active() {
             return Err(Error::AlreadyRunning(id));
         }
-        if mode == Mode::Lane && !b.has(flag::HAS_LANE) {
-            return Err(Error::NoLane(id));
-        }
         let lane = match mode {
             Mode::Blocking => match caller {
                 Some(c) => self.block(c)?.lane,
                 None => NO_LANE,
             },
+            // A sequence has a lane once one was declared for it (`rtseq::lane`,
+            // `Handle::declare_lane`).
             Mode::Lane => self.lane_slot_of(id).ok_or(Error::NoLane(id))?,
         };
+        // `caller` is the starting sequence itself (a context's or an exception's owner):
+        // registered by construction.
         if let Some(c) = caller {
-            self.block(c)?;
             self.cut_old_links_to(id, c);
             if usize::from(self.depth(c)) >= MAX_DEPTH {
                 return Err(Error::CallerDepthExceeded(id));
@@ -454,7 +477,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         b.caller = Link::to(caller);
         b.lane = lane;
         // Clears the requests and the pending behaviour too.
-        b.flags &= flag::HAS_LANE | flag::BOUND;
+        b.flags &= flag::BOUND;
         b.set(flag::FRESH, true);
         b.active_exception = None;
         b.outcome = None;
@@ -489,7 +512,6 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
                 .ok_or(Error::LaneCapacityExceeded(id))?;
             free.seq = Link::to(Some(id));
         }
-        self.block_mut(id)?.set(flag::HAS_LANE, true);
         Ok(())
     }
 

@@ -311,18 +311,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 s.wake(owner);
             }),
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => {
-                self.tear_down(control, target, cause, false)
+                self.tear_down(control, Some(target), cause, false)
             }
             Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => {
-                self.tear_down(control, target, cause, true)
+                self.tear_down(control, Some(target), cause, true)
             }
         }
     }
 
-    /// Aborts `target` and every active sub-sequence of it (blocking and non-blocking),
-    /// innermost first, each through `Aborting` (cleanup hook) to `Aborted`. With `restart`,
-    /// the target itself goes to `Restarting` instead.
-    fn tear_down(&self, control: &C, target: SeqId, cause: Cause, restart: bool) {
+    /// Aborts `target` and every active sub-sequence of it (blocking and non-blocking), or
+    /// every active sequence when `target` is `None` (abort-all), innermost first, each
+    /// through `Aborting` (cleanup hook) to `Aborted`. With `restart`, the target itself
+    /// goes to `Restarting` instead.
+    fn tear_down(&self, control: &C, target: Option<SeqId>, cause: Cause, restart: bool) {
         // depth + 1 of each affected sequence, 0 = unaffected.
         let mut affected = [0u8; N];
         for (i, a) in affected.iter_mut().enumerate() {
@@ -331,7 +332,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             };
             self.with(|s| {
                 let Ok(b) = s.block(id) else { return };
-                let hit = id == target || s.descends_from(id, target);
+                let hit = target.is_none_or(|t| id == t || s.descends_from(id, t));
                 if hit && b.state.is_active() && b.state != RunningState::Aborting {
                     *a = s.depth(id).saturating_add(1);
                 }
@@ -345,7 +346,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 if *a != depth {
                     continue;
                 }
-                if restart && id == target {
+                if restart && Some(id) == target {
                     self.stop(control, id, cause, RunningState::Restarting);
                 } else {
                     self.stop(control, id, cause, RunningState::Aborting);
@@ -389,18 +390,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Aborts every active sequence, innermost first.
     #[inline(never)]
     fn apply_abort_all(&self, control: &C) {
-        let count = self.with(|s| s.count);
-        for depth in (0..=MAX_DEPTH as u8).rev() {
-            for id in (0..count).map(SeqId) {
-                let hit = self.with(|s| {
-                    s.block(id)
-                        .is_ok_and(|b| b.state.is_active() && s.depth(id) == depth)
-                });
-                if hit {
-                    self.stop(control, id, Cause::AbortAll, RunningState::Aborting);
-                }
-            }
-        }
+        self.tear_down(control, None, Cause::AbortAll, false);
     }
 
     /// Applies finished exception sequences and abort/pause/resume requests.
@@ -443,7 +433,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 }
             }
             if req & request::ABORT != 0 {
-                self.tear_down(control, id, Cause::Abort, false);
+                self.tear_down(control, Some(id), Cause::Abort, false);
             } else if req & request::PAUSE != 0 {
                 self.pause_tree(id, true);
             } else if req & request::RESUME != 0 {
