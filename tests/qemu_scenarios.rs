@@ -436,7 +436,7 @@ fn firmware_sizes_with_and_without_rtseq() {
         "rtseq's own flash in the scenarios firmware [bytes]",
         own.max(inlined),
         8 * 1024,
-        24 * 1024,
+        8 * 1024,
     );
     assert!(alloc.is_empty(), "an allocator is linked: {alloc:?}");
     eprintln!("figure: no allocator linked");
