@@ -244,42 +244,47 @@ impl ControlBlock {
     }
 
     /// The tick's scan of this block at `now` (the low 32 bits): when its polling period is
-    /// due, marks it (see [`mark`](crate::tick::mark)), advances its polling schedule, notes
-    /// an expired timeout and a due exit-condition poll. Returns, for an active sequence,
-    /// the time until its next poll (µs).
+    /// due, advances its polling schedule and notes an expired timeout and a due
+    /// exit-condition poll. Returns, for an active sequence, its [`mark`](crate::tick::mark)
+    /// and the time until its next poll (µs).
     #[inline]
-    pub(crate) fn scan(&mut self, now: u32, m: &mut u8) -> Option<u32> {
+    pub(crate) fn scan(&mut self, now: u32) -> Option<(u8, u32)> {
         use crate::tick::mark;
         let running = self.state == RunningState::Running;
         if !running && self.state != RunningState::Paused {
             return None;
         }
-        if !running || self.has(flag::EXCEPTION_ACTIVE) {
-            *m = mark::HELD;
-        }
-        if !reached32(now, self.next_poll) {
-            return Some(self.next_poll.wrapping_sub(now));
-        }
-        *m |= mark::DUE;
-        if self.has(flag::FRESH) {
-            self.set(flag::FRESH, false);
-            *m |= mark::FRESH;
-        }
-        self.next_poll = self.next_poll.wrapping_add(self.polling);
+        // One read and one write of the flags, the mark built in a register.
+        let mut f = self.flags;
+        let mut m = if !running || f & flag::EXCEPTION_ACTIVE != 0 {
+            mark::HELD
+        } else {
+            0
+        };
         if reached32(now, self.next_poll) {
-            // Missed periods (a late tick) are not replayed.
-            self.next_poll = now.wrapping_add(self.polling);
-        }
-        if running {
-            if self.has(flag::TIMEOUT_ARMED) && reached32(now, self.deadline) {
-                *m |= mark::EXPIRED;
+            m |= mark::DUE;
+            if f & flag::FRESH != 0 {
+                f &= !flag::FRESH;
+                m |= mark::FRESH;
             }
-            if self.has(flag::POLL_WAIT) {
-                self.set(flag::POLL_DUE, true);
-                *m |= mark::WAKE;
+            let mut next = self.next_poll.wrapping_add(self.polling);
+            if reached32(now, next) {
+                // Missed periods (a late tick) are not replayed.
+                next = now.wrapping_add(self.polling);
             }
+            self.next_poll = next;
+            if running {
+                if f & flag::TIMEOUT_ARMED != 0 && reached32(now, self.deadline) {
+                    m |= mark::EXPIRED;
+                }
+                if f & flag::POLL_WAIT != 0 {
+                    f |= flag::POLL_DUE;
+                    m |= mark::WAKE;
+                }
+            }
+            self.flags = f;
         }
-        Some(self.next_poll.wrapping_sub(now))
+        Some((m, self.next_poll.wrapping_sub(now)))
     }
 
     /// Monitors and timeout of this sequence may raise an exception now.

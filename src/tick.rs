@@ -139,9 +139,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             self.with(|s| {
                 let count = usize::from(s.count);
                 for (b, m) in s.blocks.iter_mut().zip(marks.iter_mut()).take(count) {
-                    if let Some(a) = b.scan(now32, m) {
+                    if let Some((mark, a)) = b.scan(now32) {
+                        *m = mark;
                         ahead = ahead.min(a);
-                        seen |= *m;
+                        seen |= mark;
                     }
                 }
                 s.next_due = next_due(ahead);
@@ -149,10 +150,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         } else {
             let count = self.with(|s| usize::from(s.count));
             for (i, m) in marks.iter_mut().enumerate().take(count) {
-                if let Some(Some(a)) = self.with(|s| s.blocks.get_mut(i).map(|b| b.scan(now32, m)))
+                if let Some(Some((mark, a))) =
+                    self.with(|s| s.blocks.get_mut(i).map(|b| b.scan(now32)))
                 {
+                    *m = mark;
                     ahead = ahead.min(a);
-                    seen |= *m;
+                    seen |= mark;
                 }
             }
             self.with(|s| s.next_due = next_due(ahead));
