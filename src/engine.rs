@@ -108,10 +108,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
                 return false;
             };
             if let Some(slot) = s.lanes.get_mut(usize::from(lane)) {
-                match &slot.waker {
-                    Some(w) if w.will_wake(waker) => {}
-                    _ => slot.waker = Some(waker.clone()),
-                }
+                slot.park(waker);
             }
             let Ok(b) = s.block_mut(id) else { return false };
             let pending = b.has(flag::START_PENDING);

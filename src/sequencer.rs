@@ -66,6 +66,14 @@ impl LaneSlot {
         seq: Link::NONE,
         waker: None,
     };
+
+    /// Keeps `waker` as this lane's waker (cloned only when it changed).
+    pub(crate) fn park(&mut self, waker: &Waker) {
+        match &self.waker {
+            Some(w) if w.will_wake(waker) => {}
+            _ => self.waker = Some(waker.clone()),
+        }
+    }
 }
 
 /// The identity of a waker (data and vtable pointers, compared, never dereferenced).
@@ -533,11 +541,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
                 return;
             }
         }
-        if let Some(w) = self
-            .lanes
-            .get(usize::from(b.lane))
-            .and_then(|l| l.waker.as_ref())
-        {
+        if let Some(w) = self.lane_waker(b.lane) {
             let identity = (w.data(), w.vtable() as *const RawWakerVTable);
             if *woken != Some(identity) {
                 *woken = Some(identity);
@@ -546,14 +550,15 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         }
     }
 
+    /// The waker of lane slot `lane`, once its lane has parked.
+    fn lane_waker(&self, lane: u8) -> Option<&Waker> {
+        self.lanes.get(usize::from(lane))?.waker.as_ref()
+    }
+
     /// Wakes the lane that drives `id`.
     pub(crate) fn wake(&self, id: SeqId) {
         let lane = self.block(id).map_or(NO_LANE, |b| b.lane);
-        if let Some(w) = self
-            .lanes
-            .get(usize::from(lane))
-            .and_then(|l| l.waker.as_ref())
-        {
+        if let Some(w) = self.lane_waker(lane) {
             w.wake_by_ref();
         }
     }
@@ -562,10 +567,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
         let lane = self.block(id).map_or(NO_LANE, |b| b.lane);
         if let Some(slot) = self.lanes.get_mut(usize::from(lane)) {
-            match &slot.waker {
-                Some(w) if w.will_wake(waker) => {}
-                _ => slot.waker = Some(waker.clone()),
-            }
+            slot.park(waker);
         }
     }
 

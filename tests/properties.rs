@@ -149,7 +149,8 @@ struct Outcome {
 
 #[allow(clippy::needless_range_loop)] // node indices are ids: index loops read best
 fn simulate(p: &Plan) -> Outcome {
-    let seq: Sequencer<Ctrl, 24, 256> = Sequencer::new();
+    // Up to 24 lanes (main, non-blocking children, exception sequences): `W` = 24.
+    let seq: Sequencer<Ctrl, 24, 256, rtseq::lock::CriticalSection, 24> = Sequencer::new();
     let ctrl = Ctrl::default();
     let n = p.nodes.len() + 1; // node 0 is the main sequence
                                // Shape: kinds, parents, depths.
