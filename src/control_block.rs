@@ -95,6 +95,9 @@ pub(crate) mod request {
     pub const ALL: u16 = ABORT | PAUSE | RESUME;
 }
 
+/// The bits of the pending behaviour in [`ControlBlock::flags`].
+pub(crate) const PENDING_MASK: u16 = pending::MASK;
+
 /// The behaviour waiting for the end of an exception sequence, in the top three bits of
 /// [`ControlBlock::flags`] (0 = none).
 mod pending {

@@ -43,6 +43,8 @@ pub(crate) trait Engine<C> {
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
+/// Each method is a few short sections: a waker is parked in its own section before the
+/// state is read (so no wake-up is lost in between), walks take one section per step.
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     for Sequencer<C, N, T, L, W>
 {
@@ -51,29 +53,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn begin(&self, id: SeqId, caller: Option<SeqId>, mode: Mode) -> Result<(), Error> {
-        self.with(|s| s.begin(id, caller, mode, Cause::Start))
+        Sequencer::begin(self, id, caller, mode, Cause::Start, 0)
     }
 
     fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
-        self.with(|s| {
-            s.park(id, waker);
-            s.gate(id)
-        })
+        self.with(|s| s.park(id, waker));
+        self.with(|s| s.gate(id))
     }
 
     fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
-        self.with(|s| {
-            s.park(id, waker);
-            match s.gate(id) {
-                Gate::Go => match s.block_mut(id) {
-                    Ok(b) if b.has(flag::POLL_DUE) => {
-                        b.set(flag::POLL_DUE, false);
-                        Gate::Go
-                    }
-                    _ => Gate::Hold,
-                },
-                other => other,
-            }
+        self.with(|s| s.park(id, waker));
+        self.with(|s| match s.gate(id) {
+            Gate::Go => match s.block_mut(id) {
+                Ok(b) if b.has(flag::POLL_DUE) => {
+                    b.set(flag::POLL_DUE, false);
+                    Gate::Go
+                }
+                _ => Gate::Hold,
+            },
+            other => other,
         })
     }
 
@@ -87,7 +85,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn restarted(&self, id: SeqId) {
-        self.with(|s| s.restarted(id))
+        // Schedule, then commit; again if a tick moved the time in between.
+        loop {
+            let (seen, armed) = self.with(|s| s.schedule(id));
+            if self.with(|s| s.restarted(id, seen, armed)) != Some(false) {
+                return;
+            }
+        }
     }
 
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
@@ -95,21 +99,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
-        self.with(|s| s.finished(id, outcome))
+        if let Some(j) = self.with(|s| s.finished(id, outcome)) {
+            self.wake_lane(j);
+        }
     }
 
     fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
-        self.with(|s| s.declare_lane(id))
+        Sequencer::declare_lane(self, id)
     }
 
     fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
+        let Some(lane) = self.lane_slot_of(id) else {
+            return false;
+        };
         self.with(|s| {
-            let Some(lane) = s.lane_slot_of(id) else {
-                return false;
-            };
             if let Some(slot) = s.lanes.get_mut(usize::from(lane)) {
                 slot.park(waker);
             }
+        });
+        self.with(|s| {
             let Ok(b) = s.block_mut(id) else { return false };
             let pending = b.has(flag::START_PENDING);
             b.set(flag::START_PENDING, false);
@@ -138,23 +146,46 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         })
     }
 
+    /// The block's own fields in one section, then its caller stack one section per caller
+    /// (a snapshot per step: a stack the tick relinks meanwhile may mix old and new links).
     fn info(&self, id: SeqId) -> Option<Info> {
-        self.with(|s| {
+        let (mut info, lane, mut up) = self.with(|s| {
             let b = s.block(id).ok()?;
-            Some(Info {
-                name: b.name,
-                state: b.state,
-                stack: s.caller_stack(id),
-                blocking: u8::try_from(s.blocking_callers(id).count()).unwrap_or(u8::MAX),
-                exception_active: b.has(flag::EXCEPTION_ACTIVE),
-                active_exception: b.active_exception,
-                #[cfg(feature = "counters")]
-                counters: s.counters.get(id.index()).copied().unwrap_or_default(),
-                outcome: b.outcome,
-            })
-        })
+            Some((
+                Info {
+                    name: b.name,
+                    state: b.state,
+                    stack: heapless::Vec::new(),
+                    blocking: 0,
+                    exception_active: b.has(flag::EXCEPTION_ACTIVE),
+                    active_exception: b.active_exception,
+                    #[cfg(feature = "counters")]
+                    counters: s.counters.get(id.index()).copied().unwrap_or_default(),
+                    outcome: b.outcome,
+                },
+                b.lane,
+                b.caller,
+            ))
+        })?;
+        // Innermost first; the blocking callers are the innermost ones in `id`'s lane.
+        let mut blocking = true;
+        for _ in 0..MAX_DEPTH {
+            let Some(c) = up.get() else { break };
+            // At most MAX_DEPTH pushes: every one fits.
+            let _ = info.stack.push(c);
+            let (next, same_lane) = self.with(|s| {
+                s.block(c)
+                    .map_or((Link::NONE, false), |b| (b.caller, b.lane == lane))
+            });
+            blocking &= same_lane;
+            if blocking {
+                info.blocking = info.blocking.saturating_add(1);
+            }
+            up = next;
+        }
+        info.stack.reverse();
+        Some(info)
     }
-
     fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
         self.with(|s| s.request(id, bit))
     }

@@ -49,7 +49,7 @@ pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) next_due: u64,
     /// Requests or finished exception sequences wait for the tick.
     pub(crate) work: bool,
-    pub(crate) trace: heapless::Deque<Transition, T>,
+    pub(crate) trace: crate::trace::Ring<T>,
     pub(crate) trace_lost: u32,
     /// Exceptions whose sequence could not run (no lane, already running, too deep).
     pub(crate) exceptions_not_run: u16,
@@ -172,7 +172,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 counters: [crate::Counters::ZERO; N],
                 next_due: u64::MAX,
                 work: false,
-                trace: heapless::Deque::new(),
+                trace: crate::trace::Ring::new(),
                 trace_lost: 0,
                 exceptions_not_run: 0,
             }),
@@ -207,28 +207,37 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             Some(t) => time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
             None => 0,
         };
-        self.with(|s| {
-            let used = usize::from(s.count);
-            if s.blocks.iter().take(used).any(|b| b.name == config.name) {
-                return Err(Error::DuplicateName(config.name));
+        // One short section per registered name (compared outside); the section that finds
+        // no further name takes the next slot, so no name is added unchecked in between.
+        let mut i: u8 = 0;
+        loop {
+            // Ok(Err(name)): compare with this name; Ok(Ok(id)): registered.
+            let next = self.with(|s| {
+                if i < s.count {
+                    return Ok(Err(s.block(SeqId(i)).map_or("", |b| b.name)));
+                }
+                let slot = s
+                    .blocks
+                    .get_mut(usize::from(i))
+                    .ok_or(Error::SequenceCapacityExceeded)?;
+                slot.name = config.name;
+                slot.polling = polling;
+                slot.timeout = timeout;
+                slot.timeout_behaviour = config.timeout_behaviour;
+                slot.timeout_exception = Link::to(config.timeout_exception);
+                slot.timeout_restart_limit = config.timeout_restart_limit;
+                if let Some(h) = s.hooks.get_mut(usize::from(i)) {
+                    *h = config.on_abort;
+                }
+                s.count = i.saturating_add(1);
+                Ok(Ok(SeqId(i)))
+            })?;
+            match next {
+                Ok(id) => return Ok(id),
+                Err(name) if name == config.name => return Err(Error::DuplicateName(config.name)),
+                Err(_) => i = i.saturating_add(1),
             }
-            let slot = s
-                .blocks
-                .get_mut(used)
-                .ok_or(Error::SequenceCapacityExceeded)?;
-            slot.name = config.name;
-            slot.polling = polling;
-            slot.timeout = timeout;
-            slot.timeout_behaviour = config.timeout_behaviour;
-            slot.timeout_exception = Link::to(config.timeout_exception);
-            slot.timeout_restart_limit = config.timeout_restart_limit;
-            if let Some(h) = s.hooks.get_mut(used) {
-                *h = config.on_abort;
-            }
-            let id = SeqId(s.count);
-            s.count = s.count.saturating_add(1);
-            Ok(id)
-        })
+        }
     }
 
     /// Binds the sequence or step object `body` to a registered id; each id binds once.
@@ -293,14 +302,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// The seed's `getSequenceByName`.
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'_, C>> {
-        let id = self.with(|s| {
-            s.blocks
-                .iter()
-                .take(usize::from(s.count))
-                .position(|b| b.name == name)
-                .and_then(|i| u8::try_from(i).ok())
-        })?;
-        Some(Handle::new(self, SeqId(id)))
+        // One short section per registered name; the comparison runs outside.
+        let mut i: u8 = 0;
+        loop {
+            let at =
+                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name)))?;
+            if at == name {
+                return Some(Handle::new(self, SeqId(i)));
+            }
+            i = i.saturating_add(1);
+        }
     }
 
     /// Number of registered sequences and steps.
@@ -361,7 +372,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     pub fn drain_trace(&self, mut f: impl FnMut(Transition)) -> u32 {
         loop {
             let (t, lost) = self.with(|s| {
-                let t = s.trace.pop_front();
+                let t = s.trace.pop();
                 let lost = if t.is_none() {
                     core::mem::take(&mut s.trace_lost)
                 } else {
@@ -380,6 +391,172 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// would nest too deep); their behaviour was applied at once.
     pub fn exceptions_not_run(&self) -> u16 {
         self.with(|s| s.exceptions_not_run)
+    }
+}
+
+/// Starts, in short sections: what a start reads is validated in read-only sections, the
+/// caller-link walk takes one section per link, and one commit section re-checks the state
+/// (the only thing another context can have changed in a way that matters: the tick may
+/// have started the sequence as an exception sequence in between) and fails with the same
+/// error as a start done in one piece.
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
+    /// the new run.
+    pub(crate) fn begin(
+        &self,
+        id: SeqId,
+        caller: Option<SeqId>,
+        mode: Mode,
+        cause: Cause,
+        extra: u16,
+    ) -> Result<(), Error> {
+        // Everything but the commit happens once; a commit that finds the time moved
+        // (a tick ran in between) prepares again: the new run's schedule is taken from the
+        // time of its commit, so the tick cannot have rescanned without it.
+        let mut ready = None;
+        loop {
+            let (caller_lane, seen, armed) = self.with(|s| s.prepare(id, caller, mode))?;
+            let (lane, flags) = match ready {
+                Some(r) => r,
+                None => {
+                    let r = match mode {
+                        Mode::Blocking => (caller_lane, flag::FRESH | extra),
+                        // A sequence has a lane once one was declared for it
+                        // (`rtseq::lane`, `Handle::declare_lane`).
+                        Mode::Lane => (
+                            self.lane_slot_of(id).ok_or(Error::NoLane(id))?,
+                            flag::FRESH | flag::START_PENDING | extra,
+                        ),
+                    };
+                    // `caller` is the starting sequence itself (a context's or an
+                    // exception's owner): registered by construction.
+                    if let Some(c) = caller {
+                        if usize::from(self.cut_and_depth(id, c)) >= MAX_DEPTH {
+                            return Err(Error::CallerDepthExceeded(id));
+                        }
+                    }
+                    ready = Some(r);
+                    r
+                }
+            };
+            let link = Link::to(caller);
+            if self.with(|s| s.start(id, link, lane, flags | armed, cause, seen))? {
+                break;
+            }
+        }
+        if mode == Mode::Lane {
+            self.wake_lane(id);
+        }
+        Ok(())
+    }
+
+    /// Wakes the lane that drives `id`, in a section of its own.
+    #[inline(never)]
+    pub(crate) fn wake_lane(&self, id: SeqId) {
+        self.with(|s| s.wake(id));
+    }
+
+    /// Before `id` is started by `caller`: walks `caller`'s caller links, one short section
+    /// per link, and returns its depth (its number of callers, at most `MAX_DEPTH`). If `id`
+    /// is itself a (finished) caller of `caller`, the link to its old run is cut there, so
+    /// the links never form a cycle.
+    fn cut_and_depth(&self, id: SeqId, caller: SeqId) -> u8 {
+        let mut at = caller;
+        let mut depth: u8 = 0;
+        for _ in 0..MAX_DEPTH {
+            match self.with(|s| s.cut_step(id, at)) {
+                Some(up) => {
+                    at = up;
+                    depth = depth.saturating_add(1);
+                }
+                None => break,
+            }
+        }
+        depth
+    }
+
+    /// The lane slot `id` declared: one short section per slot (a declared slot never
+    /// changes).
+    pub(crate) fn lane_slot_of(&self, id: SeqId) -> Option<u8> {
+        let me = Link::to(Some(id));
+        (0..W)
+            .find(|&k| self.with(|s| s.lanes.get(k).is_some_and(|l| l.seq == me)))
+            .and_then(|k| u8::try_from(k).ok())
+    }
+
+    /// Declares a lane for `id` (idempotent): one short section per slot looked at.
+    pub(crate) fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
+        self.with(|s| s.block(id).map(|_| ()))?;
+        if self.lane_slot_of(id).is_some() {
+            return Ok(());
+        }
+        let me = Link::to(Some(id));
+        let free = (0..W).any(|k| {
+            self.with(|s| match s.lanes.get_mut(k) {
+                Some(l) if l.seq == Link::NONE => {
+                    l.seq = me;
+                    true
+                }
+                _ => false,
+            })
+        });
+        if free {
+            Ok(())
+        } else {
+            Err(Error::LaneCapacityExceeded(id))
+        }
+    }
+}
+
+/// Bit of state `s` in a set of states.
+pub(crate) const fn bit(s: RunningState) -> u8 {
+    1 << s as u8
+}
+
+/// The states a start may leave (`Idle`, `Terminated`, `Aborted`: not active).
+const STARTABLE: u8 =
+    bit(RunningState::Idle) | bit(RunningState::Terminated) | bit(RunningState::Aborted);
+
+/// The states from which `to` may be entered: [`RunningState::can_transition_to`] as a set.
+pub(crate) const fn sources(to: RunningState) -> u8 {
+    use RunningState::*;
+    match to {
+        Running => STARTABLE | bit(Paused) | bit(Restarting),
+        Paused | Terminated => bit(Running),
+        Restarting => bit(Running) | bit(Paused),
+        Aborting => bit(Running) | bit(Paused) | bit(Restarting),
+        Aborted => bit(Aborting),
+        Idle => 0,
+    }
+}
+
+/// The flags a restart clears (`FRESH` is set again, `TIMEOUT_ARMED` as scheduled).
+const RESTART_CLEARS: u16 = flag::EXCEPTION_ACTIVE
+    | flag::POLL_WAIT
+    | flag::POLL_DUE
+    | flag::TIMEOUT_ARMED
+    | crate::control_block::PENDING_MASK;
+
+/// Appends one transition at time `now` to the trace; counts a record dropped for it.
+#[inline]
+fn record<const T: usize>(
+    trace: &mut crate::trace::Ring<T>,
+    lost: &mut u32,
+    now: u64,
+    sequence: SeqId,
+    from: RunningState,
+    to: RunningState,
+    cause: Cause,
+) {
+    let t = Transition {
+        time: Instant::from_ticks(now),
+        sequence,
+        from,
+        to,
+        cause,
+    };
+    if trace.push(t) {
+        *lost = lost.saturating_add(1);
     }
 }
 
@@ -411,116 +588,117 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             .ok_or(Error::UnknownSequence(id))
     }
 
-    /// THE transition function: every state change goes through here. Illegal transitions
-    /// are refused (returns false) and change nothing.
-    pub(crate) fn transition(&mut self, id: SeqId, to: RunningState, cause: Cause) -> bool {
-        let now = self.now;
-        let Ok(b) = self.block_mut(id) else {
-            return false;
-        };
-        let from = b.state;
-        if !from.can_transition_to(to) {
-            return false;
+    /// THE transition function: every state change goes through here. Moves `id` to `to`
+    /// if its state is one of `from` (a set of [`bit`]s, at most [`sources`]`(to)`: the
+    /// transition table), records the transition and returns the block for the caller's
+    /// bookkeeping in the same section. Otherwise changes nothing and returns `None`.
+    #[inline(never)]
+    pub(crate) fn shift(
+        &mut self,
+        id: SeqId,
+        to: RunningState,
+        cause: Cause,
+        from: u8,
+    ) -> Option<&mut ControlBlock> {
+        if id.0 >= self.count {
+            return None;
+        }
+        let b = self.blocks.get_mut(id.index())?;
+        let was = b.state;
+        // A run ends only through the gate `Go`: not while its exception is handled.
+        let held = to == RunningState::Terminated && b.has(flag::EXCEPTION_ACTIVE);
+        if from & bit(was) == 0 || held {
+            return None;
         }
         b.state = to;
-        let new_run =
-            to == RunningState::Running && from != RunningState::Paused && cause != Cause::Restart;
-        if new_run {
-            b.runs = b.runs.wrapping_add(1);
-        }
-        #[cfg(feature = "counters")]
-        if let Some(c) = self.counters.get_mut(id.index()) {
-            c.count(from, to, cause);
-        }
-        let record = Transition {
-            time: Instant::from_ticks(now),
-            sequence: id,
-            from,
+        record(
+            &mut self.trace,
+            &mut self.trace_lost,
+            self.now,
+            id,
+            was,
             to,
             cause,
-        };
-        if self.trace.is_full() {
-            // Keep the newest records: the oldest are the least useful to a live observer.
-            let _ = self.trace.pop_front();
-            self.trace_lost = self.trace_lost.saturating_add(1);
+        );
+        #[cfg(feature = "counters")]
+        if let Some(c) = self.counters.get_mut(id.index()) {
+            c.count(was, to, cause);
         }
-        let _ = self.trace.push_back(record);
-        true
+        Some(b)
     }
 
-    /// Starts `id` (blocking in `caller`'s lane, or in its own lane).
-    pub(crate) fn begin(
+    /// The read-only checks of a start of `id`, and its schedule: `id` must not be active;
+    /// with a blocking caller, the caller's lane. Returns that lane, the time the schedule
+    /// starts from, and the flag of an armed timeout.
+    pub(crate) fn prepare(
         &mut self,
         id: SeqId,
         caller: Option<SeqId>,
         mode: Mode,
-        cause: Cause,
-    ) -> Result<(), Error> {
-        let b = self.block(id)?;
-        if b.state.is_active() {
+    ) -> Result<(u8, u64, u16), Error> {
+        if self.block(id)?.state.is_active() {
             return Err(Error::AlreadyRunning(id));
         }
-        let lane = match mode {
-            Mode::Blocking => match caller {
-                Some(c) => self.block(c)?.lane,
-                None => NO_LANE,
-            },
-            // A sequence has a lane once one was declared for it (`rtseq::lane`,
-            // `Handle::declare_lane`).
-            Mode::Lane => self.lane_slot_of(id).ok_or(Error::NoLane(id))?,
+        let lane = match (mode, caller) {
+            (Mode::Blocking, Some(c)) => self.block(c)?.lane,
+            _ => NO_LANE,
         };
-        // `caller` is the starting sequence itself (a context's or an exception's owner):
-        // registered by construction.
-        if let Some(c) = caller {
-            self.cut_old_links_to(id, c);
-            if usize::from(self.depth(c)) >= MAX_DEPTH {
-                return Err(Error::CallerDepthExceeded(id));
-            }
-        }
+        let (now, armed) = self.schedule(id);
+        Ok((lane, now, armed))
+    }
+
+    /// Schedules a new run (or restart) of `id` from now, before its commit: its first poll
+    /// and timeout deadline, and the tick's `next_due`. Only for a sequence the tick does
+    /// not scan (not `Running` or `Paused`), where these fields are unused until the
+    /// commit. Returns now and the flag of an armed timeout, for the commit.
+    #[inline(never)]
+    pub(crate) fn schedule(&mut self, id: SeqId) -> (u64, u16) {
         let now = self.now;
-        if !self.transition(id, RunningState::Running, cause) {
-            return Err(Error::AlreadyRunning(id));
+        let Ok(b) = self.block_mut(id) else {
+            return (now, 0);
+        };
+        if matches!(b.state, RunningState::Running | RunningState::Paused) {
+            return (now, 0);
         }
-        let b = self.block_mut(id)?;
-        b.caller = Link::to(caller);
+        b.next_poll = after(now, b.polling);
+        b.deadline = after(now, b.timeout);
+        let armed = if b.timeout != 0 {
+            flag::TIMEOUT_ARMED
+        } else {
+            0
+        };
+        let first = now.saturating_add(u64::from(b.polling));
+        self.next_due = self.next_due.min(first);
+        (now, armed)
+    }
+
+    /// The commit of a start ([`Sequencer::begin`] validated and scheduled it at `seen`):
+    /// unless `id` became active meanwhile (`AlreadyRunning`), a new run in lane slot
+    /// `lane` under `caller`, with `flags` (besides `BOUND`). `Ok(false)`: the time moved
+    /// since `seen`, nothing changed, prepare again.
+    pub(crate) fn start(
+        &mut self,
+        id: SeqId,
+        caller: Link,
+        lane: u8,
+        flags: u16,
+        cause: Cause,
+        seen: u64,
+    ) -> Result<bool, Error> {
+        if self.now != seen {
+            return Ok(false);
+        }
+        let b = self
+            .shift(id, RunningState::Running, cause, STARTABLE)
+            .ok_or(Error::AlreadyRunning(id))?;
+        b.runs = b.runs.wrapping_add(1);
+        b.caller = caller;
         b.lane = lane;
         // Clears the requests and the pending behaviour too.
-        b.flags &= flag::BOUND;
-        b.set(flag::FRESH, true);
+        b.flags = (b.flags & flag::BOUND) | flags;
         b.active_exception = None;
         b.outcome = None;
-        b.next_poll = after(now, b.polling);
-        b.arm_timeout(now);
-        let next = now.saturating_add(u64::from(b.polling));
-        if mode == Mode::Lane {
-            b.set(flag::START_PENDING, true);
-            self.wake(id);
-        }
-        self.next_due = self.next_due.min(next);
-        Ok(())
-    }
-
-    /// The lane slot `id` declared.
-    pub(crate) fn lane_slot_of(&self, id: SeqId) -> Option<u8> {
-        let at = self
-            .lanes
-            .iter()
-            .position(|l| l.seq == Link::to(Some(id)))?;
-        u8::try_from(at).ok()
-    }
-
-    /// Declares a lane for `id` (idempotent).
-    pub(crate) fn declare_lane(&mut self, id: SeqId) -> Result<(), Error> {
-        self.block(id)?;
-        if self.lane_slot_of(id).is_none() {
-            let free = self
-                .lanes
-                .iter_mut()
-                .find(|l| l.seq == Link::NONE)
-                .ok_or(Error::LaneCapacityExceeded(id))?;
-            free.seq = Link::to(Some(id));
-        }
-        Ok(())
+        Ok(true)
     }
 
     /// Wakes the lane of sequence `i` for its due poll, unless the sequence is held or
@@ -556,6 +734,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     }
 
     /// Wakes the lane that drives `id`.
+    #[inline(never)]
     pub(crate) fn wake(&self, id: SeqId) {
         let lane = self.block(id).map_or(NO_LANE, |b| b.lane);
         if let Some(w) = self.lane_waker(lane) {
@@ -586,23 +765,19 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         }
     }
 
-    /// A `Restarting` sequence runs again: fresh timeout and polling schedule.
-    pub(crate) fn restarted(&mut self, id: SeqId) {
-        if !self.transition(id, RunningState::Running, Cause::Restart) {
-            return;
+    /// A `Restarting` sequence runs again: fresh timeout and polling schedule, as
+    /// [`schedule`](Self::schedule)d at `seen` with the timeout flag `armed`. `Some(false)`:
+    /// the time moved since, schedule again.
+    pub(crate) fn restarted(&mut self, id: SeqId, seen: u64, armed: u16) -> Option<bool> {
+        if self.now != seen {
+            return Some(false);
         }
-        let now = self.now;
-        if let Ok(b) = self.block_mut(id) {
-            b.set(flag::EXCEPTION_ACTIVE, false);
-            b.set(flag::POLL_WAIT, false);
-            b.set(flag::POLL_DUE, false);
-            b.set(flag::FRESH, true);
-            b.set_pending(None);
-            b.next_poll = after(now, b.polling);
-            b.arm_timeout(now);
-            let next = now.saturating_add(u64::from(b.polling));
-            self.next_due = self.next_due.min(next);
-        }
+        // From `Restarting` (or, if the tick stopped it since the lane saw `Restarting`,
+        // as a transition to `Running` allows; never a scanned `Paused` one).
+        let from = STARTABLE | bit(RunningState::Restarting);
+        let b = self.shift(id, RunningState::Running, Cause::Restart, from)?;
+        b.flags = (b.flags & !RESTART_CLEARS) | flag::FRESH | armed;
+        Some(true)
     }
 
     /// Ends a run normally (`Completed` or `Skipped`). If the sequence was aborted or
@@ -612,37 +787,28 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             Outcome::Skipped => Cause::PreConditionFalse,
             _ => Cause::Completed,
         };
-        if self.gate(id) == Gate::Go && self.transition(id, RunningState::Terminated, cause) {
-            if let Ok(b) = self.block_mut(id) {
-                b.set(flag::POLL_WAIT, false);
-            }
-            Ok(outcome)
-        } else {
-            Err(self.gate(id))
+        // Only from gate `Go`: `Running` without an active exception (`shift` checks it).
+        let to = RunningState::Terminated;
+        if self.shift(id, to, cause, sources(to)).is_some() {
+            return Ok(outcome);
         }
+        Err(self.gate(id))
     }
 
-    /// After a run's framework returned: store the outcome, wake a joiner, report the end of
-    /// an exception sequence to the tick.
-    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) {
-        let Ok(b) = self.block_mut(id) else { return };
+    /// After a run's framework returned: store the outcome and report the end of an
+    /// exception sequence to the tick. Returns the joiner to wake.
+    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> Option<SeqId> {
+        let b = self.block_mut(id).ok()?;
         b.outcome = Some(outcome);
         let joiner = core::mem::replace(&mut b.joiner, Link::NONE).get();
-        let owner = if b.has(flag::HANDLES_EXCEPTION) {
+        if b.has(flag::HANDLES_EXCEPTION) {
             b.set(flag::HANDLES_EXCEPTION, false);
-            b.caller.get()
-        } else {
-            None
-        };
-        if let Some(j) = joiner {
-            self.wake(j);
-        }
-        if let Some(o) = owner {
-            if let Ok(ob) = self.block_mut(o) {
+            if let Some(ob) = b.caller.get().and_then(|o| self.block_mut(o).ok()) {
                 ob.set(flag::EXCEPTION_DONE, true);
                 self.work = true;
             }
         }
+        joiner
     }
 
     /// Queues a pause, resume or abort request for the next tick.
@@ -666,10 +832,21 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     }
 }
 
-impl ControlBlock {
-    /// Arms (or, without a timeout, disarms) the timeout of a run starting at `now`.
-    pub(crate) fn arm_timeout(&mut self, now: u64) {
-        self.set(flag::TIMEOUT_ARMED, self.timeout != 0);
-        self.deadline = after(now, self.timeout);
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sources_is_the_transition_table() {
+        for from in RunningState::ALL {
+            for to in RunningState::ALL {
+                assert_eq!(
+                    sources(to) & bit(from) != 0,
+                    from.can_transition_to(to),
+                    "{from:?} -> {to:?}"
+                );
+                assert_eq!(STARTABLE & bit(from) != 0, !from.is_active());
+            }
+        }
     }
 }

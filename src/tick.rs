@@ -5,10 +5,11 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{after, flag, request, Link};
+use crate::control_block::{flag, request, Link};
 use crate::lock::Lock;
 use crate::monitor::Entry;
-use crate::sequencer::Mode;
+use crate::sequencer::{bit, sources, Mode};
+use crate::tree;
 use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// `depth + 1` of the deepest possible sequence.
@@ -276,7 +277,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 book.restarts = book.restarts.saturating_add(1);
             }
         }
-        let deferred = self.with(|s| {
+        self.with(|s| {
             if let Ok(b) = s.block_mut(owner) {
                 b.set(flag::EXCEPTION_ACTIVE, true);
                 b.active_exception = Some(cause);
@@ -285,18 +286,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if let Some(c) = s.counters.get_mut(owner.index()) {
                 c.exceptions = c.exceptions.wrapping_add(1);
             }
-            let Some(e) = exception else { return false };
-            if s.begin(e, Some(owner), Mode::Lane, cause).is_err() {
-                s.exceptions_not_run = s.exceptions_not_run.saturating_add(1);
-                return false;
-            }
-            if let Ok(eb) = s.block_mut(e) {
-                eb.set(flag::HANDLES_EXCEPTION, true);
-            }
-            if let Ok(b) = s.block_mut(owner) {
-                b.set_pending(Some(behaviour));
-            }
-            true
+        });
+        let deferred = exception.is_some_and(|e| {
+            let started = self
+                .begin(e, Some(owner), Mode::Lane, cause, flag::HANDLES_EXCEPTION)
+                .is_ok();
+            self.with(|s| {
+                if started {
+                    if let Ok(b) = s.block_mut(owner) {
+                        b.set_pending(Some(behaviour));
+                    }
+                } else {
+                    s.exceptions_not_run = s.exceptions_not_run.saturating_add(1);
+                }
+            });
+            started
         });
         if !deferred {
             self.apply(control, owner, behaviour, target, cause);
@@ -307,12 +311,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
         match behaviour {
-            Behaviour::Nothing => self.with(|s| {
-                if let Ok(b) = s.block_mut(owner) {
-                    b.set(flag::EXCEPTION_ACTIVE, false);
-                }
-                s.wake(owner);
-            }),
+            Behaviour::Nothing => {
+                self.with(|s| {
+                    if let Ok(b) = s.block_mut(owner) {
+                        b.set(flag::EXCEPTION_ACTIVE, false);
+                    }
+                });
+                self.wake_lane(owner);
+            }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => {
                 self.tear_down(control, Some(target), cause, false)
             }
@@ -327,20 +333,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// through `Aborting` (cleanup hook) to `Aborted`. With `restart`, the target itself
     /// goes to `Restarting` instead.
     fn tear_down(&self, control: &C, target: Option<SeqId>, cause: Cause, restart: bool) {
-        // depth + 1 of each affected sequence, 0 = unaffected.
-        let mut affected = [0u8; N];
-        for (i, a) in affected.iter_mut().enumerate() {
-            let Ok(id) = u8::try_from(i).map(SeqId) else {
-                continue;
-            };
-            self.with(|s| {
-                let Ok(b) = s.block(id) else { return };
-                let hit = target.is_none_or(|t| id == t || s.descends_from(id, t));
-                if hit && b.state.is_active() && b.state != RunningState::Aborting {
-                    *a = s.depth(id).saturating_add(1);
-                }
-            });
-        }
+        // Active, not already `Aborting`.
+        let stoppable = sources(RunningState::Aborting);
+        let affected = self.levels(target, stoppable, None);
         for depth in (1..=DEPTH_LIMIT).rev() {
             for (i, a) in affected.iter().enumerate() {
                 let Ok(id) = u8::try_from(i).map(SeqId) else {
@@ -360,34 +355,44 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// Moves one sequence to `Aborting → Aborted` or to `Restarting`, running its hook.
     fn stop(&self, control: &C, id: SeqId, cause: Cause, to: RunningState) {
+        // Before the transition, what it leaves behind: the cause a later gate reports,
+        // no pending requests; and the hook (set at registration).
         let hook = self.with(|s| {
-            if !s.transition(id, to, cause) {
+            let b = s.block_mut(id).ok()?;
+            if sources(to) & bit(b.state) == 0 {
                 return None;
             }
-            if let Ok(b) = s.block_mut(id) {
-                b.last_cause = cause;
-                b.take_requests();
-            }
+            b.last_cause = cause;
+            b.take_requests();
             Some(s.hooks.get(id.index()).copied().flatten())
         });
         let Some(hook) = hook else { return };
+        if self.with(|s| s.shift(id, to, cause, sources(to)).is_none()) {
+            return;
+        }
         if let Some(h) = hook {
             h(control);
         }
-        self.with(|s| {
-            if to == RunningState::Aborting && s.transition(id, RunningState::Aborted, cause) {
-                // A blocking sequence's framework is dropped by its aborted caller and never
-                // reports back, so the outcome is recorded here.
-                if let Ok(b) = s.block_mut(id) {
-                    b.outcome = Some(crate::Outcome::Aborted(cause));
-                    let joiner = core::mem::replace(&mut b.joiner, Link::NONE);
-                    if let Some(j) = joiner.get() {
-                        s.wake(j);
-                    }
+        if to == RunningState::Aborting {
+            // A blocking sequence's framework is dropped by its aborted caller and never
+            // reports back, so the outcome is recorded here.
+            let done = self.with(|s| {
+                let b = s.shift(id, RunningState::Aborted, cause, bit(to))?;
+                b.outcome = Some(crate::Outcome::Aborted(cause));
+                Some(())
+            });
+            if done.is_some() {
+                let joiner = self.with(|s| {
+                    s.block_mut(id).map_or(Link::NONE, |b| {
+                        core::mem::replace(&mut b.joiner, Link::NONE)
+                    })
+                });
+                if let Some(j) = joiner.get() {
+                    self.wake_lane(j);
                 }
             }
-            s.wake(id);
-        });
+        }
+        self.wake_lane(id);
     }
 
     /// Aborts every active sequence, innermost first.
@@ -445,55 +450,90 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
     }
 
-    /// Pauses (or resumes) `target` and the sequences it blocks in its lane.
+    /// Pauses (or resumes) `target` and the sequences it blocks in its lane, outermost
+    /// first.
     fn pause_tree(&self, target: SeqId, pause: bool) {
         let (from, to, cause) = if pause {
             (RunningState::Running, RunningState::Paused, Cause::Pause)
         } else {
             (RunningState::Paused, RunningState::Running, Cause::Resume)
         };
-        let Some((lane, depth)) = self.with(|s| {
+        let Some(lane) = self.with(|s| {
             s.block(target)
                 .ok()
                 .filter(|b| b.state == from)
-                .map(|b| (b.lane, s.depth(target)))
+                .map(|b| b.lane)
         }) else {
             return;
         };
-        for d in depth..=MAX_DEPTH as u8 {
-            let count = self.with(|s| s.count);
-            for i in 0..count {
-                let id = SeqId(i);
+        // depth + 1 of each sequence inside, 0 = outside.
+        let inside = self.levels(Some(target), bit(from), Some(lane));
+        for d in 1..=DEPTH_LIMIT {
+            for (i, _) in inside.iter().enumerate().filter(|(_, &x)| x == d) {
+                let Ok(id) = u8::try_from(i).map(SeqId) else {
+                    continue;
+                };
+                if self.with(|s| s.shift(id, to, cause, bit(from)).is_none()) {
+                    continue;
+                }
+                // A paused timeout keeps its remaining time, not a deadline (nothing reads
+                // either before this: the tick is the one that would).
                 self.with(|s| {
-                    let now = s.now;
-                    let Ok(b) = s.block(id) else { return };
-                    if b.state != from {
-                        return;
-                    }
-                    let inside = id == target || (b.lane == lane && s.descends_from(id, target));
-                    if !(inside && s.depth(id) == d) {
-                        return;
-                    }
-                    if s.transition(id, to, cause) {
-                        if let Ok(b) = s.block_mut(id) {
-                            // A paused timeout keeps its remaining time, not a deadline.
-                            if b.has(flag::TIMEOUT_ARMED) {
-                                b.deadline = if pause {
-                                    let left = b.deadline.wrapping_sub(now as u32);
-                                    if left >= 0x8000_0000 {
-                                        0
-                                    } else {
-                                        left
-                                    }
-                                } else {
-                                    after(now, b.deadline)
-                                };
+                    let now = s.now as u32;
+                    let Ok(b) = s.block_mut(id) else { return };
+                    if b.has(flag::TIMEOUT_ARMED) {
+                        b.deadline = if pause {
+                            let left = b.deadline.wrapping_sub(now);
+                            if left >= 0x8000_0000 {
+                                0
+                            } else {
+                                left
                             }
-                        }
-                        s.wake(id);
+                        } else {
+                            now.wrapping_add(b.deadline)
+                        };
                     }
                 });
+                self.wake_lane(id);
             }
         }
+    }
+
+    /// For a teardown or a pause: depth + 1 of every sequence that is `target` or below it
+    /// (every one without a target) whose state is in `states` and, with a `lane`, that
+    /// runs in that lane; 0 for every other.
+    ///
+    /// One short section per registered sequence copies its caller link and whether it
+    /// qualifies; the tree is walked in that copy, outside any section. Lanes cannot change
+    /// it meanwhile (the tick preempts them), and each change made from it is re-checked
+    /// where it is made.
+    fn levels(&self, target: Option<SeqId>, states: u8, lane: Option<u8>) -> [u8; N] {
+        let mut links = [Link::NONE; N];
+        let mut picked = [false; N];
+        let count = self.with(|s| usize::from(s.count));
+        for (i, (l, p)) in links
+            .iter_mut()
+            .zip(picked.iter_mut())
+            .enumerate()
+            .take(count)
+        {
+            (*l, *p) = self.with(|s| {
+                s.blocks.get(i).map_or((Link::NONE, false), |b| {
+                    let ok = states & bit(b.state) != 0 && lane.is_none_or(|l| l == b.lane);
+                    (b.caller, ok)
+                })
+            });
+        }
+        let mut level = [0u8; N];
+        for (i, (d, p)) in level.iter_mut().zip(picked).enumerate() {
+            let Ok(id) = u8::try_from(i).map(SeqId) else {
+                continue;
+            };
+            let below = target.is_none_or(|t| id == t || tree::descends_from(&links, id, t));
+            if p && below {
+                *d = tree::depth(&links, id).saturating_add(1);
+            }
+        }
+        level
     }
 }

@@ -2,6 +2,9 @@
 
 use crate::{Cause, Instant, RunningState, SeqId};
 
+#[cfg(test)]
+extern crate std;
+
 /// One state change of one sequence: `(time, sequence, from, to, cause)`.
 ///
 /// The sequencer keeps the most recent records in a bounded buffer; drain it with
@@ -46,5 +49,134 @@ impl Transition {
             to,
             cause,
         }
+    }
+}
+
+/// The sequencer's trace buffer: a ring of the newest `T` records, oldest first.
+///
+/// A push is O(1) and short (it runs inside the transition's critical section): one index
+/// computation and one record store; when full it overwrites the oldest record, which the
+/// sequencer counts as lost. With a power-of-two `T` (the default 64) the index is a mask.
+pub(crate) struct Ring<const T: usize> {
+    buf: [Transition; T],
+    /// Index of the oldest record.
+    head: usize,
+    /// Number of records held (≤ `T`).
+    len: usize,
+}
+
+impl<const T: usize> Ring<T> {
+    /// A record for the never-read slots of an empty ring.
+    const BLANK: Transition = Transition {
+        time: Instant::from_ticks(0),
+        sequence: SeqId(0),
+        from: RunningState::Idle,
+        to: RunningState::Idle,
+        cause: Cause::Start,
+    };
+
+    pub(crate) const fn new() -> Self {
+        Ring {
+            buf: [Self::BLANK; T],
+            head: 0,
+            len: 0,
+        }
+    }
+
+    /// `head + k` wrapped into `0..T` (`head < T`, `k ≤ T`).
+    #[inline]
+    fn at(&self, k: usize) -> usize {
+        let i = self.head.wrapping_add(k);
+        if T.is_power_of_two() {
+            i & T.wrapping_sub(1)
+        } else if i >= T {
+            i.wrapping_sub(T)
+        } else {
+            i
+        }
+    }
+
+    /// Appends `t`; when full the oldest record is dropped. Returns true when one was.
+    #[inline]
+    pub(crate) fn push(&mut self, t: Transition) -> bool {
+        let i = self.at(self.len);
+        if let Some(slot) = self.buf.get_mut(i) {
+            *slot = t;
+        }
+        if self.len < T {
+            self.len = self.len.wrapping_add(1);
+            false
+        } else {
+            // Keep the newest records: the oldest are the least useful to a live observer.
+            self.head = self.at(1);
+            true
+        }
+    }
+
+    /// Removes and returns the oldest record.
+    #[inline]
+    pub(crate) fn pop(&mut self) -> Option<Transition> {
+        if self.len == 0 {
+            return None;
+        }
+        let t = self.buf.get(self.head).copied();
+        self.head = self.at(1);
+        self.len = self.len.wrapping_sub(1);
+        t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(n: u64) -> Transition {
+        Transition {
+            time: Instant::from_ticks(n),
+            ..Ring::<1>::BLANK
+        }
+    }
+
+    fn drain<const T: usize>(r: &mut Ring<T>) -> std::vec::Vec<u64> {
+        core::iter::from_fn(|| r.pop().map(|t| t.time.as_ticks())).collect()
+    }
+
+    /// Against a model (a `VecDeque` that drops its front when full), for several
+    /// capacities, power of two or not, with pushes and pops interleaved.
+    #[test]
+    fn keeps_the_newest_records_oldest_first() {
+        fn check<const T: usize>() {
+            let mut r = Ring::<T>::new();
+            let mut model = std::collections::VecDeque::new();
+            for n in 0..10 * T as u64 + 7 {
+                if n % 7 == 3 {
+                    assert_eq!(r.pop().map(|t| t.time.as_ticks()), model.pop_front());
+                } else {
+                    let full = model.len() == T;
+                    if full {
+                        model.pop_front();
+                    }
+                    model.push_back(n);
+                    assert_eq!(r.push(rec(n)), full, "T = {T}, push {n}");
+                }
+            }
+            assert_eq!(drain(&mut r), std::vec::Vec::from(model));
+        }
+        check::<1>();
+        check::<3>();
+        check::<4>();
+        check::<6>();
+        check::<64>();
+    }
+
+    #[test]
+    fn empty_and_zero_capacity() {
+        let mut r = Ring::<0>::new();
+        assert!(r.push(rec(1)));
+        assert_eq!(r.pop(), None);
+        let mut r = Ring::<4>::new();
+        assert_eq!(r.pop(), None);
+        r.push(rec(7));
+        assert_eq!(drain(&mut r), [7]);
     }
 }

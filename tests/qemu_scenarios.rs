@@ -89,13 +89,13 @@ fn show(trace: &[Transition]) -> String {
 }
 
 /// Runs one scenario on both sides; `Err(report)` when they differ.
-fn compare(name: &str) -> Result<usize, String> {
+fn compare(set: &FirmwareSet, name: &str) -> Result<usize, String> {
     let sc = rtseq_scenarios::find(name).ok_or(format!("{name}: not in SCENARIOS"))?;
     let host = host::run(sc).map_err(|e| format!("{name}: host registration failed: {e:?}"))?;
     if host.lost != 0 || host.summary.dead_lines != 0 {
         return Err(format!("{name}: host run not clean: {host:?}"));
     }
-    let out = run_quiet("scenarios", &[name], false);
+    let out = set.run_with("scenarios", &[name], RUN_TIMEOUT, false);
     let target = parse(&out);
     let mut problems = Vec::new();
     if out.exit_code() != 0 {
@@ -138,7 +138,18 @@ fn compare(name: &str) -> Result<usize, String> {
 /// order) and the same action summary under RTIC in QEMU as in the host simulator.
 #[test]
 fn every_scenario_has_the_same_trace_in_qemu_as_on_the_host() {
-    firmware("scenarios");
+    compare_all(&SCENARIO_FIRMWARE);
+}
+
+/// The same with the portable `critical-section` lock (board feature
+/// `critical-section-lock`): the tick's per-sequence sections give the same traces.
+#[test]
+fn every_scenario_has_the_same_trace_in_qemu_with_the_portable_lock() {
+    compare_all(&SCENARIO_FIRMWARE_CS);
+}
+
+fn compare_all(set: &FirmwareSet) {
+    set.path("scenarios");
     let names: Vec<&str> = SCENARIOS.iter().map(|s| s.name).collect();
     // Two QEMU runs at a time (each takes ~0.3 s of host time).
     let results: Vec<(String, Result<usize, String>)> = std::thread::scope(|s| {
@@ -148,7 +159,7 @@ fn every_scenario_has_the_same_trace_in_qemu_as_on_the_host() {
                 s.spawn(move || {
                     chunk
                         .iter()
-                        .map(|n| (n.to_string(), compare(n)))
+                        .map(|n| (n.to_string(), compare(set, n)))
                         .collect::<Vec<_>>()
                 })
             })
@@ -540,19 +551,24 @@ fn demangle(sym: &str) -> String {
         .replace("..", "::")
 }
 
+/// Sites of critical sections (`src/file.rs:line (in function)`) → longest, in instructions.
+type Sites = std::collections::BTreeMap<String, u64>;
+
 /// Walks one instruction trace and records, per site, the longest top-level critical
-/// section that executes rtseq code.
+/// section that executes rtseq code: in `sites` those that masked interrupts, in `masked`
+/// those taken while interrupts were masked already (RTIC's `init`, the idle's sleep check).
 ///
 /// cortex-m's `critical-section` implementation acquires with `mrs rX, PRIMASK; cpsid i`
 /// and releases by writing the saved PRIMASK back (`msr PRIMASK, rX`); nested sections
 /// restore "masked", only the outermost release unmasks. A plain `cpsid i` without the
-/// PRIMASK read is `interrupt::disable()` (the idle's WFI pattern), ended by `cpsie i`;
-/// sections nested in it are not counted (interrupts were masked anyway).
+/// PRIMASK read is `interrupt::disable()` (RTIC before `init`, the idle's WFI pattern),
+/// ended by `cpsie i`; sections nested in it mask nothing that was not masked.
 fn critical_sections(
     d: &Disasm,
     trace: &str,
     rtseq_src: &str,
-    sites: &mut std::collections::BTreeMap<String, u64>,
+    sites: &mut Sites,
+    masked: &mut Sites,
 ) {
     let mut recent = [0u32; 4];
     let mut plain_masked = false;
@@ -573,10 +589,11 @@ fn critical_sections(
         } else if d.msr_primask.contains(&pc) {
             if depth > 0 {
                 depth -= 1;
-                if depth == 0 && counted {
+                if depth == 0 {
                     if let Some(s) = site.take() {
                         let len = (i - start) as u64;
-                        let e = sites.entry(s).or_insert(0);
+                        let map = if counted { &mut *sites } else { &mut *masked };
+                        let e = map.entry(s).or_insert(0);
                         *e = (*e).max(len);
                     }
                 }
@@ -616,12 +633,7 @@ fn executed(trace: &str) -> impl Iterator<Item = (usize, u32, &str)> {
 /// Priority-ceiling sections (`msr basepri_max` … `msr basepri`) that execute rtseq code:
 /// the longest per site, in instructions. They delay the tick and the lanes, never an
 /// interrupt above the ceiling.
-fn ceiling_sections(
-    d: &Disasm,
-    trace: &str,
-    rtseq_src: &str,
-    sites: &mut std::collections::BTreeMap<String, u64>,
-) {
+fn ceiling_sections(d: &Disasm, trace: &str, rtseq_src: &str, sites: &mut Sites) {
     let mut depth = 0u32;
     let (mut start, mut site) = (0usize, None::<String>);
     for (i, pc, sym) in executed(trace) {
@@ -651,18 +663,11 @@ fn ceiling_sections(
     }
 }
 
-/// The longest critical section inside rtseq, measured on the instruction traces of every
-/// scenario (QEMU `-singlestep -d exec,nochain`): instructions from the `cpsid` of a
-/// `critical_section::acquire` to its `cpsie`, for every critical section that executes
-/// rtseq code.
-#[test]
-fn longest_critical_section_inside_rtseq() {
-    let elf = firmware("scenarios");
-    let d = disassemble(&elf);
-    let rtseq_src = format!("{}/", root().join("src").display());
-    let dir = root().join("target/firmware/qemu-harness");
-    let mut sites = std::collections::BTreeMap::new();
-    let mut ceilings = std::collections::BTreeMap::new();
+/// Runs every scenario of `elf` in QEMU with an instruction trace
+/// (`-singlestep -d exec,nochain`) and passes each trace to `f`.
+fn for_each_trace(elf: &Path, tag: &str, mut f: impl FnMut(&str)) {
+    let dir = root().join("target/firmware").join(tag);
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
     for sc in SCENARIOS {
         let log = dir.join(format!("exec-{}.log", sc.name));
         let cfg = Config {
@@ -676,53 +681,107 @@ fn longest_critical_section_inside_rtseq() {
                 .collect(),
             ..Config::default()
         };
-        let out = qemu_run::run(&elf, &cfg).unwrap_or_else(|e| panic!("{}: {e}", sc.name));
+        let out = qemu_run::run(elf, &cfg).unwrap_or_else(|e| panic!("{}: {e}", sc.name));
         expect_exit(&out, 0);
         let trace = std::fs::read_to_string(&log).unwrap_or_else(|e| panic!("{e}"));
         let _ = std::fs::remove_file(&log);
-        critical_sections(&d, &trace, &rtseq_src, &mut sites);
-        ceiling_sections(&d, &trace, &rtseq_src, &mut ceilings);
+        f(&trace);
     }
-    // The scenario firmware uses RTIC's priority-ceiling lock: rtseq masks no interrupt
-    // globally there, its sections only hold off the tick and the lanes.
+}
+
+/// The sites of `sites`, longest first.
+fn longest_first(sites: &Sites) -> Vec<(&String, u64)> {
+    let mut v: Vec<_> = sites.iter().map(|(s, &l)| (s, l)).collect();
+    v.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(b.0)));
+    v
+}
+
+/// The longest critical section inside rtseq with the portable `critical-section` lock
+/// (the default `Sequencer::new()`; the scenarios firmware built with the board feature
+/// `critical-section-lock`), measured on the instruction traces of every scenario (QEMU
+/// `-singlestep -d exec,nochain`): instructions from the `cpsid` of a
+/// `critical_section::acquire` to its release, for every section that executes rtseq code.
+/// Sections taken while interrupts were masked anyway (registration in RTIC's `init`) are
+/// reported separately.
+#[test]
+fn longest_critical_section_inside_rtseq() {
+    let elf = SCENARIO_FIRMWARE_CS.path("scenarios");
+    let d = disassemble(&elf);
+    let rtseq_src = format!("{}/", root().join("src").display());
+    let (mut sites, mut masked) = (Sites::new(), Sites::new());
+    for_each_trace(&elf, "qemu-harness-cs", |trace| {
+        critical_sections(&d, trace, &rtseq_src, &mut sites, &mut masked)
+    });
     assert!(
-        !ceilings.is_empty() || !sites.is_empty(),
-        "no rtseq section found in the traces"
+        !sites.is_empty(),
+        "no rtseq critical section found in the traces"
     );
-    let mut by_len: Vec<_> = sites.iter().collect();
-    by_len.sort_by(|a, b| b.1.cmp(a.1));
-    for (site, len) in by_len.iter().take(8) {
+    for (site, len) in longest_first(&masked) {
+        eprintln!(
+            "figure: critical section {len:>4} instructions at {site} (interrupts masked already: init)"
+        );
+    }
+    let by_len = longest_first(&sites);
+    for (site, len) in &by_len {
         eprintln!("figure: critical section {len:>4} instructions at {site}");
     }
-    let max = by_len.first().map_or(0, |(_, &l)| l);
+    let max = by_len.first().map_or(0, |&(_, l)| l);
     eprintln!(
-        "figure: longest critical section (interrupts masked) inside rtseq: {max} instructions"
+        "figure: longest critical section (interrupts masked) inside rtseq, portable lock: {max} instructions"
     );
     budget(
-        "longest critical section inside rtseq [instructions]",
+        "longest critical section inside rtseq, portable critical-section lock [instructions]",
         max,
         50,
-        400,
+        50,
+    );
+    let init_max = longest_first(&masked).first().map_or(0, |&(_, l)| l);
+    budget(
+        "longest rtseq section in init (interrupts masked anyway) [instructions]",
+        init_max,
+        50,
+        50,
+    );
+}
+
+/// The same traces with RTIC's priority-ceiling lock (the scenarios firmware's default):
+/// rtseq masks no interrupt globally there, its sections (`msr basepri_max` … `msr
+/// basepri`) only hold off the tick and the lanes.
+#[test]
+fn longest_critical_section_inside_rtseq_priority_ceiling() {
+    let elf = firmware("scenarios");
+    let d = disassemble(&elf);
+    let rtseq_src = format!("{}/", root().join("src").display());
+    let (mut sites, mut masked, mut ceilings) = (Sites::new(), Sites::new(), Sites::new());
+    for_each_trace(&elf, "qemu-harness", |trace| {
+        critical_sections(&d, trace, &rtseq_src, &mut sites, &mut masked);
+        ceiling_sections(&d, trace, &rtseq_src, &mut ceilings);
+    });
+    assert!(!ceilings.is_empty(), "no rtseq section found in the traces");
+    let max = longest_first(&sites).first().map_or(0, |&(_, l)| l);
+    eprintln!(
+        "figure: longest critical section (interrupts masked) inside rtseq, priority-ceiling lock: {max} instructions"
+    );
+    budget(
+        "longest interrupt-masking section inside rtseq, priority-ceiling lock [instructions]",
+        max,
+        50,
+        50,
     );
     // Sections the tick itself runs (inlined into its TIM2 handler) are taken at the
     // ceiling priority the tick already has: they hold off nothing. Those of the lanes
     // (lower priority) delay the tick: that is the figure.
-    let mut by_len: Vec<_> = ceilings.iter().collect();
-    by_len.sort_by(|a, b| b.1.cmp(a.1));
-    for (site, len) in by_len.iter().take(10) {
+    let mut by_len = longest_first(&ceilings);
+    for (site, len) in &by_len {
         eprintln!("figure: priority-ceiling section {len:>4} instructions at {site}");
     }
     by_len.retain(|(site, _)| !site.ends_with("(in TIM2)"));
-    let cmax = by_len.first().map_or(0, |(_, &l)| l);
+    let cmax = by_len.first().map_or(0, |&(_, l)| l);
     eprintln!(
         "figure: longest priority-ceiling section inside rtseq outside the tick (holds off the tick only): {cmax} instructions"
     );
-    assert!(
-        cmax > 0,
-        "the scenario firmware should use the priority-ceiling lock"
-    );
     budget(
-        "longest priority-ceiling section inside rtseq [instructions]",
+        "longest priority-ceiling section inside rtseq outside the tick [instructions]",
         cmax,
         400,
         400,

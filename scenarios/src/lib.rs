@@ -64,11 +64,11 @@ pub const LANES: usize = 3;
 pub const STARTS: usize = 2;
 
 /// The sequencer type every scenario registers into.
-#[cfg(not(feature = "ceiling"))]
+#[cfg(any(not(feature = "ceiling"), feature = "critical-section-lock"))]
 pub type Seqr = Sequencer<Ctrl, CAPACITY, TRACE>;
 /// The sequencer type every scenario registers into: on the firmware, guarded by RTIC's
 /// priority ceiling (the tick runs at RTIC priority 2 of 4 NVIC priority bits).
-#[cfg(feature = "ceiling")]
+#[cfg(all(feature = "ceiling", not(feature = "critical-section-lock")))]
 pub type Seqr = Sequencer<
     Ctrl,
     CAPACITY,

@@ -89,8 +89,14 @@ pub fn board_cargo(features: &str, bins: &[&str]) -> Command {
 /// Builds the given bins (all if empty) with `features`; Err(cargo's stderr) on failure.
 /// Builds are serialized within this test binary.
 pub fn try_build(features: &str, bins: &[&str]) -> Result<(), String> {
-    static LOCK: Mutex<()> = Mutex::new(());
-    let _g = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let _g = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    build_locked(features, bins)
+}
+
+/// Serializes the builds (and the snapshots taken right after them) of one test binary.
+static BUILD_LOCK: Mutex<()> = Mutex::new(());
+
+fn build_locked(features: &str, bins: &[&str]) -> Result<(), String> {
     let t = Instant::now();
     let out = board_cargo(features, bins)
         .output()
@@ -112,6 +118,8 @@ pub fn try_build(features: &str, bins: &[&str]) -> Result<(), String> {
 /// cannot swap an ELF under a running test. Each suite builds only its own bins, so a
 /// work-in-progress firmware elsewhere in the board does not break it.
 pub struct FirmwareSet {
+    /// The board features the set is built with ("" = the defaults).
+    features: &'static str,
     /// The bins; empty = every bin of the board.
     bins: &'static [&'static str],
     snapshot: &'static str,
@@ -120,7 +128,17 @@ pub struct FirmwareSet {
 
 impl FirmwareSet {
     pub const fn new(bins: &'static [&'static str], snapshot: &'static str) -> Self {
+        Self::with_features("", bins, snapshot)
+    }
+
+    /// A set built with the board features `features` (snapshotted under its own name).
+    pub const fn with_features(
+        features: &'static str,
+        bins: &'static [&'static str],
+        snapshot: &'static str,
+    ) -> Self {
         FirmwareSet {
+            features,
             bins,
             snapshot,
             built: OnceLock::new(),
@@ -131,7 +149,9 @@ impl FirmwareSet {
     pub fn path(&self, bin: &str) -> PathBuf {
         require_tools();
         let dir = self.built.get_or_init(|| {
-            try_build("", self.bins)?;
+            // Held until the snapshot is taken: another build must not swap the ELFs first.
+            let _g = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+            build_locked(self.features, self.bins)?;
             let release = root().join("target/firmware").join(TARGET).join("release");
             let snapshot = root().join("target/firmware").join(self.snapshot);
             std::fs::create_dir_all(&snapshot).map_err(|e| e.to_string())?;
@@ -174,6 +194,11 @@ impl FirmwareSet {
 /// The firmware of the scenario suite.
 pub static SCENARIO_FIRMWARE: FirmwareSet =
     FirmwareSet::new(&["scenarios", "bench_seq", "smoke"], "qemu-harness");
+
+/// The scenarios firmware built with the portable `critical-section` lock (board feature
+/// `critical-section-lock`): its rtseq sections mask interrupts.
+pub static SCENARIO_FIRMWARE_CS: FirmwareSet =
+    FirmwareSet::with_features("critical-section-lock", &["scenarios"], "qemu-harness-cs");
 
 /// Path of a scenario-suite firmware.
 pub fn firmware(bin: &str) -> PathBuf {

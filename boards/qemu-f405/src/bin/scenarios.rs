@@ -3,6 +3,9 @@
 //!
 //! `cargo fw-run scenarios -- NAME` (NAME from `rtseq_scenarios::SCENARIOS`).
 //!
+//! With the board feature `critical-section-lock` the sequencer uses the portable
+//! `critical-section` lock instead of RTIC's priority ceiling.
+//!
 //! - `init`: looks the scenario up by the command line, registers it into the `static`
 //!   sequencer, declares the lanes, starts the main sequences at time 0, starts TIM2.
 //! - `tick` (TIM2, 1 kHz, priority 2): the scenario's script, then `SEQ.tick`. After the
@@ -27,7 +30,12 @@ mod app {
     /// The sequencer, shared by the tick and the lanes.
     // SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1,
     // idle draining the trace at 0); nothing above priority 2 calls it.
+    #[cfg(not(feature = "critical-section-lock"))]
     static SEQ: Seqr = unsafe { Seqr::with_priority_ceiling() };
+    /// The sequencer with the portable lock (board feature `critical-section-lock`): its
+    /// sections mask interrupts, which `tests/qemu_scenarios.rs` measures.
+    #[cfg(feature = "critical-section-lock")]
+    static SEQ: Seqr = Seqr::new();
     /// The control system the scenario's script and conditions use.
     static CTRL: Ctrl = Ctrl::new();
     /// Set by the tick after the scenario's last tick.
