@@ -6,7 +6,9 @@ use core::task::{Poll, Waker};
 use crate::control_block::{flag, Link};
 use crate::lock::Lock;
 use crate::sequencer::{Gate, Mode};
-use crate::{Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
+use crate::{
+    Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
+};
 
 /// A consistent snapshot of one control block, for [`Handle`](crate::Handle).
 #[derive(Clone, Debug)]
@@ -64,8 +66,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
         self.with(|s| s.park(id, waker));
         self.with(|s| match s.gate(id) {
-            Gate::Go => match s.block_mut(id) {
-                Ok(b) if b.has(flag::POLL_DUE) => {
+            Gate::Go => match s.fast_mut(id) {
+                Some(b) if b.has(flag::POLL_DUE) => {
                     b.set(flag::POLL_DUE, false);
                     Gate::Go
                 }
@@ -85,10 +87,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn restarted(&self, id: SeqId) {
-        // Schedule, then commit; again if a tick moved the time in between.
+        // Schedule, then commit; again if a tick ran in between.
         loop {
-            let (seen, armed) = self.with(|s| s.schedule(id));
-            if self.with(|s| s.restarted(id, seen, armed)) != Some(false) {
+            let (from, seen, armed) = self.with(|s| s.schedule(id));
+            // From `Restarting` (or, if the tick stopped it since the lane saw that, as the
+            // transition table allows; a scanned `Running` or `Paused` one stays).
+            let legal = crate::sequencer::sources(RunningState::Running)
+                & !crate::sequencer::bit(RunningState::Paused);
+            if legal & crate::sequencer::bit(from) == 0 {
+                return;
+            }
+            let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
+            if self.with(|s| s.restarted(&t, seen, armed)) {
                 return;
             }
         }
@@ -118,7 +128,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             }
         });
         self.with(|s| {
-            let Ok(b) = s.block_mut(id) else { return false };
+            let Some(b) = s.fast_mut(id) else {
+                return false;
+            };
             let pending = b.has(flag::START_PENDING);
             b.set(flag::START_PENDING, false);
             pending

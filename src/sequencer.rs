@@ -207,18 +207,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             Some(t) => time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
             None => 0,
         };
-        // One short section per registered name (compared outside); the section that finds
-        // no further name takes the next slot, so no name is added unchecked in between.
-        let mut i: u8 = 0;
         loop {
-            // Ok(Err(name)): compare with this name; Ok(Ok(id)): registered.
-            let next = self.with(|s| {
-                if i < s.count {
-                    return Ok(Err(s.block(SeqId(i)).map_or("", |b| b.name)));
+            let (found, count) = self.find(config.name);
+            if found.is_some() {
+                return Err(Error::DuplicateName(config.name));
+            }
+            // Takes the next slot, unless another registration took it since the names were
+            // compared (then compare the new ones too).
+            let added = self.with(|s| {
+                if s.count != count {
+                    return Ok(None);
                 }
                 let slot = s
                     .blocks
-                    .get_mut(usize::from(i))
+                    .get_mut(usize::from(count))
                     .ok_or(Error::SequenceCapacityExceeded)?;
                 slot.name = config.name;
                 slot.polling = polling;
@@ -226,17 +228,33 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 slot.timeout_behaviour = config.timeout_behaviour;
                 slot.timeout_exception = Link::to(config.timeout_exception);
                 slot.timeout_restart_limit = config.timeout_restart_limit;
-                if let Some(h) = s.hooks.get_mut(usize::from(i)) {
+                if let Some(h) = s.hooks.get_mut(usize::from(count)) {
                     *h = config.on_abort;
                 }
-                s.count = i.saturating_add(1);
-                Ok(Ok(SeqId(i)))
+                s.count = count.saturating_add(1);
+                Ok(Some(SeqId(count)))
             })?;
-            match next {
-                Ok(id) => return Ok(id),
-                Err(name) if name == config.name => return Err(Error::DuplicateName(config.name)),
-                Err(_) => i = i.saturating_add(1),
+            if let Some(id) = added {
+                return Ok(id);
             }
+        }
+    }
+
+    /// The sequence named `name`, and the number of sequences compared: one short section
+    /// per registered name, the comparison outside.
+    #[inline(never)]
+    fn find(&self, name: &str) -> (Option<SeqId>, u8) {
+        let mut i: u8 = 0;
+        loop {
+            let Some(at) =
+                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name)))
+            else {
+                return (None, i);
+            };
+            if at == name {
+                return (Some(SeqId(i)), i);
+            }
+            i = i.saturating_add(1);
         }
     }
 
@@ -302,16 +320,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// The seed's `getSequenceByName`.
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'_, C>> {
-        // One short section per registered name; the comparison runs outside.
-        let mut i: u8 = 0;
-        loop {
-            let at =
-                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name)))?;
-            if at == name {
-                return Some(Handle::new(self, SeqId(i)));
-            }
-            i = i.saturating_add(1);
-        }
+        self.find(name).0.map(|id| Handle::new(self, id))
     }
 
     /// Number of registered sequences and steps.
@@ -410,37 +419,35 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         cause: Cause,
         extra: u16,
     ) -> Result<(), Error> {
-        // Everything but the commit happens once; a commit that finds the time moved
-        // (a tick ran in between) prepares again: the new run's schedule is taken from the
-        // time of its commit, so the tick cannot have rescanned without it.
-        let mut ready = None;
+        // Read-only checks first, in the order a start in one piece would fail them.
+        let (bound, caller_lane) = self.with(|s| s.check_start(id, caller, mode))?;
+        let (lane, pending) = match mode {
+            Mode::Blocking => (caller_lane, 0),
+            // A sequence has a lane once one was declared for it (`rtseq::lane`,
+            // `Handle::declare_lane`).
+            Mode::Lane => (
+                self.lane_slot_of(id).ok_or(Error::NoLane(id))?,
+                flag::START_PENDING,
+            ),
+        };
+        // `caller` is the starting sequence itself (a context's or an exception's owner):
+        // registered by construction.
+        if let Some(c) = caller {
+            if usize::from(self.cut_and_depth(id, c)) >= MAX_DEPTH {
+                return Err(Error::CallerDepthExceeded(id));
+            }
+        }
+        // Schedule, then commit; again if a tick ran in between (it may have rescanned
+        // without the new run, or changed its state: the commit re-checks both).
+        let link = Link::to(caller);
+        let flags = bound | flag::FRESH | pending | extra;
         loop {
-            let (caller_lane, seen, armed) = self.with(|s| s.prepare(id, caller, mode))?;
-            let (lane, flags) = match ready {
-                Some(r) => r,
-                None => {
-                    let r = match mode {
-                        Mode::Blocking => (caller_lane, flag::FRESH | extra),
-                        // A sequence has a lane once one was declared for it
-                        // (`rtseq::lane`, `Handle::declare_lane`).
-                        Mode::Lane => (
-                            self.lane_slot_of(id).ok_or(Error::NoLane(id))?,
-                            flag::FRESH | flag::START_PENDING | extra,
-                        ),
-                    };
-                    // `caller` is the starting sequence itself (a context's or an
-                    // exception's owner): registered by construction.
-                    if let Some(c) = caller {
-                        if usize::from(self.cut_and_depth(id, c)) >= MAX_DEPTH {
-                            return Err(Error::CallerDepthExceeded(id));
-                        }
-                    }
-                    ready = Some(r);
-                    r
-                }
-            };
-            let link = Link::to(caller);
-            if self.with(|s| s.start(id, link, lane, flags | armed, cause, seen))? {
+            let (from, seen, armed) = self.with(|s| s.schedule(id));
+            if from.is_active() {
+                return Err(Error::AlreadyRunning(id));
+            }
+            let t = Transition::edge(id, from, RunningState::Running, cause);
+            if self.with(|s| s.start(&t, seen, link, lane, flags | armed))? {
                 break;
             }
         }
@@ -537,29 +544,6 @@ const RESTART_CLEARS: u16 = flag::EXCEPTION_ACTIVE
     | flag::TIMEOUT_ARMED
     | crate::control_block::PENDING_MASK;
 
-/// Appends one transition at time `now` to the trace; counts a record dropped for it.
-#[inline]
-fn record<const T: usize>(
-    trace: &mut crate::trace::Ring<T>,
-    lost: &mut u32,
-    now: u64,
-    sequence: SeqId,
-    from: RunningState,
-    to: RunningState,
-    cause: Cause,
-) {
-    let t = Transition {
-        time: Instant::from_ticks(now),
-        sequence,
-        from,
-        to,
-        cause,
-    };
-    if trace.push(t) {
-        *lost = lost.saturating_add(1);
-    }
-}
-
 /// A safety level that demands it aborts every sequence through the sequencer.
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> AbortSequences
     for Sequencer<C, N, T, L, W>
@@ -570,95 +554,117 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> AbortSequences
 }
 
 impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
+    /// The block of registered sequence `id`.
+    #[inline]
     pub(crate) fn block(&self, id: SeqId) -> Result<&ControlBlock, Error> {
-        if id.0 >= self.count {
-            return Err(Error::UnknownSequence(id));
-        }
-        self.blocks
-            .get(id.index())
-            .ok_or(Error::UnknownSequence(id))
+        self.at(id).ok_or(Error::UnknownSequence(id))
     }
 
+    /// The block of registered sequence `id`, to change.
+    #[inline]
     pub(crate) fn block_mut(&mut self, id: SeqId) -> Result<&mut ControlBlock, Error> {
-        if id.0 >= self.count {
-            return Err(Error::UnknownSequence(id));
-        }
-        self.blocks
-            .get_mut(id.index())
-            .ok_or(Error::UnknownSequence(id))
+        self.at_mut(id).ok_or(Error::UnknownSequence(id))
     }
 
-    /// THE transition function: every state change goes through here. Moves `id` to `to`
-    /// if its state is one of `from` (a set of [`bit`]s, at most [`sources`]`(to)`: the
-    /// transition table), records the transition and returns the block for the caller's
-    /// bookkeeping in the same section. Otherwise changes nothing and returns `None`.
-    #[inline(never)]
-    pub(crate) fn shift(
-        &mut self,
-        id: SeqId,
-        to: RunningState,
-        cause: Cause,
-        from: u8,
-    ) -> Option<&mut ControlBlock> {
+    /// The block of registered sequence `id`, inline: for the tick's and the lanes' hot
+    /// paths and the tightest sections (elsewhere [`block`](Self::block), a call, saves
+    /// the flash of one copy of the range checks per lookup).
+    #[inline]
+    pub(crate) fn fast(&self, id: SeqId) -> Option<&ControlBlock> {
         if id.0 >= self.count {
             return None;
         }
-        let b = self.blocks.get_mut(id.index())?;
-        let was = b.state;
-        // A run ends only through the gate `Go`: not while its exception is handled.
-        let held = to == RunningState::Terminated && b.has(flag::EXCEPTION_ACTIVE);
-        if from & bit(was) == 0 || held {
+        self.blocks.get(id.index())
+    }
+
+    /// [`fast`](Self::fast), to change.
+    #[inline]
+    pub(crate) fn fast_mut(&mut self, id: SeqId) -> Option<&mut ControlBlock> {
+        if id.0 >= self.count {
             return None;
         }
-        b.state = to;
-        record(
-            &mut self.trace,
-            &mut self.trace_lost,
-            self.now,
-            id,
-            was,
-            to,
-            cause,
-        );
+        self.blocks.get_mut(id.index())
+    }
+
+    /// Out of line, like [`at_mut`](Self::at_mut): one copy of the range checks.
+    #[inline(never)]
+    fn at(&self, id: SeqId) -> Option<&ControlBlock> {
+        if id.0 >= self.count {
+            return None;
+        }
+        self.blocks.get(id.index())
+    }
+
+    #[inline(never)]
+    fn at_mut(&mut self, id: SeqId) -> Option<&mut ControlBlock> {
+        if id.0 >= self.count {
+            return None;
+        }
+        self.blocks.get_mut(id.index())
+    }
+
+    /// THE transition function: every state change goes through here. Makes transition
+    /// `t` (its time is ignored: now is recorded) if the sequence is in state `t.from`,
+    /// records it and returns the block for the caller's bookkeeping in the same section.
+    /// Otherwise changes nothing and returns `None`.
+    ///
+    /// Callers read `t.from` in an earlier section and check the transition table there;
+    /// a state that changed in between fails here. Out of line (one copy for every
+    /// transition) and lean: it runs inside sections.
+    #[inline(never)]
+    pub(crate) fn shift(&mut self, t: &Transition) -> Option<&mut ControlBlock> {
+        let b = self.blocks.get_mut(t.sequence.index())?;
+        // A run ends only through the gate `Go`: not while its exception is handled.
+        let held = t.to == RunningState::Terminated && b.has(flag::EXCEPTION_ACTIVE);
+        if b.state != t.from || held {
+            return None;
+        }
+        b.state = t.to;
+        let mut record = *t;
+        record.time = Instant::from_ticks(self.now);
+        if self.trace.push(record) {
+            self.trace_lost = self.trace_lost.saturating_add(1);
+        }
         #[cfg(feature = "counters")]
-        if let Some(c) = self.counters.get_mut(id.index()) {
-            c.count(was, to, cause);
+        if let Some(c) = self.counters.get_mut(t.sequence.index()) {
+            c.count(t.from, t.to, t.cause);
         }
         Some(b)
     }
 
-    /// The read-only checks of a start of `id`, and its schedule: `id` must not be active;
-    /// with a blocking caller, the caller's lane. Returns that lane, the time the schedule
-    /// starts from, and the flag of an armed timeout.
-    pub(crate) fn prepare(
-        &mut self,
+    /// The read-only checks of a start of `id`: not active; with a blocking caller, the
+    /// caller's lane. Returns `id`'s `BOUND` flag (set once, never cleared) and that lane.
+    pub(crate) fn check_start(
+        &self,
         id: SeqId,
         caller: Option<SeqId>,
         mode: Mode,
-    ) -> Result<(u8, u64, u16), Error> {
-        if self.block(id)?.state.is_active() {
+    ) -> Result<(u16, u8), Error> {
+        let b = self.fast(id).ok_or(Error::UnknownSequence(id))?;
+        if b.state.is_active() {
             return Err(Error::AlreadyRunning(id));
         }
         let lane = match (mode, caller) {
-            (Mode::Blocking, Some(c)) => self.block(c)?.lane,
+            (Mode::Blocking, Some(c)) => self.fast(c).ok_or(Error::UnknownSequence(c))?.lane,
             _ => NO_LANE,
         };
-        let (now, armed) = self.schedule(id);
-        Ok((lane, now, armed))
+        Ok((b.flags & flag::BOUND, lane))
     }
 
     /// Schedules a new run (or restart) of `id` from now, before its commit: its first poll
     /// and timeout deadline, and the tick's `next_due`. Only for a sequence the tick does
-    /// not scan (not `Running` or `Paused`), where these fields are unused until the
-    /// commit. Returns now and the flag of an armed timeout, for the commit.
+    /// not scan (not `Running` or `Paused`: then it only returns that state), where these
+    /// fields are unused until the commit. Returns the state, the low 32 bits of now and
+    /// the flag of an armed timeout, for the commit.
     #[inline(never)]
-    pub(crate) fn schedule(&mut self, id: SeqId) -> (u64, u16) {
+    pub(crate) fn schedule(&mut self, id: SeqId) -> (RunningState, u32, u16) {
         let now = self.now;
-        let Ok(b) = self.block_mut(id) else {
-            return (now, 0);
+        let Some(b) = self.fast_mut(id) else {
+            return (RunningState::Running, 0, 0);
         };
-        if matches!(b.state, RunningState::Running | RunningState::Paused) {
-            return (now, 0);
+        let state = b.state;
+        if matches!(state, RunningState::Running | RunningState::Paused) {
+            return (state, 0, 0);
         }
         b.next_poll = after(now, b.polling);
         b.deadline = after(now, b.timeout);
@@ -669,33 +675,38 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         };
         let first = now.saturating_add(u64::from(b.polling));
         self.next_due = self.next_due.min(first);
-        (now, armed)
+        // Truncation is the point: a commit compares the low 32 bits of the time (a tick in
+        // between moves them; a wrap back to the same value takes 71 minutes).
+        (state, now as u32, armed)
     }
 
-    /// The commit of a start ([`Sequencer::begin`] validated and scheduled it at `seen`):
-    /// unless `id` became active meanwhile (`AlreadyRunning`), a new run in lane slot
-    /// `lane` under `caller`, with `flags` (besides `BOUND`). `Ok(false)`: the time moved
-    /// since `seen`, nothing changed, prepare again.
+    /// The commit of a start `t` ([`Sequencer::begin`] validated it and scheduled it at
+    /// `seen`): a new run in lane slot `lane` under `caller`, with `flags` (all of them).
+    /// `Ok(false)`: a tick ran since (the time moved, or the state is not `t.from` any
+    /// more), nothing changed, schedule again; `AlreadyRunning` if the tick started it.
     pub(crate) fn start(
         &mut self,
-        id: SeqId,
+        t: &Transition,
+        seen: u32,
         caller: Link,
         lane: u8,
         flags: u16,
-        cause: Cause,
-        seen: u64,
     ) -> Result<bool, Error> {
-        if self.now != seen {
+        if self.now as u32 != seen {
             return Ok(false);
         }
-        let b = self
-            .shift(id, RunningState::Running, cause, STARTABLE)
-            .ok_or(Error::AlreadyRunning(id))?;
+        let Some(b) = self.shift(t) else {
+            let id = t.sequence;
+            return match self.fast(id) {
+                Some(b) if b.state.is_active() => Err(Error::AlreadyRunning(id)),
+                _ => Ok(false),
+            };
+        };
         b.runs = b.runs.wrapping_add(1);
         b.caller = caller;
         b.lane = lane;
         // Clears the requests and the pending behaviour too.
-        b.flags = (b.flags & flag::BOUND) | flags;
+        b.flags = flags;
         b.active_exception = None;
         b.outcome = None;
         Ok(true)
@@ -736,7 +747,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// Wakes the lane that drives `id`.
     #[inline(never)]
     pub(crate) fn wake(&self, id: SeqId) {
-        let lane = self.block(id).map_or(NO_LANE, |b| b.lane);
+        let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
         if let Some(w) = self.lane_waker(lane) {
             w.wake_by_ref();
         }
@@ -744,7 +755,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
 
     /// Parks `waker` as the waker of `id`'s lane.
     pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
-        let lane = self.block(id).map_or(NO_LANE, |b| b.lane);
+        let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
         if let Some(slot) = self.lanes.get_mut(usize::from(lane)) {
             slot.park(waker);
         }
@@ -752,7 +763,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
 
     /// What an await point of `id` must do now.
     pub(crate) fn gate(&self, id: SeqId) -> Gate {
-        let Ok(b) = self.block(id) else {
+        let Some(b) = self.fast(id) else {
             return Gate::Aborted(Cause::Abort);
         };
         match b.state {
@@ -765,19 +776,18 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         }
     }
 
-    /// A `Restarting` sequence runs again: fresh timeout and polling schedule, as
-    /// [`schedule`](Self::schedule)d at `seen` with the timeout flag `armed`. `Some(false)`:
-    /// the time moved since, schedule again.
-    pub(crate) fn restarted(&mut self, id: SeqId, seen: u64, armed: u16) -> Option<bool> {
-        if self.now != seen {
-            return Some(false);
+    /// A `Restarting` sequence runs again (`t`): fresh timeout and polling schedule, as
+    /// [`schedule`](Self::schedule)d at `seen` with the timeout flag `armed`. False: a tick
+    /// ran since, schedule again.
+    pub(crate) fn restarted(&mut self, t: &Transition, seen: u32, armed: u16) -> bool {
+        if self.now as u32 != seen {
+            return false;
         }
-        // From `Restarting` (or, if the tick stopped it since the lane saw `Restarting`,
-        // as a transition to `Running` allows; never a scanned `Paused` one).
-        let from = STARTABLE | bit(RunningState::Restarting);
-        let b = self.shift(id, RunningState::Running, Cause::Restart, from)?;
+        let Some(b) = self.shift(t) else {
+            return false;
+        };
         b.flags = (b.flags & !RESTART_CLEARS) | flag::FRESH | armed;
-        Some(true)
+        true
     }
 
     /// Ends a run normally (`Completed` or `Skipped`). If the sequence was aborted or
@@ -788,8 +798,8 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             _ => Cause::Completed,
         };
         // Only from gate `Go`: `Running` without an active exception (`shift` checks it).
-        let to = RunningState::Terminated;
-        if self.shift(id, to, cause, sources(to)).is_some() {
+        let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
+        if self.shift(&t).is_some() {
             return Ok(outcome);
         }
         Err(self.gate(id))
@@ -813,7 +823,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
 
     /// Queues a pause, resume or abort request for the next tick.
     pub(crate) fn request(&mut self, id: SeqId, bit: u16) -> Result<(), Error> {
-        let b = self.block_mut(id)?;
+        let b = self.fast_mut(id).ok_or(Error::UnknownSequence(id))?;
         let ok = match bit {
             request::RESUME => b.state == RunningState::Paused,
             request::PAUSE => b.state == RunningState::Running,

@@ -9,8 +9,9 @@ use crate::control_block::{flag, request, Link};
 use crate::lock::Lock;
 use crate::monitor::Entry;
 use crate::sequencer::{bit, sources, Mode};
-use crate::tree;
-use crate::{Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, MAX_DEPTH};
+use crate::{
+    Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
+};
 
 /// `depth + 1` of the deepest possible sequence.
 const DEPTH_LIMIT: u8 = MAX_DEPTH as u8 + 1;
@@ -252,7 +253,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         book: &mut RestartBook,
     ) -> bool {
         let Some((target, target_runs)) = self.with(|s| {
-            let b = s.block(owner).ok()?;
+            let b = s.fast(owner)?;
             if !b.accepts_exception() {
                 return None;
             }
@@ -261,7 +262,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             } else {
                 owner
             };
-            Some((target, s.block(target).ok()?.runs))
+            Some((target, s.fast(target)?.runs))
         }) else {
             return false;
         };
@@ -357,17 +358,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     fn stop(&self, control: &C, id: SeqId, cause: Cause, to: RunningState) {
         // Before the transition, what it leaves behind: the cause a later gate reports,
         // no pending requests; and the hook (set at registration).
-        let hook = self.with(|s| {
-            let b = s.block_mut(id).ok()?;
-            if sources(to) & bit(b.state) == 0 {
+        let pre = self.with(|s| {
+            let b = s.fast_mut(id)?;
+            let from = b.state;
+            if sources(to) & bit(from) == 0 {
                 return None;
             }
             b.last_cause = cause;
             b.take_requests();
-            Some(s.hooks.get(id.index()).copied().flatten())
+            Some((from, s.hooks.get(id.index()).copied().flatten()))
         });
-        let Some(hook) = hook else { return };
-        if self.with(|s| s.shift(id, to, cause, sources(to)).is_none()) {
+        let Some((from, hook)) = pre else { return };
+        if self.with(|s| s.shift(&Transition::edge(id, from, to, cause)).is_none()) {
             return;
         }
         if let Some(h) = hook {
@@ -376,20 +378,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if to == RunningState::Aborting {
             // A blocking sequence's framework is dropped by its aborted caller and never
             // reports back, so the outcome is recorded here.
-            let done = self.with(|s| {
-                let b = s.shift(id, RunningState::Aborted, cause, bit(to))?;
+            let t = Transition::edge(id, to, RunningState::Aborted, cause);
+            let joiner = self.with(|s| {
+                let b = s.shift(&t)?;
                 b.outcome = Some(crate::Outcome::Aborted(cause));
-                Some(())
+                core::mem::replace(&mut b.joiner, Link::NONE).get()
             });
-            if done.is_some() {
-                let joiner = self.with(|s| {
-                    s.block_mut(id).map_or(Link::NONE, |b| {
-                        core::mem::replace(&mut b.joiner, Link::NONE)
-                    })
-                });
-                if let Some(j) = joiner.get() {
-                    self.wake_lane(j);
-                }
+            if let Some(j) = joiner {
+                self.wake_lane(j);
             }
         }
         self.wake_lane(id);
@@ -407,7 +403,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         for i in 0..count {
             let id = SeqId(i);
             let (req, done) = self.with(|s| {
-                let Ok(b) = s.block_mut(id) else {
+                let Some(b) = s.fast_mut(id) else {
                     return (0, None);
                 };
                 let req = b.take_requests();
@@ -473,7 +469,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 let Ok(id) = u8::try_from(i).map(SeqId) else {
                     continue;
                 };
-                if self.with(|s| s.shift(id, to, cause, bit(from)).is_none()) {
+                let t = Transition::edge(id, from, to, cause);
+                if self.with(|s| s.shift(&t).is_none()) {
                     continue;
                 }
                 // A paused timeout keeps its remaining time, not a deadline (nothing reads
@@ -529,9 +526,23 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             let Ok(id) = u8::try_from(i).map(SeqId) else {
                 continue;
             };
-            let below = target.is_none_or(|t| id == t || tree::descends_from(&links, id, t));
-            if p && below {
-                *d = tree::depth(&links, id).saturating_add(1);
+            if p {
+                // Up the caller links (at most MAX_DEPTH): the depth, and whether the
+                // target is on the way.
+                let mut below = target.is_none_or(|t| t == id);
+                let mut depth: u8 = 1;
+                let mut at = id;
+                for _ in 0..MAX_DEPTH {
+                    let Some(up) = links.get(at.index()).and_then(|l| l.get()) else {
+                        break;
+                    };
+                    below |= Some(up) == target;
+                    depth = depth.saturating_add(1);
+                    at = up;
+                }
+                if below {
+                    *d = depth;
+                }
             }
         }
         level

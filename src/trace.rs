@@ -52,6 +52,24 @@ impl Transition {
     }
 }
 
+impl Transition {
+    /// The transition of `sequence` from `from` to `to` for `cause`, its time still open.
+    pub(crate) const fn edge(
+        sequence: SeqId,
+        from: RunningState,
+        to: RunningState,
+        cause: Cause,
+    ) -> Self {
+        Transition {
+            time: Instant::from_ticks(0),
+            sequence,
+            from,
+            to,
+            cause,
+        }
+    }
+}
+
 /// The sequencer's trace buffer: a ring of the newest `T` records, oldest first.
 ///
 /// A push is O(1) and short (it runs inside the transition's critical section): one index

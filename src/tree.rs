@@ -9,31 +9,13 @@ use crate::control_block::Link;
 use crate::sequencer::Inner;
 use crate::{SeqId, MAX_DEPTH};
 
-/// The callers of `id` in a copy of the caller links (`links[i]`: the caller of sequence
-/// `i`), innermost first, at most [`MAX_DEPTH`].
-pub(crate) fn ancestors(links: &[Link], id: SeqId) -> impl Iterator<Item = SeqId> + '_ {
-    let up = move |x: SeqId| links.get(x.index()).and_then(|l| l.get());
-    core::iter::successors(up(id), move |&c| up(c)).take(MAX_DEPTH)
-}
-
-/// Number of callers of `id` (0 for a main sequence) in a copy of the caller links.
-pub(crate) fn depth(links: &[Link], id: SeqId) -> u8 {
-    // At most MAX_DEPTH (8) callers: the count fits.
-    u8::try_from(ancestors(links, id).count()).unwrap_or(u8::MAX)
-}
-
-/// True when `ancestor` is in the caller stack of `id`, in a copy of the caller links.
-pub(crate) fn descends_from(links: &[Link], id: SeqId, ancestor: SeqId) -> bool {
-    ancestors(links, id).any(|c| c == ancestor)
-}
-
 impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// The innermost callers of `id` that it blocks: those in its own lane
     /// (`callerStackBlocking` is that many of the stack's innermost entries), innermost
     /// first. One block lookup per caller (the tick walks this in its wake-ups).
     pub(crate) fn blocking_callers(&self, id: SeqId) -> Blocking<'_, C, N, T, W> {
         let (up, lane) = self
-            .block(id)
+            .fast(id)
             .map_or((Link::NONE, crate::control_block::NO_LANE), |b| {
                 (b.caller, b.lane)
             });
@@ -76,7 +58,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Iterator for Blocking<'_
         let c = self.up.get()?;
         self.left = self.left.checked_sub(1)?;
         self.up = Link::NONE;
-        let b = self.inner.block(c).ok()?;
+        let b = self.inner.fast(c)?;
         if b.lane != self.lane {
             return None;
         }
