@@ -89,7 +89,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     fn restarted(&self, id: SeqId) {
         // Schedule, then commit; again if a tick ran in between.
         loop {
-            let (from, seen, armed) = self.with(|s| s.schedule(id));
+            let (from, seen, armed, polling) = self.with(|s| s.schedule(id, None));
             // From `Restarting` (or, if the tick stopped it since the lane saw that, as the
             // transition table allows; a scanned `Running` or `Paused` one stays).
             let legal = crate::sequencer::sources(RunningState::Running)
@@ -97,6 +97,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             if legal & crate::sequencer::bit(from) == 0 {
                 return;
             }
+            self.with(|s| s.due_by(polling));
             let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
             if self.with(|s| s.restarted(&t, seen, armed)) {
                 return;
@@ -105,7 +106,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
-        self.with(|s| s.end(id, outcome))
+        let cause = match outcome {
+            Outcome::Skipped => Cause::PreConditionFalse,
+            _ => Cause::Completed,
+        };
+        let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
+        self.with(|s| s.end(&t)).map(|()| outcome)
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {

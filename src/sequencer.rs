@@ -442,12 +442,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let link = Link::to(caller);
         let flags = bound | flag::FRESH | pending | extra;
         loop {
-            let (from, seen, armed) = self.with(|s| s.schedule(id));
+            let (from, seen, armed, polling) = self.with(|s| s.schedule(id, Some(lane)));
             if from.is_active() {
                 return Err(Error::AlreadyRunning(id));
             }
+            self.with(|s| s.due_by(polling));
             let t = Transition::edge(id, from, RunningState::Running, cause);
-            if self.with(|s| s.start(&t, seen, link, lane, flags | armed))? {
+            let flags = flags | armed;
+            if self.with(|s| s.start(&t, seen, link, flags))? {
                 break;
             }
         }
@@ -652,36 +654,55 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     }
 
     /// Schedules a new run (or restart) of `id` from now, before its commit: its first poll
-    /// and timeout deadline, and the tick's `next_due`. Only for a sequence the tick does
-    /// not scan (not `Running` or `Paused`: then it only returns that state), where these
-    /// fields are unused until the commit. Returns the state, the low 32 bits of now and
-    /// the flag of an armed timeout, for the commit.
+    /// and timeout deadline; for a new run (`start`: its lane
+    /// slot) also its lane, run count, and no last exception or outcome yet. Only for a
+    /// sequence that is not `Running` or `Paused` (then it only returns that state): the
+    /// tick neither scans it nor walks through these fields, and the caller link, flags
+    /// and state, which it does read, change in the commit. (A handle reading the sequence
+    /// from a context that preempts a start in between sees no last outcome or exception.)
+    /// Returns the state, the low 32 bits of now and the flag of an armed timeout, for the
+    /// commit, and the polling period, for [`due_by`](Self::due_by).
     #[inline(never)]
-    pub(crate) fn schedule(&mut self, id: SeqId) -> (RunningState, u32, u16) {
+    pub(crate) fn schedule(
+        &mut self,
+        id: SeqId,
+        start: Option<u8>,
+    ) -> (RunningState, u32, u16, u32) {
         let now = self.now;
         let Some(b) = self.fast_mut(id) else {
-            return (RunningState::Running, 0, 0);
+            return (RunningState::Running, 0, 0, 0);
         };
         let state = b.state;
         if matches!(state, RunningState::Running | RunningState::Paused) {
-            return (state, 0, 0);
+            return (state, 0, 0, 0);
         }
         b.next_poll = after(now, b.polling);
         b.deadline = after(now, b.timeout);
+        if let Some(lane) = start {
+            b.lane = lane;
+            b.runs = b.runs.wrapping_add(1);
+            b.active_exception = None;
+            b.outcome = None;
+        }
         let armed = if b.timeout != 0 {
             flag::TIMEOUT_ARMED
         } else {
             0
         };
-        let first = now.saturating_add(u64::from(b.polling));
-        self.next_due = self.next_due.min(first);
         // Truncation is the point: a commit compares the low 32 bits of the time (a tick in
         // between moves them; a wrap back to the same value takes 71 minutes).
-        (state, now as u32, armed)
+        (state, now as u32, armed, b.polling)
+    }
+
+    /// After [`schedule`](Self::schedule), before the commit: the tick scans by the first
+    /// poll of a run with polling period `polling` starting now.
+    pub(crate) fn due_by(&mut self, polling: u32) {
+        let first = self.now.saturating_add(u64::from(polling));
+        self.next_due = self.next_due.min(first);
     }
 
     /// The commit of a start `t` ([`Sequencer::begin`] validated it and scheduled it at
-    /// `seen`): a new run in lane slot `lane` under `caller`, with `flags` (all of them).
+    /// `seen`): a new run under `caller`, with `flags` (all of them).
     /// `Ok(false)`: a tick ran since (the time moved, or the state is not `t.from` any
     /// more), nothing changed, schedule again; `AlreadyRunning` if the tick started it.
     pub(crate) fn start(
@@ -689,7 +710,6 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         t: &Transition,
         seen: u32,
         caller: Link,
-        lane: u8,
         flags: u16,
     ) -> Result<bool, Error> {
         if self.now as u32 != seen {
@@ -702,13 +722,9 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
                 _ => Ok(false),
             };
         };
-        b.runs = b.runs.wrapping_add(1);
         b.caller = caller;
-        b.lane = lane;
         // Clears the requests and the pending behaviour too.
         b.flags = flags;
-        b.active_exception = None;
-        b.outcome = None;
         Ok(true)
     }
 
@@ -790,30 +806,26 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         true
     }
 
-    /// Ends a run normally (`Completed` or `Skipped`). If the sequence was aborted or
-    /// restarted meanwhile, returns what the gate says instead.
-    pub(crate) fn end(&mut self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
-        let cause = match outcome {
-            Outcome::Skipped => Cause::PreConditionFalse,
-            _ => Cause::Completed,
-        };
-        // Only from gate `Go`: `Running` without an active exception (`shift` checks it).
-        let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
-        if self.shift(&t).is_some() {
-            return Ok(outcome);
+    /// Ends a run normally: `t` is `Running → Terminated` (cause `Completed` or
+    /// `PreConditionFalse`). If the sequence was aborted or restarted meanwhile, or its
+    /// exception is being handled (gate `Go` is `Running` without one: `shift` checks it),
+    /// returns what the gate says instead.
+    pub(crate) fn end(&mut self, t: &Transition) -> Result<(), Gate> {
+        match self.shift(t) {
+            Some(_) => Ok(()),
+            None => Err(self.gate(t.sequence)),
         }
-        Err(self.gate(id))
     }
 
     /// After a run's framework returned: store the outcome and report the end of an
     /// exception sequence to the tick. Returns the joiner to wake.
     pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> Option<SeqId> {
-        let b = self.block_mut(id).ok()?;
+        let b = self.fast_mut(id)?;
         b.outcome = Some(outcome);
         let joiner = core::mem::replace(&mut b.joiner, Link::NONE).get();
         if b.has(flag::HANDLES_EXCEPTION) {
             b.set(flag::HANDLES_EXCEPTION, false);
-            if let Some(ob) = b.caller.get().and_then(|o| self.block_mut(o).ok()) {
+            if let Some(ob) = b.caller.get().and_then(|o| self.fast_mut(o)) {
                 ob.set(flag::EXCEPTION_DONE, true);
                 self.work = true;
             }

@@ -369,7 +369,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             Some((from, s.hooks.get(id.index()).copied().flatten()))
         });
         let Some((from, hook)) = pre else { return };
-        if self.with(|s| s.shift(&Transition::edge(id, from, to, cause)).is_none()) {
+        let t = Transition::edge(id, from, to, cause);
+        if self.with(|s| s.shift(&t).is_none()) {
             return;
         }
         if let Some(h) = hook {
