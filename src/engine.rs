@@ -134,7 +134,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             }
         });
         self.with(|s| {
-            let Some(b) = s.fast_mut(id) else {
+            let Ok(b) = s.block_mut(id) else {
                 return false;
             };
             let pending = b.has(flag::START_PENDING);

@@ -443,7 +443,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let flags = bound | flag::FRESH | pending | extra;
         loop {
             let (from, seen, armed, polling) = self.with(|s| s.schedule(id, Some(lane)));
-            if from.is_active() {
+            if STARTABLE & bit(from) == 0 {
                 return Err(Error::AlreadyRunning(id));
             }
             self.with(|s| s.due_by(polling));
@@ -515,6 +515,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             Err(Error::LaneCapacityExceeded(id))
         }
     }
+}
+
+/// [`bit`] under a name that does not clash with a request bit.
+const fn bit_of(s: RunningState) -> u8 {
+    bit(s)
 }
 
 /// Bit of state `s` in a set of states.
@@ -643,7 +648,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         mode: Mode,
     ) -> Result<(u16, u8), Error> {
         let b = self.fast(id).ok_or(Error::UnknownSequence(id))?;
-        if b.state.is_active() {
+        if STARTABLE & bit(b.state) == 0 {
             return Err(Error::AlreadyRunning(id));
         }
         let lane = match (mode, caller) {
@@ -717,8 +722,8 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         }
         let Some(b) = self.shift(t) else {
             let id = t.sequence;
-            return match self.fast(id) {
-                Some(b) if b.state.is_active() => Err(Error::AlreadyRunning(id)),
+            return match self.block(id) {
+                Ok(b) if STARTABLE & bit(b.state) == 0 => Err(Error::AlreadyRunning(id)),
                 _ => Ok(false),
             };
         };
@@ -825,7 +830,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         let joiner = core::mem::replace(&mut b.joiner, Link::NONE).get();
         if b.has(flag::HANDLES_EXCEPTION) {
             b.set(flag::HANDLES_EXCEPTION, false);
-            if let Some(ob) = b.caller.get().and_then(|o| self.fast_mut(o)) {
+            if let Some(ob) = b.caller.get().and_then(|o| self.block_mut(o).ok()) {
                 ob.set(flag::EXCEPTION_DONE, true);
                 self.work = true;
             }
@@ -835,13 +840,13 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
 
     /// Queues a pause, resume or abort request for the next tick.
     pub(crate) fn request(&mut self, id: SeqId, bit: u16) -> Result<(), Error> {
-        let b = self.fast_mut(id).ok_or(Error::UnknownSequence(id))?;
-        let ok = match bit {
-            request::RESUME => b.state == RunningState::Paused,
-            request::PAUSE => b.state == RunningState::Running,
-            _ => b.state.is_active(),
+        let b = self.block_mut(id)?;
+        let states = match bit {
+            request::RESUME => bit_of(RunningState::Paused),
+            request::PAUSE => bit_of(RunningState::Running),
+            _ => !STARTABLE,
         };
-        if !ok {
+        if states & bit_of(b.state) == 0 {
             return Err(if bit == request::RESUME {
                 Error::NotPaused(id)
             } else {

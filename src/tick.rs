@@ -359,7 +359,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // Before the transition, what it leaves behind: the cause a later gate reports,
         // no pending requests; and the hook (set at registration).
         let pre = self.with(|s| {
-            let b = s.fast_mut(id)?;
+            let b = s.block_mut(id).ok()?;
             let from = b.state;
             if sources(to) & bit(from) == 0 {
                 return None;
