@@ -207,55 +207,28 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             Some(t) => time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
             None => 0,
         };
-        loop {
-            let (found, count) = self.find(config.name);
-            if found.is_some() {
+        self.with(|s| {
+            let used = usize::from(s.count);
+            if s.blocks.iter().take(used).any(|b| b.name == config.name) {
                 return Err(Error::DuplicateName(config.name));
             }
-            // Takes the next slot, unless another registration took it since the names were
-            // compared (then compare the new ones too).
-            let added = self.with(|s| {
-                if s.count != count {
-                    return Ok(None);
-                }
-                let slot = s
-                    .blocks
-                    .get_mut(usize::from(count))
-                    .ok_or(Error::SequenceCapacityExceeded)?;
-                slot.name = config.name;
-                slot.polling = polling;
-                slot.timeout = timeout;
-                slot.timeout_behaviour = config.timeout_behaviour;
-                slot.timeout_exception = Link::to(config.timeout_exception);
-                slot.timeout_restart_limit = config.timeout_restart_limit;
-                if let Some(h) = s.hooks.get_mut(usize::from(count)) {
-                    *h = config.on_abort;
-                }
-                s.count = count.saturating_add(1);
-                Ok(Some(SeqId(count)))
-            })?;
-            if let Some(id) = added {
-                return Ok(id);
+            let slot = s
+                .blocks
+                .get_mut(used)
+                .ok_or(Error::SequenceCapacityExceeded)?;
+            slot.name = config.name;
+            slot.polling = polling;
+            slot.timeout = timeout;
+            slot.timeout_behaviour = config.timeout_behaviour;
+            slot.timeout_exception = Link::to(config.timeout_exception);
+            slot.timeout_restart_limit = config.timeout_restart_limit;
+            if let Some(h) = s.hooks.get_mut(used) {
+                *h = config.on_abort;
             }
-        }
-    }
-
-    /// The sequence named `name`, and the number of sequences compared: one short section
-    /// per registered name, the comparison outside.
-    #[inline(never)]
-    fn find(&self, name: &str) -> (Option<SeqId>, u8) {
-        let mut i: u8 = 0;
-        loop {
-            let Some(at) =
-                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name)))
-            else {
-                return (None, i);
-            };
-            if at == name {
-                return (Some(SeqId(i)), i);
-            }
-            i = i.saturating_add(1);
-        }
+            let id = SeqId(s.count);
+            s.count = s.count.saturating_add(1);
+            Ok(id)
+        })
     }
 
     /// Binds the sequence or step object `body` to a registered id; each id binds once.
@@ -320,7 +293,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// The seed's `getSequenceByName`.
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'_, C>> {
-        self.find(name).0.map(|id| Handle::new(self, id))
+        // One short section per registered name; the comparison runs outside.
+        let mut i: u8 = 0;
+        loop {
+            let at =
+                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name)))?;
+            if at == name {
+                return Some(Handle::new(self, SeqId(i)));
+            }
+            i = i.saturating_add(1);
+        }
     }
 
     /// Number of registered sequences and steps.
