@@ -601,7 +601,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// a state that changed in between fails here. Out of line (one copy for every
     /// transition) and lean: it runs inside sections.
     #[inline(never)]
-    pub(crate) fn shift(&mut self, t: &Transition) -> Option<&mut ControlBlock> {
+    pub(crate) fn shift(&mut self, t: &crate::trace::Edge) -> Option<&mut ControlBlock> {
         let b = self.blocks.get_mut(t.sequence.index())?;
         // A run ends only through the gate `Go`: not while its exception is handled.
         let held = t.to == RunningState::Terminated && b.has(flag::EXCEPTION_ACTIVE);
@@ -609,9 +609,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             return None;
         }
         b.state = t.to;
-        let mut record = *t;
-        record.time = Instant::from_ticks(self.now);
-        if self.trace.push(record) {
+        if self.trace.push(self.now, t) {
             self.trace_lost = self.trace_lost.saturating_add(1);
         }
         #[cfg(feature = "counters")]
@@ -694,7 +692,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// more), nothing changed, schedule again; `AlreadyRunning` if the tick started it.
     pub(crate) fn start(
         &mut self,
-        t: &Transition,
+        t: &crate::trace::Edge,
         seen: u32,
         caller: Link,
         flags: u16,
@@ -782,7 +780,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// A `Restarting` sequence runs again (`t`): fresh timeout and polling schedule, as
     /// [`schedule`](Self::schedule)d at `seen` with the timeout flag `armed`. False: a tick
     /// ran since, schedule again.
-    pub(crate) fn restarted(&mut self, t: &Transition, seen: u32, armed: u16) -> bool {
+    pub(crate) fn restarted(&mut self, t: &crate::trace::Edge, seen: u32, armed: u16) -> bool {
         if self.now as u32 != seen {
             return false;
         }
@@ -797,7 +795,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// `PreConditionFalse`). If the sequence was aborted or restarted meanwhile, or its
     /// exception is being handled (gate `Go` is `Running` without one: `shift` checks it),
     /// returns what the gate says instead.
-    pub(crate) fn end(&mut self, t: &Transition) -> Result<(), Gate> {
+    pub(crate) fn end(&mut self, t: &crate::trace::Edge) -> Result<(), Gate> {
         match self.shift(t) {
             Some(_) => Ok(()),
             None => Err(self.gate(t.sequence)),

@@ -52,6 +52,16 @@ impl Transition {
     }
 }
 
+/// A transition without its time: what [`shift`](crate::sequencer::Inner) is asked to
+/// make, and what a ring slot keeps beside the time.
+#[derive(Clone, Copy)]
+pub(crate) struct Edge {
+    pub(crate) sequence: SeqId,
+    pub(crate) from: RunningState,
+    pub(crate) to: RunningState,
+    pub(crate) cause: Cause,
+}
+
 impl Transition {
     /// The transition of `sequence` from `from` to `to` for `cause`, its time still open.
     pub(crate) const fn edge(
@@ -59,9 +69,8 @@ impl Transition {
         from: RunningState,
         to: RunningState,
         cause: Cause,
-    ) -> Self {
-        Transition {
-            time: Instant::from_ticks(0),
+    ) -> Edge {
+        Edge {
             sequence,
             from,
             to,
@@ -70,13 +79,20 @@ impl Transition {
     }
 }
 
+/// One ring slot.
+#[derive(Clone, Copy)]
+struct Rec {
+    time: u64,
+    edge: Edge,
+}
+
 /// The sequencer's trace buffer: a ring of the newest `T` records, oldest first.
 ///
 /// A push is O(1) and short (it runs inside the transition's critical section): one index
 /// computation and one record store; when full it overwrites the oldest record, which the
 /// sequencer counts as lost. With a power-of-two `T` (the default 64) the index is a mask.
 pub(crate) struct Ring<const T: usize> {
-    buf: [Transition; T],
+    buf: [Rec; T],
     /// Index of the oldest record.
     head: usize,
     /// Number of records held (≤ `T`).
@@ -85,12 +101,14 @@ pub(crate) struct Ring<const T: usize> {
 
 impl<const T: usize> Ring<T> {
     /// A record for the never-read slots of an empty ring.
-    const BLANK: Transition = Transition {
-        time: Instant::from_ticks(0),
-        sequence: SeqId(0),
-        from: RunningState::Idle,
-        to: RunningState::Idle,
-        cause: Cause::Start,
+    const BLANK: Rec = Rec {
+        time: 0,
+        edge: Transition::edge(
+            SeqId(0),
+            RunningState::Idle,
+            RunningState::Idle,
+            Cause::Start,
+        ),
     };
 
     pub(crate) const fn new() -> Self {
@@ -114,12 +132,13 @@ impl<const T: usize> Ring<T> {
         }
     }
 
-    /// Appends `t`; when full the oldest record is dropped. Returns true when one was.
+    /// Appends `edge` at `time`; when full the oldest record is dropped. Returns true when
+    /// one was.
     #[inline]
-    pub(crate) fn push(&mut self, t: Transition) -> bool {
+    pub(crate) fn push(&mut self, time: u64, edge: &Edge) -> bool {
         let i = self.at(self.len);
         if let Some(slot) = self.buf.get_mut(i) {
-            *slot = t;
+            *slot = Rec { time, edge: *edge };
         }
         if self.len < T {
             self.len = self.len.wrapping_add(1);
@@ -137,10 +156,16 @@ impl<const T: usize> Ring<T> {
         if self.len == 0 {
             return None;
         }
-        let t = self.buf.get(self.head).copied();
+        let r = self.buf.get(self.head).copied();
         self.head = self.at(1);
         self.len = self.len.wrapping_sub(1);
-        t
+        r.map(|Rec { time, edge: e }| Transition {
+            time: Instant::from_ticks(time),
+            sequence: e.sequence,
+            from: e.from,
+            to: e.to,
+            cause: e.cause,
+        })
     }
 }
 
@@ -148,11 +173,8 @@ impl<const T: usize> Ring<T> {
 mod tests {
     use super::*;
 
-    fn rec(n: u64) -> Transition {
-        Transition {
-            time: Instant::from_ticks(n),
-            ..Ring::<1>::BLANK
-        }
+    fn push<const T: usize>(r: &mut Ring<T>, n: u64) -> bool {
+        r.push(n, &Ring::<1>::BLANK.edge)
     }
 
     fn drain<const T: usize>(r: &mut Ring<T>) -> std::vec::Vec<u64> {
@@ -175,7 +197,7 @@ mod tests {
                         model.pop_front();
                     }
                     model.push_back(n);
-                    assert_eq!(r.push(rec(n)), full, "T = {T}, push {n}");
+                    assert_eq!(push(&mut r, n), full, "T = {T}, push {n}");
                 }
             }
             assert_eq!(drain(&mut r), std::vec::Vec::from(model));
@@ -190,11 +212,11 @@ mod tests {
     #[test]
     fn empty_and_zero_capacity() {
         let mut r = Ring::<0>::new();
-        assert!(r.push(rec(1)));
+        assert!(push(&mut r, 1));
         assert_eq!(r.pop(), None);
         let mut r = Ring::<4>::new();
         assert_eq!(r.pop(), None);
-        r.push(rec(7));
+        push(&mut r, 7);
         assert_eq!(drain(&mut r), [7]);
     }
 }
