@@ -478,12 +478,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Declares a lane for `id` (idempotent): one short section per slot looked at.
     pub(crate) fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
         self.with(|s| s.block(id).map(|_| ()))?;
-        if self.lane_slot_of(id).is_some() {
-            return Ok(());
-        }
+        // Slots fill in order and are never freed: the first slot that is `id`'s or free.
         let me = Link::to(Some(id));
-        let free = (0..W).any(|k| {
+        let found = (0..W).any(|k| {
             self.with(|s| match s.lanes.get_mut(k) {
+                Some(l) if l.seq == me => true,
                 Some(l) if l.seq == Link::NONE => {
                     l.seq = me;
                     true
@@ -491,7 +490,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 _ => false,
             })
         });
-        if free {
+        if found {
             Ok(())
         } else {
             Err(Error::LaneCapacityExceeded(id))
