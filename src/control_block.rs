@@ -248,34 +248,37 @@ impl ControlBlock {
 
     /// The tick's scan of this block at `now` (the low 32 bits): when its polling period is
     /// due, advances its polling schedule and notes an expired timeout and a due
-    /// exit-condition poll. Returns, for an active sequence, its [`mark`](crate::tick::mark)
-    /// and the time until its next poll (µs).
-    #[inline]
-    pub(crate) fn scan(&mut self, now: u32) -> Option<(u8, u32)> {
+    /// exit-condition poll. Returns its [`mark`](crate::tick::mark): 0 for an inactive
+    /// sequence, `ACTIVE` and more for a running or paused one.
+    #[inline(always)]
+    pub(crate) fn scan(&mut self, now: u32) -> u8 {
         use crate::tick::mark;
         let running = self.state == RunningState::Running;
         if !running && self.state != RunningState::Paused {
-            return None;
+            return 0;
         }
-        // One read and one write of the flags, the mark built in a register.
-        let mut f = self.flags;
-        let mut m = if !running || f & flag::EXCEPTION_ACTIVE != 0 {
-            mark::HELD
-        } else {
-            0
-        };
-        if reached32(now, self.next_poll) {
-            m |= mark::DUE;
+        let f = self.flags;
+        let mut m = mark::ACTIVE;
+        if !running || f & flag::EXCEPTION_ACTIVE != 0 {
+            m |= mark::HELD;
+        }
+        if !reached32(now, self.next_poll) {
+            return m;
+        }
+        m |= mark::DUE;
+        let mut next = self.next_poll.wrapping_add(self.polling);
+        if reached32(now, next) {
+            // Missed periods (a late tick) are not replayed.
+            next = now.wrapping_add(self.polling);
+        }
+        self.next_poll = next;
+        // One test for the three things a due poll may have to do besides its monitors.
+        if f & (flag::FRESH | flag::TIMEOUT_ARMED | flag::POLL_WAIT) != 0 {
+            let mut f = f;
             if f & flag::FRESH != 0 {
                 f &= !flag::FRESH;
                 m |= mark::FRESH;
             }
-            let mut next = self.next_poll.wrapping_add(self.polling);
-            if reached32(now, next) {
-                // Missed periods (a late tick) are not replayed.
-                next = now.wrapping_add(self.polling);
-            }
-            self.next_poll = next;
             if running {
                 if f & flag::TIMEOUT_ARMED != 0 && reached32(now, self.deadline) {
                     m |= mark::EXPIRED;
@@ -287,7 +290,7 @@ impl ControlBlock {
             }
             self.flags = f;
         }
-        Some((m, self.next_poll.wrapping_sub(now)))
+        m
     }
 
     /// Monitors and timeout of this sequence may raise an exception now.

@@ -50,17 +50,19 @@ impl Behaviour {
 }
 
 /// When a monitor fires.
+// The discriminants are the tick's bit sets: 1 = rising edge, 2 = falling edge, 4 = level.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
 pub enum Trigger {
     /// On the rising edge of the condition (default): no exception storm while it stays true.
-    RisingEdge,
+    RisingEdge = 1,
     /// On the falling edge of the condition (e.g. a button released, a fault cleared).
-    FallingEdge,
+    FallingEdge = 2,
     /// On every change of the condition (e.g. a toggle switched on and off again).
-    Change,
+    Change = 3,
     /// At every evaluation while the condition is true and no exception of the owner is active.
-    Level,
+    Level = 4,
 }
 
 impl Trigger {
@@ -79,17 +81,6 @@ impl Trigger {
             Trigger::FallingEdge => !value && last,
             Trigger::Change => value != last,
             Trigger::Level => value,
-        }
-    }
-
-    /// The trigger as a truth table: bit `2 * last + value` is set where it fires (the
-    /// tick's branch-free test).
-    pub(crate) const fn truth_table(self) -> u8 {
-        match self {
-            Trigger::RisingEdge => 0b0010,
-            Trigger::FallingEdge => 0b0100,
-            Trigger::Change => 0b0110,
-            Trigger::Level => 0b1010,
         }
     }
 }
@@ -217,21 +208,52 @@ impl<'a, C, K> Monitor<'a, C, K> {
 pub(crate) struct Entry<'a, C, K> {
     pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
-    /// Entries of the same owner from this one to the end of the owner's group (the table
-    /// is kept sorted by owner, so the tick checks each owner's due mark once per group).
-    pub(crate) rest: u8,
-    /// The trigger as a truth table: bit `2 * last + value` says whether it fires.
-    pub(crate) fires: u8,
     /// Its `MonitorId`: the order of registration.
     pub(crate) index: u8,
-    /// Last evaluated value, for edge detection.
-    pub(crate) last: bool,
     /// Restarts caused in the current run of the target.
     pub(crate) restarts: u8,
     /// The target's run counter when `restarts` was last reset.
     pub(crate) target_runs_seen: u16,
     /// How often this monitor fired.
     pub(crate) fired: u16,
+}
+
+/// Most monitors in one [`Group`] (its bit sets are bytes).
+pub(crate) const GROUP_MAX: u8 = 8;
+
+/// Up to [`GROUP_MAX`] consecutive monitors of one owner, evaluated together: the tick tests
+/// the owner's due mark once per group and keeps the edge state as bit sets, so a group is
+/// its conditions plus a handful of word operations.
+///
+/// Bit `len - 1 - j` of each set belongs to the group's `j`-th monitor (the tick shifts
+/// each condition's value in from the right, in table order).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Group {
+    /// The values of the last evaluation (cleared at every new run of the owner).
+    pub(crate) last: u8,
+    /// Monitors that fire on a rising edge (`RisingEdge`, `Change`).
+    pub(crate) rise: u8,
+    /// Monitors that fire on a falling edge (`FallingEdge`, `Change`).
+    pub(crate) fall: u8,
+    /// Monitors that fire while true (`Level`).
+    pub(crate) level: u8,
+    pub(crate) owner: SeqId,
+    /// The group's first entry in the table.
+    pub(crate) start: u8,
+    /// Its number of entries (1 ..= `GROUP_MAX`).
+    pub(crate) len: u8,
+}
+
+impl Group {
+    /// The bit sets of the monitors that fire, given this evaluation's values `now` (bit
+    /// layout as `last`).
+    #[inline]
+    pub(crate) fn firing(&self, now: u32) -> u32 {
+        let last = u32::from(self.last);
+        let changed = now ^ last;
+        (changed & ((now & u32::from(self.rise)) | (last & u32::from(self.fall))))
+            | (now & u32::from(self.level))
+    }
 }
 
 /// The monitors of an application, owned by the tick (the timer interrupt).
@@ -242,7 +264,10 @@ pub(crate) struct Entry<'a, C, K> {
 /// `&mut dyn Condition` (any mix of conditions); a single type such as an enum of the
 /// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]).
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
+    /// Sorted by owner (then by registration), so an owner's monitors are consecutive.
     pub(crate) entries: heapless::Vec<Entry<'a, C, K>, M>,
+    /// The owner groups over `entries`, in table order.
+    pub(crate) groups: heapless::Vec<Group, M>,
 }
 
 impl<C, const M: usize, K> Default for Monitors<'_, C, M, K> {
@@ -257,10 +282,14 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         const { assert!(M <= 256, "at most 256 monitors") };
         Monitors {
             entries: heapless::Vec::new(),
+            groups: heapless::Vec::new(),
         }
     }
 
     /// Adds a monitor owned by `owner`. Errors on an empty name or a full table.
+    ///
+    /// Add monitors before the first tick: adding one restarts the edge detection of the
+    /// whole table (every condition counts as false before its next evaluation).
     pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C, K>) -> Result<MonitorId, Error> {
         if monitor.name.is_empty() {
             return Err(Error::EmptyName);
@@ -272,14 +301,10 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             .iter()
             .rposition(|e| e.owner <= owner)
             .map_or(0, |p| p.saturating_add(1));
-        let fires = monitor.trigger.truth_table();
         let entry = Entry {
             def: monitor,
             owner,
-            rest: 1,
-            fires,
             index: id,
-            last: false,
             restarts: 0,
             target_runs_seen: 0,
             fired: 0,
@@ -293,14 +318,32 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
                 tail.rotate_right(1);
             }
         }
-        // Recount the groups, back to front.
-        let mut next: Option<(SeqId, u8)> = None;
-        for e in self.entries.iter_mut().rev() {
-            e.rest = match next {
-                Some((o, n)) if o == e.owner => n.saturating_add(1),
-                _ => 1,
-            };
-            next = Some((e.owner, e.rest));
+        // Rebuild the groups over the sorted entries (edge detection starts over).
+        self.groups.clear();
+        for (i, e) in self.entries.iter().enumerate() {
+            let t = e.def.trigger as u8;
+            let (rise, fall, level) = (t & 1, (t >> 1) & 1, t >> 2);
+            match self.groups.last_mut() {
+                Some(g) if g.owner == e.owner && g.len < GROUP_MAX => {
+                    g.len += 1;
+                    g.rise = (g.rise << 1) | rise;
+                    g.fall = (g.fall << 1) | fall;
+                    g.level = (g.level << 1) | level;
+                }
+                _ => {
+                    let group = Group {
+                        last: 0,
+                        rise,
+                        fall,
+                        level,
+                        owner: e.owner,
+                        // At most 256 entries (`M <= 256`).
+                        start: i as u8,
+                        len: 1,
+                    };
+                    let _ = self.groups.push(group);
+                }
+            }
         }
         Ok(MonitorId(id))
     }

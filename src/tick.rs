@@ -5,9 +5,9 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{flag, request, Link};
+use crate::control_block::{flag, request, ControlBlock, Link};
 use crate::lock::Lock;
-use crate::monitor::Entry;
+use crate::monitor::{Entry, Group};
 use crate::sequencer::{bit, sources, Mode};
 use crate::{
     Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
@@ -30,6 +30,32 @@ pub(crate) mod mark {
     /// Paused or handling an exception (or a monitor fired this tick): it may hold its
     /// callees back.
     pub const HELD: u8 = 1 << 4;
+    /// Running or paused (its monitors and timeout are live).
+    pub const ACTIVE: u8 = 1 << 5;
+}
+
+/// What the due scan found over all sequences.
+struct Scan {
+    /// The union of the marks.
+    seen: u8,
+    /// Time to the earliest next poll of an active sequence (µs).
+    ahead: u32,
+}
+
+impl Scan {
+    /// Scans `blocks` (marks in `marks`) and adds them to the summary.
+    #[inline(always)]
+    fn add(&mut self, blocks: &mut [ControlBlock], marks: &mut [u8], now: u32) {
+        for (b, m) in blocks.iter_mut().zip(marks.iter_mut()) {
+            let mark = b.scan(now);
+            *m = mark;
+            if mark == 0 {
+                continue;
+            }
+            self.seen |= mark;
+            self.ahead = self.ahead.min(b.next_poll.wrapping_sub(now));
+        }
+    }
 }
 
 /// Restart bookkeeping of one monitor (or timeout monitor).
@@ -75,30 +101,36 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             return;
         }
         let mut marks = [0u8; N];
-        let mut seen = self.scan(now_us, &mut marks);
-        // The hot loop, one owner group at a time (the table is sorted by owner): one mark
-        // test per group, then one condition per monitor; firing is the rare, out-of-line
-        // path.
-        let mut rest = monitors.entries.as_mut_slice();
-        while let Some(first) = rest.first() {
-            let m = marks.get(first.owner.index()).copied().unwrap_or(0);
-            let Some((group, tail)) = rest.split_at_mut_checked(usize::from(first.rest.max(1)))
-            else {
-                break;
-            };
-            rest = tail;
+        let scan = self.scan(now_us, &mut marks);
+        let mut seen = scan.seen;
+        // The hot loop, one owner group at a time: one mark test per group, then its
+        // conditions shifted into a bit set; edges and triggers are a few word operations
+        // per group, and firing is the rare, out-of-line path.
+        let entries = monitors.entries.as_mut_slice();
+        for g in monitors.groups.iter_mut() {
+            let m = marks.get(g.owner.index()).copied().unwrap_or(0);
             if m & mark::DUE == 0 {
                 continue;
             }
             if m & mark::FRESH != 0 {
-                group.iter_mut().for_each(|e| e.last = false);
+                g.last = 0;
             }
-            for entry in group.iter_mut() {
-                let value = entry.def.condition.validate(control, now);
-                let edge = (u32::from(entry.last) << 1) | u32::from(value);
-                entry.last = value;
-                if (u32::from(entry.fires) >> edge) & 1 != 0 {
-                    self.fire(entry, control);
+            let start = usize::from(g.start);
+            let Some(members) = entries.get_mut(start..start + usize::from(g.len)) else {
+                continue;
+            };
+            let mut values = 0u32;
+            for e in members.iter_mut() {
+                values = (values << 1) | u32::from(e.def.condition.validate(control, now));
+            }
+            // The common case, nothing changed and no level monitor true, is one test.
+            let last = u32::from(g.last);
+            if (values ^ last) | (values & u32::from(g.level)) != 0 {
+                let firing = g.firing(values);
+                // Truncation keeps the group's (at most 8) bits.
+                g.last = values as u8;
+                if firing != 0 {
+                    self.fire_group(g, members, firing, control);
                     seen |= mark::HELD;
                 }
             }
@@ -120,16 +152,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
     }
 
-    /// Marks due sequences, advances their polling schedule, notes expired timeouts, wakes
-    /// the lanes of due exit-condition polls and recomputes `next_due`: one short section
-    /// per registered sequence, or one for all with a coarse lock. Returns the union of the
-    /// marks.
-    fn scan(&self, now: u64, marks: &mut [u8; N]) -> u8 {
+    /// Marks due sequences, advances their polling schedule, notes expired timeouts and due
+    /// exit-condition polls and recomputes `next_due`: one short section per registered
+    /// sequence, or one for all with a coarse lock.
+    fn scan(&self, now: u64, marks: &mut [u8; N]) -> Scan {
         // Truncation is the point: control-block times are the low 32 bits.
         let now32 = now as u32;
-        // (time to the earliest next poll, union of the marks) over the active sequences.
-        let mut ahead = u32::MAX;
-        let mut seen = 0;
+        let mut sum = Scan {
+            seen: 0,
+            ahead: u32::MAX,
+        };
         let next_due = |ahead: u32| {
             if ahead == u32::MAX {
                 u64::MAX
@@ -140,47 +172,61 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if L::COARSE {
             self.with(|s| {
                 let count = usize::from(s.count);
-                for (b, m) in s.blocks.iter_mut().zip(marks.iter_mut()).take(count) {
-                    if let Some((mark, a)) = b.scan(now32) {
-                        *m = mark;
-                        ahead = ahead.min(a);
-                        seen |= mark;
-                    }
-                }
-                s.next_due = next_due(ahead);
+                let blocks = s.blocks.get_mut(..count).unwrap_or_default();
+                sum.add(blocks, marks, now32);
+                s.next_due = next_due(sum.ahead);
             });
         } else {
             let count = self.with(|s| usize::from(s.count));
             for (i, m) in marks.iter_mut().enumerate().take(count) {
-                if let Some(Some((mark, a))) =
-                    self.with(|s| s.blocks.get_mut(i).map(|b| b.scan(now32)))
-                {
-                    *m = mark;
-                    ahead = ahead.min(a);
-                    seen |= mark;
-                }
+                self.with(|s| {
+                    if let Some(b) = s.blocks.get_mut(i..=i) {
+                        sum.add(b, core::slice::from_mut(m), now32);
+                    }
+                });
             }
-            self.with(|s| s.next_due = next_due(ahead));
+            self.with(|s| s.next_due = next_due(sum.ahead));
         }
-        seen
+        sum
     }
 
-    /// Wakes the lanes whose polled condition is due (see `Inner::wake_due`).
-    fn wake_due(&self, marks: &[u8; N], any_held: bool) {
+    /// Wakes the lanes whose polled condition is due, except those held (checked only when
+    /// `careful`: after a monitor fired or while something is held; see `Inner::wake_due`).
+    #[inline(never)]
+    fn wake_due(&self, marks: &[u8; N], careful: bool) {
         let mut woken = None;
         let due = marks
             .iter()
             .enumerate()
             .filter(|(_, m)| *m & mark::WAKE != 0);
         if L::COARSE {
-            self.with(|s| due.for_each(|(i, _)| s.wake_due(i, any_held, &mut woken)));
+            self.with(|s| due.for_each(|(i, _)| s.wake_due(i, careful, &mut woken)));
         } else {
-            due.for_each(|(i, _)| self.with(|s| s.wake_due(i, any_held, &mut woken)));
+            due.for_each(|(i, _)| self.with(|s| s.wake_due(i, careful, &mut woken)));
         }
     }
 
-    /// A monitor triggered: raise its exception (out of the hot loop).
+    /// Monitors of `group` triggered (`firing`, bits as in [`Group`]): raise their
+    /// exceptions in table order (out of the hot loop).
     #[inline(never)]
+    fn fire_group<K>(
+        &self,
+        group: &Group,
+        members: &mut [Entry<'_, C, K>],
+        firing: u32,
+        control: &C,
+    ) {
+        // The group's first monitor holds its highest bit.
+        let mut bit = 1u32 << (group.len.saturating_sub(1) & 7);
+        for entry in members.iter_mut() {
+            if firing & bit != 0 {
+                self.fire(entry, control);
+            }
+            bit >>= 1;
+        }
+    }
+
+    /// A monitor triggered: raise its exception.
     fn fire<K>(&self, entry: &mut Entry<'_, C, K>, control: &C) {
         let mut book = RestartBook {
             restarts: entry.restarts,
