@@ -143,6 +143,19 @@ pub(crate) fn reached32(now: u32, at: Micros32) -> bool {
     now.wrapping_sub(at) < 0x8000_0000
 }
 
+/// Horizon of "nothing to poll": the tick scans again after this long at the latest.
+pub(crate) const NEVER_AHEAD: u32 = 0x7FFF_FFFF;
+
+/// Whichever of `a` and `b` comes first after `now` (wrapping, see [`Micros32`]).
+#[inline]
+pub(crate) fn earlier(now: u32, a: Micros32, b: Micros32) -> Micros32 {
+    if a.wrapping_sub(now) <= b.wrapping_sub(now) {
+        a
+    } else {
+        b
+    }
+}
+
 /// `now + d` in the low 32 bits.
 #[inline]
 pub(crate) fn after(now: u64, d: u32) -> Micros32 {

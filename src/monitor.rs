@@ -208,8 +208,6 @@ impl<'a, C, K> Monitor<'a, C, K> {
 pub(crate) struct Entry<'a, C, K> {
     pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
-    /// Its `MonitorId`: the order of registration.
-    pub(crate) index: u8,
     /// Restarts caused in the current run of the target.
     pub(crate) restarts: u8,
     /// The target's run counter when `restarts` was last reset.
@@ -221,7 +219,7 @@ pub(crate) struct Entry<'a, C, K> {
 /// Most monitors in one [`Group`] (its bit sets are bytes).
 pub(crate) const GROUP_MAX: u8 = 8;
 
-/// Up to [`GROUP_MAX`] consecutive monitors of one owner, evaluated together: the tick tests
+/// Up to [`GROUP_MAX`] consecutively registered monitors of one owner, evaluated together: the tick tests
 /// the owner's due mark once per group and keeps the edge state as bit sets, so a group is
 /// its conditions plus a handful of word operations.
 ///
@@ -264,7 +262,7 @@ impl Group {
 /// `&mut dyn Condition` (any mix of conditions); a single type such as an enum of the
 /// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]).
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
-    /// Sorted by owner (then by registration), so an owner's monitors are consecutive.
+    /// In registration order: a `MonitorId` is the index.
     pub(crate) entries: heapless::Vec<Entry<'a, C, K>, M>,
     /// The owner groups over `entries`, in table order.
     pub(crate) groups: heapless::Vec<Group, M>,
@@ -288,68 +286,54 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
 
     /// Adds a monitor owned by `owner`. Errors on an empty name or a full table.
     ///
-    /// Add monitors before the first tick: adding one restarts the edge detection of the
-    /// whole table (every condition counts as false before its next evaluation).
+    /// The tick evaluates monitors in this order (the order of their ids); consecutive
+    /// monitors of one owner (up to 8) share one due test, so register an owner's monitors
+    /// together.
     pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C, K>) -> Result<MonitorId, Error> {
         if monitor.name.is_empty() {
             return Err(Error::EmptyName);
         }
         let id = u8::try_from(self.entries.len()).map_err(|_| Error::MonitorCapacityExceeded)?;
-        // Behind the owner's other monitors (and every lower owner's), in front of the rest.
-        let at = self
-            .entries
-            .iter()
-            .rposition(|e| e.owner <= owner)
-            .map_or(0, |p| p.saturating_add(1));
         let entry = Entry {
             def: monitor,
             owner,
-            index: id,
             restarts: 0,
             target_runs_seen: 0,
             fired: 0,
         };
+        let t = entry.def.trigger as u8;
+        let (rise, fall, level) = (t & 1, (t >> 1) & 1, t >> 2);
         self.entries
             .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;
-        // Move it from the end to `at` (`Vec::insert` would bring an index panic path).
-        if let Some(tail) = self.entries.get_mut(at..) {
-            if !tail.is_empty() {
-                tail.rotate_right(1);
+        match self.groups.last_mut() {
+            // Right behind a monitor of the same owner: one more member of its group.
+            Some(g) if g.owner == owner && g.len < GROUP_MAX => {
+                g.len += 1;
+                g.rise = (g.rise << 1) | rise;
+                g.fall = (g.fall << 1) | fall;
+                g.level = (g.level << 1) | level;
+                g.last <<= 1;
             }
-        }
-        // Rebuild the groups over the sorted entries (edge detection starts over).
-        self.groups.clear();
-        for (i, e) in self.entries.iter().enumerate() {
-            let t = e.def.trigger as u8;
-            let (rise, fall, level) = (t & 1, (t >> 1) & 1, t >> 2);
-            match self.groups.last_mut() {
-                Some(g) if g.owner == e.owner && g.len < GROUP_MAX => {
-                    g.len += 1;
-                    g.rise = (g.rise << 1) | rise;
-                    g.fall = (g.fall << 1) | fall;
-                    g.level = (g.level << 1) | level;
-                }
-                _ => {
-                    let group = Group {
-                        last: 0,
-                        rise,
-                        fall,
-                        level,
-                        owner: e.owner,
-                        // At most 256 entries (`M <= 256`).
-                        start: i as u8,
-                        len: 1,
-                    };
-                    let _ = self.groups.push(group);
-                }
+            _ => {
+                let group = Group {
+                    last: 0,
+                    rise,
+                    fall,
+                    level,
+                    owner,
+                    start: id,
+                    len: 1,
+                };
+                // As many groups as entries at most: there is room.
+                let _ = self.groups.push(group);
             }
         }
         Ok(MonitorId(id))
     }
 
     fn entry(&self, id: MonitorId) -> Option<&Entry<'a, C, K>> {
-        self.entries.iter().find(|e| e.index == id.0)
+        self.entries.get(usize::from(id.0))
     }
 
     /// Number of registered monitors.

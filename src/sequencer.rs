@@ -5,7 +5,7 @@ use core::marker::PhantomData;
 use core::sync::atomic::{AtomicBool, Ordering};
 use core::task::{RawWakerVTable, Waker};
 
-use crate::control_block::{after, flag, request, ControlBlock, Link, NO_LANE};
+use crate::control_block::{after, earlier, flag, request, ControlBlock, Link, NO_LANE};
 use crate::lock::{CriticalSection, Lock};
 use crate::safety::{AbortSequences, SafetyHandle};
 use crate::{
@@ -45,8 +45,9 @@ pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) lanes: [LaneSlot; W],
     #[cfg(feature = "counters")]
     pub(crate) counters: [crate::Counters; N],
-    /// Earliest `next_poll` of any active sequence.
-    pub(crate) next_due: u64,
+    /// Earliest `next_poll` of any active sequence (low 32 bits of µs, like the blocks'
+    /// times; `NEVER_AHEAD` after the last scan when none is active).
+    pub(crate) next_due: u32,
     /// Requests or finished exception sequences wait for the tick.
     pub(crate) work: bool,
     pub(crate) trace: crate::trace::Ring<T>,
@@ -170,7 +171,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 lanes: [LaneSlot::EMPTY; W],
                 #[cfg(feature = "counters")]
                 counters: [crate::Counters::ZERO; N],
-                next_due: u64::MAX,
+                next_due: 0,
                 work: false,
                 trace: crate::trace::Ring::new(),
                 trace_lost: 0,
@@ -681,8 +682,8 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// After [`schedule`](Self::schedule), before the commit: the tick scans by the first
     /// poll of a run with polling period `polling` starting now.
     pub(crate) fn due_by(&mut self, polling: u32) {
-        let first = self.now.saturating_add(u64::from(polling));
-        self.next_due = self.next_due.min(first);
+        let now = self.now as u32;
+        self.next_due = earlier(now, now.wrapping_add(polling), self.next_due);
     }
 
     /// The commit of a start `t` ([`Sequencer::begin`] validated it and scheduled it at

@@ -5,7 +5,7 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{flag, request, ControlBlock, Link};
+use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD};
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
 use crate::sequencer::{bit, sources, Mode};
@@ -89,7 +89,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let abort_all = self.take_abort_all();
         let (work, any_due) = self.with(|s| {
             s.now = now_us;
-            (core::mem::take(&mut s.work), now_us >= s.next_due)
+            // Truncation is the point: control-block times are the low 32 bits.
+            (
+                core::mem::take(&mut s.work),
+                reached32(now_us as u32, s.next_due),
+            )
         });
         if abort_all {
             self.apply_abort_all(control);
@@ -162,13 +166,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             seen: 0,
             ahead: u32::MAX,
         };
-        let next_due = |ahead: u32| {
-            if ahead == u32::MAX {
-                u64::MAX
-            } else {
-                now.saturating_add(u64::from(ahead))
-            }
-        };
+        let next_due = |ahead: u32| now32.wrapping_add(ahead.min(NEVER_AHEAD));
         if L::COARSE {
             self.with(|s| {
                 let count = usize::from(s.count);
@@ -218,22 +216,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     ) {
         // The group's first monitor holds its highest bit.
         let mut bit = 1u32 << (group.len.saturating_sub(1) & 7);
+        let mut id = group.start;
         for entry in members.iter_mut() {
             if firing & bit != 0 {
-                self.fire(entry, control);
+                self.fire(entry, crate::MonitorId(id), control);
             }
             bit >>= 1;
+            id = id.wrapping_add(1);
         }
     }
 
     /// A monitor triggered: raise its exception.
-    fn fire<K>(&self, entry: &mut Entry<'_, C, K>, control: &C) {
+    fn fire<K>(&self, entry: &mut Entry<'_, C, K>, id: crate::MonitorId, control: &C) {
         let mut book = RestartBook {
             restarts: entry.restarts,
             runs_seen: entry.target_runs_seen,
             limit: entry.def.restart_limit,
         };
-        let cause = Cause::Monitor(crate::MonitorId(entry.index));
+        let cause = Cause::Monitor(id);
         if self.raise(
             control,
             entry.owner,
