@@ -77,8 +77,12 @@ impl LaneSlot {
     }
 }
 
-/// The identity of a waker (data and vtable pointers, compared, never dereferenced).
-pub(crate) type WakerId = Option<(*const (), *const RawWakerVTable)>;
+/// The identity of a waker (data and vtable pointers, compared, never dereferenced); no
+/// waker has a null vtable, so [`NO_WAKER`] matches none.
+pub(crate) type WakerId = (*const (), *const RawWakerVTable);
+
+/// The identity of no waker.
+pub(crate) const NO_WAKER: WakerId = (core::ptr::null(), core::ptr::null());
 
 /// The sequencer (seed §1.1): one per application, usually a `static`.
 ///
@@ -713,31 +717,33 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         Ok(true)
     }
 
-    /// Wakes the lane of sequence `i` for its due poll, unless the sequence is held or
-    /// frozen by a caller it blocks (paused, or holding for an exception; it is woken when
-    /// it may go on; nothing can be held unless `any_held`). `woken` is the identity of the
+    /// Wakes the lane of sequence `i` for its due poll. `woken` is the identity of the
     /// waker woken last in this tick: lanes joined in one task share their waker, which is
     /// woken once.
     #[inline]
-    pub(crate) fn wake_due(&self, i: usize, any_held: bool, woken: &mut WakerId) {
+    pub(crate) fn wake_due(&self, i: usize, woken: &mut WakerId) {
         let Some(b) = self.blocks.get(i) else { return };
-        if any_held {
-            let Ok(id) = u8::try_from(i).map(SeqId) else {
-                return;
-            };
-            if self.gate(id) != Gate::Go
-                || self.blocking_callers(id).any(|c| self.gate(c) != Gate::Go)
-            {
-                return;
-            }
-        }
         if let Some(w) = self.lane_waker(b.lane) {
             let identity = (w.data(), w.vtable() as *const RawWakerVTable);
-            if *woken != Some(identity) {
-                *woken = Some(identity);
+            if *woken != identity {
+                *woken = identity;
                 w.wake_by_ref();
             }
         }
+    }
+
+    /// One step of the held check of a due wake-up (see `Sequencer::held`): `None` when
+    /// `at` holds its callees (its gate is not `Go`), else its caller in `lane` to check
+    /// next ([`Link::NONE`] at the top of the lane).
+    pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
+        if self.gate(at) != Gate::Go {
+            return None;
+        }
+        let up = self.fast(at).map_or(Link::NONE, |b| b.caller);
+        Some(match up.get().and_then(|c| self.fast(c)) {
+            Some(c) if c.lane == lane => up,
+            _ => Link::NONE,
+        })
     }
 
     /// The waker of lane slot `lane`, once its lane has parked.

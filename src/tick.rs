@@ -5,10 +5,10 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD};
+use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD, NO_LANE};
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
-use crate::sequencer::{bit, sources, Mode};
+use crate::sequencer::{bit, sources, Mode, NO_WAKER};
 use crate::{
     Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
 };
@@ -189,19 +189,44 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     }
 
     /// Wakes the lanes whose polled condition is due, except those held (checked only when
-    /// `careful`: after a monitor fired or while something is held; see `Inner::wake_due`).
+    /// `careful`: after a monitor fired or while something is held).
     #[inline(never)]
     fn wake_due(&self, marks: &[u8; N], careful: bool) {
-        let mut woken = None;
+        let mut woken = NO_WAKER;
         let due = marks
             .iter()
             .enumerate()
-            .filter(|(_, m)| *m & mark::WAKE != 0);
-        if L::COARSE {
-            self.with(|s| due.for_each(|(i, _)| s.wake_due(i, careful, &mut woken)));
+            .filter(|(_, m)| *m & mark::WAKE != 0)
+            .map(|(i, _)| i);
+        if L::COARSE && !careful {
+            self.with(|s| due.for_each(|i| s.wake_due(i, &mut woken)));
         } else {
-            due.for_each(|(i, _)| self.with(|s| s.wake_due(i, careful, &mut woken)));
+            for i in due {
+                if careful && self.held(i) {
+                    continue;
+                }
+                self.with(|s| s.wake_due(i, &mut woken));
+            }
         }
+    }
+
+    /// Whether sequence `i` is held, or frozen by a caller it blocks (paused, or holding
+    /// for an exception): it is woken when it may go on. One short section per caller.
+    fn held(&self, i: usize) -> bool {
+        let Ok(id) = u8::try_from(i).map(SeqId) else {
+            return true;
+        };
+        let lane = self.with(|s| s.fast(id).map_or(NO_LANE, |b| b.lane));
+        let mut at = Link::to(Some(id));
+        // The sequence and at most `MAX_DEPTH` callers.
+        for _ in 0..DEPTH_LIMIT {
+            let Some(c) = at.get() else { return false };
+            match self.with(|s| s.held_step(c, lane)) {
+                Some(up) => at = up,
+                None => return true,
+            }
+        }
+        false
     }
 
     /// Monitors of `group` triggered (`firing`, bits as in [`Group`]): raise their

@@ -56,10 +56,12 @@ impl Ctrl {
         }
     }
 
-    /// Flag `i` (false when out of range).
+    /// Flag `i` modulo [`FLAGS`] (a monitor condition: a mask and one load, like a
+    /// firmware's read of a status bit).
     pub fn flag(&self, i: u8) -> bool {
+        const { assert!(FLAGS.is_power_of_two()) };
         self.flags
-            .get(usize::from(i))
+            .get(usize::from(i) & (FLAGS - 1))
             .is_some_and(|f| f.load(Relaxed))
     }
 
