@@ -84,6 +84,12 @@ pub(crate) type WakerId = (*const (), *const RawWakerVTable);
 /// The identity of no waker.
 pub(crate) const NO_WAKER: WakerId = (core::ptr::null(), core::ptr::null());
 
+/// The identity of `w`.
+#[inline]
+pub(crate) fn identity(w: &Waker) -> WakerId {
+    (w.data(), w.vtable() as *const RawWakerVTable)
+}
+
 /// The sequencer (seed §1.1): one per application, usually a `static`.
 ///
 /// `C` is the application's control system: conditions, steps and sequences get typed `&C`
@@ -722,9 +728,8 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// woken once.
     #[inline]
     pub(crate) fn wake_due(&self, i: usize, woken: &mut WakerId) {
-        let Some(b) = self.blocks.get(i) else { return };
-        if let Some(w) = self.lane_waker(b.lane) {
-            let identity = (w.data(), w.vtable() as *const RawWakerVTable);
+        if let Some(w) = self.waker_of(i) {
+            let identity = identity(w);
             if *woken != identity {
                 *woken = identity;
                 w.wake_by_ref();
@@ -732,14 +737,22 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         }
     }
 
+    /// The waker of sequence `i`'s lane, once its lane has parked.
+    #[inline]
+    pub(crate) fn waker_of(&self, i: usize) -> Option<&Waker> {
+        self.lane_waker(self.blocks.get(i)?.lane)
+    }
+
     /// One step of the held check of a due wake-up (see `Sequencer::held`): `None` when
     /// `at` holds its callees (its gate is not `Go`), else its caller in `lane` to check
     /// next ([`Link::NONE`] at the top of the lane).
     pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
-        if self.gate(at) != Gate::Go {
+        // The gate's `Go`, without building the gate.
+        let b = self.fast(at)?;
+        if b.state != RunningState::Running || b.has(flag::EXCEPTION_ACTIVE) {
             return None;
         }
-        let up = self.fast(at).map_or(Link::NONE, |b| b.caller);
+        let up = b.caller;
         Some(match up.get().and_then(|c| self.fast(c)) {
             Some(c) if c.lane == lane => up,
             _ => Link::NONE,

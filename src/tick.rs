@@ -8,7 +8,7 @@
 use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD, NO_LANE};
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
-use crate::sequencer::{bit, sources, Mode, NO_WAKER};
+use crate::sequencer::{bit, identity, sources, Mode, NO_WAKER};
 use crate::{
     Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
 };
@@ -49,11 +49,16 @@ impl Scan {
         for (b, m) in blocks.iter_mut().zip(marks.iter_mut()) {
             let mark = b.scan(now);
             *m = mark;
-            if mark == 0 {
-                continue;
-            }
+            self.note(mark, b.next_poll, now);
+        }
+    }
+
+    /// Adds a block's `mark` and its next poll `next` (meaningful for an active block).
+    #[inline(always)]
+    fn note(&mut self, mark: u8, next: u32, now: u32) {
+        if mark != 0 {
             self.seen |= mark;
-            self.ahead = self.ahead.min(b.next_poll.wrapping_sub(now));
+            self.ahead = self.ahead.min(next.wrapping_sub(now));
         }
     }
 }
@@ -177,11 +182,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         } else {
             let count = self.with(|s| usize::from(s.count));
             for (i, m) in marks.iter_mut().enumerate().take(count) {
-                self.with(|s| {
-                    if let Some(b) = s.blocks.get_mut(i..=i) {
-                        sum.add(b, core::slice::from_mut(m), now32);
-                    }
+                // The block's scan in the section, the summary outside.
+                let (mark, next) = self.with(|s| {
+                    s.blocks
+                        .get_mut(i)
+                        .map_or((0, 0), |b| (b.scan(now32), b.next_poll))
                 });
+                *m = mark;
+                sum.note(mark, next, now32);
             }
             self.with(|s| s.next_due = next_due(sum.ahead));
         }
@@ -205,7 +213,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 if careful && self.held(i) {
                     continue;
                 }
-                self.with(|s| s.wake_due(i, &mut woken));
+                // The identity in one section, the wake-up in another (only for a waker
+                // not woken yet): each a few instructions.
+                let w = self.with(|s| s.waker_of(i).map_or(NO_WAKER, identity));
+                if w != NO_WAKER && w != woken {
+                    woken = w;
+                    if let Ok(id) = u8::try_from(i).map(SeqId) {
+                        self.wake_lane(id);
+                    }
+                }
             }
         }
     }
