@@ -115,8 +115,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // The hot loop, one owner group at a time: one mark test per group, then its
         // conditions shifted into a bit set; edges and triggers are a few word operations
         // per group, and firing is the rare, out-of-line path.
-        let entries = monitors.entries.as_mut_slice();
+        let mut rest = monitors.entries.as_mut_slice();
         for g in monitors.groups.iter_mut() {
+            // The groups tile the table in order.
+            let Some((members, tail)) =
+                core::mem::take(&mut rest).split_at_mut_checked(usize::from(g.len))
+            else {
+                break;
+            };
+            rest = tail;
             let m = marks.get(g.owner.index()).copied().unwrap_or(0);
             if m & mark::DUE == 0 {
                 continue;
@@ -124,10 +131,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if m & mark::FRESH != 0 {
                 g.last = 0;
             }
-            let start = usize::from(g.start);
-            let Some(members) = entries.get_mut(start..start + usize::from(g.len)) else {
-                continue;
-            };
             let mut values = 0u32;
             for e in members.iter_mut() {
                 values = (values << 1) | u32::from(e.def.condition.validate(control, now));

@@ -250,7 +250,7 @@ fn bench_tick_costs_latency_and_sizes_meet_their_budgets() {
         "tick, 8 sequences x 4 monitors due, nothing firing [instructions]",
         f("tick 8 x 4 due, nothing firing"),
         600,
-        1_700,
+        1_300,
     );
     budget(
         "tick, 1 sequence x 4 monitors due, nothing firing [instructions]",
