@@ -425,13 +425,15 @@ impl<'a, 's, C> Frame<'a, 's, C> {
 /// condition every polling period, repeated from the pre-condition on restart. It leaves
 /// the outcome in the frame's slot and then never completes (see above); its owner drops
 /// it.
-pub(crate) async fn framework<C, S: Sequence<C>>(
-    frame: Frame<'_, '_, C>,
-    body: &mut S,
-) -> Infallible {
-    loop {
-        poll_fn(|w| frame.drive(w, &mut SeqConds(&mut *body))).await;
-        let mut action = pin!(body.action(&frame.cx));
-        poll_fn(|w| frame.act(w, action.as_mut())).await;
+pub(crate) fn framework<'a, 's, 'b, C, S: Sequence<C>>(
+    frame: Frame<'a, 's, C>,
+    body: &'b mut S,
+) -> impl Future<Output = Infallible> + use<'a, 's, 'b, C, S> {
+    async move {
+        loop {
+            poll_fn(|w| frame.drive(w, &mut SeqConds(&mut *body))).await;
+            let mut action = pin!(body.action(&frame.cx));
+            poll_fn(|w| frame.act(w, action.as_mut())).await;
+        }
     }
 }
