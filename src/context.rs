@@ -8,7 +8,7 @@ use core::future::Future;
 
 use crate::engine::Engine;
 use crate::run::{Run, SeqFramework};
-use crate::sequence::{framework, Frame, StepRef};
+use crate::sequence::{framework, BodyRef, Frame};
 use crate::sequencer::{Gate, Mode};
 use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
@@ -121,7 +121,7 @@ impl<'a, C> Cx<'a, C> {
         step: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { id, body, slot } = step;
-        self.step_ref(*id, StepRef::new(body), slot)
+        self.step_ref(*id, BodyRef::step(body), slot)
     }
 
     /// `step` for every step type: one future type, one copy of its code.
@@ -129,9 +129,9 @@ impl<'a, C> Cx<'a, C> {
     fn step_ref<'s>(
         &self,
         id: SeqId,
-        step: StepRef<'s, C>,
+        step: BodyRef<'s, C>,
         slot: &'s Cell<Option<Outcome>>,
-    ) -> Run<'a, 's, C, StepRef<'s, C>> {
+    ) -> Run<'a, 's, C, BodyRef<'s, C>> {
         let frame = Frame::new(Cx::new(self.engine, self.control, id), slot);
         Run::new(frame, self.id, step)
     }

@@ -6,17 +6,17 @@ use core::task::{Poll, Waker};
 use crate::control_block::{flag, Link};
 use crate::lock::Lock;
 use crate::sequencer::{Gate, Mode};
-use crate::{
-    Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
-};
+use crate::{Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
 
-/// A consistent snapshot of one control block, for [`Handle`](crate::Handle).
+/// A consistent snapshot of one control block's own fields, for [`Handle`](crate::Handle).
 #[derive(Clone, Debug)]
 pub(crate) struct Info {
     pub(crate) name: &'static str,
     pub(crate) state: RunningState,
-    pub(crate) stack: heapless::Vec<SeqId, MAX_DEPTH>,
-    pub(crate) blocking: u8,
+    /// The direct caller of the current (or last) run.
+    pub(crate) caller: Option<SeqId>,
+    /// The lane slot (`NO_LANE`: none).
+    pub(crate) lane: u8,
     pub(crate) exception_active: bool,
     pub(crate) active_exception: Option<Cause>,
     #[cfg(feature = "counters")]
@@ -164,46 +164,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         })
     }
 
-    /// The block's own fields in one section, then its caller stack one section per caller
-    /// (a snapshot per step: a stack the tick relinks meanwhile may mix old and new links).
+    /// The block's own fields, in one section.
     fn info(&self, id: SeqId) -> Option<Info> {
-        let (mut info, lane, mut up) = self.with(|s| {
+        self.with(|s| {
             let b = s.block(id).ok()?;
-            Some((
-                Info {
-                    name: b.name,
-                    state: b.state,
-                    stack: heapless::Vec::new(),
-                    blocking: 0,
-                    exception_active: b.has(flag::EXCEPTION_ACTIVE),
-                    active_exception: b.active_exception,
-                    #[cfg(feature = "counters")]
-                    counters: s.counters.get(id.index()).copied().unwrap_or_default(),
-                    outcome: b.outcome,
-                },
-                b.lane,
-                b.caller,
-            ))
-        })?;
-        // Innermost first; the blocking callers are the innermost ones in `id`'s lane.
-        let mut blocking = true;
-        for _ in 0..MAX_DEPTH {
-            let Some(c) = up.get() else { break };
-            // At most MAX_DEPTH pushes: every one fits.
-            let _ = info.stack.push(c);
-            let (next, same_lane) = self.with(|s| {
-                s.block(c)
-                    .map_or((Link::NONE, false), |b| (b.caller, b.lane == lane))
-            });
-            blocking &= same_lane;
-            if blocking {
-                info.blocking = info.blocking.saturating_add(1);
-            }
-            up = next;
-        }
-        info.stack.reverse();
-        Some(info)
+            Some(Info {
+                name: b.name,
+                state: b.state,
+                caller: b.caller.get(),
+                lane: b.lane,
+                exception_active: b.has(flag::EXCEPTION_ACTIVE),
+                active_exception: b.active_exception,
+                #[cfg(feature = "counters")]
+                counters: s.counters.get(id.index()).copied().unwrap_or_default(),
+                outcome: b.outcome,
+            })
+        })
     }
+
     fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
         self.with(|s| s.request(id, bit))
     }

@@ -63,29 +63,48 @@ impl<'a, C> Handle<'a, C> {
 
     /// `callerSequence`: who started the current (or last) run; `None` for a main sequence.
     pub fn caller(&self) -> Option<SeqId> {
-        self.engine
-            .info(self.id)
-            .and_then(|i| i.stack.last().copied())
+        self.engine.info(self.id).and_then(|i| i.caller)
     }
 
     /// `callerStack`: all callers up to the main sequence, outermost first, not itself.
     pub fn caller_stack(&self) -> CallerStack {
-        self.engine
-            .info(self.id)
-            .map(|i| i.stack)
-            .unwrap_or_default()
+        self.callers().0
     }
 
     /// `callerStackBlocking`: the callers this sequence blocks (up to the first
     /// non-blocking start), outermost first.
     pub fn caller_stack_blocking(&self) -> CallerStack {
-        self.engine
-            .info(self.id)
-            .map(|i| {
-                let skip = i.stack.len().saturating_sub(usize::from(i.blocking));
-                i.stack.iter().skip(skip).copied().collect()
-            })
-            .unwrap_or_default()
+        let (stack, blocking) = self.callers();
+        let skip = stack.len().saturating_sub(usize::from(blocking));
+        stack.iter().skip(skip).copied().collect()
+    }
+
+    /// The caller stack, outermost first, and how many of its innermost callers this
+    /// sequence blocks (those in its lane). One short section per caller: a stack the tick
+    /// relinks meanwhile may mix old and new links.
+    fn callers(&self) -> (CallerStack, u8) {
+        let mut stack = CallerStack::new();
+        let Some(me) = self.engine.info(self.id) else {
+            return (stack, 0);
+        };
+        // Innermost first; the blocking callers are the innermost ones in this lane.
+        let (mut up, mut blocking, mut blocked) = (me.caller, true, 0u8);
+        for _ in 0..MAX_DEPTH {
+            let Some(c) = up else { break };
+            // At most MAX_DEPTH pushes: every one fits.
+            let _ = stack.push(c);
+            let (next, lane) = self
+                .engine
+                .info(c)
+                .map_or((None, None), |i| (i.caller, Some(i.lane)));
+            blocking &= lane == Some(me.lane);
+            if blocking {
+                blocked = blocked.saturating_add(1);
+            }
+            up = next;
+        }
+        stack.reverse();
+        (stack, blocked)
     }
 
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this

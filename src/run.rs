@@ -5,7 +5,7 @@ use core::future::Future;
 use core::pin::Pin;
 use core::task::{Context, Poll};
 
-use crate::sequence::{Frame, StepRef};
+use crate::sequence::{BodyRef, Frame};
 use crate::sequencer::{Gate, Mode};
 use crate::{Error, Outcome, SeqId};
 
@@ -40,7 +40,7 @@ impl<C, F: Future<Output = Infallible>> Framework<C> for SeqFramework<F> {
 }
 
 /// A step's framework: the step; the rest is in the frame.
-impl<C> Framework<C> for StepRef<'_, C> {
+impl<C> Framework<C> for BodyRef<'_, C> {
     fn poll_framework(self: Pin<&mut Self>, w: &mut Context<'_>, frame: &Frame<'_, '_, C>) {
         frame.step(w, self.get_mut());
     }

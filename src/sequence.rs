@@ -157,99 +157,97 @@ impl<S> Seq<S> {
 // * `Frame` (the child's context, the outcome slot, the phase) is the seed's
 //   `actionFramework` as a state machine over the gate, the pre- and exit conditions and the
 //   end of a run. It is generic only over the control system `C` and reaches the body
-//   through small trait objects (`Conds` for the conditions, a pinned `dyn Future` for a
-//   running action), so one copy serves every sequence and step type.
-// * A sequence's framework (`framework`) is a thin `async fn`: it only has to keep the
+//   through a type-erased reference (`BodyRef`: its conditions, and a step's command) and a
+//   pinned `dyn Future` for a running action, so one copy serves every sequence and step
+//   type.
+// * A sequence's framework (`framework`) is a thin `async` block: it only has to keep the
 //   action's future (which borrows the body and the context) in place while it runs.
 // * A step's framework is not generic over the step at all: the step is type-erased
-//   (`StepRef`), its command runs inside `Frame::step`; a blocking start of a step
-//   (`Run<.., StepRef>`) is one type for every step type.
+//   (`BodyRef`), its command runs inside `Frame::step`; a blocking start of a step
+//   (`Run<.., BodyRef>`) is one type for every step type.
 //
-// Neither returns: a returning `async fn` carries a compiler-generated "resumed after
+// Neither returns: a returning `async` block carries a compiler-generated "resumed after
 // completion" panic path, and rtseq has none. After the run the outcome is in the `Seq`'s
 // slot and the framework stays pending; its owner drops it.
 
-/// The pre- and exit conditions of a sequence or step, object-safe.
-trait Conds<C> {
-    fn pre(&mut self, cx: &Cx<'_, C>) -> bool;
-    fn exit(&mut self, cx: &Cx<'_, C>) -> bool;
-}
-
-struct SeqConds<'s, S>(&'s mut S);
-
-impl<C, S: Sequence<C>> Conds<C> for SeqConds<'_, S> {
-    fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_pre_condition(cx)
-    }
-    fn exit(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.0.check_exit_condition(cx)
-    }
-}
-
-/// Which method of a type-erased step to call.
+/// Which method of a type-erased body to call.
 #[derive(Clone, Copy)]
-enum StepCall {
+enum Call {
     Pre,
+    /// A step's command (a sequence's action is `async`: its framework runs it).
     Action,
     Exit,
 }
 
-/// A mutably borrowed step of any type.
+/// A mutably borrowed step or sequence of any type: one function pointer per type serves
+/// all its calls.
 ///
 /// Hand-made rather than `&'s mut dyn Step<C>`: a trait object mentioning `C` would require
 /// `C: 's`, which the signature of [`Cx::step`] does not promise.
-pub(crate) struct StepRef<'s, C> {
+pub(crate) struct BodyRef<'s, C> {
     /// The `&'s mut S`.
-    step: NonNull<()>,
-    /// `call::<C, S>`.
-    call: unsafe fn(NonNull<()>, StepCall, &Cx<'_, C>) -> bool,
+    body: NonNull<()>,
+    /// `call_step::<C, S>` or `call_seq::<C, S>`.
+    call: unsafe fn(NonNull<()>, Call, &Cx<'_, C>) -> bool,
     _borrow: PhantomData<&'s mut ()>,
 }
 
 /// # Safety
 /// `step` must point to a live `S` that nothing else accesses meanwhile.
-unsafe fn call<C, S: Step<C>>(step: NonNull<()>, what: StepCall, cx: &Cx<'_, C>) -> bool {
+unsafe fn call_step<C, S: Step<C>>(step: NonNull<()>, what: Call, cx: &Cx<'_, C>) -> bool {
     // SAFETY: guaranteed by the caller.
     let step = unsafe { step.cast::<S>().as_mut() };
     match what {
-        StepCall::Pre => step.check_pre_condition(cx),
-        StepCall::Action => {
+        Call::Pre => step.check_pre_condition(cx),
+        Call::Action => {
             step.action(cx);
             true
         }
-        StepCall::Exit => step.check_exit_condition(cx),
+        Call::Exit => step.check_exit_condition(cx),
     }
 }
 
-impl<'s, C> StepRef<'s, C> {
-    pub(crate) fn new<S: Step<C>>(step: &'s mut S) -> Self {
-        StepRef {
-            step: NonNull::from(step).cast(),
-            call: call::<C, S>,
+/// # Safety
+/// `seq` must point to a live `S` that nothing else accesses meanwhile.
+unsafe fn call_seq<C, S: Sequence<C>>(seq: NonNull<()>, what: Call, cx: &Cx<'_, C>) -> bool {
+    // SAFETY: guaranteed by the caller.
+    let seq = unsafe { seq.cast::<S>().as_mut() };
+    match what {
+        Call::Pre => seq.check_pre_condition(cx),
+        // Not called: see `Call::Action`.
+        Call::Action => true,
+        Call::Exit => seq.check_exit_condition(cx),
+    }
+}
+
+impl<'s, C> BodyRef<'s, C> {
+    pub(crate) fn step<S: Step<C>>(step: &'s mut S) -> Self {
+        BodyRef {
+            body: NonNull::from(step).cast(),
+            call: call_step::<C, S>,
             _borrow: PhantomData,
         }
     }
 
-    fn call(&mut self, what: StepCall, cx: &Cx<'_, C>) -> bool {
-        // SAFETY: `step` is the `&'s mut S` given to `new` and `call` is `call::<C, S>`; the
-        // borrow lives as long as `self` (`_borrow`), and `&mut self` makes this the only
-        // access.
-        unsafe { (self.call)(self.step, what, cx) }
+    fn seq<S: Sequence<C>>(seq: &'s mut S) -> Self {
+        BodyRef {
+            body: NonNull::from(seq).cast(),
+            call: call_seq::<C, S>,
+            _borrow: PhantomData,
+        }
     }
-}
 
-impl<C> Conds<C> for StepRef<'_, C> {
-    fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.call(StepCall::Pre, cx)
-    }
-    fn exit(&mut self, cx: &Cx<'_, C>) -> bool {
-        self.call(StepCall::Exit, cx)
+    fn call(&mut self, what: Call, cx: &Cx<'_, C>) -> bool {
+        // SAFETY: `body` is the `&'s mut S` given to `step` or `seq`, and `call` is the
+        // matching `call_step::<C, S>` or `call_seq::<C, S>`; the borrow lives as long as
+        // `self` (`_borrow`), and `&mut self` makes this the only access.
+        unsafe { (self.call)(self.body, what, cx) }
     }
 }
 
 /// A step's command as a future: it runs at the first poll, i.e. only once the gate said go.
 struct StepAct<'r, 's, 'c, 'a, C> {
-    step: &'r mut StepRef<'s, C>,
+    step: &'r mut BodyRef<'s, C>,
     cx: &'c Cx<'a, C>,
 }
 
@@ -257,7 +255,7 @@ impl<C> Future for StepAct<'_, '_, '_, '_, C> {
     type Output = ();
     fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
         let this = self.get_mut();
-        this.step.call(StepCall::Action, this.cx);
+        this.step.call(Call::Action, this.cx);
         Poll::Ready(())
     }
 }
@@ -318,7 +316,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
     /// Runs the framework up to the start of the action (`Ready`: create and poll it now), or
     /// until it must wait (`Pending`). Never `Ready` once the run has ended.
     #[inline(never)]
-    fn drive(&self, w: &mut Context<'_>, body: &mut dyn Conds<C>) -> Poll<()> {
+    fn drive(&self, w: &mut Context<'_>, body: &mut BodyRef<'_, C>) -> Poll<()> {
         let (cx, engine, id) = (&self.cx, self.cx.engine(), self.cx.id());
         loop {
             match self.phase.get() {
@@ -328,7 +326,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                         if !self.on(gate) {
                             continue;
                         }
-                        if body.pre(cx) {
+                        if body.call(Call::Pre, cx) {
                             self.phase.set(Phase::Act);
                             return Poll::Ready(());
                         }
@@ -350,7 +348,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 }
                 Phase::Exit => {
                     self.phase.set(Phase::Due);
-                    if body.exit(cx) {
+                    if body.call(Call::Exit, cx) {
                         match engine.end(id, Outcome::Completed) {
                             Ok(outcome) => self.phase.set(Phase::End(outcome)),
                             // Go/Hold: on to the next due poll.
@@ -402,7 +400,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
 
     /// A step's whole framework.
     #[inline(never)]
-    pub(crate) fn step(&self, w: &mut Context<'_>, step: &mut StepRef<'_, C>) {
+    pub(crate) fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) {
         loop {
             let ready = if let Phase::Act = self.phase.get() {
                 let mut action = StepAct {
@@ -425,13 +423,20 @@ impl<'a, 's, C> Frame<'a, 's, C> {
 /// condition every polling period, repeated from the pre-condition on restart. It leaves
 /// the outcome in the frame's slot and then never completes (see above); its owner drops
 /// it.
-pub(crate) async fn framework<C, S: Sequence<C>>(
-    frame: Frame<'_, '_, C>,
-    body: &mut S,
-) -> Infallible {
-    loop {
-        poll_fn(|w| frame.drive(w, &mut SeqConds(&mut *body))).await;
-        let mut action = pin!(body.action(&frame.cx));
-        poll_fn(|w| frame.act(w, action.as_mut())).await;
+///
+/// An `async` block rather than an `async fn`: the block uses its captured arguments in
+/// place, where an `async fn` first copies them into its body's locals (one more copy of
+/// the frame per sequence type, about 40 bytes of flash each).
+#[allow(clippy::manual_async_fn)]
+pub(crate) fn framework<'a, 's, 'b, C, S: Sequence<C>>(
+    frame: Frame<'a, 's, C>,
+    body: &'b mut S,
+) -> impl Future<Output = Infallible> + use<'a, 's, 'b, C, S> {
+    async move {
+        loop {
+            poll_fn(|w| frame.drive(w, &mut BodyRef::seq(&mut *body))).await;
+            let mut action = pin!(body.action(&frame.cx));
+            poll_fn(|w| frame.act(w, action.as_mut())).await;
+        }
     }
 }
