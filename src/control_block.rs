@@ -60,27 +60,17 @@ impl Counters {
     }
 }
 
-/// Flag bits of [`ControlBlock::flags`].
+/// Flag bits of [`ControlBlock::flags`]. What the tick reads of every sequence (active,
+/// paused, fresh, timeout armed, exception active, waiting for a poll) is kept as sets in
+/// the sequencer instead ([`Bits`](crate::bits::Bits)).
 pub(crate) mod flag {
     // Bit 0 is free (a declared lane is known by its lane slot).
     /// A non-blocking start waits for the lane to pick it up.
     pub const START_PENDING: u16 = 1 << 1;
-    /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
-    pub const POLL_WAIT: u16 = 1 << 2;
-    /// The tick says the exit condition is due.
-    pub const POLL_DUE: u16 = 1 << 3;
-    /// `exceptionIsActive`: a monitor of this sequence fired and its handling is pending, or
-    /// this sequence was aborted because of it.
-    pub const EXCEPTION_ACTIVE: u16 = 1 << 4;
     /// The exception sequence ended; the tick applies the pending behaviour.
     pub const EXCEPTION_DONE: u16 = 1 << 5;
     /// A [`Seq`](crate::Seq) object was bound to this id.
     pub const BOUND: u16 = 1 << 6;
-    /// The timeout monitor is armed (`deadline` is meaningful).
-    pub const TIMEOUT_ARMED: u16 = 1 << 7;
-    /// A new run or restart began: the tick resets the edge detection of this sequence's
-    /// monitors before their next evaluation.
-    pub const FRESH: u16 = 1 << 8;
     /// This run is an exception sequence: its caller is the owner whose exception it
     /// handles, and its end is reported to the tick.
     pub const HANDLES_EXCEPTION: u16 = 1 << 9;
@@ -94,9 +84,6 @@ pub(crate) mod request {
     /// All request bits.
     pub const ALL: u16 = ABORT | PAUSE | RESUME;
 }
-
-/// The bits of the pending behaviour in [`ControlBlock::flags`].
-pub(crate) const PENDING_MASK: u16 = pending::MASK;
 
 /// The behaviour waiting for the end of an exception sequence, in the top three bits of
 /// [`ControlBlock::flags`] (0 = none).
@@ -170,14 +157,10 @@ pub(crate) fn after(now: u64, d: u32) -> Micros32 {
 /// live with the lanes, not here; counters only with the feature `counters`.
 pub(crate) struct ControlBlock {
     pub(crate) name: &'static str,
-    /// Polling period in µs.
-    pub(crate) polling: u32,
     /// Timeout in µs, 0 = off.
     pub(crate) timeout: u32,
-    /// Next due poll (µs).
-    pub(crate) next_poll: Micros32,
     /// Timeout deadline while running; the remaining time while paused; only meaningful
-    /// with `flag::TIMEOUT_ARMED`.
+    /// while the timeout is armed.
     pub(crate) deadline: Micros32,
     /// [`flag`]s, [`request`]s and the pending behaviour.
     pub(crate) flags: u16,
@@ -200,6 +183,8 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_restarts: u8,
     /// A sequence waiting in `join` for this one.
     pub(crate) joiner: Link,
+    /// Its [polling class](crate::polling) (the class holds the period).
+    pub(crate) class: u8,
 }
 
 /// No lane slot.
@@ -208,9 +193,7 @@ pub(crate) const NO_LANE: u8 = u8::MAX;
 impl ControlBlock {
     pub(crate) const EMPTY: ControlBlock = ControlBlock {
         name: "",
-        polling: crate::config::DEFAULT_POLLING_MICROS,
         timeout: 0,
-        next_poll: 0,
         deadline: 0,
         flags: 0,
         runs: 0,
@@ -226,6 +209,7 @@ impl ControlBlock {
         timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
         timeout_restarts: 0,
         joiner: Link::NONE,
+        class: 0,
     };
 
     pub(crate) fn has(&self, f: u16) -> bool {
@@ -258,59 +242,6 @@ impl ControlBlock {
         let code = b.map_or(0, |b| b as u16 + 1);
         self.flags = (self.flags & !pending::MASK) | (code << pending::SHIFT);
     }
-
-    /// The tick's scan of this block at `now` (the low 32 bits): when its polling period is
-    /// due, advances its polling schedule and notes an expired timeout and a due
-    /// exit-condition poll. Returns its [`mark`](crate::tick::mark): 0 for an inactive
-    /// sequence, `ACTIVE` and more for a running or paused one.
-    #[inline(always)]
-    pub(crate) fn scan(&mut self, now: u32) -> u8 {
-        use crate::tick::mark;
-        let running = self.state == RunningState::Running;
-        if !running && self.state != RunningState::Paused {
-            return 0;
-        }
-        let f = self.flags;
-        let mut m = mark::ACTIVE;
-        if !running || f & flag::EXCEPTION_ACTIVE != 0 {
-            m |= mark::HELD;
-        }
-        if !reached32(now, self.next_poll) {
-            return m;
-        }
-        m |= mark::DUE;
-        let mut next = self.next_poll.wrapping_add(self.polling);
-        if reached32(now, next) {
-            // Missed periods (a late tick) are not replayed.
-            next = now.wrapping_add(self.polling);
-        }
-        self.next_poll = next;
-        // One test for the three things a due poll may have to do besides its monitors.
-        if f & (flag::FRESH | flag::TIMEOUT_ARMED | flag::POLL_WAIT) != 0 {
-            let mut f = f;
-            if f & flag::FRESH != 0 {
-                f &= !flag::FRESH;
-                m |= mark::FRESH;
-            }
-            if running {
-                if f & flag::TIMEOUT_ARMED != 0 && reached32(now, self.deadline) {
-                    m |= mark::EXPIRED;
-                }
-                if f & flag::POLL_WAIT != 0 {
-                    f |= flag::POLL_DUE;
-                    m |= mark::WAKE;
-                }
-            }
-            self.flags = f;
-        }
-        m
-    }
-
-    /// Monitors and timeout of this sequence may raise an exception now.
-    pub(crate) fn accepts_exception(&self) -> bool {
-        matches!(self.state, RunningState::Running | RunningState::Paused)
-            && !self.has(flag::EXCEPTION_ACTIVE)
-    }
 }
 
 #[cfg(test)]
@@ -320,17 +251,17 @@ mod tests {
     #[test]
     fn pending_behaviour_round_trips_without_touching_the_flags() {
         let mut b = ControlBlock::EMPTY;
-        b.flags = flag::BOUND | flag::FRESH | request::PAUSE;
+        b.flags = flag::BOUND | flag::START_PENDING | request::PAUSE;
         for p in pending::BEHAVIOURS.iter().copied().map(Some).chain([None]) {
             b.set_pending(p);
             assert_eq!(b.pending(), p);
             assert_eq!(
                 b.flags & !pending::MASK,
-                flag::BOUND | flag::FRESH | request::PAUSE
+                flag::BOUND | flag::START_PENDING | request::PAUSE
             );
         }
         assert_eq!(b.take_requests(), request::PAUSE);
-        assert_eq!(b.flags, flag::BOUND | flag::FRESH);
+        assert_eq!(b.flags, flag::BOUND | flag::START_PENDING);
     }
 
     #[test]

@@ -66,22 +66,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
         self.with(|s| s.park(id, waker));
         self.with(|s| match s.gate(id) {
-            Gate::Go => match s.fast_mut(id) {
-                Some(b) if b.has(flag::POLL_DUE) => {
-                    b.set(flag::POLL_DUE, false);
-                    Gate::Go
-                }
-                _ => Gate::Hold,
-            },
+            Gate::Go if s.poll_due.has(id) => {
+                s.poll_due.set(id, false);
+                Gate::Go
+            }
+            Gate::Go => Gate::Hold,
             other => other,
         })
     }
 
     fn poll_wait(&self, id: SeqId, on: bool) {
         self.with(|s| {
-            if let Ok(b) = s.block_mut(id) {
-                b.set(flag::POLL_WAIT, on);
-                b.set(flag::POLL_DUE, false);
+            if s.block(id).is_ok() {
+                s.poll_wait.set(id, on);
+                s.poll_due.set(id, false);
             }
         })
     }
@@ -89,7 +87,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     fn restarted(&self, id: SeqId) {
         // Schedule, then commit; again if a tick ran in between.
         loop {
-            let (from, seen, armed, polling) = self.with(|s| s.schedule(id, None));
+            let (from, seen, armed) = self.with(|s| s.schedule(id, None));
             // From `Restarting` (or, if the tick stopped it since the lane saw that, as the
             // transition table allows; a scanned `Running` or `Paused` one stays).
             let legal = crate::sequencer::sources(RunningState::Running)
@@ -97,9 +95,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             if legal & crate::sequencer::bit(from) == 0 {
                 return;
             }
-            self.with(|s| s.due_by(polling));
+            self.with(|s| s.new_run(id, armed));
+            self.with(|s| s.due_by(id));
             let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
-            if self.with(|s| s.restarted(&t, seen, armed)) {
+            if self.with(|s| s.restarted(&t, seen)) {
                 return;
             }
         }
@@ -128,11 +127,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         let Some(lane) = self.lane_slot_of(id) else {
             return false;
         };
-        self.with(|s| {
-            if let Some(slot) = s.lanes.get_mut(usize::from(lane)) {
-                slot.park(waker);
-            }
-        });
+        self.with(|s| s.park_lane(lane, waker));
         self.with(|s| {
             let Ok(b) = s.block_mut(id) else {
                 return false;
@@ -173,7 +168,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
                 state: b.state,
                 caller: b.caller.get(),
                 lane: b.lane,
-                exception_active: b.has(flag::EXCEPTION_ACTIVE),
+                exception_active: s.excepting.has(id),
                 active_exception: b.active_exception,
                 #[cfg(feature = "counters")]
                 counters: s.counters.get(id.index()).copied().unwrap_or_default(),

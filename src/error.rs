@@ -43,6 +43,9 @@ pub enum Error {
     NeverStarted(SeqId),
     /// A sequence object is already bound to this id.
     AlreadyBound(SeqId),
+    /// More distinct polling periods than
+    /// [`MAX_POLLING_CLASSES`](crate::MAX_POLLING_CLASSES) in one sequencer.
+    PollingClassesExceeded,
 }
 
 impl core::fmt::Display for Error {
@@ -70,6 +73,7 @@ impl core::fmt::Display for Error {
             Error::DurationOutOfRange => write!(f, "duration is zero or too long"),
             Error::NeverStarted(id) => write!(f, "sequence {} was never started", id.index()),
             Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),
+            Error::PollingClassesExceeded => write!(f, "too many distinct polling periods"),
         }
     }
 }

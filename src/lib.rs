@@ -25,6 +25,7 @@
     clippy::indexing_slicing
 )]
 
+mod bits;
 mod condition;
 mod config;
 mod context;
@@ -36,6 +37,7 @@ mod id;
 mod lane;
 pub mod lock;
 mod monitor;
+mod polling;
 mod run;
 mod sequence;
 mod sequencer;
@@ -50,6 +52,7 @@ pub mod safety;
 #[cfg(feature = "std")]
 pub mod sim;
 
+pub use bits::MAX_SEQUENCES;
 pub use condition::{Condition, Stable, Toggle};
 pub use config::SeqConfig;
 pub use context::Cx;
@@ -60,6 +63,7 @@ pub use handle::{CallerStack, Handle};
 pub use id::{MonitorId, SeqId};
 pub use lane::lane;
 pub use monitor::{Behaviour, DynCondition, Monitor, Monitors, Trigger, DEFAULT_RESTART_LIMIT};
+pub use polling::MAX_POLLING_CLASSES;
 pub use sequence::{Seq, Sequence, Step};
 pub use sequencer::Sequencer;
 pub use state::{Cause, Outcome, RunningState};

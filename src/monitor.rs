@@ -2,6 +2,7 @@
 
 use core::marker::PhantomData;
 
+use crate::bits::Bits;
 use crate::{Condition, Error, MonitorId, SeqId};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
@@ -216,26 +217,27 @@ pub(crate) struct Entry<'a, C, K> {
     pub(crate) fired: u16,
 }
 
-/// Most monitors in one [`Group`] (its bit sets are bytes).
-pub(crate) const GROUP_MAX: u8 = 8;
+/// Most monitors in one [`Group`] (its bit sets are words).
+pub(crate) const GROUP_MAX: u8 = 32;
 
-/// Up to [`GROUP_MAX`] consecutively registered monitors of one owner, evaluated together: the tick tests
-/// the owner's due mark once per group and keeps the edge state as bit sets, so a group is
-/// its conditions plus a handful of word operations.
+/// Up to [`GROUP_MAX`] consecutively registered monitors, evaluated together: the tick
+/// tests once per group whether all their owners are due and keeps the edge state as bit
+/// sets, so a group is its conditions plus a handful of word operations.
 ///
 /// Bit `len - 1 - j` of each set belongs to the group's `j`-th monitor (the tick shifts
 /// each condition's value in from the right, in table order).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Group {
     /// The values of the last evaluation (cleared at every new run of the owner).
-    pub(crate) last: u8,
+    pub(crate) last: u32,
     /// Monitors that fire on a rising edge (`RisingEdge`, `Change`).
-    pub(crate) rise: u8,
+    pub(crate) rise: u32,
     /// Monitors that fire on a falling edge (`FallingEdge`, `Change`).
-    pub(crate) fall: u8,
+    pub(crate) fall: u32,
     /// Monitors that fire while true (`Level`).
-    pub(crate) level: u8,
-    pub(crate) owner: SeqId,
+    pub(crate) level: u32,
+    /// The owners of its monitors.
+    pub(crate) owners: Bits,
     /// The group's first entry in the table.
     pub(crate) start: u8,
     /// Its number of entries (1 ..= `GROUP_MAX`).
@@ -247,10 +249,15 @@ impl Group {
     /// layout as `last`).
     #[inline]
     pub(crate) fn firing(&self, now: u32) -> u32 {
-        let last = u32::from(self.last);
+        let last = self.last;
         let changed = now ^ last;
-        (changed & ((now & u32::from(self.rise)) | (last & u32::from(self.fall))))
-            | (now & u32::from(self.level))
+        (changed & ((now & self.rise) | (last & self.fall))) | (now & self.level)
+    }
+
+    /// The bit of the group's first monitor (its last is bit 0).
+    #[inline]
+    pub(crate) fn first_bit(&self) -> u32 {
+        1u32 << (u32::from(self.len.saturating_sub(1)) & 31)
     }
 }
 
@@ -264,7 +271,7 @@ impl Group {
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// In registration order: a `MonitorId` is the index.
     pub(crate) entries: heapless::Vec<Entry<'a, C, K>, M>,
-    /// The owner groups over `entries`, in table order.
+    /// The groups over `entries`, in table order.
     pub(crate) groups: heapless::Vec<Group, M>,
 }
 
@@ -284,14 +291,17 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         }
     }
 
-    /// Adds a monitor owned by `owner`. Errors on an empty name or a full table.
+    /// Adds a monitor owned by `owner`. Errors on an empty name, a full table or an owner
+    /// id no sequencer hands out (at or above [`MAX_SEQUENCES`](crate::MAX_SEQUENCES)).
     ///
-    /// The tick evaluates monitors in this order (the order of their ids); consecutive
-    /// monitors of one owner (up to 8) share one due test, so register an owner's monitors
-    /// together.
+    /// The tick evaluates monitors in this order (the order of their ids), in groups of
+    /// 32 that share one due test.
     pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C, K>) -> Result<MonitorId, Error> {
         if monitor.name.is_empty() {
             return Err(Error::EmptyName);
+        }
+        if owner.index() >= crate::MAX_SEQUENCES {
+            return Err(Error::UnknownSequence(owner));
         }
         let id = u8::try_from(self.entries.len()).map_err(|_| Error::MonitorCapacityExceeded)?;
         let entry = Entry {
@@ -301,15 +311,15 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             target_runs_seen: 0,
             fired: 0,
         };
-        let t = entry.def.trigger as u8;
+        let t = u32::from(entry.def.trigger as u8);
         let (rise, fall, level) = (t & 1, (t >> 1) & 1, t >> 2);
         self.entries
             .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;
         match self.groups.last_mut() {
-            // Right behind a monitor of the same owner: one more member of its group.
-            Some(g) if g.owner == owner && g.len < GROUP_MAX => {
+            Some(g) if g.len < GROUP_MAX => {
                 g.len += 1;
+                g.owners.set(owner, true);
                 g.rise = (g.rise << 1) | rise;
                 g.fall = (g.fall << 1) | fall;
                 g.level = (g.level << 1) | level;
@@ -321,7 +331,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
                     rise,
                     fall,
                     level,
-                    owner,
+                    owners: Bits::of(owner),
                     start: id,
                     len: 1,
                 };
@@ -330,6 +340,25 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             }
         }
         Ok(MonitorId(id))
+    }
+
+    /// A new run of the sequences `fresh` began: their monitors' edge detection starts
+    /// again from "false".
+    pub(crate) fn reset_edges(&mut self, fresh: Bits) {
+        for g in self.groups.iter_mut() {
+            if g.owners.and(fresh).is_empty() {
+                continue;
+            }
+            let start = usize::from(g.start);
+            let members = self.entries.get(start..).unwrap_or_default();
+            let mut bit = g.first_bit();
+            for e in members.iter().take(usize::from(g.len)) {
+                if fresh.has(e.owner) {
+                    g.last &= !bit;
+                }
+                bit >>= 1;
+            }
+        }
     }
 
     fn entry(&self, id: MonitorId) -> Option<&Entry<'a, C, K>> {

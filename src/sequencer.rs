@@ -5,7 +5,9 @@ use core::marker::PhantomData;
 use core::sync::atomic::{AtomicBool, Ordering};
 use core::task::{RawWakerVTable, Waker};
 
+use crate::bits::Bits;
 use crate::control_block::{after, earlier, flag, request, ControlBlock, Link, NO_LANE};
+use crate::polling::Classes;
 use crate::lock::{CriticalSection, Lock};
 use crate::safety::{AbortSequences, SafetyHandle};
 use crate::{
@@ -45,15 +47,53 @@ pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) lanes: [LaneSlot; W],
     #[cfg(feature = "counters")]
     pub(crate) counters: [crate::Counters; N],
-    /// Earliest `next_poll` of any active sequence (low 32 bits of µs, like the blocks'
-    /// times; `NEVER_AHEAD` after the last scan when none is active).
+    /// The polling classes: one schedule per distinct polling period.
+    pub(crate) classes: Classes,
+    /// Earliest next poll of a class with an active member (low 32 bits of µs, like the
+    /// blocks' times; `NEVER_AHEAD` after the last scan when none is active).
     pub(crate) next_due: u32,
+    /// `Running` or `Paused` (kept by [`shift`](Inner::shift)).
+    pub(crate) active: Bits,
+    /// `Paused` (kept by [`shift`](Inner::shift)).
+    pub(crate) paused: Bits,
+    /// A new run or restart began: the tick resets the edge detection of these sequences'
+    /// monitors before their next evaluation.
+    pub(crate) fresh: Bits,
+    /// The timeout monitor is armed (the block's `deadline` is meaningful).
+    pub(crate) armed: Bits,
+    /// `exceptionIsActive`: a monitor of the sequence fired and its handling is pending,
+    /// or the sequence was aborted because of it.
+    pub(crate) excepting: Bits,
+    /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
+    pub(crate) poll_wait: Bits,
+    /// The tick says the polled condition is due.
+    pub(crate) poll_due: Bits,
+    /// The lanes the tick's last exit-condition wake-up woke, for reuse.
+    pub(crate) wake_memo: WakeMemo,
     /// Requests or finished exception sequences wait for the tick.
     pub(crate) work: bool,
     pub(crate) trace: crate::trace::Ring<T>,
     pub(crate) trace_lost: u32,
     /// Exceptions whose sequence could not run (no lane, already running, too deep).
     pub(crate) exceptions_not_run: u16,
+}
+
+/// The lane slots woken for a set of due exit-condition polls: in a steady state the set
+/// repeats from poll to poll, and the tick wakes the same lanes again without visiting the
+/// sequences. Forgotten whenever a sequence's lane or a lane's waker changes.
+#[derive(Clone, Copy)]
+pub(crate) struct WakeMemo {
+    /// The polls (never empty while the memo is valid).
+    pub(crate) polls: Bits,
+    /// Their lane slots, one per distinct waker (bit `k` = slot `k`).
+    pub(crate) lanes: u32,
+}
+
+impl WakeMemo {
+    pub(crate) const NONE: WakeMemo = WakeMemo {
+        polls: Bits::EMPTY,
+        lanes: 0,
+    };
 }
 
 /// The waker of one lane, and the sequence that declared it.
@@ -68,11 +108,15 @@ impl LaneSlot {
         waker: None,
     };
 
-    /// Keeps `waker` as this lane's waker (cloned only when it changed).
-    pub(crate) fn park(&mut self, waker: &Waker) {
+    /// Keeps `waker` as this lane's waker (cloned only when it changed). True when it
+    /// changed.
+    fn park(&mut self, waker: &Waker) -> bool {
         match &self.waker {
-            Some(w) if w.will_wake(waker) => {}
-            _ => self.waker = Some(waker.clone()),
+            Some(w) if w.will_wake(waker) => false,
+            _ => {
+                self.waker = Some(waker.clone());
+                true
+            }
         }
     }
 }
@@ -167,8 +211,8 @@ impl<C, const N: usize, const T: usize, const BASEPRI: u8, const W: usize>
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
     const fn empty() -> Self {
-        const { assert!(N <= 255, "at most 255 sequences") };
-        const { assert!(W <= 255, "at most 255 lanes") };
+        const { assert!(N <= crate::MAX_SEQUENCES, "at most MAX_SEQUENCES (32) sequences and steps") };
+        const { assert!(W <= 32, "at most 32 lanes") };
         Sequencer {
             abort_all: AtomicBool::new(false),
             safety: critical_section::Mutex::new(Cell::new(None)),
@@ -181,7 +225,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 lanes: [LaneSlot::EMPTY; W],
                 #[cfg(feature = "counters")]
                 counters: [crate::Counters::ZERO; N],
+                classes: Classes::new(),
                 next_due: 0,
+                active: Bits::EMPTY,
+                paused: Bits::EMPTY,
+                fresh: Bits::EMPTY,
+                armed: Bits::EMPTY,
+                excepting: Bits::EMPTY,
+                poll_wait: Bits::EMPTY,
+                poll_due: Bits::EMPTY,
+                wake_memo: WakeMemo::NONE,
                 work: false,
                 trace: crate::trace::Ring::new(),
                 trace_lost: 0,
@@ -223,12 +276,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if s.blocks.iter().take(used).any(|b| b.name == config.name) {
                 return Err(Error::DuplicateName(config.name));
             }
+            let id = SeqId(s.count);
             let slot = s
                 .blocks
                 .get_mut(used)
                 .ok_or(Error::SequenceCapacityExceeded)?;
+            slot.class = s.classes.join(id, polling)?;
             slot.name = config.name;
-            slot.polling = polling;
             slot.timeout = timeout;
             slot.timeout_behaviour = config.timeout_behaviour;
             slot.timeout_exception = Link::to(config.timeout_exception);
@@ -236,7 +290,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if let Some(h) = s.hooks.get_mut(used) {
                 *h = config.on_abort;
             }
-            let id = SeqId(s.count);
             s.count = s.count.saturating_add(1);
             Ok(id)
         })
@@ -433,15 +486,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // Schedule, then commit; again if a tick ran in between (it may have rescanned
         // without the new run, or changed its state: the commit re-checks both).
         let link = Link::to(caller);
-        let flags = bound | flag::FRESH | pending | extra;
+        let flags = bound | pending | extra;
         loop {
-            let (from, seen, armed, polling) = self.with(|s| s.schedule(id, Some(lane)));
+            let (from, seen, armed) = self.with(|s| s.schedule(id, Some(lane)));
             if STARTABLE & bit(from) == 0 {
                 return Err(Error::AlreadyRunning(id));
             }
-            self.with(|s| s.due_by(polling));
+            self.with(|s| s.new_run(id, armed));
+            self.with(|s| s.due_by(id));
             let t = Transition::edge(id, from, RunningState::Running, cause);
-            let flags = flags | armed;
             if self.with(|s| s.start(&t, seen, link, flags))? {
                 break;
             }
@@ -536,12 +589,6 @@ pub(crate) const fn sources(to: RunningState) -> u8 {
     }
 }
 
-/// The flags a restart clears (`FRESH` is set again, `TIMEOUT_ARMED` as scheduled).
-const RESTART_CLEARS: u16 = flag::EXCEPTION_ACTIVE
-    | flag::POLL_WAIT
-    | flag::POLL_DUE
-    | flag::TIMEOUT_ARMED
-    | crate::control_block::PENDING_MASK;
 
 /// A safety level that demands it aborts every sequence through the sequencer.
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> AbortSequences
@@ -612,13 +659,21 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// transition) and lean: it runs inside sections.
     #[inline(never)]
     pub(crate) fn shift(&mut self, t: &crate::trace::Edge) -> Option<&mut ControlBlock> {
-        let b = self.blocks.get_mut(t.sequence.index())?;
+        let one = Bits::of(t.sequence);
         // A run ends only through the gate `Go`: not while its exception is handled.
-        let held = t.to == RunningState::Terminated && b.has(flag::EXCEPTION_ACTIVE);
+        let held = t.to == RunningState::Terminated && !self.excepting.and(one).is_empty();
+        let b = self.blocks.get_mut(t.sequence.index())?;
         if b.state != t.from || held {
             return None;
         }
         b.state = t.to;
+        let (active, paused) = match t.to {
+            RunningState::Running => (one, Bits::EMPTY),
+            RunningState::Paused => (one, one),
+            _ => (Bits::EMPTY, Bits::EMPTY),
+        };
+        self.active = self.active.minus(one).or(active);
+        self.paused = self.paused.minus(one).or(paused);
         if self.trace.push(self.now, t) {
             self.trace_lost = self.trace_lost.saturating_add(1);
         }
@@ -648,30 +703,24 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         Ok((b.flags & flag::BOUND, lane))
     }
 
-    /// Schedules a new run (or restart) of `id` from now, before its commit: its first poll
-    /// and timeout deadline; for a new run (`start`: its lane
-    /// slot) also its lane, run count, and no last exception or outcome yet. Only for a
-    /// sequence that is not `Running` or `Paused` (then it only returns that state): the
-    /// tick neither scans it nor walks through these fields, and the caller link, flags
-    /// and state, which it does read, change in the commit. (A handle reading the sequence
-    /// from a context that preempts a start in between sees no last outcome or exception.)
-    /// Returns the state, the low 32 bits of now and the flag of an armed timeout, for the
-    /// commit, and the polling period, for [`due_by`](Self::due_by).
+    /// Schedules a new run (or restart) of `id` from now, before its commit: its timeout
+    /// deadline; for a new run (`start`: its lane slot) also its lane, run count, and no
+    /// last exception or outcome yet. Only for a sequence that is not `Running` or
+    /// `Paused` (then it only returns that state): the tick neither scans it nor walks
+    /// through these fields, and the caller link, flags and state, which it does read,
+    /// change in the commit. (A handle reading the sequence from a context that preempts a
+    /// start in between sees no last outcome or exception.) Returns the state, the low 32
+    /// bits of now and whether the timeout is armed, for the commit.
     #[inline(never)]
-    pub(crate) fn schedule(
-        &mut self,
-        id: SeqId,
-        start: Option<u8>,
-    ) -> (RunningState, u32, u16, u32) {
+    pub(crate) fn schedule(&mut self, id: SeqId, start: Option<u8>) -> (RunningState, u32, bool) {
         let now = self.now;
         let Some(b) = self.fast_mut(id) else {
-            return (RunningState::Running, 0, 0, 0);
+            return (RunningState::Running, 0, false);
         };
         let state = b.state;
         if matches!(state, RunningState::Running | RunningState::Paused) {
-            return (state, 0, 0, 0);
+            return (state, 0, false);
         }
-        b.next_poll = after(now, b.polling);
         b.deadline = after(now, b.timeout);
         if let Some(lane) = start {
             b.lane = lane;
@@ -679,21 +728,24 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             b.active_exception = None;
             b.outcome = None;
         }
-        let armed = if b.timeout != 0 {
-            flag::TIMEOUT_ARMED
-        } else {
-            0
-        };
+        let armed = b.timeout != 0;
+        if start.is_some() {
+            // Its lane may be another one now.
+            self.wake_memo = WakeMemo::NONE;
+        }
         // Truncation is the point: a commit compares the low 32 bits of the time (a tick in
         // between moves them; a wrap back to the same value takes 71 minutes).
-        (state, now as u32, armed, b.polling)
+        (state, now as u32, armed)
     }
 
     /// After [`schedule`](Self::schedule), before the commit: the tick scans by the first
-    /// poll of a run with polling period `polling` starting now.
-    pub(crate) fn due_by(&mut self, polling: u32) {
+    /// poll of `id`'s run starting now (its class's next poll; an idle class starts its
+    /// grid now).
+    pub(crate) fn due_by(&mut self, id: SeqId) {
         let now = self.now as u32;
-        self.next_due = earlier(now, now.wrapping_add(polling), self.next_due);
+        let class = self.fast(id).map_or(0, |b| b.class);
+        let next = self.classes.resume(class, now, self.active);
+        self.next_due = earlier(now, next, self.next_due);
     }
 
     /// The commit of a start `t` ([`Sequencer::begin`] validated it and scheduled it at
@@ -723,24 +775,57 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         Ok(true)
     }
 
-    /// Wakes the lane of sequence `i` for its due poll. `woken` is the identity of the
-    /// waker woken last in this tick: lanes joined in one task share their waker, which is
+    /// After [`schedule`](Self::schedule), before the commit: the sets of a new run or
+    /// restart of `id` (fresh, no exception, not waiting for a poll, the timeout `armed` or
+    /// not). The tick reads them only of active sequences, and `id` is not active yet.
+    pub(crate) fn new_run(&mut self, id: SeqId, armed: bool) {
+        self.fresh.set(id, true);
+        self.armed.set(id, armed);
+        self.excepting.set(id, false);
+        self.poll_wait.set(id, false);
+        self.poll_due.set(id, false);
+    }
+
+    /// Whether a monitor or the timeout of `id` may raise an exception now.
+    pub(crate) fn accepts_exception(&self, id: SeqId) -> bool {
+        self.active.has(id) && !self.excepting.has(id)
+    }
+
+    /// Wakes the lanes of the due exit-condition polls `polls` (with a coarse lock, in one
+    /// section): the lanes found for the same set last time, or, when the set changed, a
+    /// walk over the sequences. Lanes joined in one task share their waker, which is
     /// woken once.
-    #[inline]
-    pub(crate) fn wake_due(&self, i: usize, woken: &mut WakerId) {
-        if let Some(w) = self.waker_of(i) {
-            let identity = identity(w);
-            if *woken != identity {
-                *woken = identity;
+    #[inline(always)]
+    pub(crate) fn wake_polls(&mut self, polls: Bits) {
+        if self.wake_memo.polls != polls {
+            let mut lanes = 0u32;
+            let mut woken = NO_WAKER;
+            for id in polls {
+                let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
+                if let Some(w) = self.lane_waker(lane) {
+                    if identity(w) != woken {
+                        woken = identity(w);
+                        lanes |= 1u32.checked_shl(u32::from(lane)).unwrap_or(0);
+                    }
+                }
+            }
+            self.wake_memo = WakeMemo { polls, lanes };
+        }
+        let mut lanes = self.wake_memo.lanes;
+        while lanes != 0 {
+            // At most 31: fits a byte.
+            let lane = lanes.trailing_zeros() as u8;
+            lanes &= lanes.wrapping_sub(1);
+            if let Some(w) = self.lane_waker(lane) {
                 w.wake_by_ref();
             }
         }
     }
 
-    /// The waker of sequence `i`'s lane, once its lane has parked.
+    /// The waker of sequence `id`'s lane, once its lane has parked.
     #[inline]
-    pub(crate) fn waker_of(&self, i: usize) -> Option<&Waker> {
-        self.lane_waker(self.blocks.get(i)?.lane)
+    pub(crate) fn waker_of(&self, id: SeqId) -> Option<&Waker> {
+        self.lane_waker(self.fast(id)?.lane)
     }
 
     /// One step of the held check of a due wake-up (see `Sequencer::held`): `None` when
@@ -749,7 +834,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
         // The gate's `Go`, without building the gate.
         let b = self.fast(at)?;
-        if b.state != RunningState::Running || b.has(flag::EXCEPTION_ACTIVE) {
+        if b.state != RunningState::Running || self.excepting.has(at) {
             return None;
         }
         let up = b.caller;
@@ -776,8 +861,15 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// Parks `waker` as the waker of `id`'s lane.
     pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
         let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
+        self.park_lane(lane, waker);
+    }
+
+    /// Parks `waker` as the waker of lane slot `lane`.
+    pub(crate) fn park_lane(&mut self, lane: u8, waker: &Waker) {
         if let Some(slot) = self.lanes.get_mut(usize::from(lane)) {
-            slot.park(waker);
+            if slot.park(waker) {
+                self.wake_memo = WakeMemo::NONE;
+            }
         }
     }
 
@@ -787,7 +879,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             return Gate::Aborted(Cause::Abort);
         };
         match b.state {
-            RunningState::Running if !b.has(flag::EXCEPTION_ACTIVE) => Gate::Go,
+            RunningState::Running if !self.excepting.has(id) => Gate::Go,
             RunningState::Running | RunningState::Paused => Gate::Hold,
             RunningState::Restarting => Gate::Restart,
             RunningState::Aborting | RunningState::Aborted => Gate::Aborted(b.last_cause),
@@ -797,16 +889,16 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     }
 
     /// A `Restarting` sequence runs again (`t`): fresh timeout and polling schedule, as
-    /// [`schedule`](Self::schedule)d at `seen` with the timeout flag `armed`. False: a tick
-    /// ran since, schedule again.
-    pub(crate) fn restarted(&mut self, t: &crate::trace::Edge, seen: u32, armed: u16) -> bool {
+    /// [`schedule`](Self::schedule)d at `seen` (with [`new_run`](Self::new_run)). False: a
+    /// tick ran since, schedule again.
+    pub(crate) fn restarted(&mut self, t: &crate::trace::Edge, seen: u32) -> bool {
         if self.now as u32 != seen {
             return false;
         }
         let Some(b) = self.shift(t) else {
             return false;
         };
-        b.flags = (b.flags & !RESTART_CLEARS) | flag::FRESH | armed;
+        b.set_pending(None);
         true
     }
 

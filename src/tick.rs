@@ -5,10 +5,12 @@
 //! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
 //! User conditions and cleanup hooks run outside the critical sections.
 
-use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD, NO_LANE};
+use crate::bits::Bits;
+use crate::control_block::{flag, reached32, request, Link, NEVER_AHEAD, NO_LANE};
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
-use crate::sequencer::{bit, identity, sources, Mode, NO_WAKER};
+use crate::polling::Due;
+use crate::sequencer::{bit, identity, sources, Inner, Mode, NO_WAKER};
 use crate::{
     Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
 };
@@ -16,51 +18,80 @@ use crate::{
 /// `depth + 1` of the deepest possible sequence.
 const DEPTH_LIMIT: u8 = MAX_DEPTH as u8 + 1;
 
-/// Bits of the mark the due scan leaves for each sequence (a byte per sequence on the
-/// tick's stack, so a tick allocates nothing and touches no shared state for it).
-pub(crate) mod mark {
-    /// Its polling period is due: its monitors are evaluated.
-    pub const DUE: u8 = 1 << 0;
-    /// A new run or restart: its monitors' edge detection starts from "false".
-    pub const FRESH: u8 = 1 << 1;
-    /// The timeout deadline has passed (checked after the monitors).
-    pub const EXPIRED: u8 = 1 << 2;
-    /// A polled condition is due: wake the lane (after the monitors).
-    pub const WAKE: u8 = 1 << 3;
-    /// Paused or handling an exception (or a monitor fired this tick): it may hold its
-    /// callees back.
-    pub const HELD: u8 = 1 << 4;
-    /// Running or paused (its monitors and timeout are live).
-    pub const ACTIVE: u8 = 1 << 5;
+/// What the tick must do for the sequences whose poll is due.
+struct Polls {
+    /// Active sequences whose polling class is due: their monitors are evaluated.
+    due: Bits,
+    /// Due in a new run or restart: their monitors' edge detection starts from "false".
+    fresh: Bits,
+    /// Running, due, with an expired timeout (raised after the monitors).
+    expired: Bits,
+    /// Running, due, waiting for a polled condition: their lanes are woken (after the
+    /// monitors).
+    wake: Bits,
+    /// Some active sequence is paused or handles an exception: a wake-up checks that its
+    /// sequence is not held.
+    careful: bool,
 }
 
-/// What the due scan found over all sequences.
-struct Scan {
-    /// The union of the marks.
-    seen: u8,
-    /// Time to the earliest next poll of an active sequence (µs).
-    ahead: u32,
+impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
+    /// The due polls `due` (active sequences whose polling class is due): takes their
+    /// fresh marks and marks their due exit-condition polls. Returns what to do, without
+    /// the expired timeouts, and the running ones with an armed timeout.
+    #[inline(always)]
+    fn take_polls(&mut self, due: Bits) -> (Polls, Bits) {
+        let running = due.minus(self.paused);
+        let fresh = self.fresh.and(due);
+        self.fresh = self.fresh.minus(due);
+        let wake = running.and(self.poll_wait);
+        self.poll_due = self.poll_due.or(wake);
+        let polls = Polls {
+            due,
+            fresh,
+            expired: Bits::EMPTY,
+            wake,
+            careful: !self.paused.or(self.excepting).and(self.active).is_empty(),
+        };
+        (polls, running.and(self.armed))
+    }
+
+    /// Those of `timed` whose timeout deadline has passed at `now`.
+    fn expired(&self, timed: Bits, now: u32) -> Bits {
+        let mut out = Bits::EMPTY;
+        for id in timed {
+            if self.fast(id).is_some_and(|b| reached32(now, b.deadline)) {
+                out.set(id, true);
+            }
+        }
+        out
+    }
 }
 
-impl Scan {
-    /// Scans `blocks` (marks in `marks`) and adds them to the summary.
-    #[inline(always)]
-    fn add(&mut self, blocks: &mut [ControlBlock], marks: &mut [u8], now: u32) {
-        for (b, m) in blocks.iter_mut().zip(marks.iter_mut()) {
-            let mark = b.scan(now);
-            *m = mark;
-            self.note(mark, b.next_poll, now);
+/// The conditions of those `members` (a group, bits as in [`Group`]) whose owner is `due`;
+/// the others keep their `last` values. Returns the values and the bits evaluated.
+#[inline(never)]
+fn evaluate_due<C, K: crate::Condition<C>>(
+    members: &mut [Entry<'_, C, K>],
+    due: Bits,
+    last: u32,
+    control: &C,
+    now: Instant,
+) -> (u32, u32) {
+    let mut values = 0u32;
+    let mut evaluated = 0u32;
+    let mut bit = 1u32 << (members.len().saturating_sub(1) & 31);
+    for e in members.iter_mut() {
+        if due.has(e.owner) {
+            evaluated |= bit;
+            if e.def.condition.validate(control, now) {
+                values |= bit;
+            }
+        } else {
+            values |= last & bit;
         }
+        bit >>= 1;
     }
-
-    /// Adds a block's `mark` and its next poll `next` (meaningful for an active block).
-    #[inline(always)]
-    fn note(&mut self, mark: u8, next: u32, now: u32) {
-        if mark != 0 {
-            self.seen |= mark;
-            self.ahead = self.ahead.min(next.wrapping_sub(now));
-        }
-    }
+    (values, evaluated)
 }
 
 /// Restart bookkeeping of one monitor (or timeout monitor).
@@ -109,12 +140,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if !any_due {
             return;
         }
-        let mut marks = [0u8; N];
-        let scan = self.scan(now_us, &mut marks);
-        let mut seen = scan.seen;
-        // The hot loop, one owner group at a time: one mark test per group, then its
-        // conditions shifted into a bit set; edges and triggers are a few word operations
-        // per group, and firing is the rare, out-of-line path.
+        let polls = self.scan(now_us);
+        if !polls.fresh.is_empty() {
+            monitors.reset_edges(polls.fresh);
+        }
+        let mut careful = polls.careful;
+        // The hot loop, one group of up to 32 monitors at a time: when all their owners
+        // are due (the common case), their conditions shifted into a bit set in one flat
+        // loop; edges and triggers are a few word operations per group, and firing is the
+        // rare, out-of-line path.
+        let due = polls.due;
         let mut rest = monitors.entries.as_mut_slice();
         for g in monitors.groups.iter_mut() {
             // The groups tile the table in order.
@@ -124,117 +159,106 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 break;
             };
             rest = tail;
-            let m = marks.get(g.owner.index()).copied().unwrap_or(0);
-            if m & mark::DUE == 0 {
+            let owners_due = g.owners.and(due);
+            if owners_due.is_empty() {
                 continue;
             }
-            if m & mark::FRESH != 0 {
-                g.last = 0;
-            }
-            let mut values = 0u32;
-            for e in members.iter_mut() {
-                values = (values << 1) | u32::from(e.def.condition.validate(control, now));
-            }
+            let (values, evaluated) = if owners_due == g.owners {
+                let mut values = 0u32;
+                for e in members.iter_mut() {
+                    values = (values << 1) | u32::from(e.def.condition.validate(control, now));
+                }
+                (values, u32::MAX)
+            } else {
+                evaluate_due(members, due, g.last, control, now)
+            };
             // The common case, nothing changed and no level monitor true, is one test.
-            let last = u32::from(g.last);
-            if (values ^ last) | (values & u32::from(g.level)) != 0 {
-                let firing = g.firing(values);
-                // Truncation keeps the group's (at most 8) bits.
-                g.last = values as u8;
+            if (values ^ g.last) | (values & g.level) != 0 {
+                let firing = g.firing(values) & evaluated;
+                g.last = values;
                 if firing != 0 {
                     self.fire_group(g, members, firing, control);
-                    seen |= mark::HELD;
+                    careful = true;
                 }
             }
         }
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
-        if seen & mark::EXPIRED != 0 {
-            for (i, m) in marks.iter().enumerate() {
-                if m & mark::EXPIRED != 0 {
-                    if let Ok(id) = u8::try_from(i).map(SeqId) {
-                        self.timeout(id, control);
-                    }
-                }
-            }
-            seen |= mark::HELD;
+        for id in polls.expired {
+            self.timeout(id, control);
+            careful = true;
         }
-        if seen & mark::WAKE != 0 {
-            self.wake_due(&marks, seen & mark::HELD != 0);
+        if !polls.wake.is_empty() {
+            if L::COARSE && !careful {
+                self.with(|s| s.wake_polls(polls.wake));
+            } else {
+                self.wake_polls(polls.wake, careful);
+            }
         }
     }
 
-    /// Marks due sequences, advances their polling schedule, notes expired timeouts and due
-    /// exit-condition polls and recomputes `next_due`: one short section per registered
-    /// sequence, or one for all with a coarse lock.
-    fn scan(&self, now: u64, marks: &mut [u8; N]) -> Scan {
+    /// Finds the due polls: advances the schedules of the polling classes that are due,
+    /// recomputes `next_due`, takes the due sequences' fresh marks, marks their due
+    /// exit-condition polls and finds their expired timeouts. With a coarse lock in one
+    /// section; otherwise one short section per class and per armed timeout.
+    #[inline(always)]
+    fn scan(&self, now: u64) -> Polls {
         // Truncation is the point: control-block times are the low 32 bits.
         let now32 = now as u32;
-        let mut sum = Scan {
-            seen: 0,
+        let mut due = Due {
+            sequences: Bits::EMPTY,
             ahead: u32::MAX,
         };
         let next_due = |ahead: u32| now32.wrapping_add(ahead.min(NEVER_AHEAD));
         if L::COARSE {
-            self.with(|s| {
-                let count = usize::from(s.count);
-                let blocks = s.blocks.get_mut(..count).unwrap_or_default();
-                sum.add(blocks, marks, now32);
-                s.next_due = next_due(sum.ahead);
+            return self.with(|s| {
+                for i in 0..s.classes.len() {
+                    s.classes.scan(i, now32, s.active, &mut due);
+                }
+                s.next_due = next_due(due.ahead);
+                let (mut polls, timed) = s.take_polls(due.sequences);
+                polls.expired = s.expired(timed, now32);
+                polls
             });
-        } else {
-            let count = self.with(|s| usize::from(s.count));
-            for (i, m) in marks.iter_mut().enumerate().take(count) {
-                // The block's scan in the section, the summary outside.
-                let (mark, next) = self.with(|s| {
-                    s.blocks
-                        .get_mut(i)
-                        .map_or((0, 0), |b| (b.scan(now32), b.next_poll))
-                });
-                *m = mark;
-                sum.note(mark, next, now32);
-            }
-            self.with(|s| s.next_due = next_due(sum.ahead));
         }
-        sum
+        let classes = self.with(|s| s.classes.len());
+        for i in 0..classes {
+            self.with(|s| s.classes.scan(i, now32, s.active, &mut due));
+        }
+        let (mut polls, timed) = self.with(|s| {
+            s.next_due = next_due(due.ahead);
+            s.take_polls(due.sequences)
+        });
+        for id in timed {
+            polls.expired = polls
+                .expired
+                .or(self.with(|s| s.expired(Bits::of(id), now32)));
+        }
+        polls
     }
 
     /// Wakes the lanes whose polled condition is due, except those held (checked only when
-    /// `careful`: after a monitor fired or while something is held).
+    /// `careful`: after a monitor fired or while something is held), in short sections.
     #[inline(never)]
-    fn wake_due(&self, marks: &[u8; N], careful: bool) {
+    fn wake_polls(&self, wake: Bits, careful: bool) {
         let mut woken = NO_WAKER;
-        let due = marks
-            .iter()
-            .enumerate()
-            .filter(|(_, m)| *m & mark::WAKE != 0)
-            .map(|(i, _)| i);
-        if L::COARSE && !careful {
-            self.with(|s| due.for_each(|i| s.wake_due(i, &mut woken)));
-        } else {
-            for i in due {
-                if careful && self.held(i) {
-                    continue;
-                }
-                // The identity in one section, the wake-up in another (only for a waker
-                // not woken yet): each a few instructions.
-                let w = self.with(|s| s.waker_of(i).map_or(NO_WAKER, identity));
-                if w != NO_WAKER && w != woken {
-                    woken = w;
-                    if let Ok(id) = u8::try_from(i).map(SeqId) {
-                        self.wake_lane(id);
-                    }
-                }
+        for id in wake {
+            if careful && self.held(id) {
+                continue;
+            }
+            // The identity in one section, the wake-up in another (only for a waker not
+            // woken yet): each a few instructions.
+            let w = self.with(|s| s.waker_of(id).map_or(NO_WAKER, identity));
+            if w != NO_WAKER && w != woken {
+                woken = w;
+                self.wake_lane(id);
             }
         }
     }
 
-    /// Whether sequence `i` is held, or frozen by a caller it blocks (paused, or holding
+    /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding
     /// for an exception): it is woken when it may go on. One short section per caller.
-    fn held(&self, i: usize) -> bool {
-        let Ok(id) = u8::try_from(i).map(SeqId) else {
-            return true;
-        };
+    fn held(&self, id: SeqId) -> bool {
         let lane = self.with(|s| s.fast(id).map_or(NO_LANE, |b| b.lane));
         let mut at = Link::to(Some(id));
         // The sequence and at most `MAX_DEPTH` callers.
@@ -259,7 +283,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         control: &C,
     ) {
         // The group's first monitor holds its highest bit.
-        let mut bit = 1u32 << (group.len.saturating_sub(1) & 7);
+        let mut bit = group.first_bit();
         let mut id = group.start;
         for entry in members.iter_mut() {
             if firing & bit != 0 {
@@ -297,11 +321,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline(never)]
     fn timeout(&self, id: SeqId, control: &C) {
         let expired = self.with(|s| {
-            let Ok(b) = s.block_mut(id) else { return None };
-            if b.state != RunningState::Running || !b.accepts_exception() {
+            if s.paused.has(id) || !s.accepts_exception(id) {
                 return None;
             }
-            b.set(flag::TIMEOUT_ARMED, false);
+            s.armed.set(id, false);
+            let b = s.block(id).ok()?;
             Some((
                 b.timeout_behaviour,
                 b.timeout_exception.get(),
@@ -344,7 +368,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     ) -> bool {
         let Some((target, target_runs)) = self.with(|s| {
             let b = s.fast(owner)?;
-            if !b.accepts_exception() {
+            if !s.accepts_exception(owner) {
                 return None;
             }
             let target = if behaviour.targets_caller() {
@@ -370,8 +394,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
         self.with(|s| {
             if let Ok(b) = s.block_mut(owner) {
-                b.set(flag::EXCEPTION_ACTIVE, true);
                 b.active_exception = Some(cause);
+                s.excepting.set(owner, true);
             }
             #[cfg(feature = "counters")]
             if let Some(c) = s.counters.get_mut(owner.index()) {
@@ -403,11 +427,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
         match behaviour {
             Behaviour::Nothing => {
-                self.with(|s| {
-                    if let Ok(b) = s.block_mut(owner) {
-                        b.set(flag::EXCEPTION_ACTIVE, false);
-                    }
-                });
+                self.with(|s| s.excepting.set(owner, false));
                 self.wake_lane(owner);
             }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => {
@@ -568,8 +588,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 // either before this: the tick is the one that would).
                 self.with(|s| {
                     let now = s.now as u32;
+                    let armed = s.armed.has(id);
                     let Ok(b) = s.block_mut(id) else { return };
-                    if b.has(flag::TIMEOUT_ARMED) {
+                    if armed {
                         b.deadline = if pause {
                             let left = b.deadline.wrapping_sub(now);
                             if left >= 0x8000_0000 {

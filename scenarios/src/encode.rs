@@ -119,6 +119,7 @@ pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
                 Error::NeverStarted(_) => 11,
                 Error::AlreadyBound(_) => 12,
                 Error::LaneCapacityExceeded(_) => 13,
+                Error::PollingClassesExceeded => 14,
             };
             0x8000_0000 | n
         }

@@ -1,0 +1,165 @@
+//! Polling classes: the sequences that share a polling period poll together.
+//!
+//! Each distinct polling period registered with a sequencer is one class with one
+//! schedule, like the cyclic tasks of a PLC. The tick tests one deadline per class, not
+//! one per sequence, and takes the due sequences as a set. While a class has active
+//! members its polls keep a fixed grid of its period. A start into an idle class starts
+//! the grid: the first poll comes one period after that start. A start into a busy class
+//! joins its grid: the first poll comes within one period.
+
+use core::num::NonZeroU32;
+
+use crate::bits::Bits;
+use crate::control_block::{reached32, Micros32};
+use crate::{Error, SeqId};
+
+/// The most distinct polling periods one sequencer holds.
+pub const MAX_POLLING_CLASSES: usize = 8;
+
+/// One polling period and the sequences registered with it.
+#[derive(Clone, Copy)]
+pub(crate) struct Class {
+    /// The period (µs).
+    period: NonZeroU32,
+    /// The next poll while the class has an active member.
+    next: Micros32,
+    members: Bits,
+}
+
+/// The classes of one sequencer.
+pub(crate) struct Classes {
+    list: heapless::Vec<Class, MAX_POLLING_CLASSES>,
+}
+
+/// What a scan of the classes found.
+pub(crate) struct Due {
+    /// The active sequences whose poll is due.
+    pub(crate) sequences: Bits,
+    /// Time from now to the next poll of a class with an active member (µs; `u32::MAX`
+    /// when there is none).
+    pub(crate) ahead: u32,
+}
+
+impl Classes {
+    pub(crate) const fn new() -> Self {
+        Classes {
+            list: heapless::Vec::new(),
+        }
+    }
+
+    /// Puts `id` in the class of `period` (a new class for a new period). Returns the
+    /// class's index.
+    pub(crate) fn join(&mut self, id: SeqId, period: u32) -> Result<u8, Error> {
+        let period = NonZeroU32::new(period).ok_or(Error::DurationOutOfRange)?;
+        let at = match self.list.iter().position(|c| c.period == period) {
+            Some(at) => at,
+            None => {
+                let class = Class {
+                    period,
+                    next: 0,
+                    members: Bits::EMPTY,
+                };
+                self.list
+                    .push(class)
+                    .map_err(|_| Error::PollingClassesExceeded)?;
+                self.list.len().saturating_sub(1)
+            }
+        };
+        let class = self.list.get_mut(at).ok_or(Error::PollingClassesExceeded)?;
+        class.members.set(id, true);
+        u8::try_from(at).map_err(|_| Error::PollingClassesExceeded)
+    }
+
+    /// The number of classes.
+    pub(crate) fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// Before a start of a sequence of class `index` at `now`: an idle class (no member
+    /// in `active`) starts its grid one period from now. Returns the class's next poll.
+    #[inline]
+    pub(crate) fn resume(&mut self, index: u8, now: u32, active: Bits) -> Micros32 {
+        match self.list.get_mut(usize::from(index)) {
+            Some(c) => {
+                if c.members.and(active).is_empty() {
+                    c.next = now.wrapping_add(c.period.get());
+                }
+                c.next
+            }
+            None => now,
+        }
+    }
+
+    /// The scan of class `index` at `now`: when it has an active member and its poll is
+    /// due, advances its grid and adds its active members to `due`.
+    #[inline(always)]
+    pub(crate) fn scan(&mut self, index: usize, now: u32, active: Bits, due: &mut Due) {
+        let Some(c) = self.list.get_mut(index) else {
+            return;
+        };
+        let live = c.members.and(active);
+        if live.is_empty() {
+            return;
+        }
+        if reached32(now, c.next) {
+            due.sequences = due.sequences.or(live);
+            // The next grid point after now: missed periods (a late tick) are not
+            // replayed.
+            let behind = now.wrapping_sub(c.next);
+            let skip = (behind / c.period).wrapping_add(1);
+            c.next = c.next.wrapping_add(skip.wrapping_mul(c.period.get()));
+        }
+        due.ahead = due.ahead.min(c.next.wrapping_sub(now));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn live(ids: &[u8]) -> Bits {
+        let mut b = Bits::EMPTY;
+        for &i in ids {
+            b.set(SeqId(i), true);
+        }
+        b
+    }
+
+    #[test]
+    fn a_class_polls_its_active_members_on_its_grid() {
+        let mut c = Classes::new();
+        assert_eq!(c.join(SeqId(0), 1_000), Ok(0));
+        assert_eq!(c.join(SeqId(1), 2_000), Ok(1));
+        assert_eq!(c.join(SeqId(2), 1_000), Ok(0));
+        let active = live(&[0, 1]);
+        assert_eq!(c.resume(0, 500, Bits::EMPTY), 1_500);
+        assert_eq!(c.resume(1, 500, Bits::EMPTY), 2_500);
+        // Already busy: sequence 2 joins the grid of sequence 0.
+        assert_eq!(c.resume(0, 900, active), 1_500);
+        let scan = |c: &mut Classes, now| {
+            let mut due = Due {
+                sequences: Bits::EMPTY,
+                ahead: u32::MAX,
+            };
+            for i in 0..c.len() {
+                c.scan(i, now, live(&[0, 1, 2]), &mut due);
+            }
+            (due.sequences, due.ahead)
+        };
+        assert_eq!(scan(&mut c, 1_000), (Bits::EMPTY, 500));
+        assert_eq!(scan(&mut c, 1_500), (live(&[0, 2]), 1_000));
+        // A late tick: 3 700 is past 2 500 and 3 500; the next polls stay on the grids.
+        assert_eq!(scan(&mut c, 3_700), (live(&[0, 1, 2]), 800));
+        assert_eq!(scan(&mut c, 4_500), (live(&[0, 1, 2]), 1_000));
+    }
+
+    #[test]
+    fn more_periods_than_classes_is_an_error() {
+        let mut c = Classes::new();
+        for p in 1..=MAX_POLLING_CLASSES as u32 {
+            assert!(c.join(SeqId(0), p).is_ok());
+        }
+        assert_eq!(c.join(SeqId(1), 99), Err(Error::PollingClassesExceeded));
+        assert_eq!(c.join(SeqId(1), 3), Ok(2));
+    }
+}
