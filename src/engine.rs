@@ -95,7 +95,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             if legal & crate::sequencer::bit(from) == 0 {
                 return;
             }
-            self.with(|s| s.new_run(id, armed));
+            self.with(|s| s.new_run(id, None, armed));
             self.with(|s| s.due_by(id));
             let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
             if self.with(|s| s.restarted(&t, seen)) {
@@ -110,7 +110,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             _ => Cause::Completed,
         };
         let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
-        self.with(|s| s.end(&t)).map(|()| outcome)
+        if self.with(|s| s.end(&t)) {
+            Ok(outcome)
+        } else {
+            Err(self.with(|s| s.gate(id)))
+        }
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {

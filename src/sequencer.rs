@@ -7,8 +7,8 @@ use core::task::{RawWakerVTable, Waker};
 
 use crate::bits::Bits;
 use crate::control_block::{after, earlier, flag, request, ControlBlock, Link, NO_LANE};
-use crate::polling::Classes;
 use crate::lock::{CriticalSection, Lock};
+use crate::polling::Classes;
 use crate::safety::{AbortSequences, SafetyHandle};
 use crate::{
     time, Cause, Error, Handle, Instant, Outcome, RunningState, SeqConfig, SeqId, Transition,
@@ -52,10 +52,14 @@ pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
     /// Earliest next poll of a class with an active member (low 32 bits of µs, like the
     /// blocks' times; `NEVER_AHEAD` after the last scan when none is active).
     pub(crate) next_due: u32,
-    /// `Running` or `Paused` (kept by [`shift`](Inner::shift)).
+    /// `Running` or `Paused`, as of the start of the last tick (the tick folds `changed`
+    /// in before it scans).
     pub(crate) active: Bits,
-    /// `Paused` (kept by [`shift`](Inner::shift)).
+    /// `Paused`, as `active`.
     pub(crate) paused: Bits,
+    /// The state changed since the tick last folded it into `active` and `paused` (kept by
+    /// [`shift`](Inner::shift): one word operation per transition).
+    pub(crate) changed: Bits,
     /// A new run or restart began: the tick resets the edge detection of these sequences'
     /// monitors before their next evaluation.
     pub(crate) fresh: Bits,
@@ -211,7 +215,12 @@ impl<C, const N: usize, const T: usize, const BASEPRI: u8, const W: usize>
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
     const fn empty() -> Self {
-        const { assert!(N <= crate::MAX_SEQUENCES, "at most MAX_SEQUENCES (32) sequences and steps") };
+        const {
+            assert!(
+                N <= crate::MAX_SEQUENCES,
+                "at most MAX_SEQUENCES (32) sequences and steps"
+            )
+        };
         const { assert!(W <= 32, "at most 32 lanes") };
         Sequencer {
             abort_all: AtomicBool::new(false),
@@ -229,6 +238,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 next_due: 0,
                 active: Bits::EMPTY,
                 paused: Bits::EMPTY,
+                changed: Bits::EMPTY,
                 fresh: Bits::EMPTY,
                 armed: Bits::EMPTY,
                 excepting: Bits::EMPTY,
@@ -492,10 +502,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if STARTABLE & bit(from) == 0 {
                 return Err(Error::AlreadyRunning(id));
             }
-            self.with(|s| s.new_run(id, armed));
+            self.with(|s| s.new_run(id, Some(link), armed));
             self.with(|s| s.due_by(id));
             let t = Transition::edge(id, from, RunningState::Running, cause);
-            if self.with(|s| s.start(&t, seen, link, flags))? {
+            if self.with(|s| s.start(&t, seen, flags)) {
                 break;
             }
         }
@@ -589,7 +599,6 @@ pub(crate) const fn sources(to: RunningState) -> u8 {
     }
 }
 
-
 /// A safety level that demands it aborts every sequence through the sequencer.
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> AbortSequences
     for Sequencer<C, N, T, L, W>
@@ -659,21 +668,12 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// transition) and lean: it runs inside sections.
     #[inline(never)]
     pub(crate) fn shift(&mut self, t: &crate::trace::Edge) -> Option<&mut ControlBlock> {
-        let one = Bits::of(t.sequence);
-        // A run ends only through the gate `Go`: not while its exception is handled.
-        let held = t.to == RunningState::Terminated && !self.excepting.and(one).is_empty();
         let b = self.blocks.get_mut(t.sequence.index())?;
-        if b.state != t.from || held {
+        if b.state != t.from {
             return None;
         }
         b.state = t.to;
-        let (active, paused) = match t.to {
-            RunningState::Running => (one, Bits::EMPTY),
-            RunningState::Paused => (one, one),
-            _ => (Bits::EMPTY, Bits::EMPTY),
-        };
-        self.active = self.active.minus(one).or(active);
-        self.paused = self.paused.minus(one).or(paused);
+        self.changed = self.changed.or(Bits::of(t.sequence));
         if self.trace.push(self.now, t) {
             self.trace_lost = self.trace_lost.saturating_add(1);
         }
@@ -749,46 +749,57 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     }
 
     /// The commit of a start `t` ([`Sequencer::begin`] validated it and scheduled it at
-    /// `seen`): a new run under `caller`, with `flags` (all of them).
-    /// `Ok(false)`: a tick ran since (the time moved, or the state is not `t.from` any
-    /// more), nothing changed, schedule again; `AlreadyRunning` if the tick started it.
-    pub(crate) fn start(
-        &mut self,
-        t: &crate::trace::Edge,
-        seen: u32,
-        caller: Link,
-        flags: u16,
-    ) -> Result<bool, Error> {
+    /// `seen`): a new run with `flags` (all of them).
+    /// False: a tick ran since (the time moved, or the state is not `t.from` any more),
+    /// nothing changed, schedule again (which fails with `AlreadyRunning` if the tick
+    /// started it).
+    pub(crate) fn start(&mut self, t: &crate::trace::Edge, seen: u32, flags: u16) -> bool {
         if self.now as u32 != seen {
-            return Ok(false);
+            return false;
         }
         let Some(b) = self.shift(t) else {
-            let id = t.sequence;
-            return match self.block(id) {
-                Ok(b) if STARTABLE & bit(b.state) == 0 => Err(Error::AlreadyRunning(id)),
-                _ => Ok(false),
-            };
+            return false;
         };
-        b.caller = caller;
         // Clears the requests and the pending behaviour too.
         b.flags = flags;
-        Ok(true)
+        true
     }
 
-    /// After [`schedule`](Self::schedule), before the commit: the sets of a new run or
-    /// restart of `id` (fresh, no exception, not waiting for a poll, the timeout `armed` or
-    /// not). The tick reads them only of active sequences, and `id` is not active yet.
-    pub(crate) fn new_run(&mut self, id: SeqId, armed: bool) {
+    /// After [`schedule`](Self::schedule), before the commit, for a sequence that is not
+    /// active (else nothing): its caller link (`Some` for a new run; a restart keeps it
+    /// and drops its pending behaviour) and its sets (fresh, no exception, not waiting for
+    /// a poll, the timeout `armed` or not). The tick reads them only of active sequences.
+    pub(crate) fn new_run(&mut self, id: SeqId, caller: Option<Link>, armed: bool) {
+        let Some(b) = self.fast_mut(id) else { return };
+        if matches!(b.state, RunningState::Running | RunningState::Paused) {
+            return;
+        }
+        match caller {
+            Some(c) => b.caller = c,
+            // A new run's flags (set in its commit) have no pending behaviour either.
+            None => b.set_pending(None),
+        }
         self.fresh.set(id, true);
         self.armed.set(id, armed);
         self.excepting.set(id, false);
+        // A stale `poll_due` is cleared when the run first waits for a poll.
         self.poll_wait.set(id, false);
-        self.poll_due.set(id, false);
     }
 
     /// Whether a monitor or the timeout of `id` may raise an exception now.
     pub(crate) fn accepts_exception(&self, id: SeqId) -> bool {
-        self.active.has(id) && !self.excepting.has(id)
+        self.fast(id)
+            .is_some_and(|b| matches!(b.state, RunningState::Running | RunningState::Paused))
+            && !self.excepting.has(id)
+    }
+
+    /// Folds the state of sequence `id` into `active` and `paused`.
+    pub(crate) fn fold(&mut self, id: SeqId) {
+        let state = self.fast(id).map_or(RunningState::Idle, |b| b.state);
+        let paused = state == RunningState::Paused;
+        self.active
+            .set(id, paused || state == RunningState::Running);
+        self.paused.set(id, paused);
     }
 
     /// Wakes the lanes of the due exit-condition polls `polls` (with a coarse lock, in one
@@ -895,22 +906,16 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         if self.now as u32 != seen {
             return false;
         }
-        let Some(b) = self.shift(t) else {
-            return false;
-        };
-        b.set_pending(None);
-        true
+        self.shift(t).is_some()
     }
 
     /// Ends a run normally: `t` is `Running → Terminated` (cause `Completed` or
-    /// `PreConditionFalse`). If the sequence was aborted or restarted meanwhile, or its
-    /// exception is being handled (gate `Go` is `Running` without one: `shift` checks it),
-    /// returns what the gate says instead.
-    pub(crate) fn end(&mut self, t: &crate::trace::Edge) -> Result<(), Gate> {
-        match self.shift(t) {
-            Some(_) => Ok(()),
-            None => Err(self.gate(t.sequence)),
-        }
+    /// `PreConditionFalse`). False, and nothing changes, if the sequence was aborted or
+    /// restarted meanwhile or its exception is being handled (the gate says what to do
+    /// instead).
+    pub(crate) fn end(&mut self, t: &crate::trace::Edge) -> bool {
+        // A run ends only through the gate `Go`: not while its exception is handled.
+        !self.excepting.has(t.sequence) && self.shift(t).is_some()
     }
 
     /// After a run's framework returned: store the outcome and report the end of an

@@ -123,14 +123,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     ) {
         let now_us = now.as_ticks();
         let abort_all = self.take_abort_all();
-        let (work, any_due) = self.with(|s| {
+        let (work, any_due, changed) = self.with(|s| {
             s.now = now_us;
             // Truncation is the point: control-block times are the low 32 bits.
             (
                 core::mem::take(&mut s.work),
                 reached32(now_us as u32, s.next_due),
+                core::mem::take(&mut s.changed),
             )
         });
+        self.fold(changed);
         if abort_all {
             self.apply_abort_all(control);
         }
@@ -139,6 +141,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
         if !any_due {
             return;
+        }
+        if abort_all || work {
+            // What they stopped or paused is not due any more.
+            self.fold(self.with(|s| core::mem::take(&mut s.changed)));
         }
         let polls = self.scan(now_us);
         if !polls.fresh.is_empty() {
@@ -194,6 +200,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             } else {
                 self.wake_polls(polls.wake, careful);
             }
+        }
+    }
+
+    /// Folds the state of the sequences `changed` into the sets `active` and `paused`, one
+    /// short section per sequence.
+    fn fold(&self, changed: Bits) {
+        for id in changed {
+            self.with(|s| s.fold(id));
         }
     }
 
@@ -321,7 +335,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline(never)]
     fn timeout(&self, id: SeqId, control: &C) {
         let expired = self.with(|s| {
-            if s.paused.has(id) || !s.accepts_exception(id) {
+            let running = s.fast(id).is_some_and(|b| b.state == RunningState::Running);
+            if !running || !s.accepts_exception(id) {
                 return None;
             }
             s.armed.set(id, false);
