@@ -523,7 +523,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         self.tear_down(control, None, Cause::AbortAll, false);
     }
 
-    /// Applies finished exception sequences and abort/pause/resume requests.
+    /// Applies finished exception sequences and abort/pause/resume requests (out of line:
+    /// one copy, whatever the monitor tables the tick is instantiated for).
+    #[inline(never)]
     fn apply_requests(&self, control: &C) {
         let count = self.with(|s| s.count);
         for i in 0..count {
