@@ -25,30 +25,15 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{AbortAll, Completed, Start};
 use rtseq::RunningState::{Aborted, Aborting, Idle, Running, Terminated};
 use rtseq::{Cx, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
+use rtseq_scenarios::emergency::{
+    self, Machine, EMERGENCY, ENABLE, ESTOP_IN, FAULT, MOVING, OFF, POWERING, READY, START_MOVING,
+    SWITCH_ON,
+};
 
 // ---------------------------------------------------------------------------------------
-// The safety system: five levels, one critical input, two critical outputs.
+// The control system and the safety system's I/O; the safety system itself is shared
+// with the firmware (`rtseq_scenarios::emergency`).
 // ---------------------------------------------------------------------------------------
-
-const EMERGENCY: SafetyLevel = SafetyLevel::new(0);
-const OFF: SafetyLevel = SafetyLevel::new(1);
-const POWERING: SafetyLevel = SafetyLevel::new(2);
-const READY: SafetyLevel = SafetyLevel::new(3);
-const MOVING: SafetyLevel = SafetyLevel::new(4);
-
-const SWITCH_ON: PublicEvent = PublicEvent::new(0);
-const START_MOVING: PublicEvent = PublicEvent::new(1);
-const FAULT: PublicEvent = PublicEvent::new(2);
-const RESET: PublicEvent = PublicEvent::new(3);
-const ESTOP: PrivateEvent = PrivateEvent::new(0);
-const POWERED: PrivateEvent = PrivateEvent::new(1);
-
-const ESTOP_IN: CriticalInput<bool> = CriticalInput::new(0, "estop pressed");
-const ENABLE: CriticalOutput<bool> = CriticalOutput::new(0, "drive enable");
-const LAMP: CriticalOutput<bool> = CriticalOutput::new(1, "status lamp");
-
-/// Cycles the power stage needs in `POWERING` before the level action reports `POWERED`.
-const POWER_UP_CYCLES: u32 = 2;
 
 /// The control system: the machine's IO (shared with the safety system) and a log of what
 /// the sequences' action lines saw.
@@ -88,50 +73,16 @@ impl SafetyIo for &'static Ctrl {
     }
 }
 
-fn power_up(ctx: &mut SafetyContext<'_>, io: &mut Io) {
-    let n = io.powering_cycles.get() + 1;
-    io.powering_cycles.set(n);
-    if n == POWER_UP_CYCLES {
-        ctx.trigger(POWERED);
+impl Machine for &'static Ctrl {
+    fn powering_cycles(&self) -> u32 {
+        self.powering_cycles.get()
+    }
+    fn set_powering_cycles(&mut self, n: u32) {
+        self.powering_cycles.set(n);
     }
 }
 
-const WATCH_ESTOP: [InputAction; 1] = [ESTOP_IN.check(false, ESTOP)];
-
-static PROPS: ValidProperties<'static, Io, 5> = match SafetyProperties::new(
-    [
-        LevelDef::new(EMERGENCY, "emergency")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(false), LAMP.toggle()])
-            .abort_sequences(AbortPolicy::WhileActive),
-        LevelDef::new(OFF, "off")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(false), LAMP.set(false)]),
-        LevelDef::new(POWERING, "powering")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(false), LAMP.toggle()])
-            .level_action(power_up),
-        LevelDef::new(READY, "ready")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(true), LAMP.set(true)]),
-        LevelDef::new(MOVING, "moving")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(true), LAMP.set(true)]),
-    ],
-    &[ESTOP_IN.info()],
-    &[ENABLE.info(), LAMP.info()],
-    &[
-        Transition::on_level_and_above(EMERGENCY, ESTOP, EMERGENCY),
-        Transition::on_level_and_above(OFF, FAULT, EMERGENCY),
-        Transition::on(EMERGENCY, RESET, OFF),
-        Transition::on(OFF, SWITCH_ON, POWERING),
-        Transition::on(POWERING, POWERED, READY),
-        Transition::on(READY, START_MOVING, MOVING),
-    ],
-    OFF,
-)
-.validated()
-{
+static PROPS: ValidProperties<'static, Io, 5> = match emergency::properties() {
     Ok(valid) => valid,
     Err(_) => panic!("invalid safety properties"),
 };

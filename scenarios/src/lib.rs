@@ -21,6 +21,8 @@
 //! * [`Scenario`]: a registration function, a script run before every tick, a duration.
 //! * [`encode`] / [`decode`]: a [`rtseq::Transition`] as six integers, the wire format of
 //!   the firmware's trace.
+//! * [`emergency`]: the safety system of the emergency scenario (`tests/emergency.rs`,
+//!   `boards/qemu-f405/src/bin/emergency.rs`), generic over the I/O type.
 //!
 //! ## Adding a scenario
 //! Write a registration function (register names first with `Sequencer::register` so ids
@@ -38,6 +40,7 @@
 )]
 
 mod ctrl;
+pub mod emergency;
 mod encode;
 mod list;
 mod node;

@@ -31,6 +31,9 @@ use core::task::{Context, Poll};
 use rtseq::safety::*;
 use rtseq::{Cx, Seq, SeqId, Sequence, Step};
 use rtseq_qemu_f405 as board;
+use rtseq_scenarios::emergency::{
+    self, Machine, EMERGENCY, ENABLE, FAULT, MOVING, READY, START_MOVING, SWITCH_ON,
+};
 
 /// Ticks run.
 const RUN_TICKS: u32 = 14;
@@ -38,7 +41,8 @@ const RUN_TICKS: u32 = 14;
 const FAULT_TICK: u32 = 10;
 
 // ---------------------------------------------------------------------------------------
-// The control system and the safety system (the same as the host test's).
+// The control system and the safety system's I/O; the safety system itself is shared
+// with the host test (`rtseq_scenarios::emergency`).
 // ---------------------------------------------------------------------------------------
 
 /// The machine's IO, shared by the safety system, the sequences and the fault injection.
@@ -58,23 +62,6 @@ static CTRL: Ctrl = Ctrl {
     powering_cycles: AtomicU32::new(0),
 };
 
-const EMERGENCY: SafetyLevel = SafetyLevel::new(0);
-const OFF: SafetyLevel = SafetyLevel::new(1);
-const POWERING: SafetyLevel = SafetyLevel::new(2);
-const READY: SafetyLevel = SafetyLevel::new(3);
-const MOVING: SafetyLevel = SafetyLevel::new(4);
-
-const SWITCH_ON: PublicEvent = PublicEvent::new(0);
-const START_MOVING: PublicEvent = PublicEvent::new(1);
-const FAULT: PublicEvent = PublicEvent::new(2);
-const RESET: PublicEvent = PublicEvent::new(3);
-const ESTOP: PrivateEvent = PrivateEvent::new(0);
-const POWERED: PrivateEvent = PrivateEvent::new(1);
-
-const ESTOP_IN: CriticalInput<bool> = CriticalInput::new(0, "estop pressed");
-const ENABLE: CriticalOutput<bool> = CriticalOutput::new(0, "drive enable");
-const LAMP: CriticalOutput<bool> = CriticalOutput::new(1, "status lamp");
-
 /// The safety system's view of [`CTRL`].
 pub struct Plant;
 
@@ -92,50 +79,16 @@ impl SafetyIo for Plant {
     }
 }
 
-fn power_up(ctx: &mut SafetyContext<'_>, _io: &mut Plant) {
-    let n = CTRL.powering_cycles.load(Relaxed).wrapping_add(1);
-    CTRL.powering_cycles.store(n, Relaxed);
-    if n == 2 {
-        ctx.trigger(POWERED);
+impl Machine for Plant {
+    fn powering_cycles(&self) -> u32 {
+        CTRL.powering_cycles.load(Relaxed)
+    }
+    fn set_powering_cycles(&mut self, n: u32) {
+        CTRL.powering_cycles.store(n, Relaxed);
     }
 }
 
-const WATCH_ESTOP: [InputAction; 1] = [ESTOP_IN.check(false, ESTOP)];
-
-static PROPS: ValidProperties<'static, Plant, 5> = match SafetyProperties::new(
-    [
-        LevelDef::new(EMERGENCY, "emergency")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(false), LAMP.toggle()])
-            .abort_sequences(AbortPolicy::WhileActive),
-        LevelDef::new(OFF, "off")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(false), LAMP.set(false)]),
-        LevelDef::new(POWERING, "powering")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(false), LAMP.toggle()])
-            .level_action(power_up),
-        LevelDef::new(READY, "ready")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(true), LAMP.set(true)]),
-        LevelDef::new(MOVING, "moving")
-            .inputs(&WATCH_ESTOP)
-            .outputs(&[ENABLE.set(true), LAMP.set(true)]),
-    ],
-    &[ESTOP_IN.info()],
-    &[ENABLE.info(), LAMP.info()],
-    &[
-        Transition::on_level_and_above(EMERGENCY, ESTOP, EMERGENCY),
-        Transition::on_level_and_above(OFF, FAULT, EMERGENCY),
-        Transition::on(EMERGENCY, RESET, OFF),
-        Transition::on(OFF, SWITCH_ON, POWERING),
-        Transition::on(POWERING, POWERED, READY),
-        Transition::on(READY, START_MOVING, MOVING),
-    ],
-    OFF,
-)
-.validated()
-{
+static PROPS: ValidProperties<'static, Plant, 5> = match emergency::properties() {
     Ok(valid) => valid,
     Err(_) => panic!("invalid safety properties"),
 };
