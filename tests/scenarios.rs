@@ -674,6 +674,29 @@ fn registry_errors_are_reported_not_panicked() {
         monitors.add(a, Monitor::new("m2", &mut t2, Behaviour::Nothing)),
         Err(Error::MonitorCapacityExceeded)
     ));
+    // An owner id no sequencer hands out (its bit would not fit a set of sequences).
+    let mut t3 = |_: &Ctrl, _| true;
+    let mut wide: Monitors<Ctrl, 1> = Monitors::new();
+    let beyond = SeqId::from_index(rtseq::MAX_SEQUENCES);
+    assert!(matches!(
+        wide.add(beyond, Monitor::new("far", &mut t3, Behaviour::Nothing)),
+        Err(Error::UnknownSequence(x)) if x == beyond
+    ));
+    // One polling class per distinct period, at most `MAX_POLLING_CLASSES`; a period
+    // already registered joins its class.
+    let many: Sequencer<Ctrl, 16> = Sequencer::new();
+    const NAMES: [&str; 9] = ["p1", "p2", "p3", "p4", "p5", "p6", "p7", "p8", "p9"];
+    for (ms, name) in (1..).zip(NAMES) {
+        let r = many.register(SeqConfig::new(name).polling(Duration::from_millis(ms)));
+        if ms as usize <= rtseq::MAX_POLLING_CLASSES {
+            assert!(r.is_ok(), "{name}: {r:?}");
+        } else {
+            assert_eq!(r, Err(Error::PollingClassesExceeded));
+        }
+    }
+    assert!(many
+        .register(SeqConfig::new("again 1 ms").polling(Duration::from_millis(1)))
+        .is_ok());
 }
 
 #[test]
