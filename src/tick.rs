@@ -106,7 +106,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// pending requests, evaluates the monitors and timeouts of every sequence whose polling
     /// period is due, and wakes the lanes that must act.
     ///
-    /// A tick with nothing due returns after one short critical section.
+    /// A tick with nothing due (and no state change since the last one) returns after one
+    /// short critical section.
     ///
     /// ```
     /// use rtseq::{Instant, Monitors, SeqConfig, Sequencer};
