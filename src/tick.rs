@@ -336,8 +336,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline(never)]
     fn timeout(&self, id: SeqId, control: &C) {
         let expired = self.with(|s| {
+            // Only while running (a paused timeout is frozen) and without an exception.
             let running = s.fast(id).is_some_and(|b| b.state == RunningState::Running);
-            if !running || !s.accepts_exception(id) {
+            if !running || s.excepting.has(id) {
                 return None;
             }
             s.armed.set(id, false);
