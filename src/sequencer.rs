@@ -306,7 +306,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     }
 
     /// Binds the sequence or step object `body` to a registered id; each id binds once.
-    #[inline(never)]
+    // Inline, like `add`: the work is in `claim`.
+    #[inline]
     pub fn bind<S>(&self, id: SeqId, body: S) -> Result<crate::Seq<S>, Error> {
         self.claim(id)?;
         Ok(crate::Seq {
@@ -348,8 +349,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// let enable = seq.add(SeqConfig::new("enable"), Enable).unwrap();
     /// assert_eq!(seq.sequence_by_id(enable.id()).unwrap().name(), "enable");
     /// ```
-    // Out of line: set-up code; inlined, it is copied into every registration site.
-    #[inline(never)]
+    // Inline (the work is in `register_bound`): out of line, every body type had a copy
+    // that moved the body and the error into the result (≈ 90 B each, measured).
+    #[inline]
     pub fn add<S>(&self, config: SeqConfig<C>, body: S) -> Result<crate::Seq<S>, Error> {
         let id = self.register_bound(config)?;
         Ok(crate::Seq {
