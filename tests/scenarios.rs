@@ -934,3 +934,74 @@ fn control_block_times_wrap_at_32_bits_without_changing_anything() {
         assert_eq!(pause_timeout_trace(base), reference, "base {base}");
     }
 }
+
+/// Polling classes: a start into a class whose grid runs (another member is active) joins
+/// the grid, its first poll within one period; a start into an idle class starts a grid of
+/// its own, the first poll one period after the start.
+#[test]
+fn a_start_into_a_busy_polling_class_joins_its_grid() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let step = |name, period_ms, flag| {
+        seq.add(
+            SeqConfig::new(name).polling(Duration::from_millis(period_ms)),
+            Leaf::until(flag),
+        )
+        .unwrap()
+    };
+    // P runs in the 10 ms class from 0 ms: its grid is 10, 20, 30, ...
+    let sp = step("SP", 10, 0);
+    let spi = sp.id();
+    let p = seq
+        .add(SeqConfig::new("P"), Node::of(vec![Op::Step(sp)]))
+        .unwrap();
+    // Q's step joins the busy 10 ms class at 13 ms; R's step is alone in the 4 ms class.
+    let sq = step("SQ", 10, 1);
+    let sqi = sq.id();
+    let q = seq
+        .add(SeqConfig::new("Q"), Node::of(vec![Op::Step(sq)]))
+        .unwrap();
+    let sr = step("SR", 4, 1);
+    let sri = sr.id();
+    let r = seq
+        .add(SeqConfig::new("R"), Node::of(vec![Op::Step(sr)]))
+        .unwrap();
+    let (pi, qi, ri) = (p.id(), q.id(), r.id());
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(p);
+    sim.lane(q);
+    sim.lane(r);
+    // The exit conditions are checked right after the action, then at every poll: flag 1
+    // (SQ's and SR's) is true from 14 ms, flag 0 (SP's) from 25 ms.
+    sim.before_tick(|t, c| {
+        c.set(1, ms(t) >= 14);
+        c.set(0, ms(t) >= 25);
+    });
+    sim.start(pi).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(13_000));
+    sim.start(qi).unwrap();
+    sim.start(ri).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(40_000));
+    let ended = |id| {
+        sim.trace()
+            .iter()
+            .filter(|t| t.sequence == id && t.to == Terminated)
+            .map(|t| ms(t.time))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        ended(spi),
+        vec![30],
+        "P's step: the grid of 10 ms from its start at 0"
+    );
+    assert_eq!(
+        ended(sqi),
+        vec![20],
+        "joins the running grid: 20, not 13 + 10"
+    );
+    assert_eq!(
+        ended(sri),
+        vec![17],
+        "an idle class: one period after the start at 13"
+    );
+}
