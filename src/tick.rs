@@ -467,40 +467,36 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// one copy, whatever the monitor tables the tick is instantiated for).
     #[inline(never)]
     fn apply_requests(&self, control: &C) {
-        let count = self.with(|s| s.count);
-        for i in 0..count {
-            let id = SeqId(i);
+        // Unregistered blocks have neither.
+        for i in 0..N {
+            // At most 31 (`N` ≤ 32): fits a byte.
+            let id = SeqId(i as u8);
+            // The requests, and the behaviour pending for an exception sequence that ended.
             let (req, done) = self.with(|s| {
-                let Some(b) = s.fast_mut(id) else {
+                let Some(b) = s.blocks.get_mut(i) else {
                     return (0, None);
                 };
-                let req = b.take_requests();
-                let done = if b.has(flag::EXCEPTION_DONE) {
+                let mut done = None;
+                if b.has(flag::EXCEPTION_DONE) {
                     b.set(flag::EXCEPTION_DONE, false);
-                    let behaviour = b.pending();
+                    done = b.pending();
                     b.set_pending(None);
-                    let cause = b.active_exception.unwrap_or(Cause::Abort);
-                    let caller = b.caller.get();
-                    behaviour.map(|behaviour| {
-                        let target = if behaviour.targets_caller() {
-                            caller.unwrap_or(id)
-                        } else {
-                            id
-                        };
-                        (behaviour, target, cause)
-                    })
-                } else {
-                    None
-                };
-                (req, done)
+                }
+                (b.take_requests(), done)
             });
-            if let Some((behaviour, target, cause)) = done {
+            if let Some(behaviour) = done {
+                // Unless it was stopped meanwhile: the cause and the target.
                 let still = self.with(|s| {
-                    s.block(id).is_ok_and(|b| {
-                        matches!(b.state, RunningState::Running | RunningState::Paused)
-                    })
+                    s.fast(id)
+                        .filter(|b| matches!(b.state, RunningState::Running | RunningState::Paused))
+                        .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
                 });
-                if still {
+                if let Some((cause, caller)) = still {
+                    let target = if behaviour.targets_caller() {
+                        caller.unwrap_or(id)
+                    } else {
+                        id
+                    };
                     self.apply(control, id, behaviour, target, cause);
                 }
             }
