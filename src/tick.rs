@@ -339,14 +339,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline(never)]
     fn timeout(&self, id: SeqId, control: &C) {
         let expired = self.with(|s| {
+            let b = s.block(id).ok()?;
             // Only while running (a paused timeout is frozen) and without an exception.
-            let running = s.fast(id).is_some_and(|b| b.state == RunningState::Running);
-            if !running || s.excepting.has(id) {
+            if b.state != RunningState::Running || s.excepting.has(id) {
                 return None;
             }
-            s.armed.set(id, false);
-            let b = s.block(id).ok()?;
-            Some((
+            let expired = (
                 b.timeout_behaviour,
                 b.timeout_exception.get(),
                 RestartBook {
@@ -354,7 +352,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                     runs_seen: b.timeout_runs_seen,
                     limit: b.timeout_restart_limit,
                 },
-            ))
+            );
+            s.armed.set(id, false);
+            Some(expired)
         });
         if let Some((behaviour, exception, mut book)) = expired {
             self.raise(
