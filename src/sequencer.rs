@@ -788,13 +788,6 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         self.poll_wait.set(id, false);
     }
 
-    /// Whether a monitor or the timeout of `id` may raise an exception now.
-    pub(crate) fn accepts_exception(&self, id: SeqId) -> bool {
-        self.fast(id)
-            .is_some_and(|b| matches!(b.state, RunningState::Running | RunningState::Paused))
-            && !self.excepting.has(id)
-    }
-
     /// Folds the state of sequence `id` into `active` and `paused`: two masked word
     /// updates, no branch on the state.
     pub(crate) fn fold(&mut self, id: SeqId) {

@@ -6,7 +6,7 @@
 //! User conditions and cleanup hooks run outside the critical sections.
 
 use crate::bits::Bits;
-use crate::control_block::{flag, reached32, request, Link, NEVER_AHEAD, NO_LANE};
+use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD, NO_LANE};
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
 use crate::polling::Due;
@@ -56,6 +56,15 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             careful: !self.paused.or(self.excepting).and(self.active).is_empty(),
         };
         (polls, running.and(self.armed))
+    }
+
+    /// The block of `id`, registered or not, without comparing with `count`: an
+    /// unregistered block is idle, in no lane and linked to nothing. Each use in this
+    /// module reads the block of an active sequence or of its caller, or tests for
+    /// `Running` or `Paused`, where that answers as no block would.
+    #[inline]
+    fn slot(&self, id: SeqId) -> Option<&ControlBlock> {
+        self.blocks.get(id.index())
     }
 
     /// Those of `timed` whose timeout deadline has passed at `now`.
@@ -277,7 +286,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding
     /// for an exception): it is woken when it may go on. One short section per caller.
     fn held(&self, id: SeqId) -> bool {
-        let lane = self.with(|s| s.fast(id).map_or(NO_LANE, |b| b.lane));
+        let lane = self.with(|s| s.slot(id).map_or(NO_LANE, |b| b.lane));
         let mut at = Link::to(Some(id));
         // The sequence and at most `MAX_DEPTH` callers.
         for _ in 0..DEPTH_LIMIT {
@@ -387,8 +396,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         book: &mut RestartBook,
     ) -> bool {
         let Some((target, target_runs)) = self.with(|s| {
-            let b = s.fast(owner)?;
-            if !s.accepts_exception(owner) {
+            let b = s.slot(owner)?;
+            // Active, and not handling an exception already.
+            if !matches!(b.state, RunningState::Running | RunningState::Paused)
+                || s.excepting.has(owner)
+            {
                 return None;
             }
             let target = if behaviour.targets_caller() {
@@ -396,7 +408,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             } else {
                 owner
             };
-            Some((target, s.fast(target)?.runs))
+            Some((target, s.slot(target)?.runs))
         }) else {
             return false;
         };
@@ -487,7 +499,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if let Some(behaviour) = done {
                 // Unless it was stopped meanwhile: the cause and the target.
                 let still = self.with(|s| {
-                    s.fast(id)
+                    s.slot(id)
                         .filter(|b| matches!(b.state, RunningState::Running | RunningState::Paused))
                         .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
                 });
@@ -534,7 +546,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         };
         let (states, lane) = if pause {
             let Some(lane) = target
-                .and_then(|t| self.with(|s| s.fast(t).filter(|b| b.state == from).map(|b| b.lane)))
+                .and_then(|t| self.with(|s| s.slot(t).filter(|b| b.state == from).map(|b| b.lane)))
             else {
                 return;
             };
