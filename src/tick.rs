@@ -6,7 +6,7 @@
 //! User conditions and cleanup hooks run outside the critical sections.
 
 use crate::bits::Bits;
-use crate::control_block::{flag, reached32, request, Link, NEVER_AHEAD, NO_LANE};
+use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD, NO_LANE};
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
 use crate::polling::Due;
@@ -17,6 +17,9 @@ use crate::{
 
 /// `depth + 1` of the deepest possible sequence.
 const DEPTH_LIMIT: u8 = MAX_DEPTH as u8 + 1;
+
+/// The depths a sequence can have (0 to `MAX_DEPTH` callers).
+const DEPTHS: usize = MAX_DEPTH + 1;
 
 /// What the tick must do for the sequences whose poll is due.
 struct Polls {
@@ -53,6 +56,15 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             careful: !self.paused.or(self.excepting).and(self.active).is_empty(),
         };
         (polls, running.and(self.armed))
+    }
+
+    /// The block of `id`, registered or not, without comparing with `count`: an
+    /// unregistered block is idle, in no lane and linked to nothing. Each use in this
+    /// module reads the block of an active sequence or of its caller, or tests for
+    /// `Running` or `Paused`, where that answers as no block would.
+    #[inline]
+    fn slot(&self, id: SeqId) -> Option<&ControlBlock> {
+        self.blocks.get(id.index())
     }
 
     /// Those of `timed` whose timeout deadline has passed at `now`.
@@ -274,7 +286,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding
     /// for an exception): it is woken when it may go on. One short section per caller.
     fn held(&self, id: SeqId) -> bool {
-        let lane = self.with(|s| s.fast(id).map_or(NO_LANE, |b| b.lane));
+        let lane = self.with(|s| s.slot(id).map_or(NO_LANE, |b| b.lane));
         let mut at = Link::to(Some(id));
         // The sequence and at most `MAX_DEPTH` callers.
         for _ in 0..DEPTH_LIMIT {
@@ -336,14 +348,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline(never)]
     fn timeout(&self, id: SeqId, control: &C) {
         let expired = self.with(|s| {
+            let b = s.block(id).ok()?;
             // Only while running (a paused timeout is frozen) and without an exception.
-            let running = s.fast(id).is_some_and(|b| b.state == RunningState::Running);
-            if !running || s.excepting.has(id) {
+            if b.state != RunningState::Running || s.excepting.has(id) {
                 return None;
             }
-            s.armed.set(id, false);
-            let b = s.block(id).ok()?;
-            Some((
+            let expired = (
                 b.timeout_behaviour,
                 b.timeout_exception.get(),
                 RestartBook {
@@ -351,7 +361,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                     runs_seen: b.timeout_runs_seen,
                     limit: b.timeout_restart_limit,
                 },
-            ))
+            );
+            s.armed.set(id, false);
+            Some(expired)
         });
         if let Some((behaviour, exception, mut book)) = expired {
             self.raise(
@@ -384,8 +396,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         book: &mut RestartBook,
     ) -> bool {
         let Some((target, target_runs)) = self.with(|s| {
-            let b = s.fast(owner)?;
-            if !s.accepts_exception(owner) {
+            let b = s.slot(owner)?;
+            // Active, and not handling an exception already.
+            if !matches!(b.state, RunningState::Running | RunningState::Paused)
+                || s.excepting.has(owner)
+            {
                 return None;
             }
             let target = if behaviour.targets_caller() {
@@ -393,7 +408,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             } else {
                 owner
             };
-            Some((target, s.fast(target)?.runs))
+            Some((target, s.slot(target)?.runs))
         }) else {
             return false;
         };
@@ -442,37 +457,112 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
-        match behaviour {
+        let to = match behaviour {
             Behaviour::Nothing => {
                 self.with(|s| s.excepting.set(owner, false));
                 self.wake_lane(owner);
+                return;
             }
-            Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => {
-                self.tear_down(control, Some(target), cause, false)
+            Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,
+            Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => RunningState::Restarting,
+        };
+        self.walk(control, Some(target), to, cause);
+    }
+
+    /// Aborts every active sequence, innermost first.
+    #[inline(never)]
+    fn apply_abort_all(&self, control: &C) {
+        self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+    }
+
+    /// Applies finished exception sequences and abort/pause/resume requests (out of line:
+    /// one copy, whatever the monitor tables the tick is instantiated for).
+    #[inline(never)]
+    fn apply_requests(&self, control: &C) {
+        // Unregistered blocks have neither.
+        for i in 0..N {
+            // At most 31 (`N` ≤ 32): fits a byte.
+            let id = SeqId(i as u8);
+            // The requests, and the behaviour pending for an exception sequence that ended.
+            let (req, done) = self.with(|s| {
+                let Some(b) = s.blocks.get_mut(i) else {
+                    return (0, None);
+                };
+                let mut done = None;
+                if b.has(flag::EXCEPTION_DONE) {
+                    b.set(flag::EXCEPTION_DONE, false);
+                    done = b.pending();
+                    b.set_pending(None);
+                }
+                (b.take_requests(), done)
+            });
+            if let Some(behaviour) = done {
+                // Unless it was stopped meanwhile: the cause and the target.
+                let still = self.with(|s| {
+                    s.slot(id)
+                        .filter(|b| matches!(b.state, RunningState::Running | RunningState::Paused))
+                        .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
+                });
+                if let Some((cause, caller)) = still {
+                    let target = if behaviour.targets_caller() {
+                        caller.unwrap_or(id)
+                    } else {
+                        id
+                    };
+                    self.apply(control, id, behaviour, target, cause);
+                }
             }
-            Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => {
-                self.tear_down(control, Some(target), cause, true)
-            }
+            // One request at a time, abort first.
+            let (to, cause) = if req & request::ABORT != 0 {
+                (RunningState::Aborting, Cause::Abort)
+            } else if req & request::PAUSE != 0 {
+                (RunningState::Paused, Cause::Pause)
+            } else if req & request::RESUME != 0 {
+                (RunningState::Running, Cause::Resume)
+            } else {
+                continue;
+            };
+            self.walk(control, Some(id), to, cause);
         }
     }
 
-    /// Aborts `target` and every active sub-sequence of it (blocking and non-blocking), or
-    /// every active sequence when `target` is `None` (abort-all), innermost first, each
-    /// through `Aborting` (cleanup hook) to `Aborted`. With `restart`, the target itself
-    /// goes to `Restarting` instead.
-    fn tear_down(&self, control: &C, target: Option<SeqId>, cause: Cause, restart: bool) {
-        // Active, not already `Aborting`.
-        let stoppable = sources(RunningState::Aborting);
-        let affected = self.levels(target, stoppable, None);
-        for depth in (1..=DEPTH_LIMIT).rev() {
-            for (i, a) in affected.iter().enumerate() {
-                let Ok(id) = u8::try_from(i).map(SeqId) else {
-                    continue;
-                };
-                if *a != depth {
-                    continue;
-                }
-                if restart && Some(id) == target {
+    /// Moves `target` and the sequences below it (every active sequence without a target)
+    /// to `to`, one at a time, for `cause`: the one walk of teardowns and pauses.
+    ///
+    /// * `Aborting` or `Restarting`: aborts `target` and every active sub-sequence of it
+    ///   (blocking and non-blocking), innermost first, each through `Aborting` (cleanup
+    ///   hook) to `Aborted`; with `Restarting`, the target itself goes to `Restarting`
+    ///   instead.
+    /// * `Paused` (`Running`): pauses (resumes) a running (paused) `target` and the
+    ///   sequences it blocks in its lane, outermost first.
+    #[inline(never)]
+    fn walk(&self, control: &C, target: Option<SeqId>, to: RunningState, cause: Cause) {
+        let pause = matches!(to, RunningState::Paused | RunningState::Running);
+        // What a pause leaves (a resume: `Paused`).
+        let from = if to == RunningState::Paused {
+            RunningState::Running
+        } else {
+            RunningState::Paused
+        };
+        let (states, lane) = if pause {
+            let Some(lane) = target
+                .and_then(|t| self.with(|s| s.slot(t).filter(|b| b.state == from).map(|b| b.lane)))
+            else {
+                return;
+            };
+            (bit(from), Some(lane))
+        } else {
+            // Active, not already `Aborting`.
+            (sources(RunningState::Aborting), None)
+        };
+        let rows = self.levels(target, states, lane);
+        for k in 0..DEPTHS {
+            // Pauses outermost first, teardowns innermost first.
+            let depth = if pause { k } else { MAX_DEPTH - k };
+            for id in rows.get(depth).copied().unwrap_or_default() {
+                if pause {
+                    self.pause(&Transition::edge(id, from, to, cause));
+                } else if to == RunningState::Restarting && Some(id) == target {
                     self.stop(control, id, cause, RunningState::Restarting);
                 } else {
                     self.stop(control, id, cause, RunningState::Aborting);
@@ -519,163 +609,78 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         self.wake_lane(id);
     }
 
-    /// Aborts every active sequence, innermost first.
-    #[inline(never)]
-    fn apply_abort_all(&self, control: &C) {
-        self.tear_down(control, None, Cause::AbortAll, false);
-    }
-
-    /// Applies finished exception sequences and abort/pause/resume requests (out of line:
-    /// one copy, whatever the monitor tables the tick is instantiated for).
-    #[inline(never)]
-    fn apply_requests(&self, control: &C) {
-        let count = self.with(|s| s.count);
-        for i in 0..count {
-            let id = SeqId(i);
-            let (req, done) = self.with(|s| {
-                let Some(b) = s.fast_mut(id) else {
-                    return (0, None);
-                };
-                let req = b.take_requests();
-                let done = if b.has(flag::EXCEPTION_DONE) {
-                    b.set(flag::EXCEPTION_DONE, false);
-                    let behaviour = b.pending();
-                    b.set_pending(None);
-                    let cause = b.active_exception.unwrap_or(Cause::Abort);
-                    let caller = b.caller.get();
-                    behaviour.map(|behaviour| {
-                        let target = if behaviour.targets_caller() {
-                            caller.unwrap_or(id)
-                        } else {
-                            id
-                        };
-                        (behaviour, target, cause)
-                    })
-                } else {
-                    None
-                };
-                (req, done)
-            });
-            if let Some((behaviour, target, cause)) = done {
-                let still = self.with(|s| {
-                    s.block(id).is_ok_and(|b| {
-                        matches!(b.state, RunningState::Running | RunningState::Paused)
-                    })
-                });
-                if still {
-                    self.apply(control, id, behaviour, target, cause);
-                }
-            }
-            if req & request::ABORT != 0 {
-                self.tear_down(control, Some(id), Cause::Abort, false);
-            } else if req & request::PAUSE != 0 {
-                self.pause_tree(id, true);
-            } else if req & request::RESUME != 0 {
-                self.pause_tree(id, false);
-            }
-        }
-    }
-
-    /// Pauses (or resumes) `target` and the sequences it blocks in its lane, outermost
-    /// first.
-    fn pause_tree(&self, target: SeqId, pause: bool) {
-        let (from, to, cause) = if pause {
-            (RunningState::Running, RunningState::Paused, Cause::Pause)
-        } else {
-            (RunningState::Paused, RunningState::Running, Cause::Resume)
-        };
-        let Some(lane) = self.with(|s| {
-            s.block(target)
-                .ok()
-                .filter(|b| b.state == from)
-                .map(|b| b.lane)
-        }) else {
+    /// Pauses or resumes one sequence (`t`: `Running → Paused` or `Paused → Running`).
+    fn pause(&self, t: &crate::trace::Edge) {
+        let (id, pause) = (t.sequence, t.to == RunningState::Paused);
+        if self.with(|s| s.shift(t).is_none()) {
             return;
-        };
-        // depth + 1 of each sequence inside, 0 = outside.
-        let inside = self.levels(Some(target), bit(from), Some(lane));
-        for d in 1..=DEPTH_LIMIT {
-            for (i, _) in inside.iter().enumerate().filter(|(_, &x)| x == d) {
-                let Ok(id) = u8::try_from(i).map(SeqId) else {
-                    continue;
-                };
-                let t = Transition::edge(id, from, to, cause);
-                if self.with(|s| s.shift(&t).is_none()) {
-                    continue;
-                }
-                // A paused timeout keeps its remaining time, not a deadline (nothing reads
-                // either before this: the tick is the one that would).
-                self.with(|s| {
-                    let now = s.now as u32;
-                    let armed = s.armed.has(id);
-                    let Ok(b) = s.block_mut(id) else { return };
-                    if armed {
-                        b.deadline = if pause {
-                            let left = b.deadline.wrapping_sub(now);
-                            if left >= 0x8000_0000 {
-                                0
-                            } else {
-                                left
-                            }
-                        } else {
-                            now.wrapping_add(b.deadline)
-                        };
-                    }
-                });
-                self.wake_lane(id);
-            }
         }
+        // A paused timeout keeps its remaining time, not a deadline (nothing reads either
+        // before this: the tick is the one that would).
+        self.with(|s| {
+            let now = s.now as u32;
+            let armed = s.armed.has(id);
+            let Ok(b) = s.block_mut(id) else { return };
+            if armed {
+                b.deadline = if pause {
+                    let left = b.deadline.wrapping_sub(now);
+                    if left >= 0x8000_0000 {
+                        0
+                    } else {
+                        left
+                    }
+                } else {
+                    now.wrapping_add(b.deadline)
+                };
+            }
+        });
+        self.wake_lane(id);
     }
 
-    /// For a teardown or a pause: depth + 1 of every sequence that is `target` or below it
-    /// (every one without a target) whose state is in `states` and, with a `lane`, that
-    /// runs in that lane; 0 for every other.
+    /// For a teardown or a pause: the sequences that are `target` or below it (every one
+    /// without a target) whose state is in `states` and, with a `lane`, that run in that
+    /// lane, by depth (outermost first, ids ascending in each row).
     ///
-    /// One short section per registered sequence copies its caller link and whether it
-    /// qualifies; the tree is walked in that copy, outside any section. Lanes cannot change
+    /// One short section per block (registered or not: an unregistered one is idle and
+    /// links to no caller) copies its caller link and whether it qualifies; the tree is
+    /// walked in that copy, outside any section. Lanes cannot change
     /// it meanwhile (the tick preempts them), and each change made from it is re-checked
     /// where it is made.
-    fn levels(&self, target: Option<SeqId>, states: u8, lane: Option<u8>) -> [u8; N] {
+    fn levels(&self, target: Option<SeqId>, states: u8, lane: Option<u8>) -> [Bits; DEPTHS] {
         let mut links = [Link::NONE; N];
-        let mut picked = [false; N];
-        let count = self.with(|s| usize::from(s.count));
-        for (i, (l, p)) in links
-            .iter_mut()
-            .zip(picked.iter_mut())
-            .enumerate()
-            .take(count)
-        {
-            (*l, *p) = self.with(|s| {
+        let mut picked = Bits::EMPTY;
+        // Unregistered blocks are idle and link to no caller: never picked.
+        for (i, l) in links.iter_mut().enumerate() {
+            let ok;
+            (*l, ok) = self.with(|s| {
                 s.blocks.get(i).map_or((Link::NONE, false), |b| {
                     let ok = states & bit(b.state) != 0 && lane.is_none_or(|l| l == b.lane);
                     (b.caller, ok)
                 })
             });
+            // At most 31 (`N` ≤ 32): fits a byte.
+            picked.set(SeqId(i as u8), ok);
         }
-        let mut level = [0u8; N];
-        for (i, (d, p)) in level.iter_mut().zip(picked).enumerate() {
-            let Ok(id) = u8::try_from(i).map(SeqId) else {
-                continue;
-            };
-            if p {
-                // Up the caller links (at most MAX_DEPTH): the depth, and whether the
-                // target is on the way.
-                let mut below = target.is_none_or(|t| t == id);
-                let mut depth: u8 = 1;
-                let mut at = id;
-                for _ in 0..MAX_DEPTH {
-                    let Some(up) = links.get(at.index()).and_then(|l| l.get()) else {
-                        break;
-                    };
-                    below |= Some(up) == target;
-                    depth = depth.saturating_add(1);
-                    at = up;
+        let target = Link::to(target);
+        let mut rows = [Bits::EMPTY; DEPTHS];
+        for id in picked {
+            // Up the caller links (at most MAX_DEPTH): the depth, and whether the target
+            // is on the way.
+            let mut below = target == Link::NONE || target == Link::to(Some(id));
+            let mut depth = 0;
+            let mut at = id;
+            while let Some(up) = links.get(at.index()).and_then(|l| l.get()) {
+                if depth == MAX_DEPTH {
+                    break;
                 }
-                if below {
-                    *d = depth;
-                }
+                below |= target == Link::to(Some(up));
+                depth += 1;
+                at = up;
+            }
+            if let (true, Some(row)) = (below, rows.get_mut(depth)) {
+                row.set(id, true);
             }
         }
-        level
+        rows
     }
 }

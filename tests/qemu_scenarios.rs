@@ -576,7 +576,7 @@ fn code_owners(elf: &Path) -> CodeOwners {
         .into_iter()
         .map(|(f, b)| (demangle(&functions[f]), b))
         .collect();
-    c.largest.sort_by(|a, b| b.1.cmp(&a.1));
+    c.largest.sort_by_key(|b| std::cmp::Reverse(b.1));
     c
 }
 
