@@ -7,8 +7,8 @@ use core::task::Poll;
 use core::future::Future;
 
 use crate::engine::Engine;
-use crate::run::{Run, SeqFramework};
-use crate::sequence::{framework, BodyRef, Frame};
+use crate::run::Run;
+use crate::sequence::{framework, BodyRef, Frame, StepFramework};
 use crate::sequencer::{Gate, Mode};
 use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
@@ -104,12 +104,8 @@ impl<'a, C> Cx<'a, C> {
         child: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { id, body, slot } = child;
-        let frame = Frame::new(Cx::new(self.engine, self.control, *id), slot);
-        let framework = framework(
-            Frame::new(Cx::new(self.engine, self.control, *id), slot),
-            body,
-        );
-        Run::new(frame, self.id, SeqFramework(framework))
+        let frame = Frame::blocking(Cx::new(self.engine, self.control, *id), slot, self.id);
+        Run::new(slot, framework(frame, body))
     }
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling
@@ -130,10 +126,10 @@ impl<'a, C> Cx<'a, C> {
         &self,
         id: SeqId,
         step: BodyRef<'s, C>,
-        slot: &'s Cell<Option<Outcome>>,
-    ) -> Run<'a, 's, C, BodyRef<'s, C>> {
-        let frame = Frame::new(Cx::new(self.engine, self.control, id), slot);
-        Run::new(frame, self.id, step)
+        slot: &'s Cell<Option<Result<Outcome, Error>>>,
+    ) -> Run<'s, StepFramework<'a, 's, C>> {
+        let frame = Frame::blocking(Cx::new(self.engine, self.control, id), slot, self.id);
+        Run::new(slot, StepFramework { frame, step })
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if

@@ -5,11 +5,8 @@
 //! until its sequence is started, runs it, and sleeps again.
 
 use core::convert::Infallible;
-use core::future::{poll_fn, Future};
-use core::pin::pin;
-use core::task::Poll;
+use core::future::Future;
 
-use crate::engine::Engine;
 use crate::lock::Lock;
 use crate::sequence::{framework, Frame};
 use crate::{Cx, Seq, Sequence, Sequencer};
@@ -40,39 +37,14 @@ use crate::{Cx, Seq, Sequence, Sequencer};
 /// it is counted in `Sequencer::exceptions_not_run`. Declare the lanes at start-up with
 /// [`Handle::declare_lane`](crate::Handle::declare_lane) to get
 /// [`Error::LaneCapacityExceeded`](crate::Error::LaneCapacityExceeded) there instead.
-pub async fn lane<C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, const W: usize>(
-    sequencer: &Sequencer<C, N, T, L, W>,
-    control: &C,
-    seq: &mut Seq<S>,
-) -> Infallible {
-    let engine: &dyn Engine<C> = sequencer;
-    let id = seq.id;
-    // The id is ours by construction (`Seq` exists once per id), so this cannot fail.
-    let _ = engine.declare_lane(id);
-    loop {
-        poll_fn(|w| {
-            if engine.take_start(id, w.waker()) {
-                Poll::Ready(())
-            } else {
-                Poll::Pending
-            }
-        })
-        .await;
-        let Seq { body, slot, .. } = &mut *seq;
-        let mut run = pin!(framework(
-            Frame::new(Cx::new(engine, control, id), slot),
-            body
-        ));
-        poll_fn(|w| {
-            match run.as_mut().poll(w) {
-                Poll::Pending => {}
-                Poll::Ready(never) => match never {},
-            }
-            match slot.take() {
-                Some(_) => Poll::Ready(()),
-                None => Poll::Pending,
-            }
-        })
-        .await;
-    }
+///
+/// The lane is the sequence's framework itself (see `sequence.rs`): between runs it waits for
+/// the next non-blocking start.
+pub fn lane<'a, C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, const W: usize>(
+    sequencer: &'a Sequencer<C, N, T, L, W>,
+    control: &'a C,
+    seq: &'a mut Seq<S>,
+) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W> {
+    let Seq { id, body, slot } = seq;
+    framework(Frame::lane(Cx::new(sequencer, control, *id), slot), body)
 }

@@ -9,8 +9,8 @@ use core::pin::{pin, Pin};
 use core::ptr::NonNull;
 use core::task::{Context, Poll};
 
-use crate::sequencer::Gate;
-use crate::{Cx, Outcome, SeqId};
+use crate::sequencer::{Gate, Mode};
+use crate::{Cx, Error, Outcome, SeqId};
 
 /// A sequence: an `async` action made of steps and sub-sequences, plus the optional pre- and
 /// exit conditions.
@@ -131,8 +131,9 @@ pub trait Step<C> {
 pub struct Seq<S> {
     pub(crate) id: SeqId,
     pub(crate) body: S,
-    /// Where the framework leaves the outcome of a run for the future that started it.
-    pub(crate) slot: Cell<Option<Outcome>>,
+    /// Where the framework leaves the result of a blocking run for the future that started
+    /// it; `None` at rest (set and taken in the same poll).
+    pub(crate) slot: Cell<Option<Result<Outcome, Error>>>,
 }
 
 impl<S> Seq<S> {
@@ -154,21 +155,24 @@ impl<S> Seq<S> {
 
 // The framework is split so that almost nothing of it is generic over the sequence type:
 //
-// * `Frame` (the child's context, the outcome slot, the phase) is the seed's
-//   `actionFramework` as a state machine over the gate, the pre- and exit conditions and the
-//   end of a run. It is generic only over the control system `C` and reaches the body
-//   through a type-erased reference (`BodyRef`: its conditions, and a step's command) and a
-//   pinned `dyn Future` for a running action, so one copy serves every sequence and step
-//   type.
+// * `Frame` (the child's context, the result slot, the blocking caller, the phase) is the
+//   seed's `actionFramework` as a state machine over the start (a blocking start, or a
+//   lane's wait for a non-blocking one), the gate, the pre- and exit conditions, the end of
+//   a run and the hand-over of its outcome. It is generic only over the control system `C`
+//   and reaches the body through a type-erased reference (`BodyRef`: its conditions, and a
+//   step's command) and a pinned `dyn Future` for a running action, so one copy serves every
+//   sequence and step type, started blocking or in a lane.
 // * A sequence's framework (`framework`) is a thin `async` block: it only has to keep the
-//   action's future (which borrows the body and the context) in place while it runs.
-// * A step's framework is not generic over the step at all: the step is type-erased
-//   (`BodyRef`), its command runs inside `Frame::step`; a blocking start of a step
-//   (`Run<.., BodyRef>`) is one type for every step type.
+//   action's future (which borrows the body and the context) in place while it runs. A lane
+//   is nothing but this block (its frame goes back to waiting for a start after each run);
+//   a blocking start wraps it in `Run`, which only takes the result from the slot.
+// * A step's framework (`StepFramework`) is not generic over the step at all: the step is
+//   type-erased (`BodyRef`), its command runs inside `Frame::step`; a blocking start of a
+//   step is one type for every step type.
 //
 // Neither returns: a returning `async` block carries a compiler-generated "resumed after
-// completion" panic path, and rtseq has none. After the run the outcome is in the `Seq`'s
-// slot and the framework stays pending; its owner drops it.
+// completion" panic path, and rtseq has none. A blocking run leaves its result in the
+// `Seq`'s slot and its framework stays pending; its owner drops it.
 
 /// Which method of a type-erased body to call.
 #[derive(Clone, Copy)]
@@ -260,9 +264,16 @@ impl<C> Future for StepAct<'_, '_, '_, '_, C> {
     }
 }
 
-/// Where a run's framework stands.
+/// Where a run's framework stands. Without payload (the outcome has a cell of its own): a
+/// phase change is a one-byte store.
 #[derive(Clone, Copy)]
 enum Phase {
+    /// A lane's first poll: declare the lane.
+    Declare,
+    /// A lane between runs: wait for a non-blocking start.
+    Idle,
+    /// A blocking start's first poll: start the child.
+    Begin,
     /// At the await point before the pre-condition: the start, or after a restart.
     Gate,
     /// The action runs (polled through `Frame::act`).
@@ -273,27 +284,57 @@ enum Phase {
     Exit,
     /// Wait for the next due poll of the exit condition.
     Due,
-    /// The run ended (the action's future is gone): publish the outcome.
-    End(Outcome),
-    /// The outcome is in the slot; pending forever.
+    /// The run ended with `Frame::outcome` (the action's future is gone): report it.
+    End,
+    /// A blocking run ended: wait until the caller may advance to hand the outcome over.
+    Returning,
+    /// The result is in the slot (or was taken); pending forever.
     Done,
 }
 
 /// The body-independent part of a run's framework (see above): the sequence's context, the
-/// slot for its outcome and where the run stands.
+/// slot for its result, who waits for it and where the run stands.
 pub(crate) struct Frame<'a, 's, C> {
     pub(crate) cx: Cx<'a, C>,
-    pub(crate) slot: &'s Cell<Option<Outcome>>,
+    slot: &'s Cell<Option<Result<Outcome, Error>>>,
+    /// The blocking caller; `None`: the sequence's lane.
+    caller: Option<SeqId>,
     phase: Cell<Phase>,
+    /// The outcome, once the run has ended.
+    outcome: Cell<Outcome>,
 }
 
 impl<'a, 's, C> Frame<'a, 's, C> {
-    pub(crate) fn new(cx: Cx<'a, C>, slot: &'s Cell<Option<Outcome>>) -> Self {
+    /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
+    pub(crate) fn blocking(
+        cx: Cx<'a, C>,
+        slot: &'s Cell<Option<Result<Outcome, Error>>>,
+        caller: SeqId,
+    ) -> Self {
         Frame {
             cx,
             slot,
-            phase: Cell::new(Phase::Gate),
+            caller: Some(caller),
+            phase: Cell::new(Phase::Begin),
+            outcome: Cell::new(Outcome::Completed),
         }
+    }
+
+    /// The lane of `cx`'s sequence: runs it every time it is started non-blocking.
+    pub(crate) fn lane(cx: Cx<'a, C>, slot: &'s Cell<Option<Result<Outcome, Error>>>) -> Self {
+        Frame {
+            cx,
+            slot,
+            caller: None,
+            phase: Cell::new(Phase::Declare),
+            outcome: Cell::new(Outcome::Completed),
+        }
+    }
+
+    /// The run ended with `outcome`.
+    fn end(&self, outcome: Outcome) {
+        self.outcome.set(outcome);
+        self.phase.set(Phase::End);
     }
 
     /// Applies a gate that is not `Go`/`Hold` (the seed's exceptions): `true` if the run goes
@@ -302,7 +343,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
         match gate {
             Gate::Go | Gate::Hold => true,
             Gate::Aborted(cause) => {
-                self.phase.set(Phase::End(Outcome::Aborted(cause)));
+                self.end(Outcome::Aborted(cause));
                 false
             }
             Gate::Restart => {
@@ -314,12 +355,31 @@ impl<'a, 's, C> Frame<'a, 's, C> {
     }
 
     /// Runs the framework up to the start of the action (`Ready`: create and poll it now), or
-    /// until it must wait (`Pending`). Never `Ready` once the run has ended.
+    /// until it must wait (`Pending`). Never `Ready` once a blocking run has ended.
     #[inline(never)]
     fn drive(&self, w: &mut Context<'_>, body: &mut BodyRef<'_, C>) -> Poll<()> {
         let (cx, engine, id) = (&self.cx, self.cx.engine(), self.cx.id());
         loop {
             match self.phase.get() {
+                Phase::Declare => {
+                    // The id is ours by construction (`Seq` exists once per id), so this
+                    // cannot fail.
+                    let _ = engine.declare_lane(id);
+                    self.phase.set(Phase::Idle);
+                }
+                Phase::Idle => {
+                    if !engine.take_start(id, w.waker()) {
+                        return Poll::Pending;
+                    }
+                    self.phase.set(Phase::Gate);
+                }
+                Phase::Begin => match engine.begin(id, self.caller, Mode::Blocking) {
+                    Ok(()) => self.phase.set(Phase::Gate),
+                    Err(e) => {
+                        self.slot.set(Some(Err(e)));
+                        self.phase.set(Phase::Done);
+                    }
+                },
                 Phase::Gate => match engine.gate(id, w.waker()) {
                     Gate::Hold => return Poll::Pending,
                     gate => {
@@ -331,7 +391,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                             return Poll::Ready(());
                         }
                         match engine.end(id, Outcome::Skipped) {
-                            Ok(outcome) => self.phase.set(Phase::End(outcome)),
+                            Ok(outcome) => self.end(outcome),
                             Err(gate) => {
                                 if self.on(gate) {
                                     self.phase.set(Phase::Gate);
@@ -350,7 +410,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                     self.phase.set(Phase::Due);
                     if body.call(Call::Exit, cx) {
                         match engine.end(id, Outcome::Completed) {
-                            Ok(outcome) => self.phase.set(Phase::End(outcome)),
+                            Ok(outcome) => self.end(outcome),
                             // Go/Hold: on to the next due poll.
                             Err(gate) => {
                                 self.on(gate);
@@ -366,11 +426,24 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                         }
                     }
                 },
-                Phase::End(outcome) => {
+                Phase::End => {
                     engine.poll_wait(id, false);
-                    engine.finished(id, outcome);
-                    self.slot.set(Some(outcome));
-                    self.phase.set(Phase::Done);
+                    engine.finished(id, self.outcome.get());
+                    self.phase.set(match self.caller {
+                        Some(_) => Phase::Returning,
+                        None => Phase::Idle,
+                    });
+                }
+                // Returns only when the caller may advance: once the caller is aborted or
+                // restarting it stays pending and the caller's guard drops it (sticky abort).
+                Phase::Returning => {
+                    if let Some(caller) = self.caller {
+                        if engine.gate(caller, w.waker()) == Gate::Go {
+                            self.slot.set(Some(Ok(self.outcome.get())));
+                            self.phase.set(Phase::Done);
+                        }
+                    }
+                    return Poll::Pending;
                 }
                 Phase::Done => return Poll::Pending,
             }
@@ -400,7 +473,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
 
     /// A step's whole framework.
     #[inline(never)]
-    pub(crate) fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) {
+    fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) {
         loop {
             let ready = if let Phase::Act = self.phase.get() {
                 let mut action = StepAct {
@@ -419,10 +492,25 @@ impl<'a, 's, C> Frame<'a, 's, C> {
     }
 }
 
+/// A step's framework: the frame and the type-erased step. Never completes (see above).
+pub(crate) struct StepFramework<'a, 's, C> {
+    pub(crate) frame: Frame<'a, 's, C>,
+    pub(crate) step: BodyRef<'s, C>,
+}
+
+impl<C> Future for StepFramework<'_, '_, C> {
+    type Output = Infallible;
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Infallible> {
+        let this = self.get_mut();
+        this.frame.step(w, &mut this.step);
+        Poll::Pending
+    }
+}
+
 /// The seed's `actionFramework` for a sequence: exceptions → pre-condition → action → exit
-/// condition every polling period, repeated from the pre-condition on restart. It leaves
-/// the outcome in the frame's slot and then never completes (see above); its owner drops
-/// it.
+/// condition every polling period, repeated from the pre-condition on restart. Its frame
+/// says how it starts and what it does after a run (see `Frame`); it never completes (see
+/// above).
 ///
 /// An `async` block rather than an `async fn`: the block uses its captured arguments in
 /// place, where an `async fn` first copies them into its body's locals (one more copy of

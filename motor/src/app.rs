@@ -477,6 +477,8 @@ pub struct App {
 }
 
 /// One lane of an [`App`] (for the host simulator: `AppLane::add_to`, feature `std`).
+// Each value is built once and moved into the simulator: its size does not matter.
+#[allow(clippy::large_enum_variant)]
 pub enum AppLane {
     /// Main.
     Main(Seq<Main>),
