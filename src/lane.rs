@@ -45,6 +45,9 @@ pub fn lane<'a, C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, cons
     control: &'a C,
     seq: &'a mut Seq<S>,
 ) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W> {
-    let Seq { id, body, slot } = seq;
-    framework(Frame::lane(Cx::new(sequencer, control, *id), slot), body)
+    let Seq { head, body } = seq;
+    framework(
+        Frame::lane(Cx::new(sequencer, control, head.id), &head.slot),
+        body,
+    )
 }

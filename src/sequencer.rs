@@ -310,11 +310,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline]
     pub fn bind<S>(&self, id: SeqId, body: S) -> Result<crate::Seq<S>, Error> {
         self.claim(id)?;
-        Ok(crate::Seq {
-            id,
-            body,
-            slot: core::cell::Cell::new(None),
-        })
+        Ok(crate::Seq::new(id, body))
     }
 
     /// The part of [`add`](Self::add) that does not depend on the body type (one copy, not
@@ -354,11 +350,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline]
     pub fn add<S>(&self, config: SeqConfig<C>, body: S) -> Result<crate::Seq<S>, Error> {
         let id = self.register_bound(config)?;
-        Ok(crate::Seq {
-            id,
-            body,
-            slot: core::cell::Cell::new(None),
-        })
+        Ok(crate::Seq::new(id, body))
     }
 
     /// The seed's `getSequenceByID`.
