@@ -389,26 +389,34 @@ impl<'a, 's, C> Frame<'a, 's, C> {
     fn drive(&self, w: &mut Context<'_>, body: &mut BodyRef<'_, C>) -> Poll<()> {
         let (cx, engine, id) = (&self.cx, self.cx.engine(), self.cx.id());
         loop {
-            match self.phase.get() {
+            // The arms that do not `continue` or return ask to end the run with this outcome
+            // (one call site for both): refused (an exception is being handled), the run
+            // stays at the phase set before.
+            let ending = match self.phase.get() {
                 Phase::Declare => {
                     // The id is ours by construction (`Seq` exists once per id), so this
                     // cannot fail.
                     let _ = engine.declare_lane(id);
                     self.phase.set(Phase::Idle);
+                    continue;
                 }
                 Phase::Idle => {
                     if !engine.take_start(id, w.waker()) {
                         return Poll::Pending;
                     }
                     self.phase.set(Phase::Gate);
+                    continue;
                 }
-                Phase::Begin => match engine.begin(id, self.caller, Mode::Blocking) {
-                    Ok(()) => self.phase.set(Phase::Gate),
-                    Err(e) => {
-                        self.slot.set(Some(Err(e)));
-                        self.phase.set(Phase::Done);
+                Phase::Begin => {
+                    match engine.begin(id, self.caller, Mode::Blocking) {
+                        Ok(()) => self.phase.set(Phase::Gate),
+                        Err(e) => {
+                            self.slot.set(Some(Err(e)));
+                            self.phase.set(Phase::Done);
+                        }
                     }
-                },
+                    continue;
+                }
                 Phase::Gate => match engine.gate(id, w.waker()) {
                     Gate::Hold => return Poll::Pending,
                     gate => {
@@ -419,14 +427,8 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                             self.phase.set(Phase::Act);
                             return Poll::Ready(());
                         }
-                        match engine.end(id, Outcome::Skipped) {
-                            Ok(outcome) => self.end(outcome),
-                            Err(gate) => {
-                                if self.on(gate) {
-                                    self.phase.set(Phase::Gate);
-                                }
-                            }
-                        }
+                        // Refused: back to the gate (the phase is `Gate`).
+                        Outcome::Skipped
                     }
                 },
                 // Not reached: the action is polled by `act`.
@@ -434,18 +436,15 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 Phase::Acted => {
                     engine.poll_wait(id, true);
                     self.phase.set(Phase::Exit);
+                    continue;
                 }
                 Phase::Exit => {
+                    // Not true yet, or refused: on to the next due poll.
                     self.phase.set(Phase::Due);
-                    if body.call(Call::Exit, cx) {
-                        match engine.end(id, Outcome::Completed) {
-                            Ok(outcome) => self.end(outcome),
-                            // Go/Hold: on to the next due poll.
-                            Err(gate) => {
-                                self.on(gate);
-                            }
-                        }
+                    if !body.call(Call::Exit, cx) {
+                        continue;
                     }
+                    Outcome::Completed
                 }
                 Phase::Due => match engine.poll_due(id, w.waker()) {
                     Gate::Hold => return Poll::Pending,
@@ -453,6 +452,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                         if self.on(gate) {
                             self.phase.set(Phase::Exit);
                         }
+                        continue;
                     }
                 },
                 Phase::End => {
@@ -462,6 +462,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                         Some(_) => Phase::Returning,
                         None => Phase::Idle,
                     });
+                    continue;
                 }
                 // Returns only when the caller may advance: once the caller is aborted or
                 // restarting it stays pending and the caller's guard drops it (sticky abort).
@@ -475,6 +476,12 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                     return Poll::Pending;
                 }
                 Phase::Done => return Poll::Pending,
+            };
+            match engine.end(id, ending) {
+                Ok(outcome) => self.end(outcome),
+                Err(gate) => {
+                    self.on(gate);
+                }
             }
         }
     }
