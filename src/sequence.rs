@@ -5,6 +5,7 @@ use core::cell::Cell;
 use core::convert::Infallible;
 use core::future::{poll_fn, Future};
 use core::marker::PhantomData;
+use core::mem::offset_of;
 use core::pin::{pin, Pin};
 use core::ptr::NonNull;
 use core::task::{Context, Poll};
@@ -128,14 +129,13 @@ pub trait Step<C> {
 /// dwell.body_mut().set_duration(Duration::from_millis(8)); // configure before the next run
 /// assert_eq!(seq.sequence_by_id(dwell.id()).unwrap().name(), "dwell");
 /// ```
-// `repr(C)` with the head first: a pointer to any `Seq<S>` is a pointer to its head, so a
-// step's framework needs only that pointer and one function per step type (`BodyRef::step`).
-// (This layout also made the scenarios' tree building 1.3 KB smaller, bench_seq's 1.1 KB
-// larger: moves of whole trees.)
+// `repr(C)`, body first: of the layouts measured, the one with the least code in the
+// applications that build and move whole `Seq` trees (the framework works with any: it finds
+// the head with `offset_of!`).
 #[repr(C)]
 pub struct Seq<S> {
-    pub(crate) head: SeqHead,
     pub(crate) body: S,
+    pub(crate) head: SeqHead,
 }
 
 /// The part of a [`Seq`] that does not depend on the body type.
@@ -209,8 +209,8 @@ enum Call {
 /// Hand-made rather than `&'s mut dyn Step<C>`: a trait object mentioning `C` would require
 /// `C: 's`, which the signature of [`Cx::step`] does not promise.
 pub(crate) struct BodyRef<'s, C> {
-    /// The `&'s mut Seq<S>` of a step (also a pointer to its head), the `&'s mut S` of a
-    /// sequence.
+    /// A step: the head of its `&'s mut Seq<S>` (`call_step` finds the body from there), so
+    /// that one pointer serves both; a sequence: the `&'s mut S`.
     body: NonNull<()>,
     /// `call_step::<C, S>` or `call_seq::<C, S>`.
     call: unsafe fn(NonNull<()>, Call, &Cx<'_, C>) -> bool,
@@ -218,11 +218,15 @@ pub(crate) struct BodyRef<'s, C> {
 }
 
 /// # Safety
-/// `seq` must point to a live `Seq<S>` whose body nothing else accesses meanwhile.
-unsafe fn call_step<C, S: Step<C>>(seq: NonNull<()>, what: Call, cx: &Cx<'_, C>) -> bool {
-    // SAFETY: guaranteed by the caller; this borrows the body only (the head may be
-    // borrowed elsewhere, see `BodyRef::head`).
-    let step = unsafe { &mut (*seq.cast::<Seq<S>>().as_ptr()).body };
+/// `head` must point to the head of a live `Seq<S>`, with the provenance of the whole `Seq`,
+/// whose body nothing else accesses meanwhile.
+unsafe fn call_step<C, S: Step<C>>(head: NonNull<()>, what: Call, cx: &Cx<'_, C>) -> bool {
+    // SAFETY: guaranteed by the caller: back from the head to its `Seq`, and a borrow of
+    // the body only (the head may be borrowed elsewhere, see `BodyRef::head`).
+    let step = unsafe {
+        let seq = head.byte_sub(offset_of!(Seq<S>, head)).cast::<Seq<S>>();
+        &mut (*seq.as_ptr()).body
+    };
     match what {
         Call::Pre => step.check_pre_condition(cx),
         Call::Action => {
@@ -249,7 +253,10 @@ unsafe fn call_seq<C, S: Sequence<C>>(seq: NonNull<()>, what: Call, cx: &Cx<'_, 
 impl<'s, C> BodyRef<'s, C> {
     pub(crate) fn step<S: Step<C>>(step: &'s mut Seq<S>) -> Self {
         BodyRef {
-            body: NonNull::from(step).cast(),
+            // SAFETY: the head is a field of the `Seq` the pointer comes from (in bounds);
+            // derived from the pointer to the whole `Seq`, it keeps the provenance that
+            // `call_step` needs to step back.
+            body: unsafe { NonNull::from(step).byte_add(offset_of!(Seq<S>, head)) }.cast(),
             call: call_step::<C, S>,
             _borrow: PhantomData,
         }
@@ -257,8 +264,8 @@ impl<'s, C> BodyRef<'s, C> {
 
     /// The head of a step's `Seq` (only for a `BodyRef::step`).
     pub(crate) fn head(&self) -> &'s SeqHead {
-        // SAFETY: `body` is the `&'s mut Seq<S>` given to `step`, and a `Seq` starts with its
-        // head (`repr(C)`). The head is only ever shared: `call_step` borrows the body only.
+        // SAFETY: `body` points to the head of the `&'s mut Seq<S>` given to `step`. The head
+        // is only ever shared: `call_step` borrows the body only.
         unsafe { self.body.cast::<SeqHead>().as_ref() }
     }
 
