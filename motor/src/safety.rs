@@ -21,7 +21,7 @@
 //! static HANDLE: SafetyHandle = SafetyHandle::new();
 //! static SEQ: Sequencer<ControlSystem, 4> = Sequencer::new();
 //! let cs = ControlSystem::new(0.02);
-//! let mut system = SafetySystem::new(&PROPERTIES, &HANDLE).unwrap();
+//! let mut system = SafetySystem::new_validated(&PROPERTIES, &HANDLE).unwrap();
 //! safety::safety_cycle(&cs, &mut system, &SEQ);
 //! assert_eq!(HANDLE.level(), safety::OFF);
 //! assert!(!cs.drive_permit());
@@ -34,7 +34,7 @@
 use rtseq::safety::{
     AbortPolicy, AbortSequences, CriticalInput, CriticalOutput, CycleReport, InputAction, InputId,
     IoValue, LevelDef, OutputAction, OutputId, PrivateEvent, PublicEvent, SafetyIo, SafetyLevel,
-    SafetyProperties, SafetySystem, Transition,
+    SafetyProperties, SafetySystem, Transition, ValidProperties,
 };
 
 use crate::control_system::ControlSystem;
@@ -98,8 +98,16 @@ const IGNORE_ALL: [InputAction; 4] = [
 const SAFE: [OutputAction; 2] = [ENABLE_OUT.set(false), BRAKE_OUT.set(true)];
 const DRIVE: [OutputAction; 2] = [ENABLE_OUT.set(true), BRAKE_OUT.set(false)];
 
-/// The safety properties (validated at compile time).
-pub static PROPERTIES: SafetyProperties<'static, DriveIo, 4> = SafetyProperties::new(
+/// The safety properties, validated at compile time: start the system with
+/// [`SafetySystem::new_validated`], which links no run-time validation.
+pub static PROPERTIES: ValidProperties<'static, DriveIo, 4> = match TABLE.validated() {
+    Ok(valid) => valid,
+    // A compile error (the `static` is evaluated by the compiler), never a run-time panic.
+    Err(_) => panic!("invalid safety properties"),
+};
+
+/// The table behind [`PROPERTIES`].
+const TABLE: SafetyProperties<'static, DriveIo, 4> = SafetyProperties::new(
     [
         LevelDef::new(EMERGENCY, "emergency")
             .inputs(&IGNORE_ALL)
@@ -130,8 +138,6 @@ pub static PROPERTIES: SafetyProperties<'static, DriveIo, 4> = SafetyProperties:
     ],
     OFF,
 );
-
-const _: () = assert!(PROPERTIES.validate().is_ok());
 
 /// The safety system's view of the drive for one cycle: inputs sampled from the control
 /// system, outputs collected and written back by [`DriveIo::apply`].

@@ -525,6 +525,7 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
 ///         Err(_) => panic!("invalid safety properties"), // a compile error, never a run-time panic
 ///     };
 /// assert_eq!(PROPS.properties().entry_level(), OFF);
+/// assert_eq!(PROPS.entry_level(), OFF); // through `Deref`
 /// ```
 pub struct ValidProperties<'a, IO, const L: usize>(SafetyProperties<'a, IO, L>);
 
@@ -541,6 +542,14 @@ impl<'a, IO, const L: usize> ValidProperties<'a, IO, L> {
     /// assert_eq!(valid.properties().levels().len(), 1);
     /// ```
     pub const fn properties(&self) -> &SafetyProperties<'a, IO, L> {
+        &self.0
+    }
+}
+
+/// Reads the validated properties (a `ValidProperties` is a proof, not a different table).
+impl<'a, IO, const L: usize> core::ops::Deref for ValidProperties<'a, IO, L> {
+    type Target = SafetyProperties<'a, IO, L>;
+    fn deref(&self) -> &SafetyProperties<'a, IO, L> {
         &self.0
     }
 }

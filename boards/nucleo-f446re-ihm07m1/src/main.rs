@@ -239,7 +239,7 @@ mod app {
                 None
             }
         };
-        let system = match SafetySystem::new(&PROPERTIES, &SAFETY) {
+        let system = match SafetySystem::new_validated(&PROPERTIES, &SAFETY) {
             Ok(s) => {
                 SEQ.set_safety_system(&SAFETY);
                 Some(s)

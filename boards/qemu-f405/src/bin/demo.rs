@@ -1370,7 +1370,7 @@ mod rtic_app {
                 board::exit_failure();
             }
         };
-        let Ok(system) = SafetySystem::new(&safety::PROPERTIES, &HANDLE) else {
+        let Ok(system) = SafetySystem::new_validated(&safety::PROPERTIES, &HANDLE) else {
             defmt::error!("demo: the safety system could not start");
             board::exit_failure();
         };
