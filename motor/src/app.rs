@@ -37,6 +37,7 @@ use core::future::{poll_fn, Future};
 use core::pin::pin;
 use core::task::Poll;
 
+use rtseq::lock::Lock;
 use rtseq::{
     Behaviour, Condition, Duration, Instant, MonitorId, Monitors, Seq, SeqConfig, SeqId, Sequencer,
     Toggle, Wait,
@@ -525,9 +526,9 @@ impl App {
     ///
     /// Each wake polls the five lane futures in order; a lane that has nothing to do returns
     /// `Pending` at once (rtseq's await points tolerate spurious polls).
-    pub async fn run<const N: usize, const T: usize>(
+    pub async fn run<const N: usize, const T: usize, L: Lock, const W: usize>(
         self,
-        sequencer: &Sequencer<ControlSystem, N, T>,
+        sequencer: &Sequencer<ControlSystem, N, T, L, W>,
         cs: &ControlSystem,
     ) -> Infallible {
         let App {
@@ -556,8 +557,8 @@ impl App {
     }
 }
 
-fn add<S, const N: usize, const T: usize>(
-    seq: &Sequencer<ControlSystem, N, T>,
+fn add<S, const N: usize, const T: usize, L: Lock, const W: usize>(
+    seq: &Sequencer<ControlSystem, N, T, L, W>,
     config: SeqConfig<ControlSystem>,
     body: S,
 ) -> Result<Seq<S>, rtseq::Error> {
@@ -588,8 +589,8 @@ fn add<S, const N: usize, const T: usize>(
 /// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
 ///
 /// Errors: capacity (`N` < [`SEQUENCES`], `M` < [`MONITORS`]), or names already taken.
-pub fn register<'a, const N: usize, const T: usize, const M: usize>(
-    sequencer: &Sequencer<ControlSystem, N, T>,
+pub fn register<'a, const N: usize, const T: usize, L: Lock, const W: usize, const M: usize>(
+    sequencer: &Sequencer<ControlSystem, N, T, L, W>,
     monitors: &mut Monitors<'a, ControlSystem, M>,
     conditions: &'a mut Conditions,
     config: &AppConfig,

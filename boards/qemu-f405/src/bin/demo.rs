@@ -50,8 +50,14 @@ const STOP_VELOCITY: f32 = 1e-4;
 /// See [`STOP_VELOCITY`].
 const STOP_CURRENT: f32 = 0.05;
 
+/// The sequencer's lock: RTIC's Stack Resource Policy, a section raises BASEPRI to the
+/// tick's priority (2), so the safety task (3) preempts rtseq at any instruction.
+type Lock = rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>;
 /// The sequencer (default trace buffer: 64 transitions, drained by idle every tick).
-static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
+// SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1, idle
+// at 0); the safety task (3) only calls `abort_all`, an atomic request.
+static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }, 64, Lock> =
+    unsafe { Sequencer::with_priority_ceiling() };
 /// The control system: plant, controller, fault injection, summary.
 static CS: ControlSystem = ControlSystem::new(CONFIG.start_position);
 /// The safety system's lock-free handle (sequences trigger events, everyone reads the level).
