@@ -13,6 +13,11 @@
 //!                          samples the axis every 250 ms, checks the outcome, exits
 //! ```
 //!
+//! The lanes, the tick and idle share `SEQ` under RTIC's Stack Resource Policy (the
+//! priority-ceiling lock: a section raises BASEPRI to the tick's priority), so the safety
+//! task is never held off by rtseq; it reaches the sequencer only through `abort_all`, an
+//! atomic request.
+//!
 //! The order inside one tick (inject, safety cycle, control step, sequencer tick) is the
 //! host simulator's (`tests/qemu_demo.rs` runs the same application with the same fault
 //! plan in `rtseq::sim::Sim` and compares the traces): both are 1 kHz deterministic.
