@@ -101,19 +101,20 @@ mod pending {
     ];
 }
 
-/// A 1-byte optional sequence id (`SeqId` values stop at 254).
+/// A 1-byte optional sequence id: the id plus one, 0 = none (`SeqId` values stop at 254),
+/// so that an empty sequencer is all zeros (see [`ControlBlock::UNREGISTERED`]).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) struct Link(u8);
 
 impl Link {
-    pub(crate) const NONE: Link = Link(u8::MAX);
+    pub(crate) const NONE: Link = Link(0);
 
     pub(crate) fn to(id: Option<SeqId>) -> Link {
-        id.map_or(Link::NONE, |i| Link(i.0))
+        id.map_or(Link::NONE, |i| Link(i.0.wrapping_add(1)))
     }
 
     pub(crate) fn get(self) -> Option<SeqId> {
-        (self != Link::NONE).then_some(SeqId(self.0))
+        self.0.checked_sub(1).map(SeqId)
     }
 }
 
@@ -156,7 +157,8 @@ pub(crate) fn after(now: u64, d: u32) -> Micros32 {
 /// and its blocking part are walked from the links (at most [`MAX_DEPTH`] steps). Wakers
 /// live with the lanes, not here; counters only with the feature `counters`.
 pub(crate) struct ControlBlock {
-    pub(crate) name: &'static str,
+    /// `None` only while unregistered.
+    pub(crate) name: Option<&'static str>,
     /// Timeout in µs, 0 = off.
     pub(crate) timeout: u32,
     /// Timeout deadline while running; the remaining time while paused; only meaningful
@@ -191,25 +193,43 @@ pub(crate) struct ControlBlock {
 pub(crate) const NO_LANE: u8 = u8::MAX;
 
 impl ControlBlock {
-    pub(crate) const EMPTY: ControlBlock = ControlBlock {
-        name: "",
+    /// An unregistered slot: every field's bytes are zero, so a `static` sequencer needs
+    /// no initial image in flash (it lands in `.bss`, not `.data`: 2 KB for 32 sequences).
+    /// Of an unregistered slot only `state` is read (`Idle`); [`register`] writes
+    /// [`IDLE`](Self::IDLE) over it before anything else can reach it.
+    ///
+    /// [`register`]: crate::Sequencer::register
+    pub(crate) const UNREGISTERED: ControlBlock = ControlBlock {
+        name: None,
         timeout: 0,
         deadline: 0,
         flags: 0,
         runs: 0,
         timeout_runs_seen: 0,
-        active_exception: None,
+        // Zero bytes, not meaning: `IDLE` says `None`.
+        active_exception: Some(Cause::Start),
         last_cause: Cause::Start,
-        outcome: None,
+        // Zero bytes, not meaning: `IDLE` says `None`.
+        outcome: Some(Outcome::Aborted(Cause::Start)),
         state: RunningState::Idle,
         caller: Link::NONE,
-        lane: NO_LANE,
-        timeout_behaviour: Behaviour::AbortOwner,
+        lane: 0,
+        timeout_behaviour: Behaviour::Nothing,
         timeout_exception: Link::NONE,
-        timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
+        timeout_restart_limit: 0,
         timeout_restarts: 0,
         joiner: Link::NONE,
         class: 0,
+    };
+
+    /// A registered sequence that never ran, before its configuration is written.
+    pub(crate) const IDLE: ControlBlock = ControlBlock {
+        active_exception: None,
+        outcome: None,
+        lane: NO_LANE,
+        timeout_behaviour: Behaviour::AbortOwner,
+        timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
+        ..ControlBlock::UNREGISTERED
     };
 
     pub(crate) fn has(&self, f: u16) -> bool {
@@ -250,7 +270,7 @@ mod tests {
 
     #[test]
     fn pending_behaviour_round_trips_without_touching_the_flags() {
-        let mut b = ControlBlock::EMPTY;
+        let mut b = ControlBlock::IDLE;
         b.flags = flag::BOUND | flag::START_PENDING | request::PAUSE;
         for p in pending::BEHAVIOURS.iter().copied().map(Some).chain([None]) {
             b.set_pending(p);

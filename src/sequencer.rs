@@ -229,7 +229,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             inner: UnsafeCell::new(Inner {
                 now: 0,
                 count: 0,
-                blocks: [ControlBlock::EMPTY; N],
+                blocks: [ControlBlock::UNREGISTERED; N],
                 hooks: [None; N],
                 lanes: [LaneSlot::EMPTY; W],
                 #[cfg(feature = "counters")]
@@ -283,7 +283,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         };
         self.with(|s| {
             let used = usize::from(s.count);
-            if s.blocks.iter().take(used).any(|b| b.name == config.name) {
+            if s.blocks
+                .iter()
+                .take(used)
+                .any(|b| b.name == Some(config.name))
+            {
                 return Err(Error::DuplicateName(config.name));
             }
             let id = SeqId(s.count);
@@ -291,12 +295,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 .blocks
                 .get_mut(used)
                 .ok_or(Error::SequenceCapacityExceeded)?;
-            slot.class = s.classes.join(id, polling)?;
-            slot.name = config.name;
-            slot.timeout = timeout;
-            slot.timeout_behaviour = config.timeout_behaviour;
-            slot.timeout_exception = Link::to(config.timeout_exception);
-            slot.timeout_restart_limit = config.timeout_restart_limit;
+            *slot = ControlBlock {
+                name: Some(config.name),
+                timeout,
+                timeout_behaviour: config.timeout_behaviour,
+                timeout_exception: Link::to(config.timeout_exception),
+                timeout_restart_limit: config.timeout_restart_limit,
+                class: s.classes.join(id, polling)?,
+                ..ControlBlock::IDLE
+            };
             if let Some(h) = s.hooks.get_mut(used) {
                 *h = config.on_abort;
             }
@@ -364,8 +371,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // One short section per registered name; the comparison runs outside.
         let mut i: u8 = 0;
         loop {
-            let at =
-                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name)))?;
+            let at = self.with(|s| {
+                (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name.unwrap_or("")))
+            })?;
             if at == name {
                 return Some(Handle::new(self, SeqId(i)));
             }
