@@ -285,6 +285,26 @@ mod tests {
     }
 
     #[test]
+    fn links_round_trip_and_none_is_zero() {
+        assert_eq!(Link::NONE, Link(0));
+        assert_eq!(Link::to(None), Link::NONE);
+        assert_eq!(Link::NONE.get(), None);
+        for id in [0u8, 1, 31, 254] {
+            assert_eq!(Link::to(Some(SeqId(id))).get(), Some(SeqId(id)));
+        }
+        // An unregistered block reads as idle and unlinked.
+        let b = ControlBlock::UNREGISTERED;
+        assert_eq!(
+            (b.state, b.caller.get(), b.joiner.get()),
+            (RunningState::Idle, None, None)
+        );
+        assert_eq!(
+            (ControlBlock::IDLE.lane, ControlBlock::IDLE.outcome),
+            (NO_LANE, None)
+        );
+    }
+
+    #[test]
     fn wrapping_times_compare_across_the_wrap() {
         assert!(reached32(5, 5));
         assert!(reached32(3, u32::MAX - 2));
