@@ -232,6 +232,11 @@ impl ControlBlock {
         ..ControlBlock::UNREGISTERED
     };
 
+    /// The registered name ("" only for an unregistered slot, which no reader reaches).
+    pub(crate) fn name(&self) -> &'static str {
+        self.name.unwrap_or("")
+    }
+
     pub(crate) fn has(&self, f: u16) -> bool {
         self.flags & f != 0
     }

@@ -168,7 +168,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         self.with(|s| {
             let b = s.block(id).ok()?;
             Some(Info {
-                name: b.name.unwrap_or(""),
+                name: b.name(),
                 state: b.state,
                 caller: b.caller.get(),
                 lane: b.lane,

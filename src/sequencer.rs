@@ -371,9 +371,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // One short section per registered name; the comparison runs outside.
         let mut i: u8 = 0;
         loop {
-            let at = self.with(|s| {
-                (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name.unwrap_or("")))
-            })?;
+            let at =
+                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name())))?;
             if at == name {
                 return Some(Handle::new(self, SeqId(i)));
             }

@@ -430,8 +430,8 @@ fn firmware_sizes_with_and_without_rtseq() {
     assert!(alloc.is_empty(), "an allocator is linked: {alloc:?}");
     eprintln!("figure: no allocator linked");
     // An empty sequencer is all zeros: its `static` needs no initial image in flash.
-    for (what, elf) in [("demo", &demo), ("scenarios", &scen)] {
-        let nm = tool_output(&llvm_tool("llvm-nm"), &["--demangle"], elf);
+    let demo_nm = tool_output(&llvm_tool("llvm-nm"), &["--demangle"], &demo);
+    for (what, nm) in [("demo", &demo_nm), ("scenarios", &nm)] {
         let seq = nm
             .lines()
             .find(|l| l.ends_with("::SEQ") || l.contains("::SEQ::h"))
