@@ -27,6 +27,11 @@ impl Bits {
         self.0 & Bits::of(id).0 != 0
     }
 
+    /// This set with `id` in (for `const` set-up).
+    pub(crate) const fn with(self, id: SeqId) -> Bits {
+        Bits(self.0 | 1u32.wrapping_shl(id.0 as u32))
+    }
+
     /// Puts `id` in (`on`) or takes it out.
     #[inline]
     pub(crate) fn set(&mut self, id: SeqId, on: bool) {

@@ -109,8 +109,11 @@ pub(crate) struct Link(u8);
 impl Link {
     pub(crate) const NONE: Link = Link(0);
 
-    pub(crate) fn to(id: Option<SeqId>) -> Link {
-        id.map_or(Link::NONE, |i| Link(i.0.wrapping_add(1)))
+    pub(crate) const fn to(id: Option<SeqId>) -> Link {
+        match id {
+            Some(i) => Link(i.0.wrapping_add(1)),
+            None => Link::NONE,
+        }
     }
 
     pub(crate) fn get(self) -> Option<SeqId> {

@@ -46,6 +46,33 @@ pub enum Error {
     /// More distinct polling periods than
     /// [`MAX_POLLING_CLASSES`](crate::MAX_POLLING_CLASSES) in one sequencer.
     PollingClassesExceeded,
+    /// A [`Table`](crate::Table) is installed only into a sequencer with nothing registered.
+    NotEmpty,
+}
+
+impl Error {
+    /// What went wrong, without the name or id: for a `const` item's compile error
+    /// (`panic!("{}", e.reason())`), where no formatting is available.
+    pub const fn reason(&self) -> &'static str {
+        match self {
+            Error::EmptyName => "empty name",
+            Error::DuplicateName(_) => "duplicate name",
+            Error::SequenceCapacityExceeded => "sequence capacity exceeded",
+            Error::MonitorCapacityExceeded => "monitor capacity exceeded",
+            Error::UnknownSequence(_) => "unknown sequence",
+            Error::AlreadyRunning(_) => "sequence already running",
+            Error::NotRunning(_) => "sequence not running",
+            Error::NotPaused(_) => "sequence not paused",
+            Error::CallerDepthExceeded(_) => "caller depth exceeded",
+            Error::NoLane(_) => "sequence has no lane",
+            Error::LaneCapacityExceeded(_) => "lane capacity exceeded",
+            Error::DurationOutOfRange => "duration is zero or too long",
+            Error::NeverStarted(_) => "sequence never started",
+            Error::AlreadyBound(_) => "sequence already bound",
+            Error::PollingClassesExceeded => "too many distinct polling periods",
+            Error::NotEmpty => "sequencer not empty",
+        }
+    }
 }
 
 impl core::fmt::Display for Error {
@@ -74,6 +101,7 @@ impl core::fmt::Display for Error {
             Error::NeverStarted(id) => write!(f, "sequence {} was never started", id.index()),
             Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),
             Error::PollingClassesExceeded => write!(f, "too many distinct polling periods"),
+            Error::NotEmpty => write!(f, "a table needs an empty sequencer"),
         }
     }
 }

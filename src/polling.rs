@@ -19,16 +19,21 @@ pub const MAX_POLLING_CLASSES: usize = 8;
 /// One polling period and the sequences registered with it.
 #[derive(Clone, Copy)]
 pub(crate) struct Class {
-    /// The period (µs).
-    period: NonZeroU32,
+    /// The period (µs); `None` (zero bytes, so an empty sequencer is all zeros) only in
+    /// an unused class.
+    period: Option<NonZeroU32>,
     /// The next poll while the class has an active member.
     next: Micros32,
     members: Bits,
 }
 
 /// The classes of one sequencer.
+// A fixed array and a length rather than a `heapless::Vec`: `join` is a `const fn`, so a
+// `Table` computes the classes at compile time.
+#[derive(Clone, Copy)]
 pub(crate) struct Classes {
-    list: heapless::Vec<Class, MAX_POLLING_CLASSES>,
+    list: [Class; MAX_POLLING_CLASSES],
+    len: u8,
 }
 
 /// What a scan of the classes found.
@@ -42,37 +47,49 @@ pub(crate) struct Due {
 
 impl Classes {
     pub(crate) const fn new() -> Self {
+        const UNUSED: Class = Class {
+            period: None,
+            next: 0,
+            members: Bits::EMPTY,
+        };
         Classes {
-            list: heapless::Vec::new(),
+            list: [UNUSED; MAX_POLLING_CLASSES],
+            len: 0,
         }
     }
 
     /// Puts `id` in the class of `period` (a new class for a new period). Returns the
     /// class's index.
-    pub(crate) fn join(&mut self, id: SeqId, period: u32) -> Result<u8, Error> {
-        let period = NonZeroU32::new(period).ok_or(Error::DurationOutOfRange)?;
-        let at = match self.list.iter().position(|c| c.period == period) {
-            Some(at) => at,
-            None => {
-                let class = Class {
-                    period,
+    #[inline]
+    pub(crate) const fn join(&mut self, id: SeqId, period: u32) -> Result<u8, Error> {
+        let Some(period) = NonZeroU32::new(period) else {
+            return Err(Error::DurationOutOfRange);
+        };
+        let Classes { list, len } = self;
+        let mut rest: &mut [Class] = list;
+        let mut at: u8 = 0;
+        while let Some((class, tail)) = rest.split_first_mut() {
+            if at == *len {
+                *class = Class {
+                    period: Some(period),
                     next: 0,
                     members: Bits::EMPTY,
                 };
-                self.list
-                    .push(class)
-                    .map_err(|_| Error::PollingClassesExceeded)?;
-                self.list.len().saturating_sub(1)
+                *len = at.saturating_add(1);
             }
-        };
-        let class = self.list.get_mut(at).ok_or(Error::PollingClassesExceeded)?;
-        class.members.set(id, true);
-        u8::try_from(at).map_err(|_| Error::PollingClassesExceeded)
+            if matches!(class.period, Some(p) if p.get() == period.get()) {
+                class.members = class.members.with(id);
+                return Ok(at);
+            }
+            rest = tail;
+            at = at.saturating_add(1);
+        }
+        Err(Error::PollingClassesExceeded)
     }
 
     /// The number of classes.
     pub(crate) fn len(&self) -> usize {
-        self.list.len()
+        usize::from(self.len)
     }
 
     /// Before a start of a sequence of class `index` at `now`: an idle class (no member
@@ -82,7 +99,7 @@ impl Classes {
         match self.list.get_mut(usize::from(index)) {
             Some(c) => {
                 if c.members.and(active).is_empty() {
-                    c.next = now.wrapping_add(c.period.get());
+                    c.next = now.wrapping_add(c.period.map_or(0, NonZeroU32::get));
                 }
                 c.next
             }
@@ -90,26 +107,44 @@ impl Classes {
         }
     }
 
-    /// The scan of class `index` at `now`: when it has an active member and its poll is
-    /// due, advances its grid and adds its active members to `due`.
+    /// The scan of class `index` at `now` (see [`Class::scan`]).
     #[inline(always)]
     pub(crate) fn scan(&mut self, index: usize, now: u32, active: Bits, due: &mut Due) {
-        let Some(c) = self.list.get_mut(index) else {
+        // An unused class has no members: no need to test `len`.
+        if let Some(c) = self.list.get_mut(index) {
+            c.scan(now, active, due);
+        }
+    }
+
+    /// The scan of every class at `now`.
+    #[inline(always)]
+    pub(crate) fn scan_all(&mut self, now: u32, active: Bits, due: &mut Due) {
+        let len = self.len();
+        for c in self.list.iter_mut().take(len) {
+            c.scan(now, active, due);
+        }
+    }
+}
+
+impl Class {
+    /// When the class has an active member and its poll is due, advances its grid and
+    /// adds its active members to `due`.
+    #[inline(always)]
+    fn scan(&mut self, now: u32, active: Bits, due: &mut Due) {
+        let live = self.members.and(active);
+        // A class with members has a period.
+        let (false, Some(period)) = (live.is_empty(), self.period) else {
             return;
         };
-        let live = c.members.and(active);
-        if live.is_empty() {
-            return;
-        }
-        if reached32(now, c.next) {
+        if reached32(now, self.next) {
             due.sequences = due.sequences.or(live);
             // The next grid point after now: missed periods (a late tick) are not
             // replayed.
-            let behind = now.wrapping_sub(c.next);
-            let skip = (behind / c.period).wrapping_add(1);
-            c.next = c.next.wrapping_add(skip.wrapping_mul(c.period.get()));
+            let behind = now.wrapping_sub(self.next);
+            let skip = (behind / period).wrapping_add(1);
+            self.next = self.next.wrapping_add(skip.wrapping_mul(period.get()));
         }
-        due.ahead = due.ahead.min(c.next.wrapping_sub(now));
+        due.ahead = due.ahead.min(self.next.wrapping_sub(now));
     }
 }
 

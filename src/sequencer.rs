@@ -10,9 +10,9 @@ use crate::control_block::{after, earlier, flag, request, ControlBlock, Link, NO
 use crate::lock::{CriticalSection, Lock};
 use crate::polling::Classes;
 use crate::safety::{AbortSequences, SafetyHandle};
+use crate::table::{Entry, Table};
 use crate::{
-    time, Cause, Error, Handle, Instant, Outcome, RunningState, SeqConfig, SeqId, Transition,
-    MAX_DEPTH,
+    Cause, Error, Handle, Instant, Outcome, RunningState, SeqConfig, SeqId, Transition, MAX_DEPTH,
 };
 
 /// How a sequence is started.
@@ -273,14 +273,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Registers a sequence or step. Errors on an empty or duplicate name, an out-of-range
     /// duration, or when all `N` slots are taken.
     pub fn register(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
-        if config.name.is_empty() {
-            return Err(Error::EmptyName);
-        }
-        let polling = time::to_interval(config.polling).ok_or(Error::DurationOutOfRange)?;
-        let timeout = match config.timeout {
-            Some(t) => time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
-            None => 0,
-        };
+        let mut entry = Entry::checked(&config)?;
         self.with(|s| {
             let used = usize::from(s.count);
             if s.blocks
@@ -295,20 +288,49 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 .blocks
                 .get_mut(used)
                 .ok_or(Error::SequenceCapacityExceeded)?;
-            *slot = ControlBlock {
-                name: Some(config.name),
-                timeout,
-                timeout_behaviour: config.timeout_behaviour,
-                timeout_exception: Link::to(config.timeout_exception),
-                timeout_restart_limit: config.timeout_restart_limit,
-                class: s.classes.join(id, polling)?,
-                ..ControlBlock::IDLE
-            };
+            entry.class = s.classes.join(id, entry.polling)?;
+            *slot = entry.block();
             if let Some(h) = s.hooks.get_mut(used) {
-                *h = config.on_abort;
+                *h = entry.on_abort();
             }
             s.count = s.count.saturating_add(1);
             Ok(id)
+        })
+    }
+
+    /// Installs a [`Table`] checked at compile time into this empty sequencer: sequence
+    /// `i` of the table gets the id `SeqId::from_index(i)`. Bind the sequence objects with
+    /// [`bind`](Self::bind) afterwards. A table larger than `N` does not compile.
+    ///
+    /// One short section per entry, and one that makes them all visible at once; errors
+    /// (without a change) when anything is registered already.
+    pub fn install<const K: usize>(&self, table: &Table<C, K>) -> Result<(), Error> {
+        const {
+            assert!(
+                K <= N,
+                "the table holds more sequences than the sequencer's N"
+            )
+        };
+        for (used, entry) in table.entries.iter().enumerate() {
+            self.with(|s| {
+                // A block above `count` is invisible: nothing reads it before the commit.
+                if s.count != 0 {
+                    return Err(Error::NotEmpty);
+                }
+                if let (Some(b), Some(h)) = (s.blocks.get_mut(used), s.hooks.get_mut(used)) {
+                    *b = entry.block();
+                    *h = entry.on_abort();
+                }
+                Ok(())
+            })?;
+        }
+        self.with(|s| {
+            if s.count != 0 {
+                return Err(Error::NotEmpty);
+            }
+            s.classes = table.classes;
+            s.count = K as u8;
+            Ok(())
         })
     }
 

@@ -239,9 +239,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let next_due = |ahead: u32| now32.wrapping_add(ahead.min(NEVER_AHEAD));
         if L::COARSE {
             return self.with(|s| {
-                for i in 0..s.classes.len() {
-                    s.classes.scan(i, now32, s.active, &mut due);
-                }
+                s.classes.scan_all(now32, s.active, &mut due);
                 s.next_due = next_due(due.ahead);
                 let (mut polls, timed) = s.take_polls(due.sequences);
                 polls.expired = s.expired(timed, now32);

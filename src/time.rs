@@ -24,8 +24,10 @@ pub type Duration = fugit::MicrosDurationU64;
 
 /// Converts a polling period or timeout to the compact microsecond form stored in control
 /// blocks: non-zero and below 2^31 µs (35 min), so wrapping comparisons stay correct.
-pub(crate) fn to_interval(d: Duration) -> Option<u32> {
-    u32::try_from(d.as_ticks())
-        .ok()
-        .filter(|&us| us > 0 && us < 0x8000_0000)
+pub(crate) const fn to_interval(d: Duration) -> Option<u32> {
+    match d.as_ticks() {
+        // In range, so the cast keeps the value.
+        us @ 1..0x8000_0000 => Some(us as u32),
+        _ => None,
+    }
 }

@@ -219,7 +219,7 @@ fn host(plan: FaultPlan, end_ms: u64) -> Host {
     cs.set_fault_plan(plan);
     let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&CONFIG)));
     let mut monitors: Monitors<'static, ControlSystem, { app::MONITORS }> = Monitors::new();
-    let app = app::register(seq, &mut monitors, conditions, &CONFIG).unwrap();
+    let app = app::register(seq, &mut monitors, conditions, &app::Setup::DEMO).unwrap();
     let ids = app.ids;
     let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
     seq.set_safety_system(handle);

@@ -419,7 +419,7 @@ fn firmware_sizes_with_and_without_rtseq() {
         "rtseq's own flash in the demo firmware [bytes]",
         demo_code.rtseq,
         8 * 1024,
-        12_400,
+        11_700,
     );
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",

@@ -633,6 +633,104 @@ fn starting_a_running_sequence_is_an_error() {
     assert_eq!(sim.start(mi), Ok(()));
 }
 
+/// The tree of `timeout_world(false)` plus a timeout exception `X`, with A polled every
+/// 2 ms and S's cleanup hook, checked by the compiler.
+static TABLE: rtseq::Table<Ctrl, 4> = match rtseq::Table::new([
+    SeqConfig::new("S").on_abort(hook_s),
+    SeqConfig::new("A")
+        .polling(Duration::from_millis(2))
+        .timeout(Duration::from_millis(3))
+        .timeout_exception(SeqId::from_index(3)),
+    SeqConfig::new("main"),
+    SeqConfig::new("X"),
+]) {
+    Ok(table) => table,
+    Err(e) => panic!("{}", e.reason()),
+};
+
+/// The same tree registered at run time.
+fn registered(seq: &Seqr) -> Result<(), Error> {
+    seq.register(SeqConfig::new("S").on_abort(hook_s))?;
+    seq.register(
+        SeqConfig::new("A")
+            .polling(Duration::from_millis(2))
+            .timeout(Duration::from_millis(3))
+            .timeout_exception(SeqId::from_index(3)),
+    )?;
+    seq.register(SeqConfig::new("main"))?;
+    seq.register(SeqConfig::new("X"))?;
+    Ok(())
+}
+
+/// Runs the tree in `seq`: the trace, the ids and the hooks that ran.
+fn table_world(seq: &Seqr) -> (Vec<Transition>, [SeqId; 4], Vec<&'static str>) {
+    let ctrl = Ctrl::default();
+    let id = |n| seq.sequence_by_name(n).unwrap().id();
+    let (si, ai, mi, xi) = (id("S"), id("A"), id("main"), id("X"));
+    let s = seq.bind(si, Leaf::until(1)).unwrap();
+    let a = seq.bind(ai, Node::of(vec![Op::Step(s)])).unwrap();
+    let main = seq.bind(mi, Node::of(vec![Op::Run(a)])).unwrap();
+    let x = seq.bind(xi, Node::of(vec![])).unwrap();
+    let mut sim = Sim::new(seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(x);
+    sim.start(mi).unwrap();
+    sim.run_until_idle(Duration::from_millis(20)).unwrap();
+    let trace = sim.take_trace();
+    drop(sim);
+    let hooks = ctrl.hooks.borrow().clone();
+    (trace, [si, ai, mi, xi], hooks)
+}
+
+#[test]
+fn an_installed_table_runs_exactly_like_the_same_registrations() {
+    let installed = Seqr::new();
+    assert_eq!(installed.install(&TABLE), Ok(()));
+    let by_hand = Seqr::new();
+    registered(&by_hand).unwrap();
+    let (trace, [si, ai, mi, xi], hooks) = table_world(&installed);
+    assert_eq!(
+        (si, ai, mi, xi),
+        (
+            TABLE.id("S").unwrap(),
+            TABLE.id("A").unwrap(),
+            TABLE.id("main").unwrap(),
+            TABLE.id("X").unwrap()
+        )
+    );
+    // A polls every 2 ms: its 3 ms timeout is seen at 4 ms; X runs, then A is aborted.
+    let mut want = started(0, &[mi, ai, si]);
+    want.push(Transition::at_millis(4, xi, Idle, Running, Timeout(ai)));
+    want.extend(completed(4, &[xi]));
+    want.extend(aborted(5, &[si, ai], Timeout(ai)));
+    want.extend(completed(5, &[mi]));
+    assert_trace(&trace, &want);
+    assert_eq!(hooks, ["S"]);
+    assert_eq!(table_world(&by_hand), (trace, [si, ai, mi, xi], hooks));
+}
+
+#[test]
+fn a_table_goes_into_an_empty_sequencer_only() {
+    let seq = Seqr::new();
+    seq.install(&TABLE).unwrap();
+    assert_eq!(seq.install(&TABLE), Err(Error::NotEmpty));
+    assert_eq!(seq.len(), 4);
+    // Registration goes on after the table, with its checks.
+    assert_eq!(
+        seq.register(SeqConfig::new("X")),
+        Err(Error::DuplicateName("X"))
+    );
+    assert_eq!(seq.register(SeqConfig::new("Y")), Ok(SeqId::from_index(4)));
+    let other = Seqr::new();
+    other.register(SeqConfig::new("first")).unwrap();
+    assert_eq!(other.install(&TABLE), Err(Error::NotEmpty));
+    assert_eq!(other.len(), 1);
+    assert_eq!(
+        other.sequence_by_name("first").unwrap().id(),
+        SeqId::from_index(0)
+    );
+}
+
 #[test]
 fn registry_errors_are_reported_not_panicked() {
     let seq: Sequencer<Ctrl, 2> = Sequencer::new();

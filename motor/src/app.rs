@@ -14,7 +14,7 @@
 //! cs.set_fault_plan(FaultPlan::NONE);
 //! let mut conditions = Conditions::new(&AppConfig::DEFAULT);
 //! let mut monitors: Monitors<ControlSystem, { app::MONITORS }> = Monitors::new();
-//! let app = app::register(&seq, &mut monitors, &mut conditions, &AppConfig::DEFAULT).unwrap();
+//! let app = app::register(&seq, &mut monitors, &mut conditions, &app::Setup::DEFAULT).unwrap();
 //! let main = app.ids.main;
 //!
 //! let mut sim = Sim::new(&seq, &cs, monitors);
@@ -40,7 +40,7 @@ use core::task::Poll;
 use rtseq::lock::Lock;
 use rtseq::{
     Behaviour, Condition, Duration, Instant, MonitorId, Monitors, Seq, SeqConfig, SeqId, Sequencer,
-    Toggle, Wait,
+    Table, Toggle, Wait,
 };
 
 use crate::control_system::{ControlSystem, Phase};
@@ -557,23 +557,153 @@ impl App {
     }
 }
 
-fn add<S, const N: usize, const T: usize, L: Lock, const W: usize>(
-    seq: &Sequencer<ControlSystem, N, T, L, W>,
-    config: SeqConfig<ControlSystem>,
-    body: S,
-) -> Result<Seq<S>, rtseq::Error> {
-    seq.add(config, body)
+/// The ids of the sequences and steps, in the order of [`Setup::table`]'s entries.
+pub mod seq_ids {
+    use rtseq::SeqId;
+
+    /// Quick stop (step of safe stop).
+    pub const QUICK_STOP: SeqId = SeqId::from_index(0);
+    /// Safe stop.
+    pub const SAFE_STOP: SeqId = SeqId::from_index(1);
+    /// Blink wait (step of status).
+    pub const BLINK: SeqId = SeqId::from_index(2);
+    /// Status.
+    pub const STATUS: SeqId = SeqId::from_index(3);
+    /// Power on.
+    pub const POWER_ON: SeqId = SeqId::from_index(4);
+    /// Seek end stop.
+    pub const SEEK: SeqId = SeqId::from_index(5);
+    /// Halt (step of homing).
+    pub const HALT: SeqId = SeqId::from_index(6);
+    /// Set zero.
+    pub const SET_ZERO: SeqId = SeqId::from_index(7);
+    /// Back off.
+    pub const BACK_OFF: SeqId = SeqId::from_index(8);
+    /// Homing.
+    pub const HOMING: SeqId = SeqId::from_index(9);
+    /// Move.
+    pub const MOVE: SeqId = SeqId::from_index(10);
+    /// Dwell.
+    pub const DWELL: SeqId = SeqId::from_index(11);
+    /// Moves.
+    pub const MOVES: SeqId = SeqId::from_index(12);
+    /// Feed hold.
+    pub const FEED_HOLD: SeqId = SeqId::from_index(13);
+    /// Feed resume.
+    pub const FEED_RESUME: SeqId = SeqId::from_index(14);
+    /// Main halt.
+    pub const MAIN_HALT: SeqId = SeqId::from_index(15);
+    /// Power off.
+    pub const POWER_OFF: SeqId = SeqId::from_index(16);
+    /// Main.
+    pub const MAIN: SeqId = SeqId::from_index(17);
 }
 
-/// Registers the whole application into `sequencer` and `monitors` and returns the
-/// sequence objects the lanes need.
+/// The application's parameters with its sequence table, checked by a `const fn`.
 ///
-/// Sequences (polling 1 ms unless noted): `main`; `status` (5 ms) with its `blink` wait;
-/// `power on`; `homing` (timeout `homing_timeout`, exception `safe stop`, abort) with `seek
-/// end stop`, `halt`, `set zero`, `back off`; `moves` with `move` (timeout `move_timeout`)
-/// and `dwell`; the exception sequences `safe stop` (with `quick stop`), `feed hold`, `feed
-/// resume`; `main halt`, `power off`. `moves` and `move` stop the axis when aborted
-/// ([`ControlSystem::abort_hook`]).
+/// In firmware build it in a `static` (as [`Setup::DEMO`]): then the table is checked by
+/// the compiler and [`register`] only copies it into the sequencer. Host tests build one
+/// for any [`AppConfig`] with [`Setup::new`].
+pub struct Setup {
+    /// The parameters.
+    pub config: AppConfig,
+    /// Sequence `i` is [`seq_ids`]' `SeqId::from_index(i)`.
+    pub table: Table<ControlSystem, SEQUENCES>,
+}
+
+impl Setup {
+    /// The set-up of [`AppConfig::DEFAULT`].
+    // A `const` item: the panic is a compile error, never a run-time path.
+    #[allow(clippy::panic)]
+    pub const DEFAULT: Setup = match Setup::new(AppConfig::DEFAULT) {
+        Ok(setup) => setup,
+        Err(e) => panic!("{}", e.reason()),
+    };
+    /// The set-up of [`AppConfig::DEMO`].
+    #[allow(clippy::panic)]
+    pub const DEMO: Setup = match Setup::new(AppConfig::DEMO) {
+        Ok(setup) => setup,
+        Err(e) => panic!("{}", e.reason()),
+    };
+
+    /// The sequence table of `config`: polling 1 ms unless noted; `status` and its `blink`
+    /// 5 ms; `homing` with timeout `homing_timeout`, exception `safe stop`, `AbortOwner`;
+    /// `move` with timeout `move_timeout`; `homing`, `moves` and `move` stop the axis when
+    /// aborted ([`ControlSystem::abort_hook`]). Errors if a duration is out of range.
+    pub const fn new(config: AppConfig) -> Result<Setup, rtseq::Error> {
+        use seq_ids::*;
+        let ms = Duration::from_millis;
+        let cfg = SeqConfig::new;
+        let stop = ControlSystem::abort_hook;
+        let table = Table::new([
+            cfg("quick stop"),
+            cfg("safe stop"),
+            cfg("blink").polling(ms(5)),
+            cfg("status").polling(ms(5)),
+            cfg("power on"),
+            cfg("seek end stop"),
+            cfg("halt"),
+            cfg("set zero"),
+            cfg("back off"),
+            cfg("homing")
+                .timeout(config.homing_timeout)
+                .timeout_exception(SAFE_STOP)
+                .timeout_behaviour(Behaviour::AbortOwner)
+                .on_abort(stop),
+            cfg("move").timeout(config.move_timeout).on_abort(stop),
+            cfg("dwell"),
+            cfg("moves").on_abort(stop),
+            cfg("feed hold"),
+            cfg("feed resume"),
+            cfg("main halt"),
+            cfg("power off"),
+            cfg("main"),
+        ]);
+        match table {
+            Ok(table) => Ok(Setup { config, table }),
+            Err(e) => Err(e),
+        }
+    }
+}
+
+// The positions in `seq_ids` are the names' positions in the table.
+const _: () = {
+    use seq_ids::*;
+    let t = &Setup::DEFAULT.table;
+    let checks = [
+        (QUICK_STOP, "quick stop"),
+        (SAFE_STOP, "safe stop"),
+        (BLINK, "blink"),
+        (STATUS, "status"),
+        (POWER_ON, "power on"),
+        (SEEK, "seek end stop"),
+        (HALT, "halt"),
+        (SET_ZERO, "set zero"),
+        (BACK_OFF, "back off"),
+        (HOMING, "homing"),
+        (MOVE, "move"),
+        (DWELL, "dwell"),
+        (MOVES, "moves"),
+        (FEED_HOLD, "feed hold"),
+        (FEED_RESUME, "feed resume"),
+        (MAIN_HALT, "main halt"),
+        (POWER_OFF, "power off"),
+        (MAIN, "main"),
+    ];
+    let mut rest: &[(rtseq::SeqId, &str)] = &checks;
+    while let Some(((id, name), more)) = rest.split_first() {
+        assert!(
+            matches!(t.id(name), Some(at) if at.index() == id.index()),
+            "seq_ids and the table disagree"
+        );
+        rest = more;
+    }
+    assert!(checks.len() == SEQUENCES, "seq_ids misses a sequence");
+};
+
+/// Registers the whole application into `sequencer` and `monitors` and returns the
+/// sequence objects the lanes need: installs `setup`'s table (see [`Setup::new`]), binds
+/// the sequence objects and adds the monitors.
 ///
 /// Monitors:
 ///
@@ -588,93 +718,61 @@ fn add<S, const N: usize, const T: usize, L: Lock, const W: usize>(
 /// must end the motion program (the moves and the move in progress are aborted, main gets
 /// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
 ///
-/// Errors: capacity (`N` < [`SEQUENCES`], `M` < [`MONITORS`]), or names already taken.
+/// Errors: the sequencer is not empty, `M` < [`MONITORS`]. `N` < [`SEQUENCES`] does not
+/// compile.
 pub fn register<'a, const N: usize, const T: usize, L: Lock, const W: usize, const M: usize>(
     sequencer: &Sequencer<ControlSystem, N, T, L, W>,
     monitors: &mut Monitors<'a, ControlSystem, M>,
     conditions: &'a mut Conditions,
-    config: &AppConfig,
+    setup: &Setup,
 ) -> Result<App, rtseq::Error> {
+    use seq_ids::*;
     let s = sequencer;
-    let ms = Duration::from_millis;
-    let cfg = SeqConfig::new;
+    let config = &setup.config;
+    s.install(&setup.table)?;
 
-    let quick_stop = add(s, cfg("quick stop"), QuickStop)?;
-    let quick_stop_id = quick_stop.id();
-    let safe_stop = add(s, cfg("safe stop"), SafeStop { stop: quick_stop })?;
-    let safe_stop_id = safe_stop.id();
-
-    let blink = add(s, cfg("blink").polling(ms(5)), Wait::new(ms(125)))?;
-    let blink_id = blink.id();
-    let status = add(s, cfg("status").polling(ms(5)), StatusBlink { blink })?;
-
-    let power_on = add(s, cfg("power on"), PowerOn)?;
-    let seek = add(
-        s,
-        cfg("seek end stop"),
+    let quick_stop = s.bind(QUICK_STOP, QuickStop)?;
+    let safe_stop = s.bind(SAFE_STOP, SafeStop { stop: quick_stop })?;
+    let blink = s.bind(BLINK, Wait::new(Duration::from_millis(125)))?;
+    let status = s.bind(STATUS, StatusBlink { blink })?;
+    let power_on = s.bind(POWER_ON, PowerOn)?;
+    let seek = s.bind(
+        SEEK,
         SeekEndStop {
             speed: config.homing_speed,
         },
     )?;
-    let halt = add(s, cfg("halt"), Halt)?;
-    let set_zero = add(s, cfg("set zero"), SetZero)?;
-    let back_off = add(
-        s,
-        cfg("back off"),
+    let halt = s.bind(HALT, Halt)?;
+    let zero = s.bind(SET_ZERO, SetZero)?;
+    let back_off = s.bind(
+        BACK_OFF,
         MoveTo {
             target: config.back_off,
         },
     )?;
-    let (power_on_id, seek_id, halt_id, set_zero_id, back_off_id) = (
-        power_on.id(),
-        seek.id(),
-        halt.id(),
-        set_zero.id(),
-        back_off.id(),
-    );
-    let homing = add(
-        s,
-        cfg("homing")
-            .timeout(config.homing_timeout)
-            .timeout_exception(safe_stop_id)
-            .timeout_behaviour(Behaviour::AbortOwner)
-            .on_abort(ControlSystem::abort_hook),
+    let homing = s.bind(
+        HOMING,
         Homing {
             seek,
             halt,
-            zero: set_zero,
+            zero,
             back_off,
         },
     )?;
-    let homing_id = homing.id();
-
-    let move_step = add(
-        s,
-        cfg("move")
-            .timeout(config.move_timeout)
-            .on_abort(ControlSystem::abort_hook),
-        MoveTo { target: 0.0 },
-    )?;
-    let move_id = move_step.id();
-    let dwell = add(s, cfg("dwell"), Wait::new(config.dwell))?;
-    let dwell_id = dwell.id();
-    let moves = add(
-        s,
-        cfg("moves").on_abort(ControlSystem::abort_hook),
+    let move_step = s.bind(MOVE, MoveTo { target: 0.0 })?;
+    let dwell = s.bind(DWELL, Wait::new(config.dwell))?;
+    let moves = s.bind(
+        MOVES,
         MoveLoop::new(move_step, dwell, config.targets, config.move_count),
     )?;
-    let moves_id = moves.id();
-
-    let feed_hold = add(s, cfg("feed hold"), FeedHold { moves: moves_id })?;
-    let feed_resume = add(s, cfg("feed resume"), FeedResume { moves: moves_id })?;
-    let main_halt = add(s, cfg("main halt"), QuickStop)?;
-    let power_off = add(s, cfg("power off"), PowerOff)?;
-    let (main_halt_id, power_off_id) = (main_halt.id(), power_off.id());
-    let main = add(
-        s,
-        cfg("main"),
+    let feed_hold = s.bind(FEED_HOLD, FeedHold { moves: MOVES })?;
+    let feed_resume = s.bind(FEED_RESUME, FeedResume { moves: MOVES })?;
+    let main_halt = s.bind(MAIN_HALT, QuickStop)?;
+    let power_off = s.bind(POWER_OFF, PowerOff)?;
+    let main = s.bind(
+        MAIN,
         Main {
-            status: status.id(),
+            status: STATUS,
             power_on,
             homing,
             moves,
@@ -690,47 +788,47 @@ pub fn register<'a, const N: usize, const T: usize, L: Lock, const W: usize, con
         resume,
     } = conditions;
     let following_error = monitors.add(
-        move_id,
+        MOVE,
         rtseq::Monitor::new(
             "following error",
             following_error,
             Behaviour::RestartCallerOfOwner,
         )
-        .exception(safe_stop_id)
+        .exception(SAFE_STOP)
         .restart_limit(config.restart_limit),
     )?;
     let end_stop = monitors.add(
-        moves_id,
+        MOVES,
         rtseq::Monitor::new("end stop", end_stop, Behaviour::AbortOwner),
     )?;
     let pause = monitors.add(
-        moves_id,
-        rtseq::Monitor::new("pause", pause, Behaviour::Nothing).exception(feed_hold.id()),
+        MOVES,
+        rtseq::Monitor::new("pause", pause, Behaviour::Nothing).exception(FEED_HOLD),
     )?;
     let resume = monitors.add(
-        moves_id,
-        rtseq::Monitor::new("resume", resume, Behaviour::Nothing).exception(feed_resume.id()),
+        MOVES,
+        rtseq::Monitor::new("resume", resume, Behaviour::Nothing).exception(FEED_RESUME),
     )?;
 
     let ids = Ids {
-        main: main.id(),
-        status: status.id(),
-        blink: blink_id,
-        power_on: power_on_id,
-        homing: homing_id,
-        seek: seek_id,
-        halt: halt_id,
-        set_zero: set_zero_id,
-        back_off: back_off_id,
-        moves: moves_id,
-        move_step: move_id,
-        dwell: dwell_id,
-        safe_stop: safe_stop_id,
-        quick_stop: quick_stop_id,
-        feed_hold: feed_hold.id(),
-        feed_resume: feed_resume.id(),
-        main_halt: main_halt_id,
-        power_off: power_off_id,
+        main: MAIN,
+        status: STATUS,
+        blink: BLINK,
+        power_on: POWER_ON,
+        homing: HOMING,
+        seek: SEEK,
+        halt: HALT,
+        set_zero: SET_ZERO,
+        back_off: BACK_OFF,
+        moves: MOVES,
+        move_step: MOVE,
+        dwell: DWELL,
+        safe_stop: SAFE_STOP,
+        quick_stop: QUICK_STOP,
+        feed_hold: FEED_HOLD,
+        feed_resume: FEED_RESUME,
+        main_halt: MAIN_HALT,
+        power_off: POWER_OFF,
         following_error,
         end_stop,
         pause,

@@ -28,7 +28,7 @@ fn joined_lanes_give_the_same_run_as_the_simulator() {
     let (seq, cs): (Seqr, ControlSystem) = (Sequencer::new(), ControlSystem::new(0.02));
     let mut conditions = Conditions::new(&AppConfig::DEFAULT);
     let mut monitors: Monitors<ControlSystem, M> = Monitors::new();
-    let app = app::register(&seq, &mut monitors, &mut conditions, &AppConfig::DEFAULT).unwrap();
+    let app = app::register(&seq, &mut monitors, &mut conditions, &app::Setup::DEFAULT).unwrap();
     let main = app.ids.main;
     let flag = Arc::new(Flag(AtomicBool::new(true)));
     let waker = Waker::from(flag.clone());

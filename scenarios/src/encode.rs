@@ -120,6 +120,7 @@ pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
                 Error::AlreadyBound(_) => 12,
                 Error::LaneCapacityExceeded(_) => 13,
                 Error::PollingClassesExceeded => 14,
+                Error::NotEmpty => 15,
             };
             0x8000_0000 | n
         }

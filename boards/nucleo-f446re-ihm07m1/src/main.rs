@@ -127,6 +127,8 @@ mod app {
     static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
     /// The control system (its simulated plant is not used: the sensors are the truth).
     static CS: ControlSystem = ControlSystem::new(AppConfig::DEFAULT.start_position);
+    /// The sequence table, checked by the compiler: `init` only copies it in.
+    static SETUP: app::Setup = app::Setup::DEFAULT;
     /// The lock-free part of the safety system (level, public events).
     static SAFETY: SafetyHandle = SafetyHandle::new();
     /// Control periods since start (the defmt timestamp and the sequencer's clock).
@@ -227,12 +229,7 @@ mod app {
         // The application, its safety system, its lanes.
         CS.set_fault_plan(FaultPlan::NONE);
         let mut monitors = Monitors::new();
-        let app = match app::register(
-            &SEQ,
-            &mut monitors,
-            cx.local.conditions,
-            &AppConfig::DEFAULT,
-        ) {
+        let app = match app::register(&SEQ, &mut monitors, cx.local.conditions, &SETUP) {
             Ok(app) => Some(app),
             Err(e) => {
                 defmt::error!("init: registering the application failed: {}", e);

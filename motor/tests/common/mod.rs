@@ -40,7 +40,13 @@ impl World {
         cs.set_fault_plan(plan);
         let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&config)));
         let mut monitors: Monitors<'static, ControlSystem, M> = Monitors::new();
-        let app = app::register(seq, &mut monitors, conditions, &config).unwrap();
+        let app = app::register(
+            seq,
+            &mut monitors,
+            conditions,
+            &app::Setup::new(config).unwrap(),
+        )
+        .unwrap();
         let ids = app.ids;
         let mut sim = Sim::new(seq, cs, monitors);
         for lane in app.lanes() {

@@ -40,6 +40,8 @@ use rtseq_qemu_f405 as board;
 
 /// The demo's program: eight moves (see [`AppConfig::DEMO`]).
 const CONFIG: AppConfig = AppConfig::DEMO;
+/// Its sequence table, checked by the compiler: `init` only copies it in.
+static SETUP: app::Setup = app::Setup::DEMO;
 /// Control period, s (the tick).
 const DT: f32 = 0.001;
 /// The run ends this long after main ended and the last planned event passed, ms.
@@ -1374,7 +1376,7 @@ mod rtic_app {
         announce(&plan);
         CS.set_fault_plan(plan);
         let mut monitors = Monitors::new();
-        let app = match app::register(&SEQ, &mut monitors, cx.local.conditions, &CONFIG) {
+        let app = match app::register(&SEQ, &mut monitors, cx.local.conditions, &SETUP) {
             Ok(a) => a,
             Err(e) => {
                 defmt::error!("demo: registration failed: {}", e);

@@ -1,0 +1,301 @@
+//! A sequence tree's configuration, checked and laid out at compile time.
+//!
+//! [`Sequencer::register`](crate::Sequencer::register) checks each configuration when the
+//! firmware runs, so its checks are code in flash. A [`Table`] is built by a `const fn`:
+//! in a `static` or `const` item the same checks run in the compiler (a bad table is a
+//! compile error) and the firmware only copies the result in
+//! ([`Sequencer::install`](crate::Sequencer::install)). Like a PLC's configuration, the
+//! tree is fixed before the program runs.
+
+use crate::control_block::{ControlBlock, Link};
+use crate::polling::Classes;
+use crate::{Behaviour, Error, SeqConfig, SeqId};
+
+/// One checked configuration: what a control block takes from it.
+pub(crate) struct Entry<C> {
+    name: &'static str,
+    /// Polling period (µs, non-zero, below 2^31).
+    pub(crate) polling: u32,
+    /// Timeout (µs; 0 = off).
+    timeout: u32,
+    on_abort: Option<fn(&C)>,
+    timeout_exception: Link,
+    timeout_behaviour: Behaviour,
+    timeout_restart_limit: u8,
+    /// The polling class (set when the entry joins one).
+    pub(crate) class: u8,
+}
+
+// Not derived: a derive would require `C: Copy`.
+impl<C> Clone for Entry<C> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<C> Copy for Entry<C> {}
+
+impl<C> Entry<C> {
+    /// Checks `config` on its own (name, durations); the polling class is joined later.
+    pub(crate) const fn checked(config: &SeqConfig<C>) -> Result<Self, Error> {
+        if config.name.is_empty() {
+            return Err(Error::EmptyName);
+        }
+        let Some(polling) = crate::time::to_interval(config.polling) else {
+            return Err(Error::DurationOutOfRange);
+        };
+        let timeout = match config.timeout {
+            Some(t) => match crate::time::to_interval(t) {
+                Some(us) => us,
+                None => return Err(Error::DurationOutOfRange),
+            },
+            None => 0,
+        };
+        Ok(Entry {
+            name: config.name,
+            polling,
+            timeout,
+            on_abort: config.on_abort,
+            timeout_exception: Link::to(config.timeout_exception),
+            timeout_behaviour: config.timeout_behaviour,
+            timeout_restart_limit: config.timeout_restart_limit,
+            class: 0,
+        })
+    }
+
+    /// The control block of a registered sequence that never ran.
+    pub(crate) const fn block(&self) -> ControlBlock {
+        ControlBlock {
+            name: Some(self.name),
+            timeout: self.timeout,
+            timeout_behaviour: self.timeout_behaviour,
+            timeout_exception: self.timeout_exception,
+            timeout_restart_limit: self.timeout_restart_limit,
+            class: self.class,
+            ..ControlBlock::IDLE
+        }
+    }
+
+    /// The cleanup hook.
+    pub(crate) const fn on_abort(&self) -> Option<fn(&C)> {
+        self.on_abort
+    }
+}
+
+/// The configurations of a whole sequence tree, checked and laid out by a `const fn`.
+///
+/// Sequence `i` of the table gets the id `SeqId::from_index(i)`, so references between
+/// entries (a timeout exception) are positions; [`id`](Table::id) finds a position by
+/// name. Build the table in a `static` or `const` item: then the checks run in the
+/// compiler, an invalid table is a compile error, and none of the checking code is in the
+/// firmware. [`Sequencer::install`](crate::Sequencer::install) copies it in; each sequence
+/// object is then bound to its id with [`Sequencer::bind`](crate::Sequencer::bind).
+///
+/// ```
+/// use rtseq::{Behaviour, Cx, Duration, SeqConfig, SeqId, Sequencer, Step, Table};
+/// const SAFE_STOP: SeqId = SeqId::from_index(0);
+/// const HOMING: SeqId = SeqId::from_index(1);
+/// static TABLE: Table<(), 2> = match Table::new([
+///     SeqConfig::new("safe stop"),
+///     SeqConfig::new("homing")
+///         .timeout(Duration::from_secs(5))
+///         .timeout_exception(SAFE_STOP)
+///         .timeout_behaviour(Behaviour::AbortOwner),
+/// ]) {
+///     Ok(table) => table,
+///     Err(e) => panic!("{}", e.reason()), // a compile error, never a run-time panic
+/// };
+/// // The ids the code uses are the ones the names say.
+/// const _: () = assert!(matches!(TABLE.id("homing"), Some(id) if id.index() == HOMING.index()));
+///
+/// struct Stop;
+/// impl Step<()> for Stop { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// let seq: Sequencer<(), 4> = Sequencer::new();
+/// seq.install(&TABLE).unwrap();
+/// let stop = seq.bind(SAFE_STOP, Stop).unwrap();
+/// assert_eq!(seq.sequence_by_name("homing").unwrap().id(), HOMING);
+/// assert_eq!(seq.sequence_by_id(stop.id()).unwrap().name(), "safe stop");
+/// ```
+///
+/// A duplicate name does not compile:
+///
+/// ```compile_fail
+/// use rtseq::{SeqConfig, Table};
+/// static TABLE: Table<(), 2> =
+///     match Table::new([SeqConfig::new("move"), SeqConfig::new("move")]) {
+///         Ok(table) => table,
+///         Err(e) => panic!("{}", e.reason()),
+///     };
+/// ```
+pub struct Table<C, const N: usize> {
+    pub(crate) entries: [Entry<C>; N],
+    pub(crate) classes: Classes,
+}
+
+impl<C, const N: usize> Table<C, N> {
+    /// Checks `configs` as [`register`](crate::Sequencer::register) would one after the
+    /// other (empty or duplicate names, durations, distinct polling periods), plus what
+    /// only a whole table can show: the table fits a sequencer (at most
+    /// [`MAX_SEQUENCES`](crate::MAX_SEQUENCES)) and every timeout exception is one of its
+    /// entries.
+    pub const fn new(configs: [SeqConfig<C>; N]) -> Result<Self, Error> {
+        if N > crate::MAX_SEQUENCES {
+            return Err(Error::SequenceCapacityExceeded);
+        }
+        let mut table = Table {
+            entries: [const { Entry::UNUSED }; N],
+            classes: Classes::new(),
+        };
+        let mut entries: &mut [Entry<C>] = &mut table.entries;
+        let mut rest: &[SeqConfig<C>] = &configs;
+        let mut id: u8 = 0;
+        while let (Some((slot, more_slots)), Some((config, more))) =
+            (entries.split_first_mut(), rest.split_first())
+        {
+            let mut entry = match Entry::checked(config) {
+                Ok(entry) => entry,
+                Err(e) => return Err(e),
+            };
+            if let Some(exception) = config.timeout_exception {
+                if exception.index() >= N {
+                    return Err(Error::UnknownSequence(exception));
+                }
+            }
+            if position(&configs, config.name).0 != id {
+                return Err(Error::DuplicateName(config.name));
+            }
+            entry.class = match table.classes.join(SeqId(id), entry.polling) {
+                Ok(class) => class,
+                Err(e) => return Err(e),
+            };
+            *slot = entry;
+            entries = more_slots;
+            rest = more;
+            id = id.saturating_add(1);
+        }
+        Ok(table)
+    }
+
+    /// The id of the entry named `name`.
+    pub const fn id(&self, name: &str) -> Option<SeqId> {
+        let mut rest: &[Entry<C>] = &self.entries;
+        let mut id: u8 = 0;
+        while let Some((entry, more)) = rest.split_first() {
+            if str_eq(entry.name, name) {
+                return Some(SeqId(id));
+            }
+            rest = more;
+            id = id.saturating_add(1);
+        }
+        None
+    }
+
+    /// The number of sequences and steps in the table (`N`).
+    pub const fn len(&self) -> usize {
+        N
+    }
+
+    /// True for a table of no sequences.
+    pub const fn is_empty(&self) -> bool {
+        N == 0
+    }
+}
+
+impl<C> Entry<C> {
+    /// An unwritten entry (`Table::new` overwrites all of them).
+    const UNUSED: Entry<C> = Entry {
+        name: "",
+        polling: 0,
+        timeout: 0,
+        on_abort: None,
+        timeout_exception: Link::NONE,
+        timeout_behaviour: Behaviour::AbortOwner,
+        timeout_restart_limit: 0,
+        class: 0,
+    };
+}
+
+/// The first position of `name` in `configs` (`SeqId(u8::MAX)` when absent).
+const fn position<C>(configs: &[SeqConfig<C>], name: &str) -> SeqId {
+    let mut rest = configs;
+    let mut id: u8 = 0;
+    while let Some((config, more)) = rest.split_first() {
+        if str_eq(config.name, name) {
+            return SeqId(id);
+        }
+        rest = more;
+        id = id.saturating_add(1);
+    }
+    SeqId(u8::MAX)
+}
+
+/// `a == b` for a `const fn`.
+const fn str_eq(a: &str, b: &str) -> bool {
+    let (mut a, mut b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    while let (Some((x, more_a)), Some((y, more_b))) = (a.split_first(), b.split_first()) {
+        if *x != *y {
+            return false;
+        }
+        a = more_a;
+        b = more_b;
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Duration;
+
+    fn cfg(name: &'static str) -> SeqConfig<()> {
+        SeqConfig::new(name)
+    }
+
+    #[test]
+    fn entries_get_their_positions_and_classes() {
+        let table = Table::new([
+            cfg("a"),
+            cfg("b").polling(Duration::from_millis(5)),
+            cfg("c"),
+        ]);
+        let ids = table.as_ref().map(|t| (t.id("c"), t.id("d")));
+        assert_eq!(ids, Ok((Some(SeqId(2)), None)));
+        let classes = table.map(|t| (t.entries.map(|e| e.class), t.classes.len()));
+        assert_eq!(classes, Ok(([0, 1, 0], 2)));
+    }
+
+    #[test]
+    fn a_bad_table_is_the_error_register_would_give() {
+        assert_eq!(
+            Table::new([cfg("a"), cfg("b"), cfg("a")]).err(),
+            Some(Error::DuplicateName("a"))
+        );
+        assert_eq!(Table::new([cfg("")]).err(), Some(Error::EmptyName));
+        assert_eq!(
+            Table::new([cfg("a").polling(Duration::from_ticks(0))]).err(),
+            Some(Error::DurationOutOfRange)
+        );
+        assert_eq!(
+            Table::new([cfg("a").timeout(Duration::from_secs(3_000))]).err(),
+            Some(Error::DurationOutOfRange)
+        );
+        assert_eq!(
+            Table::new([cfg("a").timeout_exception(SeqId(1))]).err(),
+            Some(Error::UnknownSequence(SeqId(1)))
+        );
+        let names = ["0", "1", "2", "3", "4", "5", "6", "7", "8"];
+        let mut period = 0;
+        let periods = names.map(|n| {
+            period += 1;
+            cfg(n).polling(Duration::from_ticks(period))
+        });
+        assert_eq!(
+            Table::new(periods).err(),
+            Some(Error::PollingClassesExceeded)
+        );
+        let too_many: Result<Table<(), 33>, _> = Table::new([const { SeqConfig::new("x") }; 33]);
+        assert_eq!(too_many.err(), Some(Error::SequenceCapacityExceeded));
+    }
+}
