@@ -92,6 +92,16 @@ impl Classes {
         usize::from(self.len)
     }
 
+    /// Becomes a copy of `from`'s used classes (a table's install; only the used ones are
+    /// copied, to keep the section short).
+    pub(crate) fn copy_used(&mut self, from: &Classes) {
+        let len = from.len();
+        for (to, c) in self.list.iter_mut().zip(from.list.iter()).take(len) {
+            *to = *c;
+        }
+        self.len = from.len;
+    }
+
     /// Before a start of a sequence of class `index` at `now`: an idle class (no member
     /// in `active`) starts its grid one period from now. Returns the class's next poll.
     #[inline]

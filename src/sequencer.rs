@@ -302,8 +302,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// `i` of the table gets the id `SeqId::from_index(i)`. Bind the sequence objects with
     /// [`bind`](Self::bind) afterwards. A table larger than `N` does not compile.
     ///
-    /// One short section per entry, and one that makes them all visible at once; errors
-    /// (without a change) when anything is registered already.
+    /// One short section per entry, and one that copies the polling classes and makes
+    /// everything visible at once (its length grows with the number of classes); errors
+    /// (without a visible change) when anything is registered already.
     pub fn install<const K: usize>(&self, table: &Table<C, K>) -> Result<(), Error> {
         const {
             assert!(
@@ -313,7 +314,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         };
         for (used, entry) in table.entries.iter().enumerate() {
             self.with(|s| {
-                // A block above `count` is invisible: nothing reads it before the commit.
+                // A block at or above `count` is invisible: nothing reads it before the
+                // commit.
                 if s.count != 0 {
                     return Err(Error::NotEmpty);
                 }
@@ -328,7 +330,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if s.count != 0 {
                 return Err(Error::NotEmpty);
             }
-            s.classes = table.classes;
+            s.classes.copy_used(&table.classes);
             s.count = K as u8;
             Ok(())
         })

@@ -1,7 +1,7 @@
 //! The scenarios: the trees, monitors and fault scripts of rtseq's core host tests
 //! (`tests/behaviours.rs`, `tests/scenarios.rs`), in the same registration order.
 
-use rtseq::{Behaviour, Duration, Monitor, Seq, SeqConfig, SeqId, Trigger, Wait};
+use rtseq::{Behaviour, Duration, Monitor, Seq, SeqConfig, SeqId, Table, Trigger, Wait};
 
 use crate::{Conds, Ctrl, Lanes, Leaf, Mons, Root, Scenario, ScenarioError, Seqr, N0, N1, N2, N3};
 
@@ -110,20 +110,44 @@ fn pulse0_at5(ms: u32, c: &Ctrl, _: &Seqr) {
     c.set(0, ms == 5);
 }
 
-/// main ─run→ A ─step→ S (never ends); a 3 ms timeout on S (`ON_STEP`) or on A.
+/// main ─run→ A ─step→ S (never ends); a 3 ms timeout on S (`ON_STEP`) or on A. Set up
+/// from a compile-time-checked table (`Sequencer::install`), the others by registration.
 fn timeout<'a, const ON_STEP: bool>(seq: &Seqr, _: &mut Mons<'a>, _: &'a mut Conds) -> R {
-    let three = Duration::from_millis(3);
-    let (cs, ca) = if ON_STEP {
-        (cfg("S").timeout(three), cfg("A"))
+    seq.install(if ON_STEP {
+        &TIMEOUT_ON_STEP
     } else {
-        (cfg("S"), cfg("A").timeout(three))
-    };
-    let s = seq.add(cs, Leaf::until(1))?;
-    let a = seq.add(ca, N0::new().step(s)?)?;
-    let main = seq.add(cfg("main"), Root::from(N1::new().run(a)?))?;
+        &TIMEOUT_ON_CALLER
+    })?;
+    let s = seq.bind(SeqId::from_index(0), Leaf::until(1))?;
+    let a = seq.bind(SeqId::from_index(1), N0::new().step(s)?)?;
+    let main = seq.bind(SeqId::from_index(2), Root::from(N1::new().run(a)?))?;
     let m = main.id();
     lanes([main], &[m])
 }
+
+/// S, A, main with a 3 ms timeout on S or on A.
+const fn timeout_table(on_step: bool) -> Result<Table<Ctrl, 3>, rtseq::Error> {
+    let three = Duration::from_millis(3);
+    let (s, a) = (SeqConfig::new("S"), SeqConfig::new("A"));
+    let (s, a) = if on_step {
+        (s.timeout(three), a)
+    } else {
+        (s, a.timeout(three))
+    };
+    Table::new([s, a, SeqConfig::new("main")])
+}
+
+// `static` items: a panic here is a compile error, never a run-time path.
+#[allow(clippy::panic)]
+static TIMEOUT_ON_STEP: Table<Ctrl, 3> = match timeout_table(true) {
+    Ok(t) => t,
+    Err(e) => panic!("{}", e.reason()),
+};
+#[allow(clippy::panic)]
+static TIMEOUT_ON_CALLER: Table<Ctrl, 3> = match timeout_table(false) {
+    Ok(t) => t,
+    Err(e) => panic!("{}", e.reason()),
+};
 
 fn quiet(_: u32, _: &Ctrl, _: &Seqr) {}
 
