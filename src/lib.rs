@@ -7,6 +7,8 @@
 //!
 //! * the tree is statically allocated: control blocks live in the [`Sequencer`] (usually a
 //!   `static`), sequence futures in their lanes' static task storage;
+//! * the tree's configuration can be a [`Table`] checked by a `const fn`: a bad tree is a
+//!   compile error, and the firmware only copies it in ([`Sequencer::install`]);
 //! * a sequence's action is an `async fn`, i.e. a cooperative, statically sized state
 //!   machine; a blocking start is an `.await` inside the caller ([`Cx::run`], [`Cx::step`]),
 //!   a non-blocking start runs the sequence in its [`lane`] ([`Cx::start`]);

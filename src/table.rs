@@ -200,6 +200,16 @@ impl<C, const N: usize> Table<C, N> {
     }
 }
 
+impl<C, const N: usize> core::fmt::Debug for Table<C, N> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let mut names = f.debug_list();
+        for e in &self.entries {
+            names.entry(&e.name);
+        }
+        names.finish()
+    }
+}
+
 impl<C> Entry<C> {
     /// An unwritten entry (`Table::new` overwrites all of them).
     const UNUSED: Entry<C> = Entry {
@@ -264,6 +274,15 @@ mod tests {
         assert_eq!(ids, Ok((Some(SeqId(2)), None)));
         let classes = table.map(|t| (t.entries.map(|e| e.class), t.classes.len()));
         assert_eq!(classes, Ok(([0, 1, 0], 2)));
+    }
+
+    #[test]
+    fn a_table_shows_its_names() {
+        use core::fmt::Write;
+        let mut shown: heapless::String<16> = heapless::String::new();
+        let table = Table::new([cfg("a"), cfg("b")]);
+        assert_eq!(table.map(|t| write!(shown, "{t:?}")), Ok(Ok(())));
+        assert_eq!(shown.as_str(), r#"["a", "b"]"#);
     }
 
     #[test]
