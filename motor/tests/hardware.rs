@@ -11,9 +11,8 @@ use std::rc::Rc;
 
 use common::*;
 use rtseq::safety::{SafetyHandle, SafetySystem};
-use rtseq::sim::Sim;
-use rtseq::{Duration, Monitors, Sequencer, Transition};
-use rtseq_motor::app::{self, AppConfig, Conditions, Fault, FaultPlan, Reaction, Summary};
+use rtseq::{Duration, Transition};
+use rtseq_motor::app::{AppConfig, Fault, FaultPlan, Reaction, Summary};
 use rtseq_motor::control_system::{ControlSystem, Phase, Status, STANDSTILL_VELOCITY};
 use rtseq_motor::hardware::{DriveCommand, Measurements};
 use rtseq_motor::plant::Plant;
@@ -38,23 +37,7 @@ fn measured_world(
     button: Rc<Cell<bool>>,
 ) -> (World, Rc<Cell<Plant>>) {
     let config = AppConfig::DEFAULT;
-    let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
-    let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
-    cs.set_fault_plan(plan);
-    let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&config)));
-    let mut monitors: Monitors<'static, ControlSystem, M> = Monitors::new();
-    let app = app::register(
-        seq,
-        &mut monitors,
-        conditions,
-        &app::Setup::new(config).unwrap(),
-    )
-    .unwrap();
-    let ids = app.ids;
-    let mut sim = Sim::new(seq, cs, monitors);
-    for lane in app.lanes() {
-        lane.add_to(&mut sim);
-    }
+    let (mut sim, seq, cs, ids) = app_sim(plan, config);
     let safety = with_safety.then(|| {
         let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
         seq.set_safety_system(handle);

@@ -20,6 +20,32 @@ pub struct World {
     pub safety: Option<&'static SafetyHandle>,
 }
 
+/// The application for `config` (fault plan `plan`) registered into a leaked sequencer and
+/// control system, with its lanes in a host simulation (no tick hook yet).
+pub fn app_sim(
+    plan: FaultPlan,
+    config: AppConfig,
+) -> (
+    Sim<'static, ControlSystem, N, 256, M>,
+    &'static Seqr,
+    &'static ControlSystem,
+    Ids,
+) {
+    let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
+    let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
+    cs.set_fault_plan(plan);
+    let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&config)));
+    let mut monitors: Monitors<'static, ControlSystem, M> = Monitors::new();
+    let setup = app::Setup::new(config).unwrap();
+    let app = app::register(seq, &mut monitors, conditions, &setup).unwrap();
+    let ids = app.ids;
+    let mut sim = Sim::new(seq, cs, monitors);
+    for lane in app.lanes() {
+        lane.add_to(&mut sim);
+    }
+    (sim, seq, cs, ids)
+}
+
 pub fn ms(t: u64) -> Instant {
     Instant::from_ticks(t * 1000)
 }
@@ -34,24 +60,7 @@ impl World {
     }
 
     pub fn with_config(plan: FaultPlan, with_safety: bool, config: AppConfig) -> World {
-        let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
-        let cs: &'static ControlSystem =
-            Box::leak(Box::new(ControlSystem::new(config.start_position)));
-        cs.set_fault_plan(plan);
-        let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&config)));
-        let mut monitors: Monitors<'static, ControlSystem, M> = Monitors::new();
-        let app = app::register(
-            seq,
-            &mut monitors,
-            conditions,
-            &app::Setup::new(config).unwrap(),
-        )
-        .unwrap();
-        let ids = app.ids;
-        let mut sim = Sim::new(seq, cs, monitors);
-        for lane in app.lanes() {
-            lane.add_to(&mut sim);
-        }
+        let (mut sim, seq, cs, ids) = app_sim(plan, config);
         let safety = if with_safety {
             let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
             seq.set_safety_system(handle);
