@@ -405,9 +405,11 @@ fn firmware_sizes_with_and_without_rtseq() {
             c.rtseq, c.app, c.library
         );
     }
-    eprintln!("rtseq's largest functions in the scenarios firmware (bytes of rtseq code):");
-    for (name, bytes) in scen_code.largest.iter().take(12) {
-        eprintln!("  {bytes:5} {name}");
+    for (what, c) in [("scenarios", &scen_code), ("demo", &demo_code)] {
+        eprintln!("rtseq's largest functions in the {what} firmware (bytes of rtseq code):");
+        for (name, bytes) in c.largest.iter().take(40) {
+            eprintln!("  {bytes:5} {name}");
+        }
     }
     eprintln!(
         "figure: scenarios firmware - smoke = {} B flash (rtseq + 26 scenarios' monomorphised trees + defmt strings)",
