@@ -6,13 +6,14 @@ use super::properties::bit_of;
 
 /// Events triggered inside the safety system during one cycle, resolved
 /// at the start of the next cycle.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct PendingEvents {
     pub(crate) public: u32,
     pub(crate) private: u32,
-    /// Events whose id does not fit the bitmask (always unknown).
+    /// Events whose id does not fit the bitmask (always unknown): how
+    /// many, and the last one (meaningless while the count is 0).
     pub(crate) out_of_range: u32,
-    pub(crate) last_out_of_range: Option<EventId>,
+    pub(crate) last_out_of_range: EventId,
 }
 
 impl PendingEvents {
@@ -21,7 +22,7 @@ impl PendingEvents {
             public: 0,
             private: 0,
             out_of_range: 0,
-            last_out_of_range: None,
+            last_out_of_range: EventId::public(0),
         }
     }
 
@@ -29,7 +30,7 @@ impl PendingEvents {
         let bit = bit_of(usize::from(event.index()));
         if bit == 0 {
             self.out_of_range = self.out_of_range.saturating_add(1);
-            self.last_out_of_range = Some(event);
+            self.last_out_of_range = event;
             return;
         }
         match event.kind() {

@@ -222,6 +222,11 @@ impl EventId {
         }
     }
 
+    /// The id of event `index` of `kind`.
+    pub(crate) const fn new(kind: EventKind, index: u8) -> Self {
+        Self { kind, index }
+    }
+
     /// Public or private.
     ///
     /// ```

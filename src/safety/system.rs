@@ -4,12 +4,13 @@ use core::fmt;
 
 use super::context::{PendingEvents, SafetyContext};
 use super::error::SafetyError;
-use super::event::EventId;
+use super::event::{EventId, EventKind};
 use super::handle::SafetyHandle;
 use super::input::InputAction;
 use super::io::SafetyIo;
 use super::level::{AbortPolicy, LevelStats, SafetyLevel};
 use super::properties::{bit_of, SafetyProperties, ValidProperties};
+use super::transition::Transition;
 
 /// Something whose running sequences the safety system can abort (the
 /// rtseq `Sequencer` implements it). Called from the safety cycle, at the
@@ -419,41 +420,6 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         self.props
     }
 
-    fn record_unknown(&mut self, event: EventId, count: u32, unknown: &mut u32) {
-        self.unknown_count = self.unknown_count.saturating_add(count);
-        *unknown = unknown.saturating_add(count);
-        self.last_unknown = Some(UnknownEvent {
-            event,
-            level: self.current,
-        });
-    }
-
-    /// Resolves the events of one bitmask (ascending ids) against the
-    /// current level, keeping the safest destination in `best`.
-    fn resolve_mask(
-        &mut self,
-        mut mask: u32,
-        make: fn(u8) -> EventId,
-        mut best: Option<SafetyLevel>,
-        unknown: &mut u32,
-    ) -> Option<SafetyLevel> {
-        while mask != 0 {
-            let index = mask.trailing_zeros() as u8;
-            mask &= mask.wrapping_sub(1);
-            let event = make(index);
-            match self.props.destination(self.current, event) {
-                Some(to) => {
-                    best = Some(match best {
-                        Some(b) if b <= to => b,
-                        _ => to,
-                    });
-                }
-                None => self.record_unknown(event, 1, unknown),
-            }
-        }
-        best
-    }
-
     /// Resolves every pending event against the current level; returns
     /// the safest destination. The common case (nothing pending) is a few
     /// loads; the rest is out of line.
@@ -486,17 +452,60 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
     fn resolve_events(&mut self, public: u32, unknown: &mut u32) -> Option<SafetyLevel> {
         let public = public | core::mem::take(&mut self.pending.public);
         let private = core::mem::take(&mut self.pending.private);
-        let best = self.resolve_mask(public, EventId::public, None, unknown);
-        let best = self.resolve_mask(private, EventId::private, best, unknown);
+        let level = self.current;
+        let rows = self.props.transitions();
+        let mut found = Resolution {
+            best: u16::MAX,
+            unknown: 0,
+            last_unknown: None,
+        };
+        found.resolve(rows, level, EventKind::Public, public);
+        found.resolve(rows, level, EventKind::Private, private);
         let (count, event) = self.handle.take_out_of_range();
-        if count != 0 {
-            self.record_unknown(event, count, unknown);
-        }
+        found.add_unknown(count, event);
         let count = core::mem::take(&mut self.pending.out_of_range);
-        if let Some(event) = self.pending.last_out_of_range.take() {
-            self.record_unknown(event, count, unknown);
+        found.add_unknown(count, self.pending.last_out_of_range);
+        if let Some(event) = found.last_unknown {
+            self.unknown_count = self.unknown_count.saturating_add(found.unknown);
+            *unknown = found.unknown;
+            self.last_unknown = Some(UnknownEvent { event, level });
         }
-        best
+        u8::try_from(found.best).ok().map(SafetyLevel::new)
+    }
+}
+
+/// What resolving one cycle's events found.
+struct Resolution {
+    /// The id of the safest destination, `u16::MAX` for none.
+    best: u16,
+    /// Number of events without a transition.
+    unknown: u32,
+    /// The last of them, in resolution order.
+    last_unknown: Option<EventId>,
+}
+
+impl Resolution {
+    /// Resolves the events of `mask` (ids of `kind`, ascending) against
+    /// `level`.
+    #[inline(never)]
+    fn resolve(&mut self, rows: &[Transition], level: SafetyLevel, kind: EventKind, mask: u32) {
+        let mut pending = mask;
+        while pending != 0 {
+            let event = EventId::new(kind, pending.trailing_zeros() as u8);
+            pending &= pending.wrapping_sub(1);
+            match rows.iter().find(|row| row.covers(level, event)) {
+                Some(row) => self.best = self.best.min(u16::from(row.to().id())),
+                None => self.add_unknown(1, event),
+            }
+        }
+    }
+
+    /// Counts `count` events without a transition, `event` the last of them.
+    fn add_unknown(&mut self, count: u32, event: EventId) {
+        if count != 0 {
+            self.unknown = self.unknown.saturating_add(count);
+            self.last_unknown = Some(event);
+        }
     }
 }
 
@@ -659,5 +668,148 @@ impl<IO, const L: usize> fmt::Debug for SafetySystem<'_, IO, L> {
             .field("unknown_events", &self.unknown_count)
             .field("last_unknown", &self.last_unknown)
             .finish()
+    }
+}
+
+#[cfg(test)]
+#[allow(
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects,
+    clippy::unwrap_used
+)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::safety::{LevelDef, PublicEvent, Transition};
+    use std::vec::Vec;
+
+    /// A small deterministic generator (xorshift32).
+    struct Rng(u32);
+    impl Rng {
+        fn next(&mut self) -> u32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 17;
+            self.0 ^= self.0 << 5;
+            self.0
+        }
+        fn below(&mut self, n: u32) -> u32 {
+            self.next() % n
+        }
+    }
+
+    /// What resolving the pending events must give, computed event by event
+    /// in resolution order (public ids ascending, private ids ascending,
+    /// then the handle's and the system's out-of-range events), each looked
+    /// up in the table: (safest destination, unknown count, last unknown).
+    fn reference(
+        props: &SafetyProperties<'_, (), 8>,
+        level: SafetyLevel,
+        public: u32,
+        private: u32,
+        out_of_range: &[(u32, EventId)],
+    ) -> (Option<SafetyLevel>, u32, Option<EventId>) {
+        let mut best: Option<SafetyLevel> = None;
+        let mut count = 0;
+        let mut last = None;
+        let masks = [
+            (public, EventId::public as fn(u8) -> EventId),
+            (private, EventId::private),
+        ];
+        for (mask, make) in masks {
+            for index in 0..32u8 {
+                if mask & (1 << index) == 0 {
+                    continue;
+                }
+                let event = make(index);
+                match props.destination(level, event) {
+                    Some(to) => best = Some(best.map_or(to, |b| b.min(to))),
+                    None => {
+                        count += 1;
+                        last = Some(event);
+                    }
+                }
+            }
+        }
+        for &(n, event) in out_of_range {
+            if n != 0 {
+                count += n;
+                last = Some(event);
+            }
+        }
+        (best, count, last)
+    }
+
+    /// Resolving gives what looking up every pending event on its own in
+    /// resolution order gives, on random tables (overlapping rows, ids and
+    /// levels out of range included) and random pending events.
+    #[test]
+    fn resolution_matches_the_per_event_reference() {
+        let mut rng = Rng(0x2545_f491);
+        let levels: [LevelDef<'static, ()>; 8] =
+            core::array::from_fn(|i| LevelDef::new(SafetyLevel::new(i as u8), "level"));
+        for _ in 0..20_000 {
+            let rows: Vec<Transition> = (0..rng.below(14))
+                .map(|_| {
+                    let low = SafetyLevel::new(rng.below(10) as u8);
+                    let high = SafetyLevel::new(low.id() + rng.below(4) as u8);
+                    let to = SafetyLevel::new(rng.below(8) as u8);
+                    let index = rng.below(36) as u8;
+                    if rng.below(2) == 0 {
+                        Transition::on_levels_between(low, high, PublicEvent::new(index), to)
+                    } else {
+                        Transition::on_levels_between(
+                            low,
+                            high,
+                            crate::safety::PrivateEvent::new(index),
+                            to,
+                        )
+                    }
+                })
+                .collect();
+            let props = SafetyProperties::new(levels, &[], &[], &rows, SafetyLevel::new(0));
+            let handle = SafetyHandle::new();
+            let mut system = SafetySystem::bind(&props, &handle).unwrap();
+            system.current = SafetyLevel::new(rng.below(8) as u8);
+            let mut sparse = || (0..=rng.below(5)).fold(u32::MAX, |m, _| m & rng.next());
+            let public = sparse();
+            let private = sparse();
+            for index in 0..32 {
+                if public & (1 << index) != 0 {
+                    handle.trigger(PublicEvent::new(index));
+                }
+            }
+            system.pending.private = private;
+            let mut out_of_range = Vec::new();
+            let handle_extra = rng.below(4).saturating_sub(1);
+            let mut handle_last = EventId::public(0);
+            for _ in 0..handle_extra {
+                let index = 32 + rng.below(10) as u8;
+                handle.trigger(PublicEvent::new(index));
+                handle_last = EventId::public(index);
+            }
+            out_of_range.push((handle_extra, handle_last));
+            let own_extra = rng.below(4).saturating_sub(1);
+            for _ in 0..own_extra {
+                system
+                    .pending
+                    .add(EventId::private(32 + rng.below(10) as u8));
+            }
+            out_of_range.push((own_extra, system.pending.last_out_of_range));
+            let want = reference(&props, system.current, public, private, &out_of_range);
+
+            let mut unknown = 0;
+            let best = system.resolve_pending(&mut unknown);
+            assert_eq!(
+                (best, unknown),
+                (want.0, want.1),
+                "{rows:?} at {:?}",
+                system.current
+            );
+            assert_eq!(system.unknown_events(), want.1);
+            let last = system.last_unknown_event().map(|u| u.event);
+            assert_eq!(last, want.2, "{rows:?}");
+            assert_eq!(system.pending.public | system.pending.private, 0);
+            assert_eq!(handle.pending_events(), 0);
+        }
     }
 }
