@@ -26,6 +26,8 @@ impl PendingEvents {
         }
     }
 
+    /// Out of line: called from the input loop only when a check fires.
+    #[inline(never)]
     pub(crate) fn add(&mut self, event: EventId) {
         let bit = bit_of(usize::from(event.index()));
         if bit == 0 {

@@ -6,7 +6,6 @@ use super::context::{PendingEvents, SafetyContext};
 use super::error::SafetyError;
 use super::event::{EventId, EventKind};
 use super::handle::SafetyHandle;
-use super::input::InputAction;
 use super::io::SafetyIo;
 use super::level::{AbortPolicy, LevelStats, SafetyLevel};
 use super::properties::{bit_of, SafetyProperties, ValidProperties};
@@ -434,18 +433,6 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         self.resolve_events(public, unknown)
     }
 
-    /// Records the events of the input actions whose inputs fired (bit `i`
-    /// of `fired` = input `i`; a level has one action per input).
-    #[cold]
-    #[inline(never)]
-    fn record_fired(&mut self, actions: &[InputAction], fired: u32) {
-        for action in actions {
-            if fired & bit_of(action.input().index()) != 0 {
-                self.pending.add(action.event());
-            }
-        }
-    }
-
     /// [`resolve_pending`](Self::resolve_pending) when something is pending.
     #[cold]
     #[inline(never)]
@@ -622,21 +609,16 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
             s.cycles = s.cycles.saturating_add(1);
         }
 
-        // 3. Input actions. The loop only collects which inputs fired (bit
-        // `i` = input `i`, as in the report); their events are recorded
-        // out of line.
-        let actions = def.input_actions();
+        // 3. Input actions (bit `i` of `fired` = input `i`, as in the report).
         let mut fired: u32 = 0;
-        for action in actions {
+        for action in def.input_actions() {
             let input = action.input();
             if !action.is_ignored() && action.fires(io.read_input(input)) {
                 fired |= bit_of(input.index());
+                self.pending.add(action.event());
             }
         }
-        if fired != 0 {
-            self.record_fired(actions, fired);
-            report.input_events = fired;
-        }
+        report.input_events = fired;
 
         // 4. Level action.
         if let Some(action) = def.action_fn() {
