@@ -379,13 +379,32 @@ impl InputCheck {
 pub struct InputAction {
     input: InputId,
     kind: IoKind,
-    op: CheckOp,
+    /// Which readings can pass.
+    pass: Pass,
     /// The event (`EventId::public(0)`, unused, for `Ignore`).
     event: EventId,
-    /// `expected` or `min`, as raw bits (see [`bits`]).
-    a: u32,
-    /// `max` as raw bits (0 for `Check` and `Ignore`).
-    b: u32,
+    /// The healthy readings are the keys (see [`key`]) from `low` up to
+    /// `low + span`, wrapping from `i32::MAX` to `i32::MIN`: one compare
+    /// for every check.
+    low: i32,
+    span: u32,
+    /// The check as it was written (for [`check`](Self::check)).
+    check: InputCheck,
+}
+
+/// Which readings can pass a compiled check: those of one kind (the
+/// variants in the order of [`IoValue`]'s, so the test is one compare with
+/// the reading's tag), none, or the input is not read at all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum Pass {
+    Bool,
+    Int,
+    Float,
+    /// No reading passes (a range whose bounds are out of order).
+    Nothing,
+    /// `ignore`: the input is not read.
+    Unread,
 }
 
 /// An `f32` as an `i32` with the same order for every non-NaN value
@@ -397,113 +416,91 @@ const fn float_key(f: f32) -> i32 {
     b ^ (((b >> 31) as u32) >> 1) as i32
 }
 
-/// The inverse of [`float_key`].
-const fn float_from_key(k: i32) -> f32 {
-    f32::from_bits((k ^ (((k >> 31) as u32) >> 1) as i32) as u32)
+/// A reading's ordered key (bools 0 and 1, integers themselves, floats
+/// [`float_key`]) and the readings of its kind that pass; `None` for a NaN.
+#[inline(always)]
+fn key(value: IoValue) -> Option<(Pass, i32)> {
+    match value {
+        IoValue::Bool(v) => Some((Pass::Bool, i32::from(v))),
+        IoValue::Int(v) => Some((Pass::Int, v)),
+        IoValue::Float(v) if v.is_nan() => None,
+        IoValue::Float(v) => Some((Pass::Float, float_key(v))),
+    }
 }
 
-/// The key of a float bound (bits for other kinds); a zero takes the key
-/// of `-0.0` if `low` (so `-0.0` and `+0.0` are both at or above it), of
-/// `+0.0` otherwise.
-const fn bound_key(v: IoValue, low: bool) -> u32 {
+/// The key of a bound; a float zero takes the key of `-0.0` if `low` (so
+/// `-0.0` and `+0.0` are both at or above it), of `+0.0` otherwise.
+const fn bound_key(v: IoValue, low: bool) -> i32 {
     match v {
-        IoValue::Float(f) => {
-            if f != 0.0 {
-                float_key(f) as u32
-            } else if low {
-                float_key(-0.0) as u32
-            } else {
-                0
-            }
-        }
-        other => bits(other),
+        IoValue::Bool(b) => b as i32,
+        IoValue::Int(i) => i,
+        IoValue::Float(f) if f != 0.0 => float_key(f),
+        IoValue::Float(_) if low => float_key(-0.0),
+        IoValue::Float(_) => 0,
     }
 }
 
-/// A value's payload as 32 raw bits (`bool` 0/1, `i32` two's complement,
-/// `f32` IEEE 754).
-const fn bits(v: IoValue) -> u32 {
-    match v {
-        IoValue::Bool(b) => b as u32,
-        IoValue::Int(i) => i as u32,
-        IoValue::Float(f) => f.to_bits(),
+/// The keys from `low` up to `high` (none if `high < low`).
+const fn between(pass: Pass, low: i32, high: i32) -> (Pass, i32, u32) {
+    if high < low {
+        (Pass::Nothing, 0, 0)
+    } else {
+        (pass, low, high.wrapping_sub(low) as u32)
     }
-}
-
-/// The value of `kind` whose raw bits are `b`.
-const fn unbits(kind: IoKind, b: u32) -> IoValue {
-    match kind {
-        IoKind::Bool => IoValue::Bool(b != 0),
-        IoKind::Int => IoValue::Int(b as i32),
-        IoKind::Float => IoValue::Float(f32::from_bits(b)),
-    }
-}
-
-/// The compiled form of an [`InputCheck`] with its kind: one code, so the
-/// cycle dispatches once (a jump table) and compares machine words.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-enum CheckOp {
-    Ignore,
-    BoolEqual,
-    IntEqual,
-    IntWithin,
-    IntOutside,
-    FloatEqual,
-    FloatWithin,
-    FloatOutside,
 }
 
 impl InputAction {
     /// Compiles `check` (whose values are of `kind`, as the typed
-    /// constructors guarantee) into the compact form. Float bounds become
-    /// ordered integer keys ([`float_key`]); a zero bound takes the key of
-    /// the zero that keeps `-0.0 == 0.0` (a lower bound of a range and an
-    /// upper bound of an off-range take `-0.0`, the others `+0.0`).
+    /// constructors guarantee) into the range of healthy keys. A zero float
+    /// bound takes the key of the zero that keeps `-0.0 == 0.0`.
     const fn new(input: InputId, kind: IoKind, check: InputCheck) -> Self {
-        let (op, event, a, b) = match (check, kind) {
-            (InputCheck::Ignore, _) => (CheckOp::Ignore, EventId::public(0), 0, 0),
-            (InputCheck::Check { expected, event }, k) => {
-                let op = match k {
-                    IoKind::Bool => CheckOp::BoolEqual,
-                    IoKind::Int => CheckOp::IntEqual,
-                    IoKind::Float => CheckOp::FloatEqual,
-                };
-                (op, event, bits(expected), 0)
+        let pass = match kind {
+            IoKind::Bool => Pass::Bool,
+            IoKind::Int => Pass::Int,
+            IoKind::Float => Pass::Float,
+        };
+        let (pass, low, span) = match check {
+            InputCheck::Ignore => (Pass::Unread, 0, 0),
+            // (A NaN `expected` leaves only NaN keys, which no reading
+            // reaches: NaN readings fire before the compare.)
+            InputCheck::Check { expected, .. } => {
+                between(pass, bound_key(expected, true), bound_key(expected, false))
             }
-            (InputCheck::Range { min, max, event }, IoKind::Float) => (
-                CheckOp::FloatWithin,
-                event,
-                bound_key(min, true),
-                bound_key(max, false),
-            ),
-            (InputCheck::Range { min, max, event }, _) => {
-                (CheckOp::IntWithin, event, bits(min), bits(max))
+            InputCheck::Range { min, max, .. } => {
+                between(pass, bound_key(min, true), bound_key(max, false))
             }
-            (InputCheck::OffRange { min, max, event }, IoKind::Float) => (
-                CheckOp::FloatOutside,
-                event,
-                bound_key(min, false),
-                bound_key(max, true),
-            ),
-            (InputCheck::OffRange { min, max, event }, _) => {
-                (CheckOp::IntOutside, event, bits(min), bits(max))
+            // Healthy: up to `min` and from `max` on, which wraps around
+            // from `i32::MAX` to `i32::MIN`; everything if nothing lies
+            // strictly between.
+            InputCheck::OffRange { min, max, .. } => {
+                let up_to = bound_key(min, false);
+                let from = bound_key(max, true);
+                if from <= up_to.saturating_add(1) {
+                    (pass, 0, u32::MAX)
+                } else {
+                    (pass, from, up_to.wrapping_sub(from) as u32)
+                }
             }
+        };
+        let event = match check.event() {
+            Some(event) => event,
+            None => EventId::public(0),
         };
         InputAction {
             input,
             kind,
-            op,
+            pass,
             event,
-            a,
-            b,
+            low,
+            span,
+            check,
         }
     }
 
     /// Whether the input is not read at all (`ignore`).
     #[inline(always)]
     pub(crate) fn is_ignored(&self) -> bool {
-        self.op == CheckOp::Ignore
+        self.pass == Pass::Unread
     }
 
     /// The event of a firing check (meaningless for `Ignore`).
@@ -513,32 +510,15 @@ impl InputAction {
     }
 
     /// Whether `value` fires the check: the same result as
-    /// [`InputCheck::evaluate`], with one dispatch and integer compares
-    /// (floats by their ordered keys). A value of another kind than the
-    /// input's, and NaN, fire (fail-safe).
+    /// [`InputCheck::evaluate`], with one compare of the reading's key. A
+    /// value of another kind than the input's, and NaN, fire (fail-safe);
+    /// `ignore` never fires.
     #[inline(always)]
     pub(crate) fn fires(&self, value: IoValue) -> bool {
-        let (a, b) = (self.a as i32, self.b as i32);
-        match (self.op, value) {
-            (CheckOp::Ignore, _) => false,
-            (CheckOp::BoolEqual, IoValue::Bool(v)) => i32::from(v) != a,
-            (CheckOp::IntEqual, IoValue::Int(v)) => v != a,
-            (CheckOp::IntWithin, IoValue::Int(v)) => v < a || v > b,
-            (CheckOp::IntOutside, IoValue::Int(v)) => v > a && v < b,
-            (CheckOp::FloatEqual, IoValue::Float(v)) => v != f32::from_bits(self.a),
-            // A NaN's key lies outside every range of finite or infinite
-            // bounds, so it fires here without a test of its own.
-            (CheckOp::FloatWithin, IoValue::Float(v)) => {
-                let v = float_key(v);
-                v < a || v > b
-            }
-            (CheckOp::FloatOutside, IoValue::Float(v)) => {
-                v.is_nan() || {
-                    let v = float_key(v);
-                    v > a && v < b
-                }
-            }
-            _ => true,
+        match key(value) {
+            _ if self.is_ignored() => false,
+            Some((pass, key)) => pass != self.pass || key.wrapping_sub(self.low) as u32 > self.span,
+            None => true,
         }
     }
 
@@ -561,34 +541,7 @@ impl InputAction {
     /// assert_eq!(IN.ignore().check(), InputCheck::Ignore);
     /// ```
     pub const fn check(&self) -> InputCheck {
-        let event = self.event;
-        match self.op {
-            CheckOp::Ignore => InputCheck::Ignore,
-            CheckOp::BoolEqual | CheckOp::IntEqual | CheckOp::FloatEqual => InputCheck::Check {
-                expected: unbits(self.kind, self.a),
-                event,
-            },
-            CheckOp::IntWithin => InputCheck::Range {
-                min: unbits(self.kind, self.a),
-                max: unbits(self.kind, self.b),
-                event,
-            },
-            CheckOp::IntOutside => InputCheck::OffRange {
-                min: unbits(self.kind, self.a),
-                max: unbits(self.kind, self.b),
-                event,
-            },
-            CheckOp::FloatWithin => InputCheck::Range {
-                min: IoValue::Float(float_from_key(self.a as i32)),
-                max: IoValue::Float(float_from_key(self.b as i32)),
-                event,
-            },
-            CheckOp::FloatOutside => InputCheck::OffRange {
-                min: IoValue::Float(float_from_key(self.a as i32)),
-                max: IoValue::Float(float_from_key(self.b as i32)),
-                event,
-            },
-        }
+        self.check
     }
 
     /// The kind of the input this action was built for.
