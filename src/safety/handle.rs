@@ -163,6 +163,12 @@ impl SafetyHandle {
         self.cycles.store(n, Ordering::Release);
     }
 
+    /// Whether public events wait for the next cycle.
+    #[inline(always)]
+    pub(crate) fn has_pending(&self) -> bool {
+        self.pending.load(Ordering::Relaxed) != 0
+    }
+
     pub(crate) fn take_pending(&self) -> u32 {
         if self.pending.load(Ordering::Relaxed) == 0 {
             0

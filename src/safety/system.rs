@@ -419,35 +419,31 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         self.props
     }
 
-    /// Resolves every pending event against the current level; returns
-    /// the safest destination. The common case (nothing pending) is a few
-    /// loads; the rest is out of line.
+    /// Whether events wait for the next cycle (a few loads; nothing is
+    /// taken).
     #[inline(always)]
-    fn resolve_pending(&mut self, unknown: &mut u32) -> Option<SafetyLevel> {
-        let public = self.handle.take_pending();
-        if public | self.pending.public | self.pending.private | self.pending.out_of_range == 0
-            && !self.handle.has_out_of_range()
-        {
-            return None;
-        }
-        self.resolve_events(public, unknown)
+    fn events_pending(&self) -> bool {
+        self.handle.has_pending()
+            | self.handle.has_out_of_range()
+            | (self.pending.public | self.pending.private | self.pending.out_of_range != 0)
     }
 
-    /// [`resolve_pending`](Self::resolve_pending) when something is pending.
-    #[cold]
-    #[inline(never)]
-    fn resolve_events(&mut self, public: u32, unknown: &mut u32) -> Option<SafetyLevel> {
+    /// Resolves every pending event against the current level; returns
+    /// the safest destination and counts the unknown events in `unknown`.
+    fn resolve_events(&mut self, unknown: &mut u32) -> Option<SafetyLevel> {
+        let public = self.handle.take_pending();
         let public = public | core::mem::take(&mut self.pending.public);
         let private = core::mem::take(&mut self.pending.private);
         let level = self.current;
-        let rows = self.props.transitions();
         let mut found = Resolution {
+            rows: self.props.transitions(),
+            level,
             best: u16::MAX,
             unknown: 0,
             last_unknown: None,
         };
-        found.resolve(rows, level, EventKind::Public, public);
-        found.resolve(rows, level, EventKind::Private, private);
+        found.resolve(EventKind::Public, public);
+        found.resolve(EventKind::Private, private);
         let (count, event) = self.handle.take_out_of_range();
         found.add_unknown(count, event);
         let count = core::mem::take(&mut self.pending.out_of_range);
@@ -461,8 +457,11 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
     }
 }
 
-/// What resolving one cycle's events found.
-struct Resolution {
+/// Resolving one cycle's events: the table and level they are resolved
+/// against, and what was found.
+struct Resolution<'t> {
+    rows: &'t [Transition],
+    level: SafetyLevel,
     /// The id of the safest destination, `u16::MAX` for none.
     best: u16,
     /// Number of events without a transition.
@@ -471,16 +470,15 @@ struct Resolution {
     last_unknown: Option<EventId>,
 }
 
-impl Resolution {
-    /// Resolves the events of `mask` (ids of `kind`, ascending) against
-    /// `level`.
+impl Resolution<'_> {
+    /// Resolves the events of `mask` (ids of `kind`, ascending).
     #[inline(never)]
-    fn resolve(&mut self, rows: &[Transition], level: SafetyLevel, kind: EventKind, mask: u32) {
+    fn resolve(&mut self, kind: EventKind, mask: u32) {
         let mut pending = mask;
         while pending != 0 {
             let event = EventId::new(kind, pending.trailing_zeros() as u8);
             pending &= pending.wrapping_sub(1);
-            match rows.iter().find(|row| row.covers(level, event)) {
+            match self.rows.iter().find(|row| row.covers(self.level, event)) {
                 Some(row) => self.best = self.best.min(u16::from(row.to().id())),
                 None => self.add_unknown(1, event),
             }
@@ -497,14 +495,26 @@ impl Resolution {
 }
 
 impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
-    /// Applies a transition: exit action of `from`, publish `to`, count
-    /// the activation (the entry action runs in the caller, with the
-    /// level's definition at hand). Out of line: the common cycle has no
-    /// transition.
+    /// Step 1 of a cycle that has something to do: the first cycle enters
+    /// the entry level, a later one resolves the pending events; a new
+    /// level is entered (exit action of the old level, publish, count the
+    /// activation, entry action). Out of line: the common cycle has no
+    /// events.
     #[cold]
     #[inline(never)]
-    fn enter(&mut self, from: Option<SafetyLevel>, to: SafetyLevel, io: &mut IO) {
+    fn change_level(&mut self, io: &mut IO, report: &mut CycleReport) {
         let props = self.props;
+        let from = self.started.then_some(self.current);
+        let to = match from {
+            Some(_) => match self.resolve_events(&mut report.unknown_events) {
+                Some(to) => to,
+                None => return,
+            },
+            None => props.entry_level(),
+        };
+        if from == Some(to) {
+            return;
+        }
         if let Some(exit) = from.and_then(|l| props.level(l)).and_then(|d| d.exit_fn()) {
             exit(io);
         }
@@ -512,8 +522,14 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
         self.started = true;
         self.toggle = 0;
         self.handle.publish_level(to);
-        if let Some(s) = self.stats.get_mut(to.index()) {
-            s.activations = s.activations.saturating_add(1);
+        report.level = to;
+        report.change = Some(LevelChange { from, to });
+        // (`to` is always defined in validated properties.)
+        if let (Some(stats), Some(def)) = (self.stats.get_mut(to.index()), props.level(to)) {
+            stats.activations = stats.activations.saturating_add(1);
+            if let Some(entry) = def.entry_fn() {
+                entry(&mut SafetyContext::new(&mut self.pending, to), io);
+            }
         }
     }
 
@@ -560,40 +576,23 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
     /// # Ok::<(), SafetyError>(())
     /// ```
     pub fn cycle<A: AbortSequences + ?Sized>(&mut self, io: &mut IO, sequences: &A) -> CycleReport {
-        let props = self.props;
-        let mut unknown: u32 = 0;
-
-        // 1. Pending transition.
-        let (next, from) = if self.started {
-            (self.resolve_pending(&mut unknown), Some(self.current))
-        } else {
-            (Some(props.entry_level()), None)
-        };
-        let mut change = None;
-        if let Some(to) = next {
-            if from != Some(to) {
-                self.enter(from, to, io);
-                change = Some(LevelChange { from, to });
-            }
-        }
-        let entered = change.is_some();
-        let level = self.current;
         let mut report = CycleReport {
-            level,
-            change,
+            level: self.current,
+            change: None,
             input_events: 0,
             aborted: false,
-            unknown_events: unknown,
+            unknown_events: 0,
         };
-        let Some(def) = props.level(level) else {
+        // 1. Pending transition.
+        if !self.started || self.events_pending() {
+            self.change_level(io, &mut report);
+        }
+        let entered = report.change.is_some();
+        let level = self.current;
+        let Some(def) = self.props.level(level) else {
             // Unreachable for validated properties.
             return report;
         };
-        if entered {
-            if let Some(entry) = def.entry_fn() {
-                entry(&mut SafetyContext::new(&mut self.pending, level), io);
-            }
-        }
 
         // 2. Abort all sequences if the level demands it.
         let abort = match def.abort_policy() {
@@ -780,7 +779,7 @@ mod tests {
             let want = reference(&props, system.current, public, private, &out_of_range);
 
             let mut unknown = 0;
-            let best = system.resolve_pending(&mut unknown);
+            let best = system.resolve_events(&mut unknown);
             assert_eq!(
                 (best, unknown),
                 (want.0, want.1),
