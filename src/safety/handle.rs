@@ -169,12 +169,10 @@ impl SafetyHandle {
         self.pending.load(Ordering::Relaxed) != 0
     }
 
+    /// Takes the pending public events (only when something is pending:
+    /// the common cycle peeks with [`has_pending`](Self::has_pending)).
     pub(crate) fn take_pending(&self) -> u32 {
-        if self.pending.load(Ordering::Relaxed) == 0 {
-            0
-        } else {
-            self.pending.swap(0, Ordering::Acquire)
-        }
+        self.pending.swap(0, Ordering::Acquire)
     }
 
     /// Whether out-of-range public events wait for the next cycle.
@@ -183,11 +181,9 @@ impl SafetyHandle {
         self.out_of_range.load(Ordering::Relaxed) != 0
     }
 
-    /// (count, last) of out-of-range public events since the last call.
+    /// (count, last) of out-of-range public events since the last call
+    /// (`last` is meaningless for a count of 0).
     pub(crate) fn take_out_of_range(&self) -> (u32, EventId) {
-        if self.out_of_range.load(Ordering::Relaxed) == 0 {
-            return (0, EventId::public(0));
-        }
         let n = self.out_of_range.swap(0, Ordering::Acquire);
         let last = self.last_out_of_range.load(Ordering::Relaxed);
         (n, EventId::public(last))
