@@ -123,11 +123,14 @@ impl<'a, C> Cx<'a, C> {
 
     /// `step` for every step type: one future type, one copy of its code.
     #[inline(never)]
-    fn step_ref<'s>(&self, step: BodyRef<'s, C>) -> Run<'s, StepFramework<'a, 's, C>> {
+    fn step_ref<'s>(&self, step: BodyRef<'s, C>) -> StepFramework<'a, 's, C> {
         let head = step.head();
-        let slot = &head.slot;
-        let frame = Frame::blocking(Cx::new(self.engine, self.control, head.id), slot, self.id);
-        Run::new(slot, StepFramework { frame, step })
+        let frame = Frame::blocking(
+            Cx::new(self.engine, self.control, head.id),
+            &head.slot,
+            self.id,
+        );
+        StepFramework { frame, step }
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if

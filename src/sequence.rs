@@ -188,11 +188,13 @@ impl<S> Seq<S> {
 //   a blocking start wraps it in `Run`, which only takes the result from the slot.
 // * A step's framework (`StepFramework`) is not generic over the step at all: the step is
 //   type-erased (`BodyRef`), its command runs inside `Frame::step`; a blocking start of a
-//   step is one type for every step type.
+//   step is one type for every step type, and `Frame::step` also takes the result from the
+//   slot, so an `.await` of a step is one out-of-line call.
 //
-// Neither returns: a returning `async` block carries a compiler-generated "resumed after
-// completion" panic path, and rtseq has none. A blocking run leaves its result in the
-// `Seq`'s slot and its framework stays pending; its owner drops it.
+// A sequence's framework never returns: a returning `async` block carries a
+// compiler-generated "resumed after completion" panic path, and rtseq has none. A blocking
+// run leaves its result in the `Seq`'s slot and its framework stays pending; its owner drops
+// it. (The step's framework is a hand-written future: it returns, and has no such path.)
 
 /// Which method of a type-erased body to call.
 #[derive(Clone, Copy)]
@@ -514,9 +516,10 @@ impl<'a, 's, C> Frame<'a, 's, C> {
         }
     }
 
-    /// A step's whole framework.
+    /// A step's whole framework, and the take of its result from the slot: all of a step's
+    /// blocking start that is polled, out of line (one call at each `.await` of a step).
     #[inline(never)]
-    fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) {
+    fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) -> Poll<Result<Outcome, Error>> {
         loop {
             let ready = if let Phase::Act = self.phase.get() {
                 let mut action = StepAct {
@@ -529,24 +532,28 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 self.drive(w, step)
             };
             if ready.is_pending() {
-                return;
+                break;
             }
+        }
+        match self.slot.take() {
+            Some(result) => Poll::Ready(result),
+            None => Poll::Pending,
         }
     }
 }
 
-/// A step's framework: the frame and the type-erased step. Never completes (see above).
+/// A blocking start of a step: the frame and the type-erased step. Unlike a sequence's
+/// framework it takes its result itself (see `Frame::step`).
 pub(crate) struct StepFramework<'a, 's, C> {
     pub(crate) frame: Frame<'a, 's, C>,
     pub(crate) step: BodyRef<'s, C>,
 }
 
 impl<C> Future for StepFramework<'_, '_, C> {
-    type Output = Infallible;
-    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Infallible> {
+    type Output = Result<Outcome, Error>;
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         let this = self.get_mut();
-        this.frame.step(w, &mut this.step);
-        Poll::Pending
+        this.frame.step(w, &mut this.step)
     }
 }
 
