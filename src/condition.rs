@@ -23,7 +23,22 @@ pub trait Condition<C> {
     fn validate(&mut self, control: &C, now: Instant) -> bool;
 
     /// The seed's `isTrue()`: evaluates the condition now.
-    fn is_true(&mut self, control: &C, now: Instant) -> bool {
+    ///
+    /// Not callable on a bare `dyn Condition` (call it on the `&mut dyn Condition`, which is
+    /// a condition too), so that it is no entry of the trait objects' tables: the tick calls
+    /// `validate`, and a table entry would link a copy of this method for every condition type.
+    ///
+    /// ```
+    /// use rtseq::{Condition, Instant};
+    /// let mut high = |v: &f32, _: Instant| *v > 1.0;
+    /// let mut any: &mut (dyn Condition<f32> + Send) = &mut high;
+    /// assert!(Condition::is_true(&mut any, &2.0, Instant::from_ticks(0)));
+    /// assert!(any.validate(&2.0, Instant::from_ticks(0)));
+    /// ```
+    fn is_true(&mut self, control: &C, now: Instant) -> bool
+    where
+        Self: Sized,
+    {
         self.validate(control, now)
     }
 }

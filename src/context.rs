@@ -123,11 +123,14 @@ impl<'a, C> Cx<'a, C> {
 
     /// `step` for every step type: one future type, one copy of its code.
     #[inline(never)]
-    fn step_ref<'s>(&self, step: BodyRef<'s, C>) -> Run<'s, StepFramework<'a, 's, C>> {
+    fn step_ref<'s>(&self, step: BodyRef<'s, C>) -> StepFramework<'a, 's, C> {
         let head = step.head();
-        let slot = &head.slot;
-        let frame = Frame::blocking(Cx::new(self.engine, self.control, head.id), slot, self.id);
-        Run::new(slot, StepFramework { frame, step })
+        let frame = Frame::blocking(
+            Cx::new(self.engine, self.control, head.id),
+            &head.slot,
+            self.id,
+        );
+        StepFramework { frame, step }
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
@@ -186,9 +189,41 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByName`).
+    ///
+    /// ```
+    /// use core::cell::Cell;
+    /// use rtseq::sim::Sim;
+    /// use rtseq::{Cx, Duration, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
+    /// struct Lookup;
+    /// impl Sequence<Cell<Option<(SeqId, SeqId, bool)>>> for Lookup {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Option<(SeqId, SeqId, bool)>>>) {
+    ///         let id = |name| cx.sequence_by_name(name).map(|h| h.id());
+    ///         if let (Some(me), Some(other)) = (id("lookup"), id("other")) {
+    ///             cx.control().set(Some((me, other, id("nope").is_none())));
+    ///         }
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<Option<(SeqId, SeqId, bool)>>, 4> = Sequencer::new();
+    /// let other = seq.register(SeqConfig::new("other")).unwrap();
+    /// let lookup = seq.add(SeqConfig::new("lookup"), Lookup).unwrap();
+    /// let (found, id) = (Cell::new(None), lookup.id());
+    /// let mut sim = Sim::new(&seq, &found, Monitors::<_, 1>::new());
+    /// sim.lane(lookup);
+    /// sim.start(id).unwrap();
+    /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
+    /// assert_eq!(found.get(), Some((id, other, true)));
+    /// ```
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'a, C>> {
-        self.engine
-            .find(name)
-            .map(|id| Handle::from_engine(self.engine, id))
+        // Ids are dense from 0: read each registered sequence's name (one short section
+        // each, the comparison outside) until the first unregistered id. Through `info`
+        // rather than an engine method of its own, which every firmware would link.
+        let mut i: u8 = 0;
+        loop {
+            let id = SeqId(i);
+            if self.engine.info(id)?.name == name {
+                return Some(Handle::from_engine(self.engine, id));
+            }
+            i = i.checked_add(1)?;
+        }
     }
 }

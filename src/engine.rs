@@ -40,7 +40,6 @@ pub(crate) trait Engine<C> {
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
     fn request(&self, id: SeqId, bit: u16) -> Result<(), Error>;
-    fn find(&self, name: &str) -> Option<SeqId>;
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
@@ -194,9 +193,5 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             s.block_mut(id)?.timeout = micros;
             Ok(())
         })
-    }
-
-    fn find(&self, name: &str) -> Option<SeqId> {
-        self.sequence_by_name(name).map(|h| h.id())
     }
 }

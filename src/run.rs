@@ -1,4 +1,4 @@
-//! The future of a blocking start ([`Cx::run`](crate::Cx::run), [`Cx::step`](crate::Cx::step)).
+//! The future of a blocking start of a sequence ([`Cx::run`](crate::Cx::run)).
 
 use core::cell::Cell;
 use core::convert::Infallible;

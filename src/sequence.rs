@@ -188,66 +188,120 @@ impl<S> Seq<S> {
 //   a blocking start wraps it in `Run`, which only takes the result from the slot.
 // * A step's framework (`StepFramework`) is not generic over the step at all: the step is
 //   type-erased (`BodyRef`), its command runs inside `Frame::step`; a blocking start of a
-//   step is one type for every step type.
+//   step is one type for every step type, and `Frame::step` also takes the result from the
+//   slot, so an `.await` of a step is one out-of-line call.
 //
-// Neither returns: a returning `async` block carries a compiler-generated "resumed after
-// completion" panic path, and rtseq has none. A blocking run leaves its result in the
-// `Seq`'s slot and its framework stays pending; its owner drops it.
+// A sequence's framework never returns: a returning `async` block carries a
+// compiler-generated "resumed after completion" panic path, and rtseq has none. A blocking
+// run leaves its result in the `Seq`'s slot and its framework stays pending; its owner drops
+// it. (The step's framework is a hand-written future: it returns, and has no such path.)
 
-/// Which method of a type-erased body to call.
-#[derive(Clone, Copy)]
-enum Call {
-    Pre,
+/// The methods of one body type, type-erased: one table per type (a promoted constant), so
+/// that a call is a load and an indirect call, with no dispatch on which method.
+///
+/// The context is passed as a pointer to a `Cx<'_, C>`: a table mentioning `C` could not be
+/// `'static` unless `C` is (see `BodyRef`).
+struct Calls {
+    pre: unsafe fn(NonNull<()>, NonNull<()>) -> bool,
+    exit: unsafe fn(NonNull<()>, NonNull<()>) -> bool,
     /// A step's command (a sequence's action is `async`: its framework runs it).
-    Action,
-    Exit,
+    action: unsafe fn(NonNull<()>, NonNull<()>),
 }
 
-/// A mutably borrowed step (with its `Seq`) or sequence of any type: one function pointer
-/// per type serves all its calls.
+/// A mutably borrowed step (with its `Seq`) or sequence of any type and its `Calls`.
 ///
 /// Hand-made rather than `&'s mut dyn Step<C>`: a trait object mentioning `C` would require
 /// `C: 's`, which the signature of [`Cx::step`] does not promise.
 pub(crate) struct BodyRef<'s, C> {
-    /// A step: the head of its `&'s mut Seq<S>` (`call_step` finds the body from there), so
+    /// A step: the head of its `&'s mut Seq<S>` (its `Calls` find the body from there), so
     /// that one pointer serves both; a sequence: the `&'s mut S`.
     body: NonNull<()>,
-    /// `call_step::<C, S>` or `call_seq::<C, S>`.
-    call: unsafe fn(NonNull<()>, Call, &Cx<'_, C>) -> bool,
+    /// `StepCalls::<C>::CALLS` or `SeqCalls::<C>::CALLS` of the body's type.
+    calls: &'static Calls,
     _borrow: PhantomData<&'s mut ()>,
+    /// `C` without `C: 's` (see above).
+    _control: PhantomData<fn(C)>,
 }
 
+/// The body of the `Seq<S>` whose head `head` points to.
+///
 /// # Safety
 /// `head` must point to the head of a live `Seq<S>`, with the provenance of the whole `Seq`,
-/// whose body nothing else accesses meanwhile.
-unsafe fn call_step<C, S: Step<C>>(head: NonNull<()>, what: Call, cx: &Cx<'_, C>) -> bool {
-    // SAFETY: guaranteed by the caller: back from the head to its `Seq`, and a borrow of
-    // the body only (the head may be borrowed elsewhere, see `BodyRef::head`).
-    let step = unsafe {
+/// whose body nothing else accesses meanwhile (the head may be borrowed elsewhere, see
+/// `BodyRef::head`: this borrows the body only).
+unsafe fn step_body<'s, S>(head: NonNull<()>) -> &'s mut S {
+    // SAFETY: guaranteed by the caller.
+    unsafe {
         let seq = head.byte_sub(offset_of!(Seq<S>, head)).cast::<Seq<S>>();
         &mut (*seq.as_ptr()).body
-    };
-    match what {
-        Call::Pre => step.check_pre_condition(cx),
-        Call::Action => {
-            step.action(cx);
-            true
-        }
-        Call::Exit => step.check_exit_condition(cx),
     }
 }
 
+/// The context behind a `Calls` argument.
+///
 /// # Safety
-/// `seq` must point to a live `S` that nothing else accesses meanwhile.
-unsafe fn call_seq<C, S: Sequence<C>>(seq: NonNull<()>, what: Call, cx: &Cx<'_, C>) -> bool {
+/// `cx` must point to a live `Cx<'_, C>`.
+unsafe fn context<'x, C>(cx: NonNull<()>) -> &'x Cx<'x, C> {
     // SAFETY: guaranteed by the caller.
-    let seq = unsafe { seq.cast::<S>().as_mut() };
-    match what {
-        Call::Pre => seq.check_pre_condition(cx),
-        // Not called: see `Call::Action`.
-        Call::Action => true,
-        Call::Exit => seq.check_exit_condition(cx),
-    }
+    unsafe { cx.cast::<Cx<'x, C>>().as_ref() }
+}
+
+// The table entries. Safety of each: `body` as for the `BodyRef` built with the table (see
+// `step_body` for a step; a sequence: a live `S` that nothing else accesses meanwhile), `cx`
+// points to a live `Cx<'_, C>`.
+
+unsafe fn step_pre<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>) -> bool {
+    // SAFETY: see above.
+    unsafe { step_body::<S>(head).check_pre_condition(context(cx)) }
+}
+
+unsafe fn step_exit<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>) -> bool {
+    // SAFETY: see above.
+    unsafe { step_body::<S>(head).check_exit_condition(context(cx)) }
+}
+
+unsafe fn step_action<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>) {
+    // SAFETY: see above.
+    unsafe { step_body::<S>(head).action(context(cx)) }
+}
+
+unsafe fn seq_pre<C, S: Sequence<C>>(seq: NonNull<()>, cx: NonNull<()>) -> bool {
+    // SAFETY: see above.
+    unsafe { seq.cast::<S>().as_mut().check_pre_condition(context(cx)) }
+}
+
+unsafe fn seq_exit<C, S: Sequence<C>>(seq: NonNull<()>, cx: NonNull<()>) -> bool {
+    // SAFETY: see above.
+    unsafe { seq.cast::<S>().as_mut().check_exit_condition(context(cx)) }
+}
+
+/// Not called: a sequence's action is run by its framework.
+unsafe fn no_action(_: NonNull<()>, _: NonNull<()>) {}
+
+/// The `Calls` of a step type.
+trait StepCalls<C> {
+    const CALLS: Calls;
+}
+
+impl<C, S: Step<C>> StepCalls<C> for S {
+    const CALLS: Calls = Calls {
+        pre: step_pre::<C, S>,
+        exit: step_exit::<C, S>,
+        action: step_action::<C, S>,
+    };
+}
+
+/// The `Calls` of a sequence type.
+trait SeqCalls<C> {
+    const CALLS: Calls;
+}
+
+impl<C, S: Sequence<C>> SeqCalls<C> for S {
+    const CALLS: Calls = Calls {
+        pre: seq_pre::<C, S>,
+        exit: seq_exit::<C, S>,
+        action: no_action,
+    };
 }
 
 impl<'s, C> BodyRef<'s, C> {
@@ -255,33 +309,47 @@ impl<'s, C> BodyRef<'s, C> {
         BodyRef {
             // SAFETY: the head is a field of the `Seq` the pointer comes from (in bounds);
             // derived from the pointer to the whole `Seq`, it keeps the provenance that
-            // `call_step` needs to step back.
+            // `step_body` needs to step back.
             body: unsafe { NonNull::from(step).byte_add(offset_of!(Seq<S>, head)) }.cast(),
-            call: call_step::<C, S>,
+            calls: &<S as StepCalls<C>>::CALLS,
             _borrow: PhantomData,
+            _control: PhantomData,
         }
     }
 
     /// The head of a step's `Seq` (only for a `BodyRef::step`).
     pub(crate) fn head(&self) -> &'s SeqHead {
         // SAFETY: `body` points to the head of the `&'s mut Seq<S>` given to `step`. The head
-        // is only ever shared: `call_step` borrows the body only.
+        // is only ever shared: `step_body` borrows the body only.
         unsafe { self.body.cast::<SeqHead>().as_ref() }
     }
 
     fn seq<S: Sequence<C>>(seq: &'s mut S) -> Self {
         BodyRef {
             body: NonNull::from(seq).cast(),
-            call: call_seq::<C, S>,
+            calls: &<S as SeqCalls<C>>::CALLS,
             _borrow: PhantomData,
+            _control: PhantomData,
         }
     }
 
-    fn call(&mut self, what: Call, cx: &Cx<'_, C>) -> bool {
-        // SAFETY: `body` is the `&'s mut S` given to `step` or `seq`, and `call` is the
-        // matching `call_step::<C, S>` or `call_seq::<C, S>`; the borrow lives as long as
-        // `self` (`_borrow`), and `&mut self` makes this the only access.
-        unsafe { (self.call)(self.body, what, cx) }
+    // SAFETY (of the three calls below): `body` is the `&'s mut S` given to `step` or `seq`
+    // and `calls` that type's table; the borrow lives as long as `self` (`_borrow`), and
+    // `&mut self` makes this the only access; `cx` is a live context.
+
+    fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
+        // SAFETY: see above.
+        unsafe { (self.calls.pre)(self.body, NonNull::from(cx).cast()) }
+    }
+
+    fn exit(&mut self, cx: &Cx<'_, C>) -> bool {
+        // SAFETY: see above.
+        unsafe { (self.calls.exit)(self.body, NonNull::from(cx).cast()) }
+    }
+
+    fn action(&mut self, cx: &Cx<'_, C>) {
+        // SAFETY: see above.
+        unsafe { (self.calls.action)(self.body, NonNull::from(cx).cast()) }
     }
 }
 
@@ -295,7 +363,7 @@ impl<C> Future for StepAct<'_, '_, '_, '_, C> {
     type Output = ();
     fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
         let this = self.get_mut();
-        this.step.call(Call::Action, this.cx);
+        this.step.action(this.cx);
         Poll::Ready(())
     }
 }
@@ -430,7 +498,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                         if !self.on(gate) {
                             continue;
                         }
-                        if body.call(Call::Pre, cx) {
+                        if body.pre(cx) {
                             self.phase.set(Phase::Act);
                             return Poll::Ready(());
                         }
@@ -448,7 +516,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 Phase::Exit => {
                     // Not true yet, or refused: on to the next due poll.
                     self.phase.set(Phase::Due);
-                    if !body.call(Call::Exit, cx) {
+                    if !body.exit(cx) {
                         continue;
                     }
                     Outcome::Completed
@@ -514,9 +582,10 @@ impl<'a, 's, C> Frame<'a, 's, C> {
         }
     }
 
-    /// A step's whole framework.
+    /// A step's whole framework, and the take of its result from the slot: all of a step's
+    /// blocking start that is polled, out of line (one call at each `.await` of a step).
     #[inline(never)]
-    fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) {
+    fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) -> Poll<Result<Outcome, Error>> {
         loop {
             let ready = if let Phase::Act = self.phase.get() {
                 let mut action = StepAct {
@@ -529,24 +598,28 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 self.drive(w, step)
             };
             if ready.is_pending() {
-                return;
+                break;
             }
+        }
+        match self.slot.take() {
+            Some(result) => Poll::Ready(result),
+            None => Poll::Pending,
         }
     }
 }
 
-/// A step's framework: the frame and the type-erased step. Never completes (see above).
+/// A blocking start of a step: the frame and the type-erased step. Unlike a sequence's
+/// framework it takes its result itself (see `Frame::step`).
 pub(crate) struct StepFramework<'a, 's, C> {
     pub(crate) frame: Frame<'a, 's, C>,
     pub(crate) step: BodyRef<'s, C>,
 }
 
 impl<C> Future for StepFramework<'_, '_, C> {
-    type Output = Infallible;
-    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Infallible> {
+    type Output = Result<Outcome, Error>;
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         let this = self.get_mut();
-        this.frame.step(w, &mut this.step);
-        Poll::Pending
+        this.frame.step(w, &mut this.step)
     }
 }
 
