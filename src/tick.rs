@@ -197,7 +197,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // rare, out-of-line path.
         let due = polls.due;
         let mut rest = monitors.entries.as_mut_slice();
-        for g in monitors.groups.iter_mut() {
+        let used = usize::from(monitors.used_groups);
+        for g in monitors.groups.iter_mut().take(used) {
             // The groups tile the table in order.
             let Some((members, tail)) =
                 core::mem::take(&mut rest).split_at_mut_checked(usize::from(g.len))
