@@ -308,7 +308,9 @@ impl Group {
 /// in RTIC it is a `local` resource of the timer task (hence conditions are `Send`: `init`
 /// hands the table over). `M` is the capacity. `K` is the condition holder: by default
 /// `&mut dyn Condition` (any mix of conditions); a single type such as an enum of the
-/// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]).
+/// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]), and lets a
+/// `const fn` build the whole table ([`Monitors::table`]). A table never drops its
+/// conditions (it lives as long as the firmware).
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// In registration order: a `MonitorId` is the index. Never dropped (a table lives as
     /// long as its firmware), so that a `const` item can hold a table ([`Monitors::table`]).
