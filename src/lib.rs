@@ -65,7 +65,9 @@ pub use error::Error;
 pub use handle::{CallerStack, Handle};
 pub use id::{MonitorId, SeqId};
 pub use lane::lane;
-pub use monitor::{Behaviour, DynCondition, Monitor, Monitors, Trigger, DEFAULT_RESTART_LIMIT};
+pub use monitor::{
+    Behaviour, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger, DEFAULT_RESTART_LIMIT,
+};
 pub use polling::MAX_POLLING_CLASSES;
 pub use sequence::{Seq, Sequence, Step};
 pub use sequencer::Sequencer;

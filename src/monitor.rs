@@ -1,6 +1,7 @@
 //! Monitors: a condition, an optional exception sequence and a behaviour (seed §1.7).
 
 use core::marker::PhantomData;
+use core::mem::ManuallyDrop;
 
 use crate::bits::Bits;
 use crate::{Condition, Error, MonitorId, SeqId};
@@ -170,7 +171,7 @@ impl<'a, C, K> Monitor<'a, C, K> {
     // Out of line: set-up code, called once per monitor; inlined, the struct literal
     // would be copied into every call site.
     #[inline(never)]
-    pub fn with_condition(name: &'static str, condition: K, behaviour: Behaviour) -> Self {
+    pub const fn with_condition(name: &'static str, condition: K, behaviour: Behaviour) -> Self {
         Monitor {
             name,
             condition,
@@ -184,14 +185,14 @@ impl<'a, C, K> Monitor<'a, C, K> {
 
     /// The exception sequence to run (in its lane, while the owner is held) when this fires.
     #[inline(never)]
-    pub fn exception(mut self, sequence: SeqId) -> Self {
+    pub const fn exception(mut self, sequence: SeqId) -> Self {
         self.exception = Some(sequence);
         self
     }
 
     /// Rising edge (default) or level trigger.
     #[inline(never)]
-    pub fn trigger(mut self, trigger: Trigger) -> Self {
+    pub const fn trigger(mut self, trigger: Trigger) -> Self {
         self.trigger = trigger;
         self
     }
@@ -199,14 +200,27 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// How many restarts this monitor may cause per run of its target before a restarting
     /// behaviour escalates to the matching abort.
     #[inline(never)]
-    pub fn restart_limit(mut self, limit: u8) -> Self {
+    pub const fn restart_limit(mut self, limit: u8) -> Self {
         self.restart_limit = limit;
         self
     }
+
+    /// This monitor, owned by `owner`: an entry of [`Monitors::table`] ([`Monitors::add`]
+    /// takes the owner as an argument instead).
+    pub const fn owned_by(self, owner: SeqId) -> OwnedMonitor<'a, C, K> {
+        OwnedMonitor {
+            def: self,
+            owner,
+            restarts: 0,
+            target_runs_seen: 0,
+            fired: 0,
+        }
+    }
 }
 
-/// A registered monitor plus the bookkeeping the tick keeps for it.
-pub(crate) struct Entry<'a, C, K> {
+/// A monitor and its owner ([`Monitor::owned_by`]), plus the bookkeeping the tick keeps
+/// for it in a table.
+pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
     /// Restarts caused in the current run of the target.
@@ -216,6 +230,9 @@ pub(crate) struct Entry<'a, C, K> {
     /// How often this monitor fired.
     pub(crate) fired: u16,
 }
+
+/// A monitor in a table.
+pub(crate) type Entry<'a, C, K> = OwnedMonitor<'a, C, K>;
 
 /// Most monitors in one [`Group`] (its bit sets are words).
 pub(crate) const GROUP_MAX: u8 = 32;
@@ -245,6 +262,30 @@ pub(crate) struct Group {
 }
 
 impl Group {
+    /// A group whose first entry is `start`, with no monitor yet.
+    const fn starting_at(start: u8) -> Group {
+        Group {
+            last: 0,
+            rise: 0,
+            fall: 0,
+            level: 0,
+            owners: Bits::EMPTY,
+            start,
+            len: 0,
+        }
+    }
+
+    /// Appends a monitor of `owner` firing on `trigger` (the group has room).
+    const fn push(&mut self, owner: SeqId, trigger: Trigger) {
+        let t = trigger as u32;
+        self.len = self.len.saturating_add(1);
+        self.owners = self.owners.with(owner);
+        self.rise = (self.rise << 1) | (t & 1);
+        self.fall = (self.fall << 1) | ((t >> 1) & 1);
+        self.level = (self.level << 1) | (t >> 2);
+        self.last <<= 1;
+    }
+
     /// The bit sets of the monitors that fire, given this evaluation's values `now` (bit
     /// layout as `last`).
     #[inline]
@@ -267,12 +308,17 @@ impl Group {
 /// in RTIC it is a `local` resource of the timer task (hence conditions are `Send`: `init`
 /// hands the table over). `M` is the capacity. `K` is the condition holder: by default
 /// `&mut dyn Condition` (any mix of conditions); a single type such as an enum of the
-/// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]).
+/// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]), and lets a
+/// `const fn` build the whole table ([`Monitors::table`]). A table never drops its
+/// conditions (it lives as long as the firmware).
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
-    /// In registration order: a `MonitorId` is the index.
-    pub(crate) entries: heapless::Vec<Entry<'a, C, K>, M>,
-    /// The groups over `entries`, in table order.
-    pub(crate) groups: heapless::Vec<Group, M>,
+    /// In registration order: a `MonitorId` is the index. Never dropped (a table lives as
+    /// long as its firmware), so that a `const` item can hold a table ([`Monitors::table`]).
+    pub(crate) entries: ManuallyDrop<heapless::Vec<Entry<'a, C, K>, M>>,
+    /// The groups over `entries`, in table order (a fixed array, so that a `const fn` can
+    /// build them): the first `used_groups`.
+    pub(crate) groups: [Group; M],
+    pub(crate) used_groups: u8,
 }
 
 impl<C, const M: usize, K> Default for Monitors<'_, C, M, K> {
@@ -286,9 +332,75 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     pub const fn new() -> Self {
         const { assert!(M <= 256, "at most 256 monitors") };
         Monitors {
-            entries: heapless::Vec::new(),
-            groups: heapless::Vec::new(),
+            entries: ManuallyDrop::new(heapless::Vec::new()),
+            groups: [Group::starting_at(0); M],
+            used_groups: 0,
         }
+    }
+
+    /// A table of `monitors`, in this order, checked by a `const fn` like
+    /// [`Table`](crate::Table): built in a `const` item, its checks run in the compiler
+    /// and the firmware holds no set-up code for monitors. Errors like
+    /// [`add`](Self::add); more monitors than `M` does not compile.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Condition, Instant, Monitor, MonitorId, Monitors, SeqId};
+    /// struct Hot;
+    /// impl Condition<f32> for Hot {
+    ///     fn validate(&mut self, t: &f32, _: Instant) -> bool { *t > 80.0 }
+    /// }
+    /// const HEATING: SeqId = SeqId::from_index(0);
+    /// const MONITORS: Monitors<'static, f32, 2, Hot> = match Monitors::table([
+    ///     Monitor::with_condition("too hot", Hot, Behaviour::AbortOwner).owned_by(HEATING),
+    /// ]) {
+    ///     Ok(table) => table,
+    ///     Err(e) => panic!("{}", e.reason()), // a compile error, never a run-time panic
+    /// };
+    /// let monitors = MONITORS;
+    /// assert_eq!(monitors.owner(MonitorId::from_index(0)), Some(HEATING));
+    /// ```
+    pub const fn table<const L: usize>(
+        monitors: [OwnedMonitor<'a, C, K>; L],
+    ) -> Result<Self, Error> {
+        const { assert!(M <= 256, "at most 256 monitors") };
+        let mut groups = [Group::starting_at(0); M];
+        let mut used_groups: u8 = 0;
+        let mut rest: &[Entry<'a, C, K>] = &monitors;
+        let mut slots: &mut [Group] = &mut groups;
+        let mut at: u8 = 0;
+        while let Some((g, later)) = slots.split_first_mut() {
+            if rest.is_empty() {
+                break;
+            }
+            *g = Group::starting_at(at);
+            used_groups = used_groups.saturating_add(1);
+            while g.len < GROUP_MAX {
+                let Some((e, tail)) = rest.split_first() else {
+                    break;
+                };
+                let checked = if e.def.name.is_empty() {
+                    Err(Error::EmptyName)
+                } else if e.owner.index() >= crate::MAX_SEQUENCES {
+                    Err(Error::UnknownSequence(e.owner))
+                } else {
+                    Ok(())
+                };
+                if let Err(error) = checked {
+                    // A `const fn` may not drop a `K`.
+                    core::mem::forget(monitors);
+                    return Err(error);
+                }
+                g.push(e.owner, e.def.trigger);
+                at = at.wrapping_add(1);
+                rest = tail;
+            }
+            slots = later;
+        }
+        Ok(Monitors {
+            entries: ManuallyDrop::new(heapless::Vec::from_array(monitors)),
+            groups,
+            used_groups,
+        })
     }
 
     /// Adds a monitor owned by `owner`. Errors on an empty name, a full table or an owner
@@ -311,33 +423,19 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             target_runs_seen: 0,
             fired: 0,
         };
-        let t = u32::from(entry.def.trigger as u8);
-        let (rise, fall, level) = (t & 1, (t >> 1) & 1, t >> 2);
+        let trigger = entry.def.trigger;
         self.entries
             .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;
-        match self.groups.last_mut() {
-            Some(g) if g.len < GROUP_MAX => {
-                g.len += 1;
-                g.owners.set(owner, true);
-                g.rise = (g.rise << 1) | rise;
-                g.fall = (g.fall << 1) | fall;
-                g.level = (g.level << 1) | level;
-                g.last <<= 1;
+        // Group `k` holds entries `32 k ..`; there are as many groups as entries.
+        if id % GROUP_MAX == 0 {
+            self.used_groups = self.used_groups.saturating_add(1);
+            if let Some(g) = self.groups.get_mut(usize::from(id / GROUP_MAX)) {
+                *g = Group::starting_at(id);
             }
-            _ => {
-                let group = Group {
-                    last: 0,
-                    rise,
-                    fall,
-                    level,
-                    owners: Bits::of(owner),
-                    start: id,
-                    len: 1,
-                };
-                // As many groups as entries at most: there is room.
-                let _ = self.groups.push(group);
-            }
+        }
+        if let Some(g) = self.groups.get_mut(usize::from(id / GROUP_MAX)) {
+            g.push(owner, trigger);
         }
         Ok(MonitorId(id))
     }
@@ -345,7 +443,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// A new run of the sequences `fresh` began: their monitors' edge detection starts
     /// again from "false".
     pub(crate) fn reset_edges(&mut self, fresh: Bits) {
-        for g in self.groups.iter_mut() {
+        for g in self.groups.iter_mut().take(usize::from(self.used_groups)) {
             if g.owners.and(fresh).is_empty() {
                 continue;
             }
@@ -388,5 +486,60 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// How often a monitor fired.
     pub fn fired(&self, id: MonitorId) -> u16 {
         self.entry(id).map_or(0, |e| e.fired)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Never;
+    impl Condition<()> for Never {
+        fn validate(&mut self, _: &(), _: crate::Instant) -> bool {
+            false
+        }
+    }
+
+    fn monitor(i: usize) -> Monitor<'static, (), Never> {
+        let trigger = match i % 3 {
+            0 => Trigger::RisingEdge,
+            1 => Trigger::FallingEdge,
+            _ => Trigger::Level,
+        };
+        Monitor::with_condition("m", Never, Behaviour::AbortOwner).trigger(trigger)
+    }
+
+    #[test]
+    fn a_table_has_the_groups_add_builds() {
+        let owner = |i: usize| SeqId::from_index(i % 5);
+        let table: Result<Monitors<'_, (), 40, Never>, _> =
+            Monitors::table(core::array::from_fn::<_, 33, _>(|i| {
+                monitor(i).owned_by(owner(i))
+            }));
+        assert!(table.is_ok());
+        let Ok(table) = table else { return };
+        let mut added: Monitors<'_, (), 40, Never> = Monitors::new();
+        for i in 0..33 {
+            assert_eq!(
+                added.add(owner(i), monitor(i)),
+                Ok(MonitorId::from_index(i))
+            );
+        }
+        assert_eq!((table.used_groups, added.used_groups), (2, 2));
+        for (t, a) in table.groups.iter().zip(added.groups.iter()).take(2) {
+            let fields = |g: &Group| (g.last, g.rise, g.fall, g.level, g.owners, g.start, g.len);
+            assert_eq!(fields(t), fields(a));
+        }
+        assert_eq!(table.owner(MonitorId::from_index(32)), Some(owner(32)));
+    }
+
+    #[test]
+    fn a_table_checks_names_and_owners() {
+        let nameless = Monitor::with_condition("", Never, Behaviour::Nothing).owned_by(SeqId(0));
+        let t: Result<Monitors<'_, (), 2, Never>, _> = Monitors::table([nameless]);
+        assert!(matches!(t, Err(Error::EmptyName)));
+        let unowned = monitor(0).owned_by(SeqId(32));
+        let t: Result<Monitors<'_, (), 2, Never>, _> = Monitors::table([unowned]);
+        assert!(matches!(t, Err(Error::UnknownSequence(SeqId(32)))));
     }
 }

@@ -67,6 +67,18 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         self.blocks.get(id.index())
     }
 
+    /// Those of `wake` that are not held (see [`Sequencer::held`]), in one section.
+    fn unheld(&self, wake: Bits) -> Bits {
+        let mut out = wake;
+        for id in wake {
+            let lane = self.slot(id).map_or(NO_LANE, |b| b.lane);
+            if held_by(id, |c| self.held_step(c, lane)) {
+                out.set(id, false);
+            }
+        }
+        out
+    }
+
     /// Those of `timed` whose timeout deadline has passed at `now`.
     fn expired(&self, timed: Bits, now: u32) -> Bits {
         let mut out = Bits::EMPTY;
@@ -104,6 +116,21 @@ fn evaluate_due<C, K: crate::Condition<C>>(
         bit >>= 1;
     }
     (values, evaluated)
+}
+
+/// Whether sequence `id` is held: `step` is one step up its blocking callers
+/// ([`Inner::held_step`]).
+fn held_by(id: SeqId, mut step: impl FnMut(SeqId) -> Option<Link>) -> bool {
+    let mut at = Link::to(Some(id));
+    // The sequence and at most `MAX_DEPTH` callers.
+    for _ in 0..DEPTH_LIMIT {
+        let Some(c) = at.get() else { return false };
+        match step(c) {
+            Some(up) => at = up,
+            None => return true,
+        }
+    }
+    false
 }
 
 /// Restart bookkeeping of one monitor (or timeout monitor).
@@ -170,7 +197,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // rare, out-of-line path.
         let due = polls.due;
         let mut rest = monitors.entries.as_mut_slice();
-        for g in monitors.groups.iter_mut() {
+        let used = usize::from(monitors.used_groups);
+        for g in monitors.groups.iter_mut().take(used) {
             // The groups tile the table in order.
             let Some((members, tail)) =
                 core::mem::take(&mut rest).split_at_mut_checked(usize::from(g.len))
@@ -208,8 +236,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             careful = true;
         }
         if !polls.wake.is_empty() {
-            if L::COARSE && !careful {
-                self.with(|s| s.wake_polls(polls.wake));
+            if L::COARSE {
+                // One section: the held check walks the callers inside it.
+                self.with(|s| {
+                    let wake = if careful {
+                        s.unheld(polls.wake)
+                    } else {
+                        polls.wake
+                    };
+                    s.wake_polls(wake);
+                });
             } else {
                 self.wake_polls(polls.wake, careful);
             }
@@ -262,8 +298,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         polls
     }
 
-    /// Wakes the lanes whose polled condition is due, except those held (checked only when
-    /// `careful`: after a monitor fired or while something is held), in short sections.
+    /// With a portable lock: wakes the lanes whose polled condition is due, except those
+    /// held (checked only when `careful`: after a monitor fired or while something is
+    /// held), in short sections.
     #[inline(never)]
     fn wake_polls(&self, wake: Bits, careful: bool) {
         let mut woken = NO_WAKER;
@@ -285,16 +322,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// for an exception): it is woken when it may go on. One short section per caller.
     fn held(&self, id: SeqId) -> bool {
         let lane = self.with(|s| s.slot(id).map_or(NO_LANE, |b| b.lane));
-        let mut at = Link::to(Some(id));
-        // The sequence and at most `MAX_DEPTH` callers.
-        for _ in 0..DEPTH_LIMIT {
-            let Some(c) = at.get() else { return false };
-            match self.with(|s| s.held_step(c, lane)) {
-                Some(up) => at = up,
-                None => return true,
-            }
-        }
-        false
+        held_by(id, |c| self.with(|s| s.held_step(c, lane)))
     }
 
     /// Monitors of `group` triggered (`firing`, bits as in [`Group`]): raise their

@@ -22,8 +22,8 @@ use std::sync::OnceLock;
 use qemu_harness::{expect_exit, require_tools, root, try_build, Config, Echo, Outcome, TARGET};
 use rtseq::safety::{SafetyHandle, SafetySystem};
 use rtseq::sim::Sim;
-use rtseq::{Cause, Instant, Monitors, Outcome as SeqOutcome, RunningState, SeqId, Sequencer};
-use rtseq_motor::app::{self, AppConfig, Conditions, Fault, FaultKind, FaultPlan, Ids};
+use rtseq::{Cause, Instant, Outcome as SeqOutcome, RunningState, SeqId, Sequencer};
+use rtseq_motor::app::{self, AppConfig, Fault, FaultKind, FaultPlan, Ids};
 use rtseq_motor::control_system::{ControlSystem, Phase};
 use rtseq_motor::safety::{self, PROPERTIES};
 
@@ -217,9 +217,8 @@ fn host(plan: FaultPlan, end_ms: u64) -> Host {
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(CONFIG.start_position)));
     cs.set_fault_plan(plan);
-    let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&CONFIG)));
-    let mut monitors: Monitors<'static, ControlSystem, { app::MONITORS }> = Monitors::new();
-    let app = app::register(seq, &mut monitors, conditions, &app::Setup::DEMO).unwrap();
+    let monitors: app::AppMonitors = app::monitors(&CONFIG).unwrap();
+    let app = app::register(seq, &app::Setup::DEMO).unwrap();
     let ids = app.ids;
     let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
     seq.set_safety_system(handle);

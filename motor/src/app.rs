@@ -5,16 +5,15 @@
 //!
 //! ```
 //! use rtseq::sim::Sim;
-//! use rtseq::{Duration, Monitors, Sequencer};
-//! use rtseq_motor::app::{self, AppConfig, Conditions, FaultPlan};
+//! use rtseq::{Duration, Sequencer};
+//! use rtseq_motor::app::{self, AppConfig, FaultPlan};
 //! use rtseq_motor::control_system::{ControlSystem, Phase};
 //!
 //! let seq: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
 //! let cs = ControlSystem::new(AppConfig::DEFAULT.start_position);
 //! cs.set_fault_plan(FaultPlan::NONE);
-//! let mut conditions = Conditions::new(&AppConfig::DEFAULT);
-//! let mut monitors: Monitors<ControlSystem, { app::MONITORS }> = Monitors::new();
-//! let app = app::register(&seq, &mut monitors, &mut conditions, &app::Setup::DEFAULT).unwrap();
+//! let monitors: app::AppMonitors = app::monitors(&AppConfig::DEFAULT).unwrap();
+//! let app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
 //! let main = app.ids.main;
 //!
 //! let mut sim = Sim::new(&seq, &cs, monitors);
@@ -26,9 +25,9 @@
 //! assert_eq!(usize::from(cs.summary().moves_done), AppConfig::DEFAULT.move_count);
 //! ```
 //!
-//! In RTIC firmware: a `static` [`Sequencer`] and [`ControlSystem`], the [`Monitors`] and
-//! the [`Conditions`] as `local` resources of the timer task (`Conditions::new` is
-//! `const`), [`register`] in `init`, one async task per lane of [`App`] (or all of them
+//! In RTIC firmware: a `static` [`Sequencer`] and [`ControlSystem`], the monitor table as a
+//! `local` resource of the timer task (built at compile time: `const { app::monitors(..) }`),
+//! [`register`] in `init`, one async task per lane of [`App`] (or all of them
 //! joined in one task with [`App::run`]), and in the timer interrupt:
 //! `CS.control_tick(now, 0.001); SEQ.tick(now, &CS, monitors);`.
 
@@ -39,8 +38,8 @@ use core::task::Poll;
 
 use rtseq::lock::Lock;
 use rtseq::{
-    Behaviour, Condition, Duration, Instant, MonitorId, Monitors, Seq, SeqConfig, SeqId, Sequencer,
-    Table, Toggle, Wait,
+    Behaviour, Condition, Duration, Instant, Monitor, MonitorId, Monitors, Seq, SeqConfig, SeqId,
+    Sequencer, Table, Toggle, Wait,
 };
 
 use crate::control_system::{ControlSystem, Phase};
@@ -387,32 +386,95 @@ impl Condition<ControlSystem> for ResumePressed {
     }
 }
 
-/// The monitor conditions (they keep state; the monitor table borrows them). In firmware,
-/// a `local` resource of the timer task: `Conditions::new` is `const`.
-pub struct Conditions {
-    following_error: FollowingErrorAbove,
-    end_stop: EndStopHit,
-    pause: PauseToggle,
-    resume: ResumePressed,
+/// The monitor conditions, one type (they keep state; the monitor table owns them), so that
+/// the tick calls them without a `dyn` call and a `const fn` builds the table
+/// ([`monitors`]).
+pub enum AppCondition {
+    /// The following-error monitor's.
+    FollowingError(FollowingErrorAbove),
+    /// The end-stop monitor's.
+    EndStop(EndStopHit),
+    /// The pause monitor's.
+    Pause(PauseToggle),
+    /// The resume monitor's.
+    Resume(ResumePressed),
 }
 
-impl Conditions {
-    /// The conditions for `config`.
-    pub const fn new(config: &AppConfig) -> Self {
-        Conditions {
-            following_error: FollowingErrorAbove {
-                limit: config.following_error_limit,
-            },
-            end_stop: EndStopHit,
-            pause: Toggle::new(ControlSystem::pause_button as Button),
-            resume: ResumePressed {
-                toggle: Toggle::new(ControlSystem::pause_button as Button),
-            },
+impl Condition<ControlSystem> for AppCondition {
+    fn validate(&mut self, cs: &ControlSystem, now: Instant) -> bool {
+        match self {
+            AppCondition::FollowingError(c) => c.validate(cs, now),
+            AppCondition::EndStop(c) => c.validate(cs, now),
+            AppCondition::Pause(c) => c.validate(cs, now),
+            AppCondition::Resume(c) => c.validate(cs, now),
         }
     }
 }
 
-/// The ids of everything [`register`] added (for tests, logs and traces).
+/// The application's monitor table (capacity `M`, at least [`MONITORS`]).
+pub type AppMonitors<const M: usize = MONITORS> = Monitors<'static, ControlSystem, M, AppCondition>;
+
+/// The monitor ids of [`monitors`] (table positions).
+pub mod monitor_ids {
+    use rtseq::MonitorId;
+    /// Following error.
+    pub const FOLLOWING_ERROR: MonitorId = MonitorId::from_index(0);
+    /// End stop.
+    pub const END_STOP: MonitorId = MonitorId::from_index(1);
+    /// Pause.
+    pub const PAUSE: MonitorId = MonitorId::from_index(2);
+    /// Resume.
+    pub const RESUME: MonitorId = MonitorId::from_index(3);
+}
+
+/// The monitor table for `config`, built by a `const fn`: in firmware evaluate it at
+/// compile time (`const { ... }`), so no set-up code for monitors is linked.
+///
+/// | monitor | owner | condition | exception | behaviour |
+/// |---|---|---|---|---|
+/// | `following error` | `move` | \|setpoint − position\| > limit | `safe stop` | `RestartCallerOfOwner`, limit `restart_limit` |
+/// | `end stop` | `moves` | an end-stop switch closed | — | `AbortOwner` |
+/// | `pause` | `moves` | [`Toggle`] of the pause button | `feed hold` | `Nothing` |
+/// | `resume` | `moves` | toggle off again while paused | `feed resume` | `Nothing` |
+///
+/// The end-stop monitor belongs to the whole move loop, not to one move: hitting a limit
+/// must end the motion program (the moves and the move in progress are aborted, main gets
+/// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
+///
+/// `M` < [`MONITORS`] does not compile.
+pub const fn monitors<const M: usize>(config: &AppConfig) -> Result<AppMonitors<M>, rtseq::Error> {
+    use seq_ids::*;
+    use AppCondition::*;
+    const BUTTON: Button = ControlSystem::pause_button;
+    Monitors::table([
+        Monitor::with_condition(
+            "following error",
+            FollowingError(FollowingErrorAbove {
+                limit: config.following_error_limit,
+            }),
+            Behaviour::RestartCallerOfOwner,
+        )
+        .exception(SAFE_STOP)
+        .restart_limit(config.restart_limit)
+        .owned_by(MOVE),
+        Monitor::with_condition("end stop", EndStop(EndStopHit), Behaviour::AbortOwner)
+            .owned_by(MOVES),
+        Monitor::with_condition("pause", Pause(Toggle::new(BUTTON)), Behaviour::Nothing)
+            .exception(FEED_HOLD)
+            .owned_by(MOVES),
+        Monitor::with_condition(
+            "resume",
+            Resume(ResumePressed {
+                toggle: Toggle::new(BUTTON),
+            }),
+            Behaviour::Nothing,
+        )
+        .exception(FEED_RESUME)
+        .owned_by(MOVES),
+    ])
+}
+
+/// The ids of everything [`register`] and [`monitors`] added (for tests, logs and traces).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Ids {
     /// Main sequence.
@@ -496,9 +558,15 @@ pub enum AppLane {
 #[cfg(feature = "std")]
 impl AppLane {
     /// Adds this lane to a host simulation.
-    pub fn add_to<'a, const N: usize, const T: usize, const M: usize>(
+    pub fn add_to<
+        'a,
+        const N: usize,
+        const T: usize,
+        const M: usize,
+        K: Condition<ControlSystem>,
+    >(
         self,
-        sim: &mut rtseq::sim::Sim<'a, ControlSystem, N, T, M>,
+        sim: &mut rtseq::sim::Sim<'a, ControlSystem, N, T, M, K>,
     ) {
         match self {
             AppLane::Main(s) => sim.lane(s),
@@ -701,29 +769,13 @@ const _: () = {
     assert!(checks.len() == SEQUENCES, "seq_ids misses a sequence");
 };
 
-/// Registers the whole application into `sequencer` and `monitors` and returns the
-/// sequence objects the lanes need: installs `setup`'s table (see [`Setup::new`]), binds
-/// the sequence objects and adds the monitors.
+/// Registers the whole application into `sequencer` and returns the sequence objects the
+/// lanes need: installs `setup`'s table (see [`Setup::new`]) and binds the sequence
+/// objects. The monitors are a table of their own ([`monitors`]).
 ///
-/// Monitors:
-///
-/// | monitor | owner | condition | exception | behaviour |
-/// |---|---|---|---|---|
-/// | `following error` | `move` | \|setpoint − position\| > limit | `safe stop` | `RestartCallerOfOwner`, limit `restart_limit` |
-/// | `end stop` | `moves` | an end-stop switch closed | — | `AbortOwner` |
-/// | `pause` | `moves` | [`Toggle`] of the pause button | `feed hold` | `Nothing` |
-/// | `resume` | `moves` | toggle off again while paused | `feed resume` | `Nothing` |
-///
-/// The end-stop monitor belongs to the whole move loop, not to one move: hitting a limit
-/// must end the motion program (the moves and the move in progress are aborted, main gets
-/// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
-///
-/// Errors: the sequencer is not empty, `M` < [`MONITORS`]. `N` < [`SEQUENCES`] does not
-/// compile.
-pub fn register<'a, const N: usize, const T: usize, L: Lock, const W: usize, const M: usize>(
+/// Errors: the sequencer is not empty. `N` < [`SEQUENCES`] does not compile.
+pub fn register<const N: usize, const T: usize, L: Lock, const W: usize>(
     sequencer: &Sequencer<ControlSystem, N, T, L, W>,
-    monitors: &mut Monitors<'a, ControlSystem, M>,
-    conditions: &'a mut Conditions,
     setup: &Setup,
 ) -> Result<App, rtseq::Error> {
     use seq_ids::*;
@@ -781,35 +833,6 @@ pub fn register<'a, const N: usize, const T: usize, L: Lock, const W: usize, con
         },
     )?;
 
-    let Conditions {
-        following_error,
-        end_stop,
-        pause,
-        resume,
-    } = conditions;
-    let following_error = monitors.add(
-        MOVE,
-        rtseq::Monitor::new(
-            "following error",
-            following_error,
-            Behaviour::RestartCallerOfOwner,
-        )
-        .exception(SAFE_STOP)
-        .restart_limit(config.restart_limit),
-    )?;
-    let end_stop = monitors.add(
-        MOVES,
-        rtseq::Monitor::new("end stop", end_stop, Behaviour::AbortOwner),
-    )?;
-    let pause = monitors.add(
-        MOVES,
-        rtseq::Monitor::new("pause", pause, Behaviour::Nothing).exception(FEED_HOLD),
-    )?;
-    let resume = monitors.add(
-        MOVES,
-        rtseq::Monitor::new("resume", resume, Behaviour::Nothing).exception(FEED_RESUME),
-    )?;
-
     let ids = Ids {
         main: MAIN,
         status: STATUS,
@@ -829,10 +852,10 @@ pub fn register<'a, const N: usize, const T: usize, L: Lock, const W: usize, con
         feed_resume: FEED_RESUME,
         main_halt: MAIN_HALT,
         power_off: POWER_OFF,
-        following_error,
-        end_stop,
-        pause,
-        resume,
+        following_error: monitor_ids::FOLLOWING_ERROR,
+        end_stop: monitor_ids::END_STOP,
+        pause: monitor_ids::PAUSE,
+        resume: monitor_ids::RESUME,
     };
     Ok(App {
         main,

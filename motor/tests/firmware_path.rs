@@ -11,8 +11,8 @@ use std::task::{Context, Wake, Waker};
 
 use common::*;
 use rtseq::safety::{SafetyHandle, SafetySystem};
-use rtseq::{Cause, Monitors, Outcome, Sequencer};
-use rtseq_motor::app::{self, AppConfig, Conditions, Fault, FaultPlan};
+use rtseq::{Cause, Outcome, Sequencer};
+use rtseq_motor::app::{self, AppConfig, Fault, FaultPlan};
 use rtseq_motor::control_system::{ControlSystem, Phase};
 use rtseq_motor::safety::{self, PROPERTIES};
 
@@ -26,9 +26,8 @@ impl Wake for Flag {
 #[test]
 fn joined_lanes_give_the_same_run_as_the_simulator() {
     let (seq, cs): (Seqr, ControlSystem) = (Sequencer::new(), ControlSystem::new(0.02));
-    let mut conditions = Conditions::new(&AppConfig::DEFAULT);
-    let mut monitors: Monitors<ControlSystem, M> = Monitors::new();
-    let app = app::register(&seq, &mut monitors, &mut conditions, &app::Setup::DEFAULT).unwrap();
+    let mut monitors: app::AppMonitors<M> = app::monitors(&AppConfig::DEFAULT).unwrap();
+    let app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
     let main = app.ids.main;
     let flag = Arc::new(Flag(AtomicBool::new(true)));
     let waker = Waker::from(flag.clone());

@@ -99,8 +99,8 @@ mod app {
     use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
 
     use rtseq::safety::{SafetyHandle, SafetySystem};
-    use rtseq::{Instant, Monitors, SeqId, Sequencer};
-    use rtseq_motor::app::{self, App, AppConfig, Conditions, FaultPlan};
+    use rtseq::{Instant, SeqId, Sequencer};
+    use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
     use rtseq_motor::control_system::ControlSystem;
     use rtseq_motor::hardware::DriveCommand;
     use rtseq_motor::safety::{safety_cycle, DriveIo, PROPERTIES};
@@ -148,7 +148,7 @@ mod app {
     struct Local {
         timer: CounterHz<pac::TIM6>,
         sensors: Sensors,
-        monitors: Monitors<'static, ControlSystem, { app::MONITORS }>,
+        monitors: app::AppMonitors,
         system: Option<SafetySystem<'static, DriveIo, 4>>,
         app: Option<App>,
         main: Option<SeqId>,
@@ -157,7 +157,7 @@ mod app {
         model: MotorModel,
     }
 
-    #[init(local = [conditions: Conditions = Conditions::new(&AppConfig::DEFAULT)])]
+    #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
         // Debugging: keep the debug port alive in `wfi`, freeze the watchdog at a breakpoint.
@@ -228,8 +228,14 @@ mod app {
 
         // The application, its safety system, its lanes.
         CS.set_fault_plan(FaultPlan::NONE);
-        let mut monitors = Monitors::new();
-        let app = match app::register(&SEQ, &mut monitors, cx.local.conditions, &SETUP) {
+        // Built by the compiler: no monitor set-up code in the firmware.
+        let monitors = const {
+            match app::monitors(&AppConfig::DEFAULT) {
+                Ok(m) => m,
+                Err(e) => panic!("{}", e.reason()),
+            }
+        };
+        let app = match app::register(&SEQ, &SETUP) {
             Ok(app) => Some(app),
             Err(e) => {
                 defmt::error!("init: registering the application failed: {}", e);

@@ -3,8 +3,8 @@
 
 use rtseq::safety::{SafetyHandle, SafetySystem};
 use rtseq::sim::Sim;
-use rtseq::{Duration, Instant, Monitors, Outcome, RunningState, SeqId, Sequencer, Transition};
-use rtseq_motor::app::{self, AppConfig, Conditions, FaultPlan, Ids};
+use rtseq::{Duration, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
+use rtseq_motor::app::{self, AppConfig, FaultPlan, Ids};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_motor::safety::{self, PROPERTIES};
 
@@ -13,7 +13,7 @@ pub const M: usize = app::MONITORS;
 pub type Seqr = Sequencer<ControlSystem, N, 256>;
 
 pub struct World {
-    pub sim: Sim<'static, ControlSystem, N, 256, M>,
+    pub sim: Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
     pub seq: &'static Seqr,
     pub cs: &'static ControlSystem,
     pub ids: Ids,
@@ -26,7 +26,7 @@ pub fn app_sim(
     plan: FaultPlan,
     config: AppConfig,
 ) -> (
-    Sim<'static, ControlSystem, N, 256, M>,
+    Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
     &'static Seqr,
     &'static ControlSystem,
     Ids,
@@ -34,10 +34,9 @@ pub fn app_sim(
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
     cs.set_fault_plan(plan);
-    let conditions: &'static mut Conditions = Box::leak(Box::new(Conditions::new(&config)));
-    let mut monitors: Monitors<'static, ControlSystem, M> = Monitors::new();
+    let monitors: app::AppMonitors<M> = app::monitors(&config).unwrap();
     let setup = app::Setup::new(config).unwrap();
-    let app = app::register(seq, &mut monitors, conditions, &setup).unwrap();
+    let app = app::register(seq, &setup).unwrap();
     let ids = app.ids;
     let mut sim = Sim::new(seq, cs, monitors);
     for lane in app.lanes() {

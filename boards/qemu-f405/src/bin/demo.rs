@@ -1333,8 +1333,7 @@ mod rtic_app {
     use board::clock::TickTimer;
     use board::signal::TickSignal;
     use rtseq::safety::SafetySystem;
-    use rtseq::{Monitors, Seq};
-    use rtseq_motor::app::Conditions;
+    use rtseq::Seq;
     use rtseq_motor::sequences::{FeedHold, FeedResume, Main, SafeStop, StatusBlink};
 
     /// Tick -> safety task.
@@ -1346,7 +1345,7 @@ mod rtic_app {
     #[local]
     struct Local {
         timer: TickTimer,
-        monitors: Monitors<'static, ControlSystem, { app::MONITORS }>,
+        monitors: app::AppMonitors,
         system: SafetySystem<'static, safety::DriveIo, 4>,
         ids_tick: Ids,
         plan_tick: FaultPlan,
@@ -1358,7 +1357,7 @@ mod rtic_app {
         feed_resume: Seq<FeedResume>,
     }
 
-    #[init(local = [conditions: Conditions = Conditions::new(&CONFIG), args: [u8; 256] = [0; 256]])]
+    #[init(local = [args: [u8; 256] = [0; 256]])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let opts = match parse_args(board::args::args(cx.local.args)) {
             Ok(o) => o,
@@ -1375,8 +1374,14 @@ mod rtic_app {
         let plan = opts.plan;
         announce(&plan);
         CS.set_fault_plan(plan);
-        let mut monitors = Monitors::new();
-        let app = match app::register(&SEQ, &mut monitors, cx.local.conditions, &SETUP) {
+        // Built by the compiler: no monitor set-up code in the firmware.
+        let monitors = const {
+            match app::monitors(&CONFIG) {
+                Ok(m) => m,
+                Err(e) => panic!("{}", e.reason()),
+            }
+        };
+        let app = match app::register(&SEQ, &SETUP) {
             Ok(a) => a,
             Err(e) => {
                 defmt::error!("demo: registration failed: {}", e);
