@@ -192,7 +192,8 @@ impl SafetyIo for DriveIo {
     }
 
     fn write_output(&mut self, output: OutputId, value: IoValue) {
-        let on = value == IoValue::Bool(true);
+        // A pattern, not `==`: no derived comparison of rtseq's `IoValue` is linked.
+        let on = matches!(value, IoValue::Bool(true));
         if output == ENABLE_OUT.id() {
             self.enable = on;
         } else if output == BRAKE_OUT.id() {

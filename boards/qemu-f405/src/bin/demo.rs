@@ -568,6 +568,8 @@ impl defmt::Format for OutcomeText<'_> {
     }
 }
 
+// Out of line: one copy of the table look-up for the log's five call sites.
+#[inline(never)]
 fn level_name(l: SafetyLevel) -> &'static str {
     safety::PROPERTIES.level(l).map_or("?", |d| d.name())
 }
