@@ -5,7 +5,7 @@ use core::task::{Poll, Waker};
 
 use crate::control_block::{flag, Link};
 use crate::lock::Lock;
-use crate::sequencer::{Gate, Mode};
+use crate::sequencer::{steps, Gate, Mode, Steps};
 use crate::{Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
 
 /// A consistent snapshot of one control block's own fields, for [`Handle`](crate::Handle).
@@ -45,8 +45,9 @@ pub(crate) trait Engine<C> {
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
-/// Each method is a few short sections: a waker is parked in its own section before the
-/// state is read (so no wake-up is lost in between), walks take one section per step.
+/// Each method is a few [`Steps`]: with the portable lock a few short sections (a waker is
+/// parked in its own section before the state is read, so no wake-up is lost in between;
+/// walks take one section per step), with a coarse lock one section.
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     for Sequencer<C, N, T, L, W>
 {
@@ -59,19 +60,23 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
-        self.with(|s| s.park(id, waker));
-        self.with(|s| s.gate(id))
+        steps!(self, |s| {
+            s.step(|s| s.park(id, waker));
+            s.step(|s| s.gate(id))
+        })
     }
 
     fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
-        self.with(|s| s.park(id, waker));
-        self.with(|s| match s.gate(id) {
-            Gate::Go if s.poll_due.has(id) => {
-                s.poll_due.set(id, false);
-                Gate::Go
-            }
-            Gate::Go => Gate::Hold,
-            other => other,
+        steps!(self, |s| {
+            s.step(|s| s.park(id, waker));
+            s.step(|s| match s.gate(id) {
+                Gate::Go if s.poll_due.has(id) => {
+                    s.poll_due.set(id, false);
+                    Gate::Go
+                }
+                Gate::Go => Gate::Hold,
+                other => other,
+            })
         })
     }
 
@@ -85,23 +90,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn restarted(&self, id: SeqId) {
-        // Schedule, then commit; again if a tick ran in between.
-        loop {
-            let (from, seen, armed) = self.with(|s| s.schedule(id, None));
-            // From `Restarting` (or, if the tick stopped it since the lane saw that, as the
-            // transition table allows; a scanned `Running` or `Paused` one stays).
-            let legal = crate::sequencer::sources(RunningState::Running)
-                & !crate::sequencer::bit(RunningState::Paused);
-            if legal & crate::sequencer::bit(from) == 0 {
-                return;
-            }
-            self.with(|s| s.new_run(id, None, armed));
-            self.with(|s| s.due_by(id));
-            let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
-            if self.with(|s| s.restarted(&t, seen)) {
-                return;
-            }
-        }
+        steps!(self, |s| s.relaunch(id));
     }
 
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
@@ -110,35 +99,41 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             _ => Cause::Completed,
         };
         let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
-        if self.with(|s| s.end(&t)) {
-            Ok(outcome)
-        } else {
-            Err(self.with(|s| s.gate(id)))
-        }
+        steps!(self, |s| {
+            if s.step(|s| s.end(&t)) {
+                Ok(outcome)
+            } else {
+                Err(s.step(|s| s.gate(id)))
+            }
+        })
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
-        if let Some(j) = self.with(|s| s.finished(id, outcome)) {
-            self.wake_lane(j);
-        }
+        steps!(self, |s| {
+            if let Some(j) = s.step(|s| s.finished(id, outcome)) {
+                s.step(|s| s.wake(j));
+            }
+        })
     }
 
     fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
-        Sequencer::declare_lane(self, id)
+        steps!(self, |s| s.declare_lane(id))
     }
 
     fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
-        let Some(lane) = self.lane_slot_of(id) else {
-            return false;
-        };
-        self.with(|s| s.park_lane(lane, waker));
-        self.with(|s| {
-            let Ok(b) = s.block_mut(id) else {
+        steps!(self, |s| {
+            let Some(lane) = s.lane_slot_of(id) else {
                 return false;
             };
-            let pending = b.has(flag::START_PENDING);
-            b.set(flag::START_PENDING, false);
-            pending
+            s.step(|s| s.park_lane(lane, waker));
+            s.step(|s| {
+                let Ok(b) = s.block_mut(id) else {
+                    return false;
+                };
+                let pending = b.has(flag::START_PENDING);
+                b.set(flag::START_PENDING, false);
+                pending
+            })
         })
     }
 
