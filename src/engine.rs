@@ -40,7 +40,6 @@ pub(crate) trait Engine<C> {
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
     fn request(&self, id: SeqId, bit: u16) -> Result<(), Error>;
-    fn find(&self, name: &str) -> Option<SeqId>;
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
@@ -190,8 +189,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             Ok(())
         })
     }
+}
 
-    fn find(&self, name: &str) -> Option<SeqId> {
-        self.sequence_by_name(name).map(|h| h.id())
+impl<C> dyn Engine<C> + '_ {
+    /// The id of the sequence named `name`: one [`info`](Engine::info) (one section) per
+    /// registered sequence, the comparison outside. Not a method of the vtable, so a
+    /// firmware that never looks a name up links none of it.
+    pub(crate) fn find(&self, name: &str) -> Option<SeqId> {
+        (0..=u8::MAX)
+            .map(SeqId)
+            .map_while(|id| Some((id, self.info(id)?.name)))
+            .find(|&(_, n)| n == name)
+            .map(|(id, _)| id)
     }
 }

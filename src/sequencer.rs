@@ -393,15 +393,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// The seed's `getSequenceByName`.
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'_, C>> {
         // One short section per registered name; the comparison runs outside.
-        let mut i: u8 = 0;
-        loop {
-            let at =
-                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name())))?;
-            if at == name {
-                return Some(Handle::new(self, SeqId(i)));
-            }
-            i = i.saturating_add(1);
-        }
+        let engine: &dyn crate::engine::Engine<C> = self;
+        engine.find(name).map(|id| Handle::new(self, id))
     }
 
     /// Number of registered sequences and steps.
