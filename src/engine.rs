@@ -39,8 +39,9 @@ pub(crate) trait Engine<C> {
     fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
-    fn request(&self, id: SeqId, bit: u16) -> Result<(), Error>;
-    fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
+    /// Queues request `bit` for the next tick, or with `bit` 0 sets the timeout to
+    /// `micros`: one vtable entry for both (called by `request` and `set_timeout` below).
+    fn edit(&self, id: SeqId, bit: u16, micros: u32) -> Result<(), Error>;
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
@@ -175,23 +176,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         })
     }
 
-    fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
-        self.with(|s| s.request(id, bit))
+    fn edit(&self, id: SeqId, bit: u16, micros: u32) -> Result<(), Error> {
+        self.with(|s| {
+            if bit != 0 {
+                return s.request(id, bit);
+            }
+            s.block_mut(id)?.timeout = micros;
+            Ok(())
+        })
     }
 
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle> {
         self.safety_system()
     }
-
-    fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {
-        self.with(|s| {
-            s.block_mut(id)?.timeout = micros;
-            Ok(())
-        })
-    }
 }
 
 impl<C> dyn Engine<C> + '_ {
+    /// Queues a pause, resume or abort request (`bit`) for the next tick.
+    pub(crate) fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
+        self.edit(id, bit, 0)
+    }
+
+    /// Sets the timeout of `id` (µs, 0 = off) for its next run.
+    pub(crate) fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {
+        self.edit(id, 0, micros)
+    }
+
     /// The id of the sequence named `name`: one [`info`](Engine::info) (one section) per
     /// registered sequence, the comparison outside. Not a method of the vtable, so a
     /// firmware that never looks a name up links none of it.
