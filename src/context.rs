@@ -214,16 +214,7 @@ impl<'a, C> Cx<'a, C> {
     /// assert_eq!(found.get(), Some((id, other, true)));
     /// ```
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'a, C>> {
-        // Ids are dense from 0: read each registered sequence's name (one short section
-        // each, the comparison outside) until the first unregistered id. Through `info`
-        // rather than an engine method of its own, which every firmware would link.
-        let mut i: u8 = 0;
-        loop {
-            let id = SeqId(i);
-            if self.engine.info(id)?.name == name {
-                return Some(Handle::from_engine(self.engine, id));
-            }
-            i = i.checked_add(1)?;
-        }
+        let id = self.engine.find(name)?;
+        Some(Handle::from_engine(self.engine, id))
     }
 }

@@ -5,7 +5,7 @@ use core::task::{Poll, Waker};
 
 use crate::control_block::{flag, Link};
 use crate::lock::Lock;
-use crate::sequencer::{Gate, Mode};
+use crate::sequencer::{steps, Gate, Mode, Steps};
 use crate::{Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
 
 /// A consistent snapshot of one control block's own fields, for [`Handle`](crate::Handle).
@@ -39,13 +39,15 @@ pub(crate) trait Engine<C> {
     fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
-    fn request(&self, id: SeqId, bit: u16) -> Result<(), Error>;
-    fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
+    /// Queues request `bit` for the next tick, or with `bit` 0 sets the timeout to
+    /// `micros`: one vtable entry for both (called by `request` and `set_timeout` below).
+    fn edit(&self, id: SeqId, bit: u16, micros: u32) -> Result<(), Error>;
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
-/// Each method is a few short sections: a waker is parked in its own section before the
-/// state is read (so no wake-up is lost in between), walks take one section per step.
+/// Each method is a few [`Steps`]: with the portable lock a few short sections (a waker is
+/// parked in its own section before the state is read, so no wake-up is lost in between;
+/// walks take one section per step), with a coarse lock one section.
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     for Sequencer<C, N, T, L, W>
 {
@@ -58,19 +60,23 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
-        self.with(|s| s.park(id, waker));
-        self.with(|s| s.gate(id))
+        steps!(self, |s| {
+            s.step(|s| s.park(id, waker));
+            s.step(|s| s.gate(id))
+        })
     }
 
     fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
-        self.with(|s| s.park(id, waker));
-        self.with(|s| match s.gate(id) {
-            Gate::Go if s.poll_due.has(id) => {
-                s.poll_due.set(id, false);
-                Gate::Go
-            }
-            Gate::Go => Gate::Hold,
-            other => other,
+        steps!(self, |s| {
+            s.step(|s| s.park(id, waker));
+            s.step(|s| match s.gate(id) {
+                Gate::Go if s.poll_due.has(id) => {
+                    s.poll_due.set(id, false);
+                    Gate::Go
+                }
+                Gate::Go => Gate::Hold,
+                other => other,
+            })
         })
     }
 
@@ -84,23 +90,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn restarted(&self, id: SeqId) {
-        // Schedule, then commit; again if a tick ran in between.
-        loop {
-            let (from, seen, armed) = self.with(|s| s.schedule(id, None));
-            // From `Restarting` (or, if the tick stopped it since the lane saw that, as the
-            // transition table allows; a scanned `Running` or `Paused` one stays).
-            let legal = crate::sequencer::sources(RunningState::Running)
-                & !crate::sequencer::bit(RunningState::Paused);
-            if legal & crate::sequencer::bit(from) == 0 {
-                return;
-            }
-            self.with(|s| s.new_run(id, None, armed));
-            self.with(|s| s.due_by(id));
-            let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
-            if self.with(|s| s.restarted(&t, seen)) {
-                return;
-            }
-        }
+        steps!(self, |s| s.relaunch(id));
     }
 
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
@@ -109,35 +99,41 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
             _ => Cause::Completed,
         };
         let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
-        if self.with(|s| s.end(&t)) {
-            Ok(outcome)
-        } else {
-            Err(self.with(|s| s.gate(id)))
-        }
+        steps!(self, |s| {
+            if s.step(|s| s.end(&t)) {
+                Ok(outcome)
+            } else {
+                Err(s.step(|s| s.gate(id)))
+            }
+        })
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
-        if let Some(j) = self.with(|s| s.finished(id, outcome)) {
-            self.wake_lane(j);
-        }
+        steps!(self, |s| {
+            if let Some(j) = s.step(|s| s.finished(id, outcome)) {
+                s.step(|s| s.wake(j));
+            }
+        })
     }
 
     fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
-        Sequencer::declare_lane(self, id)
+        steps!(self, |s| s.declare_lane(id))
     }
 
     fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
-        let Some(lane) = self.lane_slot_of(id) else {
-            return false;
-        };
-        self.with(|s| s.park_lane(lane, waker));
-        self.with(|s| {
-            let Ok(b) = s.block_mut(id) else {
+        steps!(self, |s| {
+            let Some(lane) = s.lane_slot_of(id) else {
                 return false;
             };
-            let pending = b.has(flag::START_PENDING);
-            b.set(flag::START_PENDING, false);
-            pending
+            s.step(|s| s.park_lane(lane, waker));
+            s.step(|s| {
+                let Ok(b) = s.block_mut(id) else {
+                    return false;
+                };
+                let pending = b.has(flag::START_PENDING);
+                b.set(flag::START_PENDING, false);
+                pending
+            })
         })
     }
 
@@ -180,18 +176,40 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         })
     }
 
-    fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
-        self.with(|s| s.request(id, bit))
+    fn edit(&self, id: SeqId, bit: u16, micros: u32) -> Result<(), Error> {
+        self.with(|s| {
+            if bit != 0 {
+                return s.request(id, bit);
+            }
+            s.block_mut(id)?.timeout = micros;
+            Ok(())
+        })
     }
 
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle> {
         self.safety_system()
     }
+}
 
-    fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {
-        self.with(|s| {
-            s.block_mut(id)?.timeout = micros;
-            Ok(())
-        })
+impl<C> dyn Engine<C> + '_ {
+    /// Queues a pause, resume or abort request (`bit`) for the next tick.
+    pub(crate) fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
+        self.edit(id, bit, 0)
+    }
+
+    /// Sets the timeout of `id` (µs, 0 = off) for its next run.
+    pub(crate) fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {
+        self.edit(id, 0, micros)
+    }
+
+    /// The id of the sequence named `name`: one [`info`](Engine::info) (one section) per
+    /// registered sequence, the comparison outside. Not a method of the vtable, so a
+    /// firmware that never looks a name up links none of it.
+    pub(crate) fn find(&self, name: &str) -> Option<SeqId> {
+        (0..=u8::MAX)
+            .map(SeqId)
+            .map_while(|id| Some((id, self.info(id)?.name)))
+            .find(|&(_, n)| n == name)
+            .map(|(id, _)| id)
     }
 }

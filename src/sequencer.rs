@@ -393,15 +393,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// The seed's `getSequenceByName`.
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'_, C>> {
         // One short section per registered name; the comparison runs outside.
-        let mut i: u8 = 0;
-        loop {
-            let at =
-                self.with(|s| (i < s.count).then(|| s.block(SeqId(i)).map_or("", |b| b.name())))?;
-            if at == name {
-                return Some(Handle::new(self, SeqId(i)));
-            }
-            i = i.saturating_add(1);
-        }
+        let engine: &dyn crate::engine::Engine<C> = self;
+        engine.find(name).map(|id| Handle::new(self, id))
     }
 
     /// Number of registered sequences and steps.
@@ -484,24 +477,28 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     }
 }
 
-/// Starts, in short sections: what a start reads is validated in read-only sections, the
-/// caller-link walk takes one section per link, and one commit section re-checks the state
-/// (the only thing another context can have changed in a way that matters: the tick may
-/// have started the sequence as an exception sequence in between) and fails with the same
-/// error as a start done in one piece.
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
-    /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
-    /// the new run.
-    pub(crate) fn begin(
-        &self,
+/// How one operation of several steps reaches [`Inner`]: with the portable lock each step
+/// is a section of its own ([`Sections`]: its sections mask interrupts and must stay short),
+/// with a coarse lock all of them run inside the one section the operation's caller took
+/// (`Inner` itself: those sections only hold off the tick and the lanes). The operations
+/// are written once, over `Steps`, and [`steps!`] picks the implementation by the lock.
+pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
+    /// Runs `f` on the state: in a section of its own, or inside the caller's.
+    fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R;
+
+    /// The checks of a start of `id` (blocking in `caller`'s lane, or in its own lane) in
+    /// the order a start in one piece would fail them, and the cut of a link to an old run
+    /// of `id` among `caller`'s callers ([`cut_and_depth`](Self::cut_and_depth), one step
+    /// per link). Returns the new run's lane and its flags (with `extra`) for
+    /// [`launch`](Self::launch).
+    fn admit(
+        &mut self,
         id: SeqId,
         caller: Option<SeqId>,
         mode: Mode,
-        cause: Cause,
         extra: u16,
-    ) -> Result<(), Error> {
-        // Read-only checks first, in the order a start in one piece would fail them.
-        let (bound, caller_lane) = self.with(|s| s.check_start(id, caller, mode))?;
+    ) -> Result<(u8, u16), Error> {
+        let (bound, caller_lane) = self.step(|s| s.check_start(id, caller, mode))?;
         let (lane, pending) = match mode {
             Mode::Blocking => (caller_lane, 0),
             // A sequence has a lane once one was declared for it (`rtseq::lane`,
@@ -518,43 +515,58 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 return Err(Error::CallerDepthExceeded(id));
             }
         }
-        // Schedule, then commit; again if a tick ran in between (it may have rescanned
-        // without the new run, or changed its state: the commit re-checks both).
-        let link = Link::to(caller);
-        let flags = bound | pending | extra;
-        loop {
-            let (from, seen, armed) = self.with(|s| s.schedule(id, Some(lane)));
-            if STARTABLE & bit(from) == 0 {
-                return Err(Error::AlreadyRunning(id));
-            }
-            self.with(|s| s.new_run(id, Some(link), armed));
-            self.with(|s| s.due_by(id));
-            let t = Transition::edge(id, from, RunningState::Running, cause);
-            if self.with(|s| s.start(&t, seen, flags)) {
-                break;
-            }
-        }
-        if mode == Mode::Lane {
-            self.wake_lane(id);
-        }
-        Ok(())
+        Ok((lane, bound | pending | extra))
     }
 
-    /// Wakes the lane that drives `id`, in a section of its own.
+    /// Schedules and commits a new run of `id` in lane slot `lane`, linked to its caller
+    /// by `link`, with `flags`: schedule, then commit, and again if a tick ran in between
+    /// (it may have rescanned without the new run, or changed its state: the commit
+    /// re-checks both). False (nothing changed) when `id` is active: `AlreadyRunning`.
     #[inline(never)]
-    pub(crate) fn wake_lane(&self, id: SeqId) {
-        self.with(|s| s.wake(id));
+    fn launch(&mut self, id: SeqId, lane: u8, link: Link, flags: u16, cause: Cause) -> bool {
+        loop {
+            let (from, seen, armed) = self.step(|s| s.schedule(id, Some(lane)));
+            if STARTABLE & bit(from) == 0 {
+                return false;
+            }
+            self.step(|s| s.new_run(id, Some(link), armed));
+            self.step(|s| s.due_by(id));
+            let t = Transition::edge(id, from, RunningState::Running, cause);
+            if self.step(|s| s.start(&t, seen, flags)) {
+                return true;
+            }
+        }
     }
 
-    /// Before `id` is started by `caller`: walks `caller`'s caller links, one short section
-    /// per link, and returns its depth (its number of callers, at most `MAX_DEPTH`). If `id`
-    /// is itself a (finished) caller of `caller`, the link to its old run is cut there, so
-    /// the links never form a cycle.
-    fn cut_and_depth(&self, id: SeqId, caller: SeqId) -> u8 {
+    /// A `Restarting` sequence `id` runs again, like [`launch`](Self::launch) but in its
+    /// lane, caller and flags as they are. From `Restarting` (or, if the tick stopped it
+    /// since the lane saw that, as the transition table allows; a scanned `Running` or
+    /// `Paused` one stays).
+    fn relaunch(&mut self, id: SeqId) {
+        let legal = sources(RunningState::Running) & !bit(RunningState::Paused);
+        loop {
+            let (from, seen, armed) = self.step(|s| s.schedule(id, None));
+            if legal & bit(from) == 0 {
+                return;
+            }
+            self.step(|s| s.new_run(id, None, armed));
+            self.step(|s| s.due_by(id));
+            let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
+            if self.step(|s| s.restarted(&t, seen)) {
+                return;
+            }
+        }
+    }
+
+    /// Before `id` is started by `caller`: walks `caller`'s caller links, one step per
+    /// link, and returns its depth (its number of callers, at most `MAX_DEPTH`). If `id` is
+    /// itself a (finished) caller of `caller`, the link to its old run is cut there, so the
+    /// links never form a cycle.
+    fn cut_and_depth(&mut self, id: SeqId, caller: SeqId) -> u8 {
         let mut at = caller;
         let mut depth: u8 = 0;
         for _ in 0..MAX_DEPTH {
-            match self.with(|s| s.cut_step(id, at)) {
+            match self.step(|s| s.cut_step(id, at)) {
                 Some(up) => {
                     at = up;
                     depth = depth.saturating_add(1);
@@ -565,22 +577,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         depth
     }
 
-    /// The lane slot `id` declared: one short section per slot (a declared slot never
-    /// changes).
-    pub(crate) fn lane_slot_of(&self, id: SeqId) -> Option<u8> {
+    /// The lane slot `id` declared: one step per slot (a declared slot never changes).
+    fn lane_slot_of(&mut self, id: SeqId) -> Option<u8> {
         let me = Link::to(Some(id));
         (0..W)
-            .find(|&k| self.with(|s| s.lanes.get(k).is_some_and(|l| l.seq == me)))
+            .find(|&k| self.step(|s| s.lanes.get(k).is_some_and(|l| l.seq == me)))
             .and_then(|k| u8::try_from(k).ok())
     }
 
-    /// Declares a lane for `id` (idempotent): one short section per slot looked at.
-    pub(crate) fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
-        self.with(|s| s.block(id).map(|_| ()))?;
+    /// Declares a lane for `id` (idempotent): one step per slot looked at.
+    fn declare_lane(&mut self, id: SeqId) -> Result<(), Error> {
+        self.step(|s| s.block(id).map(|_| ()))?;
         // Slots fill in order and are never freed: the first slot that is `id`'s or free.
         let me = Link::to(Some(id));
         let found = (0..W).any(|k| {
-            self.with(|s| match s.lanes.get_mut(k) {
+            self.step(|s| match s.lanes.get_mut(k) {
                 Some(l) if l.seq == me => true,
                 Some(l) if l.seq == Link::NONE => {
                     l.seq = me;
@@ -594,6 +605,74 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         } else {
             Err(Error::LaneCapacityExceeded(id))
         }
+    }
+}
+
+/// Inside the section a coarse lock's caller holds: every step runs at once.
+impl<C, const N: usize, const T: usize, const W: usize> Steps<C, N, T, W> for Inner<C, N, T, W> {
+    #[inline(always)]
+    fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R {
+        f(self)
+    }
+}
+
+/// With the portable lock: one section per step.
+pub(crate) struct Sections<'a, C, const N: usize, const T: usize, L: Lock, const W: usize>(
+    pub(crate) &'a Sequencer<C, N, T, L, W>,
+);
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Steps<C, N, T, W>
+    for Sections<'_, C, N, T, L, W>
+{
+    #[inline(always)]
+    fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R {
+        self.0.with(f)
+    }
+}
+
+/// `steps!(sequencer, |s| body)` runs `body` with `s` as its [`Steps`]: with a coarse lock
+/// (`L::COARSE`, the lock type in scope) inside one section, else with a section per step.
+/// The body is written once and compiled for the one case the lock needs.
+macro_rules! steps {
+    ($seq:expr, |$s:ident| $body:expr) => {
+        if L::COARSE {
+            $seq.with(|$s| $body)
+        } else {
+            let $s = &mut $crate::sequencer::Sections($seq);
+            $body
+        }
+    };
+}
+pub(crate) use steps;
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
+    /// the new run: [`admit`](Steps::admit), [`launch`](Steps::launch) and, in its lane,
+    /// the wake-up; with a coarse lock a section each (a whole start in one would hold off
+    /// the tick for up to ≈ 400 instructions).
+    pub(crate) fn begin(
+        &self,
+        id: SeqId,
+        caller: Option<SeqId>,
+        mode: Mode,
+        cause: Cause,
+        extra: u16,
+    ) -> Result<(), Error> {
+        let (lane, flags) = steps!(self, |s| s.admit(id, caller, mode, extra))?;
+        let link = Link::to(caller);
+        if !steps!(self, |s| s.launch(id, lane, link, flags, cause)) {
+            return Err(Error::AlreadyRunning(id));
+        }
+        if mode == Mode::Lane {
+            self.wake_lane(id);
+        }
+        Ok(())
+    }
+
+    /// Wakes the lane that drives `id`, in a section of its own.
+    #[inline(never)]
+    pub(crate) fn wake_lane(&self, id: SeqId) {
+        self.with(|s| s.wake(id));
     }
 }
 
@@ -739,7 +818,9 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     #[inline(never)]
     pub(crate) fn schedule(&mut self, id: SeqId, start: Option<u8>) -> (RunningState, u32, bool) {
         let now = self.now;
-        let Some(b) = self.fast_mut(id) else {
+        // `id` is registered (checked before, and a registration is never undone): no
+        // need to compare with `count` here, in `new_run` and in `due_by`.
+        let Some(b) = self.blocks.get_mut(id.index()) else {
             return (RunningState::Running, 0, false);
         };
         let state = b.state;
@@ -768,12 +849,12 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// grid now).
     pub(crate) fn due_by(&mut self, id: SeqId) {
         let now = self.now as u32;
-        let class = self.fast(id).map_or(0, |b| b.class);
+        let class = self.blocks.get(id.index()).map_or(0, |b| b.class);
         let next = self.classes.resume(class, now, self.active);
         self.next_due = earlier(now, next, self.next_due);
     }
 
-    /// The commit of a start `t` ([`Sequencer::begin`] validated it and scheduled it at
+    /// The commit of a start `t` ([`Steps::launch`] validated it and scheduled it at
     /// `seen`): a new run with `flags` (all of them).
     /// False: a tick ran since (the time moved, or the state is not `t.from` any more),
     /// nothing changed, schedule again (which fails with `AlreadyRunning` if the tick
@@ -790,12 +871,24 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         true
     }
 
+    /// A `Restarting` sequence runs again (`t`): fresh timeout and polling schedule, as
+    /// [`schedule`](Self::schedule)d at `seen` (with [`new_run`](Self::new_run)). False: a
+    /// tick ran since, schedule again.
+    pub(crate) fn restarted(&mut self, t: &crate::trace::Edge, seen: u32) -> bool {
+        if self.now as u32 != seen {
+            return false;
+        }
+        self.shift(t).is_some()
+    }
+
     /// After [`schedule`](Self::schedule), before the commit, for a sequence that is not
     /// active (else nothing): its caller link (`Some` for a new run; a restart keeps it
     /// and drops its pending behaviour) and its sets (fresh, no exception, not waiting for
     /// a poll, the timeout `armed` or not). The tick reads them only of active sequences.
     pub(crate) fn new_run(&mut self, id: SeqId, caller: Option<Link>, armed: bool) {
-        let Some(b) = self.fast_mut(id) else { return };
+        let Some(b) = self.blocks.get_mut(id.index()) else {
+            return;
+        };
         if matches!(b.state, RunningState::Running | RunningState::Paused) {
             return;
         }
@@ -922,16 +1015,6 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
             // Not started by this run: treat as aborted so nothing of it advances.
             RunningState::Idle | RunningState::Terminated => Gate::Aborted(b.last_cause),
         }
-    }
-
-    /// A `Restarting` sequence runs again (`t`): fresh timeout and polling schedule, as
-    /// [`schedule`](Self::schedule)d at `seen` (with [`new_run`](Self::new_run)). False: a
-    /// tick ran since, schedule again.
-    pub(crate) fn restarted(&mut self, t: &crate::trace::Edge, seen: u32) -> bool {
-        if self.now as u32 != seen {
-            return false;
-        }
-        self.shift(t).is_some()
     }
 
     /// Ends a run normally: `t` is `Running → Terminated` (cause `Completed` or
