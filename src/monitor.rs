@@ -440,25 +440,6 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         Ok(MonitorId(id))
     }
 
-    /// A new run of the sequences `fresh` began: their monitors' edge detection starts
-    /// again from "false".
-    pub(crate) fn reset_edges(&mut self, fresh: Bits) {
-        for g in self.groups.iter_mut().take(usize::from(self.used_groups)) {
-            if g.owners.and(fresh).is_empty() {
-                continue;
-            }
-            let start = usize::from(g.start);
-            let members = self.entries.get(start..).unwrap_or_default();
-            let mut bit = g.first_bit();
-            for e in members.iter().take(usize::from(g.len)) {
-                if fresh.has(e.owner) {
-                    g.last &= !bit;
-                }
-                bit >>= 1;
-            }
-        }
-    }
-
     fn entry(&self, id: MonitorId) -> Option<&Entry<'a, C, K>> {
         self.entries.get(usize::from(id.0))
     }

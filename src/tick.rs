@@ -91,31 +91,37 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     }
 }
 
-/// The conditions of those `members` (a group, bits as in [`Group`]) whose owner is `due`;
-/// the others keep their `last` values. Returns the values and the bits evaluated.
+/// The conditions of those `members` (a group, bits as in [`Group`]) whose owner is due;
+/// the others keep their `last` values. The edge detection of the monitors of fresh
+/// owners (all due) starts again from "false": their bits of `last` are cleared. Returns
+/// the values and the bits evaluated.
 #[inline(never)]
 fn evaluate_due<C, K: crate::Condition<C>>(
     members: &mut [Entry<'_, C, K>],
-    due: Bits,
-    last: u32,
+    last: &mut u32,
+    polls: &Polls,
     control: &C,
     now: Instant,
 ) -> (u32, u32) {
+    let (due, fresh) = (polls.due, polls.fresh);
     let mut values = 0u32;
     let mut evaluated = 0u32;
+    let mut renewed = 0u32;
     let mut bit = 1u32 << (members.len().saturating_sub(1) & 31);
     for e in members.iter_mut() {
         if due.has(e.owner) {
             evaluated |= bit;
+            if fresh.has(e.owner) {
+                renewed |= bit;
+            }
             if e.def.condition.validate(control, now) {
                 values |= bit;
             }
-        } else {
-            values |= last & bit;
         }
         bit >>= 1;
     }
-    (values, evaluated)
+    *last &= !renewed;
+    (values | (*last & !evaluated), evaluated)
 }
 
 /// Whether sequence `id` is held: `step` is one step up its blocking callers
@@ -187,15 +193,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             self.fold(self.with(|s| core::mem::take(&mut s.changed)));
         }
         let polls = self.scan(now_us);
-        if !polls.fresh.is_empty() {
-            monitors.reset_edges(polls.fresh);
-        }
         let mut careful = polls.careful;
         // The hot loop, one group of up to 32 monitors at a time: when all their owners
         // are due (the common case), their conditions shifted into a bit set in one flat
         // loop; edges and triggers are a few word operations per group, and firing is the
         // rare, out-of-line path.
         let due = polls.due;
+        // Due owners whose monitors keep their edge state: a group of only these takes the
+        // flat loop.
+        let steady = due.minus(polls.fresh);
         let mut rest = monitors.entries.as_mut_slice();
         let used = usize::from(monitors.used_groups);
         for g in monitors.groups.iter_mut().take(used) {
@@ -210,14 +216,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if owners_due.is_empty() {
                 continue;
             }
-            let (values, evaluated) = if owners_due == g.owners {
+            // A monitor of a fresh owner starts its edge detection from "false": the
+            // per-monitor path.
+            let (values, evaluated) = if g.owners.minus(steady).is_empty() {
                 let mut values = 0u32;
                 for e in members.iter_mut() {
                     values = (values << 1) | u32::from(e.def.condition.validate(control, now));
                 }
                 (values, u32::MAX)
             } else {
-                evaluate_due(members, due, g.last, control, now)
+                evaluate_due(members, &mut g.last, &polls, control, now)
             };
             // The common case, nothing changed and no level monitor true, is one test.
             if (values ^ g.last) | (values & g.level) != 0 {
