@@ -15,7 +15,7 @@
 //! * [`Leaf`]: a step whose pre- and exit conditions are flags.
 //! * [`Node<Child>`](Node): a sequence with a fixed set of optional ops (run up to two
 //!   steps, a [`rtseq::Wait`], one blocking child of type `Child`, start non-blocking,
-//!   join). Nesting the type gives the depth: [`N0`] … [`N4`]. Its action is a
+//!   join). Nesting the type gives the depth: [`N0`] … [`N3`]. Its action is a
 //!   hand-written future ([`NodeAction`]).
 //! * [`Root`]: an enum over the root shapes; every lane has the same type `Seq<Root>`.
 //! * [`Scenario`]: a set-up function, a script run before every tick, a duration.
@@ -53,7 +53,7 @@ pub mod host;
 pub use ctrl::{Ctrl, FlagCond, Summary, FLAGS};
 pub use encode::{decode, encode, outcome_code, Encoded};
 pub use list::SCENARIOS;
-pub use node::{Done, Leaf, Never, Node, NodeAction, Op, Root, RootAction, N0, N1, N2, N3, N4};
+pub use node::{Done, Leaf, Never, Node, NodeAction, Op, Root, RootAction, N0, N1, N2, N3};
 
 use rtseq::{Monitors, Seq, SeqId, Sequencer};
 
