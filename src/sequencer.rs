@@ -312,7 +312,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 "the table holds more sequences than the sequencer's N"
             )
         };
-        for (used, entry) in table.entries.iter().enumerate() {
+        self.install_entries(&table.entries, &table.classes)
+    }
+
+    /// The part of [`install`](Self::install) that does not depend on the table's size
+    /// (one copy, not one per size; a firmware that installs one table inlines it).
+    fn install_entries(&self, entries: &[Entry<C>], classes: &Classes) -> Result<(), Error> {
+        for (used, entry) in entries.iter().enumerate() {
             self.with(|s| {
                 // A block at or above `count` is invisible: nothing reads it before the
                 // commit.
@@ -330,8 +336,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             if s.count != 0 {
                 return Err(Error::NotEmpty);
             }
-            s.classes.copy_used(&table.classes);
-            s.count = K as u8;
+            s.classes.copy_used(classes);
+            // At most `N` entries (checked by `install`), and `N` fits a `u8`.
+            s.count = entries.len() as u8;
             Ok(())
         })
     }

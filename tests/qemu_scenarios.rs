@@ -309,7 +309,7 @@ fn bench_tick_costs_latency_and_sizes_meet_their_budgets() {
     for p in [
         "size trace record",
         "size monitor entry",
-        "size lane future (Seq<Root>, scenarios' root, 4 levels)",
+        "size lane future (Seq<Root>, scenarios' root, 3 levels)",
         "size lane future (one-shot sequence)",
         "size Seq<Root>",
     ] {

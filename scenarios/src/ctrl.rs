@@ -131,20 +131,3 @@ impl Condition<Ctrl> for FlagCond {
         control.flag(self.flag)
     }
 }
-
-/// Storage for a scenario's monitor conditions (monitors borrow their condition, so on the
-/// chip this lives in `'static` storage next to the monitor table).
-#[derive(Default)]
-pub struct Conds(pub [FlagCond; crate::MONITORS]);
-
-impl Conds {
-    /// All conditions watch flag 0 until a registration sets them.
-    pub const fn new() -> Self {
-        Conds([FlagCond { flag: 0 }; crate::MONITORS])
-    }
-
-    /// One `&mut` per condition, for destructuring: `let [a, b, ..] = conds.each();`.
-    pub fn each(&mut self) -> [&mut FlagCond; crate::MONITORS] {
-        self.0.each_mut()
-    }
-}

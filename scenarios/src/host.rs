@@ -7,7 +7,7 @@ use std::vec::Vec;
 use rtseq::sim::Sim;
 use rtseq::{Duration, Transition};
 
-use crate::{Conds, Ctrl, Mons, Scenario, ScenarioError, Seqr, Summary};
+use crate::{Ctrl, Scenario, ScenarioError, Seqr, Summary};
 
 /// What a host run produced.
 #[derive(Clone, Debug, PartialEq)]
@@ -20,7 +20,7 @@ pub struct Run {
     pub lost: u32,
 }
 
-/// Runs `scenario` exactly as the firmware does: register, declare lanes (in order), start
+/// Runs `scenario` exactly as the firmware does: set up, declare lanes (in order), start
 /// at time 0, then `ticks` ticks of 1 ms, the script before each.
 ///
 /// ```
@@ -32,15 +32,13 @@ pub struct Run {
 pub fn run(scenario: &Scenario) -> Result<Run, ScenarioError> {
     let seq = Seqr::new();
     let ctrl = Ctrl::new();
-    let mut conds = Conds::new();
-    let mut mons = Mons::new();
-    let lanes = (scenario.register)(&seq, &mut mons, &mut conds)?;
-    let mut sim = Sim::new(&seq, &ctrl, mons);
-    for lane in lanes.lanes {
+    let setup = (scenario.register)(&seq)?;
+    let mut sim = Sim::new(&seq, &ctrl, setup.monitors);
+    for lane in setup.lanes {
         sim.lane(lane);
     }
     // All starts first, then let the lanes run once: what the firmware's `init` does.
-    let mut start = lanes.start.iter().peekable();
+    let mut start = setup.start.iter().peekable();
     while let Some(&id) = start.next() {
         if start.peek().is_some() {
             seq.sequence_by_id(id)

@@ -15,21 +15,23 @@
 //! * [`Leaf`]: a step whose pre- and exit conditions are flags.
 //! * [`Node<Child>`](Node): a sequence with a fixed set of optional ops (run up to two
 //!   steps, a [`rtseq::Wait`], one blocking child of type `Child`, start non-blocking,
-//!   join). Nesting the type gives the depth: [`N0`] … [`N4`]. Its action is a
+//!   join). Nesting the type gives the depth: [`N0`] … [`N3`]. Its action is a
 //!   hand-written future ([`NodeAction`]).
 //! * [`Root`]: an enum over the root shapes; every lane has the same type `Seq<Root>`.
-//! * [`Scenario`]: a registration function, a script run before every tick, a duration.
+//! * [`Scenario`]: a set-up function, a script run before every tick, a duration.
 //! * [`encode`] / [`decode`]: a [`rtseq::Transition`] as six integers, the wire format of
 //!   the firmware's trace.
 //! * [`emergency`]: the safety system of the emergency scenario (`tests/emergency.rs`,
 //!   `boards/qemu-f405/src/bin/emergency.rs`), generic over the I/O type.
 //!
 //! ## Adding a scenario
-//! Write a registration function (register names first with `Sequencer::register` so ids
-//! come in a chosen order, bind bodies bottom-up with `Sequencer::bind`, add monitors with
-//! conditions taken from [`Conds`]), a script (`fn(ms, &Ctrl, &Seqr)`: flags, requests
-//! through handles found by name, abort-all) and add a [`Scenario`] to [`SCENARIOS`]. The
-//! QEMU comparison test picks it up by itself.
+//! Write a set-up function: a `const` [`rtseq::Table`] of the sequences (its order is the
+//! order of the ids), a `const` monitor table ([`rtseq::Monitors::table`] of [`FlagCond`]
+//! monitors) and, at run time, `Sequencer::install` and the bodies bound bottom-up with
+//! `Sequencer::bind`; nothing is registered at run time, so the firmware links no
+//! registration code. Then a script (`fn(ms, &Ctrl, &Seqr)`: flags, requests through
+//! handles found by name, abort-all) and add a [`Scenario`] to [`SCENARIOS`]. The QEMU
+//! comparison test picks it up by itself.
 #![no_std]
 #![deny(missing_docs)]
 #![deny(
@@ -48,10 +50,10 @@ mod node;
 #[cfg(feature = "std")]
 pub mod host;
 
-pub use ctrl::{Conds, Ctrl, FlagCond, Summary, FLAGS};
+pub use ctrl::{Ctrl, FlagCond, Summary, FLAGS};
 pub use encode::{decode, encode, outcome_code, Encoded};
 pub use list::SCENARIOS;
-pub use node::{Done, Leaf, Never, Node, NodeAction, Op, Root, RootAction, N0, N1, N2, N3, N4};
+pub use node::{Done, Leaf, Never, Node, NodeAction, Op, Root, RootAction, N0, N1, N2, N3};
 
 use rtseq::{Monitors, Seq, SeqId, Sequencer};
 
@@ -66,10 +68,10 @@ pub const LANES: usize = 3;
 /// Maximum number of sequences a scenario starts at time 0.
 pub const STARTS: usize = 2;
 
-/// The sequencer type every scenario registers into.
+/// the sequencer type every scenario is installed into.
 #[cfg(any(not(feature = "ceiling"), feature = "critical-section-lock"))]
 pub type Seqr = Sequencer<Ctrl, CAPACITY, TRACE>;
-/// The sequencer type every scenario registers into: on the firmware, guarded by RTIC's
+/// the sequencer type every scenario is installed into: on the firmware, guarded by RTIC's
 /// priority ceiling (the tick runs at RTIC priority 2 of 4 NVIC priority bits).
 #[cfg(all(feature = "ceiling", not(feature = "critical-section-lock")))]
 pub type Seqr = Sequencer<
@@ -78,22 +80,26 @@ pub type Seqr = Sequencer<
     TRACE,
     rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>,
 >;
-/// The monitor table type of a scenario.
-pub type Mons<'a> = Monitors<'a, Ctrl, MONITORS>;
+/// The monitor table type of a scenario: every condition is a [`FlagCond`], so a `const`
+/// item builds the table.
+pub type Mons = Monitors<'static, Ctrl, MONITORS, FlagCond>;
 
-/// What a registration produced: the lanes (in poll order) and what to start at time 0.
-pub struct Lanes {
+/// What a set-up produced: the lanes (in poll order), what to start at time 0 and the
+/// monitors.
+pub struct Setup {
     /// Lane root objects, in declaration (= poll) order.
     pub lanes: heapless::Vec<Seq<Root>, LANES>,
     /// Sequences started non-blocking at time 0, in this order.
     pub start: heapless::Vec<SeqId, STARTS>,
+    /// The monitor table (for the tick).
+    pub monitors: Mons,
 }
 
-/// Why a registration failed (never a panic).
+/// Why a set-up failed (never a panic).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ScenarioError {
-    /// The sequencer or the monitor table refused.
+    /// The sequencer refused (installing the table or binding a body).
     Rtseq(rtseq::Error),
     /// A [`Node`] has no room for another op, or a lane/start list is full.
     Capacity,
@@ -105,17 +111,18 @@ impl From<rtseq::Error> for ScenarioError {
     }
 }
 
-/// Registers a scenario's sequences and monitors; returns its lanes.
-pub type Register = for<'a> fn(&Seqr, &mut Mons<'a>, &'a mut Conds) -> Result<Lanes, ScenarioError>;
+/// Installs a scenario's sequences into an empty sequencer and binds them; returns its
+/// lanes and monitors.
+pub type Register = fn(&Seqr) -> Result<Setup, ScenarioError>;
 
 /// Run before every tick with the tick's time in ms (1, 2, …): flag flips, requests.
 pub type Script = fn(u32, &Ctrl, &Seqr);
 
-/// One scenario: registration, script, duration.
+/// One scenario: set-up, script, duration.
 pub struct Scenario {
     /// Unique name (the firmware's command-line argument).
     pub name: &'static str,
-    /// Registers sequences and monitors.
+    /// Installs the sequences, binds them, returns the lanes and the monitors.
     pub register: Register,
     /// Run before every tick.
     pub script: Script,

@@ -1,20 +1,92 @@
 //! The scenarios: the trees, monitors and fault scripts of rtseq's core host tests
 //! (`tests/behaviours.rs`, `tests/scenarios.rs`), in the same registration order.
+//!
+//! Each set-up is data checked by the compiler: a [`Table`] of its sequences (in id order)
+//! and a monitor table ([`Monitors::table`](rtseq::Monitors::table)), both `const`; at run
+//! time it only installs the table and binds the bodies, bottom-up.
 
-use rtseq::{Behaviour, Duration, Monitor, Seq, SeqConfig, SeqId, Table, Trigger, Wait};
+use rtseq::{
+    Behaviour, Duration, Monitor, Monitors, OwnedMonitor, Seq, SeqConfig, SeqId, Table, Trigger,
+    Wait,
+};
 
-use crate::{Conds, Ctrl, Lanes, Leaf, Mons, Root, Scenario, ScenarioError, Seqr, N0, N1, N2, N3};
+use crate::{
+    Ctrl, FlagCond, Leaf, Mons, Root, Scenario, ScenarioError, Seqr, Setup, N0, N1, N2, N3,
+};
 
-type R = Result<Lanes, ScenarioError>;
+type R = Result<Setup, ScenarioError>;
 
-fn cfg(name: &'static str) -> SeqConfig<Ctrl> {
+const fn cfg(name: &'static str) -> SeqConfig<Ctrl> {
     SeqConfig::new(name)
 }
 
-fn lanes<const K: usize>(lanes: [Seq<Root>; K], start: &[SeqId]) -> R {
-    let mut out = Lanes {
+/// The table of `configs` (sequence `i` gets id `i`). Only for `const` items: an invalid
+/// table fails the build, so the panic is never a run-time path.
+#[allow(clippy::panic)]
+const fn table<const K: usize>(configs: [SeqConfig<Ctrl>; K]) -> Table<Ctrl, K> {
+    match Table::new(configs) {
+        Ok(t) => t,
+        Err(e) => panic!("{}", e.reason()),
+    }
+}
+
+/// The id of the sequence called `name` in `table`. Only for `const` items: an unknown
+/// name fails the build.
+#[allow(clippy::panic)]
+const fn id<const K: usize>(table: &Table<Ctrl, K>, name: &str) -> SeqId {
+    match table.id(name) {
+        Some(id) => id,
+        None => panic!("no sequence of that name in the table"),
+    }
+}
+
+/// The ids of a table of `K` sequences, in table order (for destructuring).
+fn ids<const K: usize>() -> [SeqId; K] {
+    core::array::from_fn(SeqId::from_index)
+}
+
+/// A monitor of the condition "flag `flag` is set".
+const fn on_flag(name: &'static str, flag: u8, b: Behaviour) -> Monitor<'static, Ctrl, FlagCond> {
+    Monitor::with_condition(name, FlagCond { flag }, b)
+}
+
+/// The monitor table of `monitors`. Only for `const` items: an invalid table fails the
+/// build.
+#[allow(clippy::panic)]
+const fn monitors<const L: usize>(monitors: [OwnedMonitor<'static, Ctrl, FlagCond>; L]) -> Mons {
+    match Monitors::table(monitors) {
+        Ok(t) => t,
+        Err(e) => panic!("{}", e.reason()),
+    }
+}
+
+/// No monitors.
+const NO_MONITORS: Mons = Monitors::new();
+
+/// Installs `table` into the empty sequencer. Out of line, one copy per table size: the
+/// call's set-up is rtseq's code, written once instead of in every scenario.
+#[inline(never)]
+fn install<const K: usize>(
+    seq: &Seqr,
+    table: &'static Table<Ctrl, K>,
+) -> Result<(), ScenarioError> {
+    Ok(seq.install(table)?)
+}
+
+/// Binds `body` to `id`. Out of line, one copy per body type: moving a body into its
+/// `Seq` is rtseq's code, and here it is written once instead of at every call site.
+#[inline(never)]
+fn bind<S>(seq: &Seqr, id: SeqId, body: S) -> Result<Seq<S>, ScenarioError> {
+    Ok(seq.bind(id, body)?)
+}
+
+/// The set-up's result: `lanes` (in poll order), the sequences started at time 0 (in this
+/// order) and the monitors.
+fn setup<const K: usize>(lanes: [Seq<Root>; K], start: &[SeqId], monitors: Mons) -> R {
+    let mut out = Setup {
         lanes: heapless::Vec::new(),
         start: heapless::Vec::new(),
+        monitors,
     };
     for l in lanes {
         out.lanes.push(l).map_err(|_| ScenarioError::Capacity)?;
@@ -55,33 +127,38 @@ const fn behaviour(b: u8) -> Behaviour {
 
 // --- tests/behaviours.rs -----------------------------------------------------------------
 
+/// S, A, P, main, W, E: the tree of [`behaviours`].
+const BEHAVIOURS: Table<Ctrl, 6> = table([
+    cfg("S"),
+    cfg("A"),
+    cfg("P"),
+    cfg("main"),
+    cfg("W"),
+    cfg("E"),
+]);
+
 /// main ─run→ P ─run→ A ─step→ S (exit: flag 1). Monitor on A watches flag 0 (pulse at
-/// 5 ms), behaviour `B`; with `EXC` its exception sequence E waits 2 ms.
-fn behaviours<'a, const B: u8, const EXC: bool>(
-    seq: &Seqr,
-    mons: &mut Mons<'a>,
-    conds: &'a mut Conds,
-) -> R {
-    let s = seq.register(cfg("S"))?;
-    let a = seq.register(cfg("A"))?;
-    let p = seq.register(cfg("P"))?;
-    let main = seq.register(cfg("main"))?;
-    let w = seq.add(cfg("W"), Wait::new(Duration::from_millis(2)))?;
-    let e = seq.register(cfg("E"))?;
-    let s = seq.bind(s, Leaf::until(1))?;
-    let a_node = seq.bind(a, N0::new().step(s)?)?;
-    let p = seq.bind(p, N1::new().run(a_node)?)?;
-    let main = seq.bind(main, Root::from(N2::new().run(p)?))?;
-    let e = seq.bind(e, Root::from(N0::new().wait(w)?))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 0;
-    let mut def = Monitor::new("m", c0, behaviour(B));
-    if EXC {
-        def = def.exception(e.id());
-    }
-    mons.add(a, def)?;
+/// 5 ms), behaviour `B`; with `EXC` its exception sequence E waits 2 ms (W).
+fn behaviours<const B: u8, const EXC: bool>(seq: &Seqr) -> R {
+    let monitors = const {
+        let m = on_flag("m", 0, behaviour(B));
+        let m = if EXC {
+            m.exception(id(&BEHAVIOURS, "E"))
+        } else {
+            m
+        };
+        monitors([m.owned_by(id(&BEHAVIOURS, "A"))])
+    };
+    install(seq, &BEHAVIOURS)?;
+    let [s, a, p, main, w, e] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let a = bind(seq, a, N0::new().step(s)?)?;
+    let p = bind(seq, p, N1::new().run(a)?)?;
+    let main = bind(seq, main, Root::from(N2::new().run(p)?))?;
+    let w = bind(seq, w, Wait::new(Duration::from_millis(2)))?;
+    let e = bind(seq, e, Root::from(N0::new().wait(w)?))?;
     let m = main.id();
-    lanes([main, e], &[m])
+    setup([main, e], &[m], monitors)
 }
 
 fn behaviours_script(ms: u32, c: &Ctrl, _: &Seqr) {
@@ -92,79 +169,56 @@ fn behaviours_script(ms: u32, c: &Ctrl, _: &Seqr) {
 // --- tests/scenarios.rs ------------------------------------------------------------------
 
 /// main ─run→ X1 ─run→ X2 ─run→ X3 ─step→ S; `AbortOwner` monitor on X1 (flag 0 at 5 ms).
-fn outermost<'a>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let x3 = seq.add(cfg("X3"), N0::new().step(s)?)?;
-    let x2 = seq.add(cfg("X2"), N1::new().run(x3)?)?;
-    let x1 = seq.add(cfg("X1"), N2::new().run(x2)?)?;
-    let x1i = x1.id();
-    let main = seq.add(cfg("main"), Root::from(N3::new().run(x1)?))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 0;
-    mons.add(x1i, Monitor::new("outer", c0, Behaviour::AbortOwner))?;
+fn outermost(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 5> = table([cfg("S"), cfg("X3"), cfg("X2"), cfg("X1"), cfg("main")]);
+    const MONITORS: Mons =
+        monitors([on_flag("outer", 0, Behaviour::AbortOwner).owned_by(id(&TABLE, "X1"))]);
+    install(seq, &TABLE)?;
+    let [s, x3, x2, x1, main] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let x3 = bind(seq, x3, N0::new().step(s)?)?;
+    let x2 = bind(seq, x2, N1::new().run(x3)?)?;
+    let x1 = bind(seq, x1, N2::new().run(x2)?)?;
+    let main = bind(seq, main, Root::from(N3::new().run(x1)?))?;
     let m = main.id();
-    lanes([main], &[m])
+    setup([main], &[m], MONITORS)
 }
 
 fn pulse0_at5(ms: u32, c: &Ctrl, _: &Seqr) {
     c.set(0, ms == 5);
 }
 
-/// main ─run→ A ─step→ S (never ends); a 3 ms timeout on S (`ON_STEP`) or on A. Set up
-/// from a compile-time-checked table (`Sequencer::install`), the others by registration.
-fn timeout<'a, const ON_STEP: bool>(seq: &Seqr, _: &mut Mons<'a>, _: &'a mut Conds) -> R {
-    seq.install(if ON_STEP {
-        &TIMEOUT_ON_STEP
-    } else {
-        &TIMEOUT_ON_CALLER
-    })?;
-    let s = seq.bind(SeqId::from_index(0), Leaf::until(1))?;
-    let a = seq.bind(SeqId::from_index(1), N0::new().step(s)?)?;
-    let main = seq.bind(SeqId::from_index(2), Root::from(N1::new().run(a)?))?;
+/// main ─run→ A ─step→ S (never ends); a 3 ms timeout on S (`ON_STEP`) or on A.
+fn timeout<const ON_STEP: bool>(seq: &Seqr) -> R {
+    const THREE: Duration = Duration::from_millis(3);
+    const ON_S: Table<Ctrl, 3> = table([cfg("S").timeout(THREE), cfg("A"), cfg("main")]);
+    const ON_A: Table<Ctrl, 3> = table([cfg("S"), cfg("A").timeout(THREE), cfg("main")]);
+    install(seq, if ON_STEP { &ON_S } else { &ON_A })?;
+    let [s, a, main] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let a = bind(seq, a, N0::new().step(s)?)?;
+    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
     let m = main.id();
-    lanes([main], &[m])
+    setup([main], &[m], NO_MONITORS)
 }
-
-/// S, A, main with a 3 ms timeout on S or on A.
-const fn timeout_table(on_step: bool) -> Result<Table<Ctrl, 3>, rtseq::Error> {
-    let three = Duration::from_millis(3);
-    let (s, a) = (SeqConfig::new("S"), SeqConfig::new("A"));
-    let (s, a) = if on_step {
-        (s.timeout(three), a)
-    } else {
-        (s, a.timeout(three))
-    };
-    Table::new([s, a, SeqConfig::new("main")])
-}
-
-// `static` items: a panic here is a compile error, never a run-time path.
-#[allow(clippy::panic)]
-static TIMEOUT_ON_STEP: Table<Ctrl, 3> = match timeout_table(true) {
-    Ok(t) => t,
-    Err(e) => panic!("{}", e.reason()),
-};
-#[allow(clippy::panic)]
-static TIMEOUT_ON_CALLER: Table<Ctrl, 3> = match timeout_table(false) {
-    Ok(t) => t,
-    Err(e) => panic!("{}", e.reason()),
-};
 
 fn quiet(_: u32, _: &Ctrl, _: &Seqr) {}
 
+/// S, A, main: a step in a sequence in a main sequence.
+const S_A_MAIN: Table<Ctrl, 3> = table([cfg("S"), cfg("A"), cfg("main")]);
+
 /// main ─run→ A ─step→ S; `RestartOwner` monitor on A (limit 3), fault from 5 ms on.
-fn restart_limit<'a>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let a = seq.add(cfg("A"), N0::new().step(s)?)?;
-    let ai = a.id();
-    let main = seq.add(cfg("main"), Root::from(N1::new().run(a)?))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 0;
-    mons.add(
-        ai,
-        Monitor::new("stuck", c0, Behaviour::RestartOwner).restart_limit(3),
-    )?;
+fn restart_limit(seq: &Seqr) -> R {
+    const MONITORS: Mons = monitors([on_flag("stuck", 0, Behaviour::RestartOwner)
+        .restart_limit(3)
+        .owned_by(id(&S_A_MAIN, "A"))]);
+    install(seq, &S_A_MAIN)?;
+    let [s, a, main] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let a = bind(seq, a, N0::new().step(s)?)?;
+    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
     let m = main.id();
-    lanes([main], &[m])
+    setup([main], &[m], MONITORS)
 }
 
 fn fault_from5(ms: u32, c: &Ctrl, _: &Seqr) {
@@ -173,25 +227,26 @@ fn fault_from5(ms: u32, c: &Ctrl, _: &Seqr) {
 
 /// A (lane) ─step→ S; a `Nothing` monitor with exception sequence E, condition true from
 /// 5 to 9 ms; edge (`LEVEL` false) or level trigger.
-fn storm<'a, const LEVEL: bool>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let a = seq.add(cfg("A"), Root::from(N0::new().step(s)?))?;
-    let e = seq.add(cfg("E"), Root::from(N0::new()))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 0;
-    let trigger = if LEVEL {
-        Trigger::Level
-    } else {
-        Trigger::RisingEdge
+fn storm<const LEVEL: bool>(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 3> = table([cfg("S"), cfg("A"), cfg("E")]);
+    let monitors = const {
+        let trigger = if LEVEL {
+            Trigger::Level
+        } else {
+            Trigger::RisingEdge
+        };
+        monitors([on_flag("m", 0, Behaviour::Nothing)
+            .exception(id(&TABLE, "E"))
+            .trigger(trigger)
+            .owned_by(id(&TABLE, "A"))])
     };
-    mons.add(
-        a.id(),
-        Monitor::new("m", c0, Behaviour::Nothing)
-            .exception(e.id())
-            .trigger(trigger),
-    )?;
+    install(seq, &TABLE)?;
+    let [s, a, e] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let a = bind(seq, a, Root::from(N0::new().step(s)?))?;
+    let e = bind(seq, e, Root::from(N0::new()))?;
     let ai = a.id();
-    lanes([a, e], &[ai])
+    setup([a, e], &[ai], monitors)
 }
 
 fn storm_script(ms: u32, c: &Ctrl, _: &Seqr) {
@@ -201,16 +256,21 @@ fn storm_script(ms: u32, c: &Ctrl, _: &Seqr) {
 
 /// main ─run→ A ─step→ S (10 ms timeout, `Nothing` monitor on flag 2 at 12 ms); A paused at
 /// 4 ms, S and A resumed at 21 ms.
-fn pause<'a>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s = seq.add(cfg("S").timeout(Duration::from_millis(10)), Leaf::until(1))?;
-    let si = s.id();
-    let a = seq.add(cfg("A"), N0::new().step(s)?)?;
-    let main = seq.add(cfg("main"), Root::from(N1::new().run(a)?))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 2;
-    mons.add(si, Monitor::new("while paused", c0, Behaviour::Nothing))?;
+fn pause(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 3> = table([
+        cfg("S").timeout(Duration::from_millis(10)),
+        cfg("A"),
+        cfg("main"),
+    ]);
+    const MONITORS: Mons =
+        monitors([on_flag("while paused", 2, Behaviour::Nothing).owned_by(id(&TABLE, "S"))]);
+    install(seq, &TABLE)?;
+    let [s, a, main] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let a = bind(seq, a, N0::new().step(s)?)?;
+    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
     let m = main.id();
-    lanes([main], &[m])
+    setup([main], &[m], MONITORS)
 }
 
 fn pause_script(ms: u32, c: &Ctrl, seq: &Seqr) {
@@ -225,40 +285,40 @@ fn pause_script(ms: u32, c: &Ctrl, seq: &Seqr) {
 }
 
 /// main ─run→ P; P starts Q (lane) non-blocking, then steps S; `AbortOwner` on P at 5 ms.
-fn non_blocking<'a>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s2 = seq.add(cfg("S2"), Leaf::until(2))?;
-    let q = seq.add(cfg("Q"), Root::from(N0::new().step(s2)?))?;
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let p = seq.add(cfg("P"), N0::new().start(q.id())?.step(s)?)?;
-    let pi = p.id();
-    let main = seq.add(cfg("main"), Root::from(N1::new().run(p)?))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 0;
-    mons.add(pi, Monitor::new("m", c0, Behaviour::AbortOwner))?;
+fn non_blocking(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 5> = table([cfg("S2"), cfg("Q"), cfg("S"), cfg("P"), cfg("main")]);
+    const MONITORS: Mons =
+        monitors([on_flag("m", 0, Behaviour::AbortOwner).owned_by(id(&TABLE, "P"))]);
+    install(seq, &TABLE)?;
+    let [s2, q, s, p, main] = ids();
+    let s2 = bind(seq, s2, Leaf::until(2))?;
+    let q = bind(seq, q, Root::from(N0::new().step(s2)?))?;
+    let s = bind(seq, s, Leaf::until(1))?;
+    let p = bind(seq, p, N0::new().start(q.id())?.step(s)?)?;
+    let main = bind(seq, main, Root::from(N1::new().run(p)?))?;
     let m = main.id();
-    lanes([main, q], &[m])
+    setup([main, q], &[m], MONITORS)
 }
 
 /// main ─run→ A ─step→ S; m1 on A (flag 0 at 5 ms) runs E ─step→ SE; m2 on E (flag 2 at
 /// 7 ms) aborts E.
-fn exception_monitor<'a>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let a = seq.add(cfg("A"), N0::new().step(s)?)?;
-    let ai = a.id();
-    let se = seq.add(cfg("SE"), Leaf::until(3))?;
-    let e = seq.add(cfg("E"), Root::from(N0::new().step(se)?))?;
-    let ei = e.id();
-    let main = seq.add(cfg("main"), Root::from(N1::new().run(a)?))?;
-    let [c0, c2, ..] = conds.each();
-    c0.flag = 0;
-    c2.flag = 2;
-    mons.add(
-        ai,
-        Monitor::new("m1", c0, Behaviour::AbortOwner).exception(ei),
-    )?;
-    mons.add(ei, Monitor::new("m2", c2, Behaviour::AbortOwner))?;
+fn exception_monitor(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 5> = table([cfg("S"), cfg("A"), cfg("SE"), cfg("E"), cfg("main")]);
+    const MONITORS: Mons = monitors([
+        on_flag("m1", 0, Behaviour::AbortOwner)
+            .exception(id(&TABLE, "E"))
+            .owned_by(id(&TABLE, "A")),
+        on_flag("m2", 2, Behaviour::AbortOwner).owned_by(id(&TABLE, "E")),
+    ]);
+    install(seq, &TABLE)?;
+    let [s, a, se, e, main] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let a = bind(seq, a, N0::new().step(s)?)?;
+    let se = bind(seq, se, Leaf::until(3))?;
+    let e = bind(seq, e, Root::from(N0::new().step(se)?))?;
+    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
     let m = main.id();
-    lanes([main, e], &[m])
+    setup([main, e], &[m], MONITORS)
 }
 
 fn exception_monitor_script(ms: u32, c: &Ctrl, _: &Seqr) {
@@ -267,30 +327,37 @@ fn exception_monitor_script(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// main steps S and runs B; both have a false pre-condition (flag 5).
-fn pre_false<'a>(seq: &Seqr, _: &mut Mons<'a>, _: &'a mut Conds) -> R {
-    let s = seq.add(
-        cfg("S"),
+fn pre_false(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 3> = table([cfg("S"), cfg("B"), cfg("main")]);
+    install(seq, &TABLE)?;
+    let [s, b, main] = ids();
+    let s = bind(
+        seq,
+        s,
         Leaf {
             pre: Some(5),
             exit: None,
         },
     )?;
-    let b = seq.add(cfg("B"), N0::new().pre(5))?;
-    let main = seq.add(cfg("main"), Root::from(N1::new().step(s)?.run(b)?))?;
+    let b = bind(seq, b, N0::new().pre(5))?;
+    let main = bind(seq, main, Root::from(N1::new().step(s)?.run(b)?))?;
     let m = main.id();
-    lanes([main], &[m])
+    setup([main], &[m], NO_MONITORS)
 }
 
+/// S, main: a step in a main sequence.
+const S_MAIN: Table<Ctrl, 2> = table([cfg("S"), cfg("main")]);
+
 /// main ─step→ S; at 5 ms S's `AbortOwner` monitor and its exit condition are both true.
-fn monitor_and_exit<'a>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let si = s.id();
-    let main = seq.add(cfg("main"), Root::from(N0::new().step(s)?))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 0;
-    mons.add(si, Monitor::new("m", c0, Behaviour::AbortOwner))?;
+fn monitor_and_exit(seq: &Seqr) -> R {
+    const MONITORS: Mons =
+        monitors([on_flag("m", 0, Behaviour::AbortOwner).owned_by(id(&S_MAIN, "S"))]);
+    install(seq, &S_MAIN)?;
+    let [s, main] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let main = bind(seq, main, Root::from(N0::new().step(s)?))?;
     let m = main.id();
-    lanes([main], &[m])
+    setup([main], &[m], MONITORS)
 }
 
 fn monitor_and_exit_script(ms: u32, c: &Ctrl, _: &Seqr) {
@@ -299,15 +366,17 @@ fn monitor_and_exit_script(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// A (lane) steps S1 (exit flag 1) then S2; the fault and S1's exit appear before tick K.
-fn reaction<'a>(seq: &Seqr, mons: &mut Mons<'a>, conds: &'a mut Conds) -> R {
-    let s1 = seq.add(cfg("S1"), Leaf::until(1))?;
-    let s2 = seq.add(cfg("S2"), Leaf::default())?;
-    let a = seq.add(cfg("A"), Root::from(N0::new().step(s1)?.step(s2)?))?;
-    let [c0, ..] = conds.each();
-    c0.flag = 0;
-    mons.add(a.id(), Monitor::new("m", c0, Behaviour::AbortOwner))?;
+fn reaction(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 3> = table([cfg("S1"), cfg("S2"), cfg("A")]);
+    const MONITORS: Mons =
+        monitors([on_flag("m", 0, Behaviour::AbortOwner).owned_by(id(&TABLE, "A"))]);
+    install(seq, &TABLE)?;
+    let [s1, s2, a] = ids();
+    let s1 = bind(seq, s1, Leaf::until(1))?;
+    let s2 = bind(seq, s2, Leaf::default())?;
+    let a = bind(seq, a, Root::from(N0::new().step(s1)?.step(s2)?))?;
     let ai = a.id();
-    lanes([a], &[ai])
+    setup([a], &[ai], MONITORS)
 }
 
 fn reaction_script<const K: u32>(ms: u32, c: &Ctrl, _: &Seqr) {
@@ -316,16 +385,20 @@ fn reaction_script<const K: u32>(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// main starts Q twice (the second start is an error) and joins it; Q ends at 4 ms.
-fn already_running<'a>(seq: &Seqr, _: &mut Mons<'a>, _: &'a mut Conds) -> R {
-    let s2 = seq.add(cfg("S2"), Leaf::until(2))?;
-    let q = seq.add(cfg("Q"), Root::from(N0::new().step(s2)?))?;
+fn already_running(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 3> = table([cfg("S2"), cfg("Q"), cfg("main")]);
+    install(seq, &TABLE)?;
+    let [s2, q, main] = ids();
+    let s2 = bind(seq, s2, Leaf::until(2))?;
+    let q = bind(seq, q, Root::from(N0::new().step(s2)?))?;
     let qi = q.id();
-    let main = seq.add(
-        cfg("main"),
+    let main = bind(
+        seq,
+        main,
         Root::from(N0::new().start(qi)?.start(qi)?.join(qi)?),
     )?;
     let m = main.id();
-    lanes([main, q], &[m])
+    setup([main, q], &[m], NO_MONITORS)
 }
 
 fn already_running_script(ms: u32, c: &Ctrl, _: &Seqr) {
@@ -333,13 +406,16 @@ fn already_running_script(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// main starts Q (lane) and steps S; abort-all requested before the tick at 4 ms.
-fn abort_all<'a>(seq: &Seqr, _: &mut Mons<'a>, _: &'a mut Conds) -> R {
-    let s2 = seq.add(cfg("S2"), Leaf::until(2))?;
-    let q = seq.add(cfg("Q"), Root::from(N0::new().step(s2)?))?;
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let main = seq.add(cfg("main"), Root::from(N0::new().start(q.id())?.step(s)?))?;
+fn abort_all(seq: &Seqr) -> R {
+    const TABLE: Table<Ctrl, 4> = table([cfg("S2"), cfg("Q"), cfg("S"), cfg("main")]);
+    install(seq, &TABLE)?;
+    let [s2, q, s, main] = ids();
+    let s2 = bind(seq, s2, Leaf::until(2))?;
+    let q = bind(seq, q, Root::from(N0::new().step(s2)?))?;
+    let s = bind(seq, s, Leaf::until(1))?;
+    let main = bind(seq, main, Root::from(N0::new().start(q.id())?.step(s)?))?;
     let m = main.id();
-    lanes([main, q], &[m])
+    setup([main, q], &[m], NO_MONITORS)
 }
 
 fn abort_all_script(ms: u32, _: &Ctrl, seq: &Seqr) {
@@ -349,11 +425,13 @@ fn abort_all_script(ms: u32, _: &Ctrl, seq: &Seqr) {
 }
 
 /// main ─step→ S; an abort request through main's handle before the tick at 2 ms.
-fn abort_request<'a>(seq: &Seqr, _: &mut Mons<'a>, _: &'a mut Conds) -> R {
-    let s = seq.add(cfg("S"), Leaf::until(1))?;
-    let main = seq.add(cfg("main"), Root::from(N0::new().step(s)?))?;
+fn abort_request(seq: &Seqr) -> R {
+    install(seq, &S_MAIN)?;
+    let [s, main] = ids();
+    let s = bind(seq, s, Leaf::until(1))?;
+    let main = bind(seq, main, Root::from(N0::new().step(s)?))?;
     let m = main.id();
-    lanes([main], &[m])
+    setup([main], &[m], NO_MONITORS)
 }
 
 fn abort_request_script(ms: u32, _: &Ctrl, seq: &Seqr) {

@@ -65,7 +65,7 @@ pub const MAX_OPS: usize = 4;
 ///
 /// The ops are fixed: up to two [`Leaf`] steps, one [`Wait`] step, one blocking child of
 /// type `Child`, any number of non-blocking starts and one join, at most `MAX_OPS` (4) in all.
-/// Nesting the type gives the depth of the tree ([`N0`] … [`N4`]), so there is neither heap
+/// Nesting the type gives the depth of the tree ([`N0`] … [`N3`]), so there is neither heap
 /// nor recursion.
 pub struct Node<Child> {
     ops: [Option<Op>; MAX_OPS],
@@ -91,8 +91,6 @@ pub type N1 = Node<N0>;
 pub type N2 = Node<N1>;
 /// A node whose child is an [`N2`].
 pub type N3 = Node<N2>;
-/// A node whose child is an [`N3`].
-pub type N4 = Node<N3>;
 
 impl<Child> Default for Node<Child> {
     fn default() -> Self {
@@ -348,12 +346,10 @@ pub enum Root {
     D2(N2),
     /// Three levels.
     D3(N3),
-    /// Four levels.
-    D4(N4),
 }
 
 /// The action future of a [`Root`]: the action future of its variant.
-pub enum RootAction<A, B, C, D, E> {
+pub enum RootAction<A, B, C, D> {
     /// Of [`Root::D0`].
     D0(A),
     /// Of [`Root::D1`].
@@ -362,17 +358,14 @@ pub enum RootAction<A, B, C, D, E> {
     D2(C),
     /// Of [`Root::D3`].
     D3(D),
-    /// Of [`Root::D4`].
-    D4(E),
 }
 
-impl<A, B, C, D, E> Future for RootAction<A, B, C, D, E>
+impl<A, B, C, D> Future for RootAction<A, B, C, D>
 where
     A: Future<Output = ()>,
     B: Future<Output = ()>,
     C: Future<Output = ()>,
     D: Future<Output = ()>,
-    E: Future<Output = ()>,
 {
     type Output = ();
     fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
@@ -383,7 +376,6 @@ where
                 RootAction::D1(f) => Pin::new_unchecked(f).poll(w),
                 RootAction::D2(f) => Pin::new_unchecked(f).poll(w),
                 RootAction::D3(f) => Pin::new_unchecked(f).poll(w),
-                RootAction::D4(f) => Pin::new_unchecked(f).poll(w),
             }
         }
     }
@@ -397,7 +389,6 @@ impl Sequence<Ctrl> for Root {
             Root::D1(n) => RootAction::D1(n.action(cx)),
             Root::D2(n) => RootAction::D2(n.action(cx)),
             Root::D3(n) => RootAction::D3(n.action(cx)),
-            Root::D4(n) => RootAction::D4(n.action(cx)),
         }
     }
     fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
@@ -406,7 +397,6 @@ impl Sequence<Ctrl> for Root {
             Root::D1(n) => n.check_pre_condition(cx),
             Root::D2(n) => n.check_pre_condition(cx),
             Root::D3(n) => n.check_pre_condition(cx),
-            Root::D4(n) => n.check_pre_condition(cx),
         }
     }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
@@ -415,7 +405,6 @@ impl Sequence<Ctrl> for Root {
             Root::D1(n) => n.check_exit_condition(cx),
             Root::D2(n) => n.check_exit_condition(cx),
             Root::D3(n) => n.check_exit_condition(cx),
-            Root::D4(n) => n.check_exit_condition(cx),
         }
     }
 }
@@ -438,10 +427,5 @@ impl From<N2> for Root {
 impl From<N3> for Root {
     fn from(n: N3) -> Self {
         Root::D3(n)
-    }
-}
-impl From<N4> for Root {
-    fn from(n: N4) -> Self {
-        Root::D4(n)
     }
 }

@@ -347,7 +347,7 @@ mod app {
             b16
         );
         defmt::info!(
-            "bench_seq: size lane future (Seq<Root>, scenarios' root, 4 levels) = {=usize} bytes",
+            "bench_seq: size lane future (Seq<Root>, scenarios' root, 3 levels) = {=usize} bytes",
             LANE_ROOT_BYTES.load(Ordering::Relaxed)
         );
         defmt::info!(

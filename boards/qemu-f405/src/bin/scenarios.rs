@@ -6,8 +6,8 @@
 //! With the board feature `critical-section-lock` the sequencer uses the portable
 //! `critical-section` lock instead of RTIC's priority ceiling.
 //!
-//! - `init`: looks the scenario up by the command line, registers it into the `static`
-//!   sequencer, declares the lanes, starts the main sequences at time 0, starts TIM2.
+//! - `init`: looks the scenario up by the command line, installs its table into the
+//!   `static` sequencer and binds its bodies, declares the lanes, starts the main sequences at time 0, starts TIM2.
 //! - `tick` (TIM2, 1 kHz, priority 2): the scenario's script, then `SEQ.tick`. After the
 //!   scenario's last tick it stops the timer.
 //! - `lane0..2` (priority 1): `rtseq::lane(&SEQ, &CTRL, seq)`, in the host's lane order.
@@ -25,7 +25,7 @@ mod app {
     use board::clock::TickTimer;
     use core::sync::atomic::{AtomicBool, Ordering};
     use rtseq::Seq;
-    use rtseq_scenarios::{encode, Conds, Ctrl, Mons, Root, Scenario, Seqr, SCENARIOS};
+    use rtseq_scenarios::{encode, Ctrl, Mons, Root, Scenario, Seqr, SCENARIOS};
 
     /// The sequencer, shared by the tick and the lanes.
     // SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1,
@@ -48,13 +48,13 @@ mod app {
     struct Local {
         timer: TickTimer,
         scenario: &'static Scenario,
-        monitors: Mons<'static>,
+        monitors: Mons,
         lane0: Option<Seq<Root>>,
         lane1: Option<Seq<Root>>,
         lane2: Option<Seq<Root>>,
     }
 
-    #[init(local = [conds: Conds = Conds::new()])]
+    #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut buf = [0u8; 128];
         let name = first_arg(&mut buf);
@@ -68,27 +68,27 @@ mod app {
             }
             board::exit_failure();
         };
-        let mut monitors = Mons::new();
-        let lanes = match (scenario.register)(&SEQ, &mut monitors, cx.local.conds) {
-            Ok(l) => l,
+        let setup = match (scenario.register)(&SEQ) {
+            Ok(s) => s,
             Err(e) => {
-                defmt::error!("scenarios: registration failed: {}", e);
+                defmt::error!("scenarios: set-up failed: {}", e);
                 board::exit_failure();
             }
         };
-        for lane in lanes.lanes.iter() {
+        for lane in setup.lanes.iter() {
             if let Some(h) = SEQ.sequence_by_id(lane.id()) {
                 let _ = h.declare_lane();
             }
         }
-        for &id in lanes.start.iter() {
+        for &id in setup.start.iter() {
             if let Err(e) = SEQ.sequence_by_id(id).map_or(Ok(()), |h| h.start()) {
                 defmt::error!("scenarios: start failed: {}", e);
                 board::exit_failure();
             }
         }
         // `pop` from the back, not `into_iter` (heapless' iterator slices: a panic path).
-        let mut v = lanes.lanes;
+        let mut v = setup.lanes;
+        let monitors = setup.monitors;
         let lane2 = if v.len() > 2 { v.pop() } else { None };
         let lane1 = if v.len() > 1 { v.pop() } else { None };
         let lane0 = v.pop();
