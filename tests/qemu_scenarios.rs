@@ -806,8 +806,13 @@ fn ceiling_sections(d: &Disasm, trace: &str, rtseq_src: &str, sites: &mut Sites)
             }
         } else if depth > 0 && site.is_none() {
             if let Some(f) = d.src.get(&pc).and_then(|&k| d.files.get(k)) {
+                // The section is named after its first line outside the lock itself (the
+                // out-of-line raise has lines in `src/lock.rs`, and its symbol would hide
+                // whether the section is the tick's).
                 if let Some(rel) = f.strip_prefix(rtseq_src) {
-                    site = Some(format!("src/{rel} (in {})", demangle(sym)));
+                    if !rel.starts_with("lock.rs") {
+                        site = Some(format!("src/{rel} (in {})", demangle(sym)));
+                    }
                 }
             }
         }
