@@ -90,7 +90,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn restarted(&self, id: SeqId) {
-        steps!(self, |s| s.relaunch(id));
+        steps!(self, |s| {
+            s.launch(id, None, Cause::Restart);
+        });
     }
 
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {

@@ -15,6 +15,17 @@ use crate::{
     Cause, Error, Handle, Instant, Outcome, RunningState, SeqConfig, SeqId, Transition, MAX_DEPTH,
 };
 
+/// What a start gives its new run (a restart keeps its run's own).
+#[derive(Clone, Copy)]
+pub(crate) struct NewRun {
+    /// Its lane slot.
+    lane: u8,
+    /// The link to its caller.
+    link: Link,
+    /// Its flags, all of them.
+    flags: u16,
+}
+
 /// How a sequence is started.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) enum Mode {
@@ -525,44 +536,38 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
         Ok((lane, bound | pending | extra))
     }
 
-    /// Schedules and commits a new run of `id` in lane slot `lane`, linked to its caller
-    /// by `link`, with `flags`: schedule, then commit, and again if a tick ran in between
-    /// (it may have rescanned without the new run, or changed its state: the commit
-    /// re-checks both). False (nothing changed) when `id` is active: `AlreadyRunning`.
+    /// Schedules and commits a run of `id`: a new one (`run`: its lane slot, the link to
+    /// its caller and its flags) from a state that is not active, or (`run` `None`) a
+    /// `Restarting` sequence's run again in its lane, caller and flags as they are (from
+    /// `Restarting`, or, if the tick stopped it since the lane saw that, as the transition
+    /// table allows; a scanned `Running` or `Paused` one stays). Schedule, then commit,
+    /// and again if a tick ran in between (it may have rescanned without the new run, or
+    /// changed its state: the commit re-checks both). False (nothing changed) when the
+    /// state does not allow it: for a new run, `AlreadyRunning`. One function for both, so
+    /// a firmware links one copy.
     #[inline(never)]
-    fn launch(&mut self, id: SeqId, lane: u8, link: Link, flags: u16, cause: Cause) -> bool {
+    fn launch(&mut self, id: SeqId, run: Option<NewRun>, cause: Cause) -> bool {
+        let legal = match run {
+            Some(_) => STARTABLE,
+            None => sources(RunningState::Running) & !bit(RunningState::Paused),
+        };
         loop {
-            let (from, seen, armed) = self.step(|s| s.schedule(id, Some(lane)));
-            if STARTABLE & bit(from) == 0 {
+            let (from, seen, armed) = self.step(|s| s.schedule(id, run.map(|r| r.lane)));
+            if legal & bit(from) == 0 {
                 return false;
             }
-            self.step(|s| s.new_run(id, Some(link), armed));
+            self.step(|s| s.new_run(id, run.map(|r| r.link), armed));
             self.step(|s| s.due_by(id));
             let t = Transition::edge(id, from, RunningState::Running, cause);
-            if self.step(|s| s.start(&t, seen, flags)) {
+            if self.commit(&t, seen, run.map(|r| r.flags)) {
                 return true;
             }
         }
     }
 
-    /// A `Restarting` sequence `id` runs again, like [`launch`](Self::launch) but in its
-    /// lane, caller and flags as they are. From `Restarting` (or, if the tick stopped it
-    /// since the lane saw that, as the transition table allows; a scanned `Running` or
-    /// `Paused` one stays).
-    fn relaunch(&mut self, id: SeqId) {
-        let legal = sources(RunningState::Running) & !bit(RunningState::Paused);
-        loop {
-            let (from, seen, armed) = self.step(|s| s.schedule(id, None));
-            if legal & bit(from) == 0 {
-                return;
-            }
-            self.step(|s| s.new_run(id, None, armed));
-            self.step(|s| s.due_by(id));
-            let t = Transition::edge(id, from, RunningState::Running, Cause::Restart);
-            if self.step(|s| s.restarted(&t, seen)) {
-                return;
-            }
-        }
+    /// The commit of a start or restart: [`Inner::start`] in a step.
+    fn commit(&mut self, t: &crate::trace::Edge, seen: u32, flags: Option<u16>) -> bool {
+        self.step(|s| s.start(t, seen, flags))
     }
 
     /// Before `id` is started by `caller`: walks `caller`'s caller links, one step per
@@ -635,6 +640,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Steps<C, N, T, 
     fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R {
         self.0.with(f)
     }
+
+    /// A start and a restart commit in functions of their own, each one section without
+    /// a test of `flags`: a test inside the section (where the compiler puts it when both
+    /// sections are in one function) would lengthen it beyond the budget of 50
+    /// instructions.
+    fn commit(&mut self, t: &crate::trace::Edge, seen: u32, flags: Option<u16>) -> bool {
+        match flags {
+            Some(flags) => self.0.commit_start(t, seen, flags),
+            None => self.0.commit_restart(t, seen),
+        }
+    }
 }
 
 /// `steps!(sequencer, |s| body)` runs `body` with `s` as its [`Steps`]: with a coarse lock
@@ -666,14 +682,30 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         extra: u16,
     ) -> Result<(), Error> {
         let (lane, flags) = steps!(self, |s| s.admit(id, caller, mode, extra))?;
-        let link = Link::to(caller);
-        if !steps!(self, |s| s.launch(id, lane, link, flags, cause)) {
+        let run = NewRun {
+            lane,
+            link: Link::to(caller),
+            flags,
+        };
+        if !steps!(self, |s| s.launch(id, Some(run), cause)) {
             return Err(Error::AlreadyRunning(id));
         }
         if mode == Mode::Lane {
             self.wake_lane(id);
         }
         Ok(())
+    }
+
+    /// [`Inner::start`] of a start in a section of its own (with the portable lock).
+    #[inline(never)]
+    fn commit_start(&self, t: &crate::trace::Edge, seen: u32, flags: u16) -> bool {
+        self.with(|s| s.start(t, seen, Some(flags)))
+    }
+
+    /// [`Inner::start`] of a restart in a section of its own (with the portable lock).
+    #[inline(never)]
+    fn commit_restart(&self, t: &crate::trace::Edge, seen: u32) -> bool {
+        self.with(|s| s.start(t, seen, None))
     }
 
     /// Wakes the lane that drives `id`, in a section of its own.
@@ -861,31 +893,23 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         self.next_due = earlier(now, next, self.next_due);
     }
 
-    /// The commit of a start `t` ([`Steps::launch`] validated it and scheduled it at
-    /// `seen`): a new run with `flags` (all of them).
+    /// The commit of a start or restart `t` ([`Steps::launch`] validated it and scheduled
+    /// it at `seen`): a new run gets `flags` (all of them), a restart keeps its own.
     /// False: a tick ran since (the time moved, or the state is not `t.from` any more),
     /// nothing changed, schedule again (which fails with `AlreadyRunning` if the tick
     /// started it).
-    pub(crate) fn start(&mut self, t: &crate::trace::Edge, seen: u32, flags: u16) -> bool {
+    pub(crate) fn start(&mut self, t: &crate::trace::Edge, seen: u32, flags: Option<u16>) -> bool {
         if self.now as u32 != seen {
             return false;
         }
         let Some(b) = self.shift(t) else {
             return false;
         };
-        // Clears the requests and the pending behaviour too.
-        b.flags = flags;
-        true
-    }
-
-    /// A `Restarting` sequence runs again (`t`): fresh timeout and polling schedule, as
-    /// [`schedule`](Self::schedule)d at `seen` (with [`new_run`](Self::new_run)). False: a
-    /// tick ran since, schedule again.
-    pub(crate) fn restarted(&mut self, t: &crate::trace::Edge, seen: u32) -> bool {
-        if self.now as u32 != seen {
-            return false;
+        if let Some(flags) = flags {
+            // Clears the requests and the pending behaviour too.
+            b.flags = flags;
         }
-        self.shift(t).is_some()
+        true
     }
 
     /// After [`schedule`](Self::schedule), before the commit, for a sequence that is not
