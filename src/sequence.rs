@@ -206,11 +206,14 @@ struct Calls {
     /// a sequence's action future is created at the first call and returned, pinned, to be
     /// polled with `poll`. Without `go`: a sequence's action future is dropped (it completed
     /// or is stopped).
-    act: unsafe fn(NonNull<()>, NonNull<()>, bool) -> Option<NonNull<()>>,
+    act: unsafe fn(NonNull<()>, NonNull<()>, bool) -> Action,
     /// A sequence's `<F as Future>::poll` of its action future type `F` itself, called
     /// through this pointer so that it is never inlined into the framework.
     poll: unsafe fn(NonNull<()>, &mut Context<'_>) -> Poll<()>,
 }
+
+/// A sequence's running action future, pinned and type-erased (`None`: no action to poll).
+type Action = Option<NonNull<()>>;
 
 /// A mutably borrowed step (with its `Seq`) or sequence framework of any type and its
 /// `Calls`.
@@ -278,11 +281,7 @@ unsafe fn step_exit<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>) -> bool {
     unsafe { step_body::<S>(head).check_exit_condition(context(cx)) }
 }
 
-unsafe fn step_act<C, S: Step<C>>(
-    head: NonNull<()>,
-    cx: NonNull<()>,
-    go: bool,
-) -> Option<NonNull<()>> {
+unsafe fn step_act<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>, go: bool) -> Action {
     if go {
         // SAFETY: see above.
         unsafe { step_body::<S>(head).action(context(cx)) }
@@ -311,11 +310,7 @@ unsafe fn seq_exit<C, S: Sequence<C>, F, M>(fw: NonNull<()>, cx: NonNull<()>) ->
 /// `fw` must point to a pinned `Framework` of these types, with the provenance of the whole
 /// framework, of which nothing but its `frame` is borrowed meanwhile (and that only shared);
 /// the action returned must be dropped before the next call.
-unsafe fn seq_act<'a, 's, C, S, F, M>(
-    fw: NonNull<()>,
-    _: NonNull<()>,
-    go: bool,
-) -> Option<NonNull<()>>
+unsafe fn seq_act<'a, 's, C, S, F, M>(fw: NonNull<()>, _: NonNull<()>, go: bool) -> Action
 where
     C: 'a,
     S: Sequence<C> + 's,
@@ -400,7 +395,7 @@ impl<'s, C> BodyRef<'s, C> {
         unsafe { (self.calls.exit)(self.body, NonNull::from(cx).cast()) }
     }
 
-    fn act(&mut self, cx: &Cx<'_, C>, go: bool) -> Option<NonNull<()>> {
+    fn act(&mut self, cx: &Cx<'_, C>, go: bool) -> Action {
         // SAFETY: see above.
         unsafe { (self.calls.act)(self.body, NonNull::from(cx).cast(), go) }
     }
