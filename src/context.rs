@@ -6,7 +6,6 @@ use core::task::Poll;
 use core::future::Future;
 
 use crate::engine::Engine;
-use crate::run::Run;
 use crate::sequence::{framework, BodyRef, Frame, StepFramework};
 use crate::sequencer::{Gate, Mode};
 use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
@@ -103,9 +102,12 @@ impl<'a, C> Cx<'a, C> {
         child: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { head, body } = child;
-        let slot = &head.slot;
-        let frame = Frame::blocking(Cx::new(self.engine, self.control, head.id), slot, self.id);
-        Run::new(slot, framework(frame, body))
+        let frame = Frame::blocking(
+            Cx::new(self.engine, self.control, head.id),
+            &head.slot,
+            self.id,
+        );
+        framework(frame, body)
     }
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling

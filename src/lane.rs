@@ -6,10 +6,12 @@
 
 use core::convert::Infallible;
 use core::future::Future;
+use core::pin::Pin;
+use core::task::{Context, Poll};
 
 use crate::lock::Lock;
 use crate::sequence::{framework, Frame};
-use crate::{Cx, Seq, Sequence, Sequencer};
+use crate::{Cx, Error, Outcome, Seq, Sequence, Sequencer};
 
 /// Runs `seq` every time it is started non-blocking, forever.
 ///
@@ -46,8 +48,24 @@ pub fn lane<'a, C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, cons
     seq: &'a mut Seq<S>,
 ) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W> {
     let Seq { head, body } = seq;
-    framework(
+    Lane(framework(
         Frame::lane(Cx::new(sequencer, control, head.id), &head.slot),
         body,
-    )
+    ))
+}
+
+/// A lane's framework, which has no result: its frame goes back to waiting for a start
+/// after each run.
+struct Lane<F>(F);
+
+impl<F: Future<Output = Result<Outcome, Error>>> Future for Lane<F> {
+    type Output = Infallible;
+
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Infallible> {
+        // SAFETY: the framework is structurally pinned: never moved out, only polled in place.
+        let framework = unsafe { self.map_unchecked_mut(|lane| &mut lane.0) };
+        // Never `Ready`: only a blocking start's frame leaves a result.
+        let _ = framework.poll(w);
+        Poll::Pending
+    }
 }

@@ -40,7 +40,6 @@ mod lane;
 pub mod lock;
 mod monitor;
 mod polling;
-mod run;
 mod sequence;
 mod sequencer;
 mod state;

@@ -2,12 +2,11 @@
 //! (the seed's `actionFramework`).
 
 use core::cell::Cell;
-use core::convert::Infallible;
-use core::future::{poll_fn, Future};
-use core::marker::PhantomData;
+use core::future::Future;
+use core::marker::{PhantomData, PhantomPinned};
 use core::mem::offset_of;
-use core::pin::{pin, Pin};
-use core::ptr::NonNull;
+use core::pin::Pin;
+use core::ptr::{addr_of, addr_of_mut, NonNull};
 use core::task::{Context, Poll};
 
 use crate::sequencer::{Gate, Mode};
@@ -173,28 +172,27 @@ impl<S> Seq<S> {
     }
 }
 
-// The framework is split so that almost nothing of it is generic over the sequence type:
+// The framework is split so that almost nothing of it is generic over the body type:
 //
 // * `Frame` (the child's context, the result slot, the blocking caller, the phase) is the
 //   seed's `actionFramework` as a state machine over the start (a blocking start, or a
-//   lane's wait for a non-blocking one), the gate, the pre- and exit conditions, the end of
-//   a run and the hand-over of its outcome. It is generic only over the control system `C`
-//   and reaches the body through a type-erased reference (`BodyRef`: its conditions, and a
-//   step's command) and a pinned `dyn Future` for a running action, so one copy serves every
-//   sequence and step type, started blocking or in a lane.
-// * A sequence's framework (`framework`) is a thin `async` block: it only has to keep the
-//   action's future (which borrows the body and the context) in place while it runs. A lane
-//   is nothing but this block (its frame goes back to waiting for a start after each run);
-//   a blocking start wraps it in `Run`, which only takes the result from the slot.
-// * A step's framework (`StepFramework`) is not generic over the step at all: the step is
-//   type-erased (`BodyRef`), its command runs inside `Frame::step`; a blocking start of a
-//   step is one type for every step type, and `Frame::step` also takes the result from the
-//   slot, so an `.await` of a step is one out-of-line call.
+//   lane's wait for a non-blocking one), the gate, the pre-condition, the action, the exit
+//   condition, the end of a run and the hand-over of its outcome. It is generic only over
+//   the control system `C` and reaches the body through a type-erased reference (`BodyRef`:
+//   its conditions and its action), so one copy serves every sequence and step type,
+//   started blocking or in a lane. `Frame::poll` is all of a framework that is polled; it
+//   also takes a blocking start's result from the slot.
+// * A sequence's framework (`Framework`) adds the place of the action's future, which
+//   borrows the body and the frame's context. What it has per sequence type is the
+//   creation, the poll and the drop of that future (`seq_act`) and a `poll` that hands
+//   itself, type-erased, to `Frame::poll`. A lane is this framework (its frame goes back to
+//   waiting for a start after each run); a blocking start returns its result.
+// * A step's framework (`StepFramework`) is not generic over the step at all: a step's
+//   command is a plain call, so a blocking start of a step is one type for every step type
+//   and an `.await` of a step is one out-of-line call.
 //
-// A sequence's framework never returns: a returning `async` block carries a
-// compiler-generated "resumed after completion" panic path, and rtseq has none. A blocking
-// run leaves its result in the `Seq`'s slot and its framework stays pending; its owner drops
-// it. (The step's framework is a hand-written future: it returns, and has no such path.)
+// Both are hand-written futures: an `async` block that returns carries a compiler-generated
+// "resumed after completion" panic path, and rtseq has none.
 
 /// The methods of one body type, type-erased: one table per type (a promoted constant), so
 /// that a call is a load and an indirect call, with no dispatch on which method.
@@ -204,19 +202,29 @@ impl<S> Seq<S> {
 struct Calls {
     pre: unsafe fn(NonNull<()>, NonNull<()>) -> bool,
     exit: unsafe fn(NonNull<()>, NonNull<()>) -> bool,
-    /// A step's command (a sequence's action is `async`: its framework runs it).
-    action: unsafe fn(NonNull<()>, NonNull<()>),
+    /// The action, once the gate says go (`go`): a step's command runs and is over (`None`);
+    /// a sequence's action future is created at the first call and returned, pinned, to be
+    /// polled with `poll`. Without `go`: a sequence's action future is dropped (it completed
+    /// or is stopped).
+    act: unsafe fn(NonNull<()>, NonNull<()>, bool) -> Action,
+    /// A sequence's `<F as Future>::poll` of its action future type `F` itself, called
+    /// through this pointer so that it is never inlined into the framework.
+    poll: unsafe fn(NonNull<()>, &mut Context<'_>) -> Poll<()>,
 }
 
-/// A mutably borrowed step (with its `Seq`) or sequence of any type and its `Calls`.
+/// A sequence's running action future, pinned and type-erased (`None`: no action to poll).
+type Action = Option<NonNull<()>>;
+
+/// A mutably borrowed step (with its `Seq`) or sequence framework of any type and its
+/// `Calls`.
 ///
 /// Hand-made rather than `&'s mut dyn Step<C>`: a trait object mentioning `C` would require
 /// `C: 's`, which the signature of [`Cx::step`] does not promise.
 pub(crate) struct BodyRef<'s, C> {
     /// A step: the head of its `&'s mut Seq<S>` (its `Calls` find the body from there), so
-    /// that one pointer serves both; a sequence: the `&'s mut S`.
+    /// that one pointer serves both; a sequence: its pinned `Framework`.
     body: NonNull<()>,
-    /// `StepCalls::<C>::CALLS` or `SeqCalls::<C>::CALLS` of the body's type.
+    /// `StepCalls::<C>::CALLS` or `Framework::CALLS` of the body's type.
     calls: &'static Calls,
     _borrow: PhantomData<&'s mut ()>,
     /// `C` without `C: 's` (see above).
@@ -237,6 +245,20 @@ unsafe fn step_body<'s, S>(head: NonNull<()>) -> &'s mut S {
     }
 }
 
+/// The body of the `Framework` that `fw` points to.
+///
+/// # Safety
+/// `fw` must point to a live `Framework` of these types whose body nothing else accesses
+/// meanwhile (its action is not running: it would borrow the body).
+unsafe fn seq_body<'x, C, S, F, M>(fw: NonNull<()>) -> &'x mut S {
+    // SAFETY: guaranteed by the caller; `body` is the framework's `&'s mut S`.
+    unsafe {
+        (*fw.cast::<Framework<'_, '_, C, S, F, M>>().as_ptr())
+            .body
+            .as_mut()
+    }
+}
+
 /// The context behind a `Calls` argument.
 ///
 /// # Safety
@@ -247,8 +269,7 @@ unsafe fn context<'x, C>(cx: NonNull<()>) -> &'x Cx<'x, C> {
 }
 
 // The table entries. Safety of each: `body` as for the `BodyRef` built with the table (see
-// `step_body` for a step; a sequence: a live `S` that nothing else accesses meanwhile), `cx`
-// points to a live `Cx<'_, C>`.
+// `step_body` for a step, `seq_body` for a sequence), `cx` points to a live `Cx<'_, C>`.
 
 unsafe fn step_pre<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>) -> bool {
     // SAFETY: see above.
@@ -260,23 +281,61 @@ unsafe fn step_exit<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>) -> bool {
     unsafe { step_body::<S>(head).check_exit_condition(context(cx)) }
 }
 
-unsafe fn step_action<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>) {
-    // SAFETY: see above.
-    unsafe { step_body::<S>(head).action(context(cx)) }
+unsafe fn step_act<C, S: Step<C>>(head: NonNull<()>, cx: NonNull<()>, go: bool) -> Action {
+    if go {
+        // SAFETY: see above.
+        unsafe { step_body::<S>(head).action(context(cx)) }
+    }
+    None
 }
 
-unsafe fn seq_pre<C, S: Sequence<C>>(seq: NonNull<()>, cx: NonNull<()>) -> bool {
-    // SAFETY: see above.
-    unsafe { seq.cast::<S>().as_mut().check_pre_condition(context(cx)) }
+/// Not called: a step's command is over at once.
+unsafe fn no_poll(_: NonNull<()>, _: &mut Context<'_>) -> Poll<()> {
+    Poll::Ready(())
 }
 
-unsafe fn seq_exit<C, S: Sequence<C>>(seq: NonNull<()>, cx: NonNull<()>) -> bool {
-    // SAFETY: see above.
-    unsafe { seq.cast::<S>().as_mut().check_exit_condition(context(cx)) }
+unsafe fn seq_pre<C, S: Sequence<C>, F, M>(fw: NonNull<()>, cx: NonNull<()>) -> bool {
+    // SAFETY: see above (conditions are checked only while no action runs).
+    unsafe { seq_body::<C, S, F, M>(fw).check_pre_condition(context(cx)) }
 }
 
-/// Not called: a sequence's action is run by its framework.
-unsafe fn no_action(_: NonNull<()>, _: NonNull<()>) {}
+unsafe fn seq_exit<C, S: Sequence<C>, F, M>(fw: NonNull<()>, cx: NonNull<()>) -> bool {
+    // SAFETY: see above (conditions are checked only while no action runs).
+    unsafe { seq_body::<C, S, F, M>(fw).check_exit_condition(context(cx)) }
+}
+
+/// A sequence's action: created at the first call with `go`, dropped by the call without.
+///
+/// # Safety
+/// `fw` must point to a pinned `Framework` of these types, with the provenance of the whole
+/// framework, of which nothing but its `frame` is borrowed meanwhile (and that only shared);
+/// the action returned must be dropped before the next call.
+unsafe fn seq_act<'a, 's, C, S, F, M>(fw: NonNull<()>, _: NonNull<()>, go: bool) -> Action
+where
+    C: 'a,
+    S: Sequence<C> + 's,
+    F: Future<Output = ()>,
+    M: Fn(&'s mut S, &'a Cx<'a, C>) -> F,
+{
+    let fw = fw.cast::<Framework<'a, 's, C, S, F, M>>().as_ptr();
+    // SAFETY: fields of the pinned framework, reached without borrowing the whole (its frame
+    // is borrowed shared by `Frame::poll`). The action borrows the body only while it
+    // exists: the conditions, the other users of the body, run only when it is `None`. It
+    // borrows the frame's context for `'a`, longer than it lives: the framework is pinned
+    // (the action is created in place and never moved), and the action is dropped before
+    // the frame (here, or first when the framework is dropped: see its fields).
+    unsafe {
+        let action = &mut *addr_of_mut!((*fw).action);
+        if !go {
+            // Dropped in place.
+            *action = None;
+            return None;
+        }
+        let action = action
+            .get_or_insert_with(|| ((*fw).make)((*fw).body.as_mut(), &*addr_of!((*fw).frame.cx)));
+        Some(NonNull::from(action).cast())
+    }
+}
 
 /// The `Calls` of a step type.
 trait StepCalls<C> {
@@ -287,20 +346,8 @@ impl<C, S: Step<C>> StepCalls<C> for S {
     const CALLS: Calls = Calls {
         pre: step_pre::<C, S>,
         exit: step_exit::<C, S>,
-        action: step_action::<C, S>,
-    };
-}
-
-/// The `Calls` of a sequence type.
-trait SeqCalls<C> {
-    const CALLS: Calls;
-}
-
-impl<C, S: Sequence<C>> SeqCalls<C> for S {
-    const CALLS: Calls = Calls {
-        pre: seq_pre::<C, S>,
-        exit: seq_exit::<C, S>,
-        action: no_action,
+        act: step_act::<C, S>,
+        poll: no_poll,
     };
 }
 
@@ -324,17 +371,18 @@ impl<'s, C> BodyRef<'s, C> {
         unsafe { self.body.cast::<SeqHead>().as_ref() }
     }
 
-    fn seq<S: Sequence<C>>(seq: &'s mut S) -> Self {
+    /// The same body, borrowed again for a shorter time.
+    fn reborrow(&mut self) -> BodyRef<'_, C> {
         BodyRef {
-            body: NonNull::from(seq).cast(),
-            calls: &<S as SeqCalls<C>>::CALLS,
+            body: self.body,
+            calls: self.calls,
             _borrow: PhantomData,
             _control: PhantomData,
         }
     }
 
-    // SAFETY (of the three calls below): `body` is the `&'s mut S` given to `step` or `seq`
-    // and `calls` that type's table; the borrow lives as long as `self` (`_borrow`), and
+    // SAFETY (of the three calls below): `body` and `calls` are the pair given to `step` or
+    // built by `Framework::poll`; the borrow lives as long as `self` (`_borrow`), and
     // `&mut self` makes this the only access; `cx` is a live context.
 
     fn pre(&mut self, cx: &Cx<'_, C>) -> bool {
@@ -347,24 +395,15 @@ impl<'s, C> BodyRef<'s, C> {
         unsafe { (self.calls.exit)(self.body, NonNull::from(cx).cast()) }
     }
 
-    fn action(&mut self, cx: &Cx<'_, C>) {
+    fn act(&mut self, cx: &Cx<'_, C>, go: bool) -> Action {
         // SAFETY: see above.
-        unsafe { (self.calls.action)(self.body, NonNull::from(cx).cast()) }
+        unsafe { (self.calls.act)(self.body, NonNull::from(cx).cast(), go) }
     }
-}
 
-/// A step's command as a future: it runs at the first poll, i.e. only once the gate said go.
-struct StepAct<'r, 's, 'c, 'a, C> {
-    step: &'r mut BodyRef<'s, C>,
-    cx: &'c Cx<'a, C>,
-}
-
-impl<C> Future for StepAct<'_, '_, '_, '_, C> {
-    type Output = ();
-    fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
-        let this = self.get_mut();
-        this.step.action(this.cx);
-        Poll::Ready(())
+    /// Polls the action `act` returned (and did not drop since).
+    fn poll(&mut self, action: NonNull<()>, w: &mut Context<'_>) -> Poll<()> {
+        // SAFETY: see above; `action` is this body's pinned action future, alive.
+        unsafe { (self.calls.poll)(action, w) }
     }
 }
 
@@ -460,7 +499,8 @@ impl<'a, 's, C> Frame<'a, 's, C> {
 
     /// Runs the framework up to the start of the action (`Ready`: create and poll it now), or
     /// until it must wait (`Pending`). Never `Ready` once a blocking run has ended.
-    #[inline(never)]
+    // Inlined into `poll`, its only caller (as `act`): one prologue less per poll.
+    #[inline(always)]
     fn drive(&self, w: &mut Context<'_>, body: &mut BodyRef<'_, C>) -> Poll<()> {
         let (cx, engine, id) = (&self.cx, self.cx.engine(), self.cx.id());
         loop {
@@ -563,39 +603,40 @@ impl<'a, 's, C> Frame<'a, 's, C> {
 
     /// Polls the running action only while the gate is open: a held sequence does not
     /// advance, an aborted or restarting one never runs another line of it. `Ready`: the
-    /// action is over (completed, aborted or restarting); drop its future, then `drive`.
-    #[inline(never)]
-    fn act(&self, w: &mut Context<'_>, action: Pin<&mut dyn Future<Output = ()>>) -> Poll<()> {
+    /// action is over (completed, or aborted or restarting, and then dropped); `drive` next.
+    #[inline(always)]
+    fn act(&self, w: &mut Context<'_>, body: &mut BodyRef<'_, C>) -> Poll<()> {
         match self.cx.engine().gate(self.cx.id(), w.waker()) {
-            Gate::Go => match action.poll(w) {
-                Poll::Ready(()) => {
-                    self.phase.set(Phase::Acted);
-                    Poll::Ready(())
+            Gate::Go => {
+                // A step's command has run; a sequence's action is polled (not inlined here:
+                // a call through its vtable).
+                if let Some(action) = body.act(&self.cx, true) {
+                    if body.poll(action, w).is_pending() {
+                        return Poll::Pending;
+                    }
+                    let _ = body.act(&self.cx, false);
                 }
-                Poll::Pending => Poll::Pending,
-            },
+                self.phase.set(Phase::Acted);
+                Poll::Ready(())
+            }
             Gate::Hold => Poll::Pending,
             gate => {
                 self.on(gate);
+                let _ = body.act(&self.cx, false);
                 Poll::Ready(())
             }
         }
     }
 
-    /// A step's whole framework, and the take of its result from the slot: all of a step's
-    /// blocking start that is polled, out of line (one call at each `.await` of a step).
+    /// A framework's whole poll, and the take of a blocking start's result from the slot:
+    /// one copy for every step and sequence type (one call at each `.await` of a step).
     #[inline(never)]
-    fn step(&self, w: &mut Context<'_>, step: &mut BodyRef<'_, C>) -> Poll<Result<Outcome, Error>> {
+    fn poll(&self, w: &mut Context<'_>, mut body: BodyRef<'_, C>) -> Poll<Result<Outcome, Error>> {
         loop {
             let ready = if let Phase::Act = self.phase.get() {
-                let mut action = StepAct {
-                    step: &mut *step,
-                    cx: &self.cx,
-                };
-                let action = Pin::new(&mut action);
-                self.act(w, action)
+                self.act(w, &mut body)
             } else {
-                self.drive(w, step)
+                self.drive(w, &mut body)
             };
             if ready.is_pending() {
                 break;
@@ -608,8 +649,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
     }
 }
 
-/// A blocking start of a step: the frame and the type-erased step. Unlike a sequence's
-/// framework it takes its result itself (see `Frame::step`).
+/// A blocking start of a step: the frame and the type-erased step.
 pub(crate) struct StepFramework<'a, 's, C> {
     pub(crate) frame: Frame<'a, 's, C>,
     pub(crate) step: BodyRef<'s, C>,
@@ -619,28 +659,85 @@ impl<C> Future for StepFramework<'_, '_, C> {
     type Output = Result<Outcome, Error>;
     fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         let this = self.get_mut();
-        this.frame.step(w, &mut this.step)
+        this.frame.poll(w, this.step.reborrow())
     }
 }
 
 /// The seed's `actionFramework` for a sequence: exceptions → pre-condition → action → exit
 /// condition every polling period, repeated from the pre-condition on restart. Its frame
-/// says how it starts and what it does after a run (see `Frame`); it never completes (see
-/// above).
-///
-/// An `async` block rather than an `async fn`: the block uses its captured arguments in
-/// place, where an `async fn` first copies them into its body's locals (one more copy of
-/// the frame per sequence type, about 40 bytes of flash each).
-#[allow(clippy::manual_async_fn)]
-pub(crate) fn framework<'a, 's, 'b, C, S: Sequence<C>>(
+/// says how it starts and what it does after a run (see `Frame`); a blocking start's
+/// framework completes with the run's result, a lane's never completes.
+pub(crate) struct Framework<'a, 's, C, S, F, M> {
+    /// The running action (`None` outside `Phase::Act`). It borrows `body` and
+    /// `frame.cx`, so it comes first: dropped before them.
+    action: Option<F>,
     frame: Frame<'a, 's, C>,
-    body: &'b mut S,
-) -> impl Future<Output = Infallible> + use<'a, 's, 'b, C, S> {
-    async move {
-        loop {
-            poll_fn(|w| frame.drive(w, &mut BodyRef::seq(&mut *body))).await;
-            let mut action = pin!(body.action(&frame.cx));
-            poll_fn(|w| frame.act(w, action.as_mut())).await;
-        }
+    /// The `&'s mut S`, used by the action while it exists, else by the conditions.
+    body: NonNull<S>,
+    /// Creates the action's future: `S::action`, zero-sized.
+    make: M,
+    _body: PhantomData<&'s mut S>,
+    /// The action borrows `frame.cx`: the framework never moves once polled.
+    _pinned: PhantomPinned,
+}
+
+/// A sequence's framework (see `Framework`).
+pub(crate) fn framework<'a, 's, C, S: Sequence<C>>(
+    frame: Frame<'a, 's, C>,
+    body: &'s mut S,
+) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
+    Framework {
+        action: None,
+        frame,
+        body: NonNull::from(body),
+        make: <S as Sequence<C>>::action,
+        _body: PhantomData,
+        _pinned: PhantomPinned,
+    }
+}
+
+impl<'a, 's, C, S, F, M> Framework<'a, 's, C, S, F, M>
+where
+    S: Sequence<C>,
+    F: Future<Output = ()>,
+    M: Fn(&'s mut S, &'a Cx<'a, C>) -> F,
+{
+    const CALLS: Calls = Calls {
+        pre: seq_pre::<C, S, F, M>,
+        exit: seq_exit::<C, S, F, M>,
+        act: seq_act::<C, S, F, M>,
+        // SAFETY: `Pin<&mut F>` and `NonNull<()>` are ABI-compatible (thin pointers, `Pin`
+        // transparent), so the poll of `F` may be called through this type; `Frame::act`
+        // passes it only the pinned `F` that `seq_act` returned.
+        poll: unsafe {
+            core::mem::transmute::<
+                for<'p, 'w, 'x> fn(Pin<&'p mut F>, &'w mut Context<'x>) -> Poll<()>,
+                for<'w, 'x> unsafe fn(NonNull<()>, &'w mut Context<'x>) -> Poll<()>,
+            >(<F as Future>::poll)
+        },
+    };
+}
+
+impl<'a, 's, C, S, F, M> Future for Framework<'a, 's, C, S, F, M>
+where
+    S: Sequence<C>,
+    F: Future<Output = ()>,
+    M: Fn(&'s mut S, &'a Cx<'a, C>) -> F,
+{
+    type Output = Result<Outcome, Error>;
+
+    #[inline]
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
+        // SAFETY: only a pointer is taken, nothing is moved (the action stays in place).
+        let fw = NonNull::from(unsafe { self.get_unchecked_mut() });
+        let body = BodyRef {
+            body: fw.cast(),
+            calls: &Self::CALLS,
+            _borrow: PhantomData,
+            _control: PhantomData,
+        };
+        // SAFETY: the frame is only ever borrowed shared; `seq_act` and the conditions reach
+        // the other fields through `body` (see `seq_act`).
+        unsafe { &(*fw.as_ptr()).frame }.poll(w, body)
     }
 }
