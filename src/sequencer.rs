@@ -501,6 +501,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 /// (`Inner` itself: those sections only hold off the tick and the lanes). The operations
 /// are written once, over `Steps`, and [`steps!`] picks the implementation by the lock.
 pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
+    /// True when every step runs inside one section: nothing changes between two steps,
+    /// so a commit never has to be tried again.
+    const ONE_SECTION: bool = false;
+
     /// Runs `f` on the state: in a section of its own, or inside the caller's.
     fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R;
 
@@ -559,8 +563,10 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
             self.step(|s| s.new_run(id, run.map(|r| r.link), armed));
             self.step(|s| s.due_by(id));
             let t = Transition::edge(id, from, RunningState::Running, cause);
-            if self.commit(&t, seen, run.map(|r| r.flags)) {
-                return true;
+            let done = self.commit(&t, seen, run.map(|r| r.flags));
+            // In one section the loop never repeats: its head is then one call.
+            if done || Self::ONE_SECTION {
+                return done;
             }
         }
     }
@@ -622,6 +628,8 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
 
 /// Inside the section a coarse lock's caller holds: every step runs at once.
 impl<C, const N: usize, const T: usize, const W: usize> Steps<C, N, T, W> for Inner<C, N, T, W> {
+    const ONE_SECTION: bool = true;
+
     #[inline(always)]
     fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R {
         f(self)
