@@ -862,7 +862,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// change in the commit. (A handle reading the sequence from a context that preempts a
     /// start in between sees no last outcome or exception.) Returns the state, the low 32
     /// bits of now and whether the timeout is armed, for the commit.
-    #[inline(never)]
+    #[inline]
     pub(crate) fn schedule(&mut self, id: SeqId, start: Option<u8>) -> (RunningState, u32, bool) {
         let now = self.now;
         // `id` is registered (checked before, and a registration is never undone): no
