@@ -27,10 +27,10 @@ pub(crate) struct Info {
 pub(crate) trait Engine<C> {
     fn now(&self) -> Instant;
     fn begin(&self, id: SeqId, caller: Option<SeqId>, mode: Mode) -> Result<(), Error>;
-    /// Parks `waker` for `id`'s lane and says what an await point must do.
-    fn gate(&self, id: SeqId, waker: &Waker) -> Gate;
-    /// Like `gate`, but `Go` only when the tick said a polled condition is due.
-    fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate;
+    /// Parks `waker` for `id`'s lane and says what an await point must do; with `polled`,
+    /// `Go` only when the tick said a polled condition is due (one vtable entry for
+    /// `gate` and `poll_due` below).
+    fn wait(&self, id: SeqId, waker: &Waker, polled: bool) -> Gate;
     fn poll_wait(&self, id: SeqId, on: bool);
     fn restarted(&self, id: SeqId);
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate>;
@@ -59,22 +59,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         Sequencer::begin(self, id, caller, mode, Cause::Start, 0)
     }
 
-    fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
-        steps!(self, |s| {
-            s.step(|s| s.park(id, waker));
-            s.step(|s| s.gate(id))
-        })
-    }
-
-    fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
+    fn wait(&self, id: SeqId, waker: &Waker, polled: bool) -> Gate {
         steps!(self, |s| {
             s.step(|s| s.park(id, waker));
             s.step(|s| match s.gate(id) {
-                Gate::Go if s.poll_due.has(id) => {
+                Gate::Go if polled && s.poll_due.has(id) => {
                     s.poll_due.set(id, false);
                     Gate::Go
                 }
-                Gate::Go => Gate::Hold,
+                Gate::Go if polled => Gate::Hold,
                 other => other,
             })
         })
@@ -194,6 +187,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
 }
 
 impl<C> dyn Engine<C> + '_ {
+    /// Parks `waker` for `id`'s lane and says what an await point must do.
+    #[inline]
+    pub(crate) fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
+        self.wait(id, waker, false)
+    }
+
+    /// Like [`gate`](Self::gate), but `Go` only when the tick said a polled condition is
+    /// due.
+    #[inline]
+    pub(crate) fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
+        self.wait(id, waker, true)
+    }
+
     /// Queues a pause, resume or abort request (`bit`) for the next tick.
     pub(crate) fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
         self.edit(id, bit, 0)
