@@ -678,9 +678,9 @@ pub(crate) use steps;
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
     /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
-    /// the new run: [`admit`](Steps::admit), [`launch`](Steps::launch) and, in its lane,
-    /// the wake-up; with a coarse lock a section each (a whole start in one would hold off
-    /// the tick for up to ≈ 400 instructions).
+    /// the new run: [`admit`](Steps::admit), then [`launch`](Steps::launch) and, in its
+    /// lane, the wake-up; with a coarse lock two sections (a whole start in one would hold
+    /// off the tick for up to ≈ 450 instructions: the caller walk grows with the depth).
     pub(crate) fn begin(
         &self,
         id: SeqId,
@@ -695,13 +695,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             link: Link::to(caller),
             flags,
         };
-        if !steps!(self, |s| s.launch(id, Some(run), cause)) {
-            return Err(Error::AlreadyRunning(id));
-        }
-        if mode == Mode::Lane {
-            self.wake_lane(id);
-        }
-        Ok(())
+        steps!(self, |s| {
+            if !s.launch(id, Some(run), cause) {
+                return Err(Error::AlreadyRunning(id));
+            }
+            if mode == Mode::Lane {
+                s.step(|s| s.wake(id));
+            }
+            Ok(())
+        })
     }
 
     /// [`Inner::start`] of a start in a section of its own (with the portable lock).
