@@ -679,8 +679,8 @@ pub(crate) use steps;
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
     /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
     /// the new run: [`admit`](Steps::admit), then [`launch`](Steps::launch) and, in its
-    /// lane, the wake-up; with a coarse lock two sections (a whole start in one would hold
-    /// off the tick for up to ≈ 450 instructions: the caller walk grows with the depth).
+    /// lane, the wake-up; with a coarse lock two sections (a whole start in one took 339
+    /// instructions in the scenarios' traces, and its caller walk grows with the depth).
     pub(crate) fn begin(
         &self,
         id: SeqId,
