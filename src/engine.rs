@@ -24,14 +24,17 @@ pub(crate) struct Info {
     pub(crate) outcome: Option<Outcome>,
 }
 
+/// The `bit` of [`Engine::edit`] that sets whether a sequence waits for a polled condition
+/// (bit 0 of the flags: never a request).
+const POLL_WAIT: u16 = 1;
+
 pub(crate) trait Engine<C> {
     fn now(&self) -> Instant;
     fn begin(&self, id: SeqId, caller: Option<SeqId>, mode: Mode) -> Result<(), Error>;
-    /// Parks `waker` for `id`'s lane and says what an await point must do.
-    fn gate(&self, id: SeqId, waker: &Waker) -> Gate;
-    /// Like `gate`, but `Go` only when the tick said a polled condition is due.
-    fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate;
-    fn poll_wait(&self, id: SeqId, on: bool);
+    /// Parks `waker` for `id`'s lane and says what an await point must do; with `polled`,
+    /// `Go` only when the tick said a polled condition is due (one vtable entry for
+    /// `gate` and `poll_due` below).
+    fn wait(&self, id: SeqId, waker: &Waker, polled: bool) -> Gate;
     fn restarted(&self, id: SeqId);
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate>;
     fn finished(&self, id: SeqId, outcome: Outcome);
@@ -40,8 +43,10 @@ pub(crate) trait Engine<C> {
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues request `bit` for the next tick, or with `bit` 0 sets the timeout to
-    /// `micros`: one vtable entry for both (called by `request` and `set_timeout` below).
-    fn edit(&self, id: SeqId, bit: u16, micros: u32) -> Result<(), Error>;
+    /// `value` µs, or with [`POLL_WAIT`] sets whether `id` waits for a polled condition
+    /// (`value` 1) or not: one vtable entry for `request`, `set_timeout` and `poll_wait`
+    /// below.
+    fn edit(&self, id: SeqId, bit: u16, value: u32) -> Result<(), Error>;
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
 }
 
@@ -59,33 +64,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         Sequencer::begin(self, id, caller, mode, Cause::Start, 0)
     }
 
-    fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
-        steps!(self, |s| {
-            s.step(|s| s.park(id, waker));
-            s.step(|s| s.gate(id))
-        })
-    }
-
-    fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
+    fn wait(&self, id: SeqId, waker: &Waker, polled: bool) -> Gate {
         steps!(self, |s| {
             s.step(|s| s.park(id, waker));
             s.step(|s| match s.gate(id) {
-                Gate::Go if s.poll_due.has(id) => {
+                Gate::Go if polled && s.poll_due.has(id) => {
                     s.poll_due.set(id, false);
                     Gate::Go
                 }
-                Gate::Go => Gate::Hold,
+                Gate::Go if polled => Gate::Hold,
                 other => other,
             })
-        })
-    }
-
-    fn poll_wait(&self, id: SeqId, on: bool) {
-        self.with(|s| {
-            if s.block(id).is_ok() {
-                s.poll_wait.set(id, on);
-                s.poll_due.set(id, false);
-            }
         })
     }
 
@@ -178,12 +167,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         })
     }
 
-    fn edit(&self, id: SeqId, bit: u16, micros: u32) -> Result<(), Error> {
+    fn edit(&self, id: SeqId, bit: u16, value: u32) -> Result<(), Error> {
         self.with(|s| {
-            if bit != 0 {
-                return s.request(id, bit);
+            let b = s.block_mut(id)?;
+            match bit {
+                0 => b.timeout = value,
+                POLL_WAIT => {
+                    s.poll_wait.set(id, value != 0);
+                    // A stale due poll is dropped either way.
+                    s.poll_due.set(id, false);
+                }
+                _ => return s.request(id, bit),
             }
-            s.block_mut(id)?.timeout = micros;
             Ok(())
         })
     }
@@ -194,6 +189,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
 }
 
 impl<C> dyn Engine<C> + '_ {
+    /// Parks `waker` for `id`'s lane and says what an await point must do.
+    #[inline]
+    pub(crate) fn gate(&self, id: SeqId, waker: &Waker) -> Gate {
+        self.wait(id, waker, false)
+    }
+
+    /// Like [`gate`](Self::gate), but `Go` only when the tick said a polled condition is
+    /// due.
+    #[inline]
+    pub(crate) fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
+        self.wait(id, waker, true)
+    }
+
     /// Queues a pause, resume or abort request (`bit`) for the next tick.
     pub(crate) fn request(&self, id: SeqId, bit: u16) -> Result<(), Error> {
         self.edit(id, bit, 0)
@@ -202,6 +210,12 @@ impl<C> dyn Engine<C> + '_ {
     /// Sets the timeout of `id` (µs, 0 = off) for its next run.
     pub(crate) fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {
         self.edit(id, 0, micros)
+    }
+
+    /// Marks `id` as waiting for a polled condition (`on`) or not; a stale due poll is
+    /// dropped either way. Nothing for an unknown id.
+    pub(crate) fn poll_wait(&self, id: SeqId, on: bool) {
+        let _ = self.edit(id, POLL_WAIT, u32::from(on));
     }
 
     /// The id of the sequence named `name`: one [`info`](Engine::info) (one section) per

@@ -501,6 +501,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 /// (`Inner` itself: those sections only hold off the tick and the lanes). The operations
 /// are written once, over `Steps`, and [`steps!`] picks the implementation by the lock.
 pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
+    /// True when every step runs inside one section: nothing changes between two steps,
+    /// so a commit never has to be tried again.
+    const ONE_SECTION: bool = false;
+
     /// Runs `f` on the state: in a section of its own, or inside the caller's.
     fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R;
 
@@ -559,8 +563,10 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
             self.step(|s| s.new_run(id, run.map(|r| r.link), armed));
             self.step(|s| s.due_by(id));
             let t = Transition::edge(id, from, RunningState::Running, cause);
-            if self.commit(&t, seen, run.map(|r| r.flags)) {
-                return true;
+            let done = self.commit(&t, seen, run.map(|r| r.flags));
+            // In one section the loop never repeats: its head is then one call.
+            if done || Self::ONE_SECTION {
+                return done;
             }
         }
     }
@@ -622,6 +628,8 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
 
 /// Inside the section a coarse lock's caller holds: every step runs at once.
 impl<C, const N: usize, const T: usize, const W: usize> Steps<C, N, T, W> for Inner<C, N, T, W> {
+    const ONE_SECTION: bool = true;
+
     #[inline(always)]
     fn step<R>(&mut self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R {
         f(self)
@@ -670,9 +678,9 @@ pub(crate) use steps;
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
     /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
-    /// the new run: [`admit`](Steps::admit), [`launch`](Steps::launch) and, in its lane,
-    /// the wake-up; with a coarse lock a section each (a whole start in one would hold off
-    /// the tick for up to ≈ 400 instructions).
+    /// the new run: [`admit`](Steps::admit), then [`launch`](Steps::launch) and, in its
+    /// lane, the wake-up; with a coarse lock two sections (a whole start in one took 339
+    /// instructions in the scenarios' traces, and its caller walk grows with the depth).
     pub(crate) fn begin(
         &self,
         id: SeqId,
@@ -687,13 +695,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             link: Link::to(caller),
             flags,
         };
-        if !steps!(self, |s| s.launch(id, Some(run), cause)) {
-            return Err(Error::AlreadyRunning(id));
-        }
-        if mode == Mode::Lane {
-            self.wake_lane(id);
-        }
-        Ok(())
+        steps!(self, |s| {
+            if !s.launch(id, Some(run), cause) {
+                return Err(Error::AlreadyRunning(id));
+            }
+            if mode == Mode::Lane {
+                s.step(|s| s.wake(id));
+            }
+            Ok(())
+        })
     }
 
     /// [`Inner::start`] of a start in a section of its own (with the portable lock).
@@ -854,7 +864,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// change in the commit. (A handle reading the sequence from a context that preempts a
     /// start in between sees no last outcome or exception.) Returns the state, the low 32
     /// bits of now and whether the timeout is armed, for the commit.
-    #[inline(never)]
+    #[inline]
     pub(crate) fn schedule(&mut self, id: SeqId, start: Option<u8>) -> (RunningState, u32, bool) {
         let now = self.now;
         // `id` is registered (checked before, and a registration is never undone): no
