@@ -7,7 +7,8 @@
 //! `critical-section` lock instead of RTIC's priority ceiling.
 //!
 //! - `init`: looks the scenario up by the command line, installs its table into the
-//!   `static` sequencer and binds its bodies, declares the lanes, starts the main sequences at time 0, starts TIM2.
+//!   `static` sequencer and binds its bodies (blocking children into `init`'s arena),
+//!   declares the lanes, starts the main sequences at time 0, starts TIM2.
 //! - `tick` (TIM2, 1 kHz, priority 2): the scenario's script, then `SEQ.tick`. After the
 //!   scenario's last tick it stops the timer.
 //! - `lane0..2` (priority 1): `rtseq::lane(&SEQ, &CTRL, seq)`, in the host's lane order.
@@ -25,7 +26,9 @@ mod app {
     use board::clock::TickTimer;
     use core::sync::atomic::{AtomicBool, Ordering};
     use rtseq::Seq;
-    use rtseq_scenarios::{encode, Ctrl, Mons, Root, Scenario, Seqr, SCENARIOS};
+    use rtseq_scenarios::{
+        encode, Arena, Child, Ctrl, Mons, Node, Scenario, Seqr, CHILDREN, SCENARIOS,
+    };
 
     /// The sequencer, shared by the tick and the lanes.
     // SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1,
@@ -49,12 +52,13 @@ mod app {
         timer: TickTimer,
         scenario: &'static Scenario,
         monitors: Mons,
-        lane0: Option<Seq<Root>>,
-        lane1: Option<Seq<Root>>,
-        lane2: Option<Seq<Root>>,
+        lane0: Option<Seq<Node<'static>>>,
+        lane1: Option<Seq<Node<'static>>>,
+        lane2: Option<Seq<Node<'static>>>,
     }
 
-    #[init]
+    /// `children`: the arena of the scenario's blocking children (the lanes borrow it).
+    #[init(local = [children: [Option<Child<'static>>; CHILDREN] = [const { None }; CHILDREN]])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut buf = [0u8; 128];
         let name = first_arg(&mut buf);
@@ -68,7 +72,7 @@ mod app {
             }
             board::exit_failure();
         };
-        let setup = match (scenario.register)(&SEQ) {
+        let setup = match (scenario.register)(&SEQ, Arena::new(cx.local.children)) {
             Ok(s) => s,
             Err(e) => {
                 defmt::error!("scenarios: set-up failed: {}", e);
