@@ -108,6 +108,17 @@ pub enum ScenarioError {
     Capacity,
 }
 
+impl ScenarioError {
+    /// What went wrong, as text (an rtseq error without its name or id): what the firmware
+    /// prints, without linking the formatting of every error variant.
+    pub const fn reason(&self) -> &'static str {
+        match self {
+            ScenarioError::Rtseq(e) => e.reason(),
+            ScenarioError::Capacity => "a node, the arena or a lane or start list is full",
+        }
+    }
+}
+
 impl From<rtseq::Error> for ScenarioError {
     fn from(e: rtseq::Error) -> Self {
         ScenarioError::Rtseq(e)

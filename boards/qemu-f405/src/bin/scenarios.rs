@@ -92,7 +92,7 @@ mod app {
         let setup = match (scenario.register)(&SEQ, Arena::new(cx.local.children)) {
             Ok(s) => s,
             Err(e) => {
-                defmt::error!("scenarios: set-up failed: {}", e);
+                defmt::error!("scenarios: set-up failed: {=str}", e.reason());
                 board::exit_failure();
             }
         };
@@ -103,7 +103,7 @@ mod app {
         }
         for &id in setup.start.iter() {
             if let Err(e) = SEQ.sequence_by_id(id).map_or(Ok(()), |h| h.start()) {
-                defmt::error!("scenarios: start failed: {}", e);
+                defmt::error!("scenarios: start failed: {=str}", e.reason());
                 board::exit_failure();
             }
         }
