@@ -64,11 +64,8 @@ const NO_MONITORS: Mons = Monitors::new();
 /// Installs `table` into the empty sequencer. Out of line, one copy per table size: the
 /// call's set-up is rtseq's code, written once instead of in every scenario.
 #[inline(never)]
-fn install<const K: usize>(
-    seq: &Seqr,
-    table: &'static Table<Ctrl, K>,
-) -> Result<(), ScenarioError> {
-    Ok(seq.install(table)?)
+fn install<const K: usize>(seq: &Seqr, table: &'static Table<Ctrl, K>) -> Result<(), rtseq::Error> {
+    seq.install(table)
 }
 
 /// Binds `body` to `id`. Out of line, one copy per body type: moving a body into its
