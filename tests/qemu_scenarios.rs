@@ -309,9 +309,9 @@ fn bench_tick_costs_latency_and_sizes_meet_their_budgets() {
     for p in [
         "size trace record",
         "size monitor entry",
-        "size lane future (Seq<Root>, scenarios' root, 3 levels)",
+        "size lane future (Seq<Node>, scenarios' node)",
         "size lane future (one-shot sequence)",
-        "size Seq<Root>",
+        "size Seq<Node>",
     ] {
         eprintln!("figure: {p} = {} bytes", f(p));
     }

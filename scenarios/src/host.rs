@@ -7,7 +7,7 @@ use std::vec::Vec;
 use rtseq::sim::Sim;
 use rtseq::{Duration, Transition};
 
-use crate::{Ctrl, Scenario, ScenarioError, Seqr, Summary};
+use crate::{Arena, Ctrl, Scenario, ScenarioError, Seqr, Summary, CHILDREN};
 
 /// What a host run produced.
 #[derive(Clone, Debug, PartialEq)]
@@ -32,7 +32,8 @@ pub struct Run {
 pub fn run(scenario: &Scenario) -> Result<Run, ScenarioError> {
     let seq = Seqr::new();
     let ctrl = Ctrl::new();
-    let setup = (scenario.register)(&seq)?;
+    let mut children = [const { None }; CHILDREN];
+    let setup = (scenario.register)(&seq, Arena::new(&mut children))?;
     let mut sim = Sim::new(&seq, &ctrl, setup.monitors);
     for lane in setup.lanes {
         sim.lane(lane);

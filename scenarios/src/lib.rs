@@ -13,11 +13,11 @@
 //! * [`Ctrl`]: the control system, atomic flags (a `static` on the chip) plus a digest of
 //!   every action line and every outcome returned to a caller ([`Summary`]).
 //! * [`Leaf`]: a step whose pre- and exit conditions are flags.
-//! * [`Node<Child>`](Node): a sequence with a fixed set of optional ops (run up to two
-//!   steps, a [`rtseq::Wait`], one blocking child of type `Child`, start non-blocking,
-//!   join). Nesting the type gives the depth: [`N0`] … [`N3`]. Its action is a
-//!   hand-written future ([`NodeAction`]).
-//! * [`Root`]: an enum over the root shapes; every lane has the same type `Seq<Root>`.
+//! * [`Node`]: a sequence with a fixed set of optional ops (run up to two steps, a
+//!   [`rtseq::Wait`], one blocking child, start non-blocking, join). One type for every
+//!   depth of a tree: a node's blocking child lives in an [`Arena`] slot, with the room for
+//!   the future that runs it. Its action is a hand-written future ([`NodeAction`]); every
+//!   lane has the type `Seq<Node>`.
 //! * [`Scenario`]: a set-up function, a script run before every tick, a duration.
 //! * [`encode`] / [`decode`]: a [`rtseq::Transition`] as six integers, the wire format of
 //!   the firmware's trace.
@@ -28,8 +28,8 @@
 //! Write a set-up function: a `const` [`rtseq::Table`] of the sequences (its order is the
 //! order of the ids), a `const` monitor table ([`rtseq::Monitors::table`] of [`FlagCond`]
 //! monitors) and, at run time, `Sequencer::install` and the bodies bound bottom-up with
-//! `Sequencer::bind`; nothing is registered at run time, so the firmware links no
-//! registration code. Then a script (`fn(ms, &Ctrl, &Seqr)`: flags, requests through
+//! `Sequencer::bind`, each blocking child moved into the arena ([`Arena::child`]); nothing
+//! is registered at run time, so the firmware links no registration code. Then a script (`fn(ms, &Ctrl, &Seqr)`: flags, requests through
 //! handles found by name, abort-all) and add a [`Scenario`] to [`SCENARIOS`]. The QEMU
 //! comparison test picks it up by itself.
 #![no_std]
@@ -53,7 +53,7 @@ pub mod host;
 pub use ctrl::{Ctrl, FlagCond, Summary, FLAGS};
 pub use encode::{decode, encode, outcome_code, Encoded};
 pub use list::SCENARIOS;
-pub use node::{Done, Leaf, Never, Node, NodeAction, Op, Root, RootAction, N0, N1, N2, N3};
+pub use node::{Arena, Child, Done, Leaf, Node, NodeAction, Op};
 
 use rtseq::{Monitors, Seq, SeqId, Sequencer};
 
@@ -65,6 +65,9 @@ pub const TRACE: usize = 64;
 pub const MONITORS: usize = 4;
 /// Maximum number of lanes of a scenario (the firmware declares this many lane tasks).
 pub const LANES: usize = 3;
+/// Maximum number of blocking children ([`Node::run`]) in a scenario: the slots of its
+/// [`Arena`].
+pub const CHILDREN: usize = 3;
 /// Maximum number of sequences a scenario starts at time 0.
 pub const STARTS: usize = 2;
 
@@ -85,10 +88,10 @@ pub type Seqr = Sequencer<
 pub type Mons = Monitors<'static, Ctrl, MONITORS, FlagCond>;
 
 /// What a set-up produced: the lanes (in poll order), what to start at time 0 and the
-/// monitors.
-pub struct Setup {
+/// monitors. The lanes' trees borrow the set-up's [`Arena`] for `'t`.
+pub struct Setup<'t> {
     /// Lane root objects, in declaration (= poll) order.
-    pub lanes: heapless::Vec<Seq<Root>, LANES>,
+    pub lanes: heapless::Vec<Seq<Node<'t>>, LANES>,
     /// Sequences started non-blocking at time 0, in this order.
     pub start: heapless::Vec<SeqId, STARTS>,
     /// The monitor table (for the tick).
@@ -105,15 +108,26 @@ pub enum ScenarioError {
     Capacity,
 }
 
+impl ScenarioError {
+    /// What went wrong, as text (an rtseq error without its name or id): what the firmware
+    /// prints, without linking the formatting of every error variant.
+    pub const fn reason(&self) -> &'static str {
+        match self {
+            ScenarioError::Rtseq(e) => e.reason(),
+            ScenarioError::Capacity => "a node, the arena or a lane or start list is full",
+        }
+    }
+}
+
 impl From<rtseq::Error> for ScenarioError {
     fn from(e: rtseq::Error) -> Self {
         ScenarioError::Rtseq(e)
     }
 }
 
-/// Installs a scenario's sequences into an empty sequencer and binds them; returns its
-/// lanes and monitors.
-pub type Register = fn(&Seqr) -> Result<Setup, ScenarioError>;
+/// Installs a scenario's sequences into an empty sequencer and binds them (blocking children
+/// into the arena); returns its lanes and monitors.
+pub type Register = for<'t> fn(&Seqr, Arena<'t>) -> Result<Setup<'t>, ScenarioError>;
 
 /// Run before every tick with the tick's time in ms (1, 2, …): flag flips, requests.
 pub type Script = fn(u32, &Ctrl, &Seqr);

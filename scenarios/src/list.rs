@@ -10,11 +10,9 @@ use rtseq::{
     Wait,
 };
 
-use crate::{
-    Ctrl, FlagCond, Leaf, Mons, Root, Scenario, ScenarioError, Seqr, Setup, N0, N1, N2, N3,
-};
+use crate::{Arena, Ctrl, FlagCond, Leaf, Mons, Node, Scenario, ScenarioError, Seqr, Setup};
 
-type R = Result<Setup, ScenarioError>;
+type R<'t> = Result<Setup<'t>, ScenarioError>;
 
 const fn cfg(name: &'static str) -> SeqConfig<Ctrl> {
     SeqConfig::new(name)
@@ -66,11 +64,8 @@ const NO_MONITORS: Mons = Monitors::new();
 /// Installs `table` into the empty sequencer. Out of line, one copy per table size: the
 /// call's set-up is rtseq's code, written once instead of in every scenario.
 #[inline(never)]
-fn install<const K: usize>(
-    seq: &Seqr,
-    table: &'static Table<Ctrl, K>,
-) -> Result<(), ScenarioError> {
-    Ok(seq.install(table)?)
+fn install<const K: usize>(seq: &Seqr, table: &'static Table<Ctrl, K>) -> Result<(), rtseq::Error> {
+    seq.install(table)
 }
 
 /// Binds `body` to `id`. Out of line, one copy per body type: moving a body into its
@@ -82,7 +77,7 @@ fn bind<S>(seq: &Seqr, id: SeqId, body: S) -> Result<Seq<S>, ScenarioError> {
 
 /// The set-up's result: `lanes` (in poll order), the sequences started at time 0 (in this
 /// order) and the monitors.
-fn setup<const K: usize>(lanes: [Seq<Root>; K], start: &[SeqId], monitors: Mons) -> R {
+fn setup<'t, const K: usize>(lanes: [Seq<Node<'t>>; K], start: &[SeqId], monitors: Mons) -> R<'t> {
     let mut out = Setup {
         lanes: heapless::Vec::new(),
         start: heapless::Vec::new(),
@@ -139,7 +134,7 @@ const BEHAVIOURS: Table<Ctrl, 6> = table([
 
 /// main ─run→ P ─run→ A ─step→ S (exit: flag 1). Monitor on A watches flag 0 (pulse at
 /// 5 ms), behaviour `B`; with `EXC` its exception sequence E waits 2 ms (W).
-fn behaviours<const B: u8, const EXC: bool>(seq: &Seqr) -> R {
+fn behaviours<'t, const B: u8, const EXC: bool>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     let monitors = const {
         let m = on_flag("m", 0, behaviour(B));
         let m = if EXC {
@@ -152,11 +147,11 @@ fn behaviours<const B: u8, const EXC: bool>(seq: &Seqr) -> R {
     install(seq, &BEHAVIOURS)?;
     let [s, a, p, main, w, e] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let a = bind(seq, a, N0::new().step(s)?)?;
-    let p = bind(seq, p, N1::new().run(a)?)?;
-    let main = bind(seq, main, Root::from(N2::new().run(p)?))?;
+    let a = bind(seq, a, Node::new().step(s)?)?;
+    let p = bind(seq, p, Node::new().run(arena.child(a)?)?)?;
+    let main = bind(seq, main, Node::new().run(arena.child(p)?)?)?;
     let w = bind(seq, w, Wait::new(Duration::from_millis(2)))?;
-    let e = bind(seq, e, Root::from(N0::new().wait(w)?))?;
+    let e = bind(seq, e, Node::new().wait(w)?)?;
     let m = main.id();
     setup([main, e], &[m], monitors)
 }
@@ -169,17 +164,17 @@ fn behaviours_script(ms: u32, c: &Ctrl, _: &Seqr) {
 // --- tests/scenarios.rs ------------------------------------------------------------------
 
 /// main ─run→ X1 ─run→ X2 ─run→ X3 ─step→ S; `AbortOwner` monitor on X1 (flag 0 at 5 ms).
-fn outermost(seq: &Seqr) -> R {
+fn outermost<'t>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 5> = table([cfg("S"), cfg("X3"), cfg("X2"), cfg("X1"), cfg("main")]);
     const MONITORS: Mons =
         monitors([on_flag("outer", 0, Behaviour::AbortOwner).owned_by(id(&TABLE, "X1"))]);
     install(seq, &TABLE)?;
     let [s, x3, x2, x1, main] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let x3 = bind(seq, x3, N0::new().step(s)?)?;
-    let x2 = bind(seq, x2, N1::new().run(x3)?)?;
-    let x1 = bind(seq, x1, N2::new().run(x2)?)?;
-    let main = bind(seq, main, Root::from(N3::new().run(x1)?))?;
+    let x3 = bind(seq, x3, Node::new().step(s)?)?;
+    let x2 = bind(seq, x2, Node::new().run(arena.child(x3)?)?)?;
+    let x1 = bind(seq, x1, Node::new().run(arena.child(x2)?)?)?;
+    let main = bind(seq, main, Node::new().run(arena.child(x1)?)?)?;
     let m = main.id();
     setup([main], &[m], MONITORS)
 }
@@ -189,15 +184,15 @@ fn pulse0_at5(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// main ─run→ A ─step→ S (never ends); a 3 ms timeout on S (`ON_STEP`) or on A.
-fn timeout<const ON_STEP: bool>(seq: &Seqr) -> R {
+fn timeout<'t, const ON_STEP: bool>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     const THREE: Duration = Duration::from_millis(3);
     const ON_S: Table<Ctrl, 3> = table([cfg("S").timeout(THREE), cfg("A"), cfg("main")]);
     const ON_A: Table<Ctrl, 3> = table([cfg("S"), cfg("A").timeout(THREE), cfg("main")]);
     install(seq, if ON_STEP { &ON_S } else { &ON_A })?;
     let [s, a, main] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let a = bind(seq, a, N0::new().step(s)?)?;
-    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
+    let a = bind(seq, a, Node::new().step(s)?)?;
+    let main = bind(seq, main, Node::new().run(arena.child(a)?)?)?;
     let m = main.id();
     setup([main], &[m], NO_MONITORS)
 }
@@ -208,15 +203,15 @@ fn quiet(_: u32, _: &Ctrl, _: &Seqr) {}
 const S_A_MAIN: Table<Ctrl, 3> = table([cfg("S"), cfg("A"), cfg("main")]);
 
 /// main ─run→ A ─step→ S; `RestartOwner` monitor on A (limit 3), fault from 5 ms on.
-fn restart_limit(seq: &Seqr) -> R {
+fn restart_limit<'t>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     const MONITORS: Mons = monitors([on_flag("stuck", 0, Behaviour::RestartOwner)
         .restart_limit(3)
         .owned_by(id(&S_A_MAIN, "A"))]);
     install(seq, &S_A_MAIN)?;
     let [s, a, main] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let a = bind(seq, a, N0::new().step(s)?)?;
-    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
+    let a = bind(seq, a, Node::new().step(s)?)?;
+    let main = bind(seq, main, Node::new().run(arena.child(a)?)?)?;
     let m = main.id();
     setup([main], &[m], MONITORS)
 }
@@ -227,7 +222,7 @@ fn fault_from5(ms: u32, c: &Ctrl, _: &Seqr) {
 
 /// A (lane) ─step→ S; a `Nothing` monitor with exception sequence E, condition true from
 /// 5 to 9 ms; edge (`LEVEL` false) or level trigger.
-fn storm<const LEVEL: bool>(seq: &Seqr) -> R {
+fn storm<'t, const LEVEL: bool>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 3> = table([cfg("S"), cfg("A"), cfg("E")]);
     let monitors = const {
         let trigger = if LEVEL {
@@ -243,8 +238,8 @@ fn storm<const LEVEL: bool>(seq: &Seqr) -> R {
     install(seq, &TABLE)?;
     let [s, a, e] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let a = bind(seq, a, Root::from(N0::new().step(s)?))?;
-    let e = bind(seq, e, Root::from(N0::new()))?;
+    let a = bind(seq, a, Node::new().step(s)?)?;
+    let e = bind(seq, e, Node::new())?;
     let ai = a.id();
     setup([a, e], &[ai], monitors)
 }
@@ -256,7 +251,7 @@ fn storm_script(ms: u32, c: &Ctrl, _: &Seqr) {
 
 /// main ─run→ A ─step→ S (10 ms timeout, `Nothing` monitor on flag 2 at 12 ms); A paused at
 /// 4 ms, S and A resumed at 21 ms.
-fn pause(seq: &Seqr) -> R {
+fn pause<'t>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 3> = table([
         cfg("S").timeout(Duration::from_millis(10)),
         cfg("A"),
@@ -267,8 +262,8 @@ fn pause(seq: &Seqr) -> R {
     install(seq, &TABLE)?;
     let [s, a, main] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let a = bind(seq, a, N0::new().step(s)?)?;
-    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
+    let a = bind(seq, a, Node::new().step(s)?)?;
+    let main = bind(seq, main, Node::new().run(arena.child(a)?)?)?;
     let m = main.id();
     setup([main], &[m], MONITORS)
 }
@@ -285,24 +280,24 @@ fn pause_script(ms: u32, c: &Ctrl, seq: &Seqr) {
 }
 
 /// main ─run→ P; P starts Q (lane) non-blocking, then steps S; `AbortOwner` on P at 5 ms.
-fn non_blocking(seq: &Seqr) -> R {
+fn non_blocking<'t>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 5> = table([cfg("S2"), cfg("Q"), cfg("S"), cfg("P"), cfg("main")]);
     const MONITORS: Mons =
         monitors([on_flag("m", 0, Behaviour::AbortOwner).owned_by(id(&TABLE, "P"))]);
     install(seq, &TABLE)?;
     let [s2, q, s, p, main] = ids();
     let s2 = bind(seq, s2, Leaf::until(2))?;
-    let q = bind(seq, q, Root::from(N0::new().step(s2)?))?;
+    let q = bind(seq, q, Node::new().step(s2)?)?;
     let s = bind(seq, s, Leaf::until(1))?;
-    let p = bind(seq, p, N0::new().start(q.id())?.step(s)?)?;
-    let main = bind(seq, main, Root::from(N1::new().run(p)?))?;
+    let p = bind(seq, p, Node::new().start(q.id())?.step(s)?)?;
+    let main = bind(seq, main, Node::new().run(arena.child(p)?)?)?;
     let m = main.id();
     setup([main, q], &[m], MONITORS)
 }
 
 /// main ─run→ A ─step→ S; m1 on A (flag 0 at 5 ms) runs E ─step→ SE; m2 on E (flag 2 at
 /// 7 ms) aborts E.
-fn exception_monitor(seq: &Seqr) -> R {
+fn exception_monitor<'t>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 5> = table([cfg("S"), cfg("A"), cfg("SE"), cfg("E"), cfg("main")]);
     const MONITORS: Mons = monitors([
         on_flag("m1", 0, Behaviour::AbortOwner)
@@ -313,10 +308,10 @@ fn exception_monitor(seq: &Seqr) -> R {
     install(seq, &TABLE)?;
     let [s, a, se, e, main] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let a = bind(seq, a, N0::new().step(s)?)?;
+    let a = bind(seq, a, Node::new().step(s)?)?;
     let se = bind(seq, se, Leaf::until(3))?;
-    let e = bind(seq, e, Root::from(N0::new().step(se)?))?;
-    let main = bind(seq, main, Root::from(N1::new().run(a)?))?;
+    let e = bind(seq, e, Node::new().step(se)?)?;
+    let main = bind(seq, main, Node::new().run(arena.child(a)?)?)?;
     let m = main.id();
     setup([main, e], &[m], MONITORS)
 }
@@ -327,7 +322,7 @@ fn exception_monitor_script(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// main steps S and runs B; both have a false pre-condition (flag 5).
-fn pre_false(seq: &Seqr) -> R {
+fn pre_false<'t>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 3> = table([cfg("S"), cfg("B"), cfg("main")]);
     install(seq, &TABLE)?;
     let [s, b, main] = ids();
@@ -339,8 +334,8 @@ fn pre_false(seq: &Seqr) -> R {
             exit: None,
         },
     )?;
-    let b = bind(seq, b, N0::new().pre(5))?;
-    let main = bind(seq, main, Root::from(N1::new().step(s)?.run(b)?))?;
+    let b = bind(seq, b, Node::new().pre(5))?;
+    let main = bind(seq, main, Node::new().step(s)?.run(arena.child(b)?)?)?;
     let m = main.id();
     setup([main], &[m], NO_MONITORS)
 }
@@ -349,13 +344,13 @@ fn pre_false(seq: &Seqr) -> R {
 const S_MAIN: Table<Ctrl, 2> = table([cfg("S"), cfg("main")]);
 
 /// main ─step→ S; at 5 ms S's `AbortOwner` monitor and its exit condition are both true.
-fn monitor_and_exit(seq: &Seqr) -> R {
+fn monitor_and_exit<'t>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
     const MONITORS: Mons =
         monitors([on_flag("m", 0, Behaviour::AbortOwner).owned_by(id(&S_MAIN, "S"))]);
     install(seq, &S_MAIN)?;
     let [s, main] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let main = bind(seq, main, Root::from(N0::new().step(s)?))?;
+    let main = bind(seq, main, Node::new().step(s)?)?;
     let m = main.id();
     setup([main], &[m], MONITORS)
 }
@@ -366,7 +361,7 @@ fn monitor_and_exit_script(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// A (lane) steps S1 (exit flag 1) then S2; the fault and S1's exit appear before tick K.
-fn reaction(seq: &Seqr) -> R {
+fn reaction<'t>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 3> = table([cfg("S1"), cfg("S2"), cfg("A")]);
     const MONITORS: Mons =
         monitors([on_flag("m", 0, Behaviour::AbortOwner).owned_by(id(&TABLE, "A"))]);
@@ -374,7 +369,7 @@ fn reaction(seq: &Seqr) -> R {
     let [s1, s2, a] = ids();
     let s1 = bind(seq, s1, Leaf::until(1))?;
     let s2 = bind(seq, s2, Leaf::default())?;
-    let a = bind(seq, a, Root::from(N0::new().step(s1)?.step(s2)?))?;
+    let a = bind(seq, a, Node::new().step(s1)?.step(s2)?)?;
     let ai = a.id();
     setup([a], &[ai], MONITORS)
 }
@@ -385,18 +380,14 @@ fn reaction_script<const K: u32>(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// main starts Q twice (the second start is an error) and joins it; Q ends at 4 ms.
-fn already_running(seq: &Seqr) -> R {
+fn already_running<'t>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 3> = table([cfg("S2"), cfg("Q"), cfg("main")]);
     install(seq, &TABLE)?;
     let [s2, q, main] = ids();
     let s2 = bind(seq, s2, Leaf::until(2))?;
-    let q = bind(seq, q, Root::from(N0::new().step(s2)?))?;
+    let q = bind(seq, q, Node::new().step(s2)?)?;
     let qi = q.id();
-    let main = bind(
-        seq,
-        main,
-        Root::from(N0::new().start(qi)?.start(qi)?.join(qi)?),
-    )?;
+    let main = bind(seq, main, Node::new().start(qi)?.start(qi)?.join(qi)?)?;
     let m = main.id();
     setup([main, q], &[m], NO_MONITORS)
 }
@@ -406,14 +397,14 @@ fn already_running_script(ms: u32, c: &Ctrl, _: &Seqr) {
 }
 
 /// main starts Q (lane) and steps S; abort-all requested before the tick at 4 ms.
-fn abort_all(seq: &Seqr) -> R {
+fn abort_all<'t>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
     const TABLE: Table<Ctrl, 4> = table([cfg("S2"), cfg("Q"), cfg("S"), cfg("main")]);
     install(seq, &TABLE)?;
     let [s2, q, s, main] = ids();
     let s2 = bind(seq, s2, Leaf::until(2))?;
-    let q = bind(seq, q, Root::from(N0::new().step(s2)?))?;
+    let q = bind(seq, q, Node::new().step(s2)?)?;
     let s = bind(seq, s, Leaf::until(1))?;
-    let main = bind(seq, main, Root::from(N0::new().start(q.id())?.step(s)?))?;
+    let main = bind(seq, main, Node::new().start(q.id())?.step(s)?)?;
     let m = main.id();
     setup([main, q], &[m], NO_MONITORS)
 }
@@ -425,11 +416,11 @@ fn abort_all_script(ms: u32, _: &Ctrl, seq: &Seqr) {
 }
 
 /// main ─step→ S; an abort request through main's handle before the tick at 2 ms.
-fn abort_request(seq: &Seqr) -> R {
+fn abort_request<'t>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
     install(seq, &S_MAIN)?;
     let [s, main] = ids();
     let s = bind(seq, s, Leaf::until(1))?;
-    let main = bind(seq, main, Root::from(N0::new().step(s)?))?;
+    let main = bind(seq, main, Node::new().step(s)?)?;
     let m = main.id();
     setup([main], &[m], NO_MONITORS)
 }

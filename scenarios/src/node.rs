@@ -1,7 +1,10 @@
 //! Steps and sequences of the scenarios, without heap, recursion or `async fn`.
 
 use core::future::Future;
+use core::marker::PhantomData;
+use core::mem::{align_of, size_of, MaybeUninit};
 use core::pin::Pin;
+use core::ptr::NonNull;
 use core::task::{Context, Poll};
 
 use rtseq::{Cx, Outcome, Seq, SeqId, Sequence, Step, Wait};
@@ -63,16 +66,17 @@ pub const MAX_OPS: usize = 4;
 /// A sequence whose action runs its ops in order, recording each line (`0..`, then
 /// `u32::MAX` at the end) and each outcome in the [`Ctrl`] digest.
 ///
-/// The ops are fixed: up to two [`Leaf`] steps, one [`Wait`] step, one blocking child of
-/// type `Child`, any number of non-blocking starts and one join, at most `MAX_OPS` (4) in all.
-/// Nesting the type gives the depth of the tree ([`N0`] … [`N3`]), so there is neither heap
-/// nor recursion.
-pub struct Node<Child> {
+/// The ops are fixed: up to two [`Leaf`] steps, one [`Wait`] step, one blocking child, any
+/// number of non-blocking starts and one join, at most `MAX_OPS` (4) in all. Every depth of
+/// a tree is this one type (one copy of its code): a node holds its blocking child by
+/// reference, in an [`Arena`] slot that also has the room for the future that runs it, so
+/// there is neither heap nor recursion.
+pub struct Node<'t> {
     ops: [Option<Op>; MAX_OPS],
     step0: Option<Seq<Leaf>>,
     step1: Option<Seq<Leaf>>,
     wait: Option<Seq<Wait>>,
-    child: Option<Seq<Child>>,
+    child: Option<&'t mut Child<'t>>,
     join: Option<SeqId>,
     /// Pre-condition flag (`None`: true).
     pub pre: Option<u8>,
@@ -80,25 +84,13 @@ pub struct Node<Child> {
     pub exit: Option<u8>,
 }
 
-/// The child type of a [`Node`] that has no child sequence.
-pub enum Never {}
-
-/// A node without a child sequence.
-pub type N0 = Node<Never>;
-/// A node whose child is an [`N0`].
-pub type N1 = Node<N0>;
-/// A node whose child is an [`N1`].
-pub type N2 = Node<N1>;
-/// A node whose child is an [`N2`].
-pub type N3 = Node<N2>;
-
-impl<Child> Default for Node<Child> {
+impl Default for Node<'_> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<Child> Node<Child> {
+impl<'t> Node<'t> {
     /// A node without ops (its action ends at once).
     pub const fn new() -> Self {
         Node {
@@ -145,8 +137,8 @@ impl<Child> Node<Child> {
         self.push(Op::Wait)
     }
 
-    /// Adds "run `child` blocking" (at most one).
-    pub fn run(mut self, child: Seq<Child>) -> Result<Self, ScenarioError> {
+    /// Adds "run `child` blocking" (at most one); the child is in an [`Arena`].
+    pub fn run(mut self, child: &'t mut Child<'t>) -> Result<Self, ScenarioError> {
         if self.child.replace(child).is_some() {
             return Err(ScenarioError::Capacity);
         }
@@ -179,6 +171,112 @@ impl<Child> Node<Child> {
     }
 }
 
+/// Bytes of a `Room`: the future of a blocking run of a [`Node`] (its framework and its
+/// [`NodeAction`]) fits, on the chip and on a 64-bit host (checked at compile time).
+const ROOM: usize = 56 * size_of::<usize>();
+
+/// Room for the future that runs a [`Node`] blocking. A [`NodeAction`] cannot hold that
+/// future itself: it contains the child's `NodeAction`, which would contain itself.
+#[repr(C, align(8))]
+struct Room(MaybeUninit<[u8; ROOM]>);
+
+/// A blocking child of a [`Node`] and the room for the future that runs it (an [`Arena`]
+/// slot).
+pub struct Child<'t> {
+    seq: Seq<Node<'t>>,
+    room: Room,
+}
+
+/// Where a set-up keeps the blocking children of its nodes: slots lent for the set-up's
+/// life (a `static` on the chip, a local on the host).
+pub struct Arena<'t> {
+    free: &'t mut [Option<Child<'t>>],
+}
+
+impl<'t> Arena<'t> {
+    /// An arena of the (empty) `slots`.
+    pub fn new(slots: &'t mut [Option<Child<'t>>]) -> Self {
+        Arena { free: slots }
+    }
+
+    /// Moves `seq` into a free slot, to be run blocking by one [`Node`] ([`Node::run`]).
+    pub fn child(&mut self, seq: Seq<Node<'t>>) -> Result<&'t mut Child<'t>, ScenarioError> {
+        let (slot, rest) = core::mem::take(&mut self.free)
+            .split_first_mut()
+            .ok_or(ScenarioError::Capacity)?;
+        self.free = rest;
+        Ok(slot.insert(Child {
+            seq,
+            room: Room(MaybeUninit::uninit()),
+        }))
+    }
+}
+
+type OpResult = Result<Outcome, rtseq::Error>;
+
+/// A future of one type `F`, moved into a [`Room`] and known by its poll function only (a
+/// hand-made `Pin<&mut dyn Future>` that owns its value). Dropping it drops the future in
+/// place. (Leaked, it would leave the future in the room undropped: harmless here, rtseq's
+/// run futures hold references and cells only, nothing that relies on its drop.)
+struct Placed<'r> {
+    fut: NonNull<()>,
+    poll: unsafe fn(NonNull<()>, &mut Context<'_>) -> Poll<OpResult>,
+    drop: unsafe fn(NonNull<()>),
+    /// The room is borrowed while the future lives in it.
+    _room: PhantomData<&'r mut Room>,
+}
+
+/// # Safety
+/// `fut` must point to a live, pinned `F`.
+unsafe fn poll_placed<F: Future<Output = OpResult>>(
+    fut: NonNull<()>,
+    w: &mut Context<'_>,
+) -> Poll<OpResult> {
+    // SAFETY: guaranteed by the caller.
+    unsafe { Pin::new_unchecked(fut.cast::<F>().as_mut()) }.poll(w)
+}
+
+/// # Safety
+/// `fut` must point to a live `F`, which is not used afterwards.
+unsafe fn drop_placed<F>(fut: NonNull<()>) {
+    // SAFETY: guaranteed by the caller.
+    unsafe { fut.cast::<F>().drop_in_place() }
+}
+
+impl<'r> Placed<'r> {
+    /// Moves `fut` into `room`. A future that does not fit fails the build.
+    ///
+    /// # Safety
+    /// The result must not outlive what `fut` borrows (it is dropped before any of it ends).
+    unsafe fn new<F: Future<Output = OpResult>>(room: &'r mut Room, fut: F) -> Self {
+        const { assert!(size_of::<F>() <= ROOM && align_of::<F>() <= align_of::<Room>()) };
+        let at = NonNull::from(room).cast::<F>();
+        // SAFETY: the room is large and aligned enough for `F` (checked above) and borrowed
+        // exclusively for `'r`, as long as the result.
+        unsafe { at.write(fut) };
+        Placed {
+            fut: at.cast(),
+            poll: poll_placed::<F>,
+            drop: drop_placed::<F>,
+            _room: PhantomData,
+        }
+    }
+
+    fn poll(&mut self, w: &mut Context<'_>) -> Poll<OpResult> {
+        // SAFETY: `fut` holds the `F` of `poll`, live until `self` drops; it is never moved
+        // out of the room (pinned there), and `&mut self` makes this the only access.
+        unsafe { (self.poll)(self.fut, w) }
+    }
+}
+
+impl Drop for Placed<'_> {
+    fn drop(&mut self) {
+        // SAFETY: `fut` holds the `F` of `drop`, live until now; dropped in place, as its
+        // pinning requires, and never used again.
+        unsafe { (self.drop)(self.fut) }
+    }
+}
+
 /// A future that is ready at once, every time it is polled (no "polled after completion"
 /// panic, unlike `core::future::Ready`).
 pub struct Done;
@@ -187,14 +285,6 @@ impl Future for Done {
     type Output = ();
     fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
         Poll::Ready(())
-    }
-}
-
-impl Sequence<Ctrl> for Never {
-    #[allow(clippy::manual_async_fn)]
-    fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> impl Future<Output = ()> {
-        // `Never` has no values: this is never called.
-        Done
     }
 }
 
@@ -227,8 +317,9 @@ unsafe fn poll_slot<F: Future>(
 ///
 /// The futures of the ops are created (lazily: they do nothing until polled) when the action
 /// starts, because each borrows its child only; the state machine polls them in op order.
-/// Polling it again after it finished returns `Ready` again (no panic path).
-pub struct NodeAction<'b, 'c, FS, FW, FR, FJ> {
+/// The blocking child's future is in the child's arena slot ([`Child`]). Polling it again after it
+/// finished returns `Ready` again (no panic path).
+pub struct NodeAction<'a, 'b, 'c, FS, FW, FJ> {
     cx: &'b Cx<'c, Ctrl>,
     ops: [Option<Op>; MAX_OPS],
     pos: usize,
@@ -237,24 +328,22 @@ pub struct NodeAction<'b, 'c, FS, FW, FR, FJ> {
     step0: Option<FS>,
     step1: Option<FS>,
     wait: Option<FW>,
-    run: Option<FR>,
+    run: Option<Placed<'a>>,
     join: Option<FJ>,
 }
 
-type OpResult = Result<Outcome, rtseq::Error>;
-
-impl<FS, FW, FR, FJ> Future for NodeAction<'_, '_, FS, FW, FR, FJ>
+impl<FS, FW, FJ> Future for NodeAction<'_, '_, '_, FS, FW, FJ>
 where
     FS: Future<Output = OpResult>,
     FW: Future<Output = OpResult>,
-    FR: Future<Output = OpResult>,
     FJ: Future<Output = OpResult>,
 {
     type Output = ();
 
     fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
         // SAFETY: the op futures are structurally pinned: nothing below moves them out of
-        // `this`; they are polled in place and dropped in place (`poll_slot`).
+        // `this`; they are polled in place and dropped in place (`poll_slot`). The child's
+        // future is in its room, not here.
         let this = unsafe { self.get_unchecked_mut() };
         loop {
             if this.done {
@@ -285,9 +374,13 @@ where
                     Poll::Ready(r) => r,
                     Poll::Pending => return Poll::Pending,
                 },
-                Op::Run => match unsafe { poll_slot(&mut this.run, w) } {
-                    Poll::Ready(r) => r,
-                    Poll::Pending => return Poll::Pending,
+                Op::Run => match this.run.as_mut().map(|f| f.poll(w)) {
+                    Some(Poll::Pending) => return Poll::Pending,
+                    Some(Poll::Ready(r)) => {
+                        this.run = None;
+                        Some(r)
+                    }
+                    None => None,
                 },
                 Op::Join => match unsafe { poll_slot(&mut this.join, w) } {
                     Poll::Ready(r) => r,
@@ -303,7 +396,7 @@ where
     }
 }
 
-impl<Child: Sequence<Ctrl>> Sequence<Ctrl> for Node<Child> {
+impl Sequence<Ctrl> for Node<'_> {
     #[allow(clippy::manual_async_fn)]
     fn action(&mut self, cx: &Cx<'_, Ctrl>) -> impl Future<Output = ()> {
         let Node {
@@ -324,7 +417,12 @@ impl<Child: Sequence<Ctrl>> Sequence<Ctrl> for Node<Child> {
             step0: step0.as_mut().map(|s| cx.step(s)),
             step1: step1.as_mut().map(|s| cx.step(s)),
             wait: wait.as_mut().map(|s| cx.step(s)),
-            run: child.as_mut().map(|s| cx.run(s)),
+            // SAFETY: the run's future borrows the child (for the `&mut self` of this call)
+            // and the context's engine and control system; the `Placed` is dropped with the
+            // returned future, which outlives none of them.
+            run: child
+                .as_deref_mut()
+                .map(|Child { seq, room }| unsafe { Placed::new(room, cx.run(seq)) }),
             join: join.map(|id| cx.join(id)),
         }
     }
@@ -333,99 +431,5 @@ impl<Child: Sequence<Ctrl>> Sequence<Ctrl> for Node<Child> {
     }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         self.exit.is_none_or(|f| cx.control().flag(f))
-    }
-}
-
-/// The root of a lane: one of the node depths. Every lane has the same type `Seq<Root>`.
-pub enum Root {
-    /// Depth 0 (steps, waits, starts, joins only).
-    D0(N0),
-    /// One level of blocking children.
-    D1(N1),
-    /// Two levels.
-    D2(N2),
-    /// Three levels.
-    D3(N3),
-}
-
-/// The action future of a [`Root`]: the action future of its variant.
-pub enum RootAction<A, B, C, D> {
-    /// Of [`Root::D0`].
-    D0(A),
-    /// Of [`Root::D1`].
-    D1(B),
-    /// Of [`Root::D2`].
-    D2(C),
-    /// Of [`Root::D3`].
-    D3(D),
-}
-
-impl<A, B, C, D> Future for RootAction<A, B, C, D>
-where
-    A: Future<Output = ()>,
-    B: Future<Output = ()>,
-    C: Future<Output = ()>,
-    D: Future<Output = ()>,
-{
-    type Output = ();
-    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
-        // SAFETY: structural pinning of the variant's field; never moved out.
-        unsafe {
-            match self.get_unchecked_mut() {
-                RootAction::D0(f) => Pin::new_unchecked(f).poll(w),
-                RootAction::D1(f) => Pin::new_unchecked(f).poll(w),
-                RootAction::D2(f) => Pin::new_unchecked(f).poll(w),
-                RootAction::D3(f) => Pin::new_unchecked(f).poll(w),
-            }
-        }
-    }
-}
-
-impl Sequence<Ctrl> for Root {
-    #[allow(clippy::manual_async_fn)]
-    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> impl Future<Output = ()> {
-        match self {
-            Root::D0(n) => RootAction::D0(n.action(cx)),
-            Root::D1(n) => RootAction::D1(n.action(cx)),
-            Root::D2(n) => RootAction::D2(n.action(cx)),
-            Root::D3(n) => RootAction::D3(n.action(cx)),
-        }
-    }
-    fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
-        match self {
-            Root::D0(n) => n.check_pre_condition(cx),
-            Root::D1(n) => n.check_pre_condition(cx),
-            Root::D2(n) => n.check_pre_condition(cx),
-            Root::D3(n) => n.check_pre_condition(cx),
-        }
-    }
-    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
-        match self {
-            Root::D0(n) => n.check_exit_condition(cx),
-            Root::D1(n) => n.check_exit_condition(cx),
-            Root::D2(n) => n.check_exit_condition(cx),
-            Root::D3(n) => n.check_exit_condition(cx),
-        }
-    }
-}
-
-impl From<N0> for Root {
-    fn from(n: N0) -> Self {
-        Root::D0(n)
-    }
-}
-impl From<N1> for Root {
-    fn from(n: N1) -> Self {
-        Root::D1(n)
-    }
-}
-impl From<N2> for Root {
-    fn from(n: N2) -> Self {
-        Root::D2(n)
-    }
-}
-impl From<N3> for Root {
-    fn from(n: N3) -> Self {
-        Root::D3(n)
     }
 }

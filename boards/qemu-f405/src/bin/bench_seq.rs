@@ -80,7 +80,7 @@ mod app {
     use core::mem::{size_of, size_of_val};
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
     use rtseq::{Behaviour, Duration, Monitor, Monitors, Seq, SeqConfig, Sequencer, Transition};
-    use rtseq_scenarios::{Ctrl, FlagCond, Root, N0};
+    use rtseq_scenarios::{Child, Ctrl, FlagCond, Node};
 
     /// Rtseq ticks measured.
     const TICKS: usize = 12;
@@ -140,7 +140,7 @@ mod app {
     /// TIM2 count at the entry of each tick handler.
     static ENTRY: [AtomicU32; TICKS] = [const { AtomicU32::new(0) }; TICKS];
     static DONE: AtomicBool = AtomicBool::new(false);
-    static LANE_ROOT_BYTES: AtomicUsize = AtomicUsize::new(0);
+    static LANE_NODE_BYTES: AtomicUsize = AtomicUsize::new(0);
     static LANE_STAMP_BYTES: AtomicUsize = AtomicUsize::new(0);
     static LANES8_BYTES: AtomicUsize = AtomicUsize::new(0);
 
@@ -154,15 +154,15 @@ mod app {
         m8: Monitors<'static, Ctrl, 32, Cond>,
         mf: Monitors<'static, Ctrl, 1>,
         me: Monitors<'static, Ctrl, 1>,
-        one: Seq<Root>,
-        eight: [Seq<Root>; 8],
-        fire: Seq<Root>,
-        owner: Seq<Root>,
+        one: Seq<Node<'static>>,
+        eight: [Seq<Node<'static>>; 8],
+        fire: Seq<Node<'static>>,
+        owner: Seq<Node<'static>>,
         exc: Seq<Stamp>,
     }
 
-    fn waiting() -> Root {
-        Root::D0(N0::new().exit(NEVER))
+    fn waiting() -> Node<'static> {
+        Node::new().exit(NEVER)
     }
 
     #[init(local = [
@@ -347,8 +347,8 @@ mod app {
             b16
         );
         defmt::info!(
-            "bench_seq: size lane future (Seq<Root>, scenarios' root, 3 levels) = {=usize} bytes",
-            LANE_ROOT_BYTES.load(Ordering::Relaxed)
+            "bench_seq: size lane future (Seq<Node>, scenarios' node) = {=usize} bytes",
+            LANE_NODE_BYTES.load(Ordering::Relaxed)
         );
         defmt::info!(
             "bench_seq: size lane future (one-shot sequence) = {=usize} bytes",
@@ -359,8 +359,9 @@ mod app {
             LANES8_BYTES.load(Ordering::Relaxed)
         );
         defmt::info!(
-            "bench_seq: size Seq<Root> = {=usize} bytes, Ctrl = {=usize} bytes",
-            size_of::<Seq<Root>>(),
+            "bench_seq: size Seq<Node> = {=usize} bytes, arena slot of a blocking child = {=usize} bytes, Ctrl = {=usize} bytes",
+            size_of::<Seq<Node>>(),
+            size_of::<Option<Child>>(),
             size_of::<Ctrl>()
         );
         board::exit_success();
@@ -435,7 +436,7 @@ mod app {
     #[task(priority = 1, local = [one])]
     async fn lane1(cx: lane1::Context) {
         let fut = rtseq::lane(&SEQ1, &CTRL, cx.local.one);
-        LANE_ROOT_BYTES.store(size_of_val(&fut), Ordering::Relaxed);
+        LANE_NODE_BYTES.store(size_of_val(&fut), Ordering::Relaxed);
         match fut.await {}
     }
 

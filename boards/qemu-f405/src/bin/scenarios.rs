@@ -7,7 +7,8 @@
 //! `critical-section` lock instead of RTIC's priority ceiling.
 //!
 //! - `init`: looks the scenario up by the command line, installs its table into the
-//!   `static` sequencer and binds its bodies, declares the lanes, starts the main sequences at time 0, starts TIM2.
+//!   `static` sequencer and binds its bodies (blocking children into `init`'s arena),
+//!   declares the lanes, starts the main sequences at time 0, starts TIM2.
 //! - `tick` (TIM2, 1 kHz, priority 2): the scenario's script, then `SEQ.tick`. After the
 //!   scenario's last tick it stops the timer.
 //! - `lane0..2` (priority 1): `rtseq::lane(&SEQ, &CTRL, seq)`, in the host's lane order.
@@ -17,15 +18,34 @@
 #![no_std]
 #![no_main]
 
+use core::future::Future;
+use core::pin::Pin;
+use core::task::{Context, Poll};
+
 use rtseq_qemu_f405 as board;
+
+/// A lane's future, polled out of line: the three lane tasks (one future type) share one
+/// copy of the framework's code instead of each inlining it.
+struct Lane<F>(F);
+
+impl<F: Future> Future for Lane<F> {
+    type Output = F::Output;
+    #[inline(never)]
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<F::Output> {
+        // SAFETY: structural pinning of the only field: it is never moved out.
+        unsafe { self.map_unchecked_mut(|l| &mut l.0) }.poll(w)
+    }
+}
 
 #[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
 mod app {
-    use super::board;
+    use super::{board, Lane};
     use board::clock::TickTimer;
     use core::sync::atomic::{AtomicBool, Ordering};
     use rtseq::Seq;
-    use rtseq_scenarios::{encode, Ctrl, Mons, Root, Scenario, Seqr, SCENARIOS};
+    use rtseq_scenarios::{
+        encode, Arena, Child, Ctrl, Mons, Node, Scenario, Seqr, CHILDREN, SCENARIOS,
+    };
 
     /// The sequencer, shared by the tick and the lanes.
     // SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1,
@@ -49,12 +69,13 @@ mod app {
         timer: TickTimer,
         scenario: &'static Scenario,
         monitors: Mons,
-        lane0: Option<Seq<Root>>,
-        lane1: Option<Seq<Root>>,
-        lane2: Option<Seq<Root>>,
+        lane0: Option<Seq<Node<'static>>>,
+        lane1: Option<Seq<Node<'static>>>,
+        lane2: Option<Seq<Node<'static>>>,
     }
 
-    #[init]
+    /// `children`: the arena of the scenario's blocking children (the lanes borrow it).
+    #[init(local = [children: [Option<Child<'static>>; CHILDREN] = [const { None }; CHILDREN]])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut buf = [0u8; 128];
         let name = first_arg(&mut buf);
@@ -68,10 +89,10 @@ mod app {
             }
             board::exit_failure();
         };
-        let setup = match (scenario.register)(&SEQ) {
+        let setup = match (scenario.register)(&SEQ, Arena::new(cx.local.children)) {
             Ok(s) => s,
             Err(e) => {
-                defmt::error!("scenarios: set-up failed: {}", e);
+                defmt::error!("scenarios: set-up failed: {=str}", e.reason());
                 board::exit_failure();
             }
         };
@@ -82,7 +103,7 @@ mod app {
         }
         for &id in setup.start.iter() {
             if let Err(e) = SEQ.sequence_by_id(id).map_or(Ok(()), |h| h.start()) {
-                defmt::error!("scenarios: start failed: {}", e);
+                defmt::error!("scenarios: start failed: {=str}", e.reason());
                 board::exit_failure();
             }
         }
@@ -205,7 +226,7 @@ mod app {
     #[task(priority = 1, local = [lane0])]
     async fn lane0(cx: lane0::Context) {
         if let Some(seq) = cx.local.lane0 {
-            match rtseq::lane(&SEQ, &CTRL, seq).await {}
+            match Lane(rtseq::lane(&SEQ, &CTRL, seq)).await {}
         }
         loop {
             core::future::pending::<()>().await;
@@ -216,7 +237,7 @@ mod app {
     #[task(priority = 1, local = [lane1])]
     async fn lane1(cx: lane1::Context) {
         if let Some(seq) = cx.local.lane1 {
-            match rtseq::lane(&SEQ, &CTRL, seq).await {}
+            match Lane(rtseq::lane(&SEQ, &CTRL, seq)).await {}
         }
         loop {
             core::future::pending::<()>().await;
@@ -227,7 +248,7 @@ mod app {
     #[task(priority = 1, local = [lane2])]
     async fn lane2(cx: lane2::Context) {
         if let Some(seq) = cx.local.lane2 {
-            match rtseq::lane(&SEQ, &CTRL, seq).await {}
+            match Lane(rtseq::lane(&SEQ, &CTRL, seq)).await {}
         }
         loop {
             core::future::pending::<()>().await;
