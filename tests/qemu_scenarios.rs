@@ -401,8 +401,12 @@ fn firmware_sizes_with_and_without_rtseq() {
         ("bench_seq (4 sequencers)", &bench_code),
     ] {
         eprintln!(
-            "figure: code in {what}: rtseq {} B, application {} B, libraries {} B",
-            c.rtseq, c.app, c.library
+            "figure: code in {what}: rtseq {} B (sequencer {} B, safety system {} B), application {} B, libraries {} B",
+            c.rtseq,
+            c.rtseq - c.safety,
+            c.safety,
+            c.app,
+            c.library
         );
     }
     for (what, c) in [("scenarios", &scen_code), ("demo", &demo_code)] {
@@ -452,6 +456,8 @@ struct CodeOwners {
     /// and lock code inlined into it; not the application's code inlined into rtseq's
     /// generic functions (a step's action in its framework).
     rtseq: u64,
+    /// Of `rtseq`, the safety system's code (`rtseq::safety`, issue 4's own budget).
+    safety: u64,
     app: u64,
     /// Out-of-line library functions (`core`, `defmt`, `rtic`, ...).
     library: u64,
@@ -512,13 +518,16 @@ fn code_owners(elf: &Path) -> CodeOwners {
             _ => None,
         }
     };
-    let mut rows: Vec<(u32, Owner, usize)> = Vec::new();
+    // (address, owner, function, the safety system's)
+    let mut rows: Vec<(u32, Owner, usize, bool)> = Vec::new();
     let mut functions: Vec<String> = Vec::new();
     let mut stack: Vec<String> = Vec::new();
     let repo = format!("{}/", root().display());
     let rtseq_src = format!("{}/", root().join("src").display());
     // The owner of the current source line, when it is in this repository.
     let mut line_owner: Option<Owner> = None;
+    let mut line_safety = false;
+    let rtseq_safety_src = format!("{}/", root().join("src/safety").display());
     for line in text.lines() {
         if let Some(head) = line.strip_suffix(">:") {
             if let Some((_, name)) = head.split_once(" <") {
@@ -531,6 +540,7 @@ fn code_owners(elf: &Path) -> CodeOwners {
         if let Some(note) = line.strip_prefix("; ") {
             // "; FILE:LINE": the instruction's innermost source line.
             if note.starts_with('/') && !note.contains(' ') {
+                line_safety = note.starts_with(&rtseq_safety_src);
                 line_owner = if note.starts_with(&rtseq_src) {
                     Some(Owner::Rtseq)
                 } else if note.starts_with(&repo) {
@@ -565,21 +575,26 @@ fn code_owners(elf: &Path) -> CodeOwners {
         // An unmangled inline frame is a library's C-ABI function (the critical-section
         // implementation `_critical_section_1_0_acquire` of cortex-m, `memcpy`), not the
         // application: only an unmangled outer function (an interrupt handler) is.
-        let who = line_owner
+        // With the owner: whether the code is the safety system's (`src/safety/`, or a
+        // function of the module `rtseq::safety`).
+        let in_safety = |sym: &str| sym.contains("5rtseq6safety");
+        let (who, safety) = line_owner
+            .map(|o| (o, line_safety))
             .or_else(|| {
                 stack
                     .iter()
                     .rev()
                     .filter(|s| s.starts_with("_ZN"))
-                    .find_map(|s| owner(s))
+                    .find_map(|s| owner(s).map(|o| (o, in_safety(s))))
             })
-            .or_else(|| owner(function))
-            .unwrap_or(Owner::Library);
-        rows.push((addr, who, functions.len() - 1));
+            .or_else(|| owner(function).map(|o| (o, in_safety(function))))
+            .unwrap_or((Owner::Library, false));
+        rows.push((addr, who, functions.len() - 1, safety));
     }
     rows.sort_unstable_by_key(|r| r.0);
     let mut c = CodeOwners {
         rtseq: 0,
+        safety: 0,
         app: 0,
         library: 0,
         largest: Vec::new(),
@@ -590,6 +605,9 @@ fn code_owners(elf: &Path) -> CodeOwners {
         match w[0].1 {
             Owner::Rtseq => {
                 c.rtseq += bytes;
+                if w[0].3 {
+                    c.safety += bytes;
+                }
                 *per_function.entry(w[0].2).or_default() += bytes;
             }
             Owner::App => c.app += bytes,
