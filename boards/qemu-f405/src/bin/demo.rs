@@ -1386,7 +1386,8 @@ mod rtic_app {
         let app = match app::register(&SEQ, &SETUP) {
             Ok(a) => a,
             Err(e) => {
-                defmt::error!("demo: registration failed: {}", e);
+                // `reason()`: no derived `defmt::Format` of every `rtseq::Error` variant is linked.
+                defmt::error!("demo: registration failed: {=str}", e.reason());
                 board::exit_failure();
             }
         };
@@ -1410,7 +1411,7 @@ mod rtic_app {
             }
         }
         if let Some(Err(e)) = SEQ.sequence_by_id(ids.main).map(|h| h.start()) {
-            defmt::error!("demo: cannot start main: {}", e);
+            defmt::error!("demo: cannot start main: {=str}", e.reason());
             board::exit_failure();
         }
         // Spawning from init cannot fail (each task once).
