@@ -579,26 +579,34 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             // Pauses outermost first, teardowns innermost first.
             let depth = if pause { k } else { MAX_DEPTH - k };
             for id in rows.get(depth).copied().unwrap_or_default() {
-                if pause {
-                    self.pause(&Transition::edge(id, from, to, cause));
-                } else if to == RunningState::Restarting && Some(id) == target {
-                    self.stop(control, id, cause, RunningState::Restarting);
+                // A restart restarts its target (from `Running` or `Paused`) and aborts the
+                // sequences below it.
+                if to == RunningState::Restarting && Some(id) == target {
+                    self.stop(control, id, cause, sources(to), to);
+                } else if to == RunningState::Restarting {
+                    self.stop(control, id, cause, states, RunningState::Aborting);
                 } else {
-                    self.stop(control, id, cause, RunningState::Aborting);
+                    self.stop(control, id, cause, states, to);
                 }
             }
         }
     }
 
-    /// Moves one sequence to `Aborting → Aborted` or to `Restarting`, running its hook.
-    fn stop(&self, control: &C, id: SeqId, cause: Cause, to: RunningState) {
-        // Before the transition, what it leaves behind: the cause a later gate reports,
-        // no pending requests; and the hook (set at registration).
+    /// Moves one sequence from a state in `states` (states `to` may be entered from) to
+    /// `to`: to `Aborting → Aborted` or to `Restarting`, running its hook; or pauses or
+    /// resumes it (`Paused`, `Running`).
+    fn stop(&self, control: &C, id: SeqId, cause: Cause, states: u8, to: RunningState) {
+        let pause = matches!(to, RunningState::Paused | RunningState::Running);
+        // Before a teardown, what it leaves behind: the cause a later gate reports, no
+        // pending requests; and the hook (set at registration).
         let pre = self.with(|s| {
             let b = s.block_mut(id).ok()?;
             let from = b.state;
-            if sources(to) & bit(from) == 0 {
+            if states & bit(from) == 0 {
                 return None;
+            }
+            if pause {
+                return Some((from, None));
             }
             b.last_cause = cause;
             b.take_requests();
@@ -608,6 +616,27 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let t = Transition::edge(id, from, to, cause);
         if self.with(|s| s.shift(&t).is_none()) {
             return;
+        }
+        if pause {
+            // A paused timeout keeps its remaining time, not a deadline (nothing reads
+            // either before this: the tick is the one that would).
+            self.with(|s| {
+                let now = s.now as u32;
+                let armed = s.armed.has(id);
+                let Ok(b) = s.block_mut(id) else { return };
+                if armed {
+                    b.deadline = if to == RunningState::Paused {
+                        let left = b.deadline.wrapping_sub(now);
+                        if left >= 0x8000_0000 {
+                            0
+                        } else {
+                            left
+                        }
+                    } else {
+                        now.wrapping_add(b.deadline)
+                    };
+                }
+            });
         }
         if let Some(h) = hook {
             h(control);
@@ -625,34 +654,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 self.wake_lane(j);
             }
         }
-        self.wake_lane(id);
-    }
-
-    /// Pauses or resumes one sequence (`t`: `Running → Paused` or `Paused → Running`).
-    fn pause(&self, t: &crate::trace::Edge) {
-        let (id, pause) = (t.sequence, t.to == RunningState::Paused);
-        if self.with(|s| s.shift(t).is_none()) {
-            return;
-        }
-        // A paused timeout keeps its remaining time, not a deadline (nothing reads either
-        // before this: the tick is the one that would).
-        self.with(|s| {
-            let now = s.now as u32;
-            let armed = s.armed.has(id);
-            let Ok(b) = s.block_mut(id) else { return };
-            if armed {
-                b.deadline = if pause {
-                    let left = b.deadline.wrapping_sub(now);
-                    if left >= 0x8000_0000 {
-                        0
-                    } else {
-                        left
-                    }
-                } else {
-                    now.wrapping_add(b.deadline)
-                };
-            }
-        });
         self.wake_lane(id);
     }
 
