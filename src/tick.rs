@@ -139,11 +139,25 @@ fn held_by(id: SeqId, mut step: impl FnMut(SeqId) -> Option<Link>) -> bool {
     false
 }
 
-/// Restart bookkeeping of one monitor (or timeout monitor).
-struct RestartBook {
+/// How an exception of one monitor (or of a sequence's timeout) is handled, with its
+/// restart bookkeeping.
+struct Reaction {
+    behaviour: Behaviour,
+    exception: Option<SeqId>,
     restarts: u8,
     runs_seen: u16,
     limit: u8,
+}
+
+impl Reaction {
+    /// For a timeout: [`Sequencer::raise`] reads the reaction from the owner's block.
+    const TIMEOUT: Reaction = Reaction {
+        behaviour: Behaviour::Nothing,
+        exception: None,
+        restarts: 0,
+        runs_seen: 0,
+        limit: 0,
+    };
 }
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
@@ -240,7 +254,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
         for id in polls.expired {
-            self.timeout(id, control);
+            let mut reaction = Reaction::TIMEOUT;
+            self.raise(control, id, Cause::Timeout(id), &mut reaction);
             careful = true;
         }
         if !polls.wake.is_empty() {
@@ -357,87 +372,52 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// A monitor triggered: raise its exception.
     fn fire<K>(&self, entry: &mut Entry<'_, C, K>, id: crate::MonitorId, control: &C) {
-        let mut book = RestartBook {
+        let mut reaction = Reaction {
+            behaviour: entry.def.behaviour,
+            exception: entry.def.exception,
             restarts: entry.restarts,
             runs_seen: entry.target_runs_seen,
             limit: entry.def.restart_limit,
         };
-        let cause = Cause::Monitor(id);
-        if self.raise(
-            control,
-            entry.owner,
-            cause,
-            entry.def.behaviour,
-            entry.def.exception,
-            &mut book,
-        ) {
+        if self.raise(control, entry.owner, Cause::Monitor(id), &mut reaction) {
             entry.fired = entry.fired.wrapping_add(1);
         }
-        entry.restarts = book.restarts;
-        entry.target_runs_seen = book.runs_seen;
+        entry.restarts = reaction.restarts;
+        entry.target_runs_seen = reaction.runs_seen;
     }
 
-    /// The timeout of a due sequence expired: raise its exception unless the sequence no
-    /// longer takes one (then it is checked again at its next poll).
+    /// A monitor (or `owner`'s timeout, `Cause::Timeout`) of `owner` fired: mark the
+    /// exception, then start the exception sequence (the behaviour waits for its end) or
+    /// apply the behaviour now. Returns false when the owner could not take an exception any
+    /// more (a timeout: unless running, its timeout stays armed and is checked again at its
+    /// next poll).
+    ///
+    /// A timeout's reaction and restart bookkeeping live in the owner's block: read in
+    /// the first section, written back in the second (which also disarms the timeout).
     #[inline(never)]
-    fn timeout(&self, id: SeqId, control: &C) {
-        let expired = self.with(|s| {
-            let b = s.block(id).ok()?;
-            // Only while running (a paused timeout is frozen) and without an exception.
-            if b.state != RunningState::Running || s.excepting.has(id) {
+    fn raise(&self, control: &C, owner: SeqId, cause: Cause, reaction: &mut Reaction) -> bool {
+        let timeout = matches!(cause, Cause::Timeout(_));
+        // Active (a paused timeout is frozen), and not handling an exception already.
+        let states = if timeout {
+            bit(RunningState::Running)
+        } else {
+            bit(RunningState::Running) | bit(RunningState::Paused)
+        };
+        let Some((target, target_runs)) = self.with(|s| {
+            let b = s.slot(owner)?;
+            if states & bit(b.state) == 0 || s.excepting.has(owner) {
                 return None;
             }
-            let expired = (
-                b.timeout_behaviour,
-                b.timeout_exception.get(),
-                RestartBook {
+            if timeout {
+                *reaction = Reaction {
+                    behaviour: b.timeout_behaviour,
+                    exception: b.timeout_exception.get(),
                     restarts: b.timeout_restarts,
                     runs_seen: b.timeout_runs_seen,
                     limit: b.timeout_restart_limit,
-                },
-            );
-            s.armed.set(id, false);
-            Some(expired)
-        });
-        if let Some((behaviour, exception, mut book)) = expired {
-            self.raise(
-                control,
-                id,
-                Cause::Timeout(id),
-                behaviour,
-                exception,
-                &mut book,
-            );
-            self.with(|s| {
-                if let Ok(b) = s.block_mut(id) {
-                    b.timeout_restarts = book.restarts;
-                    b.timeout_runs_seen = book.runs_seen;
-                }
-            });
-        }
-    }
-
-    /// A monitor (or timeout) of `owner` fired: mark the exception, then start the
-    /// exception sequence (the behaviour waits for its end) or apply the behaviour now.
-    /// Returns false when the owner could not take an exception any more.
-    fn raise(
-        &self,
-        control: &C,
-        owner: SeqId,
-        cause: Cause,
-        behaviour: Behaviour,
-        exception: Option<SeqId>,
-        book: &mut RestartBook,
-    ) -> bool {
-        let Some((target, target_runs)) = self.with(|s| {
-            let b = s.slot(owner)?;
-            // Active, and not handling an exception already.
-            if !matches!(b.state, RunningState::Running | RunningState::Paused)
-                || s.excepting.has(owner)
-            {
-                return None;
+                };
             }
-            let target = if behaviour.targets_caller() {
+            let target = if reaction.behaviour.targets_caller() {
                 b.caller.get().unwrap_or(owner)
             } else {
                 owner
@@ -446,21 +426,26 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }) else {
             return false;
         };
-        let mut behaviour = behaviour;
+        let mut behaviour = reaction.behaviour;
         if behaviour.is_restart() {
-            if book.runs_seen != target_runs {
-                book.runs_seen = target_runs;
-                book.restarts = 0;
+            if reaction.runs_seen != target_runs {
+                reaction.runs_seen = target_runs;
+                reaction.restarts = 0;
             }
-            if book.restarts >= book.limit {
+            if reaction.restarts >= reaction.limit {
                 behaviour = behaviour.escalated();
             } else {
-                book.restarts = book.restarts.saturating_add(1);
+                reaction.restarts = reaction.restarts.saturating_add(1);
             }
         }
         self.with(|s| {
             if let Ok(b) = s.block_mut(owner) {
                 b.active_exception = Some(cause);
+                if timeout {
+                    b.timeout_restarts = reaction.restarts;
+                    b.timeout_runs_seen = reaction.runs_seen;
+                    s.armed.set(owner, false);
+                }
                 s.excepting.set(owner, true);
             }
             #[cfg(feature = "counters")]
@@ -468,7 +453,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 c.exceptions = c.exceptions.wrapping_add(1);
             }
         });
-        let deferred = exception.is_some_and(|e| {
+        let deferred = reaction.exception.is_some_and(|e| {
             let started = self
                 .begin(e, Some(owner), Mode::Lane, cause, flag::HANDLES_EXCEPTION)
                 .is_ok();
@@ -594,26 +579,34 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             // Pauses outermost first, teardowns innermost first.
             let depth = if pause { k } else { MAX_DEPTH - k };
             for id in rows.get(depth).copied().unwrap_or_default() {
-                if pause {
-                    self.pause(&Transition::edge(id, from, to, cause));
-                } else if to == RunningState::Restarting && Some(id) == target {
-                    self.stop(control, id, cause, RunningState::Restarting);
+                // A restart restarts its target (from `Running` or `Paused`) and aborts the
+                // sequences below it.
+                if to == RunningState::Restarting && Some(id) == target {
+                    self.stop(control, id, cause, sources(to), to);
+                } else if to == RunningState::Restarting {
+                    self.stop(control, id, cause, states, RunningState::Aborting);
                 } else {
-                    self.stop(control, id, cause, RunningState::Aborting);
+                    self.stop(control, id, cause, states, to);
                 }
             }
         }
     }
 
-    /// Moves one sequence to `Aborting → Aborted` or to `Restarting`, running its hook.
-    fn stop(&self, control: &C, id: SeqId, cause: Cause, to: RunningState) {
-        // Before the transition, what it leaves behind: the cause a later gate reports,
-        // no pending requests; and the hook (set at registration).
+    /// Moves one sequence from a state in `states` (states `to` may be entered from) to
+    /// `to`: to `Aborting → Aborted` or to `Restarting`, running its hook; or pauses or
+    /// resumes it (`Paused`, `Running`).
+    fn stop(&self, control: &C, id: SeqId, cause: Cause, states: u8, to: RunningState) {
+        let pause = matches!(to, RunningState::Paused | RunningState::Running);
+        // Before a teardown, what it leaves behind: the cause a later gate reports, no
+        // pending requests; and the hook (set at registration).
         let pre = self.with(|s| {
             let b = s.block_mut(id).ok()?;
             let from = b.state;
-            if sources(to) & bit(from) == 0 {
+            if states & bit(from) == 0 {
                 return None;
+            }
+            if pause {
+                return Some((from, None));
             }
             b.last_cause = cause;
             b.take_requests();
@@ -623,6 +616,27 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let t = Transition::edge(id, from, to, cause);
         if self.with(|s| s.shift(&t).is_none()) {
             return;
+        }
+        if pause {
+            // A paused timeout keeps its remaining time, not a deadline (nothing reads
+            // either before this: the tick is the one that would).
+            self.with(|s| {
+                let now = s.now as u32;
+                let armed = s.armed.has(id);
+                let Ok(b) = s.block_mut(id) else { return };
+                if armed {
+                    b.deadline = if to == RunningState::Paused {
+                        let left = b.deadline.wrapping_sub(now);
+                        if left >= 0x8000_0000 {
+                            0
+                        } else {
+                            left
+                        }
+                    } else {
+                        now.wrapping_add(b.deadline)
+                    };
+                }
+            });
         }
         if let Some(h) = hook {
             h(control);
@@ -640,34 +654,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 self.wake_lane(j);
             }
         }
-        self.wake_lane(id);
-    }
-
-    /// Pauses or resumes one sequence (`t`: `Running → Paused` or `Paused → Running`).
-    fn pause(&self, t: &crate::trace::Edge) {
-        let (id, pause) = (t.sequence, t.to == RunningState::Paused);
-        if self.with(|s| s.shift(t).is_none()) {
-            return;
-        }
-        // A paused timeout keeps its remaining time, not a deadline (nothing reads either
-        // before this: the tick is the one that would).
-        self.with(|s| {
-            let now = s.now as u32;
-            let armed = s.armed.has(id);
-            let Ok(b) = s.block_mut(id) else { return };
-            if armed {
-                b.deadline = if pause {
-                    let left = b.deadline.wrapping_sub(now);
-                    if left >= 0x8000_0000 {
-                        0
-                    } else {
-                        left
-                    }
-                } else {
-                    now.wrapping_add(b.deadline)
-                };
-            }
-        });
         self.wake_lane(id);
     }
 
