@@ -38,8 +38,10 @@ pub(crate) trait Engine<C> {
     fn restarted(&self, id: SeqId);
     fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate>;
     fn finished(&self, id: SeqId, outcome: Outcome);
-    fn declare_lane(&self, id: SeqId) -> Result<(), Error>;
-    fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
+    /// Finds or claims `id`'s lane slot (`None`: all taken); with `waker` (the lane's
+    /// poll), parks it there and takes a pending start (`Some(true)`). One vtable entry
+    /// for a lane's declaration and its wait for a start.
+    fn take_start(&self, id: SeqId, waker: Option<&Waker>) -> Option<bool>;
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues request `bit` for the next tick, or with `bit` 0 sets the timeout to
@@ -107,24 +109,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         })
     }
 
-    fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
-        steps!(self, |s| s.declare_lane(id))
-    }
-
-    fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
+    fn take_start(&self, id: SeqId, waker: Option<&Waker>) -> Option<bool> {
         steps!(self, |s| {
-            let Some(lane) = s.lane_slot_of(id) else {
-                return false;
+            let lane = s.declare_lane(id)?;
+            let Some(waker) = waker else {
+                return Some(false);
             };
             s.step(|s| s.park_lane(lane, waker));
-            s.step(|s| {
+            Some(s.step(|s| {
                 let Ok(b) = s.block_mut(id) else {
                     return false;
                 };
                 let pending = b.has(flag::START_PENDING);
                 b.set(flag::START_PENDING, false);
                 pending
-            })
+            }))
         })
     }
 
