@@ -103,6 +103,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
         steps!(self, |s| {
+            // The run no longer waits for a poll (`poll_wait(id, false)`, a step of its own:
+            // the section of the end stays short).
+            s.step(|s| {
+                s.poll_wait.set(id, false);
+                s.poll_due.set(id, false);
+            });
             if let Some(j) = s.step(|s| s.finished(id, outcome)) {
                 s.step(|s| s.wake(j));
             }

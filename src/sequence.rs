@@ -564,7 +564,6 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                     }
                 },
                 Phase::End => {
-                    engine.poll_wait(id, false);
                     engine.finished(id, self.outcome.get());
                     self.phase.set(match self.caller {
                         Some(_) => Phase::Returning,
