@@ -36,7 +36,9 @@ pub(crate) trait Engine<C> {
     /// `gate` and `poll_due` below).
     fn wait(&self, id: SeqId, waker: &Waker, polled: bool) -> Gate;
     fn restarted(&self, id: SeqId);
-    fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate>;
+    /// Ends `id`'s run normally with `outcome` (`Completed` or `Skipped`); false when
+    /// refused (the gate says what to do instead).
+    fn end(&self, id: SeqId, outcome: Outcome) -> bool;
     fn finished(&self, id: SeqId, outcome: Outcome);
     /// Finds or claims `id`'s lane slot (`None`: all taken); with `waker` (the lane's
     /// poll), parks it there and takes a pending start (`Some(true)`). One vtable entry
@@ -89,19 +91,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         });
     }
 
-    fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
+    fn end(&self, id: SeqId, outcome: Outcome) -> bool {
         let cause = match outcome {
             Outcome::Skipped => Cause::PreConditionFalse,
             _ => Cause::Completed,
         };
         let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
-        steps!(self, |s| {
-            if s.step(|s| s.end(&t)) {
-                Ok(outcome)
-            } else {
-                Err(s.step(|s| s.gate(id)))
-            }
-        })
+        self.with(|s| s.end(&t))
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {

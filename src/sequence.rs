@@ -584,11 +584,11 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 }
                 Phase::Done => return Poll::Pending,
             };
-            match engine.end(id, ending) {
-                Ok(outcome) => self.end(outcome),
-                Err(gate) => {
-                    self.on(gate);
-                }
+            if engine.end(id, ending) {
+                self.end(ending);
+            } else {
+                // Refused: the gate says why.
+                self.on(engine.gate(id, w.waker()));
             }
         }
     }
