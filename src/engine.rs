@@ -44,11 +44,8 @@ pub(crate) trait Engine<C> {
     /// poll), parks it there and takes a pending start (`Some(true)`). One vtable entry
     /// for a lane's declaration and its wait for a start.
     fn take_start(&self, id: SeqId, waker: Option<&Waker>) -> Option<bool>;
-    /// The block's own fields ([`info`](Self::info)); with a `joiner`, a join's look in the
-    /// same section: unless `id`'s run is over (see [`join`](Self::join)), no outcome, and
-    /// `joiner` is woken at its end. One vtable entry: a firmware that never joins links
-    /// no join of its own.
-    fn inspect(&self, id: SeqId, joiner: Link) -> Option<Info>;
+    fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
+    fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues request `bit` for the next tick, or with `bit` 0 sets the timeout to
     /// `value` µs, or with [`POLL_WAIT`] sets whether `id` waits for a polled condition
     /// (`value` 1) or not: one vtable entry for `request`, `set_timeout` and `poll_wait`
@@ -132,35 +129,41 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         })
     }
 
-    /// In one section: a join's check and registration cannot miss the run's end.
-    fn inspect(&self, id: SeqId, joiner: Link) -> Option<Info> {
+    fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>> {
         self.with(|s| {
-            let exception_active = s.excepting.has(id);
-            #[cfg(feature = "counters")]
-            let counters = s.counters.get(id.index()).copied().unwrap_or_default();
-            let b = s.block_mut(id).ok()?;
-            let mut outcome = b.outcome;
-            if joiner != Link::NONE {
-                // Over: ended, and its framework has returned (its lane took the start).
-                let over = outcome.is_some() && !b.state.is_active() && !b.has(flag::START_PENDING);
-                if !over {
-                    outcome = None;
-                    // Never started: nothing to wake for.
-                    if b.state != RunningState::Idle {
-                        b.joiner = joiner;
-                    }
+            let Ok(b) = s.block_mut(target) else {
+                return Poll::Ready(Err(Error::UnknownSequence(target)));
+            };
+            if b.state == RunningState::Idle {
+                return Poll::Ready(Err(Error::NeverStarted(target)));
+            }
+            match b.outcome {
+                Some(o) if !b.state.is_active() && !b.has(flag::START_PENDING) => {
+                    Poll::Ready(Ok(o))
+                }
+                // Running, or ended but its framework has not returned yet.
+                _ => {
+                    b.joiner = Link::to(Some(joiner));
+                    Poll::Pending
                 }
             }
+        })
+    }
+
+    /// The block's own fields, in one section.
+    fn info(&self, id: SeqId) -> Option<Info> {
+        self.with(|s| {
+            let b = s.block(id).ok()?;
             Some(Info {
                 name: b.name(),
                 state: b.state,
                 caller: b.caller.get(),
                 lane: b.lane,
-                exception_active,
+                exception_active: s.excepting.has(id),
                 active_exception: b.active_exception,
                 #[cfg(feature = "counters")]
-                counters,
-                outcome,
+                counters: s.counters.get(id.index()).copied().unwrap_or_default(),
+                outcome: b.outcome,
             })
         })
     }
@@ -198,26 +201,6 @@ impl<C> dyn Engine<C> + '_ {
     #[inline]
     pub(crate) fn poll_due(&self, id: SeqId, waker: &Waker) -> Gate {
         self.wait(id, waker, true)
-    }
-
-    /// The block's own fields, in one section.
-    #[inline]
-    pub(crate) fn info(&self, id: SeqId) -> Option<Info> {
-        self.inspect(id, Link::NONE)
-    }
-
-    /// Joins `target` for `joiner`: its outcome once its run is over (ended and its
-    /// framework returned), else `Pending` and `joiner`'s lane is woken at its end.
-    pub(crate) fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>> {
-        Poll::Ready(match self.inspect(target, Link::to(Some(joiner))) {
-            None => Err(Error::UnknownSequence(target)),
-            Some(i) if i.state == RunningState::Idle => Err(Error::NeverStarted(target)),
-            Some(Info {
-                outcome: Some(o), ..
-            }) => Ok(o),
-            // Running, or ended but its framework has not returned yet.
-            Some(_) => return Poll::Pending,
-        })
     }
 
     /// Queues a pause, resume or abort request (`bit`) for the next tick.
