@@ -36,10 +36,14 @@ pub(crate) trait Engine<C> {
     /// `gate` and `poll_due` below).
     fn wait(&self, id: SeqId, waker: &Waker, polled: bool) -> Gate;
     fn restarted(&self, id: SeqId);
-    fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate>;
+    /// Ends `id`'s run normally with `outcome` (`Completed` or `Skipped`); false when
+    /// refused (the gate says what to do instead).
+    fn end(&self, id: SeqId, outcome: Outcome) -> bool;
     fn finished(&self, id: SeqId, outcome: Outcome);
-    fn declare_lane(&self, id: SeqId) -> Result<(), Error>;
-    fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
+    /// Finds or claims `id`'s lane slot (`None`: all taken); with `waker` (the lane's
+    /// poll), parks it there and takes a pending start (`Some(true)`). One vtable entry
+    /// for a lane's declaration and its wait for a start.
+    fn take_start(&self, id: SeqId, waker: Option<&Waker>) -> Option<bool>;
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues request `bit` for the next tick, or with `bit` 0 sets the timeout to
@@ -84,47 +88,44 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
         });
     }
 
-    fn end(&self, id: SeqId, outcome: Outcome) -> Result<Outcome, Gate> {
+    fn end(&self, id: SeqId, outcome: Outcome) -> bool {
         let cause = match outcome {
             Outcome::Skipped => Cause::PreConditionFalse,
             _ => Cause::Completed,
         };
         let t = Transition::edge(id, RunningState::Running, RunningState::Terminated, cause);
-        steps!(self, |s| {
-            if s.step(|s| s.end(&t)) {
-                Ok(outcome)
-            } else {
-                Err(s.step(|s| s.gate(id)))
-            }
-        })
+        self.with(|s| s.end(&t))
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
         steps!(self, |s| {
+            // The run no longer waits for a poll (`poll_wait(id, false)`, a step of its own:
+            // the section of the end stays short).
+            s.step(|s| {
+                s.poll_wait.set(id, false);
+                s.poll_due.set(id, false);
+            });
             if let Some(j) = s.step(|s| s.finished(id, outcome)) {
                 s.step(|s| s.wake(j));
             }
         })
     }
 
-    fn declare_lane(&self, id: SeqId) -> Result<(), Error> {
-        steps!(self, |s| s.declare_lane(id))
-    }
-
-    fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
+    fn take_start(&self, id: SeqId, waker: Option<&Waker>) -> Option<bool> {
         steps!(self, |s| {
-            let Some(lane) = s.lane_slot_of(id) else {
-                return false;
+            let lane = s.declare_lane(id)?;
+            let Some(waker) = waker else {
+                return Some(false);
             };
             s.step(|s| s.park_lane(lane, waker));
-            s.step(|s| {
+            Some(s.step(|s| {
                 let Ok(b) = s.block_mut(id) else {
                     return false;
                 };
                 let pending = b.has(flag::START_PENDING);
                 b.set(flag::START_PENDING, false);
                 pending
-            })
+            }))
         })
     }
 

@@ -411,9 +411,8 @@ impl<'s, C> BodyRef<'s, C> {
 /// phase change is a one-byte store.
 #[derive(Clone, Copy)]
 enum Phase {
-    /// A lane's first poll: declare the lane.
-    Declare,
-    /// A lane between runs: wait for a non-blocking start.
+    /// A lane between runs (or before its first): declare the lane and wait for a
+    /// non-blocking start.
     Idle,
     /// A blocking start's first poll: start the child.
     Begin,
@@ -469,7 +468,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
             cx,
             slot,
             caller: None,
-            phase: Cell::new(Phase::Declare),
+            phase: Cell::new(Phase::Idle),
             outcome: Cell::new(Outcome::Completed),
         }
     }
@@ -508,15 +507,9 @@ impl<'a, 's, C> Frame<'a, 's, C> {
             // (one call site for both): refused (an exception is being handled), the run
             // stays at the phase set before.
             let ending = match self.phase.get() {
-                Phase::Declare => {
-                    // The id is ours by construction (`Seq` exists once per id), so this
-                    // cannot fail.
-                    let _ = engine.declare_lane(id);
-                    self.phase.set(Phase::Idle);
-                    continue;
-                }
                 Phase::Idle => {
-                    if !engine.take_start(id, w.waker()) {
+                    // No slot left: the lane never runs (see `lane`).
+                    if engine.take_start(id, Some(w.waker())) != Some(true) {
                         return Poll::Pending;
                     }
                     self.phase.set(Phase::Gate);
@@ -571,7 +564,6 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                     }
                 },
                 Phase::End => {
-                    engine.poll_wait(id, false);
                     engine.finished(id, self.outcome.get());
                     self.phase.set(match self.caller {
                         Some(_) => Phase::Returning,
@@ -592,11 +584,11 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 }
                 Phase::Done => return Poll::Pending,
             };
-            match engine.end(id, ending) {
-                Ok(outcome) => self.end(outcome),
-                Err(gate) => {
-                    self.on(gate);
-                }
+            if engine.end(id, ending) {
+                self.end(ending);
+            } else {
+                // Refused: the gate says why.
+                self.on(engine.gate(id, w.waker()));
             }
         }
     }

@@ -603,26 +603,24 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
             .and_then(|k| u8::try_from(k).ok())
     }
 
-    /// Declares a lane for `id` (idempotent): one step per slot looked at.
-    fn declare_lane(&mut self, id: SeqId) -> Result<(), Error> {
-        self.step(|s| s.block(id).map(|_| ()))?;
+    /// Declares a lane for `id` (idempotent) and returns its slot (`None`: all slots are
+    /// taken): one step per slot looked at. `id` is registered (a `Seq` or a `Handle` of
+    /// it exists).
+    fn declare_lane(&mut self, id: SeqId) -> Option<u8> {
         // Slots fill in order and are never freed: the first slot that is `id`'s or free.
         let me = Link::to(Some(id));
-        let found = (0..W).any(|k| {
-            self.step(|s| match s.lanes.get_mut(k) {
-                Some(l) if l.seq == me => true,
-                Some(l) if l.seq == Link::NONE => {
-                    l.seq = me;
-                    true
-                }
-                _ => false,
+        (0..W)
+            .find(|&k| {
+                self.step(|s| match s.lanes.get_mut(k) {
+                    Some(l) if l.seq == me => true,
+                    Some(l) if l.seq == Link::NONE => {
+                        l.seq = me;
+                        true
+                    }
+                    _ => false,
+                })
             })
-        });
-        if found {
-            Ok(())
-        } else {
-            Err(Error::LaneCapacityExceeded(id))
-        }
+            .and_then(|k| u8::try_from(k).ok())
     }
 }
 
