@@ -10,7 +10,7 @@ use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_A
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
 use crate::polling::Due;
-use crate::sequencer::{bit, identity, sources, Inner, Mode, NO_WAKER};
+use crate::sequencer::{bit, identity, sources, steps, Inner, Mode, Steps, NO_WAKER};
 use crate::{
     Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
 };
@@ -596,65 +596,30 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// `to`: to `Aborting → Aborted` or to `Restarting`, running its hook; or pauses or
     /// resumes it (`Paused`, `Running`).
     fn stop(&self, control: &C, id: SeqId, cause: Cause, states: u8, to: RunningState) {
-        let pause = matches!(to, RunningState::Paused | RunningState::Running);
-        // Before a teardown, what it leaves behind: the cause a later gate reports, no
-        // pending requests; and the hook (set at registration).
-        let pre = self.with(|s| {
-            let b = s.block_mut(id).ok()?;
-            let from = b.state;
-            if states & bit(from) == 0 {
-                return None;
-            }
-            if pause {
-                return Some((from, None));
-            }
-            b.last_cause = cause;
-            b.take_requests();
-            Some((from, s.hooks.get(id.index()).copied().flatten()))
-        });
-        let Some((from, hook)) = pre else { return };
-        let t = Transition::edge(id, from, to, cause);
-        if self.with(|s| s.shift(&t).is_none()) {
+        // With a coarse lock, the steps before the hook in one section and those after it
+        // in another: the tick runs at the ceiling, so a longer section delays no one.
+        let Some(hook) = steps!(self, |s| leave(s, id, cause, states, to)) else {
             return;
-        }
-        if pause {
-            // A paused timeout keeps its remaining time, not a deadline (nothing reads
-            // either before this: the tick is the one that would).
-            self.with(|s| {
-                let now = s.now as u32;
-                let armed = s.armed.has(id);
-                let Ok(b) = s.block_mut(id) else { return };
-                if armed {
-                    b.deadline = if to == RunningState::Paused {
-                        let left = b.deadline.wrapping_sub(now);
-                        if left >= 0x8000_0000 {
-                            0
-                        } else {
-                            left
-                        }
-                    } else {
-                        now.wrapping_add(b.deadline)
-                    };
-                }
-            });
-        }
+        };
         if let Some(h) = hook {
             h(control);
         }
-        if to == RunningState::Aborting {
-            // A blocking sequence's framework is dropped by its aborted caller and never
-            // reports back, so the outcome is recorded here.
-            let t = Transition::edge(id, to, RunningState::Aborted, cause);
-            let joiner = self.with(|s| {
-                let b = s.shift(&t)?;
-                b.outcome = Some(crate::Outcome::Aborted(cause));
-                core::mem::replace(&mut b.joiner, Link::NONE).get()
-            });
-            if let Some(j) = joiner {
-                self.wake_lane(j);
+        steps!(self, |s| {
+            if to == RunningState::Aborting {
+                // A blocking sequence's framework is dropped by its aborted caller and
+                // never reports back, so the outcome is recorded here.
+                let t = Transition::edge(id, to, RunningState::Aborted, cause);
+                let joiner = s.step(|s| {
+                    let b = s.shift(&t)?;
+                    b.outcome = Some(crate::Outcome::Aborted(cause));
+                    core::mem::replace(&mut b.joiner, Link::NONE).get()
+                });
+                if let Some(j) = joiner {
+                    s.step(|s| s.wake(j));
+                }
             }
-        }
-        self.wake_lane(id);
+            s.step(|s| s.wake(id));
+        });
     }
 
     /// For a teardown or a pause: the sequences that are `target` or below it (every one
@@ -703,4 +668,57 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
         rows
     }
+}
+
+/// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state in `states` for
+/// `to` (a paused timeout keeps its remaining time). Returns the hook to run (set at
+/// registration; none for a pause or resume), or `None` when `id` does not move.
+#[allow(clippy::type_complexity)]
+fn leave<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    id: SeqId,
+    cause: Cause,
+    states: u8,
+    to: RunningState,
+) -> Option<Option<fn(&C)>> {
+    let pause = matches!(to, RunningState::Paused | RunningState::Running);
+    // Before a teardown, what it leaves behind: the cause a later gate reports, no pending
+    // requests; and the hook.
+    let (from, hook) = s.step(|s| {
+        let b = s.block_mut(id).ok()?;
+        let from = b.state;
+        if states & bit(from) == 0 {
+            return None;
+        }
+        if pause {
+            return Some((from, None));
+        }
+        b.last_cause = cause;
+        b.take_requests();
+        Some((from, s.hooks.get(id.index()).copied().flatten()))
+    })?;
+    let t = Transition::edge(id, from, to, cause);
+    s.step(|s| s.shift(&t).map(|_| ()))?;
+    if pause {
+        // A paused timeout keeps its remaining time, not a deadline (nothing reads either
+        // before this: the tick is the one that would).
+        s.step(|s| {
+            let now = s.now as u32;
+            let armed = s.armed.has(id);
+            let Ok(b) = s.block_mut(id) else { return };
+            if armed {
+                b.deadline = if to == RunningState::Paused {
+                    let left = b.deadline.wrapping_sub(now);
+                    if left >= 0x8000_0000 {
+                        0
+                    } else {
+                        left
+                    }
+                } else {
+                    now.wrapping_add(b.deadline)
+                };
+            }
+        });
+    }
+    Some(hook)
 }
