@@ -396,63 +396,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// the first section, written back in the second (which also disarms the timeout).
     #[inline(never)]
     fn raise(&self, control: &C, owner: SeqId, cause: Cause, reaction: &mut Reaction) -> bool {
-        let timeout = matches!(cause, Cause::Timeout(_));
-        // Active (a paused timeout is frozen), and not handling an exception already.
-        let states = if timeout {
-            bit(RunningState::Running)
-        } else {
-            bit(RunningState::Running) | bit(RunningState::Paused)
-        };
-        let Some((target, target_runs)) = self.with(|s| {
-            let b = s.slot(owner)?;
-            if states & bit(b.state) == 0 || s.excepting.has(owner) {
-                return None;
-            }
-            if timeout {
-                *reaction = Reaction {
-                    behaviour: b.timeout_behaviour,
-                    exception: b.timeout_exception.get(),
-                    restarts: b.timeout_restarts,
-                    runs_seen: b.timeout_runs_seen,
-                    limit: b.timeout_restart_limit,
-                };
-            }
-            let target = if reaction.behaviour.targets_caller() {
-                b.caller.get().unwrap_or(owner)
-            } else {
-                owner
-            };
-            Some((target, s.slot(target)?.runs))
-        }) else {
+        // With a coarse lock one section, else the check and the mark in one each.
+        let Some((target, behaviour)) = steps!(self, |s| mark(s, owner, cause, reaction)) else {
             return false;
         };
-        let mut behaviour = reaction.behaviour;
-        if behaviour.is_restart() {
-            if reaction.runs_seen != target_runs {
-                reaction.runs_seen = target_runs;
-                reaction.restarts = 0;
-            }
-            if reaction.restarts >= reaction.limit {
-                behaviour = behaviour.escalated();
-            } else {
-                reaction.restarts = reaction.restarts.saturating_add(1);
-            }
-        }
-        self.with(|s| {
-            if let Ok(b) = s.block_mut(owner) {
-                b.active_exception = Some(cause);
-                if timeout {
-                    b.timeout_restarts = reaction.restarts;
-                    b.timeout_runs_seen = reaction.runs_seen;
-                    s.armed.set(owner, false);
-                }
-                s.excepting.set(owner, true);
-            }
-            #[cfg(feature = "counters")]
-            if let Some(c) = s.counters.get_mut(owner.index()) {
-                c.exceptions = c.exceptions.wrapping_add(1);
-            }
-        });
         let deferred = reaction.exception.is_some_and(|e| {
             let started = self
                 .begin(e, Some(owner), Mode::Lane, cause, flag::HANDLES_EXCEPTION)
@@ -721,4 +668,72 @@ fn leave<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize
         });
     }
     Some(hook)
+}
+
+/// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
+/// the exception (active; for a timeout, running; not handling one already), reads a
+/// timeout's reaction from its block, counts the restart and marks the exception.
+/// Returns the behaviour's target and the behaviour (escalated past the restart limit).
+fn mark<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    owner: SeqId,
+    cause: Cause,
+    reaction: &mut Reaction,
+) -> Option<(SeqId, Behaviour)> {
+    let timeout = matches!(cause, Cause::Timeout(_));
+    // Active (a paused timeout is frozen), and not handling an exception already.
+    let states = if timeout {
+        bit(RunningState::Running)
+    } else {
+        bit(RunningState::Running) | bit(RunningState::Paused)
+    };
+    let (target, target_runs) = s.step(|s| {
+        let b = s.slot(owner)?;
+        if states & bit(b.state) == 0 || s.excepting.has(owner) {
+            return None;
+        }
+        if timeout {
+            *reaction = Reaction {
+                behaviour: b.timeout_behaviour,
+                exception: b.timeout_exception.get(),
+                restarts: b.timeout_restarts,
+                runs_seen: b.timeout_runs_seen,
+                limit: b.timeout_restart_limit,
+            };
+        }
+        let target = if reaction.behaviour.targets_caller() {
+            b.caller.get().unwrap_or(owner)
+        } else {
+            owner
+        };
+        Some((target, s.slot(target)?.runs))
+    })?;
+    let mut behaviour = reaction.behaviour;
+    if behaviour.is_restart() {
+        if reaction.runs_seen != target_runs {
+            reaction.runs_seen = target_runs;
+            reaction.restarts = 0;
+        }
+        if reaction.restarts >= reaction.limit {
+            behaviour = behaviour.escalated();
+        } else {
+            reaction.restarts = reaction.restarts.saturating_add(1);
+        }
+    }
+    s.step(|s| {
+        if let Ok(b) = s.block_mut(owner) {
+            b.active_exception = Some(cause);
+            if timeout {
+                b.timeout_restarts = reaction.restarts;
+                b.timeout_runs_seen = reaction.runs_seen;
+                s.armed.set(owner, false);
+            }
+            s.excepting.set(owner, true);
+        }
+        #[cfg(feature = "counters")]
+        if let Some(c) = s.counters.get_mut(owner.index()) {
+            c.exceptions = c.exceptions.wrapping_add(1);
+        }
+    });
+    Some((target, behaviour))
 }
