@@ -425,8 +425,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
         let to = match behaviour {
             Behaviour::Nothing => {
-                self.with(|s| s.excepting.set(owner, false));
-                self.wake_lane(owner);
+                steps!(self, |s| {
+                    s.step(|s| s.excepting.set(owner, false));
+                    s.step(|s| s.wake(owner));
+                });
                 return;
             }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,
