@@ -10,7 +10,7 @@ use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_A
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
 use crate::polling::Due;
-use crate::sequencer::{bit, identity, sources, Inner, Mode, NO_WAKER};
+use crate::sequencer::{bit, identity, sources, steps, Inner, Mode, Steps, NO_WAKER};
 use crate::{
     Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
 };
@@ -396,63 +396,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// the first section, written back in the second (which also disarms the timeout).
     #[inline(never)]
     fn raise(&self, control: &C, owner: SeqId, cause: Cause, reaction: &mut Reaction) -> bool {
-        let timeout = matches!(cause, Cause::Timeout(_));
-        // Active (a paused timeout is frozen), and not handling an exception already.
-        let states = if timeout {
-            bit(RunningState::Running)
-        } else {
-            bit(RunningState::Running) | bit(RunningState::Paused)
-        };
-        let Some((target, target_runs)) = self.with(|s| {
-            let b = s.slot(owner)?;
-            if states & bit(b.state) == 0 || s.excepting.has(owner) {
-                return None;
-            }
-            if timeout {
-                *reaction = Reaction {
-                    behaviour: b.timeout_behaviour,
-                    exception: b.timeout_exception.get(),
-                    restarts: b.timeout_restarts,
-                    runs_seen: b.timeout_runs_seen,
-                    limit: b.timeout_restart_limit,
-                };
-            }
-            let target = if reaction.behaviour.targets_caller() {
-                b.caller.get().unwrap_or(owner)
-            } else {
-                owner
-            };
-            Some((target, s.slot(target)?.runs))
-        }) else {
+        // With a coarse lock one section, else the check and the mark in one each.
+        let Some((target, behaviour)) = steps!(self, |s| mark(s, owner, cause, reaction)) else {
             return false;
         };
-        let mut behaviour = reaction.behaviour;
-        if behaviour.is_restart() {
-            if reaction.runs_seen != target_runs {
-                reaction.runs_seen = target_runs;
-                reaction.restarts = 0;
-            }
-            if reaction.restarts >= reaction.limit {
-                behaviour = behaviour.escalated();
-            } else {
-                reaction.restarts = reaction.restarts.saturating_add(1);
-            }
-        }
-        self.with(|s| {
-            if let Ok(b) = s.block_mut(owner) {
-                b.active_exception = Some(cause);
-                if timeout {
-                    b.timeout_restarts = reaction.restarts;
-                    b.timeout_runs_seen = reaction.runs_seen;
-                    s.armed.set(owner, false);
-                }
-                s.excepting.set(owner, true);
-            }
-            #[cfg(feature = "counters")]
-            if let Some(c) = s.counters.get_mut(owner.index()) {
-                c.exceptions = c.exceptions.wrapping_add(1);
-            }
-        });
         let deferred = reaction.exception.is_some_and(|e| {
             let started = self
                 .begin(e, Some(owner), Mode::Lane, cause, flag::HANDLES_EXCEPTION)
@@ -478,8 +425,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
         let to = match behaviour {
             Behaviour::Nothing => {
-                self.with(|s| s.excepting.set(owner, false));
-                self.wake_lane(owner);
+                steps!(self, |s| {
+                    s.step(|s| s.excepting.set(owner, false));
+                    s.step(|s| s.wake(owner));
+                });
                 return;
             }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,
@@ -596,65 +545,30 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// `to`: to `Aborting → Aborted` or to `Restarting`, running its hook; or pauses or
     /// resumes it (`Paused`, `Running`).
     fn stop(&self, control: &C, id: SeqId, cause: Cause, states: u8, to: RunningState) {
-        let pause = matches!(to, RunningState::Paused | RunningState::Running);
-        // Before a teardown, what it leaves behind: the cause a later gate reports, no
-        // pending requests; and the hook (set at registration).
-        let pre = self.with(|s| {
-            let b = s.block_mut(id).ok()?;
-            let from = b.state;
-            if states & bit(from) == 0 {
-                return None;
-            }
-            if pause {
-                return Some((from, None));
-            }
-            b.last_cause = cause;
-            b.take_requests();
-            Some((from, s.hooks.get(id.index()).copied().flatten()))
-        });
-        let Some((from, hook)) = pre else { return };
-        let t = Transition::edge(id, from, to, cause);
-        if self.with(|s| s.shift(&t).is_none()) {
+        // With a coarse lock, the steps before the hook in one section and those after it
+        // in another: the tick runs at the ceiling, so a longer section delays no one.
+        let Some(hook) = steps!(self, |s| leave(s, id, cause, states, to)) else {
             return;
-        }
-        if pause {
-            // A paused timeout keeps its remaining time, not a deadline (nothing reads
-            // either before this: the tick is the one that would).
-            self.with(|s| {
-                let now = s.now as u32;
-                let armed = s.armed.has(id);
-                let Ok(b) = s.block_mut(id) else { return };
-                if armed {
-                    b.deadline = if to == RunningState::Paused {
-                        let left = b.deadline.wrapping_sub(now);
-                        if left >= 0x8000_0000 {
-                            0
-                        } else {
-                            left
-                        }
-                    } else {
-                        now.wrapping_add(b.deadline)
-                    };
-                }
-            });
-        }
+        };
         if let Some(h) = hook {
             h(control);
         }
-        if to == RunningState::Aborting {
-            // A blocking sequence's framework is dropped by its aborted caller and never
-            // reports back, so the outcome is recorded here.
-            let t = Transition::edge(id, to, RunningState::Aborted, cause);
-            let joiner = self.with(|s| {
-                let b = s.shift(&t)?;
-                b.outcome = Some(crate::Outcome::Aborted(cause));
-                core::mem::replace(&mut b.joiner, Link::NONE).get()
-            });
-            if let Some(j) = joiner {
-                self.wake_lane(j);
+        steps!(self, |s| {
+            if to == RunningState::Aborting {
+                // A blocking sequence's framework is dropped by its aborted caller and
+                // never reports back, so the outcome is recorded here.
+                let t = Transition::edge(id, to, RunningState::Aborted, cause);
+                let joiner = s.step(|s| {
+                    let b = s.shift(&t)?;
+                    b.outcome = Some(crate::Outcome::Aborted(cause));
+                    core::mem::replace(&mut b.joiner, Link::NONE).get()
+                });
+                if let Some(j) = joiner {
+                    s.step(|s| s.wake(j));
+                }
             }
-        }
-        self.wake_lane(id);
+            s.step(|s| s.wake(id));
+        });
     }
 
     /// For a teardown or a pause: the sequences that are `target` or below it (every one
@@ -703,4 +617,125 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
         rows
     }
+}
+
+/// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state in `states` for
+/// `to` (a paused timeout keeps its remaining time). Returns the hook to run (set at
+/// registration; none for a pause or resume), or `None` when `id` does not move.
+#[allow(clippy::type_complexity)]
+fn leave<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    id: SeqId,
+    cause: Cause,
+    states: u8,
+    to: RunningState,
+) -> Option<Option<fn(&C)>> {
+    let pause = matches!(to, RunningState::Paused | RunningState::Running);
+    // Before a teardown, what it leaves behind: the cause a later gate reports, no pending
+    // requests; and the hook.
+    let (from, hook) = s.step(|s| {
+        let b = s.block_mut(id).ok()?;
+        let from = b.state;
+        if states & bit(from) == 0 {
+            return None;
+        }
+        if pause {
+            return Some((from, None));
+        }
+        b.last_cause = cause;
+        b.take_requests();
+        Some((from, s.hooks.get(id.index()).copied().flatten()))
+    })?;
+    let t = Transition::edge(id, from, to, cause);
+    s.step(|s| s.shift(&t).map(|_| ()))?;
+    if pause {
+        // A paused timeout keeps its remaining time, not a deadline (nothing reads either
+        // before this: the tick is the one that would).
+        s.step(|s| {
+            let now = s.now as u32;
+            let armed = s.armed.has(id);
+            let Ok(b) = s.block_mut(id) else { return };
+            if armed {
+                b.deadline = if to == RunningState::Paused {
+                    let left = b.deadline.wrapping_sub(now);
+                    if left >= 0x8000_0000 {
+                        0
+                    } else {
+                        left
+                    }
+                } else {
+                    now.wrapping_add(b.deadline)
+                };
+            }
+        });
+    }
+    Some(hook)
+}
+
+/// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
+/// the exception (active; for a timeout, running; not handling one already), reads a
+/// timeout's reaction from its block, counts the restart and marks the exception.
+/// Returns the behaviour's target and the behaviour (escalated past the restart limit).
+fn mark<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    owner: SeqId,
+    cause: Cause,
+    reaction: &mut Reaction,
+) -> Option<(SeqId, Behaviour)> {
+    let timeout = matches!(cause, Cause::Timeout(_));
+    // Active (a paused timeout is frozen), and not handling an exception already.
+    let states = if timeout {
+        bit(RunningState::Running)
+    } else {
+        bit(RunningState::Running) | bit(RunningState::Paused)
+    };
+    let (target, target_runs) = s.step(|s| {
+        let b = s.slot(owner)?;
+        if states & bit(b.state) == 0 || s.excepting.has(owner) {
+            return None;
+        }
+        if timeout {
+            *reaction = Reaction {
+                behaviour: b.timeout_behaviour,
+                exception: b.timeout_exception.get(),
+                restarts: b.timeout_restarts,
+                runs_seen: b.timeout_runs_seen,
+                limit: b.timeout_restart_limit,
+            };
+        }
+        let target = if reaction.behaviour.targets_caller() {
+            b.caller.get().unwrap_or(owner)
+        } else {
+            owner
+        };
+        Some((target, s.slot(target)?.runs))
+    })?;
+    let mut behaviour = reaction.behaviour;
+    if behaviour.is_restart() {
+        if reaction.runs_seen != target_runs {
+            reaction.runs_seen = target_runs;
+            reaction.restarts = 0;
+        }
+        if reaction.restarts >= reaction.limit {
+            behaviour = behaviour.escalated();
+        } else {
+            reaction.restarts = reaction.restarts.saturating_add(1);
+        }
+    }
+    s.step(|s| {
+        if let Ok(b) = s.block_mut(owner) {
+            b.active_exception = Some(cause);
+            if timeout {
+                b.timeout_restarts = reaction.restarts;
+                b.timeout_runs_seen = reaction.runs_seen;
+                s.armed.set(owner, false);
+            }
+            s.excepting.set(owner, true);
+        }
+        #[cfg(feature = "counters")]
+        if let Some(c) = s.counters.get_mut(owner.index()) {
+            c.exceptions = c.exceptions.wrapping_add(1);
+        }
+    });
+    Some((target, behaviour))
 }
