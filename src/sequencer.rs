@@ -1000,13 +1000,14 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// `at` holds its callees (its gate is not `Go`), else its caller in `lane` to check
     /// next ([`Link::NONE`] at the top of the lane).
     pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
-        // The gate's `Go`, without building the gate.
-        let b = self.fast(at)?;
+        // The gate's `Go`, without building the gate. Plain slot lookups: a slot past
+        // `count` is never `Running`, and a running block's caller is registered.
+        let b = self.blocks.get(at.index())?;
         if b.state != RunningState::Running || self.excepting.has(at) {
             return None;
         }
         let up = b.caller;
-        Some(match up.get().and_then(|c| self.fast(c)) {
+        Some(match up.get().and_then(|c| self.blocks.get(c.index())) {
             Some(c) if c.lane == lane => up,
             _ => Link::NONE,
         })
