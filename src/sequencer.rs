@@ -843,12 +843,13 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         caller: Option<SeqId>,
         mode: Mode,
     ) -> Result<(u16, u8), Error> {
-        let b = self.fast(id).ok_or(Error::UnknownSequence(id))?;
+        let b = self.block(id)?;
         if STARTABLE & bit(b.state) == 0 {
             return Err(Error::AlreadyRunning(id));
         }
         let lane = match (mode, caller) {
-            (Mode::Blocking, Some(c)) => self.fast(c).ok_or(Error::UnknownSequence(c))?.lane,
+            // A blocking caller is the starting sequence itself: registered by construction.
+            (Mode::Blocking, Some(c)) => self.blocks.get(c.index()).map_or(NO_LANE, |c| c.lane),
             _ => NO_LANE,
         };
         Ok((b.flags & flag::BOUND, lane))
