@@ -1019,18 +1019,19 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         self.lanes.get(usize::from(lane))?.waker.as_ref()
     }
 
-    /// Wakes the lane that drives `id`.
+    /// Wakes the lane that drives `id` (a registered sequence: a plain slot lookup).
     #[inline(never)]
     pub(crate) fn wake(&self, id: SeqId) {
-        let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
+        let lane = self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane);
         if let Some(w) = self.lane_waker(lane) {
             w.wake_by_ref();
         }
     }
 
-    /// Parks `waker` as the waker of `id`'s lane.
+    /// Parks `waker` as the waker of `id`'s lane (a registered sequence, the waker's own:
+    /// a plain slot lookup).
     pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
-        let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
+        let lane = self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane);
         self.park_lane(lane, waker);
     }
 
