@@ -141,8 +141,9 @@ pub struct Seq<S> {
 pub(crate) struct SeqHead {
     pub(crate) id: SeqId,
     /// Where the framework leaves the result of a blocking run for the future that started
-    /// it; `None` at rest (set and taken in the same poll).
-    pub(crate) slot: Cell<Option<Result<Outcome, Error>>>,
+    /// it; `Pending` at rest (set and taken in the same poll). A `Poll`, not an `Option`:
+    /// the take is then one whole copy, no `memcpy` of the payload.
+    pub(crate) slot: Cell<Poll<Result<Outcome, Error>>>,
 }
 
 impl<S> Seq<S> {
@@ -150,7 +151,7 @@ impl<S> Seq<S> {
         Seq {
             head: SeqHead {
                 id,
-                slot: Cell::new(None),
+                slot: Cell::new(Poll::Pending),
             },
             body,
         }
@@ -438,7 +439,7 @@ enum Phase {
 /// slot for its result, who waits for it and where the run stands.
 pub(crate) struct Frame<'a, 's, C> {
     pub(crate) cx: Cx<'a, C>,
-    slot: &'s Cell<Option<Result<Outcome, Error>>>,
+    slot: &'s Cell<Poll<Result<Outcome, Error>>>,
     /// The blocking caller; `None`: the sequence's lane.
     caller: Option<SeqId>,
     phase: Cell<Phase>,
@@ -450,7 +451,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
     /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
     pub(crate) fn blocking(
         cx: Cx<'a, C>,
-        slot: &'s Cell<Option<Result<Outcome, Error>>>,
+        slot: &'s Cell<Poll<Result<Outcome, Error>>>,
         caller: SeqId,
     ) -> Self {
         Frame {
@@ -463,7 +464,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
     }
 
     /// The lane of `cx`'s sequence: runs it every time it is started non-blocking.
-    pub(crate) fn lane(cx: Cx<'a, C>, slot: &'s Cell<Option<Result<Outcome, Error>>>) -> Self {
+    pub(crate) fn lane(cx: Cx<'a, C>, slot: &'s Cell<Poll<Result<Outcome, Error>>>) -> Self {
         Frame {
             cx,
             slot,
@@ -519,7 +520,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                     match engine.begin(id, self.caller, Mode::Blocking) {
                         Ok(()) => self.phase.set(Phase::Gate),
                         Err(e) => {
-                            self.slot.set(Some(Err(e)));
+                            self.slot.set(Poll::Ready(Err(e)));
                             self.phase.set(Phase::Done);
                         }
                     }
@@ -576,7 +577,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 Phase::Returning => {
                     if let Some(caller) = self.caller {
                         if engine.gate(caller, w.waker()) == Gate::Go {
-                            self.slot.set(Some(Ok(self.outcome.get())));
+                            self.slot.set(Poll::Ready(Ok(self.outcome.get())));
                             self.phase.set(Phase::Done);
                         }
                     }
@@ -634,10 +635,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
                 break;
             }
         }
-        match self.slot.take() {
-            Some(result) => Poll::Ready(result),
-            None => Poll::Pending,
-        }
+        self.slot.replace(Poll::Pending)
     }
 }
 

@@ -843,12 +843,13 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         caller: Option<SeqId>,
         mode: Mode,
     ) -> Result<(u16, u8), Error> {
-        let b = self.fast(id).ok_or(Error::UnknownSequence(id))?;
+        let b = self.block(id)?;
         if STARTABLE & bit(b.state) == 0 {
             return Err(Error::AlreadyRunning(id));
         }
         let lane = match (mode, caller) {
-            (Mode::Blocking, Some(c)) => self.fast(c).ok_or(Error::UnknownSequence(c))?.lane,
+            // A blocking caller is the starting sequence itself: registered by construction.
+            (Mode::Blocking, Some(c)) => self.blocks.get(c.index()).map_or(NO_LANE, |c| c.lane),
             _ => NO_LANE,
         };
         Ok((b.flags & flag::BOUND, lane))
@@ -1000,13 +1001,14 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     /// `at` holds its callees (its gate is not `Go`), else its caller in `lane` to check
     /// next ([`Link::NONE`] at the top of the lane).
     pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
-        // The gate's `Go`, without building the gate.
-        let b = self.fast(at)?;
+        // The gate's `Go`, without building the gate. Plain slot lookups: a slot past
+        // `count` is never `Running`, and a running block's caller is registered.
+        let b = self.blocks.get(at.index())?;
         if b.state != RunningState::Running || self.excepting.has(at) {
             return None;
         }
         let up = b.caller;
-        Some(match up.get().and_then(|c| self.fast(c)) {
+        Some(match up.get().and_then(|c| self.blocks.get(c.index())) {
             Some(c) if c.lane == lane => up,
             _ => Link::NONE,
         })
@@ -1017,18 +1019,19 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         self.lanes.get(usize::from(lane))?.waker.as_ref()
     }
 
-    /// Wakes the lane that drives `id`.
+    /// Wakes the lane that drives `id` (a registered sequence: a plain slot lookup).
     #[inline(never)]
     pub(crate) fn wake(&self, id: SeqId) {
-        let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
+        let lane = self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane);
         if let Some(w) = self.lane_waker(lane) {
             w.wake_by_ref();
         }
     }
 
-    /// Parks `waker` as the waker of `id`'s lane.
+    /// Parks `waker` as the waker of `id`'s lane (a registered sequence, the waker's own:
+    /// a plain slot lookup).
     pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
-        let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
+        let lane = self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane);
         self.park_lane(lane, waker);
     }
 
