@@ -186,8 +186,8 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_exception: Link,
     pub(crate) timeout_restart_limit: u8,
     pub(crate) timeout_restarts: u8,
-    /// A sequence waiting in `join` for this one.
-    pub(crate) joiner: Link,
+    /// The sequence whose run this one waits for in a join.
+    pub(crate) joins: Link,
     /// Its [polling class](crate::polling) (the class holds the period).
     pub(crate) class: u8,
 }
@@ -221,7 +221,7 @@ impl ControlBlock {
         timeout_exception: Link::NONE,
         timeout_restart_limit: 0,
         timeout_restarts: 0,
-        joiner: Link::NONE,
+        joins: Link::NONE,
         class: 0,
     };
 
@@ -303,7 +303,7 @@ mod tests {
         // An unregistered block reads as idle and unlinked.
         let b = ControlBlock::UNREGISTERED;
         assert_eq!(
-            (b.state, b.caller.get(), b.joiner.get()),
+            (b.state, b.caller.get(), b.joins.get()),
             (RunningState::Idle, None, None)
         );
         assert_eq!(

@@ -3,7 +3,7 @@
 
 use core::task::{Poll, Waker};
 
-use crate::control_block::{flag, Link};
+use crate::control_block::flag;
 use crate::lock::Lock;
 use crate::sequencer::{steps, Gate, Mode, Steps};
 use crate::{Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
@@ -40,10 +40,15 @@ pub(crate) trait Engine<C> {
     /// refused (the gate says what to do instead).
     fn end(&self, id: SeqId, outcome: Outcome) -> bool;
     fn finished(&self, id: SeqId, outcome: Outcome);
-    /// Finds or claims `id`'s lane slot (`None`: all taken); with `waker` (the lane's
-    /// poll), parks it there and takes a pending start (`Some(true)`). One vtable entry
-    /// for a lane's declaration and its wait for a start.
-    fn take_start(&self, id: SeqId, waker: Option<&Waker>) -> Option<bool>;
+    /// The future of `id`'s run was dropped before the run ended: the run and its
+    /// sub-sequences are aborted now ([`Cause::Dropped`], innermost first, through their
+    /// cleanup hooks).
+    fn abandon(&self, id: SeqId, control: &C);
+    /// Finds or claims `id`'s lane slot.
+    fn declare_lane(&self, id: SeqId) -> Result<u8, Error>;
+    /// A lane's wait for a start of `id`: declares the lane, keeps `waker` as its waker
+    /// and takes a pending non-blocking start (true).
+    fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues request `bit` for the next tick, or with `bit` 0 sets the timeout to
@@ -69,8 +74,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn wait(&self, id: SeqId, waker: &Waker, polled: bool) -> Gate {
+        // The waker is kept before the state is read: a wake-up in between is not lost.
+        let lane = self.with(|s| s.lane_slot(id));
+        self.park_lane(lane, waker);
         steps!(self, |s| {
-            s.step(|s| s.park(id, waker));
             s.step(|s| match s.gate(id) {
                 Gate::Go if polled && s.poll_due.has(id) => {
                     s.poll_due.set(id, false);
@@ -98,56 +105,68 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Engine<C>
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
-        steps!(self, |s| {
+        let joiners = steps!(self, |s| {
             // The run no longer waits for a poll (`poll_wait(id, false)`, a step of its own:
             // the section of the end stays short).
             s.step(|s| {
                 s.poll_wait.set(id, false);
                 s.poll_due.set(id, false);
             });
-            if let Some(j) = s.step(|s| s.finished(id, outcome)) {
-                s.step(|s| s.wake(j));
-            }
-        })
+            s.step(|s| s.finished(id, outcome));
+            s.step(|s| s.release_joiners(id))
+        });
+        self.wake_lanes(joiners);
     }
 
-    fn take_start(&self, id: SeqId, waker: Option<&Waker>) -> Option<bool> {
-        steps!(self, |s| {
-            let lane = s.declare_lane(id)?;
-            let Some(waker) = waker else {
-                return Some(false);
+    fn abandon(&self, id: SeqId, control: &C) {
+        self.walk(control, Some(id), RunningState::Aborting, Cause::Dropped);
+    }
+
+    fn declare_lane(&self, id: SeqId) -> Result<u8, Error> {
+        steps!(self, |s| s.declare_lane(id)).ok_or(Error::LaneCapacityExceeded(id))
+    }
+
+    fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
+        let Ok(lane) = Engine::declare_lane(self, id) else {
+            // No slot left: the lane never runs (see `lane`).
+            return false;
+        };
+        // The waker is kept before the start is looked for: a start in between wakes it.
+        self.park_lane(lane, waker);
+        self.with(|s| {
+            let Ok(b) = s.block_mut(id) else {
+                return false;
             };
-            s.step(|s| s.park_lane(lane, waker));
-            Some(s.step(|s| {
-                let Ok(b) = s.block_mut(id) else {
-                    return false;
-                };
-                let pending = b.has(flag::START_PENDING);
-                b.set(flag::START_PENDING, false);
-                pending
-            }))
+            let pending = b.has(flag::START_PENDING);
+            b.set(flag::START_PENDING, false);
+            pending
         })
     }
 
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>> {
-        self.with(|s| {
-            let Ok(b) = s.block_mut(target) else {
-                return Poll::Ready(Err(Error::UnknownSequence(target)));
-            };
+        if steps!(self, |s| s.join_would_deadlock(joiner, target)) {
+            return Poll::Ready(Err(Error::JoinWouldDeadlock(target)));
+        }
+        // Registered before the run's end is looked for: an end in between releases it.
+        self.with(|s| s.wait_for_join(joiner, target));
+        let ended = self.with(|s| {
+            let b = s.block(target)?;
             if b.state == RunningState::Idle {
-                return Poll::Ready(Err(Error::NeverStarted(target)));
+                return Err(Error::NeverStarted(target));
             }
-            match b.outcome {
-                Some(o) if !b.state.is_active() && !b.has(flag::START_PENDING) => {
-                    Poll::Ready(Ok(o))
-                }
+            Ok(match b.outcome {
+                Some(o) if !b.state.is_active() && !b.has(flag::START_PENDING) => Some(o),
                 // Running, or ended but its framework has not returned yet.
-                _ => {
-                    b.joiner = Link::to(Some(joiner));
-                    Poll::Pending
-                }
-            }
-        })
+                _ => None,
+            })
+        });
+        let result = match ended {
+            Ok(None) => return Poll::Pending,
+            Ok(Some(outcome)) => Ok(outcome),
+            Err(e) => Err(e),
+        };
+        self.with(|s| s.stop_waiting_for_join(joiner));
+        Poll::Ready(result)
     }
 
     /// The block's own fields, in one section.

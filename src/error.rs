@@ -48,6 +48,8 @@ pub enum Error {
     PollingClassesExceeded,
     /// A [`Table`](crate::Table) is installed only into a sequencer with nothing registered.
     NotEmpty,
+    /// A join that could never return: a sequence joining itself or a caller it blocks.
+    JoinWouldDeadlock(SeqId),
 }
 
 impl Error {
@@ -71,6 +73,7 @@ impl Error {
             Error::AlreadyBound(_) => "sequence already bound",
             Error::PollingClassesExceeded => "too many distinct polling periods",
             Error::NotEmpty => "sequencer not empty",
+            Error::JoinWouldDeadlock(_) => "join would deadlock",
         }
     }
 }
@@ -102,6 +105,11 @@ impl core::fmt::Display for Error {
             Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),
             Error::PollingClassesExceeded => write!(f, "too many distinct polling periods"),
             Error::NotEmpty => write!(f, "a table needs an empty sequencer"),
+            Error::JoinWouldDeadlock(id) => write!(
+                f,
+                "joining sequence {} would wait for itself (it is the joiner or a caller it blocks)",
+                id.index()
+            ),
         }
     }
 }

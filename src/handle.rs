@@ -175,9 +175,6 @@ impl<'a, C> Handle<'a, C> {
     /// Declares that a lane runs this sequence, so it can be started non-blocking before the
     /// lane first ran (e.g. from RTIC `init`). [`lane`](crate::lane) declares it too.
     pub fn declare_lane(&self) -> Result<(), Error> {
-        match self.engine.take_start(self.id, None) {
-            Some(_) => Ok(()),
-            None => Err(Error::LaneCapacityExceeded(self.id)),
-        }
+        self.engine.declare_lane(self.id).map(|_| ())
     }
 }

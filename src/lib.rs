@@ -37,6 +37,7 @@ mod error;
 mod handle;
 mod id;
 mod lane;
+mod lanes;
 pub mod lock;
 mod monitor;
 mod polling;

@@ -8,7 +8,8 @@
 //! * `PriorityCeiling` (feature `cortex-m`, `Sequencer::with_priority_ceiling`): RTIC's
 //!   Stack Resource Policy. A section raises BASEPRI to the ceiling (the priority of the
 //!   tick), so lanes and the tick exclude each other while every higher-priority interrupt —
-//!   the safety task first — runs at once: rtseq then masks no interrupt globally.
+//!   the safety task first — runs at once: rtseq then masks no interrupt globally (unless
+//!   the tick runs at RTIC's highest priority, where RTIC too disables interrupts).
 //!
 //! [`Sequencer::new`]: crate::Sequencer::new
 
@@ -51,40 +52,73 @@ impl Lock for CriticalSection {
     }
 }
 
-/// RTIC's priority-ceiling lock: BASEPRI is raised to `BASEPRI` (the hardware value of the
-/// tick's priority, see [`rtic_basepri`]) for the section.
+/// RTIC's priority-ceiling lock for a sequencer whose highest user runs at RTIC priority
+/// `PRIORITY` on a device with `NVIC_PRIO_BITS` priority bits (4 on STM32, the default).
+///
+/// A section does what RTIC does to lock a resource of that ceiling ([`Ceiling::of`]):
+/// below RTIC's highest priority it raises BASEPRI, so that only the sequencer's users are
+/// kept out; at the highest priority, which no BASEPRI value masks, it disables interrupts.
+/// A priority or bit count RTIC does not accept is a compile error.
 ///
 /// Only the sequencer's users at or below the ceiling are kept out, which is why a
 /// sequencer with this lock is created with the `unsafe`
 /// [`Sequencer::with_priority_ceiling`](crate::Sequencer::with_priority_ceiling).
+///
+/// ```
+/// use rtseq::lock::PriorityCeiling;
+/// use rtseq::Sequencer;
+/// // The tick runs at RTIC priority 2 on an STM32 (4 priority bits).
+/// static SEQ: Sequencer<(), 8, 64, PriorityCeiling<2>> =
+///     unsafe { Sequencer::with_priority_ceiling() };
+/// ```
 #[cfg(feature = "cortex-m")]
 #[derive(Debug)]
-pub struct PriorityCeiling<const BASEPRI: u8>;
+pub struct PriorityCeiling<const PRIORITY: u8, const NVIC_PRIO_BITS: u8 = 4>;
 
 #[cfg(feature = "cortex-m")]
-impl<const BASEPRI: u8> sealed::Sealed for PriorityCeiling<BASEPRI> {}
+impl<const PRIORITY: u8, const NVIC_PRIO_BITS: u8> PriorityCeiling<PRIORITY, NVIC_PRIO_BITS> {
+    /// The ceiling's section; evaluated by the compiler, so a bad pair does not compile.
+    #[allow(clippy::panic)] // evaluated at compile time: a compile error, never a run-time panic
+    const CEILING: Ceiling = match Ceiling::of(PRIORITY, NVIC_PRIO_BITS) {
+        Some(c) => c,
+        None => panic!("RTIC priorities are 1 ..= 2^NVIC_PRIO_BITS, with 2 ..= 8 priority bits"),
+    };
+}
 
 #[cfg(feature = "cortex-m")]
-impl<const BASEPRI: u8> Lock for PriorityCeiling<BASEPRI> {
-    const COARSE: bool = true;
+impl<const PRIORITY: u8, const NVIC_PRIO_BITS: u8> sealed::Sealed
+    for PriorityCeiling<PRIORITY, NVIC_PRIO_BITS>
+{
+}
+
+#[cfg(feature = "cortex-m")]
+impl<const PRIORITY: u8, const NVIC_PRIO_BITS: u8> Lock
+    for PriorityCeiling<PRIORITY, NVIC_PRIO_BITS>
+{
+    // At the top priority a section masks every interrupt: keep those short.
+    const COARSE: bool = matches!(Self::CEILING, Ceiling::Basepri(_));
 
     #[inline]
     fn lock<R>(f: impl FnOnce() -> R) -> R {
-        let old = raise_basepri::<BASEPRI>();
-        let r = f();
-        // SAFETY: restores the value read above, ending this section only; it cannot end a
-        // section of an outer context (that one restores its own value on return).
-        unsafe { lower_basepri(old) };
-        r
+        match Self::CEILING {
+            Ceiling::Basepri(basepri) => {
+                let old = raise_basepri(basepri);
+                let r = f();
+                // SAFETY: restores the value read above, ending this section only; it cannot
+                // end a section of an outer context (that one restores its own value on
+                // return).
+                unsafe { lower_basepri(old) };
+                r
+            }
+            Ceiling::InterruptsDisabled => cortex_m::interrupt::free(|_| f()),
+        }
     }
 }
 
-/// Writes BASEPRI back to `old` at the end of a section: `msr` alone (4 bytes at each of
-/// the ≈ 70 section ends of a firmware), without the `isb` of
-/// `cortex_m::register::basepri::write`. Raising needs the barrier, so that no instruction
-/// of the section runs at the old priority ([`raise_basepri`] has it); lowering does not: an
-/// interrupt the lower BASEPRI admits is taken at most a few instructions later, never lost
-/// (FreeRTOS's Cortex-M4 port lowers BASEPRI the same way).
+/// Writes BASEPRI back to `old` at the end of a section, without a barrier: raising needs
+/// one, so that no instruction of the section runs at the old priority ([`raise_basepri`]
+/// has it); lowering does not, because an interrupt the lower BASEPRI admits is taken at
+/// most a few instructions later, never lost.
 ///
 /// # Safety
 ///
@@ -108,29 +142,106 @@ unsafe fn lower_basepri(old: u8) {
     };
 }
 
-/// Raises BASEPRI to `BASEPRI` and returns the value before. Out of line: one copy instead
-/// of ≈ 14 bytes at each of the sequencer's sections; the restore stays inline (one
-/// instruction).
+/// Raises BASEPRI to `basepri` and returns the value before. Out of line: one copy for
+/// every section of the sequencer.
 #[cfg(feature = "cortex-m")]
 #[inline(never)]
-fn raise_basepri<const BASEPRI: u8>() -> u8 {
+fn raise_basepri(basepri: u8) -> u8 {
     let old = cortex_m::register::basepri::read();
     // `basepri_max` only ever raises the priority: nested sections are free.
-    cortex_m::register::basepri_max::write(BASEPRI);
+    cortex_m::register::basepri_max::write(basepri);
     old
 }
 
-/// The BASEPRI value of RTIC logical priority `priority` on a device with `nvic_prio_bits`
-/// priority bits (4 on STM32): what RTIC writes to lock a resource of that ceiling.
+/// How RTIC locks a resource whose ceiling is a given priority (what
+/// `PriorityCeiling` does for the sequencer, feature `cortex-m`).
 ///
 /// ```
-/// assert_eq!(rtseq::lock::rtic_basepri(2, 4), 0xE0);
-/// assert_eq!(rtseq::lock::rtic_basepri(1, 4), 0xF0);
+/// use rtseq::lock::Ceiling;
+/// assert_eq!(Ceiling::of(2, 4), Some(Ceiling::Basepri(0xE0)));
+/// assert_eq!(Ceiling::of(1, 4), Some(Ceiling::Basepri(0xF0)));
+/// // RTIC's highest priority: no BASEPRI value masks it.
+/// assert_eq!(Ceiling::of(16, 4), Some(Ceiling::InterruptsDisabled));
+/// assert_eq!(Ceiling::of(17, 4), None);
 /// ```
-pub const fn rtic_basepri(priority: u8, nvic_prio_bits: u8) -> u8 {
-    let levels: u16 = 1 << (nvic_prio_bits & 7);
-    let p = priority as u16;
-    let hw = levels.saturating_sub(p);
-    let shift = 8u8.saturating_sub(nvic_prio_bits);
-    ((hw << shift) & 0xFF) as u8
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Ceiling {
+    /// BASEPRI is raised to this value (never 0: BASEPRI 0 masks nothing).
+    Basepri(u8),
+    /// The ceiling is RTIC's highest priority: interrupts are disabled for the section.
+    InterruptsDisabled,
+}
+
+impl Ceiling {
+    /// The lock of RTIC logical priority `priority` on a device with `nvic_prio_bits`
+    /// priority bits; `None` for a pair RTIC does not accept (priorities are
+    /// `1 ..= 2^nvic_prio_bits`, the Cortex-M architecture has 2 to 8 priority bits).
+    pub const fn of(priority: u8, nvic_prio_bits: u8) -> Option<Ceiling> {
+        if nvic_prio_bits < 2 || nvic_prio_bits > 8 {
+            return None;
+        }
+        let levels: u16 = 1 << nvic_prio_bits;
+        let p = priority as u16;
+        if p == 0 || p > levels {
+            return None;
+        }
+        if p == levels {
+            return Some(Ceiling::InterruptsDisabled);
+        }
+        // RTIC's `logical2hw`: the highest logical priority is the lowest hardware value,
+        // kept in the register's top `nvic_prio_bits` bits. Non-zero: `p < levels`.
+        Some(Ceiling::Basepri(
+            ((levels - p) << (8 - nvic_prio_bits)) as u8,
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Ceiling;
+
+    /// The hardware priority value of RTIC logical priority `p` (RTIC's own formula).
+    fn hardware(p: u16, bits: u8) -> u16 {
+        ((1u16 << bits) - p) << (8 - bits)
+    }
+
+    #[test]
+    fn every_rtic_priority_is_excluded_by_its_ceiling_and_no_higher_one_is() {
+        for bits in 2..=8u8 {
+            let levels = 1u16 << bits;
+            // RTIC priorities are `u8`: with 8 bits the highest is 255.
+            for p in 1..=levels.min(255) {
+                let ceiling = Ceiling::of(p as u8, bits);
+                if p == levels {
+                    assert_eq!(ceiling, Some(Ceiling::InterruptsDisabled), "{p}/{bits}");
+                    continue;
+                }
+                assert!(
+                    matches!(ceiling, Some(Ceiling::Basepri(_))),
+                    "{p}/{bits}: {ceiling:?}"
+                );
+                let Some(Ceiling::Basepri(v)) = ceiling else {
+                    continue;
+                };
+                assert_ne!(v, 0, "BASEPRI 0 masks nothing ({p}/{bits})");
+                // An interrupt is masked when its hardware value is at or above BASEPRI.
+                for q in 1..=levels.min(255) {
+                    let masked = hardware(q, bits) >= u16::from(v);
+                    assert_eq!(
+                        masked,
+                        q <= p,
+                        "priority {q} under ceiling {p} ({bits} bits)"
+                    );
+                }
+            }
+            assert_eq!(Ceiling::of(0, bits), None);
+            if levels < 256 {
+                assert_eq!(Ceiling::of((levels + 1) as u8, bits), None);
+            }
+        }
+        assert_eq!(Ceiling::of(1, 1), None);
+        assert_eq!(Ceiling::of(1, 9), None);
+        assert_eq!(Ceiling::of(16, 4), Some(Ceiling::InterruptsDisabled));
+        assert_eq!(Ceiling::of(2, 4), Some(Ceiling::Basepri(0xE0)));
+    }
 }

@@ -509,8 +509,7 @@ impl<'a, 's, C> Frame<'a, 's, C> {
             // stays at the phase set before.
             let ending = match self.phase.get() {
                 Phase::Idle => {
-                    // No slot left: the lane never runs (see `lane`).
-                    if engine.take_start(id, Some(w.waker())) != Some(true) {
+                    if !engine.take_start(id, w.waker()) {
                         return Poll::Pending;
                     }
                     self.phase.set(Phase::Gate);
@@ -636,6 +635,27 @@ impl<'a, 's, C> Frame<'a, 's, C> {
             }
         }
         self.slot.replace(Poll::Pending)
+    }
+}
+
+/// A run whose future is dropped before it ended (the loser of a `select`, a timeout
+/// combinator, a lane shut down) does not leave its sequence running with no one to drive
+/// it: it is aborted where it is, with its sub-sequences ([`Cause::Dropped`]). A run that
+/// ended but has not reported back yet reports now. A sequence's action future is a field
+/// before the frame, so the runs it holds are dropped first: innermost first.
+///
+/// [`Cause::Dropped`]: crate::Cause::Dropped
+impl<C> Drop for Frame<'_, '_, C> {
+    fn drop(&mut self) {
+        let (engine, id) = (self.cx.engine(), self.cx.id());
+        match self.phase.get() {
+            Phase::Gate | Phase::Act | Phase::Acted | Phase::Exit | Phase::Due => {
+                engine.abandon(id, self.cx.control());
+            }
+            Phase::End => engine.finished(id, self.outcome.get()),
+            // Not started, waiting for a start, or over.
+            Phase::Idle | Phase::Begin | Phase::Returning | Phase::Done => {}
+        }
     }
 }
 

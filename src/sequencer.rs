@@ -5,6 +5,8 @@ use core::marker::PhantomData;
 use core::sync::atomic::{AtomicBool, Ordering};
 use core::task::{RawWakerVTable, Waker};
 
+use crate::lanes::{LaneSet, Lanes};
+
 use crate::bits::Bits;
 use crate::control_block::{after, earlier, flag, request, ControlBlock, Link, NO_LANE};
 use crate::lock::{CriticalSection, Lock};
@@ -49,20 +51,21 @@ pub(crate) enum Gate {
 }
 
 /// The mutable state, guarded by a critical section.
+///
+/// `repr(C)` in this order: the words and sets every section reads come first, the arrays
+/// that grow with the capacities last, so that the hot fields stay within a load's
+/// immediate offset of the base whatever `N` and `T` are.
+#[repr(C)]
 pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) now: u64,
-    pub(crate) count: u8,
-    pub(crate) blocks: [ControlBlock; N],
-    pub(crate) hooks: [Option<fn(&C)>; N],
-    /// The lanes' wakers: a lane is the only context that polls its sequences.
-    pub(crate) lanes: [LaneSlot; W],
-    #[cfg(feature = "counters")]
-    pub(crate) counters: [crate::Counters; N],
-    /// The polling classes: one schedule per distinct polling period.
-    pub(crate) classes: Classes,
     /// Earliest next poll of a class with an active member (low 32 bits of µs, like the
     /// blocks' times; `NEVER_AHEAD` after the last scan when none is active).
     pub(crate) next_due: u32,
+    pub(crate) count: u8,
+    /// Requests or finished exception sequences wait for the tick.
+    pub(crate) work: bool,
+    /// Exceptions whose sequence could not run (no lane, already running, too deep).
+    pub(crate) exceptions_not_run: u16,
     /// `Running` or `Paused`, as of the start of the last tick (the tick folds `changed`
     /// in before it scans).
     pub(crate) active: Bits,
@@ -83,14 +86,19 @@ pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) poll_wait: Bits,
     /// The tick says the polled condition is due.
     pub(crate) poll_due: Bits,
+    /// Sequences waiting in a join (each block's `joins` says for which run).
+    pub(crate) joining: Bits,
     /// The lanes the tick's last exit-condition wake-up woke, for reuse.
     pub(crate) wake_memo: WakeMemo,
-    /// Requests or finished exception sequences wait for the tick.
-    pub(crate) work: bool,
+    /// The polling classes: one schedule per distinct polling period.
+    pub(crate) classes: Classes,
+    /// The sequence that declared each lane slot (its waker is in [`Sequencer::lanes`]).
+    pub(crate) lane_owners: [Link; W],
+    pub(crate) blocks: [ControlBlock; N],
+    pub(crate) hooks: [Option<fn(&C)>; N],
+    #[cfg(feature = "counters")]
+    pub(crate) counters: [crate::Counters; N],
     pub(crate) trace: crate::trace::Ring<T>,
-    pub(crate) trace_lost: u32,
-    /// Exceptions whose sequence could not run (no lane, already running, too deep).
-    pub(crate) exceptions_not_run: u16,
 }
 
 /// The lane slots woken for a set of due exit-condition polls: in a steady state the set
@@ -100,40 +108,15 @@ pub(crate) struct Inner<C, const N: usize, const T: usize, const W: usize> {
 pub(crate) struct WakeMemo {
     /// The polls (never empty while the memo is valid).
     pub(crate) polls: Bits,
-    /// Their lane slots, one per distinct waker (bit `k` = slot `k`).
-    pub(crate) lanes: u32,
+    /// Their lane slots, one per distinct waker.
+    pub(crate) lanes: LaneSet,
 }
 
 impl WakeMemo {
     pub(crate) const NONE: WakeMemo = WakeMemo {
         polls: Bits::EMPTY,
-        lanes: 0,
+        lanes: LaneSet::EMPTY,
     };
-}
-
-/// The waker of one lane, and the sequence that declared it.
-pub(crate) struct LaneSlot {
-    pub(crate) seq: Link,
-    pub(crate) waker: Option<Waker>,
-}
-
-impl LaneSlot {
-    const EMPTY: LaneSlot = LaneSlot {
-        seq: Link::NONE,
-        waker: None,
-    };
-
-    /// Keeps `waker` as this lane's waker (cloned only when it changed). True when it
-    /// changed.
-    fn park(&mut self, waker: &Waker) -> bool {
-        match &self.waker {
-            Some(w) if w.will_wake(waker) => false,
-            _ => {
-                self.waker = Some(waker.clone());
-                true
-            }
-        }
-    }
 }
 
 /// The identity of a waker (data and vtable pointers, compared, never dereferenced); no
@@ -153,7 +136,7 @@ pub(crate) fn identity(w: &Waker) -> WakerId {
 ///
 /// `C` is the application's control system: conditions, steps and sequences get typed `&C`
 /// access to it (use atomics or [`critical_section::Mutex`] inside `C` for commands). `N` is
-/// the capacity of sequences and steps, `T` of the transition trace buffer, `L` the
+/// the capacity of sequences and steps, `T` of the transition trace buffer (a power of two), `L` the
 /// [`Lock`], `W` the capacity of lanes (sequences that can run non-blocking; a lane costs
 /// 12 bytes, a sequence 48).
 ///
@@ -164,6 +147,8 @@ pub(crate) fn identity(w: &Waker) -> WakerId {
 /// assert_eq!(SEQ.register(SeqConfig::new("main")), Err(Error::DuplicateName("main")));
 /// assert_eq!(SEQ.sequence_by_name("main").map(|h| h.id()), Some(main));
 /// ```
+// `repr(C)`, the state first: every section reaches it at the sequencer's own address.
+#[repr(C)]
 pub struct Sequencer<
     C,
     const N: usize,
@@ -172,6 +157,9 @@ pub struct Sequencer<
     const W: usize = 8,
 > {
     pub(crate) inner: UnsafeCell<Inner<C, N, T, W>>,
+    /// The lanes' wakers, outside `inner`: a waker is foreign code, called only while
+    /// `inner` is not borrowed.
+    pub(crate) lanes: Lanes<W>,
     /// Abort-all requests: an atomic, so any priority may raise one (the safety task sits
     /// above a priority ceiling).
     abort_all: AtomicBool,
@@ -181,11 +169,12 @@ pub struct Sequencer<
     _lock: PhantomData<L>,
 }
 
-// SAFETY: `inner` is only reached through `Sequencer::with`, which runs under `L`, and `L`
-// keeps every other user of this sequencer out (by its contract; for `PriorityCeiling`, the
+// SAFETY: `inner` is only reached through `Sequencer::with`, and `lanes` only through
+// `Sequencer::park` and `Sequencer::wake_lanes`; all of them run under `L`, and `L` keeps
+// every other user of this sequencer out (by its contract; for `PriorityCeiling`, the
 // caller of the `unsafe` constructor promised that no user runs above the ceiling). The
-// other fields are `Sync` themselves. `Inner` is `Send` for every `C` (it holds only plain
-// data, wakers and `fn(&C)` pointers).
+// other fields are `Sync` themselves. `Inner` and `Lanes` are `Send` for every `C` (they
+// hold only plain data, wakers and `fn(&C)` pointers).
 unsafe impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sync
     for Sequencer<C, N, T, L, W>
 {
@@ -207,17 +196,16 @@ impl<C, const N: usize, const T: usize, const W: usize> Sequencer<C, N, T, Criti
 }
 
 #[cfg(feature = "cortex-m")]
-impl<C, const N: usize, const T: usize, const BASEPRI: u8, const W: usize>
-    Sequencer<C, N, T, crate::lock::PriorityCeiling<BASEPRI>, W>
+impl<C, const N: usize, const T: usize, const PRIORITY: u8, const BITS: u8, const W: usize>
+    Sequencer<C, N, T, crate::lock::PriorityCeiling<PRIORITY, BITS>, W>
 {
     /// An empty sequencer guarded by RTIC's priority ceiling instead of critical sections:
     /// no interrupt above the ceiling is ever masked by rtseq.
     ///
     /// # Safety
     ///
-    /// `BASEPRI` must be the BASEPRI value ([`rtic_basepri`](crate::lock::rtic_basepri)) of
-    /// the highest priority at which any method of this sequencer is called — normally the
-    /// tick's — and no method other than [`abort_all`](Self::abort_all) and
+    /// `PRIORITY` must be the highest RTIC priority at which any method of this sequencer is
+    /// called — normally the tick's — and no method other than [`abort_all`](Self::abort_all) and
     /// [`safety_system`](Self::safety_system) may be called from above it.
     pub const unsafe fn with_priority_ceiling() -> Self {
         Self::empty()
@@ -242,7 +230,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 count: 0,
                 blocks: [ControlBlock::UNREGISTERED; N],
                 hooks: [None; N],
-                lanes: [LaneSlot::EMPTY; W],
                 #[cfg(feature = "counters")]
                 counters: [crate::Counters::ZERO; N],
                 classes: Classes::new(),
@@ -258,9 +245,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 wake_memo: WakeMemo::NONE,
                 work: false,
                 trace: crate::trace::Ring::new(),
-                trace_lost: 0,
                 exceptions_not_run: 0,
+                joining: Bits::EMPTY,
+                lane_owners: [Link::NONE; W],
             }),
+            lanes: Lanes::new(),
             _control: PhantomData,
         }
     }
@@ -270,7 +259,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// This is the crate's only access to `Inner`. A `RefCell` would add a panic path (the
     /// "already borrowed" check) to every operation; instead exclusivity rests on two facts:
     /// the lock keeps every other context out, and no closure passed here calls `with` again
-    /// (they only touch `Inner`, and the wakers they call only flag a task).
+    /// or any foreign code that could (they only touch `Inner`: wakers are called by
+    /// [`wake_lanes`](Self::wake_lanes) and [`park`](Self::park), user conditions and hooks
+    /// by the tick, each outside `with`).
     #[inline]
     pub(crate) fn with<R>(&self, f: impl FnOnce(&mut Inner<C, N, T, W>) -> R) -> R {
         L::lock(|| {
@@ -474,11 +465,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         loop {
             let (t, lost) = self.with(|s| {
                 let t = s.trace.pop();
-                let lost = if t.is_none() {
-                    core::mem::take(&mut s.trace_lost)
-                } else {
-                    0
-                };
+                let lost = if t.is_none() { s.trace.take_lost() } else { 0 };
                 (t, lost)
             });
             match t {
@@ -595,11 +582,27 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
         depth
     }
 
+    /// Whether `joiner` waiting for `target` could never return: it is `target`, or
+    /// `target` is one of the callers it blocks (its callers in its own lane). One step
+    /// per caller.
+    fn join_would_deadlock(&mut self, joiner: SeqId, target: SeqId) -> bool {
+        let lane = self.step(|s| s.lane_slot(joiner));
+        let mut at = Some(joiner);
+        for _ in 0..=MAX_DEPTH {
+            let Some(id) = at else { return false };
+            if id == target {
+                return true;
+            }
+            at = self.step(|s| s.blocked_caller(id, lane));
+        }
+        false
+    }
+
     /// The lane slot `id` declared: one step per slot (a declared slot never changes).
     fn lane_slot_of(&mut self, id: SeqId) -> Option<u8> {
         let me = Link::to(Some(id));
         (0..W)
-            .find(|&k| self.step(|s| s.lanes.get(k).is_some_and(|l| l.seq == me)))
+            .find(|&k| self.step(|s| s.lane_owners.get(k) == Some(&me)))
             .and_then(|k| u8::try_from(k).ok())
     }
 
@@ -611,10 +614,10 @@ pub(crate) trait Steps<C, const N: usize, const T: usize, const W: usize> {
         let me = Link::to(Some(id));
         (0..W)
             .find(|&k| {
-                self.step(|s| match s.lanes.get_mut(k) {
-                    Some(l) if l.seq == me => true,
-                    Some(l) if l.seq == Link::NONE => {
-                        l.seq = me;
+                self.step(|s| match s.lane_owners.get_mut(k) {
+                    Some(owner) if *owner == me => true,
+                    Some(owner) if *owner == Link::NONE => {
+                        *owner = me;
                         true
                     }
                     _ => false,
@@ -693,15 +696,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             link: Link::to(caller),
             flags,
         };
-        steps!(self, |s| {
+        let lane = steps!(self, |s| {
             if !s.launch(id, Some(run), cause) {
                 return Err(Error::AlreadyRunning(id));
             }
-            if mode == Mode::Lane {
-                s.step(|s| s.wake(id));
-            }
-            Ok(())
-        })
+            Ok(match mode {
+                Mode::Lane => s.step(|s| s.lane_of(id)),
+                Mode::Blocking => LaneSet::EMPTY,
+            })
+        })?;
+        self.wake_lanes(lane);
+        Ok(())
+    }
+
+    /// Keeps `waker` as the waker of lane slot `lane`; a changed waker forgets the lanes
+    /// remembered for the tick's wake-ups.
+    pub(crate) fn park_lane(&self, lane: u8, waker: &Waker) {
+        if self.park(lane, waker) {
+            self.with(|s| s.wake_memo = WakeMemo::NONE);
+        }
     }
 
     /// [`Inner::start`] of a start in a section of its own (with the portable lock).
@@ -714,12 +727,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline(never)]
     fn commit_restart(&self, t: &crate::trace::Edge, seen: u32) -> bool {
         self.with(|s| s.start(t, seen, None))
-    }
-
-    /// Wakes the lane that drives `id`, in a section of its own.
-    #[inline(never)]
-    pub(crate) fn wake_lane(&self, id: SeqId) {
-        self.with(|s| s.wake(id));
     }
 }
 
@@ -825,9 +832,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         }
         b.state = t.to;
         self.changed = self.changed.or(Bits::of(t.sequence));
-        if self.trace.push(self.now, t) {
-            self.trace_lost = self.trace_lost.saturating_add(1);
-        }
+        self.trace.push(self.now, t);
         #[cfg(feature = "counters")]
         if let Some(c) = self.counters.get_mut(t.sequence.index()) {
             c.count(t.from, t.to, t.cause);
@@ -960,41 +965,25 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         self.paused.0 = (self.paused.0 & !me) | mask(bit(RunningState::Paused));
     }
 
-    /// Wakes the lanes of the due exit-condition polls `polls` (with a coarse lock, in one
-    /// section): the lanes found for the same set last time, or, when the set changed, a
-    /// walk over the sequences. Lanes joined in one task share their waker, which is
-    /// woken once.
+    /// The lanes to wake for the due exit-condition polls `polls`: the lanes found for the
+    /// same set last time, or, when the set changed, a walk over the sequences. Lanes
+    /// joined in one task share their waker, which is woken once.
     #[inline(always)]
-    pub(crate) fn wake_polls(&mut self, polls: Bits) {
+    pub(crate) fn lanes_of_polls(&mut self, polls: Bits, wakers: &Lanes<W>) -> LaneSet {
         if self.wake_memo.polls != polls {
-            let mut lanes = 0u32;
+            let mut lanes = LaneSet::EMPTY;
             let mut woken = NO_WAKER;
             for id in polls {
                 let lane = self.fast(id).map_or(NO_LANE, |b| b.lane);
-                if let Some(w) = self.lane_waker(lane) {
-                    if identity(w) != woken {
-                        woken = identity(w);
-                        lanes |= 1u32.checked_shl(u32::from(lane)).unwrap_or(0);
-                    }
+                let waker = wakers.identity(lane);
+                if waker != NO_WAKER && waker != woken {
+                    woken = waker;
+                    lanes = lanes.with(LaneSet::of(lane));
                 }
             }
             self.wake_memo = WakeMemo { polls, lanes };
         }
-        let mut lanes = self.wake_memo.lanes;
-        while lanes != 0 {
-            // At most 31: fits a byte.
-            let lane = lanes.trailing_zeros() as u8;
-            lanes &= lanes.wrapping_sub(1);
-            if let Some(w) = self.lane_waker(lane) {
-                w.wake_by_ref();
-            }
-        }
-    }
-
-    /// The waker of sequence `id`'s lane, once its lane has parked.
-    #[inline]
-    pub(crate) fn waker_of(&self, id: SeqId) -> Option<&Waker> {
-        self.lane_waker(self.fast(id)?.lane)
+        self.wake_memo.lanes
     }
 
     /// One step of the held check of a due wake-up (see `Sequencer::held`): `None` when
@@ -1014,34 +1003,15 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
         })
     }
 
-    /// The waker of lane slot `lane`, once its lane has parked.
-    fn lane_waker(&self, lane: u8) -> Option<&Waker> {
-        self.lanes.get(usize::from(lane))?.waker.as_ref()
+    /// The lane slot that drives `id` (a registered sequence: a plain slot lookup), as a
+    /// set to wake.
+    pub(crate) fn lane_of(&self, id: SeqId) -> LaneSet {
+        LaneSet::of(self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane))
     }
 
-    /// Wakes the lane that drives `id` (a registered sequence: a plain slot lookup).
-    #[inline(never)]
-    pub(crate) fn wake(&self, id: SeqId) {
-        let lane = self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane);
-        if let Some(w) = self.lane_waker(lane) {
-            w.wake_by_ref();
-        }
-    }
-
-    /// Parks `waker` as the waker of `id`'s lane (a registered sequence, the waker's own:
-    /// a plain slot lookup).
-    pub(crate) fn park(&mut self, id: SeqId, waker: &Waker) {
-        let lane = self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane);
-        self.park_lane(lane, waker);
-    }
-
-    /// Parks `waker` as the waker of lane slot `lane`.
-    pub(crate) fn park_lane(&mut self, lane: u8, waker: &Waker) {
-        if let Some(slot) = self.lanes.get_mut(usize::from(lane)) {
-            if slot.park(waker) {
-                self.wake_memo = WakeMemo::NONE;
-            }
-        }
+    /// The lane slot of `id` (`NO_LANE`: none).
+    pub(crate) fn lane_slot(&self, id: SeqId) -> u8 {
+        self.blocks.get(id.index()).map_or(NO_LANE, |b| b.lane)
     }
 
     /// What an await point of `id` must do now.
@@ -1069,11 +1039,13 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
     }
 
     /// After a run's framework returned: store the outcome and report the end of an
-    /// exception sequence to the tick. Returns the joiner to wake.
-    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> Option<SeqId> {
-        let b = self.fast_mut(id)?;
+    /// exception sequence to the tick. The joiners are released separately
+    /// ([`release_joiners`](Self::release_joiners)).
+    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) {
+        let Some(b) = self.fast_mut(id) else {
+            return;
+        };
         b.outcome = Some(outcome);
-        let joiner = core::mem::replace(&mut b.joiner, Link::NONE).get();
         if b.has(flag::HANDLES_EXCEPTION) {
             b.set(flag::HANDLES_EXCEPTION, false);
             if let Some(ob) = b.caller.get().and_then(|o| self.block_mut(o).ok()) {
@@ -1081,7 +1053,46 @@ impl<C, const N: usize, const T: usize, const W: usize> Inner<C, N, T, W> {
                 self.work = true;
             }
         }
-        joiner
+    }
+
+    /// The run of `target` ended: every sequence waiting in a join for it is released.
+    /// Returns their lanes, to wake.
+    pub(crate) fn release_joiners(&mut self, target: SeqId) -> LaneSet {
+        let mut lanes = LaneSet::EMPTY;
+        for j in self.joining {
+            let Some(b) = self.blocks.get_mut(j.index()) else {
+                continue;
+            };
+            if b.joins == Link::to(Some(target)) {
+                b.joins = Link::NONE;
+                lanes = lanes.with(LaneSet::of(b.lane));
+                self.joining.set(j, false);
+            }
+        }
+        lanes
+    }
+
+    /// `joiner` waits for the end of the run of `target`.
+    pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
+        if let Some(b) = self.blocks.get_mut(joiner.index()) {
+            b.joins = Link::to(Some(target));
+            self.joining.set(joiner, true);
+        }
+    }
+
+    /// `joiner` no longer waits in a join.
+    pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) {
+        if let Some(b) = self.blocks.get_mut(joiner.index()) {
+            b.joins = Link::NONE;
+        }
+        self.joining.set(joiner, false);
+    }
+
+    /// One step of [`Steps::join_would_deadlock`]: the caller of `at` that `joiner` (in
+    /// `lane`) blocks, if any.
+    pub(crate) fn blocked_caller(&self, at: SeqId, lane: u8) -> Option<SeqId> {
+        let b = self.blocks.get(at.index())?;
+        b.caller.get().filter(|&c| self.lane_slot(c) == lane)
     }
 
     /// Queues a pause, resume or abort request for the next tick.

@@ -106,6 +106,9 @@ pub enum Cause {
     Timeout(SeqId),
     /// A `Restarting` sequence runs again.
     Restart,
+    /// The future of the run was dropped before the run ended (the loser of a `select`, a
+    /// timeout combinator): the run is aborted, with its sub-sequences, where it was.
+    Dropped,
 }
 
 /// The result of one run, returned to a blocking caller (no magic `-1`).

@@ -7,10 +7,11 @@
 
 use crate::bits::Bits;
 use crate::control_block::{flag, reached32, request, ControlBlock, Link, NEVER_AHEAD, NO_LANE};
+use crate::lanes::LaneSet;
 use crate::lock::Lock;
 use crate::monitor::{Entry, Group};
 use crate::polling::Due;
-use crate::sequencer::{bit, identity, sources, steps, Inner, Mode, Steps, NO_WAKER};
+use crate::sequencer::{bit, sources, steps, Inner, Mode, Steps, NO_WAKER};
 use crate::{
     Behaviour, Cause, Instant, Monitors, RunningState, SeqId, Sequencer, Transition, MAX_DEPTH,
 };
@@ -149,15 +150,17 @@ struct Reaction {
     limit: u8,
 }
 
-impl Reaction {
-    /// For a timeout: [`Sequencer::raise`] reads the reaction from the owner's block.
-    const TIMEOUT: Reaction = Reaction {
-        behaviour: Behaviour::Nothing,
-        exception: None,
-        restarts: 0,
-        runs_seen: 0,
-        limit: 0,
-    };
+impl ControlBlock {
+    /// How this sequence's timeout monitor reacts, with its restart bookkeeping.
+    fn timeout_reaction(&self) -> Reaction {
+        Reaction {
+            behaviour: self.timeout_behaviour,
+            exception: self.timeout_exception.get(),
+            restarts: self.timeout_restarts,
+            runs_seen: self.timeout_runs_seen,
+            limit: self.timeout_restart_limit,
+        }
+    }
 }
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
@@ -254,12 +257,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
         for id in polls.expired {
-            let mut reaction = Reaction::TIMEOUT;
-            self.raise(control, id, Cause::Timeout(id), &mut reaction);
+            // The configuration is fixed and its bookkeeping is the tick's: read once.
+            if let Some(mut reaction) = self.with(|s| s.slot(id).map(|b| b.timeout_reaction())) {
+                self.raise(control, id, Cause::Timeout(id), &mut reaction);
+            }
             careful = true;
         }
         if !polls.wake.is_empty() {
-            if L::COARSE {
+            let lanes = if L::COARSE {
                 // One section: the held check walks the callers inside it.
                 self.with(|s| {
                     let wake = if careful {
@@ -267,11 +272,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                     } else {
                         polls.wake
                     };
-                    s.wake_polls(wake);
-                });
+                    s.lanes_of_polls(wake, &self.lanes)
+                })
             } else {
-                self.wake_polls(polls.wake, careful);
-            }
+                self.lanes_of_polls(polls.wake, careful)
+            };
+            self.wake_lanes(lanes);
         }
     }
 
@@ -321,24 +327,27 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         polls
     }
 
-    /// With a portable lock: wakes the lanes whose polled condition is due, except those
-    /// held (checked only when `careful`: after a monitor fired or while something is
-    /// held), in short sections.
+    /// With a portable lock: the lanes whose polled condition is due, except those held
+    /// (checked only when `careful`: after a monitor fired or while something is held), in
+    /// short sections. Lanes joined in one task share their waker, which is woken once.
     #[inline(never)]
-    fn wake_polls(&self, wake: Bits, careful: bool) {
+    fn lanes_of_polls(&self, wake: Bits, careful: bool) -> LaneSet {
+        let mut lanes = LaneSet::EMPTY;
         let mut woken = NO_WAKER;
         for id in wake {
             if careful && self.held(id) {
                 continue;
             }
-            // The identity in one section, the wake-up in another (only for a waker not
-            // woken yet): each a few instructions.
-            let w = self.with(|s| s.waker_of(id).map_or(NO_WAKER, identity));
-            if w != NO_WAKER && w != woken {
-                woken = w;
-                self.wake_lane(id);
+            let (lane, waker) = self.with(|s| {
+                let lane = s.lane_slot(id);
+                (lane, self.lanes.identity(lane))
+            });
+            if waker != NO_WAKER && waker != woken {
+                woken = waker;
+                lanes = lanes.with(LaneSet::of(lane));
             }
         }
+        lanes
     }
 
     /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding
@@ -386,14 +395,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         entry.target_runs_seen = reaction.runs_seen;
     }
 
-    /// A monitor (or `owner`'s timeout, `Cause::Timeout`) of `owner` fired: mark the
-    /// exception, then start the exception sequence (the behaviour waits for its end) or
-    /// apply the behaviour now. Returns false when the owner could not take an exception any
-    /// more (a timeout: unless running, its timeout stays armed and is checked again at its
-    /// next poll).
-    ///
-    /// A timeout's reaction and restart bookkeeping live in the owner's block: read in
-    /// the first section, written back in the second (which also disarms the timeout).
+    /// A monitor (or `owner`'s timeout, `Cause::Timeout`) of `owner` fired with `reaction`:
+    /// mark the exception, then start the exception sequence (the behaviour waits for its
+    /// end) or apply the behaviour now. Returns false when the owner could not take an
+    /// exception any more (a timeout: unless running, its timeout stays armed and is
+    /// checked again at its next poll). The reaction's restart bookkeeping is updated; a
+    /// timeout's is written back to the owner's block with the mark (which also disarms
+    /// the timeout).
     #[inline(never)]
     fn raise(&self, control: &C, owner: SeqId, cause: Cause, reaction: &mut Reaction) -> bool {
         // With a coarse lock one section, else the check and the mark in one each.
@@ -425,10 +433,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
         let to = match behaviour {
             Behaviour::Nothing => {
-                steps!(self, |s| {
+                let lane = steps!(self, |s| {
                     s.step(|s| s.excepting.set(owner, false));
-                    s.step(|s| s.wake(owner));
+                    s.step(|s| s.lane_of(owner))
                 });
+                self.wake_lanes(lane);
                 return;
             }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,
@@ -504,7 +513,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// * `Paused` (`Running`): pauses (resumes) a running (paused) `target` and the
     ///   sequences it blocks in its lane, outermost first.
     #[inline(never)]
-    fn walk(&self, control: &C, target: Option<SeqId>, to: RunningState, cause: Cause) {
+    pub(crate) fn walk(&self, control: &C, target: Option<SeqId>, to: RunningState, cause: Cause) {
         let pause = matches!(to, RunningState::Paused | RunningState::Running);
         // What a pause leaves (a resume: `Paused`).
         let from = if to == RunningState::Paused {
@@ -553,22 +562,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if let Some(h) = hook {
             h(control);
         }
-        steps!(self, |s| {
+        let lanes = steps!(self, |s| {
+            let mut lanes = LaneSet::EMPTY;
             if to == RunningState::Aborting {
                 // A blocking sequence's framework is dropped by its aborted caller and
                 // never reports back, so the outcome is recorded here.
                 let t = Transition::edge(id, to, RunningState::Aborted, cause);
-                let joiner = s.step(|s| {
+                let aborted = s.step(|s| {
                     let b = s.shift(&t)?;
                     b.outcome = Some(crate::Outcome::Aborted(cause));
-                    core::mem::replace(&mut b.joiner, Link::NONE).get()
+                    Some(())
                 });
-                if let Some(j) = joiner {
-                    s.step(|s| s.wake(j));
+                if aborted.is_some() {
+                    lanes = s.step(|s| s.release_joiners(id));
                 }
             }
-            s.step(|s| s.wake(id));
+            lanes.with(s.step(|s| s.lane_of(id)))
         });
+        self.wake_lanes(lanes);
     }
 
     /// For a teardown or a pause: the sequences that are `target` or below it (every one
@@ -673,8 +684,8 @@ fn leave<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize
 }
 
 /// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
-/// the exception (active; for a timeout, running; not handling one already), reads a
-/// timeout's reaction from its block, counts the restart and marks the exception.
+/// the exception (active; for a timeout, running; not handling one already), counts the
+/// restart and marks the exception.
 /// Returns the behaviour's target and the behaviour (escalated past the restart limit).
 fn mark<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
     s: &mut S,
@@ -693,15 +704,6 @@ fn mark<C, S: Steps<C, N, T, W>, const N: usize, const T: usize, const W: usize>
         let b = s.slot(owner)?;
         if states & bit(b.state) == 0 || s.excepting.has(owner) {
             return None;
-        }
-        if timeout {
-            *reaction = Reaction {
-                behaviour: b.timeout_behaviour,
-                exception: b.timeout_exception.get(),
-                restarts: b.timeout_restarts,
-                runs_seen: b.timeout_runs_seen,
-                limit: b.timeout_restart_limit,
-            };
         }
         let target = if reaction.behaviour.targets_caller() {
             b.caller.get().unwrap_or(owner)

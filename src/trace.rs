@@ -86,17 +86,21 @@ struct Rec {
     edge: Edge,
 }
 
-/// The sequencer's trace buffer: a ring of the newest `T` records, oldest first.
+/// The sequencer's trace buffer: a ring of the newest `T` records, oldest first (`T` a
+/// power of two, or 0 for no trace).
 ///
-/// A push is O(1) and short (it runs inside the transition's critical section): one index
-/// computation and one record store; when full it overwrites the oldest record, which the
-/// sequencer counts as lost. With a power-of-two `T` (the default 64) the index is a mask.
+/// Two free-running counters, of records written and read: a push (inside the
+/// transition's critical section) is one record store at `written mod T` and one
+/// increment, with no test for a full ring. A reader that falls more than `T` records
+/// behind finds the oldest overwritten and counts them as lost.
 pub(crate) struct Ring<const T: usize> {
     buf: [Rec; T],
-    /// Index of the oldest record.
-    head: usize,
-    /// Number of records held (≤ `T`).
-    len: usize,
+    /// Records pushed since the start (wrapping).
+    written: u32,
+    /// Records popped or lost since the start (wrapping).
+    read: u32,
+    /// Records overwritten before they were read, not reported yet.
+    lost: u32,
 }
 
 impl<const T: usize> Ring<T> {
@@ -111,55 +115,62 @@ impl<const T: usize> Ring<T> {
         ),
     };
 
+    /// `T` as a count (at most 2^31, checked in `new`).
+    const CAPACITY: u32 = T as u32;
+
+    /// A counter's slot is its low bits.
+    const MASK: u32 = Self::CAPACITY.wrapping_sub(1);
+
     pub(crate) const fn new() -> Self {
+        const {
+            assert!(
+                T == 0 || (T.is_power_of_two() && T <= 1 << 31),
+                "the trace capacity T is a power of two (or 0: no trace)"
+            )
+        };
         Ring {
             buf: [Self::BLANK; T],
-            head: 0,
-            len: 0,
+            written: 0,
+            read: 0,
+            lost: 0,
         }
     }
 
-    /// `head + k` wrapped into `0..T` (`head < T`, `k ≤ T`).
+    /// Appends `edge` at `time`, over the oldest record when the ring is full.
     #[inline]
-    fn at(&self, k: usize) -> usize {
-        let i = self.head.wrapping_add(k);
-        if T.is_power_of_two() {
-            i & T.wrapping_sub(1)
-        } else if i >= T {
-            i.wrapping_sub(T)
-        } else {
-            i
-        }
-    }
-
-    /// Appends `edge` at `time`; when full the oldest record is dropped. Returns true when
-    /// one was.
-    #[inline]
-    pub(crate) fn push(&mut self, time: u64, edge: &Edge) -> bool {
-        let i = self.at(self.len);
-        if let Some(slot) = self.buf.get_mut(i) {
+    pub(crate) fn push(&mut self, time: u64, edge: &Edge) {
+        // With `T` = 0 there is no slot: the record is lost.
+        if let Some(slot) = self.buf.get_mut((self.written & Self::MASK) as usize) {
             *slot = Rec { time, edge: *edge };
         }
-        if self.len < T {
-            self.len = self.len.wrapping_add(1);
-            false
-        } else {
-            // Keep the newest records: the oldest are the least useful to a live observer.
-            self.head = self.at(1);
-            true
+        self.written = self.written.wrapping_add(1);
+    }
+
+    /// Counts the records overwritten since the last read as lost and skips them.
+    fn skip_overwritten(&mut self) {
+        let unread = self.written.wrapping_sub(self.read);
+        if unread > Self::CAPACITY {
+            self.lost = self.lost.saturating_add(unread - Self::CAPACITY);
+            self.read = self.written.wrapping_sub(Self::CAPACITY);
         }
     }
 
-    /// Removes and returns the oldest record.
+    /// How many records were overwritten before they were read, since the last call.
+    pub(crate) fn take_lost(&mut self) -> u32 {
+        self.skip_overwritten();
+        core::mem::take(&mut self.lost)
+    }
+
+    /// Removes and returns the oldest record still held.
     #[inline]
     pub(crate) fn pop(&mut self) -> Option<Transition> {
-        if self.len == 0 {
+        self.skip_overwritten();
+        if self.read == self.written {
             return None;
         }
-        let r = self.buf.get(self.head).copied();
-        self.head = self.at(1);
-        self.len = self.len.wrapping_sub(1);
-        r.map(|Rec { time, edge: e }| Transition {
+        let rec = self.buf.get((self.read & Self::MASK) as usize).copied();
+        self.read = self.read.wrapping_add(1);
+        rec.map(|Rec { time, edge: e }| Transition {
             time: Instant::from_ticks(time),
             sequence: e.sequence,
             from: e.from,
@@ -173,7 +184,7 @@ impl<const T: usize> Ring<T> {
 mod tests {
     use super::*;
 
-    fn push<const T: usize>(r: &mut Ring<T>, n: u64) -> bool {
+    fn push<const T: usize>(r: &mut Ring<T>, n: u64) {
         r.push(n, &Ring::<1>::BLANK.edge)
     }
 
@@ -182,41 +193,48 @@ mod tests {
     }
 
     /// Against a model (a `VecDeque` that drops its front when full), for several
-    /// capacities, power of two or not, with pushes and pops interleaved.
+    /// capacities, with pushes and pops interleaved.
     #[test]
     fn keeps_the_newest_records_oldest_first() {
         fn check<const T: usize>() {
             let mut r = Ring::<T>::new();
             let mut model = std::collections::VecDeque::new();
+            let mut lost = 0;
             for n in 0..10 * T as u64 + 7 {
                 if n % 7 == 3 {
+                    assert_eq!(r.take_lost(), lost, "T = {T}, pop {n}");
+                    lost = 0;
                     assert_eq!(r.pop().map(|t| t.time.as_ticks()), model.pop_front());
                 } else {
-                    let full = model.len() == T;
-                    if full {
+                    if model.len() == T {
                         model.pop_front();
+                        lost += 1;
                     }
                     model.push_back(n);
-                    assert_eq!(push(&mut r, n), full, "T = {T}, push {n}");
+                    push(&mut r, n);
                 }
             }
+            assert_eq!(r.take_lost(), lost);
             assert_eq!(drain(&mut r), std::vec::Vec::from(model));
+            assert_eq!(r.take_lost(), 0);
         }
         check::<1>();
-        check::<3>();
+        check::<2>();
         check::<4>();
-        check::<6>();
+        check::<8>();
         check::<64>();
     }
 
     #[test]
     fn empty_and_zero_capacity() {
         let mut r = Ring::<0>::new();
-        assert!(push(&mut r, 1));
+        push(&mut r, 1);
         assert_eq!(r.pop(), None);
+        assert_eq!(r.take_lost(), 1);
         let mut r = Ring::<4>::new();
         assert_eq!(r.pop(), None);
         push(&mut r, 7);
         assert_eq!(drain(&mut r), [7]);
+        assert_eq!(r.take_lost(), 0);
     }
 }

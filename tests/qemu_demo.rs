@@ -196,6 +196,7 @@ fn cause_text(seq: &Seqr, ids: &Ids, c: Cause) -> String {
         Cause::Monitor(m) => format!("monitor {}", monitor_name(ids, m)),
         Cause::Timeout(s) => format!("timeout of {}", seq.sequence_by_id(s).unwrap().name()),
         Cause::Restart => "restart".into(),
+        Cause::Dropped => "dropped".into(),
     }
 }
 

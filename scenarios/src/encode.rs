@@ -34,6 +34,7 @@ fn cause_code(c: Cause) -> (u32, u32) {
         Cause::Monitor(m) => (7, index(m.index())),
         Cause::Timeout(s) => (8, index(s.index())),
         Cause::Restart => (9, 0),
+        Cause::Dropped => (10, 0),
     }
 }
 
@@ -50,6 +51,7 @@ fn cause_of(kind: u32, arg: u32) -> Option<Cause> {
         7 => Cause::Monitor(MonitorId::from_index(arg)),
         8 => Cause::Timeout(SeqId::from_index(arg)),
         9 => Cause::Restart,
+        10 => Cause::Dropped,
         _ => return None,
     })
 }
@@ -121,6 +123,7 @@ pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
                 Error::LaneCapacityExceeded(_) => 13,
                 Error::PollingClassesExceeded => 14,
                 Error::NotEmpty => 15,
+                Error::JoinWouldDeadlock(_) => 16,
             };
             0x8000_0000 | n
         }

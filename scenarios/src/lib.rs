@@ -77,12 +77,7 @@ pub type Seqr = Sequencer<Ctrl, CAPACITY, TRACE>;
 /// the sequencer type every scenario is installed into: on the firmware, guarded by RTIC's
 /// priority ceiling (the tick runs at RTIC priority 2 of 4 NVIC priority bits).
 #[cfg(all(feature = "ceiling", not(feature = "critical-section-lock")))]
-pub type Seqr = Sequencer<
-    Ctrl,
-    CAPACITY,
-    TRACE,
-    rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>,
->;
+pub type Seqr = Sequencer<Ctrl, CAPACITY, TRACE, rtseq::lock::PriorityCeiling<2>>;
 /// The monitor table type of a scenario: every condition is a [`FlagCond`], so a `const`
 /// item builds the table.
 pub type Mons = Monitors<'static, Ctrl, MONITORS, FlagCond>;

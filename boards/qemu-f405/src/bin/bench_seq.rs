@@ -97,7 +97,7 @@ mod app {
     /// The lock under test: RTIC's priority ceiling (the tick's priority 2), or with the
     /// board feature `critical-section-lock` the portable default.
     #[cfg(not(feature = "critical-section-lock"))]
-    type Lk = rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>;
+    type Lk = rtseq::lock::PriorityCeiling<2>;
     #[cfg(feature = "critical-section-lock")]
     type Lk = rtseq::lock::CriticalSection;
     type Seqr<const N: usize> = Sequencer<Ctrl, N, 64, Lk>;

@@ -59,7 +59,7 @@ const STOP_CURRENT: f32 = 0.05;
 
 /// The sequencer's lock: RTIC's Stack Resource Policy, a section raises BASEPRI to the
 /// tick's priority (2), so the safety task (3) preempts rtseq at any instruction.
-type Lock = rtseq::lock::PriorityCeiling<{ rtseq::lock::rtic_basepri(2, 4) }>;
+type Lock = rtseq::lock::PriorityCeiling<2>;
 /// The sequencer (default trace buffer: 64 transitions, drained by idle every tick).
 // SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1, idle
 // at 0); the safety task (3) only calls `abort_all`, an atomic request.
@@ -550,6 +550,7 @@ impl defmt::Format for CauseText<'_> {
             Cause::Monitor(m) => defmt::write!(f, "monitor {=str}", monitor_name(self.1, m)),
             Cause::Timeout(s) => defmt::write!(f, "timeout of {=str}", seq_name(s)),
             Cause::Restart => defmt::write!(f, "restart"),
+            Cause::Dropped => defmt::write!(f, "dropped"),
         }
     }
 }

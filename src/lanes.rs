@@ -1,0 +1,141 @@
+//! The lanes' wakers, and how the sequencer calls them.
+//!
+//! A waker is foreign code: its `wake`, `clone` and `drop` may do anything, including
+//! calling back into the sequencer (a waker written with `std::task::Wake` may read a
+//! handle or request an abort). So the wakers are kept outside the sequencer's state
+//! (`Inner`), and each is only ever moved in and out of its cell: no reference into the
+//! state, or into a waker cell, lives while a waker runs. An operation that must wake lanes
+//! collects them as a [`LaneSet`] inside its section and wakes them after it.
+
+use core::cell::Cell;
+use core::task::Waker;
+
+use crate::lock::Lock;
+use crate::sequencer::{identity, WakerId, NO_WAKER};
+use crate::Sequencer;
+
+/// A set of lane slots (bit `k` = slot `k`; a sequencer has at most 32 lanes).
+#[derive(Clone, Copy, PartialEq, Eq, Default, Debug)]
+pub(crate) struct LaneSet(pub(crate) u32);
+
+impl LaneSet {
+    pub(crate) const EMPTY: LaneSet = LaneSet(0);
+
+    /// The set of lane slot `lane` alone (empty for no lane, `NO_LANE`).
+    #[inline]
+    pub(crate) fn of(lane: u8) -> LaneSet {
+        LaneSet(1u32.checked_shl(u32::from(lane)).unwrap_or(0))
+    }
+
+    #[inline]
+    pub(crate) fn with(self, other: LaneSet) -> LaneSet {
+        LaneSet(self.0 | other.0)
+    }
+}
+
+impl Iterator for LaneSet {
+    type Item = u8;
+
+    /// The slots in the set, lowest first.
+    #[inline]
+    fn next(&mut self) -> Option<u8> {
+        if self.0 == 0 {
+            return None;
+        }
+        // At most 31: fits a byte.
+        let lane = self.0.trailing_zeros() as u8;
+        self.0 &= self.0.wrapping_sub(1);
+        Some(lane)
+    }
+}
+
+/// The waker of one lane slot, once its lane has parked.
+pub(crate) struct LaneWaker {
+    waker: Cell<Option<Waker>>,
+    /// The identity of `waker` (lanes joined in one task share a waker: woken once).
+    identity: Cell<WakerId>,
+}
+
+impl LaneWaker {
+    const fn new() -> Self {
+        LaneWaker {
+            waker: Cell::new(None),
+            identity: Cell::new(NO_WAKER),
+        }
+    }
+
+    /// Keeps `waker` as this lane's waker, cloned only when it changed. True when it
+    /// changed.
+    fn register(&self, waker: &Waker) -> bool {
+        let kept = self.waker.take();
+        // `will_wake` compares pointers: no foreign code.
+        if kept.as_ref().is_some_and(|k| k.will_wake(waker)) {
+            self.waker.set(kept);
+            return false;
+        }
+        let new = waker.clone();
+        self.identity.set(identity(&new));
+        let displaced = self.waker.replace(Some(new));
+        // Dropped after the cell is consistent again: their `drop` may call back.
+        drop(displaced);
+        drop(kept);
+        true
+    }
+
+    /// Wakes the lane (nothing before it first parked).
+    fn wake(&self) {
+        let Some(waker) = self.waker.take() else {
+            return;
+        };
+        waker.wake_by_ref();
+        // A waker registered meanwhile (by the wake-up itself) is the newer one: keep it.
+        match self.waker.take() {
+            None => self.waker.set(Some(waker)),
+            Some(newer) => {
+                self.waker.set(Some(newer));
+                drop(waker);
+            }
+        }
+    }
+}
+
+/// The wakers of a sequencer's `W` lane slots.
+pub(crate) struct Lanes<const W: usize> {
+    slots: [LaneWaker; W],
+}
+
+impl<const W: usize> Lanes<W> {
+    pub(crate) const fn new() -> Self {
+        Lanes {
+            slots: [const { LaneWaker::new() }; W],
+        }
+    }
+
+    /// The identity of lane slot `lane`'s waker ([`NO_WAKER`] before it parked). Only
+    /// under the sequencer's lock.
+    pub(crate) fn identity(&self, lane: u8) -> WakerId {
+        self.slots
+            .get(usize::from(lane))
+            .map_or(NO_WAKER, |s| s.identity.get())
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Keeps `waker` as the waker of lane slot `lane` (a section of its own, outside the
+    /// state). True when it changed.
+    pub(crate) fn park(&self, lane: u8, waker: &Waker) -> bool {
+        let Some(slot) = self.lanes.slots.get(usize::from(lane)) else {
+            return false;
+        };
+        L::lock(|| slot.register(waker))
+    }
+
+    /// Wakes the lanes `lanes`, each in a section of its own, outside the state.
+    pub(crate) fn wake_lanes(&self, lanes: LaneSet) {
+        for lane in lanes {
+            if let Some(slot) = self.lanes.slots.get(usize::from(lane)) {
+                L::lock(|| slot.wake());
+            }
+        }
+    }
+}

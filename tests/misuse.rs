@@ -1,0 +1,502 @@
+//! Misuse that safe code can commit, and what rtseq must do about it: wakers that call back
+//! into the sequencer, runs whose future is dropped (`select`, timeouts), several joiners of
+//! one run, and joins that could never return.
+//!
+//! The re-entrant waker tests are run under Miri (Stacked and Tree Borrows) by `./x miri`:
+//! a sequencer that calls a waker while its state is borrowed is undefined behaviour there.
+
+mod common;
+use common::*;
+
+use std::future::Future;
+use std::pin::{pin, Pin};
+use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
+use std::sync::Arc;
+use std::task::{Context, Poll, Wake, Waker};
+
+use embassy_futures::select::{select, Either};
+use rtseq::sim::Sim;
+use rtseq::Cause::{Completed, Dropped, Start};
+use rtseq::RunningState::*;
+use rtseq::{
+    Cx, Duration, Error, Instant, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer,
+    Step, Wait,
+};
+
+// ---------------------------------------------------------------------------------------
+// 1. Wakers are foreign code: rtseq calls them only while its state is not borrowed.
+// ---------------------------------------------------------------------------------------
+
+/// A step that is done after its first exit-condition poll.
+struct Once;
+impl Step<()> for Once {
+    fn action(&mut self, _cx: &Cx<'_, ()>) {}
+}
+
+/// Runs `Once` twice, so that its lane waits for polls and starts.
+struct Twice {
+    once: Seq<Once>,
+}
+impl Sequence<()> for Twice {
+    async fn action(&mut self, cx: &Cx<'_, ()>) {
+        let _ = cx.step(&mut self.once).await;
+        let _ = cx.step(&mut self.once).await;
+    }
+}
+
+/// A waker written in safe Rust whose `wake`, `wake_by_ref` and `Drop` read and write the
+/// sequencer it belongs to.
+struct Meddler {
+    seq: &'static Sequencer<(), 4>,
+    calls: &'static AtomicUsize,
+}
+
+impl Meddler {
+    fn meddle(&self) {
+        self.calls.fetch_add(1, SeqCst);
+        // Reads (a state, the name look-up) and a write (a timeout).
+        let main = self.seq.sequence_by_name("main").map(|h| h.id());
+        if let Some(h) = main.and_then(|id| self.seq.sequence_by_id(id)) {
+            let _ = h.state();
+            let _ = h.set_timeout(None);
+        }
+    }
+}
+
+impl Wake for Meddler {
+    fn wake(self: Arc<Self>) {
+        self.meddle();
+    }
+    fn wake_by_ref(self: &Arc<Self>) {
+        self.meddle();
+    }
+}
+
+impl Drop for Meddler {
+    fn drop(&mut self) {
+        self.meddle();
+    }
+}
+
+#[test]
+fn a_waker_that_calls_back_into_the_sequencer_is_never_called_while_its_state_is_borrowed() {
+    let seq: &'static Sequencer<(), 4> = Box::leak(Box::new(Sequencer::new()));
+    let calls: &'static AtomicUsize = Box::leak(Box::new(AtomicUsize::new(0)));
+    let once = seq.add(SeqConfig::new("once"), Once).unwrap();
+    let mut main = seq.add(SeqConfig::new("main"), Twice { once }).unwrap();
+    let id = main.id();
+    let mut monitors: Monitors<(), 1> = Monitors::new();
+    let mut lane = pin!(rtseq::lane(seq, &(), &mut main));
+    // A new waker at every poll: the sequencer drops the one it kept (its `Drop` meddles).
+    let mut poll = || {
+        let waker = Waker::from(Arc::new(Meddler { seq, calls }));
+        let r = lane.as_mut().poll(&mut Context::from_waker(&waker));
+        assert!(r.is_pending(), "a lane never ends");
+    };
+    poll();
+    seq.sequence_by_id(id).unwrap().start().unwrap(); // wakes the lane
+    for ms in 1..=4u64 {
+        poll();
+        seq.tick(Instant::from_ticks(ms * 1_000), &(), &mut monitors); // wakes due polls
+    }
+    poll();
+    assert_eq!(seq.sequence_by_id(id).unwrap().state(), Terminated);
+    assert!(calls.load(SeqCst) >= 4, "the wakers ran: {calls:?}");
+}
+
+#[test]
+fn a_waker_that_aborts_its_own_sequence_when_woken_takes_effect_at_the_next_tick() {
+    struct Aborter(&'static Sequencer<(), 4>);
+    impl Wake for Aborter {
+        fn wake(self: Arc<Self>) {
+            self.wake_by_ref();
+        }
+        fn wake_by_ref(self: &Arc<Self>) {
+            if let Some(h) = self.0.sequence_by_name("main") {
+                let _ = h.abort();
+            }
+        }
+    }
+    struct Forever;
+    impl Step<()> for Forever {
+        fn action(&mut self, _cx: &Cx<'_, ()>) {}
+        fn check_exit_condition(&mut self, _cx: &Cx<'_, ()>) -> bool {
+            false
+        }
+    }
+    struct Main(Seq<Forever>);
+    impl Sequence<()> for Main {
+        async fn action(&mut self, cx: &Cx<'_, ()>) {
+            let _ = cx.step(&mut self.0).await;
+        }
+    }
+    let seq: &'static Sequencer<(), 4> = Box::leak(Box::new(Sequencer::new()));
+    let step = seq.add(SeqConfig::new("forever"), Forever).unwrap();
+    let mut main = seq.add(SeqConfig::new("main"), Main(step)).unwrap();
+    let id = main.id();
+    let mut monitors: Monitors<(), 1> = Monitors::new();
+    let waker = Waker::from(Arc::new(Aborter(seq)));
+    let mut lane = pin!(rtseq::lane(seq, &(), &mut main));
+    let _ = lane.as_mut().poll(&mut Context::from_waker(&waker));
+    seq.sequence_by_id(id).unwrap().start().unwrap(); // wakes: the waker requests the abort
+    let _ = lane.as_mut().poll(&mut Context::from_waker(&waker));
+    assert_eq!(seq.sequence_by_id(id).unwrap().state(), Running);
+    seq.tick(Instant::from_ticks(1_000), &(), &mut monitors);
+    assert_eq!(seq.sequence_by_id(id).unwrap().state(), Aborted);
+    assert_eq!(
+        seq.sequence_by_id(id).unwrap().last_outcome(),
+        Some(Outcome::Aborted(rtseq::Cause::Abort))
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// 3. A run whose future is dropped ends, aborted with `Cause::Dropped`.
+// ---------------------------------------------------------------------------------------
+
+fn hook_slow(c: &Ctrl) {
+    c.hooks.borrow_mut().push("slow");
+}
+fn hook_inner(c: &Ctrl) {
+    c.hooks.borrow_mut().push("inner");
+}
+
+/// Races `slow` (a sequence or a step) against a 5 ms wait with `embassy_futures::select`.
+struct Race {
+    slow: Option<Seq<Leaf>>,
+    slow_seq: Option<Seq<Node>>,
+    quick: Seq<Wait>,
+    winner: Option<&'static str>,
+}
+
+impl Sequence<Ctrl> for Race {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        let quick = cx.step(&mut self.quick);
+        let won = match (&mut self.slow, &mut self.slow_seq) {
+            (Some(step), _) => match select(cx.step(step), quick).await {
+                Either::First(_) => "slow",
+                Either::Second(_) => "quick",
+            },
+            (None, Some(sequence)) => match select(Box::pin(cx.run(sequence)), quick).await {
+                Either::First(_) => "slow",
+                Either::Second(_) => "quick",
+            },
+            (None, None) => "none",
+        };
+        self.winner = Some(won);
+    }
+}
+
+#[test]
+fn a_step_that_loses_a_select_is_aborted_through_its_cleanup_and_can_run_again() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let slow = seq
+        .add(SeqConfig::new("slow").on_abort(hook_slow), Leaf::until(0))
+        .unwrap();
+    let quick = seq
+        .add(SeqConfig::new("quick"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let (s, q) = (slow.id(), quick.id());
+    let race = Race {
+        slow: Some(slow),
+        slow_seq: None,
+        quick,
+        winner: None,
+    };
+    let main = seq.add(SeqConfig::new("main"), race).unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(5))
+    );
+    assert_eq!(
+        sim.trace(),
+        &[
+            tr(0, m, Idle, Running, Start),
+            tr(0, s, Idle, Running, Start),
+            tr(0, q, Idle, Running, Start),
+            tr(5, q, Running, Terminated, Completed),
+            tr(5, s, Running, Aborting, Dropped),
+            tr(5, s, Aborting, Aborted, Dropped),
+            tr(5, m, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(*ctrl.hooks.borrow(), ["slow"]);
+    let h = sim.handle(s).unwrap();
+    assert_eq!(h.last_outcome(), Some(Outcome::Aborted(Dropped)));
+    // Nothing is left running: the main sequence can run the race again.
+    sim.take_trace();
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(10))
+    );
+    assert_eq!(sim.trace().len(), 7, "{}", show(sim.trace()));
+}
+
+#[test]
+fn a_sequence_that_loses_a_select_is_torn_down_innermost_first() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let inner = seq
+        .add(SeqConfig::new("inner").on_abort(hook_inner), Leaf::until(0))
+        .unwrap();
+    let i = inner.id();
+    let slow = seq
+        .add(
+            SeqConfig::new("slow").on_abort(hook_slow),
+            Node::of(vec![Op::Step(inner)]),
+        )
+        .unwrap();
+    let quick = seq
+        .add(SeqConfig::new("quick"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let (s, q) = (slow.id(), quick.id());
+    let race = Race {
+        slow: None,
+        slow_seq: Some(slow),
+        quick,
+        winner: None,
+    };
+    let main = seq.add(SeqConfig::new("main"), race).unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(5))
+    );
+    assert_eq!(
+        sim.trace(),
+        &[
+            tr(0, m, Idle, Running, Start),
+            tr(0, s, Idle, Running, Start),
+            tr(0, i, Idle, Running, Start),
+            tr(0, q, Idle, Running, Start),
+            tr(5, q, Running, Terminated, Completed),
+            tr(5, i, Running, Aborting, Dropped),
+            tr(5, i, Aborting, Aborted, Dropped),
+            tr(5, s, Running, Aborting, Dropped),
+            tr(5, s, Aborting, Aborted, Dropped),
+            tr(5, m, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(*ctrl.hooks.borrow(), ["inner", "slow"]);
+}
+
+/// A hand-written timeout around a run: gives up (and drops the run) after `polls` polls.
+struct GiveUp<F> {
+    run: Pin<Box<F>>,
+    polls: u32,
+}
+
+impl<F: Future<Output = Result<Outcome, Error>>> Future for GiveUp<F> {
+    type Output = Option<Result<Outcome, Error>>;
+    fn poll(mut self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
+        if let Poll::Ready(r) = self.run.as_mut().poll(w) {
+            return Poll::Ready(Some(r));
+        }
+        if self.polls == 0 {
+            return Poll::Ready(None);
+        }
+        self.polls -= 1;
+        Poll::Pending
+    }
+}
+
+#[test]
+fn a_run_dropped_by_a_hand_written_timeout_ends_and_the_sequencer_goes_idle() {
+    struct Main {
+        slow: Seq<Leaf>,
+    }
+    impl Sequence<Ctrl> for Main {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+            let r = GiveUp {
+                run: Box::pin(cx.step(&mut self.slow)),
+                polls: 3,
+            }
+            .await;
+            assert!(r.is_none());
+        }
+    }
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let slow = seq
+        .add(SeqConfig::new("slow").on_abort(hook_slow), Leaf::until(0))
+        .unwrap();
+    let s = slow.id();
+    let main = seq.add(SeqConfig::new("main"), Main { slow }).unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    // Polled at 0 (start), 1, 2 (due exit-condition polls): given up at 3.
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(3))
+    );
+    assert_eq!(
+        sim.trace(),
+        &[
+            tr(0, m, Idle, Running, Start),
+            tr(0, s, Idle, Running, Start),
+            tr(3, s, Running, Aborting, Dropped),
+            tr(3, s, Aborting, Aborted, Dropped),
+            tr(3, m, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(*ctrl.hooks.borrow(), ["slow"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// 4. Every joiner of a run gets its outcome.
+// ---------------------------------------------------------------------------------------
+
+/// main starts B and C, B joins C, main joins C (and with `third`, D joins C too).
+fn joiners(third: bool) -> (Vec<Returned>, [SeqId; 4], Option<Instant>) {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let c = seq
+        .add(SeqConfig::new("C"), Node::of(vec![Op::Wait(dwell)]))
+        .unwrap();
+    let ci = c.id();
+    let b = seq
+        .add(SeqConfig::new("B"), Node::of(vec![Op::Join(ci)]))
+        .unwrap();
+    let d = seq
+        .add(SeqConfig::new("D"), Node::of(vec![Op::Join(ci)]))
+        .unwrap();
+    let (bi, di) = (b.id(), d.id());
+    let mut ops = vec![Op::Start(bi), Op::Start(ci)];
+    if third {
+        ops.push(Op::Start(di));
+    }
+    ops.push(Op::Join(ci));
+    let main = seq.add(SeqConfig::new("main"), Node::of(ops)).unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(b);
+    sim.lane(c);
+    sim.lane(d);
+    sim.start(m).unwrap();
+    let idle = sim.run_until_idle(Duration::from_millis(50));
+    drop(sim);
+    let returned = ctrl.returned.borrow().clone();
+    (returned, [m, bi, ci, di], idle)
+}
+
+#[test]
+fn two_joiners_of_one_run_both_get_its_outcome() {
+    let (returned, [m, b, _, _], idle) = joiners(false);
+    assert_eq!(idle, Some(ms_at(5)));
+    let joins: Vec<_> = returned
+        .iter()
+        .filter(|r| (r.seq == m && r.line == 2) || (r.seq == b && r.line == 0))
+        .map(|r| (r.ms, r.seq, r.result))
+        .collect();
+    // Lanes are polled in declaration order: main's first.
+    assert_eq!(
+        joins,
+        [
+            (5, m, Ok(Outcome::Completed)),
+            (5, b, Ok(Outcome::Completed))
+        ]
+    );
+}
+
+#[test]
+fn three_joiners_of_one_run_all_get_its_outcome() {
+    let (returned, [m, b, _, d], idle) = joiners(true);
+    assert_eq!(idle, Some(ms_at(5)));
+    let joins: Vec<_> = returned
+        .iter()
+        .filter(|r| (r.seq == m && r.line == 3) || ((r.seq == b || r.seq == d) && r.line == 0))
+        .map(|r| (r.ms, r.seq, r.result))
+        .collect();
+    assert_eq!(
+        joins,
+        // C ends in its lane's poll; the simulator goes on polling woken lanes in
+        // declaration order from there (D after C), then from the first again.
+        [
+            (5, d, Ok(Outcome::Completed)),
+            (5, m, Ok(Outcome::Completed)),
+            (5, b, Ok(Outcome::Completed)),
+        ]
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// 5. A join that could never return is an error.
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn joining_oneself_is_an_error_not_a_hang() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let main = seq.add(SeqConfig::new("main"), Node::of(vec![])).unwrap();
+    let m = main.id();
+    let mut main = main;
+    main.body_mut().ops.push(Op::Join(m));
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(10)),
+        Some(ms_at(0))
+    );
+    drop(sim);
+    assert_eq!(
+        ctrl.returned.borrow()[0].result,
+        Err(Error::JoinWouldDeadlock(m))
+    );
+}
+
+#[test]
+fn joining_ones_blocking_caller_is_an_error_not_a_hang() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    // main runs child blocking; child joins main (and main's caller-less lane never ends
+    // while child waits for it).
+    let main_id = SeqId::from_index(1);
+    let child = seq
+        .add(SeqConfig::new("child"), Node::of(vec![Op::Join(main_id)]))
+        .unwrap();
+    let c = child.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(child)]))
+        .unwrap();
+    assert_eq!(main.id(), main_id);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(main_id).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(10)),
+        Some(ms_at(0))
+    );
+    drop(sim);
+    let child_join = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .find(|r| r.seq == c)
+        .map(|r| r.result);
+    assert_eq!(child_join, Some(Err(Error::JoinWouldDeadlock(main_id))));
+}
+
+fn ms_at(ms: u64) -> Instant {
+    Instant::from_ticks(ms * 1_000)
+}
