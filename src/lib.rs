@@ -27,55 +27,34 @@
     clippy::indexing_slicing
 )]
 
-mod bits;
 mod condition;
-mod config;
-mod context;
-mod control_block;
-mod engine;
-mod error;
-mod handle;
-mod id;
-mod lane;
-mod lanes;
 pub mod lock;
+mod model;
 mod monitor;
-mod polling;
 mod sequence;
 mod sequencer;
-mod state;
-mod table;
-pub(crate) mod tick;
-mod time;
+mod tick;
 mod trace;
-mod tree;
-mod wait;
 
 pub mod safety;
 #[cfg(feature = "std")]
 pub mod sim;
 
-pub use bits::MAX_SEQUENCES;
 pub use condition::{Condition, Stable, Toggle};
-pub use config::SeqConfig;
-pub use context::Cx;
-#[cfg(feature = "counters")]
-pub use control_block::Counters;
-pub use error::Error;
-pub use handle::{CallerStack, Handle};
-pub use id::{MonitorId, SeqId};
-pub use lane::lane;
+pub use model::{
+    Cause, Duration, Error, Instant, MonitorId, Outcome, RunningState, SeqConfig, SeqId, Table,
+    MAX_SEQUENCES,
+};
 pub use monitor::{
     Behaviour, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger, DEFAULT_RESTART_LIMIT,
 };
-pub use polling::MAX_POLLING_CLASSES;
-pub use sequence::{Seq, Sequence, Step};
+pub use sequence::{lane, Cx, Seq, Sequence, Step, Wait};
+#[cfg(feature = "counters")]
+pub use sequencer::control_block::Counters;
+pub use sequencer::handle::{CallerStack, Handle};
 pub use sequencer::Sequencer;
-pub use state::{Cause, Outcome, RunningState};
-pub use table::Table;
-pub use time::{Duration, Instant};
+pub use tick::schedule::MAX_POLLING_CLASSES;
 pub use trace::Transition;
-pub use wait::Wait;
 
 /// Maximum nesting of callers (`callerStack` length). Starting deeper is an
 /// [`Error::CallerDepthExceeded`].

@@ -3,7 +3,7 @@
 use core::marker::PhantomData;
 use core::mem::ManuallyDrop;
 
-use crate::bits::Bits;
+use crate::model::set::SeqSet;
 use crate::{Condition, Error, MonitorId, SeqId};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
@@ -231,9 +231,6 @@ pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) fired: u16,
 }
 
-/// A monitor in a table.
-pub(crate) type Entry<'a, C, K> = OwnedMonitor<'a, C, K>;
-
 /// Most monitors in one [`Group`] (its bit sets are words).
 pub(crate) const GROUP_MAX: u8 = 32;
 
@@ -254,7 +251,7 @@ pub(crate) struct Group {
     /// Monitors that fire while true (`Level`).
     pub(crate) level: u32,
     /// The owners of its monitors.
-    pub(crate) owners: Bits,
+    pub(crate) owners: SeqSet,
     /// The group's first entry in the table.
     pub(crate) start: u8,
     /// Its number of entries (1 ..= `GROUP_MAX`).
@@ -269,7 +266,7 @@ impl Group {
             rise: 0,
             fall: 0,
             level: 0,
-            owners: Bits::EMPTY,
+            owners: SeqSet::EMPTY,
             start,
             len: 0,
         }
@@ -314,7 +311,7 @@ impl Group {
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// In registration order: a `MonitorId` is the index. Never dropped (a table lives as
     /// long as its firmware), so that a `const` item can hold a table ([`Monitors::table`]).
-    pub(crate) entries: ManuallyDrop<heapless::Vec<Entry<'a, C, K>, M>>,
+    pub(crate) entries: ManuallyDrop<heapless::Vec<OwnedMonitor<'a, C, K>, M>>,
     /// The groups over `entries`, in table order (a fixed array, so that a `const fn` can
     /// build them): the first `used_groups`.
     pub(crate) groups: [Group; M],
@@ -365,7 +362,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         const { assert!(M <= 256, "at most 256 monitors") };
         let mut groups = [Group::starting_at(0); M];
         let mut used_groups: u8 = 0;
-        let mut rest: &[Entry<'a, C, K>] = &monitors;
+        let mut rest: &[OwnedMonitor<'a, C, K>] = &monitors;
         let mut slots: &mut [Group] = &mut groups;
         let mut at: u8 = 0;
         while let Some((g, later)) = slots.split_first_mut() {
@@ -416,7 +413,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             return Err(Error::UnknownSequence(owner));
         }
         let id = u8::try_from(self.entries.len()).map_err(|_| Error::MonitorCapacityExceeded)?;
-        let entry = Entry {
+        let entry = OwnedMonitor {
             def: monitor,
             owner,
             restarts: 0,
@@ -440,7 +437,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         Ok(MonitorId(id))
     }
 
-    fn entry(&self, id: MonitorId) -> Option<&Entry<'a, C, K>> {
+    fn entry(&self, id: MonitorId) -> Option<&OwnedMonitor<'a, C, K>> {
         self.entries.get(usize::from(id.0))
     }
 

@@ -133,7 +133,7 @@ impl<
     /// control blocks' 32-bit microsecond times at 2^32 µs ≈ 71.6 min).
     pub fn starting_at(mut self, t: Instant) -> Self {
         self.now = t;
-        self.sequencer.with(|s| s.now = t.as_ticks());
+        self.sequencer.with(|s| s.now = t);
         self
     }
 

@@ -52,25 +52,25 @@ impl Transition {
     }
 }
 
-/// A transition without its time: what [`shift`](crate::sequencer::Inner) is asked to
-/// make, and what a ring slot keeps beside the time.
+/// A state change to make, without its time: what the transition function
+/// (`State::transition`) is asked for, and what a ring slot keeps beside the time.
 #[derive(Clone, Copy)]
-pub(crate) struct Edge {
+pub(crate) struct StateChange {
     pub(crate) sequence: SeqId,
     pub(crate) from: RunningState,
     pub(crate) to: RunningState,
     pub(crate) cause: Cause,
 }
 
-impl Transition {
-    /// The transition of `sequence` from `from` to `to` for `cause`, its time still open.
-    pub(crate) const fn edge(
+impl StateChange {
+    /// The change of `sequence` from `from` to `to` for `cause`.
+    pub(crate) const fn new(
         sequence: SeqId,
         from: RunningState,
         to: RunningState,
         cause: Cause,
-    ) -> Edge {
-        Edge {
+    ) -> Self {
+        StateChange {
             sequence,
             from,
             to,
@@ -83,7 +83,7 @@ impl Transition {
 #[derive(Clone, Copy)]
 struct Rec {
     time: u64,
-    edge: Edge,
+    change: StateChange,
 }
 
 /// The sequencer's trace buffer: a ring of the newest `T` records, oldest first (`T` a
@@ -107,7 +107,7 @@ impl<const T: usize> Ring<T> {
     /// A record for the never-read slots of an empty ring.
     const BLANK: Rec = Rec {
         time: 0,
-        edge: Transition::edge(
+        change: StateChange::new(
             SeqId(0),
             RunningState::Idle,
             RunningState::Idle,
@@ -136,12 +136,15 @@ impl<const T: usize> Ring<T> {
         }
     }
 
-    /// Appends `edge` at `time`, over the oldest record when the ring is full.
+    /// Appends `change` at `time`, over the oldest record when the ring is full.
     #[inline]
-    pub(crate) fn push(&mut self, time: u64, edge: &Edge) {
+    pub(crate) fn push(&mut self, time: Instant, change: &StateChange) {
         // With `T` = 0 there is no slot: the record is lost.
         if let Some(slot) = self.buf.get_mut((self.written & Self::MASK) as usize) {
-            *slot = Rec { time, edge: *edge };
+            *slot = Rec {
+                time: time.as_ticks(),
+                change: *change,
+            };
         }
         self.written = self.written.wrapping_add(1);
     }
@@ -170,7 +173,7 @@ impl<const T: usize> Ring<T> {
         }
         let rec = self.buf.get((self.read & Self::MASK) as usize).copied();
         self.read = self.read.wrapping_add(1);
-        rec.map(|Rec { time, edge: e }| Transition {
+        rec.map(|Rec { time, change: e }| Transition {
             time: Instant::from_ticks(time),
             sequence: e.sequence,
             from: e.from,
@@ -185,7 +188,7 @@ mod tests {
     use super::*;
 
     fn push<const T: usize>(r: &mut Ring<T>, n: u64) {
-        r.push(n, &Ring::<1>::BLANK.edge)
+        r.push(Instant::from_ticks(n), &Ring::<1>::BLANK.change)
     }
 
     fn drain<const T: usize>(r: &mut Ring<T>) -> std::vec::Vec<u64> {

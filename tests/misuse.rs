@@ -80,8 +80,9 @@ impl Drop for Meddler {
 
 #[test]
 fn a_waker_that_calls_back_into_the_sequencer_is_never_called_while_its_state_is_borrowed() {
-    let seq: &'static Sequencer<(), 4> = Box::leak(Box::new(Sequencer::new()));
-    let calls: &'static AtomicUsize = Box::leak(Box::new(AtomicUsize::new(0)));
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    static CALLS: AtomicUsize = AtomicUsize::new(0);
+    let (seq, calls) = (&SEQ, &CALLS);
     let once = seq.add(SeqConfig::new("once"), Once).unwrap();
     let mut main = seq.add(SeqConfig::new("main"), Twice { once }).unwrap();
     let id = main.id();
@@ -130,7 +131,8 @@ fn a_waker_that_aborts_its_own_sequence_when_woken_takes_effect_at_the_next_tick
             let _ = cx.step(&mut self.0).await;
         }
     }
-    let seq: &'static Sequencer<(), 4> = Box::leak(Box::new(Sequencer::new()));
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    let seq = &SEQ;
     let step = seq.add(SeqConfig::new("forever"), Forever).unwrap();
     let mut main = seq.add(SeqConfig::new("main"), Main(step)).unwrap();
     let id = main.id();

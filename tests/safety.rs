@@ -180,17 +180,17 @@ static PROPS: SafetyProperties<'static, Sim, 6> = SafetyProperties::new(
     &[ESTOP_IN.info(), CURRENT.info(), SPEED.info()],
     &[ENABLE.info(), LAMP.info(), DUTY.info()],
     &[
-        Transition::on_level_and_above(EMERGENCY, ESTOP, EMERGENCY),
-        Transition::on_level_and_below(OFF, RESET, OFF),
-        Transition::on(OFF, SWITCH_ON, POWER_ON),
-        Transition::on(POWER_ON, POWERED, HOMING),
-        Transition::on(HOMING, HOMED, READY),
-        Transition::on(READY, START, MOVING),
-        Transition::on(MOVING, STOP, READY),
-        Transition::on_levels_between(POWER_ON, MOVING, SWITCH_OFF, OFF),
-        Transition::on(OFF, OVERCURRENT, OFF),
-        Transition::on_levels_between(HOMING, MOVING, OVERCURRENT, OFF),
-        Transition::on_levels_between(READY, MOVING, STALL, READY),
+        LevelTransition::on_level_and_above(EMERGENCY, ESTOP, EMERGENCY),
+        LevelTransition::on_level_and_below(OFF, RESET, OFF),
+        LevelTransition::on(OFF, SWITCH_ON, POWER_ON),
+        LevelTransition::on(POWER_ON, POWERED, HOMING),
+        LevelTransition::on(HOMING, HOMED, READY),
+        LevelTransition::on(READY, START, MOVING),
+        LevelTransition::on(MOVING, STOP, READY),
+        LevelTransition::on_levels_between(POWER_ON, MOVING, SWITCH_OFF, OFF),
+        LevelTransition::on(OFF, OVERCURRENT, OFF),
+        LevelTransition::on_levels_between(HOMING, MOVING, OVERCURRENT, OFF),
+        LevelTransition::on_levels_between(READY, MOVING, STALL, READY),
     ],
     OFF,
 );
@@ -1088,8 +1088,8 @@ mod while_active {
         &[],
         &[],
         &[
-            Transition::on(RUN, HALT, SAFE),
-            Transition::on(SAFE, GO, RUN),
+            LevelTransition::on(RUN, HALT, SAFE),
+            LevelTransition::on(SAFE, GO, RUN),
         ],
         RUN,
     );
@@ -1234,7 +1234,7 @@ mod errors {
             [level(A, "a").inputs(&[IN0.ignore(), IN1.ignore(), IN0.check(true, EV)])],
             &INS,
             &OUTS,
-            &[Transition::on(A, EV, A)],
+            &[LevelTransition::on(A, EV, A)],
             A,
         );
         assert_eq!(
@@ -1305,7 +1305,7 @@ mod errors {
             [level(A, "a").inputs(&[IN0.ignore(), IN1_AS_INT.range(0, 1, EV)])],
             &INS,
             &OUTS,
-            &[Transition::on(A, EV, A)],
+            &[LevelTransition::on(A, EV, A)],
             A,
         );
         assert_eq!(
@@ -1337,7 +1337,7 @@ mod errors {
 
     #[test]
     fn invalid_ranges() {
-        const T: [Transition; 1] = [Transition::on(A, FAULT, A)];
+        const T: [LevelTransition; 1] = [LevelTransition::on(A, FAULT, A)];
         const REVERSED: P<1> = P::new(
             [level(A, "a").inputs(&[IN0.ignore(), IN1.range(2.0, 1.0, FAULT)])],
             &INS,
@@ -1380,7 +1380,7 @@ mod errors {
             ],
             &INS,
             &OUTS,
-            &[Transition::on(A, FAULT, A)], // but not from B
+            &[LevelTransition::on(A, FAULT, A)], // but not from B
             A,
         );
         assert_eq!(
@@ -1458,7 +1458,7 @@ mod errors {
             [level(A, "a"), level(B, "b")],
             &INS,
             &OUTS,
-            &[Transition::on(A, PublicEvent::new(32), B)],
+            &[LevelTransition::on(A, PublicEvent::new(32), B)],
             A,
         );
         assert_eq!(
@@ -1472,8 +1472,8 @@ mod errors {
             &INS,
             &OUTS,
             &[
-                Transition::on(A, EV, B),
-                Transition::on(B, EV, SafetyLevel::new(2)),
+                LevelTransition::on(A, EV, B),
+                LevelTransition::on(B, EV, SafetyLevel::new(2)),
             ],
             A,
         );
@@ -1485,7 +1485,7 @@ mod errors {
             [level(A, "a"), level(B, "b")],
             &INS,
             &OUTS,
-            &[Transition::on_levels_between(B, A, EV, A)],
+            &[LevelTransition::on_levels_between(B, A, EV, A)],
             A,
         );
         assert_eq!(
@@ -1496,7 +1496,7 @@ mod errors {
             [level(A, "a"), level(B, "b")],
             &INS,
             &OUTS,
-            &[Transition::on(SafetyLevel::new(5), EV, A)],
+            &[LevelTransition::on(SafetyLevel::new(5), EV, A)],
             A,
         );
         assert_eq!(
@@ -1513,10 +1513,10 @@ mod errors {
             &INS,
             &OUTS,
             &[
-                Transition::on(A, EV, B),
-                Transition::on_level_and_above(B, FAULT, A),
-                Transition::on(C, EV, A),
-                Transition::on(C, FAULT, B), // overlaps the band row at C
+                LevelTransition::on(A, EV, B),
+                LevelTransition::on_level_and_above(B, FAULT, A),
+                LevelTransition::on(C, EV, A),
+                LevelTransition::on(C, FAULT, B), // overlaps the band row at C
             ],
             A,
         );
@@ -1532,7 +1532,10 @@ mod errors {
             [level(A, "a"), level(B, "b"), level(C, "c")],
             &INS,
             &OUTS,
-            &[Transition::on(A, EV, B), Transition::on(A, FAULT, C)],
+            &[
+                LevelTransition::on(A, EV, B),
+                LevelTransition::on(A, FAULT, C),
+            ],
             A,
         );
         assert_eq!(DISTINCT.validate(), Ok(()));

@@ -33,8 +33,8 @@
 
 use rtseq::safety::{
     AbortPolicy, AbortSequences, CriticalInput, CriticalOutput, CycleReport, InputAction, InputId,
-    IoValue, LevelDef, OutputAction, OutputId, PrivateEvent, PublicEvent, SafetyIo, SafetyLevel,
-    SafetyProperties, SafetySystem, Transition, ValidProperties,
+    IoValue, LevelDef, LevelTransition, OutputAction, OutputId, PrivateEvent, PublicEvent,
+    SafetyIo, SafetyLevel, SafetyProperties, SafetySystem, ValidProperties,
 };
 
 use crate::control_system::ControlSystem;
@@ -129,12 +129,12 @@ const TABLE: SafetyProperties<'static, DriveIo, 4> = SafetyProperties::new(
     ],
     &[ENABLE_OUT.info(), BRAKE_OUT.info()],
     &[
-        Transition::on_level_and_above(OFF, EMERGENCY_STOP, EMERGENCY),
-        Transition::on(EMERGENCY, RESET, OFF),
-        Transition::on(OFF, SWITCH_ON, POWER_ON),
-        Transition::on(POWER_ON, HOMED_EVENT, HOMED),
-        Transition::on(HOMED, LIMIT, POWER_ON),
-        Transition::on_levels_between(POWER_ON, HOMED, SWITCH_OFF, OFF),
+        LevelTransition::on_level_and_above(OFF, EMERGENCY_STOP, EMERGENCY),
+        LevelTransition::on(EMERGENCY, RESET, OFF),
+        LevelTransition::on(OFF, SWITCH_ON, POWER_ON),
+        LevelTransition::on(POWER_ON, HOMED_EVENT, HOMED),
+        LevelTransition::on(HOMED, LIMIT, POWER_ON),
+        LevelTransition::on_levels_between(POWER_ON, HOMED, SWITCH_OFF, OFF),
     ],
     OFF,
 );

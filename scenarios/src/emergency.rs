@@ -5,8 +5,8 @@
 
 use rtseq::safety::{
     AbortPolicy, CriticalInput, CriticalInputInfo, CriticalOutput, CriticalOutputInfo, InputAction,
-    LevelDef, OutputAction, PrivateEvent, PublicEvent, SafetyContext, SafetyError, SafetyIo,
-    SafetyLevel, SafetyProperties, Transition, ValidProperties,
+    LevelDef, LevelTransition, OutputAction, PrivateEvent, PublicEvent, SafetyContext, SafetyError,
+    SafetyIo, SafetyLevel, SafetyProperties, ValidProperties,
 };
 
 /// Level: emergency stop; drive off, lamp blinking, sequences aborted while active.
@@ -68,13 +68,13 @@ const SAFE_DARK: [OutputAction; 2] = [ENABLE.set(false), LAMP.set(false)];
 const DRIVING: [OutputAction; 2] = [ENABLE.set(true), LAMP.set(true)];
 const INPUTS: [CriticalInputInfo; 1] = [ESTOP_IN.info()];
 const OUTPUTS: [CriticalOutputInfo; 2] = [ENABLE.info(), LAMP.info()];
-const TRANSITIONS: [Transition; 6] = [
-    Transition::on_level_and_above(EMERGENCY, ESTOP, EMERGENCY),
-    Transition::on_level_and_above(OFF, FAULT, EMERGENCY),
-    Transition::on(EMERGENCY, RESET, OFF),
-    Transition::on(OFF, SWITCH_ON, POWERING),
-    Transition::on(POWERING, POWERED, READY),
-    Transition::on(READY, START_MOVING, MOVING),
+const TRANSITIONS: [LevelTransition; 6] = [
+    LevelTransition::on_level_and_above(EMERGENCY, ESTOP, EMERGENCY),
+    LevelTransition::on_level_and_above(OFF, FAULT, EMERGENCY),
+    LevelTransition::on(EMERGENCY, RESET, OFF),
+    LevelTransition::on(OFF, SWITCH_ON, POWERING),
+    LevelTransition::on(POWERING, POWERED, READY),
+    LevelTransition::on(READY, START_MOVING, MOVING),
 ];
 
 /// The validated safety properties for the I/O type `M`; entry level OFF. Meant for a

@@ -1,8 +1,8 @@
 //! The private-event token handed to level, entry and input actions.
 
+use super::bits::bit_of;
 use super::event::{EventId, EventKind, EventVisibility, SafetyEvent};
 use super::level::SafetyLevel;
-use super::properties::bit_of;
 
 /// Events triggered inside the safety system during one cycle, resolved
 /// at the start of the next cycle.

@@ -184,7 +184,7 @@ pub enum SafetyError {
         /// The event.
         event: EventId,
     },
-    /// Transition row `index` has `from_low > from_high` or a source or
+    /// LevelTransition row `index` has `from_low > from_high` or a source or
     /// destination level that is not defined.
     InvalidTransition {
         /// Position in the transition table.

@@ -2,9 +2,9 @@
 
 use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
+use super::bits::bit_of;
 use super::event::{EventId, PublicEvent};
 use super::level::SafetyLevel;
-use super::properties::bit_of;
 
 /// The shared, lock-free part of the safety system: lower-priority code
 /// (sequences, conditions, other tasks) triggers public events and reads

@@ -13,7 +13,7 @@
 //!   safety system itself: input actions and level / entry actions,
 //!   through the [`SafetyContext`] that only it can create). The
 //!   distinction is a type, not a run-time check.
-//! * The [`Transition`] table maps (level, event) to a level; rows may
+//! * The [`LevelTransition`] table maps (level, event) to a level; rows may
 //!   cover a band of levels ("this event on every level from A up to B").
 //! * [`CriticalInput`]s are checked per level (`ignore`, `check`, `range`,
 //!   `off_range`), [`CriticalOutput`]s are driven per level (`set`,
@@ -122,12 +122,12 @@
 //!     &[ESTOP_IN.info(), CURRENT.info()],
 //!     &[ENABLE.info(), LAMP.info()],
 //!     &[
-//!         Transition::on_level_and_above(OFF, ESTOP, EMERGENCY),
-//!         Transition::on(EMERGENCY, RESET, OFF),
-//!         Transition::on(OFF, SWITCH_ON, HOMING),
-//!         Transition::on(HOMING, HOMED, READY),
-//!         Transition::on(READY, START_MOVING, MOVING),
-//!         Transition::on(MOVING, STOP_MOVING, READY),
+//!         LevelTransition::on_level_and_above(OFF, ESTOP, EMERGENCY),
+//!         LevelTransition::on(EMERGENCY, RESET, OFF),
+//!         LevelTransition::on(OFF, SWITCH_ON, HOMING),
+//!         LevelTransition::on(HOMING, HOMED, READY),
+//!         LevelTransition::on(READY, START_MOVING, MOVING),
+//!         LevelTransition::on(MOVING, STOP_MOVING, READY),
 //!     ],
 //!     OFF,
 //! );
@@ -164,6 +164,7 @@
     clippy::unimplemented
 )]
 
+mod bits;
 mod context;
 mod error;
 mod event;
@@ -171,6 +172,7 @@ mod handle;
 mod input;
 mod io;
 mod level;
+mod level_def;
 mod output;
 mod properties;
 mod system;
@@ -184,13 +186,14 @@ pub use event::{
 pub use handle::SafetyHandle;
 pub use input::{CriticalInput, CriticalInputInfo, InputAction, InputCheck};
 pub use io::{InputId, IoKind, IoType, IoValue, OutputId, SafetyIo};
-pub use level::{AbortPolicy, ExitFn, LevelDef, LevelFn, LevelStats, SafetyLevel};
+pub use level::SafetyLevel;
+pub use level_def::{AbortPolicy, ExitFn, LevelDef, LevelFn, LevelStats};
 pub use output::{CriticalOutput, CriticalOutputInfo, OutputAction, OutputMode};
 pub use properties::{SafetyProperties, ValidProperties};
 pub use system::{
     AbortSequences, CycleReport, LevelChange, NoSequences, SafetySystem, UnknownEvent,
 };
-pub use transition::Transition;
+pub use transition::LevelTransition;
 
 /// Maximum number of public events, and of private events (ids `0..32`
 /// each): one bit each in a 32-bit pending-event mask.

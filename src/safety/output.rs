@@ -338,7 +338,7 @@ impl OutputAction {
     #[inline(never)]
     fn apply_other<IO: super::io::SafetyIo>(&self, io: &mut IO, toggles: &mut u32) {
         if let OutputOp::Toggle = self.op {
-            let bit = super::properties::bit_of(self.output.index());
+            let bit = super::bits::bit_of(self.output.index());
             let high = *toggles & bit != 0;
             *toggles ^= bit;
             io.write_output(self.output, if high { self.high } else { self.low });

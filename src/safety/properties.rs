@@ -3,13 +3,15 @@
 
 use core::fmt;
 
+use super::bits::bit_of;
 use super::error::SafetyError;
 use super::event::EventId;
 use super::input::{CriticalInputInfo, InputAction, InputCheck};
 use super::io::{IoValue, OutputId};
-use super::level::{LevelDef, SafetyLevel};
+use super::level::SafetyLevel;
+use super::level_def::LevelDef;
 use super::output::{CriticalOutputInfo, OutputAction, OutputMode};
-use super::transition::Transition;
+use super::transition::LevelTransition;
 use super::{MAX_INPUTS, MAX_OUTPUTS};
 
 /// The complete, static description of a safety system (EEROS
@@ -41,7 +43,7 @@ use super::{MAX_INPUTS, MAX_OUTPUTS};
 ///     ],
 ///     &[],              // critical inputs
 ///     &[ENABLE.info()], // critical outputs
-///     &[Transition::on(OFF, SWITCH_ON, ON), Transition::on(ON, SWITCH_OFF, OFF)],
+///     &[LevelTransition::on(OFF, SWITCH_ON, ON), LevelTransition::on(ON, SWITCH_OFF, OFF)],
 ///     OFF,              // entry level
 /// );
 /// const _: () = assert!(PROPS.validate().is_ok()); // checked by the compiler
@@ -52,7 +54,7 @@ pub struct SafetyProperties<'a, IO, const L: usize> {
     levels: [LevelDef<'a, IO>; L],
     inputs: &'a [CriticalInputInfo],
     outputs: &'a [CriticalOutputInfo],
-    transitions: &'a [Transition],
+    transitions: &'a [LevelTransition],
     entry: SafetyLevel,
 }
 
@@ -75,7 +77,7 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
         levels: [LevelDef<'a, IO>; L],
         inputs: &'a [CriticalInputInfo],
         outputs: &'a [CriticalOutputInfo],
-        transitions: &'a [Transition],
+        transitions: &'a [LevelTransition],
         entry: SafetyLevel,
     ) -> Self {
         Self {
@@ -155,7 +157,7 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
     ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
     /// assert!(P.transitions().is_empty());
     /// ```
-    pub const fn transitions(&self) -> &'a [Transition] {
+    pub const fn transitions(&self) -> &'a [LevelTransition] {
         self.transitions
     }
 
@@ -184,7 +186,7 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
     /// const GO: PublicEvent = PublicEvent::new(0);
     /// const P: SafetyProperties<'static, Io, 2> = SafetyProperties::new(
     ///     [LevelDef::new(OFF, "off"), LevelDef::new(ON, "on")], &[], &[],
-    ///     &[Transition::on(OFF, GO, ON)], OFF);
+    ///     &[LevelTransition::on(OFF, GO, ON)], OFF);
     /// assert_eq!(P.destination(OFF, GO), Some(ON));
     /// assert_eq!(P.destination(ON, GO.id()), None);
     /// ```
@@ -569,18 +571,6 @@ impl<IO, const L: usize> fmt::Debug for SafetyProperties<'_, IO, L> {
             .field("transitions", &self.transitions)
             .field("entry", &self.entry)
             .finish()
-    }
-}
-
-/// `1 << index`, 0 if `index >= 32`.
-pub(crate) const fn bit_of(index: usize) -> u32 {
-    if index < 32 {
-        match 1u32.checked_shl(index as u32) {
-            Some(bit) => bit,
-            None => 0,
-        }
-    } else {
-        0
     }
 }
 

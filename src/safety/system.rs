@@ -2,14 +2,16 @@
 
 use core::fmt;
 
+use super::bits::bit_of;
 use super::context::{PendingEvents, SafetyContext};
 use super::error::SafetyError;
 use super::event::{EventId, EventKind};
 use super::handle::SafetyHandle;
 use super::io::SafetyIo;
-use super::level::{AbortPolicy, LevelStats, SafetyLevel};
-use super::properties::{bit_of, SafetyProperties, ValidProperties};
-use super::transition::Transition;
+use super::level::SafetyLevel;
+use super::level_def::{AbortPolicy, LevelStats};
+use super::properties::{SafetyProperties, ValidProperties};
+use super::transition::LevelTransition;
 
 /// Something whose running sequences the safety system can abort (the
 /// rtseq `Sequencer` implements it). Called from the safety cycle, at the
@@ -153,7 +155,7 @@ pub struct CycleReport {
 ///     ],
 ///     &[ESTOP_IN.info()],
 ///     &[ENABLE.info()],
-///     &[Transition::on(OFF, START, ON), Transition::on(ON, ESTOP, OFF)],
+///     &[LevelTransition::on(OFF, START, ON), LevelTransition::on(ON, ESTOP, OFF)],
 ///     OFF,
 /// );
 /// static SAFETY: SafetyHandle = SafetyHandle::new();
@@ -460,7 +462,7 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
 /// Resolving one cycle's events: the table and level they are resolved
 /// against, and what was found.
 struct Resolution<'t> {
-    rows: &'t [Transition],
+    rows: &'t [LevelTransition],
     level: SafetyLevel,
     /// The id of the safest destination, `u16::MAX` for none.
     best: u16,
@@ -661,7 +663,7 @@ impl<IO, const L: usize> fmt::Debug for SafetySystem<'_, IO, L> {
 mod tests {
     extern crate std;
     use super::*;
-    use crate::safety::{LevelDef, PublicEvent, Transition};
+    use crate::safety::{LevelDef, LevelTransition, PublicEvent};
     use std::vec::Vec;
 
     /// A small deterministic generator (xorshift32).
@@ -729,16 +731,16 @@ mod tests {
         let levels: [LevelDef<'static, ()>; 8] =
             core::array::from_fn(|i| LevelDef::new(SafetyLevel::new(i as u8), "level"));
         for _ in 0..20_000 {
-            let rows: Vec<Transition> = (0..rng.below(14))
+            let rows: Vec<LevelTransition> = (0..rng.below(14))
                 .map(|_| {
                     let low = SafetyLevel::new(rng.below(10) as u8);
                     let high = SafetyLevel::new(low.id() + rng.below(4) as u8);
                     let to = SafetyLevel::new(rng.below(8) as u8);
                     let index = rng.below(36) as u8;
                     if rng.below(2) == 0 {
-                        Transition::on_levels_between(low, high, PublicEvent::new(index), to)
+                        LevelTransition::on_levels_between(low, high, PublicEvent::new(index), to)
                     } else {
-                        Transition::on_levels_between(
+                        LevelTransition::on_levels_between(
                             low,
                             high,
                             crate::safety::PrivateEvent::new(index),

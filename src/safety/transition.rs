@@ -26,28 +26,28 @@ use super::level::SafetyLevel;
 /// const MOVING: SafetyLevel = SafetyLevel::new(2);
 /// const START: PublicEvent = PublicEvent::new(0);
 /// const ESTOP: PrivateEvent = PrivateEvent::new(0);
-/// const TABLE: [Transition; 2] = [
-///     Transition::on(READY, START, MOVING),
-///     Transition::on_level_and_above(READY, ESTOP, OFF),
+/// const TABLE: [LevelTransition; 2] = [
+///     LevelTransition::on(READY, START, MOVING),
+///     LevelTransition::on_level_and_above(READY, ESTOP, OFF),
 /// ];
 /// assert!(TABLE[1].covers(MOVING, ESTOP.id()));
 /// assert!(!TABLE[1].covers(OFF, ESTOP.id()));
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Transition {
+pub struct LevelTransition {
     event: EventId,
     from_low: SafetyLevel,
     from_high: SafetyLevel,
     to: SafetyLevel,
 }
 
-impl Transition {
+impl LevelTransition {
     /// `event` in level `from` leads to `to` (EEROS `addEvent`).
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyLevel, Transition};
-    /// let t = Transition::on(SafetyLevel::new(1), PublicEvent::new(0), SafetyLevel::new(2));
+    /// use rtseq::safety::{PublicEvent, SafetyLevel, LevelTransition};
+    /// let t = LevelTransition::on(SafetyLevel::new(1), PublicEvent::new(0), SafetyLevel::new(2));
     /// assert_eq!(t.to(), SafetyLevel::new(2));
     /// ```
     pub const fn on<K: EventVisibility>(
@@ -67,8 +67,8 @@ impl Transition {
     /// `to`.
     ///
     /// ```
-    /// use rtseq::safety::{PrivateEvent, SafetyLevel, Transition};
-    /// let t = Transition::on_levels_between(
+    /// use rtseq::safety::{PrivateEvent, SafetyLevel, LevelTransition};
+    /// let t = LevelTransition::on_levels_between(
     ///     SafetyLevel::new(2), SafetyLevel::new(4), PrivateEvent::new(0), SafetyLevel::new(1));
     /// assert!(t.covers(SafetyLevel::new(3), PrivateEvent::new(0).id()));
     /// assert!(!t.covers(SafetyLevel::new(5), PrivateEvent::new(0).id()));
@@ -91,9 +91,9 @@ impl Transition {
     /// `to` — the usual emergency row.
     ///
     /// ```
-    /// use rtseq::safety::{PrivateEvent, SafetyLevel, Transition};
+    /// use rtseq::safety::{PrivateEvent, SafetyLevel, LevelTransition};
     /// const ESTOP: PrivateEvent = PrivateEvent::new(0);
-    /// let t = Transition::on_level_and_above(SafetyLevel::new(1), ESTOP, SafetyLevel::new(0));
+    /// let t = LevelTransition::on_level_and_above(SafetyLevel::new(1), ESTOP, SafetyLevel::new(0));
     /// assert!(t.covers(SafetyLevel::new(200), ESTOP.id()));
     /// ```
     pub const fn on_level_and_above<K: EventVisibility>(
@@ -112,9 +112,9 @@ impl Transition {
     /// `event` in `level` and every safer (lower) level leads to `to`.
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyLevel, Transition};
+    /// use rtseq::safety::{PublicEvent, SafetyLevel, LevelTransition};
     /// const RESET: PublicEvent = PublicEvent::new(1);
-    /// let t = Transition::on_level_and_below(SafetyLevel::new(1), RESET, SafetyLevel::new(2));
+    /// let t = LevelTransition::on_level_and_below(SafetyLevel::new(1), RESET, SafetyLevel::new(2));
     /// assert!(t.covers(SafetyLevel::new(0), RESET.id()));
     /// ```
     pub const fn on_level_and_below<K: EventVisibility>(
@@ -133,9 +133,9 @@ impl Transition {
     /// Whether this row applies to `event` in `level`.
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyLevel, Transition};
+    /// use rtseq::safety::{PublicEvent, SafetyLevel, LevelTransition};
     /// const GO: PublicEvent = PublicEvent::new(0);
-    /// let t = Transition::on(SafetyLevel::new(1), GO, SafetyLevel::new(2));
+    /// let t = LevelTransition::on(SafetyLevel::new(1), GO, SafetyLevel::new(2));
     /// assert!(t.covers(SafetyLevel::new(1), GO.id()));
     /// assert!(!t.covers(SafetyLevel::new(2), GO.id()));
     /// ```
@@ -146,8 +146,8 @@ impl Transition {
     /// The event of this row.
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyLevel, Transition};
-    /// let t = Transition::on(SafetyLevel::new(1), PublicEvent::new(3), SafetyLevel::new(2));
+    /// use rtseq::safety::{PublicEvent, SafetyLevel, LevelTransition};
+    /// let t = LevelTransition::on(SafetyLevel::new(1), PublicEvent::new(3), SafetyLevel::new(2));
     /// assert_eq!(t.event(), PublicEvent::new(3).id());
     /// ```
     pub const fn event(&self) -> EventId {
@@ -157,8 +157,8 @@ impl Transition {
     /// The lowest level this row applies to.
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyLevel, Transition};
-    /// let t = Transition::on_level_and_below(SafetyLevel::new(3), PublicEvent::new(0), SafetyLevel::new(4));
+    /// use rtseq::safety::{PublicEvent, SafetyLevel, LevelTransition};
+    /// let t = LevelTransition::on_level_and_below(SafetyLevel::new(3), PublicEvent::new(0), SafetyLevel::new(4));
     /// assert_eq!(t.from_low(), SafetyLevel::new(0));
     /// ```
     pub const fn from_low(&self) -> SafetyLevel {
@@ -168,8 +168,8 @@ impl Transition {
     /// The highest level this row applies to.
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyLevel, Transition};
-    /// let t = Transition::on_level_and_below(SafetyLevel::new(3), PublicEvent::new(0), SafetyLevel::new(4));
+    /// use rtseq::safety::{PublicEvent, SafetyLevel, LevelTransition};
+    /// let t = LevelTransition::on_level_and_below(SafetyLevel::new(3), PublicEvent::new(0), SafetyLevel::new(4));
     /// assert_eq!(t.from_high(), SafetyLevel::new(3));
     /// ```
     pub const fn from_high(&self) -> SafetyLevel {
@@ -179,8 +179,8 @@ impl Transition {
     /// The destination level.
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyLevel, Transition};
-    /// let t = Transition::on(SafetyLevel::new(1), PublicEvent::new(0), SafetyLevel::new(0));
+    /// use rtseq::safety::{PublicEvent, SafetyLevel, LevelTransition};
+    /// let t = LevelTransition::on(SafetyLevel::new(1), PublicEvent::new(0), SafetyLevel::new(0));
     /// assert_eq!(t.to(), SafetyLevel::new(0));
     /// ```
     pub const fn to(&self) -> SafetyLevel {

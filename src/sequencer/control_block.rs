@@ -1,9 +1,12 @@
 //! The framework-owned control block of one registered sequence (the seed's `BaseSequence`
 //! fields), plus its optional counters.
 
+use crate::model::id::Link;
+#[cfg(doc)]
+use crate::model::time::Stamp;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
-use crate::{Behaviour, Cause, Outcome, RunningState, SeqId};
+use crate::{Behaviour, Cause, Outcome, RunningState};
 
 /// How often a sequence did what (feature `counters`: 12 bytes per sequence). Counters wrap
 /// at `u16::MAX`.
@@ -62,7 +65,7 @@ impl Counters {
 
 /// Flag bits of [`ControlBlock::flags`]. What the tick reads of every sequence (active,
 /// paused, fresh, timeout armed, exception active, waiting for a poll) is kept as sets in
-/// the sequencer instead ([`Bits`](crate::bits::Bits)).
+/// the sequencer instead ([`SeqSet`](crate::bits::SeqSet)).
 pub(crate) mod flag {
     // Bit 0 is free (a declared lane is known by its lane slot).
     /// A non-blocking start waits for the lane to pick it up.
@@ -101,58 +104,6 @@ mod pending {
     ];
 }
 
-/// A 1-byte optional sequence id: the id plus one, 0 = none (`SeqId` values stop at 254),
-/// so that an empty sequencer is all zeros (see [`ControlBlock::UNREGISTERED`]).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) struct Link(u8);
-
-impl Link {
-    pub(crate) const NONE: Link = Link(0);
-
-    pub(crate) const fn to(id: Option<SeqId>) -> Link {
-        match id {
-            Some(i) => Link(i.0.wrapping_add(1)),
-            None => Link::NONE,
-        }
-    }
-
-    pub(crate) fn get(self) -> Option<SeqId> {
-        self.0.checked_sub(1).map(SeqId)
-    }
-}
-
-/// Times in a control block are the low 32 bits of sequencer microseconds, compared by
-/// wrapping difference: correct while every interval (polling period, timeout) is below
-/// 2^31 µs (35 min), which registration enforces. Half the RAM and cheaper arithmetic on a
-/// 32-bit core than `u64`.
-pub(crate) type Micros32 = u32;
-
-/// Whether `now` (the low 32 bits of sequencer time) has reached `at` (wrapping
-/// comparison, see [`Micros32`]).
-#[inline]
-pub(crate) fn reached32(now: u32, at: Micros32) -> bool {
-    now.wrapping_sub(at) < 0x8000_0000
-}
-
-/// Horizon of "nothing to poll": the tick scans again after this long at the latest.
-pub(crate) const NEVER_AHEAD: u32 = 0x7FFF_FFFF;
-
-/// Whichever of `a` and `b` comes first after `now` (wrapping, see [`Micros32`]).
-#[inline]
-pub(crate) fn earlier(now: u32, a: Micros32, b: Micros32) -> Micros32 {
-    if a.wrapping_sub(now) <= b.wrapping_sub(now) {
-        a
-    } else {
-        b
-    }
-}
-
-/// `now + d` in the low 32 bits.
-#[inline]
-pub(crate) fn after(now: u64, d: u32) -> Micros32 {
-    (now as u32).wrapping_add(d)
-}
-
 /// One registered sequence's state: 40 bytes on a 32-bit target (with its cleanup-hook slot
 /// 44), so a sequencer for 32 sequences needs 1.4 KiB plus its sets and polling classes.
 ///
@@ -164,9 +115,9 @@ pub(crate) struct ControlBlock {
     pub(crate) name: Option<&'static str>,
     /// Timeout in µs, 0 = off.
     pub(crate) timeout: u32,
-    /// Timeout deadline while running; the remaining time while paused; only meaningful
-    /// while the timeout is armed.
-    pub(crate) deadline: Micros32,
+    /// While the timeout is armed: its deadline (a [`Stamp`]'s µs) while the sequence
+    /// runs, the time left (µs) while it is paused.
+    pub(crate) deadline: u32,
     /// [`flag`]s, [`request`]s and the pending behaviour.
     pub(crate) flags: u16,
     /// Starts (not restarts): a new run resets the restart books of the monitors.
@@ -197,7 +148,7 @@ pub(crate) const NO_LANE: u8 = u8::MAX;
 
 impl ControlBlock {
     /// An unregistered slot: every field's bytes are zero, so a `static` sequencer needs
-    /// no initial image in flash (it lands in `.bss`, not `.data`: 2 KB for 32 sequences).
+    /// no initial image in flash (it lands in `.bss`, not `.data`).
     /// Of an unregistered slot only `state` is read (`Idle`); [`register`] writes
     /// [`IDLE`](Self::IDLE) over it before anything else can reach it.
     ///
@@ -209,10 +160,10 @@ impl ControlBlock {
         flags: 0,
         runs: 0,
         timeout_runs_seen: 0,
-        // Zero bytes, not meaning: `IDLE` says `None`.
+        // All-zero bytes (never read: `IDLE` replaces it at registration).
         active_exception: Some(Cause::Start),
         last_cause: Cause::Start,
-        // Zero bytes, not meaning: `IDLE` says `None`.
+        // All-zero bytes (never read: `IDLE` replaces it at registration).
         outcome: Some(Outcome::Aborted(Cause::Start)),
         state: RunningState::Idle,
         caller: Link::NONE,
@@ -293,14 +244,7 @@ mod tests {
     }
 
     #[test]
-    fn links_round_trip_and_none_is_zero() {
-        assert_eq!(Link::NONE, Link(0));
-        assert_eq!(Link::to(None), Link::NONE);
-        assert_eq!(Link::NONE.get(), None);
-        for id in [0u8, 1, 31, 254] {
-            assert_eq!(Link::to(Some(SeqId(id))).get(), Some(SeqId(id)));
-        }
-        // An unregistered block reads as idle and unlinked.
+    fn an_unregistered_block_reads_as_idle_and_unlinked() {
         let b = ControlBlock::UNREGISTERED;
         assert_eq!(
             (b.state, b.caller.get(), b.joins.get()),
@@ -310,13 +254,5 @@ mod tests {
             (ControlBlock::IDLE.lane, ControlBlock::IDLE.outcome),
             (NO_LANE, None)
         );
-    }
-
-    #[test]
-    fn wrapping_times_compare_across_the_wrap() {
-        assert!(reached32(5, 5));
-        assert!(reached32(3, u32::MAX - 2));
-        assert!(!reached32(u32::MAX - 2, 3));
-        assert_eq!(after(u64::from(u32::MAX), 2), 1);
     }
 }

@@ -3,16 +3,33 @@
 //! A waker is foreign code: its `wake`, `clone` and `drop` may do anything, including
 //! calling back into the sequencer (a waker written with `std::task::Wake` may read a
 //! handle or request an abort). So the wakers are kept outside the sequencer's state
-//! (`Inner`), and each is only ever moved in and out of its cell: no reference into the
+//! (`State`), and each is only ever moved in and out of its cell: no reference into the
 //! state, or into a waker cell, lives while a waker runs. An operation that must wake lanes
 //! collects them as a [`LaneSet`] inside its section and wakes them after it.
 
 use core::cell::Cell;
-use core::task::Waker;
+use core::task::{RawWakerVTable, Waker};
 
 use crate::lock::Lock;
-use crate::sequencer::{identity, WakerId, NO_WAKER};
-use crate::Sequencer;
+use crate::model::id::Link;
+use crate::model::set::SeqSet;
+use crate::sequencer::sections::Sections;
+use crate::sequencer::state::WakeMemo;
+use crate::sequencer::State;
+use crate::{SeqId, Sequencer};
+
+/// The identity of a waker (data and vtable pointers, compared, never dereferenced); no
+/// waker has a null vtable, so [`NO_WAKER`] matches none.
+pub(crate) type WakerId = (*const (), *const RawWakerVTable);
+
+/// The identity of no waker.
+pub(crate) const NO_WAKER: WakerId = (core::ptr::null(), core::ptr::null());
+
+/// The identity of `w`.
+#[inline]
+fn identity(w: &Waker) -> WakerId {
+    (w.data(), w.vtable() as *const RawWakerVTable)
+}
 
 /// A set of lane slots (bit `k` = slot `k`; a sequencer has at most 32 lanes).
 #[derive(Clone, Copy, PartialEq, Eq, Default, Debug)]
@@ -130,6 +147,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         L::lock(|| slot.register(waker))
     }
 
+    /// Keeps `waker` as the waker of lane slot `lane`; a changed waker forgets the lanes
+    /// remembered for the tick's wake-ups.
+    pub(crate) fn park_lane(&self, lane: u8, waker: &Waker) {
+        if self.park(lane, waker) {
+            self.with(|s| s.polling.woken = WakeMemo::NONE);
+        }
+    }
+
     /// Wakes the lanes `lanes`, each in a section of its own, outside the state.
     pub(crate) fn wake_lanes(&self, lanes: LaneSet) {
         for lane in lanes {
@@ -138,4 +163,73 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             }
         }
     }
+}
+
+impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+    /// The lanes to wake for the due exit-condition polls `polls`: the lanes found for the
+    /// same set last time, or, when the set changed, a walk over the sequences. Lanes
+    /// joined in one task share their waker, which is woken once.
+    #[inline(always)]
+    pub(crate) fn lanes_of_polls(&mut self, polls: SeqSet, wakers: &Lanes<W>) -> LaneSet {
+        if self.polling.woken.polls != polls {
+            let mut lanes = LaneSet::EMPTY;
+            let mut woken = NO_WAKER;
+            for id in polls {
+                let lane = self.lane_slot(id);
+                let waker = wakers.identity(lane);
+                if waker != NO_WAKER && waker != woken {
+                    woken = waker;
+                    lanes = lanes.with(LaneSet::of(lane));
+                }
+            }
+            self.polling.woken = WakeMemo { polls, lanes };
+        }
+        self.polling.woken.lanes
+    }
+}
+
+/// The lane slot `id` declared: one step per slot (a declared slot never changes).
+pub(crate) fn lane_slot_of<
+    C,
+    S: Sections<C, N, T, W>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+) -> Option<u8> {
+    let me = Link::to(Some(id));
+    (0..W)
+        .find(|&k| s.section(|s| s.lane_owners.get(k) == Some(&me)))
+        .and_then(|k| u8::try_from(k).ok())
+}
+
+/// Declares a lane for `id` (idempotent) and returns its slot (`None`: all slots are
+/// taken): one step per slot looked at. `id` is registered (a `Seq` or a `Handle` of it
+/// exists).
+pub(crate) fn declare_lane<
+    C,
+    S: Sections<C, N, T, W>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+) -> Option<u8> {
+    // Slots fill in order and are never freed: the first slot that is `id`'s or free.
+    let me = Link::to(Some(id));
+    (0..W)
+        .find(|&k| {
+            s.section(|s| match s.lane_owners.get_mut(k) {
+                Some(owner) if *owner == me => true,
+                Some(owner) if *owner == Link::NONE => {
+                    *owner = me;
+                    true
+                }
+                _ => false,
+            })
+        })
+        .and_then(|k| u8::try_from(k).ok())
 }

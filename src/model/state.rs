@@ -1,6 +1,4 @@
-//! Running states, the transition table, causes and outcomes.
-
-use crate::{MonitorId, SeqId};
+//! The seven running states and the transition table.
 
 /// The seven running states of a sequence or step (the seed's `runningStateEnum`).
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
@@ -80,45 +78,71 @@ impl RunningState {
     ];
 }
 
-/// Why a transition happened. Recorded in every [`Transition`](crate::Transition) and carried
-/// by [`Outcome::Aborted`].
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Cause {
-    /// Started by a caller or a handle.
-    Start,
-    /// The pre-condition was false: the sequence was skipped.
-    PreConditionFalse,
-    /// The exit condition became true.
-    Completed,
-    /// A pause request.
-    Pause,
-    /// A resume request.
-    Resume,
-    /// An explicit abort request through a [`Handle`](crate::Handle).
-    Abort,
-    /// [`Sequencer::abort_all`](crate::Sequencer::abort_all), e.g. from the safety system.
-    AbortAll,
-    /// A monitor fired (also the cause of everything its behaviour aborts or restarts, and of
-    /// its exception sequence's start).
-    Monitor(MonitorId),
-    /// The timeout monitor of the given sequence fired.
-    Timeout(SeqId),
-    /// A `Restarting` sequence runs again.
-    Restart,
-    /// The future of the run was dropped before the run ended (the loser of a `select`, a
-    /// timeout combinator): the run is aborted, with its sub-sequences, where it was.
-    Dropped,
+/// A set of running states (bit `s as u8` = state `s`): the transition table as sets, for
+/// checks inside short sections.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct States(u8);
+
+impl States {
+    /// `Running` or `Paused`: the states in which monitors are evaluated.
+    pub(crate) const ACTIVE_RUNNING: States =
+        States::of(RunningState::Running).with(RunningState::Paused);
+
+    /// The states a start may leave (`Idle`, `Terminated`, `Aborted`: not active).
+    pub(crate) const STARTABLE: States = States::of(RunningState::Idle)
+        .with(RunningState::Terminated)
+        .with(RunningState::Aborted);
+
+    /// The set of `s` alone.
+    pub(crate) const fn of(s: RunningState) -> States {
+        States(1 << s as u8)
+    }
+
+    /// This set with `s` in.
+    pub(crate) const fn with(self, s: RunningState) -> States {
+        States(self.0 | States::of(s).0)
+    }
+
+    /// This set without the states of `other`.
+    pub(crate) const fn minus(self, other: States) -> States {
+        States(self.0 & !other.0)
+    }
+
+    /// Whether `s` is in the set.
+    pub(crate) const fn has(self, s: RunningState) -> bool {
+        self.0 & States::of(s).0 != 0
+    }
+
+    /// The states from which `to` may be entered: [`RunningState::can_transition_to`] as
+    /// a set.
+    pub(crate) const fn entering(to: RunningState) -> States {
+        use RunningState::*;
+        match to {
+            Running => States::STARTABLE.with(Paused).with(Restarting),
+            Paused | Terminated => States::of(Running),
+            Restarting => States::ACTIVE_RUNNING,
+            Aborting => States::ACTIVE_RUNNING.with(Restarting),
+            Aborted => States::of(Aborting),
+            Idle => States(0),
+        }
+    }
 }
 
-/// The result of one run, returned to a blocking caller (no magic `-1`).
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Outcome {
-    /// The action ran and the exit condition became true.
-    Completed,
-    /// The pre-condition was false; the action did not run.
-    Skipped,
-    /// Aborted; the cause names the monitor, timeout or request responsible.
-    Aborted(Cause),
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_state_sets_are_the_transition_table() {
+        for from in RunningState::ALL {
+            for to in RunningState::ALL {
+                assert_eq!(
+                    States::entering(to).has(from),
+                    from.can_transition_to(to),
+                    "{from:?} -> {to:?}"
+                );
+            }
+            assert_eq!(States::STARTABLE.has(from), !from.is_active());
+        }
+    }
 }

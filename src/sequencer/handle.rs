@@ -1,8 +1,7 @@
 //! Handles: inspect and command a registered sequence from anywhere.
 
-use crate::control_block::request;
-use crate::engine::Engine;
-use crate::sequencer::Mode;
+use crate::sequencer::port::Port;
+use crate::sequencer::requests::Request;
 #[cfg(feature = "counters")]
 use crate::Counters;
 use crate::{Cause, Duration, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
@@ -28,7 +27,7 @@ pub type CallerStack = heapless::Vec<SeqId, MAX_DEPTH>;
 /// ```
 #[derive(Clone, Copy)]
 pub struct Handle<'a, C> {
-    engine: &'a dyn Engine<C>,
+    port: &'a dyn Port<C>,
     id: SeqId,
 }
 
@@ -37,11 +36,11 @@ impl<'a, C> Handle<'a, C> {
         seq: &'a Sequencer<C, N, T, L, W>,
         id: SeqId,
     ) -> Self {
-        Handle { engine: seq, id }
+        Handle { port: seq, id }
     }
 
-    pub(crate) fn from_engine(engine: &'a dyn Engine<C>, id: SeqId) -> Self {
-        Handle { engine, id }
+    pub(crate) fn from_port(port: &'a dyn Port<C>, id: SeqId) -> Self {
+        Handle { port, id }
     }
 
     /// The sequence's id.
@@ -51,19 +50,19 @@ impl<'a, C> Handle<'a, C> {
 
     /// The registered name.
     pub fn name(&self) -> &'static str {
-        self.engine.info(self.id).map_or("", |i| i.name)
+        self.port.info(self.id).map_or("", |i| i.name)
     }
 
     /// The current running state.
     pub fn state(&self) -> RunningState {
-        self.engine
+        self.port
             .info(self.id)
             .map_or(RunningState::Idle, |i| i.state)
     }
 
     /// `callerSequence`: who started the current (or last) run; `None` for a main sequence.
     pub fn caller(&self) -> Option<SeqId> {
-        self.engine.info(self.id).and_then(|i| i.caller)
+        self.port.info(self.id).and_then(|i| i.caller)
     }
 
     /// `callerStack`: all callers up to the main sequence, outermost first, not itself.
@@ -84,7 +83,7 @@ impl<'a, C> Handle<'a, C> {
     /// relinks meanwhile may mix old and new links.
     fn callers(&self) -> (CallerStack, u8) {
         let mut stack = CallerStack::new();
-        let Some(me) = self.engine.info(self.id) else {
+        let Some(me) = self.port.info(self.id) else {
             return (stack, 0);
         };
         // Innermost first; the blocking callers are the innermost ones in this lane.
@@ -94,7 +93,7 @@ impl<'a, C> Handle<'a, C> {
             // At most MAX_DEPTH pushes: every one fits.
             let _ = stack.push(c);
             let (next, lane) = self
-                .engine
+                .port
                 .info(c)
                 .map_or((None, None), |i| (i.caller, Some(i.lane)));
             blocking &= lane == Some(me.lane);
@@ -110,20 +109,18 @@ impl<'a, C> Handle<'a, C> {
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
     /// sequence was aborted because of it.
     pub fn exception_is_active(&self) -> bool {
-        self.engine
-            .info(self.id)
-            .is_some_and(|i| i.exception_active)
+        self.port.info(self.id).is_some_and(|i| i.exception_active)
     }
 
     /// `activeException`: the monitor or timeout of the active (or last) exception.
     pub fn active_exception(&self) -> Option<Cause> {
-        self.engine.info(self.id).and_then(|i| i.active_exception)
+        self.port.info(self.id).and_then(|i| i.active_exception)
     }
 
     /// Runs, completions, skips, aborts, restarts, exceptions (feature `counters`).
     #[cfg(feature = "counters")]
     pub fn counters(&self) -> Counters {
-        self.engine
+        self.port
             .info(self.id)
             .map(|i| i.counters)
             .unwrap_or_default()
@@ -131,27 +128,27 @@ impl<'a, C> Handle<'a, C> {
 
     /// The outcome of the last finished run.
     pub fn last_outcome(&self) -> Option<Outcome> {
-        self.engine.info(self.id).and_then(|i| i.outcome)
+        self.port.info(self.id).and_then(|i| i.outcome)
     }
 
     /// Starts the sequence non-blocking in its lane, as a main sequence (no caller).
     pub fn start(&self) -> Result<(), Error> {
-        self.engine.begin(self.id, None, Mode::Lane)
+        self.port.start_in_lane(self.id, None)
     }
 
     /// Requests a pause of the sequence and the sequences it blocks (next tick).
     pub fn pause(&self) -> Result<(), Error> {
-        self.engine.request(self.id, request::PAUSE)
+        self.port.request(self.id, Request::Pause)
     }
 
     /// Requests that a paused sequence resume where it stopped (next tick).
     pub fn resume(&self) -> Result<(), Error> {
-        self.engine.request(self.id, request::RESUME)
+        self.port.request(self.id, Request::Resume)
     }
 
     /// Requests an abort of the sequence and all its sub-sequences (next tick).
     pub fn abort(&self) -> Result<(), Error> {
-        self.engine.request(self.id, request::ABORT)
+        self.port.request(self.id, Request::Abort)
     }
 
     /// Sets (or with `None` switches off) the timeout monitor; it applies from the next
@@ -166,15 +163,15 @@ impl<'a, C> Handle<'a, C> {
     /// ```
     pub fn set_timeout(&self, timeout: Option<Duration>) -> Result<(), Error> {
         let micros = match timeout {
-            Some(t) => crate::time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
+            Some(t) => crate::model::time::to_interval(t).ok_or(Error::DurationOutOfRange)?,
             None => 0,
         };
-        self.engine.set_timeout(self.id, micros)
+        self.port.set_timeout(self.id, micros)
     }
 
     /// Declares that a lane runs this sequence, so it can be started non-blocking before the
     /// lane first ran (e.g. from RTIC `init`). [`lane`](crate::lane) declares it too.
     pub fn declare_lane(&self) -> Result<(), Error> {
-        self.engine.declare_lane(self.id).map(|_| ())
+        self.port.declare_lane(self.id).map(|_| ())
     }
 }

@@ -7,12 +7,13 @@
 //! ([`Sequencer::install`](crate::Sequencer::install)). Like a PLC's configuration, the
 //! tree is fixed before the program runs.
 
-use crate::control_block::{ControlBlock, Link};
-use crate::polling::Classes;
+use crate::model::id::Link;
+use crate::sequencer::control_block::ControlBlock;
+use crate::tick::schedule::Classes;
 use crate::{Behaviour, Error, SeqConfig, SeqId};
 
 /// One checked configuration: what a control block takes from it.
-pub(crate) struct Entry<C> {
+pub(crate) struct CheckedConfig<C> {
     name: &'static str,
     /// Polling period (µs, non-zero, below 2^31).
     pub(crate) polling: u32,
@@ -27,30 +28,30 @@ pub(crate) struct Entry<C> {
 }
 
 // Not derived: a derive would require `C: Copy`.
-impl<C> Clone for Entry<C> {
+impl<C> Clone for CheckedConfig<C> {
     fn clone(&self) -> Self {
         *self
     }
 }
-impl<C> Copy for Entry<C> {}
+impl<C> Copy for CheckedConfig<C> {}
 
-impl<C> Entry<C> {
+impl<C> CheckedConfig<C> {
     /// Checks `config` on its own (name, durations); the polling class is joined later.
     pub(crate) const fn checked(config: &SeqConfig<C>) -> Result<Self, Error> {
         if config.name.is_empty() {
             return Err(Error::EmptyName);
         }
-        let Some(polling) = crate::time::to_interval(config.polling) else {
+        let Some(polling) = crate::model::time::to_interval(config.polling) else {
             return Err(Error::DurationOutOfRange);
         };
         let timeout = match config.timeout {
-            Some(t) => match crate::time::to_interval(t) {
+            Some(t) => match crate::model::time::to_interval(t) {
                 Some(us) => us,
                 None => return Err(Error::DurationOutOfRange),
             },
             None => 0,
         };
-        Ok(Entry {
+        Ok(CheckedConfig {
             name: config.name,
             polling,
             timeout,
@@ -127,7 +128,7 @@ impl<C> Entry<C> {
 ///     };
 /// ```
 pub struct Table<C, const N: usize> {
-    pub(crate) entries: [Entry<C>; N],
+    pub(crate) configs: [CheckedConfig<C>; N],
     pub(crate) classes: Classes,
 }
 
@@ -142,16 +143,16 @@ impl<C, const N: usize> Table<C, N> {
             return Err(Error::SequenceCapacityExceeded);
         }
         let mut table = Table {
-            entries: [const { Entry::UNUSED }; N],
+            configs: [const { CheckedConfig::UNUSED }; N],
             classes: Classes::new(),
         };
-        let mut entries: &mut [Entry<C>] = &mut table.entries;
+        let mut entries: &mut [CheckedConfig<C>] = &mut table.configs;
         let mut rest: &[SeqConfig<C>] = &configs;
         let mut id: u8 = 0;
         while let (Some((slot, more_slots)), Some((config, more))) =
             (entries.split_first_mut(), rest.split_first())
         {
-            let mut entry = match Entry::checked(config) {
+            let mut entry = match CheckedConfig::checked(config) {
                 Ok(entry) => entry,
                 Err(e) => return Err(e),
             };
@@ -177,7 +178,7 @@ impl<C, const N: usize> Table<C, N> {
 
     /// The id of the entry named `name`.
     pub const fn id(&self, name: &str) -> Option<SeqId> {
-        let mut rest: &[Entry<C>] = &self.entries;
+        let mut rest: &[CheckedConfig<C>] = &self.configs;
         let mut id: u8 = 0;
         while let Some((entry, more)) = rest.split_first() {
             if str_eq(entry.name, name) {
@@ -203,16 +204,16 @@ impl<C, const N: usize> Table<C, N> {
 impl<C, const N: usize> core::fmt::Debug for Table<C, N> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         let mut names = f.debug_list();
-        for e in &self.entries {
+        for e in &self.configs {
             names.entry(&e.name);
         }
         names.finish()
     }
 }
 
-impl<C> Entry<C> {
+impl<C> CheckedConfig<C> {
     /// An unwritten entry (`Table::new` overwrites all of them).
-    const UNUSED: Entry<C> = Entry {
+    const UNUSED: CheckedConfig<C> = CheckedConfig {
         name: "",
         polling: 0,
         timeout: 0,
@@ -272,7 +273,7 @@ mod tests {
         ]);
         let ids = table.as_ref().map(|t| (t.id("c"), t.id("d")));
         assert_eq!(ids, Ok((Some(SeqId(2)), None)));
-        let classes = table.map(|t| (t.entries.map(|e| e.class), t.classes.len()));
+        let classes = table.map(|t| (t.configs.map(|e| e.class), t.classes.len()));
         assert_eq!(classes, Ok(([0, 1, 0], 2)));
     }
 

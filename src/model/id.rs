@@ -54,3 +54,38 @@ impl MonitorId {
         MonitorId(if index > 255 { 255 } else { index as u8 })
     }
 }
+
+/// A 1-byte optional sequence id: the id plus one, 0 = none (`SeqId` values stop at 254),
+/// so that an empty sequencer is all zeros (see `ControlBlock::UNREGISTERED`).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct Link(u8);
+
+impl Link {
+    pub(crate) const NONE: Link = Link(0);
+
+    pub(crate) const fn to(id: Option<SeqId>) -> Link {
+        match id {
+            Some(i) => Link(i.0.wrapping_add(1)),
+            None => Link::NONE,
+        }
+    }
+
+    pub(crate) fn get(self) -> Option<SeqId> {
+        self.0.checked_sub(1).map(SeqId)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn links_round_trip_and_none_is_zero() {
+        assert_eq!(Link::NONE, Link(0));
+        assert_eq!(Link::to(None), Link::NONE);
+        assert_eq!(Link::NONE.get(), None);
+        for id in [0u8, 1, 31, 254] {
+            assert_eq!(Link::to(Some(SeqId(id))).get(), Some(SeqId(id)));
+        }
+    }
+}

@@ -5,9 +5,11 @@ use core::task::Poll;
 
 use core::future::Future;
 
-use crate::engine::Engine;
-use crate::sequence::{framework, BodyRef, Frame, StepFramework};
-use crate::sequencer::{Gate, Mode};
+use crate::sequence::erased::{sequence_run, ErasedBody, StepRun};
+use crate::sequence::run::Run;
+use crate::sequence::SeqHead;
+use crate::sequencer::port::Port;
+use crate::sequencer::transition::Clearance;
 use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
 /// What a running sequence or step sees: its id, the time, typed access to the control
@@ -56,22 +58,18 @@ use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 /// assert_eq!(ctrl.blinks.get(), 3);
 /// ```
 pub struct Cx<'a, C> {
-    engine: &'a dyn Engine<C>,
+    port: &'a dyn Port<C>,
     control: &'a C,
     id: SeqId,
 }
 
 impl<'a, C> Cx<'a, C> {
-    pub(crate) fn new(engine: &'a dyn Engine<C>, control: &'a C, id: SeqId) -> Self {
-        Cx {
-            engine,
-            control,
-            id,
-        }
+    pub(crate) fn new(port: &'a dyn Port<C>, control: &'a C, id: SeqId) -> Self {
+        Cx { port, control, id }
     }
 
-    pub(crate) fn engine(&self) -> &'a dyn Engine<C> {
-        self.engine
+    pub(crate) fn port(&self) -> &'a dyn Port<C> {
+        self.port
     }
 
     /// The id of the sequence this context belongs to.
@@ -86,7 +84,7 @@ impl<'a, C> Cx<'a, C> {
 
     /// The sequencer time (the last tick's time).
     pub fn now(&self) -> Instant {
-        self.engine.now()
+        self.port.now()
     }
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
@@ -102,55 +100,51 @@ impl<'a, C> Cx<'a, C> {
         child: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
         let Seq { head, body } = child;
-        let frame = Frame::blocking(
-            Cx::new(self.engine, self.control, head.id),
-            &head.slot,
-            self.id,
-        );
-        framework(frame, body)
+        sequence_run(self.blocking_run(head), body)
     }
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling
     /// period.
-    // Out of line, a thunk per step type that adds its function pointer (`BodyRef::step`) and
-    // jumps to `step_ref`; call sites pass one pointer. (Inline: demo firmware -72 B, but
-    // scenarios +84 B, and the setup at every call site counts as rtseq's.)
-    #[inline(never)]
     pub fn step<'s, S: Step<C>>(
         &self,
         step: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
-        self.step_ref(BodyRef::step(step))
+        let Seq { head, body } = step;
+        self.step_run(head, ErasedBody::of_step(body))
     }
 
-    /// `step` for every step type: one future type, one copy of its code.
-    #[inline(never)]
-    fn step_ref<'s>(&self, step: BodyRef<'s, C>) -> StepFramework<'a, 's, C> {
-        let head = step.head();
-        let frame = Frame::blocking(
-            Cx::new(self.engine, self.control, head.id),
-            &head.slot,
+    /// A blocking run of a step of any type: one future type, one copy of its code.
+    fn step_run<'s>(&self, head: &'s SeqHead, step: ErasedBody<'s, C>) -> StepRun<'a, 's, C> {
+        StepRun {
+            run: self.blocking_run(head),
+            step,
+        }
+    }
+
+    /// A blocking run, by this sequence, of the sequence or step whose head is `head`.
+    fn blocking_run<'s>(&self, head: &'s SeqHead) -> Run<'a, 's, C> {
+        Run::blocking(
+            Cx::new(self.port, self.control, head.id),
+            &head.result,
             self.id,
-        );
-        StepFramework { frame, step }
+        )
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
     /// it is already running or has no lane.
-    #[inline(never)]
     pub fn start(&self, id: SeqId) -> Result<(), Error> {
-        self.engine.begin(id, Some(self.id), Mode::Lane)
+        self.port.start_in_lane(id, Some(self.id))
     }
 
     /// Waits until non-blocking sequence `id` has ended and returns its outcome.
     pub fn join(&self, id: SeqId) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
-        let (engine, me) = (self.engine, self.id);
+        let (port, me) = (self.port, self.id);
         poll_fn(move |w| {
             // Only while this sequence may advance: an aborted joiner never resumes.
-            if engine.gate(me, w.waker()) != Gate::Go {
+            if port.clearance(me, w.waker()) != Clearance::Go {
                 return Poll::Pending;
             }
-            engine.join(me, id)
+            port.join(me, id)
         })
     }
 
@@ -164,13 +158,13 @@ impl<'a, C> Cx<'a, C> {
         let mut first = true;
         poll_fn(move |w| {
             let go = if core::mem::take(&mut first) {
-                self.engine.poll_wait(self.id, true);
-                self.engine.gate(self.id, w.waker()) == Gate::Go
+                self.port.set_poll_wait(self.id, true);
+                self.port.clearance(self.id, w.waker()) == Clearance::Go
             } else {
-                self.engine.poll_due(self.id, w.waker()) == Gate::Go
+                self.port.due_poll(self.id, w.waker()) == Clearance::Go
             };
             if go && condition(self) {
-                self.engine.poll_wait(self.id, false);
+                self.port.set_poll_wait(self.id, false);
                 Poll::Ready(())
             } else {
                 Poll::Pending
@@ -180,14 +174,12 @@ impl<'a, C> Cx<'a, C> {
 
     /// The seed's `getSafetySystem()`: trigger public events, read the level.
     pub fn safety_system(&self) -> Option<&'static crate::safety::SafetyHandle> {
-        self.engine.safety()
+        self.port.safety()
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByID`).
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'a, C>> {
-        self.engine
-            .info(id)
-            .map(|_| Handle::from_engine(self.engine, id))
+        self.port.info(id).map(|_| Handle::from_port(self.port, id))
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByName`).
@@ -216,7 +208,7 @@ impl<'a, C> Cx<'a, C> {
     /// assert_eq!(found.get(), Some((id, other, true)));
     /// ```
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'a, C>> {
-        let id = self.engine.find(name)?;
-        Some(Handle::from_engine(self.engine, id))
+        let id = self.port.find(name)?;
+        Some(Handle::from_port(self.port, id))
     }
 }

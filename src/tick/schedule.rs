@@ -9,8 +9,8 @@
 
 use core::num::NonZeroU32;
 
-use crate::bits::Bits;
-use crate::control_block::{reached32, Micros32};
+use crate::model::set::SeqSet;
+use crate::model::time::Stamp;
 use crate::{Error, SeqId};
 
 /// The most distinct polling periods one sequencer holds.
@@ -23,8 +23,8 @@ pub(crate) struct Class {
     /// an unused class.
     period: Option<NonZeroU32>,
     /// The next poll while the class has an active member.
-    next: Micros32,
-    members: Bits,
+    next: Stamp,
+    members: SeqSet,
 }
 
 /// The classes of one sequencer.
@@ -39,7 +39,7 @@ pub(crate) struct Classes {
 /// What a scan of the classes found.
 pub(crate) struct Due {
     /// The active sequences whose poll is due.
-    pub(crate) sequences: Bits,
+    pub(crate) sequences: SeqSet,
     /// Time from now to the next poll of a class with an active member (µs; `u32::MAX`
     /// when there is none).
     pub(crate) ahead: u32,
@@ -49,8 +49,8 @@ impl Classes {
     pub(crate) const fn new() -> Self {
         const UNUSED: Class = Class {
             period: None,
-            next: 0,
-            members: Bits::EMPTY,
+            next: Stamp(0),
+            members: SeqSet::EMPTY,
         };
         Classes {
             list: [UNUSED; MAX_POLLING_CLASSES],
@@ -72,8 +72,8 @@ impl Classes {
             if at == *len {
                 *class = Class {
                     period: Some(period),
-                    next: 0,
-                    members: Bits::EMPTY,
+                    next: Stamp(0),
+                    members: SeqSet::EMPTY,
                 };
                 *len = at.saturating_add(1);
             }
@@ -105,11 +105,11 @@ impl Classes {
     /// Before a start of a sequence of class `index` at `now`: an idle class (no member
     /// in `active`) starts its grid one period from now. Returns the class's next poll.
     #[inline]
-    pub(crate) fn resume(&mut self, index: u8, now: u32, active: Bits) -> Micros32 {
+    pub(crate) fn resume(&mut self, index: u8, now: Stamp, active: SeqSet) -> Stamp {
         match self.list.get_mut(usize::from(index)) {
             Some(c) => {
                 if c.members.and(active).is_empty() {
-                    c.next = now.wrapping_add(c.period.map_or(0, NonZeroU32::get));
+                    c.next = now.plus(c.period.map_or(0, NonZeroU32::get));
                 }
                 c.next
             }
@@ -119,7 +119,7 @@ impl Classes {
 
     /// The scan of class `index` at `now` (see [`Class::scan`]).
     #[inline(always)]
-    pub(crate) fn scan(&mut self, index: usize, now: u32, active: Bits, due: &mut Due) {
+    pub(crate) fn scan(&mut self, index: usize, now: Stamp, active: SeqSet, due: &mut Due) {
         // An unused class has no members: no need to test `len`.
         if let Some(c) = self.list.get_mut(index) {
             c.scan(now, active, due);
@@ -128,7 +128,7 @@ impl Classes {
 
     /// The scan of every class at `now`.
     #[inline(always)]
-    pub(crate) fn scan_all(&mut self, now: u32, active: Bits, due: &mut Due) {
+    pub(crate) fn scan_all(&mut self, now: Stamp, active: SeqSet, due: &mut Due) {
         let len = self.len();
         for c in self.list.iter_mut().take(len) {
             c.scan(now, active, due);
@@ -140,21 +140,21 @@ impl Class {
     /// When the class has an active member and its poll is due, advances its grid and
     /// adds its active members to `due`.
     #[inline(always)]
-    fn scan(&mut self, now: u32, active: Bits, due: &mut Due) {
+    fn scan(&mut self, now: Stamp, active: SeqSet, due: &mut Due) {
         let live = self.members.and(active);
         // A class with members has a period.
         let (false, Some(period)) = (live.is_empty(), self.period) else {
             return;
         };
-        if reached32(now, self.next) {
+        if now.reached(self.next) {
             due.sequences = due.sequences.or(live);
             // The next grid point after now: missed periods (a late tick) are not
             // replayed.
-            let behind = now.wrapping_sub(self.next);
+            let behind = self.next.until(now);
             let skip = (behind / period).wrapping_add(1);
-            self.next = self.next.wrapping_add(skip.wrapping_mul(period.get()));
+            self.next = self.next.plus(skip.wrapping_mul(period.get()));
         }
-        due.ahead = due.ahead.min(self.next.wrapping_sub(now));
+        due.ahead = due.ahead.min(now.until(self.next));
     }
 }
 
@@ -162,8 +162,8 @@ impl Class {
 mod tests {
     use super::*;
 
-    fn live(ids: &[u8]) -> Bits {
-        let mut b = Bits::EMPTY;
+    fn live(ids: &[u8]) -> SeqSet {
+        let mut b = SeqSet::EMPTY;
         for &i in ids {
             b.set(SeqId(i), true);
         }
@@ -177,21 +177,21 @@ mod tests {
         assert_eq!(c.join(SeqId(1), 2_000), Ok(1));
         assert_eq!(c.join(SeqId(2), 1_000), Ok(0));
         let active = live(&[0, 1]);
-        assert_eq!(c.resume(0, 500, Bits::EMPTY), 1_500);
-        assert_eq!(c.resume(1, 500, Bits::EMPTY), 2_500);
+        assert_eq!(c.resume(0, Stamp(500), SeqSet::EMPTY), Stamp(1_500));
+        assert_eq!(c.resume(1, Stamp(500), SeqSet::EMPTY), Stamp(2_500));
         // Already busy: sequence 2 joins the grid of sequence 0.
-        assert_eq!(c.resume(0, 900, active), 1_500);
+        assert_eq!(c.resume(0, Stamp(900), active), Stamp(1_500));
         let scan = |c: &mut Classes, now| {
             let mut due = Due {
-                sequences: Bits::EMPTY,
+                sequences: SeqSet::EMPTY,
                 ahead: u32::MAX,
             };
             for i in 0..c.len() {
-                c.scan(i, now, live(&[0, 1, 2]), &mut due);
+                c.scan(i, Stamp(now), live(&[0, 1, 2]), &mut due);
             }
             (due.sequences, due.ahead)
         };
-        assert_eq!(scan(&mut c, 1_000), (Bits::EMPTY, 500));
+        assert_eq!(scan(&mut c, 1_000), (SeqSet::EMPTY, 500));
         assert_eq!(scan(&mut c, 1_500), (live(&[0, 2]), 1_000));
         // A late tick: 3 700 is past 2 500 and 3 500; the next polls stay on the grids.
         assert_eq!(scan(&mut c, 3_700), (live(&[0, 1, 2]), 800));

@@ -6,12 +6,11 @@
 
 use core::convert::Infallible;
 use core::future::Future;
-use core::pin::Pin;
-use core::task::{Context, Poll};
 
 use crate::lock::Lock;
-use crate::sequence::{framework, Frame};
-use crate::{Cx, Error, Outcome, Seq, Sequence, Sequencer};
+use crate::sequence::erased::{sequence_run, LaneRun};
+use crate::sequence::run::Run;
+use crate::{Cx, Seq, Sequence, Sequencer};
 
 /// Runs `seq` every time it is started non-blocking, forever.
 ///
@@ -40,7 +39,7 @@ use crate::{Cx, Error, Outcome, Seq, Sequence, Sequencer};
 /// [`Handle::declare_lane`](crate::Handle::declare_lane) to get
 /// [`Error::LaneCapacityExceeded`](crate::Error::LaneCapacityExceeded) there instead.
 ///
-/// The lane is the sequence's framework itself (see `sequence.rs`): between runs it waits for
+/// The lane is the sequence's run itself (see `sequence/run.rs`): between runs it waits for
 /// the next non-blocking start.
 pub fn lane<'a, C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, const W: usize>(
     sequencer: &'a Sequencer<C, N, T, L, W>,
@@ -48,24 +47,8 @@ pub fn lane<'a, C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, cons
     seq: &'a mut Seq<S>,
 ) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W> {
     let Seq { head, body } = seq;
-    Lane(framework(
-        Frame::lane(Cx::new(sequencer, control, head.id), &head.slot),
+    LaneRun(sequence_run(
+        Run::lane(Cx::new(sequencer, control, head.id), &head.result),
         body,
     ))
-}
-
-/// A lane's framework, which has no result: its frame goes back to waiting for a start
-/// after each run.
-struct Lane<F>(F);
-
-impl<F: Future<Output = Result<Outcome, Error>>> Future for Lane<F> {
-    type Output = Infallible;
-
-    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Infallible> {
-        // SAFETY: the framework is structurally pinned: never moved out, only polled in place.
-        let framework = unsafe { self.map_unchecked_mut(|lane| &mut lane.0) };
-        // Never `Ready`: only a blocking start's frame leaves a result.
-        let _ = framework.poll(w);
-        Poll::Pending
-    }
 }

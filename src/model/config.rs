@@ -37,8 +37,7 @@ pub struct SeqConfig<C> {
 
 impl<C> SeqConfig<C> {
     /// A sequence polled every 1 ms, without timeout.
-    // Out of line: applications build many configurations, and the literal below inlined
-    // costs ~20 bytes of flash at every call site.
+    // Out of line: applications build many configurations; one copy of the literal.
     #[inline(never)]
     pub const fn new(name: &'static str) -> Self {
         SeqConfig {

@@ -11,34 +11,40 @@ pub const MAX_SEQUENCES: usize = 32;
 
 /// A set of sequence ids.
 #[derive(Clone, Copy, PartialEq, Eq, Default, Debug)]
-pub(crate) struct Bits(pub(crate) u32);
+pub(crate) struct SeqSet(pub(crate) u32);
 
-impl Bits {
-    pub(crate) const EMPTY: Bits = Bits(0);
+impl SeqSet {
+    pub(crate) const EMPTY: SeqSet = SeqSet(0);
 
     /// The set of `id` alone (empty for an id no sequencer hands out).
     #[inline]
-    pub(crate) fn of(id: SeqId) -> Bits {
-        Bits(1u32.wrapping_shl(u32::from(id.0)))
+    pub(crate) fn of(id: SeqId) -> SeqSet {
+        SeqSet(1u32.wrapping_shl(u32::from(id.0)))
     }
 
     #[inline]
     pub(crate) fn has(self, id: SeqId) -> bool {
-        self.0 & Bits::of(id).0 != 0
+        self.0 & SeqSet::of(id).0 != 0
     }
 
     /// This set with `id` in (for `const` set-up).
-    pub(crate) const fn with(self, id: SeqId) -> Bits {
-        Bits(self.0 | 1u32.wrapping_shl(id.0 as u32))
+    pub(crate) const fn with(self, id: SeqId) -> SeqSet {
+        SeqSet(self.0 | 1u32.wrapping_shl(id.0 as u32))
+    }
+
+    /// Puts `id` in.
+    #[inline]
+    pub(crate) fn insert(&mut self, id: SeqId) {
+        *self = self.with(id);
     }
 
     /// Puts `id` in (`on`) or takes it out.
     #[inline]
     pub(crate) fn set(&mut self, id: SeqId, on: bool) {
         if on {
-            self.0 |= Bits::of(id).0;
+            self.0 |= SeqSet::of(id).0;
         } else {
-            self.0 &= !Bits::of(id).0;
+            self.0 &= !SeqSet::of(id).0;
         }
     }
 
@@ -48,18 +54,18 @@ impl Bits {
     }
 
     #[inline]
-    pub(crate) fn and(self, other: Bits) -> Bits {
-        Bits(self.0 & other.0)
+    pub(crate) fn and(self, other: SeqSet) -> SeqSet {
+        SeqSet(self.0 & other.0)
     }
 
     #[inline]
-    pub(crate) fn or(self, other: Bits) -> Bits {
-        Bits(self.0 | other.0)
+    pub(crate) fn or(self, other: SeqSet) -> SeqSet {
+        SeqSet(self.0 | other.0)
     }
 
     #[inline]
-    pub(crate) fn minus(self, other: Bits) -> Bits {
-        Bits(self.0 & !other.0)
+    pub(crate) fn minus(self, other: SeqSet) -> SeqSet {
+        SeqSet(self.0 & !other.0)
     }
 
     /// Takes the lowest id out of the set.
@@ -75,7 +81,7 @@ impl Bits {
     }
 }
 
-impl Iterator for Bits {
+impl Iterator for SeqSet {
     type Item = SeqId;
 
     /// The ids in the set, lowest first.
@@ -91,13 +97,13 @@ mod tests {
 
     #[test]
     fn sets_iterate_lowest_first() {
-        let mut s = Bits::EMPTY;
+        let mut s = SeqSet::EMPTY;
         for i in [31u8, 0, 5] {
             s.set(SeqId(i), true);
         }
         assert!(s.has(SeqId(5)) && !s.has(SeqId(4)));
         s.set(SeqId(5), false);
-        assert_eq!(s.minus(Bits::of(SeqId(0))), Bits::of(SeqId(31)));
+        assert_eq!(s.minus(SeqSet::of(SeqId(0))), SeqSet::of(SeqId(31)));
         s.set(SeqId(5), true);
         assert!(s.eq([SeqId(0), SeqId(5), SeqId(31)]));
     }

@@ -1,0 +1,23 @@
+//! The model: the specification's vocabulary as plain data, shared by every other module.
+//!
+//! Running states and their transition table, causes and outcomes, the ids of sequences and
+//! monitors, sequencer time, a sequence's configuration and a whole tree's [`Table`], sets of
+//! sequences, and the errors. Nothing here knows about locks, lanes or the tick.
+
+pub(crate) mod config;
+pub(crate) mod error;
+pub(crate) mod id;
+pub(crate) mod outcome;
+pub(crate) mod set;
+pub(crate) mod state;
+pub(crate) mod table;
+pub(crate) mod time;
+
+pub use config::SeqConfig;
+pub use error::Error;
+pub use id::{MonitorId, SeqId};
+pub use outcome::{Cause, Outcome};
+pub use set::MAX_SEQUENCES;
+pub use state::RunningState;
+pub use table::Table;
+pub use time::{Duration, Instant};

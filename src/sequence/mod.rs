@@ -1,0 +1,181 @@
+//! Sequences and steps (seed §1.3–§1.5): the traits an application implements, the
+//! [`Seq`] that binds one to its id, the context [`Cx`] it works with, and how it runs.
+//!
+//! | file | what |
+//! |---|---|
+//! | `mod.rs` | [`Sequence`], [`Step`], [`Seq`] |
+//! | `context.rs` | [`Cx`]: what an action and a condition see and can do |
+//! | `run.rs` | a run: the seed's `actionFramework` as a state machine, with its diagram |
+//! | `erased.rs` | all type erasure (and so all `unsafe`) of this module, its invariants listed |
+//! | `lane.rs` | [`lane`]: a non-blocking sequence's execution context |
+//! | `wait.rs` | [`Wait`], the dwell-time step |
+
+use core::cell::Cell;
+
+pub(crate) mod context;
+pub(crate) mod erased;
+pub(crate) mod lane;
+pub(crate) mod run;
+pub(crate) mod wait;
+
+pub use context::Cx;
+pub use lane::lane;
+pub use wait::Wait;
+
+use crate::{Error, Outcome, SeqId};
+
+/// A sequence: an `async` action made of steps and sub-sequences, plus the optional pre- and
+/// exit conditions.
+///
+/// The action is an `async fn`: the compiler turns it into a statically sized state machine.
+/// Started blocking ([`Cx::run`]) it runs inside its caller's future; started non-blocking
+/// ([`Cx::start`], [`Handle::start`](crate::Handle::start)) it runs in its lane
+/// ([`lane`](crate::lane)). It must not block: wait with steps and their exit conditions.
+///
+/// ```
+/// use rtseq::{Cx, Outcome, Seq, Sequence, Step};
+/// struct Enable;
+/// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// struct PowerOn { enable: Seq<Enable> }
+/// impl Sequence<()> for PowerOn {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+///         if cx.step(&mut self.enable).await != Ok(Outcome::Completed) {
+///             return;
+///         }
+///     }
+/// }
+/// ```
+///
+/// # Panic-free actions
+///
+/// rtseq itself has no panic path (the board's no-panic build proves it), but every
+/// `async fn` that returns carries a compiler-generated "`async fn` resumed after completion"
+/// panic path of its own. Firmware that must be provably panic-free implements `action` as a
+/// plain function returning a hand-written future (the futures of [`Cx::run`] and
+/// [`Cx::step`] borrow only the child, not the context, so they can be stored in it):
+///
+/// ```
+/// use core::future::Future;
+/// use core::pin::Pin;
+/// use core::task::{Context, Poll};
+/// use rtseq::{Cx, Seq, Sequence, Step};
+/// struct Enable;
+/// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// struct PowerOn { enable: Seq<Enable> }
+/// impl Sequence<()> for PowerOn {
+///     fn action<'a, 'b, 'c>(&'a mut self, cx: &'b Cx<'c, ()>)
+///         -> impl Future<Output = ()> + use<'a, 'b, 'c>
+///     {
+///         // Drop the outcome: a future adapter that cannot panic.
+///         struct Ignore<F>(F);
+///         impl<F: Future> Future for Ignore<F> {
+///             type Output = ();
+///             fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
+///                 // SAFETY: `0` is structurally pinned, never moved out.
+///                 unsafe { self.map_unchecked_mut(|s| &mut s.0) }.poll(w).map(|_| ())
+///             }
+///         }
+///         Ignore(cx.step(&mut self.enable))
+///     }
+/// }
+/// ```
+#[allow(async_fn_in_trait)] // lanes poll on one core: no `Send` bound wanted
+pub trait Sequence<C> {
+    /// The sequence's work: starts steps and sub-sequences and awaits them.
+    async fn action(&mut self, cx: &Cx<'_, C>);
+
+    /// Checked before the action; `false` skips the run (outcome [`Outcome::Skipped`]).
+    fn check_pre_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
+        true
+    }
+
+    /// Polled after the action at every polling period; the run ends when it is `true`.
+    /// Default: ends right after the action.
+    fn check_exit_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
+        true
+    }
+}
+
+/// A step: one command to the control or safety system, then its exit condition is polled.
+/// Always started blocking ([`Cx::step`]).
+///
+/// ```
+/// use core::sync::atomic::{AtomicI32, Ordering::Relaxed};
+/// use rtseq::{Cx, Step};
+/// struct Axis { setpoint: AtomicI32, position: AtomicI32 }
+/// struct MoveTo(i32);
+/// impl Step<Axis> for MoveTo {
+///     fn action(&mut self, cx: &Cx<'_, Axis>) {
+///         cx.control().setpoint.store(self.0, Relaxed);
+///     }
+///     fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
+///         (cx.control().position.load(Relaxed) - self.0).abs() <= 2
+///     }
+/// }
+/// ```
+pub trait Step<C> {
+    /// The single, non-blocking command.
+    fn action(&mut self, cx: &Cx<'_, C>);
+
+    /// Checked before the action; `false` skips the step.
+    fn check_pre_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
+        true
+    }
+
+    /// Polled after the action at every polling period; the step ends when it is `true`.
+    fn check_exit_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
+        true
+    }
+}
+
+/// A sequence or step object bound to its registered id: what callers own and run.
+///
+/// Created by [`Sequencer::add`](crate::Sequencer::add) or
+/// [`Sequencer::bind`](crate::Sequencer::bind), once per id.
+///
+/// ```
+/// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let mut dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5))).unwrap();
+/// dwell.body_mut().set_duration(Duration::from_millis(8)); // configure before the next run
+/// assert_eq!(seq.sequence_by_id(dwell.id()).unwrap().name(), "dwell");
+/// ```
+pub struct Seq<S> {
+    pub(crate) body: S,
+    pub(crate) head: SeqHead,
+}
+
+/// The part of a [`Seq`] that does not depend on the body type.
+pub(crate) struct SeqHead {
+    pub(crate) id: SeqId,
+    /// Where a blocking run leaves its result for the future that started it (set and
+    /// taken in the same poll).
+    pub(crate) result: Cell<Option<Result<Outcome, Error>>>,
+}
+
+impl<S> Seq<S> {
+    pub(crate) fn new(id: SeqId, body: S) -> Self {
+        Seq {
+            body,
+            head: SeqHead {
+                id,
+                result: Cell::new(None),
+            },
+        }
+    }
+
+    /// The registered id.
+    pub fn id(&self) -> SeqId {
+        self.head.id
+    }
+
+    /// The sequence object.
+    pub fn body(&self) -> &S {
+        &self.body
+    }
+
+    /// The sequence object, mutably (e.g. to set a target before running it).
+    pub fn body_mut(&mut self) -> &mut S {
+        &mut self.body
+    }
+}

@@ -1,0 +1,295 @@
+//! A run of a sequence or step: the seed's `actionFramework` as a state machine.
+//!
+//! ```text
+//!   lane:  Idle ──take_start──┐        blocking:  Begin ──start_blocking──┐  (refused: Done, Err)
+//!                             ▼                                           ▼
+//!                 ┌──► PreCondition ◄──────────────────── restart ─────────────────┐
+//!                 │      │ clearance Go, pre-condition true                         │
+//!                 │      ▼                                                          │
+//!                 │    Action  ── clearance Go: advance the action ──┐              │
+//!                 │      │ the action completed                      │ (Pending)    │
+//!                 │      ▼                                                          │
+//!                 │    ActionDone ── set_poll_wait ──► ExitCondition ◄──────┐       │
+//!                 │                                      │ false            │ Go    │
+//!                 │                                      ▼                  │       │
+//!                 │                                    AwaitPoll ── due_poll┘       │
+//!                 │                                                                 │
+//!                 │  pre-condition false: end(Skipped); exit condition true:        │
+//!                 │  end(Completed); clearance Aborted at any await point ──► Ended │
+//!                 │  clearance Restart at any await point ──────────────────────────┘
+//!                 │
+//!   lane: ◄─ Idle ◄── Ended (finished: outcome, joiners) ──► HandOver ──► Done
+//!                                                   blocking: the caller's clearance Go,
+//!                                                   then the result is handed over
+//! ```
+//!
+//! | transition | function |
+//! |---|---|
+//! | Idle → PreCondition | [`Port::take_start`] |
+//! | Begin → PreCondition / Done | [`Port::start_blocking`] |
+//! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
+//! | Action → ActionDone | [`Port::clearance`], the body's action |
+//! | ActionDone → ExitCondition | [`Port::set_poll_wait`] |
+//! | ExitCondition → AwaitPoll | the body's exit condition (false) |
+//! | AwaitPoll → ExitCondition | [`Port::due_poll`] |
+//! | … → Ended | [`Port::end`] (completed, skipped), or a clearance `Aborted` |
+//! | … → PreCondition | a clearance `Restart`, then [`Port::restart`] |
+//! | Ended → Idle / HandOver | [`Port::finished`] |
+//! | HandOver → Done | [`Port::clearance`] of the caller |
+//!
+//! A held sequence (paused, or handling an exception) stays at its await point; an aborted
+//! one never runs another line of its action (sticky abort). A run whose future is dropped
+//! before it ended is abandoned ([`Port::abandon`]): aborted with its sub-sequences.
+
+use core::cell::Cell;
+use core::task::{Context, Poll};
+
+use crate::sequence::erased::ErasedBody;
+use crate::sequencer::port::Port;
+use crate::sequencer::transition::Clearance;
+use crate::{Cx, Error, Outcome, SeqId};
+
+/// Where a run stands. Without payload: the outcome has a cell of its own.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Stage {
+    /// A lane between runs (or before its first): wait for a non-blocking start.
+    Idle,
+    /// A blocking start's first poll: start the child.
+    Begin,
+    /// At the await point before the pre-condition: the start, or after a restart.
+    PreCondition,
+    /// The action runs.
+    Action,
+    /// The action completed: start polling the exit condition.
+    ActionDone,
+    /// Check the exit condition now.
+    ExitCondition,
+    /// Wait for the next due poll of the exit condition.
+    AwaitPoll,
+    /// The run ended with `Run::outcome`: report it.
+    Ended,
+    /// A blocking run ended: wait until the caller may advance to hand the outcome over.
+    HandOver,
+    /// The result was handed over (or the start refused); pending forever.
+    Done,
+}
+
+/// The body-independent part of a run: the sequence's context, where its result goes, who
+/// waits for it and where the run stands. Generic only over the control system `C`: one
+/// copy serves every sequence and step type, started blocking or in a lane.
+pub(crate) struct Run<'a, 's, C> {
+    pub(crate) cx: Cx<'a, C>,
+    result: &'s Cell<Option<Result<Outcome, Error>>>,
+    /// The blocking caller; `None`: the sequence's lane.
+    caller: Option<SeqId>,
+    stage: Cell<Stage>,
+    /// The outcome, once the run has ended.
+    outcome: Cell<Outcome>,
+}
+
+impl<'a, 's, C> Run<'a, 's, C> {
+    /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
+    pub(crate) fn blocking(
+        cx: Cx<'a, C>,
+        result: &'s Cell<Option<Result<Outcome, Error>>>,
+        caller: SeqId,
+    ) -> Self {
+        Run {
+            cx,
+            result,
+            caller: Some(caller),
+            stage: Cell::new(Stage::Begin),
+            outcome: Cell::new(Outcome::Completed),
+        }
+    }
+
+    /// The lane of `cx`'s sequence: runs it every time it is started non-blocking.
+    pub(crate) fn lane(cx: Cx<'a, C>, result: &'s Cell<Option<Result<Outcome, Error>>>) -> Self {
+        Run {
+            cx,
+            result,
+            caller: None,
+            stage: Cell::new(Stage::Idle),
+            outcome: Cell::new(Outcome::Completed),
+        }
+    }
+
+    fn port(&self) -> &'a dyn Port<C> {
+        self.cx.port()
+    }
+
+    fn id(&self) -> SeqId {
+        self.cx.id()
+    }
+
+    /// The run ended with `outcome`.
+    fn ended(&self, outcome: Outcome) {
+        self.outcome.set(outcome);
+        self.stage.set(Stage::Ended);
+    }
+
+    /// Follows a clearance other than `Go` or `Hold` (the seed's exceptions): an abort
+    /// ends the run, a restart goes back to the pre-condition.
+    fn obey(&self, clearance: Clearance) {
+        match clearance {
+            Clearance::Go | Clearance::Hold => {}
+            Clearance::Aborted(cause) => self.ended(Outcome::Aborted(cause)),
+            Clearance::Restart => {
+                self.port().restart(self.id());
+                self.stage.set(Stage::PreCondition);
+            }
+        }
+    }
+
+    /// Ends the run normally with `outcome`; when refused (aborted, restarting or holding
+    /// meanwhile) the clearance says what happens instead.
+    fn try_end(&self, outcome: Outcome, w: &mut Context<'_>) {
+        if self.port().end(self.id(), outcome) {
+            self.ended(outcome);
+        } else {
+            self.obey(self.port().clearance(self.id(), w.waker()));
+        }
+    }
+
+    /// Runs the stages up to the action (`Ready`: advance it now), or until it must
+    /// wait (`Pending`).
+    fn drive(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
+        let (port, id) = (self.port(), self.id());
+        loop {
+            match self.stage.get() {
+                Stage::Idle => {
+                    if !port.take_start(id, w.waker()) {
+                        return Poll::Pending;
+                    }
+                    self.stage.set(Stage::PreCondition);
+                }
+                Stage::Begin => {
+                    let started = match self.caller {
+                        Some(caller) => port.start_blocking(id, caller),
+                        None => Ok(()),
+                    };
+                    match started {
+                        Ok(()) => self.stage.set(Stage::PreCondition),
+                        Err(e) => {
+                            self.result.set(Some(Err(e)));
+                            self.stage.set(Stage::Done);
+                        }
+                    }
+                }
+                Stage::PreCondition => match port.clearance(id, w.waker()) {
+                    Clearance::Go => {
+                        if body.pre(&self.cx) {
+                            self.stage.set(Stage::Action);
+                            return Poll::Ready(());
+                        }
+                        self.try_end(Outcome::Skipped, w);
+                    }
+                    Clearance::Hold => return Poll::Pending,
+                    other => self.obey(other),
+                },
+                Stage::Action => return Poll::Ready(()),
+                Stage::ActionDone => {
+                    port.set_poll_wait(id, true);
+                    self.stage.set(Stage::ExitCondition);
+                }
+                Stage::ExitCondition => {
+                    self.stage.set(Stage::AwaitPoll);
+                    if body.exit(&self.cx) {
+                        self.try_end(Outcome::Completed, w);
+                    }
+                }
+                Stage::AwaitPoll => match port.due_poll(id, w.waker()) {
+                    Clearance::Go => self.stage.set(Stage::ExitCondition),
+                    Clearance::Hold => return Poll::Pending,
+                    other => self.obey(other),
+                },
+                Stage::Ended => {
+                    port.finished(id, self.outcome.get());
+                    self.stage.set(match self.caller {
+                        Some(_) => Stage::HandOver,
+                        None => Stage::Idle,
+                    });
+                }
+                // Hands over only when the caller may advance: once the caller is aborted
+                // or restarting this stays pending and the caller drops it (sticky abort).
+                Stage::HandOver => {
+                    if let Some(caller) = self.caller {
+                        if port.clearance(caller, w.waker()) == Clearance::Go {
+                            self.result.set(Some(Ok(self.outcome.get())));
+                            self.stage.set(Stage::Done);
+                        }
+                    }
+                    return Poll::Pending;
+                }
+                Stage::Done => return Poll::Pending,
+            }
+        }
+    }
+
+    /// Advances the action only with the clearance `Go`: a held sequence does not
+    /// advance, an aborted or restarting one never runs another line of it (its action is
+    /// dropped). `Ready`: the action is over; `drive` next.
+    fn act(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
+        match self.port().clearance(self.id(), w.waker()) {
+            Clearance::Go => {
+                if body.advance(&self.cx, w).is_pending() {
+                    return Poll::Pending;
+                }
+                self.stage.set(Stage::ActionDone);
+                Poll::Ready(())
+            }
+            Clearance::Hold => Poll::Pending,
+            other => {
+                body.drop_action();
+                self.obey(other);
+                Poll::Ready(())
+            }
+        }
+    }
+
+    /// A run's whole poll; `Ready` with a blocking run's result once it is handed over.
+    #[inline(never)]
+    pub(crate) fn poll(
+        &self,
+        w: &mut Context<'_>,
+        mut body: ErasedBody<'_, C>,
+    ) -> Poll<Result<Outcome, Error>> {
+        loop {
+            let ready = if self.stage.get() == Stage::Action {
+                self.act(w, &mut body)
+            } else {
+                self.drive(w, &mut body)
+            };
+            if ready.is_pending() {
+                break;
+            }
+        }
+        match self.result.take() {
+            Some(result) => Poll::Ready(result),
+            None => Poll::Pending,
+        }
+    }
+}
+
+/// A run whose future is dropped before it ended (the loser of a `select`, a timeout
+/// combinator, a lane shut down) does not leave its sequence running with no one to drive
+/// it: it is aborted where it is, with its sub-sequences ([`Cause::Dropped`]). A run that
+/// ended but has not reported back yet reports now. A sequence's action future is dropped
+/// before its run (see `SequenceRun`), so the runs it holds go first: innermost first.
+///
+/// [`Cause::Dropped`]: crate::Cause::Dropped
+impl<C> Drop for Run<'_, '_, C> {
+    fn drop(&mut self) {
+        let (port, id) = (self.port(), self.id());
+        match self.stage.get() {
+            Stage::PreCondition
+            | Stage::Action
+            | Stage::ActionDone
+            | Stage::ExitCondition
+            | Stage::AwaitPoll => port.abandon(id, self.cx.control()),
+            Stage::Ended => port.finished(id, self.outcome.get()),
+            // Not started, waiting for a start, or over.
+            Stage::Idle | Stage::Begin | Stage::HandOver | Stage::Done => {}
+        }
+    }
+}

@@ -1,0 +1,117 @@
+//! The caller tree, walked from 1-byte caller links.
+//!
+//! Each control block stores only its `callerSequence`. The seed's `callerStack`, its depth
+//! and its blocking part (`callerStackBlocking`: the callers in the same lane) are derived
+//! by walking the links, at most [`MAX_DEPTH`] steps, one section per step with the
+//! portable lock. The walks happen on starts, joins, stops and inspection, and in the
+//! tick only while something is held.
+
+use crate::model::id::Link;
+use crate::sequencer::sections::Sections;
+use crate::sequencer::State;
+use crate::{RunningState, SeqId, MAX_DEPTH};
+
+impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+    /// One step of [`cut_and_depth`]: the caller of `at`, or `None` at the top of the
+    /// stack; a link of `at` to `id` (its old run) is cut instead.
+    fn cut_step(&mut self, id: SeqId, at: SeqId) -> Option<SeqId> {
+        let b = self.block_mut(at).ok()?;
+        let up = b.caller.get()?;
+        if up == id {
+            b.caller = Link::NONE;
+            return None;
+        }
+        Some(up)
+    }
+
+    /// One step of [`join_would_deadlock`]: the caller of `at` in `lane`, if any.
+    fn caller_in_lane(&self, at: SeqId, lane: u8) -> Option<SeqId> {
+        let b = self.block(at).ok()?;
+        b.caller.get().filter(|&c| self.lane_slot(c) == lane)
+    }
+
+    /// One step of the held check of a due wake-up ([`held`]): `None` when `at` holds its
+    /// callees (its clearance is not `Go`), else its caller in `lane` to check next
+    /// ([`Link::NONE`] at the top of the lane).
+    pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
+        let b = self.block(at).ok()?;
+        if b.state != RunningState::Running || self.sets.excepting.has(at) {
+            return None;
+        }
+        let up = b.caller;
+        Some(match up.get() {
+            Some(c) if self.lane_slot(c) == lane => up,
+            _ => Link::NONE,
+        })
+    }
+}
+
+/// Before `id` is started by `caller`: walks `caller`'s caller links, one step per link,
+/// and returns its depth (its number of callers, at most `MAX_DEPTH`). If `id` is itself a
+/// (finished) caller of `caller`, the link to its old run is cut there, so the links never
+/// form a cycle.
+pub(crate) fn cut_and_depth<
+    C,
+    S: Sections<C, N, T, W>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    caller: SeqId,
+) -> u8 {
+    let mut at = caller;
+    let mut depth: u8 = 0;
+    for _ in 0..MAX_DEPTH {
+        match s.section(|s| s.cut_step(id, at)) {
+            Some(up) => {
+                at = up;
+                depth = depth.saturating_add(1);
+            }
+            None => break,
+        }
+    }
+    depth
+}
+
+/// Whether `joiner` waiting for `target` could never return: it is `target`, or `target`
+/// is one of the callers it blocks (its callers in its own lane).
+pub(crate) fn join_would_deadlock<
+    C,
+    S: Sections<C, N, T, W>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+>(
+    s: &mut S,
+    joiner: SeqId,
+    target: SeqId,
+) -> bool {
+    let lane = s.section(|s| s.lane_slot(joiner));
+    let mut at = Some(joiner);
+    for _ in 0..=MAX_DEPTH {
+        let Some(id) = at else { return false };
+        if id == target {
+            return true;
+        }
+        at = s.section(|s| s.caller_in_lane(id, lane));
+    }
+    false
+}
+
+/// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding for
+/// an exception): it is woken when it may go on. `step` is one step up its blocking
+/// callers ([`State::held_step`]).
+pub(crate) fn held(id: SeqId, mut step: impl FnMut(SeqId) -> Option<Link>) -> bool {
+    let mut at = Link::to(Some(id));
+    // The sequence and at most `MAX_DEPTH` callers.
+    for _ in 0..=MAX_DEPTH {
+        let Some(c) = at.get() else { return false };
+        match step(c) {
+            Some(up) => at = up,
+            None => return true,
+        }
+    }
+    false
+}

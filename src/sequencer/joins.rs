@@ -1,0 +1,45 @@
+//! Joins: sequences waiting for the end of another sequence's run.
+//!
+//! A joiner records in its own block which run it waits for, and is in the set `joining`;
+//! the end of a run releases every joiner of it and wakes their lanes. So any number of
+//! sequences can join one run.
+
+use crate::model::id::Link;
+use crate::sequencer::lanes::LaneSet;
+use crate::sequencer::State;
+use crate::SeqId;
+
+impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+    /// `joiner` waits for the end of the run of `target`.
+    pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
+        if let Ok(b) = self.block_mut(joiner) {
+            b.joins = Link::to(Some(target));
+            self.sets.joining.set(joiner, true);
+        }
+    }
+
+    /// `joiner` no longer waits in a join.
+    pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) {
+        if let Ok(b) = self.block_mut(joiner) {
+            b.joins = Link::NONE;
+        }
+        self.sets.joining.set(joiner, false);
+    }
+
+    /// The run of `target` ended: every sequence waiting in a join for it is released.
+    /// Returns their lanes, to wake.
+    pub(crate) fn release_joiners(&mut self, target: SeqId) -> LaneSet {
+        let mut lanes = LaneSet::EMPTY;
+        for j in self.sets.joining {
+            let Ok(b) = self.block_mut(j) else {
+                continue;
+            };
+            if b.joins == Link::to(Some(target)) {
+                b.joins = Link::NONE;
+                lanes = lanes.with(LaneSet::of(b.lane));
+                self.sets.joining.set(j, false);
+            }
+        }
+        lanes
+    }
+}

@@ -1,0 +1,165 @@
+//! The sequencer (seed §1.1): the [`Sequencer`] type and every `impl` of it except the
+//! tick's.
+//!
+//! | file | what |
+//! |---|---|
+//! | `mod.rs` | the type, its constructors, [`Sequencer::with`] (the only way into the state) |
+//! | `state.rs` | [`State`]: everything the lock guards, grouped, with the one accessor pair for control blocks |
+//! | `control_block.rs` | one sequence's control block (the seed's `BaseSequence` fields) |
+//! | `transition.rs` | the transition function, the clearance of an await point, the end of a run |
+//! | `registry.rs` | registration, tables, binding, look-up by id and name |
+//! | `start.rs` | starts and restarts: the checks, the schedule, the commit |
+//! | `requests.rs` | pause, resume and abort requests for the next tick; abort-all |
+//! | `callers.rs` | the caller tree: depth, cycles, who blocks whom |
+//! | `joins.rs` | sequences waiting for the end of another run |
+//! | `lanes.rs` | lane slots and their wakers (foreign code, called outside the state) |
+//! | `sections.rs` | how an operation of several steps takes its sections under each lock |
+//! | `port.rs` | the object-safe port contexts and handles use: one method per operation |
+//! | `handle.rs` | [`Handle`](crate::Handle): inspect and command one sequence |
+
+use core::cell::{Cell, UnsafeCell};
+use core::marker::PhantomData;
+use core::sync::atomic::AtomicBool;
+
+use crate::lock::{CriticalSection, Lock};
+use crate::safety::SafetyHandle;
+
+pub(crate) mod callers;
+pub(crate) mod control_block;
+pub(crate) mod handle;
+pub(crate) mod joins;
+pub(crate) mod lanes;
+pub(crate) mod port;
+mod registry;
+pub(crate) mod requests;
+pub(crate) mod sections;
+pub(crate) mod start;
+pub(crate) mod state;
+pub(crate) mod transition;
+
+use lanes::Lanes;
+pub(crate) use state::State;
+
+/// The sequencer (seed §1.1): one per application, usually a `static`.
+///
+/// `C` is the application's control system: conditions, steps and sequences get typed `&C`
+/// access to it (use atomics or [`critical_section::Mutex`] inside `C` for commands). `N` is
+/// the capacity of sequences and steps, `T` of the transition trace buffer (a power of
+/// two), `L` the [`Lock`], `W` the capacity of lanes (sequences that can run
+/// non-blocking).
+///
+/// ```
+/// use rtseq::{SeqConfig, Sequencer, Error};
+/// static SEQ: Sequencer<(), 8> = Sequencer::new();
+/// let main = SEQ.register(SeqConfig::new("main")).unwrap();
+/// assert_eq!(SEQ.register(SeqConfig::new("main")), Err(Error::DuplicateName("main")));
+/// assert_eq!(SEQ.sequence_by_name("main").map(|h| h.id()), Some(main));
+/// ```
+// `repr(C)`, the state first: every section reaches it at the sequencer's own address.
+#[repr(C)]
+pub struct Sequencer<
+    C,
+    const N: usize,
+    const T: usize = 64,
+    L: Lock = CriticalSection,
+    const W: usize = 8,
+> {
+    state: UnsafeCell<State<C, N, T, W>>,
+    /// The lanes' wakers, outside `state`: a waker is foreign code, called only while the
+    /// state is not borrowed.
+    pub(crate) lanes: Lanes<W>,
+    /// Abort-all requests: an atomic, so any priority may raise one (the safety task sits
+    /// above a priority ceiling).
+    pub(crate) abort_all: AtomicBool,
+    /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
+    pub(crate) safety: critical_section::Mutex<Cell<Option<&'static SafetyHandle>>>,
+    _control: PhantomData<fn(&C)>,
+    _lock: PhantomData<L>,
+}
+
+// SAFETY: `state` is only reached through `Sequencer::with`, and `lanes` only through
+// `Sequencer::park` and `Sequencer::wake_lanes`; all of them run under `L`, and `L` keeps
+// every other user of this sequencer out (by its contract; for `PriorityCeiling`, the
+// caller of the `unsafe` constructor promised that no user runs above the ceiling). The
+// other fields are `Sync` themselves. `State` and `Lanes` are `Send` for every `C` (they
+// hold only plain data, wakers and `fn(&C)` pointers).
+unsafe impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sync
+    for Sequencer<C, N, T, L, W>
+{
+}
+
+impl<C, const N: usize, const T: usize, const W: usize> Default
+    for Sequencer<C, N, T, CriticalSection, W>
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<C, const N: usize, const T: usize, const W: usize> Sequencer<C, N, T, CriticalSection, W> {
+    /// An empty sequencer guarded by critical sections; `const`, so it can be a `static`.
+    ///
+    /// ```
+    /// use rtseq::Sequencer;
+    /// static SEQ: Sequencer<(), 16> = Sequencer::new();
+    /// assert!(SEQ.is_empty());
+    /// ```
+    pub const fn new() -> Self {
+        Self::empty()
+    }
+}
+
+#[cfg(feature = "cortex-m")]
+impl<C, const N: usize, const T: usize, const PRIORITY: u8, const BITS: u8, const W: usize>
+    Sequencer<C, N, T, crate::lock::PriorityCeiling<PRIORITY, BITS>, W>
+{
+    /// An empty sequencer guarded by RTIC's priority ceiling instead of critical sections:
+    /// no interrupt above the ceiling is ever masked by rtseq.
+    ///
+    /// # Safety
+    ///
+    /// `PRIORITY` must be the highest RTIC priority at which any method of this sequencer is
+    /// called — normally the tick's — and no method other than [`abort_all`](Self::abort_all)
+    /// and [`safety_system`](Self::safety_system) may be called from above it.
+    pub const unsafe fn with_priority_ceiling() -> Self {
+        Self::empty()
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    const fn empty() -> Self {
+        const {
+            assert!(
+                N <= crate::MAX_SEQUENCES,
+                "a sequencer holds at most MAX_SEQUENCES sequences and steps"
+            )
+        };
+        const { assert!(W <= 32, "at most 32 lanes") };
+        Sequencer {
+            state: UnsafeCell::new(State::new()),
+            lanes: Lanes::new(),
+            abort_all: AtomicBool::new(false),
+            safety: critical_section::Mutex::new(Cell::new(None)),
+            _control: PhantomData,
+            _lock: PhantomData,
+        }
+    }
+
+    /// Runs `f` on the state inside a short section under the lock `L`.
+    ///
+    /// This is the crate's only access to the state. A `RefCell` would add a panic path
+    /// (the "already borrowed" check) to every operation; instead exclusivity rests on two
+    /// facts: the lock keeps every other context out, and no closure passed here calls
+    /// `with` again or any foreign code that could — closures only touch the state;
+    /// wakers are called by [`wake_lanes`](Self::wake_lanes) and [`park`](Self::park), user
+    /// conditions and hooks by the tick, each outside `with`.
+    #[inline]
+    pub(crate) fn with<R>(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+        L::lock(|| {
+            // SAFETY: see above — under the lock and without re-entry this is the only
+            // reference to the state.
+            let state = unsafe { &mut *self.state.get() };
+            f(state)
+        })
+    }
+}

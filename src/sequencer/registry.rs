@@ -1,0 +1,192 @@
+//! Registration (one sequence at a time, or a whole [`Table`]), binding sequence objects to
+//! their ids, and the seed's look-ups by id and by name.
+
+use crate::lock::Lock;
+use crate::model::table::CheckedConfig;
+use crate::sequencer::control_block::flag;
+use crate::sequencer::port::Port;
+use crate::tick::schedule::Classes;
+use crate::{Error, Handle, Seq, SeqConfig, SeqId, Sequencer, Table};
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Registers a sequence or step. Errors on an empty or duplicate name, an out-of-range
+    /// duration, or when all `N` slots are taken.
+    ///
+    /// ```
+    /// use rtseq::{Duration, Error, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let homing = seq.register(SeqConfig::new("homing").polling(Duration::from_millis(2)));
+    /// assert_eq!(homing.map(|id| id.index()), Ok(0));
+    /// assert_eq!(seq.register(SeqConfig::new("")), Err(Error::EmptyName));
+    /// ```
+    pub fn register(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
+        let mut checked = CheckedConfig::checked(&config)?;
+        self.with(|s| {
+            if s.registered().any(|b| b.name == Some(config.name)) {
+                return Err(Error::DuplicateName(config.name));
+            }
+            let id = SeqId::from_index(s.count());
+            if s.count() >= N {
+                return Err(Error::SequenceCapacityExceeded);
+            }
+            checked.class = s.polling.classes.join(id, checked.polling)?;
+            s.push_block(checked.block(), checked.on_abort())
+        })
+    }
+
+    /// Installs a [`Table`] checked at compile time into this empty sequencer: sequence
+    /// `i` of the table gets the id `SeqId::from_index(i)`. Bind the sequence objects with
+    /// [`bind`](Self::bind) afterwards. A table larger than `N` does not compile.
+    ///
+    /// One short section per entry, and one that copies the polling classes and makes
+    /// everything visible at once (its length grows with the number of classes); errors
+    /// (without a visible change) when anything is registered already.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer, Table};
+    /// static TABLE: Table<(), 2> = match Table::new([SeqConfig::new("a"), SeqConfig::new("b")]) {
+    ///     Ok(t) => t,
+    ///     Err(e) => panic!("{}", e.reason()),
+    /// };
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// seq.install(&TABLE).unwrap();
+    /// assert_eq!(seq.len(), 2);
+    /// ```
+    pub fn install<const K: usize>(&self, table: &Table<C, K>) -> Result<(), Error> {
+        const {
+            assert!(
+                K <= N,
+                "the table holds more sequences than the sequencer's N"
+            )
+        };
+        self.install_configs(&table.configs, &table.classes)
+    }
+
+    /// The part of [`install`](Self::install) that does not depend on the table's size.
+    fn install_configs(
+        &self,
+        configs: &[CheckedConfig<C>],
+        classes: &Classes,
+    ) -> Result<(), Error> {
+        for (i, config) in configs.iter().enumerate() {
+            self.with(|s| {
+                if s.count() != 0 {
+                    return Err(Error::NotEmpty);
+                }
+                s.prepare_block(SeqId::from_index(i), config.block(), config.on_abort());
+                Ok(())
+            })?;
+        }
+        self.with(|s| {
+            if s.count() != 0 {
+                return Err(Error::NotEmpty);
+            }
+            s.polling.classes.copy_used(classes);
+            s.commit_count(configs.len());
+            Ok(())
+        })
+    }
+
+    /// Binds the sequence or step object `body` to a registered id; each id binds once.
+    ///
+    /// ```
+    /// use rtseq::{Error, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("a")).unwrap();
+    /// let a = seq.bind(id, ()).unwrap();
+    /// assert_eq!(a.id(), id);
+    /// assert_eq!(seq.bind(id, ()).err(), Some(Error::AlreadyBound(id)));
+    /// ```
+    #[inline]
+    pub fn bind<S>(&self, id: SeqId, body: S) -> Result<Seq<S>, Error> {
+        self.claim(id)?;
+        Ok(Seq::new(id, body))
+    }
+
+    /// [`register`](Self::register) and [`bind`](Self::bind) in one.
+    ///
+    /// ```
+    /// use rtseq::{Cx, SeqConfig, Sequencer, Step};
+    /// struct Enable;
+    /// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let enable = seq.add(SeqConfig::new("enable"), Enable).unwrap();
+    /// assert_eq!(seq.sequence_by_id(enable.id()).unwrap().name(), "enable");
+    /// ```
+    #[inline]
+    pub fn add<S>(&self, config: SeqConfig<C>, body: S) -> Result<Seq<S>, Error> {
+        let id = self.register_bound(config)?;
+        Ok(Seq::new(id, body))
+    }
+
+    /// The part of [`add`](Self::add) that does not depend on the body type.
+    #[inline(never)]
+    fn register_bound(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
+        let id = self.register(config)?;
+        self.claim(id)?;
+        Ok(id)
+    }
+
+    /// The part of [`bind`](Self::bind) that does not depend on the body type.
+    #[inline(never)]
+    fn claim(&self, id: SeqId) -> Result<(), Error> {
+        self.with(|s| {
+            let b = s.block_mut(id)?;
+            if b.has(flag::BOUND) {
+                return Err(Error::AlreadyBound(id));
+            }
+            b.set(flag::BOUND, true);
+            Ok(())
+        })
+    }
+
+    /// The seed's `getSequenceByID`.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, SeqId, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("homing")).unwrap();
+    /// assert_eq!(seq.sequence_by_id(id).map(|h| h.name()), Some("homing"));
+    /// assert!(seq.sequence_by_id(SeqId::from_index(1)).is_none());
+    /// ```
+    pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'_, C>> {
+        let known = self.with(|s| s.block(id).is_ok());
+        known.then(|| Handle::new(self, id))
+    }
+
+    /// The seed's `getSequenceByName`.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("homing")).unwrap();
+    /// assert_eq!(seq.sequence_by_name("homing").map(|h| h.id()), Some(id));
+    /// assert!(seq.sequence_by_name("moves").is_none());
+    /// ```
+    pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'_, C>> {
+        let port: &dyn Port<C> = self;
+        port.find(name).map(|id| Handle::new(self, id))
+    }
+
+    /// Number of registered sequences and steps.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// seq.register(SeqConfig::new("a")).unwrap();
+    /// assert_eq!(seq.len(), 1);
+    /// ```
+    pub fn len(&self) -> usize {
+        self.with(|s| s.count())
+    }
+
+    /// True when nothing is registered.
+    ///
+    /// ```
+    /// use rtseq::Sequencer;
+    /// assert!(Sequencer::<(), 2>::new().is_empty());
+    /// ```
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}

@@ -1,0 +1,120 @@
+//! Requests: pause, resume and abort of one sequence, and abort-all, queued for the next
+//! tick so that every such transition happens in one place at a well-defined time. And the
+//! connection to the safety system, whose levels may demand abort-all.
+
+use core::sync::atomic::Ordering;
+
+use crate::lock::Lock;
+use crate::model::state::States;
+use crate::safety::{AbortSequences, SafetyHandle};
+use crate::sequencer::control_block::request;
+use crate::sequencer::State;
+use crate::{Error, RunningState, SeqId, Sequencer};
+
+/// A request for the next tick.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Request {
+    /// Pause a running sequence and the sequences it blocks.
+    Pause,
+    /// Resume a paused sequence where it stopped.
+    Resume,
+    /// Abort an active sequence and all its sub-sequences.
+    Abort,
+}
+
+impl Request {
+    /// The states in which the request can be made.
+    const fn allowed(self) -> States {
+        match self {
+            Request::Pause => States::of(RunningState::Running),
+            Request::Resume => States::of(RunningState::Paused),
+            Request::Abort => States::ACTIVE_RUNNING.with(RunningState::Restarting),
+        }
+    }
+
+    /// Its bit among the block's flags.
+    const fn bit(self) -> u16 {
+        match self {
+            Request::Pause => request::PAUSE,
+            Request::Resume => request::RESUME,
+            Request::Abort => request::ABORT,
+        }
+    }
+}
+
+impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+    /// Queues `req` of `id` for the next tick.
+    pub(crate) fn request(&mut self, id: SeqId, req: Request) -> Result<(), Error> {
+        let b = self.block_mut(id)?;
+        if !req.allowed().has(b.state) {
+            return Err(match req {
+                Request::Resume => Error::NotPaused(id),
+                Request::Pause | Request::Abort => Error::NotRunning(id),
+            });
+        }
+        b.flags |= req.bit();
+        self.tick_has_work = true;
+        Ok(())
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Requests that every running sequence be aborted (e.g. by the safety system). Applied
+    /// by the next tick, innermost sequences first. Safe to call from any priority.
+    ///
+    /// ```
+    /// use rtseq::Sequencer;
+    /// static SEQ: Sequencer<(), 4> = Sequencer::new();
+    /// SEQ.abort_all(); // nothing runs: the next tick has nothing to abort
+    /// ```
+    pub fn abort_all(&self) {
+        self.abort_all.store(true, Ordering::Release);
+    }
+
+    /// Takes a pending abort-all request (the tick is its only consumer).
+    pub(crate) fn take_abort_all(&self) -> bool {
+        // Load, then store: no compare-and-swap needed. A request raised in between is
+        // served by the abort-all being applied now.
+        let requested = self.abort_all.load(Ordering::Acquire);
+        if requested {
+            self.abort_all.store(false, Ordering::Relaxed);
+        }
+        requested
+    }
+
+    /// Connects the safety system: sequences reach it through
+    /// [`Cx::safety_system`](crate::Cx::safety_system) to trigger public events and read the
+    /// level.
+    ///
+    /// ```
+    /// use rtseq::safety::{PublicEvent, SafetyHandle};
+    /// use rtseq::Sequencer;
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// static SEQ: Sequencer<(), 4> = Sequencer::new();
+    /// SEQ.set_safety_system(&SAFETY);
+    /// SEQ.safety_system().unwrap().trigger(PublicEvent::new(0));
+    /// ```
+    pub fn set_safety_system(&self, safety: &'static SafetyHandle) {
+        critical_section::with(|cs| self.safety.borrow(cs).set(Some(safety)));
+    }
+
+    /// The seed's `getSafetySystem()`: the connected safety system's handle.
+    ///
+    /// ```
+    /// use rtseq::Sequencer;
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// assert!(seq.safety_system().is_none());
+    /// ```
+    pub fn safety_system(&self) -> Option<&'static SafetyHandle> {
+        critical_section::with(|cs| self.safety.borrow(cs).get())
+    }
+}
+
+/// A safety level that demands it aborts every sequence through the sequencer.
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> AbortSequences
+    for Sequencer<C, N, T, L, W>
+{
+    fn abort_all(&self) {
+        Sequencer::abort_all(self);
+    }
+}

@@ -1,0 +1,61 @@
+//! How an operation of several steps takes its sections.
+//!
+//! With the portable lock (`CriticalSection`) a section masks every interrupt, so it must
+//! stay short: each step of an operation is a section of its own, and every step re-checks
+//! what an earlier one saw. With a coarse lock (RTIC's priority ceiling) a section only
+//! holds off the sequencer's own users, so a whole operation runs in the one section its
+//! caller took. An operation is written once, generic over [`Sections`], and
+//! [`in_sections!`] compiles it for the one case the lock needs.
+
+use crate::lock::Lock;
+use crate::sequencer::State;
+use crate::Sequencer;
+
+/// The state, one step at a time.
+pub(crate) trait Sections<C, const N: usize, const T: usize, const W: usize> {
+    /// True when every step runs inside one section: nothing changes between two steps,
+    /// so a commit never has to be tried again.
+    const ONE_SECTION: bool = false;
+
+    /// Runs `f` on the state: in a section of its own, or inside the caller's.
+    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R;
+}
+
+/// Inside the section a coarse lock's caller holds: every step runs at once.
+impl<C, const N: usize, const T: usize, const W: usize> Sections<C, N, T, W> for State<C, N, T, W> {
+    const ONE_SECTION: bool = true;
+
+    #[inline(always)]
+    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+        f(self)
+    }
+}
+
+/// With the portable lock: one section per step.
+pub(crate) struct EachStep<'a, C, const N: usize, const T: usize, L: Lock, const W: usize>(
+    pub(crate) &'a Sequencer<C, N, T, L, W>,
+);
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sections<C, N, T, W>
+    for EachStep<'_, C, N, T, L, W>
+{
+    #[inline(always)]
+    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+        self.0.with(f)
+    }
+}
+
+/// `in_sections!(sequencer, |s| body)` runs `body` with `s` as its [`Sections`]: with a
+/// coarse lock (`L::COARSE`, the lock type in scope) inside one section, else with a
+/// section per step.
+macro_rules! in_sections {
+    ($seq:expr, |$s:ident| $body:expr) => {
+        if L::COARSE {
+            $seq.with(|$s| $body)
+        } else {
+            let $s = &mut $crate::sequencer::sections::EachStep($seq);
+            $body
+        }
+    };
+}
+pub(crate) use in_sections;

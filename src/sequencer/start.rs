@@ -1,0 +1,294 @@
+//! Starts and restarts: the checks, the schedule and the commit of a new run.
+//!
+//! A start is a few steps ([`Sections`]): the checks ([`admit`]), then the schedule of the
+//! run (its timeout, its lane, the sets the tick reads, its polling class's grid) and the
+//! commit that makes it `Running`. The tick may run between two steps with the portable
+//! lock; the commit then sees that the time moved or the state changed, and the run is
+//! scheduled again. A restart (after `Restarting`) takes the same path with the run's lane,
+//! caller and flags as they are.
+
+use crate::lock::Lock;
+use crate::model::id::Link;
+use crate::model::state::States;
+use crate::model::time::Stamp;
+use crate::sequencer::callers::cut_and_depth;
+use crate::sequencer::control_block::flag;
+use crate::sequencer::lanes::{lane_slot_of, LaneSet};
+use crate::sequencer::sections::{in_sections, Sections};
+use crate::sequencer::state::WakeMemo;
+use crate::sequencer::State;
+use crate::trace::StateChange;
+use crate::{Cause, Error, RunningState, SeqId, Sequencer, MAX_DEPTH};
+
+/// Where a started run runs.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Mode {
+    /// Inside the caller's future; the caller waits.
+    Blocking,
+    /// In the sequence's own lane; the caller continues.
+    Lane,
+}
+
+/// What a start gives its new run.
+#[derive(Clone, Copy)]
+struct NewRun {
+    /// Its lane slot.
+    lane: u8,
+    /// The link to its caller.
+    caller: Link,
+    /// Its flags, all of them.
+    flags: u16,
+}
+
+/// What the schedule of a run saw, for its commit.
+struct Scheduled {
+    /// The state the run starts from.
+    from: RunningState,
+    /// The time it was scheduled at: the commit fails if a tick ran since.
+    at: Stamp,
+    /// Its timeout monitor is on.
+    armed: bool,
+}
+
+impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+    /// The read-only checks of a start of `id`: not active; with a blocking caller, the
+    /// caller's lane. Returns `id`'s `BOUND` flag (set once, never cleared) and that lane.
+    fn check_start(
+        &self,
+        id: SeqId,
+        caller: Option<SeqId>,
+        mode: Mode,
+    ) -> Result<(u16, u8), Error> {
+        let b = self.block(id)?;
+        if !States::STARTABLE.has(b.state) {
+            return Err(Error::AlreadyRunning(id));
+        }
+        let lane = match (mode, caller) {
+            (Mode::Blocking, Some(c)) => self.lane_slot(c),
+            _ => crate::sequencer::control_block::NO_LANE,
+        };
+        Ok((b.flags & flag::BOUND, lane))
+    }
+
+    /// Schedules a new run of `id` from now, before its commit: its timeout deadline, its
+    /// lane, its run count, no last exception or outcome yet. Only for a sequence that is
+    /// not `Running` or `Paused` (then it only returns that state): the tick neither scans
+    /// it nor walks through these fields, and the caller link, flags and state, which it
+    /// does read, change in the commit.
+    fn schedule_new(&mut self, id: SeqId, lane: u8) -> Scheduled {
+        let now = Stamp::of(self.now);
+        let Ok(b) = self.block_mut(id) else {
+            return Scheduled {
+                from: RunningState::Running,
+                at: now,
+                armed: false,
+            };
+        };
+        let from = b.state;
+        let armed = b.timeout != 0;
+        if !States::ACTIVE_RUNNING.has(from) {
+            b.deadline = now.plus(b.timeout).0;
+            b.lane = lane;
+            b.runs = b.runs.wrapping_add(1);
+            b.active_exception = None;
+            b.outcome = None;
+            // Its lane may be another one now.
+            self.polling.woken = WakeMemo::NONE;
+        }
+        Scheduled {
+            from,
+            at: now,
+            armed,
+        }
+    }
+
+    /// Schedules a restart of `id` from now: its timeout starts again. As
+    /// [`schedule_new`](Self::schedule_new), only for a sequence not `Running` or `Paused`.
+    fn schedule_restart(&mut self, id: SeqId) -> Scheduled {
+        let now = Stamp::of(self.now);
+        let Ok(b) = self.block_mut(id) else {
+            return Scheduled {
+                from: RunningState::Running,
+                at: now,
+                armed: false,
+            };
+        };
+        let from = b.state;
+        if !States::ACTIVE_RUNNING.has(from) {
+            b.deadline = now.plus(b.timeout).0;
+        }
+        Scheduled {
+            from,
+            at: now,
+            armed: b.timeout != 0,
+        }
+    }
+
+    /// After the schedule, before the commit, for a sequence that is not active (else
+    /// nothing): the sets the tick reads of an active sequence (fresh, no exception, not
+    /// waiting for a poll, the timeout `armed` or not).
+    fn prepare(&mut self, id: SeqId, armed: bool) {
+        if States::ACTIVE_RUNNING.has(self.state_of(id)) {
+            return;
+        }
+        self.sets.fresh.set(id, true);
+        self.sets.armed.set(id, armed);
+        self.sets.excepting.set(id, false);
+        // A stale `poll_due` is cleared when the run first waits for a poll.
+        self.sets.poll_wait.set(id, false);
+    }
+
+    /// After the schedule, before the commit: the tick scans by the first poll of `id`'s
+    /// run starting now (its class's next poll; an idle class starts its grid now).
+    fn due_by(&mut self, id: SeqId) {
+        let now = Stamp::of(self.now);
+        let class = self.block(id).map_or(0, |b| b.class);
+        let next = self.polling.classes.resume(class, now, self.sets.active);
+        self.polling.next_due = now.first_of(next, self.polling.next_due);
+    }
+
+    /// The commit of a new run: `change` (validated and scheduled at `seen`) with the
+    /// run's caller and flags, which also clear the requests and the pending behaviour.
+    /// False: a tick ran since (the time moved, or the state is not `change.from` any
+    /// more), nothing changed, schedule again.
+    #[inline(never)]
+    fn commit_new(&mut self, change: &StateChange, seen: Stamp, run: &NewRun) -> bool {
+        if Stamp::of(self.now) != seen {
+            return false;
+        }
+        let Some(b) = self.transition(change) else {
+            return false;
+        };
+        b.caller = run.caller;
+        b.flags = run.flags;
+        true
+    }
+
+    /// The commit of a restart: as [`commit_new`](Self::commit_new), keeping the run's
+    /// caller and flags; the behaviour it was waiting to apply is dropped.
+    #[inline(never)]
+    fn commit_restart(&mut self, change: &StateChange, seen: Stamp) -> bool {
+        if Stamp::of(self.now) != seen {
+            return false;
+        }
+        let Some(b) = self.transition(change) else {
+            return false;
+        };
+        b.set_pending(None);
+        true
+    }
+}
+
+/// The checks of a start of `id` (blocking in `caller`'s lane, or in its own lane) in the
+/// order a start in one piece would fail them, and the cut of a link to an old run of `id`
+/// among `caller`'s callers. Returns the new run's lane and its flags (with `extra`).
+fn admit<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    id: SeqId,
+    caller: Option<SeqId>,
+    mode: Mode,
+    extra: u16,
+) -> Result<NewRun, Error> {
+    let (bound, caller_lane) = s.section(|s| s.check_start(id, caller, mode))?;
+    let (lane, pending) = match mode {
+        Mode::Blocking => (caller_lane, 0),
+        // A sequence has a lane once one was declared for it (`rtseq::lane`,
+        // `Handle::declare_lane`).
+        Mode::Lane => (
+            lane_slot_of(s, id).ok_or(Error::NoLane(id))?,
+            flag::START_PENDING,
+        ),
+    };
+    // `caller` is the starting sequence itself (a context's or an exception's owner):
+    // registered by construction.
+    if let Some(c) = caller {
+        if usize::from(cut_and_depth(s, id, c)) >= MAX_DEPTH {
+            return Err(Error::CallerDepthExceeded(id));
+        }
+    }
+    Ok(NewRun {
+        lane,
+        caller: Link::to(caller),
+        flags: bound | pending | extra,
+    })
+}
+
+/// Schedules and commits a new run of `id` from a state that is not active; again if a
+/// tick ran in between (it may have rescanned without the new run, or changed its state:
+/// the commit re-checks both). False (nothing changed) when the state does not allow it.
+fn launch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    id: SeqId,
+    run: NewRun,
+    cause: Cause,
+) -> bool {
+    loop {
+        let at = s.section(|s| s.schedule_new(id, run.lane));
+        if !States::STARTABLE.has(at.from) {
+            return false;
+        }
+        s.section(|s| s.prepare(id, at.armed));
+        s.section(|s| s.due_by(id));
+        let change = StateChange::new(id, at.from, RunningState::Running, cause);
+        let done = s.section(|s| s.commit_new(&change, at.at, &run));
+        // In one section the loop never repeats.
+        if done || S::ONE_SECTION {
+            return done;
+        }
+    }
+}
+
+/// Schedules and commits a `Restarting` sequence's run again, in its lane with its caller
+/// and flags as they are (from `Restarting`, or, if the tick stopped it since the lane saw
+/// that, as the transition table allows; a `Running` or `Paused` one stays).
+fn relaunch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    id: SeqId,
+) {
+    let legal = States::entering(RunningState::Running).minus(States::of(RunningState::Paused));
+    loop {
+        let at = s.section(|s| s.schedule_restart(id));
+        if !legal.has(at.from) {
+            return;
+        }
+        s.section(|s| s.prepare(id, at.armed));
+        s.section(|s| s.due_by(id));
+        let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);
+        let done = s.section(|s| s.commit_restart(&change, at.at));
+        if done || S::ONE_SECTION {
+            return;
+        }
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
+    /// the new run: the checks, the schedule and commit and, in its lane, the wake-up. With
+    /// a coarse lock two sections: the checks walk the callers, which grows with the depth.
+    pub(crate) fn begin(
+        &self,
+        id: SeqId,
+        caller: Option<SeqId>,
+        mode: Mode,
+        cause: Cause,
+        extra: u16,
+    ) -> Result<(), Error> {
+        let run = in_sections!(self, |s| admit(s, id, caller, mode, extra))?;
+        let lane = in_sections!(self, |s| {
+            if !launch(s, id, run, cause) {
+                return Err(Error::AlreadyRunning(id));
+            }
+            Ok(match mode {
+                Mode::Lane => s.section(|s| s.lane_of(id)),
+                Mode::Blocking => LaneSet::EMPTY,
+            })
+        })?;
+        self.wake_lanes(lane);
+        Ok(())
+    }
+
+    /// A `Restarting` sequence's lane runs it again from its pre-condition.
+    pub(crate) fn restart(&self, id: SeqId) {
+        in_sections!(self, |s| relaunch(s, id));
+    }
+}

@@ -1,0 +1,321 @@
+//! Everything the sequencer's lock guards, and the one way to a control block.
+
+use crate::lock::Lock;
+use crate::model::id::Link;
+use crate::model::set::SeqSet;
+use crate::model::state::States;
+use crate::model::time::Stamp;
+use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
+use crate::sequencer::lanes::LaneSet;
+use crate::tick::schedule::Classes;
+use crate::trace::{Ring, StateChange};
+use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
+
+/// The sequencer's state: reached only through [`Sequencer::with`].
+///
+/// `repr(C)` in this order: the words and sets every section reads come first, the arrays
+/// that grow with the capacities last, so that the hot fields stay within a load's
+/// immediate offset of the base whatever `N` and `T` are.
+#[repr(C)]
+pub(crate) struct State<C, const N: usize, const T: usize, const W: usize> {
+    /// The last tick's time.
+    pub(crate) now: Instant,
+    /// The sequences as sets: what the tick works on.
+    pub(crate) sets: Sets,
+    /// When the tick must look at the sequences next.
+    pub(crate) polling: Polling,
+    /// Requests or finished exception sequences wait for the tick.
+    pub(crate) tick_has_work: bool,
+    /// Exceptions whose sequence could not run (no lane, already running, too deep).
+    pub(crate) exceptions_not_run: u16,
+    /// The number of registered sequences: ids `0..count`.
+    count: u8,
+    /// The sequence that declared each lane slot (its waker is in [`Sequencer::lanes`]).
+    pub(crate) lane_owners: [Link; W],
+    blocks: [ControlBlock; N],
+    /// Each sequence's cleanup hook (`SeqConfig::on_abort`).
+    pub(crate) hooks: [Option<fn(&C)>; N],
+    #[cfg(feature = "counters")]
+    pub(crate) counters: [crate::Counters; N],
+    /// The transition trace.
+    pub(crate) trace: Ring<T>,
+}
+
+/// The sequences as sets, kept so that the tick works with a few word operations instead
+/// of a visit to every control block.
+#[derive(Clone, Copy)]
+pub(crate) struct Sets {
+    /// `Running` or `Paused`, as of the start of the last tick (the tick folds `changed`
+    /// in before it scans).
+    pub(crate) active: SeqSet,
+    /// `Paused`, as `active`.
+    pub(crate) paused: SeqSet,
+    /// The state changed since the tick last folded it into `active` and `paused`.
+    pub(crate) changed: SeqSet,
+    /// A new run or restart began: the tick resets the edge detection of these sequences'
+    /// monitors before their next evaluation.
+    pub(crate) fresh: SeqSet,
+    /// The timeout monitor is armed (the block's `deadline` is meaningful).
+    pub(crate) armed: SeqSet,
+    /// `exceptionIsActive`: a monitor of the sequence fired and its handling is pending,
+    /// or the sequence was aborted because of it.
+    pub(crate) excepting: SeqSet,
+    /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
+    pub(crate) poll_wait: SeqSet,
+    /// The tick says the polled condition is due.
+    pub(crate) poll_due: SeqSet,
+    /// Waiting in a join (each block's `joins` says for which run).
+    pub(crate) joining: SeqSet,
+}
+
+/// When the tick must look again, and whom it woke last time.
+pub(crate) struct Polling {
+    /// The polling classes: one schedule per distinct polling period.
+    pub(crate) classes: Classes,
+    /// Earliest next poll of a class with an active member (`NEVER_AHEAD` after the last
+    /// scan when none is active).
+    pub(crate) next_due: Stamp,
+    /// The lanes the tick's last exit-condition wake-up woke, for reuse.
+    pub(crate) woken: WakeMemo,
+}
+
+/// The lane slots woken for a set of due exit-condition polls: in a steady state the set
+/// repeats from poll to poll, and the tick wakes the same lanes again without visiting the
+/// sequences. Forgotten whenever a sequence's lane or a lane's waker changes.
+#[derive(Clone, Copy)]
+pub(crate) struct WakeMemo {
+    /// The polls (never empty while the memo is valid).
+    pub(crate) polls: SeqSet,
+    /// Their lane slots, one per distinct waker.
+    pub(crate) lanes: LaneSet,
+}
+
+impl WakeMemo {
+    pub(crate) const NONE: WakeMemo = WakeMemo {
+        polls: SeqSet::EMPTY,
+        lanes: LaneSet::EMPTY,
+    };
+}
+
+impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+    /// Nothing registered, time 0.
+    pub(crate) const fn new() -> Self {
+        State {
+            now: Instant::from_ticks(0),
+            sets: Sets {
+                active: SeqSet::EMPTY,
+                paused: SeqSet::EMPTY,
+                changed: SeqSet::EMPTY,
+                fresh: SeqSet::EMPTY,
+                armed: SeqSet::EMPTY,
+                excepting: SeqSet::EMPTY,
+                poll_wait: SeqSet::EMPTY,
+                poll_due: SeqSet::EMPTY,
+                joining: SeqSet::EMPTY,
+            },
+            polling: Polling {
+                classes: Classes::new(),
+                next_due: Stamp(0),
+                woken: WakeMemo::NONE,
+            },
+            tick_has_work: false,
+            exceptions_not_run: 0,
+            count: 0,
+            lane_owners: [Link::NONE; W],
+            blocks: [ControlBlock::UNREGISTERED; N],
+            hooks: [None; N],
+            #[cfg(feature = "counters")]
+            counters: [crate::Counters::ZERO; N],
+            trace: Ring::new(),
+        }
+    }
+
+    /// The control block of registered sequence `id`.
+    #[inline]
+    pub(crate) fn block(&self, id: SeqId) -> Result<&ControlBlock, Error> {
+        if id.0 >= self.count {
+            return Err(Error::UnknownSequence(id));
+        }
+        self.blocks
+            .get(id.index())
+            .ok_or(Error::UnknownSequence(id))
+    }
+
+    /// The control block of registered sequence `id`, to change.
+    #[inline]
+    pub(crate) fn block_mut(&mut self, id: SeqId) -> Result<&mut ControlBlock, Error> {
+        if id.0 >= self.count {
+            return Err(Error::UnknownSequence(id));
+        }
+        self.blocks
+            .get_mut(id.index())
+            .ok_or(Error::UnknownSequence(id))
+    }
+
+    /// The number of registered sequences.
+    pub(crate) fn count(&self) -> usize {
+        usize::from(self.count)
+    }
+
+    /// The running state of `id` (`Idle` for an id not registered).
+    #[inline]
+    pub(crate) fn state_of(&self, id: SeqId) -> RunningState {
+        self.block(id).map_or(RunningState::Idle, |b| b.state)
+    }
+
+    /// Registers `block` and its cleanup hook under the next id.
+    pub(crate) fn push_block(
+        &mut self,
+        block: ControlBlock,
+        hook: Option<fn(&C)>,
+    ) -> Result<SeqId, Error> {
+        let id = SeqId(self.count);
+        let (Some(b), Some(h)) = (
+            self.blocks.get_mut(id.index()),
+            self.hooks.get_mut(id.index()),
+        ) else {
+            return Err(Error::SequenceCapacityExceeded);
+        };
+        *b = block;
+        *h = hook;
+        self.count = self.count.saturating_add(1);
+        Ok(id)
+    }
+
+    /// Writes the block and hook of `id` ahead of a [`commit_count`](Self::commit_count)
+    /// that makes them visible (a table's install): nothing reads a block at or above
+    /// `count`.
+    pub(crate) fn prepare_block(&mut self, id: SeqId, block: ControlBlock, hook: Option<fn(&C)>) {
+        if let (Some(b), Some(h)) = (
+            self.blocks.get_mut(id.index()),
+            self.hooks.get_mut(id.index()),
+        ) {
+            *b = block;
+            *h = hook;
+        }
+    }
+
+    /// Makes the first `count` prepared blocks visible at once (at most `N`).
+    pub(crate) fn commit_count(&mut self, count: usize) {
+        self.count = u8::try_from(count.min(N)).unwrap_or(u8::MAX);
+    }
+
+    /// The registered blocks, by id.
+    pub(crate) fn registered(&self) -> impl Iterator<Item = &ControlBlock> {
+        self.blocks.iter().take(self.count())
+    }
+
+    /// The lane slot that drives `id` (`NO_LANE`: none).
+    #[inline]
+    pub(crate) fn lane_slot(&self, id: SeqId) -> u8 {
+        self.block(id).map_or(NO_LANE, |b| b.lane)
+    }
+
+    /// The lane that drives `id`, as a set to wake.
+    #[inline]
+    pub(crate) fn lane_of(&self, id: SeqId) -> LaneSet {
+        LaneSet::of(self.lane_slot(id))
+    }
+
+    /// Folds the state of sequence `id` into the sets `active` and `paused`.
+    pub(crate) fn fold(&mut self, id: SeqId) {
+        let state = self.state_of(id);
+        self.sets.active.set(id, States::ACTIVE_RUNNING.has(state));
+        self.sets.paused.set(id, state == RunningState::Paused);
+    }
+
+    /// After a run ended: store the outcome and report the end of an
+    /// exception sequence to the tick. The joiners are released separately
+    /// ([`release_joiners`](Self::release_joiners)).
+    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) {
+        let Ok(b) = self.block_mut(id) else {
+            return;
+        };
+        b.outcome = Some(outcome);
+        if b.has(flag::HANDLES_EXCEPTION) {
+            b.set(flag::HANDLES_EXCEPTION, false);
+            if let Some(ob) = b.caller.get().and_then(|o| self.block_mut(o).ok()) {
+                ob.set(flag::EXCEPTION_DONE, true);
+                self.tick_has_work = true;
+            }
+        }
+    }
+
+    /// THE transition function: every state change goes through here. Makes `change` if
+    /// the sequence is in state `change.from`, records it at the current time (the trace,
+    /// the counters, the set of changed sequences) and returns the block for the caller's
+    /// bookkeeping in the same section. Otherwise changes nothing and returns `None`.
+    ///
+    /// Callers read `change.from` in an earlier section and check the transition table
+    /// there; a state that changed in between fails here. The sequence is one callers
+    /// found registered (an unregistered slot is `Idle`, and only a start, which checks
+    /// registration, leaves `Idle`). Inline: it is the bulk of the sections that make a
+    /// transition, which must stay short.
+    #[inline]
+    pub(crate) fn transition(&mut self, change: &StateChange) -> Option<&mut ControlBlock> {
+        let id = change.sequence;
+        let b = self.blocks.get_mut(id.index())?;
+        if b.state != change.from {
+            return None;
+        }
+        b.state = change.to;
+        self.sets.changed.insert(id);
+        self.trace.push(self.now, change);
+        #[cfg(feature = "counters")]
+        if let Some(c) = self.counters.get_mut(id.index()) {
+            c.count(change.from, change.to, change.cause);
+        }
+        Some(b)
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// The last tick's time.
+    ///
+    /// ```
+    /// use rtseq::{Instant, Monitors, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// seq.tick(Instant::from_ticks(2_000), &(), &mut Monitors::<(), 1>::new());
+    /// assert_eq!(seq.now(), Instant::from_ticks(2_000));
+    /// ```
+    pub fn now(&self) -> Instant {
+        self.with(|s| s.now)
+    }
+
+    /// Passes the buffered transitions, oldest first, to `f` and empties the buffer.
+    /// Returns how many were lost to overflow since the last call.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// seq.register(SeqConfig::new("a")).unwrap();
+    /// let mut n = 0;
+    /// assert_eq!(seq.drain_trace(|_| n += 1), 0);
+    /// assert_eq!(n, 0); // nothing ran yet
+    /// ```
+    pub fn drain_trace(&self, mut f: impl FnMut(Transition)) -> u32 {
+        loop {
+            let (t, lost) = self.with(|s| {
+                let t = s.trace.pop();
+                let lost = if t.is_none() { s.trace.take_lost() } else { 0 };
+                (t, lost)
+            });
+            match t {
+                Some(t) => f(t),
+                None => return lost,
+            }
+        }
+    }
+
+    /// Exceptions whose sequence could not run (it had no lane, was already running, or
+    /// would nest too deep); their behaviour was applied at once.
+    ///
+    /// ```
+    /// use rtseq::Sequencer;
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// assert_eq!(seq.exceptions_not_run(), 0);
+    /// ```
+    pub fn exceptions_not_run(&self) -> u16 {
+        self.with(|s| s.exceptions_not_run)
+    }
+}

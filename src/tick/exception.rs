@@ -1,0 +1,213 @@
+//! A firing (seed §1.7): the exception is marked, the exception sequence runs in its lane
+//! while the owner is held, and then the behaviour applies. Also where the tick applies
+//! the requests queued since the last tick.
+
+use crate::lock::Lock;
+use crate::model::state::States;
+use crate::sequencer::control_block::{flag, request, ControlBlock};
+use crate::sequencer::sections::{in_sections, Sections};
+use crate::sequencer::start::Mode;
+use crate::{Behaviour, Cause, RunningState, SeqId, Sequencer};
+
+/// How an exception of one monitor (or of a sequence's timeout) is handled, with its
+/// restart bookkeeping.
+pub(crate) struct Reaction {
+    pub(crate) behaviour: Behaviour,
+    pub(crate) exception: Option<SeqId>,
+    /// Restarts caused in the current run of the target.
+    pub(crate) restarts: u8,
+    /// The target's run counter when `restarts` was last reset.
+    pub(crate) runs_seen: u16,
+    pub(crate) limit: u8,
+}
+
+impl ControlBlock {
+    /// How this sequence's timeout monitor reacts, with its restart bookkeeping.
+    pub(crate) fn timeout_reaction(&self) -> Reaction {
+        Reaction {
+            behaviour: self.timeout_behaviour,
+            exception: self.timeout_exception.get(),
+            restarts: self.timeout_restarts,
+            runs_seen: self.timeout_runs_seen,
+            limit: self.timeout_restart_limit,
+        }
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// A monitor (or `owner`'s timeout, `Cause::Timeout`) of `owner` fired with `reaction`:
+    /// mark the exception, then start the exception sequence (the behaviour waits for its
+    /// end) or apply the behaviour now. Returns false when the owner could not take an
+    /// exception any more (a timeout: unless running, its timeout stays armed and is
+    /// checked again at its next poll). The reaction's restart bookkeeping is updated; a
+    /// timeout's is written back to the owner's block with the mark (which also disarms
+    /// the timeout).
+    #[inline(never)]
+    pub(crate) fn raise(
+        &self,
+        control: &C,
+        owner: SeqId,
+        cause: Cause,
+        reaction: &mut Reaction,
+    ) -> bool {
+        let Some((target, behaviour)) = in_sections!(self, |s| mark(s, owner, cause, reaction))
+        else {
+            return false;
+        };
+        let deferred = reaction.exception.is_some_and(|e| {
+            let started = self
+                .begin(e, Some(owner), Mode::Lane, cause, flag::HANDLES_EXCEPTION)
+                .is_ok();
+            self.with(|s| {
+                if started {
+                    if let Ok(b) = s.block_mut(owner) {
+                        b.set_pending(Some(behaviour));
+                    }
+                } else {
+                    s.exceptions_not_run = s.exceptions_not_run.saturating_add(1);
+                }
+            });
+            started
+        });
+        if !deferred {
+            self.apply(control, owner, behaviour, target, cause);
+        }
+        true
+    }
+
+    /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
+    fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
+        let to = match behaviour {
+            Behaviour::Nothing => {
+                let lane = in_sections!(self, |s| {
+                    s.section(|s| s.sets.excepting.set(owner, false));
+                    s.section(|s| s.lane_of(owner))
+                });
+                self.wake_lanes(lane);
+                return;
+            }
+            Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,
+            Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => RunningState::Restarting,
+        };
+        self.walk(control, Some(target), to, cause);
+    }
+
+    /// Aborts every active sequence, innermost first.
+    #[inline(never)]
+    pub(crate) fn apply_abort_all(&self, control: &C) {
+        self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+    }
+
+    /// Applies the behaviours of finished exception sequences and the pause, resume and
+    /// abort requests, sequence by sequence (out of line: one copy, whatever the monitor
+    /// tables the tick is instantiated for).
+    #[inline(never)]
+    pub(crate) fn apply_requests(&self, control: &C) {
+        let count = self.with(|s| s.count());
+        for i in 0..count {
+            let id = SeqId::from_index(i);
+            // The requests, and the behaviour pending for an exception sequence that ended.
+            let (req, done) = self.with(|s| {
+                let Ok(b) = s.block_mut(id) else {
+                    return (0, None);
+                };
+                let mut done = None;
+                if b.has(flag::EXCEPTION_DONE) {
+                    b.set(flag::EXCEPTION_DONE, false);
+                    done = b.pending();
+                    b.set_pending(None);
+                }
+                (b.take_requests(), done)
+            });
+            if let Some(behaviour) = done {
+                // Unless it was stopped meanwhile: the cause and the target.
+                let still = self.with(|s| {
+                    s.block(id)
+                        .ok()
+                        .filter(|b| States::ACTIVE_RUNNING.has(b.state))
+                        .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
+                });
+                if let Some((cause, caller)) = still {
+                    let target = if behaviour.targets_caller() {
+                        caller.unwrap_or(id)
+                    } else {
+                        id
+                    };
+                    self.apply(control, id, behaviour, target, cause);
+                }
+            }
+            // One request at a time, abort first.
+            let (to, cause) = if req & request::ABORT != 0 {
+                (RunningState::Aborting, Cause::Abort)
+            } else if req & request::PAUSE != 0 {
+                (RunningState::Paused, Cause::Pause)
+            } else if req & request::RESUME != 0 {
+                (RunningState::Running, Cause::Resume)
+            } else {
+                continue;
+            };
+            self.walk(control, Some(id), to, cause);
+        }
+    }
+}
+
+/// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
+/// the exception (active; for a timeout, running; not handling one already), counts the
+/// restart and marks the exception. Returns the behaviour's target and the behaviour
+/// (escalated past the restart limit).
+fn mark<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    owner: SeqId,
+    cause: Cause,
+    reaction: &mut Reaction,
+) -> Option<(SeqId, Behaviour)> {
+    let timeout = matches!(cause, Cause::Timeout(_));
+    // Active (a paused timeout is frozen), and not handling an exception already.
+    let states = if timeout {
+        States::of(RunningState::Running)
+    } else {
+        States::ACTIVE_RUNNING
+    };
+    let targets_caller = reaction.behaviour.targets_caller();
+    // Two sections, both in the tick, which no other user of the sequencer preempts.
+    let target = s.section(|s| {
+        let b = s.block(owner).ok()?;
+        if !states.has(b.state) || s.sets.excepting.has(owner) {
+            return None;
+        }
+        Some(match b.caller.get() {
+            Some(caller) if targets_caller => caller,
+            _ => owner,
+        })
+    })?;
+    let target_runs = s.section(|s| s.block(target).map(|b| b.runs)).ok()?;
+    let mut behaviour = reaction.behaviour;
+    if behaviour.is_restart() {
+        if reaction.runs_seen != target_runs {
+            reaction.runs_seen = target_runs;
+            reaction.restarts = 0;
+        }
+        if reaction.restarts >= reaction.limit {
+            behaviour = behaviour.escalated();
+        } else {
+            reaction.restarts = reaction.restarts.saturating_add(1);
+        }
+    }
+    let (restarts, runs_seen) = (reaction.restarts, reaction.runs_seen);
+    s.section(|s| {
+        if let Ok(b) = s.block_mut(owner) {
+            b.active_exception = Some(cause);
+            if timeout {
+                b.timeout_restarts = restarts;
+                b.timeout_runs_seen = runs_seen;
+                s.sets.armed.set(owner, false);
+            }
+            s.sets.excepting.set(owner, true);
+        }
+        #[cfg(feature = "counters")]
+        if let Some(c) = s.counters.get_mut(owner.index()) {
+            c.exceptions = c.exceptions.wrapping_add(1);
+        }
+    });
+    Some((target, behaviour))
+}

@@ -1,0 +1,138 @@
+//! Monitor evaluation: the conditions of the monitors whose owner is due, in groups of up
+//! to 32 that share one due test, their edges and triggers as word operations, and the
+//! firings (the rare, out-of-line path).
+
+use crate::lock::Lock;
+use crate::monitor::{Group, OwnedMonitor};
+use crate::tick::exception::Reaction;
+use crate::tick::Polls;
+use crate::{Cause, Instant, MonitorId, Monitors, Sequencer};
+
+/// The conditions of those `members` (a group, bits as in [`Group`]) whose owner is due;
+/// the others keep their `last` values. The edge detection of the monitors of fresh
+/// owners (all due) starts again from "false": their bits of `last` are cleared. Returns
+/// the values and the bits evaluated.
+#[inline(never)]
+fn evaluate_due<C, K: crate::Condition<C>>(
+    members: &mut [OwnedMonitor<'_, C, K>],
+    last: &mut u32,
+    polls: &Polls,
+    control: &C,
+    now: Instant,
+) -> (u32, u32) {
+    let (due, fresh) = (polls.due, polls.fresh);
+    let mut values = 0u32;
+    let mut evaluated = 0u32;
+    let mut renewed = 0u32;
+    let mut bit = 1u32 << (members.len().saturating_sub(1) & 31);
+    for m in members.iter_mut() {
+        if due.has(m.owner) {
+            evaluated |= bit;
+            if fresh.has(m.owner) {
+                renewed |= bit;
+            }
+            if m.def.condition.validate(control, now) {
+                values |= bit;
+            }
+        }
+        bit >>= 1;
+    }
+    *last &= !renewed;
+    (values | (*last & !evaluated), evaluated)
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Evaluates the monitors of the due owners and raises the exceptions of those that
+    /// fire. True when one fired.
+    ///
+    /// The hot loop, one group of up to 32 monitors at a time: when all their owners are
+    /// due (the common case), their conditions are shifted into a bit set in one flat
+    /// loop; edges and triggers are a few word operations per group.
+    #[inline(always)]
+    pub(crate) fn evaluate_monitors<const M: usize, K: crate::Condition<C>>(
+        &self,
+        polls: &Polls,
+        monitors: &mut Monitors<'_, C, M, K>,
+        control: &C,
+        now: Instant,
+    ) -> bool {
+        let mut fired = false;
+        let due = polls.due;
+        // Due owners whose monitors keep their edge state: a group of only these takes the
+        // flat loop.
+        let steady = due.minus(polls.fresh);
+        let mut rest = monitors.entries.as_mut_slice();
+        let used = usize::from(monitors.used_groups);
+        for g in monitors.groups.iter_mut().take(used) {
+            // The groups tile the table in order.
+            let Some((members, tail)) =
+                core::mem::take(&mut rest).split_at_mut_checked(usize::from(g.len))
+            else {
+                break;
+            };
+            rest = tail;
+            if g.owners.and(due).is_empty() {
+                continue;
+            }
+            // A monitor of a fresh owner starts its edge detection from "false": the
+            // per-monitor path.
+            let (values, evaluated) = if g.owners.minus(steady).is_empty() {
+                let mut values = 0u32;
+                for m in members.iter_mut() {
+                    values = (values << 1) | u32::from(m.def.condition.validate(control, now));
+                }
+                (values, u32::MAX)
+            } else {
+                evaluate_due(members, &mut g.last, polls, control, now)
+            };
+            // The common case, nothing changed and no level monitor true, is one test.
+            if (values ^ g.last) | (values & g.level) != 0 {
+                let firing = g.firing(values) & evaluated;
+                g.last = values;
+                if firing != 0 {
+                    self.fire_group(g, members, firing, control);
+                    fired = true;
+                }
+            }
+        }
+        fired
+    }
+
+    /// Monitors of `group` triggered (`firing`, bits as in [`Group`]): raise their
+    /// exceptions in table order (out of the hot loop).
+    #[inline(never)]
+    fn fire_group<K>(
+        &self,
+        group: &Group,
+        members: &mut [OwnedMonitor<'_, C, K>],
+        firing: u32,
+        control: &C,
+    ) {
+        // The group's first monitor holds its highest bit.
+        let mut bit = group.first_bit();
+        let mut id = group.start;
+        for monitor in members.iter_mut() {
+            if firing & bit != 0 {
+                self.fire(monitor, MonitorId(id), control);
+            }
+            bit >>= 1;
+            id = id.wrapping_add(1);
+        }
+    }
+
+    /// A monitor triggered: raise its exception.
+    fn fire<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) {
+        let mut reaction = Reaction {
+            behaviour: monitor.def.behaviour,
+            exception: monitor.def.exception,
+            restarts: monitor.restarts,
+            runs_seen: monitor.target_runs_seen,
+            limit: monitor.def.restart_limit,
+        };
+        if self.raise(control, monitor.owner, Cause::Monitor(id), &mut reaction) {
+            monitor.fired = monitor.fired.wrapping_add(1);
+        }
+        monitor.restarts = reaction.restarts;
+        monitor.target_runs_seen = reaction.runs_seen;
+    }
+}

@@ -1,0 +1,198 @@
+//! Teardowns and pauses: a sequence and the sequences below it are aborted (innermost
+//! first, each through `Aborting` and its cleanup hook), restarted, paused or resumed
+//! (outermost first), one short section at a time.
+
+use crate::lock::Lock;
+use crate::model::id::Link;
+use crate::model::set::SeqSet;
+use crate::model::state::States;
+use crate::model::time::Stamp;
+use crate::sequencer::lanes::LaneSet;
+use crate::sequencer::sections::{in_sections, Sections};
+use crate::trace::StateChange;
+use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
+
+/// The depths a sequence can have (0 to `MAX_DEPTH` callers).
+const DEPTHS: usize = MAX_DEPTH + 1;
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+    /// Moves `target` and the sequences below it (every active sequence without a target)
+    /// to `to`, one at a time, for `cause`: the one walk of teardowns and pauses.
+    ///
+    /// * `Aborting` or `Restarting`: aborts `target` and every active sub-sequence of it
+    ///   (blocking and non-blocking), innermost first, each through `Aborting` (cleanup
+    ///   hook) to `Aborted`; with `Restarting`, the target itself goes to `Restarting`
+    ///   instead.
+    /// * `Paused` (`Running`): pauses (resumes) a running (paused) `target` and the
+    ///   sequences it blocks in its lane, outermost first.
+    #[inline(never)]
+    pub(crate) fn walk(&self, control: &C, target: Option<SeqId>, to: RunningState, cause: Cause) {
+        let pause = matches!(to, RunningState::Paused | RunningState::Running);
+        // What a pause leaves (a resume: `Paused`).
+        let from = if to == RunningState::Paused {
+            RunningState::Running
+        } else {
+            RunningState::Paused
+        };
+        let (states, lane) = if pause {
+            let Some(lane) = target.and_then(|t| {
+                self.with(|s| s.block(t).ok().filter(|b| b.state == from).map(|b| b.lane))
+            }) else {
+                return;
+            };
+            (States::of(from), Some(lane))
+        } else {
+            // Active, not already `Aborting`.
+            (States::entering(RunningState::Aborting), None)
+        };
+        let rows = self.levels(target, states, lane);
+        for k in 0..DEPTHS {
+            // Pauses outermost first, teardowns innermost first.
+            let depth = if pause { k } else { MAX_DEPTH - k };
+            for id in rows.get(depth).copied().unwrap_or_default() {
+                // A restart restarts its target (from `Running` or `Paused`) and aborts the
+                // sequences below it.
+                if to == RunningState::Restarting && Some(id) == target {
+                    self.stop(control, id, cause, States::entering(to), to);
+                } else if to == RunningState::Restarting {
+                    self.stop(control, id, cause, states, RunningState::Aborting);
+                } else {
+                    self.stop(control, id, cause, states, to);
+                }
+            }
+        }
+    }
+
+    /// Moves one sequence from a state in `states` (states `to` may be entered from) to
+    /// `to`: to `Aborting → Aborted` or to `Restarting`, running its hook; or pauses or
+    /// resumes it (`Paused`, `Running`).
+    fn stop(&self, control: &C, id: SeqId, cause: Cause, states: States, to: RunningState) {
+        // With a coarse lock, the steps before the hook in one section and those after it
+        // in another: the tick runs at the ceiling, so a longer section delays no one.
+        let Some(hook) = in_sections!(self, |s| leave(s, id, cause, states, to)) else {
+            return;
+        };
+        if let Some(h) = hook {
+            h(control);
+        }
+        let lanes = in_sections!(self, |s| {
+            let mut lanes = LaneSet::EMPTY;
+            if to == RunningState::Aborting {
+                // A blocking sequence's run is dropped by its aborted caller and
+                // never reports back, so the outcome is recorded here.
+                let change = StateChange::new(id, to, RunningState::Aborted, cause);
+                let aborted = s.section(|s| {
+                    let b = s.transition(&change)?;
+                    b.outcome = Some(crate::Outcome::Aborted(cause));
+                    Some(())
+                });
+                if aborted.is_some() {
+                    lanes = s.section(|s| s.release_joiners(id));
+                }
+            }
+            lanes.with(s.section(|s| s.lane_of(id)))
+        });
+        self.wake_lanes(lanes);
+    }
+
+    /// For a teardown or a pause: the sequences that are `target` or below it (every one
+    /// without a target) whose state is in `states` and, with a `lane`, that run in that
+    /// lane, by depth (outermost first, ids ascending in each row).
+    ///
+    /// One short section per registered block copies its caller link and whether it
+    /// qualifies; the tree is walked in that copy, outside any section. Lanes cannot
+    /// change it meanwhile when the tick walks (the tick preempts them); a lane's walk (a
+    /// dropped run) may be preempted by the tick, and each change made from it is
+    /// re-checked where it is made.
+    fn levels(&self, target: Option<SeqId>, states: States, lane: Option<u8>) -> [SeqSet; DEPTHS] {
+        let mut links = [Link::NONE; N];
+        let mut picked = SeqSet::EMPTY;
+        let count = self.with(|s| s.count());
+        for (i, l) in links.iter_mut().enumerate().take(count) {
+            let id = SeqId::from_index(i);
+            let ok;
+            (*l, ok) = self.with(|s| {
+                s.block(id).map_or((Link::NONE, false), |b| {
+                    let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
+                    (b.caller, ok)
+                })
+            });
+            picked.set(id, ok);
+        }
+        let target = Link::to(target);
+        let mut rows = [SeqSet::EMPTY; DEPTHS];
+        for id in picked {
+            // Up the caller links (at most MAX_DEPTH): the depth, and whether the target
+            // is on the way.
+            let mut below = target == Link::NONE || target == Link::to(Some(id));
+            let mut depth = 0;
+            let mut at = id;
+            while let Some(up) = links.get(at.index()).and_then(|l| l.get()) {
+                if depth == MAX_DEPTH {
+                    break;
+                }
+                below |= target == Link::to(Some(up));
+                depth += 1;
+                at = up;
+            }
+            if let (true, Some(row)) = (below, rows.get_mut(depth)) {
+                row.set(id, true);
+            }
+        }
+        rows
+    }
+}
+
+/// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state in `states` for
+/// `to` (a paused timeout keeps its remaining time). Returns the hook to run (set at
+/// registration; none for a pause or resume), or `None` when `id` does not move.
+#[allow(clippy::type_complexity)]
+fn leave<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+    s: &mut S,
+    id: SeqId,
+    cause: Cause,
+    states: States,
+    to: RunningState,
+) -> Option<Option<fn(&C)>> {
+    let pause = matches!(to, RunningState::Paused | RunningState::Running);
+    // Before a teardown, what it leaves behind: the cause a later gate reports, no pending
+    // requests; and the hook.
+    let (from, hook) = s.section(|s| {
+        let b = s.block_mut(id).ok()?;
+        let from = b.state;
+        if !states.has(from) {
+            return None;
+        }
+        if pause {
+            return Some((from, None));
+        }
+        b.last_cause = cause;
+        b.take_requests();
+        Some((from, s.hooks.get(id.index()).copied().flatten()))
+    })?;
+    let change = StateChange::new(id, from, to, cause);
+    s.section(|s| s.transition(&change).map(|_| ()))?;
+    if pause {
+        // A paused timeout keeps its remaining time, not a deadline (nothing reads either
+        // before this: the tick is the one that would).
+        s.section(|s| {
+            let now = Stamp::of(s.now);
+            let armed = s.sets.armed.has(id);
+            let Ok(b) = s.block_mut(id) else { return };
+            if armed {
+                b.deadline = if to == RunningState::Paused {
+                    // The time left; none once the deadline has passed.
+                    let deadline = Stamp(b.deadline);
+                    if now.reached(deadline) {
+                        0
+                    } else {
+                        now.until(deadline)
+                    }
+                } else {
+                    now.plus(b.deadline).0
+                };
+            }
+        });
+    }
+    Some(hook)
+}
