@@ -155,12 +155,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
     }
 
-    /// Wakes the lanes `lanes`, each in a section of its own, outside the state.
+    /// Wakes the lanes `lanes`, outside the state, each in a section of its own.
     pub(crate) fn wake_lanes(&self, lanes: LaneSet) {
         for lane in lanes {
-            if let Some(slot) = self.lanes.slots.get(usize::from(lane)) {
-                L::lock(|| slot.wake());
-            }
+            L::lock(|| self.wake_lane(lane));
+        }
+    }
+
+    /// Wakes lane slot `lane` (under the lock, the state not borrowed).
+    fn wake_lane(&self, lane: u8) {
+        if let Some(slot) = self.lanes.slots.get(usize::from(lane)) {
+            slot.wake();
+        }
+    }
+
+    /// Runs `f` on the state, then wakes the lanes it returns once the state is no longer
+    /// borrowed: with a coarse lock all in one section, else in sections of their own (a
+    /// waker's length is not rtseq's to bound).
+    pub(crate) fn update_and_wake(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> LaneSet) {
+        if L::COARSE {
+            L::lock(|| {
+                let lanes = self.borrow_state(f);
+                lanes.for_each(|lane| self.wake_lane(lane));
+            });
+        } else {
+            let lanes = self.with(f);
+            self.wake_lanes(lanes);
         }
     }
 }

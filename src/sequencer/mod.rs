@@ -155,11 +155,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// conditions and hooks by the tick, each outside `with`.
     #[inline]
     pub(crate) fn with<R>(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
-        L::lock(|| {
-            // SAFETY: see above — under the lock and without re-entry this is the only
-            // reference to the state.
-            let state = unsafe { &mut *self.state.get() };
-            f(state)
-        })
+        L::lock(|| self.borrow_state(f))
+    }
+
+    /// Runs `f` on the state; the caller holds the lock. The borrow ends when `f` returns.
+    #[inline(always)]
+    fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+        // SAFETY: only called under the lock `L` (by `with` and `update_and_wake`), which
+        // keeps every other context out, and `f` does not re-enter (see `with`): this is
+        // the only reference to the state while it lives.
+        let state = unsafe { &mut *self.state.get() };
+        f(state)
     }
 }

@@ -9,7 +9,7 @@ use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
 use crate::sequencer::requests::Request;
-use crate::sequencer::sections::{in_sections, Sections};
+use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::start::Mode;
 use crate::sequencer::transition::Clearance;
 use crate::trace::StateChange;
@@ -134,7 +134,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Port<C>
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
-        let joiners = in_sections!(self, |s| {
+        in_sections_then_wake!(self, |s| {
             // The run no longer waits for a poll.
             s.section(|s| {
                 s.sets.poll_wait.set(id, false);
@@ -143,7 +143,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Port<C>
             s.section(|s| s.finished(id, outcome));
             s.section(|s| s.release_joiners(id))
         });
-        self.wake_lanes(joiners);
     }
 
     fn abandon(&self, id: SeqId, control: &C) {

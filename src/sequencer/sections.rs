@@ -59,3 +59,21 @@ macro_rules! in_sections {
     };
 }
 pub(crate) use in_sections;
+
+/// `in_sections_then_wake!(sequencer, |s| body)`: as [`in_sections!`] for a `body` that
+/// returns the lanes to wake, which are woken once the state is no longer borrowed (with a
+/// coarse lock still inside the one section, see `Sequencer::update_and_wake`).
+macro_rules! in_sections_then_wake {
+    ($seq:expr, |$s:ident| $body:expr) => {
+        if L::COARSE {
+            $seq.update_and_wake(|$s| $body)
+        } else {
+            let lanes = {
+                let $s = &mut $crate::sequencer::sections::EachStep($seq);
+                $body
+            };
+            $seq.wake_lanes(lanes)
+        }
+    };
+}
+pub(crate) use in_sections_then_wake;

@@ -5,7 +5,7 @@
 use crate::lock::Lock;
 use crate::model::state::States;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
-use crate::sequencer::sections::{in_sections, Sections};
+use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::start::Mode;
 use crate::{Behaviour, Cause, RunningState, SeqId, Sequencer};
 
@@ -79,11 +79,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
         let to = match behaviour {
             Behaviour::Nothing => {
-                let lane = in_sections!(self, |s| {
+                in_sections_then_wake!(self, |s| {
                     s.section(|s| s.sets.excepting.set(owner, false));
                     s.section(|s| s.lane_of(owner))
                 });
-                self.wake_lanes(lane);
                 return;
             }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,

@@ -152,20 +152,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             careful = true;
         }
         if !polls.wake.is_empty() {
-            let lanes = if L::COARSE {
+            if L::COARSE {
                 // One section: the held check walks the callers inside it.
-                self.with(|s| {
+                self.update_and_wake(|s| {
                     let wake = if careful {
                         s.unheld(polls.wake)
                     } else {
                         polls.wake
                     };
                     s.lanes_of_polls(wake, &self.lanes)
-                })
+                });
             } else {
-                self.lanes_of_polls(polls.wake, careful)
-            };
-            self.wake_lanes(lanes);
+                self.wake_lanes(self.lanes_of_polls(polls.wake, careful));
+            }
         }
     }
 

@@ -8,7 +8,7 @@ use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::lanes::LaneSet;
-use crate::sequencer::sections::{in_sections, Sections};
+use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
@@ -75,7 +75,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if let Some(h) = hook {
             h(control);
         }
-        let lanes = in_sections!(self, |s| {
+        in_sections_then_wake!(self, |s| {
             let mut lanes = LaneSet::EMPTY;
             if to == RunningState::Aborting {
                 // A blocking sequence's run is dropped by its aborted caller and
@@ -92,7 +92,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             }
             lanes.with(s.section(|s| s.lane_of(id)))
         });
-        self.wake_lanes(lanes);
     }
 
     /// For a teardown or a pause: the sequences that are `target` or below it (every one
