@@ -80,7 +80,7 @@ pub use wait::Wait;
 /// [`Error::CallerDepthExceeded`].
 pub const MAX_DEPTH: usize = 8;
 
-/// The README's examples are compiled and run as doctests.
-#[cfg(doctest)]
+/// The README's examples are compiled and run as doctests (they use the simulator).
+#[cfg(all(doctest, feature = "std"))]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
