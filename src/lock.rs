@@ -57,6 +57,7 @@ impl Lock for CriticalSection {
 /// Only the sequencer's users at or below the ceiling are kept out, which is why a
 /// sequencer with this lock is created with the `unsafe`
 /// [`Sequencer::with_priority_ceiling`](crate::Sequencer::with_priority_ceiling).
+#[cfg_attr(docsrs, doc(cfg(feature = "cortex-m")))]
 #[cfg(feature = "cortex-m")]
 #[derive(Debug)]
 pub struct PriorityCeiling<const BASEPRI: u8>;
@@ -64,6 +65,7 @@ pub struct PriorityCeiling<const BASEPRI: u8>;
 #[cfg(feature = "cortex-m")]
 impl<const BASEPRI: u8> sealed::Sealed for PriorityCeiling<BASEPRI> {}
 
+#[cfg_attr(docsrs, doc(cfg(feature = "cortex-m")))]
 #[cfg(feature = "cortex-m")]
 impl<const BASEPRI: u8> Lock for PriorityCeiling<BASEPRI> {
     const COARSE: bool = true;

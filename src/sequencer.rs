@@ -206,6 +206,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Sequencer<C, N, T, Criti
     }
 }
 
+#[cfg_attr(docsrs, doc(cfg(feature = "cortex-m")))]
 #[cfg(feature = "cortex-m")]
 impl<C, const N: usize, const T: usize, const BASEPRI: u8, const W: usize>
     Sequencer<C, N, T, crate::lock::PriorityCeiling<BASEPRI>, W>
