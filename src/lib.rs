@@ -3,7 +3,8 @@
 //! rtseq implements the sequencer of the EEROS robotics framework — a tree of sequences and
 //! steps, started blocking or non-blocking, with pre- and exit conditions, monitors
 //! (condition + exception sequence + behaviour), a timeout monitor on every sequence and
-//! seven running states — without threads, heap or polling loops:
+//! seven running states, plus a [`safety`] system with levels and events — without threads,
+//! heap or polling loops:
 //!
 //! * the tree is statically allocated: control blocks live in the [`Sequencer`] (usually a
 //!   `static`), sequence futures in their lanes' static task storage;
@@ -17,7 +18,99 @@
 //!   that must act;
 //! * the `sim` module (feature `std`) runs the same code on the host in simulated time.
 //!
-//! See the README for the mapping of every term of the specification to rtseq.
+//! ## Example
+//!
+//! A homing sequence of two steps, guarded by a monitor that aborts it when the axis
+//! over-travels, run on the host simulator (on the chip the same sequence runs in an RTIC
+//! task, see [the README](https://github.com/rtseq/rtseq#on-the-chip-rtic-2)):
+//!
+//! ```
+//! # #[cfg(feature = "std")] {
+//! use core::cell::Cell;
+//! use rtseq::sim::Sim;
+//! use rtseq::{Behaviour, Cx, Duration, Instant, Monitor, Monitors, Outcome, Seq, SeqConfig,
+//!             Sequence, Sequencer, Step};
+//!
+//! /// The control system: what steps command and conditions read.
+//! #[derive(Default)]
+//! struct Axis { position: Cell<f32>, velocity: Cell<f32>, zero: Cell<f32> }
+//!
+//! /// A step: one command, then its exit condition is polled.
+//! struct SeekEndStop;
+//! impl Step<Axis> for SeekEndStop {
+//!     fn action(&mut self, cx: &Cx<'_, Axis>) { cx.control().velocity.set(-20.0) }
+//!     fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
+//!         cx.control().position.get() <= -50.0
+//!     }
+//! }
+//! struct SetZero;
+//! impl Step<Axis> for SetZero {
+//!     fn action(&mut self, cx: &Cx<'_, Axis>) {
+//!         cx.control().velocity.set(0.0);
+//!         cx.control().zero.set(cx.control().position.get());
+//!     }
+//! }
+//!
+//! /// A sequence: an `async fn` of blocking starts.
+//! struct Homing { seek: Seq<SeekEndStop>, zero: Seq<SetZero> }
+//! impl Sequence<Axis> for Homing {
+//!     async fn action(&mut self, cx: &Cx<'_, Axis>) {
+//!         if cx.step(&mut self.seek).await == Ok(Outcome::Completed) {
+//!             let _ = cx.step(&mut self.zero).await;
+//!         }
+//!     }
+//! }
+//!
+//! // Registration (on the chip: a `static` sequencer, filled in RTIC's `init`).
+//! let seq: Sequencer<Axis, 8> = Sequencer::new();
+//! let cfg = |name| SeqConfig::new(name).polling(Duration::from_millis(10));
+//! let homing = Homing {
+//!     seek: seq.add(cfg("seek"), SeekEndStop).unwrap(),
+//!     zero: seq.add(cfg("zero"), SetZero).unwrap(),
+//! };
+//! let homing = seq.add(cfg("homing").timeout(Duration::from_secs(5)), homing).unwrap();
+//! let id = homing.id();
+//!
+//! // A monitor owned by homing: over-travel aborts it (and every sequence it started).
+//! let mut over_travel = |a: &Axis, _: Instant| a.position.get() < -60.0;
+//! let mut monitors = Monitors::<Axis, 1>::new();
+//! monitors
+//!     .add(id, Monitor::new("over-travel", &mut over_travel, Behaviour::AbortOwner))
+//!     .unwrap();
+//!
+//! // The host simulator: a lane for homing, a plant model stepped before every 1 ms tick.
+//! let axis = Axis::default();
+//! let mut sim = Sim::new(&seq, &axis, monitors);
+//! sim.lane(homing);
+//! sim.before_tick(|_, a| a.position.set(a.position.get() + a.velocity.get() * 0.001));
+//! sim.start(id).unwrap();
+//! sim.run_until_idle(Duration::from_secs(10));
+//! assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Completed));
+//! assert!(axis.zero.get() <= -50.0);
+//! # }
+//! ```
+//!
+//! ## Where to read on
+//!
+//! * [`Sequence`], [`Step`] and [`Cx`]: writing sequences; [`Monitor`] and [`Behaviour`]:
+//!   what happens when a condition fires; [`SeqConfig`]: polling period, timeout, cleanup;
+//! * [`Sequencer`]: registration, the tick, requests, the trace; [`Handle`]: one
+//!   sequence's state, caller stack and requests; [`lock`]: the two locks;
+//! * [`safety`]: safety levels, events, critical inputs and outputs;
+//! * the [user's guide](https://github.com/rtseq/rtseq#readme) (how to structure an
+//!   application, RTIC wiring, semantics, figures) and the
+//!   [architecture](https://github.com/rtseq/rtseq/blob/main/docs/architecture.md).
+//!
+//! ## Features
+//!
+//! The crate is `no_std` and allocates nothing with every feature set; none is on by default.
+//!
+#![cfg_attr(feature = "document-features", doc = document_features::document_features!())]
+#![cfg_attr(
+    not(feature = "document-features"),
+    doc = "See `[features]` in the crate's Cargo.toml."
+)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![no_std]
 #![deny(missing_docs, unsafe_op_in_unsafe_fn)]
 #![deny(
@@ -37,6 +130,7 @@ mod tick;
 mod trace;
 
 pub mod safety;
+#[cfg_attr(docsrs, doc(cfg(feature = "std")))]
 #[cfg(feature = "std")]
 pub mod sim;
 
@@ -49,6 +143,7 @@ pub use monitor::{
     Behaviour, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger, DEFAULT_RESTART_LIMIT,
 };
 pub use sequence::{lane, Cx, Seq, Sequence, Step, Wait};
+#[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
 #[cfg(feature = "counters")]
 pub use sequencer::control_block::Counters;
 pub use sequencer::handle::{CallerStack, Handle};
@@ -60,7 +155,7 @@ pub use trace::Transition;
 /// [`Error::CallerDepthExceeded`].
 pub const MAX_DEPTH: usize = 8;
 
-/// The README's examples are compiled and run as doctests.
-#[cfg(doctest)]
+/// The README's examples are compiled and run as doctests (they use the simulator).
+#[cfg(all(doctest, feature = "std"))]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;

@@ -71,6 +71,7 @@ impl Lock for CriticalSection {
 /// static SEQ: Sequencer<(), 8, 64, PriorityCeiling<2>> =
 ///     unsafe { Sequencer::with_priority_ceiling() };
 /// ```
+#[cfg_attr(docsrs, doc(cfg(feature = "cortex-m")))]
 #[cfg(feature = "cortex-m")]
 #[derive(Debug)]
 pub struct PriorityCeiling<const PRIORITY: u8, const NVIC_PRIO_BITS: u8 = 4>;

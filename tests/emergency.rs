@@ -308,7 +308,7 @@ fn run(safety_every: u64, run_ms: u64, inject: impl Fn(u64, &Ctrl) + 'static) ->
         sim.before_tick(move |now, c| {
             let t = ms(now);
             inject(t, c);
-            if t % safety_every == 0 {
+            if t.is_multiple_of(safety_every) {
                 let report = safety.cycle(&mut io, sequencer);
                 cycles.borrow_mut().push(Cycle {
                     ms: t,

@@ -4,9 +4,10 @@
 //! `.cargo/config.toml` applies), into the shared `target/firmware-nucleo`.
 //!
 //! The ELF is then checked against the chip: a Cortex-M image whose vector table sits at the
-//! start of the STM32F446RE's flash, whose initial stack pointer is the end of its 128 KiB
-//! of RAM (the board's `memory.x`, not the root's STM32F405 one), and whose loadable
-//! segments fit the 512 KiB of flash and the RAM.
+//! start of the STM32F446RE's flash, whose loadable segments fit the 512 KiB of flash and
+//! the 128 KiB of RAM (the board's `memory.x`, not the root's STM32F405 one), and whose RAM
+//! is laid out by flip-link: the stack at the bottom, growing down towards the start of RAM
+//! (an overflow faults), the statics above it up to the end of RAM.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -145,8 +146,9 @@ fn nucleo_f446re_ihm07m1_firmware_builds_for_the_chip() {
         }
     }
 
-    // The vector table at the start of flash: initial stack pointer = end of the 128 KiB
-    // of RAM, reset vector = a Thumb address in flash.
+    // The vector table at the start of flash: the initial stack pointer below every static
+    // (flip-link's layout; without it the stack would start at the end of RAM, above them),
+    // reset vector = a Thumb address in flash.
     let vectors = segments
         .iter()
         .find(|s| s.paddr == FLASH.0 && s.filesz >= 8)
@@ -154,11 +156,17 @@ fn nucleo_f446re_ihm07m1_firmware_builds_for_the_chip() {
     let at = vectors.offset as usize;
     let initial_sp = u32_at(&elf, at);
     let reset = u32_at(&elf, at + 4);
-    assert_eq!(
-        initial_sp,
-        RAM.0 + RAM.1,
-        "initial SP: not the end of the F446RE's RAM (wrong memory.x?)"
+    assert!(
+        within(RAM, initial_sp - 4, 4),
+        "initial SP {initial_sp:#010x}: not in the F446RE's RAM (wrong memory.x?)"
     );
+    for s in segments.iter().filter(|s| within(RAM, s.vaddr, s.memsz)) {
+        assert!(
+            s.vaddr >= initial_sp,
+            "static RAM at {:#010x} lies below the initial SP {initial_sp:#010x}: not linked with flip-link",
+            s.vaddr
+        );
+    }
     assert!(
         reset & 1 == 1 && within(FLASH, reset & !1, 2),
         "reset vector {reset:#010x}"

@@ -19,6 +19,7 @@ use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 /// waits for the blinker:
 ///
 /// ```
+/// # #[cfg(feature = "std")] {
 /// use core::cell::Cell;
 /// use rtseq::sim::Sim;
 /// use rtseq::{Cx, Duration, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Wait};
@@ -56,6 +57,7 @@ use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 /// sim.start(id).unwrap();
 /// assert_eq!(sim.run_until_idle(Duration::from_millis(100)).map(|t| t.as_ticks()), Some(30_000));
 /// assert_eq!(ctrl.blinks.get(), 3);
+/// # }
 /// ```
 pub struct Cx<'a, C> {
     port: &'a dyn Port<C>,
@@ -185,6 +187,7 @@ impl<'a, C> Cx<'a, C> {
     /// A handle to any registered sequence (the seed's `getSequenceByName`).
     ///
     /// ```
+    /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
     /// use rtseq::sim::Sim;
     /// use rtseq::{Cx, Duration, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
@@ -206,6 +209,7 @@ impl<'a, C> Cx<'a, C> {
     /// sim.start(id).unwrap();
     /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
     /// assert_eq!(found.get(), Some((id, other, true)));
+    /// # }
     /// ```
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'a, C>> {
         let id = self.port.find(name)?;

@@ -18,6 +18,7 @@ use crate::{Behaviour, Cause, Outcome, RunningState};
 /// let c = seq.sequence_by_id(id).unwrap().counters();
 /// assert_eq!((c.runs, c.aborts, c.restarts, c.exceptions), (0, 0, 0, 0));
 /// ```
+#[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
 #[cfg(feature = "counters")]
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -118,6 +118,7 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// Runs, completions, skips, aborts, restarts, exceptions (feature `counters`).
+    #[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
     #[cfg(feature = "counters")]
     pub fn counters(&self) -> Counters {
         self.port

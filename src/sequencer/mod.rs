@@ -109,6 +109,7 @@ impl<C, const N: usize, const T: usize, const W: usize> Sequencer<C, N, T, Criti
     }
 }
 
+#[cfg_attr(docsrs, doc(cfg(feature = "cortex-m")))]
 #[cfg(feature = "cortex-m")]
 impl<C, const N: usize, const T: usize, const PRIORITY: u8, const BITS: u8, const W: usize>
     Sequencer<C, N, T, crate::lock::PriorityCeiling<PRIORITY, BITS>, W>

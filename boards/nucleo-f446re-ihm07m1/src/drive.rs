@@ -14,13 +14,14 @@
 //! duty  = clamp(u / SUPPLY, ±DUTY_MAX)
 //! ```
 //!
-//! and folds the duty back to zero while the measured current exceeds [`I_LIMIT`]. `R`, `Ke`
-//! and the supply voltage are the constants of [`MotorModel::DEFAULT`]: set them for your
-//! motor and supply.
+//! and folds the duty back to zero while the measured current exceeds [`I_LIMIT`]. `R` and
+//! `Ke` are the constants of [`MotorModel::DEFAULT`]: set them for your motor. `SUPPLY` is
+//! the bus voltage measured on PA1 every period ([`MotorModel::supply_v`], set by the
+//! control task; below [`SUPPLY_MIN`] the duty is zero).
 
 use core::convert::Infallible;
 
-use embedded_hal::digital::OutputPin;
+use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_hal::pwm::SetDutyCycle;
 use rtseq_motor::hardware::DriveCommand;
 use rtseq_motor::plant::M_PER_RAD;
@@ -31,6 +32,8 @@ pub const I_LIMIT: f32 = 1.4;
 pub const DUTY_MAX: f32 = 0.95;
 /// Proportional gain of the current correction, V/A.
 pub const KP_CURRENT: f32 = 2.0;
+/// Lowest bus voltage the bridge is driven at, V (the L6230's supply range starts at 8 V).
+pub const SUPPLY_MIN: f32 = 8.0;
 
 /// The motor and supply seen by the duty conversion (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,23 +42,24 @@ pub struct MotorModel {
     pub r_ohm: f32,
     /// Back-EMF constant, V·s/rad (= the torque constant in N·m/A).
     pub ke: f32,
-    /// Motor supply voltage on the IHM07M1's J1, V.
+    /// Motor supply voltage on the IHM07M1's J1, V: the control task writes the measured
+    /// VBUS here every period.
     pub supply_v: f32,
 }
 
 impl MotorModel {
-    /// A small 12 V DC motor: 2 Ω, 0.05 V·s/rad (the simulated motor's torque constant),
-    /// 12 V supply.
+    /// A small DC motor: 2 Ω, 0.05 V·s/rad (the simulated motor's torque constant); no
+    /// supply measured yet (zero duty until the first VBUS reading).
     pub const DEFAULT: MotorModel = MotorModel {
         r_ohm: 2.0,
         ke: rtseq_motor::plant::KT,
-        supply_v: 12.0,
+        supply_v: 0.0,
     };
 
     /// The duty cycle (−1 … 1) for the current command `i_cmd` (A), the measured motor
     /// current `i_meas` (A) and the axis velocity `velocity` (m/s).
     pub fn duty(&self, i_cmd: f32, i_meas: f32, velocity: f32) -> f32 {
-        let supply_ok = self.supply_v.is_finite() && self.supply_v > 1.0;
+        let supply_ok = self.supply_v.is_finite() && self.supply_v >= SUPPLY_MIN;
         if !supply_ok || !i_cmd.is_finite() || !i_meas.is_finite() {
             return 0.0;
         }
@@ -93,14 +97,17 @@ fn done(r: Result<(), Infallible>) {
     }
 }
 
-/// The two half-bridges, their enables, the unused third half-bridge's enable and the brake
-/// release output.
-pub struct Bridge<P1, P2, E1, E2, E3, B> {
+/// The two half-bridges, their enables, the unused third half-bridge's enable, the L6230's
+/// DIAG/EN line and the brake release output.
+pub struct Bridge<P1, P2, E1, E2, E3, D, B> {
     in1: P1,
     in2: P2,
     en1: E1,
     en2: E2,
     en3: E3,
+    /// DIAG/EN (open drain): low in the safe state, a second way to switch the bridges off
+    /// that does not depend on EN1–EN3.
+    diag: D,
     brake_release: B,
     /// Sign of the last duty (for the current measurement: which leg's shunt carries the
     /// motor current continuously).
@@ -108,23 +115,25 @@ pub struct Bridge<P1, P2, E1, E2, E3, B> {
     on: bool,
 }
 
-impl<P1, P2, E1, E2, E3, B> Bridge<P1, P2, E1, E2, E3, B>
+impl<P1, P2, E1, E2, E3, D, B> Bridge<P1, P2, E1, E2, E3, D, B>
 where
     P1: SetDutyCycle<Error = Infallible>,
     P2: SetDutyCycle<Error = Infallible>,
     E1: OutputPin<Error = Infallible>,
     E2: OutputPin<Error = Infallible>,
     E3: OutputPin<Error = Infallible>,
+    D: OutputPin<Error = Infallible> + InputPin<Error = Infallible>,
     B: OutputPin<Error = Infallible>,
 {
     /// Takes the outputs and puts them in the safe state at once.
-    pub fn new(in1: P1, in2: P2, en1: E1, en2: E2, en3: E3, brake_release: B) -> Self {
+    pub fn new(in1: P1, in2: P2, en1: E1, en2: E2, en3: E3, diag: D, brake_release: B) -> Self {
         let mut b = Bridge {
             in1,
             in2,
             en1,
             en2,
             en3,
+            diag,
             brake_release,
             forward: true,
             on: false,
@@ -134,7 +143,9 @@ where
     }
 
     /// The safe state: both half-bridges off (the motor coasts), zero duty, brake engaged.
+    /// Two independent paths switch the bridges off: EN1/EN2 low and DIAG/EN driven low.
     pub fn off(&mut self) {
+        done(self.diag.set_low());
         done(self.en1.set_low());
         done(self.en2.set_low());
         done(self.en3.set_low());
@@ -165,6 +176,8 @@ where
             done(self.in2.set_duty_cycle_fraction(num, 10_000));
         }
         done(self.en3.set_low());
+        // Release DIAG/EN (open drain: the L6230's own pull-down still wins on a fault).
+        done(self.diag.set_high());
         done(self.en1.set_high());
         done(self.en2.set_high());
         if cmd.brake {
@@ -184,5 +197,15 @@ where
     /// True while the half-bridges are enabled.
     pub fn is_on(&self) -> bool {
         self.on
+    }
+
+    /// The L6230 signals a fault: DIAG/EN reads low while the firmware has released it. In
+    /// the safe state the firmware holds the line low itself, so there is nothing to read.
+    pub fn driver_fault(&mut self) -> bool {
+        let released_high = match self.diag.is_high() {
+            Ok(level) => level,
+            Err(never) => match never {},
+        };
+        self.on && !released_high
     }
 }

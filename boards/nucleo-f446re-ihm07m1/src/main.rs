@@ -26,14 +26,27 @@ pub mod sensors;
 
 use rtseq_motor::control_system::ControlSystem;
 
+/// Control rate, Hz: TIM6's update rate and the sequencer's tick.
+pub const CONTROL_HZ: u32 = 1_000;
 /// Control period, s (TIM6 at 1 kHz).
-pub const DT: f32 = 0.001;
+pub const DT: f32 = 1.0 / CONTROL_HZ as f32;
+
+/// The sequencer's time after `ticks` control periods.
+///
+/// The boundary between the two `fugit`s of this firmware: stm32f4xx-hal's timers take
+/// fugit 0.3 rates (`CONTROL_HZ.Hz()` in `init`), rtseq's `Instant` is fugit 0.6. No value
+/// of one crosses into the other; both are made from the plain integers here.
+pub fn control_time(ticks: u32) -> rtseq::Instant {
+    const PERIOD_US: u64 = 1_000_000 / CONTROL_HZ as u64;
+    rtseq::Instant::from_ticks(u64::from(ticks) * PERIOD_US)
+}
 /// Watchdog timeout, ms: the control loop feeds it every period.
 pub const WATCHDOG_MS: u32 = 50;
 
 /// Puts the power stage in its safe state straight through the registers, whatever owns the
-/// pins: EN1–EN3 low (PC10–PC12), the brake engaged (PB12 low), TIM1's outputs off. For the
-/// panic and fault handlers, which cannot borrow the drivers.
+/// pins: EN1–EN3 low (PC10–PC12), DIAG/EN driven low (PA11, an open-drain output from init
+/// on), the brake engaged (PB12 low), TIM1's outputs off. For the panic and fault handlers,
+/// which cannot borrow the drivers.
 pub fn force_safe_outputs() {
     // SAFETY: single writes to set/reset registers (BSRR: atomic, no read-modify-write) and
     // a clear of TIM1's main-output-enable; the panic and fault handlers never return to the
@@ -43,6 +56,8 @@ pub fn force_safe_outputs() {
         gpioc
             .bsrr()
             .write(|w| w.br10().set_bit().br11().set_bit().br12().set_bit());
+        let gpioa = &*stm32f4xx_hal::pac::GPIOA::ptr();
+        gpioa.bsrr().write(|w| w.br11().set_bit());
         let gpiob = &*stm32f4xx_hal::pac::GPIOB::ptr();
         gpiob.bsrr().write(|w| w.br12().set_bit());
         let tim1 = &*stm32f4xx_hal::pac::TIM1::ptr();
@@ -99,7 +114,7 @@ mod app {
     use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
 
     use rtseq::safety::{SafetyHandle, SafetySystem};
-    use rtseq::{Instant, SeqId, Sequencer};
+    use rtseq::{SeqId, Sequencer};
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
     use rtseq_motor::control_system::ControlSystem;
     use rtseq_motor::hardware::DriveCommand;
@@ -117,11 +132,19 @@ mod app {
     use super::drive::{Bridge, MotorModel};
     use super::pins;
     use super::sensors::{Sensors, Switches};
+    use super::{control_time, CONTROL_HZ};
     use super::{log_status, DT, WATCHDOG_MS};
 
     /// The power stage with this board's pins.
-    pub type Power =
-        Bridge<pins::In1, pins::In2, pins::En1, pins::En2, pins::En3, pins::BrakeRelease>;
+    pub type Power = Bridge<
+        pins::In1,
+        pins::In2,
+        pins::En1,
+        pins::En2,
+        pins::En3,
+        pins::Diag,
+        pins::BrakeRelease,
+    >;
 
     /// The sequencer: the application's sequences and steps.
     static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
@@ -189,7 +212,9 @@ mod app {
         in2.set_duty(0);
         in1.enable();
         in2.enable();
-        let mut bridge = Bridge::new(in1, in2, en1, en2, en3, brake);
+        // DIAG/EN: open drain, driven low (the bridges off) until the drive is enabled.
+        let diag = gpioa.pa11.into_open_drain_output_in_state(PinState::Low);
+        let mut bridge = Bridge::new(in1, in2, en1, en2, en3, diag, brake);
         bridge.off();
 
         // Sensors.
@@ -217,7 +242,7 @@ mod app {
             gpioc.pc6.into_pull_up_input(),
             gpioc.pc5.into_pull_up_input(),
             gpioc.pc13.into_floating_input(),
-            gpioa.pa11.into_pull_up_input(),
+            gpioa.pa1.into_analog(),
         );
         let (off_u, off_v) = sensors.calibrate();
         defmt::info!(
@@ -270,7 +295,7 @@ mod app {
         let mut timer = dp.TIM6.counter_hz(&mut rcc);
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         if app.is_some() && system.is_some() {
-            if timer.start(1.kHz()).is_ok() {
+            if timer.start(CONTROL_HZ.Hz()).is_ok() {
                 timer.listen(Event::Update);
                 watchdog.start(WATCHDOG_MS.millis());
                 if lanes::spawn().is_err() {
@@ -333,15 +358,19 @@ mod app {
         cx.local.timer.clear_flags(Flag::Update);
         let ticks = TICKS.load(Ordering::Relaxed).wrapping_add(1);
         TICKS.store(ticks, Ordering::Relaxed);
-        let now = Instant::from_ticks(u64::from(ticks) * 1000);
+        let now = control_time(ticks);
 
         // The fault plan's time, then the safety cycle (it preempts right here) on the
         // measurements of the previous period, as in the host simulation.
         CS.inject(now);
         rtic::pend(pac::Interrupt::SPI4);
 
-        let forward = cx.shared.bridge.lock(|b| b.forward());
-        let (m, sw) = cx.local.sensors.sample(forward, *cx.local.started);
+        let (forward, driver_fault) = cx.shared.bridge.lock(|b| (b.forward(), b.driver_fault()));
+        let (m, sw) = cx
+            .local
+            .sensors
+            .sample(forward, *cx.local.started, driver_fault);
+        cx.local.model.supply_v = cx.local.sensors.vbus();
         let cmd: DriveCommand = CS.control_step_measured(&m, DT);
         let duty = cx
             .local

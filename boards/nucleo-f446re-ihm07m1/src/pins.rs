@@ -17,9 +17,10 @@
 //! | EN1 (U enable) | PC10 | GPIO out | CN7-1 | high = on |
 //! | EN2 (V enable) | PC11 | GPIO out | CN7-2 | high = on |
 //! | EN3 (W enable) | PC12 | GPIO out, held low | CN7-3 | low |
-//! | L6230 DIAG/EN (fault) | PA11 | GPIO in, pull-up | CN10-14 | low = over-current / over-temperature |
+//! | L6230 DIAG/EN | PA11 | GPIO open-drain out (read back) | CN10-14 | driven low = all half-bridges off (the second disable path); released: low = over-current / over-temperature |
 //! | current U (shunt amp.) | PA0 | ADC1_IN0 | CN7-28 / A0 | ≈ 0.5 V/A around the offset |
 //! | current V (shunt amp.) | PC1 | ADC1_IN11 | CN7-36 / A4 | ≈ 0.5 V/A around the offset |
+//! | bus voltage VBUS (divider) | PA1 | ADC1_IN1 | CN7-30 / A1 | [`VBUS_DIVIDER`](crate::sensors::VBUS_DIVIDER) of the J1 supply |
 //! | encoder A | PA15 | TIM2_CH1 (encoder mode) | IHM07M1 J3 "A+/H1" | 3.3 V / 5 V push-pull or open collector |
 //! | encoder B | PB3 | TIM2_CH2 (encoder mode) | IHM07M1 J3 "B+/H2" | |
 //! | end stop − | PC8 | GPIO in, pull-up | CN10-2 | NC contact to GND: **high = reached** (or wire broken) |
@@ -36,7 +37,12 @@
 //!
 //! * **Three-shunt current sensing** (J5 and J6 in the three-shunt position; the factory
 //!   setting is single shunt): each leg's low side has its own 0.33 Ω shunt and amplifier,
-//!   so PA0 and PC1 see the U and V leg currents.
+//!   so PA0 and PC1 see the U and V leg currents. ST's pin header for this board
+//!   (`x_nucleo_ihm07m1_targets.h` of its HelloWorld_IHM07M1 example) names PA0 `CURR1`, PC1
+//!   `CURR2`, PC0 `CURR3` and PA1 `VBUS`; that `CURR1` is leg U (OUT1) and the amplifiers'
+//!   polarity are not stated there, and other public ports label the legs the other way
+//!   round with an inverted gain: the bring-up checklist (README, step 5) tells which leg is
+//!   which and the sign on the bench, before the loop is closed.
 //! * **Power**: the motor supply (8–48 V, current-limited bench supply for the first tests)
 //!   on J1; the Nucleo from USB (ST-LINK). Only if the Nucleo should take its 5 V from the
 //!   IHM07M1 instead, follow UM1943's power-supply section (Nucleo JP5 on E5V and the
@@ -48,8 +54,8 @@
 //! connector or a pressed e-stop read as "open" (high, through the internal pull-up), which
 //! the safety system treats as "end stop reached" / "e-stop pressed": fail-safe wiring.
 
-use stm32f4xx_hal::gpio::{Analog, Input, Output, PushPull};
-use stm32f4xx_hal::gpio::{PA0, PA11, PA5, PB12, PC1, PC10, PC11, PC12, PC13, PC5, PC6, PC8};
+use stm32f4xx_hal::gpio::{Analog, Input, OpenDrain, Output, PushPull};
+use stm32f4xx_hal::gpio::{PA0, PA1, PA11, PA5, PB12, PC1, PC10, PC11, PC12, PC13, PC5, PC6, PC8};
 use stm32f4xx_hal::pac::{TIM1, TIM2};
 use stm32f4xx_hal::qei::Qei;
 use stm32f4xx_hal::timer::PwmChannel;
@@ -64,8 +70,12 @@ pub type En1 = PC10<Output<PushPull>>;
 pub type En2 = PC11<Output<PushPull>>;
 /// EN3: enable of half-bridge W (held low: unused by the DC motor).
 pub type En3 = PC12<Output<PushPull>>;
-/// The L6230's DIAG/EN open-drain fault output (low = fault).
-pub type Diag = PA11<Input>;
+/// The L6230's DIAG/EN line, open drain on both sides: the L6230 pulls it low on an
+/// over-current or over-temperature; pulled low by the MCU it disables all three
+/// half-bridges whatever EN1–EN3 say. The safe state drives it low.
+pub type Diag = PA11<Output<OpenDrain>>;
+/// The bus-voltage divider's output.
+pub type Vbus = PA1<Analog>;
 /// Shunt amplifier of leg U.
 pub type CurrentU = PA0<Analog>;
 /// Shunt amplifier of leg V.

@@ -1,6 +1,8 @@
 //! The drive's sensors, sampled once per control period into a
 //! [`Measurements`]: the encoder timer's count, the two leg currents (ADC1, one-shot
-//! conversions), the switches (embedded-hal 1.0 [`InputPin`]s) and the L6230's fault line.
+//! conversions), the bus voltage and the switches (embedded-hal 1.0 [`InputPin`]s). The
+//! L6230's fault line belongs to the bridge (it is also a disable output): see
+//! [`Bridge::driver_fault`](crate::drive::Bridge::driver_fault).
 
 use core::convert::Infallible;
 
@@ -13,7 +15,7 @@ use stm32f4xx_hal::pac::ADC1;
 use stm32f4xx_hal::prelude::*;
 
 use crate::pins::{
-    Button, CurrentU, CurrentV, Diag, EStop, Encoder, EndStopNeg, EndStopPos,
+    Button, CurrentU, CurrentV, EStop, Encoder, EndStopNeg, EndStopPos, Vbus,
     SWITCHES_NORMALLY_CLOSED,
 };
 
@@ -30,6 +32,13 @@ pub const COUNTS_PER_AMP: f32 = 0.33 * 1.53 / 3.3 * 4096.0;
 /// through the shunt (check at the first power-up: a positive duty must read a positive
 /// current).
 pub const CURRENT_SIGN: f32 = 1.0;
+/// Bus-voltage divider on PA1: the fraction of the J1 supply the ADC sees. 9.31 kΩ over
+/// 169 kΩ + 9.31 kΩ is an **unconfirmed** value: UM1943 (the IHM07M1's manual, which has the
+/// schematic) could not be consulted when this was written. Step 4 of the bring-up checklist
+/// compares the logged VBUS with a multimeter on J1; correct this constant if they differ.
+pub const VBUS_DIVIDER: f32 = 9.31 / (169.0 + 9.31);
+/// ADC counts to volts on J1 (3.3 V reference, 12 bits).
+const VBUS_VOLTS_PER_COUNT: f32 = 3.3 / 4096.0 / VBUS_DIVIDER;
 /// ADC samples averaged for the zero-current offset at start-up (bridge off).
 pub const OFFSET_SAMPLES: u32 = 64;
 /// ADC sample time: 28 cycles + 12 at 21 MHz ≈ 1.9 µs per conversion.
@@ -60,7 +69,7 @@ pub struct Sensors {
     end_pos: EndStopPos,
     estop: EStop,
     button: Button,
-    diag: Diag,
+    vbus: Vbus,
     offset_u: f32,
     offset_v: f32,
 }
@@ -89,7 +98,7 @@ impl Sensors {
         end_pos: EndStopPos,
         estop: EStop,
         button: Button,
-        diag: Diag,
+        vbus: Vbus,
     ) -> Self {
         let mid = 2048.0;
         Sensors {
@@ -101,7 +110,7 @@ impl Sensors {
             end_pos,
             estop,
             button,
-            diag,
+            vbus,
             offset_u: mid,
             offset_v: mid,
         }
@@ -126,13 +135,18 @@ impl Sensors {
         (self.encoder.count() as i32).wrapping_mul(ENCODER_SIGN)
     }
 
-    /// The switches.
-    pub fn switches(&mut self) -> Switches {
+    /// The bus voltage on J1, V (one conversion of PA1).
+    pub fn vbus(&mut self) -> f32 {
+        f32::from(self.adc.convert(&self.vbus, SAMPLE_TIME)) * VBUS_VOLTS_PER_COUNT
+    }
+
+    /// The switches; `driver_fault` is the bridge's reading of DIAG/EN.
+    pub fn switches(&mut self, driver_fault: bool) -> Switches {
         Switches {
             end_neg: switch_active(&mut self.end_neg),
             end_pos: switch_active(&mut self.end_pos),
             estop: switch_active(&mut self.estop),
-            driver_fault: !high(&mut self.diag),
+            driver_fault,
             button: !high(&mut self.button),
         }
     }
@@ -140,15 +154,20 @@ impl Sensors {
     /// One sample of everything. `forward`: the bridge's last duty was ≥ 0, so leg V's low
     /// side carries the motor current continuously (otherwise leg U's, reversed).
     /// `with_button`: report the user button as the pause button (not while it still
-    /// serves as the start button).
-    pub fn sample(&mut self, forward: bool, with_button: bool) -> (Measurements, Switches) {
+    /// serves as the start button). `driver_fault`: the bridge's reading of DIAG/EN.
+    pub fn sample(
+        &mut self,
+        forward: bool,
+        with_button: bool,
+        driver_fault: bool,
+    ) -> (Measurements, Switches) {
         let counts = self.counts();
         let raw_u = f32::from(self.adc.convert(&self.current_u, SAMPLE_TIME));
         let raw_v = f32::from(self.adc.convert(&self.current_v, SAMPLE_TIME));
         let shunt_u = CURRENT_SIGN * (raw_u - self.offset_u) / COUNTS_PER_AMP;
         let shunt_v = CURRENT_SIGN * (raw_v - self.offset_v) / COUNTS_PER_AMP;
         let current = if forward { shunt_v } else { -shunt_u };
-        let sw = self.switches();
+        let sw = self.switches(driver_fault);
         let m = Measurements {
             position: Measurements::counts_to_metres(counts, METRES_PER_COUNT),
             current,
