@@ -162,58 +162,67 @@ fn hook_inner(c: &Ctrl) {
     c.hooks.borrow_mut().push("inner");
 }
 
-/// Races `slow` (a sequence or a step) against a 5 ms wait with `embassy_futures::select`.
+/// What loses the race: a step, or a sequence.
+enum Slow {
+    Step(Seq<Leaf>),
+    Sequence(Seq<Node>),
+}
+
+/// Races `slow` against a 5 ms wait with `embassy_futures::select`.
 struct Race {
-    slow: Option<Seq<Leaf>>,
-    slow_seq: Option<Seq<Node>>,
+    slow: Slow,
     quick: Seq<Wait>,
-    winner: Option<&'static str>,
 }
 
 impl Sequence<Ctrl> for Race {
     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
         let quick = cx.step(&mut self.quick);
-        let won = match (&mut self.slow, &mut self.slow_seq) {
-            (Some(step), _) => match select(cx.step(step), quick).await {
-                Either::First(_) => "slow",
-                Either::Second(_) => "quick",
-            },
-            (None, Some(sequence)) => match select(Box::pin(cx.run(sequence)), quick).await {
-                Either::First(_) => "slow",
-                Either::Second(_) => "quick",
-            },
-            (None, None) => "none",
+        let slow_won = match &mut self.slow {
+            Slow::Step(step) => matches!(select(cx.step(step), quick).await, Either::First(_)),
+            Slow::Sequence(sequence) => matches!(
+                select(Box::pin(cx.run(sequence)), quick).await,
+                Either::First(_)
+            ),
         };
-        self.winner = Some(won);
+        assert!(!slow_won);
     }
 }
 
-#[test]
-fn a_step_that_loses_a_select_is_aborted_through_its_cleanup_and_can_run_again() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let slow = seq
-        .add(SeqConfig::new("slow").on_abort(hook_slow), Leaf::until(0))
-        .unwrap();
+/// Registers the 5 ms wait and the race of `slow` against it, starts the race and runs it
+/// until everything is idle, which must be at 5 ms. Returns the simulation and the ids of
+/// the race and the wait.
+fn race<'a>(
+    seq: &'a Sequencer<Ctrl, 8>,
+    ctrl: &'a Ctrl,
+    slow: Slow,
+) -> (Sim<'a, Ctrl, 8, 64, 1>, SeqId, SeqId) {
     let quick = seq
         .add(SeqConfig::new("quick"), Wait::new(Duration::from_millis(5)))
         .unwrap();
-    let (s, q) = (slow.id(), quick.id());
-    let race = Race {
-        slow: Some(slow),
-        slow_seq: None,
-        quick,
-        winner: None,
-    };
-    let main = seq.add(SeqConfig::new("main"), race).unwrap();
+    let q = quick.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Race { slow, quick })
+        .unwrap();
     let m = main.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    let mut sim = Sim::new(seq, ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
     sim.start(m).unwrap();
     assert_eq!(
         sim.run_until_idle(Duration::from_millis(50)),
         Some(ms_at(5))
     );
+    (sim, m, q)
+}
+
+#[test]
+fn a_step_that_loses_a_select_is_aborted_through_its_cleanup_and_can_run_again() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let slow = seq
+        .add(SeqConfig::new("slow").on_abort(hook_slow), Leaf::until(0))
+        .unwrap();
+    let s = slow.id();
+    let (mut sim, m, q) = race(&seq, &ctrl, Slow::Step(slow));
     assert_eq!(
         sim.trace(),
         &[
@@ -255,25 +264,8 @@ fn a_sequence_that_loses_a_select_is_torn_down_innermost_first() {
             Node::of(vec![Op::Step(inner)]),
         )
         .unwrap();
-    let quick = seq
-        .add(SeqConfig::new("quick"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let (s, q) = (slow.id(), quick.id());
-    let race = Race {
-        slow: None,
-        slow_seq: Some(slow),
-        quick,
-        winner: None,
-    };
-    let main = seq.add(SeqConfig::new("main"), race).unwrap();
-    let m = main.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(main);
-    sim.start(m).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(ms_at(5))
-    );
+    let s = slow.id();
+    let (sim, m, q) = race(&seq, &ctrl, Slow::Sequence(slow));
     assert_eq!(
         sim.trace(),
         &[

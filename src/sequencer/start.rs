@@ -74,16 +74,10 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
     /// lane, its run count, no last exception or outcome yet. Only for a sequence that is
     /// not `Running` or `Paused` (then it only returns that state): the tick neither scans
     /// it nor walks through these fields, and the caller link, flags and state, which it
-    /// does read, change in the commit.
-    fn schedule_new(&mut self, id: SeqId, lane: u8) -> Scheduled {
+    /// does read, change in the commit. `None` for an id not registered.
+    fn schedule_new(&mut self, id: SeqId, lane: u8) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        let Ok(b) = self.block_mut(id) else {
-            return Scheduled {
-                from: RunningState::Running,
-                at: now,
-                armed: false,
-            };
-        };
+        let b = self.block_mut(id).ok()?;
         let from = b.state;
         let armed = b.timeout != 0;
         if !States::ACTIVE_RUNNING.has(from) {
@@ -95,33 +89,27 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
             // Its lane may be another one now.
             self.polling.woken = WakeMemo::NONE;
         }
-        Scheduled {
+        Some(Scheduled {
             from,
             at: now,
             armed,
-        }
+        })
     }
 
     /// Schedules a restart of `id` from now: its timeout starts again. As
     /// [`schedule_new`](Self::schedule_new), only for a sequence not `Running` or `Paused`.
-    fn schedule_restart(&mut self, id: SeqId) -> Scheduled {
+    fn schedule_restart(&mut self, id: SeqId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        let Ok(b) = self.block_mut(id) else {
-            return Scheduled {
-                from: RunningState::Running,
-                at: now,
-                armed: false,
-            };
-        };
+        let b = self.block_mut(id).ok()?;
         let from = b.state;
         if !States::ACTIVE_RUNNING.has(from) {
             b.deadline = now.plus(b.timeout).0;
         }
-        Scheduled {
+        Some(Scheduled {
             from,
             at: now,
             armed: b.timeout != 0,
-        }
+        })
     }
 
     /// After the schedule, before the commit, for a sequence that is not active (else
@@ -223,7 +211,9 @@ fn launch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: u
     cause: Cause,
 ) -> bool {
     loop {
-        let at = s.section(|s| s.schedule_new(id, run.lane));
+        let Some(at) = s.section(|s| s.schedule_new(id, run.lane)) else {
+            return false;
+        };
         if !States::STARTABLE.has(at.from) {
             return false;
         }
@@ -247,7 +237,9 @@ fn relaunch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W:
 ) {
     let legal = States::entering(RunningState::Running).minus(States::of(RunningState::Paused));
     loop {
-        let at = s.section(|s| s.schedule_restart(id));
+        let Some(at) = s.section(|s| s.schedule_restart(id)) else {
+            return;
+        };
         if !legal.has(at.from) {
             return;
         }
