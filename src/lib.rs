@@ -147,6 +147,7 @@ pub use sequence::{lane, Cx, Seq, Sequence, Step, Wait};
 #[cfg(feature = "counters")]
 pub use sequencer::control_block::Counters;
 pub use sequencer::handle::{CallerStack, Handle};
+pub use sequencer::validation::{ConfigError, Raiser};
 pub use sequencer::Sequencer;
 pub use tick::schedule::MAX_POLLING_CLASSES;
 pub use trace::Transition;

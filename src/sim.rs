@@ -90,6 +90,8 @@ pub struct Sim<
     trace: Vec<Transition>,
     lost: u32,
     stalled: bool,
+    /// The configuration was validated (before the first start).
+    validated: bool,
     before_tick: Option<BeforeTick<'a, C>>,
 }
 
@@ -119,6 +121,7 @@ impl<
             trace: Vec::new(),
             lost: 0,
             stalled: false,
+            validated: false,
             before_tick: None,
         }
     }
@@ -171,7 +174,16 @@ impl<
     }
 
     /// Starts `id` non-blocking as a main sequence and lets the lanes run at the current time.
+    ///
+    /// The first start validates the configuration ([`Sequencer::validate`]): an exception
+    /// sequence without a lane, for example, is an `Err(Error::Config(..))` here.
     pub fn start(&mut self, id: SeqId) -> Result<(), Error> {
+        if !self.validated {
+            self.sequencer
+                .validate(&self.monitors)
+                .map_err(Error::Config)?;
+            self.validated = true;
+        }
         self.sequencer
             .sequence_by_id(id)
             .ok_or(Error::UnknownSequence(id))?

@@ -50,6 +50,8 @@ pub enum Error {
     NotEmpty,
     /// A join that could never return: a sequence joining itself or a caller it blocks.
     JoinWouldDeadlock(SeqId),
+    /// The configuration cannot work as declared ([`Sequencer::validate`](crate::Sequencer::validate)).
+    Config(crate::ConfigError),
 }
 
 impl Error {
@@ -74,6 +76,7 @@ impl Error {
             Error::PollingClassesExceeded => "too many distinct polling periods",
             Error::NotEmpty => "sequencer not empty",
             Error::JoinWouldDeadlock(_) => "join would deadlock",
+            Error::Config(_) => "invalid configuration",
         }
     }
 }
@@ -105,6 +108,7 @@ impl core::fmt::Display for Error {
             Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),
             Error::PollingClassesExceeded => write!(f, "too many distinct polling periods"),
             Error::NotEmpty => write!(f, "a table needs an empty sequencer"),
+            Error::Config(e) => write!(f, "invalid configuration: {e}"),
             Error::JoinWouldDeadlock(id) => write!(
                 f,
                 "joining sequence {} would wait for itself (it is the joiner or a caller it blocks)",

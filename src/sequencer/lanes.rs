@@ -13,7 +13,7 @@ use core::task::{RawWakerVTable, Waker};
 use crate::lock::Lock;
 use crate::model::id::Link;
 use crate::model::set::SeqSet;
-use crate::sequencer::sections::Sections;
+use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
 use crate::{SeqId, Sequencer};
@@ -153,6 +153,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if self.park(lane, waker) {
             self.with(|s| s.polling.woken = WakeMemo::NONE);
         }
+    }
+
+    /// Whether a lane was declared for `id`.
+    pub(crate) fn has_lane(&self, id: SeqId) -> bool {
+        in_sections!(self, |s| lane_slot_of(s, id)).is_some()
     }
 
     /// Wakes the lanes `lanes`, outside the state, each in a section of its own.

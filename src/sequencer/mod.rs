@@ -14,6 +14,7 @@
 //! | `joins.rs` | sequences waiting for the end of another run |
 //! | `lanes.rs` | lane slots and their wakers (foreign code, called outside the state) |
 //! | `sections.rs` | how an operation of several steps takes its sections under each lock |
+//! | `validation.rs` | the check of a whole configuration before the first tick |
 //! | `port.rs` | the object-safe port contexts and handles use: one method per operation |
 //! | `handle.rs` | [`Handle`](crate::Handle): inspect and command one sequence |
 
@@ -36,6 +37,7 @@ pub(crate) mod sections;
 pub(crate) mod start;
 pub(crate) mod state;
 pub(crate) mod transition;
+pub(crate) mod validation;
 
 use lanes::Lanes;
 pub(crate) use state::State;

@@ -1411,6 +1411,11 @@ mod rtic_app {
                 let _ = h.declare_lane();
             }
         }
+        // Every exception sequence exists and has a lane, every owner is registered.
+        if let Err(e) = SEQ.validate(&monitors) {
+            defmt::error!("demo: invalid configuration: {}", e);
+            board::exit_failure();
+        }
         if let Some(Err(e)) = SEQ.sequence_by_id(ids.main).map(|h| h.start()) {
             defmt::error!("demo: cannot start main: {=str}", e.reason());
             board::exit_failure();
