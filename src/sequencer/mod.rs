@@ -4,9 +4,9 @@
 //! | file | what |
 //! |---|---|
 //! | `mod.rs` | the type, its constructors, [`Sequencer::with`] (the only way into the state) |
-//! | `state.rs` | [`State`]: everything the lock guards, grouped, with the one accessor pair for control blocks |
+//! | `state.rs` | [`State`]: everything the lock guards, grouped; the one accessor pair for control blocks; the transition function |
 //! | `control_block.rs` | one sequence's control block (the seed's `BaseSequence` fields) |
-//! | `transition.rs` | the transition function, the clearance of an await point, the end of a run |
+//! | `transition.rs` | the clearance of an await point, the normal end of a run |
 //! | `registry.rs` | registration, tables, binding, look-up by id and name |
 //! | `start.rs` | starts and restarts: the checks, the schedule, the commit |
 //! | `requests.rs` | pause, resume and abort requests for the next tick; abort-all |
