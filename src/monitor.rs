@@ -230,8 +230,8 @@ type Borrows<'a, C> = (&'a (), fn(&C));
 /// types:
 ///
 /// ```
-/// use rtseq::{Behaviour, Condition, DynCondition, Instant, Monitor, Monitors, SeqConfig,
-///             Sequencer, Toggle};
+/// use rtseq::{Behaviour, DynCondition, Instant, Monitor, Monitors, SeqConfig, Sequencer,
+///             Toggle};
 /// struct Drive { current: f32, stop_button: bool }
 /// let seq: Sequencer<Drive, 2> = Sequencer::new();
 /// let run = seq.register(SeqConfig::new("run")).unwrap();

@@ -49,8 +49,8 @@ type BeforeTick<'a, C> = Box<dyn FnMut(Instant, &C) + 'a>;
 ///
 /// ```
 /// use rtseq::sim::Sim;
-/// use rtseq::{Cause, Cx, Duration, Monitors, Outcome, RunningState::*, SeqConfig, Sequence,
-///             Sequencer, Transition, Wait};
+/// use rtseq::{Cause, Cx, Duration, Monitors, RunningState::*, SeqConfig, Sequence, Sequencer,
+///             Transition, Wait};
 /// struct Main { dwell: rtseq::Seq<Wait> }
 /// impl Sequence<()> for Main {
 ///     async fn action(&mut self, cx: &Cx<'_, ()>) {

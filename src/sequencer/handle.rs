@@ -389,8 +389,8 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Transition, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
     ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
