@@ -74,7 +74,8 @@ pub struct Toggle<F> {
 impl<F> Toggle<F> {
     /// A toggle that is off until the first press.
     ///
-    /// A start/stop button as a monitor condition (a `Toggle` is `const`-constructible with a `fn`):
+    /// A start/stop button as a monitor condition (with a `fn`, a `Toggle` is built in a
+    /// `const`):
     ///
     /// ```
     /// use rtseq::{Condition, Instant, Toggle};
@@ -83,7 +84,8 @@ impl<F> Toggle<F> {
     /// const RUN: Toggle<fn(&Panel) -> bool> = Toggle::new(start_button);
     /// let mut run = RUN;
     /// let t = Instant::from_ticks(0);
-    /// let presses = [false, true, true, false, true].map(|b| run.validate(&Panel { start_button: b }, t));
+    /// let presses = [false, true, true, false, true]
+    ///     .map(|pressed| run.validate(&Panel { start_button: pressed }, t));
     /// assert_eq!(presses, [false, true, true, true, false]);
     /// ```
     pub const fn new(pressed: F) -> Self {

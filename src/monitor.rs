@@ -186,7 +186,8 @@ impl Trigger {
 /// sim.run_until_idle(Duration::from_millis(50)).unwrap();
 /// let restarts = sim.trace().iter().filter(|t| t.sequence == id && t.cause == Cause::Restart);
 /// assert_eq!(restarts.count(), usize::from(DEFAULT_RESTART_LIMIT));
-/// assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Monitor(m))));
+/// let outcome = sim.handle(id).unwrap().last_outcome();
+/// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Monitor(m))));
 /// # }
 /// ```
 pub const DEFAULT_RESTART_LIMIT: u8 = 3;
@@ -238,7 +239,8 @@ type Borrows<'a, C> = (&'a (), fn(&C));
 /// let mut over_current = |d: &Drive, _: Instant| d.current > 5.0;
 /// let mut stop = Toggle::new(|d: &Drive| d.stop_button);
 /// let mut monitors: Monitors<'_, Drive, 2, DynCondition<'_, Drive>> = Monitors::new();
-/// monitors.add(run, Monitor::new("over-current", &mut over_current, Behaviour::AbortOwner)).unwrap();
+/// let over_current = Monitor::new("over-current", &mut over_current, Behaviour::AbortOwner);
+/// monitors.add(run, over_current).unwrap();
 /// monitors.add(run, Monitor::new("stop", &mut stop, Behaviour::AbortOwner)).unwrap();
 /// assert_eq!(monitors.len(), 2);
 /// ```
@@ -261,7 +263,8 @@ impl<'a, C> Monitor<'a, C> {
     /// let heating = seq.register(SeqConfig::new("heating")).unwrap();
     /// let mut too_hot = |t: &f32, _: Instant| *t > 80.0;
     /// let mut monitors: Monitors<f32, 2> = Monitors::new();
-    /// let m = monitors.add(heating, Monitor::new("too hot", &mut too_hot, Behaviour::AbortOwner)).unwrap();
+    /// let too_hot = Monitor::new("too hot", &mut too_hot, Behaviour::AbortOwner);
+    /// let m = monitors.add(heating, too_hot).unwrap();
     /// assert_eq!((monitors.name(m), monitors.owner(m)), (Some("too hot"), Some(heating)));
     /// ```
     #[inline(never)]
@@ -323,14 +326,15 @@ impl<'a, C, K> Monitor<'a, C, K> {
     ///             RunningState::*, Seq, SeqConfig, Sequence, Sequencer, Transition, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<Cell<bool>> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
-    /// let main = seq.add(SeqConfig::new("main"), Dwell(seq.add(SeqConfig::new("w"), ms(10)).unwrap()))
-    ///     .unwrap();
-    /// let stop = seq.add(SeqConfig::new("safe stop"), Dwell(seq.add(SeqConfig::new("s"), ms(3)).unwrap()))
-    ///     .unwrap();
+    /// let (w, s) = (seq.add(SeqConfig::new("w"), ms(10)), seq.add(SeqConfig::new("s"), ms(3)));
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(w.unwrap())).unwrap();
+    /// let stop = seq.add(SeqConfig::new("safe stop"), Dwell(s.unwrap())).unwrap();
     /// let (id, stop_id) = (main.id(), stop.id());
     /// let mut fault = |c: &Cell<bool>, _: Instant| c.get();
     /// let mut monitors = Monitors::<Cell<bool>, 1>::new();
@@ -344,10 +348,13 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// sim.before_tick(|t, c| c.set(t.as_ticks() >= 2_000));
     /// sim.start(id).unwrap();
     /// sim.run_for(Duration::from_millis(2));
-    /// assert!(sim.trace().contains(&Transition::at_millis(2, stop_id, Idle, Running, Cause::Monitor(m))));
+    /// let started = Transition::at_millis(2, stop_id, Idle, Running, Cause::Monitor(m));
+    /// assert!(sim.trace().contains(&started));
     /// assert!(sim.handle(id).unwrap().exception_is_active());
-    /// assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(|t| t.as_ticks()), Some(6_000));
-    /// assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Monitor(m))));
+    /// let idle = sim.run_until_idle(Duration::from_millis(20));
+    /// assert_eq!(idle.map(|t| t.as_ticks()), Some(6_000));
+    /// let outcome = sim.handle(id).unwrap().last_outcome();
+    /// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Monitor(m))));
     /// # }
     /// ```
     #[inline(never)]
@@ -368,7 +375,9 @@ impl<'a, C, K> Monitor<'a, C, K> {
     ///             Sequence, Sequencer, Trigger, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<Cell<bool>> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -384,7 +393,8 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// sim.lane(main);
     /// sim.before_tick(|t, c| c.set(t.as_ticks() < 4_000));
     /// sim.start(id).unwrap();
-    /// assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(|t| t.as_ticks()), Some(4_000));
+    /// let idle = sim.run_until_idle(Duration::from_millis(20));
+    /// assert_eq!(idle.map(|t| t.as_ticks()), Some(4_000));
     /// # }
     /// ```
     #[inline(never)]
@@ -419,7 +429,8 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// sim.start(id).unwrap();
     /// sim.run_until_idle(Duration::from_millis(50)).unwrap();
     /// assert_eq!(sim.trace().iter().filter(|t| t.cause == Cause::Restart).count(), 1);
-    /// assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Monitor(m))));
+    /// let outcome = sim.handle(id).unwrap().last_outcome();
+    /// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Monitor(m))));
     /// # }
     /// ```
     #[inline(never)]
@@ -432,7 +443,8 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// takes the owner as an argument instead).
     ///
     /// ```
-    /// use rtseq::{Behaviour, Condition, Instant, Monitor, MonitorId, Monitors, OwnedMonitor, SeqId};
+    /// use rtseq::{Behaviour, Condition, Instant, Monitor, MonitorId, Monitors, OwnedMonitor,
+    ///             SeqId};
     /// struct Stalled;
     /// impl Condition<f32> for Stalled {
     ///     fn validate(&mut self, speed: &f32, _: Instant) -> bool { *speed == 0.0 }
@@ -471,7 +483,8 @@ impl<'a, C, K> Monitor<'a, C, K> {
 /// }
 /// const RUN: SeqId = SeqId::from_index(0);
 /// const ENTRIES: [OwnedMonitor<'static, (f32, bool), Fault>; 2] = [
-///     Monitor::with_condition("over-current", Fault::OverCurrent, Behaviour::AbortOwner).owned_by(RUN),
+///     Monitor::with_condition("over-current", Fault::OverCurrent, Behaviour::AbortOwner)
+///         .owned_by(RUN),
 ///     Monitor::with_condition("released", Fault::Released, Behaviour::AbortOwner)
 ///         .trigger(Trigger::FallingEdge)
 ///         .owned_by(RUN),
@@ -695,13 +708,15 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// 32 that share one due test.
     ///
     /// ```
-    /// use rtseq::{Behaviour, Error, Instant, Monitor, MonitorId, Monitors, SeqConfig, SeqId, Sequencer};
+    /// use rtseq::{Behaviour, Error, Instant, Monitor, MonitorId, Monitors, SeqConfig, SeqId,
+    ///             Sequencer};
     /// let seq: Sequencer<u32, 2> = Sequencer::new();
     /// let run = seq.register(SeqConfig::new("run")).unwrap();
     /// let high = |n: &u32, _: Instant| *n > 9;
     /// let (mut a, mut b, mut c, mut d) = (high, high, high, high);
     /// let mut monitors: Monitors<u32, 1> = Monitors::new();
-    /// assert_eq!(monitors.add(run, Monitor::new("", &mut a, Behaviour::Nothing)), Err(Error::EmptyName));
+    /// let nameless = monitors.add(run, Monitor::new("", &mut a, Behaviour::Nothing));
+    /// assert_eq!(nameless, Err(Error::EmptyName));
     /// let beyond = SeqId::from_index(rtseq::MAX_SEQUENCES);
     /// assert_eq!(
     ///     monitors.add(beyond, Monitor::new("b", &mut b, Behaviour::Nothing)),
@@ -754,7 +769,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqId};
     /// let mut never = |_: &(), _: Instant| false;
     /// let mut monitors: Monitors<(), 4> = Monitors::new();
-    /// monitors.add(SeqId::from_index(0), Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
+    /// let owner = SeqId::from_index(0);
+    /// monitors.add(owner, Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
     /// assert_eq!(monitors.len(), 1);
     /// ```
     pub fn len(&self) -> usize {
@@ -768,7 +784,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// let mut never = |_: &(), _: Instant| false;
     /// let mut monitors: Monitors<(), 4> = Monitors::new();
     /// assert!(monitors.is_empty());
-    /// monitors.add(SeqId::from_index(0), Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
+    /// let owner = SeqId::from_index(0);
+    /// monitors.add(owner, Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
     /// assert!(!monitors.is_empty());
     /// ```
     pub fn is_empty(&self) -> bool {
@@ -781,7 +798,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// use rtseq::{Behaviour, Instant, Monitor, MonitorId, Monitors, SeqId};
     /// let mut never = |_: &(), _: Instant| false;
     /// let mut monitors: Monitors<(), 4> = Monitors::new();
-    /// let m = monitors.add(SeqId::from_index(0), Monitor::new("never", &mut never, Behaviour::Nothing));
+    /// let owner = SeqId::from_index(0);
+    /// let m = monitors.add(owner, Monitor::new("never", &mut never, Behaviour::Nothing));
     /// assert_eq!(monitors.name(m.unwrap()), Some("never"));
     /// assert_eq!(monitors.name(MonitorId::from_index(1)), None);
     /// ```
@@ -794,8 +812,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// ```
     /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqConfig, Sequencer};
     /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// let (_main, axis) = (seq.register(SeqConfig::new("main")), seq.register(SeqConfig::new("axis")));
-    /// let axis = axis.unwrap();
+    /// seq.register(SeqConfig::new("main")).unwrap();
+    /// let axis = seq.register(SeqConfig::new("axis")).unwrap();
     /// let mut never = |_: &(), _: Instant| false;
     /// let mut monitors: Monitors<(), 4> = Monitors::new();
     /// let m = monitors.add(axis, Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
@@ -819,7 +837,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// h.start().unwrap();
     /// let mut pressed = |b: &Cell<bool>, _: Instant| b.get();
     /// let mut monitors: Monitors<Cell<bool>, 1> = Monitors::new();
-    /// let m = monitors.add(run, Monitor::new("button", &mut pressed, Behaviour::Nothing)).unwrap();
+    /// let button = Monitor::new("button", &mut pressed, Behaviour::Nothing);
+    /// let m = monitors.add(run, button).unwrap();
     /// let button = Cell::new(false);
     /// for (ms, level) in [(1, true), (2, true), (3, false), (4, true)] {
     ///     button.set(level);

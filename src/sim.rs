@@ -139,7 +139,8 @@ impl<
     /// ```
     /// use rtseq::{sim::Sim, Duration, Monitors, Sequencer};
     /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).with_period(Duration::from_millis(10));
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
+    ///     .with_period(Duration::from_millis(10));
     /// sim.step();
     /// sim.step();
     /// assert_eq!(sim.now().duration_since_epoch(), Duration::from_millis(20));
@@ -188,11 +189,15 @@ impl<
     /// struct Heat;
     /// impl Step<Cell<u32>> for Heat {
     ///     fn action(&mut self, _cx: &Cx<'_, Cell<u32>>) {}
-    ///     fn check_exit_condition(&mut self, cx: &Cx<'_, Cell<u32>>) -> bool { cx.control().get() >= 30 }
+    ///     fn check_exit_condition(&mut self, cx: &Cx<'_, Cell<u32>>) -> bool {
+    ///         cx.control().get() >= 30
+    ///     }
     /// }
     /// struct Main(Seq<Heat>);
     /// impl Sequence<Cell<u32>> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<u32>>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<u32>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
     /// }
     /// let seq: Sequencer<Cell<u32>, 2> = Sequencer::new();
     /// let heat = seq.add(SeqConfig::new("heat"), Heat).unwrap();
@@ -364,7 +369,8 @@ impl<
     /// sim.start(id).unwrap();
     /// sim.run_for(Duration::from_millis(2));
     /// sim.abort(id).unwrap();
-    /// assert_eq!(sim.run_until_idle(Duration::from_millis(10)).map(|t| t.as_ticks()), Some(3_000));
+    /// let idle = sim.run_until_idle(Duration::from_millis(10));
+    /// assert_eq!(idle.map(|t| t.as_ticks()), Some(3_000));
     /// assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
     /// ```
     pub fn abort(&mut self, id: SeqId) -> Result<(), Error> {
@@ -384,8 +390,9 @@ impl<
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
-    /// let a = seq.add(SeqConfig::new("a"), Dwell(seq.add(SeqConfig::new("wa"), ms(5)).unwrap())).unwrap();
-    /// let b = seq.add(SeqConfig::new("b"), Dwell(seq.add(SeqConfig::new("wb"), ms(8)).unwrap())).unwrap();
+    /// let (wa, wb) = (seq.add(SeqConfig::new("wa"), ms(5)), seq.add(SeqConfig::new("wb"), ms(8)));
+    /// let a = seq.add(SeqConfig::new("a"), Dwell(wa.unwrap())).unwrap();
+    /// let b = seq.add(SeqConfig::new("b"), Dwell(wb.unwrap())).unwrap();
     /// let ids = [a.id(), b.id()];
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     /// sim.lane(a);
@@ -397,7 +404,8 @@ impl<
     /// sim.step();
     /// assert!(!sim.any_active());
     /// for id in ids {
-    ///     assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::AbortAll)));
+    ///     let outcome = sim.handle(id).unwrap().last_outcome();
+    ///     assert_eq!(outcome, Some(Outcome::Aborted(Cause::AbortAll)));
     /// }
     /// ```
     pub fn abort_all(&mut self) {
@@ -456,7 +464,8 @@ impl<
     /// ```
     /// use rtseq::{sim::Sim, Duration, Instant, Monitors, Sequencer};
     /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).with_period(Duration::from_millis(2));
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
+    ///     .with_period(Duration::from_millis(2));
     /// sim.run_until(Instant::from_ticks(7_000));
     /// assert_eq!(sim.now().as_ticks(), 6_000); // no tick falls between 6 and 7 ms
     /// sim.run_until(Instant::from_ticks(8_000));
@@ -604,7 +613,8 @@ impl<
     /// sim.lane(blink);
     /// sim.start(id).unwrap();
     /// let first = sim.take_trace();
-    /// assert_eq!(first.iter().map(|t| t.cause).collect::<Vec<_>>(), [Cause::Start, Cause::Completed]);
+    /// let causes: Vec<Cause> = first.iter().map(|t| t.cause).collect();
+    /// assert_eq!(causes, [Cause::Start, Cause::Completed]);
     /// assert!(sim.trace().is_empty());
     /// sim.start(id).unwrap();
     /// assert_eq!(sim.trace().len(), 2); // the second run only
@@ -674,8 +684,9 @@ impl<
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
-    /// let a = seq.add(SeqConfig::new("a"), Dwell(seq.add(SeqConfig::new("wa"), ms(3)).unwrap())).unwrap();
-    /// let b = seq.add(SeqConfig::new("b"), Dwell(seq.add(SeqConfig::new("wb"), ms(3)).unwrap())).unwrap();
+    /// let (wa, wb) = (seq.add(SeqConfig::new("wa"), ms(3)), seq.add(SeqConfig::new("wb"), ms(3)));
+    /// let a = seq.add(SeqConfig::new("a"), Dwell(wa.unwrap())).unwrap();
+    /// let b = seq.add(SeqConfig::new("b"), Dwell(wb.unwrap())).unwrap();
     /// let id = a.id();
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     /// sim.lane(a);
@@ -699,7 +710,9 @@ impl<
     ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<Cell<bool>> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();

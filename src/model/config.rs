@@ -66,7 +66,8 @@ impl<C> SeqConfig<C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Main(Seq<Wait>);
     /// impl Sequence<()> for Main {
     ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
@@ -111,7 +112,8 @@ impl<C> SeqConfig<C> {
     /// sim.lane(main);
     /// sim.start(id).unwrap();
     /// assert_eq!(sim.run_until_idle(Duration::from_secs(1)).map(|t| t.as_ticks()), Some(4_000));
-    /// assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Timeout(id))));
+    /// let outcome = sim.handle(id).unwrap().last_outcome();
+    /// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Timeout(id))));
     /// # }
     /// ```
     pub const fn timeout(mut self, timeout: Duration) -> Self {
@@ -133,8 +135,8 @@ impl<C> SeqConfig<C> {
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
-    /// let recover = seq.add(SeqConfig::new("recover"), Dwell(seq.add(SeqConfig::new("r"), ms(2)).unwrap()))
-    ///     .unwrap();
+    /// let r_wait = seq.add(SeqConfig::new("r"), ms(2)).unwrap();
+    /// let recover = seq.add(SeqConfig::new("recover"), Dwell(r_wait)).unwrap();
     /// let r = recover.id();
     /// let cfg = SeqConfig::new("main").timeout(Duration::from_millis(4)).timeout_exception(r);
     /// let main = seq.add(cfg, Dwell(seq.add(SeqConfig::new("w"), ms(10)).unwrap())).unwrap();
@@ -144,8 +146,9 @@ impl<C> SeqConfig<C> {
     /// sim.lane(recover);
     /// sim.start(id).unwrap();
     /// sim.run_until_idle(Duration::from_secs(1)).unwrap();
-    /// assert!(sim.trace().contains(&Transition::at_millis(4, r, Idle, Running, Cause::Timeout(id))));
-    /// assert!(sim.trace().contains(&Transition::at_millis(6, r, Running, Terminated, Cause::Completed)));
+    /// let (trace, at) = (sim.trace(), Transition::at_millis);
+    /// assert!(trace.contains(&at(4, r, Idle, Running, Cause::Timeout(id))));
+    /// assert!(trace.contains(&at(6, r, Running, Terminated, Cause::Completed)));
     /// # }
     /// ```
     pub const fn timeout_exception(mut self, sequence: SeqId) -> Self {
@@ -210,8 +213,10 @@ impl<C> SeqConfig<C> {
     /// sim.lane(main);
     /// sim.start(id).unwrap();
     /// assert_eq!(sim.run_until_idle(Duration::from_secs(1)).map(|t| t.as_ticks()), Some(12_000));
-    /// assert_eq!(sim.trace().iter().filter(|t| t.sequence == id && t.cause == Cause::Restart).count(), 2);
-    /// assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Timeout(id))));
+    /// let restarts = sim.trace().iter().filter(|t| t.sequence == id && t.cause == Cause::Restart);
+    /// assert_eq!(restarts.count(), 2);
+    /// let outcome = sim.handle(id).unwrap().last_outcome();
+    /// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Timeout(id))));
     /// # }
     /// ```
     pub const fn timeout_restart_limit(mut self, limit: u8) -> Self {
@@ -232,7 +237,8 @@ impl<C> SeqConfig<C> {
     /// struct Spin;
     /// impl Step<Motor> for Spin {
     ///     fn action(&mut self, cx: &Cx<'_, Motor>) { cx.control().speed.set(100.0) }
-    ///     fn check_exit_condition(&mut self, _cx: &Cx<'_, Motor>) -> bool { false } // until aborted
+    ///     // Spins until aborted.
+    ///     fn check_exit_condition(&mut self, _cx: &Cx<'_, Motor>) -> bool { false }
     /// }
     /// struct Main(Seq<Spin>);
     /// impl Sequence<Motor> for Main {

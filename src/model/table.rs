@@ -189,12 +189,12 @@ impl<C, const N: usize> Table<C, N> {
     ///
     /// ```
     /// use rtseq::{SeqConfig, SeqId, Table};
-    /// const TABLE: Table<(), 2> = match Table::new([SeqConfig::new("main"), SeqConfig::new("homing")]) {
+    /// const TABLE: Table<(), 2> = match Table::new([SeqConfig::new("a"), SeqConfig::new("go")]) {
     ///     Ok(table) => table,
     ///     Err(e) => panic!("{}", e.reason()),
     /// };
-    /// const HOMING: SeqId = match TABLE.id("homing") { Some(id) => id, None => panic!("no homing") };
-    /// assert_eq!(HOMING.index(), 1);
+    /// const GO: SeqId = match TABLE.id("go") { Some(id) => id, None => panic!("no such entry") };
+    /// assert_eq!(GO.index(), 1);
     /// assert_eq!(TABLE.id("missing"), None);
     /// ```
     pub const fn id(&self, name: &str) -> Option<SeqId> {

@@ -82,7 +82,9 @@ impl<'a, C> Cx<'a, C> {
     /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
     /// struct WhoAmI;
     /// impl Sequence<Cell<Option<SeqId>>> for WhoAmI {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Option<SeqId>>>) { cx.control().set(Some(cx.id())) }
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Option<SeqId>>>) {
+    ///         cx.control().set(Some(cx.id()))
+    ///     }
     /// }
     /// let seq: Sequencer<Cell<Option<SeqId>>, 2> = Sequencer::new();
     /// let who = seq.add(SeqConfig::new("who"), WhoAmI).unwrap();
@@ -217,7 +219,9 @@ impl<'a, C> Cx<'a, C> {
     /// struct Drive { enabled: Cell<bool>, ran: Cell<bool>, got: Cell<Option<Outcome>> }
     /// struct Spin;
     /// impl Step<Drive> for Spin {
-    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Drive>) -> bool { cx.control().enabled.get() }
+    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Drive>) -> bool {
+    ///         cx.control().enabled.get()
+    ///     }
     ///     fn action(&mut self, cx: &Cx<'_, Drive>) { cx.control().ran.set(true) }
     /// }
     /// struct Main(Seq<Spin>);

@@ -9,7 +9,8 @@ use crate::{Cx, Duration, Instant, Step};
 /// ```
 /// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
 /// let seq: Sequencer<(), 4> = Sequencer::new();
-/// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(200))).unwrap();
+/// let dwell = Wait::new(Duration::from_millis(200));
+/// let dwell = seq.add(SeqConfig::new("dwell"), dwell).unwrap();
 /// assert_eq!(dwell.body().duration(), Duration::from_millis(200));
 /// ```
 pub struct Wait {
@@ -30,7 +31,8 @@ impl Wait {
     ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(200))).unwrap();
+    /// let dwell = Wait::new(Duration::from_millis(200));
+    /// let dwell = seq.add(SeqConfig::new("dwell"), dwell).unwrap();
     /// let main = seq.add(SeqConfig::new("main"), Main(dwell)).unwrap();
     /// let id = main.id();
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());

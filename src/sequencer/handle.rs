@@ -153,7 +153,8 @@ impl<'a, C> Handle<'a, C> {
     ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.run(&mut self.0).await; }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
-    /// let settle = seq.add(SeqConfig::new("settle"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let settle = Wait::new(Duration::from_millis(5));
+    /// let settle = seq.add(SeqConfig::new("settle"), settle).unwrap();
     /// let s = settle.id();
     /// let axis = seq.add(SeqConfig::new("axis"), Axis(settle)).unwrap();
     /// let a = axis.id();
@@ -178,7 +179,8 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer,
+    ///             Wait};
     /// struct Blink(Seq<Wait>);
     /// impl Sequence<()> for Blink {
     ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
@@ -312,7 +314,9 @@ impl<'a, C> Handle<'a, C> {
     /// struct Guarded;
     /// impl Sequence<Cell<bool>> for Guarded {
     ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) {}
-    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool { cx.control().get() }
+    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool {
+    ///         cx.control().get()
+    ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
     /// let guarded = seq.add(SeqConfig::new("guarded"), Guarded).unwrap();
@@ -345,7 +349,9 @@ impl<'a, C> Handle<'a, C> {
     /// struct Guarded;
     /// impl Sequence<Cell<bool>> for Guarded {
     ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) {}
-    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool { cx.control().get() }
+    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool {
+    ///         cx.control().get()
+    ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
     /// let guarded = seq.add(SeqConfig::new("guarded"), Guarded).unwrap();
@@ -408,7 +414,8 @@ impl<'a, C> Handle<'a, C> {
     /// assert_eq!(h.state(), RunningState::Running); // until the next tick
     /// sim.step();
     /// assert_eq!(h.state(), RunningState::Paused);
-    /// assert_eq!(seq.sequence_by_id(w).unwrap().state(), RunningState::Paused); // it blocks `wait`
+    /// // With the step it blocks:
+    /// assert_eq!(seq.sequence_by_id(w).unwrap().state(), RunningState::Paused);
     /// # }
     /// ```
     pub fn pause(&self) -> Result<(), Error> {
@@ -504,7 +511,8 @@ impl<'a, C> Handle<'a, C> {
     /// let h = seq.sequence_by_id(blink).unwrap();
     /// assert_eq!(h.declare_lane(), Ok(()));
     /// assert_eq!(h.declare_lane(), Ok(())); // already has the slot
-    /// assert_eq!(seq.sequence_by_id(fan).unwrap().declare_lane(), Err(Error::LaneCapacityExceeded(fan)));
+    /// let fan_lane = seq.sequence_by_id(fan).unwrap().declare_lane();
+    /// assert_eq!(fan_lane, Err(Error::LaneCapacityExceeded(fan)));
     /// ```
     pub fn declare_lane(&self) -> Result<(), Error> {
         self.port.declare_lane(self.id).map(|_| ())
