@@ -73,6 +73,21 @@ pub struct Toggle<F> {
 
 impl<F> Toggle<F> {
     /// A toggle that is off until the first press.
+    ///
+    /// A start/stop button as a monitor condition (with a `fn`, a `Toggle` is built in a
+    /// `const`):
+    ///
+    /// ```
+    /// use rtseq::{Condition, Instant, Toggle};
+    /// struct Panel { start_button: bool }
+    /// fn start_button(p: &Panel) -> bool { p.start_button }
+    /// const RUN: Toggle<fn(&Panel) -> bool> = Toggle::new(start_button);
+    /// let mut run = RUN;
+    /// let t = Instant::from_ticks(0);
+    /// let presses = [false, true, true, false, true]
+    ///     .map(|pressed| run.validate(&Panel { start_button: pressed }, t));
+    /// assert_eq!(presses, [false, true, true, true, false]);
+    /// ```
     pub const fn new(pressed: F) -> Self {
         Toggle {
             pressed,
@@ -113,6 +128,17 @@ pub struct Stable<F> {
 
 impl<F> Stable<F> {
     /// Watches `value`, which counts as unchanged while within `tolerance` of its anchor.
+    ///
+    /// Within the tolerance, small changes do not restart the window:
+    ///
+    /// ```
+    /// use rtseq::{Condition, Duration, Instant, Stable};
+    /// let mut settled = Stable::new(|pos: &f32| *pos, 0.5, Duration::from_millis(100));
+    /// let at = |ms: u64| Instant::from_ticks(ms * 1_000);
+    /// assert!(!settled.validate(&10.0, at(0)));
+    /// assert!(!settled.validate(&10.4, at(50)));
+    /// assert!(settled.validate(&9.6, at(100))); // still within 0.5 of 10.0
+    /// ```
     pub const fn new(value: F, tolerance: f32, window: Duration) -> Self {
         Stable {
             value,

@@ -21,6 +21,31 @@ mod sealed {
 ///
 /// Sealed: rtseq's own implementations are the only ones, because the sequencer's soundness
 /// rests on them.
+///
+/// A sequencer's lock is its type parameter `L`, [`CriticalSection`] by default:
+///
+/// ```
+/// use rtseq::lock::{CriticalSection, Lock};
+/// use rtseq::Sequencer;
+/// fn capacity<C, const N: usize, const T: usize, L: Lock, const W: usize>(
+///     _: &Sequencer<C, N, T, L, W>,
+/// ) -> usize {
+///     N
+/// }
+/// static SEQ: Sequencer<(), 8> = Sequencer::new();
+/// let same: &Sequencer<(), 8, 64, CriticalSection, 8> = &SEQ;
+/// assert_eq!(capacity(same), 8);
+/// ```
+///
+/// No other crate can implement it:
+///
+/// ```compile_fail
+/// struct NoLock;
+/// impl rtseq::lock::Lock for NoLock {
+///     const COARSE: bool = true;
+///     fn lock<R>(f: impl FnOnce() -> R) -> R { f() }
+/// }
+/// ```
 pub trait Lock: sealed::Sealed {
     /// True when a section holds off only the sequencer's own users (not every interrupt),
     /// so the tick may do a whole pass in one section instead of one per sequence.
@@ -177,6 +202,17 @@ impl Ceiling {
     /// The lock of RTIC logical priority `priority` on a device with `nvic_prio_bits`
     /// priority bits; `None` for a pair RTIC does not accept (priorities are
     /// `1 ..= 2^nvic_prio_bits`, the Cortex-M architecture has 2 to 8 priority bits).
+    ///
+    /// On a device with 3 priority bits (8 RTIC priorities):
+    ///
+    /// ```
+    /// use rtseq::lock::Ceiling;
+    /// assert_eq!(Ceiling::of(1, 3), Some(Ceiling::Basepri(0xE0)));
+    /// assert_eq!(Ceiling::of(7, 3), Some(Ceiling::Basepri(0x20)));
+    /// assert_eq!(Ceiling::of(8, 3), Some(Ceiling::InterruptsDisabled));
+    /// assert_eq!(Ceiling::of(0, 3), None); // RTIC priorities start at 1
+    /// assert_eq!(Ceiling::of(1, 1), None); // Cortex-M has 2 to 8 bits
+    /// ```
     pub const fn of(priority: u8, nvic_prio_bits: u8) -> Option<Ceiling> {
         if nvic_prio_bits < 2 || nvic_prio_bits > 8 {
             return None;

@@ -7,6 +7,48 @@ use crate::model::set::SeqSet;
 use crate::{Condition, Error, MonitorId, SeqId};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
+///
+/// `AbortOwner` on a blocking sub-sequence: `move` is aborted when a fault appears at 3 ms,
+/// and `main`, which ran it, gets the outcome and goes on:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use core::cell::Cell;
+/// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Error, Instant, Monitor, Monitors,
+///             Outcome, RunningState, Seq, SeqConfig, Sequence, Sequencer, Wait};
+/// #[derive(Default)]
+/// struct Ctrl { fault: Cell<bool>, got: Cell<Option<Result<Outcome, Error>>> }
+/// struct Move(Seq<Wait>);
+/// impl Sequence<Ctrl> for Move {
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) { let _ = cx.step(&mut self.0).await; }
+/// }
+/// struct Main(Seq<Move>);
+/// impl Sequence<Ctrl> for Main {
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+///         let outcome = cx.run(&mut self.0).await;
+///         cx.control().got.set(Some(outcome));
+///     }
+/// }
+/// let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+/// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+/// let mv = seq.add(SeqConfig::new("move"), Move(wait)).unwrap();
+/// let mv_id = mv.id();
+/// let main = seq.add(SeqConfig::new("main"), Main(mv)).unwrap();
+/// let id = main.id();
+/// let mut fault = |c: &Ctrl, _: Instant| c.fault.get();
+/// let mut monitors = Monitors::<Ctrl, 1>::new();
+/// let m = monitors.add(mv_id, Monitor::new("fault", &mut fault, Behaviour::AbortOwner)).unwrap();
+/// let ctrl = Ctrl::default();
+/// let mut sim = Sim::new(&seq, &ctrl, monitors);
+/// sim.lane(main);
+/// sim.before_tick(|t, c| c.fault.set(t.as_ticks() >= 3_000));
+/// sim.start(id).unwrap();
+/// assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(|t| t.as_ticks()), Some(3_000));
+/// assert_eq!(ctrl.got.get(), Some(Ok(Outcome::Aborted(Cause::Monitor(m)))));
+/// assert_eq!(sim.state(mv_id), RunningState::Aborted);
+/// assert_eq!(sim.state(id), RunningState::Terminated);
+/// # }
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -26,6 +68,13 @@ pub enum Behaviour {
 
 impl Behaviour {
     /// True for the two restarting behaviours, which the restart limit bounds.
+    ///
+    /// ```
+    /// use rtseq::Behaviour;
+    /// assert!(Behaviour::RestartOwner.is_restart());
+    /// assert!(Behaviour::RestartCallerOfOwner.is_restart());
+    /// assert!(!Behaviour::AbortOwner.is_restart());
+    /// ```
     pub const fn is_restart(self) -> bool {
         matches!(
             self,
@@ -34,6 +83,13 @@ impl Behaviour {
     }
 
     /// The abort behaviour a restart escalates to once the restart limit is reached.
+    ///
+    /// ```
+    /// use rtseq::Behaviour;
+    /// assert_eq!(Behaviour::RestartOwner.escalated(), Behaviour::AbortOwner);
+    /// assert_eq!(Behaviour::RestartCallerOfOwner.escalated(), Behaviour::AbortCallerOfOwner);
+    /// assert_eq!(Behaviour::Nothing.escalated(), Behaviour::Nothing);
+    /// ```
     pub const fn escalated(self) -> Behaviour {
         match self {
             Behaviour::RestartOwner => Behaviour::AbortOwner,
@@ -43,6 +99,12 @@ impl Behaviour {
     }
 
     /// True for the behaviours that act on the owner's caller.
+    ///
+    /// ```
+    /// use rtseq::Behaviour;
+    /// assert!(Behaviour::AbortCallerOfOwner.targets_caller());
+    /// assert!(!Behaviour::RestartOwner.targets_caller());
+    /// ```
     pub const fn targets_caller(self) -> bool {
         matches!(
             self,
@@ -52,6 +114,18 @@ impl Behaviour {
 }
 
 /// When a monitor fires.
+///
+/// What each trigger makes of a condition's changes (`fires(last, value)`):
+///
+/// ```
+/// use rtseq::Trigger;
+/// let changes = [(false, true), (true, true), (true, false), (false, false)];
+/// let fires = |t: Trigger| changes.map(|(last, value)| t.fires(last, value));
+/// assert_eq!(fires(Trigger::RisingEdge), [true, false, false, false]);
+/// assert_eq!(fires(Trigger::FallingEdge), [false, false, true, false]);
+/// assert_eq!(fires(Trigger::Change), [true, false, true, false]);
+/// assert_eq!(fires(Trigger::Level), [true, true, false, false]);
+/// ```
 // The discriminants are the tick's bit sets: 1 = rising edge, 2 = falling edge, 4 = level.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -88,6 +162,34 @@ impl Trigger {
 }
 
 /// Default number of restarts a monitor may cause per run of its target before escalating.
+///
+/// A monitor whose condition stays true restarts its owner this often, then aborts it:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Instant, Monitor, Monitors, Outcome,
+///             Seq, SeqConfig, Sequence, Sequencer, Wait, DEFAULT_RESTART_LIMIT};
+/// struct Dwell(Seq<Wait>);
+/// impl Sequence<()> for Dwell {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+/// }
+/// let seq: Sequencer<(), 4> = Sequencer::new();
+/// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+/// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+/// let id = main.id();
+/// let mut always = |_: &(), _: Instant| true;
+/// let mut monitors = Monitors::<(), 1>::new();
+/// let m = monitors.add(id, Monitor::new("stuck", &mut always, Behaviour::RestartOwner)).unwrap();
+/// let mut sim = Sim::new(&seq, &(), monitors);
+/// sim.lane(main);
+/// sim.start(id).unwrap();
+/// sim.run_until_idle(Duration::from_millis(50)).unwrap();
+/// let restarts = sim.trace().iter().filter(|t| t.sequence == id && t.cause == Cause::Restart);
+/// assert_eq!(restarts.count(), usize::from(DEFAULT_RESTART_LIMIT));
+/// let outcome = sim.handle(id).unwrap().last_outcome();
+/// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Monitor(m))));
+/// # }
+/// ```
 pub const DEFAULT_RESTART_LIMIT: u8 = 3;
 
 /// A monitor definition: build it, then add it to a [`Monitors`] table.
@@ -124,6 +226,24 @@ pub struct Monitor<'a, C, K = DynCondition<'a, C>> {
 type Borrows<'a, C> = (&'a (), fn(&C));
 
 /// The default condition holder of a monitor table: any condition, behind a `dyn` call.
+///
+/// The default table holds any mix of conditions: closures, library conditions, your own
+/// types:
+///
+/// ```
+/// use rtseq::{Behaviour, DynCondition, Instant, Monitor, Monitors, SeqConfig, Sequencer,
+///             Toggle};
+/// struct Drive { current: f32, stop_button: bool }
+/// let seq: Sequencer<Drive, 2> = Sequencer::new();
+/// let run = seq.register(SeqConfig::new("run")).unwrap();
+/// let mut over_current = |d: &Drive, _: Instant| d.current > 5.0;
+/// let mut stop = Toggle::new(|d: &Drive| d.stop_button);
+/// let mut monitors: Monitors<'_, Drive, 2, DynCondition<'_, Drive>> = Monitors::new();
+/// let over_current = Monitor::new("over-current", &mut over_current, Behaviour::AbortOwner);
+/// monitors.add(run, over_current).unwrap();
+/// monitors.add(run, Monitor::new("stop", &mut stop, Behaviour::AbortOwner)).unwrap();
+/// assert_eq!(monitors.len(), 2);
+/// ```
 pub type DynCondition<'a, C> = &'a mut (dyn Condition<C> + Send);
 
 impl<'a, C> Condition<C> for &'a mut (dyn Condition<C> + Send + 'a) {
@@ -136,6 +256,17 @@ impl<'a, C> Condition<C> for &'a mut (dyn Condition<C> + Send + 'a) {
 impl<'a, C> Monitor<'a, C> {
     /// A rising-edge monitor with no exception sequence and the default restart limit, in a
     /// table of `dyn` conditions (the default [`Monitors`]).
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+    /// let seq: Sequencer<f32, 2> = Sequencer::new();
+    /// let heating = seq.register(SeqConfig::new("heating")).unwrap();
+    /// let mut too_hot = |t: &f32, _: Instant| *t > 80.0;
+    /// let mut monitors: Monitors<f32, 2> = Monitors::new();
+    /// let too_hot = Monitor::new("too hot", &mut too_hot, Behaviour::AbortOwner);
+    /// let m = monitors.add(heating, too_hot).unwrap();
+    /// assert_eq!((monitors.name(m), monitors.owner(m)), (Some("too hot"), Some(heating)));
+    /// ```
     #[inline(never)]
     pub fn new(
         name: &'static str,
@@ -184,13 +315,88 @@ impl<'a, C, K> Monitor<'a, C, K> {
     }
 
     /// The exception sequence to run (in its lane, while the owner is held) when this fires.
+    ///
+    /// A fault at 2 ms starts the 3 ms exception sequence `safe stop`; `main` is held while it
+    /// runs, and aborted (the behaviour) at the next tick after it ended:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Instant, Monitor, Monitors, Outcome,
+    ///             RunningState::*, Seq, SeqConfig, Sequence, Sequencer, Transition, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<Cell<bool>> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
+    /// let ms = |n| Wait::new(Duration::from_millis(n));
+    /// let (w, s) = (seq.add(SeqConfig::new("w"), ms(10)), seq.add(SeqConfig::new("s"), ms(3)));
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(w.unwrap())).unwrap();
+    /// let stop = seq.add(SeqConfig::new("safe stop"), Dwell(s.unwrap())).unwrap();
+    /// let (id, stop_id) = (main.id(), stop.id());
+    /// let mut fault = |c: &Cell<bool>, _: Instant| c.get();
+    /// let mut monitors = Monitors::<Cell<bool>, 1>::new();
+    /// let m = monitors
+    ///     .add(id, Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(stop_id))
+    ///     .unwrap();
+    /// let flag = Cell::new(false);
+    /// let mut sim = Sim::new(&seq, &flag, monitors);
+    /// sim.lane(main);
+    /// sim.lane(stop); // the exception sequence runs in its own lane
+    /// sim.before_tick(|t, c| c.set(t.as_ticks() >= 2_000));
+    /// sim.start(id).unwrap();
+    /// sim.run_for(Duration::from_millis(2));
+    /// let started = Transition::at_millis(2, stop_id, Idle, Running, Cause::Monitor(m));
+    /// assert!(sim.trace().contains(&started));
+    /// assert!(sim.handle(id).unwrap().exception_is_active());
+    /// let idle = sim.run_until_idle(Duration::from_millis(20));
+    /// assert_eq!(idle.map(|t| t.as_ticks()), Some(6_000));
+    /// let outcome = sim.handle(id).unwrap().last_outcome();
+    /// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Monitor(m))));
+    /// # }
+    /// ```
     #[inline(never)]
     pub const fn exception(mut self, sequence: SeqId) -> Self {
         self.exception = Some(sequence);
         self
     }
 
-    /// Rising edge (default) or level trigger.
+    /// When the monitor fires: [`Trigger::RisingEdge`] (the default), `FallingEdge`, `Change`
+    /// or `Level`.
+    ///
+    /// A falling-edge monitor: the drive's enable line drops at 4 ms:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Behaviour, Cx, Duration, Instant, Monitor, Monitors, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Trigger, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<Cell<bool>> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut enabled = |c: &Cell<bool>, _: Instant| c.get();
+    /// let mut monitors = Monitors::<Cell<bool>, 1>::new();
+    /// let lost = Monitor::new("enable lost", &mut enabled, Behaviour::AbortOwner)
+    ///     .trigger(Trigger::FallingEdge);
+    /// monitors.add(id, lost).unwrap();
+    /// let enable = Cell::new(true);
+    /// let mut sim = Sim::new(&seq, &enable, monitors);
+    /// sim.lane(main);
+    /// sim.before_tick(|t, c| c.set(t.as_ticks() < 4_000));
+    /// sim.start(id).unwrap();
+    /// let idle = sim.run_until_idle(Duration::from_millis(20));
+    /// assert_eq!(idle.map(|t| t.as_ticks()), Some(4_000));
+    /// # }
+    /// ```
     #[inline(never)]
     pub const fn trigger(mut self, trigger: Trigger) -> Self {
         self.trigger = trigger;
@@ -199,6 +405,34 @@ impl<'a, C, K> Monitor<'a, C, K> {
 
     /// How many restarts this monitor may cause per run of its target before a restarting
     /// behaviour escalates to the matching abort.
+    ///
+    /// With a limit of 1, a condition that stays true restarts its owner once, then aborts it:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Instant, Monitor, Monitors, Outcome,
+    ///             Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut always = |_: &(), _: Instant| true;
+    /// let mut monitors = Monitors::<(), 1>::new();
+    /// let stuck = Monitor::new("stuck", &mut always, Behaviour::RestartOwner).restart_limit(1);
+    /// let m = monitors.add(id, stuck).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), monitors);
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// sim.run_until_idle(Duration::from_millis(50)).unwrap();
+    /// assert_eq!(sim.trace().iter().filter(|t| t.cause == Cause::Restart).count(), 1);
+    /// let outcome = sim.handle(id).unwrap().last_outcome();
+    /// assert_eq!(outcome, Some(Outcome::Aborted(Cause::Monitor(m))));
+    /// # }
+    /// ```
     #[inline(never)]
     pub const fn restart_limit(mut self, limit: u8) -> Self {
         self.restart_limit = limit;
@@ -207,6 +441,20 @@ impl<'a, C, K> Monitor<'a, C, K> {
 
     /// This monitor, owned by `owner`: an entry of [`Monitors::table`] ([`Monitors::add`]
     /// takes the owner as an argument instead).
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Condition, Instant, Monitor, MonitorId, Monitors, OwnedMonitor,
+    ///             SeqId};
+    /// struct Stalled;
+    /// impl Condition<f32> for Stalled {
+    ///     fn validate(&mut self, speed: &f32, _: Instant) -> bool { *speed == 0.0 }
+    /// }
+    /// const SPIN: SeqId = SeqId::from_index(2);
+    /// const ENTRY: OwnedMonitor<'static, f32, Stalled> =
+    ///     Monitor::with_condition("stalled", Stalled, Behaviour::RestartOwner).owned_by(SPIN);
+    /// let Ok(monitors) = Monitors::<f32, 1, Stalled>::table([ENTRY]) else { unreachable!() };
+    /// assert_eq!(monitors.owner(MonitorId::from_index(0)), Some(SPIN));
+    /// ```
     pub const fn owned_by(self, owner: SeqId) -> OwnedMonitor<'a, C, K> {
         OwnedMonitor {
             def: self,
@@ -220,6 +468,30 @@ impl<'a, C, K> Monitor<'a, C, K> {
 
 /// A monitor and its owner ([`Monitor::owned_by`]), plus the bookkeeping the tick keeps
 /// for it in a table.
+///
+/// A whole monitor table as data, built by a `const fn` (see [`Monitors::table`]):
+///
+/// ```
+/// use rtseq::{Behaviour, Condition, Instant, Monitor, MonitorId, Monitors, OwnedMonitor, SeqId,
+///             Trigger};
+/// #[derive(Clone, Copy)]
+/// enum Fault { OverCurrent, Released }
+/// impl Condition<(f32, bool)> for Fault {
+///     fn validate(&mut self, (amps, pressed): &(f32, bool), _: Instant) -> bool {
+///         match self { Fault::OverCurrent => *amps > 5.0, Fault::Released => *pressed }
+///     }
+/// }
+/// const RUN: SeqId = SeqId::from_index(0);
+/// const ENTRIES: [OwnedMonitor<'static, (f32, bool), Fault>; 2] = [
+///     Monitor::with_condition("over-current", Fault::OverCurrent, Behaviour::AbortOwner)
+///         .owned_by(RUN),
+///     Monitor::with_condition("released", Fault::Released, Behaviour::AbortOwner)
+///         .trigger(Trigger::FallingEdge)
+///         .owned_by(RUN),
+/// ];
+/// let Ok(monitors) = Monitors::<(f32, bool), 2, Fault>::table(ENTRIES) else { unreachable!() };
+/// assert_eq!(monitors.name(MonitorId::from_index(1)), Some("released"));
+/// ```
 pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
@@ -308,6 +580,28 @@ impl Group {
 /// application's conditions avoids the `dyn` call ([`Monitor::with_condition`]), and lets a
 /// `const fn` build the whole table ([`Monitors::table`]). A table never drops its
 /// conditions (it lives as long as the firmware).
+///
+/// On the chip the timer interrupt owns the table and passes it to every
+/// [`tick`](crate::Sequencer::tick); here two ticks by hand, with the owner started (its lane
+/// declared but not run):
+///
+/// ```
+/// use core::cell::Cell;
+/// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+/// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
+/// let run = seq.register(SeqConfig::new("run")).unwrap();
+/// let h = seq.sequence_by_id(run).unwrap();
+/// h.declare_lane().unwrap();
+/// h.start().unwrap();
+/// let mut warm = |hot: &Cell<bool>, _: Instant| hot.get();
+/// let mut monitors: Monitors<Cell<bool>, 4> = Monitors::new();
+/// let m = monitors.add(run, Monitor::new("warm", &mut warm, Behaviour::Nothing)).unwrap();
+/// let hot = Cell::new(false);
+/// seq.tick(Instant::from_ticks(1_000), &hot, &mut monitors);
+/// hot.set(true);
+/// seq.tick(Instant::from_ticks(2_000), &hot, &mut monitors);
+/// assert_eq!(monitors.fired(m), 1);
+/// ```
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// In registration order: a `MonitorId` is the index. Never dropped (a table lives as
     /// long as its firmware), so that a `const` item can hold a table ([`Monitors::table`]).
@@ -326,6 +620,13 @@ impl<C, const M: usize, K> Default for Monitors<'_, C, M, K> {
 
 impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// An empty table.
+    ///
+    /// ```
+    /// use rtseq::Monitors;
+    /// const NONE: Monitors<'static, (), 8> = Monitors::new(); // `const`: no set-up code
+    /// let monitors = NONE;
+    /// assert!(monitors.is_empty());
+    /// ```
     pub const fn new() -> Self {
         const { assert!(M <= 256, "at most 256 monitors") };
         Monitors {
@@ -405,6 +706,27 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     ///
     /// The tick evaluates monitors in this order (the order of their ids), in groups of
     /// 32 that share one due test.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Error, Instant, Monitor, MonitorId, Monitors, SeqConfig, SeqId,
+    ///             Sequencer};
+    /// let seq: Sequencer<u32, 2> = Sequencer::new();
+    /// let run = seq.register(SeqConfig::new("run")).unwrap();
+    /// let high = |n: &u32, _: Instant| *n > 9;
+    /// let (mut a, mut b, mut c, mut d) = (high, high, high, high);
+    /// let mut monitors: Monitors<u32, 1> = Monitors::new();
+    /// let nameless = monitors.add(run, Monitor::new("", &mut a, Behaviour::Nothing));
+    /// assert_eq!(nameless, Err(Error::EmptyName));
+    /// let beyond = SeqId::from_index(rtseq::MAX_SEQUENCES);
+    /// assert_eq!(
+    ///     monitors.add(beyond, Monitor::new("b", &mut b, Behaviour::Nothing)),
+    ///     Err(Error::UnknownSequence(beyond))
+    /// );
+    /// let ok = monitors.add(run, Monitor::new("c", &mut c, Behaviour::Nothing));
+    /// assert_eq!(ok, Ok(MonitorId::from_index(0)));
+    /// let full = monitors.add(run, Monitor::new("d", &mut d, Behaviour::Nothing));
+    /// assert_eq!(full, Err(Error::MonitorCapacityExceeded));
+    /// ```
     pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C, K>) -> Result<MonitorId, Error> {
         if monitor.name.is_empty() {
             return Err(Error::EmptyName);
@@ -442,26 +764,88 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     }
 
     /// Number of registered monitors.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqId};
+    /// let mut never = |_: &(), _: Instant| false;
+    /// let mut monitors: Monitors<(), 4> = Monitors::new();
+    /// let owner = SeqId::from_index(0);
+    /// monitors.add(owner, Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
+    /// assert_eq!(monitors.len(), 1);
+    /// ```
     pub fn len(&self) -> usize {
         self.entries.len()
     }
 
     /// True when no monitor is registered.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqId};
+    /// let mut never = |_: &(), _: Instant| false;
+    /// let mut monitors: Monitors<(), 4> = Monitors::new();
+    /// assert!(monitors.is_empty());
+    /// let owner = SeqId::from_index(0);
+    /// monitors.add(owner, Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
+    /// assert!(!monitors.is_empty());
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
     }
 
     /// The name a monitor was registered with.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, MonitorId, Monitors, SeqId};
+    /// let mut never = |_: &(), _: Instant| false;
+    /// let mut monitors: Monitors<(), 4> = Monitors::new();
+    /// let owner = SeqId::from_index(0);
+    /// let m = monitors.add(owner, Monitor::new("never", &mut never, Behaviour::Nothing));
+    /// assert_eq!(monitors.name(m.unwrap()), Some("never"));
+    /// assert_eq!(monitors.name(MonitorId::from_index(1)), None);
+    /// ```
     pub fn name(&self, id: MonitorId) -> Option<&'static str> {
         self.entry(id).map(|e| e.def.name)
     }
 
     /// The owner of a monitor.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// seq.register(SeqConfig::new("main")).unwrap();
+    /// let axis = seq.register(SeqConfig::new("axis")).unwrap();
+    /// let mut never = |_: &(), _: Instant| false;
+    /// let mut monitors: Monitors<(), 4> = Monitors::new();
+    /// let m = monitors.add(axis, Monitor::new("never", &mut never, Behaviour::Nothing)).unwrap();
+    /// assert_eq!(monitors.owner(m), Some(axis));
+    /// ```
     pub fn owner(&self, id: MonitorId) -> Option<SeqId> {
         self.entry(id).map(|e| e.owner)
     }
 
     /// How often a monitor fired.
+    ///
+    /// Two rising edges while the owner runs, ticked by hand:
+    ///
+    /// ```
+    /// use core::cell::Cell;
+    /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+    /// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
+    /// let run = seq.register(SeqConfig::new("run")).unwrap();
+    /// let h = seq.sequence_by_id(run).unwrap();
+    /// h.declare_lane().unwrap();
+    /// h.start().unwrap();
+    /// let mut pressed = |b: &Cell<bool>, _: Instant| b.get();
+    /// let mut monitors: Monitors<Cell<bool>, 1> = Monitors::new();
+    /// let button = Monitor::new("button", &mut pressed, Behaviour::Nothing);
+    /// let m = monitors.add(run, button).unwrap();
+    /// let button = Cell::new(false);
+    /// for (ms, level) in [(1, true), (2, true), (3, false), (4, true)] {
+    ///     button.set(level);
+    ///     seq.tick(Instant::from_ticks(ms * 1_000), &button, &mut monitors);
+    /// }
+    /// assert_eq!(monitors.fired(m), 2);
+    /// ```
     pub fn fired(&self, id: MonitorId) -> u16 {
         self.entry(id).map_or(0, |e| e.fired)
     }

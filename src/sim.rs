@@ -49,8 +49,8 @@ type BeforeTick<'a, C> = Box<dyn FnMut(Instant, &C) + 'a>;
 ///
 /// ```
 /// use rtseq::sim::Sim;
-/// use rtseq::{Cause, Cx, Duration, Monitors, Outcome, RunningState::*, SeqConfig, Sequence,
-///             Sequencer, Transition, Wait};
+/// use rtseq::{Cause, Cx, Duration, Monitors, RunningState::*, SeqConfig, Sequence, Sequencer,
+///             Transition, Wait};
 /// struct Main { dwell: rtseq::Seq<Wait> }
 /// impl Sequence<()> for Main {
 ///     async fn action(&mut self, cx: &Cx<'_, ()>) {
@@ -106,6 +106,17 @@ impl<
     > Sim<'a, C, N, T, M, K, W>
 {
     /// A simulation at time 0 with a 1 ms (1 kHz) tick.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Instant, Monitors, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// seq.register(SeqConfig::new("main")).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// assert_eq!(sim.now(), Instant::from_ticks(0));
+    /// sim.step();
+    /// assert_eq!(sim.now().as_ticks(), 1_000); // µs
+    /// assert!(!sim.any_active());
+    /// ```
     pub fn new(
         sequencer: &'a Sequencer<C, N, T, crate::lock::CriticalSection, W>,
         control: &'a C,
@@ -127,6 +138,16 @@ impl<
     }
 
     /// Changes the tick period.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Duration, Monitors, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
+    ///     .with_period(Duration::from_millis(10));
+    /// sim.step();
+    /// sim.step();
+    /// assert_eq!(sim.now().duration_since_epoch(), Duration::from_millis(20));
+    /// ```
     pub fn with_period(mut self, period: Duration) -> Self {
         self.period = period;
         self
@@ -134,6 +155,27 @@ impl<
 
     /// Starts the simulated clock at `t` instead of 0 (e.g. to run across the wrap of the
     /// control blocks' 32-bit microsecond times at 2^32 µs ≈ 71.6 min).
+    ///
+    /// A 5 ms dwell across the wrap:
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Instant, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let start = Instant::from_ticks((1 << 32) - 2_000); // 2 ms before the wrap
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).starting_at(start);
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// let done = sim.run_until_idle(Duration::from_millis(10)).unwrap();
+    /// assert_eq!(done - start, Duration::from_millis(5));
+    /// ```
     pub fn starting_at(mut self, t: Instant) -> Self {
         self.now = t;
         self.sequencer.with(|s| s.now = t);
@@ -141,12 +183,59 @@ impl<
     }
 
     /// Called before every tick with the new time: step the plant, inject faults.
+    ///
+    /// A heater model: each tick raises the temperature by one degree, and a step waits for 30°:
+    ///
+    /// ```
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, SeqConfig, Sequence, Seq, Sequencer, Step};
+    /// struct Heat;
+    /// impl Step<Cell<u32>> for Heat {
+    ///     fn action(&mut self, _cx: &Cx<'_, Cell<u32>>) {}
+    ///     fn check_exit_condition(&mut self, cx: &Cx<'_, Cell<u32>>) -> bool {
+    ///         cx.control().get() >= 30
+    ///     }
+    /// }
+    /// struct Main(Seq<Heat>);
+    /// impl Sequence<Cell<u32>> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<u32>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<u32>, 2> = Sequencer::new();
+    /// let heat = seq.add(SeqConfig::new("heat"), Heat).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main(heat)).unwrap();
+    /// let (id, temperature) = (main.id(), Cell::new(20));
+    /// let mut sim = Sim::new(&seq, &temperature, Monitors::<Cell<u32>, 1>::new());
+    /// sim.lane(main);
+    /// sim.before_tick(|_now, t| t.set(t.get() + 1));
+    /// sim.start(id).unwrap();
+    /// let done = sim.run_until_idle(Duration::from_millis(100)).unwrap();
+    /// assert_eq!(done.duration_since_epoch(), Duration::from_millis(10));
+    /// assert_eq!(temperature.get(), 30);
+    /// ```
     pub fn before_tick(&mut self, f: impl FnMut(Instant, &C) + 'a) {
         self.before_tick = Some(Box::new(f));
     }
 
     /// Adds a lane running `seq` whenever it is started non-blocking. Lanes are polled in
     /// the order they were added.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Error, Monitors, RunningState, SeqConfig, Sequence, Sequencer};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let id = blink.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// assert_eq!(sim.start(id), Err(Error::NoLane(id)));
+    /// sim.lane(blink);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.state(id), RunningState::Terminated); // ran at once, in its lane
+    /// ```
     pub fn lane<S: Sequence<C> + 'a>(&mut self, seq: Seq<S>)
     where
         C: 'a,
@@ -169,6 +258,15 @@ impl<
     }
 
     /// A handle to a registered sequence.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Monitors, SeqConfig, SeqId, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("main")).unwrap();
+    /// let sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// assert_eq!(sim.handle(id).unwrap().name(), "main");
+    /// assert!(sim.handle(SeqId::from_index(1)).is_none()); // not registered
+    /// ```
     pub fn handle(&self, id: SeqId) -> Option<Handle<'a, C>> {
         self.sequencer.sequence_by_id(id)
     }
@@ -177,6 +275,25 @@ impl<
     ///
     /// The first start validates the configuration ([`Sequencer::validate`]): an exception
     /// sequence without a lane, for example, is an `Err(Error::Config(..))` here.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let w = wait.id();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.state(w), RunningState::Running); // the lane already ran up to the step
+    /// assert_eq!(sim.start(id), Err(Error::AlreadyRunning(id)));
+    /// ```
     pub fn start(&mut self, id: SeqId) -> Result<(), Error> {
         if !self.validated {
             self.sequencer
@@ -193,26 +310,142 @@ impl<
     }
 
     /// Requests a pause of `id` (applied by the next tick).
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// sim.pause(id).unwrap();
+    /// sim.run_for(Duration::from_millis(20));
+    /// assert_eq!(sim.state(id), RunningState::Paused); // held: the dwell cannot end
+    /// ```
     pub fn pause(&mut self, id: SeqId) -> Result<(), Error> {
         self.handle(id).ok_or(Error::UnknownSequence(id))?.pause()
     }
 
     /// Requests a resume of `id` (applied by the next tick).
+    ///
+    /// A pause does not extend the dwell: resumed after it has passed, the step ends at the
+    /// next poll.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// sim.pause(id).unwrap();
+    /// sim.run_for(Duration::from_millis(20));
+    /// sim.resume(id).unwrap();
+    /// let done = sim.run_until_idle(Duration::from_millis(20)).unwrap();
+    /// assert_eq!(done.duration_since_epoch(), Duration::from_millis(21));
+    /// assert_eq!(sim.state(id), RunningState::Terminated);
+    /// ```
     pub fn resume(&mut self, id: SeqId) -> Result<(), Error> {
         self.handle(id).ok_or(Error::UnknownSequence(id))?.resume()
     }
 
     /// Requests an abort of `id` (applied by the next tick).
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Outcome, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// sim.run_for(Duration::from_millis(2));
+    /// sim.abort(id).unwrap();
+    /// let idle = sim.run_until_idle(Duration::from_millis(10));
+    /// assert_eq!(idle.map(|t| t.as_ticks()), Some(3_000));
+    /// assert_eq!(sim.handle(id).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
+    /// ```
     pub fn abort(&mut self, id: SeqId) -> Result<(), Error> {
         self.handle(id).ok_or(Error::UnknownSequence(id))?.abort()
     }
 
     /// Requests abort-all (applied by the next tick).
+    ///
+    /// Two main sequences, each in its lane:
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Outcome, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let ms = |n| Wait::new(Duration::from_millis(n));
+    /// let (wa, wb) = (seq.add(SeqConfig::new("wa"), ms(5)), seq.add(SeqConfig::new("wb"), ms(8)));
+    /// let a = seq.add(SeqConfig::new("a"), Dwell(wa.unwrap())).unwrap();
+    /// let b = seq.add(SeqConfig::new("b"), Dwell(wb.unwrap())).unwrap();
+    /// let ids = [a.id(), b.id()];
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(a);
+    /// sim.lane(b);
+    /// for id in ids {
+    ///     sim.start(id).unwrap();
+    /// }
+    /// sim.abort_all();
+    /// sim.step();
+    /// assert!(!sim.any_active());
+    /// for id in ids {
+    ///     let outcome = sim.handle(id).unwrap().last_outcome();
+    ///     assert_eq!(outcome, Some(Outcome::Aborted(Cause::AbortAll)));
+    /// }
+    /// ```
     pub fn abort_all(&mut self) {
         self.sequencer.abort_all();
     }
 
     /// One tick: advance time, run the before-tick hook, tick, let the woken lanes run.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(2))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// sim.step(); // 1 ms
+    /// assert_eq!(sim.state(id), RunningState::Running);
+    /// sim.step(); // 2 ms: the dwell has passed
+    /// assert_eq!(sim.state(id), RunningState::Terminated);
+    /// assert_eq!(sim.now().as_ticks(), 2_000);
+    /// ```
     pub fn step(&mut self) {
         self.now = self.later(self.now, self.period);
         if let Some(f) = self.before_tick.as_mut() {
@@ -224,12 +457,32 @@ impl<
     }
 
     /// Runs ticks for `d` of simulated time.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Duration, Monitors, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.run_for(Duration::from_millis(5));
+    /// sim.run_for(Duration::from_millis(5));
+    /// assert_eq!(sim.now().duration_since_epoch(), Duration::from_millis(10));
+    /// ```
     pub fn run_for(&mut self, d: Duration) {
         let end = self.later(self.now, d);
         self.run_until(end);
     }
 
     /// Runs ticks until the time reaches `t`.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Duration, Instant, Monitors, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
+    ///     .with_period(Duration::from_millis(2));
+    /// sim.run_until(Instant::from_ticks(7_000));
+    /// assert_eq!(sim.now().as_ticks(), 6_000); // no tick falls between 6 and 7 ms
+    /// sim.run_until(Instant::from_ticks(8_000));
+    /// assert_eq!(sim.now().as_ticks(), 8_000);
+    /// ```
     pub fn run_until(&mut self, t: Instant) {
         while self.later(self.now, self.period) <= t && self.now < t {
             self.step();
@@ -238,6 +491,24 @@ impl<
 
     /// Runs ticks until no sequence is active any more or `limit` has passed; returns the
     /// time at which everything was idle.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(30))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.run_until_idle(Duration::from_millis(10)), None); // still running at 10 ms
+    /// let idle = sim.run_until_idle(Duration::from_millis(100));
+    /// assert_eq!(idle.map(|t| t.as_ticks()), Some(30_000));
+    /// ```
     pub fn run_until_idle(&mut self, limit: Duration) -> Option<Instant> {
         let end = self.later(self.now, limit);
         loop {
@@ -252,6 +523,25 @@ impl<
     }
 
     /// True while any registered sequence is running, paused, aborting or restarting.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(3))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// assert!(!sim.any_active());
+    /// sim.start(id).unwrap();
+    /// assert!(sim.any_active());
+    /// sim.run_for(Duration::from_millis(3));
+    /// assert!(!sim.any_active());
+    /// ```
     pub fn any_active(&self) -> bool {
         (0..self.sequencer.len())
             .filter_map(|i| u8::try_from(i).ok())
@@ -260,47 +550,214 @@ impl<
     }
 
     /// The state of `id`.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Monitors, RunningState, SeqConfig, SeqId, Sequence, Sequencer};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let id = blink.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(blink);
+    /// assert_eq!(sim.state(id), RunningState::Idle);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.state(id), RunningState::Terminated);
+    /// assert_eq!(sim.state(SeqId::from_index(1)), RunningState::Idle); // unknown id
+    /// ```
     pub fn state(&self, id: SeqId) -> RunningState {
         self.handle(id).map_or(RunningState::Idle, |h| h.state())
     }
 
     /// Simulated time now.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Duration, Instant, Monitors, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.run_for(Duration::from_millis(3));
+    /// assert_eq!(sim.now(), Instant::from_ticks(3_000));
+    /// assert_eq!(seq.now(), sim.now()); // the sequencer's time is the last tick's
+    /// ```
     pub fn now(&self) -> Instant {
         self.now
     }
 
     /// Every transition so far, in order.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cause, Cx, Monitors, RunningState::*, SeqConfig, Sequence, Sequencer,
+    ///             Transition};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let id = blink.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(blink);
+    /// sim.run_for(rtseq::Duration::from_millis(2));
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.trace(), &[
+    ///     Transition::at_millis(2, id, Idle, Running, Cause::Start),
+    ///     Transition::at_millis(2, id, Running, Terminated, Cause::Completed),
+    /// ]);
+    /// ```
     pub fn trace(&self) -> &[Transition] {
         &self.trace
     }
 
     /// Takes the transitions recorded so far, leaving the trace empty.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cause, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let id = blink.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(blink);
+    /// sim.start(id).unwrap();
+    /// let first = sim.take_trace();
+    /// let causes: Vec<Cause> = first.iter().map(|t| t.cause).collect();
+    /// assert_eq!(causes, [Cause::Start, Cause::Completed]);
+    /// assert!(sim.trace().is_empty());
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.trace().len(), 2); // the second run only
+    /// ```
     pub fn take_trace(&mut self) -> Vec<Transition> {
         core::mem::take(&mut self.trace)
     }
 
     /// Transitions lost to overflow of the sequencer's trace buffer (0 unless `T` is tiny).
+    ///
+    /// A trace buffer of one record (`T` = 1), while a start records two transitions before the
+    /// simulator drains it:
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4, 1> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(3))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.lost(), 1);
+    /// assert_eq!(sim.trace().len(), 1);
+    /// ```
     pub fn lost(&self) -> u32 {
         self.lost
     }
 
     /// True if a settle hit its poll bound (a lane that wakes itself forever).
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let id = blink.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(blink);
+    /// sim.start(id).unwrap();
+    /// sim.run_for(rtseq::Duration::from_millis(10));
+    /// assert!(!sim.stalled()); // every settle ended with no lane woken
+    /// ```
     pub fn stalled(&self) -> bool {
         self.stalled
     }
 
     /// How often each lane was polled, in the order the lanes were added: the tick wakes only
     /// lanes that must act, so an idle or frozen lane is not polled at all.
+    ///
+    /// Lane `a` is polled when added, when started, and when its dwell's exit condition is due
+    /// (at 1, 2 and 3 ms), then not in the 97 ticks after; lane `b`, never started, only when
+    /// added:
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let ms = |n| Wait::new(Duration::from_millis(n));
+    /// let (wa, wb) = (seq.add(SeqConfig::new("wa"), ms(3)), seq.add(SeqConfig::new("wb"), ms(3)));
+    /// let a = seq.add(SeqConfig::new("a"), Dwell(wa.unwrap())).unwrap();
+    /// let b = seq.add(SeqConfig::new("b"), Dwell(wb.unwrap())).unwrap();
+    /// let id = a.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(a);
+    /// sim.lane(b);
+    /// sim.start(id).unwrap();
+    /// sim.run_for(Duration::from_millis(100));
+    /// assert_eq!(sim.lane_polls(), [5, 1]);
+    /// ```
     pub fn lane_polls(&self) -> Vec<usize> {
         self.lanes.iter().map(|l| l.polls).collect()
     }
 
     /// The monitor table (e.g. to read how often a monitor fired).
+    ///
+    /// A monitor on `main` fires once on the rising edge of an over-temperature flag that the
+    /// plant model raises at 4 ms (behaviour `Nothing`: `main` goes on):
+    ///
+    /// ```
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Behaviour, Cx, Duration, Instant, Monitor, Monitors, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<Cell<bool>> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let id = main.id();
+    /// let mut hot = |c: &Cell<bool>, _: Instant| c.get();
+    /// let mut monitors = Monitors::<Cell<bool>, 1>::new();
+    /// let m = monitors.add(id, Monitor::new("hot", &mut hot, Behaviour::Nothing)).unwrap();
+    /// let flag = Cell::new(false);
+    /// let mut sim = Sim::new(&seq, &flag, monitors);
+    /// sim.lane(main);
+    /// sim.before_tick(|t, c| c.set(t.as_ticks() >= 4_000));
+    /// sim.start(id).unwrap();
+    /// sim.run_until_idle(Duration::from_millis(20)).unwrap();
+    /// assert_eq!(sim.monitors().fired(m), 1);
+    /// assert_eq!(sim.monitors().name(m), Some("hot"));
+    /// ```
     pub fn monitors(&self) -> &Monitors<'a, C, M, K> {
         &self.monitors
     }
 
     /// The control system.
+    ///
+    /// ```
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Duration, Monitors, Sequencer};
+    /// let seq: Sequencer<Cell<u32>, 2> = Sequencer::new();
+    /// let ticks = Cell::new(0);
+    /// let mut sim = Sim::new(&seq, &ticks, Monitors::<Cell<u32>, 1>::new());
+    /// sim.before_tick(|_, n| n.set(n.get() + 1));
+    /// sim.run_for(Duration::from_millis(4));
+    /// assert_eq!(sim.control().get(), 4);
+    /// ```
     pub fn control(&self) -> &'a C {
         self.control
     }

@@ -10,6 +10,26 @@ extern crate std;
 /// The sequencer keeps the most recent records in a bounded buffer; drain it with
 /// [`Sequencer::drain_trace`](crate::Sequencer::drain_trace). The host
 /// `Sim` (feature `std`) collects them all.
+///
+/// The record of a start, read from the sequencer's buffer:
+///
+/// ```
+/// use rtseq::{Cause, Instant, RunningState, SeqConfig, Sequencer, Transition};
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let id = seq.register(SeqConfig::new("blink")).unwrap();
+/// let h = seq.sequence_by_id(id).unwrap();
+/// h.declare_lane().unwrap();
+/// h.start().unwrap();
+/// let mut last = None;
+/// seq.drain_trace(|t| last = Some(t));
+/// assert_eq!(last, Some(Transition {
+///     time: Instant::from_ticks(0),
+///     sequence: id,
+///     from: RunningState::Idle,
+///     to: RunningState::Running,
+///     cause: Cause::Start,
+/// }));
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Transition {

@@ -57,6 +57,14 @@ pub enum Error {
 impl Error {
     /// What went wrong, without the name or id: for a `const` item's compile error
     /// (`panic!("{}", e.reason())`), where no formatting is available.
+    ///
+    /// ```
+    /// use rtseq::Error;
+    /// const E: Error = Error::DuplicateName("homing");
+    /// const REASON: &str = E.reason(); // `const`: usable in a compile-time panic
+    /// assert_eq!(REASON, "duplicate name");
+    /// assert_eq!(E.to_string(), "duplicate name `homing`"); // `Display` names it
+    /// ```
     pub const fn reason(&self) -> &'static str {
         match self {
             Error::EmptyName => "empty name",

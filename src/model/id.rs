@@ -17,12 +17,30 @@ pub struct SeqId(pub(crate) u8);
 
 impl SeqId {
     /// The position of this sequence in the sequencer's registry.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let ids = ["a", "b", "c"].map(|name| seq.register(SeqConfig::new(name)).unwrap());
+    /// assert_eq!(ids.map(|id| id.index()), [0, 1, 2]);
+    /// ```
     pub const fn index(self) -> usize {
         self.0 as usize
     }
 
     /// The id at registry position `index` (ids are handed out in registration order).
     /// Saturates at 255, which is never a valid id of a smaller sequencer.
+    ///
+    /// Ids of a [`Table`](crate::Table) are known at compile time:
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, SeqId, Sequencer};
+    /// const HOMING: SeqId = SeqId::from_index(1);
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// seq.register(SeqConfig::new("safe stop")).unwrap();
+    /// assert_eq!(seq.register(SeqConfig::new("homing")), Ok(HOMING));
+    /// assert_eq!(SeqId::from_index(1_000).index(), 255); // saturates
+    /// ```
     pub const fn from_index(index: usize) -> Self {
         SeqId(if index > 255 { 255 } else { index as u8 })
     }
@@ -45,11 +63,30 @@ pub struct MonitorId(pub(crate) u8);
 
 impl MonitorId {
     /// The position of this monitor in its table.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, Monitors, SeqId};
+    /// let (mut a, mut b) = (|_: &(), _: Instant| false, |_: &(), _: Instant| true);
+    /// let mut monitors: Monitors<(), 2> = Monitors::new();
+    /// let owner = SeqId::from_index(0);
+    /// monitors.add(owner, Monitor::new("a", &mut a, Behaviour::Nothing)).unwrap();
+    /// let b = monitors.add(owner, Monitor::new("b", &mut b, Behaviour::Nothing)).unwrap();
+    /// assert_eq!(b.index(), 1);
+    /// ```
     pub const fn index(self) -> usize {
         self.0 as usize
     }
 
     /// The id at table position `index` (ids are handed out in order). Saturates at 255.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, MonitorId, Monitors, SeqId};
+    /// let mut a = |_: &(), _: Instant| false;
+    /// let mut monitors: Monitors<(), 2> = Monitors::new();
+    /// monitors.add(SeqId::from_index(0), Monitor::new("a", &mut a, Behaviour::Nothing)).unwrap();
+    /// assert_eq!(monitors.name(MonitorId::from_index(0)), Some("a"));
+    /// assert_eq!(MonitorId::from_index(300).index(), 255); // saturates
+    /// ```
     pub const fn from_index(index: usize) -> Self {
         MonitorId(if index > 255 { 255 } else { index as u8 })
     }

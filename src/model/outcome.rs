@@ -4,6 +4,26 @@ use crate::{MonitorId, SeqId};
 
 /// Why a transition happened. Recorded in every [`Transition`](crate::Transition) and carried
 /// by [`Outcome::Aborted`].
+///
+/// Causes in a trace: a start, and a completion.
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{sim::Sim, Cause, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+/// struct Blink;
+/// impl Sequence<()> for Blink {
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+/// }
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+/// let id = blink.id();
+/// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+/// sim.lane(blink);
+/// sim.start(id).unwrap();
+/// let causes: Vec<Cause> = sim.trace().iter().map(|t| t.cause).collect();
+/// assert_eq!(causes, [Cause::Start, Cause::Completed]);
+/// # }
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Cause {
@@ -34,6 +54,26 @@ pub enum Cause {
 }
 
 /// The result of one run, returned to a blocking caller (no magic `-1`).
+///
+/// What a caller does with the outcome of a blocking run:
+///
+/// ```
+/// use rtseq::{Cause, Cx, Outcome, Seq, Sequence, Step};
+/// struct Home;
+/// impl Step<()> for Home { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// struct Main { home: Seq<Home> }
+/// impl Sequence<()> for Main {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+///         match cx.step(&mut self.home).await {
+///             Ok(Outcome::Completed) => { /* homed: go on */ }
+///             Ok(Outcome::Skipped) => { /* already homed (pre-condition false) */ }
+///             Ok(Outcome::Aborted(Cause::Timeout(_))) => { /* took too long */ }
+///             Ok(Outcome::Aborted(_)) => { /* a monitor, a request, abort-all */ }
+///             Err(_) => { /* could not start it, e.g. already running */ }
+///         }
+///     }
+/// }
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Outcome {

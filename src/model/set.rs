@@ -7,6 +7,15 @@
 use crate::SeqId;
 
 /// The most sequences and steps one [`Sequencer`](crate::Sequencer) holds (its `N`).
+///
+/// A [`Table`](crate::Table) longer than that is refused:
+///
+/// ```
+/// use rtseq::{Error, SeqConfig, Table, MAX_SEQUENCES};
+/// assert_eq!(MAX_SEQUENCES, 32);
+/// let too_many = Table::<(), 33>::new(core::array::from_fn(|_| SeqConfig::new("s")));
+/// assert!(matches!(too_many, Err(Error::SequenceCapacityExceeded)));
+/// ```
 pub const MAX_SEQUENCES: usize = 32;
 
 /// A set of sequence ids.

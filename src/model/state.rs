@@ -1,6 +1,35 @@
 //! The seven running states and the transition table.
 
 /// The seven running states of a sequence or step (the seed's `runningStateEnum`).
+///
+/// A sequence's states through a start and a pause, on the host simulator:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState::*, Seq, SeqConfig, Sequence,
+///             Sequencer, Wait};
+/// struct Main(Seq<Wait>);
+/// impl Sequence<()> for Main {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+/// }
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(3))).unwrap();
+/// let main = seq.add(SeqConfig::new("main"), Main(dwell)).unwrap();
+/// let id = main.id();
+/// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+/// sim.lane(main);
+/// let mut states = vec![sim.state(id)];
+/// sim.start(id).unwrap();
+/// states.push(sim.state(id));
+/// sim.pause(id).unwrap();
+/// sim.step();
+/// states.push(sim.state(id));
+/// sim.resume(id).unwrap();
+/// sim.run_until_idle(Duration::from_millis(10)).unwrap();
+/// states.push(sim.state(id));
+/// assert_eq!(states, [Idle, Running, Paused, Terminated]);
+/// # }
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RunningState {
@@ -67,6 +96,17 @@ impl RunningState {
     }
 
     /// All seven states, for exhaustive checks.
+    ///
+    /// ```
+    /// use rtseq::RunningState;
+    /// let active = RunningState::ALL.iter().filter(|s| s.is_active()).count();
+    /// assert_eq!(active, 4); // Running, Paused, Aborting, Restarting
+    /// // Every state but `Idle` can be entered, and only `Running` from `Idle`:
+    /// for s in RunningState::ALL {
+    ///     let entered = RunningState::ALL.iter().any(|from| from.can_transition_to(s));
+    ///     assert_eq!(entered, s != RunningState::Idle, "{s:?}");
+    /// }
+    /// ```
     pub const ALL: [RunningState; 7] = [
         RunningState::Idle,
         RunningState::Running,

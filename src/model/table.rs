@@ -138,6 +138,15 @@ impl<C, const N: usize> Table<C, N> {
     /// only a whole table can show: the table fits a sequencer (at most
     /// [`MAX_SEQUENCES`](crate::MAX_SEQUENCES)) and every timeout exception is one of its
     /// entries.
+    ///
+    /// Every timeout exception must be an entry of the table:
+    ///
+    /// ```
+    /// use rtseq::{Error, SeqConfig, SeqId, Table};
+    /// let outside = SeqId::from_index(5);
+    /// let table = Table::<(), 1>::new([SeqConfig::new("main").timeout_exception(outside)]);
+    /// assert!(matches!(table, Err(Error::UnknownSequence(id)) if id == outside));
+    /// ```
     pub const fn new(configs: [SeqConfig<C>; N]) -> Result<Self, Error> {
         if N > crate::MAX_SEQUENCES {
             return Err(Error::SequenceCapacityExceeded);
@@ -177,6 +186,17 @@ impl<C, const N: usize> Table<C, N> {
     }
 
     /// The id of the entry named `name`.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, SeqId, Table};
+    /// const TABLE: Table<(), 2> = match Table::new([SeqConfig::new("a"), SeqConfig::new("go")]) {
+    ///     Ok(table) => table,
+    ///     Err(e) => panic!("{}", e.reason()),
+    /// };
+    /// const GO: SeqId = match TABLE.id("go") { Some(id) => id, None => panic!("no such entry") };
+    /// assert_eq!(GO.index(), 1);
+    /// assert_eq!(TABLE.id("missing"), None);
+    /// ```
     pub const fn id(&self, name: &str) -> Option<SeqId> {
         let mut rest: &[CheckedConfig<C>] = &self.configs;
         let mut id: u8 = 0;
@@ -191,11 +211,23 @@ impl<C, const N: usize> Table<C, N> {
     }
 
     /// The number of sequences and steps in the table (`N`).
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Table};
+    /// let table = Table::<(), 2>::new([SeqConfig::new("a"), SeqConfig::new("b")]).unwrap();
+    /// assert_eq!(table.len(), 2);
+    /// ```
     pub const fn len(&self) -> usize {
         N
     }
 
     /// True for a table of no sequences.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Table};
+    /// assert!(Table::<(), 0>::new([]).unwrap().is_empty());
+    /// assert!(!Table::<(), 1>::new([SeqConfig::new("a")]).unwrap().is_empty());
+    /// ```
     pub const fn is_empty(&self) -> bool {
         N == 0
     }

@@ -75,16 +75,85 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// The id of the sequence this context belongs to.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
+    /// struct WhoAmI;
+    /// impl Sequence<Cell<Option<SeqId>>> for WhoAmI {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Option<SeqId>>>) {
+    ///         cx.control().set(Some(cx.id()))
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<Option<SeqId>>, 2> = Sequencer::new();
+    /// let who = seq.add(SeqConfig::new("who"), WhoAmI).unwrap();
+    /// let (id, seen) = (who.id(), Cell::new(None));
+    /// let mut sim = Sim::new(&seq, &seen, Monitors::<_, 1>::new());
+    /// sim.lane(who);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(seen.get(), Some(id));
+    /// # }
+    /// ```
     pub fn id(&self) -> SeqId {
         self.id
     }
 
     /// The application's control system.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::sync::atomic::{AtomicI32, Ordering::Relaxed};
+    /// use rtseq::{sim::Sim, Cx, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// struct Axis { setpoint: AtomicI32 }
+    /// struct MoveTo(i32);
+    /// impl Step<Axis> for MoveTo {
+    ///     fn action(&mut self, cx: &Cx<'_, Axis>) { cx.control().setpoint.store(self.0, Relaxed) }
+    /// }
+    /// struct Main(Seq<MoveTo>);
+    /// impl Sequence<Axis> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Axis>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<Axis, 2> = Sequencer::new();
+    /// let move_to = seq.add(SeqConfig::new("move to"), MoveTo(250)).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main(move_to)).unwrap();
+    /// let (id, axis) = (main.id(), Axis { setpoint: AtomicI32::new(0) });
+    /// let mut sim = Sim::new(&seq, &axis, Monitors::<Axis, 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(axis.setpoint.load(Relaxed), 250);
+    /// # }
+    /// ```
     pub fn control(&self) -> &'a C {
         self.control
     }
 
     /// The sequencer time (the last tick's time).
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Duration, Instant, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
+    /// struct Stamp(Seq<Wait>);
+    /// impl Sequence<Cell<Instant>> for Stamp {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Instant>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         cx.control().set(cx.now());
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<Instant>, 2> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(3))).unwrap();
+    /// let stamp = seq.add(SeqConfig::new("stamp"), Stamp(wait)).unwrap();
+    /// let (id, done) = (stamp.id(), Cell::new(Instant::from_ticks(0)));
+    /// let mut sim = Sim::new(&seq, &done, Monitors::<_, 1>::new());
+    /// sim.lane(stamp);
+    /// sim.run_for(Duration::from_millis(10));
+    /// sim.start(id).unwrap(); // at 10 ms
+    /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
+    /// assert_eq!(done.get(), Instant::from_ticks(13_000));
+    /// # }
+    /// ```
     pub fn now(&self) -> Instant {
         self.port.now()
     }
@@ -97,6 +166,38 @@ impl<'a, C> Cx<'a, C> {
     ///
     /// The returned future borrows `child` but not this context (it copies what it needs),
     /// so a hand-written action future can hold it.
+    ///
+    /// Main runs `axis` (a 4 ms dwell) blocking and gets its outcome when it ended:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, Outcome, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// type Got = Cell<Option<(Result<Outcome, Error>, u64)>>;
+    /// struct Axis(Seq<Wait>);
+    /// impl Sequence<Got> for Axis {
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// struct Main(Seq<Axis>);
+    /// impl Sequence<Got> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) {
+    ///         let outcome = cx.run(&mut self.0).await;
+    ///         cx.control().set(Some((outcome, cx.now().as_ticks())));
+    ///     }
+    /// }
+    /// let seq: Sequencer<Got, 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(4))).unwrap();
+    /// let axis = seq.add(SeqConfig::new("axis"), Axis(wait)).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main(axis)).unwrap();
+    /// let (id, got) = (main.id(), Got::default());
+    /// let mut sim = Sim::new(&seq, &got, Monitors::<Got, 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
+    /// assert_eq!(got.get(), Some((Ok(Outcome::Completed), 4_000)));
+    /// # }
+    /// ```
     pub fn run<'s, S: Sequence<C>>(
         &self,
         child: &'s mut Seq<S>,
@@ -107,6 +208,41 @@ impl<'a, C> Cx<'a, C> {
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling
     /// period.
+    ///
+    /// A step whose pre-condition is false is skipped: its action does not run.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// #[derive(Default)]
+    /// struct Drive { enabled: Cell<bool>, ran: Cell<bool>, got: Cell<Option<Outcome>> }
+    /// struct Spin;
+    /// impl Step<Drive> for Spin {
+    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Drive>) -> bool {
+    ///         cx.control().enabled.get()
+    ///     }
+    ///     fn action(&mut self, cx: &Cx<'_, Drive>) { cx.control().ran.set(true) }
+    /// }
+    /// struct Main(Seq<Spin>);
+    /// impl Sequence<Drive> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Drive>) {
+    ///         cx.control().got.set(cx.step(&mut self.0).await.ok());
+    ///     }
+    /// }
+    /// let seq: Sequencer<Drive, 2> = Sequencer::new();
+    /// let spin = seq.add(SeqConfig::new("spin"), Spin).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main(spin)).unwrap();
+    /// let (id, drive) = (main.id(), Drive::default());
+    /// let mut sim = Sim::new(&seq, &drive, Monitors::<Drive, 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// assert_eq!((drive.got.get(), drive.ran.get()), (Some(Outcome::Skipped), false));
+    /// drive.enabled.set(true);
+    /// sim.start(id).unwrap();
+    /// assert_eq!((drive.got.get(), drive.ran.get()), (Some(Outcome::Completed), true));
+    /// # }
+    /// ```
     pub fn step<'s, S: Step<C>>(
         &self,
         step: &'s mut Seq<S>,
@@ -134,11 +270,80 @@ impl<'a, C> Cx<'a, C> {
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
     /// it is already running or has no lane.
+    ///
+    /// `blink` has a lane, `fan` has none:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Error, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
+    /// type Got = Cell<Option<[Result<(), Error>; 2]>>;
+    /// struct Blink;
+    /// impl Sequence<Got> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, Got>) {}
+    /// }
+    /// struct Main { blink: SeqId, fan: SeqId }
+    /// impl Sequence<Got> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) {
+    ///         cx.control().set(Some([cx.start(self.blink), cx.start(self.fan)]));
+    ///     }
+    /// }
+    /// let seq: Sequencer<Got, 4> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let fan = seq.register(SeqConfig::new("fan")).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main { blink: blink.id(), fan }).unwrap();
+    /// let (id, blink_id, got) = (main.id(), blink.id(), Got::default());
+    /// let mut sim = Sim::new(&seq, &got, Monitors::<Got, 1>::new());
+    /// sim.lane(main);
+    /// sim.lane(blink);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(got.get(), Some([Ok(()), Err(Error::NoLane(fan))]));
+    /// assert_eq!(sim.handle(blink_id).unwrap().caller(), Some(id));
+    /// # }
+    /// ```
     pub fn start(&self, id: SeqId) -> Result<(), Error> {
         self.port.start_in_lane(id, Some(self.id))
     }
 
     /// Waits until non-blocking sequence `id` has ended and returns its outcome.
+    ///
+    /// Joins fail at once where they could never return:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Error, Monitors, Outcome, SeqConfig, SeqId, Sequence, Sequencer};
+    /// type Got = Cell<Option<[Result<Outcome, Error>; 3]>>;
+    /// struct Blink;
+    /// impl Sequence<Got> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, Got>) {}
+    /// }
+    /// struct Main { blink: SeqId }
+    /// impl Sequence<Got> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) {
+    ///         let never = cx.join(self.blink).await; // not started yet
+    ///         let _ = cx.start(self.blink);
+    ///         let joined = cx.join(self.blink).await;
+    ///         let itself = cx.join(cx.id()).await;
+    ///         cx.control().set(Some([never, joined, itself]));
+    ///     }
+    /// }
+    /// let seq: Sequencer<Got, 4> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let b = blink.id();
+    /// let main = seq.add(SeqConfig::new("main"), Main { blink: b }).unwrap();
+    /// let (id, got) = (main.id(), Got::default());
+    /// let mut sim = Sim::new(&seq, &got, Monitors::<Got, 1>::new());
+    /// sim.lane(main);
+    /// sim.lane(blink);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(got.get(), Some([
+    ///     Err(Error::NeverStarted(b)),
+    ///     Ok(Outcome::Completed),
+    ///     Err(Error::JoinWouldDeadlock(id)),
+    /// ]));
+    /// # }
+    /// ```
     pub fn join(&self, id: SeqId) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
         let (port, me) = (self.port, self.id);
         poll_fn(move |w| {
@@ -153,6 +358,33 @@ impl<'a, C> Cx<'a, C> {
     /// Waits, without a control block of its own, until `condition` holds; it is checked now
     /// and then at this sequence's polling period. Prefer a [`Step`] with an exit condition
     /// where the wait deserves its own timeout or monitors.
+    ///
+    /// Wait for a limit switch that the plant model closes at 4 ms:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, SeqConfig, Sequence, Sequencer};
+    /// #[derive(Default)]
+    /// struct Ctrl { switch: Cell<bool>, at: Cell<u64> }
+    /// struct Approach;
+    /// impl Sequence<Ctrl> for Approach {
+    ///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    ///         cx.wait_until(|cx| cx.control().switch.get()).await;
+    ///         cx.control().at.set(cx.now().as_ticks());
+    ///     }
+    /// }
+    /// let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    /// let approach = seq.add(SeqConfig::new("approach"), Approach).unwrap();
+    /// let (id, ctrl) = (approach.id(), Ctrl::default());
+    /// let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    /// sim.lane(approach);
+    /// sim.before_tick(|t, c| c.switch.set(t.as_ticks() >= 4_000));
+    /// sim.start(id).unwrap();
+    /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
+    /// assert_eq!(ctrl.at.get(), 4_000);
+    /// # }
+    /// ```
     pub fn wait_until<'s, F: FnMut(&Self) -> bool + 's>(
         &'s self,
         mut condition: F,
@@ -175,11 +407,71 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// The seed's `getSafetySystem()`: trigger public events, read the level.
+    ///
+    /// A sequence triggers a public event of the safety system connected with
+    /// [`Sequencer::set_safety_system`](crate::Sequencer::set_safety_system):
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::safety::{PublicEvent, SafetyHandle};
+    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// const START_MOTORS: PublicEvent = PublicEvent::new(1);
+    /// struct PowerUp;
+    /// impl Sequence<()> for PowerUp {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+    ///         if let Some(safety) = cx.safety_system() {
+    ///             safety.trigger(START_MOTORS);
+    ///         }
+    ///     }
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// seq.set_safety_system(&SAFETY);
+    /// let power_up = seq.add(SeqConfig::new("power up"), PowerUp).unwrap();
+    /// let id = power_up.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(power_up);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(SAFETY.pending_events(), 1 << 1); // the safety task's next cycle takes it
+    /// # }
+    /// ```
     pub fn safety_system(&self) -> Option<&'static crate::safety::SafetyHandle> {
         self.port.safety()
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByID`).
+    ///
+    /// Main starts `blink` non-blocking and reads its state:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, SeqId, Sequence,
+    ///             Sequencer, Wait};
+    /// type Seen = Cell<Option<RunningState>>;
+    /// struct Blink(Seq<Wait>);
+    /// impl Sequence<Seen> for Blink {
+    ///     async fn action(&mut self, cx: &Cx<'_, Seen>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// struct Main(SeqId);
+    /// impl Sequence<Seen> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Seen>) {
+    ///         let _ = cx.start(self.0);
+    ///         cx.control().set(cx.sequence_by_id(self.0).map(|h| h.state()));
+    ///     }
+    /// }
+    /// let seq: Sequencer<Seen, 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink(wait)).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main(blink.id())).unwrap();
+    /// let (id, seen) = (main.id(), Seen::default());
+    /// let mut sim = Sim::new(&seq, &seen, Monitors::<Seen, 1>::new());
+    /// sim.lane(main);
+    /// sim.lane(blink);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(seen.get(), Some(RunningState::Running));
+    /// # }
+    /// ```
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'a, C>> {
         self.port.info(id).map(|_| Handle::from_port(self.port, id))
     }

@@ -165,16 +165,62 @@ impl<S> Seq<S> {
     }
 
     /// The registered id.
+    ///
+    /// ```
+    /// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let settle = seq.register(SeqConfig::new("settle")).unwrap();
+    /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// assert_eq!(dwell.id().index(), 1); // registered after `settle`
+    /// assert_ne!(dwell.id(), settle);
+    /// ```
     pub fn id(&self) -> SeqId {
         self.head.id
     }
 
     /// The sequence object.
+    ///
+    /// ```
+    /// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// assert_eq!(dwell.body().duration(), Duration::from_millis(5));
+    /// ```
     pub fn body(&self) -> &S {
         &self.body
     }
 
     /// The sequence object, mutably (e.g. to set a target before running it).
+    ///
+    /// A caller sets a step's target before each run:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// struct MoveTo(i32);
+    /// impl Step<Cell<i32>> for MoveTo {
+    ///     fn action(&mut self, cx: &Cx<'_, Cell<i32>>) { cx.control().set(self.0) }
+    /// }
+    /// struct Scan(Seq<MoveTo>);
+    /// impl Sequence<Cell<i32>> for Scan {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<i32>>) {
+    ///         for target in [10, 20, 30] {
+    ///             self.0.body_mut().0 = target;
+    ///             let _ = cx.step(&mut self.0).await;
+    ///         }
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<i32>, 2> = Sequencer::new();
+    /// let move_to = seq.add(SeqConfig::new("move to"), MoveTo(0)).unwrap();
+    /// let scan = seq.add(SeqConfig::new("scan"), Scan(move_to)).unwrap();
+    /// let (id, setpoint) = (scan.id(), Cell::new(0));
+    /// let mut sim = Sim::new(&seq, &setpoint, Monitors::<Cell<i32>, 1>::new());
+    /// sim.lane(scan);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(setpoint.get(), 30);
+    /// # }
+    /// ```
     pub fn body_mut(&mut self) -> &mut S {
         &mut self.body
     }

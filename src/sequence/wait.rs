@@ -9,7 +9,8 @@ use crate::{Cx, Duration, Instant, Step};
 /// ```
 /// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
 /// let seq: Sequencer<(), 4> = Sequencer::new();
-/// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(200))).unwrap();
+/// let dwell = Wait::new(Duration::from_millis(200));
+/// let dwell = seq.add(SeqConfig::new("dwell"), dwell).unwrap();
 /// assert_eq!(dwell.body().duration(), Duration::from_millis(200));
 /// ```
 pub struct Wait {
@@ -19,6 +20,28 @@ pub struct Wait {
 
 impl Wait {
     /// A wait of `duration`.
+    ///
+    /// A 200 ms dwell, run by a sequence on the host simulator:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Main(Seq<Wait>);
+    /// impl Sequence<()> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let dwell = Wait::new(Duration::from_millis(200));
+    /// let dwell = seq.add(SeqConfig::new("dwell"), dwell).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main(dwell)).unwrap();
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// let done = sim.run_until_idle(Duration::from_secs(1)).unwrap();
+    /// assert_eq!(done.duration_since_epoch(), Duration::from_millis(200));
+    /// # }
+    /// ```
     pub const fn new(duration: Duration) -> Self {
         Wait {
             duration,
@@ -27,11 +50,24 @@ impl Wait {
     }
 
     /// The configured duration.
+    ///
+    /// ```
+    /// use rtseq::{Duration, Wait};
+    /// const SETTLE: Wait = Wait::new(Duration::from_millis(50));
+    /// assert_eq!(SETTLE.duration().as_millis(), 50);
+    /// ```
     pub const fn duration(&self) -> Duration {
         self.duration
     }
 
     /// Changes the duration for the next run.
+    ///
+    /// ```
+    /// use rtseq::{Duration, Wait};
+    /// let mut dwell = Wait::new(Duration::from_millis(50));
+    /// dwell.set_duration(Duration::from_secs(2));
+    /// assert_eq!(dwell.duration(), Duration::from_millis(2_000));
+    /// ```
     pub fn set_duration(&mut self, duration: Duration) {
         self.duration = duration;
     }

@@ -7,6 +7,18 @@ use crate::Counters;
 use crate::{Cause, Duration, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
 /// A callers list (`callerStack` or `callerStackBlocking`), outermost first.
+///
+/// A `heapless::Vec` of [`MAX_DEPTH`](crate::MAX_DEPTH) ids: no allocation, and room for
+/// every caller chain the sequencer accepts.
+///
+/// ```
+/// use rtseq::{CallerStack, SeqConfig, Sequencer, MAX_DEPTH};
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let main = seq.sequence_by_id(seq.register(SeqConfig::new("main")).unwrap()).unwrap();
+/// let callers: CallerStack = main.caller_stack();
+/// assert!(callers.is_empty()); // a main sequence has no caller
+/// assert_eq!(callers.capacity(), MAX_DEPTH);
+/// ```
 pub type CallerStack = heapless::Vec<SeqId, MAX_DEPTH>;
 
 /// A handle to one registered sequence: state, callers, exceptions, counters; start, pause,
@@ -44,16 +56,54 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// The sequence's id.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let homing = seq.register(SeqConfig::new("homing")).unwrap();
+    /// assert_eq!(seq.sequence_by_name("homing").unwrap().id(), homing);
+    /// ```
     pub fn id(&self) -> SeqId {
         self.id
     }
 
     /// The registered name.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("homing")).unwrap();
+    /// assert_eq!(seq.sequence_by_id(id).unwrap().name(), "homing");
+    /// ```
     pub fn name(&self) -> &'static str {
         self.port.info(self.id).map_or("", |i| i.name)
     }
 
     /// The current running state.
+    ///
+    /// A sequence that runs a 5 ms dwell, on the host simulator:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let h = seq.sequence_by_id(main.id()).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// assert_eq!(h.state(), RunningState::Idle);
+    /// sim.start(h.id()).unwrap();
+    /// assert_eq!(h.state(), RunningState::Running);
+    /// sim.run_for(Duration::from_millis(5));
+    /// assert_eq!(h.state(), RunningState::Terminated);
+    /// # }
+    /// ```
     pub fn state(&self) -> RunningState {
         self.port
             .info(self.id)
@@ -61,17 +111,105 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// `callerSequence`: who started the current (or last) run; `None` for a main sequence.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let w = wait.id();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let m = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(m).unwrap();
+    /// assert_eq!(sim.handle(w).unwrap().caller(), Some(m));
+    /// assert_eq!(sim.handle(m).unwrap().caller(), None); // started by a handle: a main sequence
+    /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
+    /// assert_eq!(sim.handle(w).unwrap().caller(), Some(m)); // the last run's caller
+    /// # }
+    /// ```
     pub fn caller(&self) -> Option<SeqId> {
         self.port.info(self.id).and_then(|i| i.caller)
     }
 
     /// `callerStack`: all callers up to the main sequence, outermost first, not itself.
+    ///
+    /// Main runs `axis` blocking, which steps `settle`:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Axis(Seq<Wait>);
+    /// impl Sequence<()> for Axis {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// struct Main(Seq<Axis>);
+    /// impl Sequence<()> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.run(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let settle = Wait::new(Duration::from_millis(5));
+    /// let settle = seq.add(SeqConfig::new("settle"), settle).unwrap();
+    /// let s = settle.id();
+    /// let axis = seq.add(SeqConfig::new("axis"), Axis(settle)).unwrap();
+    /// let a = axis.id();
+    /// let main = seq.add(SeqConfig::new("main"), Main(axis)).unwrap();
+    /// let m = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(m).unwrap();
+    /// assert_eq!(sim.handle(s).unwrap().caller_stack(), [m, a]);
+    /// assert_eq!(sim.handle(a).unwrap().caller_stack(), [m]);
+    /// # }
+    /// ```
     pub fn caller_stack(&self) -> CallerStack {
         self.callers().0
     }
 
     /// `callerStackBlocking`: the callers this sequence blocks (up to the first
     /// non-blocking start), outermost first.
+    ///
+    /// Main starts `blink` non-blocking (in its own lane) and joins it; `blink` steps `on`. `on`
+    /// blocks `blink`, but not `main`:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer,
+    ///             Wait};
+    /// struct Blink(Seq<Wait>);
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// struct Main(SeqId);
+    /// impl Sequence<()> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+    ///         if cx.start(self.0).is_ok() {
+    ///             let _ = cx.join(self.0).await;
+    ///         }
+    ///     }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let on = seq.add(SeqConfig::new("on"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let o = on.id();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink(on)).unwrap();
+    /// let b = blink.id();
+    /// let main = seq.add(SeqConfig::new("main"), Main(b)).unwrap();
+    /// let m = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.lane(blink);
+    /// sim.start(m).unwrap();
+    /// let on = sim.handle(o).unwrap();
+    /// assert_eq!(on.caller_stack(), [m, b]);
+    /// assert_eq!(on.caller_stack_blocking(), [b]);
+    /// assert!(sim.handle(b).unwrap().caller_stack_blocking().is_empty());
+    /// # }
+    /// ```
     pub fn caller_stack_blocking(&self) -> CallerStack {
         let (stack, blocking) = self.callers();
         let skip = stack.len().saturating_sub(usize::from(blocking));
@@ -108,16 +246,91 @@ impl<'a, C> Handle<'a, C> {
 
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
     /// sequence was aborted because of it.
+    ///
+    /// A sequence whose 3 ms timeout fires during a 10 ms dwell (the timeout's default behaviour
+    /// aborts it):
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let cfg = SeqConfig::new("main").timeout(Duration::from_millis(3));
+    /// let main = seq.add(cfg, Dwell(wait)).unwrap();
+    /// let h = seq.sequence_by_id(main.id()).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(h.id()).unwrap();
+    /// assert!(!h.exception_is_active());
+    /// sim.run_for(Duration::from_millis(3));
+    /// assert_eq!(h.state(), RunningState::Aborted);
+    /// assert!(h.exception_is_active());
+    /// # }
+    /// ```
     pub fn exception_is_active(&self) -> bool {
         self.port.info(self.id).is_some_and(|i| i.exception_active)
     }
 
     /// `activeException`: the monitor or timeout of the active (or last) exception.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let cfg = SeqConfig::new("main").timeout(Duration::from_millis(3));
+    /// let main = seq.add(cfg, Dwell(wait)).unwrap();
+    /// let h = seq.sequence_by_id(main.id()).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(h.id()).unwrap();
+    /// assert_eq!(h.active_exception(), None);
+    /// sim.run_for(Duration::from_millis(3));
+    /// assert_eq!(h.active_exception(), Some(Cause::Timeout(h.id())));
+    /// # }
+    /// ```
     pub fn active_exception(&self) -> Option<Cause> {
         self.port.info(self.id).and_then(|i| i.active_exception)
     }
 
     /// Runs, completions, skips, aborts, restarts, exceptions (feature `counters`).
+    ///
+    /// A sequence guarded by a pre-condition, started once with it false and once with it true:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// struct Guarded;
+    /// impl Sequence<Cell<bool>> for Guarded {
+    ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) {}
+    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool {
+    ///         cx.control().get()
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
+    /// let guarded = seq.add(SeqConfig::new("guarded"), Guarded).unwrap();
+    /// let h = seq.sequence_by_id(guarded.id()).unwrap();
+    /// let ready = Cell::new(false);
+    /// let mut sim = Sim::new(&seq, &ready, Monitors::<Cell<bool>, 1>::new());
+    /// sim.lane(guarded);
+    /// sim.start(h.id()).unwrap();
+    /// ready.set(true);
+    /// sim.start(h.id()).unwrap();
+    /// let c = h.counters();
+    /// assert_eq!((c.runs, c.skipped, c.completed, c.aborts), (2, 1, 1, 0));
+    /// # }
+    /// ```
     #[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
     #[cfg(feature = "counters")]
     pub fn counters(&self) -> Counters {
@@ -128,26 +341,141 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// The outcome of the last finished run.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Monitors, Outcome, SeqConfig, Sequence, Sequencer};
+    /// struct Guarded;
+    /// impl Sequence<Cell<bool>> for Guarded {
+    ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) {}
+    ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool {
+    ///         cx.control().get()
+    ///     }
+    /// }
+    /// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
+    /// let guarded = seq.add(SeqConfig::new("guarded"), Guarded).unwrap();
+    /// let h = seq.sequence_by_id(guarded.id()).unwrap();
+    /// let ready = Cell::new(false);
+    /// let mut sim = Sim::new(&seq, &ready, Monitors::<Cell<bool>, 1>::new());
+    /// sim.lane(guarded);
+    /// assert_eq!(h.last_outcome(), None); // never ran
+    /// sim.start(h.id()).unwrap();
+    /// assert_eq!(h.last_outcome(), Some(Outcome::Skipped)); // pre-condition false
+    /// ready.set(true);
+    /// sim.start(h.id()).unwrap();
+    /// assert_eq!(h.last_outcome(), Some(Outcome::Completed));
+    /// # }
+    /// ```
     pub fn last_outcome(&self) -> Option<Outcome> {
         self.port.info(self.id).and_then(|i| i.outcome)
     }
 
     /// Starts the sequence non-blocking in its lane, as a main sequence (no caller).
+    ///
+    /// A start needs a lane to run the sequence (here declared, as RTIC's `init` would before
+    /// the lane tasks run):
+    ///
+    /// ```
+    /// use rtseq::{Error, RunningState, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("blink")).unwrap();
+    /// let h = seq.sequence_by_id(id).unwrap();
+    /// assert_eq!(h.start(), Err(Error::NoLane(id)));
+    /// h.declare_lane().unwrap();
+    /// assert_eq!(h.start(), Ok(()));
+    /// assert_eq!(h.state(), RunningState::Running);
+    /// assert_eq!(h.start(), Err(Error::AlreadyRunning(id)));
+    /// ```
     pub fn start(&self) -> Result<(), Error> {
         self.port.start_in_lane(self.id, None)
     }
 
     /// Requests a pause of the sequence and the sequences it blocks (next tick).
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let w = wait.id();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let h = seq.sequence_by_id(main.id()).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// assert_eq!(h.pause(), Err(Error::NotRunning(h.id())));
+    /// sim.start(h.id()).unwrap();
+    /// h.pause().unwrap();
+    /// assert_eq!(h.state(), RunningState::Running); // until the next tick
+    /// sim.step();
+    /// assert_eq!(h.state(), RunningState::Paused);
+    /// // With the step it blocks:
+    /// assert_eq!(seq.sequence_by_id(w).unwrap().state(), RunningState::Paused);
+    /// # }
+    /// ```
     pub fn pause(&self) -> Result<(), Error> {
         self.port.request(self.id, Request::Pause)
     }
 
     /// Requests that a paused sequence resume where it stopped (next tick).
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let h = seq.sequence_by_id(main.id()).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(h.id()).unwrap();
+    /// assert_eq!(h.resume(), Err(Error::NotPaused(h.id())));
+    /// h.pause().unwrap();
+    /// sim.step(); // 1 ms: paused
+    /// h.resume().unwrap();
+    /// sim.step(); // 2 ms: running again
+    /// assert_eq!(h.state(), RunningState::Running);
+    /// # }
+    /// ```
     pub fn resume(&self) -> Result<(), Error> {
         self.port.request(self.id, Request::Resume)
     }
 
     /// Requests an abort of the sequence and all its sub-sequences (next tick).
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Outcome, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
+    /// let w = wait.id();
+    /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    /// let h = seq.sequence_by_id(main.id()).unwrap();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(h.id()).unwrap();
+    /// h.abort().unwrap();
+    /// sim.step();
+    /// assert_eq!(h.state(), RunningState::Aborted);
+    /// assert_eq!(h.last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
+    /// assert_eq!(seq.sequence_by_id(w).unwrap().state(), RunningState::Aborted); // with its step
+    /// # }
+    /// ```
     pub fn abort(&self) -> Result<(), Error> {
         self.port.request(self.id, Request::Abort)
     }
@@ -172,6 +500,20 @@ impl<'a, C> Handle<'a, C> {
 
     /// Declares that a lane runs this sequence, so it can be started non-blocking before the
     /// lane first ran (e.g. from RTIC `init`). [`lane`](crate::lane) declares it too.
+    ///
+    /// A sequencer with one lane slot (`W` = 1):
+    ///
+    /// ```
+    /// use rtseq::{lock::CriticalSection, Error, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 4, 64, CriticalSection, 1> = Sequencer::new();
+    /// let blink = seq.register(SeqConfig::new("blink")).unwrap();
+    /// let fan = seq.register(SeqConfig::new("fan")).unwrap();
+    /// let h = seq.sequence_by_id(blink).unwrap();
+    /// assert_eq!(h.declare_lane(), Ok(()));
+    /// assert_eq!(h.declare_lane(), Ok(())); // already has the slot
+    /// let fan_lane = seq.sequence_by_id(fan).unwrap().declare_lane();
+    /// assert_eq!(fan_lane, Err(Error::LaneCapacityExceeded(fan)));
+    /// ```
     pub fn declare_lane(&self) -> Result<(), Error> {
         self.port.declare_lane(self.id).map(|_| ())
     }

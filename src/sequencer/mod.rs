@@ -124,6 +124,25 @@ impl<C, const N: usize, const T: usize, const PRIORITY: u8, const BITS: u8, cons
     /// `PRIORITY` must be the highest RTIC priority at which any method of this sequencer is
     /// called — normally the tick's — and no method other than [`abort_all`](Self::abort_all)
     /// and [`safety_system`](Self::safety_system) may be called from above it.
+    ///
+    /// The tick runs at RTIC priority 2, the lanes at 1; the safety task at 3 only calls
+    /// [`abort_all`](Self::abort_all), which takes no lock:
+    ///
+    /// ```
+    /// use rtseq::lock::PriorityCeiling;
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// // SAFETY: no method but `abort_all` and `safety_system` is called above priority 2.
+    /// static SEQ: Sequencer<(), 8, 64, PriorityCeiling<2>> =
+    ///     unsafe { Sequencer::with_priority_ceiling() };
+    /// fn init() { // RTIC `init` (priority 0 with interrupts off): register the tree
+    ///     SEQ.register(SeqConfig::new("main")).unwrap();
+    /// }
+    /// fn safety_task() { // priority 3, above the ceiling
+    ///     SEQ.abort_all();
+    /// }
+    /// # let _ = init; // sections raise BASEPRI: run on the chip only
+    /// safety_task();
+    /// ```
     pub const unsafe fn with_priority_ceiling() -> Self {
         Self::empty()
     }

@@ -9,6 +9,14 @@ use crate::lock::Lock;
 use crate::{MonitorId, Monitors, SeqId, Sequencer};
 
 /// Who raises an exception: a monitor, or a sequence's timeout.
+///
+/// ```
+/// use rtseq::{MonitorId, Raiser, SeqId};
+/// let jam = Raiser::Monitor(MonitorId::from_index(0), "jam");
+/// assert_eq!(jam.to_string(), "monitor `jam`");
+/// let homing = Raiser::Timeout(SeqId::from_index(2), "homing");
+/// assert_eq!(homing.to_string(), "the timeout of `homing`");
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Raiser {
@@ -19,6 +27,17 @@ pub enum Raiser {
 }
 
 /// A configuration that cannot work as declared ([`Sequencer::validate`]).
+///
+/// ```
+/// use rtseq::{ConfigError, MonitorId, Raiser, SeqId};
+/// let e = ConfigError::ExceptionIsOwner {
+///     raiser: Raiser::Monitor(MonitorId::from_index(1), "following error"),
+/// };
+/// assert_eq!(
+///     e.to_string(),
+///     "monitor `following error` names its own owner as its exception sequence"
+/// );
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConfigError {

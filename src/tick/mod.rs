@@ -99,7 +99,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// short critical section.
     ///
     /// ```
-    /// use rtseq::{Instant, Monitors, SeqConfig, Sequencer};
+    /// use rtseq::{Instant, Monitors, Sequencer};
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let mut monitors: Monitors<(), 4> = Monitors::new();
     /// seq.tick(Instant::from_ticks(1_000), &(), &mut monitors);
