@@ -163,19 +163,15 @@ impl<'a, 's, C> Run<'a, 's, C> {
                     }
                     self.stage.set(Stage::PreCondition);
                 }
-                Stage::Begin => {
-                    let started = match self.caller {
-                        Some(caller) => port.start_blocking(id, caller),
-                        None => Ok(()),
-                    };
-                    match started {
-                        Ok(()) => self.stage.set(Stage::PreCondition),
-                        Err(e) => {
-                            self.result.set(Some(Err(e)));
-                            self.stage.set(Stage::Done);
-                        }
+                Stage::Begin => match self.caller.map(|caller| port.start_blocking(id, caller)) {
+                    Some(Ok(())) => self.stage.set(Stage::PreCondition),
+                    Some(Err(e)) => {
+                        self.result.set(Some(Err(e)));
+                        self.stage.set(Stage::Done);
                     }
-                }
+                    // Only a blocking run begins; a lane waits for a start.
+                    None => self.stage.set(Stage::Idle),
+                },
                 Stage::PreCondition => match port.clearance(id, w.waker()) {
                     Clearance::Go => {
                         if body.pre(&self.cx) {
