@@ -140,7 +140,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Port<C>
                 s.sets.poll_wait.set(id, false);
                 s.sets.poll_due.set(id, false);
             });
-            s.section(|s| s.finished(id, outcome));
+            if s.section(|s| s.finished(id, outcome)) {
+                s.section(|s| s.exception_ended(id));
+            }
             s.section(|s| s.release_joiners(id))
         });
     }

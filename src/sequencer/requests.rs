@@ -53,7 +53,7 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
             });
         }
         b.flags |= req.bit();
-        self.tick_has_work = true;
+        self.sets.requested.insert(id);
         Ok(())
     }
 }

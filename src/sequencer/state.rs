@@ -24,8 +24,6 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) sets: Sets,
     /// When the tick must look at the sequences next.
     pub(crate) polling: Polling,
-    /// Requests or finished exception sequences wait for the tick.
-    pub(crate) tick_has_work: bool,
     /// Exceptions whose sequence could not run (no lane, already running, too deep).
     pub(crate) exceptions_not_run: u16,
     /// The number of registered sequences: ids `0..count`.
@@ -66,6 +64,8 @@ pub(crate) struct Sets {
     pub(crate) poll_due: SeqSet,
     /// Waiting in a join (each block's `joins` says for which run).
     pub(crate) joining: SeqSet,
+    /// With a request, or whose exception sequence ended, for the next tick.
+    pub(crate) requested: SeqSet,
 }
 
 /// When the tick must look again, and whom it woke last time.
@@ -112,13 +112,13 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
                 poll_wait: SeqSet::EMPTY,
                 poll_due: SeqSet::EMPTY,
                 joining: SeqSet::EMPTY,
+                requested: SeqSet::EMPTY,
             },
             polling: Polling {
                 classes: Classes::new(),
                 next_due: Stamp(0),
                 woken: WakeMemo::NONE,
             },
-            tick_has_work: false,
             exceptions_not_run: 0,
             count: 0,
             lane_owners: [Link::NONE; W],
@@ -224,19 +224,29 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
         self.sets.paused.set(id, state == RunningState::Paused);
     }
 
-    /// After a run ended: store the outcome and report the end of an
-    /// exception sequence to the tick. The joiners are released separately
-    /// ([`release_joiners`](Self::release_joiners)).
-    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) {
+    /// After a run ended: store the outcome. True when the run was an exception sequence,
+    /// whose end is then reported ([`exception_ended`](Self::exception_ended)). The
+    /// joiners are released separately ([`release_joiners`](Self::release_joiners)).
+    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> bool {
+        let Ok(b) = self.block_mut(id) else {
+            return false;
+        };
+        b.outcome = Some(outcome);
+        b.has(flag::HANDLES_EXCEPTION)
+    }
+
+    /// The exception sequence `id` ended: its owner's pending behaviour is applied by the
+    /// next tick.
+    pub(crate) fn exception_ended(&mut self, id: SeqId) {
         let Ok(b) = self.block_mut(id) else {
             return;
         };
-        b.outcome = Some(outcome);
-        if b.has(flag::HANDLES_EXCEPTION) {
-            b.set(flag::HANDLES_EXCEPTION, false);
-            if let Some(ob) = b.caller.get().and_then(|o| self.block_mut(o).ok()) {
+        b.set(flag::HANDLES_EXCEPTION, false);
+        let owner = b.caller.get();
+        if let Some(o) = owner {
+            if let Ok(ob) = self.block_mut(o) {
                 ob.set(flag::EXCEPTION_DONE, true);
-                self.tick_has_work = true;
+                self.sets.requested.insert(o);
             }
         }
     }

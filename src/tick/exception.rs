@@ -3,6 +3,7 @@
 //! the requests queued since the last tick.
 
 use crate::lock::Lock;
+use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
@@ -98,13 +99,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     }
 
     /// Applies the behaviours of finished exception sequences and the pause, resume and
-    /// abort requests, sequence by sequence (out of line: one copy, whatever the monitor
-    /// tables the tick is instantiated for).
+    /// abort requests of the sequences `requested`, in id order (out of line: one copy,
+    /// whatever the monitor tables the tick is instantiated for).
     #[inline(never)]
-    pub(crate) fn apply_requests(&self, control: &C) {
-        let count = self.with(|s| s.count());
-        for i in 0..count {
-            let id = SeqId::from_index(i);
+    pub(crate) fn apply_requests(&self, control: &C, requested: SeqSet) {
+        for id in requested {
             // The requests, and the behaviour pending for an exception sequence that ended.
             let (req, done) = self.with(|s| {
                 let Ok(b) = s.block_mut(id) else {
