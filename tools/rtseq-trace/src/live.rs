@@ -71,7 +71,11 @@ impl Live {
                 )
             }
             Line::Event(k) => match run.events.get(k) {
-                Some(e) => format!("{} {}", secs(e.time_us), e.text),
+                Some(e) => format!(
+                    "{} {}",
+                    secs(e.time_us),
+                    e.text.split_whitespace().collect::<Vec<_>>().join(" ")
+                ),
                 None => return,
             },
             Line::Level => match run.levels.last() {
@@ -164,7 +168,7 @@ impl Live {
             ];
             if let Some(Some(x)) = self.exceptions.get(i) {
                 spans.push(Span::styled(
-                    format!(" exception: {x}"),
+                    format!(" exception: {}", x.strip_prefix("monitor ").unwrap_or(x)),
                     Style::default().fg(Color::Red),
                 ));
             }

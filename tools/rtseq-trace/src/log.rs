@@ -201,8 +201,13 @@ impl LogParser {
         let name = name.trim();
         let seq = self.run.sequence_index(name);
         let cause = cause.trim().to_string();
-        if cause == "start" {
-            self.guess_caller(seq, name);
+        if let Some(c) = self.hints.caller(name).map(str::to_string) {
+            let c = self.run.sequence_index(&c);
+            if let Some(s) = self.run.sequences.get_mut(seq) {
+                s.caller = (c != seq).then_some(c);
+            }
+        } else if cause == "start" {
+            self.guess_caller(seq);
         }
         self.run.transitions.push(Transition {
             time_us: t,
@@ -214,19 +219,16 @@ impl LogParser {
         Line::Transition(self.run.transitions.len() - 1)
     }
 
-    fn guess_caller(&mut self, seq: usize, name: &str) {
-        let caller = match self.hints.caller(name) {
-            Some(c) => Some(self.run.sequence_index(c)),
-            None => self.run.transitions.last().and_then(|p| {
-                if p.seq == seq {
-                    None
-                } else if p.to.is_active() {
-                    Some(p.seq)
-                } else {
-                    self.run.sequences.get(p.seq).and_then(|s| s.caller)
-                }
-            }),
-        };
+    fn guess_caller(&mut self, seq: usize) {
+        let caller = self.run.transitions.last().and_then(|p| {
+            if p.seq == seq {
+                None
+            } else if p.to.is_active() {
+                Some(p.seq)
+            } else {
+                self.run.sequences.get(p.seq).and_then(|s| s.caller)
+            }
+        });
         if let (Some(c), Some(s)) = (caller, self.run.sequences.get_mut(seq)) {
             if c != seq {
                 s.caller = Some(c);
@@ -302,7 +304,8 @@ pub fn split_line(line: &str) -> (Option<u64>, Option<&str>) {
     if let Some((w, r)) = first_word(rest) {
         let level = w.trim_start_matches('[').trim_end_matches(']');
         if matches!(level, "TRACE" | "DEBUG" | "INFO" | "WARN" | "ERROR") {
-            rest = r;
+            // `[INFO ]`: the bracket may close after a blank.
+            rest = r.strip_prefix(']').map_or(r, str::trim_start);
         }
     }
     (time, Some(rest))
