@@ -119,7 +119,7 @@ impl Live {
         let [head, body] =
             Layout::vertical([Constraint::Length(3), Constraint::Min(3)]).areas(f.area());
         let [left, right] =
-            Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)])
+            Layout::horizontal([Constraint::Percentage(45), Constraint::Percentage(55)])
                 .areas(body);
         let level = self.level().unwrap_or("?");
         let status = if self.ended {
