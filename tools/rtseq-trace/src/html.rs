@@ -141,7 +141,11 @@ pub fn render(run: &Run, title: &str) -> String {
             l.time_us,
             e.saturating_sub(l.time_us),
             level_colour(&l.level),
-            esc(&format!("safety level {} from {} s", l.level, secs(l.time_us)))
+            esc(&format!(
+                "safety level {} from {} s",
+                l.level,
+                secs(l.time_us)
+            ))
         );
     }
     data.push_str("</g>");
@@ -211,7 +215,12 @@ pub fn render(run: &Run, title: &str) -> String {
             r#"<polyline class="signal sig-{}" points="{}"><title>{}</title></polyline>"#,
             crate::vcd::sanitize(&s.name),
             points.join(" "),
-            esc(&format!("{} [{}], {} samples", s.name, s.unit, s.samples.len()))
+            esc(&format!(
+                "{} [{}], {} samples",
+                s.name,
+                s.unit,
+                s.samples.len()
+            ))
         );
         for (t, v) in &s.samples {
             let _ = write!(

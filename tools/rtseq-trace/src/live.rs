@@ -152,7 +152,11 @@ impl Live {
         let width = run
             .tree_order()
             .iter()
-            .filter_map(|(i, d)| run.sequences.get(*i).map(|s| s.name.chars().count() + 2 * d))
+            .filter_map(|(i, d)| {
+                run.sequences
+                    .get(*i)
+                    .map(|s| s.name.chars().count() + 2 * d)
+            })
             .max()
             .unwrap_or(0);
         let mut lines = Vec::new();

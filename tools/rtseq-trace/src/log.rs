@@ -160,7 +160,12 @@ impl LogParser {
                 };
                 self.event(t, EventKind::Request, name, msg)
             }
-            "move" => self.event(t, EventKind::Move, rest.split(':').next().unwrap_or(""), msg),
+            "move" => self.event(
+                t,
+                EventKind::Move,
+                rest.split(':').next().unwrap_or(""),
+                msg,
+            ),
             "reaction" => self.event(t, EventKind::Note, "reaction", msg),
             "tree" => {
                 if self.hints.add_line(rest) {
@@ -357,7 +362,10 @@ mod tests {
         assert_eq!(names, ["main", "seek end stop", "moves"]);
         assert_eq!(r.sequences[1].caller, Some(0));
         let t = &r.transitions[2];
-        assert_eq!((t.time_us, t.from, t.to), (2_655_017, State::Running, State::Aborting));
+        assert_eq!(
+            (t.time_us, t.from, t.to),
+            (2_655_017, State::Running, State::Aborting)
+        );
         assert_eq!(t.cause, "monitor following error");
         assert_eq!(r.events[0].name, "following error");
         assert_eq!(r.events[1].kind, EventKind::Input);

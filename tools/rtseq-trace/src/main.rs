@@ -130,10 +130,10 @@ fn run(cli: Cli) -> Result<(), String> {
             let text = read_input(input.as_deref())?;
             let run = read_run(&text, hints(tree.as_deref())?)?;
             let title = title.unwrap_or_else(|| {
-                let name = input
-                    .as_deref()
-                    .and_then(Path::file_name)
-                    .map_or_else(|| String::from("stdin"), |n| n.to_string_lossy().into_owned());
+                let name = input.as_deref().and_then(Path::file_name).map_or_else(
+                    || String::from("stdin"),
+                    |n| n.to_string_lossy().into_owned(),
+                );
                 format!("rtseq timeline: {name}")
             });
             if let Some(p) = &html_out {

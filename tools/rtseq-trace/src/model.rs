@@ -404,10 +404,7 @@ impl Run {
             if matches!(t.cause.as_str(), "pause" | "resume" | "abort" | "abort all") {
                 let key = (t.time_us, t.cause.clone());
                 if last.as_ref() != Some(&key) {
-                    let name = self
-                        .sequences
-                        .get(t.seq)
-                        .map_or("?", |s| s.name.as_str());
+                    let name = self.sequences.get(t.seq).map_or("?", |s| s.name.as_str());
                     out.push(Event {
                         time_us: t.time_us,
                         kind: EventKind::Request,

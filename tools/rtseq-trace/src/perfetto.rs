@@ -25,7 +25,8 @@ pub const EVENTS_TID: usize = 100_001;
 
 /// The trace events of `run`.
 pub fn events(run: &Run) -> Vec<Value> {
-    let mut ev = vec![json!({"ph": "M", "pid": 1, "name": "process_name", "args": {"name": "rtseq"}})];
+    let mut ev =
+        vec![json!({"ph": "M", "pid": 1, "name": "process_name", "args": {"name": "rtseq"}})];
     for (row, (i, depth)) in run.tree_order().into_iter().enumerate() {
         let Some(s) = run.sequences.get(i) else {
             continue;
@@ -48,7 +49,10 @@ pub fn events(run: &Run) -> Vec<Value> {
             }));
         }
         for sp in run.state_spans(i) {
-            if matches!(sp.state, State::Paused | State::Aborting | State::Restarting) {
+            if matches!(
+                sp.state,
+                State::Paused | State::Aborting | State::Restarting
+            ) {
                 ev.push(json!({
                     "ph": "X", "pid": 1, "tid": tid, "name": sp.state.name(), "cat": "state",
                     "ts": sp.start_us, "dur": sp.end_us - sp.start_us,

@@ -22,8 +22,7 @@ pub fn is_trace(text: &str) -> bool {
 }
 
 fn field<'a>(v: &'a Value, key: &str, line: usize) -> Result<&'a Value, String> {
-    v.get(key)
-        .ok_or_else(|| format!("line {line}: no `{key}`"))
+    v.get(key).ok_or_else(|| format!("line {line}: no `{key}`"))
 }
 
 fn u64_of(v: &Value, key: &str, line: usize) -> Result<u64, String> {
@@ -46,7 +45,10 @@ fn opt_index(v: &Value, key: &str) -> Option<usize> {
 
 /// Reads a trace file.
 pub fn read(text: &str) -> Result<Run, String> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     let (_, head) = lines.next().ok_or("empty trace file")?;
     let head: Value = serde_json::from_str(head).map_err(|e| format!("line 1: {e}"))?;
     if head.get("format").and_then(Value::as_str) != Some(FORMAT) {
@@ -135,7 +137,9 @@ pub fn read(text: &str) -> Result<Run, String> {
                     };
                     format!("timeout of {name}")
                 }
-                other => other.replace('_', " ").replace("pre condition", "pre-condition"),
+                other => other
+                    .replace('_', " ")
+                    .replace("pre condition", "pre-condition"),
             };
             run.transitions.push(Transition {
                 time_us: t,
@@ -196,7 +200,9 @@ fn cause_fields(cause: &str, obj: &mut Map<String, Value>) {
             obj.insert("name".into(), json!(name));
         }
         None => {
-            let c = cause.replace("pre-condition", "pre_condition").replace(' ', "_");
+            let c = cause
+                .replace("pre-condition", "pre_condition")
+                .replace(' ', "_");
             obj.insert("cause".into(), json!(c));
         }
     }

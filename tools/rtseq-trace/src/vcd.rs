@@ -19,7 +19,13 @@ use crate::model::{EventKind, Run, State};
 pub fn sanitize(s: &str) -> String {
     let out: String = s
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     if out.is_empty() {
         String::from("_")
@@ -81,7 +87,11 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
         n += 1;
         code(n - 1)
     };
-    writeln!(out, "$version rtseq-trace {} $end", env!("CARGO_PKG_VERSION"))?;
+    writeln!(
+        out,
+        "$version rtseq-trace {} $end",
+        env!("CARGO_PKG_VERSION")
+    )?;
     writeln!(out, "$timescale 1 us $end")?;
     writeln!(out, "$scope module rtseq $end")?;
     // Changes: (time, order within the time, id, value). Pulse ends (order 0) come before

@@ -25,7 +25,11 @@ fn sources() -> Vec<(&'static str, Run)> {
 #[test]
 fn the_fixture_is_the_following_error_run() {
     let run = common::fixture_run();
-    let moves = run.sequences.iter().position(|s| s.name == "moves").unwrap();
+    let moves = run
+        .sequences
+        .iter()
+        .position(|s| s.name == "moves")
+        .unwrap();
     let to: Vec<State> = run
         .transitions
         .iter()
@@ -93,9 +97,9 @@ fn vcd_has_every_transition_at_its_time() {
                 }
                 ::vcd::Command::ChangeVector(id, v) if !in_dump => {
                     if let Some(n) = codes.get(&id) {
-                        let code = v.iter().fold(0u8, |a, b| {
-                            (a << 1) | u8::from(b == ::vcd::Value::V1)
-                        });
+                        let code = v
+                            .iter()
+                            .fold(0u8, |a, b| (a << 1) | u8::from(b == ::vcd::Value::V1));
                         coded.entry(n.clone()).or_default().push((t, code));
                     }
                 }
@@ -162,7 +166,12 @@ fn perfetto_has_every_transition_at_its_time() {
                 .map(|e| {
                     let ts = e["ts"].as_u64().unwrap();
                     let end = ts + e["dur"].as_u64().unwrap();
-                    (ts, end, e["name"].as_str().unwrap().to_string(), e["args"].clone())
+                    (
+                        ts,
+                        end,
+                        e["name"].as_str().unwrap().to_string(),
+                        e["args"].clone(),
+                    )
                 })
                 .collect()
         };
@@ -179,9 +188,10 @@ fn perfetto_has_every_transition_at_its_time() {
                 );
             }
             if !t.to.is_active() {
-                let r = runs.iter().find(|r| r.1 == t.time_us).unwrap_or_else(|| {
-                    panic!("{ctx}: no run ends")
-                });
+                let r = runs
+                    .iter()
+                    .find(|r| r.1 == t.time_us)
+                    .unwrap_or_else(|| panic!("{ctx}: no run ends"));
                 let outcome = r.3["outcome"].as_str().unwrap();
                 match t.to {
                     State::Terminated => assert_eq!(outcome, "completed", "{ctx}"),

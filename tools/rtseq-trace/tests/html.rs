@@ -106,7 +106,11 @@ fn timeline_in_headless_chromium() {
     // The screenshot is not blank.
     let png_path = dir.join("timeline.png");
     let shot = format!("--screenshot={}", png_path.display());
-    browse(&dir.join("profile-shot"), &[&shot, "--window-size=1400,800"], &page);
+    browse(
+        &dir.join("profile-shot"),
+        &[&shot, "--window-size=1400,800"],
+        &page,
+    );
     let decoder = png::Decoder::new(std::io::BufReader::new(
         std::fs::File::open(&png_path).unwrap(),
     ));
@@ -129,7 +133,10 @@ fn timeline_in_headless_chromium() {
         }
     }
     assert_eq!((info.width, info.height), (1400, 800));
-    assert!(ink * 10 > total, "screenshot nearly blank: {ink} of {total} pixels");
+    assert!(
+        ink * 10 > total,
+        "screenshot nearly blank: {ink} of {total} pixels"
+    );
     assert!(green * 50 > total, "few Running pixels: {green} of {total}");
 }
 

@@ -21,12 +21,28 @@ fn host_trace_file_equals_the_qemu_log() {
         .filter(|t| {
             !(name(&host, t.seq) == "blink" && matches!(t.cause.as_str(), "start" | "completed"))
         })
-        .map(|t| (t.time_us / 1000, name(&host, t.seq), t.from, t.to, t.cause.clone()))
+        .map(|t| {
+            (
+                t.time_us / 1000,
+                name(&host, t.seq),
+                t.from,
+                t.to,
+                t.cause.clone(),
+            )
+        })
         .collect();
     let log_tr: Vec<_> = log
         .transitions
         .iter()
-        .map(|t| (t.time_us / 1000, name(&log, t.seq), t.from, t.to, t.cause.clone()))
+        .map(|t| {
+            (
+                t.time_us / 1000,
+                name(&log, t.seq),
+                t.from,
+                t.to,
+                t.cause.clone(),
+            )
+        })
         .collect();
     assert_eq!(host_tr, log_tr);
     // The simulator's times are the ticks' (whole ms).

@@ -19,8 +19,7 @@ pub fn manifest_dir() -> PathBuf {
 
 /// `./x demo --fault following-error@2.5s`, decoded, as printed (qemu-run's stdout).
 pub fn fixture_text() -> String {
-    std::fs::read_to_string(manifest_dir().join("tests/fixtures/demo-following-error.log"))
-        .unwrap()
+    std::fs::read_to_string(manifest_dir().join("tests/fixtures/demo-following-error.log")).unwrap()
 }
 
 /// The callers of the demo's sequences (`demo.tree`, what `./x demo` passes).
@@ -37,10 +36,7 @@ pub fn fixture_run() -> Run {
 pub fn scratch(name: &str) -> PathBuf {
     static N: AtomicUsize = AtomicUsize::new(0);
     let n = N.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!(
-        "rtseq-trace-{}-{n}-{name}",
-        std::process::id()
-    ));
+    let dir = std::env::temp_dir().join(format!("rtseq-trace-{}-{n}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
@@ -51,8 +47,7 @@ pub fn host_following_error_trace(end_ms: u64) -> PathBuf {
     type Seqr = Sequencer<ControlSystem, { app::SEQUENCES }, 256>;
     let config = AppConfig::DEMO;
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
-    let cs: &'static ControlSystem =
-        Box::leak(Box::new(ControlSystem::new(config.start_position)));
+    let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
     cs.set_fault_plan(FaultPlan::NONE.with(Fault::FollowingError {
         at: Instant::from_ticks(2_500_000),
     }));
