@@ -7,9 +7,11 @@
 //! one plot each (class `signal`). Markers are vertical lines across the rows: a monitor
 //! firing (class `marker monitor-fire`), a request (`marker request`), a fault
 //! (`marker fault`), a tripped input (`marker input`). Every span and marker has an SVG
-//! `<title>` with its details (hover). Zoom: mouse wheel, drag to pan, the buttons; the data
+//! `<title>` with its details (hover); a span shorter than 2 pixels is drawn 2 pixels wide
+//! (its title has the exact times). Zoom: mouse wheel, drag to pan, the buttons; the data
 //! live in an inner `<svg>` whose `viewBox` is the visible time window (in µs), so the
-//! script only changes the `viewBox` and redraws the axis.
+//! script only changes the `viewBox` and redraws the axis. `page.html#t=2.4,2.8` opens on
+//! the window from 2.4 s to 2.8 s.
 
 use std::fmt::Write as _;
 use std::io::Write;
@@ -96,6 +98,8 @@ pub fn render(run: &Run, title: &str) -> String {
             esc(&s.name)
         );
         let runs = run.run_spans(*i);
+        // Short states (a restart, an abort) are drawn last, on top, at least 2 px wide.
+        let mut on_top = String::new();
         for sp in run.state_spans(*i) {
             if sp.state == State::Idle {
                 continue;
@@ -115,15 +119,24 @@ pub fn render(run: &Run, title: &str) -> String {
                 sp.cause.as_deref().unwrap_or("-"),
                 outcome
             );
+            let layer = if matches!(
+                sp.state,
+                State::Paused | State::Aborting | State::Restarting
+            ) {
+                &mut on_top
+            } else {
+                &mut data
+            };
+            let w = sp.end_us - sp.start_us;
             let _ = write!(
-                data,
-                r#"<rect class="span {}" x="{}" y="{y:.1}" width="{}" height="{ROW_H}"><title>{}</title></rect>"#,
+                layer,
+                r#"<rect class="span {}" x="{}" y="{y:.1}" width="{w}" data-w="{w}" height="{ROW_H}"><title>{}</title></rect>"#,
                 state_class(sp.state),
                 sp.start_us,
-                sp.end_us - sp.start_us,
                 esc(&tip)
             );
         }
+        data.push_str(&on_top);
         data.push_str("</g>");
     }
     // Safety level.
@@ -295,11 +308,13 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 (function () {{
   var END = {end}, H = {height:.0}, LW = {LABEL_W}, PW = {PLOT_W}, AY = {axis_y:.1};
   var plot = document.getElementById('plot'), axis = document.getElementById('axis');
-  var t0 = 0, span = END;
+  var t0 = 0, span = END, spans = Array.prototype.slice.call(plot.querySelectorAll('rect.span'));
   function clamp() {{ span = Math.max(10, Math.min(END, span)); t0 = Math.max(0, Math.min(END - span, t0)); }}
   function draw() {{
     clamp();
     plot.setAttribute('viewBox', t0 + ' 0 ' + span + ' ' + H);
+    var min = 2 * span / PW;
+    spans.forEach(function (r) {{ r.setAttribute('width', Math.max(+r.getAttribute('data-w'), min)); }});
     var raw = span / 8, p = Math.pow(10, Math.floor(Math.log10(raw))), step = p;
     [1, 2, 5, 10].forEach(function (m) {{ if (p * m <= raw) step = p * m; }});
     var s = '', ns = 'http://www.w3.org/2000/svg';
@@ -332,6 +347,9 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
   document.getElementById('zin').onclick = function () {{ zoom(0.5, 0.5); }};
   document.getElementById('zout').onclick = function () {{ zoom(2, 0.5); }};
   document.getElementById('zall').onclick = function () {{ t0 = 0; span = END; draw(); }};
+  // `page.html#t=2.4,2.8` opens on that window (seconds).
+  var m = /t=([0-9.]+),([0-9.]+)/.exec(location.hash);
+  if (m) {{ t0 = parseFloat(m[1]) * 1e6; span = parseFloat(m[2]) * 1e6 - t0; }}
   draw();
 }})();
 </script>
