@@ -1,9 +1,9 @@
 //! The decoded defmt log of a firmware (the motor demo's line formats), line by line.
 //!
 //! A line is `[TIME] [LEVEL] MESSAGE`: `TIME` in seconds with up to 6 decimals (the
-//! firmware's virtual time, as `qemu-run` and `defmt-print` show it; `probe-rs run` too,
-//! optionally in brackets), `LEVEL` one of `TRACE DEBUG INFO WARN ERROR` (optionally in
-//! brackets). Lines without a time get the previous line's. Location lines (`└─ ...`) and
+//! firmware's virtual time, as `qemu-run` and `defmt-print` show it), or `NNNms` / `NNNus`
+//! (a firmware's own timestamp format, as `probe-rs run` shows it), optionally in brackets;
+//! `LEVEL` one of `TRACE DEBUG INFO WARN ERROR` (optionally in brackets). Lines without a time get the previous line's. Location lines (`└─ ...`) and
 //! messages the tool does not know are skipped. The messages read (see
 //! `boards/qemu-f405/src/bin/demo.rs`):
 //!
@@ -301,7 +301,7 @@ pub fn split_line(line: &str) -> (Option<u64>, Option<&str>) {
     }
     let mut time = None;
     if let Some((w, r)) = first_word(rest) {
-        if let Some(t) = parse_secs(w.trim_start_matches('[').trim_end_matches(']')) {
+        if let Some(t) = parse_time(w.trim_start_matches('[').trim_end_matches(']')) {
             time = Some(t);
             rest = r;
         }
@@ -320,6 +320,20 @@ fn first_word(s: &str) -> Option<(&str, &str)> {
     let s = s.trim_start();
     let (w, r) = s.split_once(char::is_whitespace).unwrap_or((s, ""));
     (!w.is_empty()).then_some((w, r.trim_start()))
+}
+
+/// A timestamp as µs: `2.514011` (seconds, up to 6 decimals; qemu-run, defmt-print) or
+/// `2514ms` / `2514011us` (a firmware's own `defmt::timestamp!` format, as `probe-rs run`
+/// shows it; the NUCLEO board's is `{=u32}ms`).
+pub fn parse_time(s: &str) -> Option<u64> {
+    let digits = |d: &str| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit());
+    if let Some(ms) = s.strip_suffix("ms").filter(|d| digits(d)) {
+        return ms.parse::<u64>().ok()?.checked_mul(1000);
+    }
+    if let Some(us) = s.strip_suffix("us").filter(|d| digits(d)) {
+        return us.parse().ok();
+    }
+    parse_secs(s)
 }
 
 /// `2.514011` (seconds, up to 6 decimals) as µs.
@@ -381,6 +395,16 @@ mod tests {
         assert_eq!(parse_secs("0.000007"), Some(7));
         assert_eq!(parse_secs("INFO"), None);
         assert_eq!(parse_secs("1.0000001"), None);
+        assert_eq!(parse_time("2514ms"), Some(2_514_000));
+        assert_eq!(parse_time("17us"), Some(17));
+        assert_eq!(parse_time("ms"), None);
+        assert_eq!(
+            split_line("2514ms INFO  seq  move  Running -> Aborted (abort)"),
+            (
+                Some(2_514_000),
+                Some("seq  move  Running -> Aborted (abort)")
+            )
+        );
     }
 
     #[test]
