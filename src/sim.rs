@@ -803,3 +803,129 @@ impl<
         }
     }
 }
+
+/// Saving the trace in the `rtseq-trace` tool's format (JSON lines, `docs/trace-format.md`).
+impl<
+        'a,
+        C,
+        const N: usize,
+        const T: usize,
+        const M: usize,
+        K: crate::Condition<C>,
+        const W: usize,
+    > Sim<'a, C, N, T, M, K, W>
+{
+    /// Writes the trace to `path` in the format of the `rtseq-trace` tool
+    /// (`docs/trace-format.md`): a header with the sequences (id, name, caller of the last
+    /// run) and the monitors (id, name, owner), then one line per transition. A failing
+    /// test can leave a run to look at: `rtseq-trace render run.jsonl --html run.html`.
+    ///
+    /// ```
+    /// use rtseq::sim::Sim;
+    /// use rtseq::{Cx, Duration, Monitors, SeqConfig, Sequence, Sequencer, Wait};
+    /// struct Main { dwell: rtseq::Seq<Wait> }
+    /// impl Sequence<()> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+    ///         let _ = cx.step(&mut self.dwell).await;
+    ///     }
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(3))).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main { dwell }).unwrap();
+    /// let m = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.start(m).unwrap();
+    /// sim.run_for(Duration::from_millis(5));
+    /// let path = std::env::temp_dir().join("rtseq-doc-trace.jsonl");
+    /// sim.save_trace(&path).unwrap();
+    /// let text = std::fs::read_to_string(&path).unwrap();
+    /// assert!(text.starts_with(r#"{"format":"rtseq-trace","version":1,"#));
+    /// // dwell (id 0) was started by main (id 1); main is a main sequence.
+    /// assert!(text.contains(r#"{"id":0,"name":"dwell","caller":1}"#));
+    /// assert!(text.contains(r#"{"t":3000,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}"#));
+    /// ```
+    pub fn save_trace(&self, path: impl AsRef<std::path::Path>) -> std::io::Result<()> {
+        let file = std::fs::File::create(path)?;
+        let mut out = std::io::BufWriter::new(file);
+        self.write_trace(&mut out)?;
+        std::io::Write::flush(&mut out)
+    }
+
+    /// Writes the trace in the format of [`save_trace`](Self::save_trace) to `out`.
+    pub fn write_trace(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
+        use crate::{Cause, MonitorId};
+        use std::string::String;
+        fn quoted(s: &str) -> String {
+            let mut q = String::from("\"");
+            for c in s.chars() {
+                match c {
+                    '"' => q.push_str("\\\""),
+                    '\\' => q.push_str("\\\\"),
+                    c if u32::from(c) < 0x20 => {
+                        q.push_str(&std::format!("\\u{:04x}", u32::from(c)))
+                    }
+                    c => q.push(c),
+                }
+            }
+            q.push('"');
+            q
+        }
+        let opt = |id: Option<usize>| id.map_or(String::from("null"), |i| std::format!("{i}"));
+        let mut head = std::format!(
+            "{{\"format\":\"rtseq-trace\",\"version\":1,\"time_unit\":\"us\",\"end\":{},\"lost\":{},\"sequences\":[",
+            self.now.as_ticks(),
+            self.lost
+        );
+        for i in 0..self.sequencer.len() {
+            let id = SeqId::from_index(i);
+            let (name, caller) = self
+                .handle(id)
+                .map_or(("", None), |h| (h.name(), h.caller().map(SeqId::index)));
+            let sep = if i == 0 { "" } else { "," };
+            head.push_str(&std::format!(
+                "{sep}{{\"id\":{i},\"name\":{},\"caller\":{}}}",
+                quoted(name),
+                opt(caller)
+            ));
+        }
+        head.push_str("],\"monitors\":[");
+        for i in 0..self.monitors.len() {
+            let m = MonitorId::from_index(i);
+            let name = self.monitors.name(m).unwrap_or("");
+            let owner = self.monitors.owner(m).map(SeqId::index);
+            let sep = if i == 0 { "" } else { "," };
+            head.push_str(&std::format!(
+                "{sep}{{\"id\":{i},\"name\":{},\"owner\":{}}}",
+                quoted(name),
+                opt(owner)
+            ));
+        }
+        head.push_str("]}");
+        std::writeln!(out, "{head}")?;
+        for t in &self.trace {
+            let cause = match t.cause {
+                Cause::Start => String::from("\"start\""),
+                Cause::PreConditionFalse => String::from("\"pre_condition_false\""),
+                Cause::Completed => String::from("\"completed\""),
+                Cause::Pause => String::from("\"pause\""),
+                Cause::Resume => String::from("\"resume\""),
+                Cause::Abort => String::from("\"abort\""),
+                Cause::AbortAll => String::from("\"abort_all\""),
+                Cause::Monitor(m) => std::format!("\"monitor\",\"monitor\":{}", m.index()),
+                Cause::Timeout(s) => std::format!("\"timeout\",\"of\":{}", s.index()),
+                Cause::Restart => String::from("\"restart\""),
+                Cause::Dropped => String::from("\"dropped\""),
+            };
+            std::writeln!(
+                out,
+                "{{\"t\":{},\"seq\":{},\"from\":\"{:?}\",\"to\":\"{:?}\",\"cause\":{cause}}}",
+                t.time.as_ticks(),
+                t.sequence.index(),
+                t.from,
+                t.to
+            )?;
+        }
+        Ok(())
+    }
+}

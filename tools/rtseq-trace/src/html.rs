@@ -1,0 +1,362 @@
+//! A self-contained HTML timeline: one SVG, a little CSS and a little inline script, no
+//! network.
+//!
+//! Layout, top to bottom on one time axis: one row per sequence (class `seq-row`, in tree
+//! order, indented by caller) coloured by running state (class `span s-<state>`); the
+//! safety level as a band (class `level-band`); the signals (position, velocity, current),
+//! one plot each (class `signal`). Markers are vertical lines across the rows: a monitor
+//! firing (class `marker monitor-fire`), a request (`marker request`), a fault
+//! (`marker fault`), a tripped input (`marker input`). Every span and marker has an SVG
+//! `<title>` with its details (hover); a span shorter than 2 pixels is drawn 2 pixels wide
+//! (its title has the exact times). Zoom: mouse wheel, drag to pan, the buttons; the data
+//! live in an inner `<svg>` whose `viewBox` is the visible time window (in µs), so the
+//! script only changes the `viewBox` and redraws the axis. `page.html#t=2.4,2.8` opens on
+//! the window from 2.4 s to 2.8 s.
+
+use std::fmt::Write as _;
+use std::io::Write;
+
+use crate::model::{secs, EventKind, Run, State};
+
+const LABEL_W: f64 = 190.0;
+const PLOT_W: f64 = 1180.0;
+const ROW_H: f64 = 18.0;
+const ROW_GAP: f64 = 3.0;
+const TOP: f64 = 24.0;
+const SIGNAL_H: f64 = 70.0;
+const SIGNAL_GAP: f64 = 16.0;
+
+/// Escapes text for HTML and XML.
+pub fn esc(s: &str) -> String {
+    let mut o = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => o.push_str("&amp;"),
+            '<' => o.push_str("&lt;"),
+            '>' => o.push_str("&gt;"),
+            '"' => o.push_str("&quot;"),
+            '\'' => o.push_str("&#39;"),
+            c => o.push(c),
+        }
+    }
+    o
+}
+
+/// The colours of the safety levels, in order of first appearance.
+const LEVEL_COLOURS: [&str; 6] = [
+    "#9e9e9e", "#f2c14e", "#5fb0e8", "#e0533d", "#8bc34a", "#b084cc",
+];
+
+fn state_class(s: State) -> String {
+    format!("s-{}", s.name().to_lowercase())
+}
+
+/// Writes the timeline of `run`, titled `title`.
+pub fn write(run: &Run, title: &str, out: &mut impl Write) -> std::io::Result<()> {
+    out.write_all(render(run, title).as_bytes())
+}
+
+/// The timeline of `run` as one HTML document.
+pub fn render(run: &Run, title: &str) -> String {
+    let end = run.end_us.max(1) as f64;
+    let order = run.tree_order();
+    let rows = order.len() as f64;
+    let level_y = TOP + rows * (ROW_H + ROW_GAP) + 6.0;
+    let rows_bottom = level_y + ROW_H;
+    let sig_top = rows_bottom + 26.0;
+    let height = sig_top + run.signals.len() as f64 * (SIGNAL_H + SIGNAL_GAP) + 10.0;
+    let width = LABEL_W + PLOT_W + 20.0;
+    let mut levels: Vec<&str> = Vec::new();
+    for l in &run.levels {
+        if !levels.contains(&l.level.as_str()) {
+            levels.push(&l.level);
+        }
+    }
+    let level_colour = |name: &str| {
+        let i = levels.iter().position(|l| *l == name).unwrap_or(0);
+        LEVEL_COLOURS[i % LEVEL_COLOURS.len()]
+    };
+
+    let mut labels = String::new();
+    let mut data = String::new();
+    // Rows.
+    for (row, (i, depth)) in order.iter().enumerate() {
+        let Some(s) = run.sequences.get(*i) else {
+            continue;
+        };
+        let y = TOP + row as f64 * (ROW_H + ROW_GAP);
+        let _ = write!(
+            labels,
+            r#"<text class="label" x="{:.1}" y="{:.1}">{}</text>"#,
+            8.0 + *depth as f64 * 12.0,
+            y + ROW_H - 5.0,
+            esc(&s.name)
+        );
+        let _ = write!(
+            data,
+            r#"<g class="seq-row" data-seq="{}"><rect class="row-bg" x="0" y="{y:.1}" width="{end}" height="{ROW_H}"/>"#,
+            esc(&s.name)
+        );
+        let runs = run.run_spans(*i);
+        // Short states (a restart, an abort) are drawn last, on top, at least 2 px wide.
+        let mut on_top = String::new();
+        for sp in run.state_spans(*i) {
+            if sp.state == State::Idle {
+                continue;
+            }
+            let outcome = runs
+                .iter()
+                .find(|r| r.start_us <= sp.start_us && sp.start_us <= r.end_us)
+                .map(|r| format!("\nrun: started by {}; outcome {}", r.start_cause, r.outcome))
+                .unwrap_or_default();
+            let tip = format!(
+                "{}: {} from {} s to {} s ({} µs)\ncause: {}{}",
+                s.name,
+                sp.state,
+                secs(sp.start_us),
+                secs(sp.end_us),
+                sp.end_us - sp.start_us,
+                sp.cause.as_deref().unwrap_or("-"),
+                outcome
+            );
+            let layer = if matches!(
+                sp.state,
+                State::Paused | State::Aborting | State::Restarting
+            ) {
+                &mut on_top
+            } else {
+                &mut data
+            };
+            let w = sp.end_us - sp.start_us;
+            let _ = write!(
+                layer,
+                r#"<rect class="span {}" x="{}" y="{y:.1}" width="{w}" data-w="{w}" height="{ROW_H}"><title>{}</title></rect>"#,
+                state_class(sp.state),
+                sp.start_us,
+                esc(&tip)
+            );
+        }
+        data.push_str(&on_top);
+        data.push_str("</g>");
+    }
+    // Safety level.
+    let _ = write!(
+        labels,
+        r#"<text class="label level-label" x="8" y="{:.1}">safety level</text>"#,
+        level_y + ROW_H - 5.0
+    );
+    data.push_str(r#"<g class="level-band">"#);
+    for (k, l) in run.levels.iter().enumerate() {
+        let e = run.levels.get(k + 1).map_or(run.end_us, |n| n.time_us);
+        let _ = write!(
+            data,
+            r#"<rect class="level" x="{}" y="{level_y:.1}" width="{}" height="{ROW_H}" fill="{}"><title>{}</title></rect>"#,
+            l.time_us,
+            e.saturating_sub(l.time_us),
+            level_colour(&l.level),
+            esc(&format!(
+                "safety level {} from {} s",
+                l.level,
+                secs(l.time_us)
+            ))
+        );
+    }
+    data.push_str("</g>");
+    // Markers.
+    for e in run.events.iter().chain(run.requests().iter()) {
+        let class = match e.kind {
+            EventKind::Monitor => "monitor-fire",
+            EventKind::Request => "request",
+            EventKind::Fault => "fault",
+            EventKind::Input => "input",
+            EventKind::Move | EventKind::Note => continue,
+        };
+        let _ = write!(
+            data,
+            r#"<line class="marker {class}" x1="{t}" x2="{t}" y1="{:.1}" y2="{rows_bottom:.1}"><title>{}</title></line>"#,
+            TOP - 6.0,
+            esc(&format!("{} s  {}", secs(e.time_us), e.text)),
+            t = e.time_us
+        );
+    }
+    // Signals.
+    for (k, s) in run.signals.iter().enumerate() {
+        let top = sig_top + k as f64 * (SIGNAL_H + SIGNAL_GAP);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (_, v) in &s.samples {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+        if !lo.is_finite() {
+            (lo, hi) = (0.0, 1.0);
+        }
+        if hi - lo < 1e-9 {
+            (lo, hi) = (lo - 1.0, hi + 1.0);
+        }
+        let y = |v: f64| top + (1.0 - (v - lo) / (hi - lo)) * SIGNAL_H;
+        let _ = write!(
+            labels,
+            r#"<text class="label" x="8" y="{:.1}">{} [{}]</text><text class="scale" x="{:.1}" y="{:.1}">{}</text><text class="scale" x="{:.1}" y="{:.1}">{}</text>"#,
+            top + SIGNAL_H / 2.0 + 4.0,
+            esc(&s.name),
+            esc(&s.unit),
+            LABEL_W - 6.0,
+            top + 10.0,
+            hi,
+            LABEL_W - 6.0,
+            top + SIGNAL_H,
+            lo
+        );
+        let _ = write!(
+            data,
+            r#"<rect class="signal-bg" x="0" y="{top:.1}" width="{end}" height="{SIGNAL_H}"/>"#
+        );
+        if lo < 0.0 && hi > 0.0 {
+            let _ = write!(
+                data,
+                r#"<line class="zero" x1="0" x2="{end}" y1="{z:.2}" y2="{z:.2}"/>"#,
+                z = y(0.0)
+            );
+        }
+        let points: Vec<String> = s
+            .samples
+            .iter()
+            .map(|(t, v)| format!("{t},{:.2}", y(*v)))
+            .collect();
+        let _ = write!(
+            data,
+            r#"<polyline class="signal sig-{}" points="{}"><title>{}</title></polyline>"#,
+            crate::vcd::sanitize(&s.name),
+            points.join(" "),
+            esc(&format!(
+                "{} [{}], {} samples",
+                s.name,
+                s.unit,
+                s.samples.len()
+            ))
+        );
+        for (t, v) in &s.samples {
+            let _ = write!(
+                data,
+                r#"<circle class="sample" cx="{t}" cy="{:.2}" r="1.6"><title>{} s  {} = {} {}</title></circle>"#,
+                y(*v),
+                secs(*t),
+                esc(&s.name),
+                v,
+                esc(&s.unit)
+            );
+        }
+    }
+
+    let mut legend = String::new();
+    for st in State::ALL.iter().filter(|s| **s != State::Idle) {
+        let _ = write!(
+            legend,
+            r#"<span class="key"><i class="{}"></i>{}</span>"#,
+            state_class(*st),
+            st
+        );
+    }
+    for l in &levels {
+        let _ = write!(
+            legend,
+            r#"<span class="key"><i style="background:{}"></i>level {}</span>"#,
+            level_colour(l),
+            esc(l)
+        );
+    }
+    legend.push_str(r#"<span class="key"><b class="m-monitor"></b>monitor fired</span><span class="key"><b class="m-request"></b>request</span><span class="key"><b class="m-fault"></b>fault</span><span class="key"><b class="m-input"></b>critical input</span>"#);
+
+    let mut o = String::new();
+    let _ = write!(
+        o,
+        r#"<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{t}</title>
+<style>
+body {{ font: 13px sans-serif; margin: 10px; color: #222; background: #fff; }}
+h1 {{ font-size: 16px; margin: 0 0 6px; }}
+.bar {{ margin-bottom: 6px; }} .bar button {{ margin-right: 4px; }}
+.key {{ margin-right: 12px; white-space: nowrap; }}
+.key i {{ display: inline-block; width: 14px; height: 10px; margin-right: 4px; vertical-align: middle; }}
+.key b {{ display: inline-block; width: 3px; height: 12px; margin-right: 4px; vertical-align: middle; }}
+.label {{ font-size: 12px; }} .scale {{ font-size: 10px; fill: #666; text-anchor: end; }}
+.axis text {{ font-size: 10px; fill: #444; text-anchor: middle; }} .axis line {{ stroke: #ccc; }}
+.row-bg {{ fill: #f3f3f3; }} .signal-bg {{ fill: #fafafa; }}
+.s-running {{ fill: #2e9b55; background: #2e9b55; }} .s-paused {{ fill: #e6b800; background: #e6b800; }}
+.s-aborting {{ fill: #f07c22; background: #f07c22; }} .s-aborted {{ fill: #f1a9a9; background: #f1a9a9; }}
+.s-terminated {{ fill: #c9dcf2; background: #c9dcf2; }} .s-restarting {{ fill: #8a4fd8; background: #8a4fd8; }}
+.s-idle {{ fill: #f3f3f3; background: #f3f3f3; }}
+.marker {{ stroke-width: 2; vector-effect: non-scaling-stroke; }}
+.monitor-fire, .m-monitor {{ stroke: #d0021b; background: #d0021b; }}
+.request, .m-request {{ stroke: #0057d8; background: #0057d8; stroke-dasharray: 4 3; }}
+.fault, .m-fault {{ stroke: #000; background: #000; }} .input, .m-input {{ stroke: #ff00aa; background: #ff00aa; }}
+.signal {{ fill: none; stroke: #1565c0; stroke-width: 1.5; vector-effect: non-scaling-stroke; }}
+.zero {{ stroke: #bbb; stroke-width: 1; vector-effect: non-scaling-stroke; }}
+.sample {{ fill: #1565c0; opacity: 0; }} .sample:hover {{ opacity: 1; }}
+#tip {{ position: fixed; display: none; background: #ffffe8; border: 1px solid #999; padding: 4px 6px; white-space: pre; font-size: 12px; pointer-events: none; }}
+</style></head><body>
+<h1>{t}</h1>
+<div class="bar"><button id="zin">zoom in</button><button id="zout">zoom out</button><button id="zall">whole run</button> wheel: zoom at the pointer; drag: pan; hover: details</div>
+<div class="bar">{legend}</div>
+<svg id="chart" xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height:.0}">
+<g class="labels">{labels}</g>
+<g class="axis" id="axis"></g>
+<svg id="plot" x="{LABEL_W}" y="0" width="{PLOT_W}" height="{height:.0}" viewBox="0 0 {end} {height:.0}" preserveAspectRatio="none">{data}</svg>
+</svg>
+<div id="tip"></div>
+<script>
+(function () {{
+  var END = {end}, H = {height:.0}, LW = {LABEL_W}, PW = {PLOT_W}, AY = {axis_y:.1};
+  var plot = document.getElementById('plot'), axis = document.getElementById('axis');
+  var t0 = 0, span = END, spans = Array.prototype.slice.call(plot.querySelectorAll('rect.span'));
+  function clamp() {{ span = Math.max(10, Math.min(END, span)); t0 = Math.max(0, Math.min(END - span, t0)); }}
+  function draw() {{
+    clamp();
+    plot.setAttribute('viewBox', t0 + ' 0 ' + span + ' ' + H);
+    var min = 2 * span / PW;
+    spans.forEach(function (r) {{ r.setAttribute('width', Math.max(+r.getAttribute('data-w'), min)); }});
+    var raw = span / 8, p = Math.pow(10, Math.floor(Math.log10(raw))), step = p;
+    [1, 2, 5, 10].forEach(function (m) {{ if (p * m <= raw) step = p * m; }});
+    var s = '', ns = 'http://www.w3.org/2000/svg';
+    for (var t = Math.ceil(t0 / step) * step; t <= t0 + span; t += step) {{
+      var x = LW + (t - t0) / span * PW;
+      var d = step >= 1e6 ? 0 : Math.min(6, Math.ceil(6 - Math.log10(step)));
+      s += '<line x1="' + x + '" x2="' + x + '" y1="' + (AY - 4) + '" y2="' + H + '"/>' +
+           '<text x="' + x + '" y="' + (AY - 7) + '">' + (t / 1e6).toFixed(d) + ' s</text>';
+    }}
+    axis.innerHTML = s;
+  }}
+  function zoom(f, at) {{ var c = t0 + at * span; span = span * f; clamp(); t0 = c - at * span; draw(); }}
+  plot.addEventListener('wheel', function (e) {{
+    e.preventDefault();
+    var r = plot.getBoundingClientRect();
+    zoom(e.deltaY < 0 ? 0.8 : 1.25, (e.clientX - r.left) / r.width);
+  }}, {{ passive: false }});
+  var drag = null;
+  plot.addEventListener('mousedown', function (e) {{ drag = {{ x: e.clientX, t: t0 }}; }});
+  window.addEventListener('mouseup', function () {{ drag = null; }});
+  var tip = document.getElementById('tip');
+  window.addEventListener('mousemove', function (e) {{
+    if (drag) {{ t0 = drag.t - (e.clientX - drag.x) / PW * span; draw(); }}
+    var el = e.target, title = el && el.querySelector ? el.querySelector('title') : null;
+    if (title && !drag) {{
+      tip.textContent = title.textContent; tip.style.display = 'block';
+      tip.style.left = (e.clientX + 14) + 'px'; tip.style.top = (e.clientY + 10) + 'px';
+    }} else {{ tip.style.display = 'none'; }}
+  }});
+  document.getElementById('zin').onclick = function () {{ zoom(0.5, 0.5); }};
+  document.getElementById('zout').onclick = function () {{ zoom(2, 0.5); }};
+  document.getElementById('zall').onclick = function () {{ t0 = 0; span = END; draw(); }};
+  // `page.html#t=2.4,2.8` opens on that window (seconds).
+  var m = /t=([0-9.]+),([0-9.]+)/.exec(location.hash);
+  if (m) {{ t0 = parseFloat(m[1]) * 1e6; span = parseFloat(m[2]) * 1e6 - t0; }}
+  draw();
+}})();
+</script>
+</body></html>
+"#,
+        t = esc(title),
+        axis_y = TOP,
+    );
+    o
+}

@@ -1,0 +1,301 @@
+//! The live view: the tree of sequences (nested by caller) with each one's state and active
+//! exception, the safety level and the latest events, from a decoded log read line by line
+//! (QEMU's or a probe's).
+
+use std::collections::VecDeque;
+use std::io::BufRead;
+use std::sync::mpsc;
+use std::time::Duration;
+
+use crossterm::event::{self, Event as TermEvent, KeyCode, KeyEventKind, KeyModifiers};
+use ratatui::backend::TestBackend;
+use ratatui::layout::{Constraint, Layout};
+use ratatui::style::{Color, Modifier, Style};
+use ratatui::text::{Line as TextLine, Span};
+use ratatui::widgets::{Block, Borders, Paragraph};
+use ratatui::{Frame, Terminal};
+
+use crate::log::{Hints, Line, LogParser};
+use crate::model::{secs, State};
+
+/// How many events the view keeps.
+const LATEST: usize = 200;
+
+/// What the live view knows.
+pub struct Live {
+    parser: LogParser,
+    /// Per sequence: the active exception (the monitor or timeout of the last
+    /// exception-caused transition of the current run).
+    exceptions: Vec<Option<String>>,
+    latest: VecDeque<String>,
+    ended: bool,
+    title: String,
+}
+
+impl Live {
+    /// An empty view.
+    pub fn new(hints: Hints, title: &str) -> Live {
+        Live {
+            parser: LogParser::new(hints),
+            exceptions: Vec::new(),
+            latest: VecDeque::new(),
+            ended: false,
+            title: title.to_string(),
+        }
+    }
+
+    /// Reads one line of the log.
+    pub fn feed(&mut self, line: &str) {
+        let what = self.parser.line(line);
+        let run = &self.parser.run;
+        let text = match what {
+            Line::Transition(k) => {
+                let Some(t) = run.transitions.get(k) else {
+                    return;
+                };
+                self.exceptions.resize(run.sequences.len(), None);
+                if let Some(x) = self.exceptions.get_mut(t.seq) {
+                    if t.cause.starts_with("monitor ") || t.cause.starts_with("timeout ") {
+                        *x = Some(t.cause.clone());
+                    } else if t.cause == "start" && !t.from.is_active() {
+                        *x = None;
+                    }
+                }
+                let name = run.sequences.get(t.seq).map_or("?", |s| s.name.as_str());
+                format!(
+                    "{} {name}: {} -> {} ({})",
+                    secs(t.time_us),
+                    t.from,
+                    t.to,
+                    t.cause
+                )
+            }
+            Line::Event(k) => match run.events.get(k) {
+                Some(e) => format!(
+                    "{} {}",
+                    secs(e.time_us),
+                    e.text.split_whitespace().collect::<Vec<_>>().join(" ")
+                ),
+                None => return,
+            },
+            Line::Level => match run.levels.last() {
+                Some(l) => format!("{} safety level {}", secs(l.time_us), l.level),
+                None => return,
+            },
+            Line::Signals | Line::Hint | Line::Other => return,
+        };
+        if self.latest.len() == LATEST {
+            self.latest.pop_front();
+        }
+        self.latest.push_back(text);
+    }
+
+    /// Marks the end of the input.
+    pub fn end(&mut self) {
+        self.ended = true;
+    }
+
+    /// The current state of the sequence called `name`.
+    pub fn state(&self, name: &str) -> Option<State> {
+        let run = &self.parser.run;
+        let i = run.sequences.iter().position(|s| s.name == name)?;
+        Some(
+            run.transitions
+                .iter()
+                .rev()
+                .find(|t| t.seq == i)
+                .map_or(State::Idle, |t| t.to),
+        )
+    }
+
+    /// The current safety level.
+    pub fn level(&self) -> Option<&str> {
+        self.parser.run.levels.last().map(|l| l.level.as_str())
+    }
+
+    /// Draws the view.
+    pub fn draw(&self, f: &mut Frame) {
+        let run = &self.parser.run;
+        let [head, body] =
+            Layout::vertical([Constraint::Length(3), Constraint::Min(3)]).areas(f.area());
+        let [left, right] =
+            Layout::horizontal([Constraint::Percentage(45), Constraint::Percentage(55)])
+                .areas(body);
+        let level = self.level().unwrap_or("?");
+        let status = if self.ended {
+            "input ended; q: quit"
+        } else {
+            "running; q: quit"
+        };
+        let head_line = TextLine::from(vec![
+            Span::raw(format!("t = {} s   ", secs(self.parser.now_us()))),
+            Span::raw("safety level: "),
+            Span::styled(
+                level.to_string(),
+                Style::default().add_modifier(Modifier::BOLD),
+            ),
+            Span::raw(format!(
+                "   {} sequences, {} transitions   {status}",
+                run.sequences.len(),
+                run.transitions.len()
+            )),
+        ]);
+        f.render_widget(
+            Paragraph::new(head_line).block(
+                Block::default()
+                    .borders(Borders::ALL)
+                    .title(format!(" {} ", self.title)),
+            ),
+            head,
+        );
+
+        let width = run
+            .tree_order()
+            .iter()
+            .filter_map(|(i, d)| {
+                run.sequences
+                    .get(*i)
+                    .map(|s| s.name.chars().count() + 2 * d)
+            })
+            .max()
+            .unwrap_or(0);
+        let mut lines = Vec::new();
+        for (i, depth) in run.tree_order() {
+            let Some(s) = run.sequences.get(i) else {
+                continue;
+            };
+            let state = self.state(&s.name).unwrap_or(State::Idle);
+            let label = format!("{}{}", "  ".repeat(depth), s.name);
+            let mut spans = vec![
+                Span::raw(format!("{label:<width$}  ")),
+                Span::styled(format!("{:<10}", state.name()), state_style(state)),
+            ];
+            if let Some(Some(x)) = self.exceptions.get(i) {
+                spans.push(Span::styled(
+                    format!(" exception: {}", x.strip_prefix("monitor ").unwrap_or(x)),
+                    Style::default().fg(Color::Red),
+                ));
+            }
+            lines.push(TextLine::from(spans));
+        }
+        f.render_widget(
+            Paragraph::new(lines).block(
+                Block::default()
+                    .borders(Borders::ALL)
+                    .title(" sequences (nested by caller) "),
+            ),
+            left,
+        );
+        let rows = usize::from(right.height.saturating_sub(2));
+        let skip = self.latest.len().saturating_sub(rows);
+        let events: Vec<TextLine> = self
+            .latest
+            .iter()
+            .skip(skip)
+            .map(|s| TextLine::from(s.as_str()))
+            .collect();
+        f.render_widget(
+            Paragraph::new(events).block(
+                Block::default()
+                    .borders(Borders::ALL)
+                    .title(" latest events "),
+            ),
+            right,
+        );
+    }
+
+    /// The view as text, `w` × `h` characters (tests, and the output when not on a terminal).
+    pub fn to_text(&self, w: u16, h: u16) -> String {
+        let mut term = match Terminal::new(TestBackend::new(w, h)) {
+            Ok(t) => t,
+            Err(e) => return format!("cannot draw: {e}"),
+        };
+        if let Err(e) = term.draw(|f| self.draw(f)) {
+            return format!("cannot draw: {e}");
+        }
+        buffer_text(term.backend())
+    }
+}
+
+/// The characters of a test backend's buffer, one line per row, trailing blanks removed.
+pub fn buffer_text(b: &TestBackend) -> String {
+    let buf = b.buffer();
+    let mut out = String::new();
+    for y in 0..buf.area.height {
+        let mut line = String::new();
+        for x in 0..buf.area.width {
+            line.push_str(buf[(x, y)].symbol());
+        }
+        out.push_str(line.trim_end());
+        out.push('\n');
+    }
+    out
+}
+
+fn state_style(s: State) -> Style {
+    let c = match s {
+        State::Idle => Color::DarkGray,
+        State::Running => Color::Green,
+        State::Paused => Color::Yellow,
+        State::Aborting => Color::LightRed,
+        State::Aborted => Color::Red,
+        State::Terminated => Color::Blue,
+        State::Restarting => Color::Magenta,
+    };
+    Style::default().fg(c).add_modifier(Modifier::BOLD)
+}
+
+/// Runs the view in the terminal on lines from `input` (read on a thread) until `q`, Esc or
+/// Ctrl-C; the input's end is shown, the view stays. Keys come from the terminal even when
+/// the log is piped into standard input.
+pub fn run_terminal<R: BufRead + Send + 'static>(mut live: Live, input: R) -> std::io::Result<()> {
+    let (tx, rx) = mpsc::channel::<Option<String>>();
+    std::thread::spawn(move || {
+        for line in input.lines() {
+            match line {
+                Ok(l) => {
+                    if tx.send(Some(l)).is_err() {
+                        return;
+                    }
+                }
+                Err(_) => break,
+            }
+        }
+        let _ = tx.send(None);
+    });
+    let mut terminal = ratatui::init();
+    let result = (|| -> std::io::Result<()> {
+        loop {
+            while let Ok(msg) = rx.try_recv() {
+                match msg {
+                    Some(l) => live.feed(&l),
+                    None => live.end(),
+                }
+            }
+            terminal.draw(|f| live.draw(f))?;
+            if event::poll(Duration::from_millis(50))? {
+                if let TermEvent::Key(k) = event::read()? {
+                    let ctrl_c =
+                        k.code == KeyCode::Char('c') && k.modifiers.contains(KeyModifiers::CONTROL);
+                    if k.kind == KeyEventKind::Press
+                        && (ctrl_c || matches!(k.code, KeyCode::Char('q') | KeyCode::Esc))
+                    {
+                        return Ok(());
+                    }
+                }
+            }
+        }
+    })();
+    ratatui::restore();
+    result
+}
+
+/// Reads all of `input`, then prints the view once as text (when not on a terminal).
+pub fn run_plain<R: BufRead>(mut live: Live, input: R, w: u16, h: u16) -> std::io::Result<()> {
+    for line in input.lines() {
+        live.feed(&line?);
+    }
+    live.end();
+    print!("{}", live.to_text(w, h));
+    Ok(())
+}

@@ -1,0 +1,445 @@
+//! A run as the tool sees it: sequences, transitions, events, safety levels and signals,
+//! whatever the source (a simulator trace file or a firmware's decoded defmt log).
+
+use std::fmt;
+
+/// The seven running states of a sequence (rtseq's `RunningState`).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash, PartialOrd, Ord)]
+pub enum State {
+    Idle,
+    Running,
+    Paused,
+    Aborting,
+    Aborted,
+    Terminated,
+    Restarting,
+}
+
+impl State {
+    /// Every state, in the order of their VCD codes (0..=6).
+    pub const ALL: [State; 7] = [
+        State::Idle,
+        State::Running,
+        State::Paused,
+        State::Aborting,
+        State::Aborted,
+        State::Terminated,
+        State::Restarting,
+    ];
+
+    /// The name rtseq gives the state (`Running`).
+    pub fn name(self) -> &'static str {
+        match self {
+            State::Idle => "Idle",
+            State::Running => "Running",
+            State::Paused => "Paused",
+            State::Aborting => "Aborting",
+            State::Aborted => "Aborted",
+            State::Terminated => "Terminated",
+            State::Restarting => "Restarting",
+        }
+    }
+
+    /// Parses a state name, in any case.
+    pub fn parse(s: &str) -> Option<State> {
+        State::ALL
+            .into_iter()
+            .find(|st| st.name().eq_ignore_ascii_case(s.trim()))
+    }
+
+    /// The VCD code of the state (its position in [`State::ALL`]).
+    pub fn code(self) -> u8 {
+        match self {
+            State::Idle => 0,
+            State::Running => 1,
+            State::Paused => 2,
+            State::Aborting => 3,
+            State::Aborted => 4,
+            State::Terminated => 5,
+            State::Restarting => 6,
+        }
+    }
+
+    /// A run is under way (it has started and not ended).
+    pub fn is_active(self) -> bool {
+        matches!(
+            self,
+            State::Running | State::Paused | State::Aborting | State::Restarting
+        )
+    }
+}
+
+impl fmt::Display for State {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One registered (or seen) sequence.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Sequence {
+    pub name: String,
+    /// Who started it (the last run's caller); `None` for a main sequence or when unknown.
+    pub caller: Option<usize>,
+}
+
+/// One state change: exactly what `rtseq::Transition` holds, with the cause as text.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Transition {
+    pub time_us: u64,
+    /// Index into [`Run::sequences`].
+    pub seq: usize,
+    pub from: State,
+    pub to: State,
+    /// The cause as the demo prints it: `start`, `completed`, `monitor following error`,
+    /// `timeout of homing`, `restart`, ...
+    pub cause: String,
+}
+
+/// What kind of thing happened besides a state change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum EventKind {
+    /// A monitor fired (`name` = the monitor).
+    Monitor,
+    /// A pause, resume or abort request (from a transition's cause, or a pause button).
+    Request,
+    /// An injected fault.
+    Fault,
+    /// A critical input of the safety system tripped (`name` = the input).
+    Input,
+    /// A move finished (demo).
+    Move,
+    /// Anything else worth showing in the list of latest events (reactions, ...).
+    Note,
+}
+
+impl EventKind {
+    /// Lower-case name (CSS class, VCD scope, JSON value).
+    pub fn name(self) -> &'static str {
+        match self {
+            EventKind::Monitor => "monitor",
+            EventKind::Request => "request",
+            EventKind::Fault => "fault",
+            EventKind::Input => "input",
+            EventKind::Move => "move",
+            EventKind::Note => "note",
+        }
+    }
+
+    /// Parses [`EventKind::name`].
+    pub fn parse(s: &str) -> Option<EventKind> {
+        [
+            EventKind::Monitor,
+            EventKind::Request,
+            EventKind::Fault,
+            EventKind::Input,
+            EventKind::Move,
+            EventKind::Note,
+        ]
+        .into_iter()
+        .find(|k| k.name() == s)
+    }
+}
+
+/// An event at a point in time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Event {
+    pub time_us: u64,
+    pub kind: EventKind,
+    /// Short name: the monitor, the fault, the input, the request.
+    pub name: String,
+    /// The details (the whole log message).
+    pub text: String,
+}
+
+/// The safety level from `time_us` on.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LevelChange {
+    pub time_us: u64,
+    pub level: String,
+}
+
+/// A sampled signal (position, velocity, current, ...).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Signal {
+    pub name: String,
+    pub unit: String,
+    pub samples: Vec<(u64, f64)>,
+}
+
+/// One whole run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Run {
+    pub sequences: Vec<Sequence>,
+    pub transitions: Vec<Transition>,
+    pub events: Vec<Event>,
+    pub levels: Vec<LevelChange>,
+    pub signals: Vec<Signal>,
+    /// The last time seen (or the simulator's end time).
+    pub end_us: u64,
+}
+
+/// A span of one state of one sequence.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StateSpan {
+    pub start_us: u64,
+    pub end_us: u64,
+    pub state: State,
+    /// The cause of the transition into the state (`None` for the initial `Idle`).
+    pub cause: Option<String>,
+}
+
+/// One run of one sequence: from leaving an inactive state to entering one.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RunSpan {
+    pub start_us: u64,
+    pub end_us: u64,
+    /// The cause of the start (`start`, `monitor ...` for an exception sequence).
+    pub start_cause: String,
+    /// `completed`, `aborted (monitor following error)`, `skipped (...)`, or
+    /// `still running` when the run had not ended at the end of the record.
+    pub outcome: String,
+    /// Indexes into [`Run::transitions`] of the transitions of this run, in order.
+    pub transitions: Vec<usize>,
+}
+
+impl Run {
+    /// The index of the sequence called `name`, added when new.
+    pub fn sequence_index(&mut self, name: &str) -> usize {
+        if let Some(i) = self.sequences.iter().position(|s| s.name == name) {
+            return i;
+        }
+        self.sequences.push(Sequence {
+            name: name.to_string(),
+            caller: None,
+        });
+        self.sequences.len() - 1
+    }
+
+    /// The signal called `name`, added when new.
+    pub fn signal_mut(&mut self, name: &str, unit: &str) -> &mut Signal {
+        let i = match self.signals.iter().position(|s| s.name == name) {
+            Some(i) => i,
+            None => {
+                self.signals.push(Signal {
+                    name: name.to_string(),
+                    unit: unit.to_string(),
+                    samples: Vec::new(),
+                });
+                self.signals.len() - 1
+            }
+        };
+        &mut self.signals[i]
+    }
+
+    /// Sorts everything by time (stable: records of one instant keep their order) and
+    /// makes `end_us` cover every record. Decoded logs can have lines slightly out of order
+    /// (tasks of different priorities log into one stream).
+    pub fn finish(&mut self) {
+        self.transitions.sort_by_key(|t| t.time_us);
+        self.events.sort_by_key(|e| e.time_us);
+        self.levels.sort_by_key(|l| l.time_us);
+        for s in &mut self.signals {
+            s.samples.sort_by_key(|p| p.0);
+        }
+        let last = self
+            .transitions
+            .iter()
+            .map(|t| t.time_us)
+            .chain(self.events.iter().map(|e| e.time_us))
+            .chain(self.levels.iter().map(|l| l.time_us))
+            .chain(
+                self.signals
+                    .iter()
+                    .flat_map(|s| s.samples.iter().map(|p| p.0)),
+            )
+            .max()
+            .unwrap_or(0);
+        self.end_us = self.end_us.max(last);
+    }
+
+    /// The sequences in tree order (roots in order of first appearance, each followed by
+    /// the sequences it called), with their depth.
+    pub fn tree_order(&self) -> Vec<(usize, usize)> {
+        let n = self.sequences.len();
+        // First appearance in the trace, then registration order.
+        let mut first = vec![u64::MAX; n];
+        for t in &self.transitions {
+            if let Some(f) = first.get_mut(t.seq) {
+                *f = (*f).min(t.time_us);
+            }
+        }
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by_key(|&i| (first[i], i));
+        let mut out = Vec::with_capacity(n);
+        let mut seen = vec![false; n];
+        // A caller link that points nowhere or into a cycle makes the sequence a root.
+        let is_root = |i: usize| {
+            let mut up = self.sequences[i].caller;
+            let mut steps = 0;
+            while let Some(c) = up {
+                if c == i || c >= n || steps > n {
+                    return true;
+                }
+                up = self.sequences[c].caller;
+                steps += 1;
+            }
+            self.sequences[i].caller.is_none_or(|c| c >= n)
+        };
+        fn visit(
+            run: &Run,
+            order: &[usize],
+            i: usize,
+            depth: usize,
+            seen: &mut [bool],
+            out: &mut Vec<(usize, usize)>,
+        ) {
+            if seen[i] {
+                return;
+            }
+            seen[i] = true;
+            out.push((i, depth));
+            for &c in order {
+                if run.sequences[c].caller == Some(i) {
+                    visit(run, order, c, depth + 1, seen, out);
+                }
+            }
+        }
+        for &i in &order {
+            if is_root(i) {
+                visit(self, &order, i, 0, &mut seen, &mut out);
+            }
+        }
+        // Whatever a cycle left out.
+        for &i in &order {
+            visit(self, &order, i, 0, &mut seen, &mut out);
+        }
+        out
+    }
+
+    /// The state spans of sequence `seq`, from 0 to `end_us`, starting in `Idle`.
+    pub fn state_spans(&self, seq: usize) -> Vec<StateSpan> {
+        let mut spans = Vec::new();
+        let mut cur = StateSpan {
+            start_us: 0,
+            end_us: 0,
+            state: State::Idle,
+            cause: None,
+        };
+        for t in self.transitions.iter().filter(|t| t.seq == seq) {
+            let mut done = cur.clone();
+            done.end_us = t.time_us;
+            spans.push(done);
+            cur = StateSpan {
+                start_us: t.time_us,
+                end_us: 0,
+                state: t.to,
+                cause: Some(t.cause.clone()),
+            };
+        }
+        cur.end_us = self.end_us.max(cur.start_us);
+        spans.push(cur);
+        spans
+    }
+
+    /// The runs of sequence `seq`: a run starts when the sequence leaves an inactive state
+    /// (`Idle`, `Terminated`, `Aborted`) and ends when it enters one.
+    pub fn run_spans(&self, seq: usize) -> Vec<RunSpan> {
+        let mut runs = Vec::new();
+        let mut open: Option<RunSpan> = None;
+        for (k, t) in self
+            .transitions
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t.seq == seq)
+        {
+            if !t.from.is_active() {
+                if let Some(r) = open.take() {
+                    runs.push(r);
+                }
+                open = Some(RunSpan {
+                    start_us: t.time_us,
+                    end_us: t.time_us,
+                    start_cause: t.cause.clone(),
+                    outcome: String::new(),
+                    transitions: Vec::new(),
+                });
+            }
+            let r = open.get_or_insert_with(|| RunSpan {
+                // A record that begins in the middle of a run.
+                start_us: t.time_us,
+                end_us: t.time_us,
+                start_cause: String::from("(before the record)"),
+                outcome: String::new(),
+                transitions: Vec::new(),
+            });
+            r.transitions.push(k);
+            if !t.to.is_active() {
+                r.end_us = t.time_us;
+                r.outcome = outcome_text(t);
+                if let Some(r) = open.take() {
+                    runs.push(r);
+                }
+            }
+        }
+        if let Some(mut r) = open {
+            r.end_us = self.end_us.max(r.start_us);
+            r.outcome = String::from("still running");
+            runs.push(r);
+        }
+        runs
+    }
+
+    /// Requests (pause, resume, abort, abort all): one per distinct time and cause among
+    /// the transitions, plus the request events of the source.
+    pub fn requests(&self) -> Vec<Event> {
+        let mut out: Vec<Event> = self
+            .events
+            .iter()
+            .filter(|e| e.kind == EventKind::Request)
+            .cloned()
+            .collect();
+        let mut last: Option<(u64, String)> = None;
+        for t in &self.transitions {
+            if matches!(t.cause.as_str(), "pause" | "resume" | "abort" | "abort all") {
+                let key = (t.time_us, t.cause.clone());
+                if last.as_ref() != Some(&key) {
+                    let name = self.sequences.get(t.seq).map_or("?", |s| s.name.as_str());
+                    out.push(Event {
+                        time_us: t.time_us,
+                        kind: EventKind::Request,
+                        name: t.cause.clone(),
+                        text: format!("request {} ({} {} -> {})", t.cause, name, t.from, t.to),
+                    });
+                }
+                last = Some(key);
+            }
+        }
+        out.sort_by_key(|e| e.time_us);
+        out
+    }
+
+    /// The safety level at `t` (`None` before the first level is known).
+    pub fn level_at(&self, t: u64) -> Option<&str> {
+        self.levels
+            .iter()
+            .take_while(|l| l.time_us <= t)
+            .last()
+            .map(|l| l.level.as_str())
+    }
+}
+
+/// What a run that ended with `t` returns.
+fn outcome_text(t: &Transition) -> String {
+    match (t.from.is_active(), t.to) {
+        (false, _) => format!("skipped ({})", t.cause),
+        (true, State::Terminated) if t.cause == "completed" => String::from("completed"),
+        (true, State::Aborted) => format!("aborted ({})", t.cause),
+        (true, to) => format!("{} ({})", to.name().to_lowercase(), t.cause),
+    }
+}
+
+/// Formats µs as seconds with 6 decimals (`2.514011`).
+pub fn secs(us: u64) -> String {
+    format!("{}.{:06}", us / 1_000_000, us % 1_000_000)
+}

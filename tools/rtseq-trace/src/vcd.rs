@@ -1,0 +1,200 @@
+//! VCD for GTKWave and Surfer (timescale 1 µs).
+//!
+//! ```text
+//! rtseq.sequences.<name>   string  the running state (`Running`)
+//! rtseq.state_codes.<name> 3 bits  the same as a code: Idle 0, Running 1, Paused 2,
+//!                                  Aborting 3, Aborted 4, Terminated 5, Restarting 6
+//! rtseq.safety.level       string  the safety level (spaces as `_`)
+//! rtseq.events.<kind>_<name> 1 bit a 1 µs pulse per event (monitor, request, fault, input)
+//! rtseq.signals.<name>_<unit> real  position, velocity, current
+//! ```
+//! Names are sanitized (characters other than letters, digits and `_` become `_`).
+
+use std::collections::BTreeMap;
+use std::io::Write;
+
+use crate::model::{EventKind, Run, State};
+
+/// A VCD-safe name.
+pub fn sanitize(s: &str) -> String {
+    let out: String = s
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if out.is_empty() {
+        String::from("_")
+    } else {
+        out
+    }
+}
+
+/// The n-th short identifier code (`!`, `"`, ..., `!!`, ...).
+fn code(mut n: usize) -> String {
+    let mut s = String::new();
+    loop {
+        s.push(char::from(b'!' + (n % 94) as u8));
+        n /= 94;
+        if n == 0 {
+            return s;
+        }
+        n -= 1;
+    }
+}
+
+enum Val {
+    Str(String),
+    Bits(u8, usize),
+    Bit(bool),
+    Real(f64),
+}
+
+impl Val {
+    fn line(&self, id: &str) -> String {
+        match self {
+            Val::Str(s) => format!("s{} {id}", sanitize(s)),
+            Val::Bits(v, w) => format!("b{:0w$b} {id}", v, w = *w),
+            Val::Bit(b) => format!("{}{id}", u8::from(*b)),
+            Val::Real(r) => format!("r{r} {id}"),
+        }
+    }
+}
+
+/// The events drawn as pulses: kind and name, in order of first appearance.
+pub fn pulse_names(run: &Run) -> Vec<(EventKind, String)> {
+    let mut names: Vec<(EventKind, String)> = Vec::new();
+    for e in run.events.iter().chain(run.requests().iter()) {
+        if matches!(e.kind, EventKind::Move | EventKind::Note) {
+            continue;
+        }
+        let key = (e.kind, e.name.clone());
+        if !names.contains(&key) {
+            names.push(key);
+        }
+    }
+    names
+}
+
+/// Writes `run` as VCD.
+pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
+    let mut n = 0;
+    let mut next = || {
+        n += 1;
+        code(n - 1)
+    };
+    writeln!(
+        out,
+        "$version rtseq-trace {} $end",
+        env!("CARGO_PKG_VERSION")
+    )?;
+    writeln!(out, "$timescale 1 us $end")?;
+    writeln!(out, "$scope module rtseq $end")?;
+    // Changes: (time, order within the time, id, value). Pulse ends (order 0) come before
+    // the values of the same time.
+    let mut changes: Vec<(u64, u8, String, Val)> = Vec::new();
+    let mut init: Vec<(String, Val)> = Vec::new();
+
+    writeln!(out, "$scope module sequences $end")?;
+    let seq_ids: Vec<String> = run.sequences.iter().map(|_| next()).collect();
+    for (s, id) in run.sequences.iter().zip(&seq_ids) {
+        writeln!(out, "$var string 1 {id} {} $end", sanitize(&s.name))?;
+        init.push((id.clone(), Val::Str(State::Idle.name().into())));
+    }
+    writeln!(out, "$upscope $end")?;
+    writeln!(out, "$scope module state_codes $end")?;
+    let code_ids: Vec<String> = run.sequences.iter().map(|_| next()).collect();
+    for (s, id) in run.sequences.iter().zip(&code_ids) {
+        writeln!(out, "$var wire 3 {id} {} $end", sanitize(&s.name))?;
+        init.push((id.clone(), Val::Bits(0, 3)));
+    }
+    writeln!(out, "$upscope $end")?;
+    for t in &run.transitions {
+        if let (Some(s), Some(c)) = (seq_ids.get(t.seq), code_ids.get(t.seq)) {
+            changes.push((t.time_us, 1, s.clone(), Val::Str(t.to.name().into())));
+            changes.push((t.time_us, 1, c.clone(), Val::Bits(t.to.code(), 3)));
+        }
+    }
+
+    writeln!(out, "$scope module safety $end")?;
+    let level = next();
+    writeln!(out, "$var string 1 {level} level $end")?;
+    writeln!(out, "$upscope $end")?;
+    init.push((level.clone(), Val::Str("unknown".into())));
+    for l in &run.levels {
+        changes.push((l.time_us, 1, level.clone(), Val::Str(l.level.clone())));
+    }
+
+    writeln!(out, "$scope module events $end")?;
+    let mut pulse_ids = BTreeMap::new();
+    for (kind, name) in pulse_names(run) {
+        let id = next();
+        writeln!(
+            out,
+            "$var wire 1 {id} {}_{} $end",
+            kind.name(),
+            sanitize(&name)
+        )?;
+        init.push((id.clone(), Val::Bit(false)));
+        pulse_ids.insert((kind.name(), name), id);
+    }
+    writeln!(out, "$upscope $end")?;
+    for e in run.events.iter().chain(run.requests().iter()) {
+        if let Some(id) = pulse_ids.get(&(e.kind.name(), e.name.clone())) {
+            changes.push((e.time_us, 1, id.clone(), Val::Bit(true)));
+            changes.push((e.time_us + 1, 0, id.clone(), Val::Bit(false)));
+        }
+    }
+
+    writeln!(out, "$scope module signals $end")?;
+    for s in &run.signals {
+        let id = next();
+        let name = if s.unit.is_empty() {
+            sanitize(&s.name)
+        } else {
+            format!("{}_{}", sanitize(&s.name), sanitize(&s.unit))
+        };
+        writeln!(out, "$var real 64 {id} {name} $end")?;
+        init.push((id.clone(), Val::Real(0.0)));
+        for (t, v) in &s.samples {
+            changes.push((*t, 1, id.clone(), Val::Real(*v)));
+        }
+    }
+    writeln!(out, "$upscope $end")?;
+    writeln!(out, "$upscope $end")?;
+    writeln!(out, "$enddefinitions $end")?;
+
+    writeln!(out, "#0")?;
+    writeln!(out, "$dumpvars")?;
+    for (id, v) in &init {
+        writeln!(out, "{}", v.line(id))?;
+    }
+    writeln!(out, "$end")?;
+    // Stable: the changes of one time keep the order of the record.
+    changes.sort_by_key(|c| (c.0, c.1));
+    let mut now = 0;
+    for (t, _, id, v) in &changes {
+        if *t != now {
+            writeln!(out, "#{t}")?;
+            now = *t;
+        }
+        writeln!(out, "{}", v.line(id))?;
+    }
+    writeln!(out, "#{}", run.end_us.max(now))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn codes() {
+        assert_eq!(super::code(0), "!");
+        assert_eq!(super::code(93), "~");
+        assert_eq!(super::code(94), "!!");
+        assert_eq!(super::sanitize("power on"), "power_on");
+    }
+}
