@@ -3,7 +3,6 @@
 //! the requests queued since the last tick.
 
 use crate::lock::Lock;
-use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
@@ -99,10 +98,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     }
 
     /// Applies the behaviours of finished exception sequences and the pause, resume and
-    /// abort requests of the sequences `requested`, in id order (out of line: one copy,
+    /// abort requests of the sequences that have them, in id order (out of line: one copy,
     /// whatever the monitor tables the tick is instantiated for).
     #[inline(never)]
-    pub(crate) fn apply_requests(&self, control: &C, requested: SeqSet) {
+    pub(crate) fn apply_requests(&self, control: &C) {
+        let requested = self.with(|s| core::mem::take(&mut s.sets.requested));
         for id in requested {
             // The requests, and the behaviour pending for an exception sequence that ended.
             let (req, done) = self.with(|s| {

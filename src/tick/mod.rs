@@ -116,7 +116,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let (requests, any_due, changed) = self.with(|s| {
             s.now = now;
             (
-                core::mem::take(&mut s.sets.requested),
+                !s.sets.requested.is_empty(),
                 stamp.reached(s.polling.next_due),
                 core::mem::take(&mut s.sets.changed),
             )
@@ -125,13 +125,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if abort_all {
             self.apply_abort_all(control);
         }
-        if !requests.is_empty() {
-            self.apply_requests(control, requests);
+        if requests {
+            self.apply_requests(control);
         }
         if !any_due {
             return;
         }
-        if abort_all || !requests.is_empty() {
+        if abort_all || requests {
             // What they stopped or paused is not due any more.
             self.fold(self.with(|s| core::mem::take(&mut s.sets.changed)));
         }
