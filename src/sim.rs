@@ -274,7 +274,8 @@ impl<
     /// Starts `id` non-blocking as a main sequence and lets the lanes run at the current time.
     ///
     /// The first start validates the configuration ([`Sequencer::validate`]): an exception
-    /// sequence without a lane, for example, is an `Err(Error::Config(..))` here.
+    /// sequence without a lane, for example, is an `Err(Error::InvalidConfig)` here, and
+    /// [`Sequencer::validate`] names the monitor and the reason.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
@@ -298,7 +299,7 @@ impl<
         if !self.validated {
             self.sequencer
                 .validate(&self.monitors)
-                .map_err(Error::Config)?;
+                .map_err(|_| Error::InvalidConfig)?;
             self.validated = true;
         }
         self.sequencer

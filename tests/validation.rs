@@ -37,10 +37,11 @@ fn an_exception_sequence_without_a_lane_is_an_error_at_the_first_start() {
         raiser: Raiser::Monitor(jam, "jam"),
         exception: (s, "safe stop"),
     };
-    assert_eq!(sim.start(m), Err(Error::Config(want)));
+    assert_eq!(sim.start(m), Err(Error::InvalidConfig));
+    assert_eq!(seq.validate(sim.monitors()), Err(want));
     assert_eq!(
-        Error::Config(want).to_string(),
-        "invalid configuration: the exception sequence `safe stop` of monitor `jam` has no lane \
+        want.to_string(),
+        "the exception sequence `safe stop` of monitor `jam` has no lane \
          (declare one before the first tick)"
     );
     // Nothing started; with the lane declared the same start goes.

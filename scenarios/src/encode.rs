@@ -124,7 +124,7 @@ pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
                 Error::PollingClassesExceeded => 14,
                 Error::NotEmpty => 15,
                 Error::JoinWouldDeadlock(_) => 16,
-                Error::Config(_) => 17,
+                Error::InvalidConfig => 17,
             };
             0x8000_0000 | n
         }

@@ -50,8 +50,9 @@ pub enum Error {
     NotEmpty,
     /// A join that could never return: a sequence joining itself or a caller it blocks.
     JoinWouldDeadlock(SeqId),
-    /// The configuration cannot work as declared ([`Sequencer::validate`](crate::Sequencer::validate)).
-    Config(crate::ConfigError),
+    /// The configuration cannot work as declared: [`Sequencer::validate`](crate::Sequencer::validate)
+    /// says what (a small variant: every `Result` of rtseq carries an `Error`).
+    InvalidConfig,
 }
 
 impl Error {
@@ -84,7 +85,7 @@ impl Error {
             Error::PollingClassesExceeded => "too many distinct polling periods",
             Error::NotEmpty => "sequencer not empty",
             Error::JoinWouldDeadlock(_) => "join would deadlock",
-            Error::Config(_) => "invalid configuration",
+            Error::InvalidConfig => "invalid configuration",
         }
     }
 }
@@ -116,12 +117,25 @@ impl core::fmt::Display for Error {
             Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),
             Error::PollingClassesExceeded => write!(f, "too many distinct polling periods"),
             Error::NotEmpty => write!(f, "a table needs an empty sequencer"),
-            Error::Config(e) => write!(f, "invalid configuration: {e}"),
+            Error::InvalidConfig => write!(f, "invalid configuration (see Sequencer::validate)"),
             Error::JoinWouldDeadlock(id) => write!(
                 f,
                 "joining sequence {} would wait for itself (it is the joiner or a caller it blocks)",
                 id.index()
             ),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every `Result` of rtseq carries an `Error`, and blocking runs keep one in their
+    /// futures: it stays as small as its largest variant today, a name (`&'static str`)
+    /// and the tag.
+    #[test]
+    fn an_error_is_no_larger_than_a_name_and_a_tag() {
+        assert!(core::mem::size_of::<Error>() <= 2 * core::mem::size_of::<&'static str>());
     }
 }
