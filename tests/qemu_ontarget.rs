@@ -9,7 +9,9 @@ mod qemu_harness;
 use std::path::PathBuf;
 use std::process::Command;
 
-use qemu_harness::{expect_exit, expect_line, require_tools, root, BOARD, RUN_TIMEOUT, TARGET};
+use qemu_harness::{
+    expect_exit, expect_line, free_of_outer_cargo, require_tools, root, BOARD, RUN_TIMEOUT, TARGET,
+};
 use qemu_run::{Config, Echo};
 
 /// Builds the defmt-test target `ontarget` of the board; returns the ELF's path.
@@ -24,17 +26,7 @@ fn build() -> PathBuf {
         .arg(root().join(BOARD).join("Cargo.toml"))
         .arg("--target-dir")
         .arg(root().join("target/firmware"));
-    for v in [
-        "CARGO_TARGET_DIR",
-        "CARGO_BUILD_TARGET",
-        "RUSTFLAGS",
-        "CARGO_ENCODED_RUSTFLAGS",
-        "CARGO_MAKEFLAGS",
-        "MAKEFLAGS",
-        "MFLAGS",
-    ] {
-        cmd.env_remove(v);
-    }
+    free_of_outer_cargo(&mut cmd);
     let out = cmd.output().expect("cannot run cargo");
     assert!(
         out.status.success(),

@@ -72,6 +72,13 @@ pub fn board_cargo(features: &str, bins: &[&str]) -> Command {
     for b in bins {
         cmd.args(["--bin", b]);
     }
+    free_of_outer_cargo(&mut cmd);
+    cmd
+}
+
+/// Takes the outer cargo's settings (target dir, target, flags, jobserver) out of a nested
+/// cargo command, so that it builds as a user's would.
+pub fn free_of_outer_cargo(cmd: &mut Command) {
     for v in [
         "CARGO_TARGET_DIR",
         "CARGO_BUILD_TARGET",
@@ -83,7 +90,6 @@ pub fn board_cargo(features: &str, bins: &[&str]) -> Command {
     ] {
         cmd.env_remove(v);
     }
-    cmd
 }
 
 /// Builds the given bins (all if empty) with `features`; Err(cargo's stderr) on failure.
