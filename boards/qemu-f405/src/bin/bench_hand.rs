@@ -371,11 +371,19 @@ mod app {
         };
         defmt::info!(
             "bench_hand: period CPU 8 x 4 due (tick entry -> idle) = {=u32} instructions",
-            (SOLO..TICKS).filter(|t| t % 2 == 1).map(busy).max().unwrap_or(0)
+            (SOLO..TICKS)
+                .filter(|t| t % 2 == 1)
+                .map(busy)
+                .max()
+                .unwrap_or(0)
         );
         defmt::info!(
             "bench_hand: period CPU nothing due (tick entry -> idle) = {=u32} instructions",
-            (SOLO..TICKS).filter(|t| t % 2 == 0).map(busy).max().unwrap_or(0)
+            (SOLO..TICKS)
+                .filter(|t| t % 2 == 0)
+                .map(busy)
+                .max()
+                .unwrap_or(0)
         );
         defmt::info!(
             "bench_hand: exit poll (one lane, due, condition false) = {=u32} instructions (max {=u32}, {=u32} polls)",
