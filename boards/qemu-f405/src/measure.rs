@@ -18,6 +18,11 @@
 //! Keep the optimiser honest: pass inputs through [`core::hint::black_box`] and consume
 //! results the same way, otherwise a pure region may be moved out of it or folded away.
 
+use core::future::{poll_fn, Future};
+use core::pin::{pin, Pin};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
+use core::task::Poll;
+
 use crate::clock::tim2;
 
 /// Instructions counted for an empty region (the second counter read: `ldr` of CNT, whose
@@ -53,4 +58,89 @@ pub fn measure_with<R>(f: impl FnOnce() -> R) -> (u32, R) {
 #[inline(always)]
 pub fn measure(f: impl FnOnce()) -> u32 {
     measure_with(f).0
+}
+
+/// Instruction counts of single future polls, collected by [`join_measured`] while enabled
+/// (a benchmark enables it for the ticks it wants, so other ticks are not slowed down).
+pub struct PollCosts {
+    on: AtomicBool,
+    sum: AtomicU32,
+    count: AtomicU32,
+    max: AtomicU32,
+}
+
+impl PollCosts {
+    /// Disabled, nothing recorded.
+    pub const fn new() -> Self {
+        PollCosts {
+            on: AtomicBool::new(false),
+            sum: AtomicU32::new(0),
+            count: AtomicU32::new(0),
+            max: AtomicU32::new(0),
+        }
+    }
+
+    /// Measure the polls from now on (`true`) or not (`false`).
+    pub fn enable(&self, on: bool) {
+        self.on.store(on, Relaxed);
+    }
+
+    fn record(&self, n: u32) {
+        self.sum.fetch_add(n, Relaxed);
+        self.count.fetch_add(1, Relaxed);
+        self.max.fetch_max(n, Relaxed);
+    }
+
+    /// Mean instructions per measured poll (0 if none).
+    pub fn mean(&self) -> u32 {
+        self.sum
+            .load(Relaxed)
+            .checked_div(self.count.load(Relaxed))
+            .unwrap_or(0)
+    }
+
+    /// The most expensive measured poll.
+    pub fn max(&self) -> u32 {
+        self.max.load(Relaxed)
+    }
+
+    /// Number of measured polls.
+    pub fn count(&self) -> u32 {
+        self.count.load(Relaxed)
+    }
+}
+
+impl Default for PollCosts {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Polls `K` futures in one task forever (the "several futures joined in one task" form of
+/// a lane): each wake-up of the task polls every future not yet finished, each poll measured
+/// into `costs` while it is enabled.
+pub async fn join_measured<F: Future, const K: usize>(futs: [F; K], costs: &PollCosts) -> ! {
+    let mut futs = pin!(futs);
+    let mut done = [false; K];
+    poll_fn(|w| {
+        // SAFETY: the array is pinned; its elements are never moved out of it.
+        let all = unsafe { futs.as_mut().get_unchecked_mut() };
+        for (f, d) in all.iter_mut().zip(done.iter_mut()).filter(|(_, d)| !**d) {
+            // SAFETY: structural pinning of the array's elements.
+            let f = unsafe { Pin::new_unchecked(f) };
+            let ready = if costs.on.load(Relaxed) {
+                let (n, p) = measure_with(|| f.poll(w));
+                costs.record(n);
+                p.is_ready()
+            } else {
+                f.poll(w).is_ready()
+            };
+            *d = ready;
+        }
+        Poll::<()>::Pending
+    })
+    .await;
+    loop {
+        core::future::pending::<()>().await;
+    }
 }

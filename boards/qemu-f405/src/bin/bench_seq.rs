@@ -16,16 +16,21 @@
 //! whole polling period). Every running sequence waits for its exit condition in its lane,
 //! so the due ticks include waking the lanes.
 //!
+//! Two figures cover the lanes too (the comparison with the hand-written baseline
+//! `bench_hand`, `./x bench`): in the steady ticks where `SEQ8` is due, each poll of one of
+//! its 8 lane futures is measured (`exit poll`: the lane's due exit-condition poll, the
+//! condition false); from tick `SOLO` on only `SEQ8` is ticked (the others are finished or
+//! left alone), with nothing measured inside its lanes, and `period CPU` is the virtual time
+//! from the entry of a due tick's handler to the moment `idle` runs again: the tick, the
+//! dispatch and every lane poll.
+//!
 //! Also prints `size_of` of the pieces (control block, trace record, monitor entry, lane
 //! futures). `cargo fw-run bench_seq`; `tests/qemu_scenarios.rs` asserts the budgets.
 #![no_std]
 #![no_main]
 
-use core::convert::Infallible;
-use core::future::{poll_fn, Future};
-use core::pin::{pin, Pin};
+use core::future::Future;
 use core::sync::atomic::{AtomicU32, Ordering};
-use core::task::Poll;
 
 use rtseq::{Cx, Sequence};
 use rtseq_qemu_f405 as board;
@@ -52,30 +57,11 @@ impl Sequence<Ctrl> for Stamp {
     }
 }
 
-/// Polls several lane futures in one task (the "several futures joined in one task" form
-/// of a lane), forever.
-async fn join_lanes<F: Future<Output = Infallible>, const K: usize>(futs: [F; K]) -> ! {
-    let mut futs = pin!(futs);
-    poll_fn(|w| {
-        // SAFETY: the array is pinned; its elements are never moved out of it.
-        let all = unsafe { futs.as_mut().get_unchecked_mut() };
-        for f in all.iter_mut() {
-            // SAFETY: structural pinning of the array's elements.
-            let _ = unsafe { Pin::new_unchecked(f) }.poll(w);
-        }
-        Poll::<()>::Pending
-    })
-    .await;
-    loop {
-        core::future::pending::<()>().await;
-    }
-}
-
 #[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
 mod app {
-    use super::{board, join_lanes, stamp_aborted, Stamp, ABORTED_AT, EXCEPTION_AT, FAULT_AT};
+    use super::{board, stamp_aborted, Stamp, ABORTED_AT, EXCEPTION_AT, FAULT_AT};
     use board::clock::TickTimer;
-    use board::measure::measure;
+    use board::measure::{join_measured, measure, PollCosts};
     use core::future::Future;
     use core::mem::{size_of, size_of_val};
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
@@ -83,9 +69,11 @@ mod app {
     use rtseq_scenarios::{Child, Ctrl, FlagCond, Node};
 
     /// Rtseq ticks measured.
-    const TICKS: usize = 12;
+    const TICKS: usize = 15;
     /// The tick at which the `SEQF`/`SEQE` monitors fire (fault set after tick FIRE - 1).
     const FIRE: usize = 9;
+    /// From this tick on only `SEQ8` is ticked (the period CPU figure).
+    const SOLO: usize = FIRE + 2;
     /// Flag of the firing monitors; flags 8.. stay false (the quiet monitors).
     const FAULT: u8 = 7;
     const QUIET: u8 = 8;
@@ -139,6 +127,12 @@ mod app {
     static COST: [[AtomicU32; 3]; TICKS] = [const { [const { AtomicU32::new(0) }; 3] }; TICKS];
     /// TIM2 count at the entry of each tick handler.
     static ENTRY: [AtomicU32; TICKS] = [const { AtomicU32::new(0) }; TICKS];
+    /// TIM2 count when `idle` ran again after each tick (the tick and every task done).
+    static IDLE_AT: [AtomicU32; TICKS] = [const { AtomicU32::new(0) }; TICKS];
+    /// The last tick counted (`IDLE_AT`'s index).
+    static CURRENT: AtomicUsize = AtomicUsize::new(0);
+    /// The polls of `SEQ8`'s lane futures, measured in the steady ticks where they are due.
+    static POLLS: PollCosts = PollCosts::new();
     static DONE: AtomicBool = AtomicBool::new(false);
     static LANE_NODE_BYTES: AtomicUsize = AtomicUsize::new(0);
     static LANE_STAMP_BYTES: AtomicUsize = AtomicUsize::new(0);
@@ -244,6 +238,11 @@ mod app {
             cortex_m::asm::wfi();
             // SAFETY: not inside a critical section of ours; RTIC uses BASEPRI, not PRIMASK.
             unsafe { cortex_m::interrupt::enable() };
+            // The pending tick and every task it woke have run.
+            let now = board::clock::tim2_count();
+            if let Some(a) = IDLE_AT.get(CURRENT.load(Ordering::Relaxed)) {
+                a.store(now, Ordering::Relaxed);
+            }
         }
     }
 
@@ -304,6 +303,34 @@ mod app {
         );
         let fault = FAULT_AT.load(Ordering::Relaxed);
         let entry = |i: usize| ENTRY.get(i).map_or(0, |e| e.load(Ordering::Relaxed));
+        let busy = |i: usize| {
+            IDLE_AT
+                .get(i)
+                .map_or(0, |e| e.load(Ordering::Relaxed))
+                .wrapping_sub(entry(i))
+        };
+        defmt::info!(
+            "bench_seq: period CPU 8 x 4 due (tick entry -> idle) = {=u32} instructions",
+            (SOLO..TICKS)
+                .filter(|t| t % 2 == 1)
+                .map(busy)
+                .max()
+                .unwrap_or(0)
+        );
+        defmt::info!(
+            "bench_seq: period CPU nothing due (tick entry -> idle) = {=u32} instructions",
+            (SOLO..TICKS)
+                .filter(|t| t % 2 == 0)
+                .map(busy)
+                .max()
+                .unwrap_or(0)
+        );
+        defmt::info!(
+            "bench_seq: exit poll (one lane, due, condition false) = {=u32} instructions (max {=u32}, {=u32} polls)",
+            POLLS.mean(),
+            POLLS.max(),
+            POLLS.count()
+        );
         let (aborted, exception) = (
             ABORTED_AT.load(Ordering::Relaxed),
             EXCEPTION_AT.load(Ordering::Relaxed),
@@ -336,6 +363,10 @@ mod app {
             "bench_seq: size trace record = {=usize} bytes (Transition {=usize})",
             (b8 - t32) / 32,
             size_of::<Transition>()
+        );
+        defmt::info!(
+            "bench_seq: size trace buffers (4 sequencers x 64 records) = {=usize} bytes",
+            (b8 - t32) / 32 * 64 * 4
         );
         defmt::info!(
             "bench_seq: size monitor entry = {=usize} bytes",
@@ -375,6 +406,7 @@ mod app {
         if let Some(e) = ENTRY.get(*cx.local.n + 1) {
             e.store(entry, Ordering::Relaxed);
         }
+        CURRENT.store(*cx.local.n + 1, Ordering::Relaxed);
         if !*cx.local.started {
             // First tick: the lanes have run (declared themselves); start everything now,
             // at sequencer time 0 (no sequencer has ticked yet).
@@ -387,33 +419,44 @@ mod app {
         let n = *cx.local.n + 1;
         *cx.local.n = n;
         let (m1, m8, mf) = (cx.local.m1, cx.local.m8, cx.local.mf);
+        // Exit polls measured where SEQ8 is due in the steady state.
+        POLLS.enable((2..FIRE).contains(&n) && n % 2 == 1);
         // The firing sequencers first, so their reaction is measured from the entry of this
         // handler (an application has one sequencer; the others are only benchmarks). At
         // the firing tick SEQ1 and SEQ8 are not ticked (their lanes would be dispatched
         // before the exception sequence's lane).
-        let cf = measure(|| SEQF.tick(now, &CTRL, mf));
-        SEQE.tick(now, &CTRL, cx.local.me);
-        let (c1, c8) = if n == FIRE {
-            (0, 0)
+        // From SOLO on, SEQ8 alone: the period CPU figure.
+        let solo = n >= SOLO;
+        let cf = if solo {
+            0
         } else {
-            (
-                measure(|| SEQ1.tick(now, &CTRL, m1)),
-                measure(|| SEQ8.tick(now, &CTRL, m8)),
-            )
+            let cf = measure(|| SEQF.tick(now, &CTRL, mf));
+            SEQE.tick(now, &CTRL, cx.local.me);
+            cf
+        };
+        let c1 = if solo || n == FIRE {
+            0
+        } else {
+            measure(|| SEQ1.tick(now, &CTRL, m1))
+        };
+        let c8 = if n == FIRE {
+            0
+        } else {
+            measure(|| SEQ8.tick(now, &CTRL, m8))
         };
         if let Some(slot) = COST.get(n) {
             for (s, v) in slot.iter().zip([c1, c8, cf]) {
                 s.store(v, Ordering::Relaxed);
             }
         }
+        if n + 1 >= TICKS {
+            cx.local.timer.stop();
+            DONE.store(true, Ordering::Relaxed);
+        }
         if n + 1 == FIRE {
             // Just after this tick's evaluation: the worst phase for the reaction.
             CTRL.set(FAULT, true);
             FAULT_AT.store(board::clock::tim2_count(), Ordering::Relaxed);
-        }
-        if n + 1 >= TICKS {
-            cx.local.timer.stop();
-            DONE.store(true, Ordering::Relaxed);
         }
     }
 
@@ -447,7 +490,7 @@ mod app {
             .eight
             .each_mut()
             .map(|s| rtseq::lane(&SEQ8, &CTRL, s));
-        let all = join_lanes(futs);
+        let all = join_measured(futs, &POLLS);
         LANES8_BYTES.store(size_of_val(&all), Ordering::Relaxed);
         all.await
     }
