@@ -190,9 +190,12 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 }
                 Stage::ExitCondition => {
                     self.stage.set(Stage::AwaitPoll);
-                    if body.exit(&self.cx) {
-                        self.try_end(Outcome::Completed, w);
+                    if !body.exit(&self.cx) {
+                        // The due poll was taken and the waker is kept: the next due poll,
+                        // or any change of this run, wakes the lane.
+                        return Poll::Pending;
                     }
+                    self.try_end(Outcome::Completed, w);
                 }
                 Stage::AwaitPoll => match port.due_poll(id, w.waker()) {
                     Clearance::Go => self.stage.set(Stage::ExitCondition),

@@ -84,12 +84,11 @@ impl LaneWaker {
     /// Keeps `waker` as this lane's waker, cloned only when it changed. True when it
     /// changed.
     fn register(&self, waker: &Waker) -> bool {
-        let kept = self.waker.take();
-        // `will_wake` compares pointers: no foreign code.
-        if kept.as_ref().is_some_and(|k| k.will_wake(waker)) {
-            self.waker.set(kept);
+        // The same waker as kept (what `Waker::will_wake` compares): nothing to do.
+        if self.identity.get() == identity(waker) {
             return false;
         }
+        let kept = self.waker.take();
         let new = waker.clone();
         self.identity.set(identity(&new));
         let displaced = self.waker.replace(Some(new));
@@ -153,6 +152,38 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         if self.park(lane, waker) {
             self.with(|s| s.polling.woken = WakeMemo::NONE);
         }
+    }
+
+    /// Keeps `waker` as the waker of `id`'s lane, then runs `read` on the state: an await
+    /// point's wait, in which no wake-up between the registration and the read can be
+    /// lost. With a coarse lock in one section (the state is not borrowed while a changed
+    /// waker is cloned or dropped); with the portable lock in short sections of their own,
+    /// the waker kept before the state is read.
+    pub(crate) fn park_then<R>(
+        &self,
+        id: SeqId,
+        waker: &Waker,
+        read: impl FnOnce(&mut State<C, N, T, W>) -> R,
+    ) -> R {
+        if !L::COARSE {
+            let lane = self.with(|s| s.lane_slot(id));
+            self.park_lane(lane, waker);
+            return self.with(read);
+        }
+        L::lock(|| {
+            let lane = self.borrow_state(|s| s.lane_slot(id));
+            let changed = self
+                .lanes
+                .slots
+                .get(usize::from(lane))
+                .is_some_and(|slot| slot.register(waker));
+            self.borrow_state(|s| {
+                if changed {
+                    s.polling.woken = WakeMemo::NONE;
+                }
+                read(s)
+            })
+        })
     }
 
     /// Whether a lane was declared for `id`.

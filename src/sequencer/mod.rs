@@ -183,9 +183,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Runs `f` on the state; the caller holds the lock. The borrow ends when `f` returns.
     #[inline(always)]
     fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
-        // SAFETY: only called under the lock `L` (by `with` and `update_and_wake`), which
-        // keeps every other context out, and `f` does not re-enter (see `with`): this is
-        // the only reference to the state while it lives.
+        // SAFETY: only called under the lock `L` (by `with`, `update_and_wake` and
+        // `park_then`), which keeps every other context out, and `f` does not re-enter (see
+        // `with`): this is the only reference to the state while it lives.
         let state = unsafe { &mut *self.state.get() };
         f(state)
     }

@@ -93,15 +93,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Port<C>
     }
 
     fn clearance(&self, id: SeqId, waker: &Waker) -> Clearance {
-        let lane = self.with(|s| s.lane_slot(id));
-        self.park_lane(lane, waker);
-        self.with(|s| s.clearance(id))
+        self.park_then(id, waker, |s| s.clearance(id))
     }
 
     fn due_poll(&self, id: SeqId, waker: &Waker) -> Clearance {
-        let lane = self.with(|s| s.lane_slot(id));
-        self.park_lane(lane, waker);
-        self.with(|s| match s.clearance(id) {
+        self.park_then(id, waker, |s| match s.clearance(id) {
             Clearance::Go if s.sets.poll_due.has(id) => {
                 s.sets.poll_due.set(id, false);
                 Clearance::Go
