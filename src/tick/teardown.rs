@@ -45,10 +45,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             // Active, not already `Aborting`.
             (States::entering(RunningState::Aborting), None)
         };
-        let rows = self.levels(target, states, lane);
-        for k in 0..DEPTHS {
+        let (rows, deepest) = self.levels(target, states, lane);
+        for k in 0..=deepest {
             // Pauses outermost first, teardowns innermost first.
-            let depth = if pause { k } else { MAX_DEPTH - k };
+            let depth = if pause { k } else { deepest - k };
             for id in rows.get(depth).copied().unwrap_or_default() {
                 // A restart restarts its target (from `Running` or `Paused`) and aborts the
                 // sequences below it.
@@ -96,30 +96,39 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// For a teardown or a pause: the sequences that are `target` or below it (every one
     /// without a target) whose state is in `states` and, with a `lane`, that run in that
-    /// lane, by depth (outermost first, ids ascending in each row).
+    /// lane, by depth (outermost first, ids ascending in each row), and the deepest row
+    /// that has one.
     ///
-    /// One short section per registered block copies its caller link and whether it
-    /// qualifies; the tree is walked in that copy, outside any section. Lanes cannot
-    /// change it meanwhile when the tick walks (the tick preempts them); a lane's walk (a
-    /// dropped run) may be preempted by the tick, and each change made from it is
-    /// re-checked where it is made.
-    fn levels(&self, target: Option<SeqId>, states: States, lane: Option<u8>) -> [SeqSet; DEPTHS] {
+    /// The caller link of each registered block and whether it qualifies are copied (with
+    /// a coarse lock in one section, else one short section per block); the tree is walked
+    /// in that copy, outside any section. Lanes cannot change it meanwhile when the tick
+    /// walks (the tick preempts them); a lane's walk (a dropped run) may be preempted by
+    /// the tick, and each change made from it is re-checked where it is made.
+    fn levels(
+        &self,
+        target: Option<SeqId>,
+        states: States,
+        lane: Option<u8>,
+    ) -> ([SeqSet; DEPTHS], usize) {
         let mut links = [Link::NONE; N];
         let mut picked = SeqSet::EMPTY;
-        let count = self.with(|s| s.count());
-        for (i, l) in links.iter_mut().enumerate().take(count) {
-            let id = SeqId::from_index(i);
-            let ok;
-            (*l, ok) = self.with(|s| {
-                s.block(id).map_or((Link::NONE, false), |b| {
-                    let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
-                    (b.caller, ok)
-                })
-            });
-            picked.set(id, ok);
-        }
+        in_sections!(self, |s| {
+            let count = s.section(|s| s.count());
+            for (i, l) in links.iter_mut().enumerate().take(count) {
+                let id = SeqId::from_index(i);
+                let ok;
+                (*l, ok) = s.section(|s| {
+                    s.block(id).map_or((Link::NONE, false), |b| {
+                        let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
+                        (b.caller, ok)
+                    })
+                });
+                picked.set(id, ok);
+            }
+        });
         let target = Link::to(target);
         let mut rows = [SeqSet::EMPTY; DEPTHS];
+        let mut deepest = 0;
         for id in picked {
             // Up the caller links (at most MAX_DEPTH): the depth, and whether the target
             // is on the way.
@@ -136,9 +145,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             }
             if let (true, Some(row)) = (below, rows.get_mut(depth)) {
                 row.set(id, true);
+                deepest = deepest.max(depth);
             }
         }
-        rows
+        (rows, deepest)
     }
 }
 
