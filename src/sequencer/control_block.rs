@@ -132,8 +132,11 @@ pub(crate) struct ControlBlock {
     pub(crate) state: RunningState,
     /// `callerSequence`.
     pub(crate) caller: Link,
-    /// The lane slot whose waker drives this sequence.
+    /// The lane slot whose waker drives this sequence's run (its own lane, or its
+    /// blocking caller's).
     pub(crate) lane: u8,
+    /// The lane slot declared for this sequence (`NO_LANE`: none).
+    pub(crate) own_lane: u8,
     pub(crate) timeout_behaviour: Behaviour,
     pub(crate) timeout_exception: Link,
     pub(crate) timeout_restart_limit: u8,
@@ -169,6 +172,7 @@ impl ControlBlock {
         state: RunningState::Idle,
         caller: Link::NONE,
         lane: 0,
+        own_lane: 0,
         timeout_behaviour: Behaviour::Nothing,
         timeout_exception: Link::NONE,
         timeout_restart_limit: 0,
@@ -182,6 +186,7 @@ impl ControlBlock {
         active_exception: None,
         outcome: None,
         lane: NO_LANE,
+        own_lane: NO_LANE,
         timeout_behaviour: Behaviour::AbortOwner,
         timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
         ..ControlBlock::UNREGISTERED

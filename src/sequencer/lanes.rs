@@ -11,8 +11,8 @@ use core::cell::Cell;
 use core::task::{RawWakerVTable, Waker};
 
 use crate::lock::Lock;
-use crate::model::id::Link;
 use crate::model::set::SeqSet;
+use crate::sequencer::control_block::NO_LANE;
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
@@ -244,7 +244,7 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
     }
 }
 
-/// The lane slot `id` declared: one step per slot (a declared slot never changes).
+/// The lane slot `id` declared, if any.
 pub(crate) fn lane_slot_of<
     C,
     S: Sections<C, N, T, W>,
@@ -255,15 +255,16 @@ pub(crate) fn lane_slot_of<
     s: &mut S,
     id: SeqId,
 ) -> Option<u8> {
-    let me = Link::to(Some(id));
-    (0..W)
-        .find(|&k| s.section(|s| s.lane_owners.get(k) == Some(&me)))
-        .and_then(|k| u8::try_from(k).ok())
+    s.section(|s| {
+        s.block(id)
+            .ok()
+            .map(|b| b.own_lane)
+            .filter(|&l| l != NO_LANE)
+    })
 }
 
-/// Declares a lane for `id` (idempotent) and returns its slot (`None`: all slots are
-/// taken): one step per slot looked at. `id` is registered (a `Seq` or a `Handle` of it
-/// exists).
+/// Declares a lane for `id` (idempotent) and returns its slot (`None`: all `W` slots are
+/// taken). Slots are handed out in order and never freed.
 pub(crate) fn declare_lane<
     C,
     S: Sections<C, N, T, W>,
@@ -274,18 +275,17 @@ pub(crate) fn declare_lane<
     s: &mut S,
     id: SeqId,
 ) -> Option<u8> {
-    // Slots fill in order and are never freed: the first slot that is `id`'s or free.
-    let me = Link::to(Some(id));
-    (0..W)
-        .find(|&k| {
-            s.section(|s| match s.lane_owners.get_mut(k) {
-                Some(owner) if *owner == me => true,
-                Some(owner) if *owner == Link::NONE => {
-                    *owner = me;
-                    true
-                }
-                _ => false,
-            })
-        })
-        .and_then(|k| u8::try_from(k).ok())
+    s.section(|s| {
+        let next = s.lanes_declared;
+        let b = s.block_mut(id).ok()?;
+        if b.own_lane != NO_LANE {
+            return Some(b.own_lane);
+        }
+        if usize::from(next) >= W {
+            return None;
+        }
+        b.own_lane = next;
+        s.lanes_declared = next.saturating_add(1);
+        Some(next)
+    })
 }

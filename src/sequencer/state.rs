@@ -1,7 +1,6 @@
 //! Everything the sequencer's lock guards, and the one way to a control block.
 
 use crate::lock::Lock;
-use crate::model::id::Link;
 use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::model::time::Stamp;
@@ -28,8 +27,9 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize> {
     pub(crate) exceptions_not_run: u16,
     /// The number of registered sequences: ids `0..count`.
     count: u8,
-    /// The sequence that declared each lane slot (its waker is in [`Sequencer::lanes`]).
-    pub(crate) lane_owners: [Link; W],
+    /// The lane slots declared so far: slots `0..lanes_declared` (their wakers are in
+    /// [`Sequencer::lanes`]).
+    pub(crate) lanes_declared: u8,
     blocks: [ControlBlock; N],
     /// Each sequence's cleanup hook (`SeqConfig::on_abort`).
     pub(crate) hooks: [Option<fn(&C)>; N],
@@ -121,7 +121,7 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
             },
             exceptions_not_run: 0,
             count: 0,
-            lane_owners: [Link::NONE; W],
+            lanes_declared: 0,
             blocks: [ControlBlock::UNREGISTERED; N],
             hooks: [None; N],
             #[cfg(feature = "counters")]
