@@ -93,6 +93,7 @@ impl Lock for CriticalSection {
 /// use rtseq::lock::PriorityCeiling;
 /// use rtseq::Sequencer;
 /// // The tick runs at RTIC priority 2 on an STM32 (4 priority bits).
+/// // SAFETY: nothing above priority 2 calls a method of SEQ other than `abort_all`.
 /// static SEQ: Sequencer<(), 8, 64, PriorityCeiling<2>> =
 ///     unsafe { Sequencer::with_priority_ceiling() };
 /// ```
