@@ -27,8 +27,8 @@ mod sealed {
 /// ```
 /// use rtseq::lock::{CriticalSection, Lock};
 /// use rtseq::Sequencer;
-/// fn capacity<C, const N: usize, const T: usize, L: Lock, const W: usize>(
-///     _: &Sequencer<C, N, T, L, W>,
+/// fn capacity<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>(
+///     _: &Sequencer<C, N, T, L, W, B>,
 /// ) -> usize {
 ///     N
 /// }

@@ -3,7 +3,7 @@
 use core::marker::PhantomData;
 use core::mem::ManuallyDrop;
 
-use crate::model::set::SeqSet;
+use crate::model::set::{SeqSet, WORDS_MAX};
 use crate::{Condition, Error, MonitorId, SeqId};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
@@ -506,6 +506,12 @@ pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
 /// Most monitors in one [`Group`] (its bit sets are words).
 pub(crate) const GROUP_MAX: u8 = 32;
 
+/// Most monitors in one table.
+const MAX_MONITORS: usize = 256;
+
+/// Most groups in one table.
+const MAX_GROUPS: usize = MAX_MONITORS / GROUP_MAX as usize;
+
 /// Up to [`GROUP_MAX`] consecutively registered monitors, evaluated together: the tick
 /// tests once per group whether all their owners are due and keeps the edge state as bit
 /// sets, so a group is its conditions plus a handful of word operations.
@@ -523,7 +529,7 @@ pub(crate) struct Group {
     /// Monitors that fire while true (`Level`).
     pub(crate) level: u32,
     /// The owners of its monitors.
-    pub(crate) owners: SeqSet,
+    pub(crate) owners: SeqSet<WORDS_MAX>,
     /// The group's first entry in the table.
     pub(crate) start: u8,
     /// Its number of entries (1 ..= `GROUP_MAX`).
@@ -606,9 +612,9 @@ pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// In registration order: a `MonitorId` is the index. Never dropped (a table lives as
     /// long as its firmware), so that a `const` item can hold a table ([`Monitors::table`]).
     pub(crate) entries: ManuallyDrop<heapless::Vec<OwnedMonitor<'a, C, K>, M>>,
-    /// The groups over `entries`, in table order (a fixed array, so that a `const fn` can
-    /// build them): the first `used_groups`.
-    pub(crate) groups: [Group; M],
+    /// The groups over `entries`, in table order: the first `used_groups`. Room for the
+    /// most monitors a table holds (the length cannot follow `M` on stable Rust).
+    pub(crate) groups: [Group; MAX_GROUPS],
     pub(crate) used_groups: u8,
 }
 
@@ -628,10 +634,10 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// assert!(monitors.is_empty());
     /// ```
     pub const fn new() -> Self {
-        const { assert!(M <= 256, "at most 256 monitors") };
+        const { assert!(M <= MAX_MONITORS, "at most 256 monitors") };
         Monitors {
             entries: ManuallyDrop::new(heapless::Vec::new()),
-            groups: [Group::starting_at(0); M],
+            groups: [Group::starting_at(0); MAX_GROUPS],
             used_groups: 0,
         }
     }
@@ -660,8 +666,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     pub const fn table<const L: usize>(
         monitors: [OwnedMonitor<'a, C, K>; L],
     ) -> Result<Self, Error> {
-        const { assert!(M <= 256, "at most 256 monitors") };
-        let mut groups = [Group::starting_at(0); M];
+        const { assert!(M <= MAX_MONITORS, "at most 256 monitors") };
+        let mut groups = [Group::starting_at(0); MAX_GROUPS];
         let mut used_groups: u8 = 0;
         let mut rest: &[OwnedMonitor<'a, C, K>] = &monitors;
         let mut slots: &mut [Group] = &mut groups;
@@ -676,17 +682,10 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
                 let Some((e, tail)) = rest.split_first() else {
                     break;
                 };
-                let checked = if e.def.name.is_empty() {
-                    Err(Error::EmptyName)
-                } else if e.owner.index() >= crate::MAX_SEQUENCES {
-                    Err(Error::UnknownSequence(e.owner))
-                } else {
-                    Ok(())
-                };
-                if let Err(error) = checked {
+                if e.def.name.is_empty() {
                     // A `const fn` may not drop a `K`.
                     core::mem::forget(monitors);
-                    return Err(error);
+                    return Err(Error::EmptyName);
                 }
                 g.push(e.owner, e.def.trigger);
                 at = at.wrapping_add(1);
@@ -701,8 +700,9 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         })
     }
 
-    /// Adds a monitor owned by `owner`. Errors on an empty name, a full table or an owner
-    /// id no sequencer hands out (at or above [`MAX_SEQUENCES`](crate::MAX_SEQUENCES)).
+    /// Adds a monitor owned by `owner`. Errors on an empty name or a full table; that the
+    /// owner and the exception sequence are registered is checked by
+    /// [`Sequencer::validate`](crate::Sequencer::validate).
     ///
     /// The tick evaluates monitors in this order (the order of their ids), in groups of
     /// 32 that share one due test.
@@ -713,15 +713,10 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// let seq: Sequencer<u32, 2> = Sequencer::new();
     /// let run = seq.register(SeqConfig::new("run")).unwrap();
     /// let high = |n: &u32, _: Instant| *n > 9;
-    /// let (mut a, mut b, mut c, mut d) = (high, high, high, high);
+    /// let (mut a, mut c, mut d) = (high, high, high);
     /// let mut monitors: Monitors<u32, 1> = Monitors::new();
     /// let nameless = monitors.add(run, Monitor::new("", &mut a, Behaviour::Nothing));
     /// assert_eq!(nameless, Err(Error::EmptyName));
-    /// let beyond = SeqId::from_index(rtseq::MAX_SEQUENCES);
-    /// assert_eq!(
-    ///     monitors.add(beyond, Monitor::new("b", &mut b, Behaviour::Nothing)),
-    ///     Err(Error::UnknownSequence(beyond))
-    /// );
     /// let ok = monitors.add(run, Monitor::new("c", &mut c, Behaviour::Nothing));
     /// assert_eq!(ok, Ok(MonitorId::from_index(0)));
     /// let full = monitors.add(run, Monitor::new("d", &mut d, Behaviour::Nothing));
@@ -730,9 +725,6 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     pub fn add(&mut self, owner: SeqId, monitor: Monitor<'a, C, K>) -> Result<MonitorId, Error> {
         if monitor.name.is_empty() {
             return Err(Error::EmptyName);
-        }
-        if owner.index() >= crate::MAX_SEQUENCES {
-            return Err(Error::UnknownSequence(owner));
         }
         let id = u8::try_from(self.entries.len()).map_err(|_| Error::MonitorCapacityExceeded)?;
         let entry = OwnedMonitor {
@@ -746,7 +738,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         self.entries
             .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;
-        // Group `k` holds entries `32 k ..`; there are as many groups as entries.
+        // Group `k` holds entries `32 k ..`.
         if id % GROUP_MAX == 0 {
             self.used_groups = self.used_groups.saturating_add(1);
             if let Some(g) = self.groups.get_mut(usize::from(id / GROUP_MAX)) {
@@ -896,12 +888,9 @@ mod tests {
     }
 
     #[test]
-    fn a_table_checks_names_and_owners() {
+    fn a_table_checks_names() {
         let nameless = Monitor::with_condition("", Never, Behaviour::Nothing).owned_by(SeqId(0));
         let t: Result<Monitors<'_, (), 2, Never>, _> = Monitors::table([nameless]);
         assert!(matches!(t, Err(Error::EmptyName)));
-        let unowned = monitor(0).owned_by(SeqId(32));
-        let t: Result<Monitors<'_, (), 2, Never>, _> = Monitors::table([unowned]);
-        assert!(matches!(t, Err(Error::UnknownSequence(SeqId(32)))));
     }
 }

@@ -80,8 +80,9 @@ pub struct Sim<
     const M: usize,
     K = crate::DynCondition<'a, C>,
     const W: usize = 8,
+    const B: usize = 1,
 > {
-    sequencer: &'a Sequencer<C, N, T, crate::lock::CriticalSection, W>,
+    sequencer: &'a Sequencer<C, N, T, crate::lock::CriticalSection, W, B>,
     control: &'a C,
     monitors: Monitors<'a, C, M, K>,
     lanes: Vec<SimLane<'a>>,
@@ -103,7 +104,8 @@ impl<
         const M: usize,
         K: crate::Condition<C>,
         const W: usize,
-    > Sim<'a, C, N, T, M, K, W>
+        const B: usize,
+    > Sim<'a, C, N, T, M, K, W, B>
 {
     /// A simulation at time 0 with a 1 ms (1 kHz) tick.
     ///
@@ -118,7 +120,7 @@ impl<
     /// assert!(!sim.any_active());
     /// ```
     pub fn new(
-        sequencer: &'a Sequencer<C, N, T, crate::lock::CriticalSection, W>,
+        sequencer: &'a Sequencer<C, N, T, crate::lock::CriticalSection, W, B>,
         control: &'a C,
         monitors: Monitors<'a, C, M, K>,
     ) -> Self {
@@ -814,7 +816,8 @@ impl<
         const M: usize,
         K: crate::Condition<C>,
         const W: usize,
-    > Sim<'a, C, N, T, M, K, W>
+        const B: usize,
+    > Sim<'a, C, N, T, M, K, W, B>
 {
     /// Writes the trace to `path` in the format of the `rtseq-trace` tool
     /// (`docs/trace-format.md`): a header with the sequences (id, name, caller of the last

@@ -92,23 +92,24 @@ impl MonitorId {
     }
 }
 
-/// A 1-byte optional sequence id: the id plus one, 0 = none (`SeqId` values stop at 254),
-/// so that an empty sequencer is all zeros (see `ControlBlock::UNREGISTERED`).
+/// An optional sequence id: the id plus one, 0 = none, so that an empty sequencer is all
+/// zeros (see `ControlBlock::UNREGISTERED`).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) struct Link(u8);
+pub(crate) struct Link(u16);
 
 impl Link {
     pub(crate) const NONE: Link = Link(0);
 
     pub(crate) const fn to(id: Option<SeqId>) -> Link {
         match id {
-            Some(i) => Link(i.0.wrapping_add(1)),
+            Some(i) => Link(i.0 as u16 + 1),
             None => Link::NONE,
         }
     }
 
     pub(crate) fn get(self) -> Option<SeqId> {
-        self.0.checked_sub(1).map(SeqId)
+        // At most 256 - 1: fits a byte.
+        self.0.checked_sub(1).map(|i| SeqId(i as u8))
     }
 }
 
@@ -121,7 +122,7 @@ mod tests {
         assert_eq!(Link::NONE, Link(0));
         assert_eq!(Link::to(None), Link::NONE);
         assert_eq!(Link::NONE.get(), None);
-        for id in [0u8, 1, 31, 254] {
+        for id in [0u8, 1, 31, 254, 255] {
             assert_eq!(Link::to(Some(SeqId(id))).get(), Some(SeqId(id)));
         }
     }

@@ -8,6 +8,7 @@
 //! tree is fixed before the program runs.
 
 use crate::model::id::Link;
+use crate::model::set::WORDS_MAX;
 use crate::sequencer::control_block::ControlBlock;
 use crate::tick::schedule::Classes;
 use crate::{Behaviour, Error, SeqConfig, SeqId};
@@ -129,7 +130,7 @@ impl<C> CheckedConfig<C> {
 /// ```
 pub struct Table<C, const N: usize> {
     pub(crate) configs: [CheckedConfig<C>; N],
-    pub(crate) classes: Classes,
+    pub(crate) classes: Classes<WORDS_MAX>,
 }
 
 impl<C, const N: usize> Table<C, N> {
@@ -347,7 +348,7 @@ mod tests {
             Table::new(periods).err(),
             Some(Error::PollingClassesExceeded)
         );
-        let too_many: Result<Table<(), 33>, _> = Table::new([const { SeqConfig::new("x") }; 33]);
+        let too_many: Result<Table<(), 257>, _> = Table::new([const { SeqConfig::new("x") }; 257]);
         assert_eq!(too_many.err(), Some(Error::SequenceCapacityExceeded));
     }
 }

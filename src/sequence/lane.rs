@@ -41,11 +41,20 @@ use crate::{Cx, Seq, Sequence, Sequencer};
 ///
 /// The lane is the sequence's run itself (see `sequence/run.rs`): between runs it waits for
 /// the next non-blocking start.
-pub fn lane<'a, C, S: Sequence<C>, const N: usize, const T: usize, L: Lock, const W: usize>(
-    sequencer: &'a Sequencer<C, N, T, L, W>,
+pub fn lane<
+    'a,
+    C,
+    S: Sequence<C>,
+    const N: usize,
+    const T: usize,
+    L: Lock,
+    const W: usize,
+    const B: usize,
+>(
+    sequencer: &'a Sequencer<C, N, T, L, W, B>,
     control: &'a C,
     seq: &'a mut Seq<S>,
-) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W> {
+) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W, B> {
     let Seq { head, body } = seq;
     LaneRun(sequence_run(
         Run::lane(Cx::new(sequencer, control, head.id), &head.result),

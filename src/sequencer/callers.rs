@@ -11,7 +11,7 @@ use crate::sequencer::sections::Sections;
 use crate::sequencer::State;
 use crate::{RunningState, SeqId, MAX_DEPTH};
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// One step of [`cut_and_depth`]: the caller of `at`, or `None` at the top of the
     /// stack; a link of `at` to `id` (its old run) is cut instead.
     fn cut_step(&mut self, id: SeqId, at: SeqId) -> Option<SeqId> {
@@ -52,10 +52,11 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
 /// form a cycle.
 pub(crate) fn cut_and_depth<
     C,
-    S: Sections<C, N, T, W>,
+    S: Sections<C, N, T, W, B>,
     const N: usize,
     const T: usize,
     const W: usize,
+    const B: usize,
 >(
     s: &mut S,
     id: SeqId,
@@ -79,10 +80,11 @@ pub(crate) fn cut_and_depth<
 /// is one of the callers it blocks (its callers in its own lane).
 pub(crate) fn join_would_deadlock<
     C,
-    S: Sections<C, N, T, W>,
+    S: Sections<C, N, T, W, B>,
     const N: usize,
     const T: usize,
     const W: usize,
+    const B: usize,
 >(
     s: &mut S,
     joiner: SeqId,

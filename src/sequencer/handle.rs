@@ -44,8 +44,14 @@ pub struct Handle<'a, C> {
 }
 
 impl<'a, C> Handle<'a, C> {
-    pub(crate) fn new<const N: usize, const T: usize, L: crate::lock::Lock, const W: usize>(
-        seq: &'a Sequencer<C, N, T, L, W>,
+    pub(crate) fn new<
+        const N: usize,
+        const T: usize,
+        L: crate::lock::Lock,
+        const W: usize,
+        const B: usize,
+    >(
+        seq: &'a Sequencer<C, N, T, L, W, B>,
         id: SeqId,
     ) -> Self {
         Handle { port: seq, id }

@@ -9,7 +9,7 @@ use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::State;
 use crate::SeqId;
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// `joiner` waits for the end of the run of `target`.
     pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
         if let Ok(b) = self.block_mut(joiner) {

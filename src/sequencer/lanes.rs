@@ -136,7 +136,9 @@ impl<const W: usize> Lanes<W> {
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// Keeps `waker` as the waker of lane slot `lane` (a section of its own, outside the
     /// state). True when it changed.
     pub(crate) fn park(&self, lane: u8, waker: &Waker) -> bool {
@@ -163,7 +165,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         &self,
         id: SeqId,
         waker: &Waker,
-        read: impl FnOnce(&mut State<C, N, T, W>) -> R,
+        read: impl FnOnce(&mut State<C, N, T, W, B>) -> R,
     ) -> R {
         if !L::COARSE {
             let lane = self.with(|s| s.lane_slot(id));
@@ -208,7 +210,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// Runs `f` on the state, then wakes the lanes it returns once the state is no longer
     /// borrowed: with a coarse lock all in one section, else in sections of their own (a
     /// waker's length is not rtseq's to bound).
-    pub(crate) fn update_and_wake(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> LaneSet) {
+    pub(crate) fn update_and_wake(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> LaneSet) {
         if L::COARSE {
             L::lock(|| {
                 let lanes = self.borrow_state(f);
@@ -221,12 +223,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     }
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The lanes to wake for the due exit-condition polls `polls`: the lanes found for the
     /// same set last time, or, when the set changed, a walk over the sequences. Lanes
     /// joined in one task share their waker, which is woken once.
     #[inline(always)]
-    pub(crate) fn lanes_of_polls(&mut self, polls: SeqSet, wakers: &Lanes<W>) -> LaneSet {
+    pub(crate) fn lanes_of_polls(&mut self, polls: SeqSet<B>, wakers: &Lanes<W>) -> LaneSet {
         if self.polling.woken.polls != polls {
             let mut lanes = LaneSet::EMPTY;
             let mut woken = NO_WAKER;
@@ -247,10 +249,11 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
 /// The lane slot `id` declared, if any.
 pub(crate) fn lane_slot_of<
     C,
-    S: Sections<C, N, T, W>,
+    S: Sections<C, N, T, W, B>,
     const N: usize,
     const T: usize,
     const W: usize,
+    const B: usize,
 >(
     s: &mut S,
     id: SeqId,
@@ -267,10 +270,11 @@ pub(crate) fn lane_slot_of<
 /// taken). Slots are handed out in order and never freed.
 pub(crate) fn declare_lane<
     C,
-    S: Sections<C, N, T, W>,
+    S: Sections<C, N, T, W, B>,
     const N: usize,
     const T: usize,
     const W: usize,
+    const B: usize,
 >(
     s: &mut S,
     id: SeqId,

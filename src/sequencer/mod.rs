@@ -65,8 +65,9 @@ pub struct Sequencer<
     const T: usize = 64,
     L: Lock = CriticalSection,
     const W: usize = 8,
+    const B: usize = 1,
 > {
-    state: UnsafeCell<State<C, N, T, W>>,
+    state: UnsafeCell<State<C, N, T, W, B>>,
     /// The lanes' wakers, outside `state`: a waker is foreign code, called only while the
     /// state is not borrowed.
     pub(crate) lanes: Lanes<W>,
@@ -85,20 +86,22 @@ pub struct Sequencer<
 // caller of the `unsafe` constructor promised that no user runs above the ceiling). The
 // other fields are `Sync` themselves. `State` and `Lanes` are `Send` for every `C` (they
 // hold only plain data, wakers and `fn(&C)` pointers).
-unsafe impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sync
-    for Sequencer<C, N, T, L, W>
+unsafe impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize> Sync
+    for Sequencer<C, N, T, L, W, B>
 {
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> Default
-    for Sequencer<C, N, T, CriticalSection, W>
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> Default
+    for Sequencer<C, N, T, CriticalSection, W, B>
 {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> Sequencer<C, N, T, CriticalSection, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize>
+    Sequencer<C, N, T, CriticalSection, W, B>
+{
     /// An empty sequencer guarded by critical sections; `const`, so it can be a `static`.
     ///
     /// ```
@@ -113,8 +116,15 @@ impl<C, const N: usize, const T: usize, const W: usize> Sequencer<C, N, T, Criti
 
 #[cfg_attr(docsrs, doc(cfg(feature = "cortex-m")))]
 #[cfg(feature = "cortex-m")]
-impl<C, const N: usize, const T: usize, const PRIORITY: u8, const BITS: u8, const W: usize>
-    Sequencer<C, N, T, crate::lock::PriorityCeiling<PRIORITY, BITS>, W>
+impl<
+        C,
+        const N: usize,
+        const T: usize,
+        const PRIORITY: u8,
+        const BITS: u8,
+        const W: usize,
+        const B: usize,
+    > Sequencer<C, N, T, crate::lock::PriorityCeiling<PRIORITY, BITS>, W, B>
 {
     /// An empty sequencer guarded by RTIC's priority ceiling instead of critical sections:
     /// no interrupt above the ceiling is ever masked by rtseq.
@@ -148,12 +158,20 @@ impl<C, const N: usize, const T: usize, const PRIORITY: u8, const BITS: u8, cons
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     const fn empty() -> Self {
         const {
             assert!(
                 N <= crate::MAX_SEQUENCES,
                 "a sequencer holds at most MAX_SEQUENCES sequences and steps"
+            )
+        };
+        const {
+            assert!(
+                N <= 32 * B,
+                "a sequencer of N sequences needs B >= N / 32 words in its sets"
             )
         };
         const { assert!(W <= 32, "at most 32 lanes") };
@@ -176,13 +194,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// wakers are called by [`wake_lanes`](Self::wake_lanes) and [`park`](Self::park), user
     /// conditions and hooks by the tick, each outside `with`.
     #[inline]
-    pub(crate) fn with<R>(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+    pub(crate) fn with<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         L::lock(|| self.borrow_state(f))
     }
 
     /// Runs `f` on the state; the caller holds the lock. The borrow ends when `f` returns.
     #[inline(always)]
-    fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+    fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         // SAFETY: only called under the lock `L` (by `with`, `update_and_wake` and
         // `park_then`), which keeps every other context out, and `f` does not re-enter (see
         // `with`): this is the only reference to the state while it lives.

@@ -77,8 +77,8 @@ pub(crate) trait Port<C> {
 /// With the portable lock each method is a few short sections (a waker is kept in its own
 /// section before the state is read, so no wake-up is lost in between; walks take one
 /// section per step), with a coarse lock fewer, longer ones.
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Port<C>
-    for Sequencer<C, N, T, L, W>
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize> Port<C>
+    for Sequencer<C, N, T, L, W, B>
 {
     fn now(&self) -> Instant {
         Sequencer::now(self)

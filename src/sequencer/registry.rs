@@ -8,7 +8,9 @@ use crate::sequencer::port::Port;
 use crate::tick::schedule::Classes;
 use crate::{Error, Handle, Seq, SeqConfig, SeqId, Sequencer, Table};
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// Registers a sequence or step. Errors on an empty or duplicate name, an out-of-range
     /// duration, or when all `N` slots are taken.
     ///
@@ -59,14 +61,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 "the table holds more sequences than the sequencer's N"
             )
         };
-        self.install_configs(&table.configs, &table.classes)
+        self.install_configs(&table.configs, &table.classes.resized())
     }
 
     /// The part of [`install`](Self::install) that does not depend on the table's size.
     fn install_configs(
         &self,
         configs: &[CheckedConfig<C>],
-        classes: &Classes,
+        classes: &Classes<B>,
     ) -> Result<(), Error> {
         for (i, config) in configs.iter().enumerate() {
             self.with(|s| {

@@ -42,7 +42,7 @@ impl Request {
     }
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// Queues `req` of `id` for the next tick.
     pub(crate) fn request(&mut self, id: SeqId, req: Request) -> Result<(), Error> {
         let b = self.block_mut(id)?;
@@ -58,7 +58,9 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// Requests that every running sequence be aborted (e.g. by the safety system). Applied
     /// by the next tick, innermost sequences first. Safe to call from any priority.
     ///
@@ -111,8 +113,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 }
 
 /// A safety level that demands it aborts every sequence through the sequencer.
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> AbortSequences
-    for Sequencer<C, N, T, L, W>
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize> AbortSequences
+    for Sequencer<C, N, T, L, W, B>
 {
     fn abort_all(&self) {
         Sequencer::abort_all(self);

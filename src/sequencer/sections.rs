@@ -12,35 +12,43 @@ use crate::sequencer::State;
 use crate::Sequencer;
 
 /// The state, one step at a time.
-pub(crate) trait Sections<C, const N: usize, const T: usize, const W: usize> {
+pub(crate) trait Sections<C, const N: usize, const T: usize, const W: usize, const B: usize> {
     /// True when every step runs inside one section: nothing changes between two steps,
     /// so a commit never has to be tried again.
     const ONE_SECTION: bool = false;
 
     /// Runs `f` on the state: in a section of its own, or inside the caller's.
-    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R;
+    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R;
 }
 
 /// Inside the section a coarse lock's caller holds: every step runs at once.
-impl<C, const N: usize, const T: usize, const W: usize> Sections<C, N, T, W> for State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> Sections<C, N, T, W, B>
+    for State<C, N, T, W, B>
+{
     const ONE_SECTION: bool = true;
 
     #[inline(always)]
-    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         f(self)
     }
 }
 
 /// With the portable lock: one section per step.
-pub(crate) struct EachStep<'a, C, const N: usize, const T: usize, L: Lock, const W: usize>(
-    pub(crate) &'a Sequencer<C, N, T, L, W>,
-);
+pub(crate) struct EachStep<
+    'a,
+    C,
+    const N: usize,
+    const T: usize,
+    L: Lock,
+    const W: usize,
+    const B: usize,
+>(pub(crate) &'a Sequencer<C, N, T, L, W, B>);
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sections<C, N, T, W>
-    for EachStep<'_, C, N, T, L, W>
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sections<C, N, T, W, B> for EachStep<'_, C, N, T, L, W, B>
 {
     #[inline(always)]
-    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W>) -> R) -> R {
+    fn section<R>(&mut self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         self.0.with(f)
     }
 }

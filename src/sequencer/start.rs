@@ -50,7 +50,7 @@ struct Scheduled {
     armed: bool,
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The read-only checks of a start of `id`: not active; with a blocking caller, the
     /// caller's lane. Returns `id`'s `BOUND` flag (set once, never cleared) and that lane.
     fn check_start(
@@ -131,7 +131,7 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
     fn due_by(&mut self, id: SeqId) {
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
-        let next = self.polling.classes.resume(class, now, self.sets.active);
+        let next = self.polling.classes.resume(class, now, &self.sets.active);
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 
@@ -170,7 +170,14 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
 /// The checks of a start of `id` (blocking in `caller`'s lane, or in its own lane) in the
 /// order a start in one piece would fail them, and the cut of a link to an old run of `id`
 /// among `caller`'s callers. Returns the new run's lane and its flags (with `extra`).
-fn admit<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+fn admit<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
     s: &mut S,
     id: SeqId,
     caller: Option<SeqId>,
@@ -204,7 +211,14 @@ fn admit<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: us
 /// Schedules and commits a new run of `id` from a state that is not active; again if a
 /// tick ran in between (it may have rescanned without the new run, or changed its state:
 /// the commit re-checks both). False (nothing changed) when the state does not allow it.
-fn launch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+fn launch<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
     s: &mut S,
     id: SeqId,
     run: NewRun,
@@ -231,7 +245,14 @@ fn launch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: u
 /// Schedules and commits a `Restarting` sequence's run again, in its lane with its caller
 /// and flags as they are (from `Restarting`, or, if the tick stopped it since the lane saw
 /// that, as the transition table allows; a `Running` or `Paused` one stays).
-fn relaunch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+fn relaunch<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
     s: &mut S,
     id: SeqId,
 ) {
@@ -253,7 +274,9 @@ fn relaunch<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W:
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
     /// the new run: the checks, the schedule and commit and, in its lane, the wake-up. With
     /// a coarse lock two sections: the checks walk the callers, which grows with the depth.

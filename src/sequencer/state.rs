@@ -16,17 +16,17 @@ use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition}
 /// that grow with the capacities last, so that the hot fields stay within a load's
 /// immediate offset of the base whatever `N` and `T` are.
 #[repr(C)]
-pub(crate) struct State<C, const N: usize, const T: usize, const W: usize> {
+pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const B: usize> {
     /// The last tick's time.
     pub(crate) now: Instant,
     /// The sequences as sets: what the tick works on.
-    pub(crate) sets: Sets,
+    pub(crate) sets: Sets<B>,
     /// When the tick must look at the sequences next.
-    pub(crate) polling: Polling,
+    pub(crate) polling: Polling<B>,
     /// Exceptions whose sequence could not run (no lane, already running, too deep).
     pub(crate) exceptions_not_run: u16,
     /// The number of registered sequences: ids `0..count`.
-    count: u8,
+    count: u16,
     /// The lane slots declared so far: slots `0..lanes_declared` (their wakers are in
     /// [`Sequencer::lanes`]).
     pub(crate) lanes_declared: u8,
@@ -42,62 +42,62 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize> {
 /// The sequences as sets, kept so that the tick works with a few word operations instead
 /// of a visit to every control block.
 #[derive(Clone, Copy)]
-pub(crate) struct Sets {
+pub(crate) struct Sets<const B: usize> {
     /// `Running` or `Paused`, as of the start of the last tick (the tick folds `changed`
     /// in before it scans).
-    pub(crate) active: SeqSet,
+    pub(crate) active: SeqSet<B>,
     /// `Paused`, as `active`.
-    pub(crate) paused: SeqSet,
+    pub(crate) paused: SeqSet<B>,
     /// The state changed since the tick last folded it into `active` and `paused`.
-    pub(crate) changed: SeqSet,
+    pub(crate) changed: SeqSet<B>,
     /// A new run or restart began: the tick resets the edge detection of these sequences'
     /// monitors before their next evaluation.
-    pub(crate) fresh: SeqSet,
+    pub(crate) fresh: SeqSet<B>,
     /// The timeout monitor is armed (the block's `deadline` is meaningful).
-    pub(crate) armed: SeqSet,
+    pub(crate) armed: SeqSet<B>,
     /// `exceptionIsActive`: a monitor of the sequence fired and its handling is pending,
     /// or the sequence was aborted because of it.
-    pub(crate) excepting: SeqSet,
+    pub(crate) excepting: SeqSet<B>,
     /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
-    pub(crate) poll_wait: SeqSet,
+    pub(crate) poll_wait: SeqSet<B>,
     /// The tick says the polled condition is due.
-    pub(crate) poll_due: SeqSet,
+    pub(crate) poll_due: SeqSet<B>,
     /// Waiting in a join (each block's `joins` says for which run).
-    pub(crate) joining: SeqSet,
+    pub(crate) joining: SeqSet<B>,
     /// With a request, or whose exception sequence ended, for the next tick.
-    pub(crate) requested: SeqSet,
+    pub(crate) requested: SeqSet<B>,
 }
 
 /// When the tick must look again, and whom it woke last time.
-pub(crate) struct Polling {
+pub(crate) struct Polling<const B: usize> {
     /// The polling classes: one schedule per distinct polling period.
-    pub(crate) classes: Classes,
+    pub(crate) classes: Classes<B>,
     /// Earliest next poll of a class with an active member (`NEVER_AHEAD` after the last
     /// scan when none is active).
     pub(crate) next_due: Stamp,
     /// The lanes the tick's last exit-condition wake-up woke, for reuse.
-    pub(crate) woken: WakeMemo,
+    pub(crate) woken: WakeMemo<B>,
 }
 
 /// The lane slots woken for a set of due exit-condition polls: in a steady state the set
 /// repeats from poll to poll, and the tick wakes the same lanes again without visiting the
 /// sequences. Forgotten whenever a sequence's lane or a lane's waker changes.
 #[derive(Clone, Copy)]
-pub(crate) struct WakeMemo {
+pub(crate) struct WakeMemo<const B: usize> {
     /// The polls (never empty while the memo is valid).
-    pub(crate) polls: SeqSet,
+    pub(crate) polls: SeqSet<B>,
     /// Their lane slots, one per distinct waker.
     pub(crate) lanes: LaneSet,
 }
 
-impl WakeMemo {
-    pub(crate) const NONE: WakeMemo = WakeMemo {
+impl<const B: usize> WakeMemo<B> {
+    pub(crate) const NONE: Self = WakeMemo {
         polls: SeqSet::EMPTY,
         lanes: LaneSet::EMPTY,
     };
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// Nothing registered, time 0.
     pub(crate) const fn new() -> Self {
         State {
@@ -133,7 +133,7 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
     /// The control block of registered sequence `id`.
     #[inline]
     pub(crate) fn block(&self, id: SeqId) -> Result<&ControlBlock, Error> {
-        if id.0 >= self.count {
+        if u16::from(id.0) >= self.count {
             return Err(Error::UnknownSequence(id));
         }
         self.blocks
@@ -144,7 +144,7 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
     /// The control block of registered sequence `id`, to change.
     #[inline]
     pub(crate) fn block_mut(&mut self, id: SeqId) -> Result<&mut ControlBlock, Error> {
-        if id.0 >= self.count {
+        if u16::from(id.0) >= self.count {
             return Err(Error::UnknownSequence(id));
         }
         self.blocks
@@ -169,7 +169,10 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
         block: ControlBlock,
         hook: Option<fn(&C)>,
     ) -> Result<SeqId, Error> {
-        let id = SeqId(self.count);
+        if self.count() >= N {
+            return Err(Error::SequenceCapacityExceeded);
+        }
+        let id = SeqId::from_index(self.count());
         let (Some(b), Some(h)) = (
             self.blocks.get_mut(id.index()),
             self.hooks.get_mut(id.index()),
@@ -197,7 +200,7 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
 
     /// Makes the first `count` prepared blocks visible at once (at most `N`).
     pub(crate) fn commit_count(&mut self, count: usize) {
-        self.count = u8::try_from(count.min(N)).unwrap_or(u8::MAX);
+        self.count = u16::try_from(count.min(N)).unwrap_or(u16::MAX);
     }
 
     /// The registered blocks, by id.
@@ -279,7 +282,9 @@ impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// The last tick's time.
     ///
     /// ```

@@ -18,7 +18,7 @@ pub(crate) enum Clearance {
     Restart,
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// What an await point of `id` must do now.
     pub(crate) fn clearance(&self, id: SeqId) -> Clearance {
         let Ok(b) = self.block(id) else {

@@ -105,7 +105,9 @@ impl fmt::Display for ConfigError {
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// Checks the whole configuration before the first tick: every monitor's owner is
     /// registered; every exception sequence of a monitor or of a timeout is registered, is
     /// not its owner and has a lane (declared by [`lane`](crate::lane) or

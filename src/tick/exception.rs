@@ -34,7 +34,9 @@ impl ControlBlock {
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// A monitor (or `owner`'s timeout, `Cause::Timeout`) of `owner` fired with `reaction`:
     /// mark the exception, then start the exception sequence (the behaviour waits for its
     /// end) or apply the behaviour now. Returns false when the owner could not take an
@@ -102,7 +104,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// whatever the monitor tables the tick is instantiated for).
     #[inline(never)]
     pub(crate) fn apply_requests(&self, control: &C) {
-        let requested = self.with(|s| core::mem::take(&mut s.sets.requested));
+        let requested = self.with(|s| s.sets.requested.take_all());
         for id in requested {
             // The requests, and the behaviour pending for an exception sequence that ended.
             let (req, done) = self.with(|s| {
@@ -153,7 +155,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 /// the exception (active; for a timeout, running; not handling one already), counts the
 /// restart and marks the exception. Returns the behaviour's target and the behaviour
 /// (escalated past the restart limit).
-fn mark<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+fn mark<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
     s: &mut S,
     owner: SeqId,
     cause: Cause,

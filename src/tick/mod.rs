@@ -29,68 +29,70 @@ mod teardown;
 use schedule::Due;
 
 /// What the tick must do for the sequences whose poll is due.
-pub(crate) struct Polls {
+pub(crate) struct Polls<const B: usize> {
     /// Active sequences whose polling class is due: their monitors are evaluated.
-    pub(crate) due: SeqSet,
+    pub(crate) due: SeqSet<B>,
     /// Due in a new run or restart: their monitors' edge detection starts from "false".
-    pub(crate) fresh: SeqSet,
+    pub(crate) fresh: SeqSet<B>,
     /// Running, due, with an expired timeout (raised after the monitors).
-    expired: SeqSet,
+    expired: SeqSet<B>,
     /// Running, due, waiting for a polled condition: their lanes are woken (after the
     /// monitors).
-    wake: SeqSet,
+    wake: SeqSet<B>,
     /// Some active sequence is paused or handles an exception: a wake-up checks that its
     /// sequence is not held.
     careful: bool,
 }
 
-impl<C, const N: usize, const T: usize, const W: usize> State<C, N, T, W> {
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The due polls `due` (active sequences whose polling class is due): takes their
     /// fresh marks and marks their due exit-condition polls. Returns what to do, without
     /// the expired timeouts, and the running ones with an armed timeout.
     #[inline(always)]
-    fn take_polls(&mut self, due: SeqSet) -> (Polls, SeqSet) {
+    fn take_polls(&mut self, due: SeqSet<B>) -> (Polls<B>, SeqSet<B>) {
         let sets = &mut self.sets;
-        let running = due.minus(sets.paused);
-        let fresh = sets.fresh.and(due);
-        sets.fresh = sets.fresh.minus(due);
-        let wake = running.and(sets.poll_wait);
-        sets.poll_due = sets.poll_due.or(wake);
+        let running = due.minus(&sets.paused);
+        let fresh = sets.fresh.and(&due);
+        sets.fresh = sets.fresh.minus(&due);
+        let wake = running.and(&sets.poll_wait);
+        sets.poll_due = sets.poll_due.or(&wake);
         let polls = Polls {
             due,
             fresh,
             expired: SeqSet::EMPTY,
             wake,
-            careful: !sets.paused.or(sets.excepting).and(sets.active).is_empty(),
+            careful: sets.paused.or(&sets.excepting).meets(&sets.active),
         };
-        (polls, running.and(sets.armed))
+        (polls, running.and(&sets.armed))
     }
 
     /// Those of `wake` that are not held (see [`held`]), in one section.
-    fn unheld(&self, wake: SeqSet) -> SeqSet {
+    fn unheld(&self, wake: SeqSet<B>) -> SeqSet<B> {
         let mut out = wake;
         for id in wake {
             let lane = self.lane_slot(id);
             if held(id, |c| self.held_step(c, lane)) {
-                out.set(id, false);
+                out.remove(id);
             }
         }
         out
     }
 
     /// Those of `timed` whose timeout deadline has passed at `now`.
-    fn expired(&self, timed: SeqSet, now: Stamp) -> SeqSet {
+    fn expired(&self, timed: SeqSet<B>, now: Stamp) -> SeqSet<B> {
         let mut out = SeqSet::EMPTY;
         for id in timed {
             if self.block(id).is_ok_and(|b| now.reached(Stamp(b.deadline))) {
-                out.set(id, true);
+                out.insert(id);
             }
         }
         out
     }
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// The heartbeat (one call per timer interrupt): sets the sequencer time to `now`, applies
     /// pending requests, evaluates the monitors and timeouts of every sequence whose polling
     /// period is due, and wakes the lanes that must act.
@@ -118,7 +120,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
             (
                 !s.sets.requested.is_empty(),
                 stamp.reached(s.polling.next_due),
-                core::mem::take(&mut s.sets.changed),
+                s.sets.changed.take_all(),
             )
         });
         self.fold(changed);
@@ -133,7 +135,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
         if abort_all || requests {
             // What they stopped or paused is not due any more.
-            self.fold(self.with(|s| core::mem::take(&mut s.sets.changed)));
+            self.fold(self.with(|s| s.sets.changed.take_all()));
         }
         let polls = self.scan(stamp);
         let mut careful = polls.careful;
@@ -170,7 +172,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 
     /// Folds the state of the sequences `changed` into the sets `active` and `paused`, one
     /// short section per sequence.
-    fn fold(&self, changed: SeqSet) {
+    fn fold(&self, changed: SeqSet<B>) {
         for id in changed {
             self.with(|s| s.fold(id));
         }
@@ -181,7 +183,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// due exit-condition polls and finds their expired timeouts. With a coarse lock in
     /// one section; otherwise one short section per class and per armed timeout.
     #[inline(always)]
-    fn scan(&self, now: Stamp) -> Polls {
+    fn scan(&self, now: Stamp) -> Polls<B> {
         let mut due = Due {
             sequences: SeqSet::EMPTY,
             ahead: u32::MAX,
@@ -189,7 +191,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let next_due = |ahead: u32| now.plus(ahead.min(NEVER_AHEAD));
         if L::COARSE {
             return self.with(|s| {
-                s.polling.classes.scan_all(now, s.sets.active, &mut due);
+                s.polling.classes.scan_all(now, &s.sets.active, &mut due);
                 s.polling.next_due = next_due(due.ahead);
                 let (mut polls, timed) = s.take_polls(due.sequences);
                 polls.expired = s.expired(timed, now);
@@ -198,7 +200,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         }
         let classes = self.with(|s| s.polling.classes.len());
         for i in 0..classes {
-            self.with(|s| s.polling.classes.scan(i, now, s.sets.active, &mut due));
+            self.with(|s| s.polling.classes.scan(i, now, &s.sets.active, &mut due));
         }
         let (mut polls, timed) = self.with(|s| {
             s.polling.next_due = next_due(due.ahead);
@@ -207,7 +209,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         for id in timed {
             polls.expired = polls
                 .expired
-                .or(self.with(|s| s.expired(SeqSet::of(id), now)));
+                .or(&self.with(|s| s.expired(SeqSet::of(id), now)));
         }
         polls
     }
@@ -216,7 +218,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     /// (checked only when `careful`: after a monitor fired or while something is held), in
     /// short sections. Lanes joined in one task share their waker, which is woken once.
     #[inline(never)]
-    fn lanes_of_polls(&self, wake: SeqSet, careful: bool) -> LaneSet {
+    fn lanes_of_polls(&self, wake: SeqSet<B>, careful: bool) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
         let mut woken = NO_WAKER;
         for id in wake {

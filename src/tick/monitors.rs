@@ -13,14 +13,14 @@ use crate::{Cause, Instant, MonitorId, Monitors, Sequencer};
 /// owners (all due) starts again from "false": their bits of `last` are cleared. Returns
 /// the values and the bits evaluated.
 #[inline(never)]
-fn evaluate_due<C, K: crate::Condition<C>>(
+fn evaluate_due<C, K: crate::Condition<C>, const B: usize>(
     members: &mut [OwnedMonitor<'_, C, K>],
     last: &mut u32,
-    polls: &Polls,
+    polls: &Polls<B>,
     control: &C,
     now: Instant,
 ) -> (u32, u32) {
-    let (due, fresh) = (polls.due, polls.fresh);
+    let (due, fresh) = (&polls.due, &polls.fresh);
     let mut values = 0u32;
     let mut evaluated = 0u32;
     let mut renewed = 0u32;
@@ -41,7 +41,9 @@ fn evaluate_due<C, K: crate::Condition<C>>(
     (values | (*last & !evaluated), evaluated)
 }
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// Evaluates the monitors of the due owners and raises the exceptions of those that
     /// fire. True when one fired.
     ///
@@ -51,7 +53,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
     #[inline(always)]
     pub(crate) fn evaluate_monitors<const M: usize, K: crate::Condition<C>>(
         &self,
-        polls: &Polls,
+        polls: &Polls<B>,
         monitors: &mut Monitors<'_, C, M, K>,
         control: &C,
         now: Instant,
@@ -60,7 +62,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         let due = polls.due;
         // Due owners whose monitors keep their edge state: a group of only these takes the
         // flat loop.
-        let steady = due.minus(polls.fresh);
+        let steady = due.minus(&polls.fresh);
         let mut rest = monitors.entries.as_mut_slice();
         let used = usize::from(monitors.used_groups);
         for g in monitors.groups.iter_mut().take(used) {
@@ -71,12 +73,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
                 break;
             };
             rest = tail;
-            if g.owners.and(due).is_empty() {
+            let owners = g.owners.resized::<B>();
+            if !owners.meets(&due) {
                 continue;
             }
             // A monitor of a fresh owner starts its edge detection from "false": the
             // per-monitor path.
-            let (values, evaluated) = if g.owners.minus(steady).is_empty() {
+            let (values, evaluated) = if owners.within(&steady) {
                 let mut values = 0u32;
                 for m in members.iter_mut() {
                     values = (values << 1) | u32::from(m.def.condition.validate(control, now));

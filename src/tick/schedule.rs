@@ -18,42 +18,42 @@ pub const MAX_POLLING_CLASSES: usize = 8;
 
 /// One polling period and the sequences registered with it.
 #[derive(Clone, Copy)]
-pub(crate) struct Class {
+pub(crate) struct Class<const B: usize> {
     /// The period (µs); `None` (zero bytes, so an empty sequencer is all zeros) only in
     /// an unused class.
     period: Option<NonZeroU32>,
     /// The next poll while the class has an active member.
     next: Stamp,
-    members: SeqSet,
+    members: SeqSet<B>,
 }
 
 /// The classes of one sequencer.
 // A fixed array and a length rather than a `heapless::Vec`: `join` is a `const fn`, so a
 // `Table` computes the classes at compile time.
 #[derive(Clone, Copy)]
-pub(crate) struct Classes {
-    list: [Class; MAX_POLLING_CLASSES],
+pub(crate) struct Classes<const B: usize> {
+    list: [Class<B>; MAX_POLLING_CLASSES],
     len: u8,
 }
 
 /// What a scan of the classes found.
-pub(crate) struct Due {
+pub(crate) struct Due<const B: usize> {
     /// The active sequences whose poll is due.
-    pub(crate) sequences: SeqSet,
+    pub(crate) sequences: SeqSet<B>,
     /// Time from now to the next poll of a class with an active member (µs; `u32::MAX`
     /// when there is none).
     pub(crate) ahead: u32,
 }
 
-impl Classes {
+impl<const B: usize> Classes<B> {
     pub(crate) const fn new() -> Self {
-        const UNUSED: Class = Class {
+        let unused = Class {
             period: None,
             next: Stamp(0),
             members: SeqSet::EMPTY,
         };
         Classes {
-            list: [UNUSED; MAX_POLLING_CLASSES],
+            list: [unused; MAX_POLLING_CLASSES],
             len: 0,
         }
     }
@@ -66,7 +66,7 @@ impl Classes {
             return Err(Error::DurationOutOfRange);
         };
         let Classes { list, len } = self;
-        let mut rest: &mut [Class] = list;
+        let mut rest: &mut [Class<B>] = list;
         let mut at: u8 = 0;
         while let Some((class, tail)) = rest.split_first_mut() {
             if at == *len {
@@ -92,9 +92,9 @@ impl Classes {
         usize::from(self.len)
     }
 
-    /// Becomes a copy of `from`'s used classes (a table's install; only the used ones are
-    /// copied, to keep the section short).
-    pub(crate) fn copy_used(&mut self, from: &Classes) {
+    /// Becomes a copy of `from`'s used classes (a table's install; only the used ones
+    /// are copied, to keep the section short).
+    pub(crate) fn copy_used(&mut self, from: &Classes<B>) {
         let len = from.len();
         for (to, c) in self.list.iter_mut().zip(from.list.iter()).take(len) {
             *to = *c;
@@ -102,13 +102,28 @@ impl Classes {
         self.len = from.len;
     }
 
+    /// The same classes for a sequencer of capacity `M` (a table's for the sequencer it
+    /// is installed in, `N <= M`).
+    pub(crate) fn resized<const M: usize>(&self) -> Classes<M> {
+        let mut out = Classes::new();
+        for (to, c) in out.list.iter_mut().zip(self.list.iter()).take(self.len()) {
+            *to = Class {
+                period: c.period,
+                next: c.next,
+                members: c.members.resized(),
+            };
+        }
+        out.len = self.len;
+        out
+    }
+
     /// Before a start of a sequence of class `index` at `now`: an idle class (no member
     /// in `active`) starts its grid one period from now. Returns the class's next poll.
     #[inline]
-    pub(crate) fn resume(&mut self, index: u8, now: Stamp, active: SeqSet) -> Stamp {
+    pub(crate) fn resume(&mut self, index: u8, now: Stamp, active: &SeqSet<B>) -> Stamp {
         match self.list.get_mut(usize::from(index)) {
             Some(c) => {
-                if c.members.and(active).is_empty() {
+                if !c.members.meets(active) {
                     c.next = now.plus(c.period.map_or(0, NonZeroU32::get));
                 }
                 c.next
@@ -119,7 +134,7 @@ impl Classes {
 
     /// The scan of class `index` at `now` (see [`Class::scan`]).
     #[inline(always)]
-    pub(crate) fn scan(&mut self, index: usize, now: Stamp, active: SeqSet, due: &mut Due) {
+    pub(crate) fn scan(&mut self, index: usize, now: Stamp, active: &SeqSet<B>, due: &mut Due<B>) {
         // An unused class has no members: no need to test `len`.
         if let Some(c) = self.list.get_mut(index) {
             c.scan(now, active, due);
@@ -128,7 +143,7 @@ impl Classes {
 
     /// The scan of every class at `now`.
     #[inline(always)]
-    pub(crate) fn scan_all(&mut self, now: Stamp, active: SeqSet, due: &mut Due) {
+    pub(crate) fn scan_all(&mut self, now: Stamp, active: &SeqSet<B>, due: &mut Due<B>) {
         let len = self.len();
         for c in self.list.iter_mut().take(len) {
             c.scan(now, active, due);
@@ -136,18 +151,18 @@ impl Classes {
     }
 }
 
-impl Class {
+impl<const B: usize> Class<B> {
     /// When the class has an active member and its poll is due, advances its grid and
     /// adds its active members to `due`.
     #[inline(always)]
-    fn scan(&mut self, now: Stamp, active: SeqSet, due: &mut Due) {
+    fn scan(&mut self, now: Stamp, active: &SeqSet<B>, due: &mut Due<B>) {
         let live = self.members.and(active);
         // A class with members has a period.
         let (false, Some(period)) = (live.is_empty(), self.period) else {
             return;
         };
         if now.reached(self.next) {
-            due.sequences = due.sequences.or(live);
+            due.sequences = due.sequences.or(&live);
             // The next grid point after now: missed periods (a late tick) are not
             // replayed.
             let behind = self.next.until(now);
@@ -162,7 +177,7 @@ impl Class {
 mod tests {
     use super::*;
 
-    fn live(ids: &[u8]) -> SeqSet {
+    fn live(ids: &[u8]) -> SeqSet<8> {
         let mut b = SeqSet::EMPTY;
         for &i in ids {
             b.set(SeqId(i), true);
@@ -172,22 +187,22 @@ mod tests {
 
     #[test]
     fn a_class_polls_its_active_members_on_its_grid() {
-        let mut c = Classes::new();
+        let mut c = Classes::<8>::new();
         assert_eq!(c.join(SeqId(0), 1_000), Ok(0));
         assert_eq!(c.join(SeqId(1), 2_000), Ok(1));
         assert_eq!(c.join(SeqId(2), 1_000), Ok(0));
         let active = live(&[0, 1]);
-        assert_eq!(c.resume(0, Stamp(500), SeqSet::EMPTY), Stamp(1_500));
-        assert_eq!(c.resume(1, Stamp(500), SeqSet::EMPTY), Stamp(2_500));
+        assert_eq!(c.resume(0, Stamp(500), &SeqSet::EMPTY), Stamp(1_500));
+        assert_eq!(c.resume(1, Stamp(500), &SeqSet::EMPTY), Stamp(2_500));
         // Already busy: sequence 2 joins the grid of sequence 0.
-        assert_eq!(c.resume(0, Stamp(900), active), Stamp(1_500));
-        let scan = |c: &mut Classes, now| {
+        assert_eq!(c.resume(0, Stamp(900), &active), Stamp(1_500));
+        let scan = |c: &mut Classes<8>, now| {
             let mut due = Due {
                 sequences: SeqSet::EMPTY,
                 ahead: u32::MAX,
             };
             for i in 0..c.len() {
-                c.scan(i, Stamp(now), live(&[0, 1, 2]), &mut due);
+                c.scan(i, Stamp(now), &live(&[0, 1, 2]), &mut due);
             }
             (due.sequences, due.ahead)
         };
@@ -200,7 +215,7 @@ mod tests {
 
     #[test]
     fn more_periods_than_classes_is_an_error() {
-        let mut c = Classes::new();
+        let mut c = Classes::<8>::new();
         for p in 1..=MAX_POLLING_CLASSES as u32 {
             assert!(c.join(SeqId(0), p).is_ok());
         }

@@ -15,7 +15,9 @@ use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
 /// The depths a sequence can have (0 to `MAX_DEPTH` callers).
 const DEPTHS: usize = MAX_DEPTH + 1;
 
-impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N, T, L, W> {
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
     /// Moves `target` and the sequences below it (every active sequence without a target)
     /// to `to`, one at a time, for `cause`: the one walk of teardowns and pauses.
     ///
@@ -109,9 +111,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
         target: Option<SeqId>,
         states: States,
         lane: Option<u8>,
-    ) -> ([SeqSet; DEPTHS], usize) {
+    ) -> ([SeqSet<B>; DEPTHS], usize) {
         let mut links = [Link::NONE; N];
-        let mut picked = SeqSet::EMPTY;
+        let mut picked = SeqSet::<B>::EMPTY;
         in_sections!(self, |s| {
             let count = s.section(|s| s.count());
             for (i, l) in links.iter_mut().enumerate().take(count) {
@@ -156,7 +158,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize> Sequencer<C, N,
 /// `to` (a paused timeout keeps its remaining time). Returns the hook to run (set at
 /// registration; none for a pause or resume), or `None` when `id` does not move.
 #[allow(clippy::type_complexity)]
-fn leave<C, S: Sections<C, N, T, W>, const N: usize, const T: usize, const W: usize>(
+fn leave<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
     s: &mut S,
     id: SeqId,
     cause: Cause,
