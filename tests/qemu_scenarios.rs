@@ -240,6 +240,46 @@ fn figure(out: &Outcome, prefix: &str) -> u64 {
         .unwrap_or_else(|| panic!("no number after {prefix:?} in {:?}", l.message))
 }
 
+/// The tick's cost against the number of registered sequences (`bench_scale`): sets of one
+/// word cost the same whatever the number registered, and one running sequence costs less
+/// than eight. The multi-word figures are printed; see docs/footprint.md.
+#[test]
+fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
+    let out = run("bench_scale", &[]);
+    expect_exit(&out, 0);
+    let f = |running: u32, registered: u32| {
+        figure(
+            &out,
+            &format!("bench_scale: tick {running} x 4 due, {registered} registered = "),
+        )
+    };
+    for (running, registered) in [
+        (8, 8),
+        (8, 32),
+        (8, 64),
+        (8, 256),
+        (1, 8),
+        (1, 32),
+        (1, 256),
+    ] {
+        println!(
+            "figure: tick {running} x 4 due, {registered} registered [instructions] = {}",
+            f(running, registered)
+        );
+    }
+    assert_eq!(
+        f(8, 8),
+        f(8, 32),
+        "one-word sets: the number registered is free"
+    );
+    assert_eq!(f(1, 8), f(1, 32));
+    assert!(
+        f(1, 32) < f(8, 8),
+        "one running of 32 costs less than 8 running of 8"
+    );
+    assert!(f(1, 256) < f(8, 256), "and in a sequencer of 256");
+}
+
 /// Instructions per tick, reaction latency and sizes from the `bench_seq` firmware.
 #[test]
 fn bench_tick_costs_latency_and_sizes_meet_their_budgets() {

@@ -48,7 +48,24 @@ pub(crate) use state::State;
 /// access to it (use atomics or [`critical_section::Mutex`] inside `C` for commands). `N` is
 /// the capacity of sequences and steps, `T` of the transition trace buffer (a power of
 /// two), `L` the [`Lock`], `W` the capacity of lanes (sequences that can run
-/// non-blocking).
+/// non-blocking), `B` the words of 32 sequences in each of the sequencer's sets of
+/// sequences: `N <= 32 * B`, at most [`MAX_SEQUENCES`](crate::MAX_SEQUENCES) = 256 with
+/// `B = 8`. (Stable Rust cannot size an array by `N / 32`, hence the second parameter.)
+///
+/// ```
+/// use rtseq::lock::CriticalSection;
+/// use rtseq::{SeqConfig, Sequencer};
+/// // 256 sequences and steps: sets of 8 words.
+/// static BIG: Sequencer<(), 256, 64, CriticalSection, 8, 8> = Sequencer::new();
+/// assert!(BIG.register(SeqConfig::new("first")).is_ok());
+/// ```
+///
+/// A capacity its sets cannot hold does not compile:
+///
+/// ```compile_fail
+/// use rtseq::Sequencer;
+/// static TOO_BIG: Sequencer<(), 64> = Sequencer::new(); // needs B = 2
+/// ```
 ///
 /// ```
 /// use rtseq::{SeqConfig, Sequencer, Error};

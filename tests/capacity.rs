@@ -1,0 +1,170 @@
+//! 256 sequences: a sequencer whose sets span several words behaves exactly as a small one.
+//! The same scenario (a main sequence running a child that runs a step, a monitor of the
+//! child firing with an exception sequence, a restart) runs in a sequencer of 8
+//! and, spread over the words of its sets (ids 0, 100, 200, 255), in a sequencer of 256:
+//! the traces are the same, id for id.
+
+mod common;
+use common::*;
+use rtseq::lock::CriticalSection;
+use rtseq::sim::Sim;
+use rtseq::Cause::Monitor as Mon;
+use rtseq::RunningState::*;
+use rtseq::{
+    Behaviour, Cause, Duration, Error, Monitor, MonitorId, Monitors, SeqConfig, SeqId, Sequencer,
+    Transition,
+};
+
+/// Ids of the scenario's sequences.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Ids {
+    main: SeqId,
+    child: SeqId,
+    step: SeqId,
+    exception: SeqId,
+}
+
+/// Registers `fill` filler sequences wherever `at` asks for an id beyond the next, then
+/// the scenario; runs it for 30 ms and returns its ids and trace.
+fn scenario<const N: usize, const B: usize>(
+    seq: &Sequencer<Ctrl, N, 64, CriticalSection, 8, B>,
+    at: Ids,
+) -> (Ids, Vec<Transition>) {
+    let ctrl = Ctrl::default();
+    let names: Vec<&'static str> = (0..N)
+        .map(|i| &*Box::leak(format!("filler {i}").into_boxed_str()))
+        .collect();
+    let fill_to = |id: SeqId| {
+        while seq.len() < id.index() {
+            seq.register(SeqConfig::new(names[seq.len()])).unwrap();
+        }
+    };
+    fill_to(at.main);
+    let main = seq.register(SeqConfig::new("main")).unwrap();
+    fill_to(at.child);
+    let child = seq.register(SeqConfig::new("child")).unwrap();
+    fill_to(at.exception);
+    let exception = seq
+        .add(SeqConfig::new("exception"), Node::of(vec![]))
+        .unwrap();
+    fill_to(at.step);
+    let step = seq.add(SeqConfig::new("step"), Leaf::until(1)).unwrap();
+    let step_id = step.id();
+    // The child runs the step, whose exit condition (flag 1) comes at 20 ms.
+    let child_seq = seq.bind(child, Node::of(vec![Op::Step(step)])).unwrap();
+    let main_seq = seq.bind(main, Node::of(vec![Op::Run(child_seq)])).unwrap();
+    // Flag 3 (4 ms .. 6 ms) restarts the child once its exception sequence ran.
+    let mut kick = |c: &Ctrl, _| c.flag(3);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(
+            child,
+            Monitor::new("kick", &mut kick, Behaviour::RestartOwner)
+                .exception(exception.id())
+                .restart_limit(1),
+        )
+        .unwrap();
+    assert_eq!(m, MonitorId::from_index(0));
+    let ids = Ids {
+        main,
+        child,
+        step: step_id,
+        exception: exception.id(),
+    };
+    assert_eq!(ids, at);
+    let mut sim = Sim::new(seq, &ctrl, monitors);
+    sim.lane(main_seq);
+    sim.lane(exception);
+    sim.before_tick(|t, c| {
+        c.set(3, (4..6).contains(&ms(t)));
+        c.set(1, ms(t) >= 20);
+    });
+    sim.start(main).unwrap();
+    sim.run_for(Duration::from_millis(30));
+    (ids, sim.trace().to_vec())
+}
+
+#[test]
+fn a_sequencer_of_256_runs_as_one_of_8_across_the_words_of_its_sets() {
+    let small: Sequencer<Ctrl, 8> = Sequencer::new();
+    let packed = Ids {
+        main: SeqId::from_index(0),
+        child: SeqId::from_index(1),
+        exception: SeqId::from_index(2),
+        step: SeqId::from_index(3),
+    };
+    let (_, expected) = scenario(&small, packed);
+    let big: Sequencer<Ctrl, 256, 64, CriticalSection, 8, 8> = Sequencer::new();
+    let spread = Ids {
+        main: SeqId::from_index(0),
+        child: SeqId::from_index(100),
+        exception: SeqId::from_index(200),
+        step: SeqId::from_index(255),
+    };
+    let (ids, trace) = scenario(&big, spread);
+    assert_eq!(big.len(), 256);
+    let renamed = |id: SeqId| match id {
+        i if i == packed.child => ids.child,
+        i if i == packed.exception => ids.exception,
+        i if i == packed.step => ids.step,
+        i => i,
+    };
+    let expected: Vec<Transition> = expected
+        .iter()
+        .map(|t| {
+            let cause = match t.cause {
+                Cause::Timeout(i) => Cause::Timeout(renamed(i)),
+                c => c,
+            };
+            Transition {
+                sequence: renamed(t.sequence),
+                cause,
+                ..*t
+            }
+        })
+        .collect();
+    assert_eq!(show(&trace), show(&expected));
+    // And the scenario itself, spelled out.
+    let (m, c, e, s) = (ids.main, ids.child, ids.exception, ids.step);
+    let k = MonitorId::from_index(0);
+    assert_eq!(
+        trace,
+        vec![
+            tr(0, m, Idle, Running, Cause::Start),
+            tr(0, c, Idle, Running, Cause::Start),
+            tr(0, s, Idle, Running, Cause::Start),
+            // Flag 3 at 4 ms: the exception sequence runs (and ends at once) ...
+            tr(4, e, Idle, Running, Mon(k)),
+            tr(4, e, Running, Terminated, Cause::Completed),
+            // ... and the next tick applies the behaviour: the child restarts, the step
+            // it was running is aborted first and runs again.
+            tr(5, s, Running, Aborting, Mon(k)),
+            tr(5, s, Aborting, Aborted, Mon(k)),
+            tr(5, c, Running, Restarting, Mon(k)),
+            tr(5, c, Restarting, Running, Cause::Restart),
+            tr(5, s, Aborted, Running, Cause::Start),
+            tr(20, s, Running, Terminated, Cause::Completed),
+            tr(20, c, Running, Terminated, Cause::Completed),
+            tr(20, m, Running, Terminated, Cause::Completed),
+        ],
+        "{}",
+        show(&trace)
+    );
+}
+
+#[test]
+fn the_257th_sequence_is_an_error() {
+    let seq: Sequencer<(), 256, 64, CriticalSection, 8, 8> = Sequencer::new();
+    for i in 0..256 {
+        let name: &'static str = Box::leak(format!("s{i}").into_boxed_str());
+        assert_eq!(seq.register(SeqConfig::new(name)), Ok(SeqId::from_index(i)));
+    }
+    assert_eq!(
+        seq.register(SeqConfig::new("one too many")),
+        Err(Error::SequenceCapacityExceeded)
+    );
+    assert_eq!(
+        seq.sequence_by_name("s255").map(|h| h.id()),
+        Some(SeqId::from_index(255))
+    );
+}
