@@ -1,4 +1,4 @@
-//! The compact bookkeeping behind the 44-byte control block: caller links instead of copied
+//! The compact bookkeeping behind the 48-byte control block: caller links instead of copied
 //! caller stacks, lane slots holding the wakers, a monitor table in registration order, evaluated in groups.
 
 mod common;

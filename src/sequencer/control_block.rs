@@ -105,8 +105,8 @@ mod pending {
     ];
 }
 
-/// One registered sequence's state: 40 bytes on a 32-bit target (with its cleanup-hook slot
-/// 44), so a sequencer for 32 sequences needs 1.4 KiB plus its sets and polling classes.
+/// One registered sequence's state: 44 bytes on a 32-bit target (with its cleanup-hook slot
+/// 48), so a sequencer for 32 sequences needs 1.5 KiB plus its sets and polling classes.
 ///
 /// The caller stack is not stored: each block links to its caller, and the stack, its depth
 /// and its blocking part are walked from the links (at most [`MAX_DEPTH`] steps). Wakers
