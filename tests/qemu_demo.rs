@@ -647,6 +647,39 @@ fn demo_rejects_bad_options_with_a_clear_error() {
         ),
         (&["--speed", "2"][..], "demo: unknown option"),
         (&["--fault"][..], "demo: option needs a value"),
+        // Three dots: not read as the window 4 s .. 0.6 s.
+        (
+            &["--pause", "4s...6s"][..],
+            "demo: bad pause window: START..END is two times with two dots between, e.g. 4s..6s: '4s...6s'",
+        ),
+        (&["--pause", "..6s"][..], "demo: bad pause window: START..END"),
+        // During homing (the moves start in the tick of 1143 ms) or after the last move
+        // (done in the tick of 6440 ms): nothing to hold.
+        (
+            &["--pause", "0.5s..2s"][..],
+            "demo: the pause window must start after homing: the moves run from 1.144s to 6.439s: '0.5s..2s'",
+        ),
+        (
+            &["--pause", "1143ms..2s"][..],
+            "demo: the pause window must start after homing",
+        ),
+        (
+            &["--pause", "7s..8s"][..],
+            "demo: the pause window must start before the run's last move is done: the moves run from 1.144s to 6.439s: '7s..8s'",
+        ),
+        (
+            &["--pause", "6440ms..7s"][..],
+            "demo: the pause window must start before the run's last move is done",
+        ),
+        // After a fault (in either order on the command line).
+        (
+            &["--fault", "estop@2s", "--pause", "4s..6s"][..],
+            "demo: the pause window must start before the first fault (a fault ends the moves): '4s..6s'",
+        ),
+        (
+            &["--pause", "4s..6s", "--fault=endstop@4s"][..],
+            "demo: the pause window must start before the first fault",
+        ),
     ] {
         let d = parse_demo(run_demo(args));
         expect_exit(&d.out, 1);
@@ -660,4 +693,68 @@ fn demo_rejects_bad_options_with_a_clear_error() {
     let help = parse_demo(run_demo(&["--help"]));
     expect_exit(&help.out, 0);
     assert!(help.out.find("usage: ./x demo").is_some());
+}
+
+/// The command line (program name `demo`, the arguments, one space between each, and the
+/// final NUL) must fit the firmware's 256-byte buffer; a longer one is an error, not a run
+/// without its options. `--fault estop@2s` padded with spaces to `len` bytes.
+fn padded_estop(len: usize) -> Vec<String> {
+    let head = "demo --fault estop@2s ".len();
+    vec![
+        "--fault".to_string(),
+        "estop@2s".to_string(),
+        " ".repeat(len - head),
+    ]
+}
+
+#[test]
+fn demo_rejects_a_command_line_longer_than_its_buffer() {
+    for len in [256, 322] {
+        let args = padded_estop(len);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let d = parse_demo(run_demo(&args));
+        expect_exit(&d.out, 1);
+        let msg = "demo: the command line is longer than the firmware's 256-byte buffer (program name, arguments and spaces): nothing was run";
+        let l = d
+            .out
+            .find(msg)
+            .unwrap_or_else(|| panic!("{len}: no {msg:?}\n{}", d.out.transcript()));
+        assert_eq!(l.level, Some("ERROR"));
+        assert!(d.trace.is_empty(), "{len}: ran the application");
+        assert!(!d.has_line("FAULT"), "{len}");
+    }
+    // 255 bytes and the NUL fit: the e-stop is injected (the spaces are no arguments).
+    let args = padded_estop(255);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let d = demo_equals_host(&args, FaultPlan::NONE.with(Fault::EStop { at: ms(2000) }));
+    assert_eq!(d.get("level"), "emergency");
+    assert_eq!(d.num("estop.reacted_ms"), 2001);
+}
+
+#[test]
+fn the_demo_s_pause_limits_are_the_fault_free_run_s() {
+    // demo.rs's HOMED_MS and LAST_MOVE_DONE_MS.
+    let h = host(FaultPlan::NONE, 7000);
+    assert_eq!(h.result["homed_ms"], "1143");
+    assert_eq!(
+        h.result["move_done_ms"].rsplit(',').next(),
+        Some("6440"),
+        "{}",
+        h.result["move_done_ms"]
+    );
+}
+
+#[test]
+fn demo_pause_windows_at_the_limits_hold_a_move() {
+    // The first and the last millisecond accepted for the first press.
+    for (args, start, end) in [
+        (["--pause", "1144ms..1300ms"], 1144, 1300),
+        (["--pause", "6439ms..6600ms"], 6439, 6600),
+    ] {
+        let d = demo_equals_host(&args, FaultPlan::NONE.with_pause(ms(start), ms(end)));
+        assert_eq!(d.num("paused_ms"), start as i64, "{args:?}");
+        assert_eq!(d.num("resumed_ms"), end as i64, "{args:?}");
+        assert_eq!(d.num("moves_done"), 8, "{args:?}");
+        assert_eq!(d.get("phase"), "done", "{args:?}");
+    }
 }
