@@ -2,8 +2,35 @@
 //! with the full transition trace.
 //!
 //! It is the same code that runs on the chip: the simulator only replaces the RTIC
-//! executor (it polls woken lanes in declaration order) and the timer interrupt (it calls
-//! [`Sequencer::tick`] every `period` of simulated time).
+//! executor and the timer interrupt (it calls [`Sequencer::tick`] every `period` of
+//! simulated time).
+//!
+//! # The order of the lanes
+//!
+//! Each lane has an RTIC priority ([`Sim::lane_with_priority`]; [`Sim::lane`] gives
+//! [`DEFAULT_LANE_PRIORITY`]). The simulator polls woken lanes the way RTIC 2 dispatches
+//! software tasks (read in `rtic-macros` 2.4.0, `codegen/async_dispatchers.rs`, and
+//! `rtic` 2.4.0, `export/executor.rs`):
+//!
+//! - Each priority level has one dispatcher. It runs while any lane of a higher level is
+//!   woken only after those have run: the highest woken level goes first.
+//! - One run of a dispatcher (a *pass*) visits the lanes of its level in a fixed order and
+//!   polls each one that is woken at that moment, once. A lane woken during the pass is
+//!   polled in the same pass if it comes later in the order, else in the next pass.
+//!   RTIC's fixed order is the alphabetical order of the task names (the tasks of a level
+//!   are a `BTreeSet` of identifiers), **not** the order they became ready; the simulator
+//!   uses the order the lanes were added, so add them in the order of their RTIC task
+//!   names to mirror a firmware exactly.
+//! - A lane that wakes a lane of a higher priority is preempted: the higher lane runs
+//!   before the pass goes on. On the chip it runs at the wake-up itself, inside the
+//!   waker's poll; the simulator cannot split a poll and runs it right after the poll that
+//!   woke it (the waker's trace up to its next await point comes first).
+//! - The tick (the timer interrupt) is above every lane, as in RTIC where the lanes run at
+//!   or below the sequencer lock's ceiling, the tick's priority.
+//!
+//! [`Sim::shuffle_equal_priorities`] replaces the fixed order of each pass by a random one
+//! (deterministic per seed), to find applications that depend on the order of lanes of
+//! equal priority woken in the same tick.
 
 extern crate std;
 
@@ -25,6 +52,81 @@ use crate::{
 /// Upper bound of lane polls in one settle, to turn a livelock into a visible stop.
 const MAX_POLLS_PER_SETTLE: usize = 100_000;
 
+/// The priority of a lane added with [`Sim::lane`]: 1, the lowest RTIC priority of a
+/// dispatched software task (the demo firmware's lanes all run at 1).
+///
+/// ```
+/// use rtseq::sim::{Sim, DEFAULT_LANE_PRIORITY};
+/// use rtseq::{Cx, Monitors, SeqConfig, Sequence, Sequencer};
+/// struct Blink;
+/// impl Sequence<()> for Blink {
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+/// }
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let (a, b) = (seq.add(SeqConfig::new("a"), Blink), seq.add(SeqConfig::new("b"), Blink));
+/// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+/// sim.lane(a.unwrap());
+/// sim.lane_with_priority(b.unwrap(), DEFAULT_LANE_PRIORITY); // the same as `sim.lane(b)`
+/// assert_eq!(sim.lane_priorities(), [1, 1]);
+/// ```
+pub const DEFAULT_LANE_PRIORITY: u8 = 1;
+
+/// A misuse of the simulator's set-up.
+///
+/// ```
+/// use rtseq::sim::{Sim, SimError};
+/// use rtseq::{Duration, Monitors, Sequencer};
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).with_period(Duration::from_ticks(0));
+/// assert_eq!(sim.err(), Some(SimError::ZeroPeriod));
+/// assert_eq!(SimError::ZeroPeriod.to_string(), "the tick period must be longer than 0");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum SimError {
+    /// A tick period of 0: simulated time would never advance and `run_for` would never
+    /// end.
+    ZeroPeriod,
+}
+
+impl core::fmt::Display for SimError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SimError::ZeroPeriod => f.write_str("the tick period must be longer than 0"),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+/// SplitMix64 (Steele, Lea, Flood 2014): a small generator that takes any seed, 0
+/// included. Enough to shuffle a few lanes; not for anything else.
+struct Shuffle(u64);
+
+impl Shuffle {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// A number in `0..n` (`n` > 0; the bias of the remainder is negligible for a few lanes).
+    fn below(&mut self, n: usize) -> usize {
+        let n64 = u64::try_from(n).unwrap_or(u64::MAX).max(1);
+        usize::try_from(self.next() % n64).unwrap_or(0)
+    }
+
+    /// Fisher-Yates.
+    fn shuffle(&mut self, v: &mut [usize]) {
+        for i in (1..v.len()).rev() {
+            let j = self.below(i.saturating_add(1));
+            v.swap(i, j);
+        }
+    }
+}
+
 struct Flag(AtomicBool);
 
 impl Wake for Flag {
@@ -41,6 +143,7 @@ struct SimLane<'a> {
     flag: Arc<Flag>,
     waker: Waker,
     polls: usize,
+    priority: u8,
 }
 
 type BeforeTick<'a, C> = Box<dyn FnMut(Instant, &C) + 'a>;
@@ -94,6 +197,8 @@ pub struct Sim<
     /// The configuration was validated (before the first start).
     validated: bool,
     before_tick: Option<BeforeTick<'a, C>>,
+    /// Shuffles the order of each pass (`shuffle_equal_priorities`).
+    shuffle: Option<Shuffle>,
 }
 
 impl<
@@ -136,22 +241,72 @@ impl<
             stalled: false,
             validated: false,
             before_tick: None,
+            shuffle: None,
         }
     }
 
-    /// Changes the tick period.
+    /// Changes the tick period; a period of 0 is an `Err(SimError::ZeroPeriod)` (simulated
+    /// time would stand still).
     ///
     /// ```
     /// use rtseq::{sim::Sim, Duration, Monitors, Sequencer};
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
-    ///     .with_period(Duration::from_millis(10));
+    ///     .with_period(Duration::from_millis(10))?;
     /// sim.step();
     /// sim.step();
     /// assert_eq!(sim.now().duration_since_epoch(), Duration::from_millis(20));
+    /// # Ok::<(), rtseq::sim::SimError>(())
     /// ```
-    pub fn with_period(mut self, period: Duration) -> Self {
+    pub fn with_period(mut self, period: Duration) -> Result<Self, SimError> {
+        if period.as_ticks() == 0 {
+            return Err(SimError::ZeroPeriod);
+        }
         self.period = period;
+        Ok(self)
+    }
+
+    /// Polls the woken lanes of equal priority in a random order, a new one for every pass
+    /// (see [the order of the lanes](self#the-order-of-the-lanes)), drawn from `seed`: the
+    /// same seed gives the same run. Lanes of different priorities keep RTIC's order.
+    ///
+    /// Two lanes of equal priority whose dwells end in the same tick: with the declaration
+    /// order `a` ends first; the seeds 1 and 3 give the two possible orders.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer,
+    ///             Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// fn first_to_end(seed: Option<u64>) -> SeqId {
+    ///     let seq: Sequencer<(), 4> = Sequencer::new();
+    ///     let ms = |n| Wait::new(Duration::from_millis(n));
+    ///     let (wa, wb) = (seq.add(SeqConfig::new("wa"), ms(2)), seq.add(SeqConfig::new("wb"), ms(2)));
+    ///     let a = seq.add(SeqConfig::new("a"), Dwell(wa.unwrap())).unwrap();
+    ///     let b = seq.add(SeqConfig::new("b"), Dwell(wb.unwrap())).unwrap();
+    ///     let ids = [a.id(), b.id()];
+    ///     let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    ///     if let Some(seed) = seed {
+    ///         sim = sim.shuffle_equal_priorities(seed);
+    ///     }
+    ///     sim.lane(a);
+    ///     sim.lane(b);
+    ///     for id in ids {
+    ///         sim.start(id).unwrap();
+    ///     }
+    ///     sim.run_for(Duration::from_millis(2));
+    ///     let ends = sim.trace().iter().filter(|t| ids.contains(&t.sequence) && t.time.as_ticks() == 2_000);
+    ///     ends.map(|t| t.sequence).next().unwrap()
+    /// }
+    /// let (a, b) = (SeqId::from_index(2), SeqId::from_index(3));
+    /// assert_eq!(first_to_end(None), a);
+    /// assert_eq!(first_to_end(Some(1)), a);
+    /// assert_eq!(first_to_end(Some(3)), b);
+    /// ```
+    pub fn shuffle_equal_priorities(mut self, seed: u64) -> Self {
+        self.shuffle = Some(Shuffle(seed));
         self
     }
 
@@ -220,8 +375,9 @@ impl<
         self.before_tick = Some(Box::new(f));
     }
 
-    /// Adds a lane running `seq` whenever it is started non-blocking. Lanes are polled in
-    /// the order they were added.
+    /// Adds a lane running `seq` whenever it is started non-blocking, at
+    /// [`DEFAULT_LANE_PRIORITY`]. Lanes of equal priority are polled in the order they were
+    /// added ([`lane_with_priority`](Self::lane_with_priority) has the whole order).
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cx, Error, Monitors, RunningState, SeqConfig, Sequence, Sequencer};
@@ -242,6 +398,47 @@ impl<
     where
         C: 'a,
     {
+        self.lane_with_priority(seq, DEFAULT_LANE_PRIORITY);
+    }
+
+    /// Adds a lane running `seq` as an RTIC task of `priority` (higher runs first; see
+    /// [the order of the lanes](self#the-order-of-the-lanes)). Lanes of equal priority are
+    /// polled in the order they were added.
+    ///
+    /// Two dwells of 2 ms end in the same tick: the lane of priority 2, added last, runs
+    /// first.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, RunningState::*, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Transition, Wait};
+    /// struct Dwell(Seq<Wait>);
+    /// impl Sequence<()> for Dwell {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let ms = |n| Wait::new(Duration::from_millis(n));
+    /// let (wl, wh) = (seq.add(SeqConfig::new("wl"), ms(2)), seq.add(SeqConfig::new("wh"), ms(2)));
+    /// let low = seq.add(SeqConfig::new("low"), Dwell(wl.unwrap())).unwrap();
+    /// let high = seq.add(SeqConfig::new("high"), Dwell(wh.unwrap())).unwrap();
+    /// let [wl, wh, l, h] = [0, 1, 2, 3].map(rtseq::SeqId::from_index);
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane_with_priority(low, 1);
+    /// sim.lane_with_priority(high, 2);
+    /// sim.start(l).unwrap();
+    /// sim.start(h).unwrap();
+    /// sim.take_trace();
+    /// sim.run_for(Duration::from_millis(2));
+    /// assert_eq!(sim.trace(), &[
+    ///     Transition::at_millis(2, wh, Running, Terminated, Cause::Completed),
+    ///     Transition::at_millis(2, h, Running, Terminated, Cause::Completed),
+    ///     Transition::at_millis(2, wl, Running, Terminated, Cause::Completed),
+    ///     Transition::at_millis(2, l, Running, Terminated, Cause::Completed),
+    /// ]);
+    /// ```
+    pub fn lane_with_priority<S: Sequence<C> + 'a>(&mut self, seq: Seq<S>, priority: u8)
+    where
+        C: 'a,
+    {
         let sequencer = self.sequencer;
         let control = self.control;
         let future = Box::pin(async move {
@@ -255,8 +452,28 @@ impl<
             flag,
             waker,
             polls: 0,
+            priority,
         });
         self.settle();
+    }
+
+    /// The priority of each lane, in the order the lanes were added.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let (a, b) = (seq.add(SeqConfig::new("a"), Blink), seq.add(SeqConfig::new("b"), Blink));
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane_with_priority(a.unwrap(), 2);
+    /// sim.lane(b.unwrap());
+    /// assert_eq!(sim.lane_priorities(), [2, 1]);
+    /// ```
+    pub fn lane_priorities(&self) -> Vec<u8> {
+        self.lanes.iter().map(|l| l.priority).collect()
     }
 
     /// A handle to a registered sequence.
@@ -480,11 +697,12 @@ impl<
     /// use rtseq::{sim::Sim, Duration, Instant, Monitors, Sequencer};
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
-    ///     .with_period(Duration::from_millis(2));
+    ///     .with_period(Duration::from_millis(2))?;
     /// sim.run_until(Instant::from_ticks(7_000));
     /// assert_eq!(sim.now().as_ticks(), 6_000); // no tick falls between 6 and 7 ms
     /// sim.run_until(Instant::from_ticks(8_000));
     /// assert_eq!(sim.now().as_ticks(), 8_000);
+    /// # Ok::<(), rtseq::sim::SimError>(())
     /// ```
     pub fn run_until(&mut self, t: Instant) {
         while self.later(self.now, self.period) <= t && self.now < t {
@@ -778,32 +996,62 @@ impl<
         self.lost = self.lost.saturating_add(lost);
     }
 
-    /// Polls woken lanes, in declaration order, until none is woken.
+    /// Polls woken lanes in RTIC's order until none is woken (see
+    /// [the order of the lanes](self#the-order-of-the-lanes)): the dispatcher of the
+    /// highest woken priority makes a pass, again and again.
     fn settle(&mut self) {
         let mut polls: usize = 0;
-        loop {
-            let mut any = false;
-            for lane in self.lanes.iter_mut() {
-                if lane.flag.0.swap(false, Ordering::SeqCst) {
-                    any = true;
-                    polls = polls.saturating_add(1);
-                    lane.polls = lane.polls.saturating_add(1);
-                    let mut cx = Context::from_waker(&lane.waker);
-                    let _ = lane.future.as_mut().poll(&mut cx);
-                    let trace = &mut self.trace;
-                    let lost = self.sequencer.drain_trace(|t| trace.push(t));
-                    self.lost = self.lost.saturating_add(lost);
-                }
-            }
+        while let Some(level) = self.highest_woken(None) {
+            let bounded = self.pass(level, &mut polls);
             self.drain();
-            if !any {
-                return;
-            }
-            if polls > MAX_POLLS_PER_SETTLE {
+            if !bounded || polls > MAX_POLLS_PER_SETTLE {
                 self.stalled = true;
                 return;
             }
         }
+        self.drain();
+    }
+
+    /// The highest priority of a woken lane (above `above`, if given).
+    fn highest_woken(&self, above: Option<u8>) -> Option<u8> {
+        self.lanes
+            .iter()
+            .filter(|l| above.is_none_or(|a| l.priority > a))
+            .filter(|l| l.flag.0.load(Ordering::SeqCst))
+            .map(|l| l.priority)
+            .max()
+    }
+
+    /// One pass of the dispatcher of `level`: every lane of the level that is woken when the
+    /// pass reaches it, once, in the order they were added (or shuffled); after each poll,
+    /// the lanes of higher priorities it woke run first (they preempt). False if the poll
+    /// bound was hit.
+    fn pass(&mut self, level: u8, polls: &mut usize) -> bool {
+        let mut order: Vec<usize> = (0..self.lanes.len())
+            .filter(|&i| self.lanes.get(i).is_some_and(|l| l.priority == level))
+            .collect();
+        if let Some(shuffle) = self.shuffle.as_mut() {
+            shuffle.shuffle(&mut order);
+        }
+        for i in order {
+            let Some(lane) = self.lanes.get_mut(i) else {
+                continue;
+            };
+            if !lane.flag.0.swap(false, Ordering::SeqCst) {
+                continue;
+            }
+            *polls = polls.saturating_add(1);
+            lane.polls = lane.polls.saturating_add(1);
+            let mut cx = Context::from_waker(&lane.waker);
+            let _ = lane.future.as_mut().poll(&mut cx);
+            self.drain();
+            while let Some(higher) = self.highest_woken(Some(level)) {
+                if !self.pass(higher, polls) || *polls > MAX_POLLS_PER_SETTLE {
+                    return false;
+                }
+            }
+        }
+        true
     }
 }
 

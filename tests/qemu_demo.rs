@@ -215,6 +215,11 @@ fn opt_ms(t: Option<Instant>) -> String {
 
 /// Runs the demo application on the host simulator until `end_ms` (the firmware's end).
 fn host(plan: FaultPlan, end_ms: u64) -> Host {
+    host_shuffled(plan, end_ms, None)
+}
+
+/// [`host`], with the lanes (all of priority 1) in a random order per pass if `seed`.
+fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(CONFIG.start_position)));
     cs.set_fault_plan(plan);
@@ -225,7 +230,14 @@ fn host(plan: FaultPlan, end_ms: u64) -> Host {
     seq.set_safety_system(handle);
     let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
     let mut sim = Sim::new(seq, cs, monitors);
-    for lane in app.lanes() {
+    if let Some(seed) = seed {
+        sim = sim.shuffle_equal_priorities(seed);
+    }
+    // In RTIC's order: the firmware's five lane tasks share priority 1, and RTIC 2 polls a
+    // priority's tasks in the alphabetical order of their names (see `rtseq::sim`).
+    let [main, status, safe_stop, feed_hold, feed_resume] = app.lanes();
+    // lane_feed_hold, lane_feed_resume, lane_main, lane_safe_stop, lane_status
+    for lane in [feed_hold, feed_resume, main, safe_stop, status] {
         lane.add_to(&mut sim);
     }
     // The firmware's tick: inject, safety cycle (priority 3), control step; then the
@@ -647,6 +659,39 @@ fn demo_rejects_bad_options_with_a_clear_error() {
         ),
         (&["--speed", "2"][..], "demo: unknown option"),
         (&["--fault"][..], "demo: option needs a value"),
+        // Three dots: not read as the window 4 s .. 0.6 s.
+        (
+            &["--pause", "4s...6s"][..],
+            "demo: bad pause window: START..END is two times with two dots between, e.g. 4s..6s: '4s...6s'",
+        ),
+        (&["--pause", "..6s"][..], "demo: bad pause window: START..END"),
+        // During homing (the moves start in the tick of 1143 ms) or after the last move
+        // (done in the tick of 6440 ms): nothing to hold.
+        (
+            &["--pause", "0.5s..2s"][..],
+            "demo: the pause window must start after homing: the moves run from 1.144s to 6.439s: '0.5s..2s'",
+        ),
+        (
+            &["--pause", "1143ms..2s"][..],
+            "demo: the pause window must start after homing",
+        ),
+        (
+            &["--pause", "7s..8s"][..],
+            "demo: the pause window must start before the run's last move is done: the moves run from 1.144s to 6.439s: '7s..8s'",
+        ),
+        (
+            &["--pause", "6440ms..7s"][..],
+            "demo: the pause window must start before the run's last move is done",
+        ),
+        // After a fault (in either order on the command line).
+        (
+            &["--fault", "estop@2s", "--pause", "4s..6s"][..],
+            "demo: the pause window must start before the first fault (a fault ends the moves): '4s..6s'",
+        ),
+        (
+            &["--pause", "4s..6s", "--fault=endstop@4s"][..],
+            "demo: the pause window must start before the first fault",
+        ),
     ] {
         let d = parse_demo(run_demo(args));
         expect_exit(&d.out, 1);
@@ -660,4 +705,116 @@ fn demo_rejects_bad_options_with_a_clear_error() {
     let help = parse_demo(run_demo(&["--help"]));
     expect_exit(&help.out, 0);
     assert!(help.out.find("usage: ./x demo").is_some());
+}
+
+/// The command line (program name `demo`, the arguments, one space between each, and the
+/// final NUL) must fit the firmware's 256-byte buffer; a longer one is an error, not a run
+/// without its options. `--fault estop@2s` padded with spaces to `len` bytes.
+fn padded_estop(len: usize) -> Vec<String> {
+    let head = "demo --fault estop@2s ".len();
+    vec![
+        "--fault".to_string(),
+        "estop@2s".to_string(),
+        " ".repeat(len - head),
+    ]
+}
+
+#[test]
+fn demo_rejects_a_command_line_longer_than_its_buffer() {
+    for len in [256, 322] {
+        let args = padded_estop(len);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let d = parse_demo(run_demo(&args));
+        expect_exit(&d.out, 1);
+        let msg = "demo: the command line is longer than the firmware's 256-byte buffer (program name, arguments and spaces): nothing was run";
+        let l = d
+            .out
+            .find(msg)
+            .unwrap_or_else(|| panic!("{len}: no {msg:?}\n{}", d.out.transcript()));
+        assert_eq!(l.level, Some("ERROR"));
+        assert!(d.trace.is_empty(), "{len}: ran the application");
+        assert!(!d.has_line("FAULT"), "{len}");
+    }
+    // 255 bytes and the NUL fit: the e-stop is injected (the spaces are no arguments).
+    let args = padded_estop(255);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let d = demo_equals_host(&args, FaultPlan::NONE.with(Fault::EStop { at: ms(2000) }));
+    assert_eq!(d.get("level"), "emergency");
+    assert_eq!(d.num("estop.reacted_ms"), 2001);
+}
+
+#[test]
+fn the_demo_s_pause_limits_are_the_fault_free_run_s() {
+    // demo.rs's HOMED_MS and LAST_MOVE_DONE_MS.
+    let h = host(FaultPlan::NONE, 7000);
+    assert_eq!(h.result["homed_ms"], "1143");
+    assert_eq!(
+        h.result["move_done_ms"].rsplit(',').next(),
+        Some("6440"),
+        "{}",
+        h.result["move_done_ms"]
+    );
+}
+
+#[test]
+fn demo_pause_windows_at_the_limits_hold_a_move() {
+    // The first and the last millisecond accepted for the first press.
+    for (args, start, end) in [
+        (["--pause", "1144ms..1300ms"], 1144, 1300),
+        (["--pause", "6439ms..6600ms"], 6439, 6600),
+    ] {
+        let d = demo_equals_host(&args, FaultPlan::NONE.with_pause(ms(start), ms(end)));
+        assert_eq!(d.num("paused_ms"), start as i64, "{args:?}");
+        assert_eq!(d.num("resumed_ms"), end as i64, "{args:?}");
+        assert_eq!(d.num("moves_done"), 8, "{args:?}");
+        assert_eq!(d.get("phase"), "done", "{args:?}");
+    }
+}
+
+#[test]
+fn the_demo_depends_on_the_order_of_its_lanes_only_for_the_status_blinks() {
+    // Lanes woken in the same tick, polled in a random order per pass: the same traces and
+    // results as in RTIC's order, for the fault-free run, a pause and each kind of fault,
+    // except the number of status blinks with a pause (35 or 36, found by this test; the
+    // cause is not analysed yet: some lanes woken in the same tick decide it by their order).
+    let plans = [
+        (FaultPlan::NONE, 7000, &[32][..]),
+        (
+            FaultPlan::NONE.with_pause(ms(4000), ms(6000)),
+            9000,
+            &[35, 36][..],
+        ),
+        (
+            FaultPlan::NONE.with(Fault::FollowingError { at: ms(3000) }),
+            7000,
+            &[18][..],
+        ),
+        (
+            FaultPlan::NONE.with(Fault::EndStop { at: ms(2000) }),
+            3000,
+            &[14][..],
+        ),
+        (
+            FaultPlan::NONE.with(Fault::EStop { at: ms(2000) }),
+            3000,
+            &[14][..],
+        ),
+    ];
+    for (plan, end, blinks) in plans {
+        let fixed = host(plan, end);
+        let mut seen = std::collections::BTreeSet::new();
+        for seed in 0..8 {
+            let mut shuffled = host_shuffled(plan, end, Some(seed));
+            assert_eq!(shuffled.trace, fixed.trace, "end {end}, seed {seed}");
+            seen.insert(shuffled.result.remove("blinks").unwrap());
+            shuffled
+                .result
+                .insert("blinks".into(), fixed.result["blinks"].clone());
+            assert_eq!(shuffled.result, fixed.result, "end {end}, seed {seed}");
+        }
+        seen.insert(fixed.result["blinks"].clone());
+        let want: std::collections::BTreeSet<String> =
+            blinks.iter().map(|b| b.to_string()).collect();
+        assert_eq!(seen, want, "end {end}");
+    }
 }

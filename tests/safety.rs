@@ -1632,3 +1632,86 @@ fn compile_time_validated_properties() {
         Some(SafetyError::HandleInUse)
     );
 }
+
+// ---------------------------------------------------------------------------
+// One `static` handle for several tests: released and reset by the drop
+// ---------------------------------------------------------------------------
+
+/// The handle these tests share, as a firmware's `static` would be shared by
+/// the tests of one test binary; `STATIC_SERIAL` keeps them from running at
+/// the same time (the harness runs tests on several threads).
+static STATIC_HANDLE: SafetyHandle = SafetyHandle::new();
+static STATIC_SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    STATIC_SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+#[test]
+fn a_static_handle_serves_one_system_after_another_from_a_fresh_state() {
+    let _serial = serial();
+    {
+        let mut rig = Rig::new(&STATIC_HANDLE);
+        rig.drive_to_moving();
+        assert_eq!(STATIC_HANDLE.level(), MOVING);
+        // Left behind: a pending event (STOP would take MOVING to READY) and an
+        // out-of-range one.
+        STATIC_HANDLE.trigger(STOP);
+        STATIC_HANDLE.trigger(PublicEvent::new(40));
+        assert_eq!(STATIC_HANDLE.pending_events(), 1 << 3);
+        assert_ne!(STATIC_HANDLE.cycles(), 0);
+    } // the first system is dropped here
+    assert!(!STATIC_HANDLE.is_bound());
+    assert_eq!(STATIC_HANDLE.level(), SafetyLevel::SAFEST);
+    assert_eq!(STATIC_HANDLE.pending_events(), 0);
+    assert_eq!(STATIC_HANDLE.cycles(), 0);
+
+    // The second system on the same static handle sees none of it.
+    let mut rig = Rig::new(&STATIC_HANDLE);
+    assert!(STATIC_HANDLE.is_bound());
+    assert_eq!(STATIC_HANDLE.level(), OFF);
+    let first = rig.cycle();
+    assert_eq!(
+        first,
+        CycleReport {
+            level: OFF,
+            change: Some(LevelChange {
+                from: None,
+                to: OFF
+            }),
+            input_events: 0,
+            aborted: false,
+            unknown_events: 0,
+        }
+    );
+    assert_eq!(rig.ss.unknown_events(), 0);
+    assert_eq!(rig.ss.last_unknown_event(), None);
+    assert_eq!(STATIC_HANDLE.cycles(), 1);
+    // And it works as the first did.
+    STATIC_HANDLE.trigger(SWITCH_ON);
+    assert_eq!(rig.cycle().change, change(OFF, POWER_ON));
+}
+
+#[test]
+fn a_bound_static_handle_still_refuses_a_second_live_system() {
+    let _serial = serial();
+    let first = SafetySystem::new(&PROPS, &STATIC_HANDLE).unwrap();
+    STATIC_HANDLE.trigger(SWITCH_ON);
+    for _ in 0..2 {
+        assert_eq!(
+            SafetySystem::new(&PROPS, &STATIC_HANDLE).err(),
+            Some(SafetyError::HandleInUse)
+        );
+    }
+    // The refused attempts changed nothing of the live system's handle.
+    assert!(STATIC_HANDLE.is_bound());
+    assert_eq!(STATIC_HANDLE.level(), OFF);
+    assert_eq!(STATIC_HANDLE.pending_events(), 1 << 0);
+    assert_eq!(
+        SafetyError::HandleInUse.to_string(),
+        "safety handle already bound to a live safety system (drop it first)"
+    );
+    drop(first);
+    let second = SafetySystem::new(&PROPS, &STATIC_HANDLE);
+    assert!(second.is_ok());
+}

@@ -198,7 +198,8 @@ pub enum SafetyError {
         event: EventId,
     },
     /// The [`SafetyHandle`](super::SafetyHandle) is already bound to
-    /// another [`SafetySystem`](super::SafetySystem).
+    /// another [`SafetySystem`](super::SafetySystem), which is still alive
+    /// (dropping it releases the handle).
     HandleInUse,
 }
 
@@ -316,7 +317,10 @@ impl fmt::Display for SafetyError {
             SafetyError::ConflictingTransition { level, event } => {
                 write!(f, "two transitions for {event} in {level}")
             }
-            SafetyError::HandleInUse => write!(f, "safety handle already bound"),
+            SafetyError::HandleInUse => write!(
+                f,
+                "safety handle already bound to a live safety system (drop it first)"
+            ),
         }
     }
 }

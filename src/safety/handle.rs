@@ -31,6 +31,47 @@ use super::level::SafetyLevel;
 /// # let _ = ready;
 /// ```
 ///
+/// # Binding, and a `static` handle in tests
+///
+/// A handle serves one [`SafetySystem`](super::SafetySystem) at a time:
+/// building a system binds it, a second system on the same handle is an
+/// `Err(SafetyError::HandleInUse)` while the first is alive. Dropping the
+/// system releases the handle and returns it to the state of
+/// [`new`](Self::new): no pending events, level 0, cycle count 0. So one
+/// `static` handle serves one test after another in the same test binary.
+/// Tests that run *at the same time* (the test harness runs them on
+/// several threads) cannot share it; serialize them, e.g. with a mutex:
+///
+/// ```
+/// use std::sync::Mutex;
+/// use rtseq::safety::*;
+/// # struct Io;
+/// # impl SafetyIo for Io {
+/// #     fn read_input(&mut self, _: InputId) -> IoValue { IoValue::Bool(false) }
+/// #     fn write_output(&mut self, _: OutputId, _: IoValue) {}
+/// # }
+/// const OFF: SafetyLevel = SafetyLevel::new(0);
+/// static PROPS: SafetyProperties<'static, Io, 1> =
+///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
+/// static SAFETY: SafetyHandle = SafetyHandle::new();
+/// static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+///
+/// fn a_test() -> Result<(), SafetyError> {
+///     let _serial = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+///     let mut safety = SafetySystem::new(&PROPS, &SAFETY)?;
+///     safety.cycle(&mut Io, &NoSequences);
+///     SAFETY.trigger(PublicEvent::new(3)); // left pending at the end of the test
+///     assert_eq!(SAFETY.cycles(), 1);
+///     Ok(())
+/// } // `safety` dropped here: SAFETY is released and reset
+///
+/// a_test()?;
+/// assert!(!SAFETY.is_bound());
+/// assert_eq!((SAFETY.cycles(), SAFETY.pending_events()), (0, 0));
+/// a_test()?; // the next test starts from a fresh handle
+/// # Ok::<(), SafetyError>(())
+/// ```
+///
 /// Only public events can be triggered here; a private event does not
 /// compile:
 ///
@@ -132,7 +173,7 @@ impl SafetyHandle {
     }
 
     /// Whether a [`SafetySystem`](super::SafetySystem) currently owns the
-    /// handle.
+    /// handle (from its construction until it is dropped).
     ///
     /// ```
     /// use rtseq::safety::SafetyHandle;
@@ -149,7 +190,18 @@ impl SafetyHandle {
             .is_ok()
     }
 
+    /// Back to the state of [`new`](Self::new), then unbound: called by the
+    /// owning system's `Drop` only, so no other system writes the handle
+    /// meanwhile (the binding is given up last). An event triggered while
+    /// the reset runs may be kept for the next system or dropped; nothing
+    /// was bound to resolve it.
     pub(crate) fn release(&self) {
+        self.pending.store(0, Ordering::Relaxed);
+        self.out_of_range.store(0, Ordering::Relaxed);
+        self.last_out_of_range.store(0, Ordering::Relaxed);
+        self.cycles.store(0, Ordering::Relaxed);
+        self.level
+            .store(SafetyLevel::SAFEST.id(), Ordering::Relaxed);
         self.bound.store(false, Ordering::Release);
     }
 

@@ -186,8 +186,9 @@ pub struct SafetySystem<'a, IO, const L: usize> {
 
 impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
     /// Validates `props`, binds `handle` (a handle serves one system at a
-    /// time) and publishes the entry level on it. The entry level is
-    /// entered (entry action, activation) in the first [`cycle`](Self::cycle).
+    /// time, until that system is dropped) and publishes the entry level on
+    /// it. The entry level is entered (entry action, activation) in the
+    /// first [`cycle`](Self::cycle).
     ///
     /// Errors: every [`SafetyError`] of
     /// [`SafetyProperties::validate`], or [`SafetyError::HandleInUse`].
@@ -202,6 +203,8 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
     /// let first = SafetySystem::new(&PROPS, &HANDLE);
     /// assert!(first.is_ok());
     /// assert_eq!(SafetySystem::new(&PROPS, &HANDLE).err(), Some(SafetyError::HandleInUse));
+    /// drop(first); // releases HANDLE
+    /// assert!(SafetySystem::new(&PROPS, &HANDLE).is_ok());
     /// ```
     pub fn new(
         props: &'a SafetyProperties<'a, IO, L>,
@@ -636,6 +639,9 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
     }
 }
 
+/// Dropping the system releases its handle and resets it to the state of
+/// [`SafetyHandle::new`]: another system can be built on it (see
+/// [`SafetyHandle`]'s section on tests).
 impl<IO, const L: usize> Drop for SafetySystem<'_, IO, L> {
     fn drop(&mut self) {
         self.handle.release();

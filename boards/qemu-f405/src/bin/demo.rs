@@ -50,6 +50,13 @@ const SETTLE_MS: u64 = 300;
 const LIMIT_MS: u64 = 20_000;
 /// Latest time accepted for a fault or pause press, ms.
 const MAX_EVENT_MS: u64 = 15_000;
+/// The fault-free run (virtual time, ms; `tests/qemu_demo.rs` checks both against the host
+/// simulator): homing ends and the moves start in the tick of `HOMED_MS`; the last move is
+/// done in the tick of `LAST_MOVE_DONE_MS`. A pause window's first press must come in
+/// between, while a move is left to hold.
+const HOMED_MS: u64 = 1143;
+/// See [`HOMED_MS`].
+const LAST_MOVE_DONE_MS: u64 = 6440;
 /// Interval of the axis status lines, ms.
 const STATUS_EVERY_MS: u64 = 250;
 /// "Motor stopped" at the end: |true velocity| (m/s) and |true current| (A) below these.
@@ -163,6 +170,13 @@ fn parse_pause(v: &str) -> Result<(Instant, Instant), ArgError<'_>> {
     let Some((a, b)) = v.split_once("..") else {
         return arg_err("--pause needs START..END, e.g. --pause 4s..6s", v);
     };
+    // `4s...6s` would split into `4s` and `.6s` (0.6 s): not a window that ends too early.
+    if a.is_empty() || b.is_empty() || a.ends_with('.') || b.starts_with('.') {
+        return arg_err(
+            "bad pause window: START..END is two times with two dots between, e.g. 4s..6s",
+            v,
+        );
+    }
     let (Some(a), Some(b)) = (parse_time(a), parse_time(b)) else {
         return arg_err("bad pause window (use e.g. 4s..6s or 4500ms..5s)", v);
     };
@@ -176,6 +190,18 @@ fn parse_pause(v: &str) -> Result<(Instant, Instant), ArgError<'_>> {
     if b.saturating_sub(a) < 50 {
         return arg_err("the pause must last at least 50ms", v);
     }
+    if a <= HOMED_MS {
+        return arg_err(
+            "the pause window must start after homing: the moves run from 1.144s to 6.439s",
+            v,
+        );
+    }
+    if a >= LAST_MOVE_DONE_MS {
+        return arg_err(
+            "the pause window must start before the run's last move is done: the moves run from 1.144s to 6.439s",
+            v,
+        );
+    }
     Ok((ms(a), ms(b)))
 }
 
@@ -187,6 +213,7 @@ fn parse_args<'a>(args: impl Iterator<Item = &'a str>) -> Result<Options, ArgErr
     };
     let mut args = args;
     let mut faults = 0usize;
+    let mut pause_arg: Option<&'a str> = None;
     while let Some(a) = args.next() {
         let (opt, inline) = match a.split_once('=') {
             Some((k, v)) if k.starts_with("--") => (k, Some(v)),
@@ -214,9 +241,20 @@ fn parse_args<'a>(args: impl Iterator<Item = &'a str>) -> Result<Options, ArgErr
                     }
                     let (s, e) = parse_pause(v)?;
                     o.plan = o.plan.with_pause(s, e);
+                    pause_arg = Some(v);
                 }
             }
             _ => return arg_err("unknown option (try --help)", a),
+        }
+    }
+    // A fault ends the move program (emergency, abort, restarts then abort): a pause
+    // pressed at or after it would find no move to hold.
+    if let (Some(w), Some(v)) = (o.plan.pause, pause_arg) {
+        if o.plan.faults.iter().flatten().any(|f| f.at() <= w.start) {
+            return arg_err(
+                "the pause window must start before the first fault (a fault ends the moves)",
+                v,
+            );
         }
     }
     Ok(o)
@@ -236,6 +274,9 @@ fn usage() {
         "  --pause START..END     the pause button is pressed at START and END: feed hold, resume"
     );
     defmt::info!("  times: 3s, 2.5s, 1500ms (virtual time since reset, at most 15s); the fault-free run lasts about 6.6 s");
+    defmt::info!(
+        "  a pause window starts while the moves run (1.144s to 6.439s) and before any fault"
+    );
     defmt::info!("  e.g. ./x demo --fault following-error@3s   ./x demo --fault overcurrent@5s   ./x demo --pause 4s..6s");
 }
 
@@ -1362,7 +1403,15 @@ mod rtic_app {
 
     #[init(local = [args: [u8; 256] = [0; 256]])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        let opts = match parse_args(board::args::args(cx.local.args)) {
+        let args = match board::args::args(cx.local.args) {
+            Ok(a) => a,
+            Err(e) => {
+                defmt::error!("demo: {}: nothing was run", e);
+                usage();
+                board::exit(board::ExitCode::Failure);
+            }
+        };
+        let opts = match parse_args(args) {
             Ok(o) => o,
             Err(e) => {
                 defmt::error!("demo: {=str}: '{=str}'", e.msg, e.arg);

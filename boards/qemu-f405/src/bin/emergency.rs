@@ -234,7 +234,13 @@ type Seqr = rtseq::Sequencer<Ctrl, 8, 32>;
 /// The mode, from the command line: `fault` or (default) `estop`.
 fn fault_mode() -> bool {
     let mut buf = [0u8; 64];
-    let line = board::args::cmdline(&mut buf).unwrap_or("");
+    let line = match board::args::cmdline(&mut buf) {
+        Ok(line) => line,
+        Err(e) => {
+            defmt::error!("emergency: {}", e);
+            board::exit_failure();
+        }
+    };
     line.as_bytes().ends_with(b" fault")
 }
 

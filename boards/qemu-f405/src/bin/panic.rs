@@ -27,13 +27,19 @@ enum Mode {
 /// Reads the mode from the semihosting command line (`qemu-run panic.elf hardfault`).
 fn mode() -> Mode {
     let mut buf = [0u8; 128];
-    let mode = match board::args::args(&mut buf).next() {
+    let mut args = match board::args::args(&mut buf) {
+        Ok(args) => args,
+        Err(e) => {
+            defmt::error!("panic firmware: {}", e);
+            board::exit_failure();
+        }
+    };
+    match args.next() {
         Some("hardfault") => Mode::HardFault,
         Some("fail") => Mode::Fail,
         Some("hang") => Mode::Hang,
         _ => Mode::Panic,
-    };
-    mode
+    }
 }
 
 #[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]

@@ -141,7 +141,13 @@ mod app {
     /// The first argument after the program name. By hand, not with `str::split`, whose
     /// slicing keeps a panic path (the no-panic proof covers this firmware).
     fn first_arg(buf: &mut [u8]) -> &[u8] {
-        let line = board::args::cmdline(buf).unwrap_or("").as_bytes();
+        let line = match board::args::cmdline(buf) {
+            Ok(line) => line.as_bytes(),
+            Err(e) => {
+                defmt::error!("scenarios: {}", e);
+                board::exit_failure();
+            }
+        };
         let start = line
             .iter()
             .position(|&c| c == b' ')
