@@ -198,8 +198,10 @@ impl FirmwareSet {
 }
 
 /// The firmware of the scenario suite.
-pub static SCENARIO_FIRMWARE: FirmwareSet =
-    FirmwareSet::new(&["scenarios", "bench_seq", "bench_scale", "smoke", "demo"], "qemu-harness");
+pub static SCENARIO_FIRMWARE: FirmwareSet = FirmwareSet::new(
+    &["scenarios", "bench_seq", "bench_scale", "smoke", "demo"],
+    "qemu-harness",
+);
 
 /// The scenarios firmware built with the portable `critical-section` lock (board feature
 /// `critical-section-lock`): its rtseq sections mask interrupts.

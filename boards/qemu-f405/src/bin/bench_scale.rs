@@ -117,7 +117,9 @@ mod app {
                     Monitor::with_condition("quiet", quiet, Behaviour::AbortOwner),
                 )?;
             }
-            let handle = seq.sequence_by_id(run.id()).ok_or(rtseq::Error::EmptyName)?;
+            let handle = seq
+                .sequence_by_id(run.id())
+                .ok_or(rtseq::Error::UnknownSequence(run.id()))?;
             handle.declare_lane()?;
             handle.start()?;
         }
