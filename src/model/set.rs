@@ -4,10 +4,9 @@
 //! operations per tick instead of a visit to every control block.
 //!
 //! A set of a sequencer is `B` words (the sequencer's parameter `B`, `N <= 32 * B`). A
-//! sequencer of up to 32 sequences has one-word sets: exactly a `u32`. Sets of more words
-//! also keep a summary of their non-empty words, and their operations visit only those,
-//! so that the cost of a tick follows the words that hold running sequences rather than
-//! the number registered.
+//! sequencer of up to 32 sequences has one-word sets: exactly a `u32`. An operation on a
+//! set of more words visits every word (docs/design-decisions.md, "256 sequences", says
+//! what is planned so that a tick visits only the words that hold running sequences).
 
 use crate::SeqId;
 
