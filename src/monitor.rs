@@ -3,7 +3,7 @@
 use core::marker::PhantomData;
 use core::mem::ManuallyDrop;
 
-use crate::model::set::{SeqSet, WORDS_MAX};
+use crate::model::set::{SeqSet, Words, WORDS_MAX};
 use crate::{Condition, Error, MonitorId, SeqId};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
@@ -530,6 +530,8 @@ pub(crate) struct Group {
     pub(crate) level: u32,
     /// The owners of its monitors.
     pub(crate) owners: SeqSet<WORDS_MAX>,
+    /// The words of `owners` that hold an owner.
+    pub(crate) owner_words: Words,
     /// The group's first entry in the table.
     pub(crate) start: u8,
     /// Its number of entries (1 ..= `GROUP_MAX`).
@@ -545,6 +547,7 @@ impl Group {
             fall: 0,
             level: 0,
             owners: SeqSet::EMPTY,
+            owner_words: Words::EMPTY,
             start,
             len: 0,
         }
@@ -555,6 +558,7 @@ impl Group {
         let t = trigger as u32;
         self.len = self.len.saturating_add(1);
         self.owners = self.owners.with(owner);
+        self.owner_words = self.owner_words.with(Words::of(owner));
         self.rise = (self.rise << 1) | (t & 1);
         self.fall = (self.fall << 1) | ((t >> 1) & 1);
         self.level = (self.level << 1) | (t >> 2);

@@ -4,9 +4,11 @@
 //! operations per tick instead of a visit to every control block.
 //!
 //! A set of a sequencer is `B` words (the sequencer's parameter `B`, `N <= 32 * B`). A
-//! sequencer of up to 32 sequences has one-word sets: exactly a `u32`. An operation on a
-//! set of more words visits every word (docs/design-decisions.md, "256 sequences", says
-//! what is planned so that a tick visits only the words that hold running sequences).
+//! sequencer of up to 32 sequences has one-word sets: exactly a `u32`. The tick of a
+//! sequencer of more words visits only the words that hold an active sequence, one at a
+//! time, and works on each as a one-word sequencer does: the sets it tests on every tick
+//! ([`IndexedSet`]) keep an index of their non-empty words ([`Words`]), and a word of a
+//! set is a [`SetWord`].
 
 use crate::SeqId;
 
@@ -46,14 +48,6 @@ impl<const B: usize> SeqSet<B> {
         );
         SeqSet { words: [0; B] }
     };
-
-    /// The set of `id` alone.
-    #[inline]
-    pub(crate) fn of(id: SeqId) -> Self {
-        let mut s = Self::EMPTY;
-        s.insert(id);
-        s
-    }
 
     /// The word that holds `id`, and its bit. A one-word set is one `u32`: every id a
     /// sequencer of such sets hands out is below 32.
@@ -144,54 +138,10 @@ impl<const B: usize> SeqSet<B> {
         bits
     }
 
-    #[inline]
-    pub(crate) fn is_empty(&self) -> bool {
-        self.any_bits(self, |a, _| a) == 0
-    }
-
-    /// The set made word by word with `op`.
-    #[inline(always)]
-    fn combine(&self, other: &Self, op: impl Fn(u32, u32) -> u32) -> Self {
-        let mut out = *self;
-        Self::each_word(|w| {
-            if let (Some(o), Some(b)) = (out.words.get_mut(w), other.words.get(w)) {
-                *o = op(*o, *b);
-            }
-        });
-        out
-    }
-
-    #[inline]
-    pub(crate) fn and(&self, other: &Self) -> Self {
-        self.combine(other, |a, b| a & b)
-    }
-
-    #[inline]
-    pub(crate) fn or(&self, other: &Self) -> Self {
-        self.combine(other, |a, b| a | b)
-    }
-
-    #[inline]
-    pub(crate) fn minus(&self, other: &Self) -> Self {
-        self.combine(other, |a, b| a & !b)
-    }
-
     /// Whether the two sets share an id.
     #[inline]
     pub(crate) fn meets(&self, other: &Self) -> bool {
         self.any_bits(other, |a, b| a & b) != 0
-    }
-
-    /// Whether every id of this set is in `other`.
-    #[inline]
-    pub(crate) fn within(&self, other: &Self) -> bool {
-        self.any_bits(other, |a, b| a & !b) == 0
-    }
-
-    /// Empties the set and returns what it held.
-    #[inline]
-    pub(crate) fn take_all(&mut self) -> Self {
-        core::mem::replace(self, Self::EMPTY)
     }
 
     /// The same ids in a set of `M` words (ids it cannot hold are dropped).
@@ -202,6 +152,54 @@ impl<const B: usize> SeqSet<B> {
             *o = *w;
         }
         out
+    }
+
+    /// Word `w` of the set (empty beyond it).
+    #[inline(always)]
+    pub(crate) fn word(&self, w: usize) -> SetWord<B> {
+        self.word_as(w)
+    }
+
+    /// Word `w` of the set as a word of a sequencer with `M`-word sets (a monitor table's
+    /// sets have room for every id, whatever the sequencer).
+    #[inline(always)]
+    pub(crate) fn word_as<const M: usize>(&self, w: usize) -> SetWord<M> {
+        let bits = if B == 1 {
+            self.words.first()
+        } else {
+            self.words.get(w)
+        };
+        SetWord {
+            // `w < B <= 8`.
+            word: w as u8,
+            bits: bits.copied().unwrap_or(0),
+        }
+    }
+
+    /// The word of `part`, to change.
+    #[inline(always)]
+    fn word_mut(&mut self, part: SetWord<B>) -> Option<&mut u32> {
+        if B == 1 {
+            self.words.first_mut()
+        } else {
+            self.words.get_mut(part.index())
+        }
+    }
+
+    /// Puts the ids of `part` in.
+    #[inline(always)]
+    pub(crate) fn insert_all(&mut self, part: SetWord<B>) {
+        if let Some(word) = self.word_mut(part) {
+            *word |= part.bits;
+        }
+    }
+
+    /// Takes the ids of `part` out.
+    #[inline(always)]
+    pub(crate) fn remove_all(&mut self, part: SetWord<B>) {
+        if let Some(word) = self.word_mut(part) {
+            *word &= !part.bits;
+        }
     }
 
     /// Takes the lowest id out of the set.
@@ -225,6 +223,285 @@ impl<const B: usize> SeqSet<B> {
             }
         }
         None
+    }
+}
+
+/// Words of a set, bit `w` for word `w` (a set has at most 8).
+#[derive(Clone, Copy, PartialEq, Eq, Default, Debug)]
+pub(crate) struct Words(u8);
+
+impl Words {
+    pub(crate) const EMPTY: Words = Words(0);
+
+    /// The word that holds `id`.
+    #[inline(always)]
+    pub(crate) const fn of(id: SeqId) -> Words {
+        Words(1 << (id.0 >> 5))
+    }
+
+    /// Word `w` alone (`w < 8`).
+    #[inline(always)]
+    pub(crate) const fn single(w: usize) -> Words {
+        Words(1 << (w & 7))
+    }
+
+    /// These words and `other`'s.
+    #[inline(always)]
+    pub(crate) const fn with(self, other: Words) -> Words {
+        Words(self.0 | other.0)
+    }
+
+    #[inline(always)]
+    pub(crate) fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The lowest word.
+    #[inline(always)]
+    pub(crate) fn first(mut self) -> Option<usize> {
+        self.next()
+    }
+}
+
+impl Iterator for Words {
+    type Item = usize;
+
+    /// The words, lowest first.
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let w = self.0.trailing_zeros() as usize;
+        self.0 &= self.0.wrapping_sub(1);
+        Some(w)
+    }
+}
+
+/// One word of a set of a sequencer with `B`-word sets: the ids `32 * word ..= 32 * word
+/// + 31` of the set. The tick works on a sequencer's sets one such word at a time; the
+/// operations between two `SetWord`s combine their bits and are meant for words of the
+/// same index.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct SetWord<const B: usize> {
+    word: u8,
+    bits: u32,
+}
+
+impl<const B: usize> SetWord<B> {
+    /// The word's index (always 0 in one-word sets).
+    #[inline(always)]
+    pub(crate) fn index(self) -> usize {
+        if B == 1 {
+            0
+        } else {
+            usize::from(self.word)
+        }
+    }
+
+    /// No id of word `w`.
+    #[inline(always)]
+    pub(crate) const fn empty(w: usize) -> Self {
+        // `w < B <= 8`.
+        SetWord {
+            word: w as u8,
+            bits: 0,
+        }
+    }
+
+    /// The word of `id` with `id` alone.
+    #[inline(always)]
+    pub(crate) fn of(id: SeqId) -> Self {
+        let (w, bit) = place(id);
+        SetWord {
+            // `w < 8`.
+            word: w as u8,
+            bits: bit,
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn is_empty(self) -> bool {
+        self.bits == 0
+    }
+
+    #[inline(always)]
+    pub(crate) fn has(self, id: SeqId) -> bool {
+        let (w, bit) = place(id);
+        w == self.index() && self.bits & bit != 0
+    }
+
+    /// This word with `id` in, if `id` belongs to it.
+    #[inline(always)]
+    pub(crate) fn insert(&mut self, id: SeqId) {
+        let (w, bit) = place(id);
+        if w == self.index() {
+            self.bits |= bit;
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn and(self, other: Self) -> Self {
+        SetWord {
+            bits: self.bits & other.bits,
+            ..self
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn or(self, other: Self) -> Self {
+        SetWord {
+            bits: self.bits | other.bits,
+            ..self
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn minus(self, other: Self) -> Self {
+        SetWord {
+            bits: self.bits & !other.bits,
+            ..self
+        }
+    }
+
+    /// Whether the two words share an id.
+    #[inline(always)]
+    pub(crate) fn meets(self, other: Self) -> bool {
+        self.bits & other.bits != 0
+    }
+
+    /// Whether every id of this word is in `other`.
+    #[inline(always)]
+    pub(crate) fn within(self, other: Self) -> bool {
+        self.bits & !other.bits == 0
+    }
+}
+
+impl<const B: usize> Iterator for SetWord<B> {
+    type Item = SeqId;
+
+    /// The ids, lowest first.
+    #[inline(always)]
+    fn next(&mut self) -> Option<SeqId> {
+        if self.bits == 0 {
+            return None;
+        }
+        // `word < 8` and the bit index `< 32`: the id fits a byte.
+        let id = SeqId((self.index() as u32 * 32 + self.bits.trailing_zeros()) as u8);
+        self.bits &= self.bits.wrapping_sub(1);
+        Some(id)
+    }
+}
+
+/// A set that keeps an index of its non-empty words when it has more than one: the sets
+/// the tick tests on every call (`active`, `changed`, `requested`), so that testing and
+/// walking them does not visit every word. A one-word set needs no index (its word is
+/// its own summary), so the index is kept only when `B > 1`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct IndexedSet<const B: usize> {
+    set: SeqSet<B>,
+    /// The words of `set` that hold an id (`B > 1` only).
+    index: Words,
+}
+
+impl<const B: usize> IndexedSet<B> {
+    pub(crate) const EMPTY: Self = IndexedSet {
+        set: SeqSet::EMPTY,
+        index: Words::EMPTY,
+    };
+
+    /// The plain set.
+    #[inline(always)]
+    pub(crate) fn as_set(&self) -> &SeqSet<B> {
+        &self.set
+    }
+
+    #[inline]
+    pub(crate) fn has(&self, id: SeqId) -> bool {
+        self.set.has(id)
+    }
+
+    /// The words that hold an id.
+    #[inline(always)]
+    pub(crate) fn words(&self) -> Words {
+        if B == 1 {
+            Words(u8::from(!self.set.word(0).is_empty()))
+        } else {
+            self.index
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn is_empty(&self) -> bool {
+        if B == 1 {
+            self.set.word(0).is_empty()
+        } else {
+            self.index.is_empty()
+        }
+    }
+
+    /// Word `w` of the set.
+    #[inline(always)]
+    pub(crate) fn word(&self, w: usize) -> SetWord<B> {
+        self.set.word(w)
+    }
+
+    /// Puts `id` in.
+    #[inline]
+    pub(crate) fn insert(&mut self, id: SeqId) {
+        self.set.insert(id);
+        if B > 1 {
+            self.index = self.index.with(Words::of(id));
+        }
+    }
+
+    /// Takes `id` out.
+    #[inline]
+    pub(crate) fn remove(&mut self, id: SeqId) {
+        self.set.remove(id);
+        if B > 1 {
+            let (w, _) = place(id);
+            if self.set.word(w).is_empty() {
+                self.index.0 &= !Words::of(id).0;
+            }
+        }
+    }
+
+    /// Puts `id` in (`on`) or takes it out.
+    #[inline]
+    pub(crate) fn set(&mut self, id: SeqId, on: bool) {
+        if on {
+            self.insert(id);
+        } else {
+            self.remove(id);
+        }
+    }
+
+    /// Empties the set and returns what it held.
+    #[inline]
+    pub(crate) fn take_all(&mut self) -> Self {
+        core::mem::replace(self, Self::EMPTY)
+    }
+
+    /// Takes the lowest id out of the set.
+    #[inline]
+    pub(crate) fn pop(&mut self) -> Option<SeqId> {
+        if B == 1 {
+            return self.set.pop();
+        }
+        let id = self.set.word(self.index.first()?).next()?;
+        self.remove(id);
+        Some(id)
+    }
+}
+
+impl<const B: usize> Iterator for IndexedSet<B> {
+    type Item = SeqId;
+
+    /// The ids in the set, lowest first.
+    #[inline]
+    fn next(&mut self) -> Option<SeqId> {
+        self.pop()
     }
 }
 
@@ -261,30 +538,77 @@ mod tests {
         let mut s = set::<1>(&[31, 0, 5]);
         assert!(s.has(SeqId(5)) && !s.has(SeqId(4)));
         s.remove(SeqId(5));
-        assert_eq!(s.minus(&SeqSet::of(SeqId(0))), SeqSet::of(SeqId(31)));
+        assert!(s.eq([SeqId(0), SeqId(31)]));
         s.insert(SeqId(5));
         assert!(s.eq([SeqId(0), SeqId(5), SeqId(31)]));
+        // A one-word set's only word.
+        assert!(s.word(0).eq([SeqId(0), SeqId(5), SeqId(31)]));
     }
 
     #[test]
     fn multi_word_sets() {
         let a = set::<8>(&[255, 0, 40, 41, 130]);
         let b = set::<8>(&[41, 130, 200]);
-        assert!(a.and(&b).eq([SeqId(41), SeqId(130)]));
-        assert!(a.or(&b).eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
-        assert!(a.minus(&b).eq([SeqId(0), SeqId(40), SeqId(255)]));
-        assert!(a.meets(&b) && !a.within(&b) && a.and(&b).within(&b));
-        let mut c = set::<8>(&[200]);
-        c.remove(SeqId(200));
-        assert!(c.is_empty() && c == SeqSet::EMPTY);
-        let mut d = a;
-        assert_eq!(d.take_all(), a);
-        assert!(d.is_empty());
-        // Words a smaller sequencer cannot hold are dropped.
+        assert!(a.meets(&b) && !a.meets(&set(&[1, 42])));
+        // Words beyond a smaller sequencer's are dropped.
         assert!(a.resized::<2>().eq([SeqId(0), SeqId(40), SeqId(41)]));
         assert!(SeqSet::<2>::EMPTY
             .with(SeqId(63))
             .with(SeqId(64))
             .eq([SeqId(63)]));
+        let mut c = set::<8>(&[200]);
+        c.remove(SeqId(200));
+        assert!(c == SeqSet::EMPTY);
+    }
+
+    #[test]
+    fn words_of_a_set_combine_as_one_word_sets() {
+        let a = set::<8>(&[255, 0, 40, 41, 130]);
+        let b = set::<8>(&[41, 130, 200]);
+        let (a1, b1) = (a.word(1), b.word(1));
+        assert!(a1.eq([SeqId(40), SeqId(41)]));
+        assert!(a1.and(b1).eq([SeqId(41)]));
+        assert!(a1.or(b1).eq([SeqId(40), SeqId(41)]));
+        assert!(a1.minus(b1).eq([SeqId(40)]));
+        assert!(a1.meets(b1) && b1.within(a1) && !a1.within(b1));
+        assert!(a1.has(SeqId(40)) && !a1.has(SeqId(0)) && !a.word(0).has(SeqId(40)));
+        assert_eq!(SetWord::<8>::of(SeqId(200)), b.word(6));
+        assert!(a.word(7).eq([SeqId(255)]) && a.word(5).is_empty());
+        // An id of another word is not put in.
+        let mut w = SetWord::<8>::empty(1);
+        w.insert(SeqId(3));
+        w.insert(SeqId(33));
+        assert!(w.eq([SeqId(33)]));
+        let mut c = a;
+        c.remove_all(a1);
+        c.insert_all(b.word(6));
+        assert!(c.eq([0u8, 130, 200, 255].map(SeqId)));
+    }
+
+    #[test]
+    fn an_indexed_set_knows_its_words() {
+        let mut s = IndexedSet::<8>::EMPTY;
+        assert!(s.is_empty() && s.words().eq([]));
+        for id in [200, 3, 40, 41] {
+            s.insert(SeqId(id));
+        }
+        assert!(s.words().eq([0, 1, 6]));
+        s.remove(SeqId(40));
+        assert!(s.words().eq([0, 1, 6]));
+        s.set(SeqId(41), false);
+        assert!(s.words().eq([0, 6]));
+        assert!(s.word(6).eq([SeqId(200)]));
+        let mut t = s;
+        assert!(t.take_all().eq([SeqId(3), SeqId(200)]));
+        assert!(t.is_empty());
+        assert_eq!(s.pop(), Some(SeqId(3)));
+        assert!(s.words().eq([6]) && !s.is_empty());
+        assert_eq!(s.pop(), Some(SeqId(200)));
+        assert!(s.is_empty() && s.pop().is_none());
+        // A one-word set's word is its own index.
+        let mut one = IndexedSet::<1>::EMPTY;
+        assert!(one.words().eq([]));
+        one.insert(SeqId(9));
+        assert!(one.words().eq([0]) && one.has(SeqId(9)));
     }
 }

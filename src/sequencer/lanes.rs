@@ -11,7 +11,7 @@ use core::cell::Cell;
 use core::task::{RawWakerVTable, Waker};
 
 use crate::lock::Lock;
-use crate::model::set::SeqSet;
+use crate::model::set::SetWord;
 use crate::sequencer::control_block::NO_LANE;
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::state::WakeMemo;
@@ -228,7 +228,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// same set last time, or, when the set changed, a walk over the sequences. Lanes
     /// joined in one task share their waker, which is woken once.
     #[inline(always)]
-    pub(crate) fn lanes_of_polls(&mut self, polls: SeqSet<B>, wakers: &Lanes<W>) -> LaneSet {
+    pub(crate) fn lanes_of_polls(&mut self, polls: SetWord<B>, wakers: &Lanes<W>) -> LaneSet {
         if self.polling.woken.polls != polls {
             let mut lanes = LaneSet::EMPTY;
             let mut woken = NO_WAKER;

@@ -131,7 +131,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     fn due_by(&mut self, id: SeqId) {
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
-        let next = self.polling.classes.resume(class, now, &self.sets.active);
+        let next = self
+            .polling
+            .classes
+            .resume(class, now, self.sets.active.as_set());
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 

@@ -1,7 +1,7 @@
 //! Everything the sequencer's lock guards, and the one way to a control block.
 
 use crate::lock::Lock;
-use crate::model::set::SeqSet;
+use crate::model::set::{IndexedSet, SeqSet, SetWord};
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
@@ -45,11 +45,11 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
 pub(crate) struct Sets<const B: usize> {
     /// `Running` or `Paused`, as of the start of the last tick (the tick folds `changed`
     /// in before it scans).
-    pub(crate) active: SeqSet<B>,
+    pub(crate) active: IndexedSet<B>,
     /// `Paused`, as `active`.
-    pub(crate) paused: SeqSet<B>,
+    pub(crate) paused: IndexedSet<B>,
     /// The state changed since the tick last folded it into `active` and `paused`.
-    pub(crate) changed: SeqSet<B>,
+    pub(crate) changed: IndexedSet<B>,
     /// A new run or restart began: the tick resets the edge detection of these sequences'
     /// monitors before their next evaluation.
     pub(crate) fresh: SeqSet<B>,
@@ -57,7 +57,7 @@ pub(crate) struct Sets<const B: usize> {
     pub(crate) armed: SeqSet<B>,
     /// `exceptionIsActive`: a monitor of the sequence fired and its handling is pending,
     /// or the sequence was aborted because of it.
-    pub(crate) excepting: SeqSet<B>,
+    pub(crate) excepting: IndexedSet<B>,
     /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
     pub(crate) poll_wait: SeqSet<B>,
     /// The tick says the polled condition is due.
@@ -65,7 +65,7 @@ pub(crate) struct Sets<const B: usize> {
     /// Waiting in a join (each block's `joins` says for which run).
     pub(crate) joining: SeqSet<B>,
     /// With a request, or whose exception sequence ended, for the next tick.
-    pub(crate) requested: SeqSet<B>,
+    pub(crate) requested: IndexedSet<B>,
 }
 
 /// When the tick must look again, and whom it woke last time.
@@ -79,20 +79,21 @@ pub(crate) struct Polling<const B: usize> {
     pub(crate) woken: WakeMemo<B>,
 }
 
-/// The lane slots woken for a set of due exit-condition polls: in a steady state the set
-/// repeats from poll to poll, and the tick wakes the same lanes again without visiting the
-/// sequences. Forgotten whenever a sequence's lane or a lane's waker changes.
+/// The lane slots woken for a set of due exit-condition polls (in one word of the sets):
+/// in a steady state the set repeats from poll to poll, and the tick wakes the same lanes
+/// again without visiting the sequences. Forgotten whenever a sequence's lane or a lane's
+/// waker changes.
 #[derive(Clone, Copy)]
 pub(crate) struct WakeMemo<const B: usize> {
     /// The polls (never empty while the memo is valid).
-    pub(crate) polls: SeqSet<B>,
+    pub(crate) polls: SetWord<B>,
     /// Their lane slots, one per distinct waker.
     pub(crate) lanes: LaneSet,
 }
 
 impl<const B: usize> WakeMemo<B> {
     pub(crate) const NONE: Self = WakeMemo {
-        polls: SeqSet::EMPTY,
+        polls: SetWord::empty(0),
         lanes: LaneSet::EMPTY,
     };
 }
@@ -103,16 +104,16 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         State {
             now: Instant::from_ticks(0),
             sets: Sets {
-                active: SeqSet::EMPTY,
-                paused: SeqSet::EMPTY,
-                changed: SeqSet::EMPTY,
+                active: IndexedSet::EMPTY,
+                paused: IndexedSet::EMPTY,
+                changed: IndexedSet::EMPTY,
                 fresh: SeqSet::EMPTY,
                 armed: SeqSet::EMPTY,
-                excepting: SeqSet::EMPTY,
+                excepting: IndexedSet::EMPTY,
                 poll_wait: SeqSet::EMPTY,
                 poll_due: SeqSet::EMPTY,
                 joining: SeqSet::EMPTY,
-                requested: SeqSet::EMPTY,
+                requested: IndexedSet::EMPTY,
             },
             polling: Polling {
                 classes: Classes::new(),

@@ -14,7 +14,7 @@
 //! | `teardown.rs` | aborts, restarts, pauses and resumes of a sequence and those below it |
 
 use crate::lock::Lock;
-use crate::model::set::SeqSet;
+use crate::model::set::{SetWord, Words};
 use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
@@ -26,61 +26,81 @@ mod monitors;
 pub(crate) mod schedule;
 mod teardown;
 
-use schedule::Due;
+use schedule::Scan;
 
-/// What the tick must do for the sequences whose poll is due.
+/// What the tick must do for the due polls in one word of the sets (the tick visits the
+/// words that hold an active sequence one at a time).
 pub(crate) struct Polls<const B: usize> {
     /// Active sequences whose polling class is due: their monitors are evaluated.
-    pub(crate) due: SeqSet<B>,
+    pub(crate) due: SetWord<B>,
     /// Due in a new run or restart: their monitors' edge detection starts from "false".
-    pub(crate) fresh: SeqSet<B>,
+    pub(crate) fresh: SetWord<B>,
     /// Running, due, with an expired timeout (raised after the monitors).
-    expired: SeqSet<B>,
+    expired: SetWord<B>,
     /// Running, due, waiting for a polled condition: their lanes are woken (after the
     /// monitors).
-    wake: SeqSet<B>,
-    /// Some active sequence is paused or handles an exception: a wake-up checks that its
-    /// sequence is not held.
+    wake: SetWord<B>,
+    /// Some active sequence (in any word) is paused or handles an exception: a wake-up
+    /// checks that its sequence is not held.
     careful: bool,
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// The due polls `due` (active sequences whose polling class is due): takes their
-    /// fresh marks and marks their due exit-condition polls. Returns what to do, without
-    /// the expired timeouts, and the running ones with an armed timeout.
+    /// The due polls `due` (active sequences of one word whose polling class is due):
+    /// takes their fresh marks and marks their due exit-condition polls. Returns what to
+    /// do, without the expired timeouts, and the running ones with an armed timeout.
     #[inline(always)]
-    fn take_polls(&mut self, due: SeqSet<B>) -> (Polls<B>, SeqSet<B>) {
+    fn take_polls(&mut self, due: SetWord<B>) -> (Polls<B>, SetWord<B>) {
+        let w = due.index();
+        let careful = self.careful();
         let sets = &mut self.sets;
-        let running = due.minus(&sets.paused);
-        let fresh = sets.fresh.and(&due);
-        sets.fresh = sets.fresh.minus(&due);
-        let wake = running.and(&sets.poll_wait);
-        sets.poll_due = sets.poll_due.or(&wake);
+        let running = due.minus(sets.paused.word(w));
+        let fresh = sets.fresh.word(w).and(due);
+        sets.fresh.remove_all(due);
+        let wake = running.and(sets.poll_wait.word(w));
+        sets.poll_due.insert_all(wake);
         let polls = Polls {
             due,
             fresh,
-            expired: SeqSet::EMPTY,
+            expired: SetWord::empty(w),
             wake,
-            careful: sets.paused.or(&sets.excepting).meets(&sets.active),
+            careful,
         };
-        (polls, running.and(&sets.armed))
+        (polls, running.and(sets.armed.word(w)))
+    }
+
+    /// Whether some active sequence is paused or handles an exception.
+    #[inline(always)]
+    fn careful(&self) -> bool {
+        let sets = &self.sets;
+        if B == 1 {
+            let held = sets.paused.word(0).or(sets.excepting.word(0));
+            return sets.active.word(0).meets(held);
+        }
+        // The paused sequences are active (both sets are folded from the same states);
+        // a sequence that handled an exception may have ended since.
+        let excepting = &sets.excepting;
+        !sets.paused.is_empty()
+            || excepting
+                .words()
+                .any(|w| excepting.word(w).meets(sets.active.word(w)))
     }
 
     /// Those of `wake` that are not held (see [`held`]), in one section.
-    fn unheld(&self, wake: SeqSet<B>) -> SeqSet<B> {
-        let mut out = wake;
+    fn unheld(&self, wake: SetWord<B>) -> SetWord<B> {
+        let mut out = SetWord::empty(wake.index());
         for id in wake {
             let lane = self.lane_slot(id);
-            if held(id, |c| self.held_step(c, lane)) {
-                out.remove(id);
+            if !held(id, |c| self.held_step(c, lane)) {
+                out.insert(id);
             }
         }
         out
     }
 
     /// Those of `timed` whose timeout deadline has passed at `now`.
-    fn expired(&self, timed: SeqSet<B>, now: Stamp) -> SeqSet<B> {
-        let mut out = SeqSet::EMPTY;
+    fn expired(&self, timed: SetWord<B>, now: Stamp) -> SetWord<B> {
+        let mut out = SetWord::empty(timed.index());
         for id in timed {
             if self.block(id).is_ok_and(|b| now.reached(Stamp(b.deadline))) {
                 out.insert(id);
@@ -98,7 +118,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// period is due, and wakes the lanes that must act.
     ///
     /// A tick with nothing due (and no state change since the last one) returns after one
-    /// short critical section.
+    /// short critical section. In a sequencer of more than 32 sequences (sets of `B > 1`
+    /// words) the tick visits only the words of 32 ids that hold an active sequence, lowest
+    /// first, and in each does what the tick of a sequencer of 32 does: monitors in table
+    /// order, then timeouts, then wake-ups.
     ///
     /// ```
     /// use rtseq::{Instant, Monitors, Sequencer};
@@ -115,15 +138,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) {
         let stamp = Stamp::of(now);
         let abort_all = self.take_abort_all();
-        let (requests, any_due, changed) = self.with(|s| {
+        // The words of the sets that hold an active sequence, as of the last fold.
+        let (requests, any_due, changed, mut words) = self.with(|s| {
             s.now = now;
             (
                 !s.sets.requested.is_empty(),
                 stamp.reached(s.polling.next_due),
-                s.sets.changed.take_all(),
+                !s.sets.changed.is_empty(),
+                s.sets.active.words(),
             )
         });
-        self.fold(changed);
+        if changed {
+            words = self.fold();
+        }
         if abort_all {
             self.apply_abort_all(control);
         }
@@ -135,12 +162,40 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
         if abort_all || requests {
             // What they stopped or paused is not due any more.
-            self.fold(self.with(|s| s.sets.changed.take_all()));
+            words = self.fold();
         }
-        let polls = self.scan(stamp);
-        let mut careful = polls.careful;
+        let mut scan = Scan::new();
+        let mut careful = false;
+        if B == 1 {
+            self.tick_word(0, now, &mut scan, &mut careful, monitors, control);
+            return;
+        }
+        for w in words {
+            self.tick_word(w, now, &mut scan, &mut careful, monitors, control);
+        }
+        if words.is_empty() {
+            self.with(|s| s.polling.next_due = stamp.plus(NEVER_AHEAD));
+        }
+    }
+
+    /// The tick's work in word `w` of the sets: the scan of the polling classes, the
+    /// monitors of the due sequences, their expired timeouts and the wake-ups of their due
+    /// exit-condition polls. `careful` (a wake-up checks that its sequence is not held)
+    /// carries over from word to word: once a monitor fired or a timeout expired, it stays.
+    #[inline(always)]
+    fn tick_word<const M: usize, K: crate::Condition<C>>(
+        &self,
+        w: usize,
+        now: Instant,
+        scan: &mut Scan,
+        careful: &mut bool,
+        monitors: &mut Monitors<'_, C, M, K>,
+        control: &C,
+    ) {
+        let polls = self.scan(w, Stamp::of(now), scan);
+        *careful |= polls.careful;
         if self.evaluate_monitors(&polls, monitors, control, now) {
-            careful = true;
+            *careful = true;
         }
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
@@ -151,9 +206,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             {
                 self.raise(control, id, Cause::Timeout(id), &mut reaction);
             }
-            careful = true;
+            *careful = true;
         }
         if !polls.wake.is_empty() {
+            let careful = *careful;
             if L::COARSE {
                 // One section: the held check walks the callers inside it.
                 self.update_and_wake(|s| {
@@ -170,46 +226,53 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
     }
 
-    /// Folds the state of the sequences `changed` into the sets `active` and `paused`, one
-    /// short section per sequence.
-    fn fold(&self, changed: SeqSet<B>) {
-        for id in changed {
-            self.with(|s| s.fold(id));
+    /// Folds the state of the sequences that changed into the sets `active` and `paused`,
+    /// one short section per sequence. Returns the words that then hold an active sequence.
+    fn fold(&self) -> Words {
+        loop {
+            // Each section says whether more are left.
+            let (more, words) = self.with(|s| {
+                if let Some(id) = s.sets.changed.pop() {
+                    s.fold(id);
+                }
+                (!s.sets.changed.is_empty(), s.sets.active.words())
+            });
+            if !more {
+                return words;
+            }
         }
     }
 
-    /// Finds the due polls: advances the schedules of the polling classes that are due,
-    /// recomputes the next due time, takes the due sequences' fresh marks, marks their
-    /// due exit-condition polls and finds their expired timeouts. With a coarse lock in
-    /// one section; otherwise one short section per class and per armed timeout.
+    /// Finds the due polls in word `w`: advances the schedules of the polling classes that
+    /// are due, recomputes the next due time, takes the due sequences' fresh marks, marks
+    /// their due exit-condition polls and finds their expired timeouts. With a coarse lock
+    /// in one section; otherwise one short section per class and per armed timeout.
     #[inline(always)]
-    fn scan(&self, now: Stamp) -> Polls<B> {
-        let mut due = Due {
-            sequences: SeqSet::EMPTY,
-            ahead: u32::MAX,
-        };
+    fn scan(&self, w: usize, now: Stamp, scan: &mut Scan) -> Polls<B> {
         let next_due = |ahead: u32| now.plus(ahead.min(NEVER_AHEAD));
         if L::COARSE {
             return self.with(|s| {
-                s.polling.classes.scan_all(now, &s.sets.active, &mut due);
-                s.polling.next_due = next_due(due.ahead);
-                let (mut polls, timed) = s.take_polls(due.sequences);
+                let due = s.polling.classes.scan_all(now, s.sets.active.word(w), scan);
+                s.polling.next_due = next_due(scan.ahead);
+                let (mut polls, timed) = s.take_polls(due);
                 polls.expired = s.expired(timed, now);
                 polls
             });
         }
         let classes = self.with(|s| s.polling.classes.len());
+        let mut due = SetWord::empty(w);
         for i in 0..classes {
-            self.with(|s| s.polling.classes.scan(i, now, &s.sets.active, &mut due));
+            due =
+                due.or(self.with(|s| s.polling.classes.scan(i, now, s.sets.active.word(w), scan)));
         }
         let (mut polls, timed) = self.with(|s| {
-            s.polling.next_due = next_due(due.ahead);
-            s.take_polls(due.sequences)
+            s.polling.next_due = next_due(scan.ahead);
+            s.take_polls(due)
         });
         for id in timed {
             polls.expired = polls
                 .expired
-                .or(&self.with(|s| s.expired(SeqSet::of(id), now)));
+                .or(self.with(|s| s.expired(SetWord::of(id), now)));
         }
         polls
     }
@@ -218,7 +281,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// (checked only when `careful`: after a monitor fired or while something is held), in
     /// short sections. Lanes joined in one task share their waker, which is woken once.
     #[inline(never)]
-    fn lanes_of_polls(&self, wake: SeqSet<B>, careful: bool) -> LaneSet {
+    fn lanes_of_polls(&self, wake: SetWord<B>, careful: bool) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
         let mut woken = NO_WAKER;
         for id in wake {

@@ -3,6 +3,7 @@
 //! firings (the rare, out-of-line path).
 
 use crate::lock::Lock;
+use crate::model::set::Words;
 use crate::monitor::{Group, OwnedMonitor};
 use crate::tick::exception::Reaction;
 use crate::tick::Polls;
@@ -20,7 +21,7 @@ fn evaluate_due<C, K: crate::Condition<C>, const B: usize>(
     control: &C,
     now: Instant,
 ) -> (u32, u32) {
-    let (due, fresh) = (&polls.due, &polls.fresh);
+    let (due, fresh) = (polls.due, polls.fresh);
     let mut values = 0u32;
     let mut evaluated = 0u32;
     let mut renewed = 0u32;
@@ -60,9 +61,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> bool {
         let mut fired = false;
         let due = polls.due;
-        // Due owners whose monitors keep their edge state: a group of only these takes the
-        // flat loop.
-        let steady = due.minus(&polls.fresh);
+        let w = due.index();
+        // Due owners whose monitors keep their edge state: a group of only these, all in
+        // this word, takes the flat loop.
+        let steady = due.minus(polls.fresh);
         let mut rest = monitors.entries.as_mut_slice();
         let used = usize::from(monitors.used_groups);
         for g in monitors.groups.iter_mut().take(used) {
@@ -73,13 +75,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 break;
             };
             rest = tail;
-            let owners = g.owners.resized::<B>();
-            if !owners.meets(&due) {
+            let owners = g.owners.word_as::<B>(w);
+            if !owners.meets(due) {
                 continue;
             }
-            // A monitor of a fresh owner starts its edge detection from "false": the
-            // per-monitor path.
-            let (values, evaluated) = if owners.within(&steady) {
+            // A monitor of a fresh owner starts its edge detection from "false", and one
+            // of an owner in another word is not due here: the per-monitor path.
+            let one_word = B == 1 || g.owner_words == Words::single(w);
+            let (values, evaluated) = if one_word && owners.within(steady) {
                 let mut values = 0u32;
                 for m in members.iter_mut() {
                     values = (values << 1) | u32::from(m.def.condition.validate(control, now));

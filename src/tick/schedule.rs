@@ -9,7 +9,7 @@
 
 use core::num::NonZeroU32;
 
-use crate::model::set::SeqSet;
+use crate::model::set::{SeqSet, SetWord};
 use crate::model::time::Stamp;
 use crate::{Error, SeqId};
 
@@ -36,13 +36,25 @@ pub(crate) struct Classes<const B: usize> {
     len: u8,
 }
 
-/// What a scan of the classes found.
-pub(crate) struct Due<const B: usize> {
-    /// The active sequences whose poll is due.
-    pub(crate) sequences: SeqSet<B>,
+/// What the scans of one tick found so far. A tick scans the classes once for each word
+/// of the sets it visits (one word in a sequencer of up to 32 sequences).
+pub(crate) struct Scan {
+    /// The classes found due in this tick, bit `i` for class `i`: a class is due once per
+    /// tick, whichever words hold its active members.
+    due_classes: u8,
     /// Time from now to the next poll of a class with an active member (µs; `u32::MAX`
     /// when there is none).
     pub(crate) ahead: u32,
+}
+
+impl Scan {
+    /// Nothing found yet.
+    pub(crate) const fn new() -> Self {
+        Scan {
+            due_classes: 0,
+            ahead: u32::MAX,
+        }
+    }
 }
 
 impl<const B: usize> Classes<B> {
@@ -132,44 +144,69 @@ impl<const B: usize> Classes<B> {
         }
     }
 
-    /// The scan of class `index` at `now` (see [`Class::scan`]).
+    /// The scan of class `index` at `now` in the word `active` of the active sequences
+    /// (see [`Class::scan`]).
     #[inline(always)]
-    pub(crate) fn scan(&mut self, index: usize, now: Stamp, active: &SeqSet<B>, due: &mut Due<B>) {
+    pub(crate) fn scan(
+        &mut self,
+        index: usize,
+        now: Stamp,
+        active: SetWord<B>,
+        scan: &mut Scan,
+    ) -> SetWord<B> {
         // An unused class has no members: no need to test `len`.
-        if let Some(c) = self.list.get_mut(index) {
-            c.scan(now, active, due);
+        match self.list.get_mut(index) {
+            Some(c) => c.scan(1 << (index & 7), now, active, scan),
+            None => SetWord::empty(active.index()),
         }
     }
 
-    /// The scan of every class at `now`.
+    /// The scan of every class at `now` in the word `active` of the active sequences.
     #[inline(always)]
-    pub(crate) fn scan_all(&mut self, now: Stamp, active: &SeqSet<B>, due: &mut Due<B>) {
+    pub(crate) fn scan_all(
+        &mut self,
+        now: Stamp,
+        active: SetWord<B>,
+        scan: &mut Scan,
+    ) -> SetWord<B> {
         let len = self.len();
+        let mut due = SetWord::empty(active.index());
+        let mut bit = 1;
         for c in self.list.iter_mut().take(len) {
-            c.scan(now, active, due);
+            due = due.or(c.scan(bit, now, active, scan));
+            bit <<= 1;
         }
+        due
     }
 }
 
 impl<const B: usize> Class<B> {
-    /// When the class has an active member and its poll is due, advances its grid and
-    /// adds its active members to `due`.
+    /// The due polls of this class (bit `bit` of [`Scan::due_classes`]) in the word
+    /// `active` of the active sequences. When the class has an active member there and its
+    /// poll is due, advances its grid, unless an earlier word of this tick did.
     #[inline(always)]
-    fn scan(&mut self, now: Stamp, active: &SeqSet<B>, due: &mut Due<B>) {
-        let live = self.members.and(active);
+    fn scan(&mut self, bit: u8, now: Stamp, active: SetWord<B>, scan: &mut Scan) -> SetWord<B> {
+        let live = self.members.word(active.index()).and(active);
         // A class with members has a period.
         let (false, Some(period)) = (live.is_empty(), self.period) else {
-            return;
+            return SetWord::empty(active.index());
         };
-        if now.reached(self.next) {
-            due.sequences = due.sequences.or(&live);
+        let advanced = B > 1 && scan.due_classes & bit != 0;
+        let due = advanced || now.reached(self.next);
+        if due && !advanced {
             // The next grid point after now: missed periods (a late tick) are not
             // replayed.
             let behind = self.next.until(now);
             let skip = (behind / period).wrapping_add(1);
             self.next = self.next.plus(skip.wrapping_mul(period.get()));
+            scan.due_classes |= bit;
         }
-        due.ahead = due.ahead.min(now.until(self.next));
+        scan.ahead = scan.ahead.min(now.until(self.next));
+        if due {
+            live
+        } else {
+            SetWord::empty(active.index())
+        }
     }
 }
 
@@ -197,20 +234,38 @@ mod tests {
         // Already busy: sequence 2 joins the grid of sequence 0.
         assert_eq!(c.resume(0, Stamp(900), &active), Stamp(1_500));
         let scan = |c: &mut Classes<8>, now| {
-            let mut due = Due {
-                sequences: SeqSet::EMPTY,
-                ahead: u32::MAX,
-            };
+            let mut scan = Scan::new();
+            let mut due = SetWord::empty(0);
             for i in 0..c.len() {
-                c.scan(i, Stamp(now), &live(&[0, 1, 2]), &mut due);
+                due = due.or(c.scan(i, Stamp(now), live(&[0, 1, 2]).word(0), &mut scan));
             }
-            (due.sequences, due.ahead)
+            (due, scan.ahead)
         };
-        assert_eq!(scan(&mut c, 1_000), (SeqSet::EMPTY, 500));
-        assert_eq!(scan(&mut c, 1_500), (live(&[0, 2]), 1_000));
+        assert_eq!(scan(&mut c, 1_000), (SetWord::empty(0), 500));
+        assert_eq!(scan(&mut c, 1_500), (live(&[0, 2]).word(0), 1_000));
         // A late tick: 3 700 is past 2 500 and 3 500; the next polls stay on the grids.
-        assert_eq!(scan(&mut c, 3_700), (live(&[0, 1, 2]), 800));
-        assert_eq!(scan(&mut c, 4_500), (live(&[0, 1, 2]), 1_000));
+        assert_eq!(scan(&mut c, 3_700), (live(&[0, 1, 2]).word(0), 800));
+        assert_eq!(scan(&mut c, 4_500), (live(&[0, 1, 2]).word(0), 1_000));
+    }
+
+    #[test]
+    fn a_class_is_due_once_per_tick_in_every_word_of_its_members() {
+        let mut c = Classes::<8>::new();
+        for id in [3, 100, 250] {
+            assert_eq!(c.join(SeqId(id), 1_000), Ok(0));
+        }
+        let active = live(&[3, 100, 250]);
+        assert_eq!(c.resume(0, Stamp(0), &SeqSet::EMPTY), Stamp(1_000));
+        let tick = |c: &mut Classes<8>, now| {
+            let mut scan = Scan::new();
+            let due: [SetWord<8>; 3] =
+                [0, 3, 7].map(|w| c.scan_all(Stamp(now), active.word(w), &mut scan));
+            (due.map(|d| d.count()), scan.ahead)
+        };
+        // Word 0 advances the grid to 2 000; words 3 and 7 are due in the same tick.
+        assert_eq!(tick(&mut c, 1_000), ([1, 1, 1], 1_000));
+        assert_eq!(tick(&mut c, 1_500), ([0, 0, 0], 500));
+        assert_eq!(tick(&mut c, 2_000), ([1, 1, 1], 1_000));
     }
 
     #[test]
