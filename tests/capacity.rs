@@ -168,3 +168,94 @@ fn the_257th_sequence_is_an_error() {
         Some(SeqId::from_index(255))
     );
 }
+
+/// Three sequences `[x, y, t]` (exit condition flag 9, never set), started at 0 ms: `x`
+/// and `y` each with a monitor on flag 2 (set at 3 ms, `AbortOwner`; the table lists
+/// `y`'s monitor first), `t` with a 3 ms timeout. Returns the trace from 3 ms on.
+fn same_tick<const N: usize, const B: usize>(
+    seq: &Sequencer<Ctrl, N, 64, CriticalSection, 8, B>,
+    ids: [SeqId; 3],
+) -> Vec<Transition> {
+    let ctrl = Ctrl::default();
+    let mut sorted = ids;
+    sorted.sort();
+    let mut runs = Vec::new();
+    for at in sorted {
+        while seq.len() < at.index() {
+            let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
+            seq.register(SeqConfig::new(name)).unwrap();
+        }
+        let name: &'static str = Box::leak(format!("waits {}", at.index()).into_boxed_str());
+        let config = SeqConfig::new(name);
+        let config = if at == ids[2] {
+            config.timeout(Duration::from_millis(3))
+        } else {
+            config
+        };
+        let waits = Node {
+            exit: Some(9),
+            ..Node::of(vec![])
+        };
+        let run = seq.add(config, waits).unwrap();
+        assert_eq!(run.id(), at);
+        runs.push(run);
+    }
+    let (mut on_x, mut on_y) = (|c: &Ctrl, _| c.flag(2), |c: &Ctrl, _| c.flag(2));
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    monitors
+        .add(ids[1], Monitor::new("y", &mut on_y, Behaviour::AbortOwner))
+        .unwrap();
+    monitors
+        .add(ids[0], Monitor::new("x", &mut on_x, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(seq, &ctrl, monitors);
+    for run in runs {
+        sim.lane(run);
+    }
+    sim.before_tick(|t, c| c.set(2, ms(t) >= 3));
+    for id in ids {
+        sim.start(id).unwrap();
+    }
+    sim.run_for(Duration::from_millis(5));
+    sim.trace()
+        .iter()
+        .filter(|t| ms(t.time) >= 3)
+        .copied()
+        .collect()
+}
+
+/// Two monitors and a timeout that trigger in the same tick. A sequencer of one-word sets
+/// raises them as the tick documents it: monitors in table order, then timeouts. One of
+/// several words visits the words holding active sequences lowest first and does the same
+/// in each: here the monitor of `x` in word 0 comes before that of `y` in word 3, which
+/// the table lists first, and the timeout of `t` in word 0 before the monitor of word 3.
+#[test]
+fn in_one_tick_a_sequencer_of_several_words_goes_word_by_word() {
+    let (ky, kx) = (MonitorId::from_index(0), MonitorId::from_index(1));
+    let small: Sequencer<Ctrl, 8> = Sequencer::new();
+    let [x, y, t] = [1, 2, 3].map(SeqId::from_index);
+    assert_eq!(
+        same_tick(&small, [x, y, t]),
+        vec![
+            tr(3, y, Running, Aborting, Mon(ky)),
+            tr(3, y, Aborting, Aborted, Mon(ky)),
+            tr(3, x, Running, Aborting, Mon(kx)),
+            tr(3, x, Aborting, Aborted, Mon(kx)),
+            tr(3, t, Running, Aborting, Cause::Timeout(t)),
+            tr(3, t, Aborting, Aborted, Cause::Timeout(t)),
+        ]
+    );
+    let big: Sequencer<Ctrl, 256, 64, CriticalSection, 8, 8> = Sequencer::new();
+    let [x, y, t] = [5, 100, 6].map(SeqId::from_index);
+    assert_eq!(
+        same_tick(&big, [x, y, t]),
+        vec![
+            tr(3, x, Running, Aborting, Mon(kx)),
+            tr(3, x, Aborting, Aborted, Mon(kx)),
+            tr(3, t, Running, Aborting, Cause::Timeout(t)),
+            tr(3, t, Aborting, Aborted, Cause::Timeout(t)),
+            tr(3, y, Running, Aborting, Mon(ky)),
+            tr(3, y, Aborting, Aborted, Mon(ky)),
+        ]
+    );
+}
