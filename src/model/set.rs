@@ -278,10 +278,10 @@ impl Iterator for Words {
     }
 }
 
-/// One word of a set of a sequencer with `B`-word sets: the ids `32 * word ..= 32 * word
-/// + 31` of the set. The tick works on a sequencer's sets one such word at a time; the
-/// operations between two `SetWord`s combine their bits and are meant for words of the
-/// same index.
+/// One word of a set of a sequencer with `B`-word sets: the ids from `32 * word` to
+/// `32 * word + 31` of the set. The tick works on a sequencer's sets one such word at a
+/// time; the operations between two `SetWord`s combine their bits and are meant for
+/// words of the same index.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) struct SetWord<const B: usize> {
     word: u8,
