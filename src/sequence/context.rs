@@ -10,7 +10,7 @@ use crate::sequence::run::Run;
 use crate::sequence::SeqHead;
 use crate::sequencer::port::Port;
 use crate::sequencer::transition::Clearance;
-use crate::{Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
+use crate::{Duration, Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
 /// What a running sequence or step sees: its id, the time, typed access to the control
 /// system, and the sequencer (start, join and inspect other sequences).
@@ -156,6 +156,55 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     pub fn now(&self) -> Instant {
         self.port.now()
+    }
+
+    /// How long this run has run, not counting the time it was paused: the time its
+    /// timeout counts, and what [`Wait`](crate::Wait) waits for. A start and a restart
+    /// begin at zero. As sequencer time (the last tick's), in µs modulo 2³² µs (it wraps
+    /// after about 71.6 minutes; [`Wait`](crate::Wait) adds up differences, so it waits
+    /// longer than that).
+    ///
+    /// A step that records its run time whenever its exit condition is checked; its caller
+    /// is paused and resumed (the ticks at 3 ms and 6 ms apply the requests), and the step
+    /// with it:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use std::cell::RefCell;
+    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// struct Log;
+    /// impl Step<RefCell<Vec<u64>>> for Log {
+    ///     fn action(&mut self, _: &Cx<'_, RefCell<Vec<u64>>>) {}
+    ///     fn check_exit_condition(&mut self, cx: &Cx<'_, RefCell<Vec<u64>>>) -> bool {
+    ///         cx.control().borrow_mut().push(cx.run_time().as_millis());
+    ///         cx.now().duration_since_epoch().as_millis() >= 7
+    ///     }
+    /// }
+    /// struct Main(Seq<Log>);
+    /// impl Sequence<RefCell<Vec<u64>>> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, RefCell<Vec<u64>>>) {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///     }
+    /// }
+    /// let seq: Sequencer<RefCell<Vec<u64>>, 2> = Sequencer::new();
+    /// let log = seq.add(SeqConfig::new("log"), Log).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main(log)).unwrap();
+    /// let (id, times) = (main.id(), RefCell::new(Vec::new()));
+    /// let mut sim = Sim::new(&seq, &times, Monitors::<_, 1>::new());
+    /// sim.lane(main);
+    /// sim.start(id).unwrap();
+    /// let h = seq.sequence_by_id(id).unwrap();
+    /// sim.run_for(Duration::from_millis(2));
+    /// h.pause().unwrap();
+    /// sim.run_for(Duration::from_millis(3));
+    /// h.resume().unwrap();
+    /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
+    /// // Checked at 0, 1, 2, then 6 and 7 ms of sequencer time.
+    /// assert_eq!(*times.borrow(), [0, 1, 2, 3, 4]);
+    /// # }
+    /// ```
+    pub fn run_time(&self) -> Duration {
+        Duration::from_ticks(u64::from(self.port.run_time(self.id)))
     }
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence

@@ -1,10 +1,11 @@
 //! The `Wait` step.
 
-use crate::{Cx, Duration, Instant, Step};
+use crate::{Cx, Duration, Step};
 
 /// A step that ends once `duration` has passed since its action (a dwell time).
 ///
-/// Time is sequencer time; a pause does not extend the wait.
+/// Time is sequencer time, without the time the step was paused (its
+/// [`run_time`](Cx::run_time)): paused at 0.3 s for 2 s, a 1 s wait ends at 3.0 s.
 ///
 /// ```
 /// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
@@ -15,7 +16,11 @@ use crate::{Cx, Duration, Instant, Step};
 /// ```
 pub struct Wait {
     duration: Duration,
-    until: Instant,
+    /// The unpaused time waited so far (µs), summed from differences of the run time
+    /// (which wraps every 2³² µs) so that a wait may be longer than that.
+    waited: u64,
+    /// The run time (µs, modulo 2³²) when `waited` was last brought up to date.
+    seen: u64,
 }
 
 impl Wait {
@@ -45,7 +50,8 @@ impl Wait {
     pub const fn new(duration: Duration) -> Self {
         Wait {
             duration,
-            until: Instant::from_ticks(0),
+            waited: 0,
+            seen: 0,
         }
     }
 
@@ -75,13 +81,16 @@ impl Wait {
 
 impl<C> Step<C> for Wait {
     fn action(&mut self, cx: &Cx<'_, C>) {
-        self.until = cx
-            .now()
-            .checked_add_duration(self.duration)
-            .unwrap_or(Instant::from_ticks(u64::MAX));
+        self.waited = 0;
+        self.seen = cx.run_time().as_ticks();
     }
 
     fn check_exit_condition(&mut self, cx: &Cx<'_, C>) -> bool {
-        cx.now() >= self.until
+        let now = cx.run_time().as_ticks();
+        // The run time wraps at 2³² µs; polls are far closer together than that.
+        let step = now.wrapping_sub(self.seen) & u64::from(u32::MAX);
+        self.seen = now;
+        self.waited = self.waited.saturating_add(step);
+        self.waited >= self.duration.as_ticks()
     }
 }

@@ -2,7 +2,6 @@
 //! fields), plus its optional counters.
 
 use crate::model::id::Link;
-#[cfg(doc)]
 use crate::model::time::Stamp;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
@@ -116,9 +115,10 @@ pub(crate) struct ControlBlock {
     pub(crate) name: Option<&'static str>,
     /// Timeout in µs, 0 = off.
     pub(crate) timeout: u32,
-    /// While the timeout is armed: its deadline (a [`Stamp`]'s µs) while the sequence
-    /// runs, the time left (µs) while it is paused.
-    pub(crate) deadline: u32,
+    /// The run's clock, which does not count paused time: while the sequence is paused,
+    /// the run's unpaused time so far (µs); otherwise the [`Stamp`] (µs) from which it
+    /// counts, the run's start moved on by its pauses. See [`run_time`](Self::run_time).
+    pub(crate) clock: u32,
     /// [`flag`]s, [`request`]s and the pending behaviour.
     pub(crate) flags: u16,
     /// Starts (not restarts): a new run resets the restart books of the monitors.
@@ -160,7 +160,7 @@ impl ControlBlock {
     pub(crate) const UNREGISTERED: ControlBlock = ControlBlock {
         name: None,
         timeout: 0,
-        deadline: 0,
+        clock: 0,
         flags: 0,
         runs: 0,
         timeout_runs_seen: 0,
@@ -191,6 +191,39 @@ impl ControlBlock {
         timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
         ..ControlBlock::UNREGISTERED
     };
+
+    /// The current run's unpaused time at `now` (µs, modulo 2³² µs, about 71.6 minutes):
+    /// what its timeout and [`Cx::run_time`](crate::Cx::run_time) count. A run's start
+    /// sets the clock to 0; a pause and a resume each flip it ([`flip_clock`]).
+    ///
+    /// [`flip_clock`]: Self::flip_clock
+    #[inline]
+    pub(crate) fn run_time(&self, now: Stamp) -> u32 {
+        if self.state == RunningState::Paused {
+            self.clock
+        } else {
+            now.0.wrapping_sub(self.clock)
+        }
+    }
+
+    /// Starts the run's clock at `now`.
+    #[inline]
+    pub(crate) fn start_clock(&mut self, now: Stamp) {
+        self.clock = now.0;
+    }
+
+    /// At a pause (a resume) at `now`: the clock keeps the run's unpaused time (the stamp
+    /// from which it counts again). Both are `now` minus what the clock held.
+    #[inline]
+    pub(crate) fn flip_clock(&mut self, now: Stamp) {
+        self.clock = now.0.wrapping_sub(self.clock);
+    }
+
+    /// Whether the armed timeout has run out at `now` (paused time not counted).
+    #[inline]
+    pub(crate) fn timed_out(&self, now: Stamp) -> bool {
+        self.run_time(now) >= self.timeout
+    }
 
     /// The registered name ("" only for an unregistered slot, which no reader reaches).
     pub(crate) fn name(&self) -> &'static str {

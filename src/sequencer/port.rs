@@ -5,6 +5,7 @@
 use core::task::{Poll, Waker};
 
 use crate::lock::Lock;
+use crate::model::time::Stamp;
 use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
@@ -35,6 +36,8 @@ pub(crate) struct Info {
 pub(crate) trait Port<C> {
     /// The last tick's time.
     fn now(&self) -> Instant;
+    /// The unpaused time of `id`'s current run at the last tick (µs, modulo 2³²).
+    fn run_time(&self, id: SeqId) -> u32;
     /// Starts `id` blocking: it runs in `caller`'s lane, inside `caller`'s future.
     fn start_blocking(&self, id: SeqId, caller: SeqId) -> Result<(), Error>;
     /// Starts `id` in its own lane, by `caller` (`None`: as a main sequence).
@@ -82,6 +85,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 {
     fn now(&self) -> Instant {
         Sequencer::now(self)
+    }
+
+    fn run_time(&self, id: SeqId) -> u32 {
+        self.with(|s| {
+            let now = Stamp::of(s.now);
+            s.block(id).map_or(0, |b| b.run_time(now))
+        })
     }
 
     fn start_blocking(&self, id: SeqId, caller: SeqId) -> Result<(), Error> {

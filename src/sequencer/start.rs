@@ -70,7 +70,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         Ok((b.flags & flag::BOUND, lane))
     }
 
-    /// Schedules a new run of `id` from now, before its commit: its timeout deadline, its
+    /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
     /// lane, its run count, no last exception or outcome yet. Only for a sequence that is
     /// not `Running` or `Paused` (then it only returns that state): the tick neither scans
     /// it nor walks through these fields, and the caller link, flags and state, which it
@@ -81,7 +81,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let from = b.state;
         let armed = b.timeout != 0;
         if !States::ACTIVE_RUNNING.has(from) {
-            b.deadline = now.plus(b.timeout).0;
+            b.start_clock(now);
             b.lane = lane;
             b.runs = b.runs.wrapping_add(1);
             b.active_exception = None;
@@ -96,14 +96,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         })
     }
 
-    /// Schedules a restart of `id` from now: its timeout starts again. As
+    /// Schedules a restart of `id` from now: its clock (and timeout) starts again. As
     /// [`schedule_new`](Self::schedule_new), only for a sequence not `Running` or `Paused`.
     fn schedule_restart(&mut self, id: SeqId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
         let b = self.block_mut(id).ok()?;
         let from = b.state;
         if !States::ACTIVE_RUNNING.has(from) {
-            b.deadline = now.plus(b.timeout).0;
+            b.start_clock(now);
         }
         Some(Scheduled {
             from,

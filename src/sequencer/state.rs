@@ -53,7 +53,7 @@ pub(crate) struct Sets<const B: usize> {
     /// A new run or restart began: the tick resets the edge detection of these sequences'
     /// monitors before their next evaluation.
     pub(crate) fresh: SeqSet<B>,
-    /// The timeout monitor is armed (the block's `deadline` is meaningful).
+    /// The timeout monitor is armed.
     pub(crate) armed: SeqSet<B>,
     /// `exceptionIsActive`: a monitor of the sequence fired and its handling is pending,
     /// or the sequence was aborted because of it.

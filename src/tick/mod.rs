@@ -98,11 +98,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         out
     }
 
-    /// Those of `timed` whose timeout deadline has passed at `now`.
+    /// Those of `timed` whose timeout has run out at `now`.
     fn expired(&self, timed: SetWord<B>, now: Stamp) -> SetWord<B> {
         let mut out = SetWord::empty(timed.index());
         for id in timed {
-            if self.block(id).is_ok_and(|b| now.reached(Stamp(b.deadline))) {
+            if self.block(id).is_ok_and(|b| b.timed_out(now)) {
                 out.insert(id);
             }
         }

@@ -191,24 +191,11 @@ fn leave<
     let change = StateChange::new(id, from, to, cause);
     s.section(|s| s.transition(&change).map(|_| ()))?;
     if pause {
-        // A paused timeout keeps its remaining time, not a deadline (nothing reads either
-        // before this: the tick is the one that would).
+        // The run's clock (and its timeout) stops while paused.
         s.section(|s| {
             let now = Stamp::of(s.now);
-            let armed = s.sets.armed.has(id);
-            let Ok(b) = s.block_mut(id) else { return };
-            if armed {
-                b.deadline = if to == RunningState::Paused {
-                    // The time left; none once the deadline has passed.
-                    let deadline = Stamp(b.deadline);
-                    if now.reached(deadline) {
-                        0
-                    } else {
-                        now.until(deadline)
-                    }
-                } else {
-                    now.plus(b.deadline).0
-                };
+            if let Ok(b) = s.block_mut(id) {
+                b.flip_clock(now);
             }
         });
     }

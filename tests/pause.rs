@@ -1,0 +1,118 @@
+//! Pause reaches waits: a `Wait` counts only unpaused time, as the timeout does, and a run's
+//! unpaused time (`Cx::run_time`) is what both count.
+
+mod common;
+use common::*;
+use rtseq::sim::Sim;
+use rtseq::Cause::{Completed, Pause, Resume, Start};
+use rtseq::RunningState::*;
+use rtseq::{Duration, Instant, Monitors, SeqConfig, Sequencer, Wait};
+
+/// Main runs a 1 s `Wait` blocking; it is paused at 0.3 s and resumed at 2.3 s (each request
+/// made just before the tick that applies it).
+#[test]
+fn a_wait_paused_at_300_ms_for_2_s_ends_at_3_s() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_secs(1)))
+        .unwrap();
+    let wi = w.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    let handle = seq.sequence_by_id(mi).unwrap();
+    sim.run_until(Instant::from_ticks(299_000));
+    handle.pause().unwrap();
+    sim.run_until(Instant::from_ticks(2_299_000));
+    handle.resume().unwrap();
+    let end = sim.run_until_idle(Duration::from_secs(5)).unwrap();
+    assert_eq!(end, Instant::from_ticks(3_000_000));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(0, wi, Idle, Running, Start),
+            tr(300, mi, Running, Paused, Pause),
+            tr(300, wi, Running, Paused, Pause),
+            tr(2_300, mi, Paused, Running, Resume),
+            tr(2_300, wi, Paused, Running, Resume),
+            tr(3_000, wi, Running, Terminated, Completed),
+            tr(3_000, mi, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+}
+
+/// A wait longer than the run clock's 2³² µs (71.6 minutes): two hours, ticked every second.
+#[test]
+fn a_two_hour_wait_ends_after_two_hours() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let every_s = Duration::from_secs(1);
+    let w = seq
+        .add(
+            SeqConfig::new("W").polling(every_s),
+            Wait::new(Duration::from_secs(2 * 3_600)),
+        )
+        .unwrap();
+    let main = seq
+        .add(
+            SeqConfig::new("main").polling(every_s),
+            Node::of(vec![Op::Wait(w)]),
+        )
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new())
+        .with_period(every_s)
+        .unwrap();
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    let end = sim.run_until_idle(Duration::from_secs(3 * 3_600)).unwrap();
+    assert_eq!(end.duration_since_epoch(), Duration::from_secs(2 * 3_600));
+}
+
+/// The timeout counts the same clock: a 1 s timeout, paused after 0.5 s for 2 s, runs out at
+/// 3 s of sequencer time.
+#[test]
+fn a_timeout_paused_for_2_s_runs_out_2_s_later() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let main = seq
+        .add(
+            SeqConfig::new("main").timeout(Duration::from_secs(1)),
+            Node {
+                exit: Some(9),
+                ..Node::of(vec![])
+            },
+        )
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    let handle = seq.sequence_by_id(mi).unwrap();
+    sim.run_until(Instant::from_ticks(499_000));
+    handle.pause().unwrap();
+    sim.run_until(Instant::from_ticks(2_499_000));
+    handle.resume().unwrap();
+    sim.run_until(Instant::from_ticks(4_000_000));
+    let t = rtseq::Cause::Timeout(mi);
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(500, mi, Running, Paused, Pause),
+            tr(2_500, mi, Paused, Running, Resume),
+            tr(3_000, mi, Running, Aborting, t),
+            tr(3_000, mi, Aborting, Aborted, t),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+}
