@@ -607,9 +607,9 @@ impl Group {
 /// let mut monitors: Monitors<Cell<bool>, 4> = Monitors::new();
 /// let m = monitors.add(run, Monitor::new("warm", &mut warm, Behaviour::Nothing)).unwrap();
 /// let hot = Cell::new(false);
-/// seq.tick(Instant::from_ticks(1_000), &hot, &mut monitors);
+/// seq.tick(Instant::from_ticks(1_000), &hot, &mut monitors).unwrap();
 /// hot.set(true);
-/// seq.tick(Instant::from_ticks(2_000), &hot, &mut monitors);
+/// seq.tick(Instant::from_ticks(2_000), &hot, &mut monitors).unwrap();
 /// assert_eq!(monitors.fired(m), 1);
 /// ```
 pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
@@ -838,7 +838,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// let button = Cell::new(false);
     /// for (ms, level) in [(1, true), (2, true), (3, false), (4, true)] {
     ///     button.set(level);
-    ///     seq.tick(Instant::from_ticks(ms * 1_000), &button, &mut monitors);
+    ///     seq.tick(Instant::from_ticks(ms * 1_000), &button, &mut monitors).unwrap();
     /// }
     /// assert_eq!(monitors.fired(m), 2);
     /// ```

@@ -194,6 +194,8 @@ pub struct Sim<
     trace: Vec<Transition>,
     lost: u32,
     stalled: bool,
+    /// The first error a tick returned (the sequencer was ticked past the simulator).
+    tick_error: Option<Error>,
     /// The configuration was validated (before the first start).
     validated: bool,
     before_tick: Option<BeforeTick<'a, C>>,
@@ -239,6 +241,7 @@ impl<
             trace: Vec::new(),
             lost: 0,
             stalled: false,
+            tick_error: None,
             validated: false,
             before_tick: None,
             shuffle: None,
@@ -555,8 +558,8 @@ impl<
 
     /// Requests a resume of `id` (applied by the next tick).
     ///
-    /// A pause does not extend the dwell: resumed after it has passed, the step ends at the
-    /// next poll.
+    /// A pause holds the dwell (a [`Wait`](crate::Wait) counts only unpaused time): paused by
+    /// the tick at 1 ms and resumed by the one at 21 ms, a 5 ms dwell ends at 25 ms.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
@@ -576,7 +579,7 @@ impl<
     /// sim.run_for(Duration::from_millis(20));
     /// sim.resume(id).unwrap();
     /// let done = sim.run_until_idle(Duration::from_millis(20)).unwrap();
-    /// assert_eq!(done.duration_since_epoch(), Duration::from_millis(21));
+    /// assert_eq!(done.duration_since_epoch(), Duration::from_millis(25));
     /// assert_eq!(sim.state(id), RunningState::Terminated);
     /// ```
     pub fn resume(&mut self, id: SeqId) -> Result<(), Error> {
@@ -671,8 +674,12 @@ impl<
         if let Some(f) = self.before_tick.as_mut() {
             f(self.now, self.control);
         }
-        self.sequencer
-            .tick(self.now, self.control, &mut self.monitors);
+        if let Err(e) = self
+            .sequencer
+            .tick(self.now, self.control, &mut self.monitors)
+        {
+            self.tick_error.get_or_insert(e);
+        }
         self.settle();
     }
 
@@ -879,6 +886,23 @@ impl<
     /// ```
     pub fn lost(&self) -> u32 {
         self.lost
+    }
+
+    /// The first error a tick of the simulator returned: [`Error::TickBeforeLast`] when
+    /// the sequencer was ticked by hand past the simulator's time (those ticks did
+    /// nothing).
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Error, Instant, Monitors, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// let mut none = Monitors::<(), 1>::new();
+    /// seq.tick(Instant::from_ticks(5_000), &(), &mut none).unwrap();
+    /// sim.run_until(Instant::from_ticks(3_000));
+    /// assert_eq!(sim.tick_error(), Some(Error::TickBeforeLast));
+    /// ```
+    pub fn tick_error(&self) -> Option<Error> {
+        self.tick_error
     }
 
     /// True if a settle hit its poll bound (a lane that wakes itself forever).

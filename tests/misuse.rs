@@ -98,7 +98,8 @@ fn a_waker_that_calls_back_into_the_sequencer_is_never_called_while_its_state_is
     seq.sequence_by_id(id).unwrap().start().unwrap(); // wakes the lane
     for ms in 1..=4u64 {
         poll();
-        seq.tick(Instant::from_ticks(ms * 1_000), &(), &mut monitors); // wakes due polls
+        seq.tick(Instant::from_ticks(ms * 1_000), &(), &mut monitors)
+            .unwrap(); // wakes due polls
     }
     poll();
     assert_eq!(seq.sequence_by_id(id).unwrap().state(), Terminated);
@@ -143,7 +144,8 @@ fn a_waker_that_aborts_its_own_sequence_when_woken_takes_effect_at_the_next_tick
     seq.sequence_by_id(id).unwrap().start().unwrap(); // wakes: the waker requests the abort
     let _ = lane.as_mut().poll(&mut Context::from_waker(&waker));
     assert_eq!(seq.sequence_by_id(id).unwrap().state(), Running);
-    seq.tick(Instant::from_ticks(1_000), &(), &mut monitors);
+    seq.tick(Instant::from_ticks(1_000), &(), &mut monitors)
+        .unwrap();
     assert_eq!(seq.sequence_by_id(id).unwrap().state(), Aborted);
     assert_eq!(
         seq.sequence_by_id(id).unwrap().last_outcome(),
@@ -493,4 +495,47 @@ fn joining_ones_blocking_caller_is_an_error_not_a_hang() {
 
 fn ms_at(ms: u64) -> Instant {
     Instant::from_ticks(ms * 1_000)
+}
+
+/// A tick with a time earlier than the last one's is an error and changes nothing: the
+/// timeout of a running sequence is not moved, and the next on-time tick works as before.
+#[test]
+fn a_tick_earlier_than_the_last_is_an_error_and_does_nothing() {
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let main = seq
+        .add(
+            SeqConfig::new("main").timeout(Duration::from_millis(5)),
+            Node {
+                exit: Some(9),
+                ..Node::of(vec![])
+            },
+        )
+        .unwrap();
+    let id = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(id).unwrap();
+    sim.run_until(ms_at(3));
+    let mut none = Monitors::<Ctrl, 1>::new();
+    assert_eq!(
+        seq.tick(ms_at(2), &ctrl, &mut none),
+        Err(Error::TickBeforeLast)
+    );
+    assert_eq!(
+        Error::TickBeforeLast.to_string(),
+        "a tick's time is earlier than the last tick's"
+    );
+    assert_eq!(seq.now(), ms_at(3));
+    assert_eq!(sim.tick_error(), None);
+    sim.run_until(ms_at(10));
+    let t = rtseq::Cause::Timeout(id);
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, id, Idle, Running, Start),
+            tr(5, id, Running, Aborting, t),
+            tr(5, id, Aborting, Aborted, t),
+        ]
+    );
 }

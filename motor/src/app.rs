@@ -29,7 +29,7 @@
 //! `local` resource of the timer task (built at compile time: `const { app::monitors(..) }`),
 //! [`register`] in `init`, one async task per lane of [`App`] (or all of them
 //! joined in one task with [`App::run`]), and in the timer interrupt:
-//! `CS.control_tick(now, 0.001); SEQ.tick(now, &CS, monitors);`.
+//! `CS.control_tick(now, 0.001); SEQ.tick(now, &CS, monitors)`.
 
 use core::convert::Infallible;
 use core::future::{poll_fn, Future};

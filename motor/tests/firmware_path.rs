@@ -48,7 +48,7 @@ fn joined_lanes_give_the_same_run_as_the_simulator() {
     while cs.phase() != Phase::Done && now_ms < 10_000 {
         now_ms += 1;
         cs.control_tick(ms(now_ms), 0.001);
-        seq.tick(ms(now_ms), &cs, &mut monitors);
+        seq.tick(ms(now_ms), &cs, &mut monitors).unwrap();
         poll!();
     }
     assert_eq!(cs.phase(), Phase::Done);

@@ -125,6 +125,7 @@ pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
                 Error::NotEmpty => 15,
                 Error::JoinWouldDeadlock(_) => 16,
                 Error::InvalidConfig => 17,
+                Error::TickBeforeLast => 18,
             };
             0x8000_0000 | n
         }

@@ -53,6 +53,9 @@ pub enum Error {
     /// The configuration cannot work as declared: [`Sequencer::validate`](crate::Sequencer::validate)
     /// says what (a small variant: every `Result` of rtseq carries an `Error`).
     InvalidConfig,
+    /// A [`tick`](crate::Sequencer::tick) with a time earlier than the last tick's: time
+    /// does not go back, and that tick did nothing.
+    TickBeforeLast,
 }
 
 impl Error {
@@ -86,6 +89,7 @@ impl Error {
             Error::NotEmpty => "sequencer not empty",
             Error::JoinWouldDeadlock(_) => "join would deadlock",
             Error::InvalidConfig => "invalid configuration",
+            Error::TickBeforeLast => "tick earlier than the last",
         }
     }
 }
@@ -118,6 +122,7 @@ impl core::fmt::Display for Error {
             Error::PollingClassesExceeded => write!(f, "too many distinct polling periods"),
             Error::NotEmpty => write!(f, "a table needs an empty sequencer"),
             Error::InvalidConfig => write!(f, "invalid configuration (see Sequencer::validate)"),
+            Error::TickBeforeLast => write!(f, "a tick's time is earlier than the last tick's"),
             Error::JoinWouldDeadlock(id) => write!(
                 f,
                 "joining sequence {} would wait for itself (it is the joiner or a caller it blocks)",

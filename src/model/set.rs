@@ -282,7 +282,7 @@ impl Iterator for Words {
 /// `32 * word + 31` of the set. The tick works on a sequencer's sets one such word at a
 /// time; the operations between two `SetWord`s combine their bits and are meant for
 /// words of the same index.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct SetWord<const B: usize> {
     word: u8,
     bits: u32,
@@ -376,6 +376,16 @@ impl<const B: usize> SetWord<B> {
         self.bits & !other.bits == 0
     }
 }
+
+/// The same ids (the word's index counts only in sets of several words).
+impl<const B: usize> PartialEq for SetWord<B> {
+    #[inline(always)]
+    fn eq(&self, other: &Self) -> bool {
+        self.index() == other.index() && self.bits == other.bits
+    }
+}
+
+impl<const B: usize> Eq for SetWord<B> {}
 
 impl<const B: usize> Iterator for SetWord<B> {
     type Item = SeqId;

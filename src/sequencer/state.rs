@@ -291,7 +291,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     /// use rtseq::{Instant, Monitors, Sequencer};
     /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// seq.tick(Instant::from_ticks(2_000), &(), &mut Monitors::<(), 1>::new());
+    /// seq.tick(Instant::from_ticks(2_000), &(), &mut Monitors::<(), 1>::new()).unwrap();
     /// assert_eq!(seq.now(), Instant::from_ticks(2_000));
     /// ```
     pub fn now(&self) -> Instant {

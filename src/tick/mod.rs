@@ -19,7 +19,7 @@ use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
 use crate::sequencer::State;
-use crate::{Cause, Instant, Monitors, SeqId, Sequencer};
+use crate::{Cause, Error, Instant, Monitors, SeqId, Sequencer};
 
 mod exception;
 mod monitors;
@@ -118,7 +118,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// period is due, and wakes the lanes that must act.
     ///
     /// A tick with nothing due (and no state change since the last one) returns after one
-    /// short critical section. In a sequencer of more than 32 sequences (sets of `B > 1`
+    /// short critical section. A tick with a time earlier than the last tick's does
+    /// nothing and returns [`Error::TickBeforeLast`] (time does not go back). In a sequencer of more than 32 sequences (sets of `B > 1`
     /// words) the tick visits only the words of 32 ids that hold an active sequence, lowest
     /// first, and in each does what the tick of a sequencer of 32 does: monitors in table
     /// order, then timeouts, then wake-ups.
@@ -127,7 +128,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// use rtseq::{Instant, Monitors, Sequencer};
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let mut monitors: Monitors<(), 4> = Monitors::new();
-    /// seq.tick(Instant::from_ticks(1_000), &(), &mut monitors);
+    /// seq.tick(Instant::from_ticks(1_000), &(), &mut monitors).unwrap();
+    /// assert_eq!(seq.now().as_ticks(), 1_000);
+    /// let late = seq.tick(Instant::from_ticks(400), &(), &mut monitors);
+    /// assert_eq!(late, Err(rtseq::Error::TickBeforeLast));
     /// assert_eq!(seq.now().as_ticks(), 1_000);
     /// ```
     pub fn tick<const M: usize, K: crate::Condition<C>>(
@@ -135,19 +139,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         now: Instant,
         control: &C,
         monitors: &mut Monitors<'_, C, M, K>,
-    ) {
+    ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
-        let abort_all = self.take_abort_all();
         // The words of the sets that hold an active sequence, as of the last fold.
-        let (requests, any_due, changed, mut words) = self.with(|s| {
-            s.now = now;
-            (
-                !s.sets.requested.is_empty(),
-                stamp.reached(s.polling.next_due),
-                !s.sets.changed.is_empty(),
-                s.sets.active.words(),
-            )
-        });
+        let (requests, any_due, changed, mut words) = self
+            .with(|s| {
+                if now < s.now {
+                    return None;
+                }
+                s.now = now;
+                Some((
+                    !s.sets.requested.is_empty(),
+                    stamp.reached(s.polling.next_due),
+                    !s.sets.changed.is_empty(),
+                    s.sets.active.words(),
+                ))
+            })
+            .ok_or(Error::TickBeforeLast)?;
+        let abort_all = self.take_abort_all();
         if changed {
             words = self.fold();
         }
@@ -158,7 +167,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             self.apply_requests(control);
         }
         if !any_due {
-            return;
+            return Ok(());
         }
         if abort_all || requests {
             // What they stopped or paused is not due any more.
@@ -168,7 +177,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut careful = false;
         if B == 1 {
             self.tick_word(0, now, &mut scan, &mut careful, monitors, control);
-            return;
+            return Ok(());
         }
         for w in words {
             self.tick_word(w, now, &mut scan, &mut careful, monitors, control);
@@ -176,6 +185,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if words.is_empty() {
             self.with(|s| s.polling.next_due = stamp.plus(NEVER_AHEAD));
         }
+        Ok(())
     }
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the

@@ -398,7 +398,9 @@ mod app {
         }
         *cx.local.button_was = sw.button;
 
-        SEQ.tick(now, &CS, cx.local.monitors);
+        if let Err(e) = SEQ.tick(now, &CS, cx.local.monitors) {
+            defmt::error!("tick: {}", e);
+        }
 
         if CS.led() {
             cx.local.led.set_high();

@@ -58,12 +58,14 @@ fn run_rounds(
     let h = seq.sequence_by_name("s").expect("registered");
     for r in 0..rounds {
         assert!(h.start().is_ok());
-        seq.tick(Instant::from_ticks(2 * r * 1000 + 1000), &(), monitors);
+        seq.tick(Instant::from_ticks(2 * r * 1000 + 1000), &(), monitors)
+            .unwrap();
         if let Some(v) = drain_each.as_deref_mut() {
             assert_eq!(seq.drain_trace(|t| keep(v, t)), 0);
         }
         assert!(h.abort().is_ok());
-        seq.tick(Instant::from_ticks(2 * r * 1000 + 2000), &(), monitors);
+        seq.tick(Instant::from_ticks(2 * r * 1000 + 2000), &(), monitors)
+            .unwrap();
         if let Some(v) = drain_each.as_deref_mut() {
             assert_eq!(seq.drain_trace(|t| keep(v, t)), 0);
         }

@@ -36,7 +36,7 @@ const NAMES: [[u8; 4]; 256] = {
 mod app {
     use super::{board, NAMES};
     use board::clock::TickTimer;
-    use board::measure::measure;
+    use board::measure::measure_with;
     use core::mem::size_of;
     use rtseq::lock::Lock;
     use rtseq::{Behaviour, Duration, Instant, Monitor, Monitors, SeqConfig, Sequencer};
@@ -134,7 +134,11 @@ mod app {
         let mut most = 0;
         for ms in 1..=TICKS {
             let now = Instant::from_ticks(ms * 1_000);
-            let cost = measure(|| seq.tick(now, &CTRL, monitors));
+            let (cost, ticked) = measure_with(|| seq.tick(now, &CTRL, monitors));
+            if let Err(e) = ticked {
+                defmt::error!("bench_scale: tick: {}", e);
+                board::exit_failure();
+            }
             if ms >= STEADY_FROM {
                 most = most.max(cost);
             }

@@ -61,7 +61,7 @@ impl Sequence<Ctrl> for Stamp {
 mod app {
     use super::{board, stamp_aborted, Stamp, ABORTED_AT, EXCEPTION_AT, FAULT_AT};
     use board::clock::TickTimer;
-    use board::measure::{join_measured, measure, PollCosts};
+    use board::measure::{join_measured, measure_with, PollCosts};
     use core::future::Future;
     use core::mem::{size_of, size_of_val};
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
@@ -398,6 +398,14 @@ mod app {
         board::exit_success();
     }
 
+    /// A tick's result: the benchmark's times only go forward, so an error is a failure.
+    fn check(ticked: Result<(), rtseq::Error>) {
+        if let Err(e) = ticked {
+            defmt::error!("bench_seq: tick: {}", e);
+            board::exit_failure();
+        }
+    }
+
     /// The heartbeat: ticks the four sequencers, measuring three of them.
     #[task(binds = TIM2, priority = 2, local = [timer, m1, m8, mf, me, n: usize = 0, started: bool = false])]
     fn tick(cx: tick::Context) {
@@ -430,19 +438,24 @@ mod app {
         let cf = if solo {
             0
         } else {
-            let cf = measure(|| SEQF.tick(now, &CTRL, mf));
-            SEQE.tick(now, &CTRL, cx.local.me);
+            let (cf, ticked) = measure_with(|| SEQF.tick(now, &CTRL, mf));
+            check(ticked);
+            check(SEQE.tick(now, &CTRL, cx.local.me));
             cf
         };
         let c1 = if solo || n == FIRE {
             0
         } else {
-            measure(|| SEQ1.tick(now, &CTRL, m1))
+            let (c1, ticked) = measure_with(|| SEQ1.tick(now, &CTRL, m1));
+            check(ticked);
+            c1
         };
         let c8 = if n == FIRE {
             0
         } else {
-            measure(|| SEQ8.tick(now, &CTRL, m8))
+            let (c8, ticked) = measure_with(|| SEQ8.tick(now, &CTRL, m8));
+            check(ticked);
+            c8
         };
         if let Some(slot) = COST.get(n) {
             for (s, v) in slot.iter().zip([c1, c8, cf]) {

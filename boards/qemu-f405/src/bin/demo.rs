@@ -1548,7 +1548,9 @@ mod rtic_app {
         cortex_m::asm::dsb();
         cortex_m::asm::isb();
         CS.control_step(DT);
-        SEQ.tick(now, &CS, cx.local.monitors);
+        if let Err(e) = SEQ.tick(now, &CS, cx.local.monitors) {
+            defmt::error!("tick: {}", e);
+        }
         let ids = cx.local.ids_tick;
         let m = &*cx.local.monitors;
         let fired = [

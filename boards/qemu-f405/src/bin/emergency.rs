@@ -477,7 +477,9 @@ mod app {
             }
         }
         TO_SAFETY.signal(now);
-        SEQ.tick(now, &CTRL, cx.local.monitors);
+        if let Err(e) = SEQ.tick(now, &CTRL, cx.local.monitors) {
+            defmt::error!("tick: {}", e);
+        }
         if n == 1 {
             if let Some(h) = SEQ.sequence_by_id(expect::MAIN) {
                 if h.start().is_err() {

@@ -221,7 +221,9 @@ mod app {
             board::exit_failure();
         }
         (scenario.script)(n, &CTRL, &SEQ);
-        SEQ.tick(now, &CTRL, cx.local.monitors);
+        if let Err(e) = SEQ.tick(now, &CTRL, cx.local.monitors) {
+            defmt::error!("tick: {}", e);
+        }
         if n == scenario.ticks {
             cx.local.timer.stop();
             DONE.store(true, Ordering::Relaxed);
