@@ -64,6 +64,14 @@ pub enum Behaviour {
     AbortCallerOfOwner,
     /// Like `RestartOwner`, one level up: the owner's caller (the owner itself for a main sequence).
     RestartCallerOfOwner,
+    /// While the condition holds, the owner and the sequences it blocks are paused; when it
+    /// clears, they resume (a PLC's feed hold). The exception sequence, if any, is started
+    /// on entry and runs in its lane while the owner is paused. Not one of the seed's five:
+    /// it marks no exception, so the owner's other monitors keep firing (a following-error
+    /// monitor still restarts a paused owner; the restarted owner pauses again at once if
+    /// the condition still holds). A `PauseOwner` monitor watches both edges, whatever its
+    /// [`Trigger`]; it is not a timeout behaviour (`register` refuses it there).
+    PauseOwner,
 }
 
 impl Behaviour {
@@ -220,6 +228,17 @@ pub struct Monitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) exception: Option<SeqId>,
     pub(crate) trigger: Trigger,
     pub(crate) restart_limit: u8,
+}
+
+impl<C, K> Monitor<'_, C, K> {
+    /// The edges the tick watches for this monitor: a `PauseOwner` monitor needs both (it
+    /// pauses on the rising edge and resumes on the falling one).
+    const fn watched(&self) -> Trigger {
+        match self.behaviour {
+            Behaviour::PauseOwner => Trigger::Change,
+            _ => self.trigger,
+        }
+    }
 }
 
 /// What a monitor definition borrows: the lifetime of a `dyn` condition, the control type.
@@ -691,7 +710,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
                     core::mem::forget(monitors);
                     return Err(Error::EmptyName);
                 }
-                g.push(e.owner, e.def.trigger);
+                g.push(e.owner, e.def.watched());
                 at = at.wrapping_add(1);
                 rest = tail;
             }
@@ -738,7 +757,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             target_runs_seen: 0,
             fired: 0,
         };
-        let trigger = entry.def.trigger;
+        let trigger = entry.def.watched();
         self.entries
             .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;

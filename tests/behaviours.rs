@@ -1,4 +1,5 @@
-//! Each of the five behaviours, with and without an exception sequence, on exact traces.
+//! Each of the five behaviours, and `PauseOwner`, with and without an exception sequence, on
+//! exact traces.
 //!
 //! Tree: main ─run→ P ─run→ A ─step→ S (exit: flag 1). Monitor `m` on A watches flag 0,
 //! which pulses at 5 ms; flag 1 comes at 10 ms. The exception sequence E waits 2 ms.
@@ -154,6 +155,28 @@ fn check(behaviour: Behaviour, with_exception: bool) {
             want.push(tr(t, i.s, Aborted, Running, Start));
             want.extend(completed(10, &[i.s, i.a, i.p, i.main]));
         }
+        Behaviour::PauseOwner => {
+            // The owner and its step are held while the pulse lasts (5 ms); the exception
+            // sequence starts on entry and runs meanwhile, holding nothing.
+            want = start(&i);
+            let held = [
+                tr(5, i.a, Running, Paused, cause),
+                tr(5, i.s, Running, Paused, cause),
+            ];
+            if with_exception {
+                want.push(tr(5, i.e, Idle, Running, cause));
+                want.extend(held);
+                want.push(tr(5, i.w, Idle, Running, Start));
+            } else {
+                want.extend(held);
+            }
+            want.push(tr(6, i.a, Paused, Running, cause));
+            want.push(tr(6, i.s, Paused, Running, cause));
+            if with_exception {
+                want.extend(exception(&i, m).split_off(2));
+            }
+            want.extend(completed(10, &[i.s, i.a, i.p, i.main]));
+        }
     }
     assert_eq!(
         trace,
@@ -218,4 +241,12 @@ fn restart_caller_of_owner_without_exception_sequence() {
 #[test]
 fn restart_caller_of_owner_with_exception_sequence() {
     check(Behaviour::RestartCallerOfOwner, true);
+}
+#[test]
+fn pause_owner_without_exception_sequence() {
+    check(Behaviour::PauseOwner, false);
+}
+#[test]
+fn pause_owner_with_exception_sequence() {
+    check(Behaviour::PauseOwner, true);
 }

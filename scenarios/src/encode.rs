@@ -126,6 +126,7 @@ pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
                 Error::JoinWouldDeadlock(_) => 16,
                 Error::InvalidConfig => 17,
                 Error::TickBeforeLast => 18,
+                Error::PauseOnTimeout => 19,
             };
             0x8000_0000 | n
         }

@@ -56,6 +56,9 @@ pub enum Error {
     /// A [`tick`](crate::Sequencer::tick) with a time earlier than the last tick's: time
     /// does not go back, and that tick did nothing.
     TickBeforeLast,
+    /// A timeout with [`Behaviour::PauseOwner`](crate::Behaviour::PauseOwner): a timeout
+    /// that has run out stays so, and would hold its sequence for good.
+    PauseOnTimeout,
 }
 
 impl Error {
@@ -90,6 +93,7 @@ impl Error {
             Error::JoinWouldDeadlock(_) => "join would deadlock",
             Error::InvalidConfig => "invalid configuration",
             Error::TickBeforeLast => "tick earlier than the last",
+            Error::PauseOnTimeout => "a timeout cannot pause its sequence",
         }
     }
 }
@@ -123,6 +127,10 @@ impl core::fmt::Display for Error {
             Error::NotEmpty => write!(f, "a table needs an empty sequencer"),
             Error::InvalidConfig => write!(f, "invalid configuration (see Sequencer::validate)"),
             Error::TickBeforeLast => write!(f, "a tick's time is earlier than the last tick's"),
+            Error::PauseOnTimeout => write!(
+                f,
+                "a timeout cannot pause its sequence (PauseOwner is a monitor behaviour)"
+            ),
             Error::JoinWouldDeadlock(id) => write!(
                 f,
                 "joining sequence {} would wait for itself (it is the joiner or a caller it blocks)",

@@ -45,6 +45,9 @@ impl<C> CheckedConfig<C> {
         let Some(polling) = crate::model::time::to_interval(config.polling) else {
             return Err(Error::DurationOutOfRange);
         };
+        if matches!(config.timeout_behaviour, Behaviour::PauseOwner) {
+            return Err(Error::PauseOnTimeout);
+        }
         let timeout = match config.timeout {
             Some(t) => match crate::model::time::to_interval(t) {
                 Some(us) => us,

@@ -95,12 +95,13 @@ mod pending {
     pub const SHIFT: u32 = 13;
     pub const MASK: u16 = 0b111 << SHIFT;
     /// By discriminant.
-    pub const BEHAVIOURS: [Behaviour; 5] = [
+    pub const BEHAVIOURS: [Behaviour; 6] = [
         Behaviour::Nothing,
         Behaviour::AbortOwner,
         Behaviour::RestartOwner,
         Behaviour::AbortCallerOfOwner,
         Behaviour::RestartCallerOfOwner,
+        Behaviour::PauseOwner,
     ];
 }
 
@@ -256,7 +257,7 @@ impl ControlBlock {
     }
 
     pub(crate) fn set_pending(&mut self, b: Option<Behaviour>) {
-        // Codes 1..=5 (the enum's discriminant + 1); 0 = none.
+        // Codes 1..=6 (the enum's discriminant + 1); 0 = none.
         let code = b.map_or(0, |b| b as u16 + 1);
         self.flags = (self.flags & !pending::MASK) | (code << pending::SHIFT);
     }

@@ -77,6 +77,34 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         true
     }
 
+    /// A `PauseOwner` monitor's edge: its condition became true (`holds`), so its exception
+    /// sequence (if any) starts in its lane and `owner` and the sequences it blocks are
+    /// paused; or it cleared, and they resume. No exception is marked: the owner's other
+    /// monitors keep firing. True when the owner was running and is now paused.
+    pub(crate) fn hold(
+        &self,
+        control: &C,
+        owner: SeqId,
+        cause: Cause,
+        exception: Option<SeqId>,
+        holds: bool,
+    ) -> bool {
+        if !holds {
+            self.walk(control, Some(owner), RunningState::Running, cause);
+            return false;
+        }
+        if self.with(|s| s.state_of(owner)) != RunningState::Running {
+            return false;
+        }
+        if let Some(e) = exception {
+            if self.begin(e, Some(owner), Mode::Lane, cause, 0).is_err() {
+                self.with(|s| s.exceptions_not_run = s.exceptions_not_run.saturating_add(1));
+            }
+        }
+        self.walk(control, Some(owner), RunningState::Paused, cause);
+        true
+    }
+
     /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
     fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
         let to = match behaviour {
@@ -89,6 +117,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,
             Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => RunningState::Restarting,
+            // Applied once, it pauses (the tick's `hold` also resumes).
+            Behaviour::PauseOwner => RunningState::Paused,
         };
         self.walk(control, Some(target), to, cause);
     }

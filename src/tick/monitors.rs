@@ -7,7 +7,7 @@ use crate::model::set::Words;
 use crate::monitor::{Group, OwnedMonitor};
 use crate::tick::exception::Reaction;
 use crate::tick::Polls;
-use crate::{Cause, Instant, MonitorId, Monitors, Sequencer};
+use crate::{Behaviour, Cause, Instant, MonitorId, Monitors, Sequencer};
 
 /// The conditions of those `members` (a group, bits as in [`Group`]) whose owner is due;
 /// the others keep their `last` values. The edge detection of the monitors of fresh
@@ -96,7 +96,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let firing = g.firing(values) & evaluated;
                 g.last = values;
                 if firing != 0 {
-                    self.fire_group(g, members, firing, control);
+                    self.fire_group(g, members, firing, values, control);
                     fired = true;
                 }
             }
@@ -104,14 +104,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         fired
     }
 
-    /// Monitors of `group` triggered (`firing`, bits as in [`Group`]): raise their
-    /// exceptions in table order (out of the hot loop).
+    /// Monitors of `group` triggered (`firing`, bits as in [`Group`]; `values`, their
+    /// conditions): raise their exceptions in table order (out of the hot loop).
     #[inline(never)]
     fn fire_group<K>(
         &self,
         group: &Group,
         members: &mut [OwnedMonitor<'_, C, K>],
         firing: u32,
+        values: u32,
         control: &C,
     ) {
         // The group's first monitor holds its highest bit.
@@ -119,15 +120,30 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut id = group.start;
         for monitor in members.iter_mut() {
             if firing & bit != 0 {
-                self.fire(monitor, MonitorId(id), control);
+                self.fire(monitor, MonitorId(id), values & bit != 0, control);
             }
             bit >>= 1;
             id = id.wrapping_add(1);
         }
     }
 
-    /// A monitor triggered: raise its exception.
-    fn fire<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) {
+    /// A monitor triggered (its condition now `holds` or not): raise its exception, or, for
+    /// `PauseOwner`, hold or release its owner.
+    fn fire<K>(
+        &self,
+        monitor: &mut OwnedMonitor<'_, C, K>,
+        id: MonitorId,
+        holds: bool,
+        control: &C,
+    ) {
+        let def = &monitor.def;
+        if def.behaviour == Behaviour::PauseOwner {
+            let (owner, exception) = (monitor.owner, def.exception);
+            if self.hold(control, owner, Cause::Monitor(id), exception, holds) {
+                monitor.fired = monitor.fired.wrapping_add(1);
+            }
+            return;
+        }
         let mut reaction = Reaction {
             behaviour: monitor.def.behaviour,
             exception: monitor.def.exception,
