@@ -96,7 +96,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let firing = g.firing(values) & evaluated;
                 g.last = values;
                 if firing != 0 {
-                    self.fire_group(g, members, firing, values, control);
+                    self.fire_group(g, members, firing, control);
                     fired = true;
                 }
             }
@@ -104,15 +104,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         fired
     }
 
-    /// Monitors of `group` triggered (`firing`, bits as in [`Group`]; `values`, their
-    /// conditions): raise their exceptions in table order (out of the hot loop).
+    /// Monitors of `group` triggered (`firing`, bits as in [`Group`]; the group's `last`
+    /// holds this evaluation's values): raise their exceptions in table order (out of the
+    /// hot loop).
     #[inline(never)]
     fn fire_group<K>(
         &self,
         group: &Group,
         members: &mut [OwnedMonitor<'_, C, K>],
         firing: u32,
-        values: u32,
         control: &C,
     ) {
         // The group's first monitor holds its highest bit.
@@ -120,7 +120,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut id = group.start;
         for monitor in members.iter_mut() {
             if firing & bit != 0 {
-                self.fire(monitor, MonitorId(id), values & bit != 0, control);
+                self.fire(monitor, MonitorId(id), group.last & bit != 0, control);
             }
             bit >>= 1;
             id = id.wrapping_add(1);
