@@ -8,7 +8,7 @@ mod common;
 use common::*;
 use rtseq::lock::CriticalSection;
 use rtseq::sim::Sim;
-use rtseq::Cause::Monitor as Mon;
+use rtseq::Cause::{Completed, Monitor as Mon, Start};
 use rtseq::RunningState::*;
 use rtseq::{
     Behaviour, Cause, Duration, Error, Monitor, MonitorId, Monitors, SeqConfig, SeqId, Sequencer,
@@ -258,4 +258,89 @@ fn in_one_tick_a_sequencer_of_several_words_goes_word_by_word() {
             tr(3, y, Aborting, Aborted, Mon(ky)),
         ]
     );
+}
+
+/// `main` runs `p` blocking; `p` starts `n` non-blocking and ends; `n` outlives it. An abort
+/// of `main` reaches `n` through `p`'s link although `p` has ended (a teardown visits only
+/// the sequences whose run may be under way, and fetches the links of ended callers).
+fn outliving<const N: usize, const B: usize>(
+    seq: &Sequencer<Ctrl, N, 64, CriticalSection, 8, B>,
+    ids: [SeqId; 3],
+) -> Vec<Transition> {
+    let ctrl = Ctrl::default();
+    let fill_to = |at: SeqId| {
+        while seq.len() < at.index() {
+            let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
+            seq.register(SeqConfig::new(name)).unwrap();
+        }
+    };
+    let [main_id, p_id, n_id] = ids;
+    fill_to(main_id);
+    let main = seq.register(SeqConfig::new("main")).unwrap();
+    fill_to(p_id);
+    let p = seq.register(SeqConfig::new("p")).unwrap();
+    fill_to(n_id);
+    let n = seq
+        .add(
+            SeqConfig::new("n"),
+            Node {
+                exit: Some(9),
+                ..Node::of(vec![])
+            },
+        )
+        .unwrap();
+    assert_eq!([main, p, n.id()], ids);
+    let p = seq.bind(p, Node::of(vec![Op::Start(n_id)])).unwrap();
+    let main = seq
+        .bind(
+            main,
+            Node {
+                exit: Some(8),
+                ..Node::of(vec![Op::Run(p)])
+            },
+        )
+        .unwrap();
+    let mut sim = Sim::new(seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(n);
+    sim.start(main_id).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(4_000));
+    seq.sequence_by_id(main_id).unwrap().abort().unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(10_000));
+    sim.trace().to_vec()
+}
+
+#[test]
+fn an_abort_reaches_a_child_that_outlived_its_caller() {
+    for (ids, trace) in [
+        {
+            let small: Sequencer<Ctrl, 8> = Sequencer::new();
+            let ids = [0, 1, 2].map(SeqId::from_index);
+            (ids, outliving(&small, ids))
+        },
+        {
+            let big: Sequencer<Ctrl, 256, 64, CriticalSection, 8, 8> = Sequencer::new();
+            let ids = [3, 130, 250].map(SeqId::from_index);
+            (ids, outliving(&big, ids))
+        },
+    ] {
+        let [m, p, n] = ids;
+        let abort = Cause::Abort;
+        assert_eq!(
+            trace,
+            vec![
+                tr(0, m, Idle, Running, Start),
+                tr(0, p, Idle, Running, Start),
+                tr(0, n, Idle, Running, Start),
+                tr(0, p, Running, Terminated, Completed),
+                // Innermost first: `n` (depth 2, below the ended `p`), then `main`.
+                tr(5, n, Running, Aborting, abort),
+                tr(5, n, Aborting, Aborted, abort),
+                tr(5, m, Running, Aborting, abort),
+                tr(5, m, Aborting, Aborted, abort),
+            ],
+            "{}",
+            show(&trace)
+        );
+    }
 }

@@ -49,6 +49,11 @@ impl<const B: usize> SeqSet<B> {
         SeqSet { words: [0; B] }
     };
 
+    /// Every id the set can hold.
+    pub(crate) const FULL: Self = SeqSet {
+        words: [u32::MAX; B],
+    };
+
     /// The word that holds `id`, and its bit. A one-word set is one `u32`: every id a
     /// sequencer of such sets hands out is below 32.
     #[inline(always)]
@@ -136,6 +141,16 @@ impl<const B: usize> SeqSet<B> {
             }
         });
         bits
+    }
+
+    /// The ids of both sets.
+    #[inline]
+    pub(crate) fn union(&self, other: &Self) -> Self {
+        let mut out = *self;
+        for (o, w) in out.words.iter_mut().zip(other.words.iter()) {
+            *o |= *w;
+        }
+        out
     }
 
     /// Whether the two sets share an id.
@@ -560,6 +575,7 @@ mod tests {
         let a = set::<8>(&[255, 0, 40, 41, 130]);
         let b = set::<8>(&[41, 130, 200]);
         assert!(a.meets(&b) && !a.meets(&set(&[1, 42])));
+        assert!(a.union(&b).eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
         // Words beyond a smaller sequencer's are dropped.
         assert!(a.resized::<2>().eq([SeqId(0), SeqId(40), SeqId(41)]));
         assert!(SeqSet::<2>::EMPTY

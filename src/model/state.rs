@@ -128,6 +128,11 @@ impl States {
     pub(crate) const ACTIVE_RUNNING: States =
         States::of(RunningState::Running).with(RunningState::Paused);
 
+    /// A run is under way: every state but `Idle` and the ends (`Terminated`, `Aborted`).
+    pub(crate) const LIVE: States = States::ACTIVE_RUNNING
+        .with(RunningState::Restarting)
+        .with(RunningState::Aborting);
+
     /// The states a start may leave (`Idle`, `Terminated`, `Aborted`: not active).
     pub(crate) const STARTABLE: States = States::of(RunningState::Idle)
         .with(RunningState::Terminated)

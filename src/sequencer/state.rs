@@ -48,6 +48,10 @@ pub(crate) struct Sets<const B: usize> {
     pub(crate) active: IndexedSet<B>,
     /// `Paused`, as `active`.
     pub(crate) paused: IndexedSet<B>,
+    /// A run is under way (`States::LIVE`), as `active`: with `changed`, the sequences a
+    /// teardown or pause may have to visit. Kept only in sets of several words (a teardown
+    /// in a sequencer of at most 32 visits all of them).
+    pub(crate) live: IndexedSet<B>,
     /// The state changed since the tick last folded it into `active` and `paused`.
     pub(crate) changed: IndexedSet<B>,
     /// A new run or restart began: the tick resets the edge detection of these sequences'
@@ -106,6 +110,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             sets: Sets {
                 active: IndexedSet::EMPTY,
                 paused: IndexedSet::EMPTY,
+                live: IndexedSet::EMPTY,
                 changed: IndexedSet::EMPTY,
                 fresh: SeqSet::EMPTY,
                 armed: SeqSet::EMPTY,
@@ -221,11 +226,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         LaneSet::of(self.lane_slot(id))
     }
 
-    /// Folds the state of sequence `id` into the sets `active` and `paused`.
+    /// Folds the state of sequence `id` into the sets `active`, `paused` and (sets of
+    /// several words) `live`.
     pub(crate) fn fold(&mut self, id: SeqId) {
         let state = self.state_of(id);
         self.sets.active.set(id, States::ACTIVE_RUNNING.has(state));
         self.sets.paused.set(id, state == RunningState::Paused);
+        if B > 1 {
+            self.sets.live.set(id, States::LIVE.has(state));
+        }
     }
 
     /// After a run ended: store the outcome. True when the run was an exception sequence,

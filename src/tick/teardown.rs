@@ -9,6 +9,7 @@ use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
+use crate::sequencer::State;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
@@ -101,11 +102,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// lane, by depth (outermost first, ids ascending in each row), and the deepest row
     /// that has one.
     ///
-    /// The caller link of each registered block and whether it qualifies are copied (with
-    /// a coarse lock in one section, else one short section per block); the tree is walked
-    /// in that copy, outside any section. Lanes cannot change it meanwhile when the tick
-    /// walks (the tick preempts them); a lane's walk (a dropped run) may be preempted by
-    /// the tick, and each change made from it is re-checked where it is made.
+    /// In a sequencer of more than 32 sequences, only those whose run may be under way are
+    /// visited: `live` as of the last fold and those `changed` since (the states in
+    /// `states` are all live). With one-word sets (at most 32 sequences) every registered
+    /// one is, which costs no more than working out which are live. Their caller links and
+    /// whether they qualify are copied (with a coarse lock in one section, else one short
+    /// section per sequence); the tree is walked in that copy, outside any section,
+    /// fetching the link of a caller outside the copy (a non-blocking child may outlive its
+    /// caller) when a walk up reaches one. Lanes cannot change the tree meanwhile when the
+    /// tick walks (the tick preempts them); a lane's walk (a dropped run) may be preempted
+    /// by the tick, and each change made from it is re-checked where it is made.
     fn levels(
         &self,
         target: Option<SeqId>,
@@ -114,20 +120,43 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> ([SeqSet<B>; DEPTHS], usize) {
         let mut links = [Link::NONE; N];
         let mut picked = SeqSet::<B>::EMPTY;
-        in_sections!(self, |s| {
-            let count = s.section(|s| s.count());
-            for (i, l) in links.iter_mut().enumerate().take(count) {
-                let id = SeqId::from_index(i);
-                let ok;
-                (*l, ok) = s.section(|s| {
-                    s.block(id).map_or((Link::NONE, false), |b| {
-                        let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
-                        (b.caller, ok)
-                    })
-                });
+        let copied = in_sections!(self, |s| {
+            let mut copy = |id: SeqId, (link, ok): (Link, bool)| {
+                if let Some(l) = links.get_mut(id.index()) {
+                    *l = link;
+                }
                 picked.set(id, ok);
+            };
+            let read = |s: &mut State<C, N, T, W, B>, id: SeqId| {
+                s.block(id).map_or((Link::NONE, false), |b| {
+                    let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
+                    (b.caller, ok)
+                })
+            };
+            if B == 1 {
+                let count = s.section(|s| s.count());
+                for i in 0..count {
+                    let id = SeqId::from_index(i);
+                    copy(id, s.section(|s| read(s, id)));
+                }
+                // Every registered block: the copy holds every link.
+                SeqSet::FULL
+            } else {
+                let live = s.section(|s| s.sets.live.as_set().union(s.sets.changed.as_set()));
+                for id in live {
+                    copy(id, s.section(|s| read(s, id)));
+                }
+                live
             }
         });
+        // The caller of `at`: from the copy, or (a caller outside it) from its block.
+        let caller = |at: SeqId| {
+            if copied.has(at) {
+                links.get(at.index()).and_then(|l| l.get())
+            } else {
+                self.with(|s| s.block(at).ok().and_then(|b| b.caller.get()))
+            }
+        };
         let target = Link::to(target);
         let mut rows = [SeqSet::EMPTY; DEPTHS];
         let mut deepest = 0;
@@ -137,7 +166,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             let mut below = target == Link::NONE || target == Link::to(Some(id));
             let mut depth = 0;
             let mut at = id;
-            while let Some(up) = links.get(at.index()).and_then(|l| l.get()) {
+            while let Some(up) = caller(at) {
                 if depth == MAX_DEPTH {
                     break;
                 }
