@@ -267,6 +267,15 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
             "figure: tick {running} x 4 due, {registered} registered [instructions] = {}",
             f(running, registered)
         );
+        let firing = figure(
+            &out,
+            &format!(
+                "bench_scale: firing tick (AbortOwner), {running} running, {registered} registered = "
+            ),
+        );
+        println!(
+            "figure: firing tick, {running} running, {registered} registered [instructions] = {firing}"
+        );
     }
     assert_eq!(
         f(8, 8),

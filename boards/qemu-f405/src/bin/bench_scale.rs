@@ -9,8 +9,11 @@
 //! exit-condition wake-ups that `bench_seq`'s 8 × 4 figure includes. Started last, the
 //! running sequences sit in the sets' last word: the worst place for a multi-word set.
 //!
-//! `cargo fw-run bench_scale`; `./x bench` prints it; `tests/qemu_scenarios.rs` asserts
-//! that 256 registered stay within 10 % of 8.
+//! Then one more tick in which the last running sequence's last monitor fires
+//! (`AbortOwner`): the teardown's cost against the number registered.
+//!
+//! `cargo fw-run bench_scale`; `./x bench` prints it; `tests/qemu_scenarios.rs` prints the
+//! figures and checks them.
 #![no_std]
 #![no_main]
 
@@ -44,6 +47,9 @@ mod app {
 
     /// Flag 8 stays false: the monitors never fire.
     const QUIET: u8 = 8;
+    /// Flag 7, set for one tick after the steady ones: the last monitor of the last
+    /// running sequence watches it and fires (`AbortOwner`).
+    const FAULT: u8 = 7;
     /// Ticks per measurement; the first ones start the runs' edge detection.
     const TICKS: u64 = 12;
     const STEADY_FROM: u64 = 4;
@@ -110,11 +116,11 @@ mod app {
                 continue;
             }
             let run = seq.add(config, ())?;
-            for _ in 0..4 {
-                let quiet = FlagCond { flag: QUIET };
+            for k in 0..4 {
+                let flag = if i + 1 == N && k == 3 { FAULT } else { QUIET };
                 monitors.add(
                     run.id(),
-                    Monitor::with_condition("quiet", quiet, Behaviour::AbortOwner),
+                    Monitor::with_condition("quiet", FlagCond { flag }, Behaviour::AbortOwner),
                 )?;
             }
             let handle = seq
@@ -146,6 +152,20 @@ mod app {
         most
     }
 
+    /// One more tick, in which the last running sequence's fault monitor fires (out of
+    /// line: the steady ticks' measurement stays as it is without it).
+    #[inline(never)]
+    fn firing_tick<const N: usize, L: Lock, const B: usize>(
+        seq: &'static Sequencer<Ctrl, N, 64, L, 8, B>,
+        monitors: &mut Monitors<'static, Ctrl, 32, FlagCond>,
+    ) -> Result<u32, rtseq::Error> {
+        CTRL.set(FAULT, true);
+        let now = Instant::from_ticks((TICKS + 1) * 1_000);
+        let (firing, ticked) = measure_with(|| seq.tick(now, &CTRL, monitors));
+        CTRL.set(FAULT, false);
+        ticked.map(|()| firing)
+    }
+
     /// Sets up, ticks and prints one figure.
     fn figure<const N: usize, L: Lock, const B: usize>(
         seq: &'static Sequencer<Ctrl, N, 64, L, 8, B>,
@@ -159,6 +179,13 @@ mod app {
             running,
             N,
             cost
+        );
+        let firing = firing_tick(seq, &mut monitors)?;
+        defmt::info!(
+            "bench_scale: firing tick (AbortOwner), {=usize} running, {=usize} registered = {=u32} instructions",
+            running,
+            N,
+            firing
         );
         Ok(cost)
     }
