@@ -124,6 +124,7 @@ mod condition;
 pub mod lock;
 mod model;
 mod monitor;
+mod names;
 mod sequence;
 mod sequencer;
 mod tick;
@@ -142,6 +143,7 @@ pub use model::{
 pub use monitor::{
     Behaviour, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger, DEFAULT_RESTART_LIMIT,
 };
+pub use names::{Named, Names, WithNames};
 pub use sequence::{lane, Cx, Seq, Sequence, Step, Wait};
 #[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
 #[cfg(feature = "counters")]

@@ -1,0 +1,321 @@
+//! Printing with the application's names: sequences, monitors and safety levels by the
+//! names their tables give them, not by number, with `Display` and (feature `defmt`)
+//! `defmt::Format`.
+//!
+//! A [`Names`] source answers names: a [`Sequencer`] its sequences', a [`Monitors`] table
+//! its monitors', [`SafetyProperties`] their levels'; a tuple of sources asks each in
+//! turn. [`WithNames::named`] pairs a value (an id, a [`Cause`], an [`Outcome`], a
+//! [`Transition`], a [`SafetyLevel`]) with a source for printing:
+//!
+//! ```
+//! use rtseq::{Behaviour, Cause, Instant, Monitor, Monitors, RunningState, SeqConfig, Sequencer,
+//!             Transition, WithNames};
+//! let seq: Sequencer<(), 2> = Sequencer::new();
+//! let homing = seq.register(SeqConfig::new("homing")).unwrap();
+//! let mut jam = |_: &(), _: Instant| false;
+//! let mut monitors: Monitors<(), 1> = Monitors::new();
+//! let m = monitors.add(homing, Monitor::new("jam", &mut jam, Behaviour::AbortOwner)).unwrap();
+//! let names = (&seq, &monitors);
+//! let t = Transition::at_millis(12, homing, RunningState::Running, RunningState::Aborting,
+//!                               Cause::Monitor(m));
+//! assert_eq!(t.named(&names).to_string(), "12 ms homing: Running -> Aborting (monitor `jam`)");
+//! assert_eq!(Cause::Timeout(homing).named(&names).to_string(), "timeout of `homing`");
+//! // Without a name: the number.
+//! assert_eq!(rtseq::SeqId::from_index(7).named(&names).to_string(), "#7");
+//! ```
+
+use core::fmt;
+
+use crate::lock::Lock;
+use crate::safety::{SafetyLevel, SafetyProperties};
+use crate::{Cause, MonitorId, Monitors, Outcome, RunningState, SeqId, Sequencer, Transition};
+
+/// A source of names for printing (see the [module](self)). Each method answers `None`
+/// for what the source does not name.
+pub trait Names {
+    /// The name of sequence `id`.
+    fn sequence(&self, id: SeqId) -> Option<&'static str> {
+        let _ = id;
+        None
+    }
+
+    /// The name of monitor `id`.
+    fn monitor(&self, id: MonitorId) -> Option<&'static str> {
+        let _ = id;
+        None
+    }
+
+    /// The name of safety level `level`.
+    fn level(&self, level: SafetyLevel) -> Option<&'static str> {
+        let _ = level;
+        None
+    }
+}
+
+impl<T: Names + ?Sized> Names for &T {
+    fn sequence(&self, id: SeqId) -> Option<&'static str> {
+        (**self).sequence(id)
+    }
+    fn monitor(&self, id: MonitorId) -> Option<&'static str> {
+        (**self).monitor(id)
+    }
+    fn level(&self, level: SafetyLevel) -> Option<&'static str> {
+        (**self).level(level)
+    }
+}
+
+impl<A: Names, B: Names> Names for (A, B) {
+    fn sequence(&self, id: SeqId) -> Option<&'static str> {
+        self.0.sequence(id).or_else(|| self.1.sequence(id))
+    }
+    fn monitor(&self, id: MonitorId) -> Option<&'static str> {
+        self.0.monitor(id).or_else(|| self.1.monitor(id))
+    }
+    fn level(&self, level: SafetyLevel) -> Option<&'static str> {
+        self.0.level(level).or_else(|| self.1.level(level))
+    }
+}
+
+impl<A: Names, B: Names, C: Names> Names for (A, B, C) {
+    fn sequence(&self, id: SeqId) -> Option<&'static str> {
+        (&self.0, (&self.1, &self.2)).sequence(id)
+    }
+    fn monitor(&self, id: MonitorId) -> Option<&'static str> {
+        (&self.0, (&self.1, &self.2)).monitor(id)
+    }
+    fn level(&self, level: SafetyLevel) -> Option<&'static str> {
+        (&self.0, (&self.1, &self.2)).level(level)
+    }
+}
+
+/// The registered sequences' names.
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize> Names
+    for Sequencer<C, N, T, L, W, B>
+{
+    fn sequence(&self, id: SeqId) -> Option<&'static str> {
+        self.sequence_by_id(id).map(|h| h.name())
+    }
+}
+
+/// The table's monitors' names.
+impl<C, const M: usize, K> Names for Monitors<'_, C, M, K> {
+    fn monitor(&self, id: MonitorId) -> Option<&'static str> {
+        self.name(id)
+    }
+}
+
+/// The levels' names.
+impl<IO, const L: usize> Names for SafetyProperties<'_, IO, L> {
+    fn level(&self, level: SafetyLevel) -> Option<&'static str> {
+        self.level(level).map(|d| d.name())
+    }
+}
+
+/// A value with the names to print it with ([`WithNames::named`]).
+pub struct Named<'n, V, N: ?Sized> {
+    value: V,
+    names: &'n N,
+}
+
+impl<V: Copy, N: Names + ?Sized> Named<'_, V, N> {
+    fn with<U>(&self, value: U) -> Named<'_, U, N> {
+        Named {
+            value,
+            names: self.names,
+        }
+    }
+}
+
+/// Values that print with names: ids, causes, outcomes, transitions, safety levels.
+pub trait WithNames: Copy {
+    /// This value with `names`, for `Display` and `defmt::Format`.
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer, WithNames};
+    /// let seq: Sequencer<(), 1> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("main")).unwrap();
+    /// assert_eq!(format!("{}", id.named(&seq)), "main");
+    /// ```
+    fn named<N: Names + ?Sized>(self, names: &N) -> Named<'_, Self, N> {
+        Named { value: self, names }
+    }
+}
+
+impl WithNames for SeqId {}
+impl WithNames for MonitorId {}
+impl WithNames for Cause {}
+impl WithNames for Outcome {}
+impl WithNames for Transition {}
+impl WithNames for SafetyLevel {}
+
+/// A state's name, as in the specification.
+fn state(s: RunningState) -> &'static str {
+    match s {
+        RunningState::Idle => "Idle",
+        RunningState::Running => "Running",
+        RunningState::Paused => "Paused",
+        RunningState::Terminated => "Terminated",
+        RunningState::Aborting => "Aborting",
+        RunningState::Aborted => "Aborted",
+        RunningState::Restarting => "Restarting",
+    }
+}
+
+/// What a cause without an id says.
+fn cause_word(c: Cause) -> Option<&'static str> {
+    Some(match c {
+        Cause::Start => "start",
+        Cause::PreConditionFalse => "pre-condition false",
+        Cause::Completed => "completed",
+        Cause::Pause => "pause",
+        Cause::Resume => "resume",
+        Cause::Abort => "abort",
+        Cause::AbortAll => "abort-all",
+        Cause::Restart => "restart",
+        Cause::Dropped => "dropped",
+        Cause::Monitor(_) | Cause::Timeout(_) => return None,
+    })
+}
+
+/// Milliseconds and the µs beyond them (none when zero).
+fn millis(t: crate::Instant) -> (u64, Option<u64>) {
+    let us = t.duration_since_epoch().as_micros();
+    (us / 1_000, Some(us % 1_000).filter(|&r| r != 0))
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, SeqId, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.names.sequence(self.value) {
+            Some(name) => f.write_str(name),
+            None => write!(f, "#{}", self.value.index()),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, MonitorId, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.names.monitor(self.value) {
+            Some(name) => write!(f, "monitor `{name}`"),
+            None => write!(f, "monitor #{}", self.value.index()),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Cause, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.value {
+            Cause::Monitor(m) => write!(f, "{}", self.with(m)),
+            Cause::Timeout(s) => write!(f, "timeout of `{}`", self.with(s)),
+            c => f.write_str(cause_word(c).unwrap_or("")),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Outcome, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.value {
+            Outcome::Completed => f.write_str("completed"),
+            Outcome::Skipped => f.write_str("skipped"),
+            Outcome::Aborted(c) => write!(f, "aborted ({})", self.with(c)),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Transition, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let t = self.value;
+        match millis(t.time) {
+            (ms, None) => write!(f, "{ms} ms ")?,
+            (ms, Some(us)) => write!(f, "{ms}.{us:03} ms ")?,
+        }
+        write!(
+            f,
+            "{}: {} -> {} ({})",
+            self.with(t.sequence),
+            state(t.from),
+            state(t.to),
+            self.with(t.cause)
+        )
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, SafetyLevel, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.names.level(self.value) {
+            Some(name) => f.write_str(name),
+            None => write!(f, "level {}", self.value.id()),
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+mod defmt_format {
+    use super::{cause_word, millis, state, Named, Names};
+    use crate::safety::SafetyLevel;
+    use crate::{Cause, MonitorId, Outcome, SeqId, Transition};
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, SeqId, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.names.sequence(self.value) {
+                Some(name) => defmt::write!(f, "{=str}", name),
+                None => defmt::write!(f, "#{=usize}", self.value.index()),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, MonitorId, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.names.monitor(self.value) {
+                Some(name) => defmt::write!(f, "monitor `{=str}`", name),
+                None => defmt::write!(f, "monitor #{=usize}", self.value.index()),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Cause, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.value {
+                Cause::Monitor(m) => defmt::write!(f, "{}", self.with(m)),
+                Cause::Timeout(s) => defmt::write!(f, "timeout of `{}`", self.with(s)),
+                c => defmt::write!(f, "{=str}", cause_word(c).unwrap_or("")),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Outcome, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.value {
+                Outcome::Completed => defmt::write!(f, "completed"),
+                Outcome::Skipped => defmt::write!(f, "skipped"),
+                Outcome::Aborted(c) => defmt::write!(f, "aborted ({})", self.with(c)),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Transition, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            let t = self.value;
+            match millis(t.time) {
+                (ms, None) => defmt::write!(f, "{=u64} ms ", ms),
+                (ms, Some(us)) => defmt::write!(f, "{=u64}.{=u64:03} ms ", ms, us),
+            }
+            defmt::write!(
+                f,
+                "{}: {=str} -> {=str} ({})",
+                self.with(t.sequence),
+                state(t.from),
+                state(t.to),
+                self.with(t.cause)
+            );
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, SafetyLevel, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.names.level(self.value) {
+                Some(name) => defmt::write!(f, "{=str}", name),
+                None => defmt::write!(f, "level {=u8}", self.value.id()),
+            }
+        }
+    }
+}
