@@ -30,7 +30,7 @@ use crate::lock::Lock;
 use crate::safety::{SafetyLevel, SafetyProperties};
 use crate::{Cause, MonitorId, Monitors, Outcome, RunningState, SeqId, Sequencer, Transition};
 
-/// A source of names for printing (see the [module](self)). Each method answers `None`
+/// A source of names for printing with [`WithNames::named`]. Each method answers `None`
 /// for what the source does not name.
 pub trait Names {
     /// The name of sequence `id`.
