@@ -236,8 +236,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
     }
 
-    /// Folds the state of the sequences that changed into the sets `active` and `paused`,
-    /// one short section per sequence. Returns the words that then hold an active sequence.
+    /// Folds the state of the sequences that changed into the sets `active`, `paused` (and,
+    /// with several words, `live`), one short section per sequence. Returns the words that
+    /// then hold an active sequence.
     fn fold(&self) -> Words {
         loop {
             // Each section says whether more are left.
