@@ -77,6 +77,41 @@ impl Lock for CriticalSection {
     }
 }
 
+/// No lock at all, for a sequencer that one thread uses alone: host tests and the host
+/// simulator ([`Sequencer::single_thread`](crate::Sequencer::single_thread)). A sequencer
+/// with it is not `Sync`, so no other thread, and on a chip no interrupt (whose handlers
+/// reach a sequencer only through a `static`, which must be `Sync`), can use it
+/// meanwhile; within its thread, no section is ever entered from inside another (the
+/// sequencer runs no foreign code inside a section).
+///
+/// ```
+/// use rtseq::{lock::SingleThread, SeqConfig, Sequencer};
+/// let seq: Sequencer<(), 4, 64, SingleThread> = Sequencer::single_thread();
+/// seq.register(SeqConfig::new("main")).unwrap();
+/// assert_eq!(seq.len(), 1);
+/// ```
+///
+/// It cannot be shared:
+///
+/// ```compile_fail
+/// use rtseq::{lock::SingleThread, Sequencer};
+/// static SEQ: Sequencer<(), 4, 64, SingleThread> = Sequencer::single_thread();
+/// ```
+#[derive(Debug)]
+pub struct SingleThread;
+
+impl sealed::Sealed for SingleThread {}
+
+impl Lock for SingleThread {
+    // Nothing else runs meanwhile: a whole pass in one section delays no one.
+    const COARSE: bool = true;
+
+    #[inline]
+    fn lock<R>(f: impl FnOnce() -> R) -> R {
+        f()
+    }
+}
+
 /// RTIC's priority-ceiling lock for a sequencer whose highest user runs at RTIC priority
 /// `PRIORITY` on a device with `NVIC_PRIO_BITS` priority bits (4 on STM32, the default).
 ///

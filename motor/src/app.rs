@@ -564,9 +564,10 @@ impl AppLane {
         const T: usize,
         const M: usize,
         K: Condition<ControlSystem>,
+        L: rtseq::lock::Lock,
     >(
         self,
-        sim: &mut rtseq::sim::Sim<'a, ControlSystem, N, T, M, K>,
+        sim: &mut rtseq::sim::Sim<'a, ControlSystem, N, T, M, K, 8, 1, L>,
     ) {
         match self {
             AppLane::Main(s) => sim.lane(s),

@@ -98,13 +98,28 @@ pub struct Sequencer<
 }
 
 // SAFETY: `state` is only reached through `Sequencer::with`, and `lanes` only through
-// `Sequencer::park` and `Sequencer::wake_lanes`; all of them run under `L`, and `L` keeps
-// every other user of this sequencer out (by its contract; for `PriorityCeiling`, the
-// caller of the `unsafe` constructor promised that no user runs above the ceiling). The
-// other fields are `Sync` themselves. `State` and `Lanes` are `Send` for every `C` (they
-// hold only plain data, wakers and `fn(&C)` pointers).
-unsafe impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize> Sync
-    for Sequencer<C, N, T, L, W, B>
+// `Sequencer::park` and `Sequencer::wake_lanes`; all of them run under the lock, and a
+// critical section keeps every other user of this sequencer out. The other fields are
+// `Sync` themselves. `State` and `Lanes` are `Send` for every `C` (they hold only plain
+// data, wakers and `fn(&C)` pointers). (`SingleThread`, which keeps no one out, has no
+// such impl: its sequencers are not `Sync`.)
+unsafe impl<C, const N: usize, const T: usize, const W: usize, const B: usize> Sync
+    for Sequencer<C, N, T, CriticalSection, W, B>
+{
+}
+
+// SAFETY: as for `CriticalSection`: the priority ceiling keeps out every user at or below
+// it, and the caller of the `unsafe` constructor promised that no user runs above it.
+#[cfg(feature = "cortex-m")]
+unsafe impl<
+        C,
+        const N: usize,
+        const T: usize,
+        const PRIORITY: u8,
+        const BITS: u8,
+        const W: usize,
+        const B: usize,
+    > Sync for Sequencer<C, N, T, crate::lock::PriorityCeiling<PRIORITY, BITS>, W, B>
 {
 }
 
@@ -127,6 +142,22 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize>
     /// assert!(SEQ.is_empty());
     /// ```
     pub const fn new() -> Self {
+        Self::empty()
+    }
+}
+
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize>
+    Sequencer<C, N, T, crate::lock::SingleThread, W, B>
+{
+    /// An empty sequencer for one thread alone (host tests, the simulator): no lock, and
+    /// not `Sync` ([`SingleThread`](crate::lock::SingleThread)).
+    ///
+    /// ```
+    /// use rtseq::{lock::SingleThread, Sequencer};
+    /// let seq: Sequencer<(), 4, 64, SingleThread> = Sequencer::single_thread();
+    /// assert!(seq.is_empty());
+    /// ```
+    pub const fn single_thread() -> Self {
         Self::empty()
     }
 }
@@ -219,8 +250,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(always)]
     fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         // SAFETY: only called under the lock `L` (by `with`, `update_and_wake` and
-        // `park_then`), which keeps every other context out, and `f` does not re-enter (see
-        // `with`): this is the only reference to the state while it lives.
+        // `park_then`), which keeps every other context out (with `SingleThread` the
+        // sequencer is not `Sync`: no other thread or interrupt reaches it), and `f` does
+        // not re-enter (see `with`): this is the only reference to the state while it
+        // lives.
         let state = unsafe { &mut *self.state.get() };
         f(state)
     }

@@ -12,6 +12,7 @@
 
 use std::time::Instant as HostInstant;
 
+use rtseq::lock::{Lock, SingleThread};
 use rtseq::sim::Sim;
 use rtseq::{Behaviour, Duration, Monitor, Monitors, SeqConfig, Sequencer};
 use rtseq_motor::app::{self, AppConfig, FaultPlan};
@@ -29,9 +30,8 @@ fn report(name: &str, ticks: u64, secs: f64) {
     );
 }
 
-/// The 8 × 4 tree, run for `ticks` ticks.
-fn bench_tree(ticks: u64) -> f64 {
-    let seq: Sequencer<Ctrl, 8, 64> = Sequencer::new();
+/// The 8 × 4 tree in `seq`, run for `ticks` ticks.
+fn bench_tree<L: Lock>(seq: &Sequencer<Ctrl, 8, 64, L>, ticks: u64) -> f64 {
     let ctrl = Ctrl::new();
     let mut monitors: Monitors<'_, Ctrl, 32, FlagCond> = Monitors::new();
     let names = ["s0", "s1", "s2", "s3", "s4", "s5", "s6", "s7"];
@@ -58,7 +58,7 @@ fn bench_tree(ticks: u64) -> f64 {
         seqs.push(s);
     }
     let ids: Vec<_> = seqs.iter().map(|s| s.id()).collect();
-    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    let mut sim = Sim::new(seq, &ctrl, monitors);
     for s in seqs {
         sim.lane(s);
     }
@@ -76,10 +76,8 @@ fn bench_tree(ticks: u64) -> f64 {
     secs
 }
 
-/// One run of the motor demo to the end; returns (ticks, seconds).
-fn motor_once() -> (u64, f64) {
-    type Seqr = Sequencer<ControlSystem, { app::SEQUENCES }, 256>;
-    let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
+/// One run of the motor demo in `seq` to the end; returns (ticks, seconds).
+fn motor_once<L: Lock>(seq: &Sequencer<ControlSystem, { app::SEQUENCES }, 256, L>) -> (u64, f64) {
     let config = AppConfig::DEFAULT;
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
     cs.set_fault_plan(FaultPlan::NONE);
@@ -104,15 +102,32 @@ fn motor_once() -> (u64, f64) {
     (ticks, secs)
 }
 
-fn main() {
-    const TREE_TICKS: u64 = 2_000_000;
-    let secs = bench_tree(TREE_TICKS);
-    report("bench_tree_8x4", TREE_TICKS, secs);
+/// The motor demo, repeated for a second; returns (ticks, seconds).
+fn motor<L: Lock>(
+    fresh: impl Fn() -> Sequencer<ControlSystem, { app::SEQUENCES }, 256, L>,
+) -> (u64, f64) {
     let (mut ticks, mut secs) = (0, 0.0);
     while secs < 1.0 {
-        let (t, s) = motor_once();
+        let (t, s) = motor_once(&fresh());
         ticks += t;
         secs += s;
     }
+    (ticks, secs)
+}
+
+fn main() {
+    const TREE_TICKS: u64 = 2_000_000;
+    // The default lock (critical sections: on the host, a global mutex), and no lock at all
+    // (`SingleThread`: a sequencer one thread uses alone, as a host test does).
+    let secs = bench_tree(&Sequencer::<Ctrl, 8, 64>::new(), TREE_TICKS);
+    report("bench_tree_8x4", TREE_TICKS, secs);
+    let secs = bench_tree(
+        &Sequencer::<Ctrl, 8, 64, SingleThread>::single_thread(),
+        TREE_TICKS,
+    );
+    report("bench_tree_8x4_single_thread", TREE_TICKS, secs);
+    let (ticks, secs) = motor(Sequencer::new);
     report("motor_demo", ticks, secs);
+    let (ticks, secs) = motor(Sequencer::single_thread);
+    report("motor_demo_single_thread", ticks, secs);
 }
