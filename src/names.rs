@@ -28,7 +28,7 @@ use core::fmt;
 
 use crate::lock::Lock;
 use crate::safety::{SafetyLevel, SafetyProperties};
-use crate::{Cause, MonitorId, Monitors, Outcome, RunningState, SeqId, Sequencer, Transition};
+use crate::{Cause, MonitorId, Monitors, Outcome, SeqId, Sequencer, Transition};
 
 /// A source of names for printing with [`WithNames::named`]. Each method answers `None`
 /// for what the source does not name.
@@ -148,19 +148,6 @@ impl WithNames for Outcome {}
 impl WithNames for Transition {}
 impl WithNames for SafetyLevel {}
 
-/// A state's name, as in the specification.
-fn state(s: RunningState) -> &'static str {
-    match s {
-        RunningState::Idle => "Idle",
-        RunningState::Running => "Running",
-        RunningState::Paused => "Paused",
-        RunningState::Terminated => "Terminated",
-        RunningState::Aborting => "Aborting",
-        RunningState::Aborted => "Aborted",
-        RunningState::Restarting => "Restarting",
-    }
-}
-
 /// What a cause without an id says.
 fn cause_word(c: Cause) -> Option<&'static str> {
     Some(match c {
@@ -230,10 +217,10 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, Transition, N> {
         }
         write!(
             f,
-            "{}: {} -> {} ({})",
+            "{}: {:?} -> {:?} ({})",
             self.with(t.sequence),
-            state(t.from),
-            state(t.to),
+            t.from,
+            t.to,
             self.with(t.cause)
         )
     }
@@ -250,7 +237,7 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, SafetyLevel, N> {
 
 #[cfg(feature = "defmt")]
 mod defmt_format {
-    use super::{cause_word, millis, state, Named, Names};
+    use super::{cause_word, millis, Named, Names};
     use crate::safety::SafetyLevel;
     use crate::{Cause, MonitorId, Outcome, SeqId, Transition};
 
@@ -301,10 +288,10 @@ mod defmt_format {
             }
             defmt::write!(
                 f,
-                "{}: {=str} -> {=str} ({})",
+                "{}: {} -> {} ({})",
                 self.with(t.sequence),
-                state(t.from),
-                state(t.to),
+                t.from,
+                t.to,
                 self.with(t.cause)
             );
         }

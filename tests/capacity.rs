@@ -192,10 +192,7 @@ fn same_tick<const N: usize, const B: usize>(
         } else {
             config
         };
-        let waits = Node {
-            exit: Some(9),
-            ..Node::of(vec![])
-        };
+        let waits = Node::of(vec![]).until(9);
         let run = seq.add(config, waits).unwrap();
         assert_eq!(run.id(), at);
         runs.push(run);
@@ -281,25 +278,11 @@ fn outliving<const N: usize, const B: usize>(
     let p = seq.register(SeqConfig::new("p")).unwrap();
     fill_to(n_id);
     let n = seq
-        .add(
-            SeqConfig::new("n"),
-            Node {
-                exit: Some(9),
-                ..Node::of(vec![])
-            },
-        )
+        .add(SeqConfig::new("n"), Node::of(vec![]).until(9))
         .unwrap();
     assert_eq!([main, p, n.id()], ids);
     let p = seq.bind(p, Node::of(vec![Op::Start(n_id)])).unwrap();
-    let main = seq
-        .bind(
-            main,
-            Node {
-                exit: Some(8),
-                ..Node::of(vec![Op::Run(p)])
-            },
-        )
-        .unwrap();
+    let main = seq.bind(main, Node::of(vec![Op::Run(p)]).until(8)).unwrap();
     let mut sim = Sim::new(seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
     sim.lane(n);

@@ -19,10 +19,7 @@ fn monitor_ids_stay_in_registration_order_while_the_table_groups_by_owner() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
     // Both run until flag 15 (never).
-    let forever = || Node {
-        exit: Some(15),
-        ..Node::of(vec![])
-    };
+    let forever = || Node::of(vec![]).until(15);
     let a_seq = seq.add(SeqConfig::new("A"), forever()).unwrap();
     let b_seq = seq.add(SeqConfig::new("B"), forever()).unwrap();
     let (a, b) = (a_seq.id(), b_seq.id());
@@ -121,27 +118,13 @@ fn caller_links_follow_the_running_tree_and_never_cycle() {
         .unwrap();
     let wi = w.id();
     // A: start B, then run C (C ends once flag 2 is set, at 5 ms).
-    let c_seq = seq
-        .bind(
-            c,
-            Node {
-                exit: Some(2),
-                ..Node::of(vec![])
-            },
-        )
-        .unwrap();
+    let c_seq = seq.bind(c, Node::of(vec![]).until(2)).unwrap();
     let a_seq = seq
         .bind(a, Node::of(vec![Op::Start(b), Op::Run(c_seq)]))
         .unwrap();
     // B: wait 10 ms, start A, then run until flag 1 (never).
     let b_seq = seq
-        .bind(
-            b,
-            Node {
-                exit: Some(1),
-                ..Node::of(vec![Op::Wait(w), Op::Start(a)])
-            },
-        )
+        .bind(b, Node::of(vec![Op::Wait(w), Op::Start(a)]).until(1))
         .unwrap();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(a_seq);

@@ -506,10 +506,7 @@ fn a_tick_earlier_than_the_last_is_an_error_and_does_nothing() {
     let main = seq
         .add(
             SeqConfig::new("main").timeout(Duration::from_millis(5)),
-            Node {
-                exit: Some(9),
-                ..Node::of(vec![])
-            },
+            Node::of(vec![]).until(9),
         )
         .unwrap();
     let id = main.id();

@@ -86,10 +86,7 @@ fn a_timeout_paused_for_2_s_runs_out_2_s_later() {
     let main = seq
         .add(
             SeqConfig::new("main").timeout(Duration::from_secs(1)),
-            Node {
-                exit: Some(9),
-                ..Node::of(vec![])
-            },
+            Node::of(vec![]).until(9),
         )
         .unwrap();
     let mi = main.id();

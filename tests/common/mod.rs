@@ -129,6 +129,14 @@ impl Node {
             exit: None,
         }
     }
+
+    /// This node, ending only once flag `flag` is set (its exit condition).
+    pub fn until(self, flag: usize) -> Self {
+        Node {
+            exit: Some(flag),
+            ..self
+        }
+    }
 }
 
 type Boxed<'f> = Pin<Box<dyn Future<Output = Result<Outcome, Error>> + 'f>>;
