@@ -9,8 +9,8 @@ use core::cell::Cell;
 
 use rtseq::sim::Sim;
 use rtseq::{
-    Behaviour, Cx, Duration, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer, Step,
-    Transition,
+    Behaviour, Cx, Done, Duration, Failure, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer,
+    Step, Transition,
 };
 
 /// The application's control system: what sequences command and conditions read.
@@ -49,8 +49,9 @@ impl Axis {
 /// Drive towards the negative end stop until it closes.
 pub struct SeekEndStop;
 impl Step<Axis> for SeekEndStop {
-    fn action(&mut self, cx: &Cx<'_, Axis>) {
+    fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
         cx.control().velocity.set(-20.0);
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
         cx.control().end_stop()
@@ -60,18 +61,20 @@ impl Step<Axis> for SeekEndStop {
 /// Stop and take the current position as zero.
 pub struct SetZero;
 impl Step<Axis> for SetZero {
-    fn action(&mut self, cx: &Cx<'_, Axis>) {
+    fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
         let axis = cx.control();
         axis.velocity.set(0.0);
         axis.zero.set(axis.position.get());
+        Ok(())
     }
 }
 
 /// Move off the switch to +2 mm.
 pub struct BackOff;
 impl Step<Axis> for BackOff {
-    fn action(&mut self, cx: &Cx<'_, Axis>) {
+    fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
         cx.control().velocity.set(5.0);
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
         let axis = cx.control();
@@ -91,22 +94,24 @@ pub struct Homing {
 }
 
 impl Sequence<Axis> for Homing {
-    async fn action(&mut self, cx: &Cx<'_, Axis>) {
-        if cx.step(&mut self.seek).await != Ok(Outcome::Completed) {
-            return;
+    async fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
+        if cx.step(&mut self.seek).await != Ok(Done::Completed) {
+            return Ok(());
         }
-        if cx.step(&mut self.zero).await != Ok(Outcome::Completed) {
-            return;
+        if cx.step(&mut self.zero).await != Ok(Done::Completed) {
+            return Ok(());
         }
         let _ = cx.step(&mut self.back_off).await;
+        Ok(())
     }
 }
 
 /// The timeout's exception sequence: stop the axis.
 pub struct SafeStop;
 impl Sequence<Axis> for SafeStop {
-    async fn action(&mut self, cx: &Cx<'_, Axis>) {
+    async fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
         cx.control().velocity.set(0.0);
+        Ok(())
     }
 }
 

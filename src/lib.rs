@@ -28,8 +28,8 @@
 //! # #[cfg(feature = "std")] {
 //! use core::cell::Cell;
 //! use rtseq::sim::Sim;
-//! use rtseq::{Behaviour, Cx, Duration, Instant, Monitor, Monitors, Outcome, Seq, SeqConfig,
-//!             Sequence, Sequencer, Step};
+//! use rtseq::{Behaviour, Cx, Done, Duration, Failure, Instant, Monitor, Monitors, Outcome, Seq,
+//!             SeqConfig, Sequence, Sequencer, Step};
 //!
 //! /// The control system: what steps command and conditions read.
 //! #[derive(Default)]
@@ -38,26 +38,31 @@
 //! /// A step: one command, then its exit condition is polled.
 //! struct SeekEndStop;
 //! impl Step<Axis> for SeekEndStop {
-//!     fn action(&mut self, cx: &Cx<'_, Axis>) { cx.control().velocity.set(-20.0) }
+//!     fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
+//!         cx.control().velocity.set(-20.0);
+//!         Ok(())
+//!     }
 //!     fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
 //!         cx.control().position.get() <= -50.0
 //!     }
 //! }
 //! struct SetZero;
 //! impl Step<Axis> for SetZero {
-//!     fn action(&mut self, cx: &Cx<'_, Axis>) {
+//!     fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
 //!         cx.control().velocity.set(0.0);
 //!         cx.control().zero.set(cx.control().position.get());
+//!         Ok(())
 //!     }
 //! }
 //!
 //! /// A sequence: an `async fn` of blocking starts.
 //! struct Homing { seek: Seq<SeekEndStop>, zero: Seq<SetZero> }
 //! impl Sequence<Axis> for Homing {
-//!     async fn action(&mut self, cx: &Cx<'_, Axis>) {
-//!         if cx.step(&mut self.seek).await == Ok(Outcome::Completed) {
+//!     async fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
+//!         if cx.step(&mut self.seek).await == Ok(Done::Completed) {
 //!             let _ = cx.step(&mut self.zero).await;
 //!         }
+//!         Ok(())
 //!     }
 //! }
 //!
@@ -137,13 +142,13 @@ pub mod sim;
 
 pub use condition::{Condition, Stable, Toggle};
 pub use model::{
-    Cause, Duration, Error, Instant, MonitorId, Outcome, RunningState, SeqConfig, SeqId, Table,
-    MAX_SEQUENCES,
+    Cause, Done, Duration, Error, Failure, Instant, MonitorId, Outcome, RunningState, SeqConfig,
+    SeqId, Table, MAX_SEQUENCES,
 };
 pub use monitor::{
     Behaviour, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger, DEFAULT_RESTART_LIMIT,
 };
-pub use names::{Named, Names, WithNames};
+pub use names::{Failures, Named, Names, WithNames};
 pub use sequence::{lane, Cx, Seq, Sequence, Step, Wait};
 #[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
 #[cfg(feature = "counters")]

@@ -14,19 +14,23 @@ use crate::{Condition, Error, MonitorId, SeqId};
 /// ```
 /// # #[cfg(feature = "std")] {
 /// use core::cell::Cell;
-/// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Error, Instant, Monitor, Monitors,
-///             Outcome, RunningState, Seq, SeqConfig, Sequence, Sequencer, Wait};
+/// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Done, Duration, Failure, Instant, Monitor, Monitors,
+///             RunningState, Seq, SeqConfig, Sequence, Sequencer, Wait};
 /// #[derive(Default)]
-/// struct Ctrl { fault: Cell<bool>, got: Cell<Option<Result<Outcome, Error>>> }
+/// struct Ctrl { fault: Cell<bool>, got: Cell<Option<Result<Done, Failure>>> }
 /// struct Move(Seq<Wait>);
 /// impl Sequence<Ctrl> for Move {
-///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) { let _ = cx.step(&mut self.0).await; }
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+///         let _ = cx.step(&mut self.0).await;
+///         Ok(())
+///     }
 /// }
 /// struct Main(Seq<Move>);
 /// impl Sequence<Ctrl> for Main {
-///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
 ///         let outcome = cx.run(&mut self.0).await;
 ///         cx.control().got.set(Some(outcome));
+///         Ok(())
 ///     }
 /// }
 /// let seq: Sequencer<Ctrl, 4> = Sequencer::new();
@@ -44,7 +48,7 @@ use crate::{Condition, Error, MonitorId, SeqId};
 /// sim.before_tick(|t, c| c.fault.set(t.as_ticks() >= 3_000));
 /// sim.start(id).unwrap();
 /// assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(|t| t.as_ticks()), Some(3_000));
-/// assert_eq!(ctrl.got.get(), Some(Ok(Outcome::Aborted(Cause::Monitor(m)))));
+/// assert_eq!(ctrl.got.get(), Some(Err(Failure::Aborted(Cause::Monitor(m)))));
 /// assert_eq!(sim.state(mv_id), RunningState::Aborted);
 /// assert_eq!(sim.state(id), RunningState::Terminated);
 /// # }
@@ -56,7 +60,7 @@ pub enum Behaviour {
     /// The owner continues where it was.
     Nothing,
     /// The owner and all its sub-sequences (blocking and non-blocking) are aborted; the
-    /// owner's blocking caller gets [`Outcome::Aborted`](crate::Outcome::Aborted) and continues.
+    /// owner's blocking caller gets [`Failure::Aborted`](crate::Failure::Aborted) and continues.
     AbortOwner,
     /// The owner's sub-sequences are aborted and the owner runs again from its pre-condition.
     RestartOwner,
@@ -175,11 +179,14 @@ impl Trigger {
 ///
 /// ```
 /// # #[cfg(feature = "std")] {
-/// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Instant, Monitor, Monitors, Outcome,
-///             Seq, SeqConfig, Sequence, Sequencer, Wait, DEFAULT_RESTART_LIMIT};
+/// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Failure, Instant, Monitor, Monitors,
+///             Outcome, Seq, SeqConfig, Sequence, Sequencer, Wait, DEFAULT_RESTART_LIMIT};
 /// struct Dwell(Seq<Wait>);
 /// impl Sequence<()> for Dwell {
-///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         let _ = cx.step(&mut self.0).await;
+///         Ok(())
+///     }
 /// }
 /// let seq: Sequencer<(), 4> = Sequencer::new();
 /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -341,12 +348,14 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Instant, Monitor, Monitors, Outcome,
-    ///             RunningState::*, Seq, SeqConfig, Sequence, Sequencer, Transition, Wait};
+    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Failure, Instant, Monitor, Monitors,
+    ///             Outcome, RunningState::*, Seq, SeqConfig, Sequence, Sequencer, Transition,
+    ///             Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<Cell<bool>> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> {
     ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
@@ -390,12 +399,13 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Behaviour, Cx, Duration, Instant, Monitor, Monitors, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Trigger, Wait};
+    /// use rtseq::{sim::Sim, Behaviour, Cx, Duration, Failure, Instant, Monitor, Monitors, Seq,
+    ///             SeqConfig, Sequence, Sequencer, Trigger, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<Cell<bool>> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> {
     ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
@@ -429,11 +439,14 @@ impl<'a, C, K> Monitor<'a, C, K> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Instant, Monitor, Monitors, Outcome,
-    ///             Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Failure, Instant, Monitor, Monitors,
+    ///             Outcome, Seq, SeqConfig, Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();

@@ -3,9 +3,10 @@
 //! `defmt::Format`.
 //!
 //! A [`Names`] source answers names: a [`Sequencer`] its sequences', a [`Monitors`] table
-//! its monitors', [`SafetyProperties`] their levels'; a tuple of sources asks each in
-//! turn. [`WithNames::named`] pairs a value (an id, a [`Cause`], an [`Outcome`], a
-//! [`Transition`], a [`SafetyLevel`]) with a source for printing:
+//! its monitors', [`SafetyProperties`] their levels', [`Failures`] the application's
+//! failure codes; a tuple of sources asks each in turn. [`WithNames::named`] pairs a
+//! value (an id, a [`Cause`], an [`Outcome`], a [`Failure`], a [`Transition`], a
+//! [`SafetyLevel`]) with a source for printing:
 //!
 //! ```
 //! use rtseq::{Behaviour, Cause, Instant, Monitor, Monitors, RunningState, SeqConfig, Sequencer,
@@ -28,7 +29,7 @@ use core::fmt;
 
 use crate::lock::Lock;
 use crate::safety::{SafetyLevel, SafetyProperties};
-use crate::{Cause, MonitorId, Monitors, Outcome, SeqId, Sequencer, Transition};
+use crate::{Cause, Failure, MonitorId, Monitors, Outcome, SeqId, Sequencer, Transition};
 
 /// A source of names for printing with [`WithNames::named`]. Each method answers `None`
 /// for what the source does not name.
@@ -50,6 +51,12 @@ pub trait Names {
         let _ = level;
         None
     }
+
+    /// The name of the application's failure code `code` ([`Failure::App`]).
+    fn failure(&self, code: u16) -> Option<&'static str> {
+        let _ = code;
+        None
+    }
 }
 
 impl<T: Names + ?Sized> Names for &T {
@@ -61,6 +68,9 @@ impl<T: Names + ?Sized> Names for &T {
     }
     fn level(&self, level: SafetyLevel) -> Option<&'static str> {
         (**self).level(level)
+    }
+    fn failure(&self, code: u16) -> Option<&'static str> {
+        (**self).failure(code)
     }
 }
 
@@ -74,6 +84,9 @@ impl<A: Names, B: Names> Names for (A, B) {
     fn level(&self, level: SafetyLevel) -> Option<&'static str> {
         self.0.level(level).or_else(|| self.1.level(level))
     }
+    fn failure(&self, code: u16) -> Option<&'static str> {
+        self.0.failure(code).or_else(|| self.1.failure(code))
+    }
 }
 
 impl<A: Names, B: Names, C: Names> Names for (A, B, C) {
@@ -85,6 +98,9 @@ impl<A: Names, B: Names, C: Names> Names for (A, B, C) {
     }
     fn level(&self, level: SafetyLevel) -> Option<&'static str> {
         (&self.0, (&self.1, &self.2)).level(level)
+    }
+    fn failure(&self, code: u16) -> Option<&'static str> {
+        (&self.0, (&self.1, &self.2)).failure(code)
     }
 }
 
@@ -111,6 +127,26 @@ impl<IO, const L: usize> Names for SafetyProperties<'_, IO, L> {
     }
 }
 
+/// The names of the application's failure codes ([`Failure::App`]): code and name.
+///
+/// ```
+/// use rtseq::{Failure, Failures, WithNames};
+/// const FAILURES: Failures = Failures(&[(1, "part lost"), (2, "gripper stuck")]);
+/// assert_eq!(Failure::App(2).named(&FAILURES).to_string(), "gripper stuck");
+/// assert_eq!(Failure::App(9).named(&FAILURES).to_string(), "failure #9");
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Failures<'a>(pub &'a [(u16, &'static str)]);
+
+impl Names for Failures<'_> {
+    fn failure(&self, code: u16) -> Option<&'static str> {
+        self.0
+            .iter()
+            .find(|(c, _)| *c == code)
+            .map(|(_, name)| *name)
+    }
+}
+
 /// A value with the names to print it with ([`WithNames::named`]).
 pub struct Named<'n, V, N: ?Sized> {
     value: V,
@@ -126,7 +162,8 @@ impl<V: Copy, N: Names + ?Sized> Named<'_, V, N> {
     }
 }
 
-/// Values that print with names: ids, causes, outcomes, transitions, safety levels.
+/// Values that print with names: ids, causes, outcomes, failures, transitions, safety
+/// levels.
 pub trait WithNames: Copy {
     /// This value with `names`, for `Display` and `defmt::Format`.
     ///
@@ -145,6 +182,7 @@ impl WithNames for SeqId {}
 impl WithNames for MonitorId {}
 impl WithNames for Cause {}
 impl WithNames for Outcome {}
+impl WithNames for Failure {}
 impl WithNames for Transition {}
 impl WithNames for SafetyLevel {}
 
@@ -160,6 +198,7 @@ fn cause_word(c: Cause) -> Option<&'static str> {
         Cause::AbortAll => "abort-all",
         Cause::Restart => "restart",
         Cause::Dropped => "dropped",
+        Cause::Failed => "failed",
         Cause::Monitor(_) | Cause::Timeout(_) => return None,
     })
 }
@@ -204,6 +243,20 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, Outcome, N> {
             Outcome::Completed => f.write_str("completed"),
             Outcome::Skipped => f.write_str("skipped"),
             Outcome::Aborted(c) => write!(f, "aborted ({})", self.with(c)),
+            Outcome::Failed(failure) => write!(f, "failed ({})", self.with(failure)),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Failure, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.value {
+            Failure::App(code) => match self.names.failure(code) {
+                Some(name) => f.write_str(name),
+                None => write!(f, "failure #{code}"),
+            },
+            Failure::Aborted(c) => write!(f, "aborted ({})", self.with(c)),
+            Failure::NotStarted(e) => write!(f, "not started: {e}"),
         }
     }
 }
@@ -239,7 +292,7 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, SafetyLevel, N> {
 mod defmt_format {
     use super::{cause_word, millis, Named, Names};
     use crate::safety::SafetyLevel;
-    use crate::{Cause, MonitorId, Outcome, SeqId, Transition};
+    use crate::{Cause, Failure, MonitorId, Outcome, SeqId, Transition};
 
     impl<N: Names + ?Sized> defmt::Format for Named<'_, SeqId, N> {
         fn format(&self, f: defmt::Formatter<'_>) {
@@ -275,6 +328,20 @@ mod defmt_format {
                 Outcome::Completed => defmt::write!(f, "completed"),
                 Outcome::Skipped => defmt::write!(f, "skipped"),
                 Outcome::Aborted(c) => defmt::write!(f, "aborted ({})", self.with(c)),
+                Outcome::Failed(failure) => defmt::write!(f, "failed ({})", self.with(failure)),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Failure, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.value {
+                Failure::App(code) => match self.names.failure(code) {
+                    Some(name) => defmt::write!(f, "{=str}", name),
+                    None => defmt::write!(f, "failure #{=u16}", code),
+                },
+                Failure::Aborted(c) => defmt::write!(f, "aborted ({})", self.with(c)),
+                Failure::NotStarted(e) => defmt::write!(f, "not started: {}", e),
             }
         }
     }

@@ -65,10 +65,10 @@ const MAX_POLLS_PER_SETTLE: usize = 100_000;
 ///
 /// ```
 /// use rtseq::sim::{Sim, DEFAULT_LANE_PRIORITY};
-/// use rtseq::{Cx, Monitors, SeqConfig, Sequence, Sequencer};
+/// use rtseq::{Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
 /// struct Blink;
 /// impl Sequence<()> for Blink {
-///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
 /// }
 /// let seq: Sequencer<(), 2> = Sequencer::new();
 /// let (a, b) = (seq.add(SeqConfig::new("a"), Blink), seq.add(SeqConfig::new("b"), Blink));
@@ -160,12 +160,13 @@ type BeforeTick<'a, C> = Box<dyn FnMut(Instant, &C) + 'a>;
 ///
 /// ```
 /// use rtseq::sim::Sim;
-/// use rtseq::{Cause, Cx, Duration, Monitors, RunningState::*, SeqConfig, Sequence, Sequencer,
-///             Transition, Wait};
+/// use rtseq::{Cause, Cx, Duration, Failure, Monitors, RunningState::*, SeqConfig, Sequence,
+///             Sequencer, Transition, Wait};
 /// struct Main { dwell: rtseq::Seq<Wait> }
 /// impl Sequence<()> for Main {
-///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
 ///         let _ = cx.step(&mut self.dwell).await;
+///         Ok(())
 ///     }
 /// }
 /// let seq: Sequencer<(), 4> = Sequencer::new();
@@ -287,11 +288,14 @@ impl<
     /// order `a` ends first; the seeds 1 and 3 give the two possible orders.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer,
-    ///             Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, SeqId, Sequence,
+    ///             Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// fn first_to_end(seed: Option<u64>) -> SeqId {
     ///     let seq: Sequencer<(), 4> = Sequencer::new();
@@ -329,11 +333,14 @@ impl<
     /// A 5 ms dwell across the wrap:
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Instant, Monitors, Seq, SeqConfig, Sequence, Sequencer,
-    ///             Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Instant, Monitors, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
@@ -358,18 +365,20 @@ impl<
     ///
     /// ```
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, SeqConfig, Sequence, Seq, Sequencer, Step};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, SeqConfig, Sequence, Seq, Sequencer,
+    ///             Step};
     /// struct Heat;
     /// impl Step<Cell<u32>> for Heat {
-    ///     fn action(&mut self, _cx: &Cx<'_, Cell<u32>>) {}
+    ///     fn action(&mut self, _cx: &Cx<'_, Cell<u32>>) -> Result<(), Failure> { Ok(()) }
     ///     fn check_exit_condition(&mut self, cx: &Cx<'_, Cell<u32>>) -> bool {
     ///         cx.control().get() >= 30
     ///     }
     /// }
     /// struct Main(Seq<Heat>);
     /// impl Sequence<Cell<u32>> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<u32>>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<u32>>) -> Result<(), Failure> {
     ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<u32>, 2> = Sequencer::new();
@@ -393,10 +402,11 @@ impl<
     /// added ([`lane_with_priority`](Self::lane_with_priority) has the whole order).
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Error, Monitors, RunningState, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Error, Failure, Monitors, RunningState, SeqConfig, Sequence,
+    ///             Sequencer};
     /// struct Blink;
     /// impl Sequence<()> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
@@ -422,11 +432,14 @@ impl<
     /// first.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, RunningState::*, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Transition, Wait};
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Failure, Monitors, RunningState::*, Seq,
+    ///             SeqConfig, Sequence, Sequencer, Transition, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
@@ -473,10 +486,10 @@ impl<
     /// The priority of each lane, in the order the lanes were added.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
     /// struct Blink;
     /// impl Sequence<()> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let (a, b) = (seq.add(SeqConfig::new("a"), Blink), seq.add(SeqConfig::new("b"), Blink));
@@ -510,11 +523,14 @@ impl<
     /// [`Sequencer::validate`] names the monitor and the reason.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
@@ -545,11 +561,14 @@ impl<
     /// Requests a pause of `id` (applied by the next tick).
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
@@ -572,11 +591,14 @@ impl<
     /// the tick at 1 ms and resumed by the one at 21 ms, a 5 ms dwell ends at 25 ms.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
@@ -599,11 +621,14 @@ impl<
     /// Requests an abort of `id` (applied by the next tick).
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Outcome, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Failure, Monitors, Outcome, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
@@ -627,11 +652,14 @@ impl<
     /// Two main sequences, each in its lane:
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Outcome, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Failure, Monitors, Outcome, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
@@ -660,11 +688,14 @@ impl<
     /// One tick: advance time, run the before-tick hook, tick, let the woken lanes run.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(2))).unwrap();
@@ -731,10 +762,14 @@ impl<
     /// time at which everything was idle.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(30))).unwrap();
@@ -763,10 +798,14 @@ impl<
     /// True while any registered sequence is running, paused, aborting or restarting.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(3))).unwrap();
@@ -790,10 +829,11 @@ impl<
     /// The state of `id`.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Monitors, RunningState, SeqConfig, SeqId, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, RunningState, SeqConfig, SeqId, Sequence,
+    ///             Sequencer};
     /// struct Blink;
     /// impl Sequence<()> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
@@ -826,11 +866,11 @@ impl<
     /// Every transition so far, in order.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cause, Cx, Monitors, RunningState::*, SeqConfig, Sequence, Sequencer,
-    ///             Transition};
+    /// use rtseq::{sim::Sim, Cause, Cx, Failure, Monitors, RunningState::*, SeqConfig, Sequence,
+    ///             Sequencer, Transition};
     /// struct Blink;
     /// impl Sequence<()> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
@@ -851,10 +891,10 @@ impl<
     /// Takes the transitions recorded so far, leaving the trace empty.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cause, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cause, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
     /// struct Blink;
     /// impl Sequence<()> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
@@ -879,10 +919,14 @@ impl<
     /// simulator drains it:
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4, 1> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(3))).unwrap();
@@ -918,10 +962,10 @@ impl<
     /// True if a settle hit its poll bound (a lane that wakes itself forever).
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
     /// struct Blink;
     /// impl Sequence<()> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
@@ -944,10 +988,14 @@ impl<
     /// added:
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
@@ -973,12 +1021,13 @@ impl<
     ///
     /// ```
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Behaviour, Cx, Duration, Instant, Monitor, Monitors, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Behaviour, Cx, Duration, Failure, Instant, Monitor, Monitors, Seq,
+    ///             SeqConfig, Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<Cell<bool>> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> {
     ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<bool>, 4> = Sequencer::new();
@@ -1109,11 +1158,12 @@ impl<
     ///
     /// ```
     /// use rtseq::sim::Sim;
-    /// use rtseq::{Cx, Duration, Monitors, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{Cx, Duration, Failure, Monitors, SeqConfig, Sequence, Sequencer, Wait};
     /// struct Main { dwell: rtseq::Seq<Wait> }
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
     ///         let _ = cx.step(&mut self.dwell).await;
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
@@ -1203,6 +1253,7 @@ impl<
                 Cause::Timeout(s) => std::format!("\"timeout\",\"of\":{}", s.index()),
                 Cause::Restart => String::from("\"restart\""),
                 Cause::Dropped => String::from("\"dropped\""),
+                Cause::Failed => String::from("\"failed\""),
             };
             std::writeln!(
                 out,

@@ -10,7 +10,7 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Monitor as Mon, Restart, Start};
 use rtseq::RunningState::*;
 use rtseq::{
-    Behaviour, Duration, Monitor, MonitorId, Monitors, Outcome, SeqConfig, SeqId, Sequencer,
+    Behaviour, Done, Duration, Failure, Monitor, MonitorId, Monitors, SeqConfig, SeqId, Sequencer,
     Transition, Wait,
 };
 
@@ -195,9 +195,9 @@ fn check(behaviour: Behaviour, with_exception: bool) {
         .map(|r| (r.ms, r.result))
         .collect();
     let expected_p = match behaviour {
-        Behaviour::AbortOwner => vec![(t, Ok(Outcome::Aborted(cause)))],
+        Behaviour::AbortOwner => vec![(t, Err(Failure::Aborted(cause)))],
         Behaviour::AbortCallerOfOwner => vec![],
-        _ => vec![(10, Ok(Outcome::Completed))],
+        _ => vec![(10, Ok(Done::Completed))],
     };
     assert_eq!(returned_to_p, expected_p);
 }

@@ -24,7 +24,7 @@ use rtseq::safety::*;
 use rtseq::sim::Sim;
 use rtseq::Cause::{AbortAll, Completed, Start};
 use rtseq::RunningState::{Aborted, Aborting, Idle, Running, Terminated};
-use rtseq::{Cx, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
+use rtseq::{Cx, Failure, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
 use rtseq_scenarios::emergency::{
     self, Machine, EMERGENCY, ENABLE, ESTOP_IN, FAULT, MOVING, OFF, POWERING, READY, START_MOVING,
     SWITCH_ON,
@@ -100,10 +100,11 @@ struct Request {
 }
 
 impl Step<Ctrl> for Request {
-    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         let safety = cx.safety_system().expect("safety system connected");
         safety.trigger(self.event);
         cx.control().note(cx, "trigger");
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         cx.safety_system()
@@ -118,8 +119,9 @@ struct Travel {
 }
 
 impl Step<Ctrl> for Travel {
-    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         cx.control().note(cx, "travel");
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         self.watch_fault && cx.control().fault.get()
@@ -133,11 +135,12 @@ struct MoveA {
 }
 
 impl Sequence<Ctrl> for MoveA {
-    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         let r = cx.step(&mut self.start).await;
         cx.control().note(cx, &format!("start -> {r:?}"));
         let r = cx.step(&mut self.travel).await;
         cx.control().note(cx, &format!("travel -> {r:?}"));
+        Ok(())
     }
 }
 
@@ -149,11 +152,12 @@ struct AxisB {
 }
 
 impl Sequence<Ctrl> for AxisB {
-    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         let r = cx.step(&mut self.travel).await;
         cx.control().note(cx, &format!("travel -> {r:?}"));
         let r = cx.step(&mut self.report).await;
         cx.control().note(cx, &format!("report -> {r:?}"));
+        Ok(())
     }
 }
 
@@ -166,13 +170,14 @@ struct Main {
 }
 
 impl Sequence<Ctrl> for Main {
-    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         let r = cx.step(&mut self.power_on).await;
         cx.control().note(cx, &format!("power on -> {r:?}"));
         let r = cx.start(self.axis_b);
         cx.control().note(cx, &format!("start axis B -> {r:?}"));
         let r = cx.run(&mut self.move_a).await;
         cx.control().note(cx, &format!("move A -> {r:?}"));
+        Ok(())
     }
 }
 

@@ -8,8 +8,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::Monitor as Mon;
 use rtseq::RunningState::*;
 use rtseq::{
-    Behaviour, Duration, Error, Monitor, MonitorId, Monitors, Outcome, SeqConfig, SeqId, Sequencer,
-    Wait,
+    Behaviour, Done, Duration, Error, Failure, Monitor, MonitorId, Monitors, SeqConfig, SeqId,
+    Sequencer, Wait,
 };
 
 /// Monitors registered out of owner order keep their ids (registration order), names and
@@ -158,12 +158,12 @@ fn caller_links_follow_the_running_tree_and_never_cycle() {
     assert_eq!(
         results,
         vec![
-            (0, a, 0, Ok(Outcome::Completed)),
-            (5, a, 1, Ok(Outcome::Completed)),
-            (10, b, 0, Ok(Outcome::Completed)),
-            (10, b, 1, Ok(Outcome::Completed)),
-            (10, a, 0, Err(Error::AlreadyRunning(b))),
-            (10, a, 1, Ok(Outcome::Completed)),
+            (0, a, 0, Ok(Done::Completed)),
+            (5, a, 1, Ok(Done::Completed)),
+            (10, b, 0, Ok(Done::Completed)),
+            (10, b, 1, Ok(Done::Completed)),
+            (10, a, 0, Err(Failure::NotStarted(Error::AlreadyRunning(b)))),
+            (10, a, 1, Ok(Done::Completed)),
         ]
     );
     assert_eq!(h(a).state(), Terminated);

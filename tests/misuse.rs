@@ -19,8 +19,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Dropped, Start};
 use rtseq::RunningState::*;
 use rtseq::{
-    Cx, Duration, Error, Instant, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer,
-    Step, Wait,
+    Cx, Done, Duration, Error, Failure, Instant, Monitors, Outcome, Seq, SeqConfig, SeqId,
+    Sequence, Sequencer, Step, Wait,
 };
 
 // ---------------------------------------------------------------------------------------
@@ -30,7 +30,9 @@ use rtseq::{
 /// A step that is done after its first exit-condition poll.
 struct Once;
 impl Step<()> for Once {
-    fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        Ok(())
+    }
 }
 
 /// Runs `Once` twice, so that its lane waits for polls and starts.
@@ -38,9 +40,10 @@ struct Twice {
     once: Seq<Once>,
 }
 impl Sequence<()> for Twice {
-    async fn action(&mut self, cx: &Cx<'_, ()>) {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
         let _ = cx.step(&mut self.once).await;
         let _ = cx.step(&mut self.once).await;
+        Ok(())
     }
 }
 
@@ -121,15 +124,18 @@ fn a_waker_that_aborts_its_own_sequence_when_woken_takes_effect_at_the_next_tick
     }
     struct Forever;
     impl Step<()> for Forever {
-        fn action(&mut self, _cx: &Cx<'_, ()>) {}
+        fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            Ok(())
+        }
         fn check_exit_condition(&mut self, _cx: &Cx<'_, ()>) -> bool {
             false
         }
     }
     struct Main(Seq<Forever>);
     impl Sequence<()> for Main {
-        async fn action(&mut self, cx: &Cx<'_, ()>) {
+        async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
             let _ = cx.step(&mut self.0).await;
+            Ok(())
         }
     }
     static SEQ: Sequencer<(), 4> = Sequencer::new();
@@ -177,7 +183,7 @@ struct Race {
 }
 
 impl Sequence<Ctrl> for Race {
-    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         let quick = cx.step(&mut self.quick);
         let slow_won = match &mut self.slow {
             Slow::Step(step) => matches!(select(cx.step(step), quick).await, Either::First(_)),
@@ -187,6 +193,7 @@ impl Sequence<Ctrl> for Race {
             ),
         };
         assert!(!slow_won);
+        Ok(())
     }
 }
 
@@ -294,8 +301,8 @@ struct GiveUp<F> {
     polls: u32,
 }
 
-impl<F: Future<Output = Result<Outcome, Error>>> Future for GiveUp<F> {
-    type Output = Option<Result<Outcome, Error>>;
+impl<F: Future<Output = Result<Done, Failure>>> Future for GiveUp<F> {
+    type Output = Option<Result<Done, Failure>>;
     fn poll(mut self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         if let Poll::Ready(r) = self.run.as_mut().poll(w) {
             return Poll::Ready(Some(r));
@@ -314,13 +321,14 @@ fn a_run_dropped_by_a_hand_written_timeout_ends_and_the_sequencer_goes_idle() {
         slow: Seq<Leaf>,
     }
     impl Sequence<Ctrl> for Main {
-        async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
             let r = GiveUp {
                 run: Box::pin(cx.step(&mut self.slow)),
                 polls: 3,
             }
             .await;
             assert!(r.is_none());
+            Ok(())
         }
     }
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
@@ -407,10 +415,7 @@ fn two_joiners_of_one_run_both_get_its_outcome() {
     // Lanes are polled in declaration order: main's first.
     assert_eq!(
         joins,
-        [
-            (5, m, Ok(Outcome::Completed)),
-            (5, b, Ok(Outcome::Completed))
-        ]
+        [(5, m, Ok(Done::Completed)), (5, b, Ok(Done::Completed))]
     );
 }
 
@@ -428,9 +433,9 @@ fn three_joiners_of_one_run_all_get_its_outcome() {
         // C ends in its lane's poll; the simulator goes on polling woken lanes in
         // declaration order from there (D after C), then from the first again.
         [
-            (5, d, Ok(Outcome::Completed)),
-            (5, m, Ok(Outcome::Completed)),
-            (5, b, Ok(Outcome::Completed)),
+            (5, d, Ok(Done::Completed)),
+            (5, m, Ok(Done::Completed)),
+            (5, b, Ok(Done::Completed)),
         ]
     );
 }
@@ -457,7 +462,7 @@ fn joining_oneself_is_an_error_not_a_hang() {
     drop(sim);
     assert_eq!(
         ctrl.returned.borrow()[0].result,
-        Err(Error::JoinWouldDeadlock(m))
+        Err(Failure::NotStarted(Error::JoinWouldDeadlock(m)))
     );
 }
 
@@ -490,7 +495,10 @@ fn joining_ones_blocking_caller_is_an_error_not_a_hang() {
         .iter()
         .find(|r| r.seq == c)
         .map(|r| r.result);
-    assert_eq!(child_join, Some(Err(Error::JoinWouldDeadlock(main_id))));
+    assert_eq!(
+        child_join,
+        Some(Err(Failure::NotStarted(Error::JoinWouldDeadlock(main_id))))
+    );
 }
 
 fn ms_at(ms: u64) -> Instant {

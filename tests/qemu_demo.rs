@@ -197,6 +197,7 @@ fn cause_text(seq: &Seqr, ids: &Ids, c: Cause) -> String {
         Cause::Timeout(s) => format!("timeout of {}", seq.sequence_by_id(s).unwrap().name()),
         Cause::Restart => "restart".into(),
         Cause::Dropped => "dropped".into(),
+        Cause::Failed => "failed".into(),
     }
 }
 
@@ -206,6 +207,7 @@ fn outcome_text(seq: &Seqr, ids: &Ids, o: Option<SeqOutcome>) -> String {
         Some(SeqOutcome::Completed) => "completed".into(),
         Some(SeqOutcome::Skipped) => "skipped".into(),
         Some(SeqOutcome::Aborted(c)) => format!("aborted ({})", cause_text(seq, ids, c)),
+        Some(SeqOutcome::Failed(_)) => "failed".into(),
     }
 }
 

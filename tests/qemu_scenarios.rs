@@ -277,12 +277,16 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
             "figure: firing tick, {running} running, {registered} registered [instructions] = {firing}"
         );
     }
-    assert_eq!(
-        f(8, 8),
-        f(8, 32),
+    // One-word sets: the number registered is free. The two sequencers are separate
+    // monomorphizations of the same code, and inlining may differ between them by an
+    // instruction or two (profiled alone, both ticks take the same path); a cost per
+    // registered sequence would show as dozens.
+    let free = |a: u64, b: u64| a.abs_diff(b) <= 4;
+    assert!(
+        free(f(8, 8), f(8, 32)),
         "one-word sets: the number registered is free"
     );
-    assert_eq!(f(1, 8), f(1, 32));
+    assert!(free(f(1, 8), f(1, 32)));
     assert!(
         f(1, 32) < f(8, 8),
         "one running of 32 costs less than 8 running of 8"

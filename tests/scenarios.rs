@@ -6,8 +6,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{self, Completed, Monitor as Mon, PreConditionFalse, Start, Timeout};
 use rtseq::RunningState::{self, *};
 use rtseq::{
-    Behaviour, Duration, Error, Monitor, Monitors, Outcome, SeqConfig, SeqId, Sequencer,
-    Transition, Trigger,
+    Behaviour, Done, Duration, Error, Failure, Monitor, Monitors, Outcome, SeqConfig, SeqId,
+    Sequencer, Transition, Trigger,
 };
 
 type Seqr = Sequencer<Ctrl, 16>;
@@ -109,7 +109,7 @@ fn monitor_on_outermost_of_three_nested_fires_while_innermost_step_waits() {
     assert_lines_ran_live(&ctrl);
     assert_eq!(
         ctrl.returned.borrow().last().map(|r| (r.seq, r.result)),
-        Some((mi, Ok(Outcome::Aborted(Mon(m)))))
+        Some((mi, Err(Failure::Aborted(Mon(m)))))
     );
     assert!(sim.handle(x1i).unwrap().exception_is_active());
     assert_eq!(sim.handle(x1i).unwrap().active_exception(), Some(Mon(m)));
@@ -168,7 +168,7 @@ fn timeout_on_a_step_aborts_the_step_only() {
     want.extend(completed(3, &[ai, mi]));
     assert_trace(&trace, &want);
     assert_eq!(returned[0].seq, ai);
-    assert_eq!(returned[0].result, Ok(Outcome::Aborted(Timeout(si))));
+    assert_eq!(returned[0].result, Err(Failure::Aborted(Timeout(si))));
 }
 
 #[test]
@@ -181,7 +181,7 @@ fn timeout_on_the_caller_aborts_caller_and_step() {
     assert_eq!(returned.len(), 1);
     assert_eq!(
         (returned[0].seq, returned[0].result),
-        (mi, Ok(Outcome::Aborted(Timeout(ai))))
+        (mi, Err(Failure::Aborted(Timeout(ai))))
     );
 }
 
@@ -511,7 +511,7 @@ fn pre_condition_false_skips_steps_and_sequences() {
     ];
     assert_trace(sim.trace(), &want);
     let r: Vec<_> = ctrl.returned.borrow().iter().map(|r| r.result).collect();
-    assert_eq!(r, vec![Ok(Outcome::Skipped), Ok(Outcome::Skipped)]);
+    assert_eq!(r, vec![Ok(Done::Skipped), Ok(Done::Skipped)]);
     assert!(
         ctrl.lines_of(si).is_empty(),
         "a skipped step's action must not run"
@@ -624,9 +624,9 @@ fn starting_a_running_sequence_is_an_error() {
     assert_eq!(
         r,
         vec![
-            (0, Ok(Outcome::Completed)),
-            (0, Err(Error::AlreadyRunning(qi))),
-            (4, Ok(Outcome::Completed)),
+            (0, Ok(Done::Completed)),
+            (0, Err(Failure::NotStarted(Error::AlreadyRunning(qi)))),
+            (4, Ok(Done::Completed)),
         ]
     );
     // A finished sequence may be started again.
@@ -718,7 +718,7 @@ fn a_table_goes_into_an_empty_sequencer_only() {
     // Registration goes on after the table, with its checks.
     assert_eq!(
         seq.register(SeqConfig::new("X")),
-        Err(Error::DuplicateName("X"))
+        Err(Error::DuplicateName(SeqId::from_index(3)))
     );
     assert_eq!(seq.register(SeqConfig::new("Y")), Ok(SeqId::from_index(4)));
     let other = Seqr::new();
@@ -738,7 +738,7 @@ fn registry_errors_are_reported_not_panicked() {
     let a = seq.register(SeqConfig::new("a")).unwrap();
     assert_eq!(
         seq.register(SeqConfig::new("a")),
-        Err(Error::DuplicateName("a"))
+        Err(Error::DuplicateName(a))
     );
     assert_eq!(
         seq.register(SeqConfig::new("z").polling(Duration::from_ticks(0))),

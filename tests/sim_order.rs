@@ -7,15 +7,17 @@ use rtseq::sim::{Sim, SimError, DEFAULT_LANE_PRIORITY};
 use rtseq::Cause::{Completed, Start};
 use rtseq::RunningState::{Idle, Running, Terminated};
 use rtseq::{
-    Cx, Duration, Instant, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Transition, Wait,
+    Cx, Duration, Failure, Instant, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer,
+    Transition, Wait,
 };
 
 /// Waits for its dwell.
 struct Dwell(Seq<Wait>);
 
 impl Sequence<()> for Dwell {
-    async fn action(&mut self, cx: &Cx<'_, ()>) {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
         let _ = cx.step(&mut self.0).await;
+        Ok(())
     }
 }
 
@@ -26,9 +28,10 @@ struct DwellThenStart {
 }
 
 impl Sequence<()> for DwellThenStart {
-    async fn action(&mut self, cx: &Cx<'_, ()>) {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
         let _ = cx.step(&mut self.wait).await;
         let _ = cx.start(self.then);
+        Ok(())
     }
 }
 
@@ -36,7 +39,9 @@ impl Sequence<()> for DwellThenStart {
 struct Blink;
 
 impl Sequence<()> for Blink {
-    async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+    async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        Ok(())
+    }
 }
 
 const WA: SeqId = SeqId::from_index(0);

@@ -21,7 +21,7 @@
 //! its measurements. Commands are acknowledged by the next control step, so exit conditions
 //! start with [`ControlSystem::commands_done`].
 
-use rtseq::{Cx, Outcome, Seq, SeqId, Sequence, Step, Wait};
+use rtseq::{Cx, Done, Failure, Seq, SeqId, Sequence, Step, Wait};
 
 use crate::app::{FaultKind, MAX_MOVES};
 use crate::control_system::{ControlSystem, Phase};
@@ -29,8 +29,8 @@ use crate::safety;
 
 type Ctx<'a> = Cx<'a, ControlSystem>;
 
-fn completed(r: Result<Outcome, rtseq::Error>) -> bool {
-    r == Ok(Outcome::Completed)
+fn completed(r: Result<Done, Failure>) -> bool {
+    r == Ok(Done::Completed)
 }
 
 /// Step: release the brake, enable the drive, and ask the safety system (if connected) for
@@ -39,12 +39,13 @@ fn completed(r: Result<Outcome, rtseq::Error>) -> bool {
 pub struct PowerOn;
 
 impl Step<ControlSystem> for PowerOn {
-    fn action(&mut self, cx: &Ctx<'_>) {
+    fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         if let Some(s) = cx.safety_system() {
             s.trigger(safety::SWITCH_ON);
         }
         cx.control().brake(false);
         cx.control().enable(true);
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         cx.control().commands_done() && cx.control().status().enabled
@@ -55,12 +56,13 @@ impl Step<ControlSystem> for PowerOn {
 pub struct PowerOff;
 
 impl Step<ControlSystem> for PowerOff {
-    fn action(&mut self, cx: &Ctx<'_>) {
+    fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         cx.control().enable(false);
         cx.control().brake(true);
         if let Some(s) = cx.safety_system() {
             s.trigger(safety::SWITCH_OFF);
         }
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         cx.control().commands_done()
@@ -74,8 +76,9 @@ pub struct SeekEndStop {
 }
 
 impl Step<ControlSystem> for SeekEndStop {
-    fn action(&mut self, cx: &Ctx<'_>) {
+    fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         cx.control().jog(-self.speed.abs());
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         cx.control().commands_done() && cx.control().end_stop_neg()
@@ -86,8 +89,9 @@ impl Step<ControlSystem> for SeekEndStop {
 pub struct Halt;
 
 impl Step<ControlSystem> for Halt {
-    fn action(&mut self, cx: &Ctx<'_>) {
+    fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         cx.control().stop();
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         cx.control().commands_done() && cx.control().standstill()
@@ -98,8 +102,9 @@ impl Step<ControlSystem> for Halt {
 pub struct SetZero;
 
 impl Step<ControlSystem> for SetZero {
-    fn action(&mut self, cx: &Ctx<'_>) {
+    fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         cx.control().set_zero();
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         cx.control().commands_done()
@@ -113,8 +118,9 @@ pub struct MoveTo {
 }
 
 impl Step<ControlSystem> for MoveTo {
-    fn action(&mut self, cx: &Ctx<'_>) {
+    fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         cx.control().move_to(self.target);
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         cx.control().commands_done() && cx.control().in_position()
@@ -126,8 +132,9 @@ impl Step<ControlSystem> for MoveTo {
 pub struct QuickStop;
 
 impl Step<ControlSystem> for QuickStop {
-    fn action(&mut self, cx: &Ctx<'_>) {
+    fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         cx.control().quick_stop();
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         cx.control().commands_done() && cx.control().standstill()
@@ -147,17 +154,18 @@ pub struct Homing {
 }
 
 impl Sequence<ControlSystem> for Homing {
-    async fn action(&mut self, cx: &Ctx<'_>) {
+    async fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         if !completed(cx.step(&mut self.seek).await) {
-            return;
+            return Ok(());
         }
         if !completed(cx.step(&mut self.halt).await) {
-            return;
+            return Ok(());
         }
         if !completed(cx.step(&mut self.zero).await) {
-            return;
+            return Ok(());
         }
         let _ = cx.step(&mut self.back_off).await;
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         // Completed only when the axis really is homed and off the switch.
@@ -213,20 +221,21 @@ impl MoveLoop {
 }
 
 impl Sequence<ControlSystem> for MoveLoop {
-    async fn action(&mut self, cx: &Ctx<'_>) {
+    async fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         cx.control().set_phase(Phase::Moving);
         while self.next < self.count {
             let Some(&target) = self.targets.get(self.next) else {
-                return;
+                return Ok(());
             };
             self.step.body_mut().target = target;
             if !completed(cx.step(&mut self.step).await) {
-                return;
+                return Ok(());
             }
             cx.control().record_move_done(self.next);
             self.next = self.next.saturating_add(1);
             let _ = cx.step(&mut self.dwell).await;
         }
+        Ok(())
     }
     fn check_exit_condition(&mut self, _cx: &Ctx<'_>) -> bool {
         self.next >= self.count
@@ -241,12 +250,13 @@ pub struct SafeStop {
 }
 
 impl Sequence<ControlSystem> for SafeStop {
-    async fn action(&mut self, cx: &Ctx<'_>) {
+    async fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         let c = cx.control();
         c.set_phase(Phase::SafeStop);
         c.record_reaction(FaultKind::FollowingError);
         c.update_summary(|s, _| s.safe_stops = s.safe_stops.saturating_add(1));
         let _ = cx.step(&mut self.stop).await;
+        Ok(())
     }
 }
 
@@ -258,7 +268,7 @@ pub struct FeedHold {
 }
 
 impl Sequence<ControlSystem> for FeedHold {
-    async fn action(&mut self, cx: &Ctx<'_>) {
+    async fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         let c = cx.control();
         c.feed_hold();
         if let Some(h) = cx.sequence_by_id(self.moves) {
@@ -268,6 +278,7 @@ impl Sequence<ControlSystem> for FeedHold {
         c.update_summary(|s, now| {
             s.paused_at.get_or_insert(now);
         });
+        Ok(())
     }
 }
 
@@ -279,7 +290,7 @@ pub struct FeedResume {
 }
 
 impl Sequence<ControlSystem> for FeedResume {
-    async fn action(&mut self, cx: &Ctx<'_>) {
+    async fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         let c = cx.control();
         c.feed_resume();
         if let Some(h) = cx.sequence_by_id(self.moves) {
@@ -289,6 +300,7 @@ impl Sequence<ControlSystem> for FeedResume {
         c.update_summary(|s, now| {
             s.resumed_at.get_or_insert(now);
         });
+        Ok(())
     }
 }
 
@@ -314,19 +326,19 @@ impl StatusBlink {
 }
 
 impl Sequence<ControlSystem> for StatusBlink {
-    async fn action(&mut self, cx: &Ctx<'_>) {
+    async fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         let c = cx.control();
         loop {
             let phase = c.phase();
             if phase.is_final() {
                 c.set_led(phase == Phase::Done);
-                return;
+                return Ok(());
             }
             c.set_led(!c.led());
             let half = rtseq::Duration::from_millis(Self::half_period_ms(phase));
             self.blink.body_mut().set_duration(half);
             if !completed(cx.step(&mut self.blink).await) {
-                return;
+                return Ok(());
             }
         }
     }
@@ -349,7 +361,7 @@ pub struct Main {
 }
 
 impl Sequence<ControlSystem> for Main {
-    async fn action(&mut self, cx: &Ctx<'_>) {
+    async fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
         let c = cx.control();
         c.set_phase(Phase::PowerOn);
         let _ = cx.start(self.status);
@@ -372,5 +384,6 @@ impl Sequence<ControlSystem> for Main {
         let _ = cx.step(&mut self.power_off).await;
         c.set_phase(if ok { Phase::Done } else { Phase::Fault });
         c.update_summary(|s, now| s.finished_at = Some(now));
+        Ok(())
     }
 }

@@ -2,7 +2,7 @@
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
 
-use rtseq::{Condition, Cx, Error, Instant, Outcome, RunningState};
+use rtseq::{Condition, Cx, Done, Failure, Instant, RunningState};
 
 /// Number of flags of [`Ctrl`].
 pub const FLAGS: usize = 16;
@@ -105,7 +105,7 @@ impl Ctrl {
     }
 
     /// Records what a started child returned to the sequence of `cx` at line `line`.
-    pub(crate) fn returned(&self, cx: &Cx<'_, Ctrl>, line: u32, r: Result<Outcome, Error>) {
+    pub(crate) fn returned(&self, cx: &Cx<'_, Ctrl>, line: u32, r: Result<Done, Failure>) {
         self.returns.fetch_add(1, Relaxed);
         self.mix(&[2, ms(cx.now()), id_word(cx), line, crate::outcome_code(r)]);
     }

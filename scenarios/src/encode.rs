@@ -1,12 +1,13 @@
 //! A [`Transition`] as six integers: the firmware prints these, the host decodes them.
 
-use rtseq::{Cause, Error, Instant, MonitorId, Outcome, RunningState, SeqId, Transition};
+use rtseq::{Cause, Done, Error, Failure, Instant, MonitorId, RunningState, SeqId, Transition};
 
 /// `[time µs, sequence, from, to, cause kind, cause arg]`.
 ///
 /// States are their position in [`RunningState::ALL`]; cause kinds: 0 `Start`,
 /// 1 `PreConditionFalse`, 2 `Completed`, 3 `Pause`, 4 `Resume`, 5 `Abort`, 6 `AbortAll`,
-/// 7 `Monitor` (arg: monitor index), 8 `Timeout` (arg: sequence index), 9 `Restart`.
+/// 7 `Monitor` (arg: monitor index), 8 `Timeout` (arg: sequence index), 9 `Restart`,
+/// 10 `Dropped`, 11 `Failed`.
 /// Times saturate at `u32::MAX` µs (71 minutes).
 pub type Encoded = [u32; 6];
 
@@ -35,6 +36,7 @@ fn cause_code(c: Cause) -> (u32, u32) {
         Cause::Timeout(s) => (8, index(s.index())),
         Cause::Restart => (9, 0),
         Cause::Dropped => (10, 0),
+        Cause::Failed => (11, 0),
     }
 }
 
@@ -52,6 +54,7 @@ fn cause_of(kind: u32, arg: u32) -> Option<Cause> {
         8 => Cause::Timeout(SeqId::from_index(arg)),
         9 => Cause::Restart,
         10 => Cause::Dropped,
+        11 => Cause::Failed,
         _ => return None,
     })
 }
@@ -94,18 +97,20 @@ pub fn decode(e: &Encoded) -> Option<Transition> {
     })
 }
 
-/// An outcome (or start error) as one integer, for the action digest: 1 `Completed`,
-/// 2 `Skipped`, `0x100 | kind << 8 | arg << 16` for `Aborted(cause)`, `0x8000_0000 | n` for
-/// the n-th [`Error`] variant.
-pub fn outcome_code(r: Result<Outcome, Error>) -> u32 {
+/// A blocking run's result as one integer, for the action digest: 1 `Completed`,
+/// 2 `Skipped`, `0x100 | kind << 8 | arg << 16` for `Aborted(cause)`,
+/// `0x4000_0000 | code` for `App(code)`, `0x8000_0000 | n` for `NotStarted` with the n-th
+/// [`Error`] variant.
+pub fn outcome_code(r: Result<Done, Failure>) -> u32 {
     match r {
-        Ok(Outcome::Completed) => 1,
-        Ok(Outcome::Skipped) => 2,
-        Ok(Outcome::Aborted(c)) => {
+        Ok(Done::Completed) => 1,
+        Ok(Done::Skipped) => 2,
+        Err(Failure::Aborted(c)) => {
             let (kind, arg) = cause_code(c);
             0x100 | (kind & 0xff) << 8 | (arg & 0xffff) << 16
         }
-        Err(e) => {
+        Err(Failure::App(code)) => 0x4000_0000 | u32::from(code),
+        Err(Failure::NotStarted(e)) => {
             let n = match e {
                 Error::EmptyName => 0,
                 Error::DuplicateName(_) => 1,

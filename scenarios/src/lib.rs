@@ -53,7 +53,7 @@ pub mod host;
 pub use ctrl::{Ctrl, FlagCond, Summary, FLAGS};
 pub use encode::{decode, encode, outcome_code, Encoded};
 pub use list::SCENARIOS;
-pub use node::{Arena, Child, Done, Leaf, Node, NodeAction, Op};
+pub use node::{Arena, AtOnce, Child, Leaf, Node, NodeAction, Op};
 
 use rtseq::{Monitors, Seq, SeqId, Sequencer};
 

@@ -7,7 +7,7 @@ use core::pin::Pin;
 use core::ptr::NonNull;
 use core::task::{Context, Poll};
 
-use rtseq::{Cx, Outcome, Seq, SeqId, Sequence, Step, Wait};
+use rtseq::{Cx, Done, Failure, Outcome, Seq, SeqId, Sequence, Step, Wait};
 
 use crate::{Ctrl, ScenarioError};
 
@@ -32,8 +32,9 @@ impl Leaf {
 }
 
 impl Step<Ctrl> for Leaf {
-    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         cx.control().line(cx, 0);
+        Ok(())
     }
     fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         self.pre.is_none_or(|f| cx.control().flag(f))
@@ -212,7 +213,7 @@ impl<'t> Arena<'t> {
     }
 }
 
-type OpResult = Result<Outcome, rtseq::Error>;
+type OpResult = Result<Done, Failure>;
 
 /// A future of one type `F`, moved into a [`Room`] and known by its poll function only (a
 /// hand-made `Pin<&mut dyn Future>` that owns its value). Dropping it drops the future in
@@ -277,14 +278,14 @@ impl Drop for Placed<'_> {
     }
 }
 
-/// A future that is ready at once, every time it is polled (no "polled after completion"
-/// panic, unlike `core::future::Ready`).
-pub struct Done;
+/// An action future that is ready at once with `Ok(())`, every time it is polled (no
+/// "polled after completion" panic, unlike `core::future::Ready`).
+pub struct AtOnce;
 
-impl Future for Done {
-    type Output = ();
-    fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<()> {
-        Poll::Ready(())
+impl Future for AtOnce {
+    type Output = Result<(), Failure>;
+    fn poll(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<Self::Output> {
+        Poll::Ready(Ok(()))
     }
 }
 
@@ -336,24 +337,24 @@ impl<FS, FW, FJ> Future for NodeAction<'_, '_, '_, FS, FW, FJ>
 where
     FS: Future<Output = OpResult>,
     FW: Future<Output = OpResult>,
-    FJ: Future<Output = OpResult>,
+    FJ: Future<Output = Result<Outcome, rtseq::Error>>,
 {
-    type Output = ();
+    type Output = Result<(), Failure>;
 
-    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         // SAFETY: the op futures are structurally pinned: nothing below moves them out of
         // `this`; they are polled in place and dropped in place (`poll_slot`). The child's
         // future is in its room, not here.
         let this = unsafe { self.get_unchecked_mut() };
         loop {
             if this.done {
-                return Poll::Ready(());
+                return Poll::Ready(Ok(()));
             }
             let line = u32::try_from(this.pos).unwrap_or(u32::MAX);
             let Some(op) = this.ops.get(this.pos).copied().flatten() else {
                 this.cx.control().line(this.cx, u32::MAX);
                 this.done = true;
-                return Poll::Ready(());
+                return Poll::Ready(Ok(()));
             };
             if !this.entered {
                 this.entered = true;
@@ -361,7 +362,12 @@ where
             }
             // SAFETY (all `poll_slot` calls): the slots are fields of the pinned `this`.
             let r = match op {
-                Op::Start(id) => Some(this.cx.start(id).map(|()| Outcome::Completed)),
+                Op::Start(id) => Some(
+                    this.cx
+                        .start(id)
+                        .map(|()| Done::Completed)
+                        .map_err(Failure::from),
+                ),
                 Op::Step0 => match unsafe { poll_slot(&mut this.step0, w) } {
                     Poll::Ready(r) => r,
                     Poll::Pending => return Poll::Pending,
@@ -382,8 +388,9 @@ where
                     }
                     None => None,
                 },
+                // A join's outcome as a blocking run's result.
                 Op::Join => match unsafe { poll_slot(&mut this.join, w) } {
-                    Poll::Ready(r) => r,
+                    Poll::Ready(r) => r.map(|r| r.map_err(Failure::from).and_then(Outcome::done)),
                     Poll::Pending => return Poll::Pending,
                 },
             };
@@ -398,7 +405,7 @@ where
 
 impl Sequence<Ctrl> for Node<'_> {
     #[allow(clippy::manual_async_fn)]
-    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> impl Future<Output = ()> {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> impl Future<Output = Result<(), Failure>> {
         let Node {
             ops,
             step0,

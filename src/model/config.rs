@@ -39,11 +39,11 @@ impl<C> SeqConfig<C> {
     /// A sequence polled every 1 ms, without timeout.
     ///
     /// ```
-    /// use rtseq::{Error, SeqConfig, Sequencer};
+    /// use rtseq::{Error, SeqConfig, SeqId, Sequencer};
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// assert!(seq.register(SeqConfig::new("homing")).is_ok());
     /// assert_eq!(seq.register(SeqConfig::new("")), Err(Error::EmptyName));
-    /// assert_eq!(seq.register(SeqConfig::new("homing")), Err(Error::DuplicateName("homing")));
+    /// assert_eq!(seq.register(SeqConfig::new("homing")), Err(Error::DuplicateName(SeqId::from_index(0))));
     /// ```
     // Out of line: applications build many configurations; one copy of the literal.
     #[inline(never)]
@@ -66,11 +66,14 @@ impl<C> SeqConfig<C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, Seq, SeqConfig, Sequence, Sequencer,
-    ///             Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
     /// struct Main(Seq<Wait>);
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let zero = SeqConfig::new("never").polling(Duration::from_ticks(0));
@@ -97,11 +100,14 @@ impl<C> SeqConfig<C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Outcome, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Failure, Monitors, Outcome, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Main(Seq<Wait>);
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -127,11 +133,14 @@ impl<C> SeqConfig<C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, RunningState::*, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Transition, Wait};
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Failure, Monitors, RunningState::*, Seq,
+    ///             SeqConfig, Sequence, Sequencer, Transition, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let ms = |n| Wait::new(Duration::from_millis(n));
@@ -162,11 +171,14 @@ impl<C> SeqConfig<C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Monitors, Outcome, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Failure, Monitors, Outcome, Seq,
+    ///             SeqConfig, Sequence, Sequencer, Wait};
     /// struct Main(Seq<Wait>);
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -195,11 +207,14 @@ impl<C> SeqConfig<C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Monitors, Outcome, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Duration, Failure, Monitors, Outcome, Seq,
+    ///             SeqConfig, Sequence, Sequencer, Wait};
     /// struct Main(Seq<Wait>);
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -230,19 +245,25 @@ impl<C> SeqConfig<C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Step};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Step};
     /// struct Motor { speed: Cell<f32> }
     /// fn stop(m: &Motor) { m.speed.set(0.0) }
     /// struct Spin;
     /// impl Step<Motor> for Spin {
-    ///     fn action(&mut self, cx: &Cx<'_, Motor>) { cx.control().speed.set(100.0) }
+    ///     fn action(&mut self, cx: &Cx<'_, Motor>) -> Result<(), Failure> {
+    ///         cx.control().speed.set(100.0);
+    ///         Ok(())
+    ///     }
     ///     // Spins until aborted.
     ///     fn check_exit_condition(&mut self, _cx: &Cx<'_, Motor>) -> bool { false }
     /// }
     /// struct Main(Seq<Spin>);
     /// impl Sequence<Motor> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Motor>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Motor>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<Motor, 2> = Sequencer::new();
     /// let spin = seq.add(SeqConfig::new("spin").on_abort(stop), Spin).unwrap();

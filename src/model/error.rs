@@ -12,13 +12,13 @@ use crate::SeqId;
 /// assert_eq!(e, Error::SequenceCapacityExceeded);
 /// assert_eq!(e.to_string(), "sequence capacity exceeded");
 /// ```
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error {
     /// A sequence or monitor was registered with an empty name.
     EmptyName,
-    /// A sequence with this name is already registered.
-    DuplicateName(&'static str),
+    /// The name is already registered, to this sequence.
+    DuplicateName(SeqId),
     /// The sequencer's capacity (its const generic `N`) is exhausted.
     SequenceCapacityExceeded,
     /// The monitor table's capacity (its const generic `M`) is exhausted.
@@ -67,10 +67,10 @@ impl Error {
     ///
     /// ```
     /// use rtseq::Error;
-    /// const E: Error = Error::DuplicateName("homing");
+    /// const E: Error = Error::AlreadyRunning(rtseq::SeqId::from_index(3));
     /// const REASON: &str = E.reason(); // `const`: usable in a compile-time panic
-    /// assert_eq!(REASON, "duplicate name");
-    /// assert_eq!(E.to_string(), "duplicate name `homing`"); // `Display` names it
+    /// assert_eq!(REASON, "sequence already running");
+    /// assert_eq!(E.to_string(), "sequence 3 is already running"); // `Display` says which
     /// ```
     pub const fn reason(&self) -> &'static str {
         match self {
@@ -102,7 +102,9 @@ impl core::fmt::Display for Error {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Error::EmptyName => write!(f, "empty name"),
-            Error::DuplicateName(n) => write!(f, "duplicate name `{n}`"),
+            Error::DuplicateName(id) => {
+                write!(f, "duplicate name: sequence {} has it", id.index())
+            }
             Error::SequenceCapacityExceeded => write!(f, "sequence capacity exceeded"),
             Error::MonitorCapacityExceeded => write!(f, "monitor capacity exceeded"),
             Error::UnknownSequence(id) => write!(f, "unknown sequence {}", id.index()),
@@ -144,11 +146,11 @@ impl core::fmt::Display for Error {
 mod tests {
     use super::*;
 
-    /// Every `Result` of rtseq carries an `Error`, and blocking runs keep one in their
-    /// futures: it stays as small as its largest variant today, a name (`&'static str`)
-    /// and the tag.
+    /// Every `Result` of rtseq carries an `Error`, and a failed run's outcome (kept in its
+    /// control block) can hold one: an id and a tag.
     #[test]
-    fn an_error_is_no_larger_than_a_name_and_a_tag() {
-        assert!(core::mem::size_of::<Error>() <= 2 * core::mem::size_of::<&'static str>());
+    fn an_error_is_an_id_and_a_tag() {
+        assert_eq!(core::mem::size_of::<Error>(), 2);
+        assert_eq!(core::mem::size_of::<crate::Outcome>(), 4);
     }
 }

@@ -16,7 +16,7 @@ pub(crate) mod time;
 pub use config::SeqConfig;
 pub use error::Error;
 pub use id::{MonitorId, SeqId};
-pub use outcome::{Cause, Outcome};
+pub use outcome::{Cause, Done, Failure, Outcome};
 pub use set::MAX_SEQUENCES;
 pub use state::RunningState;
 pub use table::Table;

@@ -1,6 +1,6 @@
-//! Why a transition happened, and what a run returns.
+//! Why a transition happened, what a run returns, and why an action fails.
 
-use crate::{MonitorId, SeqId};
+use crate::{Error, MonitorId, SeqId};
 
 /// Why a transition happened. Recorded in every [`Transition`](crate::Transition) and carried
 /// by [`Outcome::Aborted`].
@@ -9,10 +9,10 @@ use crate::{MonitorId, SeqId};
 ///
 /// ```
 /// # #[cfg(feature = "std")] {
-/// use rtseq::{sim::Sim, Cause, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+/// use rtseq::{sim::Sim, Cause, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
 /// struct Blink;
 /// impl Sequence<()> for Blink {
-///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
 /// }
 /// let seq: Sequencer<(), 2> = Sequencer::new();
 /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
@@ -51,29 +51,18 @@ pub enum Cause {
     /// The future of the run was dropped before the run ended (the loser of a `select`, a
     /// timeout combinator): the run is aborted, with its sub-sequences, where it was.
     Dropped,
+    /// The action returned an error: the run ended with [`Outcome::Failed`].
+    Failed,
 }
 
-/// The result of one run, returned to a blocking caller (no magic `-1`).
+/// The result of one run: how it ended ([`Handle::last_outcome`], [`Cx::join`]).
 ///
-/// What a caller does with the outcome of a blocking run:
+/// A blocking caller gets it as a `Result` ([`Outcome::done`]): [`Done`] when the run
+/// completed or was skipped, a [`Failure`] when it was aborted or failed, so `?` hands an
+/// aborted or failed child on to the caller's own outcome.
 ///
-/// ```
-/// use rtseq::{Cause, Cx, Outcome, Seq, Sequence, Step};
-/// struct Home;
-/// impl Step<()> for Home { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
-/// struct Main { home: Seq<Home> }
-/// impl Sequence<()> for Main {
-///     async fn action(&mut self, cx: &Cx<'_, ()>) {
-///         match cx.step(&mut self.home).await {
-///             Ok(Outcome::Completed) => { /* homed: go on */ }
-///             Ok(Outcome::Skipped) => { /* already homed (pre-condition false) */ }
-///             Ok(Outcome::Aborted(Cause::Timeout(_))) => { /* took too long */ }
-///             Ok(Outcome::Aborted(_)) => { /* a monitor, a request, abort-all */ }
-///             Err(_) => { /* could not start it, e.g. already running */ }
-///         }
-///     }
-/// }
-/// ```
+/// [`Handle::last_outcome`]: crate::Handle::last_outcome
+/// [`Cx::join`]: crate::Cx::join
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Outcome {
@@ -83,4 +72,105 @@ pub enum Outcome {
     Skipped,
     /// Aborted; the cause names the monitor, timeout or request responsible.
     Aborted(Cause),
+    /// The action returned `Err`: it gave up, for this reason.
+    Failed(Failure),
+}
+
+impl Outcome {
+    /// The outcome as a blocking caller receives it: `Ok` when the run completed or was
+    /// skipped; an abort becomes [`Failure::Aborted`], a failure stays what it is.
+    ///
+    /// ```
+    /// use rtseq::{Cause, Done, Failure, Outcome};
+    /// assert_eq!(Outcome::Skipped.done(), Ok(Done::Skipped));
+    /// assert_eq!(
+    ///     Outcome::Aborted(Cause::Abort).done(),
+    ///     Err(Failure::Aborted(Cause::Abort))
+    /// );
+    /// assert_eq!(Outcome::Failed(Failure::App(7)).done(), Err(Failure::App(7)));
+    /// ```
+    pub const fn done(self) -> Result<Done, Failure> {
+        match self {
+            Outcome::Completed => Ok(Done::Completed),
+            Outcome::Skipped => Ok(Done::Skipped),
+            Outcome::Aborted(cause) => Err(Failure::Aborted(cause)),
+            Outcome::Failed(failure) => Err(failure),
+        }
+    }
+}
+
+/// How a run that a blocking caller waited for ended well ([`Cx::run`], [`Cx::step`]).
+///
+/// What a caller does with the result of a blocking run:
+///
+/// ```
+/// use rtseq::{Cause, Cx, Done, Failure, Seq, Sequence, Step};
+/// struct Home;
+/// impl Step<()> for Home {
+///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+/// }
+/// struct Main { home: Seq<Home> }
+/// impl Sequence<()> for Main {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         match cx.step(&mut self.home).await {
+///             Ok(Done::Completed) => { /* homed: go on */ }
+///             Ok(Done::Skipped) => { /* already homed (pre-condition false) */ }
+///             Err(Failure::Aborted(Cause::Timeout(_))) => { /* took too long: retry */ }
+///             // A monitor, a request, abort-all, a failure of its own, or it could
+///             // not start (e.g. already running): this run fails with it.
+///             Err(other) => return Err(other),
+///         }
+///         // Or, when every failure of the child is this run's failure too:
+///         cx.step(&mut self.home).await?;
+///         Ok(())
+///     }
+/// }
+/// ```
+///
+/// [`Cx::run`]: crate::Cx::run
+/// [`Cx::step`]: crate::Cx::step
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Done {
+    /// The action ran and the exit condition became true.
+    Completed,
+    /// The pre-condition was false; the action did not run.
+    Skipped,
+}
+
+/// Why an action gave up: the `Err` of [`Sequence::action`] and [`Step::action`], and the
+/// `Err` a blocking caller receives.
+///
+/// The application names its own reasons as codes ([`Failure::App`]); a `From`
+/// implementation for its error type lets `?` and `.into()` turn them into failures:
+///
+/// ```
+/// use rtseq::Failure;
+/// #[derive(Clone, Copy, Debug)]
+/// enum CellFault { PartLost = 1, GripperStuck = 2 }
+/// impl From<CellFault> for Failure {
+///     fn from(fault: CellFault) -> Self { Failure::App(fault as u16) }
+/// }
+/// let failure: Failure = CellFault::GripperStuck.into();
+/// assert_eq!(failure, Failure::App(2));
+/// ```
+///
+/// [`Sequence::action`]: crate::Sequence::action
+/// [`Step::action`]: crate::Step::action
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Failure {
+    /// The application's own reason: a code it defines.
+    App(u16),
+    /// A sequence or step this action waited for was aborted, for this cause.
+    Aborted(Cause),
+    /// A sequence or step this action asked for could not start, for this reason.
+    NotStarted(Error),
+}
+
+impl From<Error> for Failure {
+    /// A start that was refused: `?` on a start hands the error on as a failure.
+    fn from(e: Error) -> Self {
+        Failure::NotStarted(e)
+    }
 }

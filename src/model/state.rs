@@ -6,11 +6,14 @@
 ///
 /// ```
 /// # #[cfg(feature = "std")] {
-/// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState::*, Seq, SeqConfig, Sequence,
-///             Sequencer, Wait};
+/// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState::*, Seq, SeqConfig,
+///             Sequence, Sequencer, Wait};
 /// struct Main(Seq<Wait>);
 /// impl Sequence<()> for Main {
-///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         let _ = cx.step(&mut self.0).await;
+///         Ok(())
+///     }
 /// }
 /// let seq: Sequencer<(), 2> = Sequencer::new();
 /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(3))).unwrap();

@@ -96,7 +96,7 @@ impl<C> CheckedConfig<C> {
 /// object is then bound to its id with [`Sequencer::bind`](crate::Sequencer::bind).
 ///
 /// ```
-/// use rtseq::{Behaviour, Cx, Duration, SeqConfig, SeqId, Sequencer, Step, Table};
+/// use rtseq::{Behaviour, Cx, Duration, Failure, SeqConfig, SeqId, Sequencer, Step, Table};
 /// const SAFE_STOP: SeqId = SeqId::from_index(0);
 /// const HOMING: SeqId = SeqId::from_index(1);
 /// static TABLE: Table<(), 2> = match Table::new([
@@ -113,7 +113,9 @@ impl<C> CheckedConfig<C> {
 /// const _: () = assert!(matches!(TABLE.id("homing"), Some(id) if id.index() == HOMING.index()));
 ///
 /// struct Stop;
-/// impl Step<()> for Stop { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// impl Step<()> for Stop {
+///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+/// }
 /// let seq: Sequencer<(), 4> = Sequencer::new();
 /// seq.install(&TABLE).unwrap();
 /// let stop = seq.bind(SAFE_STOP, Stop).unwrap();
@@ -174,8 +176,9 @@ impl<C, const N: usize> Table<C, N> {
                     return Err(Error::UnknownSequence(exception));
                 }
             }
-            if position(&configs, config.name).0 != id {
-                return Err(Error::DuplicateName(config.name));
+            let first = position(&configs, config.name);
+            if first.0 != id {
+                return Err(Error::DuplicateName(first));
             }
             entry.class = match table.classes.join(SeqId(id), entry.polling) {
                 Ok(class) => class,
@@ -326,7 +329,7 @@ mod tests {
     fn a_bad_table_is_the_error_register_would_give() {
         assert_eq!(
             Table::new([cfg("a"), cfg("b"), cfg("a")]).err(),
-            Some(Error::DuplicateName("a"))
+            Some(Error::DuplicateName(SeqId(0)))
         );
         assert_eq!(Table::new([cfg("")]).err(), Some(Error::EmptyName));
         assert_eq!(

@@ -10,7 +10,7 @@ use crate::sequence::run::Run;
 use crate::sequence::SeqHead;
 use crate::sequencer::port::Port;
 use crate::sequencer::transition::Clearance;
-use crate::{Duration, Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
+use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
 /// What a running sequence or step sees: its id, the time, typed access to the control
 /// system, and the sequencer (start, join and inspect other sequences).
@@ -22,25 +22,28 @@ use crate::{Duration, Error, Handle, Instant, Outcome, Seq, SeqId, Sequence, Ste
 /// # #[cfg(feature = "std")] {
 /// use core::cell::Cell;
 /// use rtseq::sim::Sim;
-/// use rtseq::{Cx, Duration, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Wait};
+/// use rtseq::{Cx, Done, Duration, Failure, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence,
+///             Sequencer, Wait};
 /// #[derive(Default)]
 /// struct Ctrl { blinks: Cell<u32> }
 /// struct Blink { dwell: Seq<Wait> }
 /// impl Sequence<Ctrl> for Blink {
-///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
 ///         for _ in 0..3 {
 ///             let _ = cx.step(&mut self.dwell).await;
 ///             cx.control().blinks.set(cx.control().blinks.get() + 1);
 ///         }
+///         Ok(())
 ///     }
 /// }
 /// struct Main { blink: SeqId, dwell: Seq<Wait> }
 /// impl Sequence<Ctrl> for Main {
-///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
-///         cx.start(self.blink).unwrap();                          // non-blocking
-///         assert_eq!(cx.step(&mut self.dwell).await, Ok(Outcome::Completed)); // blocking
+///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+///         cx.start(self.blink).unwrap();                       // non-blocking
+///         assert_eq!(cx.step(&mut self.dwell).await, Ok(Done::Completed)); // blocking
 ///         assert_eq!(cx.join(self.blink).await, Ok(Outcome::Completed));
 ///         assert_eq!(cx.sequence_by_id(self.blink).unwrap().caller(), Some(cx.id()));
+///         Ok(())
 ///     }
 /// }
 /// let seq: Sequencer<Ctrl, 8> = Sequencer::new();
@@ -79,11 +82,12 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
     /// struct WhoAmI;
     /// impl Sequence<Cell<Option<SeqId>>> for WhoAmI {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Option<SeqId>>>) {
-    ///         cx.control().set(Some(cx.id()))
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Option<SeqId>>>) -> Result<(), Failure> {
+    ///         cx.control().set(Some(cx.id()));
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<Option<SeqId>>, 2> = Sequencer::new();
@@ -104,15 +108,21 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::sync::atomic::{AtomicI32, Ordering::Relaxed};
-    /// use rtseq::{sim::Sim, Cx, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
     /// struct Axis { setpoint: AtomicI32 }
     /// struct MoveTo(i32);
     /// impl Step<Axis> for MoveTo {
-    ///     fn action(&mut self, cx: &Cx<'_, Axis>) { cx.control().setpoint.store(self.0, Relaxed) }
+    ///     fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
+    ///         cx.control().setpoint.store(self.0, Relaxed);
+    ///         Ok(())
+    ///     }
     /// }
     /// struct Main(Seq<MoveTo>);
     /// impl Sequence<Axis> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Axis>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<Axis, 2> = Sequencer::new();
     /// let move_to = seq.add(SeqConfig::new("move to"), MoveTo(250)).unwrap();
@@ -133,13 +143,14 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Duration, Instant, Monitors, Seq, SeqConfig, Sequence, Sequencer,
-    ///             Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Instant, Monitors, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
     /// struct Stamp(Seq<Wait>);
     /// impl Sequence<Cell<Instant>> for Stamp {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Instant>>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Instant>>) -> Result<(), Failure> {
     ///         let _ = cx.step(&mut self.0).await;
     ///         cx.control().set(cx.now());
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<Instant>, 2> = Sequencer::new();
@@ -171,10 +182,11 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use std::cell::RefCell;
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Step};
     /// struct Log;
     /// impl Step<RefCell<Vec<u64>>> for Log {
-    ///     fn action(&mut self, _: &Cx<'_, RefCell<Vec<u64>>>) {}
+    ///     fn action(&mut self, _: &Cx<'_, RefCell<Vec<u64>>>) -> Result<(), Failure> { Ok(()) }
     ///     fn check_exit_condition(&mut self, cx: &Cx<'_, RefCell<Vec<u64>>>) -> bool {
     ///         cx.control().borrow_mut().push(cx.run_time().as_millis());
     ///         cx.now().duration_since_epoch().as_millis() >= 7
@@ -182,8 +194,9 @@ impl<'a, C> Cx<'a, C> {
     /// }
     /// struct Main(Seq<Log>);
     /// impl Sequence<RefCell<Vec<u64>>> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, RefCell<Vec<u64>>>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, RefCell<Vec<u64>>>) -> Result<(), Failure> {
     ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<RefCell<Vec<u64>>, 2> = Sequencer::new();
@@ -221,18 +234,22 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, Outcome, Seq, SeqConfig, Sequence,
+    /// use rtseq::{sim::Sim, Cx, Done, Duration, Failure, Monitors, Seq, SeqConfig, Sequence,
     ///             Sequencer, Wait};
-    /// type Got = Cell<Option<(Result<Outcome, Error>, u64)>>;
+    /// type Got = Cell<Option<(Result<Done, Failure>, u64)>>;
     /// struct Axis(Seq<Wait>);
     /// impl Sequence<Got> for Axis {
-    ///     async fn action(&mut self, cx: &Cx<'_, Got>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// struct Main(Seq<Axis>);
     /// impl Sequence<Got> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Got>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) -> Result<(), Failure> {
     ///         let outcome = cx.run(&mut self.0).await;
     ///         cx.control().set(Some((outcome, cx.now().as_ticks())));
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Got, 4> = Sequencer::new();
@@ -244,13 +261,13 @@ impl<'a, C> Cx<'a, C> {
     /// sim.lane(main);
     /// sim.start(id).unwrap();
     /// sim.run_until_idle(Duration::from_millis(10)).unwrap();
-    /// assert_eq!(got.get(), Some((Ok(Outcome::Completed), 4_000)));
+    /// assert_eq!(got.get(), Some((Ok(Done::Completed), 4_000)));
     /// # }
     /// ```
     pub fn run<'s, S: Sequence<C>>(
         &self,
         child: &'s mut Seq<S>,
-    ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
+    ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 's, C, S> {
         let Seq { head, body } = child;
         sequence_run(self.blocking_run(head), body)
     }
@@ -263,20 +280,25 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// use rtseq::{sim::Sim, Cx, Done, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Step};
     /// #[derive(Default)]
-    /// struct Drive { enabled: Cell<bool>, ran: Cell<bool>, got: Cell<Option<Outcome>> }
+    /// struct Drive { enabled: Cell<bool>, ran: Cell<bool>, got: Cell<Option<Done>> }
     /// struct Spin;
     /// impl Step<Drive> for Spin {
     ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Drive>) -> bool {
     ///         cx.control().enabled.get()
     ///     }
-    ///     fn action(&mut self, cx: &Cx<'_, Drive>) { cx.control().ran.set(true) }
+    ///     fn action(&mut self, cx: &Cx<'_, Drive>) -> Result<(), Failure> {
+    ///         cx.control().ran.set(true);
+    ///         Ok(())
+    ///     }
     /// }
     /// struct Main(Seq<Spin>);
     /// impl Sequence<Drive> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Drive>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Drive>) -> Result<(), Failure> {
     ///         cx.control().got.set(cx.step(&mut self.0).await.ok());
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Drive, 2> = Sequencer::new();
@@ -286,16 +308,16 @@ impl<'a, C> Cx<'a, C> {
     /// let mut sim = Sim::new(&seq, &drive, Monitors::<Drive, 1>::new());
     /// sim.lane(main);
     /// sim.start(id).unwrap();
-    /// assert_eq!((drive.got.get(), drive.ran.get()), (Some(Outcome::Skipped), false));
+    /// assert_eq!((drive.got.get(), drive.ran.get()), (Some(Done::Skipped), false));
     /// drive.enabled.set(true);
     /// sim.start(id).unwrap();
-    /// assert_eq!((drive.got.get(), drive.ran.get()), (Some(Outcome::Completed), true));
+    /// assert_eq!((drive.got.get(), drive.ran.get()), (Some(Done::Completed), true));
     /// # }
     /// ```
     pub fn step<'s, S: Step<C>>(
         &self,
         step: &'s mut Seq<S>,
-    ) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
+    ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 's, C, S> {
         let Seq { head, body } = step;
         self.step_run(head, ErasedBody::of_step(body))
     }
@@ -325,16 +347,17 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Error, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Error, Failure, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
     /// type Got = Cell<Option<[Result<(), Error>; 2]>>;
     /// struct Blink;
     /// impl Sequence<Got> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, Got>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, Got>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// struct Main { blink: SeqId, fan: SeqId }
     /// impl Sequence<Got> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Got>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) -> Result<(), Failure> {
     ///         cx.control().set(Some([cx.start(self.blink), cx.start(self.fan)]));
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Got, 4> = Sequencer::new();
@@ -361,20 +384,22 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Error, Monitors, Outcome, SeqConfig, SeqId, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Error, Failure, Monitors, Outcome, SeqConfig, SeqId, Sequence,
+    ///             Sequencer};
     /// type Got = Cell<Option<[Result<Outcome, Error>; 3]>>;
     /// struct Blink;
     /// impl Sequence<Got> for Blink {
-    ///     async fn action(&mut self, _cx: &Cx<'_, Got>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, Got>) -> Result<(), Failure> { Ok(()) }
     /// }
     /// struct Main { blink: SeqId }
     /// impl Sequence<Got> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Got>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Got>) -> Result<(), Failure> {
     ///         let never = cx.join(self.blink).await; // not started yet
     ///         let _ = cx.start(self.blink);
     ///         let joined = cx.join(self.blink).await;
     ///         let itself = cx.join(cx.id()).await;
     ///         cx.control().set(Some([never, joined, itself]));
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Got, 4> = Sequencer::new();
@@ -413,14 +438,15 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, SeqConfig, Sequence, Sequencer};
     /// #[derive(Default)]
     /// struct Ctrl { switch: Cell<bool>, at: Cell<u64> }
     /// struct Approach;
     /// impl Sequence<Ctrl> for Approach {
-    ///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
     ///         cx.wait_until(|cx| cx.control().switch.get()).await;
     ///         cx.control().at.set(cx.now().as_ticks());
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Ctrl, 2> = Sequencer::new();
@@ -463,15 +489,16 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use rtseq::safety::{PublicEvent, SafetyHandle};
-    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
     /// static SAFETY: SafetyHandle = SafetyHandle::new();
     /// const START_MOTORS: PublicEvent = PublicEvent::new(1);
     /// struct PowerUp;
     /// impl Sequence<()> for PowerUp {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
     ///         if let Some(safety) = cx.safety_system() {
     ///             safety.trigger(START_MOTORS);
     ///         }
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
@@ -495,18 +522,22 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, SeqId, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState, Seq, SeqConfig, SeqId,
+    ///             Sequence, Sequencer, Wait};
     /// type Seen = Cell<Option<RunningState>>;
     /// struct Blink(Seq<Wait>);
     /// impl Sequence<Seen> for Blink {
-    ///     async fn action(&mut self, cx: &Cx<'_, Seen>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, Seen>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// struct Main(SeqId);
     /// impl Sequence<Seen> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, Seen>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Seen>) -> Result<(), Failure> {
     ///         let _ = cx.start(self.0);
     ///         cx.control().set(cx.sequence_by_id(self.0).map(|h| h.state()));
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Seen, 4> = Sequencer::new();
@@ -531,14 +562,18 @@ impl<'a, C> Cx<'a, C> {
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
     /// use rtseq::sim::Sim;
-    /// use rtseq::{Cx, Duration, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
+    /// use rtseq::{Cx, Duration, Failure, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
     /// struct Lookup;
     /// impl Sequence<Cell<Option<(SeqId, SeqId, bool)>>> for Lookup {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<Option<(SeqId, SeqId, bool)>>>) {
+    ///     async fn action(
+    ///         &mut self,
+    ///         cx: &Cx<'_, Cell<Option<(SeqId, SeqId, bool)>>>,
+    ///     ) -> Result<(), Failure> {
     ///         let id = |name| cx.sequence_by_name(name).map(|h| h.id());
     ///         if let (Some(me), Some(other)) = (id("lookup"), id("other")) {
     ///             cx.control().set(Some((me, other, id("nope").is_none())));
     ///         }
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<Option<(SeqId, SeqId, bool)>>, 4> = Sequencer::new();

@@ -31,7 +31,10 @@ use core::ptr::{addr_of, addr_of_mut, NonNull};
 use core::task::{Context, Poll};
 
 use crate::sequence::run::Run;
-use crate::{Cx, Error, Outcome, Sequence, Step};
+use crate::{Cx, Done, Failure, Sequence, Step};
+
+/// How far an action got: `Ready` with the action's result once it is over.
+type Progress = Poll<Result<(), Failure>>;
 
 /// The operations of one body type, type-erased: one table per type (a promoted constant).
 ///
@@ -41,8 +44,9 @@ struct BodyTable {
     pre: unsafe fn(NonNull<()>, NonNull<()>) -> bool,
     exit: unsafe fn(NonNull<()>, NonNull<()>) -> bool,
     /// Advances the action: a step's command runs and is over; a sequence's action future
-    /// is created at its first call and polled, and dropped once it completes.
-    advance: unsafe fn(NonNull<()>, NonNull<()>, &mut Context<'_>) -> Poll<()>,
+    /// is created at its first call and polled, and dropped once it completes. `Ready`
+    /// with the action's result.
+    advance: unsafe fn(NonNull<()>, NonNull<()>, &mut Context<'_>) -> Progress,
     /// Drops a sequence's unfinished action future (a step has none).
     drop_action: unsafe fn(NonNull<()>),
 }
@@ -86,10 +90,9 @@ unsafe fn step_advance<C, S: Step<C>>(
     body: NonNull<()>,
     cx: NonNull<()>,
     _: &mut Context<'_>,
-) -> Poll<()> {
+) -> Progress {
     // SAFETY: see above.
-    unsafe { body.cast::<S>().as_mut().action(context(cx)) };
-    Poll::Ready(())
+    Poll::Ready(unsafe { body.cast::<S>().as_mut().action(context(cx)) })
 }
 
 /// A step has no action future to drop.
@@ -144,7 +147,7 @@ impl<'s, C> ErasedBody<'s, C> {
         unsafe { (self.table.exit)(self.body, NonNull::from(cx).cast()) }
     }
 
-    pub(crate) fn advance(&mut self, cx: &Cx<'_, C>, w: &mut Context<'_>) -> Poll<()> {
+    pub(crate) fn advance(&mut self, cx: &Cx<'_, C>, w: &mut Context<'_>) -> Progress {
         // SAFETY: see above.
         unsafe { (self.table.advance)(self.body, NonNull::from(cx).cast(), w) }
     }
@@ -162,7 +165,7 @@ pub(crate) struct StepRun<'a, 's, C> {
 }
 
 impl<C> Future for StepRun<'_, '_, C> {
-    type Output = Result<Outcome, Error>;
+    type Output = Result<Done, Failure>;
     fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         // A `StepRun` is `Unpin`: it holds no self-reference.
         let this = self.get_mut();
@@ -190,7 +193,7 @@ pub(crate) struct SequenceRun<'a, 's, C, S, F, M> {
 pub(crate) fn sequence_run<'a, 's, C, S: Sequence<C>>(
     run: Run<'a, 's, C>,
     body: &'s mut S,
-) -> impl Future<Output = Result<Outcome, Error>> + use<'a, 's, C, S> {
+) -> impl Future<Output = Result<Done, Failure>> + use<'a, 's, C, S> {
     SequenceRun {
         action: None,
         run,
@@ -229,11 +232,11 @@ unsafe fn seq_advance<'a, 's, C, S, F, M>(
     fw: NonNull<()>,
     _: NonNull<()>,
     w: &mut Context<'_>,
-) -> Poll<()>
+) -> Progress
 where
     C: 'a,
     S: Sequence<C> + 's,
-    F: Future<Output = ()>,
+    F: Future<Output = Result<(), Failure>>,
     M: Fn(&'s mut S, &'a Cx<'a, C>) -> F,
 {
     let fw = fw.cast::<SequenceRun<'a, 's, C, S, F, M>>().as_ptr();
@@ -262,7 +265,7 @@ unsafe fn seq_drop_action<C, S, F, M>(fw: NonNull<()>) {
 impl<'a, 's, C, S, F, M> SequenceRun<'a, 's, C, S, F, M>
 where
     S: Sequence<C>,
-    F: Future<Output = ()>,
+    F: Future<Output = Result<(), Failure>>,
     M: Fn(&'s mut S, &'a Cx<'a, C>) -> F,
 {
     const TABLE: BodyTable = BodyTable {
@@ -276,10 +279,10 @@ where
 impl<'a, 's, C, S, F, M> Future for SequenceRun<'a, 's, C, S, F, M>
 where
     S: Sequence<C>,
-    F: Future<Output = ()>,
+    F: Future<Output = Result<(), Failure>>,
     M: Fn(&'s mut S, &'a Cx<'a, C>) -> F,
 {
-    type Output = Result<Outcome, Error>;
+    type Output = Result<Done, Failure>;
 
     fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         // SAFETY: only a pointer is taken, nothing is moved (the action stays in place).
@@ -299,7 +302,7 @@ where
 /// A lane: a sequence's run that goes back to waiting for a start after each run, forever.
 pub(crate) struct LaneRun<F>(pub(crate) F);
 
-impl<F: Future<Output = Result<Outcome, Error>>> Future for LaneRun<F> {
+impl<F: Future<Output = Result<Done, Failure>>> Future for LaneRun<F> {
     type Output = core::convert::Infallible;
 
     fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {

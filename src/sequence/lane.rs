@@ -17,10 +17,10 @@ use crate::{Cx, Seq, Sequence, Sequencer};
 /// In RTIC, one async software task per lane; its body is one line:
 ///
 /// ```
-/// use rtseq::{lane, Cx, Seq, Sequence, Sequencer};
+/// use rtseq::{lane, Cx, Failure, Seq, Sequence, Sequencer};
 /// struct Blink;
 /// impl Sequence<()> for Blink {
-///     async fn action(&mut self, _cx: &Cx<'_, ()>) {}
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
 /// }
 /// static SEQ: Sequencer<(), 4> = Sequencer::new();
 /// // #[task(priority = 1, local = [blink])]

@@ -22,7 +22,7 @@ pub use context::Cx;
 pub use lane::lane;
 pub use wait::Wait;
 
-use crate::{Error, Outcome, SeqId};
+use crate::{Done, Failure, SeqId};
 
 /// A sequence: an `async` action made of steps and sub-sequences, plus the optional pre- and
 /// exit conditions.
@@ -33,15 +33,18 @@ use crate::{Error, Outcome, SeqId};
 /// ([`lane`](crate::lane)). It must not block: wait with steps and their exit conditions.
 ///
 /// ```
-/// use rtseq::{Cx, Outcome, Seq, Sequence, Step};
+/// use rtseq::{Cx, Done, Failure, Seq, Sequence, Step};
 /// struct Enable;
-/// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// impl Step<()> for Enable {
+///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+/// }
 /// struct PowerOn { enable: Seq<Enable> }
 /// impl Sequence<()> for PowerOn {
-///     async fn action(&mut self, cx: &Cx<'_, ()>) {
-///         if cx.step(&mut self.enable).await != Ok(Outcome::Completed) {
-///             return;
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         if cx.step(&mut self.enable).await != Ok(Done::Completed) {
+///             return Ok(());
 ///         }
+///         Ok(())
 ///     }
 /// }
 /// ```
@@ -58,21 +61,23 @@ use crate::{Error, Outcome, SeqId};
 /// use core::future::Future;
 /// use core::pin::Pin;
 /// use core::task::{Context, Poll};
-/// use rtseq::{Cx, Seq, Sequence, Step};
+/// use rtseq::{Cx, Failure, Seq, Sequence, Step};
 /// struct Enable;
-/// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+/// impl Step<()> for Enable {
+///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+/// }
 /// struct PowerOn { enable: Seq<Enable> }
 /// impl Sequence<()> for PowerOn {
 ///     fn action<'a, 'b, 'c>(&'a mut self, cx: &'b Cx<'c, ()>)
-///         -> impl Future<Output = ()> + use<'a, 'b, 'c>
+///         -> impl Future<Output = Result<(), Failure>> + use<'a, 'b, 'c>
 ///     {
 ///         // Drop the outcome: a future adapter that cannot panic.
 ///         struct Ignore<F>(F);
 ///         impl<F: Future> Future for Ignore<F> {
-///             type Output = ();
-///             fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
+///             type Output = Result<(), Failure>;
+///             fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
 ///                 // SAFETY: `0` is structurally pinned, never moved out.
-///                 unsafe { self.map_unchecked_mut(|s| &mut s.0) }.poll(w).map(|_| ())
+///                 unsafe { self.map_unchecked_mut(|s| &mut s.0) }.poll(w).map(|_| Ok(()))
 ///             }
 ///         }
 ///         Ignore(cx.step(&mut self.enable))
@@ -81,10 +86,12 @@ use crate::{Error, Outcome, SeqId};
 /// ```
 #[allow(async_fn_in_trait)] // lanes poll on one core: no `Send` bound wanted
 pub trait Sequence<C> {
-    /// The sequence's work: starts steps and sub-sequences and awaits them.
-    async fn action(&mut self, cx: &Cx<'_, C>);
+    /// The sequence's work: starts steps and sub-sequences and awaits them. `Err` ends the
+    /// run at once with [`Outcome::Failed`](crate::Outcome::Failed) (no exit condition is polled); `?` on a child's
+    /// result hands its abort or failure on.
+    async fn action(&mut self, cx: &Cx<'_, C>) -> Result<(), Failure>;
 
-    /// Checked before the action; `false` skips the run (outcome [`Outcome::Skipped`]).
+    /// Checked before the action; `false` skips the run (outcome [`Outcome::Skipped`](crate::Outcome::Skipped)).
     fn check_pre_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
         true
     }
@@ -101,12 +108,13 @@ pub trait Sequence<C> {
 ///
 /// ```
 /// use core::sync::atomic::{AtomicI32, Ordering::Relaxed};
-/// use rtseq::{Cx, Step};
+/// use rtseq::{Cx, Failure, Step};
 /// struct Axis { setpoint: AtomicI32, position: AtomicI32 }
 /// struct MoveTo(i32);
 /// impl Step<Axis> for MoveTo {
-///     fn action(&mut self, cx: &Cx<'_, Axis>) {
+///     fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
 ///         cx.control().setpoint.store(self.0, Relaxed);
+///         Ok(())
 ///     }
 ///     fn check_exit_condition(&mut self, cx: &Cx<'_, Axis>) -> bool {
 ///         (cx.control().position.load(Relaxed) - self.0).abs() <= 2
@@ -114,8 +122,9 @@ pub trait Sequence<C> {
 /// }
 /// ```
 pub trait Step<C> {
-    /// The single, non-blocking command.
-    fn action(&mut self, cx: &Cx<'_, C>);
+    /// The single, non-blocking command. `Err` ends the step at once with
+    /// [`Outcome::Failed`](crate::Outcome::Failed) (no exit condition is polled).
+    fn action(&mut self, cx: &Cx<'_, C>) -> Result<(), Failure>;
 
     /// Checked before the action; `false` skips the step.
     fn check_pre_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
@@ -150,7 +159,7 @@ pub(crate) struct SeqHead {
     pub(crate) id: SeqId,
     /// Where a blocking run leaves its result for the future that started it (set and
     /// taken in the same poll).
-    pub(crate) result: Cell<Option<Result<Outcome, Error>>>,
+    pub(crate) result: Cell<Option<Result<Done, Failure>>>,
 }
 
 impl<S> Seq<S> {
@@ -197,18 +206,22 @@ impl<S> Seq<S> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer, Step};
     /// struct MoveTo(i32);
     /// impl Step<Cell<i32>> for MoveTo {
-    ///     fn action(&mut self, cx: &Cx<'_, Cell<i32>>) { cx.control().set(self.0) }
+    ///     fn action(&mut self, cx: &Cx<'_, Cell<i32>>) -> Result<(), Failure> {
+    ///         cx.control().set(self.0);
+    ///         Ok(())
+    ///     }
     /// }
     /// struct Scan(Seq<MoveTo>);
     /// impl Sequence<Cell<i32>> for Scan {
-    ///     async fn action(&mut self, cx: &Cx<'_, Cell<i32>>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, Cell<i32>>) -> Result<(), Failure> {
     ///         for target in [10, 20, 30] {
     ///             self.0.body_mut().0 = target;
     ///             let _ = cx.step(&mut self.0).await;
     ///         }
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<Cell<i32>, 2> = Sequencer::new();

@@ -7,7 +7,8 @@
 //!                 │      │ clearance Go, pre-condition true                         │
 //!                 │      ▼                                                          │
 //!                 │    Action  ── clearance Go: advance the action ──┐              │
-//!                 │      │ the action completed                      │ (Pending)    │
+//!                 │      │ the action completed       │ (Pending)    │              │
+//!                 │      │             the action failed ──► ActionFailed ── end(Failed)
 //!                 │      ▼                                                          │
 //!                 │    ActionDone ── set_poll_wait ──► ExitCondition ◄──────┐       │
 //!                 │                                      │ false            │ Go    │
@@ -28,11 +29,12 @@
 //! | Idle → PreCondition | [`Port::take_start`] |
 //! | Begin → PreCondition / Done | [`Port::start_blocking`] |
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
-//! | Action → ActionDone | [`Port::clearance`], the body's action |
+//! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
+//! | Action → ActionFailed | [`Port::clearance`], the body's action (`Err`) |
 //! | ActionDone → ExitCondition | [`Port::set_poll_wait`] |
 //! | ExitCondition → AwaitPoll | the body's exit condition (false) |
 //! | AwaitPoll → ExitCondition | [`Port::due_poll`] |
-//! | … → Ended | [`Port::end`] (completed, skipped), or a clearance `Aborted` |
+//! | … → Ended | [`Port::end`] (completed, skipped, failed), or a clearance `Aborted` |
 //! | … → PreCondition | a clearance `Restart`, then [`Port::restart`] |
 //! | Ended → Idle / HandOver | [`Port::finished`] |
 //! | HandOver → Done | [`Port::clearance`] of the caller |
@@ -47,7 +49,7 @@ use core::task::{Context, Poll};
 use crate::sequence::erased::ErasedBody;
 use crate::sequencer::port::Port;
 use crate::sequencer::transition::Clearance;
-use crate::{Cx, Error, Outcome, SeqId};
+use crate::{Cx, Done, Failure, Outcome, SeqId};
 
 /// Where a run stands. Without payload: the outcome has a cell of its own.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -62,6 +64,8 @@ enum Stage {
     Action,
     /// The action completed: start polling the exit condition.
     ActionDone,
+    /// The action returned `Err` (the run's `outcome`, `Failed`): end the run with it.
+    ActionFailed,
     /// Check the exit condition now.
     ExitCondition,
     /// Wait for the next due poll of the exit condition.
@@ -79,7 +83,7 @@ enum Stage {
 /// copy serves every sequence and step type, started blocking or in a lane.
 pub(crate) struct Run<'a, 's, C> {
     pub(crate) cx: Cx<'a, C>,
-    result: &'s Cell<Option<Result<Outcome, Error>>>,
+    result: &'s Cell<Option<Result<Done, Failure>>>,
     /// The blocking caller; `None`: the sequence's lane.
     caller: Option<SeqId>,
     stage: Cell<Stage>,
@@ -91,7 +95,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
     /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
     pub(crate) fn blocking(
         cx: Cx<'a, C>,
-        result: &'s Cell<Option<Result<Outcome, Error>>>,
+        result: &'s Cell<Option<Result<Done, Failure>>>,
         caller: SeqId,
     ) -> Self {
         Run {
@@ -104,7 +108,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
     }
 
     /// The lane of `cx`'s sequence: runs it every time it is started non-blocking.
-    pub(crate) fn lane(cx: Cx<'a, C>, result: &'s Cell<Option<Result<Outcome, Error>>>) -> Self {
+    pub(crate) fn lane(cx: Cx<'a, C>, result: &'s Cell<Option<Result<Done, Failure>>>) -> Self {
         Run {
             cx,
             result,
@@ -166,7 +170,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 Stage::Begin => match self.caller.map(|caller| port.start_blocking(id, caller)) {
                     Some(Ok(())) => self.stage.set(Stage::PreCondition),
                     Some(Err(e)) => {
-                        self.result.set(Some(Err(e)));
+                        self.result.set(Some(Err(Failure::NotStarted(e))));
                         self.stage.set(Stage::Done);
                     }
                     // Only a blocking run begins; a lane waits for a start.
@@ -188,6 +192,11 @@ impl<'a, 's, C> Run<'a, 's, C> {
                     port.set_poll_wait(id, true);
                     self.stage.set(Stage::ExitCondition);
                 }
+                Stage::ActionFailed => match port.clearance(id, w.waker()) {
+                    Clearance::Go => self.try_end(self.outcome.get(), w),
+                    Clearance::Hold => return Poll::Pending,
+                    other => self.obey(other),
+                },
                 Stage::ExitCondition => {
                     self.stage.set(Stage::AwaitPoll);
                     if !body.exit(&self.cx) {
@@ -214,7 +223,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 Stage::HandOver => {
                     if let Some(caller) = self.caller {
                         if port.clearance(caller, w.waker()) == Clearance::Go {
-                            self.result.set(Some(Ok(self.outcome.get())));
+                            self.result.set(Some(self.outcome.get().done()));
                             self.stage.set(Stage::Done);
                         }
                     }
@@ -231,10 +240,14 @@ impl<'a, 's, C> Run<'a, 's, C> {
     fn act(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
         match self.port().clearance(self.id(), w.waker()) {
             Clearance::Go => {
-                if body.advance(&self.cx, w).is_pending() {
-                    return Poll::Pending;
+                match body.advance(&self.cx, w) {
+                    Poll::Pending => return Poll::Pending,
+                    Poll::Ready(Ok(())) => self.stage.set(Stage::ActionDone),
+                    Poll::Ready(Err(failure)) => {
+                        self.outcome.set(Outcome::Failed(failure));
+                        self.stage.set(Stage::ActionFailed);
+                    }
                 }
-                self.stage.set(Stage::ActionDone);
                 Poll::Ready(())
             }
             Clearance::Hold => Poll::Pending,
@@ -252,7 +265,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
         &self,
         w: &mut Context<'_>,
         mut body: ErasedBody<'_, C>,
-    ) -> Poll<Result<Outcome, Error>> {
+    ) -> Poll<Result<Done, Failure>> {
         loop {
             let ready = if self.stage.get() == Stage::Action {
                 self.act(w, &mut body)
@@ -284,6 +297,7 @@ impl<C> Drop for Run<'_, '_, C> {
             Stage::PreCondition
             | Stage::Action
             | Stage::ActionDone
+            | Stage::ActionFailed
             | Stage::ExitCondition
             | Stage::AwaitPoll => port.abandon(id, self.cx.control()),
             Stage::Ended => port.finished(id, self.outcome.get()),

@@ -1,6 +1,6 @@
 //! The `Wait` step.
 
-use crate::{Cx, Duration, Step};
+use crate::{Cx, Duration, Failure, Step};
 
 /// A step that ends once `duration` has passed since its action (a dwell time).
 ///
@@ -30,10 +30,14 @@ impl Wait {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Main(Seq<Wait>);
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let dwell = Wait::new(Duration::from_millis(200));
@@ -80,9 +84,10 @@ impl Wait {
 }
 
 impl<C> Step<C> for Wait {
-    fn action(&mut self, cx: &Cx<'_, C>) {
+    fn action(&mut self, cx: &Cx<'_, C>) -> Result<(), Failure> {
         self.waited = 0;
         self.seen = cx.run_time().as_ticks();
+        Ok(())
     }
 
     fn check_exit_condition(&mut self, cx: &Cx<'_, C>) -> bool {

@@ -5,7 +5,7 @@ use crate::model::id::Link;
 use crate::model::time::Stamp;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
-use crate::{Behaviour, Cause, Outcome, RunningState};
+use crate::{Behaviour, Cause, Failure, Outcome, RunningState};
 
 /// How often a sequence did what (feature `counters`: 12 bytes per sequence). Counters wrap
 /// at `u16::MAX`.
@@ -169,7 +169,7 @@ impl ControlBlock {
         active_exception: Some(Cause::Start),
         last_cause: Cause::Start,
         // All-zero bytes (never read: `IDLE` replaces it at registration).
-        outcome: Some(Outcome::Aborted(Cause::Start)),
+        outcome: Some(Outcome::Failed(Failure::App(0))),
         state: RunningState::Idle,
         caller: Link::NONE,
         lane: 0,

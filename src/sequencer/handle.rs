@@ -91,11 +91,14 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
@@ -120,10 +123,14 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5))).unwrap();
@@ -149,14 +156,21 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer,
+    ///             Wait};
     /// struct Axis(Seq<Wait>);
     /// impl Sequence<()> for Axis {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// struct Main(Seq<Axis>);
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.run(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.run(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let settle = Wait::new(Duration::from_millis(5));
@@ -185,18 +199,22 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer,
-    ///             Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Seq, SeqConfig, SeqId, Sequence,
+    ///             Sequencer, Wait};
     /// struct Blink(Seq<Wait>);
     /// impl Sequence<()> for Blink {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// struct Main(SeqId);
     /// impl Sequence<()> for Main {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
     ///         if cx.start(self.0).is_ok() {
     ///             let _ = cx.join(self.0).await;
     ///         }
+    ///         Ok(())
     ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
@@ -258,11 +276,14 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -286,11 +307,14 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Seq, SeqConfig, Sequence, Sequencer,
-    ///             Wait};
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence,
+    ///             Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -316,10 +340,10 @@ impl<'a, C> Handle<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Monitors, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
     /// struct Guarded;
     /// impl Sequence<Cell<bool>> for Guarded {
-    ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> { Ok(()) }
     ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool {
     ///         cx.control().get()
     ///     }
@@ -351,10 +375,10 @@ impl<'a, C> Handle<'a, C> {
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
-    /// use rtseq::{sim::Sim, Cx, Monitors, Outcome, SeqConfig, Sequence, Sequencer};
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, Outcome, SeqConfig, Sequence, Sequencer};
     /// struct Guarded;
     /// impl Sequence<Cell<bool>> for Guarded {
-    ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) {}
+    ///     async fn action(&mut self, _cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> { Ok(()) }
     ///     fn check_pre_condition(&mut self, cx: &Cx<'_, Cell<bool>>) -> bool {
     ///         cx.control().get()
     ///     }
@@ -401,11 +425,14 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -432,11 +459,14 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cx, Duration, Error, Monitors, RunningState, Seq, SeqConfig, Sequence,
-    ///             Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
+    ///             Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();
@@ -461,11 +491,14 @@ impl<'a, C> Handle<'a, C> {
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Monitors, Outcome, RunningState, Seq, SeqConfig,
-    ///             Sequence, Sequencer, Wait};
+    /// use rtseq::{sim::Sim, Cause, Cx, Duration, Failure, Monitors, Outcome, RunningState, Seq,
+    ///             SeqConfig, Sequence, Sequencer, Wait};
     /// struct Dwell(Seq<Wait>);
     /// impl Sequence<()> for Dwell {
-    ///     async fn action(&mut self, cx: &Cx<'_, ()>) { let _ = cx.step(&mut self.0).await; }
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _ = cx.step(&mut self.0).await;
+    ///         Ok(())
+    ///     }
     /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let wait = seq.add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(10))).unwrap();

@@ -71,7 +71,7 @@ pub(crate) use state::State;
 /// use rtseq::{SeqConfig, Sequencer, Error};
 /// static SEQ: Sequencer<(), 8> = Sequencer::new();
 /// let main = SEQ.register(SeqConfig::new("main")).unwrap();
-/// assert_eq!(SEQ.register(SeqConfig::new("main")), Err(Error::DuplicateName("main")));
+/// assert_eq!(SEQ.register(SeqConfig::new("main")), Err(Error::DuplicateName(main)));
 /// assert_eq!(SEQ.sequence_by_name("main").map(|h| h.id()), Some(main));
 /// ```
 // `repr(C)`, the state first: every section reaches it at the sequencer's own address.

@@ -51,8 +51,8 @@ pub(crate) trait Port<C> {
     fn set_poll_wait(&self, id: SeqId, waiting: bool);
     /// A `Restarting` sequence runs again from its pre-condition.
     fn restart(&self, id: SeqId);
-    /// Ends `id`'s run normally with `outcome` (`Completed` or `Skipped`); false when
-    /// refused (its clearance says what to do instead).
+    /// Ends `id`'s run with `outcome` (`Completed`, `Skipped` or `Failed`): `Terminated`;
+    /// false when refused (its clearance says what to do instead).
     fn end(&self, id: SeqId, outcome: Outcome) -> bool;
     /// The run is over: records the outcome, releases the joiners.
     fn finished(&self, id: SeqId, outcome: Outcome);
@@ -133,7 +133,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn end(&self, id: SeqId, outcome: Outcome) -> bool {
         let cause = match outcome {
             Outcome::Skipped => Cause::PreConditionFalse,
-            _ => Cause::Completed,
+            Outcome::Completed => Cause::Completed,
+            Outcome::Failed(_) => Cause::Failed,
+            Outcome::Aborted(cause) => cause,
         };
         let change = StateChange::new(id, RunningState::Running, RunningState::Terminated, cause);
         self.with(|s| s.end(&change))

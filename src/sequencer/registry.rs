@@ -24,8 +24,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     pub fn register(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
         let mut checked = CheckedConfig::checked(&config)?;
         self.with(|s| {
-            if s.registered().any(|b| b.name == Some(config.name)) {
-                return Err(Error::DuplicateName(config.name));
+            if let Some(first) = s.registered().position(|b| b.name == Some(config.name)) {
+                return Err(Error::DuplicateName(SeqId::from_index(first)));
             }
             let id = SeqId::from_index(s.count());
             if s.count() >= N {
@@ -108,9 +108,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// [`register`](Self::register) and [`bind`](Self::bind) in one.
     ///
     /// ```
-    /// use rtseq::{Cx, SeqConfig, Sequencer, Step};
+    /// use rtseq::{Cx, Failure, SeqConfig, Sequencer, Step};
     /// struct Enable;
-    /// impl Step<()> for Enable { fn action(&mut self, _cx: &Cx<'_, ()>) {} }
+    /// impl Step<()> for Enable {
+    ///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+    /// }
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// let enable = seq.add(SeqConfig::new("enable"), Enable).unwrap();
     /// assert_eq!(seq.sequence_by_id(enable.id()).unwrap().name(), "enable");

@@ -34,8 +34,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// Ends a run normally: `change` is `Running → Terminated` (cause `Completed` or
-    /// `PreConditionFalse`). False, and nothing changes, if the sequence was aborted or
+    /// Ends a run: `change` is `Running → Terminated` (cause `Completed`,
+    /// `PreConditionFalse` or `Failed`). False, and nothing changes, if the sequence was aborted or
     /// restarted meanwhile or its exception is being handled (its clearance says what to
     /// do instead).
     pub(crate) fn end(&mut self, change: &StateChange) -> bool {

@@ -8,7 +8,8 @@ use std::future::Future;
 use std::pin::Pin;
 
 use rtseq::{
-    Cause, Cx, Error, Instant, Outcome, RunningState, Seq, SeqId, Sequence, Step, Transition, Wait,
+    Cause, Cx, Done, Failure, Instant, Outcome, RunningState, Seq, SeqId, Sequence, Step,
+    Transition, Wait,
 };
 
 /// One executed line of action code.
@@ -27,7 +28,7 @@ pub struct Returned {
     pub ms: u64,
     pub seq: SeqId,
     pub line: usize,
-    pub result: Result<Outcome, Error>,
+    pub result: Result<Done, Failure>,
 }
 
 pub const END: usize = usize::MAX;
@@ -58,7 +59,7 @@ impl Ctrl {
             held: h.exception_is_active(),
         });
     }
-    fn returned(&self, cx: &Cx<'_, Ctrl>, line: usize, result: Result<Outcome, Error>) {
+    fn returned(&self, cx: &Cx<'_, Ctrl>, line: usize, result: Result<Done, Failure>) {
         self.returned.borrow_mut().push(Returned {
             ms: cx.now().as_ticks() / 1000,
             seq: cx.id(),
@@ -93,8 +94,9 @@ impl Leaf {
 }
 
 impl Step<Ctrl> for Leaf {
-    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         cx.control().line(cx, 0);
+        Ok(())
     }
     fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         self.pre.is_none_or(|f| cx.control().flag(f))
@@ -139,10 +141,10 @@ impl Node {
     }
 }
 
-type Boxed<'f> = Pin<Box<dyn Future<Output = Result<Outcome, Error>> + 'f>>;
+type Boxed<'f> = Pin<Box<dyn Future<Output = Result<Done, Failure>> + 'f>>;
 
 impl Sequence<Ctrl> for Node {
-    async fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         for (i, op) in self.ops.iter_mut().enumerate() {
             cx.control().line(cx, i);
             let r = match op {
@@ -153,12 +155,22 @@ impl Sequence<Ctrl> for Node {
                     let f: Boxed<'_> = Box::pin(cx.run(s));
                     f.await
                 }
-                Op::Start(id) => cx.start(*id).map(|()| Outcome::Completed),
-                Op::Join(id) => cx.join(*id).await,
+                // A refused start or join: `NotStarted`, as a refused blocking start.
+                Op::Start(id) => cx
+                    .start(*id)
+                    .map(|()| Done::Completed)
+                    .map_err(Failure::from),
+                // The joined run's outcome as a blocking caller would receive it.
+                Op::Join(id) => cx
+                    .join(*id)
+                    .await
+                    .map_err(Failure::from)
+                    .and_then(Outcome::done),
             };
             cx.control().returned(cx, i, r);
         }
         cx.control().line(cx, END);
+        Ok(())
     }
     fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         self.pre.is_none_or(|f| cx.control().flag(f))

@@ -196,7 +196,7 @@ pub struct RunSpan {
     pub end_us: u64,
     /// The cause of the start (`start`, `monitor ...` for an exception sequence).
     pub start_cause: String,
-    /// `completed`, `aborted (monitor following error)`, `skipped (...)`, or
+    /// `completed`, `failed`, `aborted (monitor following error)`, `skipped (...)`, or
     /// `still running` when the run had not ended at the end of the record.
     pub outcome: String,
     /// Indexes into [`Run::transitions`] of the transitions of this run, in order.
@@ -434,6 +434,7 @@ fn outcome_text(t: &Transition) -> String {
     match (t.from.is_active(), t.to) {
         (false, _) => format!("skipped ({})", t.cause),
         (true, State::Terminated) if t.cause == "completed" => String::from("completed"),
+        (true, State::Terminated) if t.cause == "failed" => String::from("failed"),
         (true, State::Aborted) => format!("aborted ({})", t.cause),
         (true, to) => format!("{} ({})", to.name().to_lowercase(), t.cause),
     }
@@ -442,4 +443,37 @@ fn outcome_text(t: &Transition) -> String {
 /// Formats µs as seconds with 6 decimals (`2.514011`).
 pub fn secs(us: u64) -> String {
     format!("{}.{:06}", us / 1_000_000, us % 1_000_000)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ended(from: State, to: State, cause: &str) -> Transition {
+        Transition {
+            time_us: 0,
+            seq: 0,
+            from,
+            to,
+            cause: cause.to_string(),
+        }
+    }
+
+    #[test]
+    fn a_run_is_named_by_how_it_ended() {
+        let t = |from, to, cause| outcome_text(&ended(from, to, cause));
+        assert_eq!(
+            t(State::Running, State::Terminated, "completed"),
+            "completed"
+        );
+        assert_eq!(t(State::Running, State::Terminated, "failed"), "failed");
+        assert_eq!(
+            t(State::Aborting, State::Aborted, "monitor jam"),
+            "aborted (monitor jam)"
+        );
+        assert_eq!(
+            t(State::Idle, State::Terminated, "precondition false"),
+            "skipped (precondition false)"
+        );
+    }
 }

@@ -32,9 +32,9 @@
 use core::future::Future;
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use rtseq::{Cx, Sequence};
+use rtseq::{Cx, Failure, Sequence};
 use rtseq_qemu_f405 as board;
-use rtseq_scenarios::{Ctrl, Done};
+use rtseq_scenarios::{AtOnce, Ctrl};
 
 /// Timestamps (TIM2 counts = ns of virtual time) of the latency measurement.
 static FAULT_AT: AtomicU32 = AtomicU32::new(0);
@@ -51,9 +51,9 @@ struct Stamp;
 
 impl Sequence<Ctrl> for Stamp {
     #[allow(clippy::manual_async_fn)]
-    fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> impl Future<Output = ()> {
+    fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> impl Future<Output = Result<(), Failure>> {
         EXCEPTION_AT.store(board::clock::tim2_count(), Ordering::Relaxed);
-        Done
+        AtOnce
     }
 }
 

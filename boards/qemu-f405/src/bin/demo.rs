@@ -592,6 +592,7 @@ impl defmt::Format for CauseText<'_> {
             Cause::Timeout(s) => defmt::write!(f, "timeout of {=str}", seq_name(s)),
             Cause::Restart => defmt::write!(f, "restart"),
             Cause::Dropped => defmt::write!(f, "dropped"),
+            Cause::Failed => defmt::write!(f, "failed"),
         }
     }
 }
@@ -606,6 +607,8 @@ impl defmt::Format for OutcomeText<'_> {
             Some(Outcome::Completed) => defmt::write!(f, "completed"),
             Some(Outcome::Skipped) => defmt::write!(f, "skipped"),
             Some(Outcome::Aborted(c)) => defmt::write!(f, "aborted ({})", CauseText(c, self.1)),
+            // The demo's actions do not fail.
+            Some(Outcome::Failed(_)) => defmt::write!(f, "failed"),
         }
     }
 }

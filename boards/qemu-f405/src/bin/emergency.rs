@@ -29,7 +29,7 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
 use core::task::{Context, Poll};
 
 use rtseq::safety::*;
-use rtseq::{Cx, Seq, SeqId, Sequence, Step};
+use rtseq::{Cx, Failure, Seq, SeqId, Sequence, Step};
 use rtseq_qemu_f405 as board;
 use rtseq_scenarios::emergency::{
     self, Machine, EMERGENCY, ENABLE, FAULT, MOVING, READY, START_MOVING, SWITCH_ON,
@@ -104,10 +104,11 @@ pub struct Request {
 }
 
 impl Step<Ctrl> for Request {
-    fn action(&mut self, cx: &Cx<'_, Ctrl>) {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         if let Some(safety) = cx.safety_system() {
             safety.trigger(self.event);
         }
+        Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         cx.safety_system()
@@ -121,7 +122,9 @@ pub struct Travel {
 }
 
 impl Step<Ctrl> for Travel {
-    fn action(&mut self, _cx: &Cx<'_, Ctrl>) {}
+    fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Ok(())
+    }
     fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         self.watch_fault && cx.control().fault.load(Relaxed)
     }
@@ -139,8 +142,8 @@ struct Two<'b, 'c, A, B> {
 }
 
 impl<A: Future, B: Future> Future for Two<'_, '_, A, B> {
-    type Output = ();
-    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<()> {
+    type Output = Result<(), Failure>;
+    fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         // SAFETY: `first` and `second` are structurally pinned (never moved out, polled in
         // place, dropped with `self`); the other fields are plain data.
         let this = unsafe { self.get_unchecked_mut() };
@@ -161,7 +164,7 @@ impl<A: Future, B: Future> Future for Two<'_, '_, A, B> {
                 Poll::Ready(_) => this.stage = 2,
             }
         }
-        Poll::Ready(())
+        Poll::Ready(Ok(()))
     }
 }
 
@@ -175,7 +178,7 @@ impl Sequence<Ctrl> for MoveA {
     fn action<'a, 'b, 'c>(
         &'a mut self,
         cx: &'b Cx<'c, Ctrl>,
-    ) -> impl Future<Output = ()> + use<'a, 'b, 'c> {
+    ) -> impl Future<Output = Result<(), Failure>> + use<'a, 'b, 'c> {
         Two {
             cx,
             first: cx.step(&mut self.start),
@@ -196,7 +199,7 @@ impl Sequence<Ctrl> for AxisB {
     fn action<'a, 'b, 'c>(
         &'a mut self,
         cx: &'b Cx<'c, Ctrl>,
-    ) -> impl Future<Output = ()> + use<'a, 'b, 'c> {
+    ) -> impl Future<Output = Result<(), Failure>> + use<'a, 'b, 'c> {
         Two {
             cx,
             first: cx.step(&mut self.travel),
@@ -218,7 +221,7 @@ impl Sequence<Ctrl> for Main {
     fn action<'a, 'b, 'c>(
         &'a mut self,
         cx: &'b Cx<'c, Ctrl>,
-    ) -> impl Future<Output = ()> + use<'a, 'b, 'c> {
+    ) -> impl Future<Output = Result<(), Failure>> + use<'a, 'b, 'c> {
         Two {
             cx,
             first: cx.step(&mut self.power_on),
