@@ -126,6 +126,7 @@
 )]
 
 mod condition;
+mod declare;
 pub mod lock;
 mod model;
 mod monitor;

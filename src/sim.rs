@@ -467,14 +467,46 @@ impl<
     {
         let sequencer = self.sequencer;
         let control = self.control;
-        let future = Box::pin(async move {
-            let mut seq = seq;
-            lane(sequencer, control, &mut seq).await
-        });
+        self.task_with_priority(
+            async move {
+                let mut seq = seq;
+                lane(sequencer, control, &mut seq).await
+            },
+            priority,
+        );
+    }
+
+    /// Adds an RTIC async task of `priority` that never returns: for example several lanes
+    /// joined in one task with [`lanes!`](crate::lanes). It is polled like a lane: when its
+    /// waker was woken, in the order of priorities.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, RunningState, SeqConfig, Sequence,
+    ///             Sequencer};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut a = seq.add(SeqConfig::new("a"), Blink).unwrap();
+    /// let mut b = seq.add(SeqConfig::new("b"), Blink).unwrap();
+    /// let (ia, ib) = (a.id(), b.id());
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// let s = &seq;
+    /// sim.task_with_priority(async move { rtseq::lanes!(s, &(), &mut a, &mut b).await }, 1);
+    /// sim.start(ib).unwrap();
+    /// assert_eq!(sim.state(ib), RunningState::Terminated);
+    /// assert_eq!(sim.state(ia), RunningState::Idle);
+    /// ```
+    pub fn task_with_priority(
+        &mut self,
+        future: impl Future<Output = Infallible> + 'a,
+        priority: u8,
+    ) {
         let flag = Arc::new(Flag(AtomicBool::new(true)));
         let waker = Waker::from(flag.clone());
         self.lanes.push(SimLane {
-            future,
+            future: Box::pin(future),
             flag,
             waker,
             polls: 0,

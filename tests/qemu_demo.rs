@@ -225,7 +225,7 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(CONFIG.start_position)));
     cs.set_fault_plan(plan);
-    let monitors: app::AppMonitors = app::monitors(&CONFIG).unwrap();
+    let monitors: app::AppMonitors = app::monitor_ids::table(&CONFIG).unwrap();
     let app = app::register(seq, &app::Setup::DEMO).unwrap();
     let ids = app.ids;
     let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));

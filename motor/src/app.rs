@@ -12,7 +12,7 @@
 //! let seq: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
 //! let cs = ControlSystem::new(AppConfig::DEFAULT.start_position);
 //! cs.set_fault_plan(FaultPlan::NONE);
-//! let monitors: app::AppMonitors = app::monitors(&AppConfig::DEFAULT).unwrap();
+//! let monitors: app::AppMonitors = app::monitor_ids::table(&AppConfig::DEFAULT).unwrap();
 //! let app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
 //! let main = app.ids.main;
 //!
@@ -26,15 +26,12 @@
 //! ```
 //!
 //! In RTIC firmware: a `static` [`Sequencer`] and [`ControlSystem`], the monitor table as a
-//! `local` resource of the timer task (built at compile time: `const { app::monitors(..) }`),
+//! `local` resource of the timer task (built at compile time: `const { app::monitor_ids::table(..) }`),
 //! [`register`] in `init`, one async task per lane of [`App`] (or all of them
 //! joined in one task with [`App::run`]), and in the timer interrupt:
 //! `CS.control_tick(now, 0.001); SEQ.tick(now, &CS, monitors)`.
 
 use core::convert::Infallible;
-use core::future::{poll_fn, Future};
-use core::pin::pin;
-use core::task::Poll;
 
 use rtseq::lock::Lock;
 use rtseq::{
@@ -53,9 +50,9 @@ pub const MAX_MOVES: usize = 8;
 /// Maximum number of planned faults.
 pub const MAX_FAULTS: usize = 4;
 /// Sequences and steps [`register`] adds: the minimum sequencer capacity `N`.
-pub const SEQUENCES: usize = 18;
+pub const SEQUENCES: usize = seq_ids::COUNT;
 /// Monitors [`register`] adds: the minimum monitor capacity `M`.
-pub const MONITORS: usize = 4;
+pub const MONITORS: usize = monitor_ids::COUNT;
 
 /// The application's parameters (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -388,7 +385,7 @@ impl Condition<ControlSystem> for ResumePressed {
 
 /// The monitor conditions, one type (they keep state; the monitor table owns them), so that
 /// the tick calls them without a `dyn` call and a `const fn` builds the table
-/// ([`monitors`]).
+/// ([`monitor_ids`]).
 pub enum AppCondition {
     /// The following-error monitor's.
     FollowingError(FollowingErrorAbove),
@@ -414,67 +411,64 @@ impl Condition<ControlSystem> for AppCondition {
 /// The application's monitor table (capacity `M`, at least [`MONITORS`]).
 pub type AppMonitors<const M: usize = MONITORS> = Monitors<'static, ControlSystem, M, AppCondition>;
 
-/// The monitor ids of [`monitors`] (table positions).
-pub mod monitor_ids {
-    use rtseq::MonitorId;
-    /// Following error.
-    pub const FOLLOWING_ERROR: MonitorId = MonitorId::from_index(0);
-    /// End stop.
-    pub const END_STOP: MonitorId = MonitorId::from_index(1);
-    /// Pause.
-    pub const PAUSE: MonitorId = MonitorId::from_index(2);
-    /// Resume.
-    pub const RESUME: MonitorId = MonitorId::from_index(3);
-}
+const BUTTON: Button = ControlSystem::pause_button;
 
-/// The monitor table for `config`, built by a `const fn`: in firmware evaluate it at
-/// compile time (`const { ... }`), so no set-up code for monitors is linked.
-///
-/// | monitor | owner | condition | exception | behaviour |
-/// |---|---|---|---|---|
-/// | `following error` | `move` | \|setpoint − position\| > limit | `safe stop` | `RestartCallerOfOwner`, limit `restart_limit` |
-/// | `end stop` | `moves` | an end-stop switch closed | — | `AbortOwner` |
-/// | `pause` | `moves` | [`Toggle`] of the pause button | `feed hold` | `Nothing` |
-/// | `resume` | `moves` | toggle off again while paused | `feed resume` | `Nothing` |
-///
-/// The end-stop monitor belongs to the whole move loop, not to one move: hitting a limit
-/// must end the motion program (the moves and the move in progress are aborted, main gets
-/// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
-///
-/// `M` < [`MONITORS`] does not compile.
-pub const fn monitors<const M: usize>(config: &AppConfig) -> Result<AppMonitors<M>, rtseq::Error> {
-    use seq_ids::*;
-    use AppCondition::*;
-    const BUTTON: Button = ControlSystem::pause_button;
-    Monitors::table([
-        Monitor::with_condition(
+rtseq::monitors! {
+    /// The monitor ids and the monitor table: `monitor_ids::table(&config)`, a `const fn`
+    /// (in firmware evaluate it at compile time, `const { ... }`, so no set-up code for
+    /// monitors is linked). `M` < [`MONITORS`] does not compile.
+    ///
+    /// | monitor | owner | condition | exception | behaviour |
+    /// |---|---|---|---|---|
+    /// | `following error` | `move` | \|setpoint − position\| > limit | `safe stop` | `RestartCallerOfOwner`, limit `restart_limit` |
+    /// | `end stop` | `moves` | an end-stop switch closed | — | `AbortOwner` |
+    /// | `pause` | `moves` | [`Toggle`] of the pause button | `feed hold` | `Nothing` |
+    /// | `resume` | `moves` | toggle off again while paused | `feed resume` | `Nothing` |
+    ///
+    /// The end-stop monitor belongs to the whole move loop, not to one move: hitting a limit
+    /// must end the motion program (the moves and the move in progress are aborted, main gets
+    /// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
+    pub mod monitor_ids(config: &AppConfig) for ControlSystem, AppCondition {
+        /// Following error.
+        FOLLOWING_ERROR = Monitor::with_condition(
             "following error",
-            FollowingError(FollowingErrorAbove {
+            AppCondition::FollowingError(FollowingErrorAbove {
                 limit: config.following_error_limit,
             }),
             Behaviour::RestartCallerOfOwner,
         )
-        .exception(SAFE_STOP)
+        .exception(seq_ids::SAFE_STOP)
         .restart_limit(config.restart_limit)
-        .owned_by(MOVE),
-        Monitor::with_condition("end stop", EndStop(EndStopHit), Behaviour::AbortOwner)
-            .owned_by(MOVES),
-        Monitor::with_condition("pause", Pause(Toggle::new(BUTTON)), Behaviour::Nothing)
-            .exception(FEED_HOLD)
-            .owned_by(MOVES),
-        Monitor::with_condition(
+        .owned_by(seq_ids::MOVE),
+        /// End stop.
+        END_STOP = Monitor::with_condition(
+            "end stop",
+            AppCondition::EndStop(EndStopHit),
+            Behaviour::AbortOwner,
+        )
+        .owned_by(seq_ids::MOVES),
+        /// Pause.
+        PAUSE = Monitor::with_condition(
+            "pause",
+            AppCondition::Pause(Toggle::new(BUTTON)),
+            Behaviour::Nothing,
+        )
+        .exception(seq_ids::FEED_HOLD)
+        .owned_by(seq_ids::MOVES),
+        /// Resume.
+        RESUME = Monitor::with_condition(
             "resume",
-            Resume(ResumePressed {
+            AppCondition::Resume(ResumePressed {
                 toggle: Toggle::new(BUTTON),
             }),
             Behaviour::Nothing,
         )
-        .exception(FEED_RESUME)
-        .owned_by(MOVES),
-    ])
+        .exception(seq_ids::FEED_RESUME)
+        .owned_by(seq_ids::MOVES),
+    }
 }
 
-/// The ids of everything [`register`] and [`monitors`] added (for tests, logs and traces).
+/// The ids of everything [`register`] and [`monitor_ids`] added (for tests, logs and traces).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Ids {
     /// Main sequence.
@@ -591,10 +585,9 @@ impl App {
         ]
     }
 
-    /// All five lanes joined in one future (for a single RTIC task): never returns.
-    ///
-    /// Each wake polls the five lane futures in order; a lane that has nothing to do returns
-    /// `Pending` at once (rtseq's await points tolerate spurious polls).
+    /// All five lanes joined in one future (for a single RTIC task, with [`rtseq::lanes!`]):
+    /// never returns. Each wake polls the five lanes in order; a lane that has nothing to do
+    /// returns `Pending` at once.
     pub async fn run<const N: usize, const T: usize, L: Lock, const W: usize>(
         self,
         sequencer: &Sequencer<ControlSystem, N, T, L, W>,
@@ -608,64 +601,71 @@ impl App {
             mut feed_resume,
             ..
         } = self;
-        let mut a = pin!(rtseq::lane(sequencer, cs, &mut main));
-        let mut b = pin!(rtseq::lane(sequencer, cs, &mut status));
-        let mut c = pin!(rtseq::lane(sequencer, cs, &mut safe_stop));
-        let mut d = pin!(rtseq::lane(sequencer, cs, &mut feed_hold));
-        let mut e = pin!(rtseq::lane(sequencer, cs, &mut feed_resume));
-        poll_fn(|w| {
-            // A lane never ends (`Infallible`): every poll returns `Pending`.
-            let _ = a.as_mut().poll(w);
-            let _ = b.as_mut().poll(w);
-            let _ = c.as_mut().poll(w);
-            let _ = d.as_mut().poll(w);
-            let _ = e.as_mut().poll(w);
-            Poll::Pending
-        })
+        let (main, status, safe_stop) = (&mut main, &mut status, &mut safe_stop);
+        let (feed_hold, feed_resume) = (&mut feed_hold, &mut feed_resume);
+        rtseq::lanes!(
+            sequencer,
+            cs,
+            main,
+            status,
+            safe_stop,
+            feed_hold,
+            feed_resume
+        )
         .await
     }
 }
 
-/// The ids of the sequences and steps, in the order of [`Setup::table`]'s entries.
-pub mod seq_ids {
-    use rtseq::SeqId;
-
-    /// Quick stop (step of safe stop).
-    pub const QUICK_STOP: SeqId = SeqId::from_index(0);
-    /// Safe stop.
-    pub const SAFE_STOP: SeqId = SeqId::from_index(1);
-    /// Blink wait (step of status).
-    pub const BLINK: SeqId = SeqId::from_index(2);
-    /// Status.
-    pub const STATUS: SeqId = SeqId::from_index(3);
-    /// Power on.
-    pub const POWER_ON: SeqId = SeqId::from_index(4);
-    /// Seek end stop.
-    pub const SEEK: SeqId = SeqId::from_index(5);
-    /// Halt (step of homing).
-    pub const HALT: SeqId = SeqId::from_index(6);
-    /// Set zero.
-    pub const SET_ZERO: SeqId = SeqId::from_index(7);
-    /// Back off.
-    pub const BACK_OFF: SeqId = SeqId::from_index(8);
-    /// Homing.
-    pub const HOMING: SeqId = SeqId::from_index(9);
-    /// Move.
-    pub const MOVE: SeqId = SeqId::from_index(10);
-    /// Dwell.
-    pub const DWELL: SeqId = SeqId::from_index(11);
-    /// Moves.
-    pub const MOVES: SeqId = SeqId::from_index(12);
-    /// Feed hold.
-    pub const FEED_HOLD: SeqId = SeqId::from_index(13);
-    /// Feed resume.
-    pub const FEED_RESUME: SeqId = SeqId::from_index(14);
-    /// Main halt.
-    pub const MAIN_HALT: SeqId = SeqId::from_index(15);
-    /// Power off.
-    pub const POWER_OFF: SeqId = SeqId::from_index(16);
-    /// Main.
-    pub const MAIN: SeqId = SeqId::from_index(17);
+rtseq::sequences! {
+    /// The ids of the sequences and steps and their table, `seq_ids::table(&config)`:
+    /// polling 1 ms unless noted; `status` and its `blink` 5 ms; `homing` with timeout
+    /// `homing_timeout`, exception `safe stop`, `AbortOwner`; `move` with timeout
+    /// `move_timeout`; `homing`, `moves` and `move` stop the axis when aborted
+    /// ([`ControlSystem::abort_hook`]). Errors if a duration is out of range.
+    pub mod seq_ids(config: &AppConfig) for ControlSystem {
+        /// Quick stop (step of safe stop).
+        QUICK_STOP = SeqConfig::new("quick stop"),
+        /// Safe stop.
+        SAFE_STOP = SeqConfig::new("safe stop"),
+        /// Blink wait (step of status).
+        BLINK = SeqConfig::new("blink").polling(Duration::from_millis(5)),
+        /// Status.
+        STATUS = SeqConfig::new("status").polling(Duration::from_millis(5)),
+        /// Power on.
+        POWER_ON = SeqConfig::new("power on"),
+        /// Seek end stop.
+        SEEK = SeqConfig::new("seek end stop"),
+        /// Halt (step of homing).
+        HALT = SeqConfig::new("halt"),
+        /// Set zero.
+        SET_ZERO = SeqConfig::new("set zero"),
+        /// Back off.
+        BACK_OFF = SeqConfig::new("back off"),
+        /// Homing.
+        HOMING = SeqConfig::new("homing")
+            .timeout(config.homing_timeout)
+            .timeout_exception(SAFE_STOP)
+            .timeout_behaviour(Behaviour::AbortOwner)
+            .on_abort(ControlSystem::abort_hook),
+        /// Move.
+        MOVE = SeqConfig::new("move")
+            .timeout(config.move_timeout)
+            .on_abort(ControlSystem::abort_hook),
+        /// Dwell.
+        DWELL = SeqConfig::new("dwell"),
+        /// Moves.
+        MOVES = SeqConfig::new("moves").on_abort(ControlSystem::abort_hook),
+        /// Feed hold.
+        FEED_HOLD = SeqConfig::new("feed hold"),
+        /// Feed resume.
+        FEED_RESUME = SeqConfig::new("feed resume"),
+        /// Main halt.
+        MAIN_HALT = SeqConfig::new("main halt"),
+        /// Power off.
+        POWER_OFF = SeqConfig::new("power off"),
+        /// Main.
+        MAIN = SeqConfig::new("main"),
+    }
 }
 
 /// The application's parameters with its sequence table, checked by a `const fn`.
@@ -676,7 +676,7 @@ pub mod seq_ids {
 pub struct Setup {
     /// The parameters.
     pub config: AppConfig,
-    /// Sequence `i` is [`seq_ids`]' `SeqId::from_index(i)`.
+    /// The table of [`seq_ids`].
     pub table: Table<ControlSystem, SEQUENCES>,
 }
 
@@ -695,84 +695,18 @@ impl Setup {
         Err(e) => panic!("{}", e.reason()),
     };
 
-    /// The sequence table of `config`: polling 1 ms unless noted; `status` and its `blink`
-    /// 5 ms; `homing` with timeout `homing_timeout`, exception `safe stop`, `AbortOwner`;
-    /// `move` with timeout `move_timeout`; `homing`, `moves` and `move` stop the axis when
-    /// aborted ([`ControlSystem::abort_hook`]). Errors if a duration is out of range.
+    /// The set-up of `config`: its table is [`seq_ids::table`].
     pub const fn new(config: AppConfig) -> Result<Setup, rtseq::Error> {
-        use seq_ids::*;
-        let ms = Duration::from_millis;
-        let cfg = SeqConfig::new;
-        let stop = ControlSystem::abort_hook;
-        let table = Table::new([
-            cfg("quick stop"),
-            cfg("safe stop"),
-            cfg("blink").polling(ms(5)),
-            cfg("status").polling(ms(5)),
-            cfg("power on"),
-            cfg("seek end stop"),
-            cfg("halt"),
-            cfg("set zero"),
-            cfg("back off"),
-            cfg("homing")
-                .timeout(config.homing_timeout)
-                .timeout_exception(SAFE_STOP)
-                .timeout_behaviour(Behaviour::AbortOwner)
-                .on_abort(stop),
-            cfg("move").timeout(config.move_timeout).on_abort(stop),
-            cfg("dwell"),
-            cfg("moves").on_abort(stop),
-            cfg("feed hold"),
-            cfg("feed resume"),
-            cfg("main halt"),
-            cfg("power off"),
-            cfg("main"),
-        ]);
-        match table {
+        match seq_ids::table(&config) {
             Ok(table) => Ok(Setup { config, table }),
             Err(e) => Err(e),
         }
     }
 }
 
-// The positions in `seq_ids` are the names' positions in the table.
-const _: () = {
-    use seq_ids::*;
-    let t = &Setup::DEFAULT.table;
-    let checks = [
-        (QUICK_STOP, "quick stop"),
-        (SAFE_STOP, "safe stop"),
-        (BLINK, "blink"),
-        (STATUS, "status"),
-        (POWER_ON, "power on"),
-        (SEEK, "seek end stop"),
-        (HALT, "halt"),
-        (SET_ZERO, "set zero"),
-        (BACK_OFF, "back off"),
-        (HOMING, "homing"),
-        (MOVE, "move"),
-        (DWELL, "dwell"),
-        (MOVES, "moves"),
-        (FEED_HOLD, "feed hold"),
-        (FEED_RESUME, "feed resume"),
-        (MAIN_HALT, "main halt"),
-        (POWER_OFF, "power off"),
-        (MAIN, "main"),
-    ];
-    let mut rest: &[(rtseq::SeqId, &str)] = &checks;
-    while let Some(((id, name), more)) = rest.split_first() {
-        assert!(
-            matches!(t.id(name), Some(at) if at.index() == id.index()),
-            "seq_ids and the table disagree"
-        );
-        rest = more;
-    }
-    assert!(checks.len() == SEQUENCES, "seq_ids misses a sequence");
-};
-
 /// Registers the whole application into `sequencer` and returns the sequence objects the
 /// lanes need: installs `setup`'s table (see [`Setup::new`]) and binds the sequence
-/// objects. The monitors are a table of their own ([`monitors`]).
+/// objects. The monitors are a table of their own ([`monitor_ids`]).
 ///
 /// Errors: the sequencer is not empty. `N` < [`SEQUENCES`] does not compile.
 pub fn register<const N: usize, const T: usize, L: Lock, const W: usize>(

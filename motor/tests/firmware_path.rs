@@ -26,7 +26,7 @@ impl Wake for Flag {
 #[test]
 fn joined_lanes_give_the_same_run_as_the_simulator() {
     let (seq, cs): (Seqr, ControlSystem) = (Sequencer::new(), ControlSystem::new(0.02));
-    let mut monitors: app::AppMonitors<M> = app::monitors(&AppConfig::DEFAULT).unwrap();
+    let mut monitors: app::AppMonitors<M> = app::monitor_ids::table(&AppConfig::DEFAULT).unwrap();
     let app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
     let main = app.ids.main;
     let flag = Arc::new(Flag(AtomicBool::new(true)));

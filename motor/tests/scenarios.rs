@@ -7,7 +7,7 @@ use rtseq::Cause::{self, AbortAll, Monitor, Pause, Restart, Resume, Start};
 use rtseq::RunningState::*;
 use rtseq::{Duration, Outcome, Transition};
 use rtseq_motor::app::{AppConfig, Fault, FaultPlan};
-use rtseq_motor::control_system::{Phase, POSITION_TOLERANCE, STANDSTILL_VELOCITY};
+use rtseq_motor::control_system::{ControlSystem, Phase, POSITION_TOLERANCE, STANDSTILL_VELOCITY};
 use rtseq_motor::safety;
 
 fn tr(
@@ -347,4 +347,32 @@ fn with_the_safety_system_the_fault_free_run_is_the_same() {
     }
     assert_eq!(w.safety.unwrap().level(), safety::OFF);
     drop(plain);
+}
+
+/// The five lanes joined in one task (`rtseq::lanes!`) run the following-error scenario
+/// exactly as five lane tasks do: the same transitions at the same times. Each wake-up of
+/// the joined task polls every lane, so it polls more often.
+#[test]
+fn lanes_joined_in_one_task_give_the_same_run_as_a_task_per_lane() {
+    let plan = FaultPlan::NONE.with(Fault::FollowingError { at: ms(1500) });
+    let mut apart = World::new(plan, false);
+    let end = apart.run();
+    let (mut sim, _, cs, ids) = app_sim_joined(plan, AppConfig::DEFAULT);
+    sim.before_tick(|now, cs: &ControlSystem| cs.control_tick(now, 0.001));
+    sim.start(ids.main).unwrap();
+    while sim.any_active() {
+        sim.step();
+    }
+    assert_eq!(to_ms(sim.now()), end);
+    assert_eq!(sim.trace(), apart.sim.trace());
+    assert_eq!(
+        apart
+            .of(ids.moves)
+            .iter()
+            .filter(|t| t.to == rtseq::RunningState::Restarting)
+            .count(),
+        3,
+        "the run compared is the one with three restarts"
+    );
+    assert_eq!(cs.summary(), apart.cs.summary());
 }

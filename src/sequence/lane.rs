@@ -61,3 +61,46 @@ pub fn lane<
         body,
     ))
 }
+
+/// Runs several lanes in one task: the future of `lane(sequencer, control, seq)` for each
+/// `seq` (a variable holding a `&mut Seq<_>`), joined; every time the task is woken each
+/// lane is polled, in the order given. Never returns (`Infallible`).
+///
+/// One RTIC task for all the lanes of a priority, instead of one task each:
+///
+/// ```
+/// use rtseq::{Cx, Failure, Seq, Sequence, Sequencer};
+/// struct Blink;
+/// impl Sequence<()> for Blink {
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+/// }
+/// struct SafeStop;
+/// impl Sequence<()> for SafeStop {
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+/// }
+/// static SEQ: Sequencer<(), 4> = Sequencer::new();
+/// // #[task(priority = 1, local = [blink, safe_stop])]
+/// async fn lanes(blink: &mut Seq<Blink>, safe_stop: &mut Seq<SafeStop>) {
+///     match rtseq::lanes!(&SEQ, &(), blink, safe_stop).await {}
+/// }
+/// ```
+///
+/// The cost of the convenience: a lane with nothing to do returns `Pending` at once, but
+/// it is polled whenever any lane of the task is woken; a task per lane (see
+/// [`lane`](crate::lane)) polls only the lane that was woken.
+#[macro_export]
+macro_rules! lanes {
+    ($sequencer:expr, $control:expr, $($seq:ident),+ $(,)?) => {
+        async {
+            let (sequencer, control) = ($sequencer, $control);
+            // Each `Seq` name is rebound to its lane's pinned future.
+            $( let mut $seq = ::core::pin::pin!($crate::lane(sequencer, control, $seq)); )+
+            ::core::future::poll_fn(move |cx| {
+                // A lane never ends: every poll is `Pending`.
+                $( let _ = ::core::future::Future::poll($seq.as_mut(), cx); )+
+                ::core::task::Poll::<::core::convert::Infallible>::Pending
+            })
+            .await
+        }
+    };
+}

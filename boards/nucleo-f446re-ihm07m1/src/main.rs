@@ -255,7 +255,7 @@ mod app {
         CS.set_fault_plan(FaultPlan::NONE);
         // Built by the compiler: no monitor set-up code in the firmware.
         let monitors = const {
-            match app::monitors(&AppConfig::DEFAULT) {
+            match app::monitor_ids::table(&AppConfig::DEFAULT) {
                 Ok(m) => m,
                 Err(e) => panic!("{}", e.reason()),
             }

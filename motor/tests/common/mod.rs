@@ -31,18 +31,48 @@ pub fn app_sim(
     &'static ControlSystem,
     Ids,
 ) {
-    let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
-    let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
-    cs.set_fault_plan(plan);
-    let monitors: app::AppMonitors<M> = app::monitors(&config).unwrap();
-    let setup = app::Setup::new(config).unwrap();
-    let app = app::register(seq, &setup).unwrap();
+    let (mut sim, seq, cs, app) = registered(plan, config);
     let ids = app.ids;
-    let mut sim = Sim::new(seq, cs, monitors);
     for lane in app.lanes() {
         lane.add_to(&mut sim);
     }
     (sim, seq, cs, ids)
+}
+
+/// Like [`app_sim`], with the five lanes joined in one task (`App::run`, `rtseq::lanes!`).
+pub fn app_sim_joined(
+    plan: FaultPlan,
+    config: AppConfig,
+) -> (
+    Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
+    &'static Seqr,
+    &'static ControlSystem,
+    Ids,
+) {
+    let (mut sim, seq, cs, app) = registered(plan, config);
+    let ids = app.ids;
+    sim.task_with_priority(app.run(seq, cs), rtseq::sim::DEFAULT_LANE_PRIORITY);
+    (sim, seq, cs, ids)
+}
+
+/// The application registered into a leaked sequencer and control system, and a simulation
+/// of them without lanes.
+fn registered(
+    plan: FaultPlan,
+    config: AppConfig,
+) -> (
+    Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
+    &'static Seqr,
+    &'static ControlSystem,
+    app::App,
+) {
+    let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
+    let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
+    cs.set_fault_plan(plan);
+    let monitors: app::AppMonitors<M> = app::monitor_ids::table(&config).unwrap();
+    let setup = app::Setup::new(config).unwrap();
+    let app = app::register(seq, &setup).unwrap();
+    (Sim::new(seq, cs, monitors), seq, cs, app)
 }
 
 pub fn ms(t: u64) -> Instant {

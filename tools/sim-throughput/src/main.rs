@@ -81,7 +81,7 @@ fn motor_once<L: Lock>(seq: &Sequencer<ControlSystem, { app::SEQUENCES }, 256, L
     let config = AppConfig::DEFAULT;
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
     cs.set_fault_plan(FaultPlan::NONE);
-    let monitors: app::AppMonitors = app::monitors(&config).expect("monitors");
+    let monitors: app::AppMonitors = app::monitor_ids::table(&config).expect("monitors");
     let setup = app::Setup::new(config).expect("setup");
     let registered = app::register(seq, &setup).expect("register");
     let main = registered.ids.main;

@@ -1431,7 +1431,7 @@ mod rtic_app {
         CS.set_fault_plan(plan);
         // Built by the compiler: no monitor set-up code in the firmware.
         let monitors = const {
-            match app::monitors(&CONFIG) {
+            match app::monitor_ids::table(&CONFIG) {
                 Ok(m) => m,
                 Err(e) => panic!("{}", e.reason()),
             }

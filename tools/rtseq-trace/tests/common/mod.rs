@@ -51,7 +51,7 @@ pub fn host_following_error_trace(end_ms: u64) -> PathBuf {
     cs.set_fault_plan(FaultPlan::NONE.with(Fault::FollowingError {
         at: Instant::from_ticks(2_500_000),
     }));
-    let monitors: app::AppMonitors = app::monitors(&config).unwrap();
+    let monitors: app::AppMonitors = app::monitor_ids::table(&config).unwrap();
     let app = app::register(seq, &app::Setup::DEMO).unwrap();
     let ids = app.ids;
     let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));

@@ -1,0 +1,188 @@
+//! The tree declared once: [`sequences!`](crate::sequences) and
+//! [`monitors!`](crate::monitors) state each sequence or monitor in one line — its id's name
+//! and its configuration — and the ids, their count and the `const fn` that builds the
+//! table follow from the order of the lines. No id is written by hand, so ids and table
+//! cannot disagree.
+
+/// Declares a module of sequence ids and the [`Table`](crate::Table) they index.
+///
+/// Each line is `ID = config`, where `config` is a [`SeqConfig`](crate::SeqConfig)
+/// expression; the line's position is the id. The module gets:
+///
+/// * `pub const ID: SeqId` for every line, with the line's doc comment;
+/// * `pub const COUNT: usize`, the number of lines;
+/// * `pub const fn table(..) -> Result<Table<C, COUNT>, Error>`, with the parameters given
+///   after the module's name (none: `table()`), checked as [`Table::new`](crate::Table::new)
+///   checks it. Evaluate it in a `const` and a bad table is a compile error.
+///
+/// The configurations see the module's ids and, through `use super::*`, everything in the
+/// module around the macro.
+///
+/// ```
+/// use rtseq::{Behaviour, Duration, SeqConfig, Sequencer, Table};
+///
+/// struct Axis;
+/// struct Limits { homing_timeout: Duration }
+///
+/// rtseq::sequences! {
+///     /// The sequences of the axis, in table order.
+///     pub mod seqs(limits: &Limits) for Axis {
+///         /// Safe stop: the homing's timeout exception.
+///         SAFE_STOP = SeqConfig::new("safe stop"),
+///         /// Homing, aborted after `homing_timeout`.
+///         HOMING = SeqConfig::new("homing")
+///             .timeout(limits.homing_timeout)
+///             .timeout_exception(SAFE_STOP)
+///             .timeout_behaviour(Behaviour::AbortOwner),
+///     }
+/// }
+///
+/// const LIMITS: Limits = Limits { homing_timeout: Duration::from_secs(10) };
+/// // Checked by the compiler: a duplicate name would not compile.
+/// static TABLE: Table<Axis, { seqs::COUNT }> = match seqs::table(&LIMITS) {
+///     Ok(table) => table,
+///     Err(e) => panic!("{}", e.reason()),
+/// };
+///
+/// fn main() {
+///     let seq: Sequencer<Axis, 4> = Sequencer::new();
+///     seq.install(&TABLE).unwrap();
+///     assert_eq!(seqs::HOMING.index(), 1);
+///     assert_eq!(seq.sequence_by_name("homing").map(|h| h.id()), Some(seqs::HOMING));
+/// }
+/// ```
+#[macro_export]
+macro_rules! sequences {
+    (
+        $(#[$attr:meta])*
+        $vis:vis mod $module:ident $( ( $($param:ident : $param_ty:ty),* $(,)? ) )? for $control:ty {
+            $( $(#[$id_attr:meta])* $id:ident = $config:expr ),+ $(,)?
+        }
+    ) => {
+        $(#[$attr])*
+        $vis mod $module {
+            #[allow(unused_imports)]
+            use super::*;
+
+            /// The lines, in order: a line's discriminant is its id's index.
+            #[allow(non_camel_case_types, dead_code, clippy::upper_case_acronyms)]
+            enum Line { $($id),+ }
+
+            $(
+                $(#[$id_attr])*
+                pub const $id: $crate::SeqId = $crate::SeqId::from_index(Line::$id as usize);
+            )+
+
+            /// How many sequences and steps the table holds.
+            pub const COUNT: usize = [$(Line::$id),+].len();
+
+            /// The sequence table: entry `i` configures the sequence whose id has index `i`.
+            ///
+            /// Errors as `rtseq::Table::new`.
+            pub const fn table(
+                $( $($param: $param_ty),* )?
+            ) -> ::core::result::Result<$crate::Table<$control, COUNT>, $crate::Error> {
+                $crate::Table::new([$($config),+])
+            }
+        }
+    };
+}
+
+/// Declares a module of monitor ids and the [`Monitors`](crate::Monitors) table they
+/// index.
+///
+/// Each line is `ID = monitor`, where `monitor` is an owned monitor
+/// ([`Monitor::owned_by`](crate::Monitor::owned_by)) whose condition is of the type `K`
+/// named after the control system; the line's position is the id. The module gets:
+///
+/// * `pub const ID: MonitorId` for every line, with the line's doc comment;
+/// * `pub const COUNT: usize`, the number of lines;
+/// * `pub const fn table<const M: usize>(..) -> Result<Monitors<'static, C, M, K>, Error>`
+///   with the parameters given after the module's name; `M` < `COUNT` does not compile.
+///
+/// The monitors see the module's ids and, through `use super::*`, everything in the module
+/// around the macro (the sequence ids, typically).
+///
+/// ```
+/// use rtseq::{Behaviour, Condition, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+///
+/// struct Axis { over_travel: bool }
+///
+/// /// The conditions of the table: one type, so that the tick needs no `dyn` call.
+/// enum AxisCondition { OverTravel }
+/// impl Condition<Axis> for AxisCondition {
+///     fn validate(&mut self, axis: &Axis, _now: Instant) -> bool {
+///         match self {
+///             AxisCondition::OverTravel => axis.over_travel,
+///         }
+///     }
+/// }
+///
+/// rtseq::sequences! {
+///     mod seqs for Axis {
+///         HOMING = SeqConfig::new("homing"),
+///     }
+/// }
+/// use seqs::HOMING;
+///
+/// rtseq::monitors! {
+///     /// The monitors of the axis, in table order.
+///     mod monitor_ids for Axis, AxisCondition {
+///         /// Over-travel aborts the homing.
+///         OVER_TRAVEL = Monitor::with_condition(
+///             "over-travel",
+///             AxisCondition::OverTravel,
+///             Behaviour::AbortOwner,
+///         )
+///         .owned_by(HOMING),
+///     }
+/// }
+///
+/// fn main() {
+///     let monitors: Monitors<'static, Axis, 4, AxisCondition> = monitor_ids::table().unwrap();
+///     assert_eq!(monitors.name(monitor_ids::OVER_TRAVEL), Some("over-travel"));
+///     assert_eq!(monitors.owner(monitor_ids::OVER_TRAVEL), Some(HOMING));
+/// }
+/// ```
+#[macro_export]
+macro_rules! monitors {
+    (
+        $(#[$attr:meta])*
+        $vis:vis mod $module:ident $( ( $($param:ident : $param_ty:ty),* $(,)? ) )?
+            for $control:ty, $condition:ty {
+            $( $(#[$id_attr:meta])* $id:ident = $monitor:expr ),+ $(,)?
+        }
+    ) => {
+        $(#[$attr])*
+        $vis mod $module {
+            #[allow(unused_imports)]
+            use super::*;
+
+            /// The lines, in order: a line's discriminant is its id's index.
+            #[allow(non_camel_case_types, dead_code, clippy::upper_case_acronyms)]
+            enum Line { $($id),+ }
+
+            $(
+                $(#[$id_attr])*
+                pub const $id: $crate::MonitorId =
+                    $crate::MonitorId::from_index(Line::$id as usize);
+            )+
+
+            /// How many monitors the table holds.
+            pub const COUNT: usize = [$(Line::$id),+].len();
+
+            /// The monitor table, with room for `M` monitors: entry `i` is the monitor whose
+            /// id has index `i`.
+            ///
+            /// Errors as `rtseq::Monitors::table`.
+            pub const fn table<const M: usize>(
+                $( $($param: $param_ty),* )?
+            ) -> ::core::result::Result<
+                $crate::Monitors<'static, $control, M, $condition>,
+                $crate::Error,
+            > {
+                $crate::Monitors::table([$($monitor),+])
+            }
+        }
+    };
+}
