@@ -493,7 +493,13 @@ impl<
     /// let (ia, ib) = (a.id(), b.id());
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     /// let s = &seq;
-    /// sim.task_with_priority(async move { rtseq::lanes!(s, &(), &mut a, &mut b).await }, 1);
+    /// sim.task_with_priority(
+    ///     async move {
+    ///         let (a, b) = (&mut a, &mut b);
+    ///         rtseq::lanes!(s, &(), a, b).await
+    ///     },
+    ///     1,
+    /// );
     /// sim.start(ib).unwrap();
     /// assert_eq!(sim.state(ib), RunningState::Terminated);
     /// assert_eq!(sim.state(ia), RunningState::Idle);
