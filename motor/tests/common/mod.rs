@@ -11,9 +11,10 @@ use rtseq_motor::safety::{self, PROPERTIES};
 pub const N: usize = app::SEQUENCES;
 pub const M: usize = app::MONITORS;
 pub type Seqr = Sequencer<ControlSystem, N, 256>;
+pub type AppSim = Sim<'static, ControlSystem, N, 256, M, app::AppCondition>;
 
 pub struct World {
-    pub sim: Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
+    pub sim: AppSim,
     pub seq: &'static Seqr,
     pub cs: &'static ControlSystem,
     pub ids: Ids,
@@ -25,12 +26,7 @@ pub struct World {
 pub fn app_sim(
     plan: FaultPlan,
     config: AppConfig,
-) -> (
-    Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
-    &'static Seqr,
-    &'static ControlSystem,
-    Ids,
-) {
+) -> (AppSim, &'static Seqr, &'static ControlSystem, Ids) {
     let (mut sim, seq, cs, app) = registered(plan, config);
     let ids = app.ids;
     for lane in app.lanes() {
@@ -43,12 +39,7 @@ pub fn app_sim(
 pub fn app_sim_joined(
     plan: FaultPlan,
     config: AppConfig,
-) -> (
-    Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
-    &'static Seqr,
-    &'static ControlSystem,
-    Ids,
-) {
+) -> (AppSim, &'static Seqr, &'static ControlSystem, Ids) {
     let (mut sim, seq, cs, app) = registered(plan, config);
     let ids = app.ids;
     sim.task_with_priority(app.run(seq, cs), rtseq::sim::DEFAULT_LANE_PRIORITY);
@@ -60,12 +51,7 @@ pub fn app_sim_joined(
 fn registered(
     plan: FaultPlan,
     config: AppConfig,
-) -> (
-    Sim<'static, ControlSystem, N, 256, M, app::AppCondition>,
-    &'static Seqr,
-    &'static ControlSystem,
-    app::App,
-) {
+) -> (AppSim, &'static Seqr, &'static ControlSystem, app::App) {
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
     cs.set_fault_plan(plan);
