@@ -15,7 +15,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// One step of [`cut_and_depth`]: the caller of `at`, or `None` at the top of the
     /// stack; a link of `at` to `id` (its old run) is cut instead.
     fn cut_step(&mut self, id: SeqId, at: SeqId) -> Option<SeqId> {
-        let b = self.block_mut(at).ok()?;
+        let b = self.block_mut(at)?;
         let up = b.caller.get()?;
         if up == id {
             b.caller = Link::NONE;
@@ -26,7 +26,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// One step of [`join_would_deadlock`]: the caller of `at` in `lane`, if any.
     fn caller_in_lane(&self, at: SeqId, lane: u8) -> Option<SeqId> {
-        let b = self.block(at).ok()?;
+        let b = self.block(at)?;
         b.caller.get().filter(|&c| self.lane_slot(c) == lane)
     }
 
@@ -34,7 +34,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// callees (its clearance is not `Go`), else its caller in `lane` to check next
     /// ([`Link::NONE`] at the top of the lane).
     pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
-        let b = self.block(at).ok()?;
+        let b = self.block(at)?;
         if b.state != RunningState::Running || self.sets.excepting.has(at) {
             return None;
         }

@@ -12,7 +12,7 @@ use crate::SeqId;
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// `joiner` waits for the end of the run of `target`.
     pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
-        if let Ok(b) = self.block_mut(joiner) {
+        if let Some(b) = self.block_mut(joiner) {
             b.joins = Link::to(Some(target));
             self.sets.joining.set(joiner, true);
         }
@@ -20,7 +20,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// `joiner` no longer waits in a join.
     pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) {
-        if let Ok(b) = self.block_mut(joiner) {
+        if let Some(b) = self.block_mut(joiner) {
             b.joins = Link::NONE;
         }
         self.sets.joining.set(joiner, false);
@@ -31,7 +31,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     pub(crate) fn release_joiners(&mut self, target: SeqId) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
         for j in self.sets.joining {
-            let Ok(b) = self.block_mut(j) else {
+            let Some(b) = self.block_mut(j) else {
                 continue;
             };
             if b.joins == Link::to(Some(target)) {

@@ -258,12 +258,7 @@ pub(crate) fn lane_slot_of<
     s: &mut S,
     id: SeqId,
 ) -> Option<u8> {
-    s.section(|s| {
-        s.block(id)
-            .ok()
-            .map(|b| b.own_lane)
-            .filter(|&l| l != NO_LANE)
-    })
+    s.section(|s| s.block(id).map(|b| b.own_lane).filter(|&l| l != NO_LANE))
 }
 
 /// Declares a lane for `id` (idempotent) and returns its slot (`None`: all `W` slots are
@@ -281,7 +276,7 @@ pub(crate) fn declare_lane<
 ) -> Option<u8> {
     s.section(|s| {
         let next = s.lanes_declared;
-        let b = s.block_mut(id).ok()?;
+        let b = s.block_mut(id)?;
         if b.own_lane != NO_LANE {
             return Some(b.own_lane);
         }

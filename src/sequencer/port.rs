@@ -119,7 +119,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     fn set_poll_wait(&self, id: SeqId, waiting: bool) {
         self.with(|s| {
-            if s.block(id).is_ok() {
+            if s.block(id).is_some() {
                 s.sets.poll_wait.set(id, waiting);
                 s.sets.poll_due.set(id, false);
             }
@@ -171,7 +171,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // The waker is kept before the start is looked for: a start in between wakes it.
         self.park_lane(lane, waker);
         self.with(|s| {
-            let Ok(b) = s.block_mut(id) else {
+            let Some(b) = s.block_mut(id) else {
                 return false;
             };
             let pending = b.has(flag::START_PENDING);
@@ -187,7 +187,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // Registered before the run's end is looked for: an end in between releases it.
         self.with(|s| s.wait_for_join(joiner, target));
         let ended = self.with(|s| {
-            let b = s.block(target)?;
+            let b = s.block(target).ok_or(Error::UnknownSequence(target))?;
             if b.state == RunningState::Idle {
                 return Err(Error::NeverStarted(target));
             }
@@ -209,7 +209,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// The block's own fields, in one section.
     fn info(&self, id: SeqId) -> Option<Info> {
         self.with(|s| {
-            let b = s.block(id).ok()?;
+            let b = s.block(id)?;
             Some(Info {
                 name: b.name(),
                 state: b.state,
@@ -230,7 +230,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {
         self.with(|s| {
-            s.block_mut(id)?.timeout = micros;
+            s.block_mut(id).ok_or(Error::UnknownSequence(id))?.timeout = micros;
             Ok(())
         })
     }

@@ -135,7 +135,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(never)]
     fn claim(&self, id: SeqId) -> Result<(), Error> {
         self.with(|s| {
-            let b = s.block_mut(id)?;
+            let b = s.block_mut(id).ok_or(Error::UnknownSequence(id))?;
             if b.has(flag::BOUND) {
                 return Err(Error::AlreadyBound(id));
             }
@@ -154,7 +154,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// assert!(seq.sequence_by_id(SeqId::from_index(1)).is_none());
     /// ```
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'_, C>> {
-        let known = self.with(|s| s.block(id).is_ok());
+        let known = self.with(|s| s.block(id).is_some());
         known.then(|| Handle::new(self, id))
     }
 

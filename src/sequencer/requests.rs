@@ -45,7 +45,7 @@ impl Request {
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// Queues `req` of `id` for the next tick.
     pub(crate) fn request(&mut self, id: SeqId, req: Request) -> Result<(), Error> {
-        let b = self.block_mut(id)?;
+        let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
         if !req.allowed().has(b.state) {
             return Err(match req {
                 Request::Resume => Error::NotPaused(id),

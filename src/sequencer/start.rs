@@ -59,7 +59,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         caller: Option<SeqId>,
         mode: Mode,
     ) -> Result<(u16, u8), Error> {
-        let b = self.block(id)?;
+        let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
         if !States::STARTABLE.has(b.state) {
             return Err(Error::AlreadyRunning(id));
         }
@@ -77,7 +77,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// does read, change in the commit. `None` for an id not registered.
     fn schedule_new(&mut self, id: SeqId, lane: u8) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        let b = self.block_mut(id).ok()?;
+        let b = self.block_mut(id)?;
         let from = b.state;
         let armed = b.timeout != 0;
         if !States::ACTIVE_RUNNING.has(from) {
@@ -100,7 +100,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// [`schedule_new`](Self::schedule_new), only for a sequence not `Running` or `Paused`.
     fn schedule_restart(&mut self, id: SeqId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        let b = self.block_mut(id).ok()?;
+        let b = self.block_mut(id)?;
         let from = b.state;
         if !States::ACTIVE_RUNNING.has(from) {
             b.start_clock(now);

@@ -136,26 +136,22 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// The control block of registered sequence `id`.
+    /// The control block of registered sequence `id` (`None`: not registered).
     #[inline]
-    pub(crate) fn block(&self, id: SeqId) -> Result<&ControlBlock, Error> {
+    pub(crate) fn block(&self, id: SeqId) -> Option<&ControlBlock> {
         if u16::from(id.0) >= self.count {
-            return Err(Error::UnknownSequence(id));
+            return None;
         }
-        self.blocks
-            .get(id.index())
-            .ok_or(Error::UnknownSequence(id))
+        self.blocks.get(id.index())
     }
 
     /// The control block of registered sequence `id`, to change.
     #[inline]
-    pub(crate) fn block_mut(&mut self, id: SeqId) -> Result<&mut ControlBlock, Error> {
+    pub(crate) fn block_mut(&mut self, id: SeqId) -> Option<&mut ControlBlock> {
         if u16::from(id.0) >= self.count {
-            return Err(Error::UnknownSequence(id));
+            return None;
         }
-        self.blocks
-            .get_mut(id.index())
-            .ok_or(Error::UnknownSequence(id))
+        self.blocks.get_mut(id.index())
     }
 
     /// The number of registered sequences.
@@ -241,7 +237,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// whose end is then reported ([`exception_ended`](Self::exception_ended)). The
     /// joiners are released separately ([`release_joiners`](Self::release_joiners)).
     pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> bool {
-        let Ok(b) = self.block_mut(id) else {
+        let Some(b) = self.block_mut(id) else {
             return false;
         };
         b.outcome = Some(outcome);
@@ -251,13 +247,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// The exception sequence `id` ended: its owner's pending behaviour is applied by the
     /// next tick.
     pub(crate) fn exception_ended(&mut self, id: SeqId) {
-        let Ok(b) = self.block_mut(id) else {
+        let Some(b) = self.block_mut(id) else {
             return;
         };
         b.set(flag::HANDLES_EXCEPTION, false);
         let owner = b.caller.get();
         if let Some(o) = owner {
-            if let Ok(ob) = self.block_mut(o) {
+            if let Some(ob) = self.block_mut(o) {
                 ob.set(flag::EXCEPTION_DONE, true);
                 self.sets.requested.insert(o);
             }

@@ -21,7 +21,7 @@ pub(crate) enum Clearance {
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// What an await point of `id` must do now.
     pub(crate) fn clearance(&self, id: SeqId) -> Clearance {
-        let Ok(b) = self.block(id) else {
+        let Some(b) = self.block(id) else {
             return Clearance::Aborted(Cause::Abort);
         };
         match b.state {

@@ -172,7 +172,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// The name of registered sequence `id`.
     fn name_of(&self, id: SeqId) -> Option<&'static str> {
-        self.with(|s| s.block(id).ok().map(|b| b.name()))
+        self.with(|s| s.block(id).map(|b| b.name()))
     }
 
     /// `exception`, raised by `raiser` for `owner`, exists, is not the owner, and has a

@@ -62,7 +62,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 .is_ok();
             self.with(|s| {
                 if started {
-                    if let Ok(b) = s.block_mut(owner) {
+                    if let Some(b) = s.block_mut(owner) {
                         b.set_pending(Some(behaviour));
                     }
                 } else {
@@ -138,7 +138,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         for id in requested {
             // The requests, and the behaviour pending for an exception sequence that ended.
             let (req, done) = self.with(|s| {
-                let Ok(b) = s.block_mut(id) else {
+                let Some(b) = s.block_mut(id) else {
                     return (0, None);
                 };
                 let mut done = None;
@@ -153,7 +153,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 // Unless it was stopped meanwhile: the cause and the target.
                 let still = self.with(|s| {
                     s.block(id)
-                        .ok()
                         .filter(|b| States::ACTIVE_RUNNING.has(b.state))
                         .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
                 });
@@ -208,7 +207,7 @@ fn mark<
     let targets_caller = reaction.behaviour.targets_caller();
     // Two sections, both in the tick, which no other user of the sequencer preempts.
     let target = s.section(|s| {
-        let b = s.block(owner).ok()?;
+        let b = s.block(owner)?;
         if !states.has(b.state) || s.sets.excepting.has(owner) {
             return None;
         }
@@ -217,7 +216,7 @@ fn mark<
             _ => owner,
         })
     })?;
-    let target_runs = s.section(|s| s.block(target).map(|b| b.runs)).ok()?;
+    let target_runs = s.section(|s| s.block(target).map(|b| b.runs))?;
     let mut behaviour = reaction.behaviour;
     if behaviour.is_restart() {
         if reaction.runs_seen != target_runs {
@@ -232,7 +231,7 @@ fn mark<
     }
     let (restarts, runs_seen) = (reaction.restarts, reaction.runs_seen);
     s.section(|s| {
-        if let Ok(b) = s.block_mut(owner) {
+        if let Some(b) = s.block_mut(owner) {
             b.active_exception = Some(cause);
             if timeout {
                 b.timeout_restarts = restarts;

@@ -102,7 +102,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     fn expired(&self, timed: SetWord<B>, now: Stamp) -> SetWord<B> {
         let mut out = SetWord::empty(timed.index());
         for id in timed {
-            if self.block(id).is_ok_and(|b| b.timed_out(now)) {
+            if self.block(id).is_some_and(|b| b.timed_out(now)) {
                 out.insert(id);
             }
         }
@@ -142,20 +142,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
         // The words of the sets that hold an active sequence, as of the last fold.
-        let (requests, any_due, changed, mut words) = self
-            .with(|s| {
-                if now < s.now {
-                    return None;
-                }
+        let (late, requests, any_due, changed, mut words) = self.with(|s| {
+            let late = now < s.now;
+            if !late {
                 s.now = now;
-                Some((
-                    !s.sets.requested.is_empty(),
-                    stamp.reached(s.polling.next_due),
-                    !s.sets.changed.is_empty(),
-                    s.sets.active.words(),
-                ))
-            })
-            .ok_or(Error::TickBeforeLast)?;
+            }
+            (
+                late,
+                !s.sets.requested.is_empty(),
+                stamp.reached(s.polling.next_due),
+                !s.sets.changed.is_empty(),
+                s.sets.active.words(),
+            )
+        });
+        if late {
+            return Err(Error::TickBeforeLast);
+        }
         let abort_all = self.take_abort_all();
         if changed {
             words = self.fold();
@@ -211,9 +213,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // the same tick comes first.
         for id in polls.expired {
             // The configuration is fixed and its bookkeeping is the tick's: read once.
-            if let Some(mut reaction) =
-                self.with(|s| s.block(id).ok().map(|b| b.timeout_reaction()))
-            {
+            if let Some(mut reaction) = self.with(|s| s.block(id).map(|b| b.timeout_reaction())) {
                 self.raise(control, id, Cause::Timeout(id), &mut reaction);
             }
             *careful = true;

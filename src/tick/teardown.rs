@@ -39,7 +39,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         };
         let (states, lane) = if pause {
             let Some(lane) = target.and_then(|t| {
-                self.with(|s| s.block(t).ok().filter(|b| b.state == from).map(|b| b.lane))
+                self.with(|s| s.block(t).filter(|b| b.state == from).map(|b| b.lane))
             }) else {
                 return;
             };
@@ -154,7 +154,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if copied.has(at) {
                 links.get(at.index()).and_then(|l| l.get())
             } else {
-                self.with(|s| s.block(at).ok().and_then(|b| b.caller.get()))
+                self.with(|s| s.block(at).and_then(|b| b.caller.get()))
             }
         };
         let target = Link::to(target);
@@ -205,7 +205,7 @@ fn leave<
     // Before a teardown, what it leaves behind: the cause a later gate reports, no pending
     // requests; and the hook.
     let (from, hook) = s.section(|s| {
-        let b = s.block_mut(id).ok()?;
+        let b = s.block_mut(id)?;
         let from = b.state;
         if !states.has(from) {
             return None;
@@ -223,7 +223,7 @@ fn leave<
         // The run's clock (and its timeout) stops while paused.
         s.section(|s| {
             let now = Stamp::of(s.now);
-            if let Ok(b) = s.block_mut(id) {
+            if let Some(b) = s.block_mut(id) {
                 b.flip_clock(now);
             }
         });
