@@ -23,7 +23,9 @@ use qemu_harness::{expect_exit, require_tools, root, try_build, Config, Echo, Ou
 use rtseq::safety::{SafetyHandle, SafetySystem};
 use rtseq::sim::Sim;
 use rtseq::{Cause, Instant, Outcome as SeqOutcome, RunningState, SeqId, Sequencer};
-use rtseq_motor::app::{self, AppConfig, Fault, FaultKind, FaultPlan, Ids};
+use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
+use rtseq_motor::app::seq_ids::{BLINK, HOMING, MAIN, MOVES};
+use rtseq_motor::app::{self, AppConfig, Fault, FaultKind, FaultPlan};
 use rtseq_motor::control_system::{ControlSystem, Phase};
 use rtseq_motor::safety::{self, PROPERTIES};
 
@@ -172,19 +174,19 @@ fn phase_name(p: Phase) -> &'static str {
     }
 }
 
-fn monitor_name(ids: &Ids, m: rtseq::MonitorId) -> &'static str {
+fn monitor_name(m: rtseq::MonitorId) -> &'static str {
     [
-        (ids.following_error, "following error"),
-        (ids.end_stop, "end stop"),
-        (ids.pause, "pause"),
-        (ids.resume, "resume"),
+        (FOLLOWING_ERROR, "following error"),
+        (END_STOP, "end stop"),
+        (PAUSE, "pause"),
+        (RESUME, "resume"),
     ]
     .iter()
     .find(|(id, _)| *id == m)
     .map_or("?", |(_, n)| n)
 }
 
-fn cause_text(seq: &Seqr, ids: &Ids, c: Cause) -> String {
+fn cause_text(seq: &Seqr, c: Cause) -> String {
     match c {
         Cause::Start => "start".into(),
         Cause::PreConditionFalse => "pre-condition false".into(),
@@ -193,7 +195,7 @@ fn cause_text(seq: &Seqr, ids: &Ids, c: Cause) -> String {
         Cause::Resume => "resume".into(),
         Cause::Abort => "abort".into(),
         Cause::AbortAll => "abort all".into(),
-        Cause::Monitor(m) => format!("monitor {}", monitor_name(ids, m)),
+        Cause::Monitor(m) => format!("monitor {}", monitor_name(m)),
         Cause::Timeout(s) => format!("timeout of {}", seq.sequence_by_id(s).unwrap().name()),
         Cause::Restart => "restart".into(),
         Cause::Dropped => "dropped".into(),
@@ -201,12 +203,12 @@ fn cause_text(seq: &Seqr, ids: &Ids, c: Cause) -> String {
     }
 }
 
-fn outcome_text(seq: &Seqr, ids: &Ids, o: Option<SeqOutcome>) -> String {
+fn outcome_text(seq: &Seqr, o: Option<SeqOutcome>) -> String {
     match o {
         None => "none".into(),
         Some(SeqOutcome::Completed) => "completed".into(),
         Some(SeqOutcome::Skipped) => "skipped".into(),
-        Some(SeqOutcome::Aborted(c)) => format!("aborted ({})", cause_text(seq, ids, c)),
+        Some(SeqOutcome::Aborted(c)) => format!("aborted ({})", cause_text(seq, c)),
         Some(SeqOutcome::Failed(_)) => "failed".into(),
     }
 }
@@ -220,27 +222,30 @@ fn host(plan: FaultPlan, end_ms: u64) -> Host {
     host_shuffled(plan, end_ms, None)
 }
 
-/// [`host`], with the lanes (all of priority 1) in a random order per pass if `seed`.
+/// [`host`]; with a `seed`, a task per lane (all of priority 1), in a random order per pass.
 fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
     let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(CONFIG.start_position)));
     cs.set_fault_plan(plan);
     let monitors: app::AppMonitors = app::monitor_ids::table(&CONFIG).unwrap();
     let app = app::register(seq, &app::Setup::DEMO).unwrap();
-    let ids = app.ids;
     let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
     seq.set_safety_system(handle);
     let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
     let mut sim = Sim::new(seq, cs, monitors);
     if let Some(seed) = seed {
+        // A task per lane, polled in a random order per pass: exposes same-tick races.
         sim = sim.shuffle_equal_priorities(seed);
-    }
-    // In RTIC's order: the firmware's five lane tasks share priority 1, and RTIC 2 polls a
-    // priority's tasks in the alphabetical order of their names (see `rtseq::sim`).
-    let [main, status, safe_stop, feed_hold, feed_resume] = app.lanes();
-    // lane_feed_hold, lane_feed_resume, lane_main, lane_safe_stop, lane_status
-    for lane in [feed_hold, feed_resume, main, safe_stop, status] {
-        lane.add_to(&mut sim);
+        sim.lane(app.main);
+        sim.lane(app.status);
+        sim.lane(app.safe_stop);
+        sim.lane(app.feed_hold);
+        sim.lane(app.feed_resume);
+    } else {
+        // As the firmware: the five lanes joined in one task (`App::run`).
+        let mut app = app;
+        let lanes = async move { app.run(seq, cs).await };
+        sim.task_with_priority(lanes, rtseq::sim::DEFAULT_LANE_PRIORITY);
     }
     // The firmware's tick: inject, safety cycle (priority 3), control step; then the
     // sequencer tick (done by `step`).
@@ -249,7 +254,7 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
         safety::safety_cycle(cs, &mut system, seq);
         cs.control_step(0.001);
     });
-    sim.start(ids.main).unwrap();
+    sim.start(MAIN).unwrap();
     while sim.now().as_ticks() / 1000 < end_ms {
         sim.step();
     }
@@ -260,7 +265,7 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
     let mut blinks = 0;
     let mut trace = Vec::new();
     for t in sim.trace() {
-        if t.sequence == ids.blink && matches!(t.cause, Cause::Start | Cause::Completed) {
+        if t.sequence == BLINK && matches!(t.cause, Cause::Start | Cause::Completed) {
             if t.to == RunningState::Running {
                 blinks += 1;
             }
@@ -271,13 +276,13 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
             name: name(t.sequence),
             from: state(t.from),
             to: state(t.to),
-            cause: cause_text(seq, &ids, t.cause),
+            cause: cause_text(seq, t.cause),
         });
     }
     let s = cs.summary();
     let st = cs.status();
     let plant = cs.plant();
-    let outcome = |id| outcome_text(seq, &ids, sim.handle(id).unwrap().last_outcome());
+    let outcome = |id| outcome_text(seq, sim.handle(id).unwrap().last_outcome());
     let m = sim.monitors();
     let mut r = BTreeMap::new();
     let mut put = |k: &str, v: String| {
@@ -289,9 +294,9 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
         PROPERTIES.level(handle.level()).unwrap().name().into(),
     );
     put("phase", phase_name(cs.phase()).into());
-    put("main", outcome(ids.main));
-    put("homing", outcome(ids.homing));
-    put("moves", outcome(ids.moves));
+    put("main", outcome(MAIN));
+    put("homing", outcome(HOMING));
+    put("moves", outcome(MOVES));
     put("moves_done", s.moves_done.to_string());
     put("safe_stops", s.safe_stops.to_string());
     put("homed_ms", opt_ms(s.homed_at));
@@ -307,10 +312,10 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
             .collect::<Vec<_>>()
             .join(","),
     );
-    put("fired_fe", m.fired(ids.following_error).to_string());
-    put("fired_es", m.fired(ids.end_stop).to_string());
-    put("fired_pause", m.fired(ids.pause).to_string());
-    put("fired_resume", m.fired(ids.resume).to_string());
+    put("fired_fe", m.fired(FOLLOWING_ERROR).to_string());
+    put("fired_es", m.fired(END_STOP).to_string());
+    put("fired_pause", m.fired(PAUSE).to_string());
+    put("fired_resume", m.fired(RESUME).to_string());
     for (k, key) in [
         (FaultKind::FollowingError, "fe"),
         (FaultKind::OverCurrent, "oc"),

@@ -13,13 +13,13 @@
 //! let cs = ControlSystem::new(AppConfig::DEFAULT.start_position);
 //! cs.set_fault_plan(FaultPlan::NONE);
 //! let monitors: app::AppMonitors = app::monitor_ids::table(&AppConfig::DEFAULT).unwrap();
-//! let app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
-//! let main = app.ids.main;
+//! let mut app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
 //!
 //! let mut sim = Sim::new(&seq, &cs, monitors);
-//! for lane in app.lanes() { lane.add_to(&mut sim); }
+//! // The five lanes joined in one task, as in the firmware.
+//! sim.task_with_priority(app.run(&seq, &cs), rtseq::sim::DEFAULT_LANE_PRIORITY);
 //! sim.before_tick(|now, cs| cs.control_tick(now, 0.001)); // the control interrupt
-//! sim.start(main).unwrap();
+//! sim.start(app::seq_ids::MAIN).unwrap();
 //! sim.run_until_idle(Duration::from_secs(10)).unwrap();
 //! assert_eq!(cs.phase(), Phase::Done);
 //! assert_eq!(usize::from(cs.summary().moves_done), AppConfig::DEFAULT.move_count);
@@ -27,16 +27,16 @@
 //!
 //! In RTIC firmware: a `static` [`Sequencer`] and [`ControlSystem`], the monitor table as a
 //! `local` resource of the timer task (built at compile time: `const { app::monitor_ids::table(..) }`),
-//! [`register`] in `init`, one async task per lane of [`App`] (or all of them
-//! joined in one task with [`App::run`]), and in the timer interrupt:
+//! [`register`] in `init`, one async task that runs the lanes of [`App`] ([`App::run`]),
+//! and in the timer interrupt:
 //! `CS.control_tick(now, 0.001); SEQ.tick(now, &CS, monitors)`.
 
 use core::convert::Infallible;
 
 use rtseq::lock::Lock;
 use rtseq::{
-    Behaviour, Condition, Duration, Instant, Monitor, MonitorId, Monitors, Seq, SeqConfig, SeqId,
-    Sequencer, Table, Toggle, Wait,
+    Behaviour, Condition, Duration, Instant, Monitor, Monitors, Seq, SeqConfig, Sequencer, Table,
+    Toggle, Wait,
 };
 
 use crate::control_system::{ControlSystem, Phase};
@@ -468,151 +468,38 @@ rtseq::monitors! {
     }
 }
 
-/// The ids of everything [`register`] and [`monitor_ids`] added (for tests, logs and traces).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Ids {
-    /// Main sequence.
-    pub main: SeqId,
-    /// Status sequence.
-    pub status: SeqId,
-    /// Its blink wait.
-    pub blink: SeqId,
-    /// Power-on step.
-    pub power_on: SeqId,
-    /// Homing sequence.
-    pub homing: SeqId,
-    /// Seek step.
-    pub seek: SeqId,
-    /// Halt step of homing.
-    pub halt: SeqId,
-    /// Set-zero step.
-    pub set_zero: SeqId,
-    /// Back-off step.
-    pub back_off: SeqId,
-    /// Move loop sequence.
-    pub moves: SeqId,
-    /// Move step.
-    pub move_step: SeqId,
-    /// Dwell step.
-    pub dwell: SeqId,
-    /// Safe-stop exception sequence.
-    pub safe_stop: SeqId,
-    /// Its quick-stop step.
-    pub quick_stop: SeqId,
-    /// Feed-hold exception sequence.
-    pub feed_hold: SeqId,
-    /// Feed-resume exception sequence.
-    pub feed_resume: SeqId,
-    /// Main's halt step after a failure.
-    pub main_halt: SeqId,
-    /// Power-off step.
-    pub power_off: SeqId,
-    /// Following-error monitor (owner: move step).
-    pub following_error: MonitorId,
-    /// End-stop monitor (owner: moves).
-    pub end_stop: MonitorId,
-    /// Pause monitor (owner: moves).
-    pub pause: MonitorId,
-    /// Resume monitor (owner: moves).
-    pub resume: MonitorId,
-}
-
-/// The registered application: the sequence objects that need a lane, and the ids.
+/// The registered application: the sequence objects that run in lanes (the ids are
+/// [`seq_ids`] and [`monitor_ids`]).
 pub struct App {
-    /// Lane: the main sequence (start it with its handle or `Sim::start`).
+    /// The main sequence (start it with its handle or `Sim::start`).
     pub main: Seq<Main>,
-    /// Lane: the status sequence (started by main).
+    /// The status sequence (started by main).
     pub status: Seq<StatusBlink>,
-    /// Lane: the safe-stop exception sequence.
+    /// The safe-stop exception sequence.
     pub safe_stop: Seq<SafeStop>,
-    /// Lane: the feed-hold exception sequence.
+    /// The feed-hold exception sequence.
     pub feed_hold: Seq<FeedHold>,
-    /// Lane: the feed-resume exception sequence.
+    /// The feed-resume exception sequence.
     pub feed_resume: Seq<FeedResume>,
-    /// Every id.
-    pub ids: Ids,
-}
-
-/// One lane of an [`App`] (for the host simulator: `AppLane::add_to`, feature `std`).
-// Each value is built once and moved into the simulator: its size does not matter.
-#[allow(clippy::large_enum_variant)]
-pub enum AppLane {
-    /// Main.
-    Main(Seq<Main>),
-    /// Status.
-    Status(Seq<StatusBlink>),
-    /// Safe stop.
-    SafeStop(Seq<SafeStop>),
-    /// Feed hold.
-    FeedHold(Seq<FeedHold>),
-    /// Feed resume.
-    FeedResume(Seq<FeedResume>),
-}
-
-#[cfg(feature = "std")]
-impl AppLane {
-    /// Adds this lane to a host simulation.
-    pub fn add_to<
-        'a,
-        const N: usize,
-        const T: usize,
-        const M: usize,
-        K: Condition<ControlSystem>,
-        L: rtseq::lock::Lock,
-    >(
-        self,
-        sim: &mut rtseq::sim::Sim<'a, ControlSystem, N, T, M, K, 8, 1, L>,
-    ) {
-        match self {
-            AppLane::Main(s) => sim.lane(s),
-            AppLane::Status(s) => sim.lane(s),
-            AppLane::SafeStop(s) => sim.lane(s),
-            AppLane::FeedHold(s) => sim.lane(s),
-            AppLane::FeedResume(s) => sim.lane(s),
-        }
-    }
 }
 
 impl App {
-    /// The five lanes, in the order they should be polled (main first).
-    pub fn lanes(self) -> [AppLane; 5] {
-        [
-            AppLane::Main(self.main),
-            AppLane::Status(self.status),
-            AppLane::SafeStop(self.safe_stop),
-            AppLane::FeedHold(self.feed_hold),
-            AppLane::FeedResume(self.feed_resume),
-        ]
-    }
-
-    /// All five lanes joined in one future (for a single RTIC task, with [`rtseq::lanes!`]):
-    /// never returns. Each wake polls the five lanes in order; a lane that has nothing to do
-    /// returns `Pending` at once.
+    /// The five lanes joined in one future (one RTIC task, with [`rtseq::lanes!`]): never
+    /// returns. Each wake polls the lanes in this order; a lane with nothing to do returns
+    /// `Pending` at once.
     pub async fn run<const N: usize, const T: usize, L: Lock, const W: usize>(
-        self,
-        sequencer: &Sequencer<ControlSystem, N, T, L, W>,
+        &mut self,
+        seq: &Sequencer<ControlSystem, N, T, L, W>,
         cs: &ControlSystem,
     ) -> Infallible {
         let App {
-            mut main,
-            mut status,
-            mut safe_stop,
-            mut feed_hold,
-            mut feed_resume,
-            ..
-        } = self;
-        let (main, status, safe_stop) = (&mut main, &mut status, &mut safe_stop);
-        let (feed_hold, feed_resume) = (&mut feed_hold, &mut feed_resume);
-        rtseq::lanes!(
-            sequencer,
-            cs,
             main,
             status,
             safe_stop,
             feed_hold,
-            feed_resume
-        )
-        .await
+            feed_resume,
+        } = self;
+        rtseq::lanes!(seq, cs, main, status, safe_stop, feed_hold, feed_resume).await
     }
 }
 
@@ -704,100 +591,56 @@ impl Setup {
     }
 }
 
-/// Registers the whole application into `sequencer` and returns the sequence objects the
-/// lanes need: installs `setup`'s table (see [`Setup::new`]) and binds the sequence
-/// objects. The monitors are a table of their own ([`monitor_ids`]).
+/// Registers the whole application into `sequencer`: installs `setup`'s table (see
+/// [`Setup::new`]), binds the sequence objects and declares the lanes of [`App`], so that
+/// main can be started at once (from RTIC `init`, before the lanes first ran). The monitors
+/// are a table of their own ([`monitor_ids`]).
 ///
-/// Errors: the sequencer is not empty. `N` < [`SEQUENCES`] does not compile.
+/// Errors: the sequencer is not empty, or has fewer than five lane slots. `N` <
+/// [`SEQUENCES`] does not compile.
 pub fn register<const N: usize, const T: usize, L: Lock, const W: usize>(
     sequencer: &Sequencer<ControlSystem, N, T, L, W>,
     setup: &Setup,
 ) -> Result<App, rtseq::Error> {
     use seq_ids::*;
-    let s = sequencer;
-    let config = &setup.config;
+    let (s, config) = (sequencer, &setup.config);
     s.install(&setup.table)?;
-
     let quick_stop = s.bind(QUICK_STOP, QuickStop)?;
-    let safe_stop = s.bind(SAFE_STOP, SafeStop { stop: quick_stop })?;
     let blink = s.bind(BLINK, Wait::new(Duration::from_millis(125)))?;
-    let status = s.bind(STATUS, StatusBlink { blink })?;
-    let power_on = s.bind(POWER_ON, PowerOn)?;
-    let seek = s.bind(
-        SEEK,
-        SeekEndStop {
-            speed: config.homing_speed,
-        },
-    )?;
-    let halt = s.bind(HALT, Halt)?;
-    let zero = s.bind(SET_ZERO, SetZero)?;
-    let back_off = s.bind(
-        BACK_OFF,
-        MoveTo {
-            target: config.back_off,
-        },
-    )?;
-    let homing = s.bind(
-        HOMING,
-        Homing {
-            seek,
-            halt,
-            zero,
-            back_off,
-        },
-    )?;
+    let speed = config.homing_speed;
+    let homing = Homing {
+        seek: s.bind(SEEK, SeekEndStop { speed })?,
+        halt: s.bind(HALT, Halt)?,
+        zero: s.bind(SET_ZERO, SetZero)?,
+        back_off: s.bind(
+            BACK_OFF,
+            MoveTo {
+                target: config.back_off,
+            },
+        )?,
+    };
     let move_step = s.bind(MOVE, MoveTo { target: 0.0 })?;
     let dwell = s.bind(DWELL, Wait::new(config.dwell))?;
-    let moves = s.bind(
-        MOVES,
-        MoveLoop::new(move_step, dwell, config.targets, config.move_count),
-    )?;
-    let feed_hold = s.bind(FEED_HOLD, FeedHold { moves: MOVES })?;
-    let feed_resume = s.bind(FEED_RESUME, FeedResume { moves: MOVES })?;
-    let main_halt = s.bind(MAIN_HALT, QuickStop)?;
-    let power_off = s.bind(POWER_OFF, PowerOff)?;
-    let main = s.bind(
-        MAIN,
-        Main {
-            status: STATUS,
-            power_on,
-            homing,
-            moves,
-            halt: main_halt,
-            power_off,
-        },
-    )?;
-
-    let ids = Ids {
-        main: MAIN,
+    let moves = MoveLoop::new(move_step, dwell, config.targets, config.move_count);
+    let main = Main {
         status: STATUS,
-        blink: BLINK,
-        power_on: POWER_ON,
-        homing: HOMING,
-        seek: SEEK,
-        halt: HALT,
-        set_zero: SET_ZERO,
-        back_off: BACK_OFF,
-        moves: MOVES,
-        move_step: MOVE,
-        dwell: DWELL,
-        safe_stop: SAFE_STOP,
-        quick_stop: QUICK_STOP,
-        feed_hold: FEED_HOLD,
-        feed_resume: FEED_RESUME,
-        main_halt: MAIN_HALT,
-        power_off: POWER_OFF,
-        following_error: monitor_ids::FOLLOWING_ERROR,
-        end_stop: monitor_ids::END_STOP,
-        pause: monitor_ids::PAUSE,
-        resume: monitor_ids::RESUME,
+        power_on: s.bind(POWER_ON, PowerOn)?,
+        homing: s.bind(HOMING, homing)?,
+        moves: s.bind(MOVES, moves)?,
+        halt: s.bind(MAIN_HALT, QuickStop)?,
+        power_off: s.bind(POWER_OFF, PowerOff)?,
     };
-    Ok(App {
-        main,
-        status,
-        safe_stop,
-        feed_hold,
-        feed_resume,
-        ids,
-    })
+    let app = App {
+        main: s.bind(MAIN, main)?,
+        status: s.bind(STATUS, StatusBlink { blink })?,
+        safe_stop: s.bind(SAFE_STOP, SafeStop { stop: quick_stop })?,
+        feed_hold: s.bind(FEED_HOLD, FeedHold { moves: MOVES })?,
+        feed_resume: s.bind(FEED_RESUME, FeedResume { moves: MOVES })?,
+    };
+    for lane in [MAIN, STATUS, SAFE_STOP, FEED_HOLD, FEED_RESUME] {
+        s.sequence_by_id(lane)
+            .ok_or(rtseq::Error::UnknownSequence(lane))?
+            .declare_lane()?;
+    }
+    Ok(app)
 }

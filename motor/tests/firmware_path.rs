@@ -27,8 +27,8 @@ impl Wake for Flag {
 fn joined_lanes_give_the_same_run_as_the_simulator() {
     let (seq, cs): (Seqr, ControlSystem) = (Sequencer::new(), ControlSystem::new(0.02));
     let mut monitors: app::AppMonitors<M> = app::monitor_ids::table(&AppConfig::DEFAULT).unwrap();
-    let app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
-    let main = app.ids.main;
+    let mut app = app::register(&seq, &app::Setup::DEFAULT).unwrap();
+    let main = MAIN;
     let flag = Arc::new(Flag(AtomicBool::new(true)));
     let waker = Waker::from(flag.clone());
     let mut lanes = pin!(app.run(&seq, &cs));
@@ -71,10 +71,7 @@ fn estop_enters_emergency_and_aborts_every_sequence() {
     let mut w = World::new(FaultPlan::NONE.with(Fault::EStop { at: ms(2000) }), true);
     w.run();
     assert_eq!(w.safety.unwrap().level(), safety::EMERGENCY);
-    assert_eq!(
-        w.outcome(w.ids.main),
-        Some(Outcome::Aborted(Cause::AbortAll))
-    );
+    assert_eq!(w.outcome(MAIN), Some(Outcome::Aborted(Cause::AbortAll)));
     w.settle(100);
     let r = w.cs.summary().estop;
     assert_eq!(r.latency(), Some(rtseq::Duration::from_millis(1)));

@@ -37,7 +37,7 @@ fn measured_world(
     button: Rc<Cell<bool>>,
 ) -> (World, Rc<Cell<Plant>>) {
     let config = AppConfig::DEFAULT;
-    let (mut sim, seq, cs, ids) = app_sim(plan, config);
+    let (mut sim, seq, cs) = app_sim(plan, config);
     let safety = with_safety.then(|| {
         let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
         seq.set_safety_system(handle);
@@ -72,7 +72,6 @@ fn measured_world(
         sim,
         seq,
         cs,
-        ids,
         safety,
     };
     (w, plant)
@@ -221,13 +220,12 @@ fn start_of_period_sampling_runs_the_same_application() {
             Sampling::StartOfPeriod,
             Rc::new(Cell::new(false)),
         );
-        let ids = w.ids;
         let hw_run = run(w, Some(machine));
         // The status LED blinks on its own clock: leave it out.
         let motion = |r: &Run| -> Vec<Transition> {
             r.trace
                 .iter()
-                .filter(|t| t.sequence != ids.status && t.sequence != ids.blink)
+                .filter(|t| t.sequence != STATUS && t.sequence != BLINK)
                 .copied()
                 .collect()
         };
@@ -265,7 +263,7 @@ fn the_real_pause_button_pauses_and_resumes_the_moves() {
         Sampling::StartOfPeriod,
         button.clone(),
     );
-    w.sim.start(w.ids.main).unwrap();
+    w.sim.start(MAIN).unwrap();
     let press = |w: &mut World, b: &Rc<Cell<bool>>| {
         b.set(true);
         w.sim.run_for(Duration::from_millis(30));

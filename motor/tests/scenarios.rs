@@ -45,22 +45,11 @@ fn assert_motor_stopped(w: &World) {
 #[test]
 fn no_fault_homes_then_completes_every_move_in_position() {
     let (w, done) = fault_free(false);
-    let ids = w.ids;
     let cfg = AppConfig::DEFAULT;
     // Outcomes.
     for id in [
-        ids.main,
-        ids.power_on,
-        ids.homing,
-        ids.seek,
-        ids.halt,
-        ids.set_zero,
-        ids.back_off,
-        ids.moves,
-        ids.move_step,
-        ids.dwell,
-        ids.power_off,
-        ids.status,
+        MAIN, POWER_ON, HOMING, SEEK, HALT, SET_ZERO, BACK_OFF, MOVES, MOVE, DWELL, POWER_OFF,
+        STATUS,
     ] {
         assert_eq!(
             w.outcome(id),
@@ -70,15 +59,15 @@ fn no_fault_homes_then_completes_every_move_in_position() {
             w.show()
         );
     }
-    for id in [ids.safe_stop, ids.feed_hold, ids.feed_resume, ids.main_halt] {
+    for id in [SAFE_STOP, FEED_HOLD, FEED_RESUME, MAIN_HALT] {
         assert_eq!(w.state(id), Idle, "{} ran", w.name(id));
     }
     // Homing: seek (20 mm at 20 mm/s ≈ 1 s), halt, zero, back off; then the moves.
     let homed = to_ms(w.cs.summary().homed_at.unwrap());
     assert!((1050..1250).contains(&homed), "homed at {homed} ms");
-    let moves = w.of(ids.moves);
+    let moves = w.of(MOVES);
     assert_eq!(moves.len(), 2);
-    assert_eq!(moves[0], tr(homed, ids.moves, Idle, Running, Start));
+    assert_eq!(moves[0], tr(homed, MOVES, Idle, Running, Start));
     // Every move ends in position and settled at its target.
     assert_eq!(done.len(), cfg.move_count);
     for (i, &(_, pos)) in done.iter().enumerate() {
@@ -89,7 +78,7 @@ fn no_fault_homes_then_completes_every_move_in_position() {
     }
     // Move durations match the trapezoidal profile (+ settling ≤ 60 ms).
     let starts: Vec<u64> = w
-        .of(ids.move_step)
+        .of(MOVE)
         .iter()
         .filter(|t| t.to == Running)
         .map(|t| to_ms(t.time))
@@ -108,7 +97,7 @@ fn no_fault_homes_then_completes_every_move_in_position() {
     assert_eq!(w.cs.phase(), Phase::Done);
     assert!(w.cs.led(), "the LED stays on when done");
     // The LED blinked: power-on/homing at 4 Hz, moving at 2 Hz (blink = half period).
-    let blinks = w.sim.handle(ids.blink).unwrap().counters().runs;
+    let blinks = w.sim.handle(BLINK).unwrap().counters().runs;
     assert!(blinks >= 15, "{blinks}");
     let final_pos = w.cs.position();
     assert!((final_pos - 0.150).abs() <= POSITION_TOLERANCE);
@@ -122,11 +111,10 @@ fn following_error_safe_stop_restarts_the_moves_three_times_then_aborts() {
         false,
     );
     w.run();
-    let ids = w.ids;
-    let fe = Monitor(ids.following_error);
+    let fe = Monitor(FOLLOWING_ERROR);
     // The moves: restarted three times by the monitor, then aborted (restart limit).
     let moves: Vec<(rtseq::RunningState, rtseq::RunningState, Cause)> = w
-        .of(ids.moves)
+        .of(MOVES)
         .iter()
         .map(|t| (t.from, t.to, t.cause))
         .collect();
@@ -146,14 +134,14 @@ fn following_error_safe_stop_restarts_the_moves_three_times_then_aborts() {
         "\n{}",
         w.show()
     );
-    let c = w.sim.handle(ids.moves).unwrap().counters();
+    let c = w.sim.handle(MOVES).unwrap().counters();
     assert_eq!((c.runs, c.restarts, c.aborts), (1, 3, 1));
-    assert_eq!(w.outcome(ids.moves), Some(Outcome::Aborted(fe)));
-    assert_eq!(w.outcome(ids.move_step), Some(Outcome::Aborted(fe)));
+    assert_eq!(w.outcome(MOVES), Some(Outcome::Aborted(fe)));
+    assert_eq!(w.outcome(MOVE), Some(Outcome::Aborted(fe)));
     // The safe stop ran once per firing (4), each started by the monitor, each before the
     // behaviour was applied (the move is aborted one tick after the safe stop started).
     let safe_starts: Vec<u64> = w
-        .of(ids.safe_stop)
+        .of(SAFE_STOP)
         .iter()
         .filter(|t| t.to == Running)
         .map(|t| {
@@ -162,7 +150,7 @@ fn following_error_safe_stop_restarts_the_moves_three_times_then_aborts() {
         })
         .collect();
     let move_aborts: Vec<u64> = w
-        .of(ids.move_step)
+        .of(MOVE)
         .iter()
         .filter(|t| t.to == Aborted)
         .map(|t| to_ms(t.time))
@@ -172,11 +160,11 @@ fn following_error_safe_stop_restarts_the_moves_three_times_then_aborts() {
     for (s, a) in safe_starts.iter().zip(&move_aborts) {
         assert!(a > s && a - s <= 3, "safe stop at {s}, abort at {a}");
     }
-    assert_eq!(w.sim.handle(ids.safe_stop).unwrap().counters().completed, 4);
-    assert_eq!(w.sim.monitors().fired(ids.following_error), 4);
+    assert_eq!(w.sim.handle(SAFE_STOP).unwrap().counters().completed, 4);
+    assert_eq!(w.sim.monitors().fired(FOLLOWING_ERROR), 4);
     // Main stops the axis, powers off and ends.
-    assert_eq!(w.outcome(ids.main_halt), Some(Outcome::Completed));
-    assert_eq!(w.outcome(ids.main), Some(Outcome::Completed));
+    assert_eq!(w.outcome(MAIN_HALT), Some(Outcome::Completed));
+    assert_eq!(w.outcome(MAIN), Some(Outcome::Completed));
     assert_eq!(w.cs.phase(), Phase::Fault);
     let s = w.cs.summary();
     assert_eq!((s.moves_done, s.safe_stops), (0, 4));
@@ -193,8 +181,7 @@ fn following_error_safe_stop_restarts_the_moves_three_times_then_aborts() {
 fn end_stop_during_a_move_aborts_the_moves() {
     let mut w = World::new(FaultPlan::NONE.with(Fault::EndStop { at: ms(1500) }), false);
     w.run();
-    let ids = w.ids;
-    let es = Monitor(ids.end_stop);
+    let es = Monitor(END_STOP);
     // Detected in the tick at which the switch closed: move and moves aborted at 1500 ms,
     // innermost first.
     let aborted: Vec<Transition> = w
@@ -207,15 +194,15 @@ fn end_stop_during_a_move_aborts_the_moves() {
     assert_eq!(
         aborted,
         vec![
-            tr(1500, ids.move_step, Running, Aborting, es),
-            tr(1500, ids.move_step, Aborting, Aborted, es),
-            tr(1500, ids.moves, Running, Aborting, es),
-            tr(1500, ids.moves, Aborting, Aborted, es),
+            tr(1500, MOVE, Running, Aborting, es),
+            tr(1500, MOVE, Aborting, Aborted, es),
+            tr(1500, MOVES, Running, Aborting, es),
+            tr(1500, MOVES, Aborting, Aborted, es),
         ]
     );
-    assert_eq!(w.outcome(ids.moves), Some(Outcome::Aborted(es)));
-    assert_eq!(w.outcome(ids.main), Some(Outcome::Completed));
-    assert_eq!(w.state(ids.safe_stop), Idle);
+    assert_eq!(w.outcome(MOVES), Some(Outcome::Aborted(es)));
+    assert_eq!(w.outcome(MAIN), Some(Outcome::Completed));
+    assert_eq!(w.state(SAFE_STOP), Idle);
     assert_eq!(w.cs.phase(), Phase::Fault);
     let s = w.cs.summary();
     assert_eq!(s.moves_done, 0);
@@ -253,8 +240,7 @@ fn pause_button_pauses_the_move_and_resumes_it_later() {
             done.push(now);
         }
     });
-    let ids = w.ids;
-    let (pause, resume) = (Monitor(ids.pause), Monitor(ids.resume));
+    let (pause, resume) = (Monitor(PAUSE), Monitor(RESUME));
     let of = |id| -> Vec<Transition> {
         w.of(id)
             .into_iter()
@@ -262,25 +248,25 @@ fn pause_button_pauses_the_move_and_resumes_it_later() {
             .collect()
     };
     assert_eq!(
-        of(ids.feed_hold),
-        vec![tr(1500, ids.feed_hold, Idle, Running, pause),]
+        of(FEED_HOLD),
+        vec![tr(1500, FEED_HOLD, Idle, Running, pause),]
     );
     assert_eq!(
-        of(ids.feed_resume),
-        vec![tr(2000, ids.feed_resume, Idle, Running, resume)]
+        of(FEED_RESUME),
+        vec![tr(2000, FEED_RESUME, Idle, Running, resume)]
     );
     assert_eq!(
-        of(ids.moves),
+        of(MOVES),
         vec![
-            tr(1501, ids.moves, Running, Paused, Pause),
-            tr(2001, ids.moves, Paused, Running, Resume),
+            tr(1501, MOVES, Running, Paused, Pause),
+            tr(2001, MOVES, Paused, Running, Resume),
         ]
     );
     assert_eq!(
-        of(ids.move_step),
+        of(MOVE),
         vec![
-            tr(1501, ids.move_step, Running, Paused, Pause),
-            tr(2001, ids.move_step, Paused, Running, Resume),
+            tr(1501, MOVE, Running, Paused, Pause),
+            tr(2001, MOVE, Paused, Running, Resume),
         ]
     );
     assert!(
@@ -288,7 +274,7 @@ fn pause_button_pauses_the_move_and_resumes_it_later() {
         "the axis stands still while paused: {held_speed} m/s"
     );
     // Everything completes; the paused move (the first) ends about 500 ms later.
-    for id in [ids.main, ids.moves, ids.move_step] {
+    for id in [MAIN, MOVES, MOVE] {
         assert_eq!(w.outcome(id), Some(Outcome::Completed));
     }
     assert_eq!(w.cs.phase(), Phase::Done);
@@ -300,7 +286,7 @@ fn pause_button_pauses_the_move_and_resumes_it_later() {
         (s.paused_at, s.resumed_at),
         (Some(ms(1500)), Some(ms(2000)))
     );
-    assert_eq!(w.sim.handle(ids.move_step).unwrap().counters().aborts, 0);
+    assert_eq!(w.sim.handle(MOVE).unwrap().counters().aborts, 0);
 }
 
 #[test]
@@ -310,12 +296,11 @@ fn over_current_trips_the_safety_system_which_aborts_every_sequence() {
         true,
     );
     w.run();
-    let ids = w.ids;
     let handle = w.safety.unwrap();
     assert_eq!(handle.level(), safety::EMERGENCY);
     // The input check fires at 1500 ms, the emergency level is entered in the next safety
     // cycle (1501 ms), which aborts every sequence in the tick of the same millisecond.
-    for id in [ids.main, ids.moves, ids.move_step, ids.status] {
+    for id in [MAIN, MOVES, MOVE, STATUS] {
         assert_eq!(
             w.outcome(id),
             Some(Outcome::Aborted(AbortAll)),
@@ -357,9 +342,9 @@ fn lanes_joined_in_one_task_give_the_same_run_as_a_task_per_lane() {
     let plan = FaultPlan::NONE.with(Fault::FollowingError { at: ms(1500) });
     let mut apart = World::new(plan, false);
     let end = apart.run();
-    let (mut sim, _, cs, ids) = app_sim_joined(plan, AppConfig::DEFAULT);
+    let (mut sim, _, cs) = app_sim_joined(plan, AppConfig::DEFAULT);
     sim.before_tick(|now, cs: &ControlSystem| cs.control_tick(now, 0.001));
-    sim.start(ids.main).unwrap();
+    sim.start(MAIN).unwrap();
     while sim.any_active() {
         sim.step();
     }
@@ -367,7 +352,7 @@ fn lanes_joined_in_one_task_give_the_same_run_as_a_task_per_lane() {
     assert_eq!(sim.trace(), apart.sim.trace());
     assert_eq!(
         apart
-            .of(ids.moves)
+            .of(MOVES)
             .iter()
             .filter(|t| t.to == rtseq::RunningState::Restarting)
             .count(),

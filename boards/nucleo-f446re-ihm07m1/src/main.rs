@@ -115,6 +115,7 @@ mod app {
 
     use rtseq::safety::{SafetyHandle, SafetySystem};
     use rtseq::{SeqId, Sequencer};
+    use rtseq_motor::app::seq_ids::MAIN;
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
     use rtseq_motor::control_system::ControlSystem;
     use rtseq_motor::hardware::DriveCommand;
@@ -277,20 +278,7 @@ mod app {
                 None
             }
         };
-        let main = app.as_ref().map(|a| a.ids.main);
-        if let Some(a) = app.as_ref() {
-            for id in [
-                a.ids.main,
-                a.ids.status,
-                a.ids.safe_stop,
-                a.ids.feed_hold,
-                a.ids.feed_resume,
-            ] {
-                if let Some(h) = SEQ.sequence_by_id(id) {
-                    let _ = h.declare_lane();
-                }
-            }
-        }
+        let main = app.as_ref().map(|_| MAIN);
 
         let mut timer = dp.TIM6.counter_hz(&mut rcc);
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
@@ -441,7 +429,7 @@ mod app {
     /// The application's five lanes, joined (they sleep until the tick wakes them).
     #[task(priority = 1, local = [app])]
     async fn lanes(cx: lanes::Context) {
-        if let Some(app) = cx.local.app.take() {
+        if let Some(app) = cx.local.app {
             match app.run(&SEQ, &CS).await {}
         }
     }

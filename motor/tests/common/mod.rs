@@ -4,9 +4,14 @@
 use rtseq::safety::{SafetyHandle, SafetySystem};
 use rtseq::sim::Sim;
 use rtseq::{Duration, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
-use rtseq_motor::app::{self, AppConfig, FaultPlan, Ids};
+use rtseq_motor::app::{self, AppConfig, FaultPlan};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_motor::safety::{self, PROPERTIES};
+
+/// The application's ids, for the tests.
+#[allow(unused_imports)]
+pub use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
+pub use rtseq_motor::app::seq_ids::*;
 
 pub const N: usize = app::SEQUENCES;
 pub const M: usize = app::MONITORS;
@@ -17,7 +22,6 @@ pub struct World {
     pub sim: AppSim,
     pub seq: &'static Seqr,
     pub cs: &'static ControlSystem,
-    pub ids: Ids,
     pub safety: Option<&'static SafetyHandle>,
 }
 
@@ -26,24 +30,26 @@ pub struct World {
 pub fn app_sim(
     plan: FaultPlan,
     config: AppConfig,
-) -> (AppSim, &'static Seqr, &'static ControlSystem, Ids) {
+) -> (AppSim, &'static Seqr, &'static ControlSystem) {
     let (mut sim, seq, cs, app) = registered(plan, config);
-    let ids = app.ids;
-    for lane in app.lanes() {
-        lane.add_to(&mut sim);
-    }
-    (sim, seq, cs, ids)
+    sim.lane(app.main);
+    sim.lane(app.status);
+    sim.lane(app.safe_stop);
+    sim.lane(app.feed_hold);
+    sim.lane(app.feed_resume);
+    (sim, seq, cs)
 }
 
 /// Like [`app_sim`], with the five lanes joined in one task (`App::run`, `rtseq::lanes!`).
 pub fn app_sim_joined(
     plan: FaultPlan,
     config: AppConfig,
-) -> (AppSim, &'static Seqr, &'static ControlSystem, Ids) {
+) -> (AppSim, &'static Seqr, &'static ControlSystem) {
     let (mut sim, seq, cs, app) = registered(plan, config);
-    let ids = app.ids;
-    sim.task_with_priority(app.run(seq, cs), rtseq::sim::DEFAULT_LANE_PRIORITY);
-    (sim, seq, cs, ids)
+    let mut app = app;
+    let lanes = async move { app.run(seq, cs).await };
+    sim.task_with_priority(lanes, rtseq::sim::DEFAULT_LANE_PRIORITY);
+    (sim, seq, cs)
 }
 
 /// The application registered into a leaked sequencer and control system, and a simulation
@@ -75,7 +81,7 @@ impl World {
     }
 
     pub fn with_config(plan: FaultPlan, with_safety: bool, config: AppConfig) -> World {
-        let (mut sim, seq, cs, ids) = app_sim(plan, config);
+        let (mut sim, seq, cs) = app_sim(plan, config);
         let safety = if with_safety {
             let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
             seq.set_safety_system(handle);
@@ -94,7 +100,6 @@ impl World {
             sim,
             seq,
             cs,
-            ids,
             safety,
         }
     }
@@ -106,7 +111,7 @@ impl World {
 
     /// Like [`run`](Self::run), calling `sample` after every tick.
     pub fn run_sampling(&mut self, mut sample: impl FnMut(&World)) -> u64 {
-        self.sim.start(self.ids.main).unwrap();
+        self.sim.start(MAIN).unwrap();
         let limit = ms(15_000);
         while self.sim.any_active() {
             assert!(

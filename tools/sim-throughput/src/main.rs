@@ -15,6 +15,7 @@ use std::time::Instant as HostInstant;
 use rtseq::lock::{Lock, SingleThread};
 use rtseq::sim::Sim;
 use rtseq::{Behaviour, Duration, Monitor, Monitors, SeqConfig, Sequencer};
+use rtseq_motor::app::seq_ids::MAIN;
 use rtseq_motor::app::{self, AppConfig, FaultPlan};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_scenarios::{Ctrl, FlagCond, Node};
@@ -84,13 +85,14 @@ fn motor_once<L: Lock>(seq: &Sequencer<ControlSystem, { app::SEQUENCES }, 256, L
     let monitors: app::AppMonitors = app::monitor_ids::table(&config).expect("monitors");
     let setup = app::Setup::new(config).expect("setup");
     let registered = app::register(seq, &setup).expect("register");
-    let main = registered.ids.main;
     let mut sim = Sim::new(seq, cs, monitors);
-    for lane in registered.lanes() {
-        lane.add_to(&mut sim);
-    }
+    sim.lane(registered.main);
+    sim.lane(registered.status);
+    sim.lane(registered.safe_stop);
+    sim.lane(registered.feed_hold);
+    sim.lane(registered.feed_resume);
     sim.before_tick(|now, cs: &ControlSystem| cs.control_tick(now, 0.001));
-    sim.start(main).expect("start main");
+    sim.start(MAIN).expect("start main");
     let t0 = HostInstant::now();
     let mut ticks = 0;
     while sim.any_active() && ticks < 60_000 {

@@ -33,7 +33,11 @@ use core::cell::UnsafeCell;
 
 use rtseq::safety::{SafetyHandle, SafetyLevel};
 use rtseq::{Cause, Instant, MonitorId, Outcome, RunningState, SeqId, Sequencer};
-use rtseq_motor::app::{self, AppConfig, Fault, FaultKind, FaultPlan, Ids, MAX_FAULTS};
+use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
+use rtseq_motor::app::seq_ids::{
+    BLINK, FEED_HOLD, FEED_RESUME, HOMING, MAIN, MOVE, MOVES, SAFE_STOP, STATUS,
+};
+use rtseq_motor::app::{self, AppConfig, Fault, FaultKind, FaultPlan, MAX_FAULTS};
 use rtseq_motor::control_system::{ControlSystem, Phase};
 use rtseq_motor::safety;
 use rtseq_qemu_f405 as board;
@@ -374,13 +378,13 @@ fn outcome_of(id: SeqId) -> Option<Outcome> {
     SEQ.sequence_by_id(id).and_then(|h| h.last_outcome())
 }
 
-fn snapshot(ids: &Ids) -> Snapshot {
-    let main = state_of(ids.main);
+fn snapshot() -> Snapshot {
+    let main = state_of(MAIN);
     Snapshot {
         main_active: main.is_active(),
         main_started: main != RunningState::Idle,
         homed: CS.summary().homed_at.is_some(),
-        moves_state: state_of(ids.moves),
+        moves_state: state_of(MOVES),
         moves_done: CS.summary().moves_done,
     }
 }
@@ -400,7 +404,7 @@ impl Injections {
     }
 
     /// Announces the planned faults and pause presses whose time has come.
-    fn check(&mut self, now: Instant, plan: &FaultPlan, ids: &Ids) {
+    fn check(&mut self, now: Instant, plan: &FaultPlan) {
         let at = to_ms(now);
         for (done, fault) in self.faults.iter_mut().zip(plan.faults.iter()) {
             if let Some(f) = fault {
@@ -409,7 +413,7 @@ impl Injections {
                     EVENTS.push(Event::Fault {
                         kind: f.kind(),
                         at,
-                        snap: snapshot(ids),
+                        snap: snapshot(),
                     });
                 }
             }
@@ -420,7 +424,7 @@ impl Injections {
                     *done = true;
                     EVENTS.push(Event::Pause {
                         second: i == 1,
-                        snap: snapshot(ids),
+                        snap: snapshot(),
                     });
                 }
             }
@@ -546,14 +550,14 @@ fn seq_name(id: SeqId) -> &'static str {
     SEQ.sequence_by_id(id).map_or("?", |h| h.name())
 }
 
-fn monitor_name(ids: &Ids, m: MonitorId) -> &'static str {
-    if m == ids.following_error {
+fn monitor_name(m: MonitorId) -> &'static str {
+    if m == FOLLOWING_ERROR {
         "following error"
-    } else if m == ids.end_stop {
+    } else if m == END_STOP {
         "end stop"
-    } else if m == ids.pause {
+    } else if m == PAUSE {
         "pause"
-    } else if m == ids.resume {
+    } else if m == RESUME {
         "resume"
     } else {
         "?"
@@ -561,14 +565,14 @@ fn monitor_name(ids: &Ids, m: MonitorId) -> &'static str {
 }
 
 /// What a monitor's firing does (for the log).
-fn monitor_effect(ids: &Ids, m: MonitorId) -> &'static str {
-    if m == ids.following_error {
+fn monitor_effect(m: MonitorId) -> &'static str {
+    if m == FOLLOWING_ERROR {
         "safe stop, then restart the moves (at most 3 times, then abort)"
-    } else if m == ids.end_stop {
+    } else if m == END_STOP {
         "abort the moves"
-    } else if m == ids.pause {
+    } else if m == PAUSE {
         "feed hold: pause the moves"
-    } else if m == ids.resume {
+    } else if m == RESUME {
         "feed resume: resume the moves"
     } else {
         "?"
@@ -576,9 +580,9 @@ fn monitor_effect(ids: &Ids, m: MonitorId) -> &'static str {
 }
 
 /// A cause as text (`tests/qemu_demo.rs` formats the host trace the same way).
-struct CauseText<'a>(Cause, &'a Ids);
+struct CauseText(Cause);
 
-impl defmt::Format for CauseText<'_> {
+impl defmt::Format for CauseText {
     fn format(&self, f: defmt::Formatter) {
         match self.0 {
             Cause::Start => defmt::write!(f, "start"),
@@ -588,7 +592,7 @@ impl defmt::Format for CauseText<'_> {
             Cause::Resume => defmt::write!(f, "resume"),
             Cause::Abort => defmt::write!(f, "abort"),
             Cause::AbortAll => defmt::write!(f, "abort all"),
-            Cause::Monitor(m) => defmt::write!(f, "monitor {=str}", monitor_name(self.1, m)),
+            Cause::Monitor(m) => defmt::write!(f, "monitor {=str}", monitor_name(m)),
             Cause::Timeout(s) => defmt::write!(f, "timeout of {=str}", seq_name(s)),
             Cause::Restart => defmt::write!(f, "restart"),
             Cause::Dropped => defmt::write!(f, "dropped"),
@@ -598,15 +602,15 @@ impl defmt::Format for CauseText<'_> {
 }
 
 /// An outcome as text.
-struct OutcomeText<'a>(Option<Outcome>, &'a Ids);
+struct OutcomeText(Option<Outcome>);
 
-impl defmt::Format for OutcomeText<'_> {
+impl defmt::Format for OutcomeText {
     fn format(&self, f: defmt::Formatter) {
         match self.0 {
             None => defmt::write!(f, "none"),
             Some(Outcome::Completed) => defmt::write!(f, "completed"),
             Some(Outcome::Skipped) => defmt::write!(f, "skipped"),
-            Some(Outcome::Aborted(c)) => defmt::write!(f, "aborted ({})", CauseText(c, self.1)),
+            Some(Outcome::Aborted(c)) => defmt::write!(f, "aborted ({})", CauseText(c)),
             // The demo's actions do not fail.
             Some(Outcome::Failed(_)) => defmt::write!(f, "failed"),
         }
@@ -723,7 +727,6 @@ fn expectation(kind: FaultKind, s: &Snapshot, count: usize) -> Expect {
 
 /// Idle's state: what was printed, what is expected.
 struct Log {
-    ids: Ids,
     plan: FaultPlan,
     expect: [Option<(FaultKind, u64, Expect)>; MAX_FAULTS],
     pause: PauseExpect,
@@ -749,9 +752,8 @@ struct Log {
 }
 
 impl Log {
-    fn new(ids: Ids, plan: FaultPlan) -> Self {
+    fn new(plan: FaultPlan) -> Self {
         Log {
-            ids,
             plan,
             expect: [None; MAX_FAULTS],
             pause: PauseExpect::Nothing,
@@ -772,7 +774,6 @@ impl Log {
     }
 
     fn drain_trace(&mut self) {
-        let ids = self.ids;
         let mut main_end = self.main_end;
         let mut blinks = self.blinks;
         let mut move_start = self.move_start;
@@ -786,23 +787,23 @@ impl Log {
                 let m = MonitorId::from_index(i);
                 defmt::info!(
                     "monitor   '{=str}' fired ({=u16}): {=str}",
-                    monitor_name(&ids, m),
+                    monitor_name(m),
                     *seen,
-                    monitor_effect(&ids, m)
+                    monitor_effect(m)
                 );
             }
         }
         let lost = SEQ.drain_trace(|t| {
-            if t.sequence == ids.move_step && t.to == RunningState::Running {
+            if t.sequence == MOVE && t.to == RunningState::Running {
                 move_start = Some(to_ms(t.time));
             }
-            if t.sequence == ids.moves && t.to == RunningState::Restarting {
+            if t.sequence == MOVES && t.to == RunningState::Restarting {
                 moves_restarts = moves_restarts.saturating_add(1);
             }
-            if t.sequence == ids.move_step && t.to == RunningState::Aborted {
+            if t.sequence == MOVE && t.to == RunningState::Aborted {
                 move_step_aborts = move_step_aborts.saturating_add(1);
             }
-            if t.sequence == ids.blink && matches!(t.cause, Cause::Start | Cause::Completed) {
+            if t.sequence == BLINK && matches!(t.cause, Cause::Start | Cause::Completed) {
                 if t.to == RunningState::Running {
                     blinks = blinks.saturating_add(1);
                 }
@@ -816,10 +817,10 @@ impl Log {
                     from,
                     to,
                     pad(from.len() + to.len(), 22),
-                    CauseText(t.cause, &ids)
+                    CauseText(t.cause)
                 );
             }
-            if t.sequence == ids.main
+            if t.sequence == MAIN
                 && matches!(t.to, RunningState::Terminated | RunningState::Aborted)
             {
                 main_end = Some(to_ms(t.time));
@@ -1002,7 +1003,6 @@ fn check(ok: bool, what: &str) -> bool {
 impl Log {
     /// The end of the run: summary, RESULT line, checks. Returns whether all held.
     fn finish(&mut self, now: u64) -> bool {
-        let ids = self.ids;
         let s = CS.summary();
         let st = CS.status();
         let plant = CS.plant();
@@ -1023,17 +1023,17 @@ impl Log {
                 "never"
             },
             OptSecs(self.main_end.map(ms)),
-            OutcomeText(outcome_of(ids.main), &ids)
+            OutcomeText(outcome_of(MAIN))
         );
         defmt::info!(
             "summary   homing {}, moves {}, safe stops {=u16}, monitors fired: following error {=u16}, end stop {=u16}, pause {=u16}, resume {=u16}",
-            OutcomeText(outcome_of(ids.homing), &ids),
-            OutcomeText(outcome_of(ids.moves), &ids),
+            OutcomeText(outcome_of(HOMING)),
+            OutcomeText(outcome_of(MOVES)),
             s.safe_stops,
-            fired_of(ids.following_error),
-            fired_of(ids.end_stop),
-            fired_of(ids.pause),
-            fired_of(ids.resume)
+            fired_of(FOLLOWING_ERROR),
+            fired_of(END_STOP),
+            fired_of(PAUSE),
+            fired_of(RESUME)
         );
         for k in FAULT_KINDS {
             let r = s.reaction(k);
@@ -1071,9 +1071,9 @@ impl Log {
             now,
             level_name(level),
             phase_name(CS.phase()),
-            OutcomeText(outcome_of(ids.main), &ids),
-            OutcomeText(outcome_of(ids.homing), &ids),
-            OutcomeText(outcome_of(ids.moves), &ids),
+            OutcomeText(outcome_of(MAIN)),
+            OutcomeText(outcome_of(HOMING)),
+            OutcomeText(outcome_of(MOVES)),
             s.moves_done,
             s.safe_stops,
             OptMs(s.homed_at),
@@ -1085,10 +1085,10 @@ impl Log {
         defmt::info!(
             "RESULT move_done_ms={}; fired_fe={=u16}; fired_es={=u16}; fired_pause={=u16}; fired_resume={=u16}",
             MoveTimes(s.move_done_at),
-            fired_of(ids.following_error),
-            fired_of(ids.end_stop),
-            fired_of(ids.pause),
-            fired_of(ids.resume)
+            fired_of(FOLLOWING_ERROR),
+            fired_of(END_STOP),
+            fired_of(PAUSE),
+            fired_of(RESUME)
         );
         for k in FAULT_KINDS {
             let r = s.reaction(k);
@@ -1120,16 +1120,16 @@ impl Log {
             SEQ.exceptions_not_run() == 0,
             "every exception sequence ran",
         );
-        ok &= check(!state_of(ids.main).is_active(), "main has ended");
+        ok &= check(!state_of(MAIN).is_active(), "main has ended");
         let all_idle = [
-            ids.main,
-            ids.status,
-            ids.homing,
-            ids.moves,
-            ids.move_step,
-            ids.safe_stop,
-            ids.feed_hold,
-            ids.feed_resume,
+            MAIN,
+            STATUS,
+            HOMING,
+            MOVES,
+            MOVE,
+            SAFE_STOP,
+            FEED_HOLD,
+            FEED_RESUME,
         ]
         .iter()
         .all(|&id| !state_of(id).is_active());
@@ -1165,7 +1165,7 @@ impl Log {
                             "the safety system withdrew the drive permit within 2 ms",
                         );
                         ok &= check(
-                            outcome_of(ids.main) == Some(Outcome::Aborted(Cause::AbortAll)),
+                            outcome_of(MAIN) == Some(Outcome::Aborted(Cause::AbortAll)),
                             "every sequence was aborted (main: abort all)",
                         );
                     }
@@ -1178,8 +1178,7 @@ impl Log {
                     decisive = true;
                     any_effect = true;
                     ok &= check(
-                        outcome_of(ids.homing)
-                            == Some(Outcome::Aborted(Cause::Timeout(ids.homing))),
+                        outcome_of(HOMING) == Some(Outcome::Aborted(Cause::Timeout(HOMING))),
                         "jammed while homing: the homing timeout aborted homing",
                     );
                     ok &= check(
@@ -1192,7 +1191,7 @@ impl Log {
                     any_effect = true;
                     let n = u16::from(CONFIG.restart_limit).saturating_add(1);
                     ok &= check(
-                        fired_of(ids.following_error) == n && s.safe_stops == n,
+                        fired_of(FOLLOWING_ERROR) == n && s.safe_stops == n,
                         "the following-error monitor fired 4 times, each with a safe stop",
                     );
                     ok &= check(
@@ -1200,8 +1199,8 @@ impl Log {
                         "the moves were restarted 3 times",
                     );
                     ok &= check(
-                        outcome_of(ids.moves)
-                            == Some(Outcome::Aborted(Cause::Monitor(ids.following_error))),
+                        outcome_of(MOVES)
+                            == Some(Outcome::Aborted(Cause::Monitor(FOLLOWING_ERROR))),
                         "then the moves were aborted (restart limit)",
                     );
                     ok &= check(
@@ -1209,8 +1208,7 @@ impl Log {
                         "the safe stop started within 60 ms of the jam (of the next move start if the axis stood still)",
                     );
                     ok &= check(
-                        CS.phase() == Phase::Fault
-                            && outcome_of(ids.main) == Some(Outcome::Completed),
+                        CS.phase() == Phase::Fault && outcome_of(MAIN) == Some(Outcome::Completed),
                         "main stopped the axis and powered off (phase fault)",
                     );
                 }
@@ -1218,8 +1216,7 @@ impl Log {
                     decisive = true;
                     any_effect = true;
                     ok &= check(
-                        outcome_of(ids.moves)
-                            == Some(Outcome::Aborted(Cause::Monitor(ids.end_stop))),
+                        outcome_of(MOVES) == Some(Outcome::Aborted(Cause::Monitor(END_STOP))),
                         "the end-stop monitor aborted the moves",
                     );
                     ok &= check(
@@ -1231,8 +1228,7 @@ impl Log {
                         "the motor stopped after the reaction",
                     );
                     ok &= check(
-                        CS.phase() == Phase::Fault
-                            && outcome_of(ids.main) == Some(Outcome::Completed),
+                        CS.phase() == Phase::Fault && outcome_of(MAIN) == Some(Outcome::Completed),
                         "main stopped the axis and powered off (phase fault)",
                     );
                 }
@@ -1380,8 +1376,7 @@ mod rtic_app {
     use board::clock::TickTimer;
     use board::signal::TickSignal;
     use rtseq::safety::SafetySystem;
-    use rtseq::Seq;
-    use rtseq_motor::sequences::{FeedHold, FeedResume, Main, SafeStop, StatusBlink};
+    use rtseq_motor::app::App;
 
     /// Tick -> safety task.
     static TO_SAFETY: TickSignal = TickSignal::new();
@@ -1394,14 +1389,9 @@ mod rtic_app {
         timer: TickTimer,
         monitors: app::AppMonitors,
         system: SafetySystem<'static, safety::DriveIo, 4>,
-        ids_tick: Ids,
         plan_tick: FaultPlan,
         log: Log,
-        main: Seq<Main>,
-        status: Seq<StatusBlink>,
-        safe_stop: Seq<SafeStop>,
-        feed_hold: Seq<FeedHold>,
-        feed_resume: Seq<FeedResume>,
+        app: App,
     }
 
     #[init(local = [args: [u8; 256] = [0; 256]])]
@@ -1449,36 +1439,18 @@ mod rtic_app {
             board::exit_failure();
         };
         SEQ.set_safety_system(&HANDLE);
-        let ids = app.ids;
-        // The lanes declare themselves when they first run; declare them now so main
-        // can be started here (its start is applied by the first tick, at 1 ms).
-        for id in [
-            ids.main,
-            ids.status,
-            ids.safe_stop,
-            ids.feed_hold,
-            ids.feed_resume,
-        ] {
-            if let Some(h) = SEQ.sequence_by_id(id) {
-                let _ = h.declare_lane();
-            }
-        }
         // Every exception sequence exists and has a lane, every owner is registered.
         if let Err(e) = SEQ.validate(&monitors) {
             defmt::error!("demo: invalid configuration: {}", e);
             board::exit_failure();
         }
-        if let Some(Err(e)) = SEQ.sequence_by_id(ids.main).map(|h| h.start()) {
+        if let Some(Err(e)) = SEQ.sequence_by_id(MAIN).map(|h| h.start()) {
             defmt::error!("demo: cannot start main: {=str}", e.reason());
             board::exit_failure();
         }
         // Spawning from init cannot fail (each task once).
         safety_task::spawn().ok();
-        lane_main::spawn().ok();
-        lane_status::spawn().ok();
-        lane_safe_stop::spawn().ok();
-        lane_feed_hold::spawn().ok();
-        lane_feed_resume::spawn().ok();
+        lanes::spawn().ok();
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
         (
             Shared {},
@@ -1486,14 +1458,9 @@ mod rtic_app {
                 timer,
                 monitors,
                 system,
-                ids_tick: ids,
                 plan_tick: plan,
-                log: Log::new(ids, plan),
-                main: app.main,
-                status: app.status,
-                safe_stop: app.safe_stop,
-                feed_hold: app.feed_hold,
-                feed_resume: app.feed_resume,
+                log: Log::new(plan),
+                app,
             },
         )
     }
@@ -1539,13 +1506,11 @@ mod rtic_app {
 
     /// The 1 kHz heartbeat: fault injection, safety cycle (priority 3, preempts here),
     /// control step, sequencer tick.
-    #[task(binds = TIM2, priority = 2, local = [timer, monitors, ids_tick, plan_tick, injections: Injections = Injections::new()])]
+    #[task(binds = TIM2, priority = 2, local = [timer, monitors, plan_tick, injections: Injections = Injections::new()])]
     fn tick(cx: tick::Context) {
         let now = cx.local.timer.on_interrupt();
         CS.inject(now);
-        cx.local
-            .injections
-            .check(now, cx.local.plan_tick, cx.local.ids_tick);
+        cx.local.injections.check(now, cx.local.plan_tick);
         TO_SAFETY.signal(now);
         // Make sure the safety task has run before the control step (pended above).
         cortex_m::asm::dsb();
@@ -1554,13 +1519,12 @@ mod rtic_app {
         if let Err(e) = SEQ.tick(now, &CS, cx.local.monitors) {
             defmt::error!("tick: {}", e);
         }
-        let ids = cx.local.ids_tick;
         let m = &*cx.local.monitors;
         let fired = [
-            m.fired(ids.following_error),
-            m.fired(ids.end_stop),
-            m.fired(ids.pause),
-            m.fired(ids.resume),
+            m.fired(FOLLOWING_ERROR),
+            m.fired(END_STOP),
+            m.fired(PAUSE),
+            m.fired(RESUME),
         ];
         critical_section::with(|cs| FIRED.borrow(cs).set(fired));
     }
@@ -1586,28 +1550,10 @@ mod rtic_app {
         }
     }
 
-    #[task(priority = 1, local = [main])]
-    async fn lane_main(cx: lane_main::Context) {
-        match rtseq::lane(&SEQ, &CS, cx.local.main).await {}
-    }
-
-    #[task(priority = 1, local = [status])]
-    async fn lane_status(cx: lane_status::Context) {
-        match rtseq::lane(&SEQ, &CS, cx.local.status).await {}
-    }
-
-    #[task(priority = 1, local = [safe_stop])]
-    async fn lane_safe_stop(cx: lane_safe_stop::Context) {
-        match rtseq::lane(&SEQ, &CS, cx.local.safe_stop).await {}
-    }
-
-    #[task(priority = 1, local = [feed_hold])]
-    async fn lane_feed_hold(cx: lane_feed_hold::Context) {
-        match rtseq::lane(&SEQ, &CS, cx.local.feed_hold).await {}
-    }
-
-    #[task(priority = 1, local = [feed_resume])]
-    async fn lane_feed_resume(cx: lane_feed_resume::Context) {
-        match rtseq::lane(&SEQ, &CS, cx.local.feed_resume).await {}
+    /// The five lanes of the application, joined (main's start is applied by the first
+    /// tick).
+    #[task(priority = 1, local = [app])]
+    async fn lanes(cx: lanes::Context) {
+        match cx.local.app.run(&SEQ, &CS).await {}
     }
 }

@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use rtseq::safety::{SafetyHandle, SafetySystem};
 use rtseq::sim::Sim;
 use rtseq::{Instant, Sequencer};
+use rtseq_motor::app::seq_ids::MAIN;
 use rtseq_motor::app::{self, AppConfig, Fault, FaultPlan};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_motor::safety::{self, PROPERTIES};
@@ -53,20 +54,21 @@ pub fn host_following_error_trace(end_ms: u64) -> PathBuf {
     }));
     let monitors: app::AppMonitors = app::monitor_ids::table(&config).unwrap();
     let app = app::register(seq, &app::Setup::DEMO).unwrap();
-    let ids = app.ids;
     let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
     seq.set_safety_system(handle);
     let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
     let mut sim = Sim::new(seq, cs, monitors);
-    for lane in app.lanes() {
-        lane.add_to(&mut sim);
-    }
+    sim.lane(app.main);
+    sim.lane(app.status);
+    sim.lane(app.safe_stop);
+    sim.lane(app.feed_hold);
+    sim.lane(app.feed_resume);
     sim.before_tick(move |now, cs: &ControlSystem| {
         cs.inject(now);
         safety::safety_cycle(cs, &mut system, seq);
         cs.control_step(0.001);
     });
-    sim.start(ids.main).unwrap();
+    sim.start(MAIN).unwrap();
     while sim.now().as_ticks() / 1000 < end_ms {
         sim.step();
     }
