@@ -22,7 +22,7 @@
 //!
 //! A homing sequence of two steps, guarded by a monitor that aborts it when the axis
 //! over-travels, run on the host simulator (on the chip the same sequence runs in an RTIC
-//! task, see [the README](https://github.com/rtseq/rtseq#on-the-chip-rtic-2)):
+//! task, see [the README](https://github.com/rtseq/rtseq#on-the-chip-rtic-wiring)):
 //!
 //! ```
 //! # #[cfg(feature = "std")] {

@@ -67,6 +67,25 @@ fn smoke_tick_lanes_and_safety_run_100_ticks() {
     );
 }
 
+/// The README's minimal firmware homes in 50 ms (1 mm at 20 µm per 1 ms tick), and the
+/// README shows that very file.
+#[test]
+fn minimal_firmware_homes_and_is_the_readme_s() {
+    let out = run("minimal", &[]);
+    expect_exit(&out, 0);
+    assert_eq!(out.malformed, 0, "{}", out.transcript());
+    expect_line(&out, "minimal: homing Completed at 50000 us");
+    let root = env!("CARGO_MANIFEST_DIR");
+    let file = std::fs::read_to_string(format!("{root}/boards/qemu-f405/src/bin/minimal.rs"))
+        .expect("minimal.rs");
+    let readme = std::fs::read_to_string(format!("{root}/README.md")).expect("README.md");
+    let block = format!("```rust,ignore\n{file}```\n");
+    assert!(
+        readme.contains(&block),
+        "README's RTIC section is not minimal.rs"
+    );
+}
+
 /// A panic ends QEMU with exit code 101 and logs the message and location.
 #[test]
 fn panic_exits_101_with_message() {
