@@ -86,3 +86,23 @@ fn safety_properties_are_complete() {
     let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
     assert!(SafetySystem::new(&PROPERTIES, handle).is_ok());
 }
+
+/// `register` declares the five lanes `App::run` drives: a sequencer with fewer lane slots
+/// is an error naming the first lane that found none, and a second registration into the
+/// same sequencer is refused.
+#[test]
+fn register_needs_five_lane_slots_and_an_empty_sequencer() {
+    use rtseq::lock::CriticalSection;
+    use rtseq::Error;
+    let four: Sequencer<ControlSystem, N, 256, CriticalSection, 4> = Sequencer::new();
+    assert_eq!(
+        app::register(&four, &app::Setup::DEFAULT).err(),
+        Some(Error::LaneCapacityExceeded(FEED_RESUME))
+    );
+    let five: Sequencer<ControlSystem, N, 256, CriticalSection, 5> = Sequencer::new();
+    assert!(app::register(&five, &app::Setup::DEFAULT).is_ok());
+    assert_eq!(
+        app::register(&five, &app::Setup::DEFAULT).err(),
+        Some(Error::NotEmpty)
+    );
+}
