@@ -544,3 +544,52 @@ fn a_tick_earlier_than_the_last_is_an_error_and_does_nothing() {
         ]
     );
 }
+
+/// A sequence object made by one sequencer and used in another is refused: started blocking
+/// it is `Err(NotStarted(ForeignSequence))`, and as a lane it never runs there (a start of
+/// its id finds no lane), although its id names a sequence in both.
+#[test]
+fn a_sequence_object_of_another_sequencer_is_refused() {
+    let a: Sequencer<Ctrl, 4> = Sequencer::new();
+    let b: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    // In `a`: a step at id 0 and a sequence at id 1.
+    let a_step = a.add(SeqConfig::new("step"), Leaf::until(1)).unwrap();
+    let a_lane = a.add(SeqConfig::new("other"), Node::of(vec![])).unwrap();
+    // In `b`: the same ids, and a main that runs `a`'s step object.
+    let b_step = b.add(SeqConfig::new("step"), Leaf::until(1)).unwrap();
+    let b_other = b.register(SeqConfig::new("other")).unwrap();
+    let main = b
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(a_step)]))
+        .unwrap();
+    assert_eq!(
+        (b_step.id(), b_other, a_lane.id()),
+        (
+            SeqId::from_index(0),
+            SeqId::from_index(1),
+            SeqId::from_index(1)
+        )
+    );
+    let mi = main.id();
+    let mut sim = Sim::new(&b, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(a_lane);
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    let returned: Vec<_> = ctrl.returned.borrow().iter().map(|r| r.result).collect();
+    assert_eq!(
+        returned,
+        [Err(Failure::NotStarted(Error::ForeignSequence(
+            SeqId::from_index(0)
+        )))]
+    );
+    // `b`'s own step never ran; main went on and completed.
+    assert_eq!(sim.state(b_step.id()), Idle);
+    assert_eq!(sim.state(mi), Terminated);
+    assert_eq!(
+        Error::ForeignSequence(SeqId::from_index(0)).to_string(),
+        "the object of sequence 0 was made by another sequencer"
+    );
+    // `a`'s sequence object in a lane of `b` declared nothing there.
+    assert_eq!(sim.start(b_other), Err(Error::NoLane(b_other)));
+}

@@ -132,6 +132,7 @@ pub fn outcome_code(r: Result<Done, Failure>) -> u32 {
                 Error::InvalidConfig => 17,
                 Error::TickBeforeLast => 18,
                 Error::PauseOnTimeout => 19,
+                Error::ForeignSequence(_) => 20,
             };
             0x8000_0000 | n
         }

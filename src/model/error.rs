@@ -59,6 +59,10 @@ pub enum Error {
     /// A timeout with [`Behaviour::PauseOwner`](crate::Behaviour::PauseOwner): a timeout
     /// that has run out stays so, and would hold its sequence for good.
     PauseOnTimeout,
+    /// A sequence object ([`Seq`](crate::Seq)) made by another sequencer was started
+    /// blocking here (its id names a sequence of this one too). As a lane here it never
+    /// runs, so a start of that id says [`NoLane`](Error::NoLane).
+    ForeignSequence(SeqId),
 }
 
 impl Error {
@@ -94,6 +98,7 @@ impl Error {
             Error::InvalidConfig => "invalid configuration",
             Error::TickBeforeLast => "tick earlier than the last",
             Error::PauseOnTimeout => "a timeout cannot pause its sequence",
+            Error::ForeignSequence(_) => "sequence object of another sequencer",
         }
     }
 }
@@ -132,6 +137,11 @@ impl core::fmt::Display for Error {
             Error::PauseOnTimeout => write!(
                 f,
                 "a timeout cannot pause its sequence (PauseOwner is a monitor behaviour)"
+            ),
+            Error::ForeignSequence(id) => write!(
+                f,
+                "the object of sequence {} was made by another sequencer",
+                id.index()
             ),
             Error::JoinWouldDeadlock(id) => write!(
                 f,

@@ -332,11 +332,7 @@ impl<'a, C> Cx<'a, C> {
 
     /// A blocking run, by this sequence, of the sequence or step whose head is `head`.
     fn blocking_run<'s>(&self, head: &'s SeqHead) -> Run<'a, 's, C> {
-        Run::blocking(
-            Cx::new(self.port, self.control, head.id),
-            &head.result,
-            self.id,
-        )
+        Run::blocking(Cx::new(self.port, self.control, head.id), head, self.id)
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if

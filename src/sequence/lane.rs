@@ -57,7 +57,7 @@ pub fn lane<
 ) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W, B> {
     let Seq { head, body } = seq;
     LaneRun(sequence_run(
-        Run::lane(Cx::new(sequencer, control, head.id), &head.result),
+        Run::lane(Cx::new(sequencer, control, head.id), head),
         body,
     ))
 }

@@ -140,7 +140,12 @@ pub trait Step<C> {
 /// A sequence or step object bound to its registered id: what callers own and run.
 ///
 /// Created by [`Sequencer::add`](crate::Sequencer::add) or
-/// [`Sequencer::bind`](crate::Sequencer::bind), once per id.
+/// [`Sequencer::bind`](crate::Sequencer::bind), once per id. It belongs to the sequencer
+/// that made it: another sequencer refuses it (started blocking there the child's result
+/// is `Err(Failure::NotStarted(Error::ForeignSequence(id)))`; as a lane there it never runs,
+/// so a start of its id says `NoLane`), even when the id names a sequence there too.
+/// Sequencers are told apart by a 16-bit tag given at their first bind, so among more than
+/// 65 535 sequencers made in one program two may share one.
 ///
 /// ```
 /// use rtseq::{Duration, SeqConfig, Sequencer, Wait};
@@ -157,22 +162,15 @@ pub struct Seq<S> {
 /// The part of a [`Seq`] that does not depend on the body type.
 pub(crate) struct SeqHead {
     pub(crate) id: SeqId,
+    /// The tag of the sequencer that made it ([`State::tag`](crate::sequencer::state::State)):
+    /// a lane or a blocking start refuses the object of another sequencer.
+    pub(crate) maker: u16,
     /// Where a blocking run leaves its result for the future that started it (set and
     /// taken in the same poll).
     pub(crate) result: Cell<Option<Result<Done, Failure>>>,
 }
 
 impl<S> Seq<S> {
-    pub(crate) fn new(id: SeqId, body: S) -> Self {
-        Seq {
-            body,
-            head: SeqHead {
-                id,
-                result: Cell::new(None),
-            },
-        }
-    }
-
     /// The registered id.
     ///
     /// ```

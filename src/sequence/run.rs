@@ -47,6 +47,7 @@ use core::cell::Cell;
 use core::task::{Context, Poll};
 
 use crate::sequence::erased::ErasedBody;
+use crate::sequence::SeqHead;
 use crate::sequencer::port::Port;
 use crate::sequencer::transition::Clearance;
 use crate::{Cx, Done, Failure, Outcome, SeqId};
@@ -83,7 +84,9 @@ enum Stage {
 /// copy serves every sequence and step type, started blocking or in a lane.
 pub(crate) struct Run<'a, 's, C> {
     pub(crate) cx: Cx<'a, C>,
-    result: &'s Cell<Option<Result<Done, Failure>>>,
+    /// The sequence object's head: where a blocking run leaves its result, and the tag of
+    /// the sequencer that made the object.
+    head: &'s SeqHead,
     /// The blocking caller; `None`: the sequence's lane.
     caller: Option<SeqId>,
     stage: Cell<Stage>,
@@ -93,14 +96,10 @@ pub(crate) struct Run<'a, 's, C> {
 
 impl<'a, 's, C> Run<'a, 's, C> {
     /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
-    pub(crate) fn blocking(
-        cx: Cx<'a, C>,
-        result: &'s Cell<Option<Result<Done, Failure>>>,
-        caller: SeqId,
-    ) -> Self {
+    pub(crate) fn blocking(cx: Cx<'a, C>, head: &'s SeqHead, caller: SeqId) -> Self {
         Run {
             cx,
-            result,
+            head,
             caller: Some(caller),
             stage: Cell::new(Stage::Begin),
             outcome: Cell::new(Outcome::Completed),
@@ -108,10 +107,10 @@ impl<'a, 's, C> Run<'a, 's, C> {
     }
 
     /// The lane of `cx`'s sequence: runs it every time it is started non-blocking.
-    pub(crate) fn lane(cx: Cx<'a, C>, result: &'s Cell<Option<Result<Done, Failure>>>) -> Self {
+    pub(crate) fn lane(cx: Cx<'a, C>, head: &'s SeqHead) -> Self {
         Run {
             cx,
-            result,
+            head,
             caller: None,
             stage: Cell::new(Stage::Idle),
             outcome: Cell::new(Outcome::Completed),
@@ -162,15 +161,18 @@ impl<'a, 's, C> Run<'a, 's, C> {
         loop {
             match self.stage.get() {
                 Stage::Idle => {
-                    if !port.take_start(id, w.waker()) {
+                    if !port.take_start(id, self.head.maker, w.waker()) {
                         return Poll::Pending;
                     }
                     self.stage.set(Stage::PreCondition);
                 }
-                Stage::Begin => match self.caller.map(|caller| port.start_blocking(id, caller)) {
+                Stage::Begin => match self
+                    .caller
+                    .map(|caller| port.start_blocking(id, self.head.maker, caller))
+                {
                     Some(Ok(())) => self.stage.set(Stage::PreCondition),
                     Some(Err(e)) => {
-                        self.result.set(Some(Err(Failure::NotStarted(e))));
+                        self.head.result.set(Some(Err(Failure::NotStarted(e))));
                         self.stage.set(Stage::Done);
                     }
                     // Only a blocking run begins; a lane waits for a start.
@@ -223,7 +225,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 Stage::HandOver => {
                     if let Some(caller) = self.caller {
                         if port.clearance(caller, w.waker()) == Clearance::Go {
-                            self.result.set(Some(self.outcome.get().done()));
+                            self.head.result.set(Some(self.outcome.get().done()));
                             self.stage.set(Stage::Done);
                         }
                     }
@@ -276,7 +278,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 break;
             }
         }
-        match self.result.take() {
+        match self.head.result.take() {
             Some(result) => Poll::Ready(result),
             None => Poll::Pending,
         }

@@ -99,6 +99,7 @@ impl LaneWaker {
     }
 
     /// Wakes the lane (nothing before it first parked).
+    #[inline]
     fn wake(&self) {
         let Some(waker) = self.waker.take() else {
             return;

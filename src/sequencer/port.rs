@@ -38,8 +38,9 @@ pub(crate) trait Port<C> {
     fn now(&self) -> Instant;
     /// The unpaused time of `id`'s current run at the last tick (µs, modulo 2³²).
     fn run_time(&self, id: SeqId) -> u32;
-    /// Starts `id` blocking: it runs in `caller`'s lane, inside `caller`'s future.
-    fn start_blocking(&self, id: SeqId, caller: SeqId) -> Result<(), Error>;
+    /// Starts `id`, whose sequence object was made by the sequencer tagged `maker`,
+    /// blocking: it runs in `caller`'s lane, inside `caller`'s future.
+    fn start_blocking(&self, id: SeqId, maker: u16, caller: SeqId) -> Result<(), Error>;
     /// Starts `id` in its own lane, by `caller` (`None`: as a main sequence).
     fn start_in_lane(&self, id: SeqId, caller: Option<SeqId>) -> Result<(), Error>;
     /// Keeps `waker` for `id`'s lane, then says what `id`'s await point must do.
@@ -62,9 +63,11 @@ pub(crate) trait Port<C> {
     fn abandon(&self, id: SeqId, control: &C);
     /// Finds or claims `id`'s lane slot.
     fn declare_lane(&self, id: SeqId) -> Result<u8, Error>;
-    /// A lane's wait for a start of `id`: declares the lane, keeps `waker` as its waker
-    /// and takes a pending non-blocking start (true).
-    fn take_start(&self, id: SeqId, waker: &Waker) -> bool;
+    /// A lane's wait for a start of `id`, whose sequence object was made by the sequencer
+    /// tagged `maker`: declares the lane, keeps `waker` as its waker and takes a pending
+    /// non-blocking start (true). The lane of another sequencer's object declares nothing
+    /// and never runs here (a start of `id` finds no lane).
+    fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> bool;
     /// `joiner` waits for the end of `target`'s run: its outcome once it ended.
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     /// A snapshot of `id`'s control block.
@@ -94,8 +97,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         })
     }
 
-    fn start_blocking(&self, id: SeqId, caller: SeqId) -> Result<(), Error> {
-        self.begin(id, Some(caller), Mode::Blocking, Cause::Start, 0)
+    fn start_blocking(&self, id: SeqId, maker: u16, caller: SeqId) -> Result<(), Error> {
+        self.begin(id, Some(caller), Mode::Blocking { maker }, Cause::Start, 0)
     }
 
     fn start_in_lane(&self, id: SeqId, caller: Option<SeqId>) -> Result<(), Error> {
@@ -163,7 +166,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         in_sections!(self, |s| declare_lane(s, id)).ok_or(Error::LaneCapacityExceeded(id))
     }
 
-    fn take_start(&self, id: SeqId, waker: &Waker) -> bool {
+    fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> bool {
+        // Another sequencer's object declares nothing here.
+        if !self.with(|s| s.tag == maker) {
+            return false;
+        }
         let Ok(lane) = Port::declare_lane(self, id) else {
             // No slot left: the lane never runs (see `lane`).
             return false;

@@ -1,8 +1,11 @@
 //! Registration (one sequence at a time, or a whole [`Table`]), binding sequence objects to
 //! their ids, and the seed's look-ups by id and by name.
 
+use core::cell::Cell;
+
 use crate::lock::Lock;
 use crate::model::table::CheckedConfig;
+use crate::sequence::SeqHead;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::port::Port;
 use crate::tick::schedule::Classes;
@@ -101,8 +104,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     #[inline]
     pub fn bind<S>(&self, id: SeqId, body: S) -> Result<Seq<S>, Error> {
-        self.claim(id)?;
-        Ok(Seq::new(id, body))
+        let head = self.claim(id)?;
+        Ok(Seq { body, head })
     }
 
     /// [`register`](Self::register) and [`bind`](Self::bind) in one.
@@ -119,28 +122,39 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     #[inline]
     pub fn add<S>(&self, config: SeqConfig<C>, body: S) -> Result<Seq<S>, Error> {
-        let id = self.register_bound(config)?;
-        Ok(Seq::new(id, body))
+        let head = self.register_bound(config)?;
+        Ok(Seq { body, head })
     }
 
     /// The part of [`add`](Self::add) that does not depend on the body type.
     #[inline(never)]
-    fn register_bound(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
+    fn register_bound(&self, config: SeqConfig<C>) -> Result<SeqHead, Error> {
         let id = self.register(config)?;
-        self.claim(id)?;
-        Ok(id)
+        self.claim(id)
     }
 
-    /// The part of [`bind`](Self::bind) that does not depend on the body type.
+    /// The part of [`bind`](Self::bind) that does not depend on the body type: marks `id`
+    /// bound and makes its object's head, which carries this sequencer's tag.
     #[inline(never)]
-    fn claim(&self, id: SeqId) -> Result<(), Error> {
-        self.with(|s| {
+    fn claim(&self, id: SeqId) -> Result<SeqHead, Error> {
+        // A sequencer's tag is set once, at its first bind (taken outside the section: the
+        // tag counter's critical section is the platform's code).
+        let fresh = (self.with(|s| s.tag) == 0).then(next_tag);
+        let maker = self.with(|s| {
             let b = s.block_mut(id).ok_or(Error::UnknownSequence(id))?;
             if b.has(flag::BOUND) {
                 return Err(Error::AlreadyBound(id));
             }
             b.set(flag::BOUND, true);
-            Ok(())
+            if let (0, Some(tag)) = (s.tag, fresh) {
+                s.tag = tag;
+            }
+            Ok(s.tag)
+        })?;
+        Ok(SeqHead {
+            id,
+            maker,
+            result: Cell::new(None),
         })
     }
 
@@ -193,4 +207,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+}
+
+/// The last tag handed to a sequencer (see [`State::tag`](crate::sequencer::state::State)).
+static LAST_TAG: critical_section::Mutex<Cell<u16>> = critical_section::Mutex::new(Cell::new(0));
+
+/// The next sequencer's tag (never 0, which means "none yet"; repeats after 65 535).
+fn next_tag() -> u16 {
+    critical_section::with(|cs| {
+        let last = LAST_TAG.borrow(cs);
+        let tag = last.get().wrapping_add(1).max(1);
+        last.set(tag);
+        tag
+    })
 }

@@ -23,8 +23,9 @@ use crate::{Cause, Error, RunningState, SeqId, Sequencer, MAX_DEPTH};
 /// Where a started run runs.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) enum Mode {
-    /// Inside the caller's future; the caller waits.
-    Blocking,
+    /// Inside the caller's future; the caller waits. `maker`: the tag of the sequencer that
+    /// made the started sequence object (a blocking start is of an object in hand).
+    Blocking { maker: u16 },
     /// In the sequence's own lane; the caller continues.
     Lane,
 }
@@ -51,20 +52,24 @@ struct Scheduled {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// The read-only checks of a start of `id`: not active; with a blocking caller, the
-    /// caller's lane. Returns `id`'s `BOUND` flag (set once, never cleared) and that lane.
+    /// The read-only checks of a start of `id`: blocking, of an object made here; not
+    /// active; with a blocking caller, the caller's lane. Returns `id`'s `BOUND` flag (set
+    /// once, never cleared) and that lane.
     fn check_start(
         &self,
         id: SeqId,
         caller: Option<SeqId>,
         mode: Mode,
     ) -> Result<(u16, u8), Error> {
+        if matches!(mode, Mode::Blocking { maker } if maker != self.tag) {
+            return Err(Error::ForeignSequence(id));
+        }
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
         if !States::STARTABLE.has(b.state) {
             return Err(Error::AlreadyRunning(id));
         }
         let lane = match (mode, caller) {
-            (Mode::Blocking, Some(c)) => self.lane_slot(c),
+            (Mode::Blocking { .. }, Some(c)) => self.lane_slot(c),
             _ => crate::sequencer::control_block::NO_LANE,
         };
         Ok((b.flags & flag::BOUND, lane))
@@ -189,7 +194,7 @@ fn admit<
 ) -> Result<NewRun, Error> {
     let (bound, caller_lane) = s.section(|s| s.check_start(id, caller, mode))?;
     let (lane, pending) = match mode {
-        Mode::Blocking => (caller_lane, 0),
+        Mode::Blocking { .. } => (caller_lane, 0),
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
         // `Handle::declare_lane`).
         Mode::Lane => (
@@ -298,7 +303,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             Ok(match mode {
                 Mode::Lane => s.section(|s| s.lane_of(id)),
-                Mode::Blocking => LaneSet::EMPTY,
+                Mode::Blocking { .. } => LaneSet::EMPTY,
             })
         })?;
         self.wake_lanes(lane);

@@ -30,6 +30,10 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// The lane slots declared so far: slots `0..lanes_declared` (their wakers are in
     /// [`Sequencer::lanes`]).
     pub(crate) lanes_declared: u8,
+    /// This sequencer's tag, given when its first sequence object is bound (0: none yet),
+    /// unique among the first 65 535 sequencers of a program. A sequence object carries
+    /// it, so that a lane or a blocking start refuses the object of another sequencer.
+    pub(crate) tag: u16,
     blocks: [ControlBlock; N],
     /// Each sequence's cleanup hook (`SeqConfig::on_abort`).
     pub(crate) hooks: [Option<fn(&C)>; N],
@@ -128,6 +132,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             exceptions_not_run: 0,
             count: 0,
             lanes_declared: 0,
+            tag: 0,
             blocks: [ControlBlock::UNREGISTERED; N],
             hooks: [None; N],
             #[cfg(feature = "counters")]
