@@ -53,7 +53,7 @@ use core::future::Future;
 use crate::lock::Lock;
 
 use crate::{
-    lane, Duration, Error, Handle, Instant, Monitors, RunningState, Seq, SeqId, Sequence,
+    lane, Duration, Error, Handle, Instant, Monitors, Record, RunningState, Seq, SeqId, Sequence,
     Sequencer, Transition,
 };
 
@@ -202,6 +202,8 @@ pub struct Sim<
     period: Duration,
     now: Instant,
     trace: Vec<Transition>,
+    /// Every record, transitions and events, in order.
+    records: Vec<Record>,
     lost: u32,
     stalled: bool,
     /// The first error a tick returned (the sequencer was ticked past the simulator).
@@ -250,6 +252,7 @@ impl<
             period: Duration::from_millis(1),
             now: Instant::from_ticks(0),
             trace: Vec::new(),
+            records: Vec::new(),
             lost: 0,
             stalled: false,
             tick_error: None,
@@ -926,7 +929,8 @@ impl<
         &self.trace
     }
 
-    /// Takes the transitions recorded so far, leaving the trace empty.
+    /// Takes the transitions recorded so far, leaving the trace (and the
+    /// [records](Self::records)) empty.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cause, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
@@ -948,7 +952,37 @@ impl<
     /// assert_eq!(sim.trace().len(), 2); // the second run only
     /// ```
     pub fn take_trace(&mut self) -> Vec<Transition> {
+        self.records.clear();
         core::mem::take(&mut self.trace)
+    }
+
+    /// Every record so far, transitions and [`Event`](crate::Event)s, in the order the
+    /// sequencer made them (see [`Sequencer::drain_records`]). Each event comes with the time
+    /// of the tick it happened in.
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Event, Failure, Monitors, Outcome, Record, SeqConfig,
+    ///             Sequence, Sequencer};
+    /// struct Jam;
+    /// impl Sequence<()> for Jam {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         Err(Failure::App(7))
+    ///     }
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let jam = seq.add(SeqConfig::new("jam"), Jam).unwrap();
+    /// let id = jam.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(jam);
+    /// sim.start(id).unwrap();
+    /// let ended = sim.records().iter().rev().find_map(|r| match r {
+    ///     Record::Event { event: Event::Ended { outcome, .. }, .. } => Some(*outcome),
+    ///     _ => None,
+    /// });
+    /// assert_eq!(ended, Some(Outcome::Failed(Failure::App(7))));
+    /// ```
+    pub fn records(&self) -> &[Record] {
+        &self.records
     }
 
     /// Transitions lost to overflow of the sequencer's trace buffer (0 unless `T` is tiny).
@@ -1110,10 +1144,15 @@ impl<
             .unwrap_or(Instant::from_ticks(u64::MAX))
     }
 
-    /// Moves the sequencer's buffered transitions into the trace.
+    /// Moves the sequencer's buffered records into the trace.
     fn drain(&mut self) {
-        let trace = &mut self.trace;
-        let lost = self.sequencer.drain_trace(|t| trace.push(t));
+        let (trace, records) = (&mut self.trace, &mut self.records);
+        let lost = self.sequencer.drain_records(|r| {
+            if let Record::Transition(t) = r {
+                trace.push(t);
+            }
+            records.push(r);
+        });
         self.lost = self.lost.saturating_add(lost);
     }
 
@@ -1231,21 +1270,6 @@ impl<
     pub fn write_trace(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
         use crate::{Cause, MonitorId};
         use std::string::String;
-        fn quoted(s: &str) -> String {
-            let mut q = String::from("\"");
-            for c in s.chars() {
-                match c {
-                    '"' => q.push_str("\\\""),
-                    '\\' => q.push_str("\\\\"),
-                    c if u32::from(c) < 0x20 => {
-                        q.push_str(&std::format!("\\u{:04x}", u32::from(c)))
-                    }
-                    c => q.push(c),
-                }
-            }
-            q.push('"');
-            q
-        }
         let opt = |id: Option<usize>| id.map_or(String::from("null"), |i| std::format!("{i}"));
         let mut head = std::format!(
             "{{\"format\":\"rtseq-trace\",\"version\":1,\"time_unit\":\"us\",\"end\":{},\"lost\":{},\"sequences\":[",
@@ -1278,7 +1302,14 @@ impl<
         }
         head.push_str("]}");
         std::writeln!(out, "{head}")?;
-        for t in &self.trace {
+        for r in &self.records {
+            let t = match r {
+                Record::Transition(t) => t,
+                Record::Event { time, event } => {
+                    self.write_event(out, *time, event)?;
+                    continue;
+                }
+            };
             let cause = match t.cause {
                 Cause::Start => String::from("\"start\""),
                 Cause::PreConditionFalse => String::from("\"pre_condition_false\""),
@@ -1304,4 +1335,112 @@ impl<
         }
         Ok(())
     }
+
+    /// One event as a record of the trace format.
+    fn write_event(
+        &self,
+        out: &mut impl std::io::Write,
+        time: Instant,
+        event: &crate::Event,
+    ) -> std::io::Result<()> {
+        use crate::{Cause, Event, Outcome, Requester};
+        use std::format;
+        use std::string::String;
+        let name = |id: SeqId| self.handle(id).map_or("", |h| h.name());
+        let by = |r: Requester| match r {
+            Requester::Sequence(id) => format!("\"by\":\"sequence\",\"by_seq\":{}", id.index()),
+            Requester::Application => String::from("\"by\":\"application\""),
+            Requester::SafetySystem => String::from("\"by\":\"safety_system\""),
+        };
+        let fields = match *event {
+            Event::Fired {
+                owner,
+                cause,
+                behaviour,
+            } => {
+                let what = match cause {
+                    Cause::Monitor(m) => format!(
+                        "\"monitor\":{},\"text\":{}",
+                        m.index(),
+                        quoted(&format!(
+                            "monitor '{}' of '{}' fired: {behaviour:?}",
+                            self.monitors.name(m).unwrap_or(""),
+                            name(owner)
+                        ))
+                    ),
+                    _ => format!(
+                        "\"name\":{},\"text\":{}",
+                        quoted(&format!("timeout of {}", name(owner))),
+                        quoted(&format!("timeout of '{}' ran out: {behaviour:?}", name(owner)))
+                    ),
+                };
+                format!(
+                    "\"event\":\"monitor\",\"owner\":{},\"behaviour\":\"{behaviour:?}\",{what}",
+                    owner.index()
+                )
+            }
+            Event::ExceptionNotRun {
+                exception,
+                owner,
+                why,
+            } => format!(
+                "\"event\":\"exception_not_run\",\"seq\":{},\"owner\":{},\"name\":{},\"text\":{}",
+                exception.index(),
+                owner.index(),
+                quoted(name(exception)),
+                quoted(&format!(
+                    "exception sequence '{}' of '{}' not run: {why}",
+                    name(exception),
+                    name(owner)
+                ))
+            ),
+            Event::Requested {
+                sequence,
+                request,
+                by: who,
+            } => format!(
+                "\"event\":\"request\",\"seq\":{},\"request\":\"{}\",{},\"name\":{},\"text\":{}",
+                sequence.index(),
+                format!("{request:?}").to_lowercase(),
+                by(who),
+                quoted(&format!("{request:?} {}", name(sequence)).to_lowercase()),
+                quoted(&format!("{request:?} of '{}' requested by {who:?}", name(sequence)))
+            ),
+            Event::AbortAll { by: who } => format!(
+                "\"event\":\"request\",\"request\":\"abort_all\",{},\"name\":\"abort all\",\"text\":{}",
+                by(who),
+                quoted(&format!("abort all, requested by {who:?}"))
+            ),
+            Event::Ended { sequence, outcome } => {
+                let (kind, detail) = match outcome {
+                    Outcome::Completed => ("completed", String::new()),
+                    Outcome::Skipped => ("skipped", String::new()),
+                    Outcome::Aborted(c) => ("aborted", format!(": {c:?}")),
+                    Outcome::Failed(f) => ("failed", format!(": {f:?}")),
+                };
+                format!(
+                    "\"event\":\"outcome\",\"seq\":{},\"outcome\":\"{kind}\",\"name\":{},\"text\":{}",
+                    sequence.index(),
+                    quoted(name(sequence)),
+                    quoted(&format!("'{}' {kind}{detail}", name(sequence)))
+                )
+            }
+        };
+        std::writeln!(out, "{{\"t\":{},{fields}}}", time.as_ticks())
+    }
+}
+
+/// `s` as a JSON string.
+fn quoted(s: &str) -> std::string::String {
+    let mut q = std::string::String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => q.push_str("\\\""),
+            '\\' => q.push_str("\\\\"),
+            c if u32::from(c) < 0x20 => q.push_str(&std::format!("\\u{:04x}", u32::from(c))),
+            c => q.push(c),
+        }
+    }
+    q.push('"');
+    q
 }

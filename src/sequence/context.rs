@@ -549,7 +549,7 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'a, C>> {
-        self.port.info(id).map(|_| Handle::from_port(self.port, id))
+        self.port.info(id).map(|_| Handle::for_sequence(self.port, id, self.id))
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByName`).
@@ -585,6 +585,6 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'a, C>> {
         let id = self.port.find(name)?;
-        Some(Handle::from_port(self.port, id))
+        Some(Handle::for_sequence(self.port, id, self.id))
     }
 }

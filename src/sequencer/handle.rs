@@ -1,10 +1,11 @@
 //! Handles: inspect and command a registered sequence from anywhere.
 
 use crate::sequencer::port::Port;
-use crate::sequencer::requests::Request;
 #[cfg(feature = "counters")]
 use crate::Counters;
-use crate::{Cause, Duration, Error, Outcome, RunningState, SeqId, Sequencer, MAX_DEPTH};
+use crate::{
+    Cause, Duration, Error, Outcome, Request, Requester, RunningState, SeqId, Sequencer, MAX_DEPTH,
+};
 
 /// A callers list (`callerStack` or `callerStackBlocking`), outermost first.
 ///
@@ -41,6 +42,8 @@ pub type CallerStack = heapless::Vec<SeqId, MAX_DEPTH>;
 pub struct Handle<'a, C> {
     port: &'a dyn Port<C>,
     id: SeqId,
+    /// Who makes this handle's requests (recorded in the trace).
+    by: Requester,
 }
 
 impl<'a, C> Handle<'a, C> {
@@ -54,11 +57,20 @@ impl<'a, C> Handle<'a, C> {
         seq: &'a Sequencer<C, N, T, L, W, B>,
         id: SeqId,
     ) -> Self {
-        Handle { port: seq, id }
+        Handle {
+            port: seq,
+            id,
+            by: Requester::Application,
+        }
     }
 
-    pub(crate) fn from_port(port: &'a dyn Port<C>, id: SeqId) -> Self {
-        Handle { port, id }
+    /// A handle of sequence `id` for sequence `by` (from its context).
+    pub(crate) fn for_sequence(port: &'a dyn Port<C>, id: SeqId, by: SeqId) -> Self {
+        Handle {
+            port,
+            id,
+            by: Requester::Sequence(by),
+        }
     }
 
     /// The sequence's id.
@@ -452,7 +464,7 @@ impl<'a, C> Handle<'a, C> {
     /// # }
     /// ```
     pub fn pause(&self) -> Result<(), Error> {
-        self.port.request(self.id, Request::Pause)
+        self.port.request(self.id, Request::Pause, self.by)
     }
 
     /// Requests that a paused sequence resume where it stopped (next tick).
@@ -484,7 +496,7 @@ impl<'a, C> Handle<'a, C> {
     /// # }
     /// ```
     pub fn resume(&self) -> Result<(), Error> {
-        self.port.request(self.id, Request::Resume)
+        self.port.request(self.id, Request::Resume, self.by)
     }
 
     /// Requests an abort of the sequence and all its sub-sequences (next tick).
@@ -516,7 +528,7 @@ impl<'a, C> Handle<'a, C> {
     /// # }
     /// ```
     pub fn abort(&self) -> Result<(), Error> {
-        self.port.request(self.id, Request::Abort)
+        self.port.request(self.id, Request::Abort, self.by)
     }
 
     /// Sets (or with `None` switches off) the timeout monitor; it applies from the next

@@ -88,9 +88,10 @@ pub struct Sequencer<
     /// The lanes' wakers, outside `state`: a waker is foreign code, called only while the
     /// state is not borrowed.
     pub(crate) lanes: Lanes<W>,
-    /// Abort-all requests: an atomic, so any priority may raise one (the safety task sits
-    /// above a priority ceiling).
+    /// Abort-all requests of the application: an atomic, so any priority may raise one.
     pub(crate) abort_all: AtomicBool,
+    /// Abort-all requests of the safety system (its task sits above a priority ceiling).
+    pub(crate) abort_all_by_safety: AtomicBool,
     /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
     pub(crate) safety: critical_section::Mutex<Cell<Option<&'static SafetyHandle>>>,
     _control: PhantomData<fn(&C)>,
@@ -227,6 +228,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             state: UnsafeCell::new(State::new()),
             lanes: Lanes::new(),
             abort_all: AtomicBool::new(false),
+            abort_all_by_safety: AtomicBool::new(false),
             safety: critical_section::Mutex::new(Cell::new(None)),
             _control: PhantomData,
             _lock: PhantomData,

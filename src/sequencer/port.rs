@@ -9,12 +9,11 @@ use crate::model::time::Stamp;
 use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
-use crate::sequencer::requests::Request;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::start::Mode;
 use crate::sequencer::transition::Clearance;
 use crate::trace::StateChange;
-use crate::{Cause, Error, Instant, Outcome, RunningState, SeqId, Sequencer};
+use crate::{Cause, Error, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer};
 
 /// A consistent snapshot of one control block's own fields, for [`Handle`](crate::Handle).
 #[derive(Clone, Debug)]
@@ -72,8 +71,8 @@ pub(crate) trait Port<C> {
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
     /// A snapshot of `id`'s control block.
     fn info(&self, id: SeqId) -> Option<Info>;
-    /// Queues `request` of `id` for the next tick.
-    fn request(&self, id: SeqId, request: Request) -> Result<(), Error>;
+    /// Queues `request` of `id`, made by `by`, for the next tick.
+    fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error>;
     /// Sets `id`'s timeout (µs, 0: off) for its next run.
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
     /// The connected safety system.
@@ -231,8 +230,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         })
     }
 
-    fn request(&self, id: SeqId, request: Request) -> Result<(), Error> {
-        self.with(|s| s.request(id, request))
+    fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error> {
+        self.with(|s| s.request(id, request, by))
     }
 
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {

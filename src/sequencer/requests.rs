@@ -2,25 +2,14 @@
 //! tick so that every such transition happens in one place at a well-defined time. And the
 //! connection to the safety system, whose levels may demand abort-all.
 
-use core::sync::atomic::Ordering;
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use crate::lock::Lock;
 use crate::model::state::States;
 use crate::safety::{AbortSequences, SafetyHandle};
 use crate::sequencer::control_block::request;
 use crate::sequencer::State;
-use crate::{Error, RunningState, SeqId, Sequencer};
-
-/// A request for the next tick.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) enum Request {
-    /// Pause a running sequence and the sequences it blocks.
-    Pause,
-    /// Resume a paused sequence where it stopped.
-    Resume,
-    /// Abort an active sequence and all its sub-sequences.
-    Abort,
-}
+use crate::{Error, Event, Request, Requester, RunningState, SeqId, Sequencer};
 
 impl Request {
     /// The states in which the request can be made.
@@ -43,8 +32,8 @@ impl Request {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// Queues `req` of `id` for the next tick.
-    pub(crate) fn request(&mut self, id: SeqId, req: Request) -> Result<(), Error> {
+    /// Queues `req` of `id`, made by `by`, for the next tick, and records it.
+    pub(crate) fn request(&mut self, id: SeqId, req: Request, by: Requester) -> Result<(), Error> {
         let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
         if !req.allowed().has(b.state) {
             return Err(match req {
@@ -54,6 +43,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         b.flags |= req.bit();
         self.sets.requested.insert(id);
+        self.record(Event::Requested {
+            sequence: id,
+            request: req,
+            by,
+        });
         Ok(())
     }
 }
@@ -73,15 +67,27 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.abort_all.store(true, Ordering::Release);
     }
 
-    /// Takes a pending abort-all request (the tick is its only consumer).
-    pub(crate) fn take_abort_all(&self) -> bool {
+    /// Takes a pending abort-all request (the tick is its only consumer): who made it (the
+    /// safety system when both did).
+    pub(crate) fn take_abort_all(&self) -> Option<Requester> {
         // Load, then store: no compare-and-swap needed. A request raised in between is
         // served by the abort-all being applied now.
-        let requested = self.abort_all.load(Ordering::Acquire);
-        if requested {
-            self.abort_all.store(false, Ordering::Relaxed);
+        let take = |flag: &AtomicBool| {
+            let requested = flag.load(Ordering::Acquire);
+            if requested {
+                flag.store(false, Ordering::Relaxed);
+            }
+            requested
+        };
+        let by_safety = take(&self.abort_all_by_safety);
+        let by_application = take(&self.abort_all);
+        if by_safety {
+            Some(Requester::SafetySystem)
+        } else if by_application {
+            Some(Requester::Application)
+        } else {
+            None
         }
-        requested
     }
 
     /// Connects the safety system: sequences reach it through
@@ -117,6 +123,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     for Sequencer<C, N, T, L, W, B>
 {
     fn abort_all(&self) {
-        Sequencer::abort_all(self);
+        self.abort_all_by_safety.store(true, Ordering::Release);
     }
 }

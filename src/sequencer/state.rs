@@ -7,7 +7,7 @@ use crate::model::time::Stamp;
 use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
 use crate::sequencer::lanes::LaneSet;
 use crate::tick::schedule::Classes;
-use crate::trace::{Ring, StateChange};
+use crate::trace::{Entry, Event, Record, Ring, StateChange};
 use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
 
 /// The sequencer's state: reached only through [`Sequencer::with`].
@@ -242,11 +242,23 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// whose end is then reported ([`exception_ended`](Self::exception_ended)). The
     /// joiners are released separately ([`release_joiners`](Self::release_joiners)).
     pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> bool {
+        self.set_outcome(id, outcome);
+        self.block(id).is_some_and(|b| b.has(flag::HANDLES_EXCEPTION))
+    }
+
+    /// Keeps the outcome of `id`'s run and records it, once per run: an aborted run in a
+    /// lane reports after its teardown kept the outcome.
+    pub(crate) fn set_outcome(&mut self, id: SeqId, outcome: Outcome) {
         let Some(b) = self.block_mut(id) else {
-            return false;
+            return;
         };
-        b.outcome = Some(outcome);
-        b.has(flag::HANDLES_EXCEPTION)
+        if b.outcome.is_none() {
+            b.outcome = Some(outcome);
+            self.record(Event::Ended {
+                sequence: id,
+                outcome,
+            });
+        }
     }
 
     /// The exception sequence `id` ended: its owner's pending behaviour is applied by the
@@ -263,6 +275,31 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
                 self.sets.requested.insert(o);
             }
         }
+    }
+
+    /// Records `event` in the trace at the last tick's time. One copy for every kind of
+    /// event: the callers only build the event.
+    #[inline(never)]
+    pub(crate) fn record(&mut self, event: Event) {
+        self.trace.push(self.now, Entry::Event(event));
+    }
+
+    /// The oldest record still held or, once there is none, the count of those lost.
+    #[inline(never)]
+    fn next_record(&mut self) -> (Option<Record>, u32) {
+        let r = self.trace.pop();
+        let lost = if r.is_none() { self.trace.take_lost() } else { 0 };
+        (r, lost)
+    }
+
+    /// Exception sequence `exception` of an exception of `owner` could not start: `why`.
+    pub(crate) fn exception_not_run(&mut self, exception: SeqId, owner: SeqId, why: Error) {
+        self.exceptions_not_run = self.exceptions_not_run.saturating_add(1);
+        self.record(Event::ExceptionNotRun {
+            exception,
+            owner,
+            why,
+        });
     }
 
     /// THE transition function: every state change goes through here. Makes `change` if
@@ -284,7 +321,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         b.state = change.to;
         self.sets.changed.insert(id);
-        self.trace.push(self.now, change);
+        self.trace.push(self.now, Entry::Change(*change));
         #[cfg(feature = "counters")]
         if let Some(c) = self.counters.get_mut(id.index()) {
             c.count(change.from, change.to, change.cause);
@@ -308,8 +345,35 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.with(|s| s.now)
     }
 
-    /// Passes the buffered transitions, oldest first, to `f` and empties the buffer.
-    /// Returns how many were lost to overflow since the last call.
+    /// Passes the buffered records (transitions and [`Event`]s), oldest first, to `f` and
+    /// empties the buffer. Returns how many were lost to overflow since the last call.
+    ///
+    /// ```
+    /// use rtseq::{Event, Record, Request, Requester, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("a")).unwrap();
+    /// let h = seq.sequence_by_id(id).unwrap();
+    /// h.declare_lane().unwrap();
+    /// h.start().unwrap();
+    /// h.pause().unwrap();
+    /// let mut records = Vec::new();
+    /// assert_eq!(seq.drain_records(|r| records.push(r)), 0);
+    /// assert!(matches!(records[0], Record::Transition(_))); // the start
+    /// assert!(matches!(records[1], Record::Event { event: Event::Requested {
+    ///     request: Request::Pause, by: Requester::Application, .. }, .. }));
+    /// ```
+    pub fn drain_records(&self, mut f: impl FnMut(Record)) -> u32 {
+        loop {
+            let (r, lost) = self.with(State::next_record);
+            match r {
+                Some(r) => f(r),
+                None => return lost,
+            }
+        }
+    }
+
+    /// As [`drain_records`](Self::drain_records), passing on the transitions only (the
+    /// events are dropped).
     ///
     /// ```
     /// use rtseq::{SeqConfig, Sequencer};
@@ -320,17 +384,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// assert_eq!(n, 0); // nothing ran yet
     /// ```
     pub fn drain_trace(&self, mut f: impl FnMut(Transition)) -> u32 {
-        loop {
-            let (t, lost) = self.with(|s| {
-                let t = s.trace.pop();
-                let lost = if t.is_none() { s.trace.take_lost() } else { 0 };
-                (t, lost)
-            });
-            match t {
-                Some(t) => f(t),
-                None => return lost,
+        self.drain_records(|r| {
+            if let Record::Transition(t) = r {
+                f(t)
             }
-        }
+        })
     }
 
     /// Exceptions whose sequence could not run (it had no lane, was already running, or

@@ -7,7 +7,7 @@ use crate::model::state::States;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::start::Mode;
-use crate::{Behaviour, Cause, RunningState, SeqId, Sequencer};
+use crate::{Behaviour, Cause, Event, RunningState, SeqId, Sequencer};
 
 /// How an exception of one monitor (or of a sequence's timeout) is handled, with its
 /// restart bookkeeping.
@@ -57,19 +57,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         let deferred = reaction.exception.is_some_and(|e| {
-            let started = self
-                .begin(e, Some(owner), Mode::Lane, cause, flag::HANDLES_EXCEPTION)
-                .is_ok();
-            self.with(|s| {
-                if started {
+            let started = self.begin(e, Some(owner), Mode::Lane, cause, flag::HANDLES_EXCEPTION);
+            self.with(|s| match started {
+                Ok(()) => {
                     if let Some(b) = s.block_mut(owner) {
                         b.set_pending(Some(behaviour));
                     }
-                } else {
-                    s.exceptions_not_run = s.exceptions_not_run.saturating_add(1);
                 }
+                Err(why) => s.exception_not_run(e, owner, why),
             });
-            started
+            started.is_ok()
         });
         if !deferred {
             self.apply(control, owner, behaviour, target, cause);
@@ -97,8 +94,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         }
         if let Some(e) = exception {
-            if self.begin(e, Some(owner), Mode::Lane, cause, 0).is_err() {
-                self.with(|s| s.exceptions_not_run = s.exceptions_not_run.saturating_add(1));
+            if let Err(why) = self.begin(e, Some(owner), Mode::Lane, cause, 0) {
+                self.with(|s| s.exception_not_run(e, owner, why));
             }
         }
         self.walk(control, Some(owner), RunningState::Paused, cause);
@@ -244,6 +241,11 @@ fn mark<
         if let Some(c) = s.counters.get_mut(owner.index()) {
             c.exceptions = c.exceptions.wrapping_add(1);
         }
+        s.record(Event::Fired {
+            owner,
+            cause,
+            behaviour,
+        });
     });
     Some((target, behaviour))
 }

@@ -19,7 +19,7 @@ use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
 use crate::sequencer::State;
-use crate::{Cause, Error, Instant, Monitors, SeqId, Sequencer};
+use crate::{Cause, Error, Event, Instant, Monitors, SeqId, Sequencer};
 
 mod exception;
 mod monitors;
@@ -162,7 +162,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if changed {
             words = self.fold();
         }
-        if abort_all {
+        if let Some(by) = abort_all {
+            self.with(|s| s.record(Event::AbortAll { by }));
             self.apply_abort_all(control);
         }
         if requests {
@@ -171,7 +172,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if !any_due {
             return Ok(());
         }
-        if abort_all || requests {
+        if abort_all.is_some() || requests {
             // What they stopped or paused is not due any more.
             words = self.fold();
         }

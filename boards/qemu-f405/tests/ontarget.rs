@@ -46,14 +46,17 @@ use rtseq::safety::{
     CriticalOutput, IoValue, LevelDef, LevelTransition as Row, OutputId, PublicEvent, SafetyIo,
     SafetyLevel, SafetyProperties, ValidProperties,
 };
-use rtseq::{Cause, Instant, Monitors, RunningState, Sequencer, Transition};
+use rtseq::{
+    Cause, Event, Instant, Monitors, Outcome, Record, Request, Requester, RunningState, Sequencer,
+    Transition,
+};
 
 /// One start and one abort, each applied by a tick: the transitions of `rounds` rounds.
 fn run_rounds(
     seq: &Sequencer<(), 4, 4, CriticalSection>,
     monitors: &mut Monitors<'static, (), 1>,
     rounds: u64,
-    mut drain_each: Option<&mut heapless::Vec<(RunningState, RunningState, Cause), 32>>,
+    mut drain_each: Option<&mut heapless::Vec<Record, 32>>,
 ) {
     let h = seq.sequence_by_name("s").expect("registered");
     for r in 0..rounds {
@@ -61,19 +64,27 @@ fn run_rounds(
         seq.tick(Instant::from_ticks(2 * r * 1000 + 1000), &(), monitors)
             .unwrap();
         if let Some(v) = drain_each.as_deref_mut() {
-            assert_eq!(seq.drain_trace(|t| keep(v, t)), 0);
+            assert_eq!(seq.drain_records(|r| keep(v, r)), 0);
         }
         assert!(h.abort().is_ok());
         seq.tick(Instant::from_ticks(2 * r * 1000 + 2000), &(), monitors)
             .unwrap();
         if let Some(v) = drain_each.as_deref_mut() {
-            assert_eq!(seq.drain_trace(|t| keep(v, t)), 0);
+            assert_eq!(seq.drain_records(|r| keep(v, r)), 0);
         }
     }
 }
 
-fn keep(v: &mut heapless::Vec<(RunningState, RunningState, Cause), 32>, t: Transition) {
-    assert!(v.push((t.from, t.to, t.cause)).is_ok());
+fn keep(v: &mut heapless::Vec<Record, 32>, r: Record) {
+    assert!(v.push(r).is_ok());
+}
+
+/// A record's time (µs).
+fn time_of(r: &Record) -> u64 {
+    match r {
+        Record::Transition(t) => t.time.as_ticks(),
+        Record::Event { time, .. } => time.as_ticks(),
+    }
 }
 
 const SAFE: SafetyLevel = SafetyLevel::new(0);
@@ -252,11 +263,50 @@ mod tests {
         run_rounds(&seq, &mut monitors, 3, Some(&mut all));
         assert!(
             all.len() > 4,
-            "3 starts and aborts make more transitions than the ring holds"
+            "3 starts and aborts make more records than the ring holds"
         );
+        // Each round: the start, the abort request, the teardown and the run's outcome.
+        let id0 = id;
         assert_eq!(
-            all.first().copied(),
-            Some((RunningState::Idle, RunningState::Running, Cause::Start))
+            all[..5],
+            [
+                Record::Transition(Transition {
+                    time: Instant::from_ticks(0),
+                    sequence: id0,
+                    from: RunningState::Idle,
+                    to: RunningState::Running,
+                    cause: Cause::Start,
+                }),
+                Record::Event {
+                    time: Instant::from_ticks(1000),
+                    event: Event::Requested {
+                        sequence: id0,
+                        request: Request::Abort,
+                        by: Requester::Application,
+                    },
+                },
+                Record::Transition(Transition {
+                    time: Instant::from_ticks(2000),
+                    sequence: id0,
+                    from: RunningState::Running,
+                    to: RunningState::Aborting,
+                    cause: Cause::Abort,
+                }),
+                Record::Transition(Transition {
+                    time: Instant::from_ticks(2000),
+                    sequence: id0,
+                    from: RunningState::Aborting,
+                    to: RunningState::Aborted,
+                    cause: Cause::Abort,
+                }),
+                Record::Event {
+                    time: Instant::from_ticks(2000),
+                    event: Event::Ended {
+                        sequence: id0,
+                        outcome: Outcome::Aborted(Cause::Abort),
+                    },
+                },
+            ]
         );
 
         // The same without draining: the ring of 4 keeps the newest 4, the rest is counted.
@@ -265,18 +315,18 @@ mod tests {
         assert!(seq.sequence_by_id(id).expect("id").declare_lane().is_ok());
         let mut monitors = Monitors::new();
         run_rounds(&seq, &mut monitors, 3, None);
-        let mut kept: heapless::Vec<(RunningState, RunningState, Cause), 32> = heapless::Vec::new();
+        let mut kept: heapless::Vec<Record, 32> = heapless::Vec::new();
         let mut last_time = 0;
-        let lost = seq.drain_trace(|t| {
-            assert!(t.time.as_ticks() >= last_time, "not oldest first");
-            last_time = t.time.as_ticks();
-            keep(&mut kept, t);
+        let lost = seq.drain_records(|r| {
+            assert!(time_of(&r) >= last_time, "not oldest first");
+            last_time = time_of(&r);
+            keep(&mut kept, r);
         });
         assert_eq!(kept.len(), 4);
         assert_eq!(lost as usize, all.len() - 4);
         assert_eq!(kept.as_slice(), &all[all.len() - 4..]);
         // Drained: empty.
-        assert_eq!(seq.drain_trace(|_| panic!("a record after draining")), 0);
+        assert_eq!(seq.drain_records(|_| panic!("a record after draining")), 0);
     }
 
     #[test]

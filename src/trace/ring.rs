@@ -1,109 +1,16 @@
-//! The transition trace: one record per state change.
+//! The sequencer's trace buffer: a ring of the newest records.
 
-use crate::{Cause, Instant, RunningState, SeqId};
+use crate::trace::{Entry, Record, StateChange};
+use crate::{Cause, Instant, RunningState, SeqId, Transition};
 
 #[cfg(test)]
 extern crate std;
-
-/// One state change of one sequence: `(time, sequence, from, to, cause)`.
-///
-/// The sequencer keeps the most recent records in a bounded buffer; drain it with
-/// [`Sequencer::drain_trace`](crate::Sequencer::drain_trace). The host
-/// `Sim` (feature `std`) collects them all.
-///
-/// The record of a start, read from the sequencer's buffer:
-///
-/// ```
-/// use rtseq::{Cause, Instant, RunningState, SeqConfig, Sequencer, Transition};
-/// let seq: Sequencer<(), 2> = Sequencer::new();
-/// let id = seq.register(SeqConfig::new("blink")).unwrap();
-/// let h = seq.sequence_by_id(id).unwrap();
-/// h.declare_lane().unwrap();
-/// h.start().unwrap();
-/// let mut last = None;
-/// seq.drain_trace(|t| last = Some(t));
-/// assert_eq!(last, Some(Transition {
-///     time: Instant::from_ticks(0),
-///     sequence: id,
-///     from: RunningState::Idle,
-///     to: RunningState::Running,
-///     cause: Cause::Start,
-/// }));
-/// ```
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Transition {
-    /// Sequencer time of the change (the last tick's time).
-    pub time: Instant,
-    /// The sequence that changed state.
-    pub sequence: crate::SeqId,
-    /// State before.
-    pub from: RunningState,
-    /// State after.
-    pub to: RunningState,
-    /// Why.
-    pub cause: Cause,
-}
-
-impl Transition {
-    /// A compact constructor, convenient for expected traces in tests.
-    ///
-    /// ```
-    /// use rtseq::{Cause, RunningState::*, SeqId, Transition};
-    /// # fn id(s: &rtseq::Sequencer<(), 2>) -> SeqId { s.register(rtseq::SeqConfig::new("a")).unwrap() }
-    /// # let s = rtseq::Sequencer::new(); let a = id(&s);
-    /// let t = Transition::at_millis(5, a, Idle, Running, Cause::Start);
-    /// assert_eq!(t.time.as_ticks(), 5_000);
-    /// ```
-    pub const fn at_millis(
-        ms: u64,
-        sequence: SeqId,
-        from: RunningState,
-        to: RunningState,
-        cause: Cause,
-    ) -> Self {
-        Transition {
-            time: Instant::from_ticks(ms.saturating_mul(1_000)),
-            sequence,
-            from,
-            to,
-            cause,
-        }
-    }
-}
-
-/// A state change to make, without its time: what the transition function
-/// (`State::transition`) is asked for, and what a ring slot keeps beside the time.
-#[derive(Clone, Copy)]
-pub(crate) struct StateChange {
-    pub(crate) sequence: SeqId,
-    pub(crate) from: RunningState,
-    pub(crate) to: RunningState,
-    pub(crate) cause: Cause,
-}
-
-impl StateChange {
-    /// The change of `sequence` from `from` to `to` for `cause`.
-    pub(crate) const fn new(
-        sequence: SeqId,
-        from: RunningState,
-        to: RunningState,
-        cause: Cause,
-    ) -> Self {
-        StateChange {
-            sequence,
-            from,
-            to,
-            cause,
-        }
-    }
-}
 
 /// One ring slot.
 #[derive(Clone, Copy)]
 struct Rec {
     time: u64,
-    change: StateChange,
+    entry: Entry,
 }
 
 /// The sequencer's trace buffer: a ring of the newest `T` records, oldest first (`T` a
@@ -127,12 +34,12 @@ impl<const T: usize> Ring<T> {
     /// A record for the never-read slots of an empty ring.
     const BLANK: Rec = Rec {
         time: 0,
-        change: StateChange::new(
+        entry: Entry::Change(StateChange::new(
             SeqId(0),
             RunningState::Idle,
             RunningState::Idle,
             Cause::Start,
-        ),
+        )),
     };
 
     /// `T` as a count (at most 2^31, checked in `new`).
@@ -156,14 +63,14 @@ impl<const T: usize> Ring<T> {
         }
     }
 
-    /// Appends `change` at `time`, over the oldest record when the ring is full.
+    /// Appends `entry` at `time`, over the oldest record when the ring is full.
     #[inline]
-    pub(crate) fn push(&mut self, time: Instant, change: &StateChange) {
+    pub(crate) fn push(&mut self, time: Instant, entry: Entry) {
         // With `T` = 0 there is no slot: the record is lost.
         if let Some(slot) = self.buf.get_mut((self.written & Self::MASK) as usize) {
             *slot = Rec {
                 time: time.as_ticks(),
-                change: *change,
+                entry,
             };
         }
         self.written = self.written.wrapping_add(1);
@@ -186,19 +93,25 @@ impl<const T: usize> Ring<T> {
 
     /// Removes and returns the oldest record still held.
     #[inline]
-    pub(crate) fn pop(&mut self) -> Option<Transition> {
+    pub(crate) fn pop(&mut self) -> Option<Record> {
         self.skip_overwritten();
         if self.read == self.written {
             return None;
         }
         let rec = self.buf.get((self.read & Self::MASK) as usize).copied();
         self.read = self.read.wrapping_add(1);
-        rec.map(|Rec { time, change: e }| Transition {
-            time: Instant::from_ticks(time),
-            sequence: e.sequence,
-            from: e.from,
-            to: e.to,
-            cause: e.cause,
+        rec.map(|Rec { time, entry }| {
+            let time = Instant::from_ticks(time);
+            match entry {
+                Entry::Change(c) => Record::Transition(Transition {
+                    time,
+                    sequence: c.sequence,
+                    from: c.from,
+                    to: c.to,
+                    cause: c.cause,
+                }),
+                Entry::Event(event) => Record::Event { time, event },
+            }
         })
     }
 }
@@ -207,12 +120,19 @@ impl<const T: usize> Ring<T> {
 mod tests {
     use super::*;
 
+    fn time_of(r: Record) -> u64 {
+        match r {
+            Record::Transition(t) => t.time.as_ticks(),
+            Record::Event { time, .. } => time.as_ticks(),
+        }
+    }
+
     fn push<const T: usize>(r: &mut Ring<T>, n: u64) {
-        r.push(Instant::from_ticks(n), &Ring::<1>::BLANK.change)
+        r.push(Instant::from_ticks(n), Ring::<1>::BLANK.entry)
     }
 
     fn drain<const T: usize>(r: &mut Ring<T>) -> std::vec::Vec<u64> {
-        core::iter::from_fn(|| r.pop().map(|t| t.time.as_ticks())).collect()
+        core::iter::from_fn(|| r.pop().map(time_of)).collect()
     }
 
     /// Against a model (a `VecDeque` that drops its front when full), for several
@@ -227,7 +147,7 @@ mod tests {
                 if n % 7 == 3 {
                     assert_eq!(r.take_lost(), lost, "T = {T}, pop {n}");
                     lost = 0;
-                    assert_eq!(r.pop().map(|t| t.time.as_ticks()), model.pop_front());
+                    assert_eq!(r.pop().map(time_of), model.pop_front());
                 } else {
                     if model.len() == T {
                         model.pop_front();

@@ -1,0 +1,122 @@
+//! Events: what the sequencer records besides state changes.
+
+use crate::{Behaviour, Cause, Error, Outcome, SeqId};
+
+/// Something the sequencer did or was asked, recorded in the trace between the transitions
+/// it explains (drain both with
+/// [`Sequencer::drain_records`](crate::Sequencer::drain_records)).
+///
+/// A monitor that fires is recorded before the transitions of its behaviour:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Event, Failure, Instant, Monitor, Monitors,
+///             Record, SeqConfig, Sequence, Sequencer};
+/// use core::cell::Cell;
+/// struct Hold;
+/// impl Sequence<Cell<bool>> for Hold {
+///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> {
+///         cx.wait_until(|_| false).await;
+///         Ok(())
+///     }
+/// }
+/// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
+/// let hold = seq.add(SeqConfig::new("hold"), Hold).unwrap();
+/// let owner = hold.id();
+/// let mut jammed_now = |c: &Cell<bool>, _: Instant| c.get();
+/// let mut monitors: Monitors<Cell<bool>, 1> = Monitors::new();
+/// let jam = monitors
+///     .add(owner, Monitor::new("jam", &mut jammed_now, Behaviour::AbortOwner))
+///     .unwrap();
+/// let jammed = Cell::new(false);
+/// let mut sim = Sim::new(&seq, &jammed, monitors);
+/// sim.lane(hold);
+/// sim.start(owner).unwrap();
+/// jammed.set(true);
+/// sim.run_for(rtseq::Duration::from_millis(1));
+/// let fired = sim.records().iter().find_map(|r| match r {
+///     Record::Event { event, .. } => Some(*event),
+///     Record::Transition(_) => None,
+/// });
+/// assert_eq!(fired, Some(Event::Fired {
+///     owner,
+///     cause: Cause::Monitor(jam),
+///     behaviour: Behaviour::AbortOwner,
+/// }));
+/// # }
+/// ```
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Event {
+    /// A monitor of `owner` fired (`cause`: [`Cause::Monitor`]) or its timeout ran out
+    /// ([`Cause::Timeout`]); `behaviour` follows (once its restarts are used up, the one it
+    /// escalates to).
+    Fired {
+        /// The monitor's owner.
+        owner: SeqId,
+        /// Which monitor, or the timeout.
+        cause: Cause,
+        /// The behaviour applied after the exception sequence (or at once).
+        behaviour: Behaviour,
+    },
+    /// The exception sequence of an exception of `owner` could not run, so the behaviour
+    /// was applied at once: `why` says what stopped it (no lane, already running, too deep).
+    ExceptionNotRun {
+        /// The exception sequence.
+        exception: SeqId,
+        /// The owner of the monitor or timeout.
+        owner: SeqId,
+        /// The error its start gave.
+        why: Error,
+    },
+    /// `by` asked for `request` of `sequence`; the next tick carries it out.
+    Requested {
+        /// The sequence to pause, resume or abort.
+        sequence: SeqId,
+        /// What was asked.
+        request: Request,
+        /// Who asked.
+        by: Requester,
+    },
+    /// The tick took a request to abort every sequence, made by `by`.
+    AbortAll {
+        /// Who asked.
+        by: Requester,
+    },
+    /// A run of `sequence` ended with `outcome` (reported by the run itself; an aborted run
+    /// when its teardown finishes it).
+    Ended {
+        /// The sequence whose run ended.
+        sequence: SeqId,
+        /// How it ended.
+        outcome: Outcome,
+    },
+}
+
+/// A request to a running sequence ([`Handle::pause`](crate::Handle::pause),
+/// [`resume`](crate::Handle::resume), [`abort`](crate::Handle::abort)).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Request {
+    /// Pause a running sequence and the sequences it blocks.
+    Pause,
+    /// Resume a paused sequence where it stopped.
+    Resume,
+    /// Abort an active sequence and all its sub-sequences.
+    Abort,
+}
+
+/// Who made a request.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Requester {
+    /// A sequence, through a handle from its context
+    /// ([`Cx::sequence_by_id`](crate::Cx::sequence_by_id)).
+    Sequence(SeqId),
+    /// The application, through a handle from the sequencer
+    /// ([`Sequencer::sequence_by_id`](crate::Sequencer::sequence_by_id)) or
+    /// [`Sequencer::abort_all`](crate::Sequencer::abort_all).
+    Application,
+    /// The safety system (a level that aborts every sequence).
+    SafetySystem,
+}
