@@ -158,7 +158,7 @@ pub use sequencer::handle::{CallerStack, Handle};
 pub use sequencer::validation::{ConfigError, Raiser};
 pub use sequencer::Sequencer;
 pub use tick::schedule::MAX_POLLING_CLASSES;
-pub use trace::{Event, Record, Request, Requester, Transition};
+pub use trace::{Entry, Event, Record, Request, Requester, Transition};
 
 /// Maximum nesting of callers (`callerStack` length). Starting deeper is an
 /// [`Error::CallerDepthExceeded`].

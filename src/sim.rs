@@ -961,7 +961,7 @@ impl<
     /// of the tick it happened in.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Event, Failure, Monitors, Outcome, Record, SeqConfig,
+    /// use rtseq::{sim::Sim, Cx, Event, Failure, Monitors, Outcome, SeqConfig,
     ///             Sequence, Sequencer};
     /// struct Jam;
     /// impl Sequence<()> for Jam {
@@ -975,8 +975,8 @@ impl<
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     /// sim.lane(jam);
     /// sim.start(id).unwrap();
-    /// let ended = sim.records().iter().rev().find_map(|r| match r {
-    ///     Record::Event { event: Event::Ended { outcome, .. }, .. } => Some(*outcome),
+    /// let ended = sim.records().iter().rev().find_map(|r| match r.event() {
+    ///     Some(Event::Ended { outcome, .. }) => Some(outcome),
     ///     _ => None,
     /// });
     /// assert_eq!(ended, Some(Outcome::Failed(Failure::App(7))));
@@ -1148,7 +1148,7 @@ impl<
     fn drain(&mut self) {
         let (trace, records) = (&mut self.trace, &mut self.records);
         let lost = self.sequencer.drain_records(|r| {
-            if let Record::Transition(t) = r {
+            if let Some(t) = r.transition() {
                 trace.push(t);
             }
             records.push(r);
@@ -1303,12 +1303,13 @@ impl<
         head.push_str("]}");
         std::writeln!(out, "{head}")?;
         for r in &self.records {
-            let t = match r {
-                Record::Transition(t) => t,
-                Record::Event { time, event } => {
-                    self.write_event(out, *time, event)?;
+            let t = match (r.transition(), r.event()) {
+                (Some(t), _) => t,
+                (None, Some(event)) => {
+                    self.write_event(out, r.time, &event)?;
                     continue;
                 }
+                (None, None) => continue,
             };
             let cause = match t.cause {
                 Cause::Start => String::from("\"start\""),

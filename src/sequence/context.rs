@@ -549,7 +549,9 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'a, C>> {
-        self.port.info(id).map(|_| Handle::for_sequence(self.port, id, self.id))
+        self.port
+            .info(id)
+            .map(|_| Handle::for_sequence(self.port, id, self.id))
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByName`).

@@ -243,7 +243,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// joiners are released separately ([`release_joiners`](Self::release_joiners)).
     pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> bool {
         self.set_outcome(id, outcome);
-        self.block(id).is_some_and(|b| b.has(flag::HANDLES_EXCEPTION))
+        self.block(id)
+            .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION))
     }
 
     /// Keeps the outcome of `id`'s run and records it, once per run: an aborted run in a
@@ -288,7 +289,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     #[inline(never)]
     fn next_record(&mut self) -> (Option<Record>, u32) {
         let r = self.trace.pop();
-        let lost = if r.is_none() { self.trace.take_lost() } else { 0 };
+        let lost = if r.is_none() {
+            self.trace.take_lost()
+        } else {
+            0
+        };
         (r, lost)
     }
 
@@ -321,7 +326,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         b.state = change.to;
         self.sets.changed.insert(id);
-        self.trace.push(self.now, Entry::Change(*change));
+        self.trace.push(
+            self.now,
+            Entry::Transition {
+                sequence: change.sequence,
+                from: change.from,
+                to: change.to,
+                cause: change.cause,
+            },
+        );
         #[cfg(feature = "counters")]
         if let Some(c) = self.counters.get_mut(id.index()) {
             c.count(change.from, change.to, change.cause);
@@ -349,7 +362,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// empties the buffer. Returns how many were lost to overflow since the last call.
     ///
     /// ```
-    /// use rtseq::{Event, Record, Request, Requester, SeqConfig, Sequencer};
+    /// use rtseq::{Event, Request, Requester, SeqConfig, Sequencer};
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// let id = seq.register(SeqConfig::new("a")).unwrap();
     /// let h = seq.sequence_by_id(id).unwrap();
@@ -358,9 +371,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// h.pause().unwrap();
     /// let mut records = Vec::new();
     /// assert_eq!(seq.drain_records(|r| records.push(r)), 0);
-    /// assert!(matches!(records[0], Record::Transition(_))); // the start
-    /// assert!(matches!(records[1], Record::Event { event: Event::Requested {
-    ///     request: Request::Pause, by: Requester::Application, .. }, .. }));
+    /// assert!(records[0].transition().is_some()); // the start
+    /// assert!(matches!(records[1].event(), Some(Event::Requested {
+    ///     request: Request::Pause, by: Requester::Application, .. })));
     /// ```
     pub fn drain_records(&self, mut f: impl FnMut(Record)) -> u32 {
         loop {
@@ -385,7 +398,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     pub fn drain_trace(&self, mut f: impl FnMut(Transition)) -> u32 {
         self.drain_records(|r| {
-            if let Record::Transition(t) = r {
+            if let Some(t) = r.transition() {
                 f(t)
             }
         })

@@ -11,7 +11,7 @@ use crate::{Behaviour, Cause, Error, Outcome, SeqId};
 /// ```
 /// # #[cfg(feature = "std")] {
 /// use rtseq::{sim::Sim, Behaviour, Cause, Cx, Event, Failure, Instant, Monitor, Monitors,
-///             Record, SeqConfig, Sequence, Sequencer};
+///             SeqConfig, Sequence, Sequencer};
 /// use core::cell::Cell;
 /// struct Hold;
 /// impl Sequence<Cell<bool>> for Hold {
@@ -34,10 +34,7 @@ use crate::{Behaviour, Cause, Error, Outcome, SeqId};
 /// sim.start(owner).unwrap();
 /// jammed.set(true);
 /// sim.run_for(rtseq::Duration::from_millis(1));
-/// let fired = sim.records().iter().find_map(|r| match r {
-///     Record::Event { event, .. } => Some(*event),
-///     Record::Transition(_) => None,
-/// });
+/// let fired = sim.records().iter().find_map(|r| r.event());
 /// assert_eq!(fired, Some(Event::Fired {
 ///     owner,
 ///     cause: Cause::Monitor(jam),

@@ -5,6 +5,7 @@ mod event;
 pub(crate) mod ring;
 
 pub use event::{Event, Request, Requester};
+
 pub(crate) use ring::Ring;
 
 use crate::{Cause, Instant, RunningState, SeqId};
@@ -77,26 +78,62 @@ impl Transition {
 }
 
 /// One record of the trace, as [`Sequencer::drain_records`](crate::Sequencer::drain_records)
-/// passes it on: a state change or an event, in the order the sequencer made them.
+/// passes it on: a state change or an event at `time`, in the order the sequencer made them.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Record {
-    /// A state change.
-    Transition(Transition),
-    /// An event at `time` (the last tick's time when it was recorded).
-    Event {
-        /// Sequencer time.
-        time: Instant,
-        /// What happened.
-        event: Event,
-    },
+pub struct Record {
+    /// Sequencer time (the last tick's time when it was recorded).
+    pub time: Instant,
+    /// What happened.
+    pub entry: Entry,
 }
 
-/// What a ring slot keeps beside the time.
-#[derive(Clone, Copy)]
-pub(crate) enum Entry {
-    Change(StateChange),
+/// What a [`Record`] holds: a state change or an event.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Entry {
+    /// A state change (a [`Transition`] without its time).
+    Transition {
+        /// The sequence that changed state.
+        sequence: SeqId,
+        /// State before.
+        from: RunningState,
+        /// State after.
+        to: RunningState,
+        /// Why.
+        cause: Cause,
+    },
+    /// An event.
     Event(Event),
+}
+
+impl Record {
+    /// The state change, if this record is one.
+    pub const fn transition(&self) -> Option<Transition> {
+        match self.entry {
+            Entry::Transition {
+                sequence,
+                from,
+                to,
+                cause,
+            } => Some(Transition {
+                time: self.time,
+                sequence,
+                from,
+                to,
+                cause,
+            }),
+            Entry::Event(_) => None,
+        }
+    }
+
+    /// The event, if this record is one.
+    pub const fn event(&self) -> Option<Event> {
+        match self.entry {
+            Entry::Event(e) => Some(e),
+            Entry::Transition { .. } => None,
+        }
+    }
 }
 
 /// A state change to make, without its time: what the transition function
@@ -125,4 +162,3 @@ impl StateChange {
         }
     }
 }
-

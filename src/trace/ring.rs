@@ -1,17 +1,10 @@
 //! The sequencer's trace buffer: a ring of the newest records.
 
-use crate::trace::{Entry, Record, StateChange};
-use crate::{Cause, Instant, RunningState, SeqId, Transition};
+use crate::trace::{Entry, Record};
+use crate::{Cause, Instant, RunningState, SeqId};
 
 #[cfg(test)]
 extern crate std;
-
-/// One ring slot.
-#[derive(Clone, Copy)]
-struct Rec {
-    time: u64,
-    entry: Entry,
-}
 
 /// The sequencer's trace buffer: a ring of the newest `T` records, oldest first (`T` a
 /// power of two, or 0 for no trace).
@@ -21,7 +14,7 @@ struct Rec {
 /// increment, with no test for a full ring. A reader that falls more than `T` records
 /// behind finds the oldest overwritten and counts them as lost.
 pub(crate) struct Ring<const T: usize> {
-    buf: [Rec; T],
+    buf: [Record; T],
     /// Records pushed since the start (wrapping).
     written: u32,
     /// Records popped or lost since the start (wrapping).
@@ -32,14 +25,14 @@ pub(crate) struct Ring<const T: usize> {
 
 impl<const T: usize> Ring<T> {
     /// A record for the never-read slots of an empty ring.
-    const BLANK: Rec = Rec {
-        time: 0,
-        entry: Entry::Change(StateChange::new(
-            SeqId(0),
-            RunningState::Idle,
-            RunningState::Idle,
-            Cause::Start,
-        )),
+    const BLANK: Record = Record {
+        time: Instant::from_ticks(0),
+        entry: Entry::Transition {
+            sequence: SeqId(0),
+            from: RunningState::Idle,
+            to: RunningState::Idle,
+            cause: Cause::Start,
+        },
     };
 
     /// `T` as a count (at most 2^31, checked in `new`).
@@ -68,10 +61,7 @@ impl<const T: usize> Ring<T> {
     pub(crate) fn push(&mut self, time: Instant, entry: Entry) {
         // With `T` = 0 there is no slot: the record is lost.
         if let Some(slot) = self.buf.get_mut((self.written & Self::MASK) as usize) {
-            *slot = Rec {
-                time: time.as_ticks(),
-                entry,
-            };
+            *slot = Record { time, entry };
         }
         self.written = self.written.wrapping_add(1);
     }
@@ -98,21 +88,9 @@ impl<const T: usize> Ring<T> {
         if self.read == self.written {
             return None;
         }
-        let rec = self.buf.get((self.read & Self::MASK) as usize).copied();
+        let record = self.buf.get((self.read & Self::MASK) as usize).copied();
         self.read = self.read.wrapping_add(1);
-        rec.map(|Rec { time, entry }| {
-            let time = Instant::from_ticks(time);
-            match entry {
-                Entry::Change(c) => Record::Transition(Transition {
-                    time,
-                    sequence: c.sequence,
-                    from: c.from,
-                    to: c.to,
-                    cause: c.cause,
-                }),
-                Entry::Event(event) => Record::Event { time, event },
-            }
-        })
+        record
     }
 }
 
@@ -121,10 +99,7 @@ mod tests {
     use super::*;
 
     fn time_of(r: Record) -> u64 {
-        match r {
-            Record::Transition(t) => t.time.as_ticks(),
-            Record::Event { time, .. } => time.as_ticks(),
-        }
+        r.time.as_ticks()
     }
 
     fn push<const T: usize>(r: &mut Ring<T>, n: u64) {
