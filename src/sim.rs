@@ -961,7 +961,7 @@ impl<
     /// of the tick it happened in.
     ///
     /// ```
-    /// use rtseq::{sim::Sim, Cx, Event, Failure, Monitors, Outcome, SeqConfig,
+    /// use rtseq::{sim::Sim, Cx, Event, Failure, Monitors, SeqConfig,
     ///             Sequence, Sequencer};
     /// struct Jam;
     /// impl Sequence<()> for Jam {
@@ -975,11 +975,8 @@ impl<
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     /// sim.lane(jam);
     /// sim.start(id).unwrap();
-    /// let ended = sim.records().iter().rev().find_map(|r| match r.event() {
-    ///     Some(Event::Ended { outcome, .. }) => Some(outcome),
-    ///     _ => None,
-    /// });
-    /// assert_eq!(ended, Some(Outcome::Failed(Failure::App(7))));
+    /// let failed = sim.records().iter().find_map(|r| r.event());
+    /// assert_eq!(failed, Some(Event::Failed { sequence: id, failure: Failure::App(7) }));
     /// ```
     pub fn records(&self) -> &[Record] {
         &self.records
@@ -1344,7 +1341,7 @@ impl<
         time: Instant,
         event: &crate::Event,
     ) -> std::io::Result<()> {
-        use crate::{Cause, Event, Outcome, Requester};
+        use crate::{Cause, Event, Requester};
         use std::format;
         use std::string::String;
         let name = |id: SeqId| self.handle(id).map_or("", |h| h.name());
@@ -1385,7 +1382,7 @@ impl<
                 owner,
                 why,
             } => format!(
-                "\"event\":\"exception_not_run\",\"seq\":{},\"owner\":{},\"name\":{},\"text\":{}",
+                "\"event\":\"exception_not_run\",\"sequence\":{},\"owner\":{},\"name\":{},\"text\":{}",
                 exception.index(),
                 owner.index(),
                 quoted(name(exception)),
@@ -1400,7 +1397,7 @@ impl<
                 request,
                 by: who,
             } => format!(
-                "\"event\":\"request\",\"seq\":{},\"request\":\"{}\",{},\"name\":{},\"text\":{}",
+                "\"event\":\"request\",\"sequence\":{},\"request\":\"{}\",{},\"name\":{},\"text\":{}",
                 sequence.index(),
                 format!("{request:?}").to_lowercase(),
                 by(who),
@@ -1412,20 +1409,12 @@ impl<
                 by(who),
                 quoted(&format!("abort all, requested by {who:?}"))
             ),
-            Event::Ended { sequence, outcome } => {
-                let (kind, detail) = match outcome {
-                    Outcome::Completed => ("completed", String::new()),
-                    Outcome::Skipped => ("skipped", String::new()),
-                    Outcome::Aborted(c) => ("aborted", format!(": {c:?}")),
-                    Outcome::Failed(f) => ("failed", format!(": {f:?}")),
-                };
-                format!(
-                    "\"event\":\"outcome\",\"seq\":{},\"outcome\":\"{kind}\",\"name\":{},\"text\":{}",
-                    sequence.index(),
-                    quoted(name(sequence)),
-                    quoted(&format!("'{}' {kind}{detail}", name(sequence)))
-                )
-            }
+            Event::Failed { sequence, failure } => format!(
+                "\"event\":\"failed\",\"sequence\":{},\"name\":{},\"text\":{}",
+                sequence.index(),
+                quoted(name(sequence)),
+                quoted(&format!("'{}' failed: {failure:?}", name(sequence)))
+            ),
         };
         std::writeln!(out, "{{\"t\":{},{fields}}}", time.as_ticks())
     }

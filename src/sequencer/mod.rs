@@ -20,7 +20,7 @@
 
 use core::cell::{Cell, UnsafeCell};
 use core::marker::PhantomData;
-use core::sync::atomic::AtomicBool;
+use core::sync::atomic::AtomicU8;
 
 use crate::lock::{CriticalSection, Lock};
 use crate::safety::SafetyHandle;
@@ -88,10 +88,9 @@ pub struct Sequencer<
     /// The lanes' wakers, outside `state`: a waker is foreign code, called only while the
     /// state is not borrowed.
     pub(crate) lanes: Lanes<W>,
-    /// Abort-all requests of the application: an atomic, so any priority may raise one.
-    pub(crate) abort_all: AtomicBool,
-    /// Abort-all requests of the safety system (its task sits above a priority ceiling).
-    pub(crate) abort_all_by_safety: AtomicBool,
+    /// Pending abort-all requests, a bit per requester (`requests::abort_all`): an atomic,
+    /// so any priority may raise one (the safety task sits above a priority ceiling).
+    pub(crate) abort_all: AtomicU8,
     /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
     pub(crate) safety: critical_section::Mutex<Cell<Option<&'static SafetyHandle>>>,
     _control: PhantomData<fn(&C)>,
@@ -227,8 +226,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Sequencer {
             state: UnsafeCell::new(State::new()),
             lanes: Lanes::new(),
-            abort_all: AtomicBool::new(false),
-            abort_all_by_safety: AtomicBool::new(false),
+            abort_all: AtomicU8::new(0),
             safety: critical_section::Mutex::new(Cell::new(None)),
             _control: PhantomData,
             _lock: PhantomData,

@@ -13,7 +13,9 @@ use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::start::Mode;
 use crate::sequencer::transition::Clearance;
 use crate::trace::StateChange;
-use crate::{Cause, Error, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer};
+use crate::{
+    Cause, Error, Event, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer,
+};
 
 /// A consistent snapshot of one control block's own fields, for [`Handle`](crate::Handle).
 #[derive(Clone, Debug)]
@@ -140,7 +142,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Outcome::Aborted(cause) => cause,
         };
         let change = StateChange::new(id, RunningState::Running, RunningState::Terminated, cause);
-        self.with(|s| s.end(&change))
+        self.with(|s| {
+            let ended = s.end(&change);
+            if let (true, Outcome::Failed(failure)) = (ended, outcome) {
+                s.record(Event::Failed {
+                    sequence: id,
+                    failure,
+                });
+            }
+            ended
+        })
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
@@ -231,7 +242,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error> {
-        self.with(|s| s.request(id, request, by))
+        // Between the two steps a tick may end the run: the request was recorded, but is
+        // refused (as if it had come a moment later).
+        in_sections!(self, |s| {
+            s.section(|s| s.record_request(id, request, by));
+            s.section(|s| s.request(id, request))
+        })
     }
 
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {

@@ -2,7 +2,7 @@
 //! tick so that every such transition happens in one place at a well-defined time. And the
 //! connection to the safety system, whose levels may demand abort-all.
 
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::Ordering;
 
 use crate::lock::Lock;
 use crate::model::state::States;
@@ -32,22 +32,39 @@ impl Request {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// Queues `req` of `id`, made by `by`, for the next tick, and records it.
-    pub(crate) fn request(&mut self, id: SeqId, req: Request, by: Requester) -> Result<(), Error> {
-        let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
-        if !req.allowed().has(b.state) {
-            return Err(match req {
+    /// Whether `req` of `id` can be made: its state allows it.
+    fn check_request(&self, id: SeqId, req: Request) -> Result<(), Error> {
+        let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
+        if req.allowed().has(b.state) {
+            Ok(())
+        } else {
+            Err(match req {
                 Request::Resume => Error::NotPaused(id),
                 Request::Pause | Request::Abort => Error::NotRunning(id),
+            })
+        }
+    }
+
+    /// Records that `by` asks for `req` of `id`, if it can be made now (else
+    /// [`request`](Self::request) says why not). Done before the request is queued, so
+    /// that its record comes before the transitions of the tick that carries it out.
+    pub(crate) fn record_request(&mut self, id: SeqId, req: Request, by: Requester) {
+        if self.block(id).is_some_and(|b| req.allowed().has(b.state)) {
+            self.record(Event::Requested {
+                sequence: id,
+                request: req,
+                by,
             });
         }
-        b.flags |= req.bit();
+    }
+
+    /// Queues `req` of `id` for the next tick.
+    pub(crate) fn request(&mut self, id: SeqId, req: Request) -> Result<(), Error> {
+        self.check_request(id, req)?;
+        if let Some(b) = self.block_mut(id) {
+            b.flags |= req.bit();
+        }
         self.sets.requested.insert(id);
-        self.record(Event::Requested {
-            sequence: id,
-            request: req,
-            by,
-        });
         Ok(())
     }
 }
@@ -64,26 +81,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// SEQ.abort_all(); // nothing runs: the next tick has nothing to abort
     /// ```
     pub fn abort_all(&self) {
-        self.abort_all.store(true, Ordering::Release);
+        self.abort_all
+            .fetch_or(abort_all::BY_APPLICATION, Ordering::Release);
     }
 
-    /// Takes a pending abort-all request (the tick is its only consumer): who made it (the
-    /// safety system when both did).
+    /// Takes the pending abort-all requests (the tick is their only consumer): who made
+    /// them (the safety system when both did).
     pub(crate) fn take_abort_all(&self) -> Option<Requester> {
-        // Load, then store: no compare-and-swap needed. A request raised in between is
-        // served by the abort-all being applied now.
-        let take = |flag: &AtomicBool| {
-            let requested = flag.load(Ordering::Acquire);
-            if requested {
-                flag.store(false, Ordering::Relaxed);
-            }
-            requested
-        };
-        let by_safety = take(&self.abort_all_by_safety);
-        let by_application = take(&self.abort_all);
-        if by_safety {
+        let asked = self.abort_all.swap(0, Ordering::Acquire);
+        if asked & abort_all::BY_SAFETY_SYSTEM != 0 {
             Some(Requester::SafetySystem)
-        } else if by_application {
+        } else if asked != 0 {
             Some(Requester::Application)
         } else {
             None
@@ -123,6 +131,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     for Sequencer<C, N, T, L, W, B>
 {
     fn abort_all(&self) {
-        self.abort_all_by_safety.store(true, Ordering::Release);
+        self.abort_all
+            .fetch_or(abort_all::BY_SAFETY_SYSTEM, Ordering::Release);
     }
+}
+
+/// Who asked for abort-all since the last tick: a bit per [`Requester`] that can.
+pub(crate) mod abort_all {
+    /// [`Sequencer::abort_all`](crate::Sequencer::abort_all).
+    pub(crate) const BY_APPLICATION: u8 = 1;
+    /// The safety system, through [`AbortSequences`](crate::safety::AbortSequences).
+    pub(crate) const BY_SAFETY_SYSTEM: u8 = 2;
 }

@@ -242,24 +242,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// whose end is then reported ([`exception_ended`](Self::exception_ended)). The
     /// joiners are released separately ([`release_joiners`](Self::release_joiners)).
     pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> bool {
-        self.set_outcome(id, outcome);
-        self.block(id)
-            .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION))
-    }
-
-    /// Keeps the outcome of `id`'s run and records it, once per run: an aborted run in a
-    /// lane reports after its teardown kept the outcome.
-    pub(crate) fn set_outcome(&mut self, id: SeqId, outcome: Outcome) {
         let Some(b) = self.block_mut(id) else {
-            return;
+            return false;
         };
-        if b.outcome.is_none() {
-            b.outcome = Some(outcome);
-            self.record(Event::Ended {
-                sequence: id,
-                outcome,
-            });
-        }
+        b.outcome = Some(outcome);
+        b.has(flag::HANDLES_EXCEPTION)
     }
 
     /// The exception sequence `id` ended: its owner's pending behaviour is applied by the
@@ -283,18 +270,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     #[inline(never)]
     pub(crate) fn record(&mut self, event: Event) {
         self.trace.push(self.now, Entry::Event(event));
-    }
-
-    /// The oldest record still held or, once there is none, the count of those lost.
-    #[inline(never)]
-    fn next_record(&mut self) -> (Option<Record>, u32) {
-        let r = self.trace.pop();
-        let lost = if r.is_none() {
-            self.trace.take_lost()
-        } else {
-            0
-        };
-        (r, lost)
     }
 
     /// Exception sequence `exception` of an exception of `owner` could not start: `why`.
@@ -377,10 +352,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     pub fn drain_records(&self, mut f: impl FnMut(Record)) -> u32 {
         loop {
-            let (r, lost) = self.with(State::next_record);
-            match r {
-                Some(r) => f(r),
-                None => return lost,
+            match self.with(|s| s.trace.pop_or_lost()) {
+                Ok(record) => f(record),
+                Err(lost) => return lost,
             }
         }
     }

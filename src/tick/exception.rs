@@ -90,7 +90,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             self.walk(control, Some(owner), RunningState::Running, cause);
             return false;
         }
-        if self.with(|s| s.state_of(owner)) != RunningState::Running {
+        let running = self.with(|s| {
+            let running = s.state_of(owner) == RunningState::Running;
+            if running {
+                s.record(Event::Fired {
+                    owner,
+                    cause,
+                    behaviour: Behaviour::PauseOwner,
+                });
+            }
+            running
+        });
+        if !running {
             return false;
         }
         if let Some(e) = exception {

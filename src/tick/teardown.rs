@@ -85,8 +85,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 // never reports back, so the outcome is recorded here.
                 let change = StateChange::new(id, to, RunningState::Aborted, cause);
                 let aborted = s.section(|s| {
-                    s.transition(&change)?;
-                    s.set_outcome(id, crate::Outcome::Aborted(cause));
+                    let b = s.transition(&change)?;
+                    b.outcome = Some(crate::Outcome::Aborted(cause));
                     Some(())
                 });
                 if aborted.is_some() {

@@ -1,6 +1,6 @@
 //! Events: what the sequencer records besides state changes.
 
-use crate::{Behaviour, Cause, Error, Outcome, SeqId};
+use crate::{Behaviour, Cause, Error, Failure, SeqId};
 
 /// Something the sequencer did or was asked, recorded in the trace between the transitions
 /// it explains (drain both with
@@ -80,13 +80,14 @@ pub enum Event {
         /// Who asked.
         by: Requester,
     },
-    /// A run of `sequence` ended with `outcome` (reported by the run itself; an aborted run
-    /// when its teardown finishes it).
-    Ended {
-        /// The sequence whose run ended.
+    /// A run of `sequence` failed: its action returned `Err(failure)`. The transition
+    /// `Running → Terminated` (cause [`Cause::Failed`]) just before says when; the other
+    /// outcomes are told by their transitions alone.
+    Failed {
+        /// The sequence whose run failed.
         sequence: SeqId,
-        /// How it ended.
-        outcome: Outcome,
+        /// What its action returned.
+        failure: Failure,
     },
 }
 

@@ -92,6 +92,13 @@ impl<const T: usize> Ring<T> {
         self.read = self.read.wrapping_add(1);
         record
     }
+
+    /// The oldest record still held or, once there is none, how many were lost since the
+    /// last time (so a drain ends with the count, in the same section as its last pop).
+    #[inline]
+    pub(crate) fn pop_or_lost(&mut self) -> Result<Record, u32> {
+        self.pop().ok_or_else(|| self.take_lost())
+    }
 }
 
 #[cfg(test)]

@@ -32,7 +32,10 @@
 use core::cell::UnsafeCell;
 
 use rtseq::safety::{SafetyHandle, SafetyLevel};
-use rtseq::{Cause, Instant, MonitorId, Outcome, RunningState, SeqId, Sequencer};
+use rtseq::{
+    Behaviour, Cause, Entry, Failure, Instant, MonitorId, Outcome, Request, Requester,
+    RunningState, SeqId, Sequencer, Transition,
+};
 use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
 use rtseq_motor::app::seq_ids::{
     BLINK, FEED_HOLD, FEED_RESUME, HOMING, MAIN, MOVE, MOVES, SAFE_STOP, STATUS,
@@ -82,9 +85,6 @@ static CS: ControlSystem = ControlSystem::new(CONFIG.start_position);
 static HANDLE: SafetyHandle = SafetyHandle::new();
 /// Events for the log, from the tick and the safety task to idle.
 static EVENTS: EventQueue = EventQueue::new();
-/// Monitor fire counts, copied by the tick (which owns the monitor table) for idle.
-static FIRED: critical_section::Mutex<core::cell::Cell<[u16; app::MONITORS]>> =
-    critical_section::Mutex::new(core::cell::Cell::new([0; app::MONITORS]));
 
 // ---------------------------------------------------------------------------------------
 // Command line
@@ -579,6 +579,109 @@ fn monitor_effect(m: MonitorId) -> &'static str {
     }
 }
 
+/// Logs an event of the trace; a monitor's firing is counted in `fired`.
+fn log_event(e: rtseq::Event, fired: &mut [u16; app::MONITORS]) {
+    use rtseq::Event;
+    match e {
+        Event::Fired {
+            cause: Cause::Monitor(m),
+            ..
+        } => {
+            let n = fired.get_mut(m.index()).map_or(0, |n| {
+                *n = n.saturating_add(1);
+                *n
+            });
+            defmt::info!(
+                "monitor   '{=str}' fired ({=u16}): {=str}",
+                monitor_name(m),
+                n,
+                monitor_effect(m)
+            );
+        }
+        Event::Fired {
+            owner, behaviour, ..
+        } => defmt::info!(
+            "timeout   of '{=str}' ran out: {=str}",
+            seq_name(owner),
+            behaviour_name(behaviour)
+        ),
+        Event::ExceptionNotRun {
+            exception,
+            owner,
+            why,
+        } => defmt::warn!(
+            "exception '{=str}' of '{=str}' not run: {=str}",
+            seq_name(exception),
+            seq_name(owner),
+            why.reason()
+        ),
+        Event::Requested {
+            sequence,
+            request,
+            by,
+        } => defmt::info!(
+            "request   {=str} '{=str}' by {=str}{=str}",
+            match request {
+                Request::Pause => "pause",
+                Request::Resume => "resume",
+                Request::Abort => "abort",
+            },
+            seq_name(sequence),
+            requester_name(by),
+            match by {
+                Requester::Sequence(id) => seq_name(id),
+                _ => "",
+            }
+        ),
+        Event::AbortAll { by } => {
+            defmt::info!("request   abort all by {=str}", requester_name(by))
+        }
+        Event::Failed { sequence, failure } => {
+            defmt::warn!(
+                "failed    '{=str}': {}",
+                seq_name(sequence),
+                FailureText(failure)
+            )
+        }
+    }
+}
+
+/// A behaviour's name, for the log.
+fn behaviour_name(b: Behaviour) -> &'static str {
+    match b {
+        Behaviour::Nothing => "nothing",
+        Behaviour::AbortOwner => "abort the owner",
+        Behaviour::RestartOwner => "restart the owner",
+        Behaviour::AbortCallerOfOwner => "abort the owner's caller",
+        Behaviour::RestartCallerOfOwner => "restart the owner's caller",
+        Behaviour::PauseOwner => "pause the owner",
+    }
+}
+
+/// A failure as text.
+struct FailureText(Failure);
+
+impl defmt::Format for FailureText {
+    fn format(&self, f: defmt::Formatter) {
+        match self.0 {
+            Failure::App(code) => defmt::write!(f, "application code {=u16}", code),
+            Failure::Aborted(c) => {
+                defmt::write!(f, "a sub-sequence was aborted ({})", CauseText(c))
+            }
+            Failure::NotStarted(e) => defmt::write!(f, "not started: {=str}", e.reason()),
+        }
+    }
+}
+
+/// Who made a request, for the log (a sequence's name follows).
+fn requester_name(by: Requester) -> &'static str {
+    match by {
+        Requester::Sequence(_) => "sequence ",
+        Requester::Application => "the application",
+        Requester::SafetySystem => "the safety system",
+    }
+}
+
 /// A cause as text (`tests/qemu_demo.rs` formats the host trace the same way).
 struct CauseText(Cause);
 
@@ -738,7 +841,7 @@ struct Log {
     /// When the jam could first show as a following error: the injection, or the next
     /// move start if the axis stood still then, ms.
     fe_visible: Option<u64>,
-    /// Monitor fire counts already printed.
+    /// Monitor fire counts, from the trace's events.
     fired: [u16; app::MONITORS],
     blinks: u32,
     /// Restarts of the moves sequence, counted from the transition trace.
@@ -779,21 +882,23 @@ impl Log {
         let mut move_start = self.move_start;
         let mut moves_restarts = self.moves_restarts;
         let mut move_step_aborts = self.move_step_aborts;
-        // Monitors first (a firing's exception sequence starts in the same tick).
-        let fired = critical_section::with(|cs| FIRED.borrow(cs).get());
-        for (i, (seen, now)) in self.fired.iter_mut().zip(fired).enumerate() {
-            while *seen < now {
-                *seen = seen.saturating_add(1);
-                let m = MonitorId::from_index(i);
-                defmt::info!(
-                    "monitor   '{=str}' fired ({=u16}): {=str}",
-                    monitor_name(m),
-                    *seen,
-                    monitor_effect(m)
-                );
-            }
-        }
-        let lost = SEQ.drain_trace(|t| {
+        let mut fired = self.fired;
+        let lost = SEQ.drain_records(|r| {
+            let t = match r.entry {
+                Entry::Transition {
+                    sequence,
+                    from,
+                    to,
+                    cause,
+                } => Transition {
+                    time: r.time,
+                    sequence,
+                    from,
+                    to,
+                    cause,
+                },
+                Entry::Event(e) => return log_event(e, &mut fired),
+            };
             if t.sequence == MOVE && t.to == RunningState::Running {
                 move_start = Some(to_ms(t.time));
             }
@@ -831,6 +936,7 @@ impl Log {
         self.moves_restarts = moves_restarts;
         self.move_step_aborts = move_step_aborts;
         self.blinks = blinks;
+        self.fired = fired;
         self.trace_lost = self.trace_lost.saturating_add(lost);
     }
 
@@ -1006,7 +1112,7 @@ impl Log {
         let s = CS.summary();
         let st = CS.status();
         let plant = CS.plant();
-        let fired = critical_section::with(|cs| FIRED.borrow(cs).get());
+        let fired = self.fired;
         let fired_of = |m: MonitorId| fired.get(m.index()).copied().unwrap_or(0);
         let level = HANDLE.level();
         status_line();
@@ -1519,14 +1625,6 @@ mod rtic_app {
         if let Err(e) = SEQ.tick(now, &CS, cx.local.monitors) {
             defmt::error!("tick: {}", e);
         }
-        let m = &*cx.local.monitors;
-        let fired = [
-            m.fired(FOLLOWING_ERROR),
-            m.fired(END_STOP),
-            m.fired(PAUSE),
-            m.fired(RESUME),
-        ];
-        critical_section::with(|cs| FIRED.borrow(cs).set(fired));
     }
 
     /// The safety system: one cycle per tick, highest priority.
