@@ -227,6 +227,8 @@ fn cycle(ms: u64, level: SafetyLevel, change: Option<(Option<SafetyLevel>, Safet
 /// What an emergency test sees.
 struct World {
     trace: Vec<rtseq::Transition>,
+    /// The events of the trace, with their times in ms.
+    events: Vec<(u64, rtseq::Event)>,
     cycles: Vec<Cycle>,
     log: Vec<String>,
     ids: Ids,
@@ -337,11 +339,17 @@ fn run(safety_every: u64, run_ms: u64, inject: impl Fn(u64, &Ctrl) + 'static) ->
         })
         .collect();
     let any_active = sim.any_active();
+    let events = sim
+        .records()
+        .iter()
+        .filter_map(|r| Some((ms(r.time), r.event()?)))
+        .collect();
     let trace = sim.take_trace();
     drop(sim);
     let cycles = cycles.borrow().clone();
     World {
         trace,
+        events,
         cycles,
         log: ctrl.log.borrow().clone(),
         ids,
@@ -463,6 +471,17 @@ fn estop_input_during_a_running_tree_aborts_everything_within_one_safety_cycle()
         &[i.travel_a, i.travel_b, i.move_a, i.axis_b, i.main],
     ));
     assert_trace(&w.trace, &trace);
+    // The safety system asks for abort-all in every EMERGENCY cycle; the trace records it
+    // once, when there was anything to abort.
+    assert_eq!(
+        w.events,
+        [(
+            11,
+            rtseq::Event::AbortAll {
+                by: rtseq::Requester::SafetySystem
+            }
+        )]
+    );
     assert_all_stopped(&w, &[i.power_on, i.start], &[i.report]);
     assert_eq!(w.handle.level(), EMERGENCY);
 

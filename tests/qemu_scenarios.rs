@@ -15,12 +15,14 @@ mod qemu_harness;
 
 use qemu_harness::*;
 use rtseq::Transition;
-use rtseq_scenarios::{decode, host, Summary, SCENARIOS};
+use rtseq_scenarios::{decode, encode_record, host, Summary, SCENARIOS};
 use std::path::{Path, PathBuf};
 
 /// What the firmware printed: its trace, summary and lost count.
 struct Target {
     trace: Vec<Transition>,
+    /// Every record as printed: `T` (a transition) or `E` (an event) and six integers.
+    records: Vec<(char, [u32; 6])>,
     summary: Option<(Summary, u32)>,
     bad: Vec<String>,
 }
@@ -28,6 +30,7 @@ struct Target {
 fn parse(out: &Outcome) -> Target {
     let mut t = Target {
         trace: Vec::new(),
+        records: Vec::new(),
         summary: None,
         bad: Vec::new(),
     };
@@ -36,10 +39,19 @@ fn parse(out: &Outcome) -> Target {
             let v: Vec<u32> = rest.split(' ').filter_map(|x| x.parse().ok()).collect();
             match <[u32; 6]>::try_from(v.as_slice())
                 .ok()
-                .and_then(|e| decode(&e))
+                .and_then(|e| Some((e, decode(&e)?)))
             {
-                Some(tr) => t.trace.push(tr),
+                Some((e, tr)) => {
+                    t.trace.push(tr);
+                    t.records.push(('T', e));
+                }
                 None => t.bad.push(l.message.clone()),
+            }
+        } else if let Some(rest) = l.message.strip_prefix("E ") {
+            let v: Vec<u32> = rest.split(' ').filter_map(|x| x.parse().ok()).collect();
+            match <[u32; 6]>::try_from(v.as_slice()) {
+                Ok(e) => t.records.push(('E', e)),
+                Err(_) => t.bad.push(l.message.clone()),
             }
         } else if let Some(rest) = l.message.strip_prefix("S ") {
             let field = |k: &str| {
@@ -88,8 +100,16 @@ fn show(trace: &[Transition]) -> String {
         .collect()
 }
 
-/// Runs one scenario on both sides; `Err(report)` when they differ.
-fn compare(set: &FirmwareSet, name: &str) -> Result<usize, String> {
+fn show_records(records: &[(char, [u32; 6])]) -> String {
+    records
+        .iter()
+        .map(|(kind, e)| format!("{kind} {e:?}\n"))
+        .collect()
+}
+
+/// Runs one scenario on both sides; `Err(report)` when they differ, else the number of
+/// transitions and the kinds of its events.
+fn compare(set: &FirmwareSet, name: &str) -> Result<(usize, Vec<u32>), String> {
     let sc = rtseq_scenarios::find(name).ok_or(format!("{name}: not in SCENARIOS"))?;
     let host = host::run(sc).map_err(|e| format!("{name}: host registration failed: {e:?}"))?;
     if host.lost != 0 || host.summary.dead_lines != 0 {
@@ -116,6 +136,16 @@ fn compare(set: &FirmwareSet, name: &str) -> Result<usize, String> {
             show(&target.trace)
         ));
     }
+    // The events between them (monitor firings, requests, failures, exceptions not run),
+    // in the same order on both sides.
+    let host_records: Vec<(char, [u32; 6])> = host.records.iter().map(encode_record).collect();
+    if target.trace == host.trace && target.records != host_records {
+        problems.push(format!(
+            "records differ\n--- host:\n{}--- QEMU:\n{}",
+            show_records(&host_records),
+            show_records(&target.records)
+        ));
+    }
     match target.summary {
         Some((s, 0)) if s == host.summary => {}
         other => problems.push(format!(
@@ -124,7 +154,12 @@ fn compare(set: &FirmwareSet, name: &str) -> Result<usize, String> {
         )),
     }
     if problems.is_empty() {
-        Ok(host.trace.len())
+        let kinds = host_records
+            .iter()
+            .filter(|(kind, _)| *kind == 'E')
+            .map(|(_, e)| e[1])
+            .collect();
+        Ok((host.trace.len(), kinds))
     } else {
         Err(format!(
             "scenario {name}: {}\nQEMU log:\n{}",
@@ -152,7 +187,7 @@ fn compare_all(set: &FirmwareSet) {
     set.path("scenarios");
     let names: Vec<&str> = SCENARIOS.iter().map(|s| s.name).collect();
     // Two QEMU runs at a time (each takes ~0.3 s of host time).
-    let results: Vec<(String, Result<usize, String>)> = std::thread::scope(|s| {
+    let results: Vec<(String, Result<(usize, Vec<u32>), String>)> = std::thread::scope(|s| {
         let handles: Vec<_> = names
             .chunks(names.len().div_ceil(2))
             .map(|chunk| {
@@ -170,18 +205,33 @@ fn compare_all(set: &FirmwareSet) {
             .collect()
     });
     let mut failures = Vec::new();
+    let mut kinds = std::collections::BTreeSet::new();
     for (name, r) in &results {
         match r {
-            Ok(n) => eprintln!("qemu scenarios: {name}: {n} transitions, equal"),
+            Ok((n, events)) => {
+                eprintln!(
+                    "qemu scenarios: {name}: {n} transitions, {} events, equal",
+                    events.len()
+                );
+                kinds.extend(events.iter().copied());
+            }
             Err(e) => failures.push(e.clone()),
         }
     }
+
     assert!(
         failures.is_empty(),
         "{} of {} scenarios differ between host and QEMU:\n{}",
         failures.len(),
         results.len(),
         failures.join("\n\n")
+    );
+    // The scenarios make every kind of event: a monitor firing (1), an exception sequence
+    // that cannot run (2), a request (3), abort-all (4), a failure (5).
+    assert_eq!(
+        kinds,
+        (1..=5).collect(),
+        "the kinds of event the scenarios made"
     );
 }
 

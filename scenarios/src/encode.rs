@@ -1,6 +1,10 @@
-//! A [`Transition`] as six integers: the firmware prints these, the host decodes them.
+//! A [`Transition`] or an [`Event`] as six integers: the firmware prints these, the host
+//! decodes them or encodes its own records the same way.
 
-use rtseq::{Cause, Done, Error, Failure, Instant, MonitorId, RunningState, SeqId, Transition};
+use rtseq::{
+    Cause, Done, Entry, Error, Event, Failure, Instant, MonitorId, Record, Request, Requester,
+    RunningState, SeqId, Transition,
+};
 
 /// `[time µs, sequence, from, to, cause kind, cause arg]`.
 ///
@@ -110,31 +114,130 @@ pub fn outcome_code(r: Result<Done, Failure>) -> u32 {
             0x100 | (kind & 0xff) << 8 | (arg & 0xffff) << 16
         }
         Err(Failure::App(code)) => 0x4000_0000 | u32::from(code),
-        Err(Failure::NotStarted(e)) => {
-            let n = match e {
-                Error::EmptyName => 0,
-                Error::DuplicateName(_) => 1,
-                Error::SequenceCapacityExceeded => 2,
-                Error::MonitorCapacityExceeded => 3,
-                Error::UnknownSequence(_) => 4,
-                Error::AlreadyRunning(_) => 5,
-                Error::NotRunning(_) => 6,
-                Error::NotPaused(_) => 7,
-                Error::CallerDepthExceeded(_) => 8,
-                Error::NoLane(_) => 9,
-                Error::DurationOutOfRange => 10,
-                Error::NeverStarted(_) => 11,
-                Error::AlreadyBound(_) => 12,
-                Error::LaneCapacityExceeded(_) => 13,
-                Error::PollingClassesExceeded => 14,
-                Error::NotEmpty => 15,
-                Error::JoinWouldDeadlock(_) => 16,
-                Error::InvalidConfig => 17,
-                Error::TickBeforeLast => 18,
-                Error::PauseOnTimeout => 19,
-                Error::ForeignSequence(_) => 20,
-            };
-            0x8000_0000 | n
+        Err(Failure::NotStarted(e)) => 0x8000_0000 | error_code(e),
+    }
+}
+
+/// The position of `e`'s variant in [`Error`].
+fn error_code(e: Error) -> u32 {
+    match e {
+        Error::EmptyName => 0,
+        Error::DuplicateName(_) => 1,
+        Error::SequenceCapacityExceeded => 2,
+        Error::MonitorCapacityExceeded => 3,
+        Error::UnknownSequence(_) => 4,
+        Error::AlreadyRunning(_) => 5,
+        Error::NotRunning(_) => 6,
+        Error::NotPaused(_) => 7,
+        Error::CallerDepthExceeded(_) => 8,
+        Error::NoLane(_) => 9,
+        Error::DurationOutOfRange => 10,
+        Error::NeverStarted(_) => 11,
+        Error::AlreadyBound(_) => 12,
+        Error::LaneCapacityExceeded(_) => 13,
+        Error::PollingClassesExceeded => 14,
+        Error::NotEmpty => 15,
+        Error::JoinWouldDeadlock(_) => 16,
+        Error::InvalidConfig => 17,
+        Error::TickBeforeLast => 18,
+        Error::PauseOnTimeout => 19,
+        Error::ForeignSequence(_) => 20,
+    }
+}
+
+/// What a record of the trace is: `T` a transition ([`encode`]), `E` an event
+/// ([`encode_event`]).
+pub type Kind = char;
+
+/// An [`Event`] at `time` as six integers: `[time µs, kind, a, b, c, d]`, kinds:
+/// 1 `Fired` (owner, cause kind, cause arg, behaviour), 2 `ExceptionNotRun` (exception,
+/// owner, error variant, 0), 3 `Requested` (sequence, 0 pause / 1 resume / 2 abort,
+/// requester kind, requester arg), 4 `AbortAll` (requester kind, requester arg, 0, 0),
+/// 5 `Failed` (sequence, [`outcome_code`] of the failure, 0, 0). Requester kinds:
+/// 0 a sequence (arg: its index), 1 the application, 2 the safety system.
+///
+/// ```
+/// use rtseq::{Event, Failure, Instant, SeqId};
+/// let e = Event::Failed { sequence: SeqId::from_index(2), failure: Failure::App(7) };
+/// let got = rtseq_scenarios::encode_event(Instant::from_ticks(3_000), &e);
+/// assert_eq!(got, [3_000, 5, 2, 0x4000_0007, 0, 0]);
+/// ```
+pub fn encode_event(time: Instant, e: &Event) -> Encoded {
+    let requester = |r: Requester| match r {
+        Requester::Sequence(id) => (0, index(id.index())),
+        Requester::Application => (1, 0),
+        Requester::SafetySystem => (2, 0),
+    };
+    let body = match *e {
+        Event::Fired {
+            owner,
+            cause,
+            behaviour,
+        } => {
+            let (kind, arg) = cause_code(cause);
+            [1, index(owner.index()), kind, arg, behaviour as u32]
         }
+        Event::ExceptionNotRun {
+            exception,
+            owner,
+            why,
+        } => [
+            2,
+            index(exception.index()),
+            index(owner.index()),
+            error_code(why),
+            0,
+        ],
+        Event::Requested {
+            sequence,
+            request,
+            by,
+        } => {
+            let (kind, arg) = requester(by);
+            let request = match request {
+                Request::Pause => 0,
+                Request::Resume => 1,
+                Request::Abort => 2,
+            };
+            [3, index(sequence.index()), request, kind, arg]
+        }
+        Event::AbortAll { by } => {
+            let (kind, arg) = requester(by);
+            [4, kind, arg, 0, 0]
+        }
+        Event::Failed { sequence, failure } => {
+            [5, index(sequence.index()), outcome_code(Err(failure)), 0, 0]
+        }
+    };
+    let [kind, a, b, c, d] = body;
+    [
+        u32::try_from(time.as_ticks()).unwrap_or(u32::MAX),
+        kind,
+        a,
+        b,
+        c,
+        d,
+    ]
+}
+
+/// A record of the trace as its kind and six integers.
+pub fn encode_record(r: &Record) -> (Kind, Encoded) {
+    match r.entry {
+        Entry::Transition {
+            sequence,
+            from,
+            to,
+            cause,
+        } => (
+            'T',
+            encode(&Transition {
+                time: r.time,
+                sequence,
+                from,
+                to,
+                cause,
+            }),
+        ),
+        Entry::Event(e) => ('E', encode_event(r.time, &e)),
     }
 }

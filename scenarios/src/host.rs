@@ -5,7 +5,7 @@ extern crate std;
 use std::vec::Vec;
 
 use rtseq::sim::Sim;
-use rtseq::{Duration, Transition};
+use rtseq::{Duration, Record, Transition};
 
 use crate::{Arena, Ctrl, Scenario, ScenarioError, Seqr, Summary, CHILDREN};
 
@@ -14,6 +14,8 @@ use crate::{Arena, Ctrl, Scenario, ScenarioError, Seqr, Summary, CHILDREN};
 pub struct Run {
     /// Every transition, in order.
     pub trace: Vec<Transition>,
+    /// Every record (transitions and events), in order.
+    pub records: Vec<Record>,
     /// What the actions did.
     pub summary: Summary,
     /// Transitions lost to trace overflow (0).
@@ -56,11 +58,13 @@ pub fn run(scenario: &Scenario) -> Result<Run, ScenarioError> {
         script(ms, c, s)
     });
     sim.run_for(Duration::from_millis(u64::from(scenario.ticks)));
+    let records = sim.records().to_vec();
     let trace = sim.take_trace();
     let lost = sim.lost();
     drop(sim);
     Ok(Run {
         trace,
+        records,
         summary: ctrl.summary(),
         lost,
     })

@@ -51,7 +51,7 @@ mod node;
 pub mod host;
 
 pub use ctrl::{Ctrl, FlagCond, Summary, FLAGS};
-pub use encode::{decode, encode, outcome_code, Encoded};
+pub use encode::{decode, encode, encode_event, encode_record, outcome_code, Encoded, Kind};
 pub use list::SCENARIOS;
 pub use node::{Arena, AtOnce, Child, Leaf, Node, NodeAction, Op};
 

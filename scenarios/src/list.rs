@@ -332,10 +332,60 @@ fn pre_false<'t>(seq: &Seqr, mut arena: Arena<'t>) -> R<'t> {
         Leaf {
             pre: Some(5),
             exit: None,
+            fail: None,
         },
     )?;
     let b = bind(seq, b, Node::new().pre(5))?;
     let main = bind(seq, main, Node::new().step(s)?.run(arena.child(b)?)?)?;
+    let m = main.id();
+    setup([main], &[m], NO_MONITORS)
+}
+
+/// A and B (lanes) each step a leaf; their monitors share the exception sequence E. At
+/// 5 ms both fire: E starts for A's, for B's it is running already, so B is aborted at once
+/// (an exception sequence not run). E ends at 8 ms, then A is aborted.
+fn exception_busy<'t>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
+    const TABLE: Table<Ctrl, 6> = table([
+        cfg("SA"),
+        cfg("SB"),
+        cfg("SE"),
+        cfg("E"),
+        cfg("A"),
+        cfg("B"),
+    ]);
+    const MONITORS: Mons = monitors([
+        on_flag("ma", 0, Behaviour::AbortOwner)
+            .exception(id(&TABLE, "E"))
+            .owned_by(id(&TABLE, "A")),
+        on_flag("mb", 0, Behaviour::AbortOwner)
+            .exception(id(&TABLE, "E"))
+            .owned_by(id(&TABLE, "B")),
+    ]);
+    install(seq, &TABLE)?;
+    let [sa, sb, se, e, a, b] = ids();
+    let sa = bind(seq, sa, Leaf::until(1))?;
+    let sb = bind(seq, sb, Leaf::until(1))?;
+    let se = bind(seq, se, Leaf::until(3))?;
+    let e = bind(seq, e, Node::new().step(se)?)?;
+    let a = bind(seq, a, Node::new().step(sa)?)?;
+    let b = bind(seq, b, Node::new().step(sb)?)?;
+    let (a_id, b_id) = (a.id(), b.id());
+    setup([a, b, e], &[a_id, b_id], MONITORS)
+}
+
+fn exception_busy_script(ms: u32, c: &Ctrl, _: &Seqr) {
+    c.set(0, ms == 5);
+    c.set(3, ms >= 8);
+}
+
+/// main steps F, whose action fails (code 7), then S: main goes on after the failure.
+fn failure<'t>(seq: &Seqr, _: Arena<'t>) -> R<'t> {
+    const TABLE: Table<Ctrl, 3> = table([cfg("F"), cfg("S"), cfg("main")]);
+    install(seq, &TABLE)?;
+    let [f, s, main] = ids();
+    let f = bind(seq, f, Leaf::failing(7))?;
+    let s = bind(seq, s, Leaf::until(1))?;
+    let main = bind(seq, main, Node::new().step(f)?.step(s)?)?;
     let m = main.id();
     setup([main], &[m], NO_MONITORS)
 }
@@ -546,6 +596,18 @@ pub static SCENARIOS: &[Scenario] = &[
         register: exception_monitor,
         script: exception_monitor_script,
         ticks: 12,
+    },
+    Scenario {
+        name: "exception_busy",
+        register: exception_busy,
+        script: exception_busy_script,
+        ticks: 12,
+    },
+    Scenario {
+        name: "failure",
+        register: failure,
+        script: quiet,
+        ticks: 6,
     },
     Scenario {
         name: "pre_condition_false",

@@ -19,6 +19,8 @@ pub struct Leaf {
     pub pre: Option<u8>,
     /// Flag that ends the step (`None`: ends at once).
     pub exit: Option<u8>,
+    /// The code its action fails with (`None`: it does not fail).
+    pub fail: Option<u16>,
 }
 
 impl Leaf {
@@ -27,6 +29,16 @@ impl Leaf {
         Leaf {
             pre: None,
             exit: Some(flag),
+            fail: None,
+        }
+    }
+
+    /// A step whose action fails with `Failure::App(code)`.
+    pub const fn failing(code: u16) -> Self {
+        Leaf {
+            pre: None,
+            exit: None,
+            fail: Some(code),
         }
     }
 }
@@ -34,7 +46,10 @@ impl Leaf {
 impl Step<Ctrl> for Leaf {
     fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         cx.control().line(cx, 0);
-        Ok(())
+        match self.fail {
+            Some(code) => Err(Failure::App(code)),
+            None => Ok(()),
+        }
     }
     fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
         self.pre.is_none_or(|f| cx.control().flag(f))

@@ -7,7 +7,7 @@ use crate::model::state::States;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::start::Mode;
-use crate::{Behaviour, Cause, Event, RunningState, SeqId, Sequencer};
+use crate::{Behaviour, Cause, Event, Requester, RunningState, SeqId, Sequencer};
 
 /// How an exception of one monitor (or of a sequence's timeout) is handled, with its
 /// restart bookkeeping.
@@ -131,10 +131,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.walk(control, Some(target), to, cause);
     }
 
-    /// Aborts every active sequence, innermost first.
+    /// Aborts every active sequence, innermost first, for an abort-all request by `by`,
+    /// which is recorded when there is anything to abort (a safety level that demands
+    /// abort-all while it lasts asks at every cycle).
     #[inline(never)]
-    pub(crate) fn apply_abort_all(&self, control: &C) {
-        self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+    pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) {
+        let any = self.with(|s| {
+            let any = !s.sets.active.is_empty();
+            if any {
+                s.record(Event::AbortAll { by });
+            }
+            any
+        });
+        if any {
+            self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+        }
     }
 
     /// Applies the behaviours of finished exception sequences and the pause, resume and

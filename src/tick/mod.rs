@@ -19,7 +19,7 @@ use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
 use crate::sequencer::State;
-use crate::{Cause, Error, Event, Instant, Monitors, SeqId, Sequencer};
+use crate::{Cause, Error, Instant, Monitors, SeqId, Sequencer};
 
 mod exception;
 mod monitors;
@@ -163,8 +163,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             words = self.fold();
         }
         if let Some(by) = abort_all {
-            self.with(|s| s.record(Event::AbortAll { by }));
-            self.apply_abort_all(control);
+            self.apply_abort_all(control, by);
         }
         if requests {
             self.apply_requests(control);

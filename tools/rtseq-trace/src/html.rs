@@ -169,6 +169,8 @@ pub fn render(run: &Run, title: &str) -> String {
             EventKind::Request => "request",
             EventKind::Fault => "fault",
             EventKind::Input => "input",
+            EventKind::Exception => "exception",
+            EventKind::Failure => "failure",
             EventKind::Move | EventKind::Note => continue,
         };
         let _ = write!(
@@ -265,7 +267,7 @@ pub fn render(run: &Run, title: &str) -> String {
             esc(l)
         );
     }
-    legend.push_str(r#"<span class="key"><b class="m-monitor"></b>monitor fired</span><span class="key"><b class="m-request"></b>request</span><span class="key"><b class="m-fault"></b>fault</span><span class="key"><b class="m-input"></b>critical input</span>"#);
+    legend.push_str(r#"<span class="key"><b class="m-monitor"></b>monitor fired</span><span class="key"><b class="m-request"></b>request</span><span class="key"><b class="m-fault"></b>fault</span><span class="key"><b class="m-input"></b>critical input</span><span class="key"><b class="m-exception"></b>exception not run</span><span class="key"><b class="m-failure"></b>failure</span>"#);
 
     let mut o = String::new();
     let _ = write!(
@@ -289,6 +291,7 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 .marker {{ stroke-width: 2; vector-effect: non-scaling-stroke; }}
 .monitor-fire, .m-monitor {{ stroke: #d0021b; background: #d0021b; }}
 .request, .m-request {{ stroke: #0057d8; background: #0057d8; stroke-dasharray: 4 3; }}
+.exception, .m-exception {{ stroke: #f5a623; background: #f5a623; }} .failure, .m-failure {{ stroke: #7b3f00; background: #7b3f00; }}
 .fault, .m-fault {{ stroke: #000; background: #000; }} .input, .m-input {{ stroke: #ff00aa; background: #ff00aa; }}
 .signal {{ fill: none; stroke: #1565c0; stroke-width: 1.5; vector-effect: non-scaling-stroke; }}
 .zero {{ stroke: #bbb; stroke-width: 1; vector-effect: non-scaling-stroke; }}

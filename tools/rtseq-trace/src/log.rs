@@ -10,6 +10,10 @@
 //! ```text
 //! seq       NAME FROM -> TO (CAUSE)
 //! monitor   'NAME' fired (N): EFFECT
+//! timeout   of 'NAME' ran out: BEHAVIOUR
+//! exception 'NAME' of 'OWNER' not run: WHY
+//! request   pause|resume|abort 'NAME' by WHO  |  request   abort all by WHO
+//! failed    'NAME': WHY
 //! safety    level A -> B  |  safety    level A (entry level)  |  safety    critical input: NAME
 //! axis      x 15.140 mm  v -21.2 mm/s  i -0.11 A  | ...
 //! FAULT     NAME injected: WHAT
@@ -21,6 +25,12 @@
 use std::collections::HashMap;
 
 use crate::model::{Event, EventKind, LevelChange, Run, State, Transition};
+
+/// The first `'quoted'` name in `text`.
+fn quoted_name(text: &str) -> Option<&str> {
+    let (_, rest) = text.split_once('\'')?;
+    rest.split_once('\'').map(|(name, _)| name)
+}
 
 /// What one line was.
 #[derive(Clone, Debug, PartialEq)]
@@ -167,6 +177,28 @@ impl LogParser {
                 msg,
             ),
             "reaction" => self.event(t, EventKind::Note, "reaction", msg),
+            // The sequencer's own events (from its trace).
+            "timeout" => {
+                let name = quoted_name(rest).unwrap_or(rest);
+                self.event(t, EventKind::Monitor, &format!("timeout of {name}"), msg)
+            }
+            "exception" => self.event(
+                t,
+                EventKind::Exception,
+                quoted_name(rest).unwrap_or(rest),
+                msg,
+            ),
+            "failed" => self.event(
+                t,
+                EventKind::Failure,
+                quoted_name(rest).unwrap_or(rest),
+                msg,
+            ),
+            "request" => {
+                self.run.core_requests = true;
+                let name = rest.split(" by ").next().unwrap_or(rest).replace('\'', "");
+                self.event(t, EventKind::Request, &name, msg)
+            }
             "tree" => {
                 if self.hints.add_line(rest) {
                     Line::Hint
@@ -387,6 +419,35 @@ mod tests {
         assert_eq!(r.levels[1].level, "homed");
         assert_eq!(r.signals[1].samples, [(250_007, -21.2)]);
         assert_eq!(r.end_us, 2_700_000);
+    }
+
+    /// The sequencer's events, as the demo prints them from its trace.
+    #[test]
+    fn sequencer_events() {
+        let mut p = LogParser::default();
+        p.line("   1.000000 INFO  request   pause 'moves' by sequence feed hold");
+        p.line("   1.500000 WARN  exception 'safe stop' of 'moves' not run: no lane");
+        p.line("   2.000000 WARN  failed    'move': application code 3");
+        p.line("   2.100000 INFO  timeout   of 'homing' ran out: abort the owner");
+        p.line("   2.200000 INFO  seq       moves          Running -> Paused          (pause)");
+        let r = p.finish();
+        let got: Vec<(u64, EventKind, &str)> = r
+            .events
+            .iter()
+            .map(|e| (e.time_us, e.kind, e.name.as_str()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (1_000_000, EventKind::Request, "pause moves"),
+                (1_500_000, EventKind::Exception, "safe stop"),
+                (2_000_000, EventKind::Failure, "move"),
+                (2_100_000, EventKind::Monitor, "timeout of homing"),
+            ]
+        );
+        // The recorded request replaces the one guessed from the transition's cause.
+        assert!(r.core_requests);
+        assert!(r.requests().is_empty());
     }
 
     #[test]

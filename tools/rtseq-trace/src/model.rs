@@ -107,6 +107,10 @@ pub enum EventKind {
     Fault,
     /// A critical input of the safety system tripped (`name` = the input).
     Input,
+    /// An exception sequence could not run (`name` = the exception sequence).
+    Exception,
+    /// A run failed: its action returned an error (`name` = the sequence).
+    Failure,
     /// A move finished (demo).
     Move,
     /// Anything else worth showing in the list of latest events (reactions, ...).
@@ -121,6 +125,8 @@ impl EventKind {
             EventKind::Request => "request",
             EventKind::Fault => "fault",
             EventKind::Input => "input",
+            EventKind::Exception => "exception_not_run",
+            EventKind::Failure => "failed",
             EventKind::Move => "move",
             EventKind::Note => "note",
         }
@@ -133,6 +139,8 @@ impl EventKind {
             EventKind::Request,
             EventKind::Fault,
             EventKind::Input,
+            EventKind::Exception,
+            EventKind::Failure,
             EventKind::Move,
             EventKind::Note,
         ]
@@ -177,6 +185,9 @@ pub struct Run {
     pub signals: Vec<Signal>,
     /// The last time seen (or the simulator's end time).
     pub end_us: u64,
+    /// The source recorded the sequencer's requests as events (a trace of rtseq with
+    /// events, or a log that prints them): none is guessed from transitions.
+    pub core_requests: bool,
 }
 
 /// A span of one state of one sequence.
@@ -390,15 +401,14 @@ impl Run {
         runs
     }
 
-    /// Requests (pause, resume, abort, abort all): one per distinct time and cause among
-    /// the transitions, plus the request events of the source.
+    /// Requests (pause, resume, abort, abort all) guessed from the transitions' causes, one
+    /// per distinct time and cause, for a source that does not record them (see
+    /// [`Run::core_requests`]).
     pub fn requests(&self) -> Vec<Event> {
-        let mut out: Vec<Event> = self
-            .events
-            .iter()
-            .filter(|e| e.kind == EventKind::Request)
-            .cloned()
-            .collect();
+        let mut out: Vec<Event> = Vec::new();
+        if self.core_requests {
+            return out;
+        }
         let mut last: Option<(u64, String)> = None;
         for t in &self.transitions {
             if matches!(t.cause.as_str(), "pause" | "resume" | "abort" | "abort all") {

@@ -109,7 +109,30 @@ pub fn read(text: &str) -> Result<Run, String> {
         let n = n + 1;
         let v: Value = serde_json::from_str(line).map_err(|e| format!("line {n}: {e}"))?;
         let t = u64_of(&v, "t", n)?;
-        if v.get("seq").is_some() {
+        if let Some(kind) = v.get("event").and_then(Value::as_str) {
+            if kind == "request" && v.get("by").is_some() {
+                run.core_requests = true;
+            }
+            let kind = EventKind::parse(kind).unwrap_or(EventKind::Note);
+            let name = match (kind, opt_index(&v, "monitor")) {
+                (EventKind::Monitor, Some(m)) => monitor_name(m as u64),
+                _ => v
+                    .get("name")
+                    .and_then(Value::as_str)
+                    .unwrap_or("")
+                    .to_string(),
+            };
+            let text = v
+                .get("text")
+                .and_then(Value::as_str)
+                .map_or_else(|| format!("{} {name}", kind.name()), str::to_string);
+            run.events.push(Event {
+                time_us: t,
+                kind,
+                name,
+                text,
+            });
+        } else if v.get("seq").is_some() {
             let id = u64_of(&v, "seq", n)?;
             let seq = index_of(id).ok_or_else(|| format!("line {n}: unknown sequence {id}"))?;
             let state = |key| {
@@ -147,26 +170,6 @@ pub fn read(text: &str) -> Result<Run, String> {
                 from: state("from")?,
                 to: state("to")?,
                 cause,
-            });
-        } else if let Some(kind) = v.get("event").and_then(Value::as_str) {
-            let kind = EventKind::parse(kind).unwrap_or(EventKind::Note);
-            let name = match (kind, opt_index(&v, "monitor")) {
-                (EventKind::Monitor, Some(m)) => monitor_name(m as u64),
-                _ => v
-                    .get("name")
-                    .and_then(Value::as_str)
-                    .unwrap_or("")
-                    .to_string(),
-            };
-            let text = v
-                .get("text")
-                .and_then(Value::as_str)
-                .map_or_else(|| format!("{} {name}", kind.name()), str::to_string);
-            run.events.push(Event {
-                time_us: t,
-                kind,
-                name,
-                text,
             });
         } else if let Some(level) = v.get("level").and_then(Value::as_str) {
             run.levels.push(LevelChange {
@@ -237,7 +240,11 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
         writeln!(out, "{}", Value::Object(o))?;
     }
     for e in &run.events {
-        let v = json!({"t": e.time_us, "event": e.kind.name(), "name": e.name, "text": e.text});
+        let mut v = json!({"t": e.time_us, "event": e.kind.name(), "name": e.name, "text": e.text});
+        if run.core_requests && e.kind == EventKind::Request {
+            // The sequencer recorded it (the requester is in the text).
+            v["by"] = json!("recorded");
+        }
         writeln!(out, "{v}")?;
     }
     for l in &run.levels {

@@ -12,8 +12,9 @@
 //! - `tick` (TIM2, 1 kHz, priority 2): the scenario's script, then `SEQ.tick`. After the
 //!   scenario's last tick it stops the timer.
 //! - `lane0..2` (priority 1): `rtseq::lane(&SEQ, &CTRL, seq)`, in the host's lane order.
-//! - `idle`: drains the trace (`SEQ.drain_trace`) and prints each transition as integers
-//!   (`T time_us seq from to cause_kind cause_arg`, see `rtseq_scenarios::encode`); after the
+//! - `idle`: drains the trace (`SEQ.drain_records`) and prints each record as integers
+//!   (`T time_us seq from to cause_kind cause_arg` for a transition, `E time_us kind a b c d`
+//!   for an event, see `rtseq_scenarios::encode`); after the
 //!   last tick prints the action summary and exits 0 (1 if transitions were lost).
 #![no_std]
 #![no_main]
@@ -44,7 +45,7 @@ mod app {
     use core::sync::atomic::{AtomicBool, Ordering};
     use rtseq::Seq;
     use rtseq_scenarios::{
-        encode, Arena, Child, Ctrl, Mons, Node, Scenario, Seqr, CHILDREN, SCENARIOS,
+        encode_record, Arena, Child, Ctrl, Mons, Node, Scenario, Seqr, CHILDREN, SCENARIOS,
     };
 
     /// The sequencer, shared by the tick and the lanes.
@@ -157,18 +158,19 @@ mod app {
         rest.get(..end).unwrap_or(&[])
     }
 
-    /// Prints the buffered transitions; returns how many were lost.
+    /// Prints the buffered records; returns how many were lost.
     fn drain() -> u32 {
-        SEQ.drain_trace(|t| {
-            let [time, seq, from, to, kind, arg] = encode(&t);
+        SEQ.drain_records(|r| {
+            let (kind, [a, b, c, d, e, f]) = encode_record(&r);
             defmt::info!(
-                "T {=u32} {=u32} {=u32} {=u32} {=u32} {=u32}",
-                time,
-                seq,
-                from,
-                to,
+                "{=char} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32}",
                 kind,
-                arg
+                a,
+                b,
+                c,
+                d,
+                e,
+                f
             );
         })
     }
