@@ -107,9 +107,12 @@ fn show_records(records: &[(char, [u32; 6])]) -> String {
         .collect()
 }
 
-/// Runs one scenario on both sides; `Err(report)` when they differ, else the number of
-/// transitions and the kinds of its events.
-fn compare(set: &FirmwareSet, name: &str) -> Result<(usize, Vec<u32>), String> {
+/// A scenario compared: the number of its transitions and the kinds of its events, or the
+/// report of how host and QEMU differ.
+type Compared = Result<(usize, Vec<u32>), String>;
+
+/// Runs one scenario on both sides.
+fn compare(set: &FirmwareSet, name: &str) -> Compared {
     let sc = rtseq_scenarios::find(name).ok_or(format!("{name}: not in SCENARIOS"))?;
     let host = host::run(sc).map_err(|e| format!("{name}: host registration failed: {e:?}"))?;
     if host.lost != 0 || host.summary.dead_lines != 0 {
@@ -187,7 +190,7 @@ fn compare_all(set: &FirmwareSet) {
     set.path("scenarios");
     let names: Vec<&str> = SCENARIOS.iter().map(|s| s.name).collect();
     // Two QEMU runs at a time (each takes ~0.3 s of host time).
-    let results: Vec<(String, Result<(usize, Vec<u32>), String>)> = std::thread::scope(|s| {
+    let results: Vec<(String, Compared)> = std::thread::scope(|s| {
         let handles: Vec<_> = names
             .chunks(names.len().div_ceil(2))
             .map(|chunk| {

@@ -48,7 +48,7 @@ use rtseq::safety::{
 };
 use rtseq::{
     Cause, Entry, Event, Instant, Monitors, Record, Request, Requester, RunningState, SeqId,
-    Sequencer, Transition,
+    Sequencer,
 };
 
 /// One start and one abort, each applied by a tick: the transitions of `rounds` rounds.
