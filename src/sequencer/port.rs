@@ -13,9 +13,7 @@ use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::start::Mode;
 use crate::sequencer::transition::Clearance;
 use crate::trace::StateChange;
-use crate::{
-    Cause, Error, Event, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer,
-};
+use crate::{Cause, Error, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer};
 
 /// A consistent snapshot of one control block's own fields, for [`Handle`](crate::Handle).
 #[derive(Clone, Debug)]
@@ -142,16 +140,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Outcome::Aborted(cause) => cause,
         };
         let change = StateChange::new(id, RunningState::Running, RunningState::Terminated, cause);
-        self.with(|s| {
-            let ended = s.end(&change);
-            if let (true, Outcome::Failed(failure)) = (ended, outcome) {
-                s.record(Event::Failed {
-                    sequence: id,
-                    failure,
-                });
-            }
-            ended
-        })
+        self.with(|s| s.end(&change))
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {

@@ -88,7 +88,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// Takes the pending abort-all requests (the tick is their only consumer): who made
     /// them (the safety system when both did).
     pub(crate) fn take_abort_all(&self) -> Option<Requester> {
-        let asked = self.abort_all.swap(0, Ordering::Acquire);
+        // Load, then store: no compare-and-swap in every tick. A request raised in between
+        // is served by the abort-all applied now (only its requester is not recorded).
+        let asked = self.abort_all.load(Ordering::Acquire);
+        if asked != 0 {
+            self.abort_all.store(0, Ordering::Relaxed);
+        }
         if asked & abort_all::BY_SAFETY_SYSTEM != 0 {
             Some(Requester::SafetySystem)
         } else if asked != 0 {

@@ -89,8 +89,11 @@ pub struct Record {
 }
 
 /// What a [`Record`] holds: a state change or an event.
+// `repr(u8)` with the transition first: the blank records of an empty ring are zero bytes,
+// so a sequencer `static` needs no initial image in flash.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
 pub enum Entry {
     /// A state change (a [`Transition`] without its time).
     Transition {
