@@ -213,6 +213,24 @@ pub struct Sim<
     before_tick: Option<BeforeTick<'a, C>>,
     /// Shuffles the order of each pass (`shuffle_equal_priorities`).
     shuffle: Option<Shuffle>,
+    /// Names of the safety levels and critical inputs for the trace file (`name_safety`).
+    safety_names: SafetyNames,
+}
+
+/// The names of a safety system's levels and critical inputs, by id.
+#[derive(Default)]
+struct SafetyNames {
+    levels: Vec<(u8, std::string::String)>,
+    inputs: Vec<(u8, std::string::String)>,
+}
+
+impl SafetyNames {
+    fn find(names: &[(u8, std::string::String)], id: u8) -> Option<&str> {
+        names
+            .iter()
+            .find(|(i, _)| *i == id)
+            .map(|(_, n)| n.as_str())
+    }
 }
 
 impl<
@@ -259,7 +277,51 @@ impl<
             validated: false,
             before_tick: None,
             shuffle: None,
+            safety_names: SafetyNames::default(),
         }
+    }
+
+    /// Takes the names of the safety levels and critical inputs of `properties`, so that
+    /// the trace file ([`save_trace`](Self::save_trace)) names them in its safety events
+    /// (else they are "level 3", "input 0").
+    ///
+    /// ```
+    /// use rtseq::safety::*;
+    /// use rtseq::{sim::Sim, Monitors, Sequencer};
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// const ESTOP: CriticalInput<bool> = CriticalInput::new(0, "estop");
+    /// static PROPS: SafetyProperties<'static, (), 1> =
+    ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[ESTOP.info()], &[], &[], OFF);
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.name_safety(&PROPS);
+    /// // What a safety cycle tells the sequencer is recorded by the next tick.
+    /// seq.level_entered(OFF);
+    /// seq.input_tripped(ESTOP.id());
+    /// sim.step();
+    /// let mut file = Vec::new();
+    /// sim.write_trace(&mut file).unwrap();
+    /// let text = String::from_utf8(file).unwrap();
+    /// assert!(text.contains(r#"{"t":1000,"level":"off","id":0}"#));
+    /// assert!(text.contains(r#"{"t":1000,"event":"input","input":0,"name":"estop","#));
+    /// ```
+    pub fn name_safety<IO, const LV: usize>(
+        &mut self,
+        properties: &crate::safety::SafetyProperties<'_, IO, LV>,
+    ) {
+        use std::string::ToString;
+        self.safety_names = SafetyNames {
+            levels: properties
+                .levels()
+                .iter()
+                .map(|d| (d.level().id(), d.name().to_string()))
+                .collect(),
+            inputs: properties
+                .inputs()
+                .iter()
+                .filter_map(|i| Some((u8::try_from(i.id().index()).ok()?, i.name().to_string())))
+                .collect(),
+        };
     }
 
     /// Changes the tick period; a period of 0 is an `Err(SimError::ZeroPeriod)` (simulated
@@ -1415,6 +1477,24 @@ impl<
                 quoted(name(sequence)),
                 quoted(&format!("'{}' failed: {failure:?}", name(sequence)))
             ),
+            Event::SafetyLevel { level } => {
+                let id = level.id();
+                let level_name = SafetyNames::find(&self.safety_names.levels, id)
+                    .map_or_else(|| format!("level {id}"), String::from);
+                format!("\"level\":{},\"id\":{id}", quoted(&level_name))
+            }
+            Event::InputTripped { input } => {
+                let id = input.index();
+                let input_name = u8::try_from(id)
+                    .ok()
+                    .and_then(|i| SafetyNames::find(&self.safety_names.inputs, i))
+                    .map_or_else(|| format!("input {id}"), String::from);
+                format!(
+                    "\"event\":\"input\",\"input\":{id},\"name\":{},\"text\":{}",
+                    quoted(&input_name),
+                    quoted(&format!("critical input '{input_name}' tripped"))
+                )
+            }
         };
         std::writeln!(out, "{{\"t\":{},{fields}}}", time.as_ticks())
     }

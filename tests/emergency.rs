@@ -1,7 +1,7 @@
 //! Emergency scenario on the host (issue 4): the safety system runs in the simulator's
 //! before-tick hook — the order the RTIC priorities give on the chip, where the safety
 //! task (highest priority) is woken first by the tick interrupt and runs before the
-//! sequencer's tick at the same instant — with the `Sequencer` as its `AbortSequences`.
+//! sequencer's tick at the same instant — with the `Sequencer` as its `Sequences`.
 //!
 //! A sequence tree with blocking and non-blocking sequences powers the machine up through
 //! the safety system (a step triggers public events through `cx.safety_system()` and its
@@ -24,7 +24,9 @@ use rtseq::safety::*;
 use rtseq::sim::Sim;
 use rtseq::Cause::{AbortAll, Completed, Start};
 use rtseq::RunningState::{Aborted, Aborting, Idle, Running, Terminated};
-use rtseq::{Cx, Failure, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
+use rtseq::{
+    Cx, Event, Failure, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step,
+};
 use rtseq_scenarios::emergency::{
     self, Machine, EMERGENCY, ENABLE, ESTOP_IN, FAULT, MOVING, OFF, POWERING, READY, START_MOVING,
     SWITCH_ON,
@@ -397,6 +399,13 @@ fn power_up_cycles() -> Vec<Cycle> {
     c
 }
 
+/// The trace's events of powering up: the levels entered.
+fn power_up_events() -> Vec<(u64, Event)> {
+    [(1, OFF), (2, POWERING), (4, READY), (5, MOVING)]
+        .map(|(t, level)| (t, Event::SafetyLevel { level }))
+        .to_vec()
+}
+
 fn aborted(t: u64, seqs: &[SeqId]) -> Vec<rtseq::Transition> {
     seqs.iter()
         .flat_map(|&s| {
@@ -471,17 +480,27 @@ fn estop_input_during_a_running_tree_aborts_everything_within_one_safety_cycle()
         &[i.travel_a, i.travel_b, i.move_a, i.axis_b, i.main],
     ));
     assert_trace(&w.trace, &trace);
-    // The safety system asks for abort-all in every EMERGENCY cycle; the trace records it
-    // once, when there was anything to abort.
-    assert_eq!(
-        w.events,
-        [(
+    // The levels and the tripped input come into the trace at the tick after their safety
+    // cycle (the same millisecond here). The pressed button goes on firing in EMERGENCY: one
+    // trip. The safety system asks for abort-all in every EMERGENCY cycle; the trace records
+    // it once, when there was anything to abort.
+    let mut events = power_up_events();
+    events.extend([
+        (
+            10,
+            Event::InputTripped {
+                input: ESTOP_IN.id(),
+            },
+        ),
+        (11, Event::SafetyLevel { level: EMERGENCY }),
+        (
             11,
-            rtseq::Event::AbortAll {
-                by: rtseq::Requester::SafetySystem
-            }
-        )]
-    );
+            Event::AbortAll {
+                by: rtseq::Requester::SafetySystem,
+            },
+        ),
+    ]);
+    assert_eq!(w.events, events);
     assert_all_stopped(&w, &[i.power_on, i.start], &[i.report]);
     assert_eq!(w.handle.level(), EMERGENCY);
 
@@ -533,6 +552,18 @@ fn public_fault_event_from_a_sequence_aborts_everything_in_the_next_safety_cycle
         &[i.travel_a, i.report, i.move_a, i.axis_b, i.main],
     ));
     assert_trace(&w.trace, &trace);
+    // No critical input tripped: the level comes from the sequence's event.
+    let mut events = power_up_events();
+    events.extend([
+        (11, Event::SafetyLevel { level: EMERGENCY }),
+        (
+            11,
+            Event::AbortAll {
+                by: rtseq::Requester::SafetySystem,
+            },
+        ),
+    ]);
+    assert_eq!(w.events, events);
     assert_all_stopped(&w, &[i.power_on, i.start, i.travel_b], &[]);
     let log_tail: Vec<String> = w.log[7..].to_vec();
     assert_eq!(

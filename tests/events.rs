@@ -211,3 +211,70 @@ fn requests_name_their_requester_and_pause_owner_firings_are_recorded() {
         ],
     );
 }
+
+/// What the safety system tells the sequencer (it runs above the sequencer's ceiling, so it
+/// only queues notes) is recorded by the next tick, at the tick's time, in the order told,
+/// before the abort-all it asked for. More notes than the queue holds (8) between two
+/// ticks: the newest are dropped and counted as lost.
+#[test]
+fn safety_levels_and_tripped_inputs_are_recorded_by_the_next_tick() {
+    use rtseq::safety::{InputId, SafetyLevel, Sequences};
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let id = seq.register(SeqConfig::new("a")).unwrap();
+    let h = seq.sequence_by_id(id).unwrap();
+    h.declare_lane().unwrap();
+    let mut monitors: Monitors<(), 1> = Monitors::new();
+    let tick = |ms: u64, monitors: &mut Monitors<(), 1>| {
+        seq.tick(Instant::from_ticks(ms * 1000), &(), monitors)
+            .unwrap();
+    };
+    let drain = || {
+        let mut records = Vec::new();
+        let lost = seq.drain_records(|r| records.push(r));
+        (records, lost)
+    };
+    let level = |id| Event::SafetyLevel {
+        level: SafetyLevel::new(id),
+    };
+    let estop: InputId = rtseq::safety::CriticalInput::<bool>::new(3, "estop").id();
+
+    tick(1, &mut monitors);
+    seq.level_entered(SafetyLevel::new(1));
+    tick(2, &mut monitors);
+    h.start().unwrap();
+    seq.input_tripped(estop);
+    seq.level_entered(SafetyLevel::new(0));
+    Sequences::abort_all(&seq);
+    assert_eq!(
+        drain(),
+        (vec![e(2, level(1)), t(2, 0, Idle, Running, Start)], 0)
+    );
+    tick(3, &mut monitors);
+    let (records, lost) = drain();
+    assert_eq!(lost, 0);
+    assert_records(
+        &records,
+        &[
+            e(3, Event::InputTripped { input: estop }),
+            e(3, level(0)),
+            e(
+                3,
+                Event::AbortAll {
+                    by: Requester::SafetySystem,
+                },
+            ),
+            t(3, 0, Running, Aborting, Cause::AbortAll),
+            t(3, 0, Aborting, Aborted, Cause::AbortAll),
+        ],
+    );
+
+    // Ten notes before the next tick: eight are kept, two lost.
+    for id in 0..10 {
+        seq.level_entered(SafetyLevel::new(id));
+    }
+    tick(4, &mut monitors);
+    let want: Vec<Record> = (0..8).map(|id| e(4, level(id))).collect();
+    assert_eq!(drain(), (want, 2));
+    tick(5, &mut monitors);
+    assert_eq!(drain(), (vec![], 0));
+}

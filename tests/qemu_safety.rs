@@ -264,6 +264,24 @@ fn check_emergency(out: &Outcome, want_trace: &[String], cycle_10_inputs: u32) {
         .filter(|m| m.starts_with("trace: "))
         .collect();
     assert_eq!(trace, want_trace, "{}", out.transcript());
+    // The sequencer's events, as on the host: the levels, the tripped input (estop only),
+    // EMERGENCY and the abort-all it asks for, in the tick after each safety cycle.
+    let level = |ms: u32, id: u8| {
+        format!("event: {ms} ms Some(SafetyLevel {{ level: SafetyLevel({id}) }})")
+    };
+    let mut want_events: Vec<String> = [(1, 1), (2, 2), (4, 3), (5, 4)]
+        .map(|(ms, id)| level(ms, id))
+        .to_vec();
+    if cycle_10_inputs != 0 {
+        want_events.push("event: 10 ms Some(InputTripped { input: InputId(0) })".into());
+    }
+    want_events.push(level(11, 0));
+    want_events.push("event: 11 ms Some(AbortAll { by: SafetySystem })".into());
+    let events: Vec<&str> = out
+        .messages()
+        .filter(|m| m.starts_with("event: "))
+        .collect();
+    assert_eq!(events, want_events, "{}", out.transcript());
     expect_line(
         out,
         &format!(

@@ -126,7 +126,7 @@ impl Recorder {
         }
     }
 }
-impl AbortSequences for Recorder {
+impl Sequences for Recorder {
     fn abort_all(&self) {
         self.aborts.set(self.aborts.get() + 1);
         self.log.borrow_mut().push("abort all".into());
@@ -1109,11 +1109,90 @@ mod while_active {
         assert!(!ss.cycle(&mut sim, &rec).aborted);
         assert_eq!(rec.aborts.get(), 4);
         // Also through a `&dyn` and `NoSequences`.
-        let dyn_rec: &dyn AbortSequences = &rec;
+        let dyn_rec: &dyn Sequences = &rec;
         handle.trigger(HALT);
         assert!(ss.cycle(&mut sim, dyn_rec).aborted);
         assert!(ss.cycle(&mut sim, &NoSequences).aborted);
         assert_eq!(rec.aborts.get(), 5);
+    }
+}
+
+// ---------------------------------------------------------------------------
+// What the cycle tells the sequences: levels entered, inputs tripped
+// ---------------------------------------------------------------------------
+
+mod told {
+    use super::*;
+
+    /// Everything the cycle tells the sequences, in order.
+    #[derive(Default)]
+    struct Told(RefCell<Vec<String>>);
+    impl Sequences for Told {
+        fn abort_all(&self) {
+            self.0.borrow_mut().push("abort all".into());
+        }
+        fn level_entered(&self, level: SafetyLevel) {
+            self.0
+                .borrow_mut()
+                .push(format!("level {}", NAMES[level.index()]));
+        }
+        fn input_tripped(&self, input: InputId) {
+            self.0
+                .borrow_mut()
+                .push(format!("tripped {}", INPUT_NAMES[input.index()]));
+        }
+    }
+    impl Told {
+        fn take(&self) -> Vec<String> {
+            std::mem::take(&mut *self.0.borrow_mut())
+        }
+    }
+
+    /// A level is told when it is entered; an input when its check starts firing: one trip
+    /// while it goes on firing, a new one after it stopped or was not checked. Within a
+    /// cycle: the level, then abort-all, then the trips.
+    #[test]
+    fn levels_when_entered_and_inputs_when_their_check_starts_firing() {
+        let log: Log = Rc::default();
+        let mut sim = Sim::new(&log);
+        let told = Told::default();
+        let handle = SafetyHandle::new();
+        let mut ss = SafetySystem::new(&PROPS, &handle).unwrap();
+        let mut cycle = |sim: &mut Sim| {
+            ss.cycle(sim, &told);
+            told.take()
+        };
+        assert_eq!(cycle(&mut sim), ["level off"]);
+        assert!(cycle(&mut sim).is_empty());
+
+        // Over-current in OFF: one trip; OVERCURRENT leads from OFF to OFF (no change).
+        sim.inputs[1] = IoValue::Float(7.0);
+        assert_eq!(cycle(&mut sim), ["tripped current"]);
+        assert!(cycle(&mut sim).is_empty());
+        sim.inputs[1] = IoValue::Float(0.0);
+        assert!(cycle(&mut sim).is_empty());
+        sim.inputs[1] = IoValue::Float(-9.0);
+        assert_eq!(cycle(&mut sim), ["tripped current"]);
+        sim.inputs[1] = IoValue::Float(0.0);
+        assert!(cycle(&mut sim).is_empty()); // OVERCURRENT: OFF to OFF
+
+        // POWER ON ignores the current; HOMING checks it again: a new trip, after the level.
+        handle.trigger(SWITCH_ON);
+        assert_eq!(cycle(&mut sim), ["level power on"]);
+        sim.inputs[1] = IoValue::Float(7.0);
+        sim.level_private.push(POWERED);
+        assert!(cycle(&mut sim).is_empty());
+        assert_eq!(cycle(&mut sim), ["level homing", "tripped current"]);
+        // ... whose OVERCURRENT leads to OFF.
+        assert_eq!(cycle(&mut sim), ["level off"]);
+
+        // The emergency stop: tripped, then EMERGENCY aborts on entry; still pressed, no
+        // new trip.
+        sim.inputs[1] = IoValue::Float(0.0);
+        sim.inputs[0] = IoValue::Bool(true);
+        assert_eq!(cycle(&mut sim), ["tripped estop"]);
+        assert_eq!(cycle(&mut sim), ["level emergency", "abort all"]);
+        assert!(cycle(&mut sim).is_empty());
     }
 }
 

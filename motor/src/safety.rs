@@ -32,9 +32,9 @@
 //! ```
 
 use rtseq::safety::{
-    AbortPolicy, AbortSequences, CriticalInput, CriticalOutput, CycleReport, InputAction, InputId,
-    IoValue, LevelDef, LevelTransition, OutputAction, OutputId, PrivateEvent, PublicEvent,
-    SafetyIo, SafetyLevel, SafetyProperties, SafetySystem, ValidProperties,
+    AbortPolicy, CriticalInput, CriticalOutput, CycleReport, InputAction, InputId, IoValue,
+    LevelDef, LevelTransition, OutputAction, OutputId, PrivateEvent, PublicEvent, SafetyIo,
+    SafetyLevel, SafetyProperties, SafetySystem, Sequences, ValidProperties,
 };
 
 use crate::control_system::ControlSystem;
@@ -204,7 +204,7 @@ impl SafetyIo for DriveIo {
 
 /// One safety cycle on the control system: sample, cycle, apply. Call it from the safety
 /// task (highest priority) at the safety period; `sequences` is the sequencer (abort-all).
-pub fn safety_cycle<const L: usize, A: AbortSequences + ?Sized>(
+pub fn safety_cycle<const L: usize, A: Sequences + ?Sized>(
     cs: &ControlSystem,
     system: &mut SafetySystem<'_, DriveIo, L>,
     sequences: &A,

@@ -153,7 +153,8 @@ pub type Kind = char;
 /// 1 `Fired` (owner, cause kind, cause arg, behaviour), 2 `ExceptionNotRun` (exception,
 /// owner, error variant, 0), 3 `Requested` (sequence, 0 pause / 1 resume / 2 abort,
 /// requester kind, requester arg), 4 `AbortAll` (requester kind, requester arg, 0, 0),
-/// 5 `Failed` (sequence, [`outcome_code`] of the failure, 0, 0). Requester kinds:
+/// 5 `Failed` (sequence, [`outcome_code`] of the failure, 0, 0), 6 `SafetyLevel` (level,
+/// 0, 0, 0), 7 `InputTripped` (input, 0, 0, 0). Requester kinds:
 /// 0 a sequence (arg: its index), 1 the application, 2 the safety system.
 ///
 /// ```
@@ -208,6 +209,8 @@ pub fn encode_event(time: Instant, e: &Event) -> Encoded {
         Event::Failed { sequence, failure } => {
             [5, index(sequence.index()), outcome_code(Err(failure)), 0, 0]
         }
+        Event::SafetyLevel { level } => [6, u32::from(level.id()), 0, 0, 0],
+        Event::InputTripped { input } => [7, index(input.index()), 0, 0, 0],
     };
     let [kind, a, b, c, d] = body;
     [

@@ -9,7 +9,7 @@ use super::level::SafetyLevel;
 use super::output::OutputAction;
 
 /// Whether entering (or staying in) a level aborts all running sequences
-/// through [`AbortSequences`](super::AbortSequences).
+/// through [`Sequences`](super::Sequences).
 ///
 /// ```
 /// use rtseq::safety::{AbortPolicy, LevelDef, SafetyLevel};

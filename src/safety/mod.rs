@@ -22,7 +22,7 @@
 //! * [`SafetyProperties`] holds the whole description (const, so it can be
 //!   a `static` and checked at compile time); [`SafetySystem`] is the
 //!   owned, running part; [`SafetySystem::cycle`] is one safety period.
-//! * A level can demand "abort all sequences" through [`AbortSequences`].
+//! * A level can demand "abort all sequences" through [`Sequences`].
 //!
 //! Everything is `no_std`, heap-free and panic-free; see
 //! [`SafetySystem::cycle`] for the exact order of a cycle.
@@ -190,9 +190,7 @@ pub use level::SafetyLevel;
 pub use level_def::{AbortPolicy, ExitFn, LevelDef, LevelFn, LevelStats};
 pub use output::{CriticalOutput, CriticalOutputInfo, OutputAction, OutputMode};
 pub use properties::{SafetyProperties, ValidProperties};
-pub use system::{
-    AbortSequences, CycleReport, LevelChange, NoSequences, SafetySystem, UnknownEvent,
-};
+pub use system::{CycleReport, LevelChange, NoSequences, SafetySystem, Sequences, UnknownEvent};
 pub use transition::LevelTransition;
 
 /// Maximum number of public events, and of private events (ids `0..32`

@@ -7,50 +7,73 @@ use super::context::{PendingEvents, SafetyContext};
 use super::error::SafetyError;
 use super::event::{EventId, EventKind};
 use super::handle::SafetyHandle;
-use super::io::SafetyIo;
+use super::io::{InputId, SafetyIo};
 use super::level::SafetyLevel;
 use super::level_def::{AbortPolicy, LevelStats};
 use super::properties::{SafetyProperties, ValidProperties};
 use super::transition::LevelTransition;
 
-/// Something whose running sequences the safety system can abort (the
-/// rtseq `Sequencer` implements it). Called from the safety cycle, at the
-/// highest priority: it must only *request* the abort (e.g. set flags and
-/// wake lanes) and return in bounded time.
+/// What the safety system sees of the sequences (the rtseq `Sequencer` implements it): it
+/// can abort them all, and it tells them what it did, so that the sequencer's trace shows
+/// the safety levels and tripped inputs between its own records. Called from the safety
+/// cycle, at the highest priority: an implementation must only *note* what it is told (set
+/// flags, queue a record) and return in bounded time.
+///
+/// Only [`abort_all`](Self::abort_all) must be written; the others do nothing unless
+/// overridden.
 ///
 /// ```
 /// use core::sync::atomic::{AtomicU32, Ordering};
-/// use rtseq::safety::AbortSequences;
+/// use rtseq::safety::Sequences;
 /// struct AbortCounter(AtomicU32);
-/// impl AbortSequences for AbortCounter {
+/// impl Sequences for AbortCounter {
 ///     fn abort_all(&self) { self.0.fetch_add(1, Ordering::Relaxed); }
 /// }
 /// let c = AbortCounter(AtomicU32::new(0));
 /// c.abort_all();
 /// assert_eq!(c.0.load(Ordering::Relaxed), 1);
 /// ```
-pub trait AbortSequences {
+pub trait Sequences {
     /// Requests that every running sequence be aborted.
     fn abort_all(&self);
-}
 
-impl<T: AbortSequences + ?Sized> AbortSequences for &T {
-    fn abort_all(&self) {
-        (**self).abort_all();
+    /// The safety system entered `level` (in the first cycle, the entry level). Called at
+    /// the start of the cycle, before [`abort_all`](Self::abort_all) of the same cycle.
+    fn level_entered(&self, level: SafetyLevel) {
+        let _ = level;
+    }
+
+    /// Critical input `input` tripped: the check of the current level fired in this cycle
+    /// and did not in the cycle before. Called after the level change of the same cycle.
+    fn input_tripped(&self, input: InputId) {
+        let _ = input;
     }
 }
 
-/// An [`AbortSequences`] for applications without a sequencer (or tests):
-/// does nothing.
+impl<T: Sequences + ?Sized> Sequences for &T {
+    fn abort_all(&self) {
+        (**self).abort_all();
+    }
+
+    fn level_entered(&self, level: SafetyLevel) {
+        (**self).level_entered(level);
+    }
+
+    fn input_tripped(&self, input: InputId) {
+        (**self).input_tripped(input);
+    }
+}
+
+/// [`Sequences`] for applications without a sequencer (or tests): does nothing.
 ///
 /// ```
-/// use rtseq::safety::{AbortSequences, NoSequences};
+/// use rtseq::safety::{NoSequences, Sequences};
 /// NoSequences.abort_all();
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct NoSequences;
 
-impl AbortSequences for NoSequences {
+impl Sequences for NoSequences {
     fn abort_all(&self) {}
 }
 
@@ -115,7 +138,7 @@ pub struct CycleReport {
     /// Bit `i` set: the action of critical input `i` fired (triggered its
     /// event) in this cycle.
     pub input_events: u32,
-    /// Whether [`AbortSequences::abort_all`] was called in this cycle.
+    /// Whether [`Sequences::abort_all`] was called in this cycle.
     pub aborted: bool,
     /// Number of unknown events found at the start of this cycle.
     pub unknown_events: u32,
@@ -180,6 +203,9 @@ pub struct SafetySystem<'a, IO, const L: usize> {
     stats: [LevelStats; L],
     toggle: u32,
     pending: PendingEvents,
+    /// The critical inputs whose check fired in the last cycle (bit `i` = input `i`): a
+    /// check that goes on firing is one trip.
+    firing: u32,
     unknown_count: u32,
     last_unknown: Option<UnknownEvent>,
 }
@@ -257,6 +283,7 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
             stats: [LevelStats::ZERO; L],
             toggle: 0,
             pending: PendingEvents::new(),
+            firing: 0,
             unknown_count: 0,
             last_unknown: None,
         })
@@ -547,11 +574,14 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
     ///    counted as unknown. If it differs from the current level: exit
     ///    action of the old level, publish the new level on the handle,
     ///    count the activation, entry action of the new level. (In the
-    ///    first cycle: enter the entry level, no exit action.)
+    ///    first cycle: enter the entry level, no exit action.) A new level
+    ///    is told to `sequences` ([`Sequences::level_entered`]);
     /// 2. abort all sequences through `sequences` if the level demands it
     ///    ([`AbortPolicy`]);
     /// 3. input actions, in the level's order (events they trigger are
-    ///    resolved in the next cycle);
+    ///    resolved in the next cycle); an input whose check fires now and
+    ///    did not in the cycle before is told to `sequences`
+    ///    ([`Sequences::input_tripped`]), by ascending id;
     /// 4. the level action;
     /// 5. the output actions.
     ///
@@ -580,7 +610,7 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
     /// assert!(report.aborted); // OFF aborts all sequences on entry
     /// # Ok::<(), SafetyError>(())
     /// ```
-    pub fn cycle<A: AbortSequences + ?Sized>(&mut self, io: &mut IO, sequences: &A) -> CycleReport {
+    pub fn cycle<A: Sequences + ?Sized>(&mut self, io: &mut IO, sequences: &A) -> CycleReport {
         let mut report = CycleReport {
             level: self.current,
             change: None,
@@ -594,6 +624,9 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
         }
         let entered = report.change.is_some();
         let level = self.current;
+        if entered {
+            sequences.level_entered(level);
+        }
         let Some(def) = self.props.level(level) else {
             // Unreachable for validated properties.
             return report;
@@ -623,6 +656,13 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
             }
         }
         report.input_events = fired;
+        let mut tripped = fired & !self.firing;
+        self.firing = fired;
+        while tripped != 0 {
+            let input = InputId(tripped.trailing_zeros() as u8);
+            tripped &= tripped.wrapping_sub(1);
+            sequences.input_tripped(input);
+        }
 
         // 4. Level action.
         if let Some(action) = def.action_fn() {

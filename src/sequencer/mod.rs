@@ -10,6 +10,8 @@
 //! | `registry.rs` | registration, tables, binding, look-up by id and name |
 //! | `start.rs` | starts and restarts: the checks, the schedule, the commit |
 //! | `requests.rs` | pause, resume and abort requests for the next tick; abort-all |
+//! | `inbox.rs` | what any priority leaves for the next tick without the lock |
+//! | `safety.rs` | the connection to the safety system: its handle, abort-all, the levels and tripped inputs it notes for the trace |
 //! | `callers.rs` | the caller tree: depth, cycles, who blocks whom |
 //! | `joins.rs` | sequences waiting for the end of another run |
 //! | `lanes.rs` | lane slots and their wakers (foreign code, called outside the state) |
@@ -28,11 +30,13 @@ use crate::safety::SafetyHandle;
 pub(crate) mod callers;
 pub(crate) mod control_block;
 pub(crate) mod handle;
+pub(crate) mod inbox;
 pub(crate) mod joins;
 pub(crate) mod lanes;
 pub(crate) mod port;
 mod registry;
 pub(crate) mod requests;
+mod safety;
 pub(crate) mod sections;
 pub(crate) mod start;
 pub(crate) mod state;
@@ -40,6 +44,7 @@ pub(crate) mod transition;
 pub(crate) mod validation;
 
 use lanes::Lanes;
+use safety::SafetyNotes;
 pub(crate) use state::State;
 
 /// The sequencer (seed §1.1): one per application, usually a `static`.
@@ -88,9 +93,11 @@ pub struct Sequencer<
     /// The lanes' wakers, outside `state`: a waker is foreign code, called only while the
     /// state is not borrowed.
     pub(crate) lanes: Lanes<W>,
-    /// Pending abort-all requests, a bit per requester (`requests::abort_all`): an atomic,
-    /// so any priority may raise one (the safety task sits above a priority ceiling).
-    pub(crate) abort_all: AtomicU8,
+    /// What any priority left for the next tick (`inbox`): abort-all requests, and whether
+    /// the safety system queued notes. An atomic: the safety task sits above the ceiling.
+    pub(crate) inbox: AtomicU8,
+    /// The safety system's levels and tripped inputs, until the tick records them.
+    pub(crate) safety_notes: SafetyNotes,
     /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
     pub(crate) safety: critical_section::Mutex<Cell<Option<&'static SafetyHandle>>>,
     _control: PhantomData<fn(&C)>,
@@ -180,16 +187,19 @@ impl<
     /// # Safety
     ///
     /// `PRIORITY` must be the highest RTIC priority at which any method of this sequencer is
-    /// called — normally the tick's — and no method other than [`abort_all`](Self::abort_all)
-    /// and [`safety_system`](Self::safety_system) may be called from above it.
+    /// called — normally the tick's — and no method other than [`abort_all`](Self::abort_all),
+    /// [`safety_system`](Self::safety_system) and those of
+    /// [`Sequences`](crate::safety::Sequences) may be called from above it.
     ///
     /// The tick runs at RTIC priority 2, the lanes at 1; the safety task at 3 only calls
-    /// [`abort_all`](Self::abort_all), which takes no lock:
+    /// [`abort_all`](Self::abort_all) and, through its cycle, the sequencer's
+    /// [`Sequences`](crate::safety::Sequences) methods, which take no lock:
     ///
     /// ```
     /// use rtseq::lock::PriorityCeiling;
     /// use rtseq::{SeqConfig, Sequencer};
-    /// // SAFETY: no method but `abort_all` and `safety_system` is called above priority 2.
+    /// // SAFETY: no method but `abort_all`, `safety_system` and those of `Sequences` is called
+    /// // above priority 2.
     /// static SEQ: Sequencer<(), 8, 64, PriorityCeiling<2>> =
     ///     unsafe { Sequencer::with_priority_ceiling() };
     /// fn init() { // RTIC `init` (priority 0 with interrupts off): register the tree
@@ -226,7 +236,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Sequencer {
             state: UnsafeCell::new(State::new()),
             lanes: Lanes::new(),
-            abort_all: AtomicU8::new(0),
+            inbox: AtomicU8::new(0),
+            safety_notes: SafetyNotes::new(),
             safety: critical_section::Mutex::new(Cell::new(None)),
             _control: PhantomData,
             _lock: PhantomData,

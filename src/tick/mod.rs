@@ -158,7 +158,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if late {
             return Err(Error::TickBeforeLast);
         }
-        let abort_all = self.take_abort_all();
+        let inbox = self.take_inbox();
+        if inbox.safety_notes() {
+            self.record_safety_notes();
+        }
+        let abort_all = inbox.abort_all();
         if changed {
             words = self.fold();
         }

@@ -1,5 +1,6 @@
 //! Events: what the sequencer records besides state changes.
 
+use crate::safety::{InputId, SafetyLevel};
 use crate::{Behaviour, Cause, Error, Failure, SeqId};
 
 /// Something the sequencer did or was asked, recorded in the trace between the transitions
@@ -88,6 +89,18 @@ pub enum Event {
         sequence: SeqId,
         /// What its action returned.
         failure: Failure,
+    },
+    /// The safety system entered `level` (in its first cycle, the entry level). Recorded by
+    /// the tick after the safety cycle that made the change, before an abort-all it asked for.
+    SafetyLevel {
+        /// The level entered.
+        level: SafetyLevel,
+    },
+    /// A critical input tripped: the safety system's check of `input` fired, and did not in
+    /// the cycle before. Recorded by the tick after that safety cycle.
+    InputTripped {
+        /// The critical input.
+        input: InputId,
     },
 }
 

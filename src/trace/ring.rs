@@ -75,6 +75,11 @@ impl<const T: usize> Ring<T> {
         }
     }
 
+    /// Counts `n` records that never made it into the ring as lost.
+    pub(crate) fn count_lost(&mut self, n: u32) {
+        self.lost = self.lost.saturating_add(n);
+    }
+
     /// How many records were overwritten before they were read, since the last call.
     pub(crate) fn take_lost(&mut self) -> u32 {
         self.skip_overwritten();

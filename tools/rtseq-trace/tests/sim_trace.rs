@@ -1,6 +1,7 @@
 //! `Sim::save_trace` against the firmware: the demo application with the following error
 //! at 2.5 s on the host simulator writes a trace file whose transitions are the QEMU log's
-//! (same times in ms, names, states, causes), and whose callers are `demo.tree`'s.
+//! (same times in ms, names, states, causes), whose safety levels are the log's, and whose
+//! callers are `demo.tree`'s.
 
 mod common;
 
@@ -47,6 +48,15 @@ fn host_trace_file_equals_the_qemu_log() {
     assert_eq!(host_tr, log_tr);
     // The simulator's times are the ticks' (whole ms).
     assert!(host.transitions.iter().all(|t| t.time_us % 1000 == 0));
+    // The safety levels the sequencer recorded are the firmware's, named.
+    let levels = |run: &rtseq_trace::model::Run| -> Vec<_> {
+        run.levels
+            .iter()
+            .map(|l| (l.time_us / 1000, l.level.clone()))
+            .collect()
+    };
+    assert_eq!(levels(&host), levels(&log));
+    assert!(levels(&host).len() >= 3, "{:?}", levels(&host));
 
     // The callers the simulator knows are the ones `./x demo` gives the tool for logs.
     let hints = common::demo_hints();

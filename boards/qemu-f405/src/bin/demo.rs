@@ -31,7 +31,7 @@
 
 use core::cell::UnsafeCell;
 
-use rtseq::safety::{SafetyHandle, SafetyLevel};
+use rtseq::safety::{InputId, SafetyHandle, SafetyLevel};
 use rtseq::{
     Behaviour, Cause, Entry, Failure, Instant, MonitorId, Outcome, Request, Requester,
     RunningState, SeqId, Sequencer, Transition,
@@ -76,7 +76,8 @@ const STOP_CURRENT: f32 = 0.05;
 type Lock = rtseq::lock::PriorityCeiling<2>;
 /// The sequencer (default trace buffer: 64 transitions, drained by idle every tick).
 // SAFETY: every user of SEQ runs at RTIC priority 2 (the tick) or below (lanes at 1, idle
-// at 0); the safety task (3) only calls `abort_all`, an atomic request.
+// at 0); the safety task (3) only calls the sequencer's `Sequences` methods (abort-all, the
+// level and tripped-input notes), which are atomic and take no lock.
 static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }, 64, Lock> =
     unsafe { Sequencer::with_priority_ceiling() };
 /// The control system: plant, controller, fault injection, summary.
@@ -309,13 +310,6 @@ enum Event {
     },
     /// The pause button was pressed (`second`: the end of the window).
     Pause { second: bool, snap: Snapshot },
-    /// The safety system changed level.
-    Level {
-        from: Option<SafetyLevel>,
-        to: SafetyLevel,
-    },
-    /// Critical-input checks fired (bit i = input i), first cycle of a run of firings.
-    Inputs { bits: u32 },
 }
 
 const QUEUE: usize = 32;
@@ -580,8 +574,9 @@ fn monitor_effect(m: MonitorId) -> &'static str {
 }
 
 /// Logs an event of the trace; a monitor's firing is counted in `fired`.
-fn log_event(e: rtseq::Event, fired: &mut [u16; app::MONITORS]) {
+fn log_event(e: rtseq::Event, seen: &mut Seen) {
     use rtseq::Event;
+    let fired = &mut seen.fired;
     match e {
         Event::Fired {
             cause: Cause::Monitor(m),
@@ -643,6 +638,43 @@ fn log_event(e: rtseq::Event, fired: &mut [u16; app::MONITORS]) {
                 FailureText(failure)
             )
         }
+        Event::SafetyLevel { level } => {
+            match seen.level {
+                Some(from) => defmt::info!(
+                    "safety    level {=str} -> {=str}",
+                    level_name(from),
+                    level_name(level)
+                ),
+                None => defmt::info!("safety    level {=str} (entry level)", level_name(level)),
+            }
+            seen.level = Some(level);
+            seen.emergency |= level == safety::EMERGENCY;
+        }
+        Event::InputTripped { input } => {
+            defmt::info!("safety    critical input: {=str}", input_name(input))
+        }
+    }
+}
+
+/// What the log learnt from the trace's events.
+#[derive(Clone, Copy)]
+struct Seen {
+    /// Monitor fire counts.
+    fired: [u16; app::MONITORS],
+    /// The safety level last entered.
+    level: Option<SafetyLevel>,
+    /// Whether the safety system entered EMERGENCY.
+    emergency: bool,
+}
+
+/// A critical input's name, for the log.
+fn input_name(input: InputId) -> &'static str {
+    match input {
+        i if i == safety::ESTOP_IN.id() => "e-stop pressed",
+        i if i == safety::CURRENT_IN.id() => "over-current (|i| > 6 A)",
+        i if i == safety::END_NEG_IN.id() => "end stop - closed",
+        i if i == safety::END_POS_IN.id() => "end stop + closed",
+        _ => "?",
     }
 }
 
@@ -841,8 +873,8 @@ struct Log {
     /// When the jam could first show as a following error: the injection, or the next
     /// move start if the axis stood still then, ms.
     fe_visible: Option<u64>,
-    /// Monitor fire counts, from the trace's events.
-    fired: [u16; app::MONITORS],
+    /// What the trace's events told.
+    seen: Seen,
     blinks: u32,
     /// Restarts of the moves sequence, counted from the transition trace.
     moves_restarts: u16,
@@ -851,7 +883,6 @@ struct Log {
     trace_lost: u32,
     reacted: [bool; 4],
     stopped: [bool; 4],
-    emergency_seen: bool,
 }
 
 impl Log {
@@ -864,7 +895,11 @@ impl Log {
             moves_done: 0,
             main_end: None,
             move_start: None,
-            fired: [0; app::MONITORS],
+            seen: Seen {
+                fired: [0; app::MONITORS],
+                level: None,
+                emergency: false,
+            },
             fe_visible: None,
             blinks: 0,
             moves_restarts: 0,
@@ -872,7 +907,6 @@ impl Log {
             trace_lost: 0,
             reacted: [false; 4],
             stopped: [false; 4],
-            emergency_seen: false,
         }
     }
 
@@ -882,7 +916,7 @@ impl Log {
         let mut move_start = self.move_start;
         let mut moves_restarts = self.moves_restarts;
         let mut move_step_aborts = self.move_step_aborts;
-        let mut fired = self.fired;
+        let mut seen = self.seen;
         let lost = SEQ.drain_records(|r| {
             let t = match r.entry {
                 Entry::Transition {
@@ -897,7 +931,7 @@ impl Log {
                     to,
                     cause,
                 },
-                Entry::Event(e) => return log_event(e, &mut fired),
+                Entry::Event(e) => return log_event(e, &mut seen),
             };
             if t.sequence == MOVE && t.to == RunningState::Running {
                 move_start = Some(to_ms(t.time));
@@ -936,7 +970,7 @@ impl Log {
         self.moves_restarts = moves_restarts;
         self.move_step_aborts = move_step_aborts;
         self.blinks = blinks;
-        self.fired = fired;
+        self.seen = seen;
         self.trace_lost = self.trace_lost.saturating_add(lost);
     }
 
@@ -976,34 +1010,6 @@ impl Log {
                         } else {
                             PauseExpect::Nothing
                         };
-                    }
-                }
-                Event::Level { from, to } => {
-                    if to == safety::EMERGENCY {
-                        self.emergency_seen = true;
-                    }
-                    match from {
-                        Some(f) => defmt::info!(
-                            "safety    level {=str} -> {=str}",
-                            level_name(f),
-                            level_name(to)
-                        ),
-                        None => {
-                            defmt::info!("safety    level {=str} (entry level)", level_name(to))
-                        }
-                    }
-                }
-                Event::Inputs { bits } => {
-                    let names = [
-                        "e-stop pressed",
-                        "over-current (|i| > 6 A)",
-                        "end stop - closed",
-                        "end stop + closed",
-                    ];
-                    for (i, n) in names.iter().enumerate() {
-                        if bits & (1 << i) != 0 {
-                            defmt::info!("safety    critical input: {=str}", n);
-                        }
                     }
                 }
             }
@@ -1112,7 +1118,7 @@ impl Log {
         let s = CS.summary();
         let st = CS.status();
         let plant = CS.plant();
-        let fired = self.fired;
+        let fired = self.seen.fired;
         let fired_of = |m: MonitorId| fired.get(m.index()).copied().unwrap_or(0);
         let level = HANDLE.level();
         status_line();
@@ -1261,7 +1267,7 @@ impl Log {
                 Expect::Emergency { main_active } => {
                     any_effect = true;
                     ok &= check(
-                        self.emergency_seen && level == safety::EMERGENCY,
+                        self.seen.emergency && level == safety::EMERGENCY,
                         "the safety system entered and stays in level emergency",
                     );
                     ok &= check(!CS.drive_permit(), "the drive permit is withdrawn");
@@ -1628,23 +1634,13 @@ mod rtic_app {
     }
 
     /// The safety system: one cycle per tick, highest priority.
-    #[task(priority = 3, local = [system, last_bits: u32 = 0])]
+    /// The levels it enters and the inputs that trip reach the log through the sequencer's
+    /// trace.
+    #[task(priority = 3, local = [system])]
     async fn safety_task(cx: safety_task::Context) {
         loop {
             let _now = TO_SAFETY.wait().await;
-            let r = safety::safety_cycle(&CS, cx.local.system, &SEQ);
-            if let Some(c) = r.change {
-                EVENTS.push(Event::Level {
-                    from: c.from,
-                    to: c.to,
-                });
-            }
-            if r.input_events != 0 && r.input_events != *cx.local.last_bits {
-                EVENTS.push(Event::Inputs {
-                    bits: r.input_events,
-                });
-            }
-            *cx.local.last_bits = r.input_events;
+            safety::safety_cycle(&CS, cx.local.system, &SEQ);
         }
     }
 

@@ -9,12 +9,13 @@
 //!   event; cycle 11 enters EMERGENCY.
 //!
 //! - `safety` (priority 3): one safety cycle per tick, woken first by the tick, with `SEQ` as
-//!   its `AbortSequences`: the cycle entering EMERGENCY requests abort-all, which the
+//!   its `Sequences`: the cycle entering EMERGENCY requests abort-all, which the
 //!   sequencer tick at the same instant applies.
 //! - `tick` (TIM2, 1 kHz, priority 2): injects the fault of the mode, wakes the safety task
 //!   (it preempts here), then `SEQ.tick`; starts `main` after the first safety cycle.
 //! - `lane_main`, `lane_b` (priority 1): `rtseq::lane`.
-//! - `idle`: drains the trace, prints it, compares it with the expected one (the host's).
+//! - `idle`: drains the trace (transitions and events), prints it, compares it with the
+//!   expected one (the host's).
 //!
 //! The firmware checks itself: the exact trace (the same as on the host), the level of every
 //! safety cycle, safe outputs, every sequence `Aborted` (or completed before), all of it at
@@ -254,7 +255,8 @@ fn fault_mode() -> bool {
 mod expect {
     use rtseq::Cause::{AbortAll, Completed, Start};
     use rtseq::RunningState::{Aborted, Aborting, Idle, Running, Terminated};
-    use rtseq::{SeqId, Transition};
+    use rtseq::{Event, Requester, SeqId, Transition};
+    use rtseq_scenarios::emergency::{EMERGENCY, ESTOP_IN, MOVING, OFF, POWERING, READY};
 
     const fn id(i: usize) -> SeqId {
         SeqId::from_index(i)
@@ -321,6 +323,46 @@ mod expect {
         let k = k.wrapping_sub(prefix.len());
         let seq = order.get(k / 2)?;
         abort(*seq).get(k % 2).copied()
+    }
+
+    /// The events, as on the host: the levels of powering up; with `estop`, the input
+    /// that trips at 10 ms; EMERGENCY and the abort-all it asks for at 11 ms.
+    pub fn event(fault: bool, k: usize) -> Option<(u64, Event)> {
+        let level = |level| Event::SafetyLevel { level };
+        let power_up = [(1, OFF), (2, POWERING), (4, READY), (5, MOVING)];
+        if let Some(&(ms, l)) = power_up.get(k) {
+            return Some((ms, level(l)));
+        }
+        let tripped = (
+            10,
+            Event::InputTripped {
+                input: ESTOP_IN.id(),
+            },
+        );
+        let emergency = [
+            (11, level(EMERGENCY)),
+            (
+                11,
+                Event::AbortAll {
+                    by: Requester::SafetySystem,
+                },
+            ),
+        ];
+        let k = k.wrapping_sub(power_up.len());
+        match (fault, k) {
+            (false, 0) => Some(tripped),
+            (false, k) => emergency.get(k.wrapping_sub(1)).copied(),
+            (true, k) => emergency.get(k).copied(),
+        }
+    }
+
+    /// Number of expected events.
+    pub fn events(fault: bool) -> usize {
+        if fault {
+            4 + 2
+        } else {
+            4 + 3
+        }
     }
 
     /// Length of the expected trace.
@@ -554,9 +596,21 @@ mod app {
     fn idle(_: idle::Context) -> ! {
         let fault = FAULT_MODE.load(Relaxed);
         let mut k: usize = 0;
+        let mut events: usize = 0;
         let mut failures: u32 = 0;
         loop {
-            let lost = SEQ.drain_trace(|t| {
+            let lost = SEQ.drain_records(|r| {
+                let Some(t) = r.transition() else {
+                    let ms = r.time.as_ticks() / 1000;
+                    let event = r.event();
+                    defmt::info!("event: {=u64} ms {}", ms, event);
+                    if expect::event(fault, events) != event.map(|e| (ms, e)) {
+                        defmt::error!("trace: event {=usize} unexpected", events);
+                        failures = failures.wrapping_add(1);
+                    }
+                    events = events.wrapping_add(1);
+                    return;
+                };
                 defmt::info!(
                     "trace: {=u64} ms #{=usize} {} -> {} ({})",
                     t.time.as_ticks() / 1000,
@@ -594,7 +648,7 @@ mod app {
                         failures = failures.wrapping_add(1);
                     }
                 }
-                if k != expect::len(fault) {
+                if k != expect::len(fault) || events != expect::events(fault) {
                     failures = failures.wrapping_add(1);
                 }
                 let cycle_failures = CYCLE_FAILURES.load(Relaxed);

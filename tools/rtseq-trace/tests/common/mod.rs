@@ -58,6 +58,7 @@ pub fn host_following_error_trace(end_ms: u64) -> PathBuf {
     seq.set_safety_system(handle);
     let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
     let mut sim = Sim::new(seq, cs, monitors);
+    sim.name_safety(&PROPERTIES);
     sim.lane(app.main);
     sim.lane(app.status);
     sim.lane(app.safe_stop);

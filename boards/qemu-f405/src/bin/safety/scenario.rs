@@ -424,7 +424,7 @@ pub fn plant(n: u32, io: &mut Io) {
 #[derive(Debug, Default)]
 pub struct Aborts(pub Cell<u32>);
 
-impl AbortSequences for Aborts {
+impl Sequences for Aborts {
     fn abort_all(&self) {
         self.0.set(self.0.get().wrapping_add(1));
     }
