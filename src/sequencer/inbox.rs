@@ -39,14 +39,28 @@ impl Inbox {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Empties the inbox (the tick is its only reader). A tick with nothing in it pays one
-    /// load; the atomic swap is only for a tick that finds something.
+    /// Empties the inbox (the tick is its only reader): `None` when nothing is in it, which
+    /// costs one load; the atomic swap is only for a tick that finds something.
     #[inline(always)]
-    pub(crate) fn take_inbox(&self) -> Inbox {
+    pub(crate) fn take_inbox(&self) -> Option<Inbox> {
         if self.inbox.load(Ordering::Relaxed) == 0 {
-            return Inbox(0);
+            return None;
         }
         // Acquire: the safety system's notes are queued before their bit is raised.
-        Inbox(self.inbox.swap(0, Ordering::Acquire))
+        Some(Inbox(self.inbox.swap(0, Ordering::Acquire)))
+    }
+
+    /// Does what the tick found in the inbox: records the safety system's notes, then
+    /// applies abort-all if asked. Returns whether it was asked.
+    #[inline(never)]
+    pub(crate) fn apply_inbox(&self, control: &C, inbox: Inbox) -> bool {
+        if inbox.safety_notes() {
+            self.record_safety_notes();
+        }
+        let Some(by) = inbox.abort_all() else {
+            return false;
+        };
+        self.apply_abort_all(control, by);
+        true
     }
 }

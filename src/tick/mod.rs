@@ -159,23 +159,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return Err(Error::TickBeforeLast);
         }
         let inbox = self.take_inbox();
-        if inbox.safety_notes() {
-            self.record_safety_notes();
-        }
-        let abort_all = inbox.abort_all();
         if changed {
             words = self.fold();
         }
-        if let Some(by) = abort_all {
-            self.apply_abort_all(control, by);
-        }
+        let aborted_all = match inbox {
+            Some(inbox) => self.apply_inbox(control, inbox),
+            None => false,
+        };
         if requests {
             self.apply_requests(control);
         }
         if !any_due {
             return Ok(());
         }
-        if abort_all.is_some() || requests {
+        if aborted_all || requests {
             // What they stopped or paused is not due any more.
             words = self.fold();
         }
