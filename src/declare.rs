@@ -98,7 +98,10 @@ macro_rules! sequences {
 /// * `pub const ID: MonitorId` for every line, with the line's doc comment;
 /// * `pub const COUNT: usize`, the number of lines;
 /// * `pub const fn table<const M: usize>(..) -> Result<Monitors<'static, C, M, K>, Error>`
-///   with the parameters given after the module's name; `M` < `COUNT` does not compile.
+///   with the parameters given after the module's name; `M` < `COUNT` does not compile;
+/// * `pub const fn validate<const N: usize>(sequences: &Table<C, N>, ..) -> Result<(),
+///   ConfigError>`: [`Table::validate`](crate::Table::validate) of the monitors with a
+///   sequence table, in a `const` item a compile-time check of the whole configuration.
 ///
 /// The monitors see the module's ids and, through `use super::*`, everything in the module
 /// around the macro (the sequence ids, typically).
@@ -121,22 +124,34 @@ macro_rules! sequences {
 /// rtseq::sequences! {
 ///     mod seqs for Axis {
 ///         HOMING = SeqConfig::new("homing"),
+///         SAFE_STOP = SeqConfig::new("safe stop").in_lane(),
 ///     }
 /// }
-/// use seqs::HOMING;
+/// use seqs::{HOMING, SAFE_STOP};
 ///
 /// rtseq::monitors! {
 ///     /// The monitors of the axis, in table order.
 ///     mod monitor_ids for Axis, AxisCondition {
-///         /// Over-travel aborts the homing.
+///         /// Over-travel aborts the homing; the safe stop takes over.
 ///         OVER_TRAVEL = Monitor::with_condition(
 ///             "over-travel",
 ///             AxisCondition::OverTravel,
 ///             Behaviour::AbortOwner,
 ///         )
+///         .exception(SAFE_STOP)
 ///         .owned_by(HOMING),
 ///     }
 /// }
+///
+/// // The whole configuration, checked by the compiler: without `.in_lane()` on the safe
+/// // stop this item would not compile ("an exception sequence has no lane").
+/// const CHECKED: () = match seqs::table() {
+///     Ok(table) => match monitor_ids::validate(&table) {
+///         Ok(()) => (),
+///         Err(e) => panic!("{}", e.reason()),
+///     },
+///     Err(e) => panic!("{}", e.reason()),
+/// };
 ///
 /// fn main() {
 ///     let monitors: Monitors<'static, Axis, 4, AxisCondition> = monitor_ids::table().unwrap();
@@ -182,6 +197,21 @@ macro_rules! monitors {
                 $crate::Error,
             > {
                 $crate::Monitors::table([$($monitor),+])
+            }
+
+            /// Checks these monitors with the sequence table `sequences`, as
+            /// `rtseq::Table::validate` (in a `const` item: by the compiler).
+            pub const fn validate<const N: usize>(
+                sequences: &$crate::Table<$control, N>,
+                $( $($param: $param_ty),* )?
+            ) -> ::core::result::Result<(), $crate::ConfigError> {
+                let monitors = [$($monitor),+];
+                let checked = sequences.validate(&monitors);
+                // A `const fn` may not drop a condition (whether its type needs a drop or
+                // not: the macro serves both).
+                #[allow(clippy::forget_non_drop)]
+                ::core::mem::forget(monitors);
+                checked
             }
         }
     };

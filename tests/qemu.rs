@@ -123,6 +123,23 @@ fn firmware_failure_exits_1() {
     expect_line(&out, "deliberate failure at 5000 us");
 }
 
+/// A configuration error found by `Sequencer::validate` on the target is logged in the
+/// words of its `Display` form (the defmt form is written to match).
+#[test]
+fn invalid_configuration_is_logged_as_on_the_host() {
+    use rtseq::{ConfigError, MonitorId, Raiser, SeqId};
+    let out = run("panic", &["config"]);
+    expect_exit(&out, 1);
+    let host = ConfigError::ExceptionWithoutLane {
+        raiser: Raiser::Monitor(MonitorId::from_index(0), "jam"),
+        exception: (SeqId::from_index(0), "safe stop"),
+    };
+    expect_line(
+        &out,
+        &format!("panic firmware: invalid configuration: {host}"),
+    );
+}
+
 /// Firmware that never exits is killed by the runner's time limit (exit code 124).
 #[test]
 fn hanging_firmware_hits_the_time_limit() {

@@ -535,9 +535,7 @@ fn firmware_sizes_with_and_without_rtseq() {
     // The README's firmware (the motor controller) and the scenario suite's (26 scenario
     // set-ups, each building its tree by value: their moves into `Seq`s are rtseq's lines).
     // Budgets (ceilings, not targets): the sequencer's code 12 KiB, the safety system's
-    // 2 KiB. The demo's sequencer code misses its budget since the trace records events
-    // (issue 21, with the safety system's levels and inputs): the known ceiling is 13 KiB
-    // until that is closed (docs/footprint.md says where the bytes went).
+    // 2 KiB.
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
@@ -548,7 +546,7 @@ fn firmware_sizes_with_and_without_rtseq() {
         "rtseq's sequencer code in the demo firmware [bytes]",
         demo_code.rtseq - demo_code.safety,
         12 * 1024,
-        13 * 1024,
+        12 * 1024,
     );
     budget(
         "rtseq's safety-system code in the demo firmware [bytes]",

@@ -135,3 +135,149 @@ fn a_timeout_exception_is_checked_like_a_monitors() {
         })
     );
 }
+
+/// `Table::validate` (the compiler's check, with the lanes a table declares) finds exactly
+/// what `Sequencer::validate` finds once the table is installed.
+mod at_compile_time {
+    use super::*;
+    use rtseq::{OwnedMonitor, Table};
+
+    type Cond = fn(&Ctrl, rtseq::Instant) -> bool;
+    const NEVER: Cond = never;
+    const MOVES: SeqId = SeqId::from_index(0);
+    const STOP: SeqId = SeqId::from_index(1);
+    const HOMING: SeqId = SeqId::from_index(2);
+    const UNKNOWN: SeqId = SeqId::from_index(7);
+    const JAM: MonitorId = MonitorId::from_index(0);
+
+    /// `moves`, `stop` (in a lane when `stop_lane`), `homing` (timeout exception `stop`).
+    const fn table(stop_lane: bool) -> Table<Ctrl, 3> {
+        let stop = SeqConfig::new("stop");
+        let stop = if stop_lane { stop.in_lane() } else { stop };
+        let homing = SeqConfig::new("homing")
+            .timeout(Duration::from_secs(5))
+            .timeout_exception(STOP);
+        match Table::new([SeqConfig::new("moves").in_lane(), stop, homing]) {
+            Ok(t) => t,
+            Err(_) => panic!("the test table"),
+        }
+    }
+
+    const fn jam(owner: SeqId, exception: SeqId) -> OwnedMonitor<'static, Ctrl, Cond> {
+        Monitor::with_condition("jam", NEVER, Behaviour::AbortOwner)
+            .exception(exception)
+            .owned_by(owner)
+    }
+
+    /// Both checks of one configuration: (the table's, the sequencer's).
+    fn both(
+        stop_lane: bool,
+        owner: SeqId,
+        exception: SeqId,
+    ) -> (Result<(), ConfigError>, Result<(), ConfigError>) {
+        let table = table(stop_lane);
+        let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+        seq.install(&table).unwrap();
+        let monitors: Monitors<'static, Ctrl, 1, Cond> =
+            Monitors::table([jam(owner, exception)]).unwrap();
+        (
+            table.validate(&[jam(owner, exception)]),
+            seq.validate(&monitors),
+        )
+    }
+
+    #[test]
+    fn every_error_is_the_sequencer_s() {
+        let cases = [
+            (
+                (true, UNKNOWN, STOP),
+                Err(ConfigError::UnknownOwner {
+                    monitor: (JAM, "jam"),
+                    owner: UNKNOWN,
+                }),
+            ),
+            (
+                (true, MOVES, UNKNOWN),
+                Err(ConfigError::UnknownException {
+                    raiser: Raiser::Monitor(JAM, "jam"),
+                    exception: UNKNOWN,
+                }),
+            ),
+            (
+                (true, STOP, STOP),
+                Err(ConfigError::ExceptionIsOwner {
+                    raiser: Raiser::Monitor(JAM, "jam"),
+                }),
+            ),
+            (
+                (false, MOVES, STOP),
+                Err(ConfigError::ExceptionWithoutLane {
+                    raiser: Raiser::Monitor(JAM, "jam"),
+                    exception: (STOP, "stop"),
+                }),
+            ),
+            // The monitor is fine; the homing's timeout exception has no lane.
+            (
+                (false, STOP, MOVES),
+                Err(ConfigError::ExceptionWithoutLane {
+                    raiser: Raiser::Timeout(HOMING, "homing"),
+                    exception: (STOP, "stop"),
+                }),
+            ),
+            ((true, MOVES, STOP), Ok(())),
+        ];
+        for ((stop_lane, owner, exception), want) in cases {
+            assert_eq!(
+                both(stop_lane, owner, exception),
+                (want, want),
+                "stop in a lane: {stop_lane}, owner {owner:?}, exception {exception:?}"
+            );
+        }
+    }
+
+    /// Evaluated by the compiler: the result is a constant.
+    #[test]
+    fn the_compiler_evaluates_the_check() {
+        const WITHOUT_LANE: Result<(), ConfigError> = table(false).validate(&[jam(MOVES, STOP)]);
+        const WITH_LANE: Result<(), ConfigError> = table(true).validate(&[jam(MOVES, STOP)]);
+        assert_eq!(
+            WITHOUT_LANE.map_err(|e| e.to_string()),
+            Err(
+                "the exception sequence `stop` of monitor `jam` has no lane \
+                 (declare one before the first tick)"
+                    .to_owned()
+            )
+        );
+        assert_eq!(WITH_LANE, Ok(()));
+        assert_eq!(
+            WITHOUT_LANE.map_err(|e| e.reason()),
+            Err("an exception sequence has no lane")
+        );
+    }
+}
+
+/// A sequence configured `in_lane` has its lane as soon as it is registered; when the lane
+/// slots are taken, the registration is refused and nothing is registered.
+#[test]
+fn a_sequence_in_a_lane_gets_its_slot_at_registration() {
+    use rtseq::lock::CriticalSection;
+    let seq: Sequencer<Ctrl, 4, 64, CriticalSection, 1> = Sequencer::new();
+    let main = seq.register(SeqConfig::new("main").in_lane()).unwrap();
+    let stop = seq.register(SeqConfig::new("stop")).unwrap();
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let mut c = never;
+    monitors
+        .add(
+            stop,
+            Monitor::new("jam", &mut c, Behaviour::AbortOwner).exception(main),
+        )
+        .unwrap();
+    assert_eq!(seq.validate(&monitors), Ok(()));
+    assert_eq!(seq.sequence_by_id(main).unwrap().start(), Ok(()));
+    assert_eq!(
+        seq.register(SeqConfig::new("fan").in_lane()),
+        Err(Error::LaneCapacityExceeded(SeqId::from_index(2)))
+    );
+    assert_eq!(seq.len(), 2);
+    assert!(seq.sequence_by_name("fan").is_none());
+}

@@ -513,11 +513,11 @@ rtseq::sequences! {
         /// Quick stop (step of safe stop).
         QUICK_STOP = SeqConfig::new("quick stop"),
         /// Safe stop.
-        SAFE_STOP = SeqConfig::new("safe stop"),
+        SAFE_STOP = SeqConfig::new("safe stop").in_lane(),
         /// Blink wait (step of status).
         BLINK = SeqConfig::new("blink").polling(Duration::from_millis(5)),
         /// Status.
-        STATUS = SeqConfig::new("status").polling(Duration::from_millis(5)),
+        STATUS = SeqConfig::new("status").polling(Duration::from_millis(5)).in_lane(),
         /// Power on.
         POWER_ON = SeqConfig::new("power on"),
         /// Seek end stop.
@@ -543,15 +543,15 @@ rtseq::sequences! {
         /// Moves.
         MOVES = SeqConfig::new("moves").on_abort(ControlSystem::abort_hook),
         /// Feed hold.
-        FEED_HOLD = SeqConfig::new("feed hold"),
+        FEED_HOLD = SeqConfig::new("feed hold").in_lane(),
         /// Feed resume.
-        FEED_RESUME = SeqConfig::new("feed resume"),
+        FEED_RESUME = SeqConfig::new("feed resume").in_lane(),
         /// Main halt.
         MAIN_HALT = SeqConfig::new("main halt"),
         /// Power off.
         POWER_OFF = SeqConfig::new("power off"),
         /// Main.
-        MAIN = SeqConfig::new("main"),
+        MAIN = SeqConfig::new("main").in_lane(),
     }
 }
 
@@ -572,13 +572,19 @@ impl Setup {
     // A `const` item: the panic is a compile error, never a run-time path.
     #[allow(clippy::panic)]
     pub const DEFAULT: Setup = match Setup::new(AppConfig::DEFAULT) {
-        Ok(setup) => setup,
+        Ok(setup) => match setup.validate() {
+            Ok(()) => setup,
+            Err(e) => panic!("{}", e.reason()),
+        },
         Err(e) => panic!("{}", e.reason()),
     };
     /// The set-up of [`AppConfig::DEMO`].
     #[allow(clippy::panic)]
     pub const DEMO: Setup = match Setup::new(AppConfig::DEMO) {
-        Ok(setup) => setup,
+        Ok(setup) => match setup.validate() {
+            Ok(()) => setup,
+            Err(e) => panic!("{}", e.reason()),
+        },
         Err(e) => panic!("{}", e.reason()),
     };
 
@@ -589,11 +595,19 @@ impl Setup {
             Err(e) => Err(e),
         }
     }
+
+    /// The whole configuration, sequences and monitors, checked as
+    /// [`Sequencer::validate`](rtseq::Sequencer::validate) would after [`register`]: in a
+    /// `const` item by the compiler ([`Setup::DEMO`] is), so the firmware needs no check
+    /// of its own at start-up.
+    pub const fn validate(&self) -> Result<(), rtseq::ConfigError> {
+        monitor_ids::validate(&self.table, &self.config)
+    }
 }
 
 /// Registers the whole application into `sequencer`: installs `setup`'s table (see
-/// [`Setup::new`]), binds the sequence objects and declares the lanes of [`App`], so that
-/// main can be started at once (from RTIC `init`, before the lanes first ran). The monitors
+/// [`Setup::new`]; the table declares the lanes of [`App`]) and binds the sequence objects,
+/// so that main can be started at once (from RTIC `init`, before the lanes first ran). The monitors
 /// are a table of their own ([`monitor_ids`]).
 ///
 /// Errors: the sequencer is not empty, or has fewer than five lane slots. `N` <
@@ -637,10 +651,5 @@ pub fn register<const N: usize, const T: usize, L: Lock, const W: usize>(
         feed_hold: s.bind(FEED_HOLD, FeedHold { moves: MOVES })?,
         feed_resume: s.bind(FEED_RESUME, FeedResume { moves: MOVES })?,
     };
-    for lane in [MAIN, STATUS, SAFE_STOP, FEED_HOLD, FEED_RESUME] {
-        s.sequence_by_id(lane)
-            .ok_or(rtseq::Error::UnknownSequence(lane))?
-            .declare_lane()?;
-    }
     Ok(app)
 }

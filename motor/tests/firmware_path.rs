@@ -87,9 +87,9 @@ fn safety_properties_are_complete() {
     assert!(SafetySystem::new(&PROPERTIES, handle).is_ok());
 }
 
-/// `register` declares the five lanes `App::run` drives: a sequencer with fewer lane slots
-/// is an error naming the first lane that found none, and a second registration into the
-/// same sequencer is refused.
+/// The table declares the five lanes `App::run` drives: a sequencer with fewer lane slots
+/// is an error naming the first lane (in table order) that found none, with nothing
+/// installed, and a second registration into the same sequencer is refused.
 #[test]
 fn register_needs_five_lane_slots_and_an_empty_sequencer() {
     use rtseq::lock::CriticalSection;
@@ -97,12 +97,27 @@ fn register_needs_five_lane_slots_and_an_empty_sequencer() {
     let four: Sequencer<ControlSystem, N, 256, CriticalSection, 4> = Sequencer::new();
     assert_eq!(
         app::register(&four, &app::Setup::DEFAULT).err(),
-        Some(Error::LaneCapacityExceeded(FEED_RESUME))
+        Some(Error::LaneCapacityExceeded(MAIN))
     );
+    assert_eq!(four.len(), 0);
     let five: Sequencer<ControlSystem, N, 256, CriticalSection, 5> = Sequencer::new();
     assert!(app::register(&five, &app::Setup::DEFAULT).is_ok());
     assert_eq!(
         app::register(&five, &app::Setup::DEFAULT).err(),
         Some(Error::NotEmpty)
     );
+}
+
+/// The compile-time check of a set-up (`Setup::validate`, which the firmware relies on
+/// instead of a check at start-up) finds what the sequencer's own check finds after
+/// `register`: nothing for the shipped configurations.
+#[test]
+fn the_compile_time_check_agrees_with_the_sequencer_s() {
+    for setup in [&app::Setup::DEFAULT, &app::Setup::DEMO] {
+        let seq: Sequencer<ControlSystem, N> = Sequencer::new();
+        app::register(&seq, setup).unwrap();
+        let monitors: app::AppMonitors<M> = app::monitor_ids::table(&setup.config).unwrap();
+        assert_eq!(setup.validate(), Ok(()));
+        assert_eq!(seq.validate(&monitors), setup.validate());
+    }
 }

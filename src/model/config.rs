@@ -33,6 +33,7 @@ pub struct SeqConfig<C> {
     pub(crate) timeout_behaviour: Behaviour,
     pub(crate) timeout_restart_limit: u8,
     pub(crate) on_abort: Option<fn(&C)>,
+    pub(crate) in_lane: bool,
 }
 
 impl<C> SeqConfig<C> {
@@ -56,6 +57,7 @@ impl<C> SeqConfig<C> {
             timeout_behaviour: Behaviour::AbortOwner,
             timeout_restart_limit: crate::monitor::DEFAULT_RESTART_LIMIT,
             on_abort: None,
+            in_lane: false,
         }
     }
 
@@ -282,6 +284,37 @@ impl<C> SeqConfig<C> {
     /// ```
     pub const fn on_abort(mut self, hook: fn(&C)) -> Self {
         self.on_abort = Some(hook);
+        self
+    }
+
+    /// The sequence runs in a lane of its own (the seed: a sequence started non-blocking
+    /// runs in a thread of its own). [`Sequencer::install`](crate::Sequencer::install) and
+    /// [`Sequencer::register`](crate::Sequencer::register) give it its lane slot, as
+    /// [`Handle::declare_lane`](crate::Handle::declare_lane) would; its lane future
+    /// ([`lane`](crate::lane)) must still be polled by a task. A table whose lanes are
+    /// declared here can be checked whole at compile time ([`Table::validate`](crate::Table::validate)).
+    ///
+    /// ```
+    /// use rtseq::{Error, SeqConfig, Sequencer, Table};
+    /// static TABLE: Table<(), 2> = match Table::new([
+    ///     SeqConfig::new("main").in_lane(),
+    ///     SeqConfig::new("safe stop").in_lane(),
+    /// ]) {
+    ///     Ok(t) => t,
+    ///     Err(e) => panic!("{}", e.reason()),
+    /// };
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// seq.install(&TABLE).unwrap();
+    /// let main = seq.sequence_by_name("main").unwrap();
+    /// assert_eq!(main.start(), Ok(())); // it has a lane: a non-blocking start is taken
+    /// // With one lane slot, the table does not fit: nothing is installed.
+    /// let small: Sequencer<(), 2, 64, rtseq::lock::CriticalSection, 1> = Sequencer::new();
+    /// let safe_stop = rtseq::SeqId::from_index(1);
+    /// assert_eq!(small.install(&TABLE), Err(Error::LaneCapacityExceeded(safe_stop)));
+    /// assert_eq!(small.len(), 0);
+    /// ```
+    pub const fn in_lane(mut self) -> Self {
+        self.in_lane = true;
         self
     }
 }

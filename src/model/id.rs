@@ -107,9 +107,12 @@ impl Link {
         }
     }
 
-    pub(crate) fn get(self) -> Option<SeqId> {
+    pub(crate) const fn get(self) -> Option<SeqId> {
         // At most 256 - 1: fits a byte.
-        self.0.checked_sub(1).map(|i| SeqId(i as u8))
+        match self.0.checked_sub(1) {
+            Some(i) => Some(SeqId(i as u8)),
+            None => None,
+        }
     }
 }
 

@@ -15,17 +15,19 @@ use crate::{Behaviour, Error, SeqConfig, SeqId};
 
 /// One checked configuration: what a control block takes from it.
 pub(crate) struct CheckedConfig<C> {
-    name: &'static str,
+    pub(crate) name: &'static str,
     /// Polling period (µs, non-zero, below 2^31).
     pub(crate) polling: u32,
     /// Timeout (µs; 0 = off).
     timeout: u32,
     on_abort: Option<fn(&C)>,
-    timeout_exception: Link,
+    pub(crate) timeout_exception: Link,
     timeout_behaviour: Behaviour,
     timeout_restart_limit: u8,
     /// The polling class (set when the entry joins one).
     pub(crate) class: u8,
+    /// Runs in a lane of its own ([`SeqConfig::in_lane`]).
+    pub(crate) in_lane: bool,
 }
 
 // Not derived: a derive would require `C: Copy`.
@@ -64,12 +66,14 @@ impl<C> CheckedConfig<C> {
             timeout_behaviour: config.timeout_behaviour,
             timeout_restart_limit: config.timeout_restart_limit,
             class: 0,
+            in_lane: config.in_lane,
         })
     }
 
     /// The control block of a registered sequence that never ran.
-    pub(crate) const fn block(&self) -> ControlBlock {
+    pub(crate) const fn block(&self, own_lane: u8) -> ControlBlock {
         ControlBlock {
+            own_lane,
             name: Some(self.name),
             timeout: self.timeout,
             timeout_behaviour: self.timeout_behaviour,
@@ -261,6 +265,7 @@ impl<C> CheckedConfig<C> {
         timeout_behaviour: Behaviour::AbortOwner,
         timeout_restart_limit: 0,
         class: 0,
+        in_lane: false,
     };
 }
 

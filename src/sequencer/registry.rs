@@ -6,7 +6,7 @@ use core::cell::Cell;
 use crate::lock::Lock;
 use crate::model::table::CheckedConfig;
 use crate::sequence::SeqHead;
-use crate::sequencer::control_block::flag;
+use crate::sequencer::control_block::{flag, NO_LANE};
 use crate::sequencer::port::Port;
 use crate::tick::schedule::Classes;
 use crate::{Error, Handle, Seq, SeqConfig, SeqId, Sequencer, Table};
@@ -34,8 +34,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if s.count() >= N {
                 return Err(Error::SequenceCapacityExceeded);
             }
+            let own_lane = if checked.in_lane {
+                let next = s.lanes_declared;
+                if usize::from(next) >= W {
+                    return Err(Error::LaneCapacityExceeded(id));
+                }
+                next
+            } else {
+                NO_LANE
+            };
             checked.class = s.polling.classes.join(id, checked.polling)?;
-            s.push_block(checked.block(), checked.on_abort())
+            let id = s.push_block(checked.block(own_lane), checked.on_abort())?;
+            if own_lane != NO_LANE {
+                s.lanes_declared = own_lane.saturating_add(1);
+            }
+            Ok(id)
         })
     }
 
@@ -73,12 +86,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         configs: &[CheckedConfig<C>],
         classes: &Classes<B>,
     ) -> Result<(), Error> {
+        // The lanes of the table take the first slots, in table order.
+        let mut lanes: u8 = 0;
         for (i, config) in configs.iter().enumerate() {
+            let id = SeqId::from_index(i);
+            let own_lane = if config.in_lane {
+                let slot = lanes;
+                if usize::from(slot) >= W {
+                    return Err(Error::LaneCapacityExceeded(id));
+                }
+                lanes = slot + 1;
+                slot
+            } else {
+                NO_LANE
+            };
             self.with(|s| {
                 if s.count() != 0 {
                     return Err(Error::NotEmpty);
                 }
-                s.prepare_block(SeqId::from_index(i), config.block(), config.on_abort());
+                s.prepare_block(id, config.block(own_lane), config.on_abort());
                 Ok(())
             })?;
         }
@@ -87,6 +113,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 return Err(Error::NotEmpty);
             }
             s.polling.classes.copy_used(classes);
+            s.lanes_declared = lanes;
             s.commit_count(configs.len());
             Ok(())
         })

@@ -6,7 +6,8 @@
 use core::fmt;
 
 use crate::lock::Lock;
-use crate::{MonitorId, Monitors, SeqId, Sequencer};
+use crate::model::table::CheckedConfig;
+use crate::{MonitorId, Monitors, OwnedMonitor, SeqId, Sequencer, Table};
 
 /// Who raises an exception: a monitor, or a sequence's timeout.
 ///
@@ -18,7 +19,6 @@ use crate::{MonitorId, Monitors, SeqId, Sequencer};
 /// assert_eq!(homing.to_string(), "the timeout of `homing`");
 /// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Raiser {
     /// The monitor with this id and name.
     Monitor(MonitorId, &'static str),
@@ -39,7 +39,6 @@ pub enum Raiser {
 /// );
 /// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConfigError {
     /// A monitor's owner is not a registered sequence.
     UnknownOwner {
@@ -68,6 +67,25 @@ pub enum ConfigError {
         /// The exception sequence and its name.
         exception: (SeqId, &'static str),
     },
+}
+
+impl ConfigError {
+    /// A short description without the names, for a `const` item's panic (which cannot
+    /// format): the `Display` form names the monitor and the sequences.
+    ///
+    /// ```
+    /// use rtseq::{ConfigError, MonitorId, Raiser};
+    /// let e = ConfigError::ExceptionIsOwner { raiser: Raiser::Monitor(MonitorId::from_index(0), "jam") };
+    /// assert_eq!(e.reason(), "an exception sequence is its own owner");
+    /// ```
+    pub const fn reason(&self) -> &'static str {
+        match self {
+            ConfigError::UnknownOwner { .. } => "a monitor's owner is not registered",
+            ConfigError::UnknownException { .. } => "an exception sequence is not registered",
+            ConfigError::ExceptionIsOwner { .. } => "an exception sequence is its own owner",
+            ConfigError::ExceptionWithoutLane { .. } => "an exception sequence has no lane",
+        }
+    }
 }
 
 impl fmt::Display for Raiser {
@@ -100,6 +118,47 @@ impl fmt::Display for ConfigError {
                 f,
                 "the exception sequence `{}` of {raiser} has no lane (declare one before the first tick)",
                 exception.1
+            ),
+        }
+    }
+}
+
+// The defmt forms read as the `Display` forms: a firmware's log says what is wrong in the
+// same words as a host test.
+#[cfg(feature = "defmt")]
+impl defmt::Format for Raiser {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            Raiser::Monitor(_, name) => defmt::write!(f, "monitor `{=str}`", name),
+            Raiser::Timeout(_, name) => defmt::write!(f, "the timeout of `{=str}`", name),
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ConfigError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            ConfigError::UnknownOwner { monitor, owner } => defmt::write!(
+                f,
+                "monitor `{=str}` is owned by sequence {=usize}, which is not registered",
+                monitor.1,
+                owner.index()
+            ),
+            ConfigError::UnknownException { raiser, exception } => defmt::write!(
+                f,
+                "the exception sequence {=usize} of {} is not registered",
+                exception.index(),
+                raiser
+            ),
+            ConfigError::ExceptionIsOwner { raiser } => {
+                defmt::write!(f, "{} names its own owner as its exception sequence", raiser)
+            }
+            ConfigError::ExceptionWithoutLane { raiser, exception } => defmt::write!(
+                f,
+                "the exception sequence `{=str}` of {} has no lane (declare one before the first tick)",
+                exception.1,
+                raiser
             ),
         }
     }
@@ -193,6 +252,140 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return Err(ConfigError::ExceptionWithoutLane {
                 raiser,
                 exception: (exception, name),
+            });
+        }
+        Ok(())
+    }
+}
+
+impl<C, const N: usize> Table<C, N> {
+    /// The check of [`Sequencer::validate`], made by the compiler: `monitors` (the list of a
+    /// monitor table, in table order) and this table's timeouts, with the lanes this table
+    /// declares ([`SeqConfig::in_lane`](crate::SeqConfig::in_lane)). In a `const` item a
+    /// configuration that cannot work is a compile error, and the firmware holds no
+    /// validation code. A lane declared only at run time is not seen here: then use
+    /// [`Sequencer::validate`]. A [`monitors!`](crate::monitors) module's `validate` calls
+    /// this with its list.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, ConfigError, Instant, Monitor, MonitorId, Raiser, SeqConfig, SeqId,
+    ///             Table};
+    /// type Cond = fn(&(), Instant) -> bool;
+    /// fn jammed(_: &(), _: Instant) -> bool { false }
+    /// const MOVES: SeqId = SeqId::from_index(0);
+    /// const SAFE_STOP: SeqId = SeqId::from_index(1);
+    /// const fn table(safe_stop: SeqConfig<()>) -> Table<(), 2> {
+    ///     match Table::new([SeqConfig::new("moves").in_lane(), safe_stop]) {
+    ///         Ok(t) => t,
+    ///         Err(e) => panic!("{}", e.reason()),
+    ///     }
+    /// }
+    /// const JAM: [rtseq::OwnedMonitor<'static, (), Cond>; 1] = [
+    ///     Monitor::with_condition("jam", jammed as Cond, Behaviour::AbortOwner)
+    ///         .exception(SAFE_STOP)
+    ///         .owned_by(MOVES),
+    /// ];
+    /// // Checked by the compiler: a bad configuration would not build.
+    /// const CHECKED: () = match table(SeqConfig::new("safe stop").in_lane()).validate(&JAM) {
+    ///     Ok(()) => (),
+    ///     Err(e) => panic!("{}", e.reason()),
+    /// };
+    /// // The safe stop without a lane could not run when the jam monitor fires.
+    /// assert_eq!(
+    ///     table(SeqConfig::new("safe stop")).validate(&JAM),
+    ///     Err(ConfigError::ExceptionWithoutLane {
+    ///         raiser: Raiser::Monitor(MonitorId::from_index(0), "jam"),
+    ///         exception: (SAFE_STOP, "safe stop"),
+    ///     })
+    /// );
+    /// ```
+    ///
+    /// In a `const` item, a configuration that cannot work does not compile:
+    ///
+    /// ```compile_fail
+    /// use rtseq::{Behaviour, Instant, Monitor, SeqConfig, SeqId, Table};
+    /// type Cond = fn(&(), Instant) -> bool;
+    /// fn jammed(_: &(), _: Instant) -> bool { false }
+    /// const TABLE: Table<(), 2> = match Table::new([
+    ///     SeqConfig::new("moves"),
+    ///     SeqConfig::new("safe stop"), // no lane
+    /// ]) {
+    ///     Ok(t) => t,
+    ///     Err(e) => panic!("{}", e.reason()),
+    /// };
+    /// const CHECKED: () = match TABLE.validate(&[
+    ///     Monitor::with_condition("jam", jammed as Cond, Behaviour::AbortOwner)
+    ///         .exception(SeqId::from_index(1))
+    ///         .owned_by(SeqId::from_index(0)),
+    /// ]) {
+    ///     Ok(()) => (),
+    ///     Err(e) => panic!("{}", e.reason()), // error: an exception sequence has no lane
+    /// };
+    /// ```
+    pub const fn validate<K>(
+        &self,
+        monitors: &[OwnedMonitor<'_, C, K>],
+    ) -> Result<(), ConfigError> {
+        let mut rest = monitors;
+        let mut index = 0;
+        while let Some((m, more)) = rest.split_first() {
+            let id = MonitorId::from_index(index);
+            let name = m.def.name;
+            if self.config(m.owner).is_none() {
+                return Err(ConfigError::UnknownOwner {
+                    monitor: (id, name),
+                    owner: m.owner,
+                });
+            }
+            if let Some(e) = m.def.exception {
+                if let Err(e) = self.check_exception(Raiser::Monitor(id, name), m.owner, e) {
+                    return Err(e);
+                }
+            }
+            rest = more;
+            index += 1;
+        }
+        let mut rest: &[CheckedConfig<C>] = &self.configs;
+        let mut index = 0;
+        while let Some((config, more)) = rest.split_first() {
+            let owner = SeqId::from_index(index);
+            if let Some(e) = config.timeout_exception.get() {
+                if let Err(e) = self.check_exception(Raiser::Timeout(owner, config.name), owner, e)
+                {
+                    return Err(e);
+                }
+            }
+            rest = more;
+            index += 1;
+        }
+        Ok(())
+    }
+
+    /// The entry of `id`, when the table has one.
+    const fn config(&self, id: SeqId) -> Option<&CheckedConfig<C>> {
+        match self.configs.split_at_checked(id.index()) {
+            Some((_, from_id)) => from_id.first(),
+            None => None,
+        }
+    }
+
+    /// As [`Sequencer::check_exception`], with the table's lanes.
+    const fn check_exception(
+        &self,
+        raiser: Raiser,
+        owner: SeqId,
+        exception: SeqId,
+    ) -> Result<(), ConfigError> {
+        let Some(config) = self.config(exception) else {
+            return Err(ConfigError::UnknownException { raiser, exception });
+        };
+        if exception.index() == owner.index() {
+            return Err(ConfigError::ExceptionIsOwner { raiser });
+        }
+        if !config.in_lane {
+            return Err(ConfigError::ExceptionWithoutLane {
+                raiser,
+                exception: (exception, config.name),
             });
         }
         Ok(())

@@ -49,8 +49,9 @@ impl Sequence<Axis> for SafeStop {
 rtseq::sequences! {
     mod seqs for Axis {
         SEEK = SeqConfig::new("seek"),
-        SAFE_STOP = SeqConfig::new("safe stop"),
+        SAFE_STOP = SeqConfig::new("safe stop").in_lane(),
         HOMING = SeqConfig::new("homing")
+            .in_lane()
             .timeout(Duration::from_millis(500))
             .timeout_exception(SAFE_STOP)
             .timeout_behaviour(Behaviour::AbortOwner),
@@ -99,8 +100,12 @@ impl SafetyIo for Io {
     fn write_output(&mut self, _: OutputId, _: IoValue) {}
 }
 
+// Checked by the compiler, with the monitors: every exception sequence has a lane.
 static TABLE: Table<Axis, { seqs::COUNT }> = match seqs::table() {
-    Ok(t) => t,
+    Ok(t) => match monitor_ids::validate(&t) {
+        Ok(()) => t,
+        Err(e) => panic!("{}", e.reason()),
+    },
     Err(e) => panic!("{}", e.reason()),
 };
 // SAFETY: SEQ is used at the tick's priority 2 and below; the safety task (3) only calls
@@ -153,10 +158,6 @@ mod app {
         let seek = or_exit(SEQ.bind(SEEK, Seek));
         let homing = or_exit(SEQ.bind(HOMING, Homing { seek }));
         let safe_stop = or_exit(SEQ.bind(SAFE_STOP, SafeStop));
-        for lane in [HOMING, SAFE_STOP] {
-            or_exit(handle(lane).declare_lane()); // so homing can start here
-        }
-        or_exit(SEQ.validate(&monitors)); // every exception sequence can run
         SEQ.set_safety_system(&SAFETY);
         let safety = or_exit(SafetySystem::new_validated(&PROPS, &SAFETY));
         or_exit(handle(HOMING).start()); // applied by the first tick

@@ -6,7 +6,9 @@
 //! - `hardfault`: executes a permanently undefined instruction (`udf`) → UsageFault escalates
 //!   to HardFault → logged, exit code 102;
 //! - `fail`: the firmware reports a failure it detected itself → exit code 1;
-//! - `hang`: never exits (the host runner's time limit must end it, exit code 124).
+//! - `hang`: never exits (the host runner's time limit must end it, exit code 124);
+//! - `config`: a sequencer whose monitor's exception sequence has no lane fails
+//!   `Sequencer::validate` in `init` → the error is logged, exit code 1.
 //!
 //! Built with `--features no-panic` it must NOT link (it contains an explicit `panic!`): that
 //! is the negative half of the no-panic proof.
@@ -22,6 +24,7 @@ enum Mode {
     HardFault,
     Fail,
     Hang,
+    Config,
 }
 
 /// Reads the mode from the semihosting command line (`qemu-run panic.elf hardfault`).
@@ -38,13 +41,53 @@ fn mode() -> Mode {
         Some("hardfault") => Mode::HardFault,
         Some("fail") => Mode::Fail,
         Some("hang") => Mode::Hang,
+        Some("config") => Mode::Config,
         _ => Mode::Panic,
+    }
+}
+
+/// A configuration mistake a firmware engineer makes: the jam monitor's exception
+/// sequence, `safe stop`, was never given a lane. `validate` finds it before the first tick.
+mod config {
+    use super::board;
+    use rtseq::{Behaviour, Instant, Monitor, SeqConfig, Sequencer};
+
+    type Cond = fn(&(), Instant) -> bool;
+    fn jammed(_: &(), _: Instant) -> bool {
+        false
+    }
+    rtseq::sequences! {
+        mod seqs for () {
+            SAFE_STOP = SeqConfig::new("safe stop"),
+            MAIN = SeqConfig::new("main"),
+        }
+    }
+    rtseq::monitors! {
+        mod monitor_ids for (), Cond {
+            JAM = Monitor::with_condition("jam", jammed as Cond, Behaviour::AbortOwner)
+                .exception(seqs::SAFE_STOP)
+                .owned_by(seqs::MAIN),
+        }
+    }
+    static SEQ: Sequencer<(), { seqs::COUNT }> = Sequencer::new();
+
+    /// Builds the configuration and validates it: the error is logged, the firmware ends.
+    pub fn check() -> ! {
+        let registered = seqs::table().and_then(|t| SEQ.install(&t));
+        match (registered, monitor_ids::table::<{ monitor_ids::COUNT }>()) {
+            (Ok(()), Ok(monitors)) => match SEQ.validate(&monitors) {
+                Err(e) => defmt::error!("panic firmware: invalid configuration: {}", e),
+                Ok(()) => defmt::error!("panic firmware: the configuration was accepted"),
+            },
+            _ => defmt::error!("panic firmware: the configuration could not be built"),
+        }
+        board::exit_failure()
     }
 }
 
 #[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
 mod app {
-    use super::{board, mode, Mode};
+    use super::{board, config, mode, Mode};
     use board::clock::TickTimer;
     use board::signal::TickSignal;
 
@@ -63,6 +106,9 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         let mode = mode();
         defmt::info!("panic firmware: mode {}", mode);
+        if mode == Mode::Config {
+            config::check();
+        }
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
         lane::spawn().ok();
         (Shared {}, Local { timer, mode })
@@ -96,7 +142,7 @@ mod app {
                     defmt::error!("deliberate failure at {=u64} us", now.as_ticks());
                     board::exit_failure()
                 }
-                Mode::Hang => {}
+                Mode::Hang | Mode::Config => {}
             }
         }
     }
