@@ -242,20 +242,42 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         owner: SeqId,
         exception: SeqId,
     ) -> Result<(), ConfigError> {
-        let Some(name) = self.name_of(exception) else {
-            return Err(ConfigError::UnknownException { raiser, exception });
-        };
-        if exception == owner {
-            return Err(ConfigError::ExceptionIsOwner { raiser });
-        }
-        if !self.has_lane(exception) {
-            return Err(ConfigError::ExceptionWithoutLane {
-                raiser,
-                exception: (exception, name),
-            });
-        }
-        Ok(())
+        let found = self.name_of(exception).map(|name| Found {
+            name,
+            in_lane: self.has_lane(exception),
+        });
+        judge_exception(raiser, owner, exception, found)
     }
+}
+
+/// What a check found of a registered exception sequence.
+#[derive(Clone, Copy)]
+struct Found {
+    name: &'static str,
+    in_lane: bool,
+}
+
+/// The verdict on `exception`, raised by `raiser` for `owner`, from what the check found of
+/// it (`None`: it is not registered). Shared by the run-time and the compile-time check.
+const fn judge_exception(
+    raiser: Raiser,
+    owner: SeqId,
+    exception: SeqId,
+    found: Option<Found>,
+) -> Result<(), ConfigError> {
+    let Some(found) = found else {
+        return Err(ConfigError::UnknownException { raiser, exception });
+    };
+    if exception.index() == owner.index() {
+        return Err(ConfigError::ExceptionIsOwner { raiser });
+    }
+    if !found.in_lane {
+        return Err(ConfigError::ExceptionWithoutLane {
+            raiser,
+            exception: (exception, found.name),
+        });
+    }
+    Ok(())
 }
 
 impl<C, const N: usize> Table<C, N> {
@@ -376,18 +398,13 @@ impl<C, const N: usize> Table<C, N> {
         owner: SeqId,
         exception: SeqId,
     ) -> Result<(), ConfigError> {
-        let Some(config) = self.config(exception) else {
-            return Err(ConfigError::UnknownException { raiser, exception });
+        let found = match self.config(exception) {
+            Some(config) => Some(Found {
+                name: config.name,
+                in_lane: config.in_lane,
+            }),
+            None => None,
         };
-        if exception.index() == owner.index() {
-            return Err(ConfigError::ExceptionIsOwner { raiser });
-        }
-        if !config.in_lane {
-            return Err(ConfigError::ExceptionWithoutLane {
-                raiser,
-                exception: (exception, config.name),
-            });
-        }
-        Ok(())
+        judge_exception(raiser, owner, exception, found)
     }
 }
