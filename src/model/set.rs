@@ -6,9 +6,9 @@
 //! A set of a sequencer is `B` words (the sequencer's parameter `B`, `N <= 32 * B`). A
 //! sequencer of up to 32 sequences has one-word sets: exactly a `u32`. The tick of a
 //! sequencer of more words visits only the words that hold an active sequence, one at a
-//! time, and works on each as a one-word sequencer does: the sets it tests on every tick
-//! ([`IndexedSet`]) keep an index of their non-empty words ([`Words`]), and a word of a
-//! set is a [`SetWord`].
+//! time, and works on each as a one-word sequencer does: a word of a set is a
+//! [`SetWord`], and a set of words is [`Words`]. The sequencer's own sets are stored a
+//! word of every set together (`sequencer::sets`); a [`SeqSet`] is a set on its own.
 
 use crate::SeqId;
 
@@ -118,31 +118,6 @@ impl<const B: usize> SeqSet<B> {
         }
     }
 
-    /// Calls `f` with each word's index. A one-word set makes no loop: size-optimised
-    /// builds do not unroll one.
-    #[inline(always)]
-    fn each_word(mut f: impl FnMut(usize)) {
-        if B == 1 {
-            f(0);
-        } else {
-            for w in 0..B {
-                f(w);
-            }
-        }
-    }
-
-    /// The bitwise OR over the words of `op` applied to the words of both sets.
-    #[inline(always)]
-    fn any_bits(&self, other: &Self, op: impl Fn(u32, u32) -> u32) -> u32 {
-        let mut bits = 0;
-        Self::each_word(|w| {
-            if let (Some(a), Some(b)) = (self.words.get(w), other.words.get(w)) {
-                bits |= op(*a, *b);
-            }
-        });
-        bits
-    }
-
     /// The ids of both sets.
     #[inline]
     pub(crate) fn union(&self, other: &Self) -> Self {
@@ -151,12 +126,6 @@ impl<const B: usize> SeqSet<B> {
             *o |= *w;
         }
         out
-    }
-
-    /// Whether the two sets share an id.
-    #[inline]
-    pub(crate) fn meets(&self, other: &Self) -> bool {
-        self.any_bits(other, |a, b| a & b) != 0
     }
 
     /// The same ids in a set of `M` words (ids it cannot hold are dropped).
@@ -209,14 +178,6 @@ impl<const B: usize> SeqSet<B> {
         }
     }
 
-    /// Takes the ids of `part` out.
-    #[inline(always)]
-    pub(crate) fn remove_all(&mut self, part: SetWord<B>) {
-        if let Some(word) = self.word_mut(part) {
-            *word &= !part.bits;
-        }
-    }
-
     /// Takes the lowest id out of the set.
     #[inline]
     pub(crate) fn pop(&mut self) -> Option<SeqId> {
@@ -258,6 +219,12 @@ impl Words {
     #[inline(always)]
     pub(crate) const fn single(w: usize) -> Words {
         Words(1 << (w & 7))
+    }
+
+    /// These words without `other`'s.
+    #[inline(always)]
+    pub(crate) const fn without(self, other: Words) -> Words {
+        Words(self.0 & !other.0)
     }
 
     /// These words and `other`'s.
@@ -322,6 +289,22 @@ impl<const B: usize> SetWord<B> {
             word: w as u8,
             bits: 0,
         }
+    }
+
+    /// The ids `32 * w + i` for each bit `i` of `bits` (`w < B`).
+    #[inline(always)]
+    pub(crate) const fn new(w: usize, bits: u32) -> Self {
+        // `w < B <= 8`.
+        SetWord {
+            word: w as u8,
+            bits,
+        }
+    }
+
+    /// Its bits: bit `i` for the id `32 * word + i`.
+    #[inline(always)]
+    pub(crate) fn bits(self) -> u32 {
+        self.bits
     }
 
     /// The word of `id` with `id` alone.
@@ -418,118 +401,6 @@ impl<const B: usize> Iterator for SetWord<B> {
     }
 }
 
-/// A set that keeps an index of its non-empty words when it has more than one: the sets
-/// the tick tests on every call (`active`, `changed`, `requested`), so that testing and
-/// walking them does not visit every word. A one-word set needs no index (its word is
-/// its own summary), so the index is kept only when `B > 1`.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct IndexedSet<const B: usize> {
-    set: SeqSet<B>,
-    /// The words of `set` that hold an id (`B > 1` only).
-    index: Words,
-}
-
-impl<const B: usize> IndexedSet<B> {
-    pub(crate) const EMPTY: Self = IndexedSet {
-        set: SeqSet::EMPTY,
-        index: Words::EMPTY,
-    };
-
-    /// The plain set.
-    #[inline(always)]
-    pub(crate) fn as_set(&self) -> &SeqSet<B> {
-        &self.set
-    }
-
-    #[inline]
-    pub(crate) fn has(&self, id: SeqId) -> bool {
-        self.set.has(id)
-    }
-
-    /// The words that hold an id.
-    #[inline(always)]
-    pub(crate) fn words(&self) -> Words {
-        if B == 1 {
-            Words(u8::from(!self.set.word(0).is_empty()))
-        } else {
-            self.index
-        }
-    }
-
-    #[inline(always)]
-    pub(crate) fn is_empty(&self) -> bool {
-        if B == 1 {
-            self.set.word(0).is_empty()
-        } else {
-            self.index.is_empty()
-        }
-    }
-
-    /// Word `w` of the set.
-    #[inline(always)]
-    pub(crate) fn word(&self, w: usize) -> SetWord<B> {
-        self.set.word(w)
-    }
-
-    /// Puts `id` in.
-    #[inline]
-    pub(crate) fn insert(&mut self, id: SeqId) {
-        self.set.insert(id);
-        if B > 1 {
-            self.index = self.index.with(Words::of(id));
-        }
-    }
-
-    /// Takes `id` out.
-    #[inline]
-    pub(crate) fn remove(&mut self, id: SeqId) {
-        self.set.remove(id);
-        if B > 1 {
-            let (w, _) = place(id);
-            if self.set.word(w).is_empty() {
-                self.index.0 &= !Words::of(id).0;
-            }
-        }
-    }
-
-    /// Puts `id` in (`on`) or takes it out.
-    #[inline]
-    pub(crate) fn set(&mut self, id: SeqId, on: bool) {
-        if on {
-            self.insert(id);
-        } else {
-            self.remove(id);
-        }
-    }
-
-    /// Empties the set and returns what it held.
-    #[inline]
-    pub(crate) fn take_all(&mut self) -> Self {
-        core::mem::replace(self, Self::EMPTY)
-    }
-
-    /// Takes the lowest id out of the set.
-    #[inline]
-    pub(crate) fn pop(&mut self) -> Option<SeqId> {
-        if B == 1 {
-            return self.set.pop();
-        }
-        let id = self.set.word(self.index.first()?).next()?;
-        self.remove(id);
-        Some(id)
-    }
-}
-
-impl<const B: usize> Iterator for IndexedSet<B> {
-    type Item = SeqId;
-
-    /// The ids in the set, lowest first.
-    #[inline]
-    fn next(&mut self) -> Option<SeqId> {
-        self.pop()
-    }
-}
-
 impl<const B: usize> Default for SeqSet<B> {
     fn default() -> Self {
         Self::EMPTY
@@ -574,7 +445,6 @@ mod tests {
     fn multi_word_sets() {
         let a = set::<8>(&[255, 0, 40, 41, 130]);
         let b = set::<8>(&[41, 130, 200]);
-        assert!(a.meets(&b) && !a.meets(&set(&[1, 42])));
         assert!(a.union(&b).eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
         // Words beyond a smaller sequencer's are dropped.
         assert!(a.resized::<2>().eq([SeqId(0), SeqId(40), SeqId(41)]));
@@ -606,35 +476,7 @@ mod tests {
         w.insert(SeqId(33));
         assert!(w.eq([SeqId(33)]));
         let mut c = a;
-        c.remove_all(a1);
         c.insert_all(b.word(6));
-        assert!(c.eq([0u8, 130, 200, 255].map(SeqId)));
-    }
-
-    #[test]
-    fn an_indexed_set_knows_its_words() {
-        let mut s = IndexedSet::<8>::EMPTY;
-        assert!(s.is_empty() && s.words().eq([]));
-        for id in [200, 3, 40, 41] {
-            s.insert(SeqId(id));
-        }
-        assert!(s.words().eq([0, 1, 6]));
-        s.remove(SeqId(40));
-        assert!(s.words().eq([0, 1, 6]));
-        s.set(SeqId(41), false);
-        assert!(s.words().eq([0, 6]));
-        assert!(s.word(6).eq([SeqId(200)]));
-        let mut t = s;
-        assert!(t.take_all().eq([SeqId(3), SeqId(200)]));
-        assert!(t.is_empty());
-        assert_eq!(s.pop(), Some(SeqId(3)));
-        assert!(s.words().eq([6]) && !s.is_empty());
-        assert_eq!(s.pop(), Some(SeqId(200)));
-        assert!(s.is_empty() && s.pop().is_none());
-        // A one-word set's word is its own index.
-        let mut one = IndexedSet::<1>::EMPTY;
-        assert!(one.words().eq([]));
-        one.insert(SeqId(9));
-        assert!(one.words().eq([0]) && one.has(SeqId(9)));
+        assert!(c.eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
     }
 }

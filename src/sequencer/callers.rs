@@ -8,6 +8,7 @@
 
 use crate::model::id::Link;
 use crate::sequencer::sections::Sections;
+use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::{RunningState, SeqId, MAX_DEPTH};
 
@@ -35,7 +36,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// ([`Link::NONE`] at the top of the lane).
     pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
         let b = self.block(at)?;
-        if b.state != RunningState::Running || self.sets.excepting.has(at) {
+        if b.state != RunningState::Running || self.sets.has(Set::Excepting, at) {
             return None;
         }
         let up = b.caller;

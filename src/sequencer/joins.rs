@@ -6,6 +6,7 @@
 
 use crate::model::id::Link;
 use crate::sequencer::lanes::LaneSet;
+use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::SeqId;
 
@@ -14,7 +15,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
         if let Some(b) = self.block_mut(joiner) {
             b.joins = Link::to(Some(target));
-            self.sets.joining.set(joiner, true);
+            self.sets.put(Set::Joining, joiner, true);
         }
     }
 
@@ -23,21 +24,21 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if let Some(b) = self.block_mut(joiner) {
             b.joins = Link::NONE;
         }
-        self.sets.joining.set(joiner, false);
+        self.sets.put(Set::Joining, joiner, false);
     }
 
     /// The run of `target` ended: every sequence waiting in a join for it is released.
     /// Returns their lanes, to wake.
     pub(crate) fn release_joiners(&mut self, target: SeqId) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
-        for j in self.sets.joining {
+        for j in self.sets.members(Set::Joining) {
             let Some(b) = self.block_mut(j) else {
                 continue;
             };
             if b.joins == Link::to(Some(target)) {
                 b.joins = Link::NONE;
                 lanes = lanes.with(LaneSet::of(b.lane));
-                self.sets.joining.set(j, false);
+                self.sets.put(Set::Joining, j, false);
             }
         }
         lanes

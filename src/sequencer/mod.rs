@@ -5,6 +5,7 @@
 //! |---|---|
 //! | `mod.rs` | the type, its constructors, [`Sequencer::with`] (the only way into the state) |
 //! | `state.rs` | [`State`]: everything the lock guards, grouped; the one accessor pair for control blocks; the transition function |
+//! | `sets.rs` | the sets of sequences the tick works on (active, paused, due, ...), stored a word of every set together |
 //! | `control_block.rs` | one sequence's control block (the seed's `BaseSequence` fields) |
 //! | `transition.rs` | the clearance of an await point, the normal end of a run |
 //! | `registry.rs` | registration, tables, binding, look-up by id and name |
@@ -38,6 +39,7 @@ mod registry;
 pub(crate) mod requests;
 mod safety;
 pub(crate) mod sections;
+pub(crate) mod sets;
 pub(crate) mod start;
 pub(crate) mod state;
 pub(crate) mod transition;

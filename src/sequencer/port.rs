@@ -10,6 +10,7 @@ use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
+use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
 use crate::sequencer::transition::Clearance;
 use crate::trace::StateChange;
@@ -110,8 +111,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     fn due_poll(&self, id: SeqId, waker: &Waker) -> Clearance {
         self.park_then(id, waker, |s| match s.clearance(id) {
-            Clearance::Go if s.sets.poll_due.has(id) => {
-                s.sets.poll_due.set(id, false);
+            Clearance::Go if s.sets.has(Set::PollDue, id) => {
+                s.sets.put(Set::PollDue, id, false);
                 Clearance::Go
             }
             Clearance::Go => Clearance::Hold,
@@ -122,8 +123,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn set_poll_wait(&self, id: SeqId, waiting: bool) {
         self.with(|s| {
             if s.block(id).is_some() {
-                s.sets.poll_wait.set(id, waiting);
-                s.sets.poll_due.set(id, false);
+                s.sets.put(Set::PollWait, id, waiting);
+                s.sets.put(Set::PollDue, id, false);
             }
         });
     }
@@ -147,8 +148,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         in_sections_then_wake!(self, |s| {
             // The run no longer waits for a poll.
             s.section(|s| {
-                s.sets.poll_wait.set(id, false);
-                s.sets.poll_due.set(id, false);
+                s.sets.put(Set::PollWait, id, false);
+                s.sets.put(Set::PollDue, id, false);
             });
             if s.section(|s| s.finished(id, outcome)) {
                 s.section(|s| s.exception_ended(id));
@@ -221,7 +222,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 state: b.state,
                 caller: b.caller.get(),
                 lane: b.lane,
-                exception_active: s.sets.excepting.has(id),
+                exception_active: s.sets.has(Set::Excepting, id),
                 active_exception: b.active_exception,
                 #[cfg(feature = "counters")]
                 counters: s.counters.get(id.index()).copied().unwrap_or_default(),

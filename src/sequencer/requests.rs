@@ -6,6 +6,7 @@ use core::sync::atomic::Ordering;
 use crate::lock::Lock;
 use crate::model::state::States;
 use crate::sequencer::control_block::request;
+use crate::sequencer::sets::Set;
 use crate::sequencer::{inbox, State};
 use crate::{Error, Event, Request, Requester, RunningState, SeqId, Sequencer};
 
@@ -62,7 +63,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if let Some(b) = self.block_mut(id) {
             b.flags |= req.bit();
         }
-        self.sets.requested.insert(id);
+        self.sets.insert(Set::Requested, id);
         Ok(())
     }
 }

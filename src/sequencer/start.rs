@@ -15,6 +15,7 @@ use crate::sequencer::callers::cut_and_depth;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
 use crate::sequencer::sections::{in_sections, Sections};
+use crate::sequencer::sets::Set;
 use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
 use crate::trace::StateChange;
@@ -124,11 +125,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if States::ACTIVE_RUNNING.has(self.state_of(id)) {
             return;
         }
-        self.sets.fresh.set(id, true);
-        self.sets.armed.set(id, armed);
-        self.sets.excepting.set(id, false);
+        self.sets.put(Set::Fresh, id, true);
+        self.sets.put(Set::Armed, id, armed);
+        self.sets.put(Set::Excepting, id, false);
         // A stale `poll_due` is cleared when the run first waits for a poll.
-        self.sets.poll_wait.set(id, false);
+        self.sets.put(Set::PollWait, id, false);
     }
 
     /// After the schedule, before the commit: the tick scans by the first poll of `id`'s
@@ -136,10 +137,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     fn due_by(&mut self, id: SeqId) {
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
+        let sets = &self.sets;
         let next = self
             .polling
             .classes
-            .resume(class, now, self.sets.active.as_set());
+            .resume(class, now, |members| sets.meets(Set::Active, members));
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 

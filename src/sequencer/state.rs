@@ -1,11 +1,12 @@
 //! Everything the sequencer's lock guards, and the one way to a control block.
 
 use crate::lock::Lock;
-use crate::model::set::{IndexedSet, SeqSet, SetWord};
+use crate::model::set::SetWord;
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
 use crate::sequencer::lanes::LaneSet;
+use crate::sequencer::sets::{Set, Sets};
 use crate::tick::schedule::Classes;
 use crate::trace::{Entry, Event, Record, Ring, StateChange};
 use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
@@ -19,7 +20,7 @@ use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition}
 pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const B: usize> {
     /// The last tick's time.
     pub(crate) now: Instant,
-    /// The sequences as sets: what the tick works on.
+    /// The sequences as sets ([`Set`]): what the tick works on.
     pub(crate) sets: Sets<B>,
     /// When the tick must look at the sequences next.
     pub(crate) polling: Polling<B>,
@@ -41,39 +42,6 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     pub(crate) counters: [crate::Counters; N],
     /// The transition trace.
     pub(crate) trace: Ring<T>,
-}
-
-/// The sequences as sets, kept so that the tick works with a few word operations instead
-/// of a visit to every control block.
-#[derive(Clone, Copy)]
-pub(crate) struct Sets<const B: usize> {
-    /// `Running` or `Paused`, as of the start of the last tick (the tick folds `changed`
-    /// in before it scans).
-    pub(crate) active: IndexedSet<B>,
-    /// `Paused`, as `active`.
-    pub(crate) paused: IndexedSet<B>,
-    /// A run is under way (`States::LIVE`), as `active`: with `changed`, the sequences a
-    /// teardown or pause may have to visit. Kept only in sets of several words (a teardown
-    /// in a sequencer of at most 32 visits all of them).
-    pub(crate) live: IndexedSet<B>,
-    /// The state changed since the tick last folded it into `active` and `paused`.
-    pub(crate) changed: IndexedSet<B>,
-    /// A new run or restart began: the tick resets the edge detection of these sequences'
-    /// monitors before their next evaluation.
-    pub(crate) fresh: SeqSet<B>,
-    /// The timeout monitor is armed.
-    pub(crate) armed: SeqSet<B>,
-    /// `exceptionIsActive`: a monitor of the sequence fired and its handling is pending,
-    /// or the sequence was aborted because of it.
-    pub(crate) excepting: IndexedSet<B>,
-    /// Waiting for a polled condition (the exit condition, or `Cx::wait_until`).
-    pub(crate) poll_wait: SeqSet<B>,
-    /// The tick says the polled condition is due.
-    pub(crate) poll_due: SeqSet<B>,
-    /// Waiting in a join (each block's `joins` says for which run).
-    pub(crate) joining: SeqSet<B>,
-    /// With a request, or whose exception sequence ended, for the next tick.
-    pub(crate) requested: IndexedSet<B>,
 }
 
 /// When the tick must look again, and whom it woke last time.
@@ -111,19 +79,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     pub(crate) const fn new() -> Self {
         State {
             now: Instant::from_ticks(0),
-            sets: Sets {
-                active: IndexedSet::EMPTY,
-                paused: IndexedSet::EMPTY,
-                live: IndexedSet::EMPTY,
-                changed: IndexedSet::EMPTY,
-                fresh: SeqSet::EMPTY,
-                armed: SeqSet::EMPTY,
-                excepting: IndexedSet::EMPTY,
-                poll_wait: SeqSet::EMPTY,
-                poll_due: SeqSet::EMPTY,
-                joining: SeqSet::EMPTY,
-                requested: IndexedSet::EMPTY,
-            },
+            sets: Sets::EMPTY,
             polling: Polling {
                 classes: Classes::new(),
                 next_due: Stamp(0),
@@ -231,10 +187,12 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// several words) `live`.
     pub(crate) fn fold(&mut self, id: SeqId) {
         let state = self.state_of(id);
-        self.sets.active.set(id, States::ACTIVE_RUNNING.has(state));
-        self.sets.paused.set(id, state == RunningState::Paused);
+        self.sets
+            .put(Set::Active, id, States::ACTIVE_RUNNING.has(state));
+        self.sets
+            .put(Set::Paused, id, state == RunningState::Paused);
         if B > 1 {
-            self.sets.live.set(id, States::LIVE.has(state));
+            self.sets.put(Set::Live, id, States::LIVE.has(state));
         }
     }
 
@@ -268,7 +226,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if let Some(o) = owner {
             if let Some(ob) = self.block_mut(o) {
                 ob.set(flag::EXCEPTION_DONE, true);
-                self.sets.requested.insert(o);
+                self.sets.insert(Set::Requested, o);
             }
         }
     }
@@ -308,7 +266,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return None;
         }
         b.state = change.to;
-        self.sets.changed.insert(id);
+        self.sets.insert(Set::Changed, id);
         self.trace.push(
             self.now,
             Entry::Transition {

@@ -1,6 +1,7 @@
 //! What the running state means for a run's await points, and the normal end of a run.
 //! (The transition function itself is [`State::transition`].)
 
+use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId};
@@ -25,7 +26,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return Clearance::Aborted(Cause::Abort);
         };
         match b.state {
-            RunningState::Running if !self.sets.excepting.has(id) => Clearance::Go,
+            RunningState::Running if !self.sets.has(Set::Excepting, id) => Clearance::Go,
             RunningState::Running | RunningState::Paused => Clearance::Hold,
             RunningState::Restarting => Clearance::Restart,
             RunningState::Aborting | RunningState::Aborted => Clearance::Aborted(b.last_cause),
@@ -40,6 +41,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// do instead).
     pub(crate) fn end(&mut self, change: &StateChange) -> bool {
         // A run ends only with the clearance `Go`: not while its exception is handled.
-        !self.sets.excepting.has(change.sequence) && self.transition(change).is_some()
+        !self.sets.has(Set::Excepting, change.sequence) && self.transition(change).is_some()
     }
 }

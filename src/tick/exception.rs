@@ -6,6 +6,7 @@ use crate::lock::Lock;
 use crate::model::state::States;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
+use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
 use crate::{Behaviour, Cause, Event, Requester, RunningState, SeqId, Sequencer};
 
@@ -118,7 +119,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let to = match behaviour {
             Behaviour::Nothing => {
                 in_sections_then_wake!(self, |s| {
-                    s.section(|s| s.sets.excepting.set(owner, false));
+                    s.section(|s| s.sets.put(Set::Excepting, owner, false));
                     s.section(|s| s.lane_of(owner))
                 });
                 return;
@@ -137,7 +138,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(never)]
     pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) {
         let any = self.with(|s| {
-            let any = !s.sets.active.is_empty();
+            let any = !s.sets.is_empty(Set::Active);
             if any {
                 s.record(Event::AbortAll { by });
             }
@@ -153,7 +154,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// whatever the monitor tables the tick is instantiated for).
     #[inline(never)]
     pub(crate) fn apply_requests(&self, control: &C) {
-        let requested = self.with(|s| s.sets.requested.take_all());
+        let requested = self.with(|s| s.sets.take(Set::Requested));
         for id in requested {
             // The requests, and the behaviour pending for an exception sequence that ended.
             let (req, done) = self.with(|s| {
@@ -227,7 +228,7 @@ fn mark<
     // Two sections, both in the tick, which no other user of the sequencer preempts.
     let target = s.section(|s| {
         let b = s.block(owner)?;
-        if !states.has(b.state) || s.sets.excepting.has(owner) {
+        if !states.has(b.state) || s.sets.has(Set::Excepting, owner) {
             return None;
         }
         Some(match b.caller.get() {
@@ -255,9 +256,9 @@ fn mark<
             if timeout {
                 b.timeout_restarts = restarts;
                 b.timeout_runs_seen = runs_seen;
-                s.sets.armed.set(owner, false);
+                s.sets.put(Set::Armed, owner, false);
             }
-            s.sets.excepting.set(owner, true);
+            s.sets.put(Set::Excepting, owner, true);
         }
         #[cfg(feature = "counters")]
         if let Some(c) = s.counters.get_mut(owner.index()) {

@@ -18,6 +18,7 @@ use crate::model::set::{SetWord, Words};
 use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
+use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::{Cause, Error, Instant, Monitors, SeqId, Sequencer};
 
@@ -54,11 +55,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let w = due.index();
         let careful = self.careful();
         let sets = &mut self.sets;
-        let running = due.minus(sets.paused.word(w));
-        let fresh = sets.fresh.word(w).and(due);
-        sets.fresh.remove_all(due);
-        let wake = running.and(sets.poll_wait.word(w));
-        sets.poll_due.insert_all(wake);
+        let running = due.minus(sets.word(Set::Paused, w));
+        let fresh = sets.word(Set::Fresh, w).and(due);
+        sets.remove_all(Set::Fresh, due);
+        let wake = running.and(sets.word(Set::PollWait, w));
+        sets.insert_all(Set::PollDue, wake);
         let polls = Polls {
             due,
             fresh,
@@ -66,7 +67,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             wake,
             careful,
         };
-        (polls, running.and(sets.armed.word(w)))
+        (polls, running.and(sets.word(Set::Armed, w)))
     }
 
     /// Whether some active sequence is paused or handles an exception.
@@ -74,16 +75,16 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     fn careful(&self) -> bool {
         let sets = &self.sets;
         if B == 1 {
-            let held = sets.paused.word(0).or(sets.excepting.word(0));
-            return sets.active.word(0).meets(held);
+            let held = sets.word(Set::Paused, 0).or(sets.word(Set::Excepting, 0));
+            return sets.word(Set::Active, 0).meets(held);
         }
         // The paused sequences are active (both sets are folded from the same states);
         // a sequence that handled an exception may have ended since.
-        let excepting = &sets.excepting;
-        !sets.paused.is_empty()
-            || excepting
-                .words()
-                .any(|w| excepting.word(w).meets(sets.active.word(w)))
+        !sets.is_empty(Set::Paused)
+            || sets.words(Set::Excepting).any(|w| {
+                sets.word(Set::Excepting, w)
+                    .meets(sets.word(Set::Active, w))
+            })
     }
 
     /// Those of `wake` that are not held (see [`held`]), in one section.
@@ -149,10 +150,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             (
                 late,
-                !s.sets.requested.is_empty(),
+                !s.sets.is_empty(Set::Requested),
                 stamp.reached(s.polling.next_due),
-                !s.sets.changed.is_empty(),
-                s.sets.active.words(),
+                !s.sets.is_empty(Set::Changed),
+                s.sets.words(Set::Active),
             )
         });
         if late {
@@ -244,10 +245,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         loop {
             // Each section says whether more are left.
             let (more, words) = self.with(|s| {
-                if let Some(id) = s.sets.changed.pop() {
+                if let Some(id) = s.sets.pop(Set::Changed) {
                     s.fold(id);
                 }
-                (!s.sets.changed.is_empty(), s.sets.active.words())
+                (!s.sets.is_empty(Set::Changed), s.sets.words(Set::Active))
             });
             if !more {
                 return words;
@@ -264,7 +265,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let next_due = |ahead: u32| now.plus(ahead.min(NEVER_AHEAD));
         if L::COARSE {
             return self.with(|s| {
-                let due = s.polling.classes.scan_all(now, s.sets.active.word(w), scan);
+                let due = s
+                    .polling
+                    .classes
+                    .scan_all(now, s.sets.word(Set::Active, w), scan);
                 s.polling.next_due = next_due(scan.ahead);
                 let (mut polls, timed) = s.take_polls(due);
                 polls.expired = s.expired(timed, now);
@@ -274,8 +278,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let classes = self.with(|s| s.polling.classes.len());
         let mut due = SetWord::empty(w);
         for i in 0..classes {
-            due =
-                due.or(self.with(|s| s.polling.classes.scan(i, now, s.sets.active.word(w), scan)));
+            due = due.or(self.with(|s| {
+                s.polling
+                    .classes
+                    .scan(i, now, s.sets.word(Set::Active, w), scan)
+            }));
         }
         let (mut polls, timed) = self.with(|s| {
             s.polling.next_due = next_due(scan.ahead);

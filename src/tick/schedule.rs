@@ -129,13 +129,19 @@ impl<const B: usize> Classes<B> {
         out
     }
 
-    /// Before a start of a sequence of class `index` at `now`: an idle class (no member
-    /// in `active`) starts its grid one period from now. Returns the class's next poll.
+    /// Before a start of a sequence of class `index` at `now`: an idle class (`active`
+    /// says of its members that none is active) starts its grid one period from now.
+    /// Returns the class's next poll.
     #[inline]
-    pub(crate) fn resume(&mut self, index: u8, now: Stamp, active: &SeqSet<B>) -> Stamp {
+    pub(crate) fn resume(
+        &mut self,
+        index: u8,
+        now: Stamp,
+        active: impl FnOnce(&SeqSet<B>) -> bool,
+    ) -> Stamp {
         match self.list.get_mut(usize::from(index)) {
             Some(c) => {
-                if !c.members.meets(active) {
+                if !active(&c.members) {
                     c.next = now.plus(c.period.map_or(0, NonZeroU32::get));
                 }
                 c.next
@@ -229,10 +235,13 @@ mod tests {
         assert_eq!(c.join(SeqId(1), 2_000), Ok(1));
         assert_eq!(c.join(SeqId(2), 1_000), Ok(0));
         let active = live(&[0, 1]);
-        assert_eq!(c.resume(0, Stamp(500), &SeqSet::EMPTY), Stamp(1_500));
-        assert_eq!(c.resume(1, Stamp(500), &SeqSet::EMPTY), Stamp(2_500));
+        assert_eq!(c.resume(0, Stamp(500), |_| false), Stamp(1_500));
+        assert_eq!(c.resume(1, Stamp(500), |_| false), Stamp(2_500));
         // Already busy: sequence 2 joins the grid of sequence 0.
-        assert_eq!(c.resume(0, Stamp(900), &active), Stamp(1_500));
+        assert_eq!(
+            c.resume(0, Stamp(900), |m| m.word(0).meets(active.word(0))),
+            Stamp(1_500)
+        );
         let scan = |c: &mut Classes<8>, now| {
             let mut scan = Scan::new();
             let mut due = SetWord::empty(0);
@@ -255,7 +264,7 @@ mod tests {
             assert_eq!(c.join(SeqId(id), 1_000), Ok(0));
         }
         let active = live(&[3, 100, 250]);
-        assert_eq!(c.resume(0, Stamp(0), &SeqSet::EMPTY), Stamp(1_000));
+        assert_eq!(c.resume(0, Stamp(0), |_| false), Stamp(1_000));
         let tick = |c: &mut Classes<8>, now| {
             let mut scan = Scan::new();
             let due: [SetWord<8>; 3] =

@@ -9,6 +9,7 @@ use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
+use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
@@ -142,7 +143,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 // Every registered block: the copy holds every link.
                 SeqSet::FULL
             } else {
-                let live = s.section(|s| s.sets.live.as_set().union(s.sets.changed.as_set()));
+                let live = s.section(|s| {
+                    s.sets
+                        .members(Set::Live)
+                        .union(&s.sets.members(Set::Changed))
+                });
                 for id in live {
                     copy(id, s.section(|s| read(s, id)));
                 }
