@@ -32,18 +32,39 @@ use schedule::Scan;
 /// What the tick must do for the due polls in one word of the sets (the tick visits the
 /// words that hold an active sequence one at a time).
 pub(crate) struct Polls<const B: usize> {
+    /// The word of the sets.
+    word: usize,
     /// Active sequences whose polling class is due: their monitors are evaluated.
-    pub(crate) due: SetWord<B>,
+    due: u32,
     /// Due in a new run or restart: their monitors' edge detection starts from "false".
-    pub(crate) fresh: SetWord<B>,
+    fresh: u32,
     /// Running, due, with an expired timeout (raised after the monitors).
-    expired: SetWord<B>,
+    expired: u32,
     /// Running, due, waiting for a polled condition: their lanes are woken (after the
     /// monitors).
-    wake: SetWord<B>,
-    /// Some active sequence (in any word) is paused or handles an exception: a wake-up
-    /// checks that its sequence is not held.
-    careful: bool,
+    wake: u32,
+}
+
+impl<const B: usize> Polls<B> {
+    #[inline(always)]
+    pub(crate) fn due(&self) -> SetWord<B> {
+        SetWord::new(self.word, self.due)
+    }
+
+    #[inline(always)]
+    pub(crate) fn fresh(&self) -> SetWord<B> {
+        SetWord::new(self.word, self.fresh)
+    }
+
+    #[inline(always)]
+    fn expired(&self) -> SetWord<B> {
+        SetWord::new(self.word, self.expired)
+    }
+
+    #[inline(always)]
+    fn wake(&self) -> SetWord<B> {
+        SetWord::new(self.word, self.wake)
+    }
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
@@ -53,7 +74,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     #[inline(always)]
     fn take_polls(&mut self, due: SetWord<B>) -> (Polls<B>, SetWord<B>) {
         let w = due.index();
-        let careful = self.careful();
         let sets = &mut self.sets;
         let running = due.minus(sets.word(Set::Paused, w));
         let fresh = sets.word(Set::Fresh, w).and(due);
@@ -61,11 +81,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let wake = running.and(sets.word(Set::PollWait, w));
         sets.insert_all(Set::PollDue, wake);
         let polls = Polls {
-            due,
-            fresh,
-            expired: SetWord::empty(w),
-            wake,
-            careful,
+            word: w,
+            due: due.bits(),
+            fresh: fresh.bits(),
+            expired: 0,
+            wake: wake.bits(),
         };
         (polls, running.and(sets.word(Set::Armed, w)))
     }
@@ -120,10 +140,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ///
     /// A tick with nothing due (and no state change since the last one) returns after one
     /// short critical section. A tick with a time earlier than the last tick's does
-    /// nothing and returns [`Error::TickBeforeLast`] (time does not go back). In a sequencer of more than 32 sequences (sets of `B > 1`
-    /// words) the tick visits only the words of 32 ids that hold an active sequence, lowest
-    /// first, and in each does what the tick of a sequencer of 32 does: monitors in table
-    /// order, then timeouts, then wake-ups.
+    /// nothing and returns [`Error::TickBeforeLast`] (time does not go back). In a
+    /// sequencer of more than 32 sequences (sets of `B > 1` words) the tick visits only the
+    /// words of 32 ids that hold an active sequence, lowest first, and in each does what
+    /// the tick of a sequencer of 32 does: monitors in table order, then timeouts, then
+    /// wake-ups.
     ///
     /// ```
     /// use rtseq::{Instant, Monitors, Sequencer};
@@ -178,13 +199,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             words = self.fold();
         }
         let mut scan = Scan::new();
-        let mut careful = false;
         if B == 1 {
-            self.tick_word(0, now, &mut scan, &mut careful, monitors, control);
+            self.tick_word(0, now, &mut scan, false, monitors, control);
             return Ok(());
         }
+        let mut careful = false;
         for w in words {
-            self.tick_word(w, now, &mut scan, &mut careful, monitors, control);
+            careful = self.tick_word(w, now, &mut scan, careful, monitors, control);
         }
         if words.is_empty() {
             self.with(|s| s.polling.next_due = stamp.plus(NEVER_AHEAD));
@@ -194,48 +215,50 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the
     /// monitors of the due sequences, their expired timeouts and the wake-ups of their due
-    /// exit-condition polls. `careful` (a wake-up checks that its sequence is not held)
-    /// carries over from word to word: once a monitor fired or a timeout expired, it stays.
+    /// exit-condition polls. `careful`: a monitor fired or a timeout expired in this tick
+    /// (in this word or an earlier one), so a wake-up checks that its sequence is not held,
+    /// as it does while an active sequence is paused or handles an exception. Returns it
+    /// for the next word.
     #[inline(always)]
     fn tick_word<const M: usize, K: crate::Condition<C>>(
         &self,
         w: usize,
         now: Instant,
         scan: &mut Scan,
-        careful: &mut bool,
+        mut careful: bool,
         monitors: &mut Monitors<'_, C, M, K>,
         control: &C,
-    ) {
+    ) -> bool {
         let polls = self.scan(w, Stamp::of(now), scan);
-        *careful |= polls.careful;
         if self.evaluate_monitors(&polls, monitors, control, now) {
-            *careful = true;
+            careful = true;
         }
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
-        for id in polls.expired {
+        for id in polls.expired() {
             // The configuration is fixed and its bookkeeping is the tick's: read once.
             if let Some(mut reaction) = self.with(|s| s.block(id).map(|b| b.timeout_reaction())) {
                 self.raise(control, id, Cause::Timeout(id), &mut reaction);
             }
-            *careful = true;
+            careful = true;
         }
-        if !polls.wake.is_empty() {
-            let careful = *careful;
+        if polls.wake != 0 {
             if L::COARSE {
                 // One section: the held check walks the callers inside it.
                 self.update_and_wake(|s| {
-                    let wake = if careful {
-                        s.unheld(polls.wake)
+                    let wake = if careful || s.careful() {
+                        s.unheld(polls.wake())
                     } else {
-                        polls.wake
+                        polls.wake()
                     };
                     s.lanes_of_polls(wake, &self.lanes)
                 });
             } else {
-                self.wake_lanes(self.lanes_of_polls(polls.wake, careful));
+                let careful = careful || self.with(|s| s.careful());
+                self.wake_lanes(self.lanes_of_polls(polls.wake(), careful));
             }
         }
+        careful
     }
 
     /// Folds the state of the sequences that changed into the sets `active`, `paused` (and,
@@ -271,7 +294,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     .scan_all(now, s.sets.word(Set::Active, w), scan);
                 s.polling.next_due = next_due(scan.ahead);
                 let (mut polls, timed) = s.take_polls(due);
-                polls.expired = s.expired(timed, now);
+                polls.expired = s.expired(timed, now).bits();
                 polls
             });
         }
@@ -289,9 +312,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             s.take_polls(due)
         });
         for id in timed {
-            polls.expired = polls
-                .expired
-                .or(self.with(|s| s.expired(SetWord::of(id), now)));
+            polls.expired |= self.with(|s| s.expired(SetWord::of(id), now)).bits();
         }
         polls
     }

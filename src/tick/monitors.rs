@@ -21,7 +21,7 @@ fn evaluate_due<C, K: crate::Condition<C>, const B: usize>(
     control: &C,
     now: Instant,
 ) -> (u32, u32) {
-    let (due, fresh) = (polls.due, polls.fresh);
+    let (due, fresh) = (polls.due(), polls.fresh());
     let mut values = 0u32;
     let mut evaluated = 0u32;
     let mut renewed = 0u32;
@@ -60,11 +60,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         now: Instant,
     ) -> bool {
         let mut fired = false;
-        let due = polls.due;
+        let due = polls.due();
         let w = due.index();
         // Due owners whose monitors keep their edge state: a group of only these, all in
         // this word, takes the flat loop.
-        let steady = due.minus(polls.fresh);
+        let steady = due.minus(polls.fresh());
         let mut rest = monitors.entries.as_mut_slice();
         let used = usize::from(monitors.used_groups);
         for g in monitors.groups.iter_mut().take(used) {
