@@ -200,10 +200,10 @@ mod app {
             figure(&S8_ONE, 1)?;
             figure(&S32_ONE, 1)?;
             figure(&S256_ONE, 1)?;
-            // Hundredths, as the `compare` lines.
+            // Rounded to the nearest per cent.
             defmt::info!(
                 "bench_scale: 256 registered / 8 registered, 8 x 4 due = {=u32} %",
-                big.saturating_mul(100) / base.max(1)
+                (big.saturating_mul(100) + base / 2) / base.max(1)
             );
             defmt::info!(
                 "bench_scale: size Sequencer<Ctrl, N, 64> N = 8: {=usize} B, 32: {=usize} B, 64 (B = 2): {=usize} B, 256 (B = 8): {=usize} B",
