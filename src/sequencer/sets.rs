@@ -227,22 +227,21 @@ impl<const B: usize> Sets<B> {
     /// Puts the ids of `part` in `set`.
     #[inline(always)]
     pub(crate) fn insert_all(&mut self, set: Set, part: SetWord<B>) {
-        let w = part.index();
-        if let Some(row) = self.row_mut(w) {
-            let word = row.get_mut(set);
-            *word |= part.bits();
-            let bits = *word;
-            self.reindex(set, w, bits);
-        }
+        self.change(set, part.index(), |word| word | part.bits());
     }
 
     /// Takes the ids of `part` out of `set`.
     #[inline(always)]
     pub(crate) fn remove_all(&mut self, set: Set, part: SetWord<B>) {
-        let w = part.index();
+        self.change(set, part.index(), |word| word & !part.bits());
+    }
+
+    /// Replaces word `w` of `set` by `f` of it, and keeps the set's index.
+    #[inline(always)]
+    fn change(&mut self, set: Set, w: usize, f: impl FnOnce(u32) -> u32) {
         if let Some(row) = self.row_mut(w) {
             let word = row.get_mut(set);
-            *word &= !part.bits();
+            *word = f(*word);
             let bits = *word;
             self.reindex(set, w, bits);
         }
