@@ -49,10 +49,19 @@ impl<const B: usize> SeqSet<B> {
         SeqSet { words: [0; B] }
     };
 
-    /// Every id the set can hold.
-    pub(crate) const FULL: Self = SeqSet {
-        words: [u32::MAX; B],
-    };
+    /// The ids below `n` (those the set can hold).
+    pub(crate) fn first(n: usize) -> Self {
+        let mut out = Self::EMPTY;
+        for (w, word) in out.words.iter_mut().enumerate() {
+            let below = n.saturating_sub(w.saturating_mul(32));
+            *word = if below >= 32 {
+                u32::MAX
+            } else {
+                (1u32 << below).wrapping_sub(1)
+            };
+        }
+        out
+    }
 
     /// The word that holds `id`, and its bit. A one-word set is one `u32`: every id a
     /// sequencer of such sets hands out is below 32.
@@ -64,17 +73,6 @@ impl<const B: usize> SeqSet<B> {
         } else {
             (self.words.get_mut(w), bit)
         }
-    }
-
-    #[inline]
-    pub(crate) fn has(&self, id: SeqId) -> bool {
-        let (w, bit) = place(id);
-        let word = if B == 1 {
-            self.words.first()
-        } else {
-            self.words.get(w)
-        };
-        word.is_some_and(|word| word & bit != 0)
     }
 
     /// This set with `id` in (for `const` set-up; ids beyond its words are ignored).
@@ -97,24 +95,6 @@ impl<const B: usize> SeqSet<B> {
     pub(crate) fn insert(&mut self, id: SeqId) {
         if let (Some(word), bit) = self.slot(id) {
             *word |= bit;
-        }
-    }
-
-    /// Takes `id` out.
-    #[inline]
-    pub(crate) fn remove(&mut self, id: SeqId) {
-        if let (Some(word), bit) = self.slot(id) {
-            *word &= !bit;
-        }
-    }
-
-    /// Puts `id` in (`on`) or takes it out.
-    #[inline]
-    pub(crate) fn set(&mut self, id: SeqId, on: bool) {
-        if on {
-            self.insert(id);
-        } else {
-            self.remove(id);
         }
     }
 
@@ -431,9 +411,7 @@ mod tests {
 
     #[test]
     fn one_word_sets_iterate_lowest_first() {
-        let mut s = set::<1>(&[31, 0, 5]);
-        assert!(s.has(SeqId(5)) && !s.has(SeqId(4)));
-        s.remove(SeqId(5));
+        let mut s = set::<1>(&[31, 0]);
         assert!(s.eq([SeqId(0), SeqId(31)]));
         s.insert(SeqId(5));
         assert!(s.eq([SeqId(0), SeqId(5), SeqId(31)]));
@@ -452,9 +430,10 @@ mod tests {
             .with(SeqId(63))
             .with(SeqId(64))
             .eq([SeqId(63)]));
-        let mut c = set::<8>(&[200]);
-        c.remove(SeqId(200));
-        assert!(c == SeqSet::EMPTY);
+        // The first ids, across words.
+        assert!(SeqSet::<8>::first(34).eq((0..34).map(SeqId)));
+        assert!(SeqSet::<1>::first(0) == SeqSet::EMPTY);
+        assert!(SeqSet::<2>::first(99) == SeqSet::<2>::first(64));
     }
 
     #[test]

@@ -20,6 +20,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let up = b.caller.get()?;
         if up == id {
             b.caller = Link::NONE;
+            self.sets.remove(Set::Called, at);
             return None;
         }
         Some(up)

@@ -44,10 +44,13 @@ pub(crate) enum Set {
     Joining,
     /// With a request, or whose exception sequence ended, for the next tick.
     Requested,
+    /// Its caller link is set (`callerSequence`): the sequences below another one are
+    /// among these, so a teardown or pause of one sequence visits only them.
+    Called,
 }
 
 /// The number of sets (the index has a place for each).
-const SETS: usize = 11;
+const SETS: usize = 12;
 
 impl Set {
     /// Whether the set keeps an index of its non-empty words: the sets the tick tests
@@ -56,7 +59,13 @@ impl Set {
     const fn indexed(self) -> bool {
         matches!(
             self,
-            Set::Active | Set::Paused | Set::Live | Set::Changed | Set::Excepting | Set::Requested
+            Set::Active
+                | Set::Paused
+                | Set::Live
+                | Set::Changed
+                | Set::Excepting
+                | Set::Requested
+                | Set::Called
         )
     }
 }
@@ -76,6 +85,7 @@ pub(crate) struct Row {
     poll_due: u32,
     joining: u32,
     requested: u32,
+    called: u32,
 }
 
 impl Row {
@@ -91,6 +101,7 @@ impl Row {
         poll_due: 0,
         joining: 0,
         requested: 0,
+        called: 0,
     };
 
     #[inline(always)]
@@ -107,6 +118,7 @@ impl Row {
             Set::PollDue => self.poll_due,
             Set::Joining => self.joining,
             Set::Requested => self.requested,
+            Set::Called => self.called,
         }
     }
 
@@ -124,6 +136,7 @@ impl Row {
             Set::PollDue => &mut self.poll_due,
             Set::Joining => &mut self.joining,
             Set::Requested => &mut self.requested,
+            Set::Called => &mut self.called,
         }
     }
 }

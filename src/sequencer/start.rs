@@ -243,6 +243,9 @@ fn launch<
         }
         s.section(|s| s.prepare(id, at.armed));
         s.section(|s| s.due_by(id));
+        // Before the link is set: a teardown in between visits one sequence too many
+        // (it is not active yet), never one too few.
+        s.section(|s| s.sets.put(Set::Called, id, run.caller.get().is_some()));
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
         let done = s.section(|s| s.commit_new(&change, at.at, &run));
         // In one section the loop never repeats.

@@ -223,7 +223,7 @@ mod tests {
     fn live(ids: &[u8]) -> SeqSet<8> {
         let mut b = SeqSet::EMPTY;
         for &i in ids {
-            b.set(SeqId(i), true);
+            b.insert(SeqId(i));
         }
         b
     }

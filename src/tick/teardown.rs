@@ -10,7 +10,6 @@ use crate::model::time::Stamp;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
-use crate::sequencer::State;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
@@ -103,89 +102,75 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// lane, by depth (outermost first, ids ascending in each row), and the deepest row
     /// that has one.
     ///
-    /// In a sequencer of more than 32 sequences, only those whose run may be under way are
-    /// visited: `live` as of the last fold and those `changed` since (the states in
-    /// `states` are all live). With one-word sets (at most 32 sequences) every registered
-    /// one is, which costs no more than working out which are live. Their caller links and
-    /// whether they qualify are copied (with a coarse lock in one section, else one short
-    /// section per sequence); the tree is walked in that copy, outside any section,
-    /// fetching the link of a caller outside the copy (a non-blocking child may outlive its
-    /// caller) when a walk up reaches one. Lanes cannot change the tree meanwhile when the
-    /// tick walks (the tick preempts them); a lane's walk (a dropped run) may be preempted
-    /// by the tick, and each change made from it is re-checked where it is made.
+    /// Only the sequences that can qualify are visited: below a target, the target and
+    /// those with a caller link (`Called`; a sequence below another one has one); without
+    /// a target, every one whose run may be under way (with several words `Live` as of
+    /// the last fold and those `Changed` since, else every registered one). Each is placed
+    /// by walking its caller links up (a non-blocking child may outlive its caller and
+    /// still link to it): with a coarse lock in one section, else one short section per
+    /// step. Lanes cannot change the tree meanwhile when the tick walks (the tick preempts
+    /// them); a lane's walk (a dropped run) may be preempted by the tick, and each change
+    /// made from it is re-checked where it is made.
     fn levels(
         &self,
         target: Option<SeqId>,
         states: States,
         lane: Option<u8>,
     ) -> ([SeqSet<B>; DEPTHS], usize) {
-        let mut links = [Link::NONE; N];
-        let mut picked = SeqSet::<B>::EMPTY;
-        let copied = in_sections!(self, |s| {
-            let mut copy = |id: SeqId, (link, ok): (Link, bool)| {
-                if let Some(l) = links.get_mut(id.index()) {
-                    *l = link;
-                }
-                picked.set(id, ok);
-            };
-            let read = |s: &mut State<C, N, T, W, B>, id: SeqId| {
-                s.block(id).map_or((Link::NONE, false), |b| {
-                    let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
-                    (b.caller, ok)
-                })
-            };
-            if B == 1 {
-                let count = s.section(|s| s.count());
-                for i in 0..count {
-                    let id = SeqId::from_index(i);
-                    copy(id, s.section(|s| read(s, id)));
-                }
-                // Every registered block: the copy holds every link.
-                SeqSet::FULL
-            } else {
-                let live = s.section(|s| {
-                    s.sets
-                        .members(Set::Live)
-                        .union(&s.sets.members(Set::Changed))
-                });
-                for id in live {
-                    copy(id, s.section(|s| read(s, id)));
-                }
-                live
-            }
+        let candidates = self.with(|s| match target {
+            Some(t) => s.sets.members(Set::Called).with(t),
+            None if B == 1 => SeqSet::first(s.count()),
+            None => s
+                .sets
+                .members(Set::Live)
+                .union(&s.sets.members(Set::Changed)),
         });
-        // The caller of `at`: from the copy, or (a caller outside it) from its block.
-        let caller = |at: SeqId| {
-            if copied.has(at) {
-                links.get(at.index()).and_then(|l| l.get())
-            } else {
-                self.with(|s| s.block(at).and_then(|b| b.caller.get()))
-            }
-        };
-        let target = Link::to(target);
         let mut rows = [SeqSet::EMPTY; DEPTHS];
         let mut deepest = 0;
-        for id in picked {
-            // Up the caller links (at most MAX_DEPTH): the depth, and whether the target
-            // is on the way.
-            let mut below = target == Link::NONE || target == Link::to(Some(id));
-            let mut depth = 0;
-            let mut at = id;
-            while let Some(up) = caller(at) {
-                if depth == MAX_DEPTH {
-                    break;
-                }
-                below |= target == Link::to(Some(up));
-                depth += 1;
-                at = up;
-            }
-            if let (true, Some(row)) = (below, rows.get_mut(depth)) {
-                row.set(id, true);
-                deepest = deepest.max(depth);
+        for id in candidates {
+            let depth = in_sections!(self, |s| depth_below(s, id, target, states, lane));
+            if let Some(row) = depth.and_then(|d| rows.get_mut(d)) {
+                row.insert(id);
+                deepest = deepest.max(depth.unwrap_or(0));
             }
         }
         (rows, deepest)
     }
+}
+
+/// Where [`Sequencer::levels`] places `id`: its depth (its number of callers, at most
+/// `MAX_DEPTH`) when its state is in `states`, it runs in `lane` (if given) and it is
+/// `target` or below it (every one without a target); else `None`.
+fn depth_below<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    target: Option<SeqId>,
+    states: States,
+    lane: Option<u8>,
+) -> Option<usize> {
+    let mut up = s.section(|s| {
+        let b = s.block(id)?;
+        let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
+        ok.then_some(b.caller)
+    })?;
+    let mut below = target.is_none_or(|t| t == id);
+    let mut depth = 0;
+    while let Some(at) = up.get() {
+        if depth == MAX_DEPTH {
+            break;
+        }
+        below |= target == Some(at);
+        depth += 1;
+        up = s.section(|s| s.block(at).map_or(Link::NONE, |b| b.caller));
+    }
+    below.then_some(depth)
 }
 
 /// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state in `states` for
