@@ -157,29 +157,6 @@ impl<const B: usize> SeqSet<B> {
             *word |= part.bits;
         }
     }
-
-    /// Takes the lowest id out of the set.
-    #[inline]
-    pub(crate) fn pop(&mut self) -> Option<SeqId> {
-        if let (1, Some(word)) = (B, self.words.first_mut()) {
-            if *word == 0 {
-                return None;
-            }
-            // The bit index is below 32: the id fits a byte.
-            let id = SeqId(word.trailing_zeros() as u8);
-            *word &= word.wrapping_sub(1);
-            return Some(id);
-        }
-        for (w, word) in self.words.iter_mut().enumerate() {
-            if *word != 0 {
-                // `w < 8` and the bit index `< 32`: the id fits a byte.
-                let id = SeqId(((w as u32) << 5 | word.trailing_zeros()) as u8);
-                *word &= word.wrapping_sub(1);
-                return Some(id);
-            }
-        }
-        None
-    }
 }
 
 /// Words of a set, bit `w` for word `w` (a set has at most 8).
@@ -387,13 +364,42 @@ impl<const B: usize> Default for SeqSet<B> {
     }
 }
 
-impl<const B: usize> Iterator for SeqSet<B> {
+impl<const B: usize> IntoIterator for SeqSet<B> {
+    type Item = SeqId;
+    type IntoIter = Ids<B>;
+
+    #[inline]
+    fn into_iter(self) -> Ids<B> {
+        Ids {
+            words: self.words,
+            at: 0,
+        }
+    }
+}
+
+/// The ids of a [`SeqSet`], lowest first: each word is passed once, so a walk of a
+/// set of several words costs its ids, not a scan from the first word for each.
+pub(crate) struct Ids<const B: usize> {
+    words: [u32; B],
+    /// The word the next id is looked for in (the ones before it are done).
+    at: usize,
+}
+
+impl<const B: usize> Iterator for Ids<B> {
     type Item = SeqId;
 
-    /// The ids in the set, lowest first.
     #[inline]
     fn next(&mut self) -> Option<SeqId> {
-        self.pop()
+        while let Some(word) = self.words.get_mut(self.at) {
+            if *word != 0 {
+                // `at < 8` and the bit index `< 32`: the id fits a byte.
+                let id = SeqId(((self.at as u32) << 5 | word.trailing_zeros()) as u8);
+                *word &= word.wrapping_sub(1);
+                return Some(id);
+            }
+            self.at = self.at.wrapping_add(1);
+        }
+        None
     }
 }
 
@@ -412,9 +418,9 @@ mod tests {
     #[test]
     fn one_word_sets_iterate_lowest_first() {
         let mut s = set::<1>(&[31, 0]);
-        assert!(s.eq([SeqId(0), SeqId(31)]));
+        assert!(s.into_iter().eq([SeqId(0), SeqId(31)]));
         s.insert(SeqId(5));
-        assert!(s.eq([SeqId(0), SeqId(5), SeqId(31)]));
+        assert!(s.into_iter().eq([SeqId(0), SeqId(5), SeqId(31)]));
         // A one-word set's only word.
         assert!(s.word(0).eq([SeqId(0), SeqId(5), SeqId(31)]));
     }
@@ -423,15 +429,22 @@ mod tests {
     fn multi_word_sets() {
         let a = set::<8>(&[255, 0, 40, 41, 130]);
         let b = set::<8>(&[41, 130, 200]);
-        assert!(a.union(&b).eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
+        assert!(a
+            .union(&b)
+            .into_iter()
+            .eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
         // Words beyond a smaller sequencer's are dropped.
-        assert!(a.resized::<2>().eq([SeqId(0), SeqId(40), SeqId(41)]));
+        assert!(a
+            .resized::<2>()
+            .into_iter()
+            .eq([SeqId(0), SeqId(40), SeqId(41)]));
         assert!(SeqSet::<2>::EMPTY
             .with(SeqId(63))
             .with(SeqId(64))
+            .into_iter()
             .eq([SeqId(63)]));
         // The first ids, across words.
-        assert!(SeqSet::<8>::first(34).eq((0..34).map(SeqId)));
+        assert!(SeqSet::<8>::first(34).into_iter().eq((0..34).map(SeqId)));
         assert!(SeqSet::<1>::first(0) == SeqSet::EMPTY);
         assert!(SeqSet::<2>::first(99) == SeqSet::<2>::first(64));
     }
@@ -456,6 +469,6 @@ mod tests {
         assert!(w.eq([SeqId(33)]));
         let mut c = a;
         c.insert_all(b.word(6));
-        assert!(c.eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
+        assert!(c.into_iter().eq([0u8, 40, 41, 130, 200, 255].map(SeqId)));
     }
 }

@@ -65,6 +65,7 @@ impl Set {
                 | Set::Changed
                 | Set::Excepting
                 | Set::Requested
+                | Set::Joining
                 | Set::Called
         )
     }
@@ -328,7 +329,9 @@ mod tests {
 
     /// Whether `set` of `s` holds exactly `ids`.
     fn holds<const B: usize>(s: &Sets<B>, set: Set, ids: &[u8]) -> bool {
-        s.members(set).eq(ids.iter().map(|&id| SeqId(id)))
+        s.members(set)
+            .into_iter()
+            .eq(ids.iter().map(|&id| SeqId(id)))
     }
 
     #[test]
@@ -363,7 +366,7 @@ mod tests {
         assert!(s.word(Set::Active, 6).eq([SeqId(200)]));
         let mut t = s;
         assert!(holds(&t, Set::Active, &[3, 200]));
-        assert!(t.take(Set::Active).eq([SeqId(3), SeqId(200)]));
+        assert!(t.take(Set::Active).into_iter().eq([SeqId(3), SeqId(200)]));
         assert!(t.is_empty(Set::Active) && t.words(Set::Active).eq([]));
         assert_eq!(s.pop(Set::Active), Some(SeqId(3)));
         assert!(s.words(Set::Active).eq([6]) && !s.is_empty(Set::Active));
@@ -378,7 +381,10 @@ mod tests {
     fn words_of_a_set_are_changed_whole() {
         let mut s = Sets::<8>::EMPTY;
         s.insert_all(Set::PollDue, SetWord::new(1, 0b101));
-        assert!(s.members(Set::PollDue).eq([SeqId(32), SeqId(34)]));
+        assert!(s
+            .members(Set::PollDue)
+            .into_iter()
+            .eq([SeqId(32), SeqId(34)]));
         s.remove_all(Set::PollDue, SetWord::new(1, 0b1));
         assert!(s.word(Set::PollDue, 1).eq([SeqId(34)]));
         s.insert_all(Set::Changed, SetWord::new(2, 1));
@@ -395,7 +401,7 @@ mod tests {
         assert!(s.words(Set::Requested).eq([0]));
         assert!(holds(&s, Set::Requested, &[9, 31]));
         assert_eq!(s.pop(Set::Requested), Some(SeqId(9)));
-        assert!(s.take(Set::Requested).eq([SeqId(31)]));
+        assert!(s.take(Set::Requested).into_iter().eq([SeqId(31)]));
         assert!(s.is_empty(Set::Requested));
     }
 }
