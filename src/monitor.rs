@@ -541,12 +541,19 @@ pub(crate) const GROUP_MAX: u8 = 32;
 /// Most monitors in one table.
 const MAX_MONITORS: usize = 256;
 
-/// Most groups in one table.
-const MAX_GROUPS: usize = MAX_MONITORS / GROUP_MAX as usize;
+/// Most groups in one table: twice the fewest that hold the most monitors, so that
+/// groups can also end where the owners' word changes.
+const MAX_GROUPS: usize = 2 * MAX_MONITORS / GROUP_MAX as usize;
 
 /// Up to [`GROUP_MAX`] consecutively registered monitors, evaluated together: the tick
 /// tests once per group whether all their owners are due and keeps the edge state as bit
 /// sets, so a group is its conditions plus a handful of word operations.
+///
+/// The tick visits the sets' words of 32 sequences one at a time, and a group whose
+/// owners are all in the word it visits takes the flat loop; so a group also ends where
+/// the next monitor's owner is in another word than the group's owners, while enough
+/// groups are left for the rest of the table (else it spans words, and the tick takes
+/// its per-monitor path in each).
 ///
 /// Bit `len - 1 - j` of each set belongs to the group's `j`-th monitor (the tick shifts
 /// each condition's value in from the right, in table order).
@@ -613,6 +620,60 @@ impl Group {
     }
 }
 
+/// The groups of a table, tiling its entries in order.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Groups {
+    /// The first `used` are in use.
+    pub(crate) list: [Group; MAX_GROUPS],
+    pub(crate) used: u8,
+}
+
+impl Groups {
+    const EMPTY: Groups = Groups {
+        list: [Group::starting_at(0); MAX_GROUPS],
+        used: 0,
+    };
+
+    /// Appends the monitor at `index` of a table of capacity `capacity`, owned by `owner`
+    /// and firing on `trigger`: to the last group, or to a new one when that is full, or
+    /// when `owner` is in another word than its owners and the groups left after a new
+    /// one still hold the rest of the table.
+    const fn push(&mut self, index: u8, owner: SeqId, trigger: Trigger, capacity: usize) {
+        let used = self.used as usize;
+        let opens = match group_mut(&mut self.list, used.wrapping_sub(1)) {
+            None => true,
+            Some(last) => {
+                let left = (MAX_GROUPS.saturating_sub(used)) * GROUP_MAX as usize;
+                let rest = capacity.saturating_sub(index as usize);
+                last.len == GROUP_MAX || (!last.owner_words.same(Words::of(owner)) && left >= rest)
+            }
+        };
+        if opens {
+            if let Some(g) = group_mut(&mut self.list, used) {
+                *g = Group::starting_at(index);
+                self.used = self.used.saturating_add(1);
+            }
+        }
+        if let Some(g) = group_mut(&mut self.list, (self.used as usize).wrapping_sub(1)) {
+            g.push(owner, trigger);
+        }
+    }
+}
+
+/// Group `at` of `list` (a `const` `get_mut`).
+const fn group_mut(list: &mut [Group], at: usize) -> Option<&mut Group> {
+    let mut rest = list;
+    let mut i = 0;
+    while let Some((g, tail)) = rest.split_first_mut() {
+        if i == at {
+            return Some(g);
+        }
+        rest = tail;
+        i += 1;
+    }
+    None
+}
+
 /// The monitors of an application, owned by the tick (the timer interrupt).
 ///
 /// Conditions keep state and are evaluated only by the tick, so this table is not shared:
@@ -648,10 +709,9 @@ pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// In registration order: a `MonitorId` is the index. Never dropped (a table lives as
     /// long as its firmware), so that a `const` item can hold a table ([`Monitors::table`]).
     pub(crate) entries: ManuallyDrop<heapless::Vec<OwnedMonitor<'a, C, K>, M>>,
-    /// The groups over `entries`, in table order: the first `used_groups`. Room for the
-    /// most monitors a table holds (the length cannot follow `M` on stable Rust).
-    pub(crate) groups: [Group; MAX_GROUPS],
-    pub(crate) used_groups: u8,
+    /// The groups over `entries`, in table order (room for the most monitors a table
+    /// holds: the length cannot follow `M` on stable Rust).
+    pub(crate) groups: Groups,
 }
 
 impl<C, const M: usize, K> Default for Monitors<'_, C, M, K> {
@@ -673,8 +733,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         const { assert!(M <= MAX_MONITORS, "at most 256 monitors") };
         Monitors {
             entries: ManuallyDrop::new(heapless::Vec::new()),
-            groups: [Group::starting_at(0); MAX_GROUPS],
-            used_groups: 0,
+            groups: Groups::EMPTY,
         }
     }
 
@@ -703,36 +762,22 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         monitors: [OwnedMonitor<'a, C, K>; L],
     ) -> Result<Self, Error> {
         const { assert!(M <= MAX_MONITORS, "at most 256 monitors") };
-        let mut groups = [Group::starting_at(0); MAX_GROUPS];
-        let mut used_groups: u8 = 0;
+        let mut groups = Groups::EMPTY;
         let mut rest: &[OwnedMonitor<'a, C, K>] = &monitors;
-        let mut slots: &mut [Group] = &mut groups;
         let mut at: u8 = 0;
-        while let Some((g, later)) = slots.split_first_mut() {
-            if rest.is_empty() {
-                break;
+        while let Some((e, tail)) = rest.split_first() {
+            if e.def.name.is_empty() {
+                // A `const fn` may not drop a `K`.
+                core::mem::forget(monitors);
+                return Err(Error::EmptyName);
             }
-            *g = Group::starting_at(at);
-            used_groups = used_groups.saturating_add(1);
-            while g.len < GROUP_MAX {
-                let Some((e, tail)) = rest.split_first() else {
-                    break;
-                };
-                if e.def.name.is_empty() {
-                    // A `const fn` may not drop a `K`.
-                    core::mem::forget(monitors);
-                    return Err(Error::EmptyName);
-                }
-                g.push(e.owner, e.def.watched());
-                at = at.wrapping_add(1);
-                rest = tail;
-            }
-            slots = later;
+            groups.push(at, e.owner, e.def.watched(), M);
+            at = at.wrapping_add(1);
+            rest = tail;
         }
         Ok(Monitors {
             entries: ManuallyDrop::new(heapless::Vec::from_array(monitors)),
             groups,
-            used_groups,
         })
     }
 
@@ -774,16 +819,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         self.entries
             .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;
-        // Group `k` holds entries `32 k ..`.
-        if id % GROUP_MAX == 0 {
-            self.used_groups = self.used_groups.saturating_add(1);
-            if let Some(g) = self.groups.get_mut(usize::from(id / GROUP_MAX)) {
-                *g = Group::starting_at(id);
-            }
-        }
-        if let Some(g) = self.groups.get_mut(usize::from(id / GROUP_MAX)) {
-            g.push(owner, trigger);
-        }
+        self.groups.push(id, owner, trigger, M);
         Ok(MonitorId(id))
     }
 
@@ -915,12 +951,61 @@ mod tests {
                 Ok(MonitorId::from_index(i))
             );
         }
-        assert_eq!((table.used_groups, added.used_groups), (2, 2));
-        for (t, a) in table.groups.iter().zip(added.groups.iter()).take(2) {
+        assert_eq!((table.groups.used, added.groups.used), (2, 2));
+        for (t, a) in table
+            .groups
+            .list
+            .iter()
+            .zip(added.groups.list.iter())
+            .take(2)
+        {
             let fields = |g: &Group| (g.last, g.rise, g.fall, g.level, g.owners, g.start, g.len);
             assert_eq!(fields(t), fields(a));
         }
         assert_eq!(table.owner(MonitorId::from_index(32)), Some(owner(32)));
+    }
+
+    /// The lengths of the groups in use.
+    fn lengths<const M: usize>(m: &Monitors<'_, (), M, Never>) -> heapless::Vec<u8, MAX_GROUPS> {
+        let used = usize::from(m.groups.used);
+        m.groups.list.iter().take(used).map(|g| g.len).collect()
+    }
+
+    #[test]
+    fn groups_end_where_the_owners_word_changes_while_groups_are_left() {
+        // Owners 0..3 (word 0), then 40..43 (word 1), then 1 (word 0) again.
+        let owners = [0, 1, 2, 3, 40, 41, 42, 43, 1].map(SeqId::from_index);
+        let mut m: Monitors<'_, (), 64, Never> = Monitors::new();
+        for (i, &o) in owners.iter().enumerate() {
+            assert!(m.add(o, monitor(i)).is_ok());
+        }
+        assert_eq!(lengths(&m), [4, 4, 1]);
+        let first = m.groups.list.first().map(|g| g.owner_words);
+        assert_eq!(first, Some(Words::of(SeqId(0))));
+        // A table built at compile time groups the same way.
+        let table: Result<Monitors<'_, (), 64, Never>, _> = Monitors::table({
+            let mut i = 0;
+            owners.map(|o| {
+                i += 1;
+                monitor(i - 1).owned_by(o)
+            })
+        });
+        assert_eq!(
+            table.map(|t| lengths(&t)).ok(),
+            Some([4, 4, 1].into_iter().collect())
+        );
+        // Owners alternating between two words fill a table of the most monitors: the
+        // groups split while enough are left for the rest, then span both words.
+        let mut full: Monitors<'_, (), 256, Never> = Monitors::new();
+        for i in 0..256 {
+            let owner = SeqId::from_index(i % 2 * 32);
+            assert_eq!(full.add(owner, monitor(i)), Ok(MonitorId::from_index(i)));
+        }
+        let lens = lengths(&full);
+        assert_eq!(lens.iter().map(|&l| usize::from(l)).sum::<usize>(), 256);
+        assert_eq!(lens.len(), MAX_GROUPS);
+        assert_eq!(lens.first(), Some(&1));
+        assert_eq!(lens.last(), Some(&32));
     }
 
     #[test]

@@ -184,6 +184,12 @@ impl Words {
         Words(self.0 & !other.0)
     }
 
+    /// Whether these are the same words as `other` (a `const` `==`).
+    #[inline(always)]
+    pub(crate) const fn same(self, other: Words) -> bool {
+        self.0 == other.0
+    }
+
     /// These words and `other`'s.
     #[inline(always)]
     pub(crate) const fn with(self, other: Words) -> Words {

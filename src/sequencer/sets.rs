@@ -354,7 +354,7 @@ mod tests {
     #[test]
     fn an_indexed_set_knows_its_words() {
         let mut s = Sets::<8>::EMPTY;
-        assert!(s.is_empty(Set::Active) && s.words(Set::Active).eq([]));
+        assert!(s.is_empty(Set::Active) && s.words(Set::Active).next().is_none());
         for id in [200, 3, 40, 41] {
             s.insert(Set::Active, SeqId(id));
         }
@@ -367,7 +367,7 @@ mod tests {
         let mut t = s;
         assert!(holds(&t, Set::Active, &[3, 200]));
         assert!(t.take(Set::Active).into_iter().eq([SeqId(3), SeqId(200)]));
-        assert!(t.is_empty(Set::Active) && t.words(Set::Active).eq([]));
+        assert!(t.is_empty(Set::Active) && t.words(Set::Active).next().is_none());
         assert_eq!(s.pop(Set::Active), Some(SeqId(3)));
         assert!(s.words(Set::Active).eq([6]) && !s.is_empty(Set::Active));
         assert_eq!(s.pop(Set::Active), Some(SeqId(200)));

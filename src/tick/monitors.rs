@@ -65,20 +65,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // Due owners whose monitors keep their edge state: a group of only these, all in
         // this word, takes the flat loop.
         let steady = due.minus(polls.fresh());
-        let mut rest = monitors.entries.as_mut_slice();
-        let used = usize::from(monitors.used_groups);
-        for g in monitors.groups.iter_mut().take(used) {
-            // The groups tile the table in order.
-            let Some((members, tail)) =
-                core::mem::take(&mut rest).split_at_mut_checked(usize::from(g.len))
-            else {
-                break;
-            };
-            rest = tail;
+        let entries = monitors.entries.as_mut_slice();
+        let used = usize::from(monitors.groups.used);
+        for g in monitors.groups.list.iter_mut().take(used) {
             let owners = g.owners.word_as::<B>(w);
             if !owners.meets(due) {
                 continue;
             }
+            let start = usize::from(g.start);
+            let Some(members) = entries.get_mut(start..start + usize::from(g.len)) else {
+                break;
+            };
             // A monitor of a fresh owner starts its edge detection from "false", and one
             // of an owner in another word is not due here: the per-monitor path.
             let one_word = B == 1 || g.owner_words == Words::single(w);
