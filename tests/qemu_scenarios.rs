@@ -345,12 +345,95 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
         "one running of 32 costs less than 8 running of 8"
     );
     assert!(f(1, 256) < f(8, 256), "and in a sequencer of 256");
+    // A teardown visits the target and the sequences with a caller, not every registered
+    // one (until session 21, 8 -> 32 registered cost +530 and 256 registered 2.6 times 8).
+    let firing = |registered: u32| {
+        figure(
+            &out,
+            &format!(
+                "bench_scale: firing tick (AbortOwner), 8 running, {registered} registered = "
+            ),
+        )
+    };
+    assert!(
+        free(firing(8), firing(32)),
+        "a firing costs the same in 8 and 32"
+    );
+    assert!(
+        firing(256) * 2 < firing(8) * 3,
+        "a firing with 256 registered costs less than 1.5 times one with 8"
+    );
     budget(
         "tick 8 x 4 due with 256 registered, in % of the same with 8 registered",
         f(8, 256) * 100 / f(8, 8),
         110,
         115,
     );
+}
+
+/// The cost model's grid (`bench_grid`, `./x bench --scale`): 256 registered, running
+/// sequences × monitors each. The tick follows the woken lanes and the monitors, not the
+/// sequences that wait for a blocking child; the period adds the lanes' polls.
+#[test]
+fn bench_grid_tick_follows_the_due_polls_and_the_monitors() {
+    let out = run("bench_grid", &[]);
+    expect_exit(&out, 0);
+    let cell = |running: u32, monitors: u32| {
+        let prefix = format!("bench_grid: running {running} x monitors {monitors}: ");
+        let line = out
+            .lines
+            .iter()
+            .find(|l| l.message.starts_with(&prefix))
+            .unwrap_or_else(|| panic!("no line {prefix:?}"));
+        let rest = &line.message[prefix.len()..];
+        if rest.starts_with('-') {
+            return None;
+        }
+        let number = |key: &str| -> u64 {
+            let at = rest.find(key).map(|i| i + key.len()).expect("a figure");
+            let digits: String = rest[at..]
+                .chars()
+                .take_while(char::is_ascii_digit)
+                .collect();
+            digits.parse().expect("a number")
+        };
+        Some((number("tick = "), number("period = ")))
+    };
+    let mut measured = 0;
+    for running in [1, 8, 32, 64, 256] {
+        for monitors in [0, 1, 4, 8] {
+            match cell(running, monitors) {
+                Some((tick, period)) => {
+                    measured += 1;
+                    println!("figure: grid {running} running x {monitors} monitors: tick {tick}, period {period}");
+                    assert!(tick < period, "the period includes the tick");
+                }
+                None => assert!(
+                    running * monitors > 256,
+                    "only cells beyond one table are skipped"
+                ),
+            }
+        }
+    }
+    assert_eq!(measured, 17);
+    let tick = |r, m| cell(r, m).map(|c| c.0).expect("measured");
+    let period = |r, m| cell(r, m).map(|c| c.1).expect("measured");
+    for running in [1, 8, 32] {
+        assert!(tick(running, 0) < tick(running, 1) && tick(running, 1) < tick(running, 4));
+        assert!(
+            tick(running, 4) < tick(running, 8),
+            "more monitors cost more"
+        );
+    }
+    // 32 lanes in every shape from 32 on: sequences waiting for a blocking child add
+    // nothing to the tick, only their monitors do (256 monitors cost the same however
+    // they are spread).
+    assert_eq!(tick(32, 0), tick(64, 0));
+    assert_eq!(tick(32, 0), tick(256, 0));
+    assert!(tick(32, 8).abs_diff(tick(256, 1)) <= 16);
+    assert!(tick(32, 8).abs_diff(tick(64, 4)) <= 16);
+    // A deeper chain makes each lane's poll dearer (every level's await point).
+    assert!(period(32, 0) < period(64, 0) && period(64, 0) < period(256, 0));
 }
 
 /// Instructions per tick, reaction latency and sizes from the `bench_seq` firmware.

@@ -199,7 +199,7 @@ impl FirmwareSet {
 
 /// The firmware of the scenario suite.
 pub static SCENARIO_FIRMWARE: FirmwareSet = FirmwareSet::new(
-    &["scenarios", "bench_seq", "bench_scale", "smoke", "demo"],
+    &["scenarios", "bench_seq", "bench_scale", "bench_grid", "smoke", "demo"],
     "qemu-harness",
 );
 

@@ -16,8 +16,9 @@
 //! Per cell: `tick` is the most instructions of one due tick (monitor evaluation, polling
 //! classes, wake-ups of the due exit-condition polls); `period` the most instructions from
 //! the entry of the TIM2 handler to `idle` running again (the tick, the dispatch, and the
-//! polls of the lanes: the 32 lane futures are joined in one task, so a wake-up polls all
-//! of them; a chain's sequences above its last one wait for their child, not for a poll).
+//! polls of the lanes: 8 lane futures are joined in each of 4 tasks, so a wake-up of a task
+//! polls its 8; a chain's sequences above its last one wait for their child, not for a
+//! poll).
 #![no_std]
 #![no_main]
 
@@ -99,10 +100,17 @@ mod app {
     #[shared]
     struct Shared {}
 
+    /// Lanes joined in one task (a task per 8 lanes, as an application would group them).
+    const PER_TASK: usize = 8;
+    type Heads = [Option<Seq<Node<'static>>>; PER_TASK];
+
     #[local]
     struct Local {
         timer: TickTimer,
-        heads: [Option<Seq<Node<'static>>>; CHAINS],
+        heads0: Heads,
+        heads1: Heads,
+        heads2: Heads,
+        heads3: Heads,
     }
 
     #[init(local = [slots: [Option<Child<'static>>; CHAINS * (DEPTH - 1)] = [const { None }; CHAINS * (DEPTH - 1)]])]
@@ -146,12 +154,22 @@ mod app {
             defmt::error!("bench_grid: setup failed: {}", e);
             board::exit_failure();
         }
-        lanes::spawn().ok();
+        let mut heads = heads.into_iter();
+        let mut task_heads = || core::array::from_fn(|_| heads.next().flatten());
+        let (heads0, heads1, heads2, heads3) =
+            (task_heads(), task_heads(), task_heads(), task_heads());
+        lanes0::spawn().ok();
+        lanes1::spawn().ok();
+        lanes2::spawn().ok();
+        lanes3::spawn().ok();
         (
             Shared {},
             Local {
                 timer: TickTimer::start(cx.device.TIM2, &cx.device.RCC),
-                heads,
+                heads0,
+                heads1,
+                heads2,
+                heads3,
             },
         )
     }
@@ -323,14 +341,34 @@ mod app {
         }
     }
 
-    #[task(priority = 1, local = [heads])]
-    async fn lanes(cx: lanes::Context) {
-        let futs = cx.local.heads.each_mut().map(|head| async move {
+    /// Runs the lanes of `heads`, joined in one task.
+    async fn lanes(heads: &mut Heads) -> ! {
+        let futs = heads.each_mut().map(|head| async move {
             match head {
                 Some(seq) => match rtseq::lane(&SEQ, &CTRL, seq).await {},
                 None => core::future::pending::<()>().await,
             }
         });
         join_measured(futs, &POLLS).await
+    }
+
+    #[task(priority = 1, local = [heads0])]
+    async fn lanes0(cx: lanes0::Context) {
+        lanes(cx.local.heads0).await
+    }
+
+    #[task(priority = 1, local = [heads1])]
+    async fn lanes1(cx: lanes1::Context) {
+        lanes(cx.local.heads1).await
+    }
+
+    #[task(priority = 1, local = [heads2])]
+    async fn lanes2(cx: lanes2::Context) {
+        lanes(cx.local.heads2).await
+    }
+
+    #[task(priority = 1, local = [heads3])]
+    async fn lanes3(cx: lanes3::Context) {
+        lanes(cx.local.heads3).await
     }
 }
