@@ -3,7 +3,7 @@
 use core::marker::PhantomData;
 use core::mem::ManuallyDrop;
 
-use crate::model::set::{SeqSet, Words, WORDS_MAX};
+use crate::model::set::Words;
 use crate::{Condition, Error, MonitorId, SeqId};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
@@ -567,9 +567,11 @@ pub(crate) struct Group {
     pub(crate) fall: u32,
     /// Monitors that fire while true (`Level`).
     pub(crate) level: u32,
-    /// The owners of its monitors.
-    pub(crate) owners: SeqSet<WORDS_MAX>,
-    /// The words of `owners` that hold an owner.
+    /// The owners' bits in their words of 32 ids: exactly the owners when they are all in
+    /// one word, else the bits of every word together (a test that may say "due" where no
+    /// owner is, never the reverse).
+    pub(crate) owner_bits: u32,
+    /// The words that hold an owner.
     pub(crate) owner_words: Words,
     /// The group's first entry in the table.
     pub(crate) start: u8,
@@ -585,7 +587,7 @@ impl Group {
             rise: 0,
             fall: 0,
             level: 0,
-            owners: SeqSet::EMPTY,
+            owner_bits: 0,
             owner_words: Words::EMPTY,
             start,
             len: 0,
@@ -596,7 +598,7 @@ impl Group {
     const fn push(&mut self, owner: SeqId, trigger: Trigger) {
         let t = trigger as u32;
         self.len = self.len.saturating_add(1);
-        self.owners = self.owners.with(owner);
+        self.owner_bits |= 1 << (owner.0 & 31);
         self.owner_words = self.owner_words.with(Words::of(owner));
         self.rise = (self.rise << 1) | (t & 1);
         self.fall = (self.fall << 1) | ((t >> 1) & 1);
@@ -959,7 +961,18 @@ mod tests {
             .zip(added.groups.list.iter())
             .take(2)
         {
-            let fields = |g: &Group| (g.last, g.rise, g.fall, g.level, g.owners, g.start, g.len);
+            let fields = |g: &Group| {
+                (
+                    g.last,
+                    g.rise,
+                    g.fall,
+                    g.level,
+                    g.owner_bits,
+                    g.owner_words,
+                    g.start,
+                    g.len,
+                )
+            };
             assert_eq!(fields(t), fields(a));
         }
         assert_eq!(table.owner(MonitorId::from_index(32)), Some(owner(32)));

@@ -184,6 +184,12 @@ impl Words {
         Words(self.0 & !other.0)
     }
 
+    /// Whether these and `other` share a word.
+    #[inline(always)]
+    pub(crate) fn meets(self, other: Words) -> bool {
+        self.0 & other.0 != 0
+    }
+
     /// Whether these are the same words as `other` (a `const` `==`).
     #[inline(always)]
     pub(crate) const fn same(self, other: Words) -> bool {

@@ -3,7 +3,7 @@
 //! firings (the rare, out-of-line path).
 
 use crate::lock::Lock;
-use crate::model::set::Words;
+use crate::model::set::{SetWord, Words};
 use crate::monitor::{Group, OwnedMonitor};
 use crate::tick::exception::Reaction;
 use crate::tick::Polls;
@@ -65,10 +65,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // Due owners whose monitors keep their edge state: a group of only these, all in
         // this word, takes the flat loop.
         let steady = due.minus(polls.fresh());
+        let this_word = Words::single(w);
         let entries = monitors.entries.as_mut_slice();
         let used = usize::from(monitors.groups.used);
         for g in monitors.groups.list.iter_mut().take(used) {
-            let owners = g.owners.word_as::<B>(w);
+            // All its owners in this word (the common case), or some.
+            let one_word = B == 1 || g.owner_words == this_word;
+            if !one_word && !g.owner_words.meets(this_word) {
+                continue;
+            }
+            // Exactly the owners in this word when they are all in it; else a superset,
+            // and the per-monitor path tests each owner.
+            let owners = SetWord::new(w, g.owner_bits);
             if !owners.meets(due) {
                 continue;
             }
@@ -78,7 +86,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             };
             // A monitor of a fresh owner starts its edge detection from "false", and one
             // of an owner in another word is not due here: the per-monitor path.
-            let one_word = B == 1 || g.owner_words == Words::single(w);
             let (values, evaluated) = if one_word && owners.within(steady) {
                 let mut values = 0u32;
                 for m in members.iter_mut() {

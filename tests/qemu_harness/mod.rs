@@ -199,7 +199,14 @@ impl FirmwareSet {
 
 /// The firmware of the scenario suite.
 pub static SCENARIO_FIRMWARE: FirmwareSet = FirmwareSet::new(
-    &["scenarios", "bench_seq", "bench_scale", "bench_grid", "smoke", "demo"],
+    &[
+        "scenarios",
+        "bench_seq",
+        "bench_scale",
+        "bench_grid",
+        "smoke",
+        "demo",
+    ],
     "qemu-harness",
 );
 
