@@ -436,6 +436,24 @@ fn bench_grid_tick_follows_the_due_polls_and_the_monitors() {
     assert!(period(32, 0) < period(64, 0) && period(64, 0) < period(256, 0));
 }
 
+/// `bench_size` (the firmware `./x bench` takes rtseq's flash and RAM from): the workloads
+/// of `bench_hand` in one sequencer run, and both reactions happen.
+#[test]
+fn bench_size_runs_the_workloads_and_reacts() {
+    let out = run("bench_size", &[]);
+    expect_exit(&out, 0);
+    assert!(
+        out.find("bench_size: the cleanup hook and the exception sequence ran")
+            .is_some(),
+        "{}",
+        out.transcript()
+    );
+    assert_eq!(
+        figure(&out, "bench_size: size trace buffer (64 records) = "),
+        1024
+    );
+}
+
 /// Instructions per tick, reaction latency and sizes from the `bench_seq` firmware.
 #[test]
 fn bench_tick_costs_latency_and_sizes_meet_their_budgets() {

@@ -204,6 +204,7 @@ pub static SCENARIO_FIRMWARE: FirmwareSet = FirmwareSet::new(
         "bench_seq",
         "bench_scale",
         "bench_grid",
+        "bench_size",
         "smoke",
         "demo",
     ],
