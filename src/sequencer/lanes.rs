@@ -153,7 +153,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// remembered for the tick's wake-ups.
     pub(crate) fn park_lane(&self, lane: u8, waker: &Waker) {
         if self.park(lane, waker) {
-            self.with(|s| s.polling.woken = WakeMemo::NONE);
+            self.with(|s| s.polling.forget_woken());
         }
     }
 
@@ -182,7 +182,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 .is_some_and(|slot| slot.register(waker));
             self.borrow_state(|s| {
                 if changed {
-                    s.polling.woken = WakeMemo::NONE;
+                    s.polling.forget_woken();
                 }
                 read(s)
             })

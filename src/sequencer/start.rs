@@ -16,7 +16,6 @@ use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::sets::Set;
-use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
 use crate::trace::StateChange;
 use crate::{Cause, Error, RunningState, SeqId, Sequencer, MAX_DEPTH};
@@ -93,7 +92,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             b.active_exception = None;
             b.outcome = None;
             // Its lane may be another one now.
-            self.polling.woken = WakeMemo::NONE;
+            self.polling.forget_woken();
         }
         Some(Scheduled {
             from,

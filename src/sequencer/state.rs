@@ -53,6 +53,23 @@ pub(crate) struct Polling<const B: usize> {
     pub(crate) next_due: Stamp,
     /// The lanes the tick's last exit-condition wake-up woke, for reuse.
     pub(crate) woken: WakeMemo<B>,
+    /// Counts the times `woken` was forgotten: with the portable lock the tick finds the
+    /// lanes in sections of their own, and remembers them only if none changed meanwhile.
+    pub(crate) forgotten: u8,
+}
+
+impl<const B: usize> Polling<B> {
+    /// A sequence's lane or a lane's waker changed: the lanes remembered for the tick's
+    /// wake-ups no longer hold.
+    pub(crate) fn forget_woken(&mut self) {
+        self.woken = WakeMemo::NONE;
+        self.forgotten = self.forgotten.wrapping_add(1);
+    }
+
+    /// The lanes remembered for the due polls `polls`, if they are the last ones.
+    pub(crate) fn remembered(&self, polls: SetWord<B>) -> Option<LaneSet> {
+        (self.woken.polls == polls).then_some(self.woken.lanes)
+    }
 }
 
 /// The lane slots woken for a set of due exit-condition polls (in one word of the sets):
@@ -84,6 +101,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
                 classes: Classes::new(),
                 next_due: Stamp(0),
                 woken: WakeMemo::NONE,
+                forgotten: 0,
             },
             exceptions_not_run: 0,
             count: 0,
@@ -354,5 +372,31 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     pub fn exceptions_not_run(&self) -> u16 {
         self.with(|s| s.exceptions_not_run)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn remembered_lanes_hold_until_forgotten() {
+        let mut p = Polling::<1> {
+            classes: Classes::new(),
+            next_due: Stamp(0),
+            woken: WakeMemo::NONE,
+            forgotten: 0,
+        };
+        let polls = SetWord::<1>::new(0, 0b101);
+        // Nothing remembered: not even for no polls of word 0.
+        assert_eq!(p.remembered(polls), None);
+        let lanes = LaneSet::of(3);
+        p.woken = WakeMemo { polls, lanes };
+        assert_eq!(p.remembered(polls), Some(lanes));
+        assert_eq!(p.remembered(SetWord::new(0, 0b100)), None);
+        // A changed lane or waker forgets them and counts it (the portable tick compares
+        // the count before and after its walk).
+        p.forget_woken();
+        assert_eq!((p.remembered(polls), p.forgotten), (None, 1));
     }
 }

@@ -19,6 +19,7 @@ use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
 use crate::sequencer::sets::Set;
+use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
 use crate::{Cause, Error, Instant, Monitors, SeqId, Sequencer};
 
@@ -255,7 +256,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 });
             } else {
                 let careful = careful || self.with(|s| s.careful());
-                self.wake_lanes(self.lanes_of_polls(polls.wake(), careful));
+                let lanes = if careful {
+                    self.lanes_of_polls(polls.wake(), true)
+                } else {
+                    self.remembered_lanes(polls.wake())
+                };
+                self.wake_lanes(lanes);
             }
         }
         careful
@@ -315,6 +321,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             polls.expired |= self.with(|s| s.expired(SetWord::of(id), now)).bits();
         }
         polls
+    }
+
+    /// With a portable lock and nothing held: the lanes of the due polls `wake`, as
+    /// remembered from the last tick with the same polls (one section), else found one
+    /// section per sequence and remembered, unless a lane or waker changed meanwhile.
+    fn remembered_lanes(&self, wake: SetWord<B>) -> LaneSet {
+        let (remembered, forgotten) =
+            self.with(|s| (s.polling.remembered(wake), s.polling.forgotten));
+        if let Some(lanes) = remembered {
+            return lanes;
+        }
+        let lanes = self.lanes_of_polls(wake, false);
+        self.with(|s| {
+            if s.polling.forgotten == forgotten {
+                s.polling.woken = WakeMemo { polls: wake, lanes };
+            }
+        });
+        lanes
     }
 
     /// With a portable lock: the lanes whose polled condition is due, except those held
