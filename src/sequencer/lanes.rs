@@ -169,8 +169,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         read: impl FnOnce(&mut State<C, N, T, W, B>) -> R,
     ) -> R {
         if !L::COARSE {
-            let lane = self.with(|s| s.lane_slot(id));
-            self.park_lane(lane, waker);
+            // The lane slot and the waker in one section (the state is no longer borrowed
+            // when the waker is compared or cloned), the read in another.
+            let changed = L::lock(|| {
+                let lane = self.borrow_state(|s| s.lane_slot(id));
+                self.lanes
+                    .slots
+                    .get(usize::from(lane))
+                    .is_some_and(|slot| slot.register(waker))
+            });
+            if changed {
+                self.with(|s| s.polling.forget_woken());
+            }
             return self.with(read);
         }
         L::lock(|| {
