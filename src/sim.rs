@@ -1246,17 +1246,24 @@ impl<
     /// the lanes of higher priorities it woke run first (they preempt). False if the poll
     /// bound was hit.
     fn pass(&mut self, level: u8, polls: &mut usize) -> bool {
-        let mut order: Vec<usize> = (0..self.lanes.len())
-            .filter(|&i| self.lanes.get(i).is_some_and(|l| l.priority == level))
-            .collect();
-        if let Some(shuffle) = self.shuffle.as_mut() {
+        // In the order the lanes were added, unless shuffled (only then is the order kept
+        // in a list of its own).
+        let lanes = &self.lanes;
+        let shuffled = self.shuffle.as_mut().map(|shuffle| {
+            let mut order: Vec<usize> = (0..lanes.len())
+                .filter(|&i| lanes.get(i).is_some_and(|l| l.priority == level))
+                .collect();
             shuffle.shuffle(&mut order);
-        }
-        for i in order {
-            let Some(lane) = self.lanes.get_mut(i) else {
+            order
+        });
+        for k in 0..self.lanes.len() {
+            let i = shuffled
+                .as_ref()
+                .map_or(Some(k), |order| order.get(k).copied());
+            let Some(lane) = i.and_then(|i| self.lanes.get_mut(i)) else {
                 continue;
             };
-            if !lane.flag.0.swap(false, Ordering::SeqCst) {
+            if lane.priority != level || !lane.flag.0.swap(false, Ordering::SeqCst) {
                 continue;
             }
             *polls = polls.saturating_add(1);

@@ -255,13 +255,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     s.lanes_of_polls(wake, &self.lanes)
                 });
             } else {
-                let careful = careful || self.with(|s| s.careful());
-                let lanes = if careful {
-                    self.lanes_of_polls(polls.wake(), true)
-                } else {
-                    self.remembered_lanes(polls.wake())
-                };
-                self.wake_lanes(lanes);
+                self.wake_lanes(self.lanes_to_wake(polls.wake(), careful));
             }
         }
         careful
@@ -323,12 +317,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         polls
     }
 
-    /// With a portable lock and nothing held: the lanes of the due polls `wake`, as
-    /// remembered from the last tick with the same polls (one section), else found one
-    /// section per sequence and remembered, unless a lane or waker changed meanwhile.
-    fn remembered_lanes(&self, wake: SetWord<B>) -> LaneSet {
-        let (remembered, forgotten) =
-            self.with(|s| (s.polling.remembered(wake), s.polling.forgotten));
+    /// With a portable lock: the lanes of the due polls `wake`. While something is held
+    /// (`careful`, or a paused or excepting active sequence) found by a walk that skips the
+    /// held ones; else those remembered from the last tick with the same polls, or found by
+    /// a walk and remembered, unless a lane or waker changed meanwhile.
+    fn lanes_to_wake(&self, wake: SetWord<B>, careful: bool) -> LaneSet {
+        let (held, remembered, forgotten) = self.with(|s| {
+            let held = careful || s.careful();
+            (held, s.polling.remembered(wake), s.polling.forgotten)
+        });
+        if held {
+            return self.lanes_of_polls(wake, true);
+        }
         if let Some(lanes) = remembered {
             return lanes;
         }
