@@ -140,56 +140,44 @@ impl<const W: usize> Lanes<W> {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Keeps `waker` as the waker of lane slot `lane` (a section of its own, outside the
-    /// state). True when it changed.
-    pub(crate) fn park(&self, lane: u8, waker: &Waker) -> bool {
-        let Some(slot) = self.lanes.slots.get(usize::from(lane)) else {
-            return false;
-        };
-        L::lock(|| slot.register(waker))
-    }
-
-    /// Keeps `waker` as the waker of lane slot `lane`; a changed waker forgets the lanes
-    /// remembered for the tick's wake-ups.
-    pub(crate) fn park_lane(&self, lane: u8, waker: &Waker) {
-        if self.park(lane, waker) {
-            self.with(|s| s.polling.forget_woken());
-        }
-    }
-
     /// Keeps `waker` as the waker of `id`'s lane, then runs `read` on the state: an await
     /// point's wait, in which no wake-up between the registration and the read can be
-    /// lost. With a coarse lock in one section (the state is not borrowed while a changed
-    /// waker is cloned or dropped); with the portable lock in short sections of their own,
-    /// the waker kept before the state is read.
+    /// lost (see [`park_in_then`](Self::park_in_then)).
     pub(crate) fn park_then<R>(
         &self,
         id: SeqId,
         waker: &Waker,
         read: impl FnOnce(&mut State<C, N, T, W, B>) -> R,
     ) -> R {
+        self.park_in_then(|s| s.lane_slot(id), waker, read)
+    }
+
+    /// Keeps `waker` as the waker of the lane slot `lane` finds in the state, then runs
+    /// `read` on the state. With a coarse lock in one section; with the portable lock the
+    /// slot and the waker in one section, the read in another. Either way the state is not
+    /// borrowed while a changed waker is cloned or dropped, and a changed waker forgets
+    /// the lanes remembered for the tick's wake-ups.
+    pub(crate) fn park_in_then<R>(
+        &self,
+        lane: impl FnOnce(&State<C, N, T, W, B>) -> u8,
+        waker: &Waker,
+        read: impl FnOnce(&mut State<C, N, T, W, B>) -> R,
+    ) -> R {
+        let register = || {
+            let lane = self.borrow_state(|s| lane(s));
+            self.lanes
+                .slots
+                .get(usize::from(lane))
+                .is_some_and(|slot| slot.register(waker))
+        };
         if !L::COARSE {
-            // The lane slot and the waker in one section (the state is no longer borrowed
-            // when the waker is compared or cloned), the read in another.
-            let changed = L::lock(|| {
-                let lane = self.borrow_state(|s| s.lane_slot(id));
-                self.lanes
-                    .slots
-                    .get(usize::from(lane))
-                    .is_some_and(|slot| slot.register(waker))
-            });
-            if changed {
+            if L::lock(register) {
                 self.with(|s| s.polling.forget_woken());
             }
             return self.with(read);
         }
         L::lock(|| {
-            let lane = self.borrow_state(|s| s.lane_slot(id));
-            let changed = self
-                .lanes
-                .slots
-                .get(usize::from(lane))
-                .is_some_and(|slot| slot.register(waker));
+            let changed = register();
             self.borrow_state(|s| {
                 if changed {
                     s.polling.forget_woken();

@@ -167,24 +167,31 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> bool {
-        // Another sequencer's object declares nothing here.
-        if !self.with(|s| s.tag == maker) {
-            return false;
-        }
-        let Ok(lane) = Port::declare_lane(self, id) else {
-            // No slot left: the lane never runs (see `lane`).
+        // Another sequencer's object declares nothing here; with no slot left the lane
+        // never runs (see `lane`).
+        let declared = in_sections!(self, |s| {
+            if s.section(|s| s.tag == maker) {
+                declare_lane(s, id)
+            } else {
+                None
+            }
+        });
+        let Some(lane) = declared else {
             return false;
         };
         // The waker is kept before the start is looked for: a start in between wakes it.
-        self.park_lane(lane, waker);
-        self.with(|s| {
-            let Some(b) = s.block_mut(id) else {
-                return false;
-            };
-            let pending = b.has(flag::START_PENDING);
-            b.set(flag::START_PENDING, false);
-            pending
-        })
+        self.park_in_then(
+            |_| lane,
+            waker,
+            |s| {
+                let Some(b) = s.block_mut(id) else {
+                    return false;
+                };
+                let pending = b.has(flag::START_PENDING);
+                b.set(flag::START_PENDING, false);
+                pending
+            },
+        )
     }
 
     fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>> {
