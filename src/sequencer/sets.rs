@@ -289,6 +289,13 @@ impl<const B: usize> Sets<B> {
         self.words(set).is_empty()
     }
 
+    /// Whether `set` holds no id but `id` (which it may hold or not).
+    pub(crate) fn none_but(&self, set: Set, id: SeqId) -> bool {
+        let own = SetWord::<B>::of(id);
+        self.word(set, own.index()).minus(own).is_empty()
+            && (B == 1 || self.words(set).without(Words::of(id)).is_empty())
+    }
+
     /// Whether `set` and `other` share an id.
     pub(crate) fn meets(&self, set: Set, other: &SeqSet<B>) -> bool {
         self.words(set)
@@ -390,6 +397,22 @@ mod tests {
         s.insert_all(Set::Changed, SetWord::new(2, 1));
         s.remove_all(Set::Changed, SetWord::new(2, 1));
         assert!(s.is_empty(Set::Changed));
+    }
+
+    #[test]
+    fn none_but_one_id_looks_at_every_word() {
+        let mut s = Sets::<8>::EMPTY;
+        assert!(s.none_but(Set::Called, SeqId(40)));
+        s.insert(Set::Called, SeqId(40));
+        assert!(s.none_but(Set::Called, SeqId(40)));
+        assert!(!s.none_but(Set::Called, SeqId(41)));
+        assert!(!s.none_but(Set::Called, SeqId(200)));
+        s.insert(Set::Called, SeqId(200));
+        assert!(!s.none_but(Set::Called, SeqId(40)));
+        let mut one = Sets::<1>::EMPTY;
+        one.insert(Set::Called, SeqId(3));
+        assert!(one.none_but(Set::Called, SeqId(3)));
+        assert!(!one.none_but(Set::Called, SeqId(4)));
     }
 
     #[test]

@@ -48,20 +48,31 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // Active, not already `Aborting`.
             (States::entering(RunningState::Aborting), None)
         };
+        // A restart restarts its target (from `Running` or `Paused`) and aborts the
+        // sequences below it.
+        let move_one = |id: SeqId| match to {
+            RunningState::Restarting if Some(id) == target => {
+                self.stop(control, id, cause, States::entering(to), to)
+            }
+            RunningState::Restarting => {
+                self.stop(control, id, cause, states, RunningState::Aborting)
+            }
+            _ => self.stop(control, id, cause, states, to),
+        };
+        // A sequence below the target has a caller link: when no other sequence has one,
+        // the target is all there is to move.
+        if let Some(t) = target {
+            if self.with(|s| s.sets.none_but(Set::Called, t)) {
+                move_one(t);
+                return;
+            }
+        }
         let (rows, deepest) = self.levels(target, states, lane);
         for k in 0..=deepest {
             // Pauses outermost first, teardowns innermost first.
             let depth = if pause { k } else { deepest - k };
             for id in rows.get(depth).copied().unwrap_or_default() {
-                // A restart restarts its target (from `Running` or `Paused`) and aborts the
-                // sequences below it.
-                if to == RunningState::Restarting && Some(id) == target {
-                    self.stop(control, id, cause, States::entering(to), to);
-                } else if to == RunningState::Restarting {
-                    self.stop(control, id, cause, states, RunningState::Aborting);
-                } else {
-                    self.stop(control, id, cause, states, to);
-                }
+                move_one(id);
             }
         }
     }
