@@ -107,7 +107,8 @@ pub struct Sequencer<
 }
 
 // SAFETY: `state` is only reached through `Sequencer::with`, and `lanes` only through
-// `Sequencer::park` and `Sequencer::wake_lanes`; all of them run under the lock, and a
+// `Sequencer::park_in_then`, `Sequencer::wake_lane` and the tick's reads of a slot's
+// identity (`lanes_of_polls`); all of them run under the lock, and a
 // critical section keeps every other user of this sequencer out. The other fields are
 // `Sync` themselves. `State` and `Lanes` are `Send` for every `C` (they hold only plain
 // data, wakers and `fn(&C)` pointers). (`SingleThread`, which keeps no one out, has no
@@ -252,8 +253,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// (the "already borrowed" check) to every operation; instead exclusivity rests on two
     /// facts: the lock keeps every other context out, and no closure passed here calls
     /// `with` again or any foreign code that could — closures only touch the state;
-    /// wakers are called by [`wake_lanes`](Self::wake_lanes) and [`park`](Self::park), user
-    /// conditions and hooks by the tick, each outside `with`.
+    /// wakers are called by [`wake_lanes`](Self::wake_lanes) and
+    /// [`park_in_then`](Self::park_in_then), user conditions and hooks by the tick, each
+    /// outside `with`.
     #[inline]
     pub(crate) fn with<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         L::lock(|| self.borrow_state(f))
