@@ -12,7 +12,7 @@
 //!   compile error, and the firmware only copies it in ([`Sequencer::install`]);
 //! * a sequence's action is an `async fn`, i.e. a cooperative, statically sized state
 //!   machine; a blocking start is an `.await` inside the caller ([`Cx::run`], [`Cx::step`]),
-//!   a non-blocking start runs the sequence in its [`lane`] ([`Cx::start`]);
+//!   a non-blocking start runs the sequence in its [`lane`](fn@lane) ([`Cx::start`]);
 //! * the heartbeat [`Sequencer::tick`], called from a periodic timer interrupt, evaluates
 //!   monitors and timeouts at each sequence's polling period and wakes exactly the lanes
 //!   that must act;

@@ -19,7 +19,7 @@
 //!   the future that runs it. Its action is a hand-written future ([`NodeAction`]); every
 //!   lane has the type `Seq<Node>`.
 //! * [`Scenario`]: a set-up function, a script run before every tick, a duration.
-//! * [`encode`] / [`decode`]: a [`rtseq::Transition`] as six integers, the wire format of
+//! * [`encode`](fn@encode) / [`decode`](fn@decode): a [`rtseq::Transition`] as six integers, the wire format of
 //!   the firmware's trace.
 //! * [`emergency`]: the safety system of the emergency scenario (`tests/emergency.rs`,
 //!   `boards/qemu-f405/src/bin/emergency.rs`), generic over the I/O type.

@@ -291,7 +291,7 @@ impl<C> SeqConfig<C> {
     /// runs in a thread of its own). [`Sequencer::install`](crate::Sequencer::install) and
     /// [`Sequencer::register`](crate::Sequencer::register) give it its lane slot, as
     /// [`Handle::declare_lane`](crate::Handle::declare_lane) would; its lane future
-    /// ([`lane`](crate::lane)) must still be polled by a task. A table whose lanes are
+    /// ([`lane`](fn@crate::lane)) must still be polled by a task. A table whose lanes are
     /// declared here can be checked whole at compile time ([`Table::validate`](crate::Table::validate)).
     ///
     /// ```

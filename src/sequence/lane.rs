@@ -87,7 +87,7 @@ pub fn lane<
 ///
 /// The cost of the convenience: a lane with nothing to do returns `Pending` at once, but
 /// it is polled whenever any lane of the task is woken; a task per lane (see
-/// [`lane`](crate::lane)) polls only the lane that was woken.
+/// [`lane`](fn@crate::lane)) polls only the lane that was woken.
 #[macro_export]
 macro_rules! lanes {
     ($sequencer:expr, $control:expr, $($seq:ident),+ $(,)?) => {

@@ -7,7 +7,7 @@
 //! | `context.rs` | [`Cx`]: what an action and a condition see and can do |
 //! | `run.rs` | a run: the seed's `actionFramework` as a state machine, with its diagram |
 //! | `erased.rs` | all type erasure (and so all `unsafe`) of this module, its invariants listed |
-//! | `lane.rs` | [`lane`]: a non-blocking sequence's execution context |
+//! | `lane.rs` | [`lane`](fn@crate::lane): a non-blocking sequence's execution context |
 //! | `wait.rs` | [`Wait`], the dwell-time step |
 
 use core::cell::Cell;
@@ -30,7 +30,7 @@ use crate::{Done, Failure, SeqId};
 /// The action is an `async fn`: the compiler turns it into a statically sized state machine.
 /// Started blocking ([`Cx::run`]) it runs inside its caller's future; started non-blocking
 /// ([`Cx::start`], [`Handle::start`](crate::Handle::start)) it runs in its lane
-/// ([`lane`](crate::lane)). It must not block: wait with steps and their exit conditions.
+/// ([`lane`](fn@crate::lane)). It must not block: wait with steps and their exit conditions.
 ///
 /// ```
 /// use rtseq::{Cx, Done, Failure, Seq, Sequence, Step};

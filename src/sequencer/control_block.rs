@@ -144,7 +144,7 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_restarts: u8,
     /// The sequence whose run this one waits for in a join.
     pub(crate) joins: Link,
-    /// Its [polling class](crate::polling) (the class holds the period).
+    /// Its [polling class](crate::tick::schedule) (the class holds the period).
     pub(crate) class: u8,
 }
 

@@ -9,7 +9,7 @@ use crate::{
 
 /// A callers list (`callerStack` or `callerStackBlocking`), outermost first.
 ///
-/// A `heapless::Vec` of [`MAX_DEPTH`](crate::MAX_DEPTH) ids: no allocation, and room for
+/// A `heapless::Vec` of [`MAX_DEPTH`] ids: no allocation, and room for
 /// every caller chain the sequencer accepts.
 ///
 /// ```
@@ -550,7 +550,7 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// Declares that a lane runs this sequence, so it can be started non-blocking before the
-    /// lane first ran (e.g. from RTIC `init`). [`lane`](crate::lane) declares it too.
+    /// lane first ran (e.g. from RTIC `init`). [`lane`](fn@crate::lane) declares it too.
     ///
     /// A sequencer with one lane slot (`W` = 1):
     ///

@@ -169,7 +169,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 {
     /// Checks the whole configuration before the first tick: every monitor's owner is
     /// registered; every exception sequence of a monitor or of a timeout is registered, is
-    /// not its owner and has a lane (declared by [`lane`](crate::lane) or
+    /// not its owner and has a lane (declared by [`lane`](fn@crate::lane) or
     /// [`Handle::declare_lane`](crate::Handle::declare_lane)). Returns the first problem,
     /// naming the monitor or sequence.
     ///
