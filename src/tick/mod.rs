@@ -248,7 +248,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 // One section: the held check walks the callers inside it.
                 self.update_and_wake(|s| {
                     let wake = if careful || s.careful() {
-                        s.unheld(polls.wake())
+                        // A sequence whose state changed in this tick is not woken
+                        // for its poll: the change woke its lane.
+                        s.unheld(polls.wake().minus(s.sets.word(Set::Changed, polls.word)))
                     } else {
                         polls.wake()
                     };
@@ -319,15 +321,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// With a portable lock: the lanes of the due polls `wake`. While something is held
     /// (`careful`, or a paused or excepting active sequence) found by a walk that skips the
-    /// held ones; else those remembered from the last tick with the same polls, or found by
-    /// a walk and remembered, unless a lane or waker changed meanwhile.
+    /// held ones and those whose state changed in this tick; else those remembered from the
+    /// last tick with the same polls, or found by a walk and remembered, unless a lane or
+    /// waker changed meanwhile.
     fn lanes_to_wake(&self, wake: SetWord<B>, careful: bool) -> LaneSet {
-        let (held, remembered, forgotten) = self.with(|s| {
+        let (held, remembered, forgotten, changed) = self.with(|s| {
             let held = careful || s.careful();
-            (held, s.polling.remembered(wake), s.polling.forgotten)
+            let changed = s.sets.word(Set::Changed, wake.index());
+            (
+                held,
+                s.polling.remembered(wake),
+                s.polling.forgotten,
+                changed,
+            )
         });
         if held {
-            return self.lanes_of_polls(wake, true);
+            // A sequence whose state changed in this tick is not woken for its poll: the
+            // change woke its lane.
+            return self.lanes_of_polls(wake.minus(changed), true);
         }
         if let Some(lanes) = remembered {
             return lanes;
