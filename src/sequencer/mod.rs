@@ -106,7 +106,8 @@ pub struct Sequencer<
     _lock: PhantomData<L>,
 }
 
-// SAFETY: `state` is only reached through `Sequencer::with`, and `lanes` only through
+// SAFETY: `state` is only reached through `Sequencer::borrow_state` (from `with`,
+// `update_and_wake` and `park_in_then`), and `lanes` only through
 // `Sequencer::park_in_then`, `Sequencer::wake_lane` and the tick's reads of a slot's
 // identity (`lanes_of_polls`); all of them run under the lock, and a
 // critical section keeps every other user of this sequencer out. The other fields are
@@ -265,7 +266,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(always)]
     fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         // SAFETY: only called under the lock `L` (by `with`, `update_and_wake` and
-        // `park_then`), which keeps every other context out (with `SingleThread` the
+        // `park_in_then`), which keeps every other context out (with `SingleThread` the
         // sequencer is not `Sync`: no other thread or interrupt reaches it), and `f` does
         // not re-enter (see `with`): this is the only reference to the state while it
         // lives.
