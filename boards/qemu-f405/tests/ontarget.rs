@@ -4,7 +4,7 @@
 //! * the priority-ceiling lock: a section raises BASEPRI to the ceiling's value (`Ceiling::of`),
 //!   holds off an interrupt at the tick's priority until it ends, never one above it, and
 //!   restores BASEPRI when it ends, also when nested;
-//! * the trace ring: `Sequencer::drain_trace` hands the transitions over oldest first; when
+//! * the trace ring: `Sequencer::drain_records` hands the records over oldest first; when
 //!   more happen than it holds, the oldest are lost, counted, and the newest kept;
 //! * the safety cycle's output writes: `set` writes every cycle, `leave` never, `toggle`
 //!   low, high, low, … from the cycle its level is entered.
