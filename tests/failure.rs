@@ -378,3 +378,68 @@ fn a_blocking_caller_reads_the_typed_result_of_its_child() {
     sim.start(id).unwrap();
     assert_eq!(got.get(), Some(42));
 }
+
+/// A failure is not an abort: a sequence that started a non-blocking conveyor and then
+/// fails ends `Terminated` (cause `Failed`) without its cleanup hook, and the conveyor
+/// runs on until its own exit condition (closed at 3 ms).
+#[test]
+fn a_failure_aborts_nothing_and_runs_no_cleanup_hook() {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static HOOK_CALLS: AtomicU32 = AtomicU32::new(0);
+    fn hook(_: &Cell_) {
+        HOOK_CALLS.fetch_add(1, Ordering::SeqCst);
+    }
+    struct Conveyor;
+    impl Sequence<Cell_> for Conveyor {
+        async fn action(&mut self, _cx: &Cx<'_, Cell_>) -> Result<(), Failure> {
+            Ok(())
+        }
+        fn check_exit_condition(&mut self, cx: &Cx<'_, Cell_>) -> bool {
+            cx.control().closed.get()
+        }
+    }
+    struct Loader {
+        conveyor: SeqId,
+    }
+    impl Sequence<Cell_> for Loader {
+        async fn action(&mut self, cx: &Cx<'_, Cell_>) -> Result<(), Failure> {
+            cx.start(self.conveyor)?;
+            Err(CellFault::PartLost.into())
+        }
+    }
+    let seq: Sequencer<Cell_, 4> = Sequencer::new();
+    let plant = Cell_::default();
+    let conveyor = seq.add(SeqConfig::new("conveyor"), Conveyor).unwrap();
+    let c = conveyor.id();
+    let loader = seq
+        .add(
+            SeqConfig::new("loader").on_abort(hook),
+            Loader { conveyor: c },
+        )
+        .unwrap();
+    let l = loader.id();
+    let mut sim = Sim::new(&seq, &plant, Monitors::<Cell_, 1>::new());
+    sim.lane(loader);
+    sim.lane(conveyor);
+    sim.before_tick(|t, p: &Cell_| p.closed.set(t.as_ticks() >= 3_000));
+    sim.start(l).unwrap();
+    assert_eq!(
+        sim.run_until_idle(rtseq::Duration::from_millis(10))
+            .map(|t| t.as_ticks() / 1000),
+        Some(3)
+    );
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, l, Idle, Running, Start),
+            tr(0, c, Idle, Running, Start),
+            tr(0, l, Running, Terminated, Failed),
+            tr(3, c, Running, Terminated, Completed),
+        ]
+    );
+    assert_eq!(HOOK_CALLS.load(Ordering::SeqCst), 0);
+    let lost = Failure::App(CellFault::PartLost as u16);
+    let outcome = |id| seq.sequence_by_id(id).and_then(|h| h.last_outcome());
+    assert_eq!(outcome(l), Some(Outcome::Failed(lost)));
+    assert_eq!(outcome(c), Some(Outcome::Completed));
+}

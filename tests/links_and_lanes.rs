@@ -169,3 +169,51 @@ fn caller_links_follow_the_running_tree_and_never_cycle() {
     assert_eq!(h(a).state(), Terminated);
     assert_eq!(h(b).state(), Running);
 }
+
+/// Blocking runs nest `MAX_DEPTH` (8) callers deep and no deeper: in a chain `s0` runs `s1`
+/// runs … `s9`, `s8` starts with 8 callers (its caller stack is `s0` … `s7`) and its run of
+/// `s9`, which would have 9, is refused with `CallerDepthExceeded`; everything else
+/// completes.
+#[test]
+fn callers_nest_max_depth_deep_and_a_deeper_start_is_refused() {
+    assert_eq!(rtseq::MAX_DEPTH, 8);
+    let seq: Sequencer<Ctrl, 16> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    // s9 runs until flag 15 (never): were it started, the chain would not end.
+    let mut below = seq
+        .add(SeqConfig::new("s9"), Node::of(vec![]).until(15))
+        .unwrap();
+    let s9 = below.id();
+    let names = ["s8", "s7", "s6", "s5", "s4", "s3", "s2", "s1", "s0"];
+    let mut ids = vec![s9];
+    for name in names {
+        below = seq
+            .add(SeqConfig::new(name), Node::of(vec![Op::Run(below)]))
+            .unwrap();
+        ids.push(below.id());
+    }
+    ids.reverse();
+    let (s0, s8) = (ids[0], ids[8]);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(below);
+    // The whole chain runs in the start: no step waits.
+    sim.start(s0).unwrap();
+    let results: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .map(|r| (r.seq, r.result))
+        .collect();
+    let mut want = vec![(s8, Err(Failure::NotStarted(Error::CallerDepthExceeded(s9))))];
+    want.extend(ids[..8].iter().rev().map(|&s| (s, Ok(Done::Completed))));
+    assert_eq!(results, want);
+    // A run that ended keeps its caller link.
+    let h = |id| sim.handle(id).unwrap();
+    assert_eq!(h(s8).caller_stack().as_slice(), &ids[..8]);
+    assert_eq!(h(s8).state(), Terminated);
+    assert_eq!(h(s9).state(), Idle);
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(5)),
+        Some(rtseq::Instant::from_ticks(0))
+    );
+}

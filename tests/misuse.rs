@@ -362,6 +362,60 @@ fn a_run_dropped_by_a_hand_written_timeout_ends_and_the_sequencer_goes_idle() {
     assert_eq!(*ctrl.hooks.borrow(), ["slow"]);
 }
 
+fn hook_main(c: &Ctrl) {
+    c.hooks.borrow_mut().push("main");
+}
+
+/// A lane dropped while its run waits (a host executor shutting down: here the simulator,
+/// which owns the lanes): the run and the step it waits in end `Aborted` with
+/// `Cause::Dropped`, innermost first, through their cleanup hooks, at the sequencer's time.
+#[test]
+fn a_lane_dropped_mid_run_aborts_its_runs_innermost_first() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let slow = seq
+        .add(SeqConfig::new("slow").on_abort(hook_slow), Leaf::until(0))
+        .unwrap();
+    let s = slow.id();
+    let main = seq
+        .add(
+            SeqConfig::new("main").on_abort(hook_main),
+            Node::of(vec![Op::Step(slow)]),
+        )
+        .unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    assert_eq!(
+        sim.take_trace(),
+        [
+            tr(0, m, Idle, Running, Start),
+            tr(0, s, Idle, Running, Start)
+        ]
+    );
+    drop(sim);
+    let mut after = Vec::new();
+    assert_eq!(seq.drain_trace(|t| after.push(t)), 0);
+    assert_eq!(
+        after,
+        [
+            tr(3, s, Running, Aborting, Dropped),
+            tr(3, s, Aborting, Aborted, Dropped),
+            tr(3, m, Running, Aborting, Dropped),
+            tr(3, m, Aborting, Aborted, Dropped),
+        ],
+        "{}",
+        show(&after)
+    );
+    assert_eq!(*ctrl.hooks.borrow(), ["slow", "main"]);
+    for id in [s, m] {
+        let h = seq.sequence_by_id(id).unwrap();
+        assert_eq!(h.last_outcome(), Some(Outcome::Aborted(Dropped)));
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // 4. Every joiner of a run gets its outcome.
 // ---------------------------------------------------------------------------------------

@@ -232,6 +232,111 @@ fn restart_limit_escalates_to_abort() {
     assert_lines_ran_live(&ctrl);
 }
 
+/// main ─run→ A ─step→ S (exit flag 1, never). A's timeout (3 ms) restarts it, at most
+/// twice: each restart gives the run a fresh clock, so the timeout fires once per run, 3 ms
+/// after each (re)start, and the third firing escalates to an abort.
+#[test]
+fn a_restarting_timeout_fires_once_per_run_on_a_fresh_clock() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let si = s.id();
+    let a = seq
+        .add(
+            SeqConfig::new("A")
+                .timeout(Duration::from_millis(3))
+                .timeout_behaviour(Behaviour::RestartOwner)
+                .timeout_restart_limit(2),
+            Node::of(vec![Op::Step(s)]),
+        )
+        .unwrap();
+    let ai = a.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(30)).map(ms),
+        Some(9)
+    );
+    let mut want = started(0, &[mi, ai, si]);
+    for t in [3, 6] {
+        want.extend(aborted(t, &[si], Timeout(ai)));
+        want.push(tr(t, ai, Running, Restarting, Timeout(ai)));
+        want.push(tr(t, ai, Restarting, Running, Cause::Restart));
+        want.push(tr(t, si, Aborted, Running, Start));
+    }
+    want.extend(aborted(9, &[si, ai], Timeout(ai)));
+    want.extend(completed(9, &[mi]));
+    assert_trace(sim.trace(), &want);
+    assert_eq!(
+        ctrl.returned.borrow().last().map(|r| (r.seq, r.result)),
+        Some((mi, Err(Failure::Aborted(Timeout(ai)))))
+    );
+    assert_lines_ran_live(&ctrl);
+}
+
+/// Two monitors with the same exception sequence E fire in one tick: E runs for the first
+/// (owner A); for the second (owner B) it is already running, so the run is counted in
+/// `exceptions_not_run` and B's behaviour is applied at once, while A waits for E.
+#[test]
+fn an_exception_sequence_that_cannot_run_is_counted_and_the_behaviour_applied_at_once() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![]).until(2))
+        .unwrap();
+    let ei = e.id();
+    let a = seq
+        .add(SeqConfig::new("A"), Node::of(vec![]).until(1))
+        .unwrap();
+    let ai = a.id();
+    let b = seq
+        .add(SeqConfig::new("B"), Node::of(vec![]).until(1))
+        .unwrap();
+    let bi = b.id();
+    let (mut ca, mut cb) = (|c: &Ctrl, _| c.flag(0), |c: &Ctrl, _| c.flag(0));
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    let ma = monitors
+        .add(
+            ai,
+            Monitor::new("a", &mut ca, Behaviour::AbortOwner).exception(ei),
+        )
+        .unwrap();
+    let mb = monitors
+        .add(
+            bi,
+            Monitor::new("b", &mut cb, Behaviour::AbortOwner).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(a);
+    sim.lane(b);
+    sim.lane(e);
+    sim.before_tick(|t, c| {
+        c.set(0, ms(t) == 5);
+        c.set(2, ms(t) >= 8);
+    });
+    sim.start(ai).unwrap();
+    sim.start(bi).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(30)).map(ms),
+        Some(9)
+    );
+    let mut want = started(0, &[ai, bi]);
+    want.push(tr(5, ei, Idle, Running, Mon(ma)));
+    want.extend(aborted(5, &[bi], Mon(mb)));
+    want.extend(completed(8, &[ei]));
+    want.extend(aborted(9, &[ai], Mon(ma)));
+    assert_trace(sim.trace(), &want);
+    assert_eq!(seq.exceptions_not_run(), 1);
+    assert_eq!(sim.handle(ai).unwrap().active_exception(), Some(Mon(ma)));
+    assert_eq!(sim.handle(bi).unwrap().active_exception(), Some(Mon(mb)));
+}
+
 /// A `Nothing` monitor whose condition stays true from 5 to 9 ms; its exception sequence
 /// E counts the firings.
 fn storm(trigger: Trigger) -> (u16, u16, Vec<Transition>, SeqId) {
