@@ -96,8 +96,8 @@ pub trait Sequence<C> {
         true
     }
 
-    /// Polled after the action at every polling period; the run ends when it is `true`.
-    /// Default: ends right after the action.
+    /// Checked right after the action, then at every poll of the sequence's polling
+    /// period; the run ends when it is `true`. Default: ends right after the action.
     fn check_exit_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
         true
     }
@@ -131,7 +131,8 @@ pub trait Step<C> {
         true
     }
 
-    /// Polled after the action at every polling period; the step ends when it is `true`.
+    /// Checked right after the action, then at every poll of the step's polling period;
+    /// the step ends when it is `true`.
     fn check_exit_condition(&mut self, _cx: &Cx<'_, C>) -> bool {
         true
     }
