@@ -168,3 +168,8 @@ pub const MAX_DEPTH: usize = 8;
 #[cfg(all(doctest, feature = "std"))]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
+
+/// So is the example of docs/safety.md.
+#[cfg(doctest)]
+#[doc = include_str!("../docs/safety.md")]
+struct SafetyDocDoctests;
