@@ -270,6 +270,22 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
     ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[DOOR.info()], &[], &[], OFF);
     /// assert!(matches!(P.validated(), Err(SafetyError::MissingInputAction { .. })));
     /// ```
+    ///
+    /// Validated in a `static` (or a `const`), invalid properties are a compile error:
+    ///
+    /// ```compile_fail,E0080
+    /// use rtseq::safety::*;
+    /// # struct Io;
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// const DOOR: CriticalInput<bool> = CriticalInput::new(0, "door");
+    /// static PROPS: ValidProperties<'static, Io, 1> =
+    ///     match SafetyProperties::new([LevelDef::new(OFF, "off")], &[DOOR.info()], &[], &[], OFF)
+    ///         .validated()
+    ///     {
+    ///         Ok(valid) => valid,
+    ///         Err(_) => panic!("the door has no input action in level `off`"),
+    ///     };
+    /// ```
     pub const fn validated(self) -> Result<ValidProperties<'a, IO, L>, SafetyError> {
         match self.validate() {
             Ok(()) => Ok(ValidProperties(self)),
