@@ -39,7 +39,7 @@ mod sealed {
 ///
 /// No other crate can implement it:
 ///
-/// ```compile_fail
+/// ```compile_fail,E0277
 /// struct NoLock;
 /// impl rtseq::lock::Lock for NoLock {
 ///     const COARSE: bool = true;
@@ -93,7 +93,7 @@ impl Lock for CriticalSection {
 ///
 /// It cannot be shared:
 ///
-/// ```compile_fail
+/// ```compile_fail,E0277
 /// use rtseq::{lock::SingleThread, Sequencer};
 /// static SEQ: Sequencer<(), 4, 64, SingleThread> = Sequencer::single_thread();
 /// ```

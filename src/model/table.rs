@@ -129,7 +129,7 @@ impl<C> CheckedConfig<C> {
 ///
 /// A duplicate name does not compile:
 ///
-/// ```compile_fail
+/// ```compile_fail,E0080
 /// use rtseq::{SeqConfig, Table};
 /// static TABLE: Table<(), 2> =
 ///     match Table::new([SeqConfig::new("move"), SeqConfig::new("move")]) {

@@ -69,7 +69,7 @@ pub(crate) use state::State;
 ///
 /// A capacity its sets cannot hold does not compile:
 ///
-/// ```compile_fail
+/// ```compile_fail,E0080
 /// use rtseq::Sequencer;
 /// static TOO_BIG: Sequencer<(), 64> = Sequencer::new(); // needs B = 2
 /// ```

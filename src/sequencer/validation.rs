@@ -324,7 +324,7 @@ impl<C, const N: usize> Table<C, N> {
     ///
     /// In a `const` item, a configuration that cannot work does not compile:
     ///
-    /// ```compile_fail
+    /// ```compile_fail,E0080
     /// use rtseq::{Behaviour, Instant, Monitor, SeqConfig, SeqId, Table};
     /// type Cond = fn(&(), Instant) -> bool;
     /// fn jammed(_: &(), _: Instant) -> bool { false }
