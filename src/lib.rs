@@ -100,7 +100,7 @@
 //! * [`Sequence`], [`Step`] and [`Cx`]: writing sequences; [`Monitor`] and [`Behaviour`]:
 //!   what happens when a condition fires; [`SeqConfig`]: polling period, timeout, cleanup;
 //! * [`Sequencer`]: registration, the tick, requests, the trace; [`Handle`]: one
-//!   sequence's state, caller stack and requests; [`lock`]: the two locks;
+//!   sequence's state, caller stack and requests; [`lock`]: the locks;
 //! * [`safety`]: safety levels, events, critical inputs and outputs;
 //! * the [user's guide](https://github.com/rtseq/rtseq#readme) (how to structure an
 //!   application, RTIC wiring, semantics, figures) and the

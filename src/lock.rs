@@ -10,6 +10,8 @@
 //!   tick), so lanes and the tick exclude each other while every higher-priority interrupt —
 //!   the safety task first — runs at once: rtseq then masks no interrupt globally (unless
 //!   the tick runs at RTIC's highest priority, where RTIC too disables interrupts).
+//! * [`SingleThread`] (`Sequencer::single_thread`): no lock, for a sequencer one thread
+//!   uses alone (host tests, the simulator); such a sequencer is not `Sync`.
 //!
 //! [`Sequencer::new`]: crate::Sequencer::new
 

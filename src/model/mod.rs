@@ -2,7 +2,9 @@
 //!
 //! Running states and their transition table, causes and outcomes, the ids of sequences and
 //! monitors, sequencer time, a sequence's configuration and a whole tree's [`Table`], sets of
-//! sequences, and the errors. Nothing here knows about locks, lanes or the tick.
+//! sequences, and the errors. Nothing here knows about locks or lanes; a [`Table`] is the
+//! one piece that builds the sequencer's own data (control blocks, polling classes) at
+//! compile time.
 
 pub(crate) mod config;
 pub(crate) mod error;

@@ -9,9 +9,10 @@
 //! Invariants every `unsafe` block below relies on:
 //!
 //! 1. An `ErasedBody<'s, C>` is built only by [`ErasedBody::of_step`] (from a `&'s mut S`
-//!    of a step type `S`, with `S`'s table) or by `SequenceRun::poll` (from the pinned
-//!    `SequenceRun` itself, with that type's table): pointer and table always belong
-//!    together, and the borrow lasts `'s`.
+//!    of a step type `S`, with `S`'s table), by `SequenceRun::poll` (from the pinned
+//!    `SequenceRun` itself, with that type's table) or by `ErasedBody::reborrow` (a copy
+//!    of an existing one for a shorter borrow): pointer and table always belong together,
+//!    and the borrow lasts `'s`.
 //! 2. `ErasedBody` methods take `&mut self`: one call at a time, nothing else touches the
 //!    body meanwhile.
 //! 3. A sequence's body is borrowed by its action future while that exists, and by its

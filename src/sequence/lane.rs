@@ -33,7 +33,7 @@ use crate::{Cx, Seq, Sequence, Sequencer};
 ///
 /// On the host, `sim::Sim::lane` (feature `std`) does the same.
 ///
-/// A sequencer has `W` lane slots (its last type parameter, default 8). A lane beyond them
+/// A sequencer has `W` lane slots (its fifth type parameter, default 8). A lane beyond them
 /// never runs its sequence: starting it is `Err(Error::NoLane)`, and an exception sequence in
 /// it is counted in `Sequencer::exceptions_not_run`. Declare the lanes at start-up with
 /// [`Handle::declare_lane`](crate::Handle::declare_lane) to get

@@ -65,7 +65,7 @@ impl Counters {
 
 /// Flag bits of [`ControlBlock::flags`]. What the tick reads of every sequence (active,
 /// paused, fresh, timeout armed, exception active, waiting for a poll) is kept as sets in
-/// the sequencer instead ([`SeqSet`](crate::model::set::SeqSet)).
+/// the sequencer instead (`sequencer::sets::Sets`).
 pub(crate) mod flag {
     // Bit 0 is free (a declared lane is known by its lane slot).
     /// A non-blocking start waits for the lane to pick it up.

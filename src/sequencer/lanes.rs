@@ -154,7 +154,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// Keeps `waker` as the waker of the lane slot `lane` finds in the state, then runs
     /// `read` on the state. With a coarse lock in one section; with the portable lock the
-    /// slot and the waker in one section, the read in another. Either way the state is not
+    /// slot and the waker in one section, the read in another (and, when the waker changed,
+    /// a section between them that forgets the remembered lanes). Either way the state is not
     /// borrowed while a changed waker is cloned or dropped, and a changed waker forgets
     /// the lanes remembered for the tick's wake-ups.
     pub(crate) fn park_in_then<R>(
@@ -224,8 +225,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The lanes to wake for the due exit-condition polls `polls`: the lanes found for the
-    /// same set last time, or, when the set changed, a walk over the sequences. Lanes
-    /// joined in one task share their waker, which is woken once.
+    /// same set last time, or, when the set changed, a walk over the sequences. A lane
+    /// whose waker is the one just found (lanes joined in one task, in id order) is not
+    /// woken again; a task woken twice is still polled once.
     #[inline(always)]
     pub(crate) fn lanes_of_polls(&mut self, polls: SetWord<B>, wakers: &Lanes<W>) -> LaneSet {
         if self.polling.woken.polls != polls {

@@ -3,7 +3,7 @@
 //!
 //! | file | what |
 //! |---|---|
-//! | `mod.rs` | the type, its constructors, [`Sequencer::with`] (the only way into the state) |
+//! | `mod.rs` | the type, its constructors, [`Sequencer::with`] and `borrow_state` (the only way into the state) |
 //! | `state.rs` | [`State`]: everything the lock guards, grouped; the one accessor pair for control blocks; the transition function |
 //! | `sets.rs` | the sets of sequences the tick works on (active, paused, due, ...), stored a word of every set together |
 //! | `control_block.rs` | one sequence's control block (the seed's `BaseSequence` fields) |
@@ -250,13 +250,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// Runs `f` on the state inside a short section under the lock `L`.
     ///
-    /// This is the crate's only access to the state. A `RefCell` would add a panic path
-    /// (the "already borrowed" check) to every operation; instead exclusivity rests on two
-    /// facts: the lock keeps every other context out, and no closure passed here calls
-    /// `with` again or any foreign code that could — closures only touch the state;
-    /// wakers are called by [`wake_lanes`](Self::wake_lanes) and
-    /// [`park_in_then`](Self::park_in_then), user conditions and hooks by the tick, each
-    /// outside `with`.
+    /// With [`borrow_state`](Self::borrow_state), which it calls, this is the crate's only
+    /// access to the state. A `RefCell` would add a panic path (the "already borrowed"
+    /// check) to every operation; instead exclusivity rests on two facts: the lock keeps
+    /// every other context out, and no closure passed here calls `with` again or any
+    /// foreign code that could — closures only touch the state. Wakers are woken by
+    /// [`wake_lanes`](Self::wake_lanes) and [`update_and_wake`](Self::update_and_wake), and
+    /// kept (cloned, dropped) by [`park_in_then`](Self::park_in_then), each after the
+    /// state's borrow has ended; user conditions run in the tick, and cleanup hooks in the
+    /// tick or in a dropped run's teardown, between sections.
     #[inline]
     pub(crate) fn with<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         L::lock(|| self.borrow_state(f))

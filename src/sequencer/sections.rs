@@ -1,10 +1,11 @@
 //! How an operation of several steps takes its sections.
 //!
-//! With the portable lock (`CriticalSection`) a section masks every interrupt, so it must
-//! stay short: each step of an operation is a section of its own, and every step re-checks
-//! what an earlier one saw. With a coarse lock (RTIC's priority ceiling) a section only
-//! holds off the sequencer's own users, so a whole operation runs in the one section its
-//! caller took. An operation is written once, generic over [`Sections`], and
+//! With a lock that masks every interrupt (`CriticalSection`, and `PriorityCeiling` at
+//! RTIC's highest priority) a section must stay short: each step of an operation is a
+//! section of its own, and every step re-checks what an earlier one saw. With a coarse
+//! lock (`Lock::COARSE`: RTIC's priority ceiling below the top, or `SingleThread`) a
+//! section only holds off the sequencer's own users, so a whole operation runs in the one
+//! section its caller took. An operation is written once, generic over [`Sections`], and
 //! [`in_sections!`] compiles it for the one case the lock needs.
 
 use crate::lock::Lock;

@@ -380,8 +380,8 @@ mod tests {
         assert_eq!(s.pop(Set::Active), Some(SeqId(200)));
         assert!(s.is_empty(Set::Active) && s.pop(Set::Active).is_none());
         // A set without an index finds its words too.
-        s.insert(Set::Joining, SeqId(100));
-        assert!(s.words(Set::Joining).eq([3]));
+        s.insert(Set::Fresh, SeqId(100));
+        assert!(s.words(Set::Fresh).eq([3]));
     }
 
     #[test]

@@ -11,7 +11,8 @@ use crate::tick::schedule::Classes;
 use crate::trace::{Entry, Event, Record, Ring, StateChange};
 use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
 
-/// The sequencer's state: reached only through [`Sequencer::with`].
+/// The sequencer's state: reached only through `Sequencer::borrow_state` (from
+/// [`Sequencer::with`], `update_and_wake` and `park_in_then`), under the lock.
 ///
 /// `repr(C)` in this order: the words and sets every section reads come first, the arrays
 /// that grow with the capacities last, so that the hot fields stay within a load's

@@ -225,7 +225,7 @@ fn mark<
         States::ACTIVE_RUNNING
     };
     let targets_caller = reaction.behaviour.targets_caller();
-    // Two sections, both in the tick, which no other user of the sequencer preempts.
+    // Three sections, all in the tick, which no other user of the sequencer preempts.
     let target = s.section(|s| {
         let b = s.block(owner)?;
         if !states.has(b.state) || s.sets.has(Set::Excepting, owner) {

@@ -1,9 +1,11 @@
 //! The heartbeat: [`Sequencer::tick`], called from a periodic timer interrupt.
 //!
-//! The tick is the only place where sequences are stopped: it applies requests (pause,
-//! resume, abort, abort-all), evaluates the monitors and timeouts that are due, starts
-//! exception sequences, applies behaviours, and wakes exactly the lanes that must act.
-//! User conditions, cleanup hooks and wakers run outside the sections.
+//! The tick is where sequences are stopped (the one exception: a run whose future was
+//! dropped is torn down from its `Drop`): it applies requests (pause, resume, abort,
+//! abort-all), evaluates the monitors and timeouts that are due, starts exception
+//! sequences, applies behaviours, and wakes exactly the lanes that must act. User
+//! conditions and cleanup hooks run between sections, wakers once the state's borrow has
+//! ended (with a coarse lock still inside the lock's section).
 //!
 //! | file | what |
 //! |---|---|
@@ -354,7 +356,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// With a portable lock: the lanes whose polled condition is due, except those held
     /// (checked only when `careful`: after a monitor fired or while something is held), in
-    /// short sections. Lanes joined in one task share their waker, which is woken once.
+    /// short sections. A lane whose waker is the one just found (lanes joined in one task,
+    /// in id order) is not woken again; a task woken twice is still polled once.
     #[inline(never)]
     fn lanes_of_polls(&self, wake: SetWord<B>, careful: bool) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
