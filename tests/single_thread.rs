@@ -79,3 +79,17 @@ fn a_single_thread_sequencer_runs_as_one_with_the_default_lock() {
         show(&trace)
     );
 }
+
+/// A sequencer is `Send` with every lock: one made on one thread (a test's fixture, an
+/// application's start-up) runs on another, with the same trace.
+#[test]
+fn a_sequencer_moves_to_another_thread_with_every_lock() {
+    let here = scenario(&Sequencer::<Ctrl, 8, 64, CriticalSection>::new());
+    let locked: Sequencer<Ctrl, 8, 64, CriticalSection> = Sequencer::new();
+    let single: Sequencer<Ctrl, 8, 64, SingleThread> = Sequencer::single_thread();
+    let moved = std::thread::spawn(move || (scenario(&locked), scenario(&single)));
+    let (locked_trace, single_trace) = moved.join().unwrap();
+    assert_eq!(locked_trace, here);
+    assert_eq!(single_trace, here);
+    assert_eq!(here.len(), 13, "{}", show(&here));
+}

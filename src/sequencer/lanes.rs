@@ -18,17 +18,22 @@ use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
 use crate::{SeqId, Sequencer};
 
-/// The identity of a waker (data and vtable pointers, compared, never dereferenced); no
-/// waker has a null vtable, so [`NO_WAKER`] matches none.
-pub(crate) type WakerId = (*const (), *const RawWakerVTable);
+/// The identity of a waker: the addresses of its data and vtable, only ever compared.
+/// Addresses rather than pointers, so that nothing suggests they are dereferenced and the
+/// sequencer stays `Send`. No waker has its vtable at address 0, so [`NO_WAKER`] matches
+/// none.
+pub(crate) type WakerId = (usize, usize);
 
 /// The identity of no waker.
-pub(crate) const NO_WAKER: WakerId = (core::ptr::null(), core::ptr::null());
+pub(crate) const NO_WAKER: WakerId = (0, 0);
 
 /// The identity of `w`.
 #[inline]
 fn identity(w: &Waker) -> WakerId {
-    (w.data(), w.vtable() as *const RawWakerVTable)
+    (
+        w.data().addr(),
+        (w.vtable() as *const RawWakerVTable).addr(),
+    )
 }
 
 /// A set of lane slots (bit `k` = slot `k`; a sequencer has at most 32 lanes).
