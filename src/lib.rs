@@ -173,3 +173,8 @@ struct ReadmeDoctests;
 #[cfg(doctest)]
 #[doc = include_str!("../docs/safety.md")]
 struct SafetyDocDoctests;
+
+/// And the changelog's migration example (on the simulator).
+#[cfg(all(doctest, feature = "std"))]
+#[doc = include_str!("../CHANGELOG.md")]
+struct ChangelogDoctests;
