@@ -10,7 +10,8 @@
 /// expression; the line's position is the id. The module gets:
 ///
 /// * `pub const ID: SeqId` for every line, with the line's doc comment;
-/// * `pub const COUNT: usize`, the number of lines;
+/// * `pub const COUNT: usize`, the number of lines, and `pub const SET_WORDS: usize`, the
+///   words of the sets of a sequencer that holds them (its `B`, [`set_words`](crate::set_words));
 /// * `pub const fn table(..) -> Result<Table<C, COUNT>, Error>`, with the parameters given
 ///   after the module's name (none: `table()`), checked as [`Table::new`](crate::Table::new)
 ///   checks it. Evaluate it in a `const` and a bad table is a compile error.
@@ -19,7 +20,7 @@
 /// module around the macro.
 ///
 /// ```
-/// use rtseq::{Behaviour, Duration, SeqConfig, Sequencer, Table};
+/// use rtseq::{lock::CriticalSection, Behaviour, Duration, SeqConfig, Sequencer, Table};
 ///
 /// struct Axis;
 /// struct Limits { homing_timeout: Duration }
@@ -45,7 +46,9 @@
 /// };
 ///
 /// fn main() {
-///     let seq: Sequencer<Axis, 4> = Sequencer::new();
+///     // Sized by the table: `COUNT` sequences, sets of `SET_WORDS` words (here 1).
+///     let seq: Sequencer<Axis, { seqs::COUNT }, 64, CriticalSection, 8, { seqs::SET_WORDS }> =
+///         Sequencer::new();
 ///     seq.install(&TABLE).unwrap();
 ///     assert_eq!(seqs::HOMING.index(), 1);
 ///     assert_eq!(seq.sequence_by_name("homing").map(|h| h.id()), Some(seqs::HOMING));
@@ -75,6 +78,9 @@ macro_rules! sequences {
 
             /// How many sequences and steps the table holds.
             pub const COUNT: usize = [$(Line::$id),+].len();
+
+            /// The words of the sets of a sequencer that holds the table (its `B`).
+            pub const SET_WORDS: usize = $crate::set_words(COUNT);
 
             /// The sequence table: entry `i` configures the sequence whose id has index `i`.
             ///

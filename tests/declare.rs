@@ -95,3 +95,58 @@ fn monitor_ids_are_the_lines_positions_with_their_owners() {
         .unwrap();
     assert_eq!(seq.validate(&m), Ok(()));
 }
+
+rtseq::sequences! {
+    /// One more than a word of 32: the sets need two.
+    mod wide for () {
+        S00 = SeqConfig::new("s00"),
+        S01 = SeqConfig::new("s01"),
+        S02 = SeqConfig::new("s02"),
+        S03 = SeqConfig::new("s03"),
+        S04 = SeqConfig::new("s04"),
+        S05 = SeqConfig::new("s05"),
+        S06 = SeqConfig::new("s06"),
+        S07 = SeqConfig::new("s07"),
+        S08 = SeqConfig::new("s08"),
+        S09 = SeqConfig::new("s09"),
+        S10 = SeqConfig::new("s10"),
+        S11 = SeqConfig::new("s11"),
+        S12 = SeqConfig::new("s12"),
+        S13 = SeqConfig::new("s13"),
+        S14 = SeqConfig::new("s14"),
+        S15 = SeqConfig::new("s15"),
+        S16 = SeqConfig::new("s16"),
+        S17 = SeqConfig::new("s17"),
+        S18 = SeqConfig::new("s18"),
+        S19 = SeqConfig::new("s19"),
+        S20 = SeqConfig::new("s20"),
+        S21 = SeqConfig::new("s21"),
+        S22 = SeqConfig::new("s22"),
+        S23 = SeqConfig::new("s23"),
+        S24 = SeqConfig::new("s24"),
+        S25 = SeqConfig::new("s25"),
+        S26 = SeqConfig::new("s26"),
+        S27 = SeqConfig::new("s27"),
+        S28 = SeqConfig::new("s28"),
+        S29 = SeqConfig::new("s29"),
+        S30 = SeqConfig::new("s30"),
+        S31 = SeqConfig::new("s31"),
+        S32 = SeqConfig::new("s32"),
+    }
+}
+
+#[test]
+fn a_table_of_33_sizes_a_sequencer_of_two_word_sets() {
+    use rtseq::lock::CriticalSection;
+    assert_eq!((wide::COUNT, wide::SET_WORDS, seqs::SET_WORDS), (33, 2, 1));
+    const TABLE: rtseq::Table<(), { wide::COUNT }> = match wide::table() {
+        Ok(t) => t,
+        Err(_) => panic!("the table is valid"),
+    };
+    let seq: Sequencer<(), { wide::COUNT }, 64, CriticalSection, 8, { wide::SET_WORDS }> =
+        Sequencer::new();
+    seq.install(&TABLE).unwrap();
+    // The last id is in the second word.
+    assert_eq!(wide::S32.index(), 32);
+    assert_eq!(seq.sequence_by_name("s32").map(|h| h.id()), Some(wide::S32));
+}

@@ -19,7 +19,7 @@ pub use config::SeqConfig;
 pub use error::Error;
 pub use id::{MonitorId, SeqId};
 pub use outcome::{Cause, Done, Failure, Outcome};
-pub use set::MAX_SEQUENCES;
+pub use set::{set_words, MAX_SEQUENCES};
 pub use state::RunningState;
 pub use table::Table;
 pub use time::{Duration, Instant};

@@ -24,6 +24,24 @@ use crate::SeqId;
 /// ```
 pub const MAX_SEQUENCES: usize = 256;
 
+/// The words of 32 sequences that the sets of a sequencer of `sequences` sequences and steps
+/// need: the least `B` of a [`Sequencer`](crate::Sequencer) with `N = sequences`.
+///
+/// ```
+/// use rtseq::{lock::CriticalSection, set_words, Sequencer};
+/// assert_eq!([8, 32, 33, 256].map(set_words), [1, 1, 2, 8]);
+/// // 100 sequences and steps: sets of 4 words.
+/// static SEQ: Sequencer<(), 100, 64, CriticalSection, 8, { set_words(100) }> =
+///     Sequencer::new();
+/// ```
+pub const fn set_words(sequences: usize) -> usize {
+    if sequences == 0 {
+        1
+    } else {
+        sequences.div_ceil(32)
+    }
+}
+
 /// Words in a set with room for every id.
 pub(crate) const WORDS_MAX: usize = MAX_SEQUENCES / 32;
 

@@ -57,7 +57,8 @@ pub(crate) use state::State;
 /// two), `L` the [`Lock`], `W` the capacity of lanes (sequences that can run
 /// non-blocking), `B` the words of 32 sequences in each of the sequencer's sets of
 /// sequences: `N <= 32 * B`, at most [`MAX_SEQUENCES`](crate::MAX_SEQUENCES) = 256 with
-/// `B = 8`. (Stable Rust cannot size an array by `N / 32`, hence the second parameter.)
+/// `B = 8`; [`set_words(N)`](crate::set_words) computes it. (Stable Rust cannot size an
+/// array by `N / 32`, hence the second parameter.)
 ///
 /// ```
 /// use rtseq::lock::CriticalSection;
@@ -233,7 +234,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         const {
             assert!(
                 N <= 32 * B,
-                "a sequencer of N sequences needs B >= N / 32 words in its sets"
+                "the sets of a sequencer of N sequences need B = rtseq::set_words(N) words"
             )
         };
         const { assert!(W <= 32, "at most 32 lanes") };
