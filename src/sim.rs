@@ -623,7 +623,8 @@ impl<
     ///
     /// The first start validates the configuration ([`Sequencer::validate`]): an exception
     /// sequence without a lane, for example, is an `Err(Error::InvalidConfig)` here, and
-    /// [`Sequencer::validate`] names the monitor and the reason.
+    /// `seq.validate(sim.monitors())` ([`Sequencer::validate`]) names the monitor and the
+    /// reason.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
