@@ -1,5 +1,5 @@
 //! Homing on the host simulator: move slowly to the negative end stop (with a timeout),
-//! set zero, back off. Run with `cargo run --example homing`.
+//! set zero, back off. Run with `cargo run --example homing --features std`.
 //!
 //! The plant is a 1-D axis whose position integrates the commanded velocity every tick; the
 //! end stop closes at -50 mm. A second run has a broken end stop: the 5 s timeout fires, the

@@ -836,6 +836,29 @@ fn a_table_goes_into_an_empty_sequencer_only() {
     );
 }
 
+/// Polling periods and timeouts are compared by wrapping difference in 32 bits of µs, so
+/// the longest is 2^31 - 1 µs (35.8 min): one more is refused wherever a duration is set.
+#[test]
+fn the_longest_period_and_timeout_are_just_under_2_pow_31_us() {
+    let longest = Duration::from_ticks(0x7FFF_FFFF);
+    let too_long = Duration::from_ticks(0x8000_0000);
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    assert!(seq.register(SeqConfig::new("p").polling(longest)).is_ok());
+    assert!(seq.register(SeqConfig::new("t").timeout(longest)).is_ok());
+    assert_eq!(
+        seq.register(SeqConfig::new("p2").polling(too_long)),
+        Err(Error::DurationOutOfRange)
+    );
+    assert_eq!(
+        seq.register(SeqConfig::new("t2").timeout(too_long)),
+        Err(Error::DurationOutOfRange)
+    );
+    let h = seq.sequence_by_name("t").unwrap();
+    assert_eq!(h.set_timeout(Some(too_long)), Err(Error::DurationOutOfRange));
+    assert_eq!(h.set_timeout(Some(longest)), Ok(()));
+    assert_eq!(seq.len(), 2);
+}
+
 #[test]
 fn registry_errors_are_reported_not_panicked() {
     let seq: Sequencer<Ctrl, 2> = Sequencer::new();

@@ -63,8 +63,10 @@ impl<C> SeqConfig<C> {
 
     /// The seed's `pollingTime`: how often monitors, timeout and exit condition are checked.
     ///
-    /// A 3 ms dwell polled every 10 ms ends at the first poll after it passed; a zero period is
-    /// refused:
+    /// A period is more than zero and under 2^31 µs (about 35.8 minutes); registration
+    /// refuses others with [`Error::DurationOutOfRange`](crate::Error::DurationOutOfRange).
+    /// A 3 ms dwell polled every 10 ms ends at the first poll after it passed; a zero
+    /// period is refused:
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
@@ -96,7 +98,10 @@ impl<C> SeqConfig<C> {
     }
 
     /// Arms the timeout monitor: measured from the start, reset on restart, paused time
-    /// excluded.
+    /// excluded. A timeout is more than zero and under 2^31 µs (about 35.8 minutes), else
+    /// registration returns
+    /// [`Error::DurationOutOfRange`](crate::Error::DurationOutOfRange); a longer wait
+    /// belongs in a step ([`Wait`](crate::Wait) has no such limit).
     ///
     /// A 10 ms dwell under a 4 ms timeout (default behaviour: abort):
     ///

@@ -37,7 +37,8 @@ pub enum Error {
     NoLane(SeqId),
     /// All `W` lane slots of the sequencer are declared.
     LaneCapacityExceeded(SeqId),
-    /// A polling time or timeout of zero or longer than `u32::MAX` microseconds.
+    /// A polling time or timeout of zero, or of 2^31 µs (about 35.8 minutes) or more: the
+    /// sequencer compares times by their wrapping difference in 32 bits of µs.
     DurationOutOfRange,
     /// A join on a sequence that was never started.
     NeverStarted(SeqId),

@@ -532,7 +532,8 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// Sets (or with `None` switches off) the timeout monitor; it applies from the next
-    /// start or restart, like EEROS's `setTimeoutTime`.
+    /// start or restart, like EEROS's `setTimeoutTime`. The limits are
+    /// [`SeqConfig::timeout`](crate::SeqConfig::timeout)'s.
     ///
     /// ```
     /// use rtseq::{Duration, Error, SeqConfig, Sequencer};

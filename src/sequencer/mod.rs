@@ -53,8 +53,8 @@ pub(crate) use state::State;
 ///
 /// `C` is the application's control system: conditions, steps and sequences get typed `&C`
 /// access to it (use atomics or [`critical_section::Mutex`] inside `C` for commands). `N` is
-/// the capacity of sequences and steps, `T` of the transition trace buffer (a power of
-/// two), `L` the [`Lock`], `W` the capacity of lanes (sequences that can run
+/// the capacity of sequences and steps, `T` of the trace ring of transitions and sequencer
+/// events (a power of two), `L` the [`Lock`], `W` the capacity of lanes (sequences that can run
 /// non-blocking), `B` the words of 32 sequences in each of the sequencer's sets of
 /// sequences: `N <= 32 * B`, at most [`MAX_SEQUENCES`](crate::MAX_SEQUENCES) = 256 with
 /// `B = 8`; [`set_words(N)`](crate::set_words) computes it. (Stable Rust cannot size an

@@ -272,8 +272,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// the counters, the set of changed sequences) and returns the block for the caller's
     /// bookkeeping in the same section. Otherwise changes nothing and returns `None`.
     ///
-    /// Callers read `change.from` in an earlier section and check the transition table
-    /// there; a state that changed in between fails here. The sequence is one callers
+    /// Callers read `change.from` in an earlier section and pick a change the transition
+    /// table allows ([`RunningState::can_transition_to`](crate::RunningState::can_transition_to);
+    /// tests/properties.rs checks every recorded change against it); a state that changed
+    /// in between fails here. The sequence is one callers
     /// found registered (an unregistered slot is `Idle`, and only a start, which checks
     /// registration, leaves `Idle`). Inline: it is the bulk of the sections that make a
     /// transition, which must stay short.
