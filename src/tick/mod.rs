@@ -143,7 +143,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ///
     /// A tick with nothing due (and no state change since the last one) returns after one
     /// short critical section. A tick with a time earlier than the last tick's does
-    /// nothing and returns [`Error::TickBeforeLast`] (time does not go back). In a
+    /// nothing and returns [`Error::TickBeforeLast`] (time does not go back).
+    ///
+    /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
+    /// monotonics do). The sequencer keeps its deadlines as 32-bit µs and compares them by
+    /// wrapping difference, so it runs for any length of time as long as ticks come less
+    /// than 2^31 µs (about 35.8 minutes) apart, which a periodic timer interrupt always
+    /// does; after a longer gap, polls and timeouts that fell due in it may come late. In a
     /// sequencer of more than 32 sequences (sets of `B > 1` words) the tick visits only the
     /// words of 32 ids that hold an active sequence, lowest first, and in each does what
     /// the tick of a sequencer of 32 does: monitors in table order, then timeouts, then
