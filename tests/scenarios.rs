@@ -854,7 +854,10 @@ fn the_longest_period_and_timeout_are_just_under_2_pow_31_us() {
         Err(Error::DurationOutOfRange)
     );
     let h = seq.sequence_by_name("t").unwrap();
-    assert_eq!(h.set_timeout(Some(too_long)), Err(Error::DurationOutOfRange));
+    assert_eq!(
+        h.set_timeout(Some(too_long)),
+        Err(Error::DurationOutOfRange)
+    );
     assert_eq!(h.set_timeout(Some(longest)), Ok(()));
     assert_eq!(seq.len(), 2);
 }
