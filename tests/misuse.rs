@@ -647,3 +647,96 @@ fn a_sequence_object_of_another_sequencer_is_refused() {
     // `a`'s sequence object in a lane of `b` declared nothing there.
     assert_eq!(sim.start(b_other), Err(Error::NoLane(b_other)));
 }
+
+// ---------------------------------------------------------------------------------------
+// 6. The tick preempts the lanes: an action the tick stopped starts nothing afterwards.
+// ---------------------------------------------------------------------------------------
+
+static DRIVE_ON: AtomicUsize = AtomicUsize::new(0);
+static MOTOR_ON: AtomicUsize = AtomicUsize::new(0);
+
+/// Switches the drive on; never done.
+struct DriveOn;
+impl Step<()> for DriveOn {
+    fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        DRIVE_ON.fetch_add(1, SeqCst);
+        Ok(())
+    }
+    fn check_exit_condition(&mut self, _cx: &Cx<'_, ()>) -> bool {
+        false
+    }
+}
+
+/// Switches the motor on and runs until stopped.
+struct MotorOn;
+impl Sequence<()> for MotorOn {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        MOTOR_ON.fetch_add(1, SeqCst);
+        cx.wait_until(|_| false).await;
+        Ok(())
+    }
+}
+
+type Starts = std::sync::Mutex<Vec<Result<(), Failure>>>;
+static STARTS: Starts = Starts::new(Vec::new());
+
+/// Between two await points the tick preempts it (here: the action ticks the sequencer
+/// itself, after an abort-all, as the timer interrupt would), then it starts a sequence
+/// in its lane and runs a step.
+struct Interrupted {
+    seq: &'static Sequencer<(), 4>,
+    motor: SeqId,
+    drive: Seq<DriveOn>,
+}
+impl Sequence<()> for Interrupted {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        self.seq.abort_all();
+        let preempting = self.seq.tick(ms_at(1), &(), &mut Monitors::<(), 1>::new());
+        assert_eq!(preempting, Ok(()));
+        let started = cx.start(self.motor).map_err(Failure::from);
+        let stepped = cx.step(&mut self.drive).await.map(|_| ());
+        STARTS.lock().unwrap().extend([started, stepped]);
+        Ok(())
+    }
+}
+
+#[test]
+fn an_action_stopped_by_a_preempting_tick_starts_nothing_afterwards() {
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    let drive = SEQ.add(SeqConfig::new("drive on"), DriveOn).unwrap();
+    let motor = SEQ.add(SeqConfig::new("motor on"), MotorOn).unwrap();
+    let (d, m) = (drive.id(), motor.id());
+    let main = SEQ
+        .add(
+            SeqConfig::new("main"),
+            Interrupted {
+                seq: &SEQ,
+                motor: m,
+                drive,
+            },
+        )
+        .unwrap();
+    let id = main.id();
+    let mut sim = Sim::new(&SEQ, &(), Monitors::<(), 1>::new());
+    sim.lane(main);
+    sim.lane(motor);
+    sim.start(id).unwrap();
+    // Idle after the lane's first poll (the simulator's clock is still at 0).
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(10)),
+        Some(ms_at(0))
+    );
+    let refused = Err(Failure::NotStarted(Error::NotRunning(id)));
+    assert_eq!(*STARTS.lock().unwrap(), [refused, refused]);
+    let all = rtseq::Cause::AbortAll;
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, id, Idle, Running, Start),
+            tr(1, id, Running, Aborting, all),
+            tr(1, id, Aborting, Aborted, all),
+        ]
+    );
+    assert_eq!((sim.state(m), sim.state(d)), (Idle, Idle));
+    assert_eq!((MOTOR_ON.load(SeqCst), DRIVE_ON.load(SeqCst)), (0, 0));
+}

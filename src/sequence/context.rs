@@ -221,7 +221,9 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
-    /// waits for its outcome. Errors if `child` is already running.
+    /// waits for its outcome. Errors if `child` is already running, or if the tick stopped
+    /// this sequence while its action ran on ([`Error::NotRunning`], as
+    /// [`start`](Self::start)).
     ///
     /// If this sequence is aborted or paused meanwhile, the call does not return into the
     /// action until it may advance again (sticky abort: an aborted action never resumes).
@@ -336,7 +338,9 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
-    /// it is already running or has no lane.
+    /// it is already running or has no lane, and with [`Error::NotRunning`] (this
+    /// sequence's id) if the tick stopped this sequence while its action ran on (a tick
+    /// preempts the lanes): nothing an action starts outlives its abort.
     ///
     /// `blink` has a lane, `fan` has none:
     ///

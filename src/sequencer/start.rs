@@ -75,14 +75,27 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         Ok((b.flags & flag::BOUND, lane))
     }
 
+    /// `caller` (if any) may start a run: it is running or paused. The tick can stop a
+    /// sequence while its action runs on to its next await point (the tick preempts the
+    /// lanes); a start it makes meanwhile is refused, so nothing outlives its caller's stop.
+    fn check_caller(&self, caller: Link) -> Result<(), Error> {
+        match caller.get() {
+            Some(c) if !States::ACTIVE_RUNNING.has(self.state_of(c)) => Err(Error::NotRunning(c)),
+            _ => Ok(()),
+        }
+    }
+
     /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
     /// lane, its run count, no last exception or outcome yet. Only for a sequence that is
     /// not `Running` or `Paused` (then it only returns that state): the tick neither scans
     /// it nor walks through these fields, and the caller link, flags and state, which it
-    /// does read, change in the commit. `None` for an id not registered.
-    fn schedule_new(&mut self, id: SeqId, lane: u8) -> Option<Scheduled> {
+    /// does read, change in the commit. `Err` for an id not registered, or a caller that
+    /// may not start it any more.
+    fn schedule_new(&mut self, id: SeqId, run: &NewRun) -> Result<Scheduled, Error> {
+        self.check_caller(run.caller)?;
         let now = Stamp::of(self.now);
-        let b = self.block_mut(id)?;
+        let lane = run.lane;
+        let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
         let from = b.state;
         let armed = b.timeout != 0;
         if !States::ACTIVE_RUNNING.has(from) {
@@ -94,7 +107,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             // Its lane may be another one now.
             self.polling.forget_woken();
         }
-        Some(Scheduled {
+        Ok(Scheduled {
             from,
             at: now,
             armed,
@@ -146,11 +159,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// The commit of a new run: `change` (validated and scheduled at `seen`) with the
     /// run's caller and flags, which also clear the requests and the pending behaviour.
-    /// False: a tick ran since (the time moved, or the state is not `change.from` any
-    /// more), nothing changed, schedule again.
+    /// False: a tick ran since (the time moved, the state is not `change.from` any more,
+    /// or it stopped the caller), nothing changed, schedule again.
     #[inline(never)]
     fn commit_new(&mut self, change: &StateChange, seen: Stamp, run: &NewRun) -> bool {
-        if Stamp::of(self.now) != seen {
+        if Stamp::of(self.now) != seen || self.check_caller(run.caller).is_err() {
             return false;
         }
         let Some(b) = self.transition(change) else {
@@ -218,8 +231,9 @@ fn admit<
 }
 
 /// Schedules and commits a new run of `id` from a state that is not active; again if a
-/// tick ran in between (it may have rescanned without the new run, or changed its state:
-/// the commit re-checks both). False (nothing changed) when the state does not allow it.
+/// tick ran in between (it may have rescanned without the new run, or changed its state
+/// or its caller's: the commit re-checks them). `Err` (nothing changed) when the states
+/// do not allow it.
 fn launch<
     C,
     S: Sections<C, N, T, W, B>,
@@ -232,13 +246,11 @@ fn launch<
     id: SeqId,
     run: NewRun,
     cause: Cause,
-) -> bool {
+) -> Result<(), Error> {
     loop {
-        let Some(at) = s.section(|s| s.schedule_new(id, run.lane)) else {
-            return false;
-        };
+        let at = s.section(|s| s.schedule_new(id, &run))?;
         if !States::STARTABLE.has(at.from) {
-            return false;
+            return Err(Error::AlreadyRunning(id));
         }
         s.section(|s| s.prepare(id, at.armed));
         s.section(|s| s.due_by(id));
@@ -247,9 +259,14 @@ fn launch<
         s.section(|s| s.sets.put(Set::Called, id, run.caller.get().is_some()));
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
         let done = s.section(|s| s.commit_new(&change, at.at, &run));
-        // In one section the loop never repeats.
+        // In one section the loop never repeats (nothing changes between the checks and
+        // the commit).
         if done || S::ONE_SECTION {
-            return done;
+            return if done {
+                Ok(())
+            } else {
+                Err(Error::AlreadyRunning(id))
+            };
         }
     }
 }
@@ -302,9 +319,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Result<(), Error> {
         let run = in_sections!(self, |s| admit(s, id, caller, mode, extra))?;
         let lane = in_sections!(self, |s| {
-            if !launch(s, id, run, cause) {
-                return Err(Error::AlreadyRunning(id));
-            }
+            launch(s, id, run, cause)?;
             Ok(match mode {
                 Mode::Lane => s.section(|s| s.lane_of(id)),
                 Mode::Blocking { .. } => LaneSet::EMPTY,
