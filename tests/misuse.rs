@@ -494,6 +494,77 @@ fn three_joiners_of_one_run_all_get_its_outcome() {
     );
 }
 
+/// A joiner is released by the end of the run it joined; when another lane, polled before
+/// it, starts that sequence again, the joiner still gets the joined run's outcome, not the
+/// new run's (a supervisor that repeats T would otherwise keep J waiting for ever).
+#[test]
+fn a_joiner_gets_the_outcome_of_the_run_it_joined_when_a_new_run_starts_first() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let t = seq
+        .add(SeqConfig::new("T"), Node::of(vec![Op::Wait(dwell)]))
+        .unwrap();
+    let ti = t.id();
+    // X joins T, then starts it again; J only joins T.
+    let x = seq
+        .add(
+            SeqConfig::new("X"),
+            Node::of(vec![Op::Join(ti), Op::Start(ti)]),
+        )
+        .unwrap();
+    let j = seq
+        .add(SeqConfig::new("J"), Node::of(vec![Op::Join(ti)]))
+        .unwrap();
+    let (xi, ji) = (x.id(), j.id());
+    let main = seq
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(ti), Op::Start(xi), Op::Start(ji)]),
+        )
+        .unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(t);
+    sim.lane(x);
+    sim.lane(j);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(10))
+    );
+    let runs_of_t: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|r| r.sequence == ti)
+        .copied()
+        .collect();
+    assert_eq!(
+        runs_of_t,
+        [
+            tr(0, ti, Idle, Running, Start),
+            tr(5, ti, Running, Terminated, Completed),
+            tr(5, ti, Terminated, Running, Start),
+            tr(10, ti, Running, Terminated, Completed),
+        ]
+    );
+    drop(sim);
+    let joins: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| (r.seq == xi || r.seq == ji) && r.line == 0)
+        .map(|r| (r.ms, r.seq, r.result))
+        .collect();
+    assert_eq!(
+        joins,
+        [(5, xi, Ok(Done::Completed)), (5, ji, Ok(Done::Completed))]
+    );
+}
+
 // ---------------------------------------------------------------------------------------
 // 5. A join that could never return is an error.
 // ---------------------------------------------------------------------------------------

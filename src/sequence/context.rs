@@ -420,12 +420,14 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     pub fn join(&self, id: SeqId) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
         let (port, me) = (self.port, self.id);
+        // The run joined, set at the first poll.
+        let mut run = None;
         poll_fn(move |w| {
             // Only while this sequence may advance: an aborted joiner never resumes.
             if port.clearance(me, w.waker()) != Clearance::Go {
                 return Poll::Pending;
             }
-            port.join(me, id)
+            port.join(me, id, &mut run)
         })
     }
 

@@ -129,6 +129,7 @@ pub(crate) struct ControlBlock {
     pub(crate) active_exception: Option<Cause>,
     /// Cause of the last abort or restart.
     pub(crate) last_cause: Cause,
+    /// The outcome of the last finished run (kept while a new run is under way).
     pub(crate) outcome: Option<Outcome>,
     pub(crate) state: RunningState,
     /// `callerSequence`.

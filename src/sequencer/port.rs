@@ -68,8 +68,15 @@ pub(crate) trait Port<C> {
     /// non-blocking start (true). The lane of another sequencer's object declares nothing
     /// and never runs here (a start of `id` finds no lane).
     fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> bool;
-    /// `joiner` waits for the end of `target`'s run: its outcome once it ended.
-    fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>>;
+    /// `joiner` waits for the end of a run of `target`: its outcome once it ended. `run`:
+    /// which run, by the target's run count; the first poll of a join sets it to the
+    /// current run (or the last one, if it ended), so a join never waits for a later run.
+    fn join(
+        &self,
+        joiner: SeqId,
+        target: SeqId,
+        run: &mut Option<u16>,
+    ) -> Poll<Result<Outcome, Error>>;
     /// A snapshot of `id`'s control block.
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues `request` of `id`, made by `by`, for the next tick.
@@ -141,7 +148,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Outcome::Aborted(cause) => cause,
         };
         let change = StateChange::new(id, RunningState::Running, RunningState::Terminated, cause);
-        self.with(|s| s.end(&change))
+        self.with(|s| s.end(&change, outcome))
     }
 
     fn finished(&self, id: SeqId, outcome: Outcome) {
@@ -194,7 +201,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         )
     }
 
-    fn join(&self, joiner: SeqId, target: SeqId) -> Poll<Result<Outcome, Error>> {
+    fn join(
+        &self,
+        joiner: SeqId,
+        target: SeqId,
+        run: &mut Option<u16>,
+    ) -> Poll<Result<Outcome, Error>> {
         if in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
             return Poll::Ready(Err(Error::JoinWouldDeadlock(target)));
         }
@@ -205,11 +217,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if b.state == RunningState::Idle {
                 return Err(Error::NeverStarted(target));
             }
-            Ok(match b.outcome {
-                Some(o) if !b.state.is_active() && !b.has(flag::START_PENDING) => Some(o),
-                // Running, or ended but its run has not reported yet.
-                _ => None,
-            })
+            let joined = *run.get_or_insert(b.runs);
+            // A later run started only after the joined one ended; its outcome stays
+            // until the later run ends.
+            let ended = b.runs != joined || !(b.state.is_active() || b.has(flag::START_PENDING));
+            Ok(if ended { b.outcome } else { None })
         });
         let result = match ended {
             Ok(None) => return Poll::Pending,

@@ -86,9 +86,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
-    /// lane, its run count, no last exception or outcome yet. Only for a sequence that is
-    /// not `Running` or `Paused` (then it only returns that state): the tick neither scans
-    /// it nor walks through these fields, and the caller link, flags and state, which it
+    /// lane, its run count, no last exception yet (the outcome stays the last finished
+    /// run's, which a join of that run may still collect). Only for a sequence that may
+    /// start (`Idle`, `Terminated`, `Aborted`; else it only returns the state): the tick
+    /// neither scans it nor walks through these fields, and the caller link, flags and state, which it
     /// does read, change in the commit. `Err` for an id not registered, or a caller that
     /// may not start it any more.
     fn schedule_new(&mut self, id: SeqId, run: &NewRun) -> Result<Scheduled, Error> {
@@ -98,12 +99,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
         let from = b.state;
         let armed = b.timeout != 0;
-        if !States::ACTIVE_RUNNING.has(from) {
+        if States::STARTABLE.has(from) {
             b.start_clock(now);
             b.lane = lane;
             b.runs = b.runs.wrapping_add(1);
             b.active_exception = None;
-            b.outcome = None;
             // Its lane may be another one now.
             self.polling.forget_woken();
         }

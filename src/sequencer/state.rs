@@ -215,15 +215,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// After a run ended: store the outcome. True when the run was an exception sequence,
-    /// whose end is then reported ([`exception_ended`](Self::exception_ended)). The
-    /// joiners are released separately ([`release_joiners`](Self::release_joiners)).
-    /// A failure is recorded here, once per run (its `Running → Terminated` came first).
+    /// After a run ended (its outcome was stored with its last transition): true when the
+    /// run was an exception sequence, whose end is then reported
+    /// ([`exception_ended`](Self::exception_ended)). The joiners are released separately
+    /// ([`release_joiners`](Self::release_joiners)). A failure is recorded here, once per
+    /// run (its `Running → Terminated` came first).
     pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> bool {
-        let Some(b) = self.block_mut(id) else {
+        let Some(b) = self.block(id) else {
             return false;
         };
-        b.outcome = Some(outcome);
         let handles_exception = b.has(flag::HANDLES_EXCEPTION);
         if let Outcome::Failed(failure) = outcome {
             self.record(Event::Failed {

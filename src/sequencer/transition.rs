@@ -4,7 +4,7 @@
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::trace::StateChange;
-use crate::{Cause, RunningState, SeqId};
+use crate::{Cause, Outcome, RunningState, SeqId};
 
 /// What a run's await point must do, decided by its control block.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -35,12 +35,20 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// Ends a run: `change` is `Running → Terminated` (cause `Completed`,
-    /// `PreConditionFalse` or `Failed`). False, and nothing changes, if the sequence was aborted or
-    /// restarted meanwhile or its exception is being handled (its clearance says what to
-    /// do instead).
-    pub(crate) fn end(&mut self, change: &StateChange) -> bool {
+    /// Ends a run with `outcome`: `change` is `Running → Terminated` (cause `Completed`,
+    /// `PreConditionFalse` or `Failed`), and the outcome is stored with it (a join that
+    /// sees the end sees the outcome). False, and nothing changes, if the sequence was
+    /// aborted or restarted meanwhile or its exception is being handled (its clearance says
+    /// what to do instead).
+    pub(crate) fn end(&mut self, change: &StateChange, outcome: Outcome) -> bool {
         // A run ends only with the clearance `Go`: not while its exception is handled.
-        !self.sets.has(Set::Excepting, change.sequence) && self.transition(change).is_some()
+        if self.sets.has(Set::Excepting, change.sequence) {
+            return false;
+        }
+        let Some(b) = self.transition(change) else {
+            return false;
+        };
+        b.outcome = Some(outcome);
+        true
     }
 }
