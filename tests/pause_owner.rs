@@ -176,3 +176,120 @@ fn a_timeout_cannot_pause_its_sequence() {
         "a timeout cannot pause its sequence (PauseOwner is a monitor behaviour)"
     );
 }
+
+/// What the operator does to the cycle.
+#[derive(Clone, Copy)]
+enum Operator {
+    Pause,
+    Resume,
+    /// A resume that is refused while a curtain holds.
+    ResumeRefused,
+}
+
+/// A cycle with two light curtains (`PauseOwner` monitors 0 and 1), broken while `a(ms)`
+/// and `b(ms)`, run to 30 ms; the operator acts on the cycle at the given times.
+fn curtains(
+    a: fn(u64) -> bool,
+    b: fn(u64) -> bool,
+    operator: &[(u64, Operator)],
+) -> (Vec<Transition>, SeqId) {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let cycle = seq
+        .add(SeqConfig::new("cycle"), Node::of(vec![]).until(1))
+        .unwrap();
+    let c = cycle.id();
+    let mut on_a = |c: &Ctrl, _| c.flag(2);
+    let mut on_b = |c: &Ctrl, _| c.flag(3);
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    monitors
+        .add(
+            c,
+            Monitor::new("curtain A", &mut on_a, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    monitors
+        .add(
+            c,
+            Monitor::new("curtain B", &mut on_b, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(cycle);
+    sim.before_tick(move |t, ctrl| {
+        ctrl.set(2, a(ms(t)));
+        ctrl.set(3, b(ms(t)));
+    });
+    sim.start(c).unwrap();
+    for &(at, act) in operator {
+        sim.run_until(rtseq::Instant::from_ticks(at * 1_000));
+        match act {
+            Operator::Pause => assert_eq!(sim.pause(c), Ok(())),
+            Operator::Resume => assert_eq!(sim.resume(c), Ok(())),
+            Operator::ResumeRefused => {
+                assert_eq!(sim.resume(c), Err(Error::HeldByMonitor(c)))
+            }
+        }
+    }
+    sim.run_until(rtseq::Instant::from_ticks(30_000));
+    (sim.trace().to_vec(), c)
+}
+
+/// The cycle stays paused while either curtain is broken: A from 5 to 10 ms, B from 7 to
+/// 20 ms; it resumes when the last one clears, for that monitor.
+#[test]
+fn with_two_curtains_the_owner_resumes_when_the_last_one_clears() {
+    let (trace, c) = curtains(|t| (5..10).contains(&t), |t| (7..20).contains(&t), &[]);
+    let (a, b) = (Mon(MonitorId::from_index(0)), Mon(MonitorId::from_index(1)));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(5, c, Running, Paused, a),
+            tr(20, c, Paused, Running, b),
+        ]
+    );
+}
+
+/// The operator's pause (feed hold at 2 ms) outlasts a curtain broken from 5 to 8 ms: only
+/// the operator's resume (at 12 ms) lifts it.
+#[test]
+fn a_curtain_that_clears_keeps_the_operators_pause() {
+    let (trace, c) = curtains(
+        |t| (5..8).contains(&t),
+        |_| false,
+        &[(2, Operator::Pause), (12, Operator::Resume)],
+    );
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(3, c, Running, Paused, rtseq::Cause::Pause),
+            tr(13, c, Paused, Running, rtseq::Cause::Resume),
+        ]
+    );
+}
+
+/// While a curtain holds the cycle (broken from 5 to 20 ms), a resume request is refused
+/// with `HeldByMonitor`; the cycle resumes when the curtain clears.
+#[test]
+fn a_resume_request_is_refused_while_a_curtain_holds() {
+    let (trace, c) = curtains(
+        |t| (5..20).contains(&t),
+        |_| false,
+        &[(8, Operator::ResumeRefused)],
+    );
+    let a = Mon(MonitorId::from_index(0));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(5, c, Running, Paused, a),
+            tr(20, c, Paused, Running, a),
+        ]
+    );
+    assert_eq!(
+        Error::HeldByMonitor(c).to_string(),
+        "sequence 0 is held paused by a monitor whose condition holds"
+    );
+}

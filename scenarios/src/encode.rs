@@ -142,6 +142,7 @@ fn error_code(e: Error) -> u32 {
         Error::TickBeforeLast => 18,
         Error::PauseOnTimeout => 19,
         Error::ForeignSequence(_) => 20,
+        Error::HeldByMonitor(_) => 21,
     }
 }
 

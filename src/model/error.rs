@@ -65,6 +65,10 @@ pub enum Error {
     /// blocking here (its id names a sequence of this one too). As a lane here it never
     /// runs, so a start of that id says [`NoLane`](Error::NoLane).
     ForeignSequence(SeqId),
+    /// Resume was requested for a sequence that a [`PauseOwner`](crate::Behaviour::PauseOwner)
+    /// monitor holds paused (its condition still holds): it resumes when the condition
+    /// clears.
+    HeldByMonitor(SeqId),
 }
 
 impl Error {
@@ -101,6 +105,7 @@ impl Error {
             Error::TickBeforeLast => "tick earlier than the last",
             Error::PauseOnTimeout => "a timeout cannot pause its sequence",
             Error::ForeignSequence(_) => "sequence object of another sequencer",
+            Error::HeldByMonitor(_) => "sequence held paused by a monitor",
         }
     }
 }
@@ -143,6 +148,11 @@ impl core::fmt::Display for Error {
             Error::ForeignSequence(id) => write!(
                 f,
                 "the object of sequence {} was made by another sequencer",
+                id.index()
+            ),
+            Error::HeldByMonitor(id) => write!(
+                f,
+                "sequence {} is held paused by a monitor whose condition holds",
                 id.index()
             ),
             Error::JoinWouldDeadlock(id) => write!(

@@ -70,6 +70,9 @@ pub(crate) mod flag {
     // Bit 0 is free (a declared lane is known by its lane slot).
     /// A non-blocking start waits for the lane to pick it up.
     pub const START_PENDING: u16 = 1 << 1;
+    /// A pause request paused it: a `PauseOwner` monitor whose condition clears does not
+    /// resume it (only a resume request does).
+    pub const PAUSED_BY_REQUEST: u16 = 1 << 2;
     /// The exception sequence ended; the tick applies the pending behaviour.
     pub const EXCEPTION_DONE: u16 = 1 << 5;
     /// A [`Seq`](crate::Seq) object was bound to this id.
@@ -147,6 +150,9 @@ pub(crate) struct ControlBlock {
     pub(crate) joins: Link,
     /// Its [polling class](crate::tick::schedule) (the class holds the period).
     pub(crate) class: u8,
+    /// Its `PauseOwner` monitors whose condition holds in this run: while any does, it
+    /// stays paused.
+    pub(crate) monitor_holds: u8,
 }
 
 /// No lane slot.
@@ -181,6 +187,7 @@ impl ControlBlock {
         timeout_restarts: 0,
         joins: Link::NONE,
         class: 0,
+        monitor_holds: 0,
     };
 
     /// A registered sequence that never ran, before its configuration is written.

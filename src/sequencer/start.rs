@@ -132,11 +132,17 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// After the schedule, before the commit, for a sequence that is not active (else
     /// nothing): the sets the tick reads of an active sequence (fresh, no exception, not
-    /// waiting for a poll, the timeout `armed` or not).
+    /// waiting for a poll, the timeout `armed` or not), and no pause in force (its
+    /// monitors' edge detection starts again).
     fn prepare(&mut self, id: SeqId, armed: bool) {
-        if States::ACTIVE_RUNNING.has(self.state_of(id)) {
+        let Some(b) = self.block_mut(id) else {
+            return;
+        };
+        if States::ACTIVE_RUNNING.has(b.state) {
             return;
         }
+        b.monitor_holds = 0;
+        b.set(flag::PAUSED_BY_REQUEST, false);
         self.sets.put(Set::Fresh, id, true);
         self.sets.put(Set::Armed, id, armed);
         self.sets.put(Set::Excepting, id, false);

@@ -77,8 +77,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// A `PauseOwner` monitor's edge: its condition became true (`holds`), so its exception
     /// sequence (if any) starts in its lane and `owner` and the sequences it blocks are
-    /// paused; or it cleared, and they resume. No exception is marked: the owner's other
-    /// monitors keep firing. True when the owner was running and is now paused.
+    /// paused; or it cleared, and they resume once no other `PauseOwner` monitor of the
+    /// owner holds and no pause request paused it. No exception is marked: the owner's
+    /// other monitors keep firing. True when the owner was running and is now paused.
     pub(crate) fn hold(
         &self,
         control: &C,
@@ -88,11 +89,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         holds: bool,
     ) -> bool {
         if !holds {
-            self.walk(control, Some(owner), RunningState::Running, cause);
+            let released = self.with(|s| {
+                s.block_mut(owner).is_some_and(|b| {
+                    b.monitor_holds = b.monitor_holds.saturating_sub(1);
+                    b.monitor_holds == 0 && !b.has(flag::PAUSED_BY_REQUEST)
+                })
+            });
+            if released {
+                self.walk(control, Some(owner), RunningState::Running, cause);
+            }
             return false;
         }
         let running = self.with(|s| {
-            let running = s.state_of(owner) == RunningState::Running;
+            let Some(b) = s.block_mut(owner) else {
+                return false;
+            };
+            // Its monitors are evaluated only while it is running or paused.
+            b.monitor_holds = b.monitor_holds.saturating_add(1);
+            let running = b.state == RunningState::Running;
             if running {
                 s.record(Event::Fired {
                     owner,
@@ -185,12 +199,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     self.apply(control, id, behaviour, target, cause);
                 }
             }
-            // One request at a time, abort first.
+            // One request at a time, abort first. A pause request's pause lasts until a
+            // resume request, whatever monitors do; a resume leaves a sequence that a
+            // monitor holds paused (its check passed before the monitor's edge).
             let (to, cause) = if req & request::ABORT != 0 {
                 (RunningState::Aborting, Cause::Abort)
             } else if req & request::PAUSE != 0 {
+                self.with(|s| s.pause_requested(id));
                 (RunningState::Paused, Cause::Pause)
             } else if req & request::RESUME != 0 {
+                if !self.with(|s| s.resume_requested(id)) {
+                    continue;
+                }
                 (RunningState::Running, Cause::Resume)
             } else {
                 continue;
