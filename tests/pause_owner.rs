@@ -293,3 +293,53 @@ fn a_resume_request_is_refused_while_a_curtain_holds() {
         "sequence 0 is held paused by a monitor whose condition holds"
     );
 }
+
+/// A restart runs the cycle again unpaused: the operator pauses it (at 2 ms), a following
+/// error restarts it (at 6 ms), and a curtain broken from 10 to 15 ms pauses it and, when
+/// it clears, resumes it (the operator's pause ended with the run it paused).
+#[test]
+fn a_restart_ends_the_operators_pause_and_a_later_curtain_resumes_the_cycle() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let cycle = seq
+        .add(SeqConfig::new("cycle"), Node::of(vec![]).until(1))
+        .unwrap();
+    let c = cycle.id();
+    let mut curtain = |c: &Ctrl, _| c.flag(2);
+    let mut error = |c: &Ctrl, _| c.flag(3);
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    monitors
+        .add(
+            c,
+            Monitor::new("curtain", &mut curtain, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    monitors
+        .add(
+            c,
+            Monitor::new("following error", &mut error, Behaviour::RestartOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(cycle);
+    sim.before_tick(|t, ctrl| {
+        ctrl.set(2, (10..15).contains(&ms(t)));
+        ctrl.set(3, ms(t) == 6);
+    });
+    sim.start(c).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(2_000));
+    sim.pause(c).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(30_000));
+    let (curtain, error) = (Mon(MonitorId::from_index(0)), Mon(MonitorId::from_index(1)));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(3, c, Running, Paused, rtseq::Cause::Pause),
+            tr(6, c, Paused, Restarting, error),
+            tr(6, c, Restarting, Running, Restart),
+            tr(10, c, Running, Paused, curtain),
+            tr(15, c, Paused, Running, curtain),
+        ]
+    );
+}

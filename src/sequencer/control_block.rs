@@ -5,7 +5,7 @@ use crate::model::id::Link;
 use crate::model::time::Stamp;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
-use crate::{Behaviour, Cause, Failure, Outcome, RunningState};
+use crate::{Behaviour, Cause, Failure, Outcome, Request, RunningState};
 
 /// How often a sequence did what (feature `counters`: 12 bytes per sequence). Counters wrap
 /// at `u16::MAX`.
@@ -221,6 +221,14 @@ impl ControlBlock {
         self.clock = now.0;
     }
 
+    /// A run starts (or restarts) unpaused: no `PauseOwner` monitor holds it (their edge
+    /// detection starts again) and no pause request's pause is in force.
+    #[inline]
+    pub(crate) fn lift_pauses(&mut self) {
+        self.monitor_holds = 0;
+        self.set(flag::PAUSED_BY_REQUEST, false);
+    }
+
     /// At a pause (a resume) at `now`: the clock keeps the run's unpaused time (the stamp
     /// from which it counts again). Both are `now` minus what the clock held.
     #[inline]
@@ -251,11 +259,29 @@ impl ControlBlock {
         }
     }
 
-    /// Takes the pending request bits.
-    pub(crate) fn take_requests(&mut self) -> u16 {
+    /// Drops the pending requests (a teardown leaves none).
+    pub(crate) fn drop_requests(&mut self) {
+        self.flags &= !request::ALL;
+    }
+
+    /// Takes the pending requests and returns the one to carry out: an abort before a
+    /// pause before a resume. A pause request's pause lasts until a resume request,
+    /// whatever `PauseOwner` monitors do; a resume is carried out only while no such
+    /// monitor holds (it was checked when made, but a monitor may have fired since).
+    pub(crate) fn take_request(&mut self) -> Option<Request> {
         let r = self.flags & request::ALL;
         self.flags &= !request::ALL;
-        r
+        if r & request::ABORT != 0 {
+            Some(Request::Abort)
+        } else if r & request::PAUSE != 0 {
+            self.set(flag::PAUSED_BY_REQUEST, true);
+            Some(Request::Pause)
+        } else if r & request::RESUME != 0 {
+            self.set(flag::PAUSED_BY_REQUEST, false);
+            (self.monitor_holds == 0).then_some(Request::Resume)
+        } else {
+            None
+        }
     }
 
     /// The behaviour waiting for this sequence's exception sequence to end.
@@ -287,8 +313,32 @@ mod tests {
                 flag::BOUND | flag::START_PENDING | request::PAUSE
             );
         }
-        assert_eq!(b.take_requests(), request::PAUSE);
-        assert_eq!(b.flags, flag::BOUND | flag::START_PENDING);
+        assert_eq!(b.take_request(), Some(Request::Pause));
+        assert_eq!(
+            b.flags,
+            flag::BOUND | flag::START_PENDING | flag::PAUSED_BY_REQUEST
+        );
+    }
+
+    #[test]
+    fn an_abort_goes_before_a_pause_and_a_held_resume_is_dropped() {
+        let mut b = ControlBlock::IDLE;
+        b.flags = request::ALL;
+        assert_eq!(
+            (b.take_request(), b.take_request()),
+            (Some(Request::Abort), None)
+        );
+        b.flags = request::RESUME | request::PAUSE;
+        assert_eq!(b.take_request(), Some(Request::Pause));
+        assert!(b.has(flag::PAUSED_BY_REQUEST));
+        // A resume lifts the request's pause, and resumes only if no monitor holds.
+        b.monitor_holds = 1;
+        b.flags |= request::RESUME;
+        assert_eq!(b.take_request(), None);
+        assert!(!b.has(flag::PAUSED_BY_REQUEST));
+        b.monitor_holds = 0;
+        b.flags |= request::RESUME;
+        assert_eq!(b.take_request(), Some(Request::Resume));
     }
 
     #[test]

@@ -5,7 +5,7 @@ use core::sync::atomic::Ordering;
 
 use crate::lock::Lock;
 use crate::model::state::States;
-use crate::sequencer::control_block::{flag, request};
+use crate::sequencer::control_block::request;
 use crate::sequencer::sets::Set;
 use crate::sequencer::{inbox, State};
 use crate::{Error, Event, Request, Requester, RunningState, SeqId, Sequencer};
@@ -31,9 +31,17 @@ impl Request {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// Whether `req` of `id` can be made: its state allows it, and for a resume no
-    /// `PauseOwner` monitor holds it.
-    fn check_request(&self, id: SeqId, req: Request) -> Result<(), Error> {
+    /// Whether `req` of `id` can be made now: its state allows it, and a resume finds no
+    /// `PauseOwner` monitor holding it.
+    #[inline]
+    fn may_request(&self, id: SeqId, req: Request) -> bool {
+        self.block(id).is_some_and(|b| {
+            req.allowed().has(b.state) && !(req == Request::Resume && b.monitor_holds > 0)
+        })
+    }
+
+    /// Whether `req` of `id` can be made now, and if not, why not.
+    pub(crate) fn check_request(&self, id: SeqId, req: Request) -> Result<(), Error> {
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
         if !req.allowed().has(b.state) {
             return Err(match req {
@@ -47,11 +55,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         Ok(())
     }
 
-    /// Records that `by` asks for `req` of `id`, if it can be made now (else
-    /// [`request`](Self::request) says why not). Done before the request is queued, so
-    /// that its record comes before the transitions of the tick that carries it out.
+    /// Records that `by` asks for `req` of `id`, if it can be made now. Done before the
+    /// request is queued, so that its record comes before the transitions of the tick that
+    /// carries it out.
     pub(crate) fn record_request(&mut self, id: SeqId, req: Request, by: Requester) {
-        if self.check_request(id, req).is_ok() {
+        if self.may_request(id, req) {
             self.record(Event::Requested {
                 sequence: id,
                 request: req,
@@ -60,30 +68,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// A pause request of `id` is carried out: its pause lasts until a resume request.
-    pub(crate) fn pause_requested(&mut self, id: SeqId) {
-        if let Some(b) = self.block_mut(id) {
-            b.set(flag::PAUSED_BY_REQUEST, true);
-        }
-    }
-
-    /// A resume request of `id` is carried out: true when it resumes, false while a
-    /// `PauseOwner` monitor holds it (it resumes when the monitor's condition clears).
-    pub(crate) fn resume_requested(&mut self, id: SeqId) -> bool {
-        self.block_mut(id).is_some_and(|b| {
-            b.set(flag::PAUSED_BY_REQUEST, false);
-            b.monitor_holds == 0
-        })
-    }
-
-    /// Queues `req` of `id` for the next tick.
-    pub(crate) fn request(&mut self, id: SeqId, req: Request) -> Result<(), Error> {
-        self.check_request(id, req)?;
+    /// Queues `req` of `id` for the next tick, which carries it out if the state still
+    /// allows it (a run may end between the check and the tick).
+    pub(crate) fn queue_request(&mut self, id: SeqId, req: Request) {
         if let Some(b) = self.block_mut(id) {
             b.flags |= req.bit();
+            self.sets.insert(Set::Requested, id);
         }
-        self.sets.insert(Set::Requested, id);
-        Ok(())
     }
 }
 

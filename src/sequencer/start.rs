@@ -3,7 +3,8 @@
 //! A start is a few steps ([`Sections`]): the checks ([`admit`]), then the schedule of the
 //! run (its timeout, its lane, the sets the tick reads, its polling class's grid) and the
 //! commit that makes it `Running`. The tick may run between two steps with the portable
-//! lock; the commit then sees that the time moved or the state changed, and the run is
+//! lock, and a lane of higher priority may make transitions; the commit then sees that the
+//! count of changes ([`State::changes`]) moved since the schedule began, and the run is
 //! scheduled again. A restart (after `Restarting`) takes the same path with the run's lane,
 //! caller and flags as they are.
 
@@ -45,8 +46,6 @@ struct NewRun {
 struct Scheduled {
     /// The state the run starts from.
     from: RunningState,
-    /// The time it was scheduled at: the commit fails if a tick ran since.
-    at: Stamp,
     /// Its timeout monitor is on.
     armed: bool,
 }
@@ -75,28 +74,27 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         Ok((b.flags & flag::BOUND, lane))
     }
 
-    /// `caller` (if any) may start a run: it is running or paused. The tick can stop a
-    /// sequence while its action runs on to its next await point (the tick preempts the
-    /// lanes); a start it makes meanwhile is refused, so nothing outlives its caller's stop.
-    fn check_caller(&self, caller: Link) -> Result<(), Error> {
+    /// Opens the schedule of a new run with caller `caller` (if any): the count of changes
+    /// that its commit compares with ([`State::changes`]), if the caller may still start
+    /// a run. The tick can stop a sequence while its action runs on to its next await
+    /// point (the tick preempts the lanes); a start it makes meanwhile is refused
+    /// ([`Error::NotRunning`] with the caller's id), so nothing outlives its caller's stop.
+    fn open_start(&self, caller: Link) -> Result<u32, Error> {
         match caller.get() {
             Some(c) if !States::ACTIVE_RUNNING.has(self.state_of(c)) => Err(Error::NotRunning(c)),
-            _ => Ok(()),
+            _ => Ok(self.changes),
         }
     }
 
     /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
-    /// lane, its run count, no last exception yet (the outcome stays the last finished
+    /// lane, its run count, no pause in force, no last exception yet (the outcome stays the last finished
     /// run's, which a join of that run may still collect). Only for a sequence that may
     /// start (`Idle`, `Terminated`, `Aborted`; else it only returns the state): the tick
-    /// neither scans it nor walks through these fields, and the caller link, flags and state, which it
-    /// does read, change in the commit. `Err` for an id not registered, or a caller that
-    /// may not start it any more.
-    fn schedule_new(&mut self, id: SeqId, run: &NewRun) -> Result<Scheduled, Error> {
-        self.check_caller(run.caller)?;
+    /// neither scans it nor walks through these fields, and the caller link, flags and
+    /// state, which it does read, change in the commit. `None` for an id not registered.
+    fn schedule_new(&mut self, id: SeqId, lane: u8) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        let lane = run.lane;
-        let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
+        let b = self.block_mut(id)?;
         let from = b.state;
         let armed = b.timeout != 0;
         if States::STARTABLE.has(from) {
@@ -104,45 +102,37 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             b.lane = lane;
             b.runs = b.runs.wrapping_add(1);
             b.active_exception = None;
+            b.lift_pauses();
             // Its lane may be another one now.
             self.polling.forget_woken();
         }
-        Ok(Scheduled {
-            from,
-            at: now,
-            armed,
-        })
+        Some(Scheduled { from, armed })
     }
 
-    /// Schedules a restart of `id` from now: its clock (and timeout) starts again. As
-    /// [`schedule_new`](Self::schedule_new), only for a sequence not `Running` or `Paused`.
+    /// Schedules a restart of `id` from now: its clock (and timeout) starts again, with no
+    /// pause in force. As [`schedule_new`](Self::schedule_new), only for a sequence not
+    /// `Running` or `Paused`.
     fn schedule_restart(&mut self, id: SeqId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
         let b = self.block_mut(id)?;
         let from = b.state;
         if !States::ACTIVE_RUNNING.has(from) {
             b.start_clock(now);
+            b.lift_pauses();
         }
         Some(Scheduled {
             from,
-            at: now,
             armed: b.timeout != 0,
         })
     }
 
     /// After the schedule, before the commit, for a sequence that is not active (else
     /// nothing): the sets the tick reads of an active sequence (fresh, no exception, not
-    /// waiting for a poll, the timeout `armed` or not), and no pause in force (its
-    /// monitors' edge detection starts again).
+    /// waiting for a poll, the timeout `armed` or not).
     fn prepare(&mut self, id: SeqId, armed: bool) {
-        let Some(b) = self.block_mut(id) else {
-            return;
-        };
-        if States::ACTIVE_RUNNING.has(b.state) {
+        if States::ACTIVE_RUNNING.has(self.state_of(id)) {
             return;
         }
-        b.monitor_holds = 0;
-        b.set(flag::PAUSED_BY_REQUEST, false);
         self.sets.put(Set::Fresh, id, true);
         self.sets.put(Set::Armed, id, armed);
         self.sets.put(Set::Excepting, id, false);
@@ -163,13 +153,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 
-    /// The commit of a new run: `change` (validated and scheduled at `seen`) with the
-    /// run's caller and flags, which also clear the requests and the pending behaviour.
-    /// False: a tick ran since (the time moved, the state is not `change.from` any more,
-    /// or it stopped the caller), nothing changed, schedule again.
-    #[inline(never)]
-    fn commit_new(&mut self, change: &StateChange, seen: Stamp, run: &NewRun) -> bool {
-        if Stamp::of(self.now) != seen || self.check_caller(run.caller).is_err() {
+    /// The commit of a new run: `change` (validated and scheduled when the count of changes
+    /// was `seen`) with the run's caller and flags, which also clear the requests and the
+    /// pending behaviour. False: a tick or a transition came since (it may have moved the
+    /// time, rescanned without the new run, or stopped the run's caller), nothing changed,
+    /// schedule again.
+    #[inline]
+    fn commit_new(&mut self, change: &StateChange, seen: u32, run: &NewRun) -> bool {
+        if self.changes != seen {
             return false;
         }
         let Some(b) = self.transition(change) else {
@@ -183,8 +174,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// The commit of a restart: as [`commit_new`](Self::commit_new), keeping the run's
     /// caller and flags; the behaviour it was waiting to apply is dropped.
     #[inline(never)]
-    fn commit_restart(&mut self, change: &StateChange, seen: Stamp) -> bool {
-        if Stamp::of(self.now) != seen {
+    fn commit_restart(&mut self, change: &StateChange, seen: u32) -> bool {
+        if self.changes != seen {
             return false;
         }
         let Some(b) = self.transition(change) else {
@@ -254,7 +245,10 @@ fn launch<
     cause: Cause,
 ) -> Result<(), Error> {
     loop {
-        let at = s.section(|s| s.schedule_new(id, &run))?;
+        let seen = s.section(|s| s.open_start(run.caller))?;
+        let at = s
+            .section(|s| s.schedule_new(id, run.lane))
+            .ok_or(Error::UnknownSequence(id))?;
         if !States::STARTABLE.has(at.from) {
             return Err(Error::AlreadyRunning(id));
         }
@@ -264,7 +258,7 @@ fn launch<
         // (it is not active yet), never one too few.
         s.section(|s| s.sets.put(Set::Called, id, run.caller.get().is_some()));
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
-        let done = s.section(|s| s.commit_new(&change, at.at, &run));
+        let done = s.section(|s| s.commit_new(&change, seen, &run));
         // In one section the loop never repeats (nothing changes between the checks and
         // the commit).
         if done || S::ONE_SECTION {
@@ -293,6 +287,7 @@ fn relaunch<
 ) {
     let legal = States::entering(RunningState::Running).minus(States::of(RunningState::Paused));
     loop {
+        let seen = s.section(|s| s.changes);
         let Some(at) = s.section(|s| s.schedule_restart(id)) else {
             return;
         };
@@ -302,7 +297,7 @@ fn relaunch<
         s.section(|s| s.prepare(id, at.armed));
         s.section(|s| s.due_by(id));
         let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);
-        let done = s.section(|s| s.commit_restart(&change, at.at));
+        let done = s.section(|s| s.commit_restart(&change, seen));
         if done || S::ONE_SECTION {
             return;
         }

@@ -21,6 +21,10 @@ use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition}
 pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const B: usize> {
     /// The last tick's time.
     pub(crate) now: Instant,
+    /// Counts the ticks and the transitions (wrapping). A start is scheduled in several
+    /// sections; its commit compares this count with the one its schedule began with, and
+    /// schedules again if anything happened in between that could invalidate its checks.
+    pub(crate) changes: u32,
     /// The sequences as sets ([`Set`]): what the tick works on.
     pub(crate) sets: Sets<B>,
     /// When the tick must look at the sequences next.
@@ -97,6 +101,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     pub(crate) const fn new() -> Self {
         State {
             now: Instant::from_ticks(0),
+            changes: 0,
             sets: Sets::EMPTY,
             polling: Polling {
                 classes: Classes::new(),
@@ -287,6 +292,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return None;
         }
         b.state = change.to;
+        self.changes = self.changes.wrapping_add(1);
         self.sets.insert(Set::Changed, id);
         self.trace.push(
             self.now,

@@ -4,11 +4,11 @@
 
 use crate::lock::Lock;
 use crate::model::state::States;
-use crate::sequencer::control_block::{flag, request, ControlBlock};
+use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
-use crate::{Behaviour, Cause, Event, Requester, RunningState, SeqId, Sequencer};
+use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, SeqId, Sequencer};
 
 /// How an exception of one monitor (or of a sequence's timeout) is handled, with its
 /// restart bookkeeping.
@@ -75,31 +75,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         true
     }
 
-    /// A `PauseOwner` monitor's edge: its condition became true (`holds`), so its exception
-    /// sequence (if any) starts in its lane and `owner` and the sequences it blocks are
-    /// paused; or it cleared, and they resume once no other `PauseOwner` monitor of the
-    /// owner holds and no pause request paused it. No exception is marked: the owner's
-    /// other monitors keep firing. True when the owner was running and is now paused.
+    /// A `PauseOwner` monitor's condition became true: `owner` and the sequences it blocks
+    /// are paused, and its exception sequence (if any) starts in its lane. No exception is
+    /// marked: the owner's other monitors keep firing. True when the owner was running and
+    /// is now paused.
     pub(crate) fn hold(
         &self,
         control: &C,
         owner: SeqId,
         cause: Cause,
         exception: Option<SeqId>,
-        holds: bool,
     ) -> bool {
-        if !holds {
-            let released = self.with(|s| {
-                s.block_mut(owner).is_some_and(|b| {
-                    b.monitor_holds = b.monitor_holds.saturating_sub(1);
-                    b.monitor_holds == 0 && !b.has(flag::PAUSED_BY_REQUEST)
-                })
-            });
-            if released {
-                self.walk(control, Some(owner), RunningState::Running, cause);
-            }
-            return false;
-        }
         let running = self.with(|s| {
             let Some(b) = s.block_mut(owner) else {
                 return false;
@@ -126,6 +112,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
         self.walk(control, Some(owner), RunningState::Paused, cause);
         true
+    }
+
+    /// A `PauseOwner` monitor's condition cleared: `owner` and the sequences it blocks
+    /// resume once no other `PauseOwner` monitor of the owner holds and no pause request
+    /// paused it.
+    pub(crate) fn release(&self, control: &C, owner: SeqId, cause: Cause) {
+        let released = self.with(|s| {
+            s.block_mut(owner).is_some_and(|b| {
+                b.monitor_holds = b.monitor_holds.saturating_sub(1);
+                b.monitor_holds == 0 && !b.has(flag::PAUSED_BY_REQUEST)
+            })
+        });
+        if released {
+            self.walk(control, Some(owner), RunningState::Running, cause);
+        }
     }
 
     /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
@@ -173,7 +174,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // The requests, and the behaviour pending for an exception sequence that ended.
             let (req, done) = self.with(|s| {
                 let Some(b) = s.block_mut(id) else {
-                    return (0, None);
+                    return (None, None);
                 };
                 let mut done = None;
                 if b.has(flag::EXCEPTION_DONE) {
@@ -181,7 +182,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     done = b.pending();
                     b.set_pending(None);
                 }
-                (b.take_requests(), done)
+                (b.take_request(), done)
             });
             if let Some(behaviour) = done {
                 // Unless it was stopped meanwhile: the cause and the target.
@@ -199,21 +200,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     self.apply(control, id, behaviour, target, cause);
                 }
             }
-            // One request at a time, abort first. A pause request's pause lasts until a
-            // resume request, whatever monitors do; a resume leaves a sequence that a
-            // monitor holds paused (its check passed before the monitor's edge).
-            let (to, cause) = if req & request::ABORT != 0 {
-                (RunningState::Aborting, Cause::Abort)
-            } else if req & request::PAUSE != 0 {
-                self.with(|s| s.pause_requested(id));
-                (RunningState::Paused, Cause::Pause)
-            } else if req & request::RESUME != 0 {
-                if !self.with(|s| s.resume_requested(id)) {
-                    continue;
-                }
-                (RunningState::Running, Cause::Resume)
-            } else {
-                continue;
+            let (to, cause) = match req {
+                Some(Request::Abort) => (RunningState::Aborting, Cause::Abort),
+                Some(Request::Pause) => (RunningState::Paused, Cause::Pause),
+                Some(Request::Resume) => (RunningState::Running, Cause::Resume),
+                None => continue,
             };
             self.walk(control, Some(id), to, cause);
         }

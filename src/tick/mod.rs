@@ -177,6 +177,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             let late = now < s.now;
             if !late {
                 s.now = now;
+                s.changes = s.changes.wrapping_add(1);
             }
             (
                 late,

@@ -142,8 +142,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) {
         let def = &monitor.def;
         if def.behaviour == Behaviour::PauseOwner {
-            let (owner, exception) = (monitor.owner, def.exception);
-            if self.hold(control, owner, Cause::Monitor(id), exception, holds) {
+            let (owner, cause) = (monitor.owner, Cause::Monitor(id));
+            if !holds {
+                self.release(control, owner, cause);
+            } else if self.hold(control, owner, cause, def.exception) {
                 monitor.fired = monitor.fired.wrapping_add(1);
             }
             return;

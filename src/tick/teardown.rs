@@ -215,7 +215,7 @@ fn leave<
             return Some((from, None));
         }
         b.last_cause = cause;
-        b.take_requests();
+        b.drop_requests();
         Some((from, s.hooks.get(id.index()).copied().flatten()))
     })?;
     let change = StateChange::new(id, from, to, cause);
