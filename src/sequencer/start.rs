@@ -335,3 +335,114 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         in_sections!(self, |s| relaunch(s, id));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequencer::control_block::{ControlBlock, NO_LANE};
+
+    type S = State<(), 4, 8, 1, 1>;
+
+    /// A start's sections with something in between: before section `at`, `between` runs
+    /// on the state, as a tick or a lane of higher priority would with the portable lock.
+    struct Preempted<'a, F> {
+        state: &'a mut S,
+        taken: usize,
+        at: usize,
+        between: Option<F>,
+    }
+
+    impl<F: FnOnce(&mut S)> Sections<(), 4, 8, 1, 1> for Preempted<'_, F> {
+        fn section<R>(&mut self, f: impl FnOnce(&mut S) -> R) -> R {
+            if self.taken == self.at {
+                if let Some(between) = self.between.take() {
+                    between(self.state);
+                }
+            }
+            self.taken += 1;
+            f(self.state)
+        }
+    }
+
+    /// Sequence 0 running, sequence 1 registered; `between` runs before section `at` of a
+    /// start of 1 by 0. Returns the start's result, the sections it took, 1's state.
+    fn start_preempted(
+        at: usize,
+        between: impl FnOnce(&mut S),
+    ) -> (Result<(), Error>, usize, RunningState) {
+        let mut state = S::new();
+        let (caller, id) = (SeqId(0), SeqId(1));
+        for _ in 0..2 {
+            assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
+        }
+        let run = StateChange::new(
+            caller,
+            RunningState::Idle,
+            RunningState::Running,
+            Cause::Start,
+        );
+        assert!(state.transition(&run).is_some());
+        let mut s = Preempted {
+            state: &mut state,
+            taken: 0,
+            at,
+            between: Some(between),
+        };
+        let new = NewRun {
+            lane: NO_LANE,
+            caller: Link::to(Some(caller)),
+            flags: 0,
+        };
+        let result = launch(&mut s, id, new, Cause::Start);
+        let taken = s.taken;
+        (result, taken, state.state_of(id))
+    }
+
+    /// The sections of one pass: open, schedule, prepare, due, link, commit.
+    const PASS: usize = 6;
+
+    #[test]
+    fn an_undisturbed_start_commits_in_one_pass() {
+        let (result, taken, state) = start_preempted(usize::MAX, |_| {});
+        assert_eq!(
+            (result, taken, state),
+            (Ok(()), PASS, RunningState::Running)
+        );
+    }
+
+    /// A tick at the time of the last one moves no clock, but may have rescanned without
+    /// the new run: the commit sees the count of changes move and schedules again.
+    #[test]
+    fn a_tick_between_the_schedule_and_the_commit_makes_the_start_schedule_again() {
+        let (result, taken, state) = start_preempted(PASS - 1, |s| {
+            s.changes = s.changes.wrapping_add(1);
+        });
+        assert_eq!(
+            (result, taken, state),
+            (Ok(()), 2 * PASS, RunningState::Running)
+        );
+    }
+
+    /// The caller is aborted after the start's first look at it (by a lane of higher
+    /// priority that dropped a run above it): the start is refused and changes nothing.
+    #[test]
+    fn a_caller_stopped_before_the_commit_starts_nothing() {
+        let (result, taken, state) = start_preempted(PASS - 1, |s| {
+            let abort = StateChange::new(
+                SeqId(0),
+                RunningState::Running,
+                RunningState::Aborting,
+                Cause::Dropped,
+            );
+            assert!(s.transition(&abort).is_some());
+        });
+        assert_eq!(
+            (result, taken, state),
+            (
+                Err(Error::NotRunning(SeqId(0))),
+                PASS + 1,
+                RunningState::Idle
+            )
+        );
+    }
+}
