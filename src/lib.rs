@@ -103,8 +103,11 @@
 //!   sequence's state, caller stack and requests; [`lock`]: the locks;
 //! * [`safety`]: safety levels, events, critical inputs and outputs;
 //! * the [user's guide](https://github.com/rtseq/rtseq#readme) (how to structure an
-//!   application, RTIC wiring, semantics, figures) and the
-//!   [architecture](https://github.com/rtseq/rtseq/blob/main/docs/architecture.md).
+//!   application, RTIC wiring, semantics, figures), the
+//!   [firmware guide](https://github.com/rtseq/rtseq/blob/main/docs/firmware-guide.md)
+//!   (sizing `N`, `T`, `W`, `B` and the monitor table, the time base, which RTIC priority
+//!   may call what, a debounced following-error monitor, what to watch in production) and
+//!   the [architecture](https://github.com/rtseq/rtseq/blob/main/docs/architecture.md).
 //!
 //! ## Features
 //!
@@ -173,6 +176,11 @@ struct ReadmeDoctests;
 #[cfg(doctest)]
 #[doc = include_str!("../docs/safety.md")]
 struct SafetyDocDoctests;
+
+/// And the firmware guide's (the debounce on the simulator).
+#[cfg(all(doctest, feature = "std"))]
+#[doc = include_str!("../docs/firmware-guide.md")]
+struct FirmwareGuideDoctests;
 
 /// And the changelog's migration example (on the simulator).
 #[cfg(all(doctest, feature = "std"))]
