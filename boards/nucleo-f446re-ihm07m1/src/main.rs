@@ -31,14 +31,16 @@ pub const CONTROL_HZ: u32 = 1_000;
 /// Control period, s (TIM6 at 1 kHz).
 pub const DT: f32 = 1.0 / CONTROL_HZ as f32;
 
-/// The sequencer's time after `ticks` control periods.
+/// The sequencer's time after `periods` control periods: a 64-bit count, which never wraps
+/// (a 32-bit one at 1 kHz would after 49.7 days, and every tick after that would be
+/// earlier than the last).
 ///
 /// The boundary between the two `fugit`s of this firmware: stm32f4xx-hal's timers take
 /// fugit 0.3 rates (`CONTROL_HZ.Hz()` in `init`), rtseq's `Instant` is fugit 0.6. No value
 /// of one crosses into the other; both are made from the plain integers here.
-pub fn control_time(ticks: u32) -> rtseq::Instant {
+pub fn control_time(periods: u64) -> rtseq::Instant {
     const PERIOD_US: u64 = 1_000_000 / CONTROL_HZ as u64;
-    rtseq::Instant::from_ticks(u64::from(ticks) * PERIOD_US)
+    rtseq::Instant::from_ticks(periods.saturating_mul(PERIOD_US))
 }
 /// Watchdog timeout, ms: the control loop feeds it every period.
 pub const WATCHDOG_MS: u32 = 50;
@@ -155,7 +157,8 @@ mod app {
     static SETUP: app::Setup = app::Setup::DEFAULT;
     /// The lock-free part of the safety system (level, public events).
     static SAFETY: SafetyHandle = SafetyHandle::new();
-    /// Control periods since start (the defmt timestamp and the sequencer's clock).
+    /// Control periods since start, wrapping (the defmt timestamp and the idle loop's
+    /// pace; the sequencer's clock counts them in 64 bits).
     pub static TICKS: AtomicU32 = AtomicU32::new(0);
     /// The safety level, for the log.
     static LEVEL: AtomicU8 = AtomicU8::new(0);
@@ -341,12 +344,12 @@ mod app {
     /// heartbeat.
     #[task(binds = TIM6_DAC, priority = 2, shared = [bridge],
            local = [timer, sensors, monitors, main, watchdog, led, model,
-                    started: bool = false, button_was: bool = true])]
+                    started: bool = false, button_was: bool = true, periods: u64 = 0])]
     fn control(mut cx: control::Context) {
         cx.local.timer.clear_flags(Flag::Update);
-        let ticks = TICKS.load(Ordering::Relaxed).wrapping_add(1);
-        TICKS.store(ticks, Ordering::Relaxed);
-        let now = control_time(ticks);
+        *cx.local.periods += 1;
+        TICKS.store(*cx.local.periods as u32, Ordering::Relaxed);
+        let now = control_time(*cx.local.periods);
 
         // The fault plan's time, then the safety cycle (it preempts right here) on the
         // measurements of the previous period, as in the host simulation.
