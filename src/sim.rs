@@ -1075,7 +1075,7 @@ impl<
     }
 
     /// The first error a tick of the simulator returned: [`Error::TickBeforeLast`] when
-    /// the sequencer was ticked by hand past the simulator's time (those ticks did
+    /// the sequencer was ticked by hand past the simulator's time (those ticks evaluated
     /// nothing).
     ///
     /// ```

@@ -630,10 +630,10 @@ fn ms_at(ms: u64) -> Instant {
     Instant::from_ticks(ms * 1_000)
 }
 
-/// A tick with a time earlier than the last one's is an error and changes nothing: the
+/// A tick with a time earlier than the last one's is an error and moves nothing: the
 /// timeout of a running sequence is not moved, and the next on-time tick works as before.
 #[test]
-fn a_tick_earlier_than_the_last_is_an_error_and_does_nothing() {
+fn a_tick_earlier_than_the_last_is_an_error_and_moves_nothing() {
     let seq: Sequencer<Ctrl, 2> = Sequencer::new();
     let ctrl = Ctrl::default();
     let main = seq
@@ -666,6 +666,47 @@ fn a_tick_earlier_than_the_last_is_an_error_and_does_nothing() {
             tr(0, id, Idle, Running, Start),
             tr(5, id, Running, Aborting, t),
             tr(5, id, Aborting, Aborted, t),
+        ]
+    );
+}
+
+/// A tick whose time went back (a time base that lost a carry) evaluates nothing, but still
+/// carries out what was asked since the last tick, at the last tick's time: a pause request
+/// and, the next time, the safety system's abort-all.
+#[test]
+fn a_tick_earlier_than_the_last_still_carries_out_requests_and_abort_all() {
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![]).until(9))
+        .unwrap();
+    let id = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(id).unwrap();
+    sim.run_until(ms_at(3));
+    let mut none = Monitors::<Ctrl, 1>::new();
+    sim.handle(id).unwrap().pause().unwrap();
+    assert_eq!(
+        seq.tick(ms_at(1), &ctrl, &mut none),
+        Err(Error::TickBeforeLast)
+    );
+    seq.abort_all();
+    assert_eq!(
+        seq.tick(ms_at(2), &ctrl, &mut none),
+        Err(Error::TickBeforeLast)
+    );
+    assert_eq!(seq.now(), ms_at(3));
+    // The simulator drained the trace up to its last step; the rest is still in the ring.
+    assert_eq!(sim.trace(), [tr(0, id, Idle, Running, Start)]);
+    let mut later = Vec::new();
+    assert_eq!(seq.drain_trace(|t| later.push(t)), 0);
+    assert_eq!(
+        later,
+        [
+            tr(3, id, Running, Paused, rtseq::Cause::Pause),
+            tr(3, id, Paused, Aborting, rtseq::Cause::AbortAll),
+            tr(3, id, Aborting, Aborted, rtseq::Cause::AbortAll),
         ]
     );
 }

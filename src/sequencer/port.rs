@@ -251,9 +251,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error> {
-        // Between the steps a tick may end the run: the request was accepted (and perhaps
-        // recorded), and the tick finds nothing to do (as if the run had ended a moment
-        // later).
+        // Between the steps a tick may end the run: the request was accepted and recorded,
+        // and the tick finds nothing to do (as if the run had ended a moment later).
         in_sections!(self, |s| {
             s.section(|s| s.check_request(id, request))?;
             s.section(|s| s.record_request(id, request, by));

@@ -31,15 +31,6 @@ impl Request {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// Whether `req` of `id` can be made now: its state allows it, and a resume finds no
-    /// `PauseOwner` monitor holding it.
-    #[inline]
-    fn may_request(&self, id: SeqId, req: Request) -> bool {
-        self.block(id).is_some_and(|b| {
-            req.allowed().has(b.state) && !(req == Request::Resume && b.monitor_holds > 0)
-        })
-    }
-
     /// Whether `req` of `id` can be made now, and if not, why not.
     pub(crate) fn check_request(&self, id: SeqId, req: Request) -> Result<(), Error> {
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
@@ -55,17 +46,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         Ok(())
     }
 
-    /// Records that `by` asks for `req` of `id`, if it can be made now. Done before the
-    /// request is queued, so that its record comes before the transitions of the tick that
-    /// carries it out.
+    /// Records that `by` asks for `req` of `id` (after [`check_request`](Self::check_request)
+    /// accepted it). Done before the request is queued, so that its record comes before the
+    /// transitions of the tick that carries it out.
     pub(crate) fn record_request(&mut self, id: SeqId, req: Request, by: Requester) {
-        if self.may_request(id, req) {
-            self.record(Event::Requested {
-                sequence: id,
-                request: req,
-                by,
-            });
-        }
+        self.record(Event::Requested {
+            sequence: id,
+            request: req,
+            by,
+        });
     }
 
     /// Queues `req` of `id` for the next tick, which carries it out if the state still

@@ -142,8 +142,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// period is due, and wakes the lanes that must act.
     ///
     /// A tick with nothing due (and no state change since the last one) returns after one
-    /// short critical section. A tick with a time earlier than the last tick's does
-    /// nothing and returns [`Error::TickBeforeLast`] (time does not go back).
+    /// short critical section. A tick with a time earlier than the last tick's is a tick at
+    /// the last tick's time (time does not go back, so nothing falls due that was not due
+    /// then) that returns [`Error::TickBeforeLast`]: it still carries out the requests and
+    /// abort-alls made since the last tick, so a broken time base never holds off the
+    /// safety system's abort-all.
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
     /// monotonics do). The sequencer keeps its deadlines as 32-bit µs and compares them by
@@ -171,25 +174,30 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         control: &C,
         monitors: &mut Monitors<'_, C, M, K>,
     ) -> Result<(), Error> {
-        let stamp = Stamp::of(now);
         // The words of the sets that hold an active sequence, as of the last fold.
-        let (late, requests, any_due, changed, mut words) = self.with(|s| {
-            let late = now < s.now;
-            if !late {
+        let (on_time, now, requests, any_due, changed, mut words) = self.with(|s| {
+            // Time does not go back: a tick earlier than the last runs at the last tick's
+            // time, where nothing new falls due, and carries out what was asked all the
+            // same (a broken time base must not hold off an abort-all).
+            let on_time = now >= s.now;
+            if on_time {
                 s.now = now;
-                s.changes = s.changes.wrapping_add(1);
             }
+            s.changes = s.changes.wrapping_add(1);
             (
-                late,
+                on_time,
+                s.now,
                 !s.sets.is_empty(Set::Requested),
-                stamp.reached(s.polling.next_due),
+                Stamp::of(s.now).reached(s.polling.next_due),
                 !s.sets.is_empty(Set::Changed),
                 s.sets.words(Set::Active),
             )
         });
-        if late {
-            return Err(Error::TickBeforeLast);
-        }
+        let done = if on_time {
+            Ok(())
+        } else {
+            Err(Error::TickBeforeLast)
+        };
         let inbox = self.take_inbox();
         if changed {
             words = self.fold();
@@ -202,7 +210,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             self.apply_requests(control);
         }
         if !any_due {
-            return Ok(());
+            return done;
         }
         if aborted_all || requests {
             // What they stopped or paused is not due any more.
@@ -211,16 +219,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut scan = Scan::new();
         if B == 1 {
             self.tick_word(0, now, &mut scan, false, monitors, control);
-            return Ok(());
+            return done;
         }
         let mut careful = false;
         for w in words {
             careful = self.tick_word(w, now, &mut scan, careful, monitors, control);
         }
         if words.is_empty() {
-            self.with(|s| s.polling.next_due = stamp.plus(NEVER_AHEAD));
+            self.with(|s| s.polling.next_due = Stamp::of(now).plus(NEVER_AHEAD));
         }
-        Ok(())
+        done
     }
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the
