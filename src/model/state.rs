@@ -151,11 +151,6 @@ impl States {
         States(self.0 | States::of(s).0)
     }
 
-    /// This set without the states of `other`.
-    pub(crate) const fn minus(self, other: States) -> States {
-        States(self.0 & !other.0)
-    }
-
     /// Whether `s` is in the set.
     pub(crate) const fn has(self, s: RunningState) -> bool {
         self.0 & States::of(s).0 != 0

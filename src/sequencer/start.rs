@@ -110,13 +110,12 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Schedules a restart of `id` from now: its clock (and timeout) starts again, with no
-    /// pause in force. As [`schedule_new`](Self::schedule_new), only for a sequence not
-    /// `Running` or `Paused`.
+    /// pause in force. Only for a `Restarting` sequence (else it only returns the state).
     fn schedule_restart(&mut self, id: SeqId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
         let b = self.block_mut(id)?;
         let from = b.state;
-        if !States::ACTIVE_RUNNING.has(from) {
+        if from == RunningState::Restarting {
             b.start_clock(now);
             b.lift_pauses();
         }
@@ -255,8 +254,12 @@ fn launch<
         s.section(|s| s.prepare(id, at.armed));
         s.section(|s| s.due_by(id));
         // Before the link is set: a teardown in between visits one sequence too many
-        // (it is not active yet), never one too few.
-        s.section(|s| s.sets.put(Set::Called, id, run.caller.get().is_some()));
+        // (it is not active yet), never one too few. Not over a start that won meanwhile.
+        s.section(|s| {
+            if States::STARTABLE.has(s.state_of(id)) {
+                s.sets.put(Set::Called, id, run.caller.get().is_some());
+            }
+        });
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
         let done = s.section(|s| s.commit_new(&change, seen, &run));
         // In one section the loop never repeats (nothing changes between the checks and
@@ -272,8 +275,8 @@ fn launch<
 }
 
 /// Schedules and commits a `Restarting` sequence's run again, in its lane with its caller
-/// and flags as they are (from `Restarting`, or, if the tick stopped it since the lane saw
-/// that, as the transition table allows; a `Running` or `Paused` one stays).
+/// and flags as they are. Only from `Restarting`: if the tick aborted it since the lane saw
+/// that (an abort-all, an abort request), the abort stands.
 fn relaunch<
     C,
     S: Sections<C, N, T, W, B>,
@@ -285,13 +288,12 @@ fn relaunch<
     s: &mut S,
     id: SeqId,
 ) {
-    let legal = States::entering(RunningState::Running).minus(States::of(RunningState::Paused));
     loop {
         let seen = s.section(|s| s.changes);
         let Some(at) = s.section(|s| s.schedule_restart(id)) else {
             return;
         };
-        if !legal.has(at.from) {
+        if at.from != RunningState::Restarting {
             return;
         }
         s.section(|s| s.prepare(id, at.armed));
@@ -396,6 +398,89 @@ mod tests {
         let result = launch(&mut s, id, new, Cause::Start);
         let taken = s.taken;
         (result, taken, state.state_of(id))
+    }
+
+    /// The tick aborts a `Restarting` sequence before its lane runs it again (an abort-all
+    /// between the lane's clearance and its restart): the abort stands.
+    #[test]
+    fn a_restart_after_an_abort_leaves_the_sequence_aborted() {
+        let mut state = S::new();
+        let id = SeqId(0);
+        assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
+        for (from, to, cause) in [
+            (RunningState::Idle, RunningState::Running, Cause::Start),
+            (
+                RunningState::Running,
+                RunningState::Restarting,
+                Cause::Restart,
+            ),
+        ] {
+            assert!(state
+                .transition(&StateChange::new(id, from, to, cause))
+                .is_some());
+        }
+        let mut s = Preempted {
+            state: &mut state,
+            taken: 0,
+            at: 0,
+            between: Some(|s: &mut S| {
+                for (from, to) in [
+                    (RunningState::Restarting, RunningState::Aborting),
+                    (RunningState::Aborting, RunningState::Aborted),
+                ] {
+                    let change = StateChange::new(id, from, to, Cause::AbortAll);
+                    assert!(s.transition(&change).is_some());
+                }
+            }),
+        };
+        relaunch(&mut s, id);
+        assert_eq!(state.state_of(id), RunningState::Aborted);
+    }
+
+    /// A start of 1 by 0 that wins between the schedule and the link of a start of 1
+    /// without a caller (by a lane of higher priority): the loser's link does not erase the
+    /// winner's, so a teardown of 0 still finds 1 below it.
+    #[test]
+    fn a_start_that_loses_leaves_the_winners_link() {
+        let mut state = S::new();
+        let (caller, id) = (SeqId(0), SeqId(1));
+        for _ in 0..2 {
+            assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
+        }
+        let run = StateChange::new(
+            caller,
+            RunningState::Idle,
+            RunningState::Running,
+            Cause::Start,
+        );
+        assert!(state.transition(&run).is_some());
+        let mut s = Preempted {
+            state: &mut state,
+            taken: 0,
+            at: PASS - 2,
+            between: Some(|s: &mut S| {
+                let won = NewRun {
+                    lane: NO_LANE,
+                    caller: Link::to(Some(caller)),
+                    flags: 0,
+                };
+                assert_eq!(launch(s, id, won, Cause::Start), Ok(()));
+            }),
+        };
+        let lost = NewRun {
+            lane: NO_LANE,
+            caller: Link::NONE,
+            flags: 0,
+        };
+        assert_eq!(
+            launch(&mut s, id, lost, Cause::Start),
+            Err(Error::AlreadyRunning(id))
+        );
+        assert!(state.sets.has(Set::Called, id));
+        assert_eq!(
+            state.block(id).map(|b| b.caller),
+            Some(Link::to(Some(caller)))
+        );
     }
 
     /// The sections of one pass: open, schedule, prepare, due, link, commit.
