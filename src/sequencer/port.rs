@@ -9,6 +9,7 @@ use crate::model::time::Stamp;
 use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
+use crate::sequencer::requests::ask;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
@@ -251,14 +252,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error> {
-        // Between the steps a tick may end the run: the request was accepted and recorded,
-        // and the tick finds nothing to do (as if the run had ended a moment later).
-        in_sections!(self, |s| {
-            s.section(|s| s.check_request(id, request))?;
-            s.section(|s| s.record_request(id, request, by));
-            s.section(|s| s.queue_request(id, request));
-            Ok(())
-        })
+        in_sections!(self, |s| ask(s, id, request, by))
     }
 
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {

@@ -6,6 +6,7 @@ use core::sync::atomic::Ordering;
 use crate::lock::Lock;
 use crate::model::state::States;
 use crate::sequencer::control_block::request;
+use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::{inbox, State};
 use crate::{Error, Event, Request, Requester, RunningState, SeqId, Sequencer};
@@ -31,8 +32,9 @@ impl Request {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// Whether `req` of `id` can be made now, and if not, why not.
-    pub(crate) fn check_request(&self, id: SeqId, req: Request) -> Result<(), Error> {
+    /// Whether `req` of `id` can be made now, and if not, why not. `Ok`: the run it is
+    /// made of (its run count).
+    fn check_request(&self, id: SeqId, req: Request) -> Result<u16, Error> {
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
         if !req.allowed().has(b.state) {
             return Err(match req {
@@ -43,13 +45,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if req == Request::Resume && b.monitor_holds > 0 {
             return Err(Error::HeldByMonitor(id));
         }
-        Ok(())
+        Ok(b.runs)
     }
 
     /// Records that `by` asks for `req` of `id` (after [`check_request`](Self::check_request)
     /// accepted it). Done before the request is queued, so that its record comes before the
     /// transitions of the tick that carries it out.
-    pub(crate) fn record_request(&mut self, id: SeqId, req: Request, by: Requester) {
+    fn record_request(&mut self, id: SeqId, req: Request, by: Requester) {
         self.record(Event::Requested {
             sequence: id,
             request: req,
@@ -57,14 +59,38 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         });
     }
 
-    /// Queues `req` of `id` for the next tick, which carries it out if the state still
-    /// allows it (a run may end between the check and the tick).
-    pub(crate) fn queue_request(&mut self, id: SeqId, req: Request) {
-        if let Some(b) = self.block_mut(id) {
+    /// Queues `req` of `id` for the next tick, if `id` is still in the run it was made of
+    /// (`run`): never for a later run. The tick carries it out if the state still allows it
+    /// (the run may end before the tick; a new run's start drops it).
+    fn queue_request(&mut self, id: SeqId, req: Request, run: u16) {
+        if let Some(b) = self.block_mut(id).filter(|b| b.runs == run) {
             b.flags |= req.bit();
             self.sets.insert(Set::Requested, id);
         }
     }
+}
+
+/// Makes `req` of `id` for `by`: the check, the record, the queueing. Between the steps a
+/// tick may end the run, or a lane of higher priority start a new one: the request was
+/// accepted and recorded, and nothing is carried out (as if the run had ended a moment
+/// later).
+pub(crate) fn ask<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    req: Request,
+    by: Requester,
+) -> Result<(), Error> {
+    let run = s.section(|s| s.check_request(id, req))?;
+    s.section(|s| s.record_request(id, req, by));
+    s.section(|s| s.queue_request(id, req, run));
+    Ok(())
 }
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
@@ -82,5 +108,68 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     pub fn abort_all(&self) {
         self.inbox
             .fetch_or(inbox::ABORT_ALL_BY_APPLICATION, Ordering::Release);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequencer::control_block::ControlBlock;
+    use crate::sequencer::sections::tests::{Preempted, S};
+    use crate::trace::StateChange;
+    use crate::Cause;
+
+    /// A running sequence 0; `between` runs before section `at` of an abort request of it.
+    /// Returns the request's result and whether the abort is queued for the tick.
+    fn abort_preempted(at: usize, between: impl FnOnce(&mut S)) -> (Result<(), Error>, bool) {
+        let mut state = S::new();
+        let id = SeqId(0);
+        assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
+        let start = StateChange::new(id, RunningState::Idle, RunningState::Running, Cause::Start);
+        assert!(state.transition(&start).is_some());
+        let mut s = Preempted {
+            state: &mut state,
+            taken: 0,
+            at,
+            between: Some(between),
+        };
+        let result = ask(&mut s, id, Request::Abort, Requester::Application);
+        let queued = state.sets.has(Set::Requested, id)
+            && state
+                .block(id)
+                .is_some_and(|b| b.flags & request::ABORT != 0);
+        (result, queued)
+    }
+
+    #[test]
+    fn an_undisturbed_request_is_queued() {
+        assert_eq!(abort_preempted(usize::MAX, |_| {}), (Ok(()), true));
+    }
+
+    /// The run the request was made of ends, and a new run starts, before it is queued: the
+    /// new run is not aborted.
+    #[test]
+    fn a_request_is_never_queued_for_a_later_run() {
+        let (result, queued) = abort_preempted(2, |s| {
+            let id = SeqId(0);
+            let end = StateChange::new(
+                id,
+                RunningState::Running,
+                RunningState::Terminated,
+                Cause::Completed,
+            );
+            assert!(s.transition(&end).is_some());
+            if let Some(b) = s.block_mut(id) {
+                b.runs = b.runs.wrapping_add(1);
+            }
+            let again = StateChange::new(
+                id,
+                RunningState::Terminated,
+                RunningState::Running,
+                Cause::Start,
+            );
+            assert!(s.transition(&again).is_some());
+        });
+        assert_eq!((result, queued), (Ok(()), false));
     }
 }

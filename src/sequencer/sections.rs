@@ -86,3 +86,34 @@ macro_rules! in_sections_then_wake {
     };
 }
 pub(crate) use in_sections_then_wake;
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::Sections;
+    use crate::sequencer::State;
+
+    /// A small state for the tests of operations.
+    pub(crate) type S = State<(), 4, 8, 1, 1>;
+
+    /// An operation's sections with something in between: before section `at`, `between`
+    /// runs on the state, as a tick or a lane of higher priority would with the portable
+    /// lock.
+    pub(crate) struct Preempted<'a, F> {
+        pub(crate) state: &'a mut S,
+        pub(crate) taken: usize,
+        pub(crate) at: usize,
+        pub(crate) between: Option<F>,
+    }
+
+    impl<F: FnOnce(&mut S)> Sections<(), 4, 8, 1, 1> for Preempted<'_, F> {
+        fn section<R>(&mut self, f: impl FnOnce(&mut S) -> R) -> R {
+            if self.taken == self.at {
+                if let Some(between) = self.between.take() {
+                    between(self.state);
+                }
+            }
+            self.taken += 1;
+            f(self.state)
+        }
+    }
+}

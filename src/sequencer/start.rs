@@ -343,28 +343,7 @@ mod tests {
     use super::*;
     use crate::sequencer::control_block::{ControlBlock, NO_LANE};
 
-    type S = State<(), 4, 8, 1, 1>;
-
-    /// A start's sections with something in between: before section `at`, `between` runs
-    /// on the state, as a tick or a lane of higher priority would with the portable lock.
-    struct Preempted<'a, F> {
-        state: &'a mut S,
-        taken: usize,
-        at: usize,
-        between: Option<F>,
-    }
-
-    impl<F: FnOnce(&mut S)> Sections<(), 4, 8, 1, 1> for Preempted<'_, F> {
-        fn section<R>(&mut self, f: impl FnOnce(&mut S) -> R) -> R {
-            if self.taken == self.at {
-                if let Some(between) = self.between.take() {
-                    between(self.state);
-                }
-            }
-            self.taken += 1;
-            f(self.state)
-        }
-    }
+    use crate::sequencer::sections::tests::{Preempted, S};
 
     /// Sequence 0 running, sequence 1 registered; `between` runs before section `at` of a
     /// start of 1 by 0. Returns the start's result, the sections it took, 1's state.
