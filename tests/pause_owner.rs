@@ -343,3 +343,121 @@ fn a_restart_ends_the_operators_pause_and_a_later_curtain_resumes_the_cycle() {
         ]
     );
 }
+
+/// A cycle that blocks on a feed (its blocking child), each with a `PauseOwner` monitor:
+/// the cycle's curtain (monitor 0, broken while `curtain(ms)`) and the feed's own hold
+/// (monitor 1, while `feed(ms)`); `operator` pauses or resumes the feed at the given times.
+/// Returns the trace to 30 ms, the cycle's and the feed's ids.
+fn cycle_and_feed(
+    curtain: fn(u64) -> bool,
+    feed: fn(u64) -> bool,
+    operator: &[(u64, Operator)],
+) -> (Vec<Transition>, SeqId, SeqId) {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let f = seq
+        .add(SeqConfig::new("feed"), Node::of(vec![]).until(1))
+        .unwrap();
+    let fi = f.id();
+    let cycle = seq
+        .add(SeqConfig::new("cycle"), Node::of(vec![Op::Run(f)]))
+        .unwrap();
+    let c = cycle.id();
+    let mut on_curtain = |c: &Ctrl, _| c.flag(2);
+    let mut on_feed = |c: &Ctrl, _| c.flag(3);
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    monitors
+        .add(
+            c,
+            Monitor::new("curtain", &mut on_curtain, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    monitors
+        .add(
+            fi,
+            Monitor::new("feed hold", &mut on_feed, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(cycle);
+    sim.before_tick(move |t, ctrl| {
+        ctrl.set(2, curtain(ms(t)));
+        ctrl.set(3, feed(ms(t)));
+    });
+    sim.start(c).unwrap();
+    for &(at, act) in operator {
+        sim.run_until(rtseq::Instant::from_ticks(at * 1_000));
+        match act {
+            Operator::Pause => assert_eq!(sim.pause(fi), Ok(())),
+            Operator::Resume => assert_eq!(sim.resume(fi), Ok(())),
+            Operator::ResumeRefused => {
+                assert_eq!(sim.resume(fi), Err(Error::HeldByMonitor(fi)))
+            }
+        }
+    }
+    sim.run_until(rtseq::Instant::from_ticks(30_000));
+    (sim.trace().to_vec(), c, fi)
+}
+
+/// The operator pauses the feed (at 2 ms); the cycle's curtain, broken from 5 to 10 ms,
+/// pauses and resumes the cycle but leaves the feed paused until the operator resumes it
+/// (at 15 ms).
+#[test]
+fn a_curtain_of_the_caller_keeps_the_operators_pause_of_the_feed() {
+    let (trace, c, f) = cycle_and_feed(
+        |t| (5..10).contains(&t),
+        |_| false,
+        &[(2, Operator::Pause), (15, Operator::Resume)],
+    );
+    let curtain = Mon(MonitorId::from_index(0));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(0, f, Idle, Running, Start),
+            tr(3, f, Running, Paused, rtseq::Cause::Pause),
+            tr(5, c, Running, Paused, curtain),
+            tr(10, c, Paused, Running, curtain),
+            tr(16, f, Paused, Running, rtseq::Cause::Resume),
+        ]
+    );
+}
+
+/// The feed's own hold (5 to 20 ms) outlasts the cycle's curtain (8 to 12 ms): the feed
+/// stays paused when the cycle resumes, until its own monitor clears.
+#[test]
+fn a_curtain_of_the_caller_keeps_the_feeds_own_hold() {
+    let (trace, c, f) = cycle_and_feed(|t| (8..12).contains(&t), |t| (5..20).contains(&t), &[]);
+    let (curtain, hold) = (Mon(MonitorId::from_index(0)), Mon(MonitorId::from_index(1)));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(0, f, Idle, Running, Start),
+            tr(5, f, Running, Paused, hold),
+            tr(8, c, Running, Paused, curtain),
+            tr(12, c, Paused, Running, curtain),
+            tr(20, f, Paused, Running, hold),
+        ]
+    );
+}
+
+/// The feed's own hold (8 to 12 ms) clears while the cycle's curtain (5 to 20 ms) still
+/// holds the cycle: the feed, frozen by its caller, stays paused (its clock stopped) and
+/// resumes with the cycle.
+#[test]
+fn a_feed_whose_caller_is_paused_resumes_with_its_caller() {
+    let (trace, c, f) = cycle_and_feed(|t| (5..20).contains(&t), |t| (8..12).contains(&t), &[]);
+    let curtain = Mon(MonitorId::from_index(0));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(0, f, Idle, Running, Start),
+            tr(5, c, Running, Paused, curtain),
+            tr(5, f, Running, Paused, curtain),
+            tr(20, c, Paused, Running, curtain),
+            tr(20, f, Paused, Running, curtain),
+        ]
+    );
+}

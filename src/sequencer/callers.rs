@@ -7,6 +7,7 @@
 //! tick only while something is held.
 
 use crate::model::id::Link;
+use crate::sequencer::control_block::flag;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
@@ -24,6 +25,21 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return None;
         }
         Some(up)
+    }
+
+    /// Whether a resume leaves `id` paused: something else holds it. A `PauseOwner`
+    /// monitor of its own holds, a pause request paused it, or the caller it blocks (in
+    /// its lane) is paused; a resume of that caller (outermost first) resumes it later.
+    pub(crate) fn stays_paused(&self, id: SeqId) -> bool {
+        let Some(b) = self.block(id) else {
+            return false;
+        };
+        let caller_paused = b
+            .caller
+            .get()
+            .and_then(|c| self.block(c))
+            .is_some_and(|c| c.lane == b.lane && c.state == RunningState::Paused);
+        b.monitor_holds > 0 || b.has(flag::PAUSED_BY_REQUEST) || caller_paused
     }
 
     /// One step of [`join_would_deadlock`]: the caller of `at` in `lane`, if any.

@@ -115,14 +115,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// A `PauseOwner` monitor's condition cleared: `owner` and the sequences it blocks
-    /// resume once no other `PauseOwner` monitor of the owner holds and no pause request
-    /// paused it.
+    /// resume once nothing else holds the owner: no other `PauseOwner` monitor of it, no
+    /// pause request, no paused caller it blocks (whose resume then resumes it).
     pub(crate) fn release(&self, control: &C, owner: SeqId, cause: Cause) {
         let released = self.with(|s| {
-            s.block_mut(owner).is_some_and(|b| {
+            if let Some(b) = s.block_mut(owner) {
                 b.monitor_holds = b.monitor_holds.saturating_sub(1);
-                b.monitor_holds == 0 && !b.has(flag::PAUSED_BY_REQUEST)
-            })
+            }
+            !s.stays_paused(owner)
         });
         if released {
             self.walk(control, Some(owner), RunningState::Running, cause);

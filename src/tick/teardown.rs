@@ -57,6 +57,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             RunningState::Restarting => {
                 self.stop(control, id, cause, states, RunningState::Aborting)
             }
+            // A resume of the target resumes the sequences it blocks unless something else
+            // holds them (outermost first: a caller's own hold keeps those below it too).
+            RunningState::Running if Some(id) != target && self.with(|s| s.stays_paused(id)) => {}
             _ => self.stop(control, id, cause, states, to),
         };
         // A sequence below the target has a caller link: when no other sequence has one,
