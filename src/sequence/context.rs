@@ -377,7 +377,11 @@ impl<'a, C> Cx<'a, C> {
         self.port.start_in_lane(id, Some(self.id))
     }
 
-    /// Waits until non-blocking sequence `id` has ended and returns its outcome.
+    /// Waits until non-blocking sequence `id` has ended and returns its outcome: that of
+    /// the run under way at the first poll (or of the last run, if none is). If `id` is
+    /// started again before this sequence is polled, the join still gets the joined run's
+    /// outcome, unless the new run has ended too (a control block keeps one outcome: then
+    /// the new run's).
     ///
     /// Joins fail at once where they could never return:
     ///
