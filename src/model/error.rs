@@ -56,8 +56,8 @@ pub enum Error {
     /// says what (a small variant: every `Result` of rtseq carries an `Error`).
     InvalidConfig,
     /// A [`tick`](crate::Sequencer::tick) with a time earlier than the last tick's: time
-    /// does not go back, so that tick ran at the last tick's time, where nothing new fell
-    /// due (it carried out the requests and abort-alls made since).
+    /// does not go back, so that tick evaluated nothing (it carried out the requests and
+    /// abort-alls made since, at the last tick's time).
     TickBeforeLast,
     /// A timeout with [`Behaviour::PauseOwner`](crate::Behaviour::PauseOwner): a timeout
     /// that has run out stays so, and would hold its sequence for good.

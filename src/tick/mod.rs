@@ -142,11 +142,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// period is due, and wakes the lanes that must act.
     ///
     /// A tick with nothing due (and no state change since the last one) returns after one
-    /// short critical section. A tick with a time earlier than the last tick's is a tick at
-    /// the last tick's time (time does not go back, so nothing falls due that was not due
-    /// then) that returns [`Error::TickBeforeLast`]: it still carries out the requests and
-    /// abort-alls made since the last tick, so a broken time base never holds off the
-    /// safety system's abort-all.
+    /// short critical section. A tick with a time earlier than the last tick's returns
+    /// [`Error::TickBeforeLast`]: time does not go back, so it evaluates nothing, but it
+    /// carries out the requests and abort-alls made since the last tick, at the last
+    /// tick's time, so a broken time base never holds off the safety system's abort-all.
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
     /// monotonics do). The sequencer keeps its deadlines as 32-bit µs and compares them by
@@ -174,30 +173,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         control: &C,
         monitors: &mut Monitors<'_, C, M, K>,
     ) -> Result<(), Error> {
+        let stamp = Stamp::of(now);
         // The words of the sets that hold an active sequence, as of the last fold.
-        let (on_time, now, requests, any_due, changed, mut words) = self.with(|s| {
-            // Time does not go back: a tick earlier than the last runs at the last tick's
-            // time, where nothing new falls due, and carries out what was asked all the
-            // same (a broken time base must not hold off an abort-all).
-            let on_time = now >= s.now;
-            if on_time {
+        let (late, requests, any_due, changed, mut words) = self.with(|s| {
+            let late = now < s.now;
+            if !late {
                 s.now = now;
             }
             s.changes = s.changes.wrapping_add(1);
             (
-                on_time,
-                s.now,
+                late,
                 !s.sets.is_empty(Set::Requested),
-                Stamp::of(s.now).reached(s.polling.next_due),
+                stamp.reached(s.polling.next_due),
                 !s.sets.is_empty(Set::Changed),
                 s.sets.words(Set::Active),
             )
         });
-        let done = if on_time {
-            Ok(())
-        } else {
-            Err(Error::TickBeforeLast)
-        };
+        if late {
+            return Err(self.tick_late(control));
+        }
         let inbox = self.take_inbox();
         if changed {
             words = self.fold();
@@ -210,7 +204,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             self.apply_requests(control);
         }
         if !any_due {
-            return done;
+            return Ok(());
         }
         if aborted_all || requests {
             // What they stopped or paused is not due any more.
@@ -219,16 +213,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut scan = Scan::new();
         if B == 1 {
             self.tick_word(0, now, &mut scan, false, monitors, control);
-            return done;
+            return Ok(());
         }
         let mut careful = false;
         for w in words {
             careful = self.tick_word(w, now, &mut scan, careful, monitors, control);
         }
         if words.is_empty() {
-            self.with(|s| s.polling.next_due = Stamp::of(now).plus(NEVER_AHEAD));
+            self.with(|s| s.polling.next_due = stamp.plus(NEVER_AHEAD));
         }
-        done
+        Ok(())
+    }
+
+    /// A tick whose time is earlier than the last tick's: time does not go back, so it
+    /// evaluates nothing (nothing new fell due at the last tick's time), but it carries out
+    /// the abort-all and the requests made since, at the last tick's time: a broken time
+    /// base must not hold off the safety system's abort-all.
+    #[cold]
+    #[inline(never)]
+    fn tick_late(&self, control: &C) -> Error {
+        let inbox = self.take_inbox();
+        self.fold();
+        if let Some(inbox) = inbox {
+            self.apply_inbox(control, inbox);
+        }
+        self.apply_requests(control);
+        Error::TickBeforeLast
     }
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the

@@ -57,9 +57,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             RunningState::Restarting => {
                 self.stop(control, id, cause, states, RunningState::Aborting)
             }
-            // A resume of the target resumes the sequences it blocks unless something else
-            // holds them (outermost first: a caller's own hold keeps those below it too).
-            RunningState::Running if Some(id) != target && self.with(|s| s.stays_paused(id)) => {}
             _ => self.stop(control, id, cause, states, to),
         };
         // A sequence below the target has a caller link: when no other sequence has one,
@@ -75,7 +72,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // Pauses outermost first, teardowns innermost first.
             let depth = if pause { k } else { deepest - k };
             for id in rows.get(depth).copied().unwrap_or_default() {
-                move_one(id);
+                // A resume of the target resumes the sequences it blocks unless something
+                // else holds them (outermost first: one kept paused keeps those below it).
+                let kept = to == RunningState::Running
+                    && Some(id) != target
+                    && self.with(|s| s.stays_paused(id));
+                if !kept {
+                    move_one(id);
+                }
             }
         }
     }
