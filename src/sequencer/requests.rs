@@ -114,25 +114,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sequencer::control_block::ControlBlock;
-    use crate::sequencer::sections::tests::{Preempted, S};
+    use crate::sequencer::sections::tests::{registered, Preempted, S};
     use crate::trace::StateChange;
     use crate::Cause;
 
     /// A running sequence 0; `between` runs before section `at` of an abort request of it.
     /// Returns the request's result and whether the abort is queued for the tick.
     fn abort_preempted(at: usize, between: impl FnOnce(&mut S)) -> (Result<(), Error>, bool) {
-        let mut state = S::new();
         let id = SeqId(0);
-        assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
-        let start = StateChange::new(id, RunningState::Idle, RunningState::Running, Cause::Start);
-        assert!(state.transition(&start).is_some());
-        let mut s = Preempted {
-            state: &mut state,
-            taken: 0,
-            at,
-            between: Some(between),
-        };
+        let mut state = registered(1, &[id]);
+        let mut s = Preempted::new(&mut state, at, between);
         let result = ask(&mut s, id, Request::Abort, Requester::Application);
         let queued = state.sets.has(Set::Requested, id)
             && state

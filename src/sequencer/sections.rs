@@ -90,7 +90,10 @@ pub(crate) use in_sections_then_wake;
 #[cfg(test)]
 pub(crate) mod tests {
     use super::Sections;
+    use crate::sequencer::control_block::ControlBlock;
     use crate::sequencer::State;
+    use crate::trace::StateChange;
+    use crate::{Cause, RunningState, SeqId};
 
     /// A small state for the tests of operations.
     pub(crate) type S = State<(), 4, 8, 1, 1>;
@@ -103,6 +106,32 @@ pub(crate) mod tests {
         pub(crate) taken: usize,
         pub(crate) at: usize,
         pub(crate) between: Option<F>,
+    }
+
+    impl<'a, F: FnOnce(&mut S)> Preempted<'a, F> {
+        /// The operation's sections on `state`, with `between` before section `at`.
+        pub(crate) fn new(state: &'a mut S, at: usize, between: F) -> Self {
+            Preempted {
+                state,
+                taken: 0,
+                at,
+                between: Some(between),
+            }
+        }
+    }
+
+    /// `count` registered sequences, those of `running` started.
+    pub(crate) fn registered(count: usize, running: &[SeqId]) -> S {
+        let mut state = S::new();
+        for _ in 0..count {
+            assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
+        }
+        for &id in running {
+            let start =
+                StateChange::new(id, RunningState::Idle, RunningState::Running, Cause::Start);
+            assert!(state.transition(&start).is_some());
+        }
+        state
     }
 
     impl<F: FnOnce(&mut S)> Sections<(), 4, 8, 1, 1> for Preempted<'_, F> {

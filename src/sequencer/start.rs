@@ -341,9 +341,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sequencer::control_block::{ControlBlock, NO_LANE};
+    use crate::sequencer::control_block::NO_LANE;
 
-    use crate::sequencer::sections::tests::{Preempted, S};
+    use crate::sequencer::sections::tests::{registered, Preempted, S};
 
     /// Sequence 0 running, sequence 1 registered; `between` runs before section `at` of a
     /// start of 1 by 0. Returns the start's result, the sections it took, 1's state.
@@ -351,24 +351,9 @@ mod tests {
         at: usize,
         between: impl FnOnce(&mut S),
     ) -> (Result<(), Error>, usize, RunningState) {
-        let mut state = S::new();
         let (caller, id) = (SeqId(0), SeqId(1));
-        for _ in 0..2 {
-            assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
-        }
-        let run = StateChange::new(
-            caller,
-            RunningState::Idle,
-            RunningState::Running,
-            Cause::Start,
-        );
-        assert!(state.transition(&run).is_some());
-        let mut s = Preempted {
-            state: &mut state,
-            taken: 0,
-            at,
-            between: Some(between),
-        };
+        let mut state = registered(2, &[caller]);
+        let mut s = Preempted::new(&mut state, at, between);
         let new = NewRun {
             lane: NO_LANE,
             caller: Link::to(Some(caller)),
@@ -383,35 +368,24 @@ mod tests {
     /// between the lane's clearance and its restart): the abort stands.
     #[test]
     fn a_restart_after_an_abort_leaves_the_sequence_aborted() {
-        let mut state = S::new();
         let id = SeqId(0);
-        assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
-        for (from, to, cause) in [
-            (RunningState::Idle, RunningState::Running, Cause::Start),
-            (
-                RunningState::Running,
-                RunningState::Restarting,
-                Cause::Restart,
-            ),
-        ] {
-            assert!(state
-                .transition(&StateChange::new(id, from, to, cause))
-                .is_some());
-        }
-        let mut s = Preempted {
-            state: &mut state,
-            taken: 0,
-            at: 0,
-            between: Some(|s: &mut S| {
-                for (from, to) in [
-                    (RunningState::Restarting, RunningState::Aborting),
-                    (RunningState::Aborting, RunningState::Aborted),
-                ] {
-                    let change = StateChange::new(id, from, to, Cause::AbortAll);
-                    assert!(s.transition(&change).is_some());
-                }
-            }),
-        };
+        let mut state = registered(1, &[id]);
+        let restart = StateChange::new(
+            id,
+            RunningState::Running,
+            RunningState::Restarting,
+            Cause::Restart,
+        );
+        assert!(state.transition(&restart).is_some());
+        let mut s = Preempted::new(&mut state, 0, |s: &mut S| {
+            for (from, to) in [
+                (RunningState::Restarting, RunningState::Aborting),
+                (RunningState::Aborting, RunningState::Aborted),
+            ] {
+                let change = StateChange::new(id, from, to, Cause::AbortAll);
+                assert!(s.transition(&change).is_some());
+            }
+        });
         relaunch(&mut s, id);
         assert_eq!(state.state_of(id), RunningState::Aborted);
     }
@@ -421,31 +395,16 @@ mod tests {
     /// winner's, so a teardown of 0 still finds 1 below it.
     #[test]
     fn a_start_that_loses_leaves_the_winners_link() {
-        let mut state = S::new();
         let (caller, id) = (SeqId(0), SeqId(1));
-        for _ in 0..2 {
-            assert!(state.push_block(ControlBlock::IDLE, None).is_ok());
-        }
-        let run = StateChange::new(
-            caller,
-            RunningState::Idle,
-            RunningState::Running,
-            Cause::Start,
-        );
-        assert!(state.transition(&run).is_some());
-        let mut s = Preempted {
-            state: &mut state,
-            taken: 0,
-            at: PASS - 2,
-            between: Some(|s: &mut S| {
-                let won = NewRun {
-                    lane: NO_LANE,
-                    caller: Link::to(Some(caller)),
-                    flags: 0,
-                };
-                assert_eq!(launch(s, id, won, Cause::Start), Ok(()));
-            }),
-        };
+        let mut state = registered(2, &[caller]);
+        let mut s = Preempted::new(&mut state, PASS - 2, |s: &mut S| {
+            let won = NewRun {
+                lane: NO_LANE,
+                caller: Link::to(Some(caller)),
+                flags: 0,
+            };
+            assert_eq!(launch(s, id, won, Cause::Start), Ok(()));
+        });
         let lost = NewRun {
             lane: NO_LANE,
             caller: Link::NONE,
