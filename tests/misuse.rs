@@ -565,6 +565,100 @@ fn a_joiner_gets_the_outcome_of_the_run_it_joined_when_a_new_run_starts_first() 
     );
 }
 
+/// T's first run dwells; every later run fails at once.
+struct DwellThenFail {
+    dwell: Seq<Wait>,
+    runs: u32,
+}
+impl Sequence<Ctrl> for DwellThenFail {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        self.runs += 1;
+        if self.runs > 1 {
+            return Err(Failure::App(7));
+        }
+        cx.step(&mut self.dwell).await.map(|_| ())
+    }
+}
+
+/// A control block keeps one outcome. When the joined run ended and a later run ended too
+/// before the joiner was polled (here a lane of higher priority runs the later run at
+/// once), the joiner is told that the outcome is lost, instead of being given the later
+/// run's.
+#[test]
+fn a_joiner_whose_run_was_followed_by_another_finished_run_is_told_the_outcome_is_lost() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let t = seq
+        .add(SeqConfig::new("T"), DwellThenFail { dwell, runs: 0 })
+        .unwrap();
+    let ti = t.id();
+    // X joins T, then starts it again; J only joins T, and is polled after X.
+    let x = seq
+        .add(
+            SeqConfig::new("X"),
+            Node::of(vec![Op::Join(ti), Op::Start(ti)]),
+        )
+        .unwrap();
+    let j = seq
+        .add(SeqConfig::new("J"), Node::of(vec![Op::Join(ti)]))
+        .unwrap();
+    let (xi, ji) = (x.id(), j.id());
+    let main = seq
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(ti), Op::Start(xi), Op::Start(ji)]),
+        )
+        .unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(x);
+    sim.lane(j);
+    sim.lane_with_priority(t, 2);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(5))
+    );
+    let runs_of_t: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|r| r.sequence == ti)
+        .copied()
+        .collect();
+    assert_eq!(
+        runs_of_t,
+        [
+            tr(0, ti, Idle, Running, Start),
+            tr(5, ti, Running, Terminated, Completed),
+            tr(5, ti, Terminated, Running, Start),
+            tr(5, ti, Running, Terminated, rtseq::Cause::Failed),
+        ]
+    );
+    assert_eq!(
+        sim.handle(ti).unwrap().last_outcome(),
+        Some(Outcome::Failed(Failure::App(7)))
+    );
+    drop(sim);
+    let joins: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| (r.seq == xi || r.seq == ji) && r.line == 0)
+        .map(|r| (r.ms, r.seq, r.result))
+        .collect();
+    assert_eq!(
+        joins,
+        [
+            (5, xi, Ok(Done::Completed)),
+            (5, ji, Err(Failure::NotStarted(Error::OutcomeLost(ti))))
+        ]
+    );
+}
+
 // ---------------------------------------------------------------------------------------
 // 5. A join that could never return is an error.
 // ---------------------------------------------------------------------------------------

@@ -143,6 +143,7 @@ fn error_code(e: Error) -> u32 {
         Error::PauseOnTimeout => 19,
         Error::ForeignSequence(_) => 20,
         Error::HeldByMonitor(_) => 21,
+        Error::OutcomeLost(_) => 22,
     }
 }
 

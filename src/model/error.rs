@@ -70,6 +70,11 @@ pub enum Error {
     /// monitor holds paused (its condition still holds): it resumes when the condition
     /// clears.
     HeldByMonitor(SeqId),
+    /// A join whose run ended, and a later run of the same sequence ended too, before the
+    /// joiner was polled: a control block keeps one outcome, the later run's, so the
+    /// joined run's is lost. (The later run's outcome is
+    /// [`Handle::last_outcome`](crate::Handle::last_outcome).)
+    OutcomeLost(SeqId),
 }
 
 impl Error {
@@ -107,6 +112,7 @@ impl Error {
             Error::PauseOnTimeout => "a timeout cannot pause its sequence",
             Error::ForeignSequence(_) => "sequence object of another sequencer",
             Error::HeldByMonitor(_) => "sequence held paused by a monitor",
+            Error::OutcomeLost(_) => "joined run's outcome lost to a later run",
         }
     }
 }
@@ -154,6 +160,11 @@ impl core::fmt::Display for Error {
             Error::HeldByMonitor(id) => write!(
                 f,
                 "sequence {} is held paused by a monitor whose condition holds",
+                id.index()
+            ),
+            Error::OutcomeLost(id) => write!(
+                f,
+                "the joined run of sequence {} ended, and so did a later run, whose outcome replaced it",
                 id.index()
             ),
             Error::JoinWouldDeadlock(id) => write!(

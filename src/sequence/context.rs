@@ -380,8 +380,9 @@ impl<'a, C> Cx<'a, C> {
     /// Waits until non-blocking sequence `id` has ended and returns its outcome: that of
     /// the run under way at the first poll (or of the last run, if none is). If `id` is
     /// started again before this sequence is polled, the join still gets the joined run's
-    /// outcome, unless the new run has ended too (a control block keeps one outcome: then
-    /// the new run's).
+    /// outcome. If that new run has ended too (a lane of higher priority ran it), the
+    /// control block, which keeps one outcome, holds the new run's: the join is then
+    /// [`Error::OutcomeLost`], never the other run's outcome.
     ///
     /// Joins fail at once where they could never return:
     ///

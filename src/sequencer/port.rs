@@ -219,10 +219,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 return Err(Error::NeverStarted(target));
             }
             let joined = *run.get_or_insert(b.runs);
-            // A later run started only after the joined one ended; its outcome stays
-            // until the later run ends.
-            let ended = b.runs != joined || !(b.state.is_active() || b.has(flag::START_PENDING));
-            Ok(if ended { b.outcome } else { None })
+            let under_way = b.state.is_active() || b.has(flag::START_PENDING);
+            // The outcome is the joined run's while that run is the last one, ended, or
+            // the one before the run under way.
+            match (b.runs.wrapping_sub(joined), under_way) {
+                (0, true) => Ok(None),
+                (0, false) | (1, true) => Ok(b.outcome),
+                _ => Err(Error::OutcomeLost(target)),
+            }
         });
         let result = match ended {
             Ok(None) => return Poll::Pending,

@@ -87,7 +87,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
-    /// lane, its run count, no pause in force, no last exception yet (the outcome stays the last finished
+    /// lane, no pause in force, no last exception yet (the outcome stays the last finished
     /// run's, which a join of that run may still collect). Only for a sequence that may
     /// start (`Idle`, `Terminated`, `Aborted`; else it only returns the state): the tick
     /// neither scans it nor walks through these fields, and the caller link, flags and
@@ -100,7 +100,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if States::STARTABLE.has(from) {
             b.start_clock(now);
             b.lane = lane;
-            b.runs = b.runs.wrapping_add(1);
             b.active_exception = None;
             b.lift_pauses();
             // Its lane may be another one now.
@@ -154,7 +153,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// The commit of a new run: `change` (validated and scheduled when the count of changes
     /// was `seen`) with the run's caller and flags, which also clear the requests and the
-    /// pending behaviour. False: a tick or a transition came since (it may have moved the
+    /// pending behaviour, and the run counted (a join or a request pins the run it was
+    /// made of by this count, so only a committed run counts). False: a tick or a transition came since (it may have moved the
     /// time, rescanned without the new run, or stopped the run's caller), nothing changed,
     /// schedule again.
     #[inline]
@@ -167,6 +167,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         };
         b.caller = run.caller;
         b.flags = run.flags;
+        b.runs = b.runs.wrapping_add(1);
         true
     }
 
@@ -444,6 +445,24 @@ mod tests {
             (result, taken, state),
             (Ok(()), 2 * PASS, RunningState::Running)
         );
+    }
+
+    /// A start scheduled twice is one run: joins and requests pin a run by its count.
+    #[test]
+    fn a_start_scheduled_again_counts_one_run() {
+        let id = SeqId(1);
+        let mut state = registered(2, &[]);
+        let mut s = Preempted::new(&mut state, PASS - 1, |s: &mut S| {
+            s.changes = s.changes.wrapping_add(1);
+        });
+        let new = NewRun {
+            lane: NO_LANE,
+            caller: Link::NONE,
+            flags: 0,
+        };
+        assert_eq!(launch(&mut s, id, new, Cause::Start), Ok(()));
+        assert_eq!(s.taken, 2 * PASS);
+        assert_eq!(state.block(id).map(|b| b.runs), Some(1));
     }
 
     /// The caller is aborted after the start's first look at it (by a lane of higher
