@@ -248,6 +248,28 @@ impl<C, K> Monitor<'_, C, K> {
     }
 }
 
+/// Whether `entries` plus `next` would be [`MAX_MONITORS`] `PauseOwner` monitors of one
+/// owner: one more than a sequence's count of holding monitors (a `u8`) can hold. Only a
+/// full table of them can be, so this looks at the table's last place only.
+const fn holds_overflow<C, K>(
+    entries: &[OwnedMonitor<'_, C, K>],
+    next: &OwnedMonitor<'_, C, K>,
+) -> bool {
+    if entries.len() + 1 < MAX_MONITORS || !matches!(next.def.behaviour, Behaviour::PauseOwner) {
+        return false;
+    }
+    let mut rest = entries;
+    while let Some((e, tail)) = rest.split_first() {
+        if e.owner.index() != next.owner.index()
+            || !matches!(e.def.behaviour, Behaviour::PauseOwner)
+        {
+            return false;
+        }
+        rest = tail;
+    }
+    true
+}
+
 /// What a monitor definition borrows: the lifetime of a `dyn` condition, the control type.
 type Borrows<'a, C> = (&'a (), fn(&C));
 
@@ -764,6 +786,14 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         monitors: [OwnedMonitor<'a, C, K>; L],
     ) -> Result<Self, Error> {
         const { assert!(M <= MAX_MONITORS, "at most 256 monitors") };
+        let overflow = match monitors.split_last() {
+            Some((last, before)) if holds_overflow(before, last) => Some(last.owner),
+            _ => None,
+        };
+        if let Some(owner) = overflow {
+            core::mem::forget(monitors);
+            return Err(Error::PauseOwnerMonitorsExceeded(owner));
+        }
         let mut groups = Groups::EMPTY;
         let mut rest: &[OwnedMonitor<'a, C, K>] = &monitors;
         let mut at: u8 = 0;
@@ -783,7 +813,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         })
     }
 
-    /// Adds a monitor owned by `owner`. Errors on an empty name or a full table; that the
+    /// Adds a monitor owned by `owner`. Errors on an empty name, a full table, or a 256th
+    /// `PauseOwner` monitor of one sequence (at most 255 can hold it paused); that the
     /// owner and the exception sequence are registered is checked by
     /// [`Sequencer::validate`](crate::Sequencer::validate).
     ///
@@ -817,6 +848,9 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             target_runs_seen: 0,
             fired: 0,
         };
+        if holds_overflow(&self.entries, &entry) {
+            return Err(Error::PauseOwnerMonitorsExceeded(owner));
+        }
         let trigger = entry.def.watched();
         self.entries
             .push(entry)

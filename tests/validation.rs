@@ -281,3 +281,44 @@ fn a_sequence_in_a_lane_gets_its_slot_at_registration() {
     assert_eq!(seq.len(), 2);
     assert!(seq.sequence_by_name("fan").is_none());
 }
+
+/// A sequence counts the `PauseOwner` monitors that hold it paused in a byte: a table of 256
+/// of them, all of one sequence, is refused (by `add` and by the `const` table), one fewer
+/// or one of another owner is not.
+#[test]
+fn a_table_of_256_pause_owner_monitors_of_one_sequence_is_refused() {
+    type Cond = fn(&Ctrl, rtseq::Instant) -> bool;
+    const A: SeqId = SeqId::from_index(0);
+    const B: SeqId = SeqId::from_index(1);
+    const HOLD_A: rtseq::OwnedMonitor<'static, Ctrl, Cond> =
+        Monitor::with_condition("hold", never as Cond, Behaviour::PauseOwner).owned_by(A);
+    const HOLD_B: rtseq::OwnedMonitor<'static, Ctrl, Cond> =
+        Monitor::with_condition("hold", never as Cond, Behaviour::PauseOwner).owned_by(B);
+    const ABORT_A: rtseq::OwnedMonitor<'static, Ctrl, Cond> =
+        Monitor::with_condition("abort", never as Cond, Behaviour::AbortOwner).owned_by(A);
+
+    let hold = || Monitor::with_condition("hold", never as Cond, Behaviour::PauseOwner);
+    let mut monitors: Monitors<Ctrl, 256, Cond> = Monitors::new();
+    for _ in 0..255 {
+        assert!(monitors.add(A, hold()).is_ok());
+    }
+    assert_eq!(
+        monitors.add(A, hold()).map(|_| ()),
+        Err(Error::PauseOwnerMonitorsExceeded(A))
+    );
+    assert_eq!(monitors.add(B, hold()), Ok(MonitorId::from_index(255)));
+
+    // 256 entries of A's holds, with `first` and `last` in place.
+    let table = |first, last| {
+        let mut entries = [HOLD_A; 256];
+        entries[0] = first;
+        entries[255] = last;
+        Monitors::<Ctrl, 256, Cond>::table(entries).map(|_| ())
+    };
+    assert_eq!(
+        table(HOLD_A, HOLD_A),
+        Err(Error::PauseOwnerMonitorsExceeded(A))
+    );
+    assert_eq!(table(HOLD_A, HOLD_B), Ok(()));
+    assert_eq!(table(ABORT_A, HOLD_A), Ok(()));
+}

@@ -144,6 +144,7 @@ fn error_code(e: Error) -> u32 {
         Error::ForeignSequence(_) => 20,
         Error::HeldByMonitor(_) => 21,
         Error::OutcomeLost(_) => 22,
+        Error::PauseOwnerMonitorsExceeded(_) => 23,
     }
 }
 

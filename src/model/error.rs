@@ -75,6 +75,9 @@ pub enum Error {
     /// joined run's is lost. (The later run's outcome is
     /// [`Handle::last_outcome`](crate::Handle::last_outcome).)
     OutcomeLost(SeqId),
+    /// A monitor table of 256 [`PauseOwner`](crate::Behaviour::PauseOwner) monitors, all
+    /// of this one sequence: at most 255 monitors can hold one sequence paused at once.
+    PauseOwnerMonitorsExceeded(SeqId),
 }
 
 impl Error {
@@ -113,6 +116,9 @@ impl Error {
             Error::ForeignSequence(_) => "sequence object of another sequencer",
             Error::HeldByMonitor(_) => "sequence held paused by a monitor",
             Error::OutcomeLost(_) => "joined run's outcome lost to a later run",
+            Error::PauseOwnerMonitorsExceeded(_) => {
+                "more than 255 PauseOwner monitors of one sequence"
+            }
         }
     }
 }
@@ -165,6 +171,11 @@ impl core::fmt::Display for Error {
             Error::OutcomeLost(id) => write!(
                 f,
                 "the joined run of sequence {} ended, and so did a later run, whose outcome replaced it",
+                id.index()
+            ),
+            Error::PauseOwnerMonitorsExceeded(id) => write!(
+                f,
+                "sequence {} has 256 PauseOwner monitors; at most 255 can hold it paused",
                 id.index()
             ),
             Error::JoinWouldDeadlock(id) => write!(

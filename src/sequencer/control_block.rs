@@ -151,7 +151,8 @@ pub(crate) struct ControlBlock {
     /// Its [polling class](crate::tick::schedule) (the class holds the period).
     pub(crate) class: u8,
     /// Its `PauseOwner` monitors whose condition holds in this run: while any does, it
-    /// stays paused.
+    /// stays paused. A table holds at most 255 of one sequence (`Monitors::add` and
+    /// `Monitors::table` refuse a 256th), so the count cannot overflow.
     pub(crate) monitor_holds: u8,
 }
 
