@@ -283,3 +283,95 @@ fn mark<
     });
     Some((target, behaviour))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequencer::port::Port;
+    use crate::{Instant, MonitorId, Monitors, Outcome, SeqConfig};
+
+    /// What a monitor of the owner with exception sequence `e` and `AbortOwner` reacts with.
+    fn abort_owner_with(e: SeqId) -> Reaction {
+        Reaction {
+            behaviour: Behaviour::AbortOwner,
+            exception: Some(e),
+            restarts: 0,
+            runs_seen: 0,
+            limit: 3,
+        }
+    }
+
+    /// O and O2 share the exception sequence E (both monitors `AbortOwner`). E, handling
+    /// O's exception, ends in its lane (`Port::end`); before the lane reports the end
+    /// (`Port::finished`, sections of its own) the tick preempts it and O2's monitor fires:
+    /// E is `Terminated`, so it starts again, for O2. The end that E's lane then reports is
+    /// that of O's exception sequence: the next tick applies O's behaviour (O aborted),
+    /// and O2 stays running and held while its exception sequence runs.
+    #[test]
+    fn an_exception_sequence_started_again_before_its_end_was_reported_ends_the_first_owners_exception(
+    ) {
+        let seq: Sequencer<(), 4> = Sequencer::new();
+        let ids = ["O", "O2", "E"].map(|n| seq.register(SeqConfig::new(n)).unwrap());
+        let [o, o2, e] = ids;
+        for id in ids {
+            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+        }
+        for id in [o, o2] {
+            seq.sequence_by_id(id).unwrap().start().unwrap();
+        }
+        // The tick: O's monitor fires; E starts for O, O's behaviour waits for E's end.
+        let cause_o = Cause::Monitor(MonitorId(0));
+        assert!(seq.raise(&(), o, cause_o, &mut abort_owner_with(e)));
+        assert_eq!(seq.with(|s| s.block(e).and_then(|b| b.caller.get())), Some(o));
+        // E's lane: the run ends ...
+        assert!(Port::end(&seq, e, Outcome::Completed));
+        // ... the tick preempts it: O2's monitor fires with the same exception sequence.
+        let cause_o2 = Cause::Monitor(MonitorId(1));
+        assert!(seq.raise(&(), o2, cause_o2, &mut abort_owner_with(e)));
+        // Either E started again for O2 (it is `Terminated`), or the start is refused until
+        // E's lane has reported its run (then O2's behaviour applies at once, counted).
+        let restarted = seq.state_of_for_test(e) == RunningState::Running;
+        // The lane goes on: it reports the end of the run that handled O's exception.
+        Port::finished(&seq, e, Outcome::Completed);
+        // The next tick applies the behaviour whose exception sequence ended: O's.
+        let mut monitors = Monitors::<(), 1>::new();
+        seq.tick(Instant::from_ticks(1_000), &(), &mut monitors)
+            .unwrap();
+        let states = [o, o2, e].map(|id| seq.state_of_for_test(id));
+        assert!(!seq.with(|s| s.sets.has(Set::Excepting, o)));
+        if restarted {
+            assert_eq!(
+                states,
+                [
+                    RunningState::Aborted,
+                    RunningState::Running,
+                    RunningState::Running
+                ]
+            );
+            // O2 is still held by its exception, which E (for O2) still handles.
+            assert!(seq.with(|s| s.sets.has(Set::Excepting, o2)));
+            assert!(seq.with(|s| s
+                .block(e)
+                .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION) && b.caller.get() == Some(o2))));
+            assert_eq!(seq.exceptions_not_run(), 0);
+        } else {
+            assert_eq!(
+                states,
+                [
+                    RunningState::Aborted,
+                    RunningState::Aborted,
+                    RunningState::Terminated
+                ]
+            );
+            assert_eq!(seq.exceptions_not_run(), 1);
+        }
+    }
+
+    impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+        Sequencer<C, N, T, L, W, B>
+    {
+        fn state_of_for_test(&self, id: SeqId) -> RunningState {
+            self.with(|s| s.state_of(id))
+        }
+    }
+}
