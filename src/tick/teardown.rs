@@ -238,3 +238,88 @@ fn leave<
     }
     Some(hook)
 }
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use std::boxed::Box;
+    use std::cell::RefCell;
+
+    use crate::sequencer::port::Port;
+    use crate::sequencer::start::Mode;
+    use crate::{Cause, RunningState, SeqConfig, SeqId, Sequencer};
+
+    std::thread_local! {
+        /// What runs between two sections of the walk (at X's cleanup hook): a lane of
+        /// higher priority, woken by the walk, preempting it.
+        static BETWEEN: RefCell<Option<Box<dyn FnOnce()>>> = RefCell::new(None);
+    }
+
+    fn between(_: &()) {
+        if let Some(f) = BETWEEN.with(|b| b.borrow_mut().take()) {
+            f();
+        }
+    }
+
+    /// R (lane of priority 1) started Y non-blocking (its lane, priority 2), and Y runs X
+    /// blocking in its lane. R's run is dropped: the walk tears R's tree down innermost
+    /// first, X, then Y, then R. After X's stop, Y's lane is woken and, of higher priority,
+    /// preempts the walk: X's run hands `Err(Aborted(Dropped))` to Y, still running, whose
+    /// action starts G (a fallback). G's start is made while Y runs; the walk, whose rows
+    /// were placed before, must still not leave G running below an aborted Y (semantics 9:
+    /// nothing an action starts outlives its abort).
+    #[test]
+    fn a_start_made_below_a_dropped_run_while_its_walk_is_preempted_does_not_outlive_it() {
+        let seq: &'static Sequencer<(), 8> = Box::leak(Box::new(Sequencer::new()));
+        let r = seq.register(SeqConfig::new("R")).unwrap();
+        let y = seq.register(SeqConfig::new("Y")).unwrap();
+        let x = seq
+            .register(SeqConfig::new("X").on_abort(between))
+            .unwrap();
+        let g = seq.register(SeqConfig::new("G")).unwrap();
+        for id in [r, y, g] {
+            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+        }
+        seq.sequence_by_id(r).unwrap().start().unwrap();
+        Port::start_in_lane(seq, y, Some(r)).unwrap();
+        seq.begin(x, Some(y), Mode::Blocking { maker: 0 }, Cause::Start, 0)
+            .unwrap();
+        let state = |id: SeqId| seq.with(|s| s.state_of(id));
+        assert_eq!(
+            [r, y, x, g].map(state),
+            [
+                RunningState::Running,
+                RunningState::Running,
+                RunningState::Running,
+                RunningState::Idle
+            ]
+        );
+        let fallback = std::rc::Rc::new(RefCell::new(None));
+        let result = fallback.clone();
+        BETWEEN.with(|b| {
+            *b.borrow_mut() = Some(Box::new(move || {
+                // Y's lane: Y is still running, its child X was aborted; it starts G.
+                *result.borrow_mut() = Some(Port::start_in_lane(seq, g, Some(y)));
+            }))
+        });
+        Port::abandon(seq, r, &());
+        assert_eq!(
+            [r, y, x].map(state),
+            [
+                RunningState::Aborted,
+                RunningState::Aborted,
+                RunningState::Aborted
+            ]
+        );
+        // Either Y, being torn down, may start nothing, or what it started is torn down
+        // with it.
+        let started = *fallback.borrow();
+        if started == Some(Err(crate::Error::NotRunning(y))) {
+            assert_eq!(state(g), RunningState::Idle);
+            return;
+        }
+        assert_eq!(started, Some(Ok(())));
+        // G, started below Y before Y's stop, is torn down with it.
+        assert_eq!(state(g), RunningState::Aborted);
+    }
+}
