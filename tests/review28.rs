@@ -9,8 +9,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{Abort, Completed, Start};
 use rtseq::RunningState::*;
 use rtseq::{
-    Cause, Cx, Done, Duration, Error, Failure, Monitors, Outcome, Seq, SeqConfig, SeqId,
-    Sequence, Sequencer, Wait,
+    Cause, Cx, Done, Duration, Error, Failure, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence,
+    Sequencer, Wait,
 };
 
 /// T dwells 5 ms; a supervisor S of higher priority joins T and starts it again when the
@@ -192,7 +192,10 @@ fn a_join_never_gets_the_outcome_of_a_later_run_aborted_before_its_lane_took_it(
     sim.start(ti).unwrap();
     sim.start(ji).unwrap();
     sim.start(xi).unwrap();
-    assert_eq!(sim.run_until_idle(Duration::from_millis(50)).map(ms), Some(5));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)).map(ms),
+        Some(5)
+    );
     let runs_of_t: Vec<_> = sim
         .trace()
         .iter()

@@ -322,7 +322,10 @@ mod tests {
         // The tick: O's monitor fires; E starts for O, O's behaviour waits for E's end.
         let cause_o = Cause::Monitor(MonitorId(0));
         assert!(seq.raise(&(), o, cause_o, &mut abort_owner_with(e)));
-        assert_eq!(seq.with(|s| s.block(e).and_then(|b| b.caller.get())), Some(o));
+        assert_eq!(
+            seq.with(|s| s.block(e).and_then(|b| b.caller.get())),
+            Some(o)
+        );
         // E's lane: the run ends ...
         assert!(Port::end(&seq, e, Outcome::Completed));
         // ... the tick preempts it: O2's monitor fires with the same exception sequence.

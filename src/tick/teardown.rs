@@ -273,9 +273,7 @@ mod tests {
         let seq: &'static Sequencer<(), 8> = Box::leak(Box::new(Sequencer::new()));
         let r = seq.register(SeqConfig::new("R")).unwrap();
         let y = seq.register(SeqConfig::new("Y")).unwrap();
-        let x = seq
-            .register(SeqConfig::new("X").on_abort(between))
-            .unwrap();
+        let x = seq.register(SeqConfig::new("X").on_abort(between)).unwrap();
         let g = seq.register(SeqConfig::new("G")).unwrap();
         for id in [r, y, g] {
             seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
