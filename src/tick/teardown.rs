@@ -7,6 +7,7 @@ use crate::model::id::Link;
 use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::model::time::Stamp;
+use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
@@ -80,6 +81,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 if !kept {
                     move_one(id);
                 }
+            }
+        }
+    }
+
+    /// Aborts `id`, whose run's future was dropped, with the sequences below it
+    /// ([`Cause::Dropped`]). The walk runs in the dropping lane, so a lane of higher
+    /// priority that it wakes may preempt it and start a sequence below one the walk has
+    /// not reached yet: the walk is repeated until nothing is left below `id` (each walk
+    /// aborts what it finds, so the `N`th finds nothing).
+    pub(crate) fn abort_dropped(&self, control: &C, id: SeqId) {
+        let aborted = States::entering(RunningState::Aborting);
+        for _ in 0..N {
+            self.walk(control, Some(id), RunningState::Aborting, Cause::Dropped);
+            let (rows, _) = self.levels(Some(id), aborted, None);
+            if rows.iter().all(|row| *row == SeqSet::EMPTY) {
+                return;
             }
         }
     }
@@ -211,7 +228,8 @@ fn leave<
 ) -> Option<Option<fn(&C)>> {
     let pause = matches!(to, RunningState::Paused | RunningState::Running);
     // Before a teardown, what it leaves behind: the cause a later gate reports, no pending
-    // requests; and the hook.
+    // requests, after an abort no start left for its lane to take (the run is over before
+    // it began: nothing of it must look under way); and the hook.
     let (from, hook) = s.section(|s| {
         let b = s.block_mut(id)?;
         let from = b.state;
@@ -223,6 +241,9 @@ fn leave<
         }
         b.last_cause = cause;
         b.drop_requests();
+        if to == RunningState::Aborting {
+            b.set(flag::START_PENDING, false);
+        }
         Some((from, s.hooks.get(id.index()).copied().flatten()))
     })?;
     let change = StateChange::new(id, from, to, cause);
@@ -240,6 +261,7 @@ fn leave<
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     extern crate std;
     use std::boxed::Box;
