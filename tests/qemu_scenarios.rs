@@ -642,9 +642,9 @@ fn firmware_sizes_with_and_without_rtseq() {
     // scenario, each building its tree by value: their moves into `Seq`s are rtseq's lines).
     // Budgets (ceilings, not targets): the sequencer's code 12 KiB, the safety system's
     // 2 KiB. The demo's sequencer code misses its budget by the fixes of sessions 27 and
-    // 28 (a stopped caller starts nothing, a join keeps its run, PauseOwner holds are
-    // counted and kept through a caller's resume, a late tick still aborts, a dropped
-    // run's teardown is repeated; docs/footprint.md): held to a known ceiling of 12.75 KiB.
+    // 28 (a stopped caller starts nothing, a join keeps its run and knows when its outcome
+    // is lost, PauseOwner holds are counted and kept through a caller's resume, a late
+    // tick still aborts; docs/footprint.md): held to a known ceiling of 12.5 KiB.
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
@@ -655,7 +655,7 @@ fn firmware_sizes_with_and_without_rtseq() {
         "rtseq's sequencer code in the demo firmware [bytes]",
         demo_code.rtseq - demo_code.safety,
         12 * 1024,
-        12 * 1024 + 768,
+        12 * 1024 + 512,
     );
     budget(
         "rtseq's safety-system code in the demo firmware [bytes]",
