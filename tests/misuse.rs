@@ -494,21 +494,33 @@ fn three_joiners_of_one_run_all_get_its_outcome() {
     );
 }
 
-/// A joiner is released by the end of the run it joined; when another lane, polled before
-/// it, starts that sequence again, the joiner still gets the joined run's outcome, not the
-/// new run's (a supervisor that repeats T would otherwise keep J waiting for ever).
-#[test]
-fn a_joiner_gets_the_outcome_of_the_run_it_joined_when_a_new_run_starts_first() {
+/// What a race of joiners and a new start left: T's transitions, X's and J's join results
+/// (time, joiner, result), and the time the simulator went idle.
+struct Rejoined {
+    t: SeqId,
+    x: SeqId,
+    j: SeqId,
+    runs_of_t: Vec<rtseq::Transition>,
+    joins: Vec<(u64, SeqId, Result<Done, Failure>)>,
+    idle: Option<Instant>,
+    /// T's last outcome, as its handle reports it.
+    last_outcome: Option<Outcome>,
+}
+
+/// main starts T (made by `make_t` from a 5 ms dwell; its lane of priority `t_priority`),
+/// then X and J (priority 1, in that order): X joins T, then starts it again; J only joins
+/// T.
+fn join_then_start_again<S: Sequence<Ctrl>>(
+    make_t: impl FnOnce(Seq<Wait>) -> S,
+    t_priority: u8,
+) -> Rejoined {
     let seq: Sequencer<Ctrl, 8> = Sequencer::new();
     let ctrl = Ctrl::default();
     let dwell = seq
         .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
         .unwrap();
-    let t = seq
-        .add(SeqConfig::new("T"), Node::of(vec![Op::Wait(dwell)]))
-        .unwrap();
+    let t = seq.add(SeqConfig::new("T"), make_t(dwell)).unwrap();
     let ti = t.id();
-    // X joins T, then starts it again; J only joins T.
     let x = seq
         .add(
             SeqConfig::new("X"),
@@ -528,22 +540,47 @@ fn a_joiner_gets_the_outcome_of_the_run_it_joined_when_a_new_run_starts_first() 
     let m = main.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
-    sim.lane(t);
+    sim.lane_with_priority(t, t_priority);
     sim.lane(x);
     sim.lane(j);
     sim.start(m).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(ms_at(10))
-    );
-    let runs_of_t: Vec<_> = sim
+    let idle = sim.run_until_idle(Duration::from_millis(50));
+    let runs_of_t = sim
         .trace()
         .iter()
         .filter(|r| r.sequence == ti)
         .copied()
         .collect();
-    assert_eq!(
+    let last_outcome = sim.handle(ti).and_then(|h| h.last_outcome());
+    drop(sim);
+    let joins = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| (r.seq == xi || r.seq == ji) && r.line == 0)
+        .map(|r| (r.ms, r.seq, r.result))
+        .collect();
+    Rejoined {
+        t: ti,
+        x: xi,
+        j: ji,
         runs_of_t,
+        joins,
+        idle,
+        last_outcome,
+    }
+}
+
+/// A joiner is released by the end of the run it joined; when another lane, polled before
+/// it, starts that sequence again, the joiner still gets the joined run's outcome, not the
+/// new run's (a supervisor that repeats T would otherwise keep J waiting for ever).
+#[test]
+fn a_joiner_gets_the_outcome_of_the_run_it_joined_when_a_new_run_starts_first() {
+    let r = join_then_start_again(|dwell| Node::of(vec![Op::Wait(dwell)]), 1);
+    let (ti, xi, ji) = (r.t, r.x, r.j);
+    assert_eq!(r.idle, Some(ms_at(10)));
+    assert_eq!(
+        r.runs_of_t,
         [
             tr(0, ti, Idle, Running, Start),
             tr(5, ti, Running, Terminated, Completed),
@@ -551,16 +588,8 @@ fn a_joiner_gets_the_outcome_of_the_run_it_joined_when_a_new_run_starts_first() 
             tr(10, ti, Running, Terminated, Completed),
         ]
     );
-    drop(sim);
-    let joins: Vec<_> = ctrl
-        .returned
-        .borrow()
-        .iter()
-        .filter(|r| (r.seq == xi || r.seq == ji) && r.line == 0)
-        .map(|r| (r.ms, r.seq, r.result))
-        .collect();
     assert_eq!(
-        joins,
+        r.joins,
         [(5, xi, Ok(Done::Completed)), (5, ji, Ok(Done::Completed))]
     );
 }
@@ -586,51 +615,11 @@ impl Sequence<Ctrl> for DwellThenFail {
 /// run's.
 #[test]
 fn a_joiner_whose_run_was_followed_by_another_finished_run_is_told_the_outcome_is_lost() {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let dwell = seq
-        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let t = seq
-        .add(SeqConfig::new("T"), DwellThenFail { dwell, runs: 0 })
-        .unwrap();
-    let ti = t.id();
-    // X joins T, then starts it again; J only joins T, and is polled after X.
-    let x = seq
-        .add(
-            SeqConfig::new("X"),
-            Node::of(vec![Op::Join(ti), Op::Start(ti)]),
-        )
-        .unwrap();
-    let j = seq
-        .add(SeqConfig::new("J"), Node::of(vec![Op::Join(ti)]))
-        .unwrap();
-    let (xi, ji) = (x.id(), j.id());
-    let main = seq
-        .add(
-            SeqConfig::new("main"),
-            Node::of(vec![Op::Start(ti), Op::Start(xi), Op::Start(ji)]),
-        )
-        .unwrap();
-    let m = main.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(main);
-    sim.lane(x);
-    sim.lane(j);
-    sim.lane_with_priority(t, 2);
-    sim.start(m).unwrap();
+    let r = join_then_start_again(|dwell| DwellThenFail { dwell, runs: 0 }, 2);
+    let (ti, xi, ji) = (r.t, r.x, r.j);
+    assert_eq!(r.idle, Some(ms_at(5)));
     assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(ms_at(5))
-    );
-    let runs_of_t: Vec<_> = sim
-        .trace()
-        .iter()
-        .filter(|r| r.sequence == ti)
-        .copied()
-        .collect();
-    assert_eq!(
-        runs_of_t,
+        r.runs_of_t,
         [
             tr(0, ti, Idle, Running, Start),
             tr(5, ti, Running, Terminated, Completed),
@@ -638,20 +627,9 @@ fn a_joiner_whose_run_was_followed_by_another_finished_run_is_told_the_outcome_i
             tr(5, ti, Running, Terminated, rtseq::Cause::Failed),
         ]
     );
+    assert_eq!(r.last_outcome, Some(Outcome::Failed(Failure::App(7))));
     assert_eq!(
-        sim.handle(ti).unwrap().last_outcome(),
-        Some(Outcome::Failed(Failure::App(7)))
-    );
-    drop(sim);
-    let joins: Vec<_> = ctrl
-        .returned
-        .borrow()
-        .iter()
-        .filter(|r| (r.seq == xi || r.seq == ji) && r.line == 0)
-        .map(|r| (r.ms, r.seq, r.result))
-        .collect();
-    assert_eq!(
-        joins,
+        r.joins,
         [
             (5, xi, Ok(Done::Completed)),
             (5, ji, Err(Failure::NotStarted(Error::OutcomeLost(ti))))
