@@ -116,6 +116,17 @@ impl Link {
     }
 }
 
+/// One run of a sequence: its id and its run count (`ControlBlock::runs`, counted when a
+/// start commits). A sequence may be started again while the future that drove its last
+/// run is still unwinding (a lane of higher priority restarts it after an abort): the
+/// future names the run it drives, and the sequencer treats a run that is not the current
+/// one as over (aborted), so it never acts for the new run.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct RunId {
+    pub(crate) seq: SeqId,
+    pub(crate) count: u16,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,10 +1,12 @@
 //! The context every action and condition method receives.
 
+use core::cell::Cell;
 use core::future::poll_fn;
 use core::task::Poll;
 
 use core::future::Future;
 
+use crate::model::id::RunId;
 use crate::sequence::erased::{sequence_run, ErasedBody, StepRun};
 use crate::sequence::run::Run;
 use crate::sequence::SeqHead;
@@ -66,11 +68,33 @@ pub struct Cx<'a, C> {
     port: &'a dyn Port<C>,
     control: &'a C,
     id: SeqId,
+    /// The run of this sequence the context acts for (its count): set when the run
+    /// starts, fixed while its action runs.
+    run: Cell<u16>,
 }
 
 impl<'a, C> Cx<'a, C> {
     pub(crate) fn new(port: &'a dyn Port<C>, control: &'a C, id: SeqId) -> Self {
-        Cx { port, control, id }
+        Cx {
+            port,
+            control,
+            id,
+            run: Cell::new(0),
+        }
+    }
+
+    /// The run this context acts for: every await point and start of its action names
+    /// it, so an action whose run is over never acts for a later run of its sequence.
+    pub(crate) fn run_id(&self) -> RunId {
+        RunId {
+            seq: self.id,
+            count: self.run.get(),
+        }
+    }
+
+    /// From now on the context acts for `run` (of its sequence), which just started.
+    pub(crate) fn enter(&self, run: RunId) {
+        self.run.set(run.count);
     }
 
     pub(crate) fn port(&self) -> &'a dyn Port<C> {
@@ -334,7 +358,11 @@ impl<'a, C> Cx<'a, C> {
 
     /// A blocking run, by this sequence, of the sequence or step whose head is `head`.
     fn blocking_run<'s>(&self, head: &'s SeqHead) -> Run<'a, 's, C> {
-        Run::blocking(Cx::new(self.port, self.control, head.id), head, self.id)
+        Run::blocking(
+            Cx::new(self.port, self.control, head.id),
+            head,
+            self.run_id(),
+        )
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
@@ -374,7 +402,7 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn start(&self, id: SeqId) -> Result<(), Error> {
-        self.port.start_in_lane(id, Some(self.id))
+        self.port.start_in_lane(id, Some(self.run_id()))
     }
 
     /// Waits until non-blocking sequence `id` has ended and returns its outcome: that of
@@ -424,15 +452,15 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn join(&self, id: SeqId) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
-        let (port, me) = (self.port, self.id);
+        let (port, me) = (self.port, self.run_id());
         // The run joined, set at the first poll.
         let mut run = None;
         poll_fn(move |w| {
-            // Only while this sequence may advance: an aborted joiner never resumes.
+            // Only while this run may advance: an aborted joiner never resumes.
             if port.clearance(me, w.waker()) != Clearance::Go {
                 return Poll::Pending;
             }
-            port.join(me, id, &mut run)
+            port.join(me.seq, id, &mut run)
         })
     }
 
@@ -473,14 +501,15 @@ impl<'a, C> Cx<'a, C> {
     ) -> impl Future<Output = ()> + use<'s, 'a, C, F> {
         let mut first = true;
         poll_fn(move |w| {
+            let run = self.run_id();
             let go = if core::mem::take(&mut first) {
-                self.port.set_poll_wait(self.id, true);
-                self.port.clearance(self.id, w.waker()) == Clearance::Go
+                self.port.set_poll_wait(run, true);
+                self.port.clearance(run, w.waker()) == Clearance::Go
             } else {
-                self.port.due_poll(self.id, w.waker()) == Clearance::Go
+                self.port.due_poll(run, w.waker()) == Clearance::Go
             };
             if go && condition(self) {
-                self.port.set_poll_wait(self.id, false);
+                self.port.set_poll_wait(run, false);
                 Poll::Ready(())
             } else {
                 Poll::Pending

@@ -46,11 +46,12 @@
 use core::cell::Cell;
 use core::task::{Context, Poll};
 
+use crate::model::id::RunId;
 use crate::sequence::erased::ErasedBody;
 use crate::sequence::SeqHead;
 use crate::sequencer::port::Port;
 use crate::sequencer::transition::Clearance;
-use crate::{Cx, Done, Failure, Outcome, SeqId};
+use crate::{Cx, Done, Failure, Outcome};
 
 /// Where a run stands. Without payload: the outcome has a cell of its own.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -87,8 +88,8 @@ pub(crate) struct Run<'a, 's, C> {
     /// The sequence object's head: where a blocking run leaves its result, and the tag of
     /// the sequencer that made the object.
     head: &'s SeqHead,
-    /// The blocking caller; `None`: the sequence's lane.
-    caller: Option<SeqId>,
+    /// The run of the blocking caller; `None`: the sequence's lane.
+    caller: Option<RunId>,
     stage: Cell<Stage>,
     /// The outcome, once the run has ended.
     outcome: Cell<Outcome>,
@@ -96,7 +97,7 @@ pub(crate) struct Run<'a, 's, C> {
 
 impl<'a, 's, C> Run<'a, 's, C> {
     /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
-    pub(crate) fn blocking(cx: Cx<'a, C>, head: &'s SeqHead, caller: SeqId) -> Self {
+    pub(crate) fn blocking(cx: Cx<'a, C>, head: &'s SeqHead, caller: RunId) -> Self {
         Run {
             cx,
             head,
@@ -121,8 +122,9 @@ impl<'a, 's, C> Run<'a, 's, C> {
         self.cx.port()
     }
 
-    fn id(&self) -> SeqId {
-        self.cx.id()
+    /// The run driven now (the last one, between runs).
+    fn run(&self) -> RunId {
+        self.cx.run_id()
     }
 
     /// The run ended with `outcome`.
@@ -138,7 +140,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
             Clearance::Go | Clearance::Hold => {}
             Clearance::Aborted(cause) => self.ended(Outcome::Aborted(cause)),
             Clearance::Restart => {
-                self.port().restart(self.id());
+                self.port().restart(self.run());
                 self.stage.set(Stage::PreCondition);
             }
         }
@@ -147,30 +149,34 @@ impl<'a, 's, C> Run<'a, 's, C> {
     /// Ends the run normally with `outcome`; when refused (aborted, restarting or holding
     /// meanwhile) the clearance says what happens instead.
     fn try_end(&self, outcome: Outcome, w: &mut Context<'_>) {
-        if self.port().end(self.id(), outcome) {
+        if self.port().end(self.run(), outcome) {
             self.ended(outcome);
         } else {
-            self.obey(self.port().clearance(self.id(), w.waker()));
+            self.obey(self.port().clearance(self.run(), w.waker()));
         }
     }
 
     /// Runs the stages up to the action (`Ready`: advance it now), or until it must
     /// wait (`Pending`).
     fn drive(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
-        let (port, id) = (self.port(), self.id());
+        let (port, id) = (self.port(), self.cx.id());
         loop {
             match self.stage.get() {
                 Stage::Idle => {
-                    if !port.take_start(id, self.head.maker, w.waker()) {
+                    let Some(run) = port.take_start(id, self.head.maker, w.waker()) else {
                         return Poll::Pending;
-                    }
+                    };
+                    self.cx.enter(run);
                     self.stage.set(Stage::PreCondition);
                 }
                 Stage::Begin => match self
                     .caller
                     .map(|caller| port.start_blocking(id, self.head.maker, caller))
                 {
-                    Some(Ok(())) => self.stage.set(Stage::PreCondition),
+                    Some(Ok(run)) => {
+                        self.cx.enter(run);
+                        self.stage.set(Stage::PreCondition);
+                    }
                     Some(Err(e)) => {
                         self.head.result.set(Some(Err(Failure::NotStarted(e))));
                         self.stage.set(Stage::Done);
@@ -178,7 +184,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
                     // Only a blocking run begins; a lane waits for a start.
                     None => self.stage.set(Stage::Idle),
                 },
-                Stage::PreCondition => match port.clearance(id, w.waker()) {
+                Stage::PreCondition => match port.clearance(self.run(), w.waker()) {
                     Clearance::Go => {
                         if body.pre(&self.cx) {
                             self.stage.set(Stage::Action);
@@ -191,10 +197,10 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 },
                 Stage::Action => return Poll::Ready(()),
                 Stage::ActionDone => {
-                    port.set_poll_wait(id, true);
+                    port.set_poll_wait(self.run(), true);
                     self.stage.set(Stage::ExitCondition);
                 }
-                Stage::ActionFailed => match port.clearance(id, w.waker()) {
+                Stage::ActionFailed => match port.clearance(self.run(), w.waker()) {
                     Clearance::Go => self.try_end(self.outcome.get(), w),
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
@@ -208,13 +214,13 @@ impl<'a, 's, C> Run<'a, 's, C> {
                     }
                     self.try_end(Outcome::Completed, w);
                 }
-                Stage::AwaitPoll => match port.due_poll(id, w.waker()) {
+                Stage::AwaitPoll => match port.due_poll(self.run(), w.waker()) {
                     Clearance::Go => self.stage.set(Stage::ExitCondition),
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
                 },
                 Stage::Ended => {
-                    port.finished(id, self.outcome.get());
+                    port.finished(self.run());
                     self.stage.set(match self.caller {
                         Some(_) => Stage::HandOver,
                         None => Stage::Idle,
@@ -240,7 +246,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
     /// advance, an aborted or restarting one never runs another line of it (its action is
     /// dropped). `Ready`: the action is over; `drive` next.
     fn act(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
-        match self.port().clearance(self.id(), w.waker()) {
+        match self.port().clearance(self.run(), w.waker()) {
             Clearance::Go => {
                 match body.advance(&self.cx, w) {
                     Poll::Pending => return Poll::Pending,
@@ -294,15 +300,15 @@ impl<'a, 's, C> Run<'a, 's, C> {
 /// [`Cause::Dropped`]: crate::Cause::Dropped
 impl<C> Drop for Run<'_, '_, C> {
     fn drop(&mut self) {
-        let (port, id) = (self.port(), self.id());
+        let port = self.port();
         match self.stage.get() {
             Stage::PreCondition
             | Stage::Action
             | Stage::ActionDone
             | Stage::ActionFailed
             | Stage::ExitCondition
-            | Stage::AwaitPoll => port.abandon(id, self.cx.control()),
-            Stage::Ended => port.finished(id, self.outcome.get()),
+            | Stage::AwaitPoll => port.abandon(self.cx.id(), self.cx.control()),
+            Stage::Ended => port.finished(self.run()),
             // Not started, waiting for a start, or over.
             Stage::Idle | Stage::Begin | Stage::HandOver | Stage::Done => {}
         }

@@ -5,6 +5,7 @@
 use core::task::{Poll, Waker};
 
 use crate::lock::Lock;
+use crate::model::id::RunId;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::control_block::flag;
@@ -13,9 +14,11 @@ use crate::sequencer::requests::ask;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
-use crate::sequencer::transition::Clearance;
+use crate::sequencer::transition::{end_run, Clearance};
 use crate::trace::StateChange;
-use crate::{Cause, Error, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer};
+use crate::{
+    Cause, Error, Event, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer,
+};
 
 /// A consistent snapshot of one control block's own fields, for [`Handle`](crate::Handle).
 #[derive(Clone, Debug)]
@@ -40,35 +43,39 @@ pub(crate) trait Port<C> {
     /// The unpaused time of `id`'s current run at the last tick (µs, modulo 2³²).
     fn run_time(&self, id: SeqId) -> u32;
     /// Starts `id`, whose sequence object was made by the sequencer tagged `maker`,
-    /// blocking: it runs in `caller`'s lane, inside `caller`'s future.
-    fn start_blocking(&self, id: SeqId, maker: u16, caller: SeqId) -> Result<(), Error>;
-    /// Starts `id` in its own lane, by `caller` (`None`: as a main sequence).
-    fn start_in_lane(&self, id: SeqId, caller: Option<SeqId>) -> Result<(), Error>;
-    /// Keeps `waker` for `id`'s lane, then says what `id`'s await point must do.
-    fn clearance(&self, id: SeqId, waker: &Waker) -> Clearance;
-    /// As [`clearance`](Self::clearance), but `Go` only when the tick said `id`'s polled
+    /// blocking: it runs in the lane of `caller`, inside its future. Returns the new run.
+    fn start_blocking(&self, id: SeqId, maker: u16, caller: RunId) -> Result<RunId, Error>;
+    /// Starts `id` in its own lane, by the run `caller` (`None`: as a main sequence).
+    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<(), Error>;
+    /// Keeps `waker` for the lane of `run`'s sequence, then says what an await point of
+    /// `run` must do (a run that is not the current one: `Aborted`).
+    fn clearance(&self, run: RunId, waker: &Waker) -> Clearance;
+    /// As [`clearance`](Self::clearance), but `Go` only when the tick said `run`'s polled
     /// condition is due (and takes that due poll).
-    fn due_poll(&self, id: SeqId, waker: &Waker) -> Clearance;
-    /// Sets whether `id` waits for a polled condition; a stale due poll is dropped.
-    fn set_poll_wait(&self, id: SeqId, waiting: bool);
-    /// A `Restarting` sequence runs again from its pre-condition.
-    fn restart(&self, id: SeqId);
-    /// Ends `id`'s run with `outcome` (`Completed`, `Skipped` or `Failed`): `Terminated`;
-    /// false when refused (its clearance says what to do instead).
-    fn end(&self, id: SeqId, outcome: Outcome) -> bool;
-    /// The run is over: records the outcome, releases the joiners.
-    fn finished(&self, id: SeqId, outcome: Outcome);
-    /// The future of `id`'s run was dropped before the run ended: the run and its
+    fn due_poll(&self, run: RunId, waker: &Waker) -> Clearance;
+    /// Sets whether `run` waits for a polled condition; a stale due poll is dropped.
+    fn set_poll_wait(&self, run: RunId, waiting: bool);
+    /// `run`, `Restarting`, runs again from its pre-condition.
+    fn restart(&self, run: RunId);
+    /// Ends `run` with `outcome` (`Completed`, `Skipped` or `Failed`): `Terminated`, and
+    /// a failure recorded; false when refused (its clearance says what to do instead).
+    fn end(&self, run: RunId, outcome: Outcome) -> bool;
+    /// `run` is over (it ended, or was aborted): releases the joiners.
+    fn finished(&self, run: RunId);
+    /// The future of a run of `id` was dropped before the run ended: the run and its
     /// sub-sequences are aborted now ([`Cause::Dropped`], innermost first, through their
-    /// cleanup hooks).
+    /// cleanup hooks). The future borrows `id`'s sequence object until it is dropped, so
+    /// no other future drives `id` meanwhile: a later run is one started in `id`'s lane
+    /// and not taken yet, which no one would drive once that lane is gone, and it is
+    /// aborted too.
     fn abandon(&self, id: SeqId, control: &C);
     /// Finds or claims `id`'s lane slot.
     fn declare_lane(&self, id: SeqId) -> Result<u8, Error>;
     /// A lane's wait for a start of `id`, whose sequence object was made by the sequencer
     /// tagged `maker`: declares the lane, keeps `waker` as its waker and takes a pending
-    /// non-blocking start (true). The lane of another sequencer's object declares nothing
-    /// and never runs here (a start of `id` finds no lane).
-    fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> bool;
+    /// non-blocking start: its run. The lane of another sequencer's object declares
+    /// nothing and never runs here (a start of `id` finds no lane).
+    fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> Option<RunId>;
     /// `joiner` waits for the end of a run of `target`: its outcome once it ended. `run`:
     /// which run, by the target's run count; the first poll of a join sets it to the
     /// current run (or the last one, if it ended), so a join never waits for a later run.
@@ -105,20 +112,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         })
     }
 
-    fn start_blocking(&self, id: SeqId, maker: u16, caller: SeqId) -> Result<(), Error> {
+    fn start_blocking(&self, id: SeqId, maker: u16, caller: RunId) -> Result<RunId, Error> {
         self.begin(id, Some(caller), Mode::Blocking { maker }, Cause::Start, 0)
     }
 
-    fn start_in_lane(&self, id: SeqId, caller: Option<SeqId>) -> Result<(), Error> {
+    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<(), Error> {
         self.begin(id, caller, Mode::Lane, Cause::Start, 0)
+            .map(|_| ())
     }
 
-    fn clearance(&self, id: SeqId, waker: &Waker) -> Clearance {
-        self.park_then(id, waker, |s| s.clearance(id))
+    fn clearance(&self, run: RunId, waker: &Waker) -> Clearance {
+        self.park_then(run.seq, waker, |s| s.clearance(run))
     }
 
-    fn due_poll(&self, id: SeqId, waker: &Waker) -> Clearance {
-        self.park_then(id, waker, |s| match s.clearance(id) {
+    fn due_poll(&self, run: RunId, waker: &Waker) -> Clearance {
+        let id = run.seq;
+        self.park_then(id, waker, |s| match s.clearance(run) {
             Clearance::Go if s.sets.has(Set::PollDue, id) => {
                 s.sets.put(Set::PollDue, id, false);
                 Clearance::Go
@@ -128,41 +137,44 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         })
     }
 
-    fn set_poll_wait(&self, id: SeqId, waiting: bool) {
-        self.with(|s| {
-            if s.block(id).is_some() {
-                s.sets.put(Set::PollWait, id, waiting);
-                s.sets.put(Set::PollDue, id, false);
-            }
-        });
+    fn set_poll_wait(&self, run: RunId, waiting: bool) {
+        self.with(|s| s.set_poll_wait(run, waiting));
     }
 
-    fn restart(&self, id: SeqId) {
-        Sequencer::restart(self, id);
+    fn restart(&self, run: RunId) {
+        Sequencer::restart(self, run);
     }
 
-    fn end(&self, id: SeqId, outcome: Outcome) -> bool {
+    fn end(&self, run: RunId, outcome: Outcome) -> bool {
         let cause = match outcome {
             Outcome::Skipped => Cause::PreConditionFalse,
             Outcome::Completed => Cause::Completed,
             Outcome::Failed(_) => Cause::Failed,
             Outcome::Aborted(cause) => cause,
         };
-        let change = StateChange::new(id, RunningState::Running, RunningState::Terminated, cause);
-        self.with(|s| s.end(&change, outcome))
+        let change = StateChange::new(
+            run.seq,
+            RunningState::Running,
+            RunningState::Terminated,
+            cause,
+        );
+        let ended = in_sections!(self, |s| end_run(s, run, &change, outcome));
+        if let (true, Outcome::Failed(failure)) = (ended, outcome) {
+            self.with(|s| {
+                s.record(Event::Failed {
+                    sequence: run.seq,
+                    failure,
+                })
+            });
+        }
+        ended
     }
 
-    fn finished(&self, id: SeqId, outcome: Outcome) {
+    fn finished(&self, run: RunId) {
         in_sections_then_wake!(self, |s| {
             // The run no longer waits for a poll.
-            s.section(|s| {
-                s.sets.put(Set::PollWait, id, false);
-                s.sets.put(Set::PollDue, id, false);
-            });
-            if s.section(|s| s.finished(id, outcome)) {
-                s.section(|s| s.exception_ended(id));
-            }
-            s.section(|s| s.release_joiners(id))
+            s.section(|s| s.set_poll_wait(run, false));
+            s.section(|s| s.release_joiners(run.seq))
         });
     }
 
@@ -174,7 +186,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         in_sections!(self, |s| declare_lane(s, id)).ok_or(Error::LaneCapacityExceeded(id))
     }
 
-    fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> bool {
+    fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> Option<RunId> {
         // Another sequencer's object declares nothing here; with no slot left the lane
         // never runs (see `lane`).
         let declared = in_sections!(self, |s| {
@@ -184,20 +196,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 None
             }
         });
-        let Some(lane) = declared else {
-            return false;
-        };
+        let lane = declared?;
         // The waker is kept before the start is looked for: a start in between wakes it.
         self.park_in_then(
             |_| lane,
             waker,
             |s| {
-                let Some(b) = s.block_mut(id) else {
-                    return false;
-                };
-                let pending = b.has(flag::START_PENDING);
+                let b = s.block_mut(id).filter(|b| b.has(flag::START_PENDING))?;
                 b.set(flag::START_PENDING, false);
-                pending
+                Some(RunId {
+                    seq: id,
+                    count: b.runs,
+                })
             },
         )
     }

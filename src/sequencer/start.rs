@@ -9,7 +9,7 @@
 //! caller and flags as they are.
 
 use crate::lock::Lock;
-use crate::model::id::Link;
+use crate::model::id::{Link, RunId};
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::cut_and_depth;
@@ -36,8 +36,8 @@ pub(crate) enum Mode {
 struct NewRun {
     /// Its lane slot.
     lane: u8,
-    /// The link to its caller.
-    caller: Link,
+    /// The run of its caller, if any.
+    caller: Option<RunId>,
     /// Its flags, all of them.
     flags: u16,
 }
@@ -52,7 +52,7 @@ struct Scheduled {
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The read-only checks of a start of `id`: blocking, of an object made here; not
-    /// active; with a blocking caller, the caller's lane. Returns `id`'s `BOUND` flag (set
+    /// active (nor an ended exception sequence not reported yet); with a blocking caller, the caller's lane. Returns `id`'s `BOUND` flag (set
     /// once, never cleared) and that lane.
     fn check_start(
         &self,
@@ -64,7 +64,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return Err(Error::ForeignSequence(id));
         }
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
-        if !States::STARTABLE.has(b.state) {
+        // An exception sequence whose end the tick has not reported to its owner yet is
+        // still that owner's.
+        if !States::STARTABLE.has(b.state) || b.has(flag::HANDLES_EXCEPTION) {
             return Err(Error::AlreadyRunning(id));
         }
         let lane = match (mode, caller) {
@@ -75,13 +77,20 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Opens the schedule of a new run with caller `caller` (if any): the count of changes
-    /// that its commit compares with ([`State::changes`]), if the caller may still start
-    /// a run. The tick can stop a sequence while its action runs on to its next await
-    /// point (the tick preempts the lanes); a start it makes meanwhile is refused
-    /// ([`Error::NotRunning`] with the caller's id), so nothing outlives its caller's stop.
-    fn open_start(&self, caller: Link) -> Result<u32, Error> {
-        match caller.get() {
-            Some(c) if !States::ACTIVE_RUNNING.has(self.state_of(c)) => Err(Error::NotRunning(c)),
+    /// that its commit compares with ([`State::changes`]), if the caller's run may still
+    /// start a run. The tick can stop a sequence while its action runs on to its next await
+    /// point (the tick preempts the lanes), and a lane of higher priority start it again; a
+    /// start the stopped run makes meanwhile is refused ([`Error::NotRunning`] with the
+    /// caller's id), so nothing outlives its caller's stop.
+    fn open_start(&self, caller: Option<RunId>) -> Result<u32, Error> {
+        match caller {
+            Some(c)
+                if self
+                    .block(c.seq)
+                    .is_none_or(|b| b.runs != c.count || !States::ACTIVE_RUNNING.has(b.state)) =>
+            {
+                Err(Error::NotRunning(c.seq))
+            }
             _ => Ok(self.changes),
         }
     }
@@ -108,13 +117,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         Some(Scheduled { from, armed })
     }
 
-    /// Schedules a restart of `id` from now: its clock (and timeout) starts again, with no
-    /// pause in force. Only for a `Restarting` sequence (else it only returns the state).
-    fn schedule_restart(&mut self, id: SeqId) -> Option<Scheduled> {
+    /// Schedules a restart of `run` from now: its clock (and timeout) starts again, with no
+    /// pause in force. Only for a `Restarting` sequence in that run (else it only returns
+    /// the state).
+    fn schedule_restart(&mut self, run: RunId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        let b = self.block_mut(id)?;
+        let b = self.block_mut(run.seq)?;
         let from = b.state;
-        if from == RunningState::Restarting {
+        // Only the current run: a later one restarts in its own time.
+        if from == RunningState::Restarting && b.runs == run.count {
             b.start_clock(now);
             b.lift_pauses();
         }
@@ -153,22 +164,23 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// The commit of a new run: `change` (validated and scheduled when the count of changes
     /// was `seen`) with the run's caller and flags, which also clear the requests and the
-    /// pending behaviour, and the run counted (a join or a request pins the run it was
-    /// made of by this count, so only a committed run counts). False: a tick or a transition came since (it may have moved the
-    /// time, rescanned without the new run, or stopped the run's caller), nothing changed,
-    /// schedule again.
+    /// pending behaviour, and the run counted: the new run's id. A run's future, a join and
+    /// a request name the run they act for by this count, so only a committed run counts.
+    /// `None`: a tick or a transition came since (it may have moved the time, rescanned
+    /// without the new run, or stopped the run's caller), nothing changed, schedule again.
     #[inline]
-    fn commit_new(&mut self, change: &StateChange, seen: u32, run: &NewRun) -> bool {
+    fn commit_new(&mut self, change: &StateChange, seen: u32, run: &NewRun) -> Option<RunId> {
         if self.changes != seen {
-            return false;
+            return None;
         }
-        let Some(b) = self.transition(change) else {
-            return false;
-        };
-        b.caller = run.caller;
+        let b = self.transition(change)?;
+        b.caller = Link::to(run.caller.map(|c| c.seq));
         b.flags = run.flags;
         b.runs = b.runs.wrapping_add(1);
-        true
+        Some(RunId {
+            seq: change.sequence,
+            count: b.runs,
+        })
     }
 
     /// The commit of a restart: as [`commit_new`](Self::commit_new), keeping the run's
@@ -199,11 +211,11 @@ fn admit<
 >(
     s: &mut S,
     id: SeqId,
-    caller: Option<SeqId>,
+    caller: Option<RunId>,
     mode: Mode,
     extra: u16,
 ) -> Result<NewRun, Error> {
-    let (bound, caller_lane) = s.section(|s| s.check_start(id, caller, mode))?;
+    let (bound, caller_lane) = s.section(|s| s.check_start(id, caller.map(|c| c.seq), mode))?;
     let (lane, pending) = match mode {
         Mode::Blocking { .. } => (caller_lane, 0),
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
@@ -216,21 +228,21 @@ fn admit<
     // `caller` is the starting sequence itself (a context's or an exception's owner):
     // registered by construction.
     if let Some(c) = caller {
-        if usize::from(cut_and_depth(s, id, c)) >= MAX_DEPTH {
+        if usize::from(cut_and_depth(s, id, c.seq)) >= MAX_DEPTH {
             return Err(Error::CallerDepthExceeded(id));
         }
     }
     Ok(NewRun {
         lane,
-        caller: Link::to(caller),
+        caller,
         flags: bound | pending | extra,
     })
 }
 
 /// Schedules and commits a new run of `id` from a state that is not active; again if a
 /// tick ran in between (it may have rescanned without the new run, or changed its state
-/// or its caller's: the commit re-checks them). `Err` (nothing changed) when the states
-/// do not allow it.
+/// or its caller's: the commit re-checks them). Returns the new run; `Err` (nothing
+/// changed) when the states do not allow it.
 fn launch<
     C,
     S: Sections<C, N, T, W, B>,
@@ -243,7 +255,7 @@ fn launch<
     id: SeqId,
     run: NewRun,
     cause: Cause,
-) -> Result<(), Error> {
+) -> Result<RunId, Error> {
     loop {
         let seen = s.section(|s| s.open_start(run.caller))?;
         let at = s
@@ -258,26 +270,24 @@ fn launch<
         // (it is not active yet), never one too few. Not over a start that won meanwhile.
         s.section(|s| {
             if States::STARTABLE.has(s.state_of(id)) {
-                s.sets.put(Set::Called, id, run.caller.get().is_some());
+                s.sets.put(Set::Called, id, run.caller.is_some());
             }
         });
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
-        let done = s.section(|s| s.commit_new(&change, seen, &run));
+        if let Some(new) = s.section(|s| s.commit_new(&change, seen, &run)) {
+            return Ok(new);
+        }
         // In one section the loop never repeats (nothing changes between the checks and
         // the commit).
-        if done || S::ONE_SECTION {
-            return if done {
-                Ok(())
-            } else {
-                Err(Error::AlreadyRunning(id))
-            };
+        if S::ONE_SECTION {
+            return Err(Error::AlreadyRunning(id));
         }
     }
 }
 
 /// Schedules and commits a `Restarting` sequence's run again, in its lane with its caller
-/// and flags as they are. Only from `Restarting`: if the tick aborted it since the lane saw
-/// that (an abort-all, an abort request), the abort stands.
+/// and flags as they are. Only from `Restarting`, in the same run: if the tick aborted it
+/// since the lane saw that (an abort-all, an abort request), the abort stands.
 fn relaunch<
     C,
     S: Sections<C, N, T, W, B>,
@@ -287,11 +297,12 @@ fn relaunch<
     const B: usize,
 >(
     s: &mut S,
-    id: SeqId,
+    run: RunId,
 ) {
+    let id = run.seq;
     loop {
         let seen = s.section(|s| s.changes);
-        let Some(at) = s.section(|s| s.schedule_restart(id)) else {
+        let Some(at) = s.section(|s| s.schedule_restart(run)) else {
             return;
         };
         if at.from != RunningState::Restarting {
@@ -310,32 +321,34 @@ fn relaunch<
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Starts `id` (blocking in `caller`'s lane, or in its own lane), with `extra` flags for
-    /// the new run: the checks, the schedule and commit and, in its lane, the wake-up. With
-    /// a coarse lock two sections: the checks walk the callers, which grows with the depth.
+    /// Starts `id` by the run `caller` (blocking in its lane), or in its own lane (by
+    /// `caller`, or as a main sequence), with `extra` flags for the new run: the checks,
+    /// the schedule and commit and, in its lane, the wake-up. Returns the new run. With a
+    /// coarse lock two sections: the checks walk the callers, which grows with the depth.
     pub(crate) fn begin(
         &self,
         id: SeqId,
-        caller: Option<SeqId>,
+        caller: Option<RunId>,
         mode: Mode,
         cause: Cause,
         extra: u16,
-    ) -> Result<(), Error> {
+    ) -> Result<RunId, Error> {
         let run = in_sections!(self, |s| admit(s, id, caller, mode, extra))?;
-        let lane = in_sections!(self, |s| {
-            launch(s, id, run, cause)?;
-            Ok(match mode {
+        let (new, lane) = in_sections!(self, |s| {
+            let new = launch(s, id, run, cause)?;
+            let lane = match mode {
                 Mode::Lane => s.section(|s| s.lane_of(id)),
                 Mode::Blocking { .. } => LaneSet::EMPTY,
-            })
+            };
+            Ok((new, lane))
         })?;
         self.wake_lanes(lane);
-        Ok(())
+        Ok(new)
     }
 
-    /// A `Restarting` sequence's lane runs it again from its pre-condition.
-    pub(crate) fn restart(&self, id: SeqId) {
-        in_sections!(self, |s| relaunch(s, id));
+    /// `run` of a `Restarting` sequence runs again from its pre-condition.
+    pub(crate) fn restart(&self, run: RunId) {
+        in_sections!(self, |s| relaunch(s, run));
     }
 }
 
@@ -346,18 +359,26 @@ mod tests {
 
     use crate::sequencer::sections::tests::{registered, Preempted, S};
 
+    /// The first run of `id`.
+    fn first_run(id: SeqId) -> RunId {
+        RunId { seq: id, count: 1 }
+    }
+
     /// Sequence 0 running, sequence 1 registered; `between` runs before section `at` of a
     /// start of 1 by 0. Returns the start's result, the sections it took, 1's state.
     fn start_preempted(
         at: usize,
         between: impl FnOnce(&mut S),
-    ) -> (Result<(), Error>, usize, RunningState) {
+    ) -> (Result<RunId, Error>, usize, RunningState) {
         let (caller, id) = (SeqId(0), SeqId(1));
         let mut state = registered(2, &[caller]);
         let mut s = Preempted::new(&mut state, at, between);
         let new = NewRun {
             lane: NO_LANE,
-            caller: Link::to(Some(caller)),
+            caller: Some(RunId {
+                seq: caller,
+                count: 0,
+            }),
             flags: 0,
         };
         let result = launch(&mut s, id, new, Cause::Start);
@@ -387,7 +408,7 @@ mod tests {
                 assert!(s.transition(&change).is_some());
             }
         });
-        relaunch(&mut s, id);
+        relaunch(&mut s, RunId { seq: id, count: 0 });
         assert_eq!(state.state_of(id), RunningState::Aborted);
     }
 
@@ -401,14 +422,17 @@ mod tests {
         let mut s = Preempted::new(&mut state, PASS - 2, |s: &mut S| {
             let won = NewRun {
                 lane: NO_LANE,
-                caller: Link::to(Some(caller)),
+                caller: Some(RunId {
+                    seq: caller,
+                    count: 0,
+                }),
                 flags: 0,
             };
-            assert_eq!(launch(s, id, won, Cause::Start), Ok(()));
+            assert_eq!(launch(s, id, won, Cause::Start), Ok(first_run(id)));
         });
         let lost = NewRun {
             lane: NO_LANE,
-            caller: Link::NONE,
+            caller: None,
             flags: 0,
         };
         assert_eq!(
@@ -430,7 +454,7 @@ mod tests {
         let (result, taken, state) = start_preempted(usize::MAX, |_| {});
         assert_eq!(
             (result, taken, state),
-            (Ok(()), PASS, RunningState::Running)
+            (Ok(first_run(SeqId(1))), PASS, RunningState::Running)
         );
     }
 
@@ -443,7 +467,7 @@ mod tests {
         });
         assert_eq!(
             (result, taken, state),
-            (Ok(()), 2 * PASS, RunningState::Running)
+            (Ok(first_run(SeqId(1))), 2 * PASS, RunningState::Running)
         );
     }
 
@@ -457,10 +481,10 @@ mod tests {
         });
         let new = NewRun {
             lane: NO_LANE,
-            caller: Link::NONE,
+            caller: None,
             flags: 0,
         };
-        assert_eq!(launch(&mut s, id, new, Cause::Start), Ok(()));
+        assert_eq!(launch(&mut s, id, new, Cause::Start), Ok(first_run(id)));
         assert_eq!(s.taken, 2 * PASS);
         assert_eq!(state.block(id).map(|b| b.runs), Some(1));
     }

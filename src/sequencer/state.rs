@@ -1,6 +1,7 @@
 //! Everything the sequencer's lock guards, and the one way to a control block.
 
 use crate::lock::Lock;
+use crate::model::id::RunId;
 use crate::model::set::SetWord;
 use crate::model::state::States;
 use crate::model::time::Stamp;
@@ -9,7 +10,7 @@ use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::{Set, Sets};
 use crate::tick::schedule::Classes;
 use crate::trace::{Entry, Event, Record, Ring, StateChange};
-use crate::{Error, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
+use crate::{Error, Instant, RunningState, SeqId, Sequencer, Transition};
 
 /// The sequencer's state: reached only through `Sequencer::borrow_state` (from
 /// [`Sequencer::with`], `update_and_wake` and `park_in_then`), under the lock.
@@ -208,8 +209,12 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Folds the state of sequence `id` into the sets `active`, `paused` and (sets of
-    /// several words) `live`.
-    pub(crate) fn fold(&mut self, id: SeqId) {
+    /// several words) `live`. True when `id` is an exception sequence whose run ended:
+    /// the tick then reports the end to its owner
+    /// ([`exception_ended`](Self::exception_ended)). Until then it keeps its owner and
+    /// may not be started again ([`check_start`](Self::check_start)), so no later run of
+    /// it, for another owner, can be credited with this end.
+    pub(crate) fn fold(&mut self, id: SeqId) -> bool {
         let state = self.state_of(id);
         self.sets
             .put(Set::Active, id, States::ACTIVE_RUNNING.has(state));
@@ -218,29 +223,23 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if B > 1 {
             self.sets.put(Set::Live, id, States::LIVE.has(state));
         }
+        !States::LIVE.has(state)
+            && self
+                .block(id)
+                .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION))
     }
 
-    /// After a run ended (its outcome was stored with its last transition): true when the
-    /// run was an exception sequence, whose end is then reported
-    /// ([`exception_ended`](Self::exception_ended)). The joiners are released separately
-    /// ([`release_joiners`](Self::release_joiners)). A failure is recorded here, once per
-    /// run (its `Running → Terminated` came first).
-    pub(crate) fn finished(&mut self, id: SeqId, outcome: Outcome) -> bool {
-        let Some(b) = self.block(id) else {
-            return false;
-        };
-        let handles_exception = b.has(flag::HANDLES_EXCEPTION);
-        if let Outcome::Failed(failure) = outcome {
-            self.record(Event::Failed {
-                sequence: id,
-                failure,
-            });
+    /// The current (or last) run of `id`: for a start the tick makes for `id`, which no
+    /// lane preempts.
+    pub(crate) fn current_run(&self, id: SeqId) -> RunId {
+        RunId {
+            seq: id,
+            count: self.block(id).map_or(0, |b| b.runs),
         }
-        handles_exception
     }
 
-    /// The exception sequence `id` ended: its owner's pending behaviour is applied by the
-    /// next tick.
+    /// The run of exception sequence `id` ended: its owner's pending behaviour is applied
+    /// by this tick or the next.
     pub(crate) fn exception_ended(&mut self, id: SeqId) {
         let Some(b) = self.block_mut(id) else {
             return;

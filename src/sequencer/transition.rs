@@ -1,10 +1,12 @@
 //! What the running state means for a run's await points, and the normal end of a run.
 //! (The transition function itself is [`State::transition`].)
 
+use crate::model::id::RunId;
+use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::trace::StateChange;
-use crate::{Cause, Outcome, RunningState, SeqId};
+use crate::{Cause, Outcome, RunningState};
 
 /// What a run's await point must do, decided by its control block.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -20,11 +22,17 @@ pub(crate) enum Clearance {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// What an await point of `id` must do now.
-    pub(crate) fn clearance(&self, id: SeqId) -> Clearance {
+    /// What an await point of `run` must do now. A run that is not its sequence's
+    /// current one was aborted, and its sequence started again before its future
+    /// unwound: it is over (the cause of the last teardown).
+    pub(crate) fn clearance(&self, run: RunId) -> Clearance {
+        let id = run.seq;
         let Some(b) = self.block(id) else {
             return Clearance::Aborted(Cause::Abort);
         };
+        if b.runs != run.count {
+            return Clearance::Aborted(b.last_cause);
+        }
         match b.state {
             RunningState::Running if !self.sets.has(Set::Excepting, id) => Clearance::Go,
             RunningState::Running | RunningState::Paused => Clearance::Hold,
@@ -35,14 +43,34 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// Ends a run with `outcome`: `change` is `Running → Terminated` (cause `Completed`,
-    /// `PreConditionFalse` or `Failed`), and the outcome is stored with it (a join that
-    /// sees the end sees the outcome). False, and nothing changes, if the sequence was
-    /// aborted or restarted meanwhile or its exception is being handled (its clearance says
-    /// what to do instead).
-    pub(crate) fn end(&mut self, change: &StateChange, outcome: Outcome) -> bool {
-        // A run ends only with the clearance `Go`: not while its exception is handled.
-        if self.sets.has(Set::Excepting, change.sequence) {
+    /// Sets whether `run` waits for a polled condition (the tick then wakes it when its
+    /// poll is due); a stale due poll is dropped. Only for the current run.
+    pub(crate) fn set_poll_wait(&mut self, run: RunId, waiting: bool) {
+        let id = run.seq;
+        if self.block(id).is_some_and(|b| b.runs == run.count) {
+            self.sets.put(Set::PollWait, id, waiting);
+            self.sets.put(Set::PollDue, id, false);
+        }
+    }
+
+    /// Opens the end of `run`: `Some` (the count of changes its commit compares with) if
+    /// `run` is its sequence's current run, `Running`, and its exception is not being
+    /// handled (a run ends only with the clearance `Go`).
+    fn open_end(&self, run: RunId) -> Option<u32> {
+        let id = run.seq;
+        let b = self.block(id)?;
+        let open = b.runs == run.count
+            && b.state == RunningState::Running
+            && !self.sets.has(Set::Excepting, id);
+        open.then_some(self.changes)
+    }
+
+    /// The commit of a run's end opened when the count of changes was `seen`: `change`
+    /// (`Running → Terminated`) with the run's outcome, stored with it (a join that sees
+    /// the end sees the outcome). False if anything changed since (a transition, a
+    /// start, a tick, which may have marked an exception): open the end again.
+    fn commit_end(&mut self, seen: u32, change: &StateChange, outcome: Outcome) -> bool {
+        if self.changes != seen {
             return false;
         }
         let Some(b) = self.transition(change) else {
@@ -50,5 +78,102 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         };
         b.outcome = Some(outcome);
         true
+    }
+}
+
+/// Ends `run` with `outcome`: `change` is `Running → Terminated` (cause `Completed`,
+/// `PreConditionFalse` or `Failed`). Opened and committed in two steps (the commit again if
+/// anything changed in between). The end of an exception sequence is reported to its
+/// owner by the next tick (see [`State::fold`]). False, and nothing changes, if the run
+/// was aborted or restarted meanwhile, a later run of its sequence was started, or its
+/// exception is being handled (its clearance says what to do instead).
+pub(crate) fn end_run<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    run: RunId,
+    change: &StateChange,
+    outcome: Outcome,
+) -> bool {
+    loop {
+        let Some(seen) = s.section(|s| s.open_end(run)) else {
+            return false;
+        };
+        if s.section(|s| s.commit_end(seen, change, outcome)) {
+            return true;
+        }
+        // In one section the loop never repeats (nothing changes after the opening).
+        if S::ONE_SECTION {
+            return false;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequencer::sections::tests::{registered, Preempted, S};
+    use crate::SeqId;
+
+    /// The end of the run of sequence 0 (run count 0: `registered` starts it without a
+    /// commit), with `between` run before section `at`. Returns the end's result, the
+    /// sections it took and the sequence's state.
+    fn end_preempted(at: usize, between: impl FnOnce(&mut S)) -> (bool, usize, RunningState) {
+        let id = SeqId(0);
+        let mut state = registered(1, &[id]);
+        let mut s = Preempted::new(&mut state, at, between);
+        let run = RunId { seq: id, count: 0 };
+        let change = StateChange::new(
+            id,
+            RunningState::Running,
+            RunningState::Terminated,
+            Cause::Completed,
+        );
+        let ended = end_run(&mut s, run, &change, Outcome::Completed);
+        let taken = s.taken;
+        (ended, taken, state.state_of(id))
+    }
+
+    #[test]
+    fn an_undisturbed_end_takes_two_sections() {
+        assert_eq!(
+            end_preempted(usize::MAX, |_| {}),
+            (true, 2, RunningState::Terminated)
+        );
+    }
+
+    /// A tick between the opening and the commit (it may have marked an exception): the
+    /// end opens again, and ends the run.
+    #[test]
+    fn a_tick_between_the_opening_and_the_commit_opens_the_end_again() {
+        let tick = |s: &mut S| s.changes = s.changes.wrapping_add(1);
+        assert_eq!(end_preempted(1, tick), (true, 4, RunningState::Terminated));
+    }
+
+    /// Between the opening and the commit the run is aborted and its sequence started
+    /// again (a lane of higher priority): the old run's end is refused and the new run
+    /// runs on.
+    #[test]
+    fn a_run_replaced_between_the_opening_and_the_commit_does_not_end_the_new_one() {
+        let replace = |s: &mut S| {
+            let id = SeqId(0);
+            for (from, to, cause) in [
+                (RunningState::Running, RunningState::Aborting, Cause::Abort),
+                (RunningState::Aborting, RunningState::Aborted, Cause::Abort),
+                (RunningState::Aborted, RunningState::Running, Cause::Start),
+            ] {
+                let b = s.transition(&StateChange::new(id, from, to, cause));
+                assert!(b.is_some());
+            }
+            if let Some(b) = s.block_mut(id) {
+                b.runs = 1;
+            }
+        };
+        assert_eq!(end_preempted(1, replace), (false, 3, RunningState::Running));
     }
 }

@@ -175,7 +175,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
         // The words of the sets that hold an active sequence, as of the last fold.
-        let (late, requests, any_due, changed, mut words) = self.with(|s| {
+        let (late, mut requests, any_due, changed, mut words) = self.with(|s| {
             let late = now < s.now;
             if !late {
                 s.now = now;
@@ -194,7 +194,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
         let inbox = self.take_inbox();
         if changed {
-            words = self.fold();
+            // Folding reports the ends of exception sequences: their owners are requested.
+            let requested;
+            (words, requested) = self.fold();
+            requests |= requested;
         }
         let aborted_all = match inbox {
             Some(inbox) => self.apply_inbox(control, inbox),
@@ -208,7 +211,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
         if aborted_all || requests {
             // What they stopped or paused is not due any more.
-            words = self.fold();
+            words = self.fold().0;
         }
         let mut scan = Scan::new();
         if B == 1 {
@@ -292,18 +295,29 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// Folds the state of the sequences that changed into the sets `active`, `paused` (and,
     /// with several words, `live`), one short section per sequence. Returns the words that
-    /// then hold an active sequence.
-    fn fold(&self) -> Words {
+    /// then hold an active sequence, and whether any sequence is requested (the owner of
+    /// an exception sequence that ended is).
+    fn fold(&self) -> (Words, bool) {
+        let mut reported = false;
         loop {
             // Each section says whether more are left.
-            let (more, words) = self.with(|s| {
-                if let Some(id) = s.sets.pop(Set::Changed) {
-                    s.fold(id);
-                }
-                (!s.sets.is_empty(Set::Changed), s.sets.words(Set::Active))
+            let (ended, more, words, requested) = self.with(|s| {
+                let ended = s.sets.pop(Set::Changed).filter(|&id| s.fold(id));
+                let more = !s.sets.is_empty(Set::Changed);
+                (
+                    ended,
+                    more,
+                    s.sets.words(Set::Active),
+                    !s.sets.is_empty(Set::Requested),
+                )
             });
+            // No lane runs in between: the exception sequence still has its owner.
+            if let Some(e) = ended {
+                self.with(|s| s.exception_ended(e));
+                reported = true;
+            }
             if !more {
-                return words;
+                return (words, requested || reported);
             }
         }
     }

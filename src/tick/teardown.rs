@@ -286,9 +286,16 @@ mod tests {
             seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
         }
         seq.sequence_by_id(r).unwrap().start().unwrap();
-        Port::start_in_lane(seq, y, Some(r)).unwrap();
-        seq.begin(x, Some(y), Mode::Blocking { maker: 0 }, Cause::Start, 0)
-            .unwrap();
+        let run = |id: SeqId| seq.with(|s| s.current_run(id));
+        Port::start_in_lane(seq, y, Some(run(r))).unwrap();
+        seq.begin(
+            x,
+            Some(run(y)),
+            Mode::Blocking { maker: 0 },
+            Cause::Start,
+            0,
+        )
+        .unwrap();
         let state = |id: SeqId| seq.with(|s| s.state_of(id));
         assert_eq!(
             [r, y, x, g].map(state),
@@ -304,7 +311,7 @@ mod tests {
         BETWEEN.with(|b| {
             *b.borrow_mut() = Some(Box::new(move || {
                 // Y's lane: Y is still running, its child X was aborted; it starts G.
-                *result.borrow_mut() = Some(Port::start_in_lane(seq, g, Some(y)));
+                *result.borrow_mut() = Some(Port::start_in_lane(seq, g, Some(run(y))));
             }))
         });
         Port::abandon(seq, r, &());
