@@ -641,21 +641,24 @@ fn firmware_sizes_with_and_without_rtseq() {
     // The README's firmware (the motor controller) and the scenario suite's (one set-up per
     // scenario, each building its tree by value: their moves into `Seq`s are rtseq's lines).
     // Budgets (ceilings, not targets): the sequencer's code 12 KiB, the safety system's
-    // 2 KiB. The demo's sequencer code misses its budget by the fixes of sessions 27 and
-    // 28 (a stopped caller starts nothing, a join keeps its run and knows when its outcome
-    // is lost, PauseOwner holds are counted and kept through a caller's resume, a late
-    // tick still aborts; docs/footprint.md): held to a known ceiling of 12.5 KiB.
+    // 2 KiB. The sequencer's code misses its budget by the fixes of sessions 27 to 29 (a
+    // stopped caller starts nothing, a join keeps its run and knows when its outcome is
+    // lost, PauseOwner holds are counted and kept through a caller's resume, a late tick
+    // still aborts, a run knows which run of its sequence it drives, an exception
+    // sequence's end is reported by the tick, a dropped run's teardown walks again;
+    // docs/footprint.md): held to known ceilings of 12.5 KiB (scenarios) and 13.5 KiB
+    // (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
         12 * 1024,
-        12 * 1024,
+        12 * 1024 + 512,
     );
     budget(
         "rtseq's sequencer code in the demo firmware [bytes]",
         demo_code.rtseq - demo_code.safety,
         12 * 1024,
-        12 * 1024 + 512,
+        13 * 1024 + 512,
     );
     budget(
         "rtseq's safety-system code in the demo firmware [bytes]",

@@ -179,7 +179,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn abandon(&self, id: SeqId, control: &C) {
-        self.walk(control, Some(id), RunningState::Aborting, Cause::Dropped);
+        self.abort_dropped(control, id);
     }
 
     fn declare_lane(&self, id: SeqId) -> Result<u8, Error> {
