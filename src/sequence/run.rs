@@ -42,6 +42,11 @@
 //! A held sequence (paused, or handling an exception) stays at its await point; an aborted
 //! one never runs another line of its action (sticky abort). A run whose future is dropped
 //! before it ended is abandoned ([`Port::abandon`]): aborted with its sub-sequences.
+//!
+//! Every port call of a run names the run it drives (a [`RunId`], taken at its start and
+//! kept in its [`Cx`]): a lane of higher priority may start the sequence again after an
+//! abort, before this future has unwound the aborted run, and the old run must neither
+//! go on under the new run's clearance nor end or restart the new run.
 
 use core::cell::Cell;
 use core::task::{Context, Poll};

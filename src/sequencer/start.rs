@@ -118,14 +118,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Schedules a restart of `run` from now: its clock (and timeout) starts again, with no
-    /// pause in force. Only for a `Restarting` sequence in that run (else it only returns
-    /// the state).
+    /// pause in force. Only for a `Restarting` sequence (else it only returns the state);
+    /// `None` when `run` is not its sequence's current run.
     fn schedule_restart(&mut self, run: RunId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        let b = self.block_mut(run.seq)?;
-        let from = b.state;
         // Only the current run: a later one restarts in its own time.
-        if from == RunningState::Restarting && b.runs == run.count {
+        let b = self.block_mut(run.seq).filter(|b| b.runs == run.count)?;
+        let from = b.state;
+        if from == RunningState::Restarting {
             b.start_clock(now);
             b.lift_pauses();
         }
@@ -412,6 +412,28 @@ mod tests {
         assert_eq!(state.state_of(id), RunningState::Aborted);
     }
 
+    /// Sequence 0 was aborted and started again by a lane of higher priority (run 1)
+    /// before its lane unwound the old run (run 0), which then sees `Restarting`: the old
+    /// run's restart leaves the new run alone.
+    #[test]
+    fn a_restart_by_an_old_run_leaves_the_new_run_alone() {
+        let id = SeqId(0);
+        let mut state = registered(1, &[id]);
+        if let Some(b) = state.block_mut(id) {
+            b.runs = 1;
+        }
+        let restart = StateChange::new(
+            id,
+            RunningState::Running,
+            RunningState::Restarting,
+            Cause::Restart,
+        );
+        assert!(state.transition(&restart).is_some());
+        let mut s = Preempted::new(&mut state, usize::MAX, |_: &mut S| {});
+        relaunch(&mut s, RunId { seq: id, count: 0 });
+        assert_eq!(state.state_of(id), RunningState::Restarting);
+    }
+
     /// A start of 1 by 0 that wins between the schedule and the link of a start of 1
     /// without a caller (by a lane of higher priority): the loser's link does not erase the
     /// winner's, so a teardown of 0 still finds 1 below it.
@@ -487,6 +509,21 @@ mod tests {
         assert_eq!(launch(&mut s, id, new, Cause::Start), Ok(first_run(id)));
         assert_eq!(s.taken, 2 * PASS);
         assert_eq!(state.block(id).map(|b| b.runs), Some(1));
+    }
+
+    /// The caller's run (run 0) was aborted and the caller started again (run 1) before
+    /// the start (by a lane of higher priority): the old run's action starts nothing.
+    #[test]
+    fn a_caller_whose_run_was_replaced_starts_nothing() {
+        let (result, taken, state) = start_preempted(0, |s| {
+            if let Some(b) = s.block_mut(SeqId(0)) {
+                b.runs = 1;
+            }
+        });
+        assert_eq!(
+            (result, taken, state),
+            (Err(Error::NotRunning(SeqId(0))), 1, RunningState::Idle)
+        );
     }
 
     /// The caller is aborted after the start's first look at it (by a lane of higher
