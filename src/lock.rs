@@ -320,3 +320,49 @@ mod tests {
         assert_eq!(Ceiling::of(2, 4), Some(Ceiling::Basepri(0xE0)));
     }
 }
+
+/// For tests: the portable lock (one critical section per step) that runs a closure
+/// before section `k` (counted from [`interleaved::at`]): a tick or a lane of higher
+/// priority preempting an operation between two of its sections.
+#[cfg(all(test, feature = "std"))]
+pub(crate) mod interleaved {
+    extern crate std;
+    use std::boxed::Box;
+    use std::cell::{Cell, RefCell};
+
+    #[derive(Debug)]
+    pub(crate) struct Interleaved;
+
+    impl super::sealed::Sealed for Interleaved {}
+
+    std::thread_local! {
+        static TAKEN: Cell<usize> = const { Cell::new(0) };
+        static AT: Cell<usize> = const { Cell::new(usize::MAX) };
+        static BETWEEN: RefCell<Option<Box<dyn FnOnce()>>> = RefCell::new(None);
+    }
+
+    /// From now on, `between` runs before section `k` (0: the next one).
+    pub(crate) fn at(k: usize, between: impl FnOnce() + 'static) {
+        TAKEN.with(|t| t.set(0));
+        AT.with(|a| a.set(k));
+        BETWEEN.with(|b| *b.borrow_mut() = Some(Box::new(between)));
+    }
+
+    impl super::Lock for Interleaved {
+        const COARSE: bool = false;
+
+        fn lock<R>(f: impl FnOnce() -> R) -> R {
+            let k = TAKEN.with(|t| {
+                let k = t.get();
+                t.set(k + 1);
+                k
+            });
+            if k == AT.with(|a| a.get()) {
+                if let Some(between) = BETWEEN.with(|b| b.borrow_mut().take()) {
+                    between();
+                }
+            }
+            critical_section::with(|_| f())
+        }
+    }
+}

@@ -2,6 +2,7 @@
 //! fields), plus its optional counters.
 
 use crate::model::id::Link;
+use crate::model::state::States;
 use crate::model::time::Stamp;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
@@ -246,6 +247,13 @@ impl ControlBlock {
     /// The registered name ("" only for an unregistered slot, which no reader reaches).
     pub(crate) fn name(&self) -> &'static str {
         self.name.unwrap_or("")
+    }
+
+    /// A new run of it may start: no run is under way, and it is not an exception sequence
+    /// whose end the tick has not reported to its owner yet (until then it is the owner's:
+    /// a new run would overwrite the owner it names).
+    pub(crate) fn may_start(&self) -> bool {
+        States::STARTABLE.has(self.state) && !self.has(flag::HANDLES_EXCEPTION)
     }
 
     pub(crate) fn has(&self, f: u16) -> bool {

@@ -224,7 +224,7 @@ impl<
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    const fn empty() -> Self {
+    pub(crate) const fn empty() -> Self {
         const {
             assert!(
                 N <= crate::MAX_SEQUENCES,

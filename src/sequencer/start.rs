@@ -13,7 +13,7 @@ use crate::model::id::{Link, RunId};
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::cut_and_depth;
-use crate::sequencer::control_block::flag;
+use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::sets::Set;
@@ -46,6 +46,8 @@ struct NewRun {
 struct Scheduled {
     /// The state the run starts from.
     from: RunningState,
+    /// The run was scheduled (else the sequence may not start, or restart, now).
+    scheduled: bool,
     /// Its timeout monitor is on.
     armed: bool,
 }
@@ -64,9 +66,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return Err(Error::ForeignSequence(id));
         }
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
-        // An exception sequence whose end the tick has not reported to its owner yet is
-        // still that owner's.
-        if !States::STARTABLE.has(b.state) || b.has(flag::HANDLES_EXCEPTION) {
+        if !b.may_start() {
             return Err(Error::AlreadyRunning(id));
         }
         let lane = match (mode, caller) {
@@ -98,15 +98,18 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
     /// lane, no pause in force, no last exception yet (the outcome stays the last finished
     /// run's, which a join of that run may still collect). Only for a sequence that may
-    /// start (`Idle`, `Terminated`, `Aborted`; else it only returns the state): the tick
-    /// neither scans it nor walks through these fields, and the caller link, flags and
-    /// state, which it does read, change in the commit. `None` for an id not registered.
+    /// start ([`ControlBlock::may_start`]; else it only says so): the tick neither scans it
+    /// nor walks through these fields, and the caller link, flags and state, which it does
+    /// read, change in the commit. `None` for an id not registered. The checks of the start
+    /// came sections before: meanwhile the tick may have started the sequence as an
+    /// exception sequence, and its lane ended it.
     fn schedule_new(&mut self, id: SeqId, lane: u8) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
         let b = self.block_mut(id)?;
         let from = b.state;
+        let scheduled = b.may_start();
         let armed = b.timeout != 0;
-        if States::STARTABLE.has(from) {
+        if scheduled {
             b.start_clock(now);
             b.lane = lane;
             b.active_exception = None;
@@ -114,23 +117,29 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             // Its lane may be another one now.
             self.polling.forget_woken();
         }
-        Some(Scheduled { from, armed })
+        Some(Scheduled {
+            from,
+            scheduled,
+            armed,
+        })
     }
 
     /// Schedules a restart of `run` from now: its clock (and timeout) starts again, with no
-    /// pause in force. Only for a `Restarting` sequence (else it only returns the state);
-    /// `None` when `run` is not its sequence's current run.
+    /// pause in force. Only for a `Restarting` sequence (else it only says so); `None` when
+    /// `run` is not its sequence's current run.
     fn schedule_restart(&mut self, run: RunId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
         // Only the current run: a later one restarts in its own time.
         let b = self.block_mut(run.seq).filter(|b| b.runs == run.count)?;
         let from = b.state;
-        if from == RunningState::Restarting {
+        let scheduled = from == RunningState::Restarting;
+        if scheduled {
             b.start_clock(now);
             b.lift_pauses();
         }
         Some(Scheduled {
             from,
+            scheduled,
             armed: b.timeout != 0,
         })
     }
@@ -261,7 +270,7 @@ fn launch<
         let at = s
             .section(|s| s.schedule_new(id, run.lane))
             .ok_or(Error::UnknownSequence(id))?;
-        if !States::STARTABLE.has(at.from) {
+        if !at.scheduled {
             return Err(Error::AlreadyRunning(id));
         }
         s.section(|s| s.prepare(id, at.armed));
@@ -269,7 +278,7 @@ fn launch<
         // Before the link is set: a teardown in between visits one sequence too many
         // (it is not active yet), never one too few. Not over a start that won meanwhile.
         s.section(|s| {
-            if States::STARTABLE.has(s.state_of(id)) {
+            if s.block(id).is_some_and(ControlBlock::may_start) {
                 s.sets.put(Set::Called, id, run.caller.is_some());
             }
         });
@@ -305,7 +314,7 @@ fn relaunch<
         let Some(at) = s.section(|s| s.schedule_restart(run)) else {
             return;
         };
-        if at.from != RunningState::Restarting {
+        if !at.scheduled {
             return;
         }
         s.section(|s| s.prepare(id, at.armed));
@@ -353,9 +362,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::sequencer::control_block::NO_LANE;
+    use crate::sequencer::port::Port;
+    use crate::sequencer::sections::EachStep;
+    use crate::{Behaviour, Instant, Monitor, Monitors, Outcome, SeqConfig};
 
     use crate::sequencer::sections::tests::{registered, Preempted, S};
 
@@ -547,5 +560,59 @@ mod tests {
                 RunningState::Idle
             )
         );
+    }
+
+    /// A lane L (a `Handle` or `Cx::start` of E) checks its start of E while E is idle
+    /// (`admit`, its first sections). Before L's schedule and commit (its next sections) the
+    /// tick preempts it: O's monitor fires and starts E as O's exception sequence (O's
+    /// `AbortOwner` waits for E's end), and E's lane, of higher priority than L, runs E to
+    /// its end. L goes on. E is O's until the tick has reported its end (defect 2): L's
+    /// start must be refused (`AlreadyRunning`), and the next tick must report E's end to
+    /// O and abort O. Today L's commit starts E again (as a main sequence, without
+    /// `HANDLES_EXCEPTION`): E's end is never reported and O stays held forever.
+    #[test]
+    fn a_start_checked_before_the_tick_ran_the_exception_sequence_does_not_take_it_from_its_owner()
+    {
+        let seq: Sequencer<(), 4> = Sequencer::new();
+        let [o, e] = ["O", "E"].map(|n| seq.register(SeqConfig::new(n)).unwrap());
+        for id in [o, e] {
+            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+        }
+        seq.sequence_by_id(o).unwrap().start().unwrap();
+        // L: the checks of its start of E (E idle).
+        let checked = admit(&mut EachStep(&seq), e, None, Mode::Lane, 0).unwrap();
+        // The tick preempts L: O's monitor fires, E starts for O.
+        let mut fault = |_: &(), _: Instant| true;
+        let mut monitors = Monitors::<(), 1>::new();
+        monitors
+            .add(
+                o,
+                Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(e),
+            )
+            .unwrap();
+        seq.tick(Instant::from_ticks(1_000), &(), &mut monitors)
+            .unwrap();
+        assert!(seq.with(|s| s
+            .block(e)
+            .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION) && b.caller.get() == Some(o))));
+        // E's lane (above L) takes the start and E completes.
+        let waker = core::task::Waker::noop();
+        let run = Port::take_start(&seq, e, 0, waker).unwrap();
+        assert!(Port::end(&seq, run, Outcome::Completed));
+        Port::finished(&seq, run);
+        // L goes on: its schedule and commit.
+        let late = launch(&mut EachStep(&seq), e, checked, Cause::Start);
+        let state = |id: SeqId| seq.with(|s| s.state_of(id));
+        assert_eq!(
+            (late, state(e)),
+            (Err(Error::AlreadyRunning(e)), RunningState::Terminated)
+        );
+        // The next tick reports E's end to O: O's behaviour, abort.
+        let mut none = Monitors::<(), 1>::new();
+        for ms in 2..5 {
+            seq.tick(Instant::from_ticks(ms * 1_000), &(), &mut none)
+                .unwrap();
+        }
+        assert_eq!(state(o), RunningState::Aborted);
     }
 }

@@ -30,8 +30,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// * `Paused` (`Running`): pauses (resumes) a running (paused) `target` and the
     ///   sequences it blocks in its lane, outermost first.
     ///
-    /// True when it placed sequences to move below the target (or without one): a walk
-    /// that a lane of higher priority may preempt can find more in a second walk.
+    /// True when there may be more to move: it placed sequences below the target (or
+    /// without one), or a sequence was started below the target while it moved it alone.
+    /// A walk that a tick or a lane of higher priority may preempt can find more in a
+    /// second walk.
     #[inline(never)]
     pub(crate) fn walk(
         &self,
@@ -70,12 +72,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             _ => self.stop(control, id, cause, states, to),
         };
         // A sequence below the target has a caller link: when no other sequence has one,
-        // the target is all there is to move (and once it left its state, nothing can be
-        // started below it).
+        // the target is all there is to move. Until it has left its state a start below it
+        // may still come (a walk in a lane is preempted by the tick, which starts exception
+        // sequences): then there is more to walk.
         if let Some(t) = target {
             if self.with(|s| s.sets.none_but(Set::Called, t)) {
                 move_one(t);
-                return false;
+                return !self.with(|s| s.sets.none_but(Set::Called, t));
             }
         }
         let (rows, deepest) = self.levels(target, states, lane);
@@ -276,9 +279,12 @@ mod tests {
     use std::boxed::Box;
     use std::cell::RefCell;
 
+    use crate::lock::interleaved::{self, Interleaved};
     use crate::sequencer::port::Port;
     use crate::sequencer::start::Mode;
-    use crate::{Cause, RunningState, SeqConfig, SeqId, Sequencer};
+    use crate::{
+        Behaviour, Cause, Instant, Monitor, Monitors, RunningState, SeqConfig, SeqId, Sequencer,
+    };
 
     std::thread_local! {
         /// What runs between two sections of the walk (at X's cleanup hook): a lane of
@@ -350,5 +356,54 @@ mod tests {
         // Y, still running, started G; G is torn down with Y (a second walk).
         assert_eq!(*fallback.borrow(), Some(Ok(())));
         assert_eq!(state(g), RunningState::Aborted);
+    }
+
+    /// O, a main sequence with nothing below it, has an `AbortOwner` monitor with
+    /// exception sequence E. O's run is dropped (its lane's future is dropped):
+    /// `abort_dropped` walks O. Nothing has a caller link, so the walk takes its shortcut:
+    /// one section to see that, then O's stop, and no second walk. The tick preempts the
+    /// lane between the two: O, still running, has its monitor fire, and the tick starts E
+    /// below O (caller O). Nothing started below a sequence outlives its abort (semantics
+    /// 9, defect 3): E must be aborted with O (`Dropped`). Today the walk returns false
+    /// after O's stop, `abort_dropped` stops, and E runs on below the aborted O.
+    #[test]
+    fn an_exception_sequence_the_tick_starts_during_a_dropped_runs_shortcut_walk_is_torn_down() {
+        let seq: &'static Sequencer<(), 4, 64, Interleaved> =
+            Box::leak(Box::new(Sequencer::empty()));
+        let [o, e] = ["O", "E"].map(|n| seq.register(SeqConfig::new(n)).unwrap());
+        for id in [o, e] {
+            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+        }
+        seq.sequence_by_id(o).unwrap().start().unwrap();
+        let waker = core::task::Waker::noop();
+        assert!(Port::take_start(seq, o, 0, waker).is_some());
+        // The tick, between the walk's first section (nothing linked) and O's stop.
+        interleaved::at(1, move || {
+            let mut fault = |_: &(), _: Instant| true;
+            let mut monitors = Monitors::<(), 1>::new();
+            monitors
+                .add(
+                    o,
+                    Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(e),
+                )
+                .unwrap();
+            seq.tick(Instant::from_ticks(1_000), &(), &mut monitors)
+                .unwrap();
+        });
+        Port::abandon(seq, o, &());
+        let state = |id: SeqId| seq.with(|s| (s.state_of(id), s.block(id).unwrap().last_cause));
+        // E was started below O by the tick ...
+        assert_eq!(
+            seq.with(|s| s.block(e).and_then(|b| b.caller.get())),
+            Some(o)
+        );
+        // ... and is torn down with it.
+        assert_eq!(
+            [o, e].map(state),
+            [
+                (RunningState::Aborted, Cause::Dropped),
+                (RunningState::Aborted, Cause::Dropped)
+            ]
+        );
     }
 }
