@@ -176,4 +176,32 @@ mod tests {
         };
         assert_eq!(end_preempted(1, replace), (false, 3, RunningState::Running));
     }
+
+    /// A run that was replaced (its sequence started again, run 1) neither makes the new
+    /// run wait for a poll nor drops its due poll; the current run does.
+    #[test]
+    fn only_the_current_run_sets_its_poll_wait() {
+        let id = SeqId(0);
+        let mut state = registered(1, &[id]);
+        if let Some(b) = state.block_mut(id) {
+            b.runs = 1;
+        }
+        state.sets.put(Set::PollDue, id, true);
+        state.set_poll_wait(RunId { seq: id, count: 0 }, true);
+        assert_eq!(
+            (
+                state.sets.has(Set::PollWait, id),
+                state.sets.has(Set::PollDue, id)
+            ),
+            (false, true)
+        );
+        state.set_poll_wait(RunId { seq: id, count: 1 }, true);
+        assert_eq!(
+            (
+                state.sets.has(Set::PollWait, id),
+                state.sets.has(Set::PollDue, id)
+            ),
+            (true, false)
+        );
+    }
 }
