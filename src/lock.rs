@@ -324,7 +324,7 @@ mod tests {
 /// For tests: the portable lock (one critical section per step) that runs a closure
 /// before section `k` (counted from [`interleaved::at`]): a tick or a lane of higher
 /// priority preempting an operation between two of its sections.
-#[cfg(all(test, feature = "std"))]
+#[cfg(test)]
 pub(crate) mod interleaved {
     extern crate std;
     use std::boxed::Box;

@@ -212,8 +212,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// several words) `live`. True when `id` is an exception sequence whose run ended:
     /// the tick then reports the end to its owner
     /// ([`exception_ended`](Self::exception_ended)). Until then it keeps its owner and
-    /// may not be started again ([`check_start`](Self::check_start)), so no later run of
-    /// it, for another owner, can be credited with this end.
+    /// may not be started again ([`ControlBlock::may_start`]), so no later run of it, for
+    /// another owner, can be credited with this end.
     pub(crate) fn fold(&mut self, id: SeqId) -> bool {
         let state = self.state_of(id);
         self.sets
