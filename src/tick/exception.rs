@@ -306,6 +306,29 @@ mod tests {
         }
     }
 
+    /// Sequences named `names`, each with a lane; the first `running` of them started.
+    fn in_lanes<const K: usize>(
+        seq: &Sequencer<(), 4>,
+        names: [&'static str; K],
+        running: usize,
+    ) -> [SeqId; K] {
+        let ids = names.map(|n| seq.register(SeqConfig::new(n)).unwrap());
+        for id in ids {
+            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+        }
+        for &id in ids.iter().take(running) {
+            seq.sequence_by_id(id).unwrap().start().unwrap();
+        }
+        ids
+    }
+
+    /// A tick in which `owner`'s first monitor fires (`AbortOwner`, exception sequence
+    /// `e`): `e` starts for `owner`, whose behaviour waits for `e`'s end.
+    fn fire_with(seq: &Sequencer<(), 4>, owner: SeqId, e: SeqId) {
+        let cause = Cause::Monitor(MonitorId(0));
+        assert!(seq.raise(&(), owner, cause, &mut abort_owner_with(e)));
+    }
+
     /// O and O2 share the exception sequence E (both monitors `AbortOwner`). E, handling
     /// O's exception, ends in its lane (`Port::end`); before the lane reports the run over
     /// (`Port::finished`, sections of its own) a tick preempts it, in which O2's monitor
@@ -316,17 +339,9 @@ mod tests {
     fn an_exception_sequence_started_again_before_its_end_was_reported_ends_the_first_owners_exception(
     ) {
         let seq: Sequencer<(), 4> = Sequencer::new();
-        let ids = ["O", "O2", "E"].map(|n| seq.register(SeqConfig::new(n)).unwrap());
-        let [o, o2, e] = ids;
-        for id in ids {
-            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
-        }
-        for id in [o, o2] {
-            seq.sequence_by_id(id).unwrap().start().unwrap();
-        }
+        let [o, o2, e] = in_lanes(&seq, ["O", "O2", "E"], 2);
         // A tick: O's monitor fires; E starts for O, O's behaviour waits for E's end.
-        let cause_o = Cause::Monitor(MonitorId(0));
-        assert!(seq.raise(&(), o, cause_o, &mut abort_owner_with(e)));
+        fire_with(&seq, o, e);
         assert_eq!(
             seq.with(|s| s.block(e).and_then(|b| b.caller.get())),
             Some(o)
@@ -372,18 +387,8 @@ mod tests {
     #[test]
     fn an_exception_sequence_is_its_owners_until_its_end_is_reported() {
         let seq: Sequencer<(), 4> = Sequencer::new();
-        let ids = ["O", "E"].map(|n| seq.register(SeqConfig::new(n)).unwrap());
-        let [o, e] = ids;
-        for id in ids {
-            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
-        }
-        seq.sequence_by_id(o).unwrap().start().unwrap();
-        assert!(seq.raise(
-            &(),
-            o,
-            Cause::Monitor(MonitorId(0)),
-            &mut abort_owner_with(e)
-        ));
+        let [o, e] = in_lanes(&seq, ["O", "E"], 1);
+        fire_with(&seq, o, e);
         let run = seq.with(|s| s.current_run(e));
         assert!(Port::end(&seq, run, Outcome::Completed));
         let handle = seq.sequence_by_id(e).unwrap();
@@ -401,18 +406,8 @@ mod tests {
     #[test]
     fn an_exception_sequence_aborted_before_its_lane_took_it_ends_the_exception() {
         let seq: Sequencer<(), 4> = Sequencer::new();
-        let ids = ["O", "E"].map(|n| seq.register(SeqConfig::new(n)).unwrap());
-        let [o, e] = ids;
-        for id in ids {
-            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
-        }
-        seq.sequence_by_id(o).unwrap().start().unwrap();
-        assert!(seq.raise(
-            &(),
-            o,
-            Cause::Monitor(MonitorId(0)),
-            &mut abort_owner_with(e)
-        ));
+        let [o, e] = in_lanes(&seq, ["O", "E"], 1);
+        fire_with(&seq, o, e);
         seq.sequence_by_id(e).unwrap().abort().unwrap();
         let mut monitors = Monitors::<(), 1>::new();
         let mut states_after_tick = |ms: u64| {
