@@ -294,8 +294,7 @@ impl<'a, C> Cx<'a, C> {
         &self,
         child: &'s mut Seq<S>,
     ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 's, C, S> {
-        let Seq { head, body } = child;
-        sequence_run(self.blocking_run(head), body)
+        sequence_run(self.blocking_run(child.head.id), child)
     }
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling
@@ -351,18 +350,15 @@ impl<'a, C> Cx<'a, C> {
     /// A blocking run of a step of any type: one future type, one copy of its code.
     fn step_run<'s>(&self, head: &'s SeqHead, step: ErasedBody<'s, C>) -> StepRun<'a, 's, C> {
         StepRun {
-            run: self.blocking_run(head),
+            run: self.blocking_run(head.id),
+            head,
             step,
         }
     }
 
-    /// A blocking run, by this sequence, of the sequence or step whose head is `head`.
-    fn blocking_run<'s>(&self, head: &'s SeqHead) -> Run<'a, 's, C> {
-        Run::blocking(
-            Cx::new(self.port, self.control, head.id),
-            head,
-            self.run_id(),
-        )
+    /// A blocking run, by this sequence, of the sequence or step `id`.
+    fn blocking_run(&self, id: SeqId) -> Run<'a, C> {
+        Run::blocking(Cx::new(self.port, self.control, id), self.run_id())
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if

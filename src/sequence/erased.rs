@@ -4,7 +4,8 @@
 //! sequence of any type) through an [`ErasedBody`]: a pointer and a table of the body
 //! type's operations. A sequence's run ([`SequenceRun`]) also holds the place of the
 //! action's future, which borrows the body and the run's own context: it is
-//! self-referential, and so pinned.
+//! self-referential, and so pinned. The run keeps no pointer into the sequence object:
+//! the future that borrows the object passes its head to every poll, beside the body.
 //!
 //! Invariants every `unsafe` block below relies on:
 //!
@@ -24,6 +25,9 @@
 //!    never moved), and the action is dropped before the run (field order, and
 //!    `drop_action`).
 //! 5. The context passed to a table's function is a live `Cx<'_, C>`.
+//! 6. A `SequenceRun` reaches the object's body and head through one pointer, each by its
+//!    own field (`addr_of_mut!`): the head is borrowed shared for a poll while the action
+//!    may hold the body, and neither borrow covers the other.
 
 use core::future::Future;
 use core::marker::{PhantomData, PhantomPinned};
@@ -32,6 +36,7 @@ use core::ptr::{addr_of, addr_of_mut, NonNull};
 use core::task::{Context, Poll};
 
 use crate::sequence::run::Run;
+use crate::sequence::{Seq, SeqHead};
 use crate::{Cx, Done, Failure, Sequence, Step};
 
 /// How far an action got: `Ready` with the action's result once it is over.
@@ -161,7 +166,8 @@ impl<'s, C> ErasedBody<'s, C> {
 
 /// A blocking start of a step: the run and the type-erased step.
 pub(crate) struct StepRun<'a, 's, C> {
-    pub(crate) run: Run<'a, 's, C>,
+    pub(crate) run: Run<'a, C>,
+    pub(crate) head: &'s SeqHead,
     pub(crate) step: ErasedBody<'s, C>,
 }
 
@@ -170,7 +176,7 @@ impl<C> Future for StepRun<'_, '_, C> {
     fn poll(self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
         // A `StepRun` is `Unpin`: it holds no self-reference.
         let this = self.get_mut();
-        this.run.poll(w, this.step.reborrow())
+        this.run.poll(w, this.head, this.step.reborrow())
     }
 }
 
@@ -180,27 +186,28 @@ pub(crate) struct SequenceRun<'a, 's, C, S, F, M> {
     /// The running action (`None` outside the stage `Action`). It borrows `body` and
     /// `run.cx`, so it comes first: dropped before them (invariant 4).
     action: Option<F>,
-    run: Run<'a, 's, C>,
-    /// The `&'s mut S`, used by the action while it exists, else by the conditions.
-    body: NonNull<S>,
+    run: Run<'a, C>,
+    /// The `&'s mut Seq<S>`. Its body is used by the action while that exists, else by
+    /// the conditions; its head by the run. One pointer for both keeps a lane small.
+    seq: NonNull<Seq<S>>,
     /// Creates the action's future: `S::action`, zero-sized.
     make: M,
-    _body: PhantomData<&'s mut S>,
+    _seq: PhantomData<&'s mut S>,
     /// The action borrows `run.cx`: the run never moves once polled.
     _pinned: PhantomPinned,
 }
 
 /// A sequence's run of `body` (see [`SequenceRun`]).
 pub(crate) fn sequence_run<'a, 's, C, S: Sequence<C>>(
-    run: Run<'a, 's, C>,
-    body: &'s mut S,
+    run: Run<'a, C>,
+    seq: &'s mut Seq<S>,
 ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 's, C, S> {
-    SequenceRun {
+    SequenceRun::<'a, 's, C, S, _, _> {
         action: None,
         run,
-        body: NonNull::from(body),
+        seq: NonNull::from(seq),
         make: <S as Sequence<C>>::action,
-        _body: PhantomData,
+        _seq: PhantomData,
         _pinned: PhantomPinned,
     }
 }
@@ -211,22 +218,24 @@ pub(crate) fn sequence_run<'a, 's, C, S: Sequence<C>>(
 
 unsafe fn seq_pre<C, S: Sequence<C>, F, M>(fw: NonNull<()>, cx: NonNull<()>) -> bool {
     // SAFETY: see above; the conditions run only while no action borrows the body (3).
-    unsafe {
-        (*fw.cast::<SequenceRun<'_, '_, C, S, F, M>>().as_ptr())
-            .body
-            .as_mut()
-            .check_pre_condition(context(cx))
-    }
+    unsafe { body_of::<C, S, F, M>(fw).check_pre_condition(context(cx)) }
 }
 
 unsafe fn seq_exit<C, S: Sequence<C>, F, M>(fw: NonNull<()>, cx: NonNull<()>) -> bool {
     // SAFETY: see above; the conditions run only while no action borrows the body (3).
-    unsafe {
-        (*fw.cast::<SequenceRun<'_, '_, C, S, F, M>>().as_ptr())
-            .body
-            .as_mut()
-            .check_exit_condition(context(cx))
-    }
+    unsafe { body_of::<C, S, F, M>(fw).check_exit_condition(context(cx)) }
+}
+
+/// The body of the sequence object a `SequenceRun` borrows, reached through its pointer
+/// alone: the object's head may be borrowed shared meanwhile.
+///
+/// # Safety
+/// As for the table above, and nothing else borrows the body for `'x`.
+unsafe fn body_of<'x, C, S, F, M>(fw: NonNull<()>) -> &'x mut S {
+    let fw = fw.cast::<SequenceRun<'_, '_, C, S, F, M>>().as_ptr();
+    // SAFETY: guaranteed by the caller; `seq` is the run's `&'s mut Seq<S>`, and only the
+    // body's field is borrowed (invariant 6).
+    unsafe { &mut *addr_of_mut!((*(*fw).seq.as_ptr()).body) }
 }
 
 unsafe fn seq_advance<'a, 's, C, S, F, M>(
@@ -247,8 +256,9 @@ where
     // (pinned: never moved) and dropped in place.
     unsafe {
         let action = &mut *addr_of_mut!((*fw).action);
-        let future = action
-            .get_or_insert_with(|| ((*fw).make)((*fw).body.as_mut(), &*addr_of!((*fw).run.cx)));
+        let future = action.get_or_insert_with(|| {
+            ((*fw).make)(body_of::<C, S, F, M>(NonNull::new_unchecked(fw.cast())), &*addr_of!((*fw).run.cx))
+        });
         let done = Pin::new_unchecked(future).poll(w);
         if done.is_ready() {
             *action = None;
@@ -295,8 +305,14 @@ where
             _control: PhantomData,
         };
         // SAFETY: the run is only ever borrowed shared; the table's functions reach the
-        // other fields through `body` (see `seq_advance`).
-        unsafe { &(*fw.as_ptr()).run }.poll(w, body)
+        // other fields through `body` (see `seq_advance`). The head is a field of the
+        // object apart from the body: borrowing it shared leaves the body's borrow alone.
+        unsafe {
+            let this = fw.as_ptr();
+            (*this)
+                .run
+                .poll(w, &*addr_of!((*(*this).seq.as_ptr()).head), body)
+        }
     }
 }
 

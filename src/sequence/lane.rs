@@ -55,10 +55,9 @@ pub fn lane<
     control: &'a C,
     seq: &'a mut Seq<S>,
 ) -> impl Future<Output = Infallible> + use<'a, C, S, N, T, L, W, B> {
-    let Seq { head, body } = seq;
     LaneRun(sequence_run(
-        Run::lane(Cx::new(sequencer, control, head.id), head),
-        body,
+        Run::lane(Cx::new(sequencer, control, seq.head.id)),
+        seq,
     ))
 }
 

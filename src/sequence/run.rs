@@ -88,11 +88,8 @@ enum Stage {
 /// The body-independent part of a run: the sequence's context, where its result goes, who
 /// waits for it and where the run stands. Generic only over the control system `C`: one
 /// copy serves every sequence and step type, started blocking or in a lane.
-pub(crate) struct Run<'a, 's, C> {
+pub(crate) struct Run<'a, C> {
     pub(crate) cx: Cx<'a, C>,
-    /// The sequence object's head: where a blocking run leaves its result, and the tag of
-    /// the sequencer that made the object.
-    head: &'s SeqHead,
     /// The run of the blocking caller; `None`: the sequence's lane.
     caller: Option<RunId>,
     stage: Cell<Stage>,
@@ -100,12 +97,11 @@ pub(crate) struct Run<'a, 's, C> {
     outcome: Cell<Outcome>,
 }
 
-impl<'a, 's, C> Run<'a, 's, C> {
+impl<'a, C> Run<'a, C> {
     /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
-    pub(crate) fn blocking(cx: Cx<'a, C>, head: &'s SeqHead, caller: RunId) -> Self {
+    pub(crate) fn blocking(cx: Cx<'a, C>, caller: RunId) -> Self {
         Run {
             cx,
-            head,
             caller: Some(caller),
             stage: Cell::new(Stage::Begin),
             outcome: Cell::new(Outcome::Completed),
@@ -113,10 +109,9 @@ impl<'a, 's, C> Run<'a, 's, C> {
     }
 
     /// The lane of `cx`'s sequence: runs it every time it is started non-blocking.
-    pub(crate) fn lane(cx: Cx<'a, C>, head: &'s SeqHead) -> Self {
+    pub(crate) fn lane(cx: Cx<'a, C>) -> Self {
         Run {
             cx,
-            head,
             caller: None,
             stage: Cell::new(Stage::Idle),
             outcome: Cell::new(Outcome::Completed),
@@ -163,12 +158,12 @@ impl<'a, 's, C> Run<'a, 's, C> {
 
     /// Runs the stages up to the action (`Ready`: advance it now), or until it must
     /// wait (`Pending`).
-    fn drive(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
+    fn drive(&self, w: &mut Context<'_>, head: &SeqHead, body: &mut ErasedBody<'_, C>) -> Poll<()> {
         let (port, id) = (self.port(), self.cx.id());
         loop {
             match self.stage.get() {
                 Stage::Idle => {
-                    let Some(run) = port.take_start(id, self.head.maker, w.waker()) else {
+                    let Some(run) = port.take_start(id, head.maker, w.waker()) else {
                         return Poll::Pending;
                     };
                     self.cx.enter(run);
@@ -176,14 +171,14 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 }
                 Stage::Begin => match self
                     .caller
-                    .map(|caller| port.start_blocking(id, self.head.maker, caller))
+                    .map(|caller| port.start_blocking(id, head.maker, caller))
                 {
                     Some(Ok(run)) => {
                         self.cx.enter(run);
                         self.stage.set(Stage::PreCondition);
                     }
                     Some(Err(e)) => {
-                        self.head.result.set(Some(Err(Failure::NotStarted(e))));
+                        head.result.set(Some(Err(Failure::NotStarted(e))));
                         self.stage.set(Stage::Done);
                     }
                     // Only a blocking run begins; a lane waits for a start.
@@ -236,7 +231,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
                 Stage::HandOver => {
                     if let Some(caller) = self.caller {
                         if port.clearance(caller, w.waker()) == Clearance::Go {
-                            self.head.result.set(Some(self.outcome.get().done()));
+                            head.result.set(Some(self.outcome.get().done()));
                             self.stage.set(Stage::Done);
                         }
                     }
@@ -273,23 +268,27 @@ impl<'a, 's, C> Run<'a, 's, C> {
     }
 
     /// A run's whole poll; `Ready` with a blocking run's result once it is handed over.
+    /// `head` is the sequence object's head (the tag of the sequencer that made it, and
+    /// where a blocking run leaves its result); the future that borrows the object passes
+    /// it with the body, so the run itself keeps no pointer into the object.
     #[inline(never)]
     pub(crate) fn poll(
         &self,
         w: &mut Context<'_>,
+        head: &SeqHead,
         mut body: ErasedBody<'_, C>,
     ) -> Poll<Result<Done, Failure>> {
         loop {
             let ready = if self.stage.get() == Stage::Action {
                 self.act(w, &mut body)
             } else {
-                self.drive(w, &mut body)
+                self.drive(w, head, &mut body)
             };
             if ready.is_pending() {
                 break;
             }
         }
-        match self.head.result.take() {
+        match head.result.take() {
             Some(result) => Poll::Ready(result),
             None => Poll::Pending,
         }
@@ -303,7 +302,7 @@ impl<'a, 's, C> Run<'a, 's, C> {
 /// before its run (see `SequenceRun`), so the runs it holds go first: innermost first.
 ///
 /// [`Cause::Dropped`]: crate::Cause::Dropped
-impl<C> Drop for Run<'_, '_, C> {
+impl<C> Drop for Run<'_, C> {
     fn drop(&mut self) {
         let port = self.port();
         match self.stage.get() {
