@@ -17,7 +17,7 @@ use std::task::{Context, Poll, Wake, Waker};
 use embassy_futures::select::{select, Either};
 use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Dropped, Start};
-use rtseq::RunningState::*;
+use rtseq::RunningState::{self, *};
 use rtseq::{
     Cx, Done, Duration, Error, Failure, Instant, Monitors, Outcome, Seq, SeqConfig, SeqId,
     Sequence, Sequencer, Step, Wait,
@@ -923,4 +923,104 @@ fn an_action_stopped_by_a_preempting_tick_starts_nothing_afterwards() {
     );
     assert_eq!((sim.state(m), sim.state(d)), (Idle, Idle));
     assert_eq!((MOTOR_ON.load(SeqCst), DRIVE_ON.load(SeqCst)), (0, 0));
+}
+
+// ---------------------------------------------------------------------------------------
+// 6. Joins raced against each other.
+// ---------------------------------------------------------------------------------------
+
+/// Joins two sequences at once and records when the first of the two joins returned
+/// (`both`: when both returned, with the result of `a`).
+struct JoinEither {
+    a: SeqId,
+    b: SeqId,
+    both: bool,
+}
+
+impl Sequence<Ctrl> for JoinEither {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let first = if self.both {
+            embassy_futures::join::join(cx.join(self.a), cx.join(self.b))
+                .await
+                .0
+        } else {
+            match select(cx.join(self.a), cx.join(self.b)).await {
+                Either::First(r) | Either::Second(r) => r,
+            }
+        };
+        cx.control().returned.borrow_mut().push(Returned {
+            ms: cx.now().as_ticks() / 1000,
+            seq: cx.id(),
+            line: 0,
+            result: first.map_err(Failure::from).and_then(Outcome::done),
+        });
+        Ok(())
+    }
+}
+
+/// J joins A and B (dwells of `a_ms` and `b_ms`) at once (`both`: waits for both, else
+/// for either); returns when J's joins returned (ms) and J's state at 30 ms.
+fn join_two(a_ms: u64, b_ms: u64, both: bool) -> (Vec<(u64, Result<Done, Failure>)>, RunningState) {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = |name, ms| {
+        seq.add(SeqConfig::new(name), Wait::new(Duration::from_millis(ms)))
+            .unwrap()
+    };
+    let a = seq
+        .add(
+            SeqConfig::new("A"),
+            Node::of(vec![Op::Wait(dwell("a", a_ms))]),
+        )
+        .unwrap();
+    let b = seq
+        .add(
+            SeqConfig::new("B"),
+            Node::of(vec![Op::Wait(dwell("b", b_ms))]),
+        )
+        .unwrap();
+    let (ai, bi) = (a.id(), b.id());
+    let j = seq
+        .add(SeqConfig::new("J"), JoinEither { a: ai, b: bi, both })
+        .unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(a);
+    sim.lane(b);
+    sim.lane(j);
+    sim.start(ai).unwrap();
+    sim.start(bi).unwrap();
+    sim.start(ji).unwrap();
+    sim.run_for(Duration::from_millis(30));
+    let state = sim.state(ji);
+    drop(sim);
+    let joined = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == ji)
+        .map(|r| (r.ms, r.result))
+        .collect();
+    (joined, state)
+}
+
+/// J waits for both A (20 ms) and B (2 ms), A's join polled first. B's join returns at 2
+/// ms while A's still waits: A's end at 20 ms must still wake J.
+#[test]
+fn a_join_still_pending_when_another_join_returns_is_woken_by_the_end_of_its_run() {
+    assert_eq!(
+        join_two(20, 2, true),
+        (vec![(20, Ok(Done::Completed))], Terminated)
+    );
+}
+
+/// J races a join of A (a 2 ms dwell) against a join of B (a 20 ms dwell). A's end must
+/// wake J's lane: J's first join returns at 2 ms, not when B ends at 20 ms (the second
+/// join's registration must not make J miss the end of the run the first one waits for).
+#[test]
+fn a_join_raced_against_another_join_is_woken_by_the_end_of_its_run() {
+    assert_eq!(
+        join_two(2, 20, false),
+        (vec![(2, Ok(Done::Completed))], Terminated)
+    );
 }

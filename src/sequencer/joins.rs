@@ -11,17 +11,30 @@ use crate::sequencer::State;
 use crate::SeqId;
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// `joiner` waits for the end of the run of `target`.
+    /// `joiner` waits for the end of the run of `target`. An action may wait in several
+    /// joins at once (joins raced with `select`, or joined): a joiner already waiting for
+    /// another target waits for any end ([`Link::ANY`]) until it is released, so the end
+    /// of neither run is missed (a spurious wake-up costs one poll).
     pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
+        let joining = self.sets.has(Set::Joining, joiner);
         if let Some(b) = self.block_mut(joiner) {
-            b.joins = Link::to(Some(target));
+            let link = Link::to(Some(target));
+            b.joins = if joining && b.joins != link {
+                Link::ANY
+            } else {
+                link
+            };
             self.sets.put(Set::Joining, joiner, true);
         }
     }
 
-    /// `joiner` no longer waits in a join.
+    /// A join of `joiner` returned. A joiner that waits for any end keeps waiting: another
+    /// of its joins may still be pending (the next end releases it).
     pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) {
         if let Some(b) = self.block_mut(joiner) {
+            if b.joins == Link::ANY {
+                return;
+            }
             b.joins = Link::NONE;
         }
         self.sets.put(Set::Joining, joiner, false);
@@ -35,7 +48,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             let Some(b) = self.block_mut(j) else {
                 continue;
             };
-            if b.joins == Link::to(Some(target)) {
+            if b.joins == Link::to(Some(target)) || b.joins == Link::ANY {
                 b.joins = Link::NONE;
                 lanes = lanes.with(LaneSet::of(b.lane));
                 self.sets.put(Set::Joining, j, false);
