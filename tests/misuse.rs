@@ -926,7 +926,7 @@ fn an_action_stopped_by_a_preempting_tick_starts_nothing_afterwards() {
 }
 
 // ---------------------------------------------------------------------------------------
-// 6. Joins raced against each other.
+// 7. Joins raced against each other.
 // ---------------------------------------------------------------------------------------
 
 /// Joins two sequences at once and records when the first of the two joins returned
@@ -1023,4 +1023,52 @@ fn a_join_raced_against_another_join_is_woken_by_the_end_of_its_run() {
         join_two(2, 20, false),
         (vec![(2, Ok(Done::Completed))], Terminated)
     );
+}
+
+/// O (a step waiting for flag 1) has an `AbortOwner` monitor on flag 0 whose exception
+/// sequence E joins O. O is held until E ends, and E would wait for O's end: the join
+/// could never return, so it is `JoinWouldDeadlock`, as a join of a blocking caller is,
+/// and E ends, then O is aborted.
+#[test]
+fn an_exception_sequence_joining_its_owner_is_an_error_not_a_hang() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let wait = seq.add(SeqConfig::new("wait"), Leaf::until(1)).unwrap();
+    let o = seq
+        .add(SeqConfig::new("O"), Node::of(vec![Op::Step(wait)]))
+        .unwrap();
+    let oi = o.id();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Join(oi)]))
+        .unwrap();
+    let ei = e.id();
+    let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    monitors
+        .add(
+            oi,
+            rtseq::Monitor::new("fault", &mut fault, rtseq::Behaviour::AbortOwner).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(o);
+    sim.lane(e);
+    sim.start(oi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.set(0, true);
+    sim.run_for(Duration::from_millis(10));
+    let (so, se) = (sim.state(oi), sim.state(ei));
+    drop(sim);
+    let joined: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == ei)
+        .map(|r| r.result)
+        .collect();
+    assert_eq!(
+        joined,
+        [Err(Failure::NotStarted(Error::JoinWouldDeadlock(oi)))]
+    );
+    assert_eq!((so, se), (Aborted, Terminated));
 }

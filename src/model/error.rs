@@ -50,7 +50,8 @@ pub enum Error {
     PollingClassesExceeded,
     /// A [`Table`](crate::Table) is installed only into a sequencer with nothing registered.
     NotEmpty,
-    /// A join that could never return: a sequence joining itself or a caller it blocks.
+    /// A join that could never return: a sequence joining itself, a caller it blocks, or
+    /// (an exception sequence) the owner held until its end.
     JoinWouldDeadlock(SeqId),
     /// The configuration cannot work as declared: [`Sequencer::validate`](crate::Sequencer::validate)
     /// says what (a small variant: every `Result` of rtseq carries an `Error`).
@@ -180,7 +181,7 @@ impl core::fmt::Display for Error {
             ),
             Error::JoinWouldDeadlock(id) => write!(
                 f,
-                "joining sequence {} would wait for itself (it is the joiner or a caller it blocks)",
+                "joining sequence {} would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)",
                 id.index()
             ),
         }

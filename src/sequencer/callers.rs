@@ -42,10 +42,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.monitor_holds > 0 || b.has(flag::PAUSED_BY_REQUEST) || caller_paused
     }
 
-    /// One step of [`join_would_deadlock`]: the caller of `at` in `lane`, if any.
-    fn caller_in_lane(&self, at: SeqId, lane: u8) -> Option<SeqId> {
+    /// One step of [`join_would_deadlock`]: the caller that `at` (in `lane`) holds up,
+    /// with that caller's lane: its caller in `lane` (which it blocks), or, when `at` is an
+    /// exception sequence whose end is not reported yet, its owner (held until then).
+    fn held_caller(&self, at: SeqId, lane: u8) -> Option<(SeqId, u8)> {
         let b = self.block(at)?;
-        b.caller.get().filter(|&c| self.lane_slot(c) == lane)
+        let c = b.caller.get()?;
+        let up = self.lane_slot(c);
+        (up == lane || b.has(flag::HANDLES_EXCEPTION)).then_some((c, up))
     }
 
     /// One step of the held check of a due wake-up ([`held`]): `None` when `at` holds its
@@ -95,7 +99,8 @@ pub(crate) fn cut_and_depth<
 }
 
 /// Whether `joiner` waiting for `target` could never return: it is `target`, or `target`
-/// is one of the callers it blocks (its callers in its own lane).
+/// is one of the callers it holds up: its callers in its own lane (which it blocks) and,
+/// for an exception sequence, its owner (held until its end) and those the owner holds up.
 pub(crate) fn join_would_deadlock<
     C,
     S: Sections<C, N, T, W, B>,
@@ -108,14 +113,16 @@ pub(crate) fn join_would_deadlock<
     joiner: SeqId,
     target: SeqId,
 ) -> bool {
-    let lane = s.section(|s| s.lane_slot(joiner));
-    let mut at = Some(joiner);
+    let mut lane = s.section(|s| s.lane_slot(joiner));
+    let mut at = joiner;
     for _ in 0..=MAX_DEPTH {
-        let Some(id) = at else { return false };
-        if id == target {
+        if at == target {
             return true;
         }
-        at = s.section(|s| s.caller_in_lane(id, lane));
+        match s.section(|s| s.held_caller(at, lane)) {
+            Some((up, up_lane)) => (at, lane) = (up, up_lane),
+            None => return false,
+        }
     }
     false
 }
