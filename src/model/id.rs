@@ -99,9 +99,6 @@ pub(crate) struct Link(u16);
 
 impl Link {
     pub(crate) const NONE: Link = Link(0);
-    /// Not a sequence (above every id plus one): a joiner's record when it waits in
-    /// several joins at once (see `State::wait_for_join`).
-    pub(crate) const ANY: Link = Link(u16::MAX);
 
     pub(crate) const fn to(id: Option<SeqId>) -> Link {
         match id {

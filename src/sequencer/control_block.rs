@@ -6,7 +6,7 @@ use crate::model::state::States;
 use crate::model::time::Stamp;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
-use crate::{Behaviour, Cause, Failure, Outcome, Request, RunningState};
+use crate::{Behaviour, Cause, Failure, Outcome, Request, RunningState, SeqId};
 
 /// How often a sequence did what (feature `counters`: 12 bytes per sequence). Counters wrap
 /// at `u16::MAX`.
@@ -109,6 +109,30 @@ mod pending {
     ];
 }
 
+/// What a joiner waits for, kept in its control block: nothing, the end of one
+/// sequence's run, or, while it waits in several joins at once, any end.
+///
+/// Its own type rather than a [`Link`](crate::model::id::Link): "any" is no sequence, and
+/// nothing here can be read as one by mistake. All-zero bytes are "nothing", so an empty
+/// sequencer stays all zeros.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct JoinWait(u16);
+
+impl JoinWait {
+    pub(crate) const NOTHING: JoinWait = JoinWait(0);
+    /// Above every sequence's value (a sequence `i` is `i + 1`, at most 256).
+    pub(crate) const ANY_END: JoinWait = JoinWait(u16::MAX);
+
+    pub(crate) const fn end_of(target: SeqId) -> JoinWait {
+        JoinWait(target.0 as u16 + 1)
+    }
+
+    /// Whether the end of `target`'s run releases this joiner.
+    pub(crate) fn released_by(self, target: SeqId) -> bool {
+        self == JoinWait::end_of(target) || self == JoinWait::ANY_END
+    }
+}
+
 /// One registered sequence's state: 44 bytes on a 32-bit target (with its cleanup-hook slot
 /// 48), so a sequencer for 32 sequences needs 1.5 KiB plus its sets and polling classes.
 ///
@@ -147,8 +171,8 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_exception: Link,
     pub(crate) timeout_restart_limit: u8,
     pub(crate) timeout_restarts: u8,
-    /// The sequence whose run this one waits for in a join.
-    pub(crate) joins: Link,
+    /// What this sequence waits for in a join.
+    pub(crate) joins: JoinWait,
     /// Its [polling class](crate::tick::schedule) (the class holds the period).
     pub(crate) class: u8,
     /// Its `PauseOwner` monitors whose condition holds in this run: while any does, it
@@ -187,7 +211,7 @@ impl ControlBlock {
         timeout_exception: Link::NONE,
         timeout_restart_limit: 0,
         timeout_restarts: 0,
-        joins: Link::NONE,
+        joins: JoinWait::NOTHING,
         class: 0,
         monitor_holds: 0,
     };
@@ -354,8 +378,8 @@ mod tests {
     fn an_unregistered_block_reads_as_idle_and_unlinked() {
         let b = ControlBlock::UNREGISTERED;
         assert_eq!(
-            (b.state, b.caller.get(), b.joins.get()),
-            (RunningState::Idle, None, None)
+            (b.state, b.caller.get(), b.joins),
+            (RunningState::Idle, None, JoinWait::NOTHING)
         );
         assert_eq!(
             (ControlBlock::IDLE.lane, ControlBlock::IDLE.outcome),

@@ -4,7 +4,7 @@
 //! the end of a run releases every joiner of it and wakes their lanes. So any number of
 //! sequences can join one run.
 
-use crate::model::id::Link;
+use crate::sequencer::control_block::JoinWait;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
@@ -13,16 +13,16 @@ use crate::SeqId;
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// `joiner` waits for the end of the run of `target`. An action may wait in several
     /// joins at once (joins raced with `select`, or joined): a joiner already waiting for
-    /// another target waits for any end ([`Link::ANY`]) until it is released, so the end
+    /// another target waits for any end until it is released, so the end
     /// of neither run is missed (a spurious wake-up costs one poll).
     pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
         let joining = self.sets.has(Set::Joining, joiner);
         if let Some(b) = self.block_mut(joiner) {
-            let link = Link::to(Some(target));
-            b.joins = if joining && b.joins != link {
-                Link::ANY
+            let wait = JoinWait::end_of(target);
+            b.joins = if joining && b.joins != wait {
+                JoinWait::ANY_END
             } else {
-                link
+                wait
             };
             self.sets.put(Set::Joining, joiner, true);
         }
@@ -32,10 +32,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// of its joins may still be pending (the next end releases it).
     pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) {
         if let Some(b) = self.block_mut(joiner) {
-            if b.joins == Link::ANY {
+            if b.joins == JoinWait::ANY_END {
                 return;
             }
-            b.joins = Link::NONE;
+            b.joins = JoinWait::NOTHING;
         }
         self.sets.put(Set::Joining, joiner, false);
     }
@@ -48,8 +48,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             let Some(b) = self.block_mut(j) else {
                 continue;
             };
-            if b.joins == Link::to(Some(target)) || b.joins == Link::ANY {
-                b.joins = Link::NONE;
+            if b.joins.released_by(target) {
+                b.joins = JoinWait::NOTHING;
                 lanes = lanes.with(LaneSet::of(b.lane));
                 self.sets.put(Set::Joining, j, false);
             }
