@@ -257,7 +257,10 @@ where
     unsafe {
         let action = &mut *addr_of_mut!((*fw).action);
         let future = action.get_or_insert_with(|| {
-            ((*fw).make)(body_of::<C, S, F, M>(NonNull::new_unchecked(fw.cast())), &*addr_of!((*fw).run.cx))
+            ((*fw).make)(
+                body_of::<C, S, F, M>(NonNull::new_unchecked(fw.cast())),
+                &*addr_of!((*fw).run.cx),
+            )
         });
         let done = Pin::new_unchecked(future).poll(w);
         if done.is_ready() {
@@ -313,6 +316,17 @@ where
                 .run
                 .poll(w, &*addr_of!((*(*this).seq.as_ptr()).head), body)
         }
+    }
+}
+
+/// A lane dropped while it waits for a start gives up a start made but not taken: this
+/// is where the object's head is at hand (the run's own `Drop` covers the other stages).
+impl<C, S, F, M> Drop for SequenceRun<'_, '_, C, S, F, M> {
+    fn drop(&mut self) {
+        // SAFETY: `seq` is the run's `&'s mut Seq<S>`, live until the run is dropped, and
+        // only its head is borrowed here, shared (invariant 6).
+        let head = unsafe { &*addr_of!((*self.seq.as_ptr()).head) };
+        self.run.drop_waiting_lane(head);
     }
 }
 

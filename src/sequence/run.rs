@@ -267,6 +267,17 @@ impl<'a, C> Run<'a, C> {
         }
     }
 
+    /// The future of a lane is dropped (an executor shut down): if it waits for a start, a
+    /// start made but not taken is aborted, as in a dropped run ([`Port::abandon_start`];
+    /// `head`, the object's, says whether the object is this sequencer's). The rest of a
+    /// dropped run is `Drop`'s, which has no head.
+    pub(crate) fn drop_waiting_lane(&self, head: &SeqHead) {
+        if self.stage.get() == Stage::Idle {
+            self.port()
+                .abandon_start(self.cx.id(), head.maker, self.cx.control());
+        }
+    }
+
     /// A run's whole poll; `Ready` with a blocking run's result once it is handed over.
     /// `head` is the sequence object's head (the tag of the sequencer that made it, and
     /// where a blocking run leaves its result); the future that borrows the object passes
@@ -313,7 +324,7 @@ impl<C> Drop for Run<'_, C> {
             | Stage::ExitCondition
             | Stage::AwaitPoll => port.abandon(self.cx.id(), self.cx.control()),
             Stage::Ended => port.finished(self.run()),
-            // Not started, waiting for a start, or over.
+            // Not started or over; a lane waiting for a start is `drop_waiting_lane`'s.
             Stage::Idle | Stage::Begin | Stage::HandOver | Stage::Done => {}
         }
     }

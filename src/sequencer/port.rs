@@ -69,6 +69,11 @@ pub(crate) trait Port<C> {
     /// and not taken yet, which no one would drive once that lane is gone, and it is
     /// aborted too.
     fn abandon(&self, id: SeqId, control: &C);
+    /// The lane of `id`, whose sequence object was made by the sequencer tagged `maker`,
+    /// was dropped while it waited for a start: a start made but not taken is aborted as
+    /// in [`abandon`](Self::abandon), since only a future holding that object could take
+    /// it. The lane of another sequencer's object changes nothing here.
+    fn abandon_start(&self, id: SeqId, maker: u16, control: &C);
     /// Finds or claims `id`'s lane slot.
     fn declare_lane(&self, id: SeqId) -> Result<u8, Error>;
     /// A lane's wait for a start of `id`, whose sequence object was made by the sequencer
@@ -180,6 +185,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     fn abandon(&self, id: SeqId, control: &C) {
         self.abort_dropped(control, id);
+    }
+
+    fn abandon_start(&self, id: SeqId, maker: u16, control: &C) {
+        let pending = self
+            .with(|s| s.tag == maker && s.block(id).is_some_and(|b| b.has(flag::START_PENDING)));
+        if pending {
+            self.abort_dropped(control, id);
+        }
     }
 
     fn declare_lane(&self, id: SeqId) -> Result<u8, Error> {
