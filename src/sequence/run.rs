@@ -41,7 +41,8 @@
 //!
 //! A held sequence (paused, or handling an exception) stays at its await point; an aborted
 //! one never runs another line of its action (sticky abort). A run whose future is dropped
-//! before it ended is abandoned ([`Port::abandon`]): aborted with its sub-sequences.
+//! before it ended is abandoned ([`Port::abandon`]): aborted with its sub-sequences; a lane
+//! dropped in `Idle` gives up a start made but not taken ([`Port::abandon_start`]).
 //!
 //! Every port call of a run names the run it drives (a [`RunId`], taken at its start and
 //! kept in its [`Cx`]): a lane of higher priority may start the sequence again after an
