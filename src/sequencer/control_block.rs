@@ -112,7 +112,7 @@ mod pending {
 /// What a joiner waits for, kept in its control block: nothing, the end of one
 /// sequence's run, or, while it waits in several joins at once, any end.
 ///
-/// Its own type rather than a [`Link`](crate::model::id::Link): "any" is no sequence, and
+/// Its own type rather than a [`Link`]: "any" is no sequence, and
 /// nothing here can be read as one by mistake. All-zero bytes are "nothing", so an empty
 /// sequencer stays all zeros.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
