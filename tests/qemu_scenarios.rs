@@ -645,8 +645,8 @@ fn firmware_sizes_with_and_without_rtseq() {
     // stopped caller starts nothing, a join keeps its run and knows when its outcome is
     // lost, PauseOwner holds are counted and kept through a caller's resume, a late tick
     // still aborts, a run knows which run of its sequence it drives, an exception
-    // sequence's end is reported by the tick, a dropped run's teardown walks again;
-    // docs/footprint.md): held to known ceilings of 12.5 KiB (scenarios) and 13.5 KiB
+    // sequence's end is reported by the tick, a dropped run's teardown walks again, and
+    // session 30's joins and dropped idle lanes; docs/footprint.md): held to known ceilings of 12.5 KiB (scenarios) and 13.5 KiB
     // (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
