@@ -327,3 +327,79 @@ fn an_abort_reaches_a_child_that_outlived_its_caller() {
         );
     }
 }
+
+/// In a sequencer of two words: O (id 0, polled every 10 ms) has a monitor that fires at
+/// 10 ms with exception sequence E (id 1, polled every millisecond, an idle class). X (id
+/// 40, word 1, polled every 10 ms) runs meanwhile. E's start into its idle class starts
+/// the grid: its first poll comes one period after the start (semantics 1), at 11 ms,
+/// where its exit condition (flag 2, from 11 ms) ends it. The tick visits word 1 after
+/// word 0 started E; that word's scan must not forget E's first poll (the due time it set).
+#[test]
+fn an_exception_sequence_started_in_an_earlier_word_is_polled_one_period_after_its_start() {
+    // With the portable lock (short sections) and a coarse one (one section per scan).
+    let locked: Sequencer<Ctrl, 64, 64, CriticalSection, 8, 2> = Sequencer::new();
+    exception_sequence_in_an_earlier_word(&locked);
+    let single: Sequencer<Ctrl, 64, 64, rtseq::lock::SingleThread, 8, 2> =
+        Sequencer::single_thread();
+    exception_sequence_in_an_earlier_word(&single);
+}
+
+fn exception_sequence_in_an_earlier_word<L: rtseq::lock::Lock>(
+    seq: &Sequencer<Ctrl, 64, 64, L, 8, 2>,
+) {
+    let ctrl = Ctrl::default();
+    let slow = Duration::from_millis(10);
+    let o = seq
+        .add(SeqConfig::new("O").polling(slow), Node::of(vec![]).until(1))
+        .unwrap();
+    let e = seq
+        .add(
+            SeqConfig::new("E").polling(Duration::from_millis(1)),
+            Node::of(vec![]).until(2),
+        )
+        .unwrap();
+    while seq.len() < 40 {
+        let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
+        seq.register(SeqConfig::new(name)).unwrap();
+    }
+    let x = seq
+        .add(SeqConfig::new("X").polling(slow), Node::of(vec![]).until(1))
+        .unwrap();
+    let (oi, ei, xi) = (o.id(), e.id(), x.id());
+    assert_eq!(xi, SeqId::from_index(40));
+    let mut fault = |c: &Ctrl, _| c.flag(3);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    monitors
+        .add(
+            oi,
+            Monitor::new("fault", &mut fault, Behaviour::Nothing).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(seq, &ctrl, monitors);
+    sim.lane(o);
+    sim.lane(e);
+    sim.lane(x);
+    sim.before_tick(|t, c| {
+        c.set(3, ms(t) >= 10);
+        c.set(2, ms(t) >= 11);
+    });
+    sim.start(oi).unwrap();
+    sim.start(xi).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(15_000));
+    let f = Mon(MonitorId::from_index(0));
+    let of_e: Vec<Transition> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == ei)
+        .copied()
+        .collect();
+    assert_eq!(
+        of_e,
+        [
+            tr(10, ei, Idle, Running, f),
+            tr(11, ei, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+}

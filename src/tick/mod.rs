@@ -328,14 +328,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// in one section; otherwise one short section per class and per armed timeout.
     #[inline(always)]
     fn scan(&self, w: usize, now: Stamp, scan: &mut Scan) -> Polls<B> {
-        let next_due = |ahead: u32| now.plus(ahead.min(NEVER_AHEAD));
+        // After the first word, the earlier of what this scan found and what the work in
+        // the earlier words set (an exception sequence started there, into an idle class,
+        // is due one period after its start, which no later word's scan sees).
+        let next_due = |scan: &mut Scan, set: Stamp| {
+            let found = now.plus(scan.ahead.min(NEVER_AHEAD));
+            let later_word = core::mem::replace(&mut scan.visited, true);
+            if later_word {
+                now.first_of(found, set)
+            } else {
+                found
+            }
+        };
         if L::COARSE {
             return self.with(|s| {
                 let due = s
                     .polling
                     .classes
                     .scan_all(now, s.sets.word(Set::Active, w), scan);
-                s.polling.next_due = next_due(scan.ahead);
+                s.polling.next_due = next_due(scan, s.polling.next_due);
                 let (mut polls, timed) = s.take_polls(due);
                 polls.expired = s.expired(timed, now).bits();
                 polls
@@ -351,7 +362,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }));
         }
         let (mut polls, timed) = self.with(|s| {
-            s.polling.next_due = next_due(scan.ahead);
+            s.polling.next_due = next_due(scan, s.polling.next_due);
             s.take_polls(due)
         });
         for id in timed {
