@@ -461,3 +461,62 @@ fn a_feed_whose_caller_is_paused_resumes_with_its_caller() {
         ]
     );
 }
+
+/// The cycle's curtain (5 to 20 ms) pauses the cycle and the feed it blocks. The operator
+/// asks at 7 ms to resume the feed (it has no hold of its own, so the request is taken).
+/// The feed is frozen by its paused caller (the caller's run does not poll it), so it must
+/// stay paused, its clock stopped, and resume with its caller (semantics 7: a sequence
+/// whose own hold ends while the caller it blocks is paused resumes with that caller).
+/// With a 10 ms timeout (5 ms used before the curtain) it completes at 22 ms (7 ms of
+/// run time). Today the request resumes the feed alone: its clock runs while it is frozen
+/// and its timeout aborts it at 13 ms, under the paused cycle.
+#[test]
+fn a_resume_request_of_a_feed_frozen_by_its_paused_caller_resumes_it_with_the_caller() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let f = seq
+        .add(
+            SeqConfig::new("feed").timeout(Duration::from_millis(10)),
+            Node::of(vec![]).until(1),
+        )
+        .unwrap();
+    let fi = f.id();
+    let cycle = seq
+        .add(SeqConfig::new("cycle"), Node::of(vec![Op::Run(f)]))
+        .unwrap();
+    let c = cycle.id();
+    let mut on_curtain = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    monitors
+        .add(
+            c,
+            Monitor::new("curtain", &mut on_curtain, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(cycle);
+    sim.before_tick(move |t, ctrl| {
+        ctrl.set(1, ms(t) >= 22);
+        ctrl.set(2, (5..20).contains(&ms(t)));
+    });
+    sim.start(c).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(7_000));
+    assert_eq!(sim.resume(fi), Ok(()));
+    sim.run_until(rtseq::Instant::from_ticks(30_000));
+    let curtain = Mon(MonitorId::from_index(0));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(0, fi, Idle, Running, Start),
+            tr(5, c, Running, Paused, curtain),
+            tr(5, fi, Running, Paused, curtain),
+            tr(20, c, Paused, Running, curtain),
+            tr(20, fi, Paused, Running, curtain),
+            tr(22, fi, Running, Terminated, Completed),
+            tr(22, c, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+}

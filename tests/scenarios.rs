@@ -447,7 +447,9 @@ fn pause_freezes_the_timeout_and_resume_continues_at_the_same_point() {
     sim.pause(ai).unwrap(); // applied by the tick at 4 ms: A and the step it waits for
     sim.run_until(rtseq::Instant::from_ticks(20_000));
     assert_eq!(sim.state(si), Paused);
-    assert_eq!(sim.resume(si), Ok(())); // a paused step may be resumed on its own too
+    // A paused step may be resumed on its own too: the request is taken, and the step,
+    // frozen by the paused caller it blocks, resumes with that caller (semantics 7).
+    assert_eq!(sim.resume(si), Ok(()));
     sim.resume(ai).unwrap(); // at 21 ms; 6 ms of the timeout are left
     assert_eq!(
         sim.run_until_idle(Duration::from_millis(40)).map(ms),
@@ -456,8 +458,8 @@ fn pause_freezes_the_timeout_and_resume_continues_at_the_same_point() {
     let mut want = started(0, &[mi, ai, si]);
     want.push(tr(4, ai, Running, Paused, Cause::Pause));
     want.push(tr(4, si, Running, Paused, Cause::Pause));
-    want.push(tr(21, si, Paused, Running, Cause::Resume));
     want.push(tr(21, ai, Paused, Running, Cause::Resume));
+    want.push(tr(21, si, Paused, Running, Cause::Resume));
     want.extend(aborted(27, &[si], Timeout(si)));
     want.extend(completed(27, &[ai, mi]));
     assert_trace(sim.trace(), &want);

@@ -207,6 +207,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             let (to, cause) = match req {
                 Some(Request::Abort) => (RunningState::Aborting, Cause::Abort),
                 Some(Request::Pause) => (RunningState::Paused, Cause::Pause),
+                // A sequence frozen by the paused caller it blocks resumes with that
+                // caller (its clock stays stopped meanwhile): the request lifted its own
+                // pause, if any.
+                Some(Request::Resume) if self.with(|s| s.stays_paused(id)) => continue,
                 Some(Request::Resume) => (RunningState::Running, Cause::Resume),
                 None => continue,
             };
