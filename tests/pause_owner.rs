@@ -520,3 +520,52 @@ fn a_resume_request_of_a_feed_frozen_by_its_paused_caller_resumes_it_with_the_ca
         show(sim.trace())
     );
 }
+
+/// The operator pauses the cycle (at 2 ms); the curtain, with its alarm as exception
+/// sequence, breaks at 5 ms while the cycle is paused. Monitors stay active while their
+/// owner is paused (semantics 3), and when a `PauseOwner` monitor's condition becomes
+/// true its exception sequence starts (semantics 7): the alarm must run at 5 ms, and the
+/// monitor counts as fired. Today the alarm does not run (the owner was not running).
+#[test]
+fn a_curtain_broken_while_the_operator_paused_the_cycle_still_sounds_its_alarm() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let cycle = seq
+        .add(SeqConfig::new("cycle"), Node::of(vec![]).until(1))
+        .unwrap();
+    let c = cycle.id();
+    let alarm = seq.add(SeqConfig::new("alarm"), Node::of(vec![])).unwrap();
+    let a = alarm.id();
+    let mut curtain = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(
+            c,
+            Monitor::new("curtain", &mut curtain, Behaviour::PauseOwner).exception(a),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(cycle);
+    sim.lane(alarm);
+    sim.before_tick(|t, ctrl| ctrl.set(2, (5..8).contains(&ms(t))));
+    sim.start(c).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(2_000));
+    sim.pause(c).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(12_000));
+    sim.resume(c).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(20_000));
+    let k = Mon(MonitorId::from_index(0));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(3, c, Running, Paused, rtseq::Cause::Pause),
+            tr(5, a, Idle, Running, k),
+            tr(5, a, Running, Terminated, Completed),
+            tr(13, c, Paused, Running, rtseq::Cause::Resume),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(sim.monitors().fired(m), 1);
+}

@@ -78,9 +78,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// A `PauseOwner` monitor's condition became true: `owner` and the sequences it blocks
-    /// are paused, and its exception sequence (if any) starts in its lane. No exception is
-    /// marked: the owner's other monitors keep firing. True when the owner was running and
-    /// is now paused.
+    /// are paused (a paused owner stays paused, now held by the monitor too), and its
+    /// exception sequence (if any) starts in its lane. No exception is marked: the owner's
+    /// other monitors keep firing. True when the owner was active (running or paused).
     pub(crate) fn hold(
         &self,
         control: &C,
@@ -88,7 +88,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         cause: Cause,
         exception: Option<SeqId>,
     ) -> bool {
-        let running = self.with(|s| {
+        let active = self.with(|s| {
             let b = s.block_mut(owner)?;
             // Its monitors are evaluated only while it is running or paused.
             b.monitor_holds = b.monitor_holds.saturating_add(1);
@@ -97,16 +97,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 count: b.runs,
             };
             let running = b.state == RunningState::Running;
-            if running {
+            let active = States::ACTIVE_RUNNING.has(b.state);
+            if active {
                 s.record(Event::Fired {
                     owner,
                     cause,
                     behaviour: Behaviour::PauseOwner,
                 });
             }
-            running.then_some(run)
+            active.then_some((run, running))
         });
-        let Some(run) = running else {
+        let Some((run, running)) = active else {
             return false;
         };
         if let Some(e) = exception {
@@ -114,7 +115,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 self.with(|s| s.exception_not_run(e, owner, why));
             }
         }
-        self.walk(control, Some(owner), RunningState::Paused, cause);
+        if running {
+            self.walk(control, Some(owner), RunningState::Paused, cause);
+        }
         true
     }
 
