@@ -160,7 +160,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(never)]
     pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) {
         let any = self.with(|s| {
-            let any = !s.sets.is_empty(Set::Active);
+            // Active, or restarting (not active: its lane has not run it again yet; with
+            // several words, among the live ones).
+            let restarting = |b: &ControlBlock| b.state == RunningState::Restarting;
+            let any = !s.sets.is_empty(Set::Active)
+                || if B == 1 {
+                    s.registered().any(restarting)
+                } else {
+                    let live = s.sets.members(Set::Live);
+                    live.into_iter()
+                        .any(|id| s.block(id).is_some_and(restarting))
+                };
             if any {
                 s.record(Event::AbortAll { by });
             }
@@ -430,6 +440,71 @@ mod tests {
             states_after_tick(2),
             [RunningState::Aborted, RunningState::Aborted]
         );
+    }
+
+    /// O's monitor restarts it (`RestartOwner`) in a tick; before O's lane has run it again
+    /// (a lane starved for a tick), an abort-all comes (the safety system entering an
+    /// emergency level). The next tick must abort O: a `Restarting` sequence is under way
+    /// (an abort request of it is accepted), and the emergency bound says every sequence
+    /// is aborted in that tick. Today the abort-all looks only at the active (running or
+    /// paused) sequences, finds none, and does nothing: O's lane then runs it again.
+    #[test]
+    fn an_abort_all_aborts_a_sequence_whose_lane_has_not_restarted_it_yet() {
+        let seq: Sequencer<(), 4> = Sequencer::new();
+        let [o] = in_lanes(&seq, ["O"], 1);
+        let mut fault = |_: &(), _: Instant| true;
+        let mut monitors = Monitors::<(), 1>::new();
+        monitors
+            .add(
+                o,
+                Monitor::new("fault", &mut fault, Behaviour::RestartOwner),
+            )
+            .unwrap();
+        seq.tick(Instant::from_ticks(1_000), &(), &mut monitors)
+            .unwrap();
+        assert_eq!(seq.state_of_for_test(o), RunningState::Restarting);
+        seq.abort_all();
+        let mut none = Monitors::<(), 1>::new();
+        seq.tick(Instant::from_ticks(2_000), &(), &mut none)
+            .unwrap();
+        assert_eq!(seq.state_of_for_test(o), RunningState::Aborted);
+        // Its lane, when it runs at last, finds the run over.
+        let waker = core::task::Waker::noop();
+        let run = Port::take_start(&seq, o, 0, waker);
+        assert_eq!(run, None);
+    }
+
+    /// The same in a sequencer of two words, O in the second.
+    #[test]
+    fn an_abort_all_aborts_a_restarting_sequence_in_a_sequencer_of_two_words() {
+        use crate::lock::CriticalSection;
+        let seq: Sequencer<(), 64, 64, CriticalSection, 8, 2> = Sequencer::new();
+        let names = [
+            "s0", "s1", "s2", "s3", "s4", "s5", "s6", "s7", "s8", "s9", "s10", "s11", "s12", "s13",
+            "s14", "s15", "s16", "s17", "s18", "s19", "s20", "s21", "s22", "s23", "s24", "s25",
+            "s26", "s27", "s28", "s29", "s30", "s31", "s32", "s33", "s34", "O",
+        ];
+        let ids = names.map(|n| seq.register(SeqConfig::new(n)).unwrap());
+        let o = ids[35];
+        let h = seq.sequence_by_id(o).unwrap();
+        h.declare_lane().unwrap();
+        h.start().unwrap();
+        let mut fault = |_: &(), _: Instant| true;
+        let mut monitors = Monitors::<(), 1>::new();
+        monitors
+            .add(
+                o,
+                Monitor::new("fault", &mut fault, Behaviour::RestartOwner),
+            )
+            .unwrap();
+        seq.tick(Instant::from_ticks(1_000), &(), &mut monitors)
+            .unwrap();
+        assert_eq!(seq.state_of_for_test(o), RunningState::Restarting);
+        seq.abort_all();
+        let mut none = Monitors::<(), 1>::new();
+        seq.tick(Instant::from_ticks(2_000), &(), &mut none)
+            .unwrap();
+        assert_eq!(seq.state_of_for_test(o), RunningState::Aborted);
     }
 
     impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
