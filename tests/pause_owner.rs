@@ -569,3 +569,24 @@ fn a_curtain_broken_while_the_operator_paused_the_cycle_still_sounds_its_alarm()
     );
     assert_eq!(sim.monitors().fired(m), 1);
 }
+
+/// Curtain A is broken from 5 to 10 ms, curtain B from 10 to 20 ms: at 10 ms A clears in
+/// the same tick as B breaks. The cycle stays paused from 5 to 20 ms: when A clears, B
+/// holds (semantics 7: it resumes once no other `PauseOwner` monitor holds). Today the
+/// tick handles A's release before B's hold (table order): the trace shows the cycle
+/// resumed and paused again at 10 ms.
+#[test]
+fn a_curtain_that_clears_in_the_tick_another_breaks_does_not_resume_the_cycle() {
+    let (trace, c) = curtains(|t| (5..10).contains(&t), |t| (10..20).contains(&t), &[]);
+    let (a, b) = (Mon(MonitorId::from_index(0)), Mon(MonitorId::from_index(1)));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(5, c, Running, Paused, a),
+            tr(20, c, Paused, Running, b),
+        ],
+        "{}",
+        show(&trace)
+    );
+}

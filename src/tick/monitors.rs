@@ -60,6 +60,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         now: Instant,
     ) -> bool {
         let mut fired = false;
+        // `PauseOwner` monitors whose condition cleared, by id: released after every
+        // firing of this evaluation, so that another monitor of the same owner that holds
+        // from now on (later in the table) keeps it paused rather than paused again.
+        let mut releases = [0u32; 8];
         let due = polls.due();
         let w = due.index();
         // Due owners whose monitors keep their edge state: a group of only these, all in
@@ -100,12 +104,36 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let firing = g.firing(values) & evaluated;
                 g.last = values;
                 if firing != 0 {
-                    self.fire_group(g, members, firing, control);
+                    self.fire_group(g, members, firing, control, &mut releases);
                     fired = true;
                 }
             }
         }
+        if fired {
+            self.release_all(monitors, &releases, control);
+        }
         fired
+    }
+
+    /// The releases of `PauseOwner` monitors (bit `i % 32` of word `i / 32`: monitor `i`)
+    /// found by an evaluation, in table order.
+    #[inline(never)]
+    fn release_all<const M: usize, K>(
+        &self,
+        monitors: &Monitors<'_, C, M, K>,
+        releases: &[u32; 8],
+        control: &C,
+    ) {
+        for (w, &bits) in releases.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let i = w * 32 + bits.trailing_zeros() as usize;
+                bits &= bits.wrapping_sub(1);
+                if let Some(m) = monitors.entries.get(i) {
+                    self.release(control, m.owner, Cause::Monitor(MonitorId::from_index(i)));
+                }
+            }
+        }
     }
 
     /// Monitors of `group` triggered (`firing`, bits as in [`Group`]; the group's `last`
@@ -118,13 +146,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         members: &mut [OwnedMonitor<'_, C, K>],
         firing: u32,
         control: &C,
+        releases: &mut [u32; 8],
     ) {
         // The group's first monitor holds its highest bit.
         let mut bit = group.first_bit();
         let mut id = group.start;
         for monitor in members.iter_mut() {
             if firing & bit != 0 {
-                self.fire(monitor, MonitorId(id), group.last & bit != 0, control);
+                let holds = group.last & bit != 0;
+                if monitor.def.behaviour == Behaviour::PauseOwner && !holds {
+                    // Released after this evaluation's firings.
+                    if let Some(w) = releases.get_mut(usize::from(id / 32)) {
+                        *w |= 1 << (id % 32);
+                    }
+                } else {
+                    self.fire(monitor, MonitorId(id), holds, control);
+                }
             }
             bit >>= 1;
             id = id.wrapping_add(1);
@@ -132,7 +169,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// A monitor triggered (its condition now `holds` or not): raise its exception, or, for
-    /// `PauseOwner`, hold or release its owner.
+    /// a `PauseOwner` monitor whose condition holds, hold its owner.
     fn fire<K>(
         &self,
         monitor: &mut OwnedMonitor<'_, C, K>,
@@ -142,10 +179,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) {
         let def = &monitor.def;
         if def.behaviour == Behaviour::PauseOwner {
+            // Its condition now holds (a release is made by `release_all`).
             let (owner, cause) = (monitor.owner, Cause::Monitor(id));
-            if !holds {
-                self.release(control, owner, cause);
-            } else if self.hold(control, owner, cause, def.exception) {
+            if holds && self.hold(control, owner, cause, def.exception) {
                 monitor.fired = monitor.fired.wrapping_add(1);
             }
             return;
