@@ -159,25 +159,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// abort-all while it lasts asks at every cycle).
     #[inline(never)]
     pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) {
-        let any = self.with(|s| {
-            // Active, or restarting (not active: its lane has not run it again yet; with
-            // several words, among the live ones).
-            let restarting = |b: &ControlBlock| b.state == RunningState::Restarting;
-            let any = !s.sets.is_empty(Set::Active)
-                || if B == 1 {
-                    s.registered().any(restarting)
-                } else {
-                    let live = s.sets.members(Set::Live);
-                    live.into_iter()
-                        .any(|id| s.block(id).is_some_and(restarting))
-                };
-            if any {
-                s.record(Event::AbortAll { by });
-            }
-            any
+        if !self.any_under_way() {
+            return;
+        }
+        self.with(|s| s.record(Event::AbortAll { by }));
+        self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+    }
+
+    /// Whether a run is under way: a sequence is active, or restarting (not active: its
+    /// lane has not run it again yet). While nothing is active, one short section per
+    /// candidate: every registered sequence, or with several words the live ones.
+    fn any_under_way(&self) -> bool {
+        let (active, live, count) = self.with(|s| {
+            (
+                !s.sets.is_empty(Set::Active),
+                s.sets.members(Set::Live),
+                s.count(),
+            )
         });
-        if any {
-            self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+        if active {
+            return true;
+        }
+        let restarting = |id: SeqId| self.with(|s| s.state_of(id)) == RunningState::Restarting;
+        if B == 1 {
+            (0..count).map(SeqId::from_index).any(restarting)
+        } else {
+            live.into_iter().any(restarting)
         }
     }
 
