@@ -1230,3 +1230,39 @@ fn a_start_into_a_busy_polling_class_joins_its_grid() {
         "an idle class: one period after the start at 13"
     );
 }
+
+/// `Handle::set_timeout` during a run applies at once to the run's armed timeout, as
+/// EEROS's `setTimeoutTime` does: A runs under a 10 ms timeout; at 2 ms the timeout is
+/// switched off (A is not aborted at 10 ms, where 0.1 aborted it at its next poll, reading
+/// the 0 as "expired"); at 20 ms it is set to 25 ms, measured from the run's start, so A is
+/// aborted at 25 ms.
+#[test]
+fn a_timeout_set_during_a_run_applies_to_that_run_at_once() {
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let a = seq
+        .add(
+            SeqConfig::new("A").timeout(Duration::from_millis(10)),
+            Node::of(vec![]).until(1),
+        )
+        .unwrap();
+    let ai = a.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(a);
+    sim.start(ai).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(2_000));
+    assert_eq!(sim.handle(ai).unwrap().set_timeout(None), Ok(()));
+    sim.run_until(rtseq::Instant::from_ticks(20_000));
+    assert_eq!(sim.state(ai), Running);
+    let later = Some(Duration::from_millis(25));
+    assert_eq!(sim.handle(ai).unwrap().set_timeout(later), Ok(()));
+    sim.run_until(rtseq::Instant::from_ticks(40_000));
+    assert_trace(
+        sim.trace(),
+        &[
+            tr(0, ai, Idle, Running, Start),
+            tr(25, ai, Running, Aborting, Timeout(ai)),
+            tr(25, ai, Aborting, Aborted, Timeout(ai)),
+        ],
+    );
+}

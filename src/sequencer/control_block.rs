@@ -265,7 +265,8 @@ impl ControlBlock {
     /// Whether the armed timeout has run out at `now` (paused time not counted).
     #[inline]
     pub(crate) fn timed_out(&self, now: Stamp) -> bool {
-        self.run_time(now) >= self.timeout
+        // Switched off during the run (`Handle::set_timeout(None)`): never.
+        self.timeout != 0 && self.run_time(now) >= self.timeout
     }
 
     /// The registered name ("" only for an unregistered slot, which no reader reaches).

@@ -531,8 +531,10 @@ impl<'a, C> Handle<'a, C> {
         self.port.request(self.id, Request::Abort, self.by)
     }
 
-    /// Sets (or with `None` switches off) the timeout monitor; it applies from the next
-    /// start or restart, like EEROS's `setTimeoutTime`. The limits are
+    /// Sets (or with `None` switches off) the timeout monitor, like EEROS's
+    /// `setTimeoutTime`: at once for a run under way whose timeout is armed (measured from
+    /// its start, paused time not counted; `None` switches it off for that run too),
+    /// otherwise from the next start or restart. The limits are
     /// [`SeqConfig::timeout`](crate::SeqConfig::timeout)'s.
     ///
     /// ```
