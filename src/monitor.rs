@@ -516,6 +516,7 @@ impl<'a, C, K> Monitor<'a, C, K> {
             restarts: 0,
             target_runs_seen: 0,
             fired: 0,
+            releasing: false,
         }
     }
 }
@@ -555,6 +556,9 @@ pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) target_runs_seen: u16,
     /// How often this monitor fired.
     pub(crate) fired: u16,
+    /// A `PauseOwner` monitor whose condition cleared in the evaluation under way: its
+    /// owner is released once that evaluation's holds are done (`release_pending`).
+    pub(crate) releasing: bool,
 }
 
 /// Most monitors in one [`Group`] (its bit sets are words).
@@ -847,6 +851,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             restarts: 0,
             target_runs_seen: 0,
             fired: 0,
+            releasing: false,
         };
         if holds_overflow(&self.entries, &entry) {
             return Err(Error::PauseOwnerMonitorsExceeded(owner));

@@ -60,10 +60,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         now: Instant,
     ) -> bool {
         let mut fired = false;
-        // `PauseOwner` monitors whose condition cleared, by id: released after every
-        // firing of this evaluation, so that another monitor of the same owner that holds
-        // from now on (later in the table) keeps it paused rather than paused again.
-        let mut releases = [0u32; 8];
+        // A `PauseOwner` monitor's condition cleared: its release waits for the end of
+        // the evaluation, so that another monitor of the same owner that holds from now
+        // on (later in the table) keeps the owner paused rather than paused again.
+        let mut releasing = false;
         let due = polls.due();
         let w = due.index();
         // Due owners whose monitors keep their edge state: a group of only these, all in
@@ -104,41 +104,33 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let firing = g.firing(values) & evaluated;
                 g.last = values;
                 if firing != 0 {
-                    self.fire_group(g, members, firing, control, &mut releases);
+                    releasing |= self.fire_group(g, members, firing, control);
                     fired = true;
                 }
             }
         }
-        if fired {
-            self.release_all(monitors, &releases, control);
+        if releasing {
+            self.release_pending(monitors.entries.as_mut_slice(), control);
         }
         fired
     }
 
-    /// The releases of `PauseOwner` monitors (bit `i % 32` of word `i / 32`: monitor `i`)
-    /// found by an evaluation, in table order.
+    /// Releases the owners of the `PauseOwner` monitors whose condition cleared in this
+    /// evaluation, in table order (out of the hot loop: only after such a monitor fired).
     #[inline(never)]
-    fn release_all<const M: usize, K>(
-        &self,
-        monitors: &Monitors<'_, C, M, K>,
-        releases: &[u32; 8],
-        control: &C,
-    ) {
-        for (w, &bits) in releases.iter().enumerate() {
-            let mut bits = bits;
-            while bits != 0 {
-                let i = w * 32 + bits.trailing_zeros() as usize;
-                bits &= bits.wrapping_sub(1);
-                if let Some(m) = monitors.entries.get(i) {
-                    self.release(control, m.owner, Cause::Monitor(MonitorId::from_index(i)));
-                }
+    fn release_pending<K>(&self, entries: &mut [OwnedMonitor<'_, C, K>], control: &C) {
+        for (i, m) in entries.iter_mut().enumerate() {
+            if m.releasing {
+                m.releasing = false;
+                self.release(control, m.owner, Cause::Monitor(MonitorId::from_index(i)));
             }
         }
     }
 
     /// Monitors of `group` triggered (`firing`, bits as in [`Group`]; the group's `last`
     /// holds this evaluation's values): raise their exceptions in table order (out of the
-    /// hot loop).
+    /// hot loop). A `PauseOwner` monitor whose condition cleared is marked `releasing`
+    /// instead; true when one was.
     #[inline(never)]
     fn fire_group<K>(
         &self,
@@ -146,8 +138,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         members: &mut [OwnedMonitor<'_, C, K>],
         firing: u32,
         control: &C,
-        releases: &mut [u32; 8],
-    ) {
+    ) -> bool {
+        let mut releasing = false;
         // The group's first monitor holds its highest bit.
         let mut bit = group.first_bit();
         let mut id = group.start;
@@ -155,10 +147,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if firing & bit != 0 {
                 let holds = group.last & bit != 0;
                 if monitor.def.behaviour == Behaviour::PauseOwner && !holds {
-                    // Released after this evaluation's firings.
-                    if let Some(w) = releases.get_mut(usize::from(id / 32)) {
-                        *w |= 1 << (id % 32);
-                    }
+                    monitor.releasing = true;
+                    releasing = true;
                 } else {
                     self.fire(monitor, MonitorId(id), holds, control);
                 }
@@ -166,6 +156,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             bit >>= 1;
             id = id.wrapping_add(1);
         }
+        releasing
     }
 
     /// A monitor triggered (its condition now `holds` or not): raise its exception, or, for
