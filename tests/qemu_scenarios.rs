@@ -363,12 +363,13 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
         firing(256) * 2 < firing(8) * 3,
         "a firing with 256 registered costs less than 1.5 times one with 8"
     );
-    // Rounded to the nearest per cent, as the firmware prints it.
+    // Rounded to the nearest per cent, as the firmware prints it. Known ceiling 120 %
+    // since session 30's fixes (docs/footprint.md).
     budget(
         "tick 8 x 4 due with 256 registered, in % of the same with 8 registered",
         (f(8, 256) * 200 / f(8, 8)).div_ceil(2),
         110,
-        117,
+        120,
     );
 }
 
@@ -641,24 +642,24 @@ fn firmware_sizes_with_and_without_rtseq() {
     // The README's firmware (the motor controller) and the scenario suite's (one set-up per
     // scenario, each building its tree by value: their moves into `Seq`s are rtseq's lines).
     // Budgets (ceilings, not targets): the sequencer's code 12 KiB, the safety system's
-    // 2 KiB. The sequencer's code misses its budget by the fixes of sessions 27 to 29 (a
+    // 2 KiB. The sequencer's code misses its budget by the fixes of sessions 27 to 30 (a
     // stopped caller starts nothing, a join keeps its run and knows when its outcome is
     // lost, PauseOwner holds are counted and kept through a caller's resume, a late tick
     // still aborts, a run knows which run of its sequence it drives, an exception
     // sequence's end is reported by the tick, a dropped run's teardown walks again, and
-    // session 30's joins and dropped idle lanes; docs/footprint.md): held to known ceilings of 12.5 KiB (scenarios) and 13.5 KiB
-    // (demo).
+    // the nine defects of session 30's reviews; docs/footprint.md): held to known
+    // ceilings of 13 KiB (scenarios) and 14 KiB (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
         12 * 1024,
-        12 * 1024 + 512,
+        13 * 1024,
     );
     budget(
         "rtseq's sequencer code in the demo firmware [bytes]",
         demo_code.rtseq - demo_code.safety,
         12 * 1024,
-        13 * 1024 + 512,
+        14 * 1024,
     );
     budget(
         "rtseq's safety-system code in the demo firmware [bytes]",

@@ -180,11 +180,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if !late {
                 s.now = now;
             }
+            let any_due = stamp.reached(s.polling.next_due);
+            if B > 1 && any_due && !late {
+                // The words' scans bring it forward again (see `scan`).
+                s.polling.next_due = stamp.plus(NEVER_AHEAD);
+            }
             s.changes = s.changes.wrapping_add(1);
             (
                 late,
                 !s.sets.is_empty(Set::Requested),
-                stamp.reached(s.polling.next_due),
+                any_due,
                 !s.sets.is_empty(Set::Changed),
                 s.sets.words(Set::Active),
             )
@@ -328,16 +333,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// in one section; otherwise one short section per class and per armed timeout.
     #[inline(always)]
     fn scan(&self, w: usize, now: Stamp, scan: &mut Scan) -> Polls<B> {
-        // After the first word, the earlier of what this scan found and what the work in
-        // the earlier words set (an exception sequence started there, into an idle class,
+        // With several words a scan only brings the next due time forward: the tick's
+        // first section put it off to the horizon, and the work in an earlier word may
+        // have brought it forward since (an exception sequence started into an idle class
         // is due one period after its start, which no later word's scan sees).
-        let next_due = |scan: &mut Scan, set: Stamp| {
+        let next_due = |scan: &Scan, set: Stamp| {
             let found = now.plus(scan.ahead.min(NEVER_AHEAD));
-            let later_word = core::mem::replace(&mut scan.visited, true);
-            if later_word {
-                now.first_of(found, set)
-            } else {
+            if B == 1 {
                 found
+            } else {
+                now.first_of(found, set)
             }
         };
         if L::COARSE {

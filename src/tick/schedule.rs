@@ -45,10 +45,6 @@ pub(crate) struct Scan {
     /// Time from now to the next poll of a class with an active member (µs; `u32::MAX`
     /// when there is none).
     pub(crate) ahead: u32,
-    /// A word of the sets was scanned in this tick: the next due time a later word's scan
-    /// finds must not replace the one an earlier word's work set (an exception sequence
-    /// started into an idle class polls one period after its start).
-    pub(crate) visited: bool,
 }
 
 impl Scan {
@@ -57,7 +53,6 @@ impl Scan {
         Scan {
             due_classes: 0,
             ahead: u32::MAX,
-            visited: false,
         }
     }
 }
