@@ -322,14 +322,17 @@ fn simulate(p: &Plan) -> Outcome {
         };
     }
     sim.run_until(Instant::from_ticks(150_000));
-    // Let go: no monitor condition holds, every exit condition does, everything resumed.
+    // Let go: no monitor condition holds, every exit condition does; once the monitors
+    // have seen that (a resume request is refused while a monitor holds), everything is
+    // resumed.
     for f in 0..12 {
         ctrl.set(f, f < 8);
     }
+    sim.run_until(Instant::from_ticks(200_000));
     for k in 0..seq.len() {
         let _ = sim.resume(SeqId::from_index(k));
     }
-    sim.run_until(Instant::from_ticks(400_000));
+    sim.run_until(Instant::from_ticks(450_000));
     let restless = (0..seq.len())
         .map(SeqId::from_index)
         .map(|id| (id, sim.state(id)))
