@@ -588,7 +588,9 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
     /// So a new level's inputs, action and outputs run in the cycle it is
     /// entered, and an event triggered before cycle *n* (by a sequence, or
     /// by an input or action in cycle *n − 1*) has its level's outputs
-    /// applied and its sequences aborted in cycle *n*.
+    /// applied and its sequences aborted in cycle *n*, for *n* ≥ 2: the
+    /// first cycle only enters the entry level, and events triggered
+    /// before it wait for the second.
     ///
     /// Bounded: O(levels' inputs + outputs) without events, plus
     /// O(pending events × transition rows) when events are pending. See

@@ -12,7 +12,8 @@ extern crate std;
 /// Two free-running counters, of records written and read: a push (inside the
 /// transition's critical section) is one record store at `written mod T` and one
 /// increment, with no test for a full ring. A reader that falls more than `T` records
-/// behind finds the oldest overwritten and counts them as lost.
+/// behind finds the oldest overwritten and counts them as lost; one 2³² or more behind
+/// cannot tell (the counters wrap), which `Sequencer::drain_records` documents.
 pub(crate) struct Ring<const T: usize> {
     buf: [Record; T],
     /// Records pushed since the start (wrapping).
