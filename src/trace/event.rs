@@ -82,8 +82,9 @@ pub enum Event {
         by: Requester,
     },
     /// A run of `sequence` failed: its action returned `Err(failure)`. The transition
-    /// `Running → Terminated` (cause [`Cause::Failed`]) just before says when; the other
-    /// outcomes are told by their transitions alone.
+    /// `Running → Terminated` (cause [`Cause::Failed`]) before it says when (usually just
+    /// before; a tick or lane of higher priority that preempts the end may record in
+    /// between); the other outcomes are told by their transitions alone.
     Failed {
         /// The sequence whose run failed.
         sequence: SeqId,
