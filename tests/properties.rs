@@ -153,10 +153,19 @@ struct Outcome {
 }
 
 #[allow(clippy::needless_range_loop)] // node indices are ids: index loops read best
-fn simulate(p: &Plan) -> Outcome {
+/// Simulates plan `p` in a sequencer of capacity `N` (sets of `B` words) in which `offset`
+/// sequences, never started, come before the tree: with `B > 1` and an offset near 32 the
+/// tree spans two words of the sets.
+fn simulate<const N: usize, const B: usize>(p: &Plan, offset: usize) -> Outcome {
     // Up to 24 lanes (main, non-blocking children, exception sequences): `W` = 24.
-    let seq: Sequencer<Ctrl, 24, 256, rtseq::lock::CriticalSection, 24> = Sequencer::new();
+    let seq: Sequencer<Ctrl, N, 256, rtseq::lock::CriticalSection, 24, B> = Sequencer::new();
     let ctrl = Ctrl::default();
+    for k in 0..offset {
+        let name: &'static str = Box::leak(format!("pad{k}").into_boxed_str());
+        seq.register(SeqConfig::new(name)).unwrap();
+    }
+    // Node `i`'s id.
+    let node = |i: usize| SeqId::from_index(offset + i);
     let n = p.nodes.len() + 1; // node 0 is the main sequence
                                // Shape: kinds, parents, depths.
     let mut is_step = vec![false; n];
@@ -172,7 +181,7 @@ fn simulate(p: &Plan) -> Outcome {
         is_step[i] = np.is_step;
         non_blocking[i] = !np.is_step && np.non_blocking;
     }
-    // Register in index order: SeqId(i) == node i.
+    // Register in index order: node `i` is `node(i)`.
     let mut built: Vec<Option<Built>> = Vec::new();
     for i in 0..n {
         let np = if i == 0 { None } else { Some(&p.nodes[i - 1]) };
@@ -223,7 +232,7 @@ fn simulate(p: &Plan) -> Outcome {
     let mut ops: Vec<Vec<Op>> = (0..n).map(|_| Vec::new()).collect();
     for i in (1..n).rev() {
         let par = parent[i].unwrap();
-        let id = SeqId::from_index(i);
+        let id = node(i);
         let mut child_ops = std::mem::take(&mut ops[i]);
         child_ops.reverse();
         let b = built[i].take().unwrap();
@@ -263,11 +272,10 @@ fn simulate(p: &Plan) -> Outcome {
                 as Box<dyn rtseq::Condition<Ctrl> + Send>
         })
         .collect();
-    let seq_nodes: Vec<usize> = (0..n).collect();
     let mut monitors: Monitors<Ctrl, 8> = Monitors::new();
     let mut behaviours = Vec::new();
     for ((mp, cond), exc) in p.monitors.iter().zip(conds.iter_mut()).zip(&exception_ids) {
-        let owner = SeqId::from_index(seq_nodes[mp.owner_pick % n]);
+        let owner = node(mp.owner_pick % n);
         let b = BEHAVIOURS[mp.behaviour];
         let mut m = Monitor::new("m", cond.as_mut(), b)
             .restart_limit(mp.limit)
@@ -309,7 +317,7 @@ fn simulate(p: &Plan) -> Outcome {
     sim.start(mid).unwrap();
     for (t, e) in &p.events {
         sim.run_until(Instant::from_ticks(t * 1000));
-        let pick = |k: usize| SeqId::from_index(k % n);
+        let pick = |k: usize| node(k % n);
         let _ = match e {
             Event::Pause(k) => sim.pause(pick(*k)),
             Event::Resume(k) => sim.resume(pick(*k)),
@@ -349,9 +357,11 @@ fn simulate(p: &Plan) -> Outcome {
         assert_lines_ran_live(&ctrl)
     }))
     .map_err(|_| "an action line ran while its sequence was not live".to_string());
-    let mut parent_ids: Vec<Option<SeqId>> =
-        parent.iter().map(|p| p.map(SeqId::from_index)).collect();
-    parent_ids.resize(seq.len(), None);
+    // The parent of each sequence, by id.
+    let mut parent_ids: Vec<Option<SeqId>> = vec![None; seq.len()];
+    for (i, p) in parent.iter().enumerate() {
+        parent_ids[offset + i] = p.map(node);
+    }
     Outcome {
         trace,
         lines_ok,
@@ -366,8 +376,14 @@ fn simulate(p: &Plan) -> Outcome {
     }
 }
 
+/// The invariants, in a sequencer of one word and in one whose sets have two words (the
+/// tree across ids 28 to 40 at most, its exception sequences after).
 fn check(p: &Plan) -> Result<(), TestCaseError> {
-    let o = simulate(p);
+    check_outcome(simulate::<24, 1>(p, 0))?;
+    check_outcome(simulate::<64, 2>(p, 28))
+}
+
+fn check_outcome(o: Outcome) -> Result<(), TestCaseError> {
     prop_assert!(!o.stalled, "a lane livelocked");
     prop_assert_eq!(o.lost, 0);
     prop_assert!(
