@@ -468,8 +468,8 @@ fn a_feed_whose_caller_is_paused_resumes_with_its_caller() {
 /// stay paused, its clock stopped, and resume with its caller (semantics 7: a sequence
 /// whose own hold ends while the caller it blocks is paused resumes with that caller).
 /// With a 10 ms timeout (5 ms used before the curtain) it completes at 22 ms (7 ms of
-/// run time). Today the request resumes the feed alone: its clock runs while it is frozen
-/// and its timeout aborts it at 13 ms, under the paused cycle.
+/// run time). Before session 30 the request resumed the feed alone: its clock ran while it
+/// was frozen and its timeout aborted it at 13 ms, under the paused cycle.
 #[test]
 fn a_resume_request_of_a_feed_frozen_by_its_paused_caller_resumes_it_with_the_caller() {
     let seq: Sequencer<Ctrl, 8> = Sequencer::new();
@@ -525,7 +525,8 @@ fn a_resume_request_of_a_feed_frozen_by_its_paused_caller_resumes_it_with_the_ca
 /// sequence, breaks at 5 ms while the cycle is paused. Monitors stay active while their
 /// owner is paused (semantics 3), and when a `PauseOwner` monitor's condition becomes
 /// true its exception sequence starts (semantics 7): the alarm must run at 5 ms, and the
-/// monitor counts as fired. Today the alarm does not run (the owner was not running).
+/// monitor counts as fired. Before session 30 the alarm did not run (the owner was not
+/// running).
 #[test]
 fn a_curtain_broken_while_the_operator_paused_the_cycle_still_sounds_its_alarm() {
     let seq: Sequencer<Ctrl, 8> = Sequencer::new();
@@ -572,9 +573,9 @@ fn a_curtain_broken_while_the_operator_paused_the_cycle_still_sounds_its_alarm()
 
 /// Curtain A is broken from 5 to 10 ms, curtain B from 10 to 20 ms: at 10 ms A clears in
 /// the same tick as B breaks. The cycle stays paused from 5 to 20 ms: when A clears, B
-/// holds (semantics 7: it resumes once no other `PauseOwner` monitor holds). Today the
-/// tick handles A's release before B's hold (table order): the trace shows the cycle
-/// resumed and paused again at 10 ms.
+/// holds (semantics 7: it resumes once no other `PauseOwner` monitor holds). Before
+/// session 30 the tick handled A's release before B's hold (table order): the trace
+/// showed the cycle resumed and paused again at 10 ms.
 #[test]
 fn a_curtain_that_clears_in_the_tick_another_breaks_does_not_resume_the_cycle() {
     let (trace, c) = curtains(|t| (5..10).contains(&t), |t| (10..20).contains(&t), &[]);

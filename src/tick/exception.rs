@@ -453,8 +453,9 @@ mod tests {
     /// (a lane starved for a tick), an abort-all comes (the safety system entering an
     /// emergency level). The next tick must abort O: a `Restarting` sequence is under way
     /// (an abort request of it is accepted), and the emergency bound says every sequence
-    /// is aborted in that tick. Today the abort-all looks only at the active (running or
-    /// paused) sequences, finds none, and does nothing: O's lane then runs it again.
+    /// is aborted in that tick. Before session 30 the abort-all looked only at the active
+    /// (running or paused) sequences, found none, and did nothing: O's lane then ran it
+    /// again.
     #[test]
     fn an_abort_all_aborts_a_sequence_whose_lane_has_not_restarted_it_yet() {
         let seq: Sequencer<(), 4> = Sequencer::new();
