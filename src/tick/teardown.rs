@@ -364,8 +364,8 @@ mod tests {
     /// one section to see that, then O's stop, and no second walk. The tick preempts the
     /// lane between the two: O, still running, has its monitor fire, and the tick starts E
     /// below O (caller O). Nothing started below a sequence outlives its abort (semantics
-    /// 9, defect 3): E must be aborted with O (`Dropped`). Today the walk returns false
-    /// after O's stop, `abort_dropped` stops, and E runs on below the aborted O.
+    /// 9, defect 3): E must be aborted with O (`Dropped`). Before its fix the walk returned
+    /// false after O's stop, `abort_dropped` stopped, and E ran on below the aborted O.
     #[test]
     fn an_exception_sequence_the_tick_starts_during_a_dropped_runs_shortcut_walk_is_torn_down() {
         let seq: &'static Sequencer<(), 4, 64, Interleaved> =
