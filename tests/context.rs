@@ -52,10 +52,16 @@ fn two_polled_conditions_awaited_at_once_both_end() {
 /// (20 ms, semantics 1: "polls keep the grid of their polling class"), not use the poll
 /// of 10 ms it never took, at 14 ms.
 #[test]
-#[ignore = "defect: pending"]
 fn a_poll_held_by_an_exception_is_not_taken_off_the_grid_when_it_clears() {
+    // With the portable lock (short sections) and a coarse one (one section).
+    let locked: Sequencer<Ctrl, 8, 64> = Sequencer::new();
+    held_poll(&locked);
+    let single: Sequencer<Ctrl, 8, 64, rtseq::lock::SingleThread> = Sequencer::single_thread();
+    held_poll(&single);
+}
+
+fn held_poll<L: rtseq::lock::Lock>(seq: &Sequencer<Ctrl, 8, 64, L>) {
     use rtseq::{Behaviour, Monitor, Wait};
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
     let ctrl = Ctrl::default();
     let s = seq
         .add(
@@ -82,7 +88,7 @@ fn a_poll_held_by_an_exception_is_not_taken_off_the_grid_when_it_clears() {
             Monitor::new("fault", &mut fault, Behaviour::Nothing).exception(ei),
         )
         .unwrap();
-    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    let mut sim = Sim::new(seq, &ctrl, monitors);
     sim.lane(m);
     sim.lane(e);
     sim.before_tick(|t, c| {

@@ -283,9 +283,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 // One section: the held check walks the callers inside it.
                 self.update_and_wake(|s| {
                     let wake = if careful || s.careful() {
+                        let unheld = s.unheld(polls.wake());
+                        // A held sequence misses this poll: its mark goes, else it would
+                        // take the poll off its grid once it is let go.
+                        s.sets.remove_all(Set::PollDue, polls.wake().minus(unheld));
                         // A sequence whose state changed in this tick is not woken
                         // for its poll: the change woke its lane.
-                        s.unheld(polls.wake().minus(s.sets.word(Set::Changed, polls.word)))
+                        unheld.minus(s.sets.word(Set::Changed, polls.word))
                     } else {
                         polls.wake()
                     };
@@ -395,12 +399,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if held {
             // A sequence whose state changed in this tick is not woken for its poll: the
             // change woke its lane.
-            return self.lanes_of_polls(wake.minus(changed), true);
+            return self.lanes_of_polls(wake, true, changed);
         }
         if let Some(lanes) = remembered {
             return lanes;
         }
-        let lanes = self.lanes_of_polls(wake, false);
+        let lanes = self.lanes_of_polls(wake, false, SetWord::empty(wake.index()));
         self.with(|s| {
             if s.polling.forgotten == forgotten {
                 s.polling.woken = WakeMemo { polls: wake, lanes };
@@ -410,15 +414,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// With a portable lock: the lanes whose polled condition is due, except those held
-    /// (checked only when `careful`: after a monitor fired or while something is held), in
-    /// short sections. A lane whose waker is the one just found (lanes joined in one task,
-    /// in id order) is not woken again; a task woken twice is still polled once.
+    /// (checked only when `careful`: after a monitor fired or while something is held),
+    /// which miss this poll (their mark goes, else they would take it off their grid once
+    /// let go), and those in `changed`, in short sections. A lane whose waker is the one
+    /// just found (lanes joined in one task, in id order) is not woken again; a task woken
+    /// twice is still polled once.
     #[inline(never)]
-    fn lanes_of_polls(&self, wake: SetWord<B>, careful: bool) -> LaneSet {
+    fn lanes_of_polls(&self, wake: SetWord<B>, careful: bool, changed: SetWord<B>) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
         let mut woken = NO_WAKER;
         for id in wake {
             if careful && self.held(id) {
+                self.with(|s| s.sets.remove(Set::PollDue, id));
+                continue;
+            }
+            if changed.has(id) {
                 continue;
             }
             let (lane, waker) = self.with(|s| {
