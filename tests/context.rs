@@ -25,7 +25,6 @@ impl Sequence<Ctrl> for Both {
 }
 
 #[test]
-#[ignore = "defect: pending"]
 fn two_polled_conditions_awaited_at_once_both_end() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
@@ -147,4 +146,31 @@ fn a_start_into_a_class_whose_last_member_just_ended_starts_a_new_grid() {
     };
     assert_eq!(ended(ai), vec![13], "{}", show(sim.trace()));
     assert_eq!(ended(bi), vec![23], "{}", show(sim.trace()));
+}
+
+/// A guard that never holds raced against the condition awaited (`select`): the second
+/// is checked at every poll too, and the action goes on at 4 ms.
+struct Guarded;
+impl Sequence<Ctrl> for Guarded {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let _ = embassy_futures::select::select(
+            cx.wait_until(|cx| cx.control().flag(3)),
+            cx.wait_until(|cx| cx.control().flag(0)),
+        )
+        .await;
+        Ok(())
+    }
+}
+
+#[test]
+fn a_polled_condition_raced_against_one_that_never_holds_ends() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let guarded = seq.add(SeqConfig::new("guarded"), Guarded).unwrap();
+    let id = guarded.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(guarded);
+    sim.before_tick(|t, c| c.set(0, ms(t) >= 4));
+    sim.start(id).unwrap();
+    assert_eq!(sim.run_until_idle(Duration::from_millis(50)).map(ms), Some(4));
 }

@@ -71,7 +71,15 @@ pub struct Cx<'a, C> {
     /// The run of this sequence the context acts for (its count): set when the run
     /// starts, fixed while its action runs.
     run: Cell<u16>,
+    /// The polled waits ([`wait_until`](Self::wait_until)) of its action under way (bits 0
+    /// to 6), and [`DUE_TAKEN`]: one of them took the run's due poll in the action's
+    /// current poll, so the others check their conditions at that poll too (the run
+    /// clears it before each poll of the action). In the context's padding.
+    waits: Cell<u8>,
 }
+
+/// Bit of [`Cx::waits`]: a polled wait took the due poll in the action's current poll.
+const DUE_TAKEN: u8 = 1 << 7;
 
 impl<'a, C> Cx<'a, C> {
     pub(crate) fn new(port: &'a dyn Port<C>, control: &'a C, id: SeqId) -> Self {
@@ -80,7 +88,13 @@ impl<'a, C> Cx<'a, C> {
             control,
             id,
             run: Cell::new(0),
+            waits: Cell::new(0),
         }
+    }
+
+    /// A new poll of the action: no polled wait has taken a due poll in it yet.
+    pub(crate) fn next_poll(&self) {
+        self.waits.set(self.waits.get() & !DUE_TAKEN);
     }
 
     /// The run this context acts for: every await point and start of its action names
@@ -491,26 +505,18 @@ impl<'a, C> Cx<'a, C> {
     /// assert_eq!(ctrl.at.get(), 4_000);
     /// # }
     /// ```
+    ///
+    /// Several polled waits of one action may be awaited at once (`select`, `join`): each
+    /// checks its condition at every due poll.
     pub fn wait_until<'s, F: FnMut(&Self) -> bool + 's>(
         &'s self,
-        mut condition: F,
+        condition: F,
     ) -> impl Future<Output = ()> + use<'s, 'a, C, F> {
-        let mut first = true;
-        poll_fn(move |w| {
-            let run = self.run_id();
-            let go = if core::mem::take(&mut first) {
-                self.port.set_poll_wait(run, true);
-                self.port.clearance(run, w.waker()) == Clearance::Go
-            } else {
-                self.port.due_poll(run, w.waker()) == Clearance::Go
-            };
-            if go && condition(self) {
-                self.port.set_poll_wait(run, false);
-                Poll::Ready(())
-            } else {
-                Poll::Pending
-            }
-        })
+        WaitUntil {
+            cx: self,
+            condition,
+            stage: WaitStage::New,
+        }
     }
 
     /// The seed's `getSafetySystem()`: trigger public events, read the level.
@@ -624,5 +630,93 @@ impl<'a, C> Cx<'a, C> {
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'a, C>> {
         let id = self.port.find(name)?;
         Some(Handle::for_sequence(self.port, id, self.id))
+    }
+}
+
+/// Where a [`Cx::wait_until`] stands.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum WaitStage {
+    /// Not polled yet.
+    New,
+    /// Counted among its context's polled waits.
+    Waiting,
+    /// Its condition held, or it was dropped.
+    Done,
+}
+
+/// The future of [`Cx::wait_until`]. The run waits for polls while any of its action's
+/// polled waits does (counted in [`Cx::waits`]): the first one to start sets that, the
+/// last one to end or be dropped clears it.
+struct WaitUntil<'s, 'a, C, F> {
+    cx: &'s Cx<'a, C>,
+    condition: F,
+    stage: WaitStage,
+}
+
+// Nothing of it is pinned: the condition is only called through `&mut`.
+impl<C, F> Unpin for WaitUntil<'_, '_, C, F> {}
+
+impl<C, F> WaitUntil<'_, '_, C, F> {
+    /// It no longer waits: the last polled wait of the action to end stops the polls.
+    fn finish(&mut self) {
+        if self.stage == WaitStage::Waiting {
+            let cx = self.cx;
+            let waits = cx.waits.get();
+            let left = (waits & !DUE_TAKEN).saturating_sub(1);
+            cx.waits.set((waits & DUE_TAKEN) | left);
+            if left == 0 {
+                cx.port.set_poll_wait(cx.run_id(), false);
+            }
+        }
+        self.stage = WaitStage::Done;
+    }
+}
+
+impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
+    type Output = ();
+
+    fn poll(self: core::pin::Pin<&mut Self>, w: &mut core::task::Context<'_>) -> Poll<()> {
+        let this = self.get_mut();
+        let cx = this.cx;
+        let (port, run) = (cx.port, cx.run_id());
+        let go = match this.stage {
+            WaitStage::Done => return Poll::Ready(()),
+            WaitStage::New => {
+                this.stage = WaitStage::Waiting;
+                let waits = cx.waits.get();
+                let count = waits & !DUE_TAKEN;
+                cx.waits
+                    .set((waits & DUE_TAKEN) | count.saturating_add(1).min(!DUE_TAKEN));
+                if count == 0 {
+                    port.set_poll_wait(run, true);
+                }
+                port.clearance(run, w.waker()) == Clearance::Go
+            }
+            // Another polled wait took this poll: check at it too.
+            WaitStage::Waiting if cx.waits.get() & DUE_TAKEN != 0 => {
+                port.clearance(run, w.waker()) == Clearance::Go
+            }
+            WaitStage::Waiting => {
+                let due = port.due_poll(run, w.waker()) == Clearance::Go;
+                if due {
+                    cx.waits.set(cx.waits.get() | DUE_TAKEN);
+                }
+                due
+            }
+        };
+        if go && (this.condition)(cx) {
+            this.finish();
+            Poll::Ready(())
+        } else {
+            Poll::Pending
+        }
+    }
+}
+
+/// A polled wait dropped before its condition held (the loser of a `select`) no longer
+/// waits.
+impl<C, F> Drop for WaitUntil<'_, '_, C, F> {
+    fn drop(&mut self) {
+        self.finish();
     }
 }

@@ -249,6 +249,7 @@ impl<'a, C> Run<'a, C> {
     fn act(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
         match self.port().clearance(self.run(), w.waker()) {
             Clearance::Go => {
+                self.cx.next_poll();
                 match body.advance(&self.cx, w) {
                     Poll::Pending => return Poll::Pending,
                     Poll::Ready(Ok(())) => self.stage.set(Stage::ActionDone),
