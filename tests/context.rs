@@ -174,3 +174,48 @@ fn a_polled_condition_raced_against_one_that_never_holds_ends() {
     sim.start(id).unwrap();
     assert_eq!(sim.run_until_idle(Duration::from_millis(50)).map(ms), Some(4));
 }
+
+static EXIT_CHECKS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// A step whose action is preempted by a tick that aborts everything (here the action
+/// ticks the sequencer itself after an abort-all, as the timer interrupt would).
+struct Preempted(&'static Sequencer<(), 4>);
+impl rtseq::Step<()> for Preempted {
+    fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        self.0.abort_all();
+        let tick = self.0.tick(
+            rtseq::Instant::from_ticks(1_000),
+            &(),
+            &mut Monitors::<(), 1>::new(),
+        );
+        assert_eq!(tick, Ok(()));
+        Ok(())
+    }
+    fn check_exit_condition(&mut self, _cx: &Cx<'_, ()>) -> bool {
+        EXIT_CHECKS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        true
+    }
+}
+
+/// The step is aborted while its action runs: its exit condition is not checked
+/// afterwards (semantics 4: nothing of an aborted run advances).
+#[test]
+fn an_exit_condition_is_not_checked_after_an_abort_during_the_action() {
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    let step = SEQ.add(SeqConfig::new("step"), Preempted(&SEQ)).unwrap();
+    let id = step.id();
+    struct Main(rtseq::Seq<Preempted>);
+    impl Sequence<()> for Main {
+        async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            let _ = cx.step(&mut self.0).await;
+            Ok(())
+        }
+    }
+    let main = SEQ.add(SeqConfig::new("main"), Main(step)).unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&SEQ, &(), Monitors::<(), 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    assert_eq!(sim.state(id), rtseq::RunningState::Aborted);
+    assert_eq!(EXIT_CHECKS.load(std::sync::atomic::Ordering::SeqCst), 0);
+}
