@@ -119,7 +119,10 @@ fn a_start_into_a_class_whose_last_member_just_ended_starts_a_new_grid() {
     let slow = Duration::from_millis(10);
     let c = seq.add(SeqConfig::new("C"), Leaf::until(0)).unwrap();
     let a = seq
-        .add(SeqConfig::new("A").polling(slow), Node::of(vec![Op::Step(c)]))
+        .add(
+            SeqConfig::new("A").polling(slow),
+            Node::of(vec![Op::Step(c)]),
+        )
         .unwrap();
     let b = seq
         .add(SeqConfig::new("B").polling(slow), Leaf::until(1))
@@ -172,7 +175,10 @@ fn a_polled_condition_raced_against_one_that_never_holds_ends() {
     sim.lane(guarded);
     sim.before_tick(|t, c| c.set(0, ms(t) >= 4));
     sim.start(id).unwrap();
-    assert_eq!(sim.run_until_idle(Duration::from_millis(50)).map(ms), Some(4));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)).map(ms),
+        Some(4)
+    );
 }
 
 static EXIT_CHECKS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
