@@ -159,22 +159,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// After the schedule, before the commit: the tick scans by the first poll of `id`'s
-    /// run starting now (its class's next poll; an idle class starts its grid now). A
-    /// member that ended since the tick last folded the states (off its grid, e.g. its
-    /// action returned at another class's poll) does not keep the class busy.
+    /// run starting now (its class's next poll; an idle class starts its grid now).
     fn due_by(&mut self, id: SeqId) {
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
-        let (sets, blocks) = (&self.sets, &self.blocks);
-        let next = self.polling.classes.resume(class, now, |members| {
-            sets.meets(Set::Active, members)
-                && (*members).into_iter().any(|m| {
-                    sets.has(Set::Active, m)
-                        && blocks
-                            .get(m.index())
-                            .is_some_and(|b| States::ACTIVE_RUNNING.has(b.state))
-                })
-        });
+        let sets = &self.sets;
+        let next = self
+            .polling
+            .classes
+            .resume(class, now, |members| sets.meets(Set::Active, members));
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 

@@ -41,7 +41,7 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// unique among the first 65 535 sequencers of a program. A sequence object carries
     /// it, so that a lane or a blocking start refuses the object of another sequencer.
     pub(crate) tag: u16,
-    pub(crate) blocks: [ControlBlock; N],
+    blocks: [ControlBlock; N],
     /// Each sequence's cleanup hook (`SeqConfig::on_abort`).
     pub(crate) hooks: [Option<fn(&C)>; N],
     #[cfg(feature = "counters")]
