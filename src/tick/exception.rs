@@ -460,22 +460,7 @@ mod tests {
     fn an_abort_all_aborts_a_sequence_whose_lane_has_not_restarted_it_yet() {
         let seq: Sequencer<(), 4> = Sequencer::new();
         let [o] = in_lanes(&seq, ["O"], 1);
-        let mut fault = |_: &(), _: Instant| true;
-        let mut monitors = Monitors::<(), 1>::new();
-        monitors
-            .add(
-                o,
-                Monitor::new("fault", &mut fault, Behaviour::RestartOwner),
-            )
-            .unwrap();
-        seq.tick(Instant::from_ticks(1_000), &(), &mut monitors)
-            .unwrap();
-        assert_eq!(seq.state_of_for_test(o), RunningState::Restarting);
-        seq.abort_all();
-        let mut none = Monitors::<(), 1>::new();
-        seq.tick(Instant::from_ticks(2_000), &(), &mut none)
-            .unwrap();
-        assert_eq!(seq.state_of_for_test(o), RunningState::Aborted);
+        restart_then_abort_all(&seq, o);
         // Its lane, when it runs at last, finds the run over.
         let waker = core::task::Waker::noop();
         let run = Port::take_start(&seq, o, 0, waker);
@@ -487,16 +472,28 @@ mod tests {
     fn an_abort_all_aborts_a_restarting_sequence_in_a_sequencer_of_two_words() {
         use crate::lock::CriticalSection;
         let seq: Sequencer<(), 64, 64, CriticalSection, 8, 2> = Sequencer::new();
-        let names = [
+        // Names are unique: 35 before O, so that O is in the second word.
+        let pads = [
             "s0", "s1", "s2", "s3", "s4", "s5", "s6", "s7", "s8", "s9", "s10", "s11", "s12", "s13",
             "s14", "s15", "s16", "s17", "s18", "s19", "s20", "s21", "s22", "s23", "s24", "s25",
-            "s26", "s27", "s28", "s29", "s30", "s31", "s32", "s33", "s34", "O",
+            "s26", "s27", "s28", "s29", "s30", "s31", "s32", "s33", "s34",
         ];
-        let ids = names.map(|n| seq.register(SeqConfig::new(n)).unwrap());
-        let o = ids[35];
+        for name in pads {
+            seq.register(SeqConfig::new(name)).unwrap();
+        }
+        let o = seq.register(SeqConfig::new("O")).unwrap();
         let h = seq.sequence_by_id(o).unwrap();
         h.declare_lane().unwrap();
         h.start().unwrap();
+        restart_then_abort_all(&seq, o);
+    }
+
+    /// Running `o`: its monitor restarts it in a tick at 1 ms; an abort-all before its lane
+    /// has run it again is carried out by the tick at 2 ms.
+    fn restart_then_abort_all<const N: usize, L: Lock, const W: usize, const B: usize>(
+        seq: &Sequencer<(), N, 64, L, W, B>,
+        o: SeqId,
+    ) {
         let mut fault = |_: &(), _: Instant| true;
         let mut monitors = Monitors::<(), 1>::new();
         monitors
