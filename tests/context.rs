@@ -112,11 +112,7 @@ fn held_poll<L: rtseq::lock::Lock>(seq: &Sequencer<Ctrl, 8, 64, L>) {
 /// there (no exit condition), off its grid; M starts B at once, before any tick. The 10 ms
 /// class has no active member then: B's start starts a new grid, its first poll one period
 /// after the start (semantics 1), at 23 ms. B's exit condition (flag 1) holds from 14 ms.
-/// Not fixed yet: the class's activity is the set `Active` as of the tick's last fold, and
-/// testing each member's state at the start made the start's section 99 instructions long
-/// (budget 50).
 #[test]
-#[ignore = "defect: a start into a class whose last member just ended joins the old grid"]
 fn a_start_into_a_class_whose_last_member_just_ended_starts_a_new_grid() {
     let seq: Sequencer<Ctrl, 8> = Sequencer::new();
     let ctrl = Ctrl::default();

@@ -296,12 +296,6 @@ impl<const B: usize> Sets<B> {
             && (B == 1 || self.words(set).without(Words::of(id)).is_empty())
     }
 
-    /// Whether `set` and `other` share an id.
-    pub(crate) fn meets(&self, set: Set, other: &SeqSet<B>) -> bool {
-        self.words(set)
-            .any(|w| self.word(set, w).meets(other.word(w)))
-    }
-
     /// The ids of `set`, as a set on its own.
     pub(crate) fn members(&self, set: Set) -> SeqSet<B> {
         let mut out = SeqSet::EMPTY;

@@ -10,6 +10,7 @@
 
 use crate::lock::Lock;
 use crate::model::id::{Link, RunId};
+use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::cut_and_depth;
@@ -158,16 +159,37 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         self.sets.put(Set::PollWait, id, false);
     }
 
+    /// For [`class_busy`]: whether a member of `id`'s polling class that was active at the
+    /// tick's last fold has not changed since (then its run is still active and the class
+    /// keeps its grid), and, if none, the members active at the fold that changed since,
+    /// whose states must be looked at.
+    fn class_activity(&self, id: SeqId) -> (bool, SeqSet<B>) {
+        let class = self.block(id).map_or(0, |b| b.class);
+        let members = self.polling.classes.members(class);
+        let mut changed = SeqSet::EMPTY;
+        for w in self.sets.words(Set::Active) {
+            let active = self.sets.word(Set::Active, w).and(members.word(w));
+            let since = self.sets.word(Set::Changed, w);
+            if !active.minus(since).is_empty() {
+                return (true, SeqSet::EMPTY);
+            }
+            changed.insert_all(active.and(since));
+        }
+        (false, changed)
+    }
+
     /// After the schedule, before the commit: the tick scans by the first poll of `id`'s
-    /// run starting now (its class's next poll; an idle class starts its grid now).
-    fn due_by(&mut self, id: SeqId) {
+    /// run starting now: its class's next poll if the class is `busy` (see
+    /// [`class_busy`]), else one period from now (the class starts its grid).
+    fn due_by(&mut self, id: SeqId, busy: bool) {
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
-        let sets = &self.sets;
-        let next = self
-            .polling
-            .classes
-            .resume(class, now, |members| sets.meets(Set::Active, members));
+        let classes = &mut self.polling.classes;
+        let next = if busy {
+            classes.next_poll(class, now)
+        } else {
+            classes.start_grid(class, now)
+        };
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 
@@ -248,6 +270,31 @@ fn admit<
     })
 }
 
+/// Whether the polling class of `id` has a member whose run is under way (`Running`,
+/// `Paused`, or between them: `Restarting`, `Aborting`) among those active at the tick's
+/// last fold: a start of `id` then joins the class's grid; else the class starts a new
+/// one. A member that ended since the fold (in the same lane poll as this start, before
+/// the next tick) no longer holds the grid. One section for the members that did not
+/// change since the fold, then one per member that did; a transition in between makes
+/// the commit schedule again.
+fn class_busy<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+) -> bool {
+    let (settled, changed) = s.section(|s| s.class_activity(id));
+    settled
+        || changed
+            .into_iter()
+            .any(|m| s.section(|s| States::LIVE.has(s.state_of(m))))
+}
+
 /// Schedules and commits a new run of `id` from a state that is not active; again if a
 /// tick ran in between (it may have rescanned without the new run, or changed its state
 /// or its caller's: the commit re-checks them). Returns the new run; `Err` (nothing
@@ -274,7 +321,8 @@ fn launch<
             return Err(Error::AlreadyRunning(id));
         }
         s.section(|s| s.prepare(id, at.armed));
-        s.section(|s| s.due_by(id));
+        let busy = class_busy(s, id);
+        s.section(|s| s.due_by(id, busy));
         // Before the link is set: a teardown in between visits one sequence too many
         // (it is not active yet), never one too few. Not over a start that won meanwhile.
         s.section(|s| {
@@ -318,7 +366,8 @@ fn relaunch<
             return;
         }
         s.section(|s| s.prepare(id, at.armed));
-        s.section(|s| s.due_by(id));
+        let busy = class_busy(s, id);
+        s.section(|s| s.due_by(id, busy));
         let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);
         let done = s.section(|s| s.commit_restart(&change, seen));
         if done || S::ONE_SECTION {
@@ -481,8 +530,40 @@ mod tests {
         );
     }
 
-    /// The sections of one pass: open, schedule, prepare, due, link, commit.
-    const PASS: usize = 6;
+    /// Sequences 0, 1, 2 in one polling class, 0 running as of the tick's last fold and
+    /// then moved by `then` (`None`: left as it is). Returns whether a start of 1 finds the
+    /// class busy, and the sections that took.
+    fn class_of_three(then: Option<RunningState>) -> (bool, usize) {
+        let mut state = registered(3, &[SeqId(0)]);
+        for id in 0..3 {
+            assert!(state.polling.classes.join(SeqId(id), 1_000).is_ok());
+        }
+        while let Some(id) = state.sets.pop(Set::Changed) {
+            state.fold(id);
+        }
+        if let Some(to) = then {
+            let change = StateChange::new(SeqId(0), RunningState::Running, to, Cause::Start);
+            assert!(state.transition(&change).is_some());
+        }
+        let mut s = Preempted::new(&mut state, usize::MAX, |_| {});
+        let busy = class_busy(&mut s, SeqId(1));
+        (busy, s.taken)
+    }
+
+    /// A member active at the fold and unchanged since keeps the grid (one section); one
+    /// that changed is looked at (a section more): still under way it keeps the grid,
+    /// ended (in the same lane poll as the start) it does not.
+    #[test]
+    fn a_class_is_busy_while_a_member_active_at_the_fold_is_under_way() {
+        assert_eq!(class_of_three(None), (true, 1));
+        assert_eq!(class_of_three(Some(RunningState::Paused)), (true, 2));
+        assert_eq!(class_of_three(Some(RunningState::Restarting)), (true, 2));
+        assert_eq!(class_of_three(Some(RunningState::Terminated)), (false, 2));
+    }
+
+    /// The sections of one pass: open, schedule, prepare, the class's activity (no member
+    /// changed since the fold), due, link, commit.
+    const PASS: usize = 7;
 
     #[test]
     fn an_undisturbed_start_commits_in_one_pass() {

@@ -129,21 +129,25 @@ impl<const B: usize> Classes<B> {
         out
     }
 
-    /// Before a start of a sequence of class `index` at `now`: an idle class (`active`
-    /// says of its members that none is active) starts its grid one period from now.
-    /// Returns the class's next poll.
-    #[inline]
-    pub(crate) fn resume(
-        &mut self,
-        index: u8,
-        now: Stamp,
-        active: impl FnOnce(&SeqSet<B>) -> bool,
-    ) -> Stamp {
+    /// The members of class `index` (empty for an unused index).
+    pub(crate) fn members(&self, index: u8) -> SeqSet<B> {
+        self.list
+            .get(usize::from(index))
+            .map_or(SeqSet::EMPTY, |c| c.members)
+    }
+
+    /// The next poll of class `index`, whose grid a start into it joins (an active member
+    /// keeps the grid).
+    pub(crate) fn next_poll(&self, index: u8, now: Stamp) -> Stamp {
+        self.list.get(usize::from(index)).map_or(now, |c| c.next)
+    }
+
+    /// Starts the grid of class `index`, which has no active member, for a start at `now`:
+    /// its first poll one period from now. Returns that poll.
+    pub(crate) fn start_grid(&mut self, index: u8, now: Stamp) -> Stamp {
         match self.list.get_mut(usize::from(index)) {
             Some(c) => {
-                if !active(&c.members) {
-                    c.next = now.plus(c.period.map_or(0, NonZeroU32::get));
-                }
+                c.next = now.plus(c.period.map_or(0, NonZeroU32::get));
                 c.next
             }
             None => now,
@@ -235,13 +239,11 @@ mod tests {
         assert_eq!(c.join(SeqId(1), 2_000), Ok(1));
         assert_eq!(c.join(SeqId(2), 1_000), Ok(0));
         let active = live(&[0, 1]);
-        assert_eq!(c.resume(0, Stamp(500), |_| false), Stamp(1_500));
-        assert_eq!(c.resume(1, Stamp(500), |_| false), Stamp(2_500));
+        assert_eq!(c.start_grid(0, Stamp(500)), Stamp(1_500));
+        assert_eq!(c.start_grid(1, Stamp(500)), Stamp(2_500));
         // Already busy: sequence 2 joins the grid of sequence 0.
-        assert_eq!(
-            c.resume(0, Stamp(900), |m| m.word(0).meets(active.word(0))),
-            Stamp(1_500)
-        );
+        assert!(c.members(0).word(0).meets(active.word(0)));
+        assert_eq!(c.next_poll(0, Stamp(900)), Stamp(1_500));
         let scan = |c: &mut Classes<8>, now| {
             let mut scan = Scan::new();
             let mut due = SetWord::empty(0);
@@ -264,7 +266,7 @@ mod tests {
             assert_eq!(c.join(SeqId(id), 1_000), Ok(0));
         }
         let active = live(&[3, 100, 250]);
-        assert_eq!(c.resume(0, Stamp(0), |_| false), Stamp(1_000));
+        assert_eq!(c.start_grid(0, Stamp(0)), Stamp(1_000));
         let tick = |c: &mut Classes<8>, now| {
             let mut scan = Scan::new();
             let due: [SetWord<8>; 3] =
