@@ -341,6 +341,11 @@ pub(crate) mod interleaved {
         static BETWEEN: RefCell<Option<Box<dyn FnOnce()>>> = RefCell::new(None);
     }
 
+    /// The sections taken since the last [`at`].
+    pub(crate) fn taken() -> usize {
+        TAKEN.with(Cell::get)
+    }
+
     /// From now on, `between` runs before section `k` (0: the next one).
     pub(crate) fn at(k: usize, between: impl FnOnce() + 'static) {
         TAKEN.with(|t| t.set(0));

@@ -181,8 +181,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 s.now = now;
             }
             let any_due = stamp.reached(s.polling.next_due);
-            if B > 1 && any_due && !late {
-                // The words' scans bring it forward again (see `scan`).
+            if any_due && !late {
+                // The scans bring it forward again, and so does a start made meanwhile
+                // (see `scan`).
                 s.polling.next_due = stamp.plus(NEVER_AHEAD);
             }
             s.changes = s.changes.wrapping_add(1);
@@ -224,11 +225,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return Ok(());
         }
         let mut careful = false;
+        // With no active sequence the first section's horizon stands.
         for w in words {
             careful = self.tick_word(w, now, &mut scan, careful, monitors, control);
-        }
-        if words.is_empty() {
-            self.with(|s| s.polling.next_due = stamp.plus(NEVER_AHEAD));
         }
         Ok(())
     }
@@ -337,17 +336,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// in one section; otherwise one short section per class and per armed timeout.
     #[inline(always)]
     fn scan(&self, w: usize, now: Stamp, scan: &mut Scan) -> Polls<B> {
-        // With several words a scan only brings the next due time forward: the tick's
-        // first section put it off to the horizon, and the work in an earlier word may
-        // have brought it forward since (an exception sequence started into an idle class
-        // is due one period after its start, which no later word's scan sees).
+        // A scan only brings the next due time forward: the tick's first section put it
+        // off to the horizon, and a start made since may have brought it forward (an
+        // exception sequence the work in an earlier word started, or, with the portable
+        // lock, a lane of higher priority that preempted the tick): its first poll, one
+        // period after a start into an idle class, is one no scan of this tick sees.
         let next_due = |scan: &Scan, set: Stamp| {
             let found = now.plus(scan.ahead.min(NEVER_AHEAD));
-            if B == 1 {
-                found
-            } else {
-                now.first_of(found, set)
-            }
+            now.first_of(found, set)
         };
         if L::COARSE {
             return self.with(|s| {
@@ -448,5 +444,87 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn held(&self, id: SeqId) -> bool {
         let lane = self.with(|s| s.lane_slot(id));
         held(id, |c| self.with(|s| s.held_step(c, lane)))
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    extern crate std;
+    use std::boxed::Box;
+
+    use crate::lock::interleaved::{self, Interleaved};
+    use crate::{Cause, Duration, Instant, Monitors, RunningState, SeqConfig, Sequencer};
+
+    type Seq<const N: usize, const B: usize> = Sequencer<(), N, 64, Interleaved, 8, B>;
+
+    /// A (polling every 100 ms) runs; B (every 10 ms, a 5 ms timeout) is started by a lane
+    /// of higher priority before section `k` of the tick at 100 ms, where A is due (with
+    /// the portable lock any task may call anything). `fillers` sequences are registered
+    /// first (32: A and B in the sets' second word). With `abort_a`, A's abort is requested
+    /// before that tick: the tick finds no active sequence left to scan. Returns the
+    /// sequencer, B, and the number of sections that tick took.
+    fn start_during_the_tick<const N: usize, const B: usize>(
+        fillers: usize,
+        abort_a: bool,
+        k: usize,
+    ) -> (&'static Seq<N, B>, crate::SeqId, usize) {
+        let seq: &'static Seq<N, B> = Box::leak(Box::new(Sequencer::empty()));
+        for i in 0..fillers {
+            let name: &'static str = Box::leak(std::format!("filler {i}").into_boxed_str());
+            seq.register(SeqConfig::new(name)).unwrap();
+        }
+        let config = |name, ms| SeqConfig::new(name).polling(Duration::from_millis(ms));
+        let a = seq.register(config("A", 100)).unwrap();
+        let b = seq
+            .register(config("B", 10).timeout(Duration::from_millis(5)))
+            .unwrap();
+        for id in [a, b] {
+            seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+        }
+        let mut monitors = Monitors::<(), 1>::new();
+        seq.sequence_by_id(a).unwrap().start().unwrap();
+        seq.tick(Instant::from_ticks(0), &(), &mut monitors)
+            .unwrap();
+        if abort_a {
+            seq.sequence_by_id(a).unwrap().abort().unwrap();
+        }
+        interleaved::at(k, move || {
+            seq.sequence_by_id(b).unwrap().start().unwrap();
+        });
+        seq.tick(Instant::from_ticks(100_000), &(), &mut monitors)
+            .unwrap();
+        (seq, b, interleaved::taken())
+    }
+
+    /// Wherever the start lands in the tick's sections, B's first poll comes one period
+    /// after its start (its class was idle), at 110 ms, and finds its timeout expired.
+    fn first_poll_kept<const N: usize, const B: usize>(fillers: usize, abort_a: bool) {
+        let (_, _, sections) = start_during_the_tick::<N, B>(fillers, abort_a, usize::MAX);
+        assert!(sections > 2);
+        for k in 1..sections {
+            let (seq, b, _) = start_during_the_tick::<N, B>(fillers, abort_a, k);
+            let mut monitors = Monitors::<(), 1>::new();
+            seq.tick(Instant::from_ticks(110_000), &(), &mut monitors)
+                .unwrap();
+            let ended = seq.with(|s| (s.state_of(b), s.block(b).unwrap().last_cause));
+            assert_eq!(
+                ended,
+                (RunningState::Aborted, Cause::Timeout(b)),
+                "start before section {k} of {sections}"
+            );
+        }
+    }
+
+    /// Before its fix, in a sequencer of up to 32 sequences a start made between the
+    /// tick's scan of the polling classes and its last section lost its first poll: the
+    /// tick set the next due time from the classes it had scanned (A's, 200 ms); in a
+    /// larger one, a tick that found no active sequence set it to the horizon.
+    #[test]
+    fn a_start_that_preempts_the_tick_keeps_its_first_poll() {
+        for abort_a in [false, true] {
+            first_poll_kept::<4, 1>(0, abort_a);
+            first_poll_kept::<64, 2>(32, abort_a);
+        }
     }
 }
