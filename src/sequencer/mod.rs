@@ -44,6 +44,7 @@ pub(crate) mod start;
 pub(crate) mod state;
 pub(crate) mod transition;
 pub(crate) mod validation;
+#[cfg(test)] mod interleavings;
 
 use lanes::Lanes;
 use safety::SafetyNotes;
