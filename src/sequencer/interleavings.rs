@@ -573,9 +573,6 @@ fn a_start_during_the_shortcut_walk_of_an_abort_all_is_torn_down() {
 /// timeout in that tick, whatever `k`. G's first poll is one period after its own start:
 /// at 1 ms for a start before the tick (`k` = 0, time 0), else at 2 ms.
 #[test]
-#[ignore = "defect: a start between the tick's first section (time moved) and its fold \
-            finds the class idle (class_busy looks only at members active at the last \
-            fold) and restarts the grid: R's first poll moves from 1 ms to 2 ms"]
 fn a_start_during_the_ticks_first_sections_keeps_the_first_poll_of_a_member_started_since_the_fold()
 {
     let setup = || {

@@ -161,19 +161,20 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// For [`class_busy`]: whether a member of `id`'s polling class that was active at the
     /// tick's last fold has not changed since (then its run is still active and the class
-    /// keeps its grid), and, if none, the members active at the fold that changed since,
-    /// whose states must be looked at.
+    /// keeps its grid), and, if none, the members that changed since the fold, whose
+    /// states must be looked at.
     fn class_activity(&self, id: SeqId) -> (bool, SeqSet<B>) {
         let class = self.block(id).map_or(0, |b| b.class);
         let members = self.polling.classes.members(class);
         let mut changed = SeqSet::EMPTY;
-        for w in self.sets.words(Set::Active) {
+        let words = self.sets.words(Set::Active).with(self.sets.words(Set::Changed));
+        for w in words {
             let active = self.sets.word(Set::Active, w).and(members.word(w));
             let since = self.sets.word(Set::Changed, w);
             if !active.minus(since).is_empty() {
                 return (true, SeqSet::EMPTY);
             }
-            changed.insert_all(active.and(since));
+            changed.insert_all(members.word(w).and(since));
         }
         (false, changed)
     }
@@ -271,12 +272,12 @@ fn admit<
 }
 
 /// Whether the polling class of `id` has a member whose run is under way (`Running`,
-/// `Paused`, or between them: `Restarting`, `Aborting`) among those active at the tick's
-/// last fold: a start of `id` then joins the class's grid; else the class starts a new
-/// one. A member that ended since the fold (in the same lane poll as this start, before
-/// the next tick) no longer holds the grid. One section for the members that did not
-/// change since the fold, then one per member that did; a transition in between makes
-/// the commit schedule again.
+/// `Paused`, or between them: `Restarting`, `Aborting`): a start of `id` then joins the
+/// class's grid; else the class starts a new one. The tick's sets say it of the members
+/// that did not change since its last fold; a member that changed since (started, or
+/// ended in the same lane poll as this start) is looked at. One section for the members
+/// that did not change, then one per member that did; a transition in between makes the
+/// commit schedule again.
 fn class_busy<
     C,
     S: Sections<C, N, T, W, B>,
