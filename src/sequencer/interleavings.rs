@@ -520,8 +520,6 @@ fn lane_start_into_teardown(how: Teardown, deep: bool) {
 /// tick, runs: Y, still running, starts a fallback G. G must be torn down with Y (as the
 /// dropped run's teardown does, walking again), or refused.
 #[test]
-#[ignore = "defect: the tick's walk (apply_requests/apply/apply_abort_all) ignores walk()'s \
-            'more to walk' and never walks again: G runs on below aborted Y"]
 fn a_start_below_a_caller_the_tick_has_not_aborted_yet_is_torn_down_for_a_request() {
     lane_start_into_teardown(Teardown::Request, true);
 }
@@ -530,8 +528,6 @@ fn a_start_below_a_caller_the_tick_has_not_aborted_yet_is_torn_down_for_a_reques
 /// including one a lane of higher priority started during the walk, is aborted by the
 /// tick that carries the abort-all out.
 #[test]
-#[ignore = "defect: the abort-all walk places the sequences once; G, started by Y during \
-            the walk, runs on after the emergency tick"]
 fn a_start_during_an_abort_all_is_torn_down() {
     lane_start_into_teardown(Teardown::AbortAll, true);
 }
@@ -539,8 +535,6 @@ fn a_start_during_an_abort_all_is_torn_down() {
 /// As above for R's `AbortOwner` monitor (no exception sequence): the behaviour's walk
 /// tears down G too.
 #[test]
-#[ignore = "defect: the behaviour's walk (Sequencer::apply) does not walk again: G runs \
-            on below aborted Y"]
 fn a_start_during_a_monitors_abort_is_torn_down() {
     lane_start_into_teardown(Teardown::Monitor, true);
 }
@@ -549,15 +543,12 @@ fn a_start_during_a_monitors_abort_is_torn_down() {
 /// shortcut (one section to see that nothing is linked, then R's stop). R's lane, of higher
 /// priority, starts G between the two: G must be torn down with R, or refused.
 #[test]
-#[ignore = "defect: walk()'s shortcut returns 'more to walk' after G's start, and the \
-            tick ignores it: G runs on below aborted R"]
 fn a_start_during_the_shortcut_walk_of_a_request_is_torn_down() {
     lane_start_into_teardown(Teardown::Request, false);
 }
 
 /// As above, the abort-all.
 #[test]
-#[ignore = "defect: as for the request: the abort-all's walk is not repeated"]
 fn a_start_during_the_shortcut_walk_of_an_abort_all_is_torn_down() {
     lane_start_into_teardown(Teardown::AbortAll, false);
 }
@@ -1005,9 +996,6 @@ fn a_dropped_run_during_a_firing_below_it_leaves_nothing_under_way() {
 /// was made of, so it is carried out: after the tick at 2 ms O is `Aborted` (cause
 /// `Abort`), whether or not O's lane ran it again in between.
 #[test]
-#[ignore = "defect: leave() drops the pending requests of the restart's target \
-            (drop_requests): an abort queued during the tick, after its apply_requests and \
-            before the restart walk, is lost and the restarted run goes on"]
 fn an_abort_requested_during_a_restarting_tick_is_carried_out() {
     let setup = || {
         let w = World::new();

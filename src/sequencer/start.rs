@@ -167,7 +167,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let class = self.block(id).map_or(0, |b| b.class);
         let members = self.polling.classes.members(class);
         let mut changed = SeqSet::EMPTY;
-        let words = self.sets.words(Set::Active).with(self.sets.words(Set::Changed));
+        let words = self
+            .sets
+            .words(Set::Active)
+            .with(self.sets.words(Set::Changed));
         for w in words {
             let active = self.sets.word(Set::Active, w).and(members.word(w));
             let since = self.sets.word(Set::Changed, w);
@@ -209,9 +212,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.caller = Link::to(run.caller.map(|c| c.seq));
         b.flags = run.flags;
         b.runs = b.runs.wrapping_add(1);
+        let count = b.runs;
+        self.runs_begun = self.runs_begun.wrapping_add(1);
         Some(RunId {
             seq: change.sequence,
-            count: b.runs,
+            count,
         })
     }
 

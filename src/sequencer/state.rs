@@ -26,6 +26,9 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// sections; its commit compares this count with the one its schedule began with, and
     /// schedules again if anything happened in between that could invalidate its checks.
     pub(crate) changes: u32,
+    /// Counts the runs begun (a start's commit; wrapping): a teardown walks again when a
+    /// run began while it walked.
+    pub(crate) runs_begun: u32,
     /// The sequences as sets ([`Set`]): what the tick works on.
     pub(crate) sets: Sets<B>,
     /// When the tick must look at the sequences next.
@@ -103,6 +106,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         State {
             now: Instant::from_ticks(0),
             changes: 0,
+            runs_begun: 0,
             sets: Sets::EMPTY,
             polling: Polling {
                 classes: Classes::new(),

@@ -30,12 +30,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// * `Paused` (`Running`): pauses (resumes) a running (paused) `target` and the
     ///   sequences it blocks in its lane, outermost first.
     ///
-    /// True when there may be more to move: it placed sequences below the target (or
-    /// without one), or a sequence was started below the target while it moved it alone.
-    /// A walk that a tick or a lane of higher priority may preempt can find more in a
-    /// second walk.
+    /// The walk places the sequences once, then moves them one at a time; between two of
+    /// its sections a lane of higher priority (or, in a lane's walk, the tick) may start a
+    /// run below a sequence it has not reached yet, or move a sequence it placed before it
+    /// gets there (a restart, a pause). So it walks again while a run began during the
+    /// walk ([`State::runs_begun`]) or a move lost such a race, at most `N` times:
+    /// nothing started below a sequence outlives its teardown.
+    pub(crate) fn walk(&self, control: &C, target: Option<SeqId>, to: RunningState, cause: Cause) {
+        for _ in 0..N {
+            let begun = self.with(|s| s.runs_begun);
+            let raced = self.walk_once(control, target, to, cause);
+            if !raced && self.with(|s| s.runs_begun) == begun {
+                return;
+            }
+        }
+    }
+
+    /// One walk of [`walk`](Self::walk). True when a move lost a race (see [`stop`]).
     #[inline(never)]
-    pub(crate) fn walk(
+    fn walk_once(
         &self,
         control: &C,
         target: Option<SeqId>,
@@ -72,16 +85,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             _ => self.stop(control, id, cause, states, to),
         };
         // A sequence below the target has a caller link: when no other sequence has one,
-        // the target is all there is to move. Until it has left its state a start below it
-        // may still come (a walk in a lane is preempted by the tick, which starts exception
-        // sequences): then there is more to walk.
+        // the target is all there is to move.
         if let Some(t) = target {
             if self.with(|s| s.sets.none_but(Set::Called, t)) {
-                move_one(t);
-                return !self.with(|s| s.sets.none_but(Set::Called, t));
+                return move_one(t);
             }
         }
         let (rows, deepest) = self.levels(target, states, lane);
+        let mut raced = false;
         for k in 0..=deepest {
             // Pauses outermost first, teardowns innermost first.
             let depth = if pause { k } else { deepest - k };
@@ -92,35 +103,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     && Some(id) != target
                     && self.with(|s| s.stays_paused(id));
                 if !kept {
-                    move_one(id);
+                    raced |= move_one(id);
                 }
             }
         }
-        rows != [SeqSet::EMPTY; DEPTHS]
+        raced
     }
 
     /// A run of `id` was dropped before it ended: it and every sequence below it are
-    /// aborted ([`Cause::Dropped`]). This walk runs in a lane, so a lane of higher
-    /// priority that it wakes (by a cleanup hook, or by handing an abort up) may start a
-    /// sequence below one it has not reached yet, under a caller still running: it walks
-    /// again until a walk finds nothing below `id`, at most `N` times (each walk aborts
-    /// every sequence it placed).
+    /// aborted ([`Cause::Dropped`]). This walk runs in a lane: the tick may preempt it,
+    /// and so may a lane of higher priority that it wakes (by a cleanup hook, or by
+    /// handing an abort up).
     pub(crate) fn abort_dropped(&self, control: &C, id: SeqId) {
-        for _ in 0..N {
-            if !self.walk(control, Some(id), RunningState::Aborting, Cause::Dropped) {
-                return;
-            }
-        }
+        self.walk(control, Some(id), RunningState::Aborting, Cause::Dropped);
     }
 
     /// Moves one sequence from a state in `states` (states `to` may be entered from) to
     /// `to`: to `Aborting → Aborted` or to `Restarting`, running its hook; or pauses or
-    /// resumes it (`Paused`, `Running`).
-    fn stop(&self, control: &C, id: SeqId, cause: Cause, states: States, to: RunningState) {
+    /// resumes it (`Paused`, `Running`). True when it lost a race: the sequence was in
+    /// `states`, but another transition came between the look and the move.
+    fn stop(&self, control: &C, id: SeqId, cause: Cause, states: States, to: RunningState) -> bool {
         // With a coarse lock, the steps before the hook in one section and those after it
         // in another: the tick runs at the ceiling, so a longer section delays no one.
-        let Some(hook) = in_sections!(self, |s| leave(s, id, cause, states, to)) else {
-            return;
+        let hook = match in_sections!(self, |s| leave(s, id, cause, states, to)) {
+            Leave::Left(hook) => hook,
+            Leave::Stays => return false,
+            Leave::Raced => return true,
         };
         if let Some(h) = hook {
             h(control);
@@ -142,6 +150,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             lanes.with(s.section(|s| s.lane_of(id)))
         });
+        false
     }
 
     /// For a teardown or a pause: the sequences that are `target` or below it (every one
@@ -155,9 +164,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// the last fold and those `Changed` since, else every registered one). Each is placed
     /// by walking its caller links up (a non-blocking child may outlive its caller and
     /// still link to it): with a coarse lock in one section, else one short section per
-    /// step. Lanes cannot change the tree meanwhile when the tick walks (the tick preempts
-    /// them); a lane's walk (a dropped run) may be preempted by the tick, and each change
-    /// made from it is re-checked where it is made.
+    /// step. The tree may change meanwhile: each change made from the rows is re-checked
+    /// where it is made, and a run begun meanwhile makes [`walk`](Self::walk) walk again.
     fn levels(
         &self,
         target: Option<SeqId>,
@@ -220,10 +228,19 @@ fn depth_below<
     below.then_some(depth)
 }
 
+/// What [`leave`] did.
+enum Leave<C> {
+    /// Left its state, with the hook to run (set at registration; none for a pause or
+    /// resume).
+    Left(Option<fn(&C)>),
+    /// Not in the states it would leave: nothing to do.
+    Stays,
+    /// In those states when looked at, but another transition came before the move.
+    Raced,
+}
+
 /// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state in `states` for
-/// `to` (a paused timeout keeps its remaining time). Returns the hook to run (set at
-/// registration; none for a pause or resume), or `None` when `id` does not move.
-#[allow(clippy::type_complexity)]
+/// `to` (a paused timeout keeps its remaining time).
 fn leave<
     C,
     S: Sections<C, N, T, W, B>,
@@ -237,12 +254,13 @@ fn leave<
     cause: Cause,
     states: States,
     to: RunningState,
-) -> Option<Option<fn(&C)>> {
+) -> Leave<C> {
     let pause = matches!(to, RunningState::Paused | RunningState::Running);
-    // Before a teardown, what it leaves behind: the cause a later gate reports, no pending
-    // requests, after an abort no start left for its lane to take (the run is over before
-    // it began: nothing of it must look under way); and the hook.
-    let (from, hook) = s.section(|s| {
+    // Before a teardown, what it leaves behind: the cause a later gate reports; after an
+    // abort no pending request and no start left for its lane to take (the run is over
+    // before it began: nothing of it must look under way; a restart goes on with the same
+    // run, which keeps the requests made of it); and the hook.
+    let Some((from, hook)) = s.section(|s| {
         let b = s.block_mut(id)?;
         let from = b.state;
         if !states.has(from) {
@@ -252,14 +270,18 @@ fn leave<
             return Some((from, None));
         }
         b.last_cause = cause;
-        b.drop_requests();
         if to == RunningState::Aborting {
+            b.drop_requests();
             b.set(flag::START_PENDING, false);
         }
         Some((from, s.hooks.get(id.index()).copied().flatten()))
-    })?;
+    }) else {
+        return Leave::Stays;
+    };
     let change = StateChange::new(id, from, to, cause);
-    s.section(|s| s.transition(&change).map(|_| ()))?;
+    if s.section(|s| s.transition(&change).is_none()) {
+        return Leave::Raced;
+    }
     if pause {
         // The run's clock (and its timeout) stops while paused.
         s.section(|s| {
@@ -269,7 +291,7 @@ fn leave<
             }
         });
     }
-    Some(hook)
+    Leave::Left(hook)
 }
 
 #[cfg(test)]
