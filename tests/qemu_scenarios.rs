@@ -648,9 +648,10 @@ fn firmware_sizes_with_and_without_rtseq() {
     // stopped caller starts nothing, a join keeps its run and knows when its outcome is
     // lost, PauseOwner holds are counted and kept through a caller's resume, a late tick
     // still aborts, a run knows which run of its sequence it drives, an exception
-    // sequence's end is reported by the tick, a dropped run's teardown walks again, and
-    // the nine defects of session 30's reviews; docs/footprint.md): held to known
-    // ceilings of 13 KiB (scenarios) and 14 KiB (demo).
+    // sequence's end is reported by the tick, a dropped run's teardown walks again, the
+    // nine defects of session 30's reviews and the seven of session 31's;
+    // docs/footprint.md): held to known ceilings of 13 KiB (scenarios) and 14.5 KiB
+    // (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
@@ -661,7 +662,7 @@ fn firmware_sizes_with_and_without_rtseq() {
         "rtseq's sequencer code in the demo firmware [bytes]",
         demo_code.rtseq - demo_code.safety,
         12 * 1024,
-        14 * 1024,
+        14 * 1024 + 512,
     );
     budget(
         "rtseq's safety-system code in the demo firmware [bytes]",

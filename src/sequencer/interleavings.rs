@@ -384,9 +384,6 @@ fn a_non_blocking_start_by_a_sequence_the_tick_pauses_runs() {
 /// (semantics 7): wherever the tick lands, C ends up `Paused` with O, and its 5 ms timeout
 /// does not run out while O stays paused for 10 ms. When the condition clears, both resume.
 #[test]
-#[ignore = "defect: a blocking start by a paused caller commits the child Running (the \
-            commit always retries after the tick, so every k): its clock runs and its 5 ms \
-            timeout aborts it at 6 ms while its caller is paused"]
 fn a_blocking_start_by_a_sequence_the_tick_pauses_is_paused_with_it() {
     let count = sections(
         || owner_and_child(Fire::Pause),
@@ -674,25 +671,18 @@ fn end_into_firing_tick(firing: Firing) {
 
 /// `end_into_firing_tick` for a monitor with an exception sequence (`AbortOwner`).
 #[test]
-#[ignore = "defect: mark() checks the owner in its first section and marks it in its \
-            third without checking again: an end in between leaves a Fired record, an \
-            ExceptionNotRun and a counted exception for a run that completed"]
 fn an_end_during_a_firing_with_an_exception_sequence_is_either_first_or_refused() {
     end_into_firing_tick(Firing::AbortAfterE);
 }
 
 /// `end_into_firing_tick` for a `RestartOwner` monitor.
 #[test]
-#[ignore = "defect: as for AbortOwner: mark() marks (and records) an owner that ended \
-            since its first section"]
 fn an_end_during_a_restarting_firing_is_either_first_or_refused() {
     end_into_firing_tick(Firing::Restart);
 }
 
 /// `end_into_firing_tick` for a timeout.
 #[test]
-#[ignore = "defect: as for AbortOwner: mark() marks (and records) an owner whose run \
-            ended since its first section"]
 fn an_end_during_a_timeout_is_either_first_or_refused() {
     end_into_firing_tick(Firing::Timeout);
 }

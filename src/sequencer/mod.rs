@@ -32,6 +32,8 @@ pub(crate) mod callers;
 pub(crate) mod control_block;
 pub(crate) mod handle;
 pub(crate) mod inbox;
+#[cfg(test)]
+mod interleavings;
 pub(crate) mod joins;
 pub(crate) mod lanes;
 pub(crate) mod port;
@@ -44,7 +46,6 @@ pub(crate) mod start;
 pub(crate) mod state;
 pub(crate) mod transition;
 pub(crate) mod validation;
-#[cfg(test)] mod interleavings;
 
 use lanes::Lanes;
 use safety::SafetyNotes;

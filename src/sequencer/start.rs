@@ -212,12 +212,32 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.caller = Link::to(run.caller.map(|c| c.seq));
         b.flags = run.flags;
         b.runs = b.runs.wrapping_add(1);
-        let count = b.runs;
-        self.runs_begun = self.runs_begun.wrapping_add(1);
         Some(RunId {
             seq: change.sequence,
-            count,
+            count: b.runs,
         })
+    }
+
+    /// After the commit of `run`, begun blocking by `caller`: if the caller is paused (the
+    /// tick paused it while its action ran on to this start), the run is paused with it,
+    /// its clock stopped, as the pause would have done to a run begun before it; the
+    /// caller's resume resumes it.
+    fn pause_with_caller(&mut self, run: RunId, caller: SeqId) {
+        if self.state_of(caller) != RunningState::Paused
+            || self.block(run.seq).is_none_or(|b| b.runs != run.count)
+        {
+            return;
+        }
+        let now = Stamp::of(self.now);
+        let change = StateChange::new(
+            run.seq,
+            RunningState::Running,
+            RunningState::Paused,
+            Cause::Pause,
+        );
+        if let Some(b) = self.transition(&change) {
+            b.flip_clock(now);
+        }
     }
 
     /// The commit of a restart: as [`commit_new`](Self::commit_new), keeping the run's
@@ -338,6 +358,10 @@ fn launch<
         });
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
         if let Some(new) = s.section(|s| s.commit_new(&change, seen, &run)) {
+            // Counted for the teardowns that may walk meanwhile (`State::runs_begun`). One
+            // that walks between the commit and the count places the new run already: it
+            // is committed, with its caller link.
+            s.section(|s| s.runs_begun = s.runs_begun.wrapping_add(1));
             return Ok(new);
         }
         // In one section the loop never repeats (nothing changes between the checks and
@@ -400,9 +424,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let run = in_sections!(self, |s| admit(s, id, caller, mode, extra))?;
         let (new, lane) = in_sections!(self, |s| {
             let new = launch(s, id, run, cause)?;
-            let lane = match mode {
-                Mode::Lane => s.section(|s| s.lane_of(id)),
-                Mode::Blocking { .. } => LaneSet::EMPTY,
+            let lane = match (mode, caller) {
+                (Mode::Lane, _) => s.section(|s| s.lane_of(id)),
+                (Mode::Blocking { .. }, Some(c)) => {
+                    s.section(|s| s.pause_with_caller(new, c.seq));
+                    LaneSet::EMPTY
+                }
+                (Mode::Blocking { .. }, None) => LaneSet::EMPTY,
             };
             Ok((new, lane))
         })?;
@@ -570,13 +598,19 @@ mod tests {
     /// The sections of one pass: open, schedule, prepare, the class's activity (no member
     /// changed since the fold), due, link, commit.
     const PASS: usize = 7;
+    /// After a commit: the section that counts the run begun.
+    const COUNTED: usize = 1;
 
     #[test]
     fn an_undisturbed_start_commits_in_one_pass() {
         let (result, taken, state) = start_preempted(usize::MAX, |_| {});
         assert_eq!(
             (result, taken, state),
-            (Ok(first_run(SeqId(1))), PASS, RunningState::Running)
+            (
+                Ok(first_run(SeqId(1))),
+                PASS + COUNTED,
+                RunningState::Running
+            )
         );
     }
 
@@ -589,7 +623,11 @@ mod tests {
         });
         assert_eq!(
             (result, taken, state),
-            (Ok(first_run(SeqId(1))), 2 * PASS, RunningState::Running)
+            (
+                Ok(first_run(SeqId(1))),
+                2 * PASS + COUNTED,
+                RunningState::Running
+            )
         );
     }
 
@@ -607,7 +645,7 @@ mod tests {
             flags: 0,
         };
         assert_eq!(launch(&mut s, id, new, Cause::Start), Ok(first_run(id)));
-        assert_eq!(s.taken, 2 * PASS);
+        assert_eq!(s.taken, 2 * PASS + COUNTED);
         assert_eq!(state.block(id).map(|b| b.runs), Some(1));
     }
 

@@ -264,41 +264,50 @@ fn mark<
         States::ACTIVE_RUNNING
     };
     let targets_caller = reaction.behaviour.targets_caller();
-    // Three sections, all in the tick, which no other user of the sequencer preempts.
-    let target = s.section(|s| {
+    // Four sections. With the portable lock a lane of higher priority may end or start
+    // the owner in between: the mark is made only if the owner still runs the run the
+    // first section saw, in a state that takes it; then it is counted and recorded.
+    let (target, owner_runs) = s.section(|s| {
         let b = s.block(owner)?;
         if !states.has(b.state) || s.sets.has(Set::Excepting, owner) {
             return None;
         }
-        Some(match b.caller.get() {
+        let target = match b.caller.get() {
             Some(caller) if targets_caller => caller,
             _ => owner,
-        })
+        };
+        Some((target, b.runs))
     })?;
     let target_runs = s.section(|s| s.block(target).map(|b| b.runs))?;
     let mut behaviour = reaction.behaviour;
+    let (mut restarts, mut runs_seen) = (reaction.restarts, reaction.runs_seen);
     if behaviour.is_restart() {
-        if reaction.runs_seen != target_runs {
-            reaction.runs_seen = target_runs;
-            reaction.restarts = 0;
+        if runs_seen != target_runs {
+            runs_seen = target_runs;
+            restarts = 0;
         }
-        if reaction.restarts >= reaction.limit {
+        if restarts >= reaction.limit {
             behaviour = behaviour.escalated();
         } else {
-            reaction.restarts = reaction.restarts.saturating_add(1);
+            restarts = restarts.saturating_add(1);
         }
     }
-    let (restarts, runs_seen) = (reaction.restarts, reaction.runs_seen);
+    // Only the tick marks an exception, and only a new run (another run count) clears
+    // the mark: the count stands for the first section's `Excepting` test.
     s.section(|s| {
-        if let Some(b) = s.block_mut(owner) {
-            b.active_exception = Some(cause);
-            if timeout {
-                b.timeout_restarts = restarts;
-                b.timeout_runs_seen = runs_seen;
-                s.sets.put(Set::Armed, owner, false);
-            }
-            s.sets.put(Set::Excepting, owner, true);
+        let b = s
+            .block_mut(owner)
+            .filter(|b| states.has(b.state) && b.runs == owner_runs)?;
+        b.active_exception = Some(cause);
+        if timeout {
+            b.timeout_restarts = restarts;
+            b.timeout_runs_seen = runs_seen;
+            s.sets.put(Set::Armed, owner, false);
         }
+        s.sets.put(Set::Excepting, owner, true);
+        Some(())
+    })?;
+    s.section(|s| {
         #[cfg(feature = "counters")]
         if let Some(c) = s.counters.get_mut(owner.index()) {
             c.exceptions = c.exceptions.wrapping_add(1);
@@ -309,6 +318,8 @@ fn mark<
             behaviour,
         });
     });
+    reaction.restarts = restarts;
+    reaction.runs_seen = runs_seen;
     Some((target, behaviour))
 }
 
