@@ -34,6 +34,8 @@ pub(crate) mod handle;
 pub(crate) mod inbox;
 #[cfg(test)]
 mod interleavings;
+#[cfg(test)]
+mod interleavings_more;
 pub(crate) mod joins;
 pub(crate) mod lanes;
 pub(crate) mod port;

@@ -4,6 +4,7 @@
 
 use crate::lock::Lock;
 use crate::model::id::RunId;
+use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
@@ -166,26 +167,28 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
     }
 
-    /// Whether a run is under way: a sequence is active, or restarting (not active: its
-    /// lane has not run it again yet). While nothing is active, one short section per
-    /// candidate: every registered sequence, or with several words the live ones.
+    /// Whether a run is under way that an abort-all would abort (`Running`, `Paused`,
+    /// `Restarting`). The set `Active` says it of the sequences as of the tick's last fold;
+    /// while it is empty, one short section per candidate (every registered sequence, or
+    /// with several words those live at the fold or changed since), and a run begun
+    /// meanwhile counts too (a lane of higher priority may start one while the tick looks).
     fn any_under_way(&self) -> bool {
-        let (active, live, count) = self.with(|s| {
-            (
-                !s.sets.is_empty(Set::Active),
-                s.sets.members(Set::Live),
-                s.count(),
-            )
+        let (active, candidates, begun) = self.with(|s| {
+            let candidates = if B == 1 {
+                SeqSet::first(s.count())
+            } else {
+                s.sets.members(Set::Live).union(&s.sets.members(Set::Changed))
+            };
+            (!s.sets.is_empty(Set::Active), candidates, s.runs_begun)
         });
         if active {
             return true;
         }
-        let restarting = |id: SeqId| self.with(|s| s.state_of(id)) == RunningState::Restarting;
-        if B == 1 {
-            (0..count).map(SeqId::from_index).any(restarting)
-        } else {
-            live.into_iter().any(restarting)
-        }
+        let abortable = States::entering(RunningState::Aborting);
+        candidates
+            .into_iter()
+            .any(|id| self.with(|s| abortable.has(s.state_of(id))))
+            || self.with(|s| s.runs_begun) != begun
     }
 
     /// Applies the behaviours of finished exception sequences and the pause, resume and
