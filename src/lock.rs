@@ -323,7 +323,9 @@ mod tests {
 
 /// For tests: the portable lock (one critical section per step) that runs a closure
 /// before section `k` (counted from [`interleaved::at`]): a tick or a lane of higher
-/// priority preempting an operation between two of its sections.
+/// priority preempting an operation between two of its sections. `InterleavedCoarse` is
+/// the same hook on a coarse lock (as RTIC's `PriorityCeiling`: an operation's steps in one
+/// section); both count their sections in the same thread-locals.
 #[cfg(test)]
 pub(crate) mod interleaved {
     extern crate std;
@@ -335,10 +337,20 @@ pub(crate) mod interleaved {
 
     impl super::sealed::Sealed for Interleaved {}
 
+    /// The coarse twin of [`Interleaved`] (`COARSE = true`): what RTIC's priority ceiling
+    /// does below the top priority. A section taken inside another one (none is expected)
+    /// is part of it: neither counted nor preceded by the closure.
+    #[derive(Debug)]
+    pub(crate) struct InterleavedCoarse;
+
+    impl super::sealed::Sealed for InterleavedCoarse {}
+
     std::thread_local! {
         static TAKEN: Cell<usize> = const { Cell::new(0) };
         static AT: Cell<usize> = const { Cell::new(usize::MAX) };
         static BETWEEN: RefCell<Option<Box<dyn FnOnce()>>> = RefCell::new(None);
+        /// The coarse sections open on this thread.
+        static OPEN: Cell<usize> = const { Cell::new(0) };
     }
 
     /// The sections taken since the last [`at`].
@@ -353,20 +365,48 @@ pub(crate) mod interleaved {
         BETWEEN.with(|b| *b.borrow_mut() = Some(Box::new(between)));
     }
 
+    /// Counts a section about to be taken and, if it is section `k`, runs the closure.
+    fn next_section() {
+        let k = TAKEN.with(|t| {
+            let k = t.get();
+            t.set(k + 1);
+            k
+        });
+        if k == AT.with(|a| a.get()) {
+            if let Some(between) = BETWEEN.with(|b| b.borrow_mut().take()) {
+                between();
+            }
+        }
+    }
+
     impl super::Lock for Interleaved {
         const COARSE: bool = false;
 
         fn lock<R>(f: impl FnOnce() -> R) -> R {
-            let k = TAKEN.with(|t| {
-                let k = t.get();
-                t.set(k + 1);
-                k
-            });
-            if k == AT.with(|a| a.get()) {
-                if let Some(between) = BETWEEN.with(|b| b.borrow_mut().take()) {
-                    between();
-                }
+            next_section();
+            critical_section::with(|_| f())
+        }
+    }
+
+    /// Closes a coarse section, also when its closure panics.
+    struct Open;
+
+    impl Drop for Open {
+        fn drop(&mut self) {
+            OPEN.with(|o| o.set(o.get().saturating_sub(1)));
+        }
+    }
+
+    impl super::Lock for InterleavedCoarse {
+        const COARSE: bool = true;
+
+        fn lock<R>(f: impl FnOnce() -> R) -> R {
+            if OPEN.with(Cell::get) > 0 {
+                return f();
             }
+            next_section();
+            OPEN.with(|o| o.set(o.get() + 1));
+            let _open = Open;
             critical_section::with(|_| f())
         }
     }

@@ -35,6 +35,8 @@ pub(crate) mod inbox;
 #[cfg(test)]
 mod interleavings;
 #[cfg(test)]
+mod interleavings_coarse;
+#[cfg(test)]
 mod interleavings_more;
 pub(crate) mod joins;
 pub(crate) mod lanes;
