@@ -37,6 +37,8 @@ mod interleavings;
 #[cfg(test)]
 mod interleavings_coarse;
 #[cfg(test)]
+mod interleavings_lanes;
+#[cfg(test)]
 mod interleavings_more;
 pub(crate) mod joins;
 pub(crate) mod lanes;

@@ -177,7 +177,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             let candidates = if B == 1 {
                 SeqSet::first(s.count())
             } else {
-                s.sets.members(Set::Live).union(&s.sets.members(Set::Changed))
+                s.sets
+                    .members(Set::Live)
+                    .union(&s.sets.members(Set::Changed))
             };
             (!s.sets.is_empty(Set::Active), candidates, s.runs_begun)
         });
