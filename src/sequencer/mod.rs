@@ -35,11 +35,7 @@ pub(crate) mod inbox;
 #[cfg(test)]
 mod interleavings;
 #[cfg(test)]
-mod interleavings_coarse;
-#[cfg(test)]
 mod interleavings_lanes;
-#[cfg(test)]
-mod interleavings_more;
 pub(crate) mod joins;
 pub(crate) mod lanes;
 pub(crate) mod port;

@@ -1,0 +1,387 @@
+//! The tick and the lanes under the portable lock ([`Interleaved`]: every step of an
+//! operation is a section), in a sequencer of one word: the tick inserted into a start, a
+//! lane's start inserted into the tick's teardown and into its first sections, a lane's
+//! end inserted into a firing tick, and the tick inserted into requests, restarts, joins
+//! and dropped runs.
+//!
+//! [`Interleaved`]: crate::lock::interleaved::Interleaved
+
+use super::*;
+
+use crate::lock::interleaved::Interleaved;
+
+/// The world every test here uses: the portable interleaving lock, one word.
+type World = super::World<Interleaved, 8, 1>;
+
+// ---------------------------------------------------------------------------------------
+// 1. The tick inserted into a start.
+// ---------------------------------------------------------------------------------------
+
+/// O starts C (in C's lane, or blocking) while the tick aborts O (its `AbortOwner` monitor,
+/// its timeout, an abort request, or its monitor after its exception sequence E ended).
+/// Wherever the tick lands, nothing O started outlives O (semantics 9): either the start is
+/// refused (`NotRunning(O)`) and C never ran, or C is aborted with O, with O's cause.
+#[test]
+fn a_start_by_a_sequence_the_tick_aborts_never_outlives_it() {
+    starts_by_an_aborted_sequence::<Interleaved, 8, 1>(Layout::One);
+}
+
+/// O starts C while the tick restarts O (`RestartOwner`): a restart aborts everything below
+/// its target, so C is refused or aborted (cause the monitor), never left running below the
+/// restarted run; O is `Restarting`.
+#[test]
+fn a_start_by_a_sequence_the_tick_restarts_is_torn_down_by_the_restart() {
+    starts_by_a_restarted_sequence::<Interleaved, 8, 1>(Layout::One);
+}
+
+/// O starts C in C's own lane while the tick pauses O (`PauseOwner`): a pause holds O and
+/// the sequences it blocks in its lane, not a non-blocking child: the start succeeds and C
+/// runs; O is paused.
+#[test]
+fn a_non_blocking_start_by_a_sequence_the_tick_pauses_runs() {
+    non_blocking_start_paused::<Interleaved, 8, 1>(Layout::One);
+}
+
+/// O starts C blocking (in O's lane) while the tick pauses O (`PauseOwner`, its condition
+/// stays true). A pause holds the sequences O blocks in its lane, and their clocks stop
+/// (semantics 7): wherever the tick lands, C ends up `Paused` with O, and its 5 ms timeout
+/// does not run out while O stays paused for 10 ms. When the condition clears, both resume.
+#[test]
+fn a_blocking_start_by_a_sequence_the_tick_pauses_is_paused_with_it() {
+    blocking_start_paused::<Interleaved, 8, 1>(Layout::One);
+}
+
+/// A main sequence C is started by a handle while the tick aborts another sequence O (its
+/// monitor): C is not O's, so it runs whatever section the tick preempts.
+#[test]
+fn a_handle_start_during_an_unrelated_abort_runs() {
+    let setup = || owner_and_child::<Interleaved, 8, 1>(Layout::One, Fire::Abort);
+    let count = sections(setup, |(w, _, c, _, _)| w.handle(*c).start().unwrap());
+    every_k(count, |k| {
+        let (w, o, c, _, _) = setup();
+        interleaved::at(k, move || w.tick(1));
+        assert_eq!(w.handle(c).start(), Ok(()), "k={k}");
+        assert_eq!((w.ended(o), w.state(c)), ((Aborted, M0), Running), "k={k}");
+        w.check(&format!("k={k}"));
+    });
+}
+
+// ---------------------------------------------------------------------------------------
+// 2. A lane of higher priority inserted into the tick's teardown.
+// ---------------------------------------------------------------------------------------
+
+/// The tick aborts R, Y (non-blocking child of R) and X (blocking in Y) for an abort
+/// request of R, innermost first. After X's stop Y's lane, of higher priority than the
+/// tick, runs: Y, still running, starts a fallback G. G must be torn down with Y (as the
+/// dropped run's teardown does, walking again), or refused.
+#[test]
+fn a_start_below_a_caller_the_tick_has_not_aborted_yet_is_torn_down_for_a_request() {
+    lane_start_into_teardown::<Interleaved, 8, 1>(Layout::One, Teardown::Request, true);
+}
+
+/// As above for an abort-all (the safety system's emergency stop): every sequence,
+/// including one a lane of higher priority started during the walk, is aborted by the
+/// tick that carries the abort-all out.
+#[test]
+fn a_start_during_an_abort_all_is_torn_down() {
+    lane_start_into_teardown::<Interleaved, 8, 1>(Layout::One, Teardown::AbortAll, true);
+}
+
+/// As above for R's `AbortOwner` monitor (no exception sequence): the behaviour's walk
+/// tears down G too.
+#[test]
+fn a_start_during_a_monitors_abort_is_torn_down() {
+    lane_start_into_teardown::<Interleaved, 8, 1>(Layout::One, Teardown::Monitor, true);
+}
+
+/// R runs alone (nothing has a caller link): the tick's walk of an abort request takes its
+/// shortcut (one section to see that nothing is linked, then R's stop). R's lane, of higher
+/// priority, starts G between the two: G must be torn down with R, or refused.
+#[test]
+fn a_start_during_the_shortcut_walk_of_a_request_is_torn_down() {
+    lane_start_into_teardown::<Interleaved, 8, 1>(Layout::One, Teardown::Request, false);
+}
+
+/// As above, the abort-all.
+#[test]
+fn a_start_during_the_shortcut_walk_of_an_abort_all_is_torn_down() {
+    lane_start_into_teardown::<Interleaved, 8, 1>(Layout::One, Teardown::AbortAll, false);
+}
+
+// ---------------------------------------------------------------------------------------
+// 3. A lane's start inserted into the tick's first sections: the grid.
+// ---------------------------------------------------------------------------------------
+
+/// R (polled every ms, a 1 ms timeout) is started at 0, before any tick: its first poll is
+/// at 1 ms (one period after a start into an idle class, semantics 1), where its timeout
+/// has run out. A lane of higher priority starts G (same class, 1 ms timeout) before
+/// section `k` of the tick at 1 ms. R's first poll stays at 1 ms: R is aborted by its
+/// timeout in that tick, whatever `k`. G's first poll is one period after its own start:
+/// at 1 ms for a start before the tick (`k` = 0, time 0), else at 2 ms.
+#[test]
+fn a_start_during_the_ticks_first_sections_keeps_the_first_poll_of_a_member_started_since_the_fold()
+{
+    let setup = || {
+        let w = World::new(Layout::One);
+        let timed = |n| SeqConfig::new(n).timeout(Duration::from_millis(1));
+        let [r, g] = ["R", "G"].map(|n| w.add(timed(n)));
+        w.start_taken(r);
+        (w, r, g)
+    };
+    let count = sections(setup, |(w, _, _)| w.tick(1));
+    every_k(count, |k| {
+        let (w, r, g) = setup();
+        interleaved::at(k, move || w.seq.sequence_by_id(g).unwrap().start().unwrap());
+        w.tick(1);
+        assert_eq!(w.ended(r), (Aborted, Cause::Timeout(r)), "k={k}: R at 1 ms");
+        let g_at_1 = if k == 0 { Aborted } else { Running };
+        assert_eq!(w.state(g), g_at_1, "k={k}: G at 1 ms");
+        w.tick(2);
+        assert_eq!(w.ended(g), (Aborted, Cause::Timeout(g)), "k={k}: G at 2 ms");
+        w.check(&format!("k={k}"));
+    });
+}
+
+// ---------------------------------------------------------------------------------------
+// 4. A lane's end inserted into a firing tick.
+// ---------------------------------------------------------------------------------------
+
+/// `end_into_firing_tick` for a monitor with an exception sequence (`AbortOwner`).
+#[test]
+fn an_end_during_a_firing_with_an_exception_sequence_is_either_first_or_refused() {
+    end_into_firing_tick::<Interleaved, 8, 1>(Layout::One, Firing::AbortAfterE);
+}
+
+/// `end_into_firing_tick` for a `RestartOwner` monitor.
+#[test]
+fn an_end_during_a_restarting_firing_is_either_first_or_refused() {
+    end_into_firing_tick::<Interleaved, 8, 1>(Layout::One, Firing::Restart);
+}
+
+/// `end_into_firing_tick` for a timeout.
+#[test]
+fn an_end_during_a_timeout_is_either_first_or_refused() {
+    end_into_firing_tick::<Interleaved, 8, 1>(Layout::One, Firing::Timeout);
+}
+
+// ---------------------------------------------------------------------------------------
+// 5. The tick inserted into requests, restarts, joins and dropped runs.
+// ---------------------------------------------------------------------------------------
+
+/// An abort of O is requested (by a handle) while the tick at 1 ms restarts O (its
+/// `RestartOwner` monitor); the tick is inserted before each section of the request. A
+/// `Restarting` sequence may be aborted, so the request is accepted whatever `k`, and a
+/// restart does not end the run it was made of: the tick at 2 ms aborts O (cause `Abort`),
+/// whether or not O's lane has run it again in between.
+#[test]
+fn an_abort_requested_while_the_tick_restarts_the_sequence_is_carried_out() {
+    let setup = || watched::<Interleaved, 8, 1>(Layout::One, Behaviour::RestartOwner);
+    let abort = |w: &World, o| w.seq.sequence_by_id(o).unwrap().abort();
+    let count = sections(setup, |(w, o)| abort(w, *o).unwrap());
+    for relaunched in [false, true] {
+        every_k(count, |k| {
+            let (w, o) = setup();
+            interleaved::at(k, move || w.tick(1));
+            assert_eq!(abort(&w, o), Ok(()), "k={k}");
+            if relaunched && w.state(o) == Restarting {
+                // O's lane obeys the clearance `Restart`.
+                w.seq.restart(w.run(o));
+            }
+            w.tick(2);
+            let what = format!("relaunched {relaunched}, k={k}");
+            assert_eq!(w.ended(o), (Aborted, Cause::Abort), "{what}");
+            w.check(&what);
+        });
+    }
+}
+
+/// The abort of O is requested while the tick at 1 ms aborts O itself (its `AbortOwner`
+/// monitor). Either the request comes first (accepted; it is applied before the monitors
+/// when the tick sees it, else it finds O aborted) or it is refused (`NotRunning`); O is
+/// aborted once, by the request or by the monitor, and stays so after the next tick.
+#[test]
+fn an_abort_requested_while_the_tick_aborts_the_sequence_aborts_it_once() {
+    let setup = || watched::<Interleaved, 8, 1>(Layout::One, Behaviour::AbortOwner);
+    let count = sections(setup, |(w, o)| {
+        let h = w.seq.sequence_by_id(*o).unwrap();
+        interleaved::at(usize::MAX, || {});
+        h.abort().unwrap();
+    });
+    every_k(count, |k| {
+        let (w, o) = setup();
+        let h = w.seq.sequence_by_id(o).unwrap();
+        interleaved::at(k, move || w.tick(1));
+        let asked = h.abort();
+        assert_eq!(w.ended(o), (Aborted, M0), "k={k}: the tick came first");
+        if k == 0 {
+            assert_eq!(asked, Err(Error::NotRunning(o)));
+        } else {
+            assert_eq!(asked, Ok(()), "k={k}");
+        }
+        w.tick(2);
+        assert_eq!(w.ended(o), (Aborted, M0), "k={k}");
+        w.check(&format!("k={k}"));
+    });
+}
+
+/// A pause of O is requested while the tick at 1 ms pauses O (its `PauseOwner` monitor,
+/// condition true at 1 ms, false from 2 ms), inserted before each section of the request.
+/// If the request was accepted (O still running when it was checked), O stays paused when
+/// the monitor lets go (only a resume request lifts a request's pause, semantics 7); if it
+/// was refused (`NotRunning`: the monitor paused O first), O resumes at 2 ms.
+#[test]
+fn a_pause_requested_while_the_tick_pauses_the_sequence_outlasts_the_monitor_iff_accepted() {
+    let setup = || {
+        let w = World::new(Layout::One);
+        let o = w.seq("O");
+        let holds = flag_of(true);
+        w.monitor(o, holds, Behaviour::PauseOwner, None);
+        w.start_taken(o);
+        (w, o, holds)
+    };
+    let pause = |w: &World, o| w.seq.sequence_by_id(o).unwrap().pause();
+    let count = sections(setup, |(w, o, _)| pause(w, *o).unwrap());
+    every_k(count, |k| {
+        let (w, o, holds) = setup();
+        interleaved::at(k, move || w.tick(1));
+        let asked = pause(&w, o);
+        assert_eq!(w.state(o), Paused, "k={k}");
+        holds.store(false, Ordering::Relaxed);
+        w.tick(2);
+        w.tick(3);
+        match asked {
+            Ok(()) => assert_eq!(w.state(o), Paused, "k={k}: the request's pause"),
+            Err(e) => {
+                assert_eq!(e, Error::NotRunning(o), "k={k}");
+                assert_eq!(w.state(o), Running, "k={k}: released");
+            }
+        }
+        w.check(&format!("k={k}"));
+    });
+}
+
+/// O's lane obeys `Restart` (`Sequencer::restart`) after O's `RestartOwner` monitor fired
+/// at 1 ms; the tick at 2 ms, with an abort-all (the safety system) or an abort request of
+/// O pending, comes before section `k` of the restart. The abort stands whatever `k`: O
+/// ends `Aborted` and is never `Running` again without a new start.
+#[test]
+fn an_abort_during_a_restart_stands() {
+    abort_during_restart::<Interleaved, 8, 1>(false);
+}
+
+/// O's lane obeys `Restart` (`Sequencer::restart`) after O's `RestartOwner` monitor fired
+/// at 1 ms (its condition stays true); the tick at 2 ms comes before each section of the
+/// restart. The restart commits once, after the tick (O `Running`, one `Restarting →
+/// Running` record), and the restarted run's monitors start again from "false": the tick
+/// at 3 ms restarts O again (its second restart, within the limit).
+#[test]
+fn a_restart_preempted_by_the_tick_runs_again_once() {
+    let setup = || restarting::<Interleaved, 8, 1>(Layout::One);
+    let count = sections(setup, |(w, _, run)| w.seq.restart(*run));
+    every_k(count, |k| {
+        let (w, o, run) = setup();
+        interleaved::at(k, move || w.tick(2));
+        w.seq.restart(run);
+        // A tick before the commit makes it schedule again: it commits after the tick.
+        assert_eq!(w.state(o), Running, "k={k}");
+        w.tick(3);
+        assert_eq!(w.ended(o), (Restarting, M0), "k={k}: fired again at 3 ms");
+        let restarts = w
+            .records()
+            .iter()
+            .filter_map(Record::transition)
+            .filter(|t| t.sequence == o && t.from == Restarting && t.to == Running)
+            .count();
+        assert_eq!(restarts, 1, "k={k}");
+    });
+}
+
+/// J joins O's run (`Port::join`) while the tick at 1 ms aborts O (its `AbortOwner`
+/// monitor), inserted before each section of the join's first poll. J gets O's outcome,
+/// `Aborted(monitor)`: at once, or, when the first poll is pending, at the next poll, and
+/// then it was released (no longer waiting in a join: the end woke its lane).
+#[test]
+fn a_join_during_the_abort_of_the_joined_run_gets_its_outcome() {
+    let setup = || {
+        let w = World::new(Layout::One);
+        let [o, j] = ["O", "J"].map(|n| w.seq(n));
+        w.monitor(o, flag_of(true), Behaviour::AbortOwner, None);
+        w.start_taken(o);
+        w.start_taken(j);
+        (w, o, j)
+    };
+    let count = sections(setup, |(w, o, j)| {
+        let _ = Port::join(w.seq, *j, *o, &mut None);
+    });
+    every_k(count, |k| {
+        let (w, o, j) = setup();
+        interleaved::at(k, move || w.tick(1));
+        let mut run = None;
+        let first = Port::join(w.seq, j, o, &mut run);
+        let outcome = match first {
+            core::task::Poll::Ready(r) => r,
+            core::task::Poll::Pending => {
+                assert!(
+                    !w.seq.with(|s| s.sets.has(Set::Joining, j)),
+                    "k={k}: released"
+                );
+                match Port::join(w.seq, j, o, &mut run) {
+                    core::task::Poll::Ready(r) => r,
+                    core::task::Poll::Pending => panic!("k={k}: still pending"),
+                }
+            }
+        };
+        assert_eq!(outcome, Ok(Outcome::Aborted(M0)), "k={k}");
+        assert!(!w.seq.with(|s| s.sets.has(Set::Joining, j)), "k={k}");
+        w.check(&format!("k={k}"));
+    });
+}
+
+/// R runs X blocking; X's monitor (`behaviour`, exception sequence E for `AbortOwner`)
+/// holds from 1 ms. R's run is dropped (`Port::abandon`) while the tick at 1 ms fires X's
+/// monitor, inserted before each section of the teardown. Everything is torn down
+/// (semantics 13): R and X aborted (`Dropped`), E not left under way (never started, or
+/// aborted with X), and nothing is under way after the next tick either (an exception
+/// sequence's end reported to an aborted owner applies nothing). Only a tick before the
+/// teardown's first stop, with `AbortCallerOfOwner`, aborts R and X itself (the monitor's
+/// cause); the teardown then finds nothing.
+#[test]
+fn a_dropped_run_during_a_firing_below_it_leaves_nothing_under_way() {
+    for behaviour in [
+        Behaviour::AbortOwner,
+        Behaviour::RestartOwner,
+        Behaviour::PauseOwner,
+        Behaviour::AbortCallerOfOwner,
+    ] {
+        tick_into_dropped_run::<Interleaved, 8, 1>(Layout::One, behaviour, false);
+    }
+}
+
+/// The tick at 1 ms restarts O (its `RestartOwner` monitor); an abort of O is requested by
+/// a lane of higher priority before section `k` of that tick. The request is accepted
+/// (O is running or restarting, both may be aborted) and a restart does not end the run it
+/// was made of, so it is carried out: after the tick at 2 ms O is `Aborted` (cause
+/// `Abort`), whether or not O's lane ran it again in between.
+#[test]
+fn an_abort_requested_during_a_restarting_tick_is_carried_out() {
+    let setup = || watched::<Interleaved, 8, 1>(Layout::One, Behaviour::RestartOwner);
+    let count = sections(setup, |(w, _)| w.tick(1));
+    for relaunched in [false, true] {
+        every_k(count, |k| {
+            let (w, o) = setup();
+            let h = w.seq.sequence_by_id(o).unwrap();
+            let asked = Rc::new(RefCell::new(None));
+            let out = asked.clone();
+            interleaved::at(k, move || *out.borrow_mut() = Some(h.abort()));
+            w.tick(1);
+            let what = format!("relaunched {relaunched}, k={k}");
+            assert_eq!(*asked.borrow(), Some(Ok(())), "{what}");
+            if relaunched && w.state(o) == Restarting {
+                w.seq.restart(w.run(o));
+            }
+            w.tick(2);
+            assert_eq!(w.ended(o), (Aborted, Cause::Abort), "{what}");
+            w.check(&what);
+        });
+    }
+}
