@@ -34,8 +34,6 @@ pub(crate) mod handle;
 pub(crate) mod inbox;
 #[cfg(test)]
 mod interleavings;
-#[cfg(test)]
-mod interleavings_lanes;
 pub(crate) mod joins;
 pub(crate) mod lanes;
 pub(crate) mod port;

@@ -31,6 +31,8 @@
 //!   exception sequence reported once.
 //! - [`coarse`]: the scenarios of both that a coarse lock allows, in sequencers of one
 //!   word and of two, and `abort_all` inserted anywhere.
+//! - [`lanes`]: a lane of higher priority preempting another lane's operation (no tick in
+//!   between), under both locks, in sequencers of one word and of two.
 //!
 //! This module holds what they share: the [`World`] (generic over the lock and the
 //! sequencer's size), the loops over `k` ([`sections`], [`every_k`]) and the set-ups and
@@ -51,6 +53,7 @@ extern crate std;
 
 mod coarse;
 mod fine;
+mod lanes;
 mod more;
 
 use core::cell::Cell;
@@ -244,6 +247,20 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
         self.seq.with(|s| s.current_run(id))
     }
 
+    /// How many runs `id` has had (its current run's count).
+    fn runs(&self, id: SeqId) -> u16 {
+        self.run(id).count
+    }
+
+    fn caller(&self, id: SeqId) -> Option<SeqId> {
+        self.seq.with(|s| s.block(id).unwrap().caller.get())
+    }
+
+    /// Whether a start of `id` is pending for its lane.
+    fn pending(&self, id: SeqId) -> bool {
+        self.has(id, flag::START_PENDING)
+    }
+
     fn has(&self, id: SeqId, f: u16) -> bool {
         self.seq.with(|s| s.block(id).unwrap().has(f))
     }
@@ -260,6 +277,12 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
         self.seq.sequence_by_id(id).unwrap()
     }
 
+    /// A handle of `id`, as an application keeps one: no section to look it up (unlike
+    /// [`World::handle`]).
+    fn kept(&self, id: SeqId) -> crate::Handle<'static, ()> {
+        crate::Handle::new(self.seq, id)
+    }
+
     /// Starts `id` by a handle (a main sequence) and lets its lane take the start.
     fn start_taken(&self, id: SeqId) -> RunId {
         self.handle(id).start().unwrap();
@@ -268,7 +291,22 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
 
     /// `id`'s lane takes its pending start.
     fn take(&self, id: SeqId) -> RunId {
-        Port::take_start(self.seq, id, 0, Waker::noop()).unwrap()
+        self.try_take(id).unwrap()
+    }
+
+    /// `id`'s lane takes its pending start, if any.
+    fn try_take(&self, id: SeqId) -> Option<RunId> {
+        Port::take_start(self.seq, id, 0, Waker::noop())
+    }
+
+    /// `id` started blocking by `caller`'s current run (in `caller`'s lane).
+    fn blocking(&self, id: SeqId, caller: SeqId) -> Result<(), Error> {
+        start_child(self, self.run(caller), id, How::Blocking)
+    }
+
+    /// `id` started in its own lane by `caller`'s current run.
+    fn in_lane(&self, id: SeqId, caller: SeqId) -> Result<(), Error> {
+        start_child(self, self.run(caller), id, How::InLane)
     }
 
     /// `run`'s lane ends it with `outcome` and reports it over.
@@ -348,14 +386,22 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
     /// The invariants of every interleaving: no sequence under way (running, paused,
     /// restarting) has an aborted caller up its caller links, nor a terminated direct
     /// caller it blocks (a non-blocking child may outlive a caller that ended, semantics
-    /// 11, never one that was aborted); the trace's transitions chain (each `from` is the
+    /// 11, never one that was aborted); no start left pending on a sequence that is not
+    /// under way; the trace's transitions chain (each `from` is the
     /// sequence's last `to`, from `Idle`), are allowed changes and end in each sequence's
     /// current state; no exception sequence refused. `what` names the interleaving.
     fn check(&self, what: &str) {
         let count = self.count();
         for i in 0..count {
             let id = SeqId::from_index(i);
-            if ![Running, Paused, Restarting].contains(&self.state(id)) {
+            let state = self.state(id);
+            if self.pending(id) {
+                assert!(
+                    [Running, Paused, Restarting].contains(&state),
+                    "{what}: {id:?} {state:?} with a start pending"
+                );
+            }
+            if ![Running, Paused, Restarting].contains(&state) {
                 continue;
             }
             let blocking = self.seq.with(|s| s.block(id).unwrap().lane)
@@ -425,11 +471,20 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
 /// The sections `op` takes, undisturbed, on a fresh world from `setup`: at least two
 /// under the portable lock; with a coarse lock an operation may take a single one.
 fn sections<S>(setup: impl Fn() -> S, op: impl Fn(&S)) -> usize {
+    let n = sections_at_least(1, setup, op);
+    // The lock of the world `setup` built.
+    let least = if COARSE.with(Cell::get) { 1 } else { 2 };
+    assert!(n >= least, "{n} sections");
+    n
+}
+
+/// The sections `op` takes, undisturbed, on a fresh world from `setup`: at least `least`
+/// (one for an operation that may be refused at its first look, under either lock).
+fn sections_at_least<S>(least: usize, setup: impl Fn() -> S, op: impl Fn(&S)) -> usize {
     let s = setup();
     interleaved::at(usize::MAX, || {});
     op(&s);
     let n = interleaved::taken();
-    let least = if COARSE.with(Cell::get) { 1 } else { 2 };
     assert!(n >= least, "{n} sections");
     n
 }
@@ -1239,6 +1294,22 @@ impl Joiner {
                 r
             }
             Poll::Pending => panic!("{what}: {:?} still pending after its release", self.id),
+        }
+    }
+
+    /// The outcome of a join whose last poll gave `polled` (at `wakes_before` wake-ups),
+    /// once the joined run is over: ready then, or released since.
+    fn outcome<L: Lock + 'static, const N: usize, const B: usize>(
+        &mut self,
+        w: &World<L, N, B>,
+        target: SeqId,
+        wakes_before: usize,
+        polled: Poll<Result<Outcome, Error>>,
+        what: &str,
+    ) -> Result<Outcome, Error> {
+        match polled {
+            Poll::Ready(r) => r,
+            Poll::Pending => self.released(w, target, wakes_before, what),
         }
     }
 }

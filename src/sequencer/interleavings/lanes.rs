@@ -16,55 +16,14 @@
 //! with both locks, in a sequencer of one word and of two words (the related sequences
 //! split over both words).
 //!
+//! Handles are [kept](World::kept) as an application keeps them: no section to look one
+//! up.
+//!
 //! Tests marked `#[ignore = "defect: ..."]` fail today; the reason names the defect.
-#![allow(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::indexing_slicing
-)]
 
-extern crate std;
+use super::*;
 
-use core::cell::Cell;
-use core::fmt::Debug;
-use core::sync::atomic::{AtomicUsize, Ordering};
-use core::task::{Poll, Waker};
-use std::boxed::Box;
-use std::cell::RefCell;
-use std::format;
-use std::rc::Rc;
-use std::string::String;
-use std::sync::Arc;
-use std::task::Wake;
-use std::vec::Vec;
-
-use crate::lock::interleaved::{self, Interleaved, InterleavedCoarse};
-use crate::lock::Lock;
-use crate::model::id::RunId;
-use crate::sequencer::control_block::flag;
-use crate::sequencer::port::Port;
-use crate::sequencer::sets::Set;
-use crate::sequencer::start::Mode;
-use crate::sequencer::transition::Clearance;
-use crate::trace::{Record, Transition};
-use crate::{Cause, Error, Instant, Monitors, Outcome, RunningState, SeqConfig, SeqId, Sequencer};
-
-use RunningState::{Aborted, Aborting, Idle, Paused, Restarting, Running, Terminated};
-
-/// A sequencer under lock `L`: `N` sequences in `B` words of 32, a trace no scenario
-/// overflows.
-type Sq<L, const N: usize, const B: usize> = Sequencer<(), N, 256, L, 8, B>;
-
-/// Where the sequences under test sit.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Layout {
-    /// A sequencer of one word.
-    One,
-    /// Two words: those registered before [`World::split`] in the first, the others in
-    /// the second.
-    Split,
-}
+use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
 
 /// Runs a scenario `f::<L, N, B>(layout, args...)` under both locks, in one word and in two.
 macro_rules! every_world {
@@ -76,298 +35,65 @@ macro_rules! every_world {
     }};
 }
 
-/// A waker that counts its wake-ups.
-struct Count(AtomicUsize);
-
-impl Wake for Count {
-    fn wake(self: Arc<Self>) {
-        self.0.fetch_add(1, Ordering::Relaxed);
-    }
-    fn wake_by_ref(self: &Arc<Self>) {
-        self.0.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
-/// A lane's counting waker, `'static` so that a scenario stays `Copy`.
-#[derive(Clone, Copy)]
-struct Counter(&'static Arc<Count>);
-
-impl Counter {
-    fn new() -> Counter {
-        Counter(Box::leak(Box::new(Arc::new(Count(AtomicUsize::new(0))))))
-    }
-    fn waker(self) -> Waker {
-        Waker::from(self.0.clone())
-    }
-    fn woken(self) -> usize {
-        self.0 .0.load(Ordering::Relaxed)
-    }
-}
-
-/// A sequencer under lock `L`, the monitor table its ticks use and the records drained so
-/// far, all `'static` so that a closure run between two sections can use them.
-struct World<L: Lock + 'static, const N: usize, const B: usize> {
-    seq: &'static Sq<L, N, B>,
-    monitors: &'static RefCell<Monitors<'static, (), 4>>,
-    log: &'static RefCell<Vec<Record>>,
-    layout: Layout,
-}
-
-impl<L: Lock + 'static, const N: usize, const B: usize> Clone for World<L, N, B> {
-    fn clone(&self) -> Self {
-        *self
-    }
-}
-impl<L: Lock + 'static, const N: usize, const B: usize> Copy for World<L, N, B> {}
-
 impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
-    fn new(layout: Layout) -> Self {
-        assert_eq!(B == 1, layout == Layout::One, "{layout:?} needs B = {B}");
-        interleaved::at(usize::MAX, || {});
-        World {
-            seq: Box::leak(Box::new(Sequencer::empty())),
-            monitors: Box::leak(Box::new(RefCell::new(Monitors::new()))),
-            log: Box::leak(Box::new(RefCell::new(Vec::new()))),
-            layout,
-        }
-    }
-
-    /// With [`Layout::Split`]: the sequences registered from now on are in the second
-    /// word (fillers, never started and without a lane, up to id 32).
-    fn split(&self) {
-        if self.layout == Layout::Split {
-            while self.count() < 32 {
-                let name: &'static str =
-                    Box::leak(format!("filler {}", self.count()).into_boxed_str());
-                self.seq.register(SeqConfig::new(name)).unwrap();
-            }
-        }
-    }
-
-    fn count(&self) -> usize {
-        self.seq.with(|s| s.count())
-    }
-
-    /// A sequence polled every millisecond, with a lane.
-    fn seq(&self, name: &'static str) -> SeqId {
-        let id = self.seq.register(SeqConfig::new(name)).unwrap();
-        self.handle(id).declare_lane().unwrap();
-        id
-    }
-
-    /// The tick at `ms` milliseconds.
-    fn tick(&self, ms: u64) {
-        let mut monitors = self.monitors.borrow_mut();
-        self.seq
-            .tick(Instant::from_ticks(ms * 1_000), &(), &mut monitors)
-            .unwrap();
-    }
-
-    fn state(&self, id: SeqId) -> RunningState {
-        self.seq.with(|s| s.state_of(id))
-    }
-
-    /// The state and the cause of the last abort or restart.
-    fn ended(&self, id: SeqId) -> (RunningState, Cause) {
-        self.seq
-            .with(|s| (s.state_of(id), s.block(id).unwrap().last_cause))
-    }
-
-    fn run(&self, id: SeqId) -> RunId {
-        self.seq.with(|s| s.current_run(id))
-    }
-
-    fn runs(&self, id: SeqId) -> u16 {
-        self.run(id).count
-    }
-
-    fn caller(&self, id: SeqId) -> Option<SeqId> {
-        self.seq.with(|s| s.block(id).unwrap().caller.get())
-    }
-
-    fn pending(&self, id: SeqId) -> bool {
-        self.seq
-            .with(|s| s.block(id).unwrap().has(flag::START_PENDING))
-    }
-
-    fn in_set(&self, set: Set, id: SeqId) -> bool {
-        self.seq.with(|s| s.sets.has(set, id))
-    }
-
-    fn clearance(&self, run: RunId) -> Clearance {
-        Port::clearance(self.seq, run, Waker::noop())
-    }
-
-    /// A handle of `id`, as an application keeps one (no section to look it up).
-    fn handle(&self, id: SeqId) -> crate::Handle<'static, ()> {
-        crate::Handle::new(self.seq, id)
-    }
-
-    /// Starts `id` by a handle (a main sequence) and lets its lane take the start.
-    fn start_taken(&self, id: SeqId) -> RunId {
-        self.handle(id).start().unwrap();
-        self.take(id)
-    }
-
-    /// `id`'s lane takes its pending start.
-    fn take(&self, id: SeqId) -> RunId {
-        Port::take_start(self.seq, id, 0, Waker::noop()).unwrap()
-    }
-
-    /// `id`'s lane takes its pending start, if any.
-    fn try_take(&self, id: SeqId) -> Option<RunId> {
-        Port::take_start(self.seq, id, 0, Waker::noop())
-    }
-
-    /// `id`'s current run ends with `outcome` and reports it over (its lane).
-    fn end(&self, id: SeqId, outcome: Outcome) -> bool {
-        let run = self.run(id);
-        let ended = Port::end(self.seq, run, outcome);
-        if ended {
-            Port::finished(self.seq, run);
-        }
-        ended
-    }
-
-    fn complete(&self, id: SeqId) -> bool {
-        self.end(id, Outcome::Completed)
-    }
-
-    /// `id` started blocking by `caller`'s current run.
-    fn blocking(&self, id: SeqId, caller: SeqId) -> Result<(), Error> {
-        self.seq
-            .begin(
-                id,
-                Some(self.run(caller)),
-                Mode::Blocking { maker: 0 },
-                Cause::Start,
-                0,
-            )
-            .map(|_| ())
-    }
-
-    /// `id` started in its lane by `caller`'s current run.
-    fn in_lane(&self, id: SeqId, caller: SeqId) -> Result<(), Error> {
-        Port::start_in_lane(self.seq, id, Some(self.run(caller)))
-    }
-
-    fn records(&self) -> Vec<Record> {
-        let mut log = self.log.borrow_mut();
-        assert_eq!(self.seq.drain_records(|r| log.push(r)), 0, "records lost");
-        log.clone()
-    }
-
-    fn transitions(&self, id: SeqId) -> Vec<Transition> {
-        self.records()
-            .iter()
-            .filter_map(Record::transition)
-            .filter(|t| t.sequence == id)
-            .collect()
-    }
-
-    fn moves(&self, id: SeqId, from: RunningState, to: RunningState) -> usize {
-        self.transitions(id)
-            .iter()
-            .filter(|t| t.from == from && t.to == to)
-            .count()
-    }
-
-    /// The invariants of every interleaving: nothing under way (running, paused,
-    /// restarting) below an aborted caller, nor blocking in a terminated direct caller (a
-    /// non-blocking child may outlive a caller that ended, semantics 11); no start left
-    /// pending on a sequence that is not under way; the trace's transitions chain (each
-    /// `from` the sequence's last `to`, from `Idle`), are allowed, and end in each
-    /// sequence's current state; no exception sequence refused.
-    fn check(&self, what: &str) {
-        let count = self.count();
-        for i in 0..count {
-            let id = SeqId::from_index(i);
-            let state = self.state(id);
-            if self.pending(id) {
-                assert!(
-                    [Running, Paused, Restarting].contains(&state),
-                    "{what}: {id:?} {state:?} with a start pending"
-                );
-            }
-            if ![Running, Paused, Restarting].contains(&state) {
-                continue;
-            }
-            let blocking = self.seq.with(|s| {
-                let b = s.block(id).unwrap();
-                b.caller
-                    .get()
-                    .is_some_and(|c| s.block(c).unwrap().lane == b.lane)
-            });
-            let mut at = self.caller(id);
-            let mut first = true;
-            for _ in 0..crate::MAX_DEPTH {
-                let Some(c) = at else { break };
-                assert_ne!(
-                    self.state(c),
-                    Aborted,
-                    "{what}: {id:?} is {state:?} below aborted {c:?}"
-                );
-                if first && blocking {
-                    assert_ne!(
-                        self.state(c),
-                        Terminated,
-                        "{what}: {id:?} is {state:?} blocking in terminated {c:?}"
-                    );
-                }
-                first = false;
-                at = self.caller(c);
-            }
-        }
-        let mut last = std::vec![Idle; count];
-        for r in self.records() {
-            if let Some(t) = r.transition() {
-                let prev = &mut last[t.sequence.index()];
-                assert_eq!(t.from, *prev, "{what}: {t:?} after {prev:?}");
-                assert!(t.from.can_transition_to(t.to), "{what}: {t:?}");
-                *prev = t.to;
-            }
-        }
-        for (i, last) in last.iter().enumerate() {
-            let id = SeqId::from_index(i);
-            assert_eq!(
-                *last,
-                self.state(id),
-                "{what}: {id:?}'s trace ends elsewhere"
-            );
-        }
-        assert_eq!(
-            self.seq.exceptions_not_run(),
-            0,
-            "{what}: an exception not run"
-        );
+    /// A world of the sequences `first`, then (in the second word with `Layout::Split`)
+    /// `second`, each with a lane, none started.
+    fn of<const F: usize, const S: usize>(
+        layout: Layout,
+        first: [&'static str; F],
+        second: [&'static str; S],
+    ) -> (Self, [SeqId; F], [SeqId; S]) {
+        let w = World::new(layout);
+        let first = first.map(|n| w.seq(n));
+        w.split();
+        let second = second.map(|n| w.seq(n));
+        (w, first, second)
     }
 }
 
-/// Runs `f(k)` for every `k` in `0..count`, each on its own; fails listing the `k` that
-/// failed and the first failure's message.
-fn every_k(count: usize, f: impl Fn(usize)) {
-    let mut failed = Vec::new();
-    let mut first = None;
-    for k in 0..count {
-        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(k)));
-        if let Err(e) = r {
-            failed.push(k);
-            if first.is_none() {
-                first = Some(
-                    e.downcast_ref::<String>()
-                        .cloned()
-                        .or_else(|| e.downcast_ref::<&str>().map(|s| String::from(*s)))
-                        .unwrap_or_default(),
-                );
-            }
-        }
+/// X alone (in the second word with `Layout::Split`): idle, or started by a handle
+/// (`start`), and its start taken by its lane (`take`).
+fn lone<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    start: bool,
+    take: bool,
+) -> (World<L, N, B>, SeqId) {
+    let (w, [], [x]) = World::of(layout, [], ["X"]);
+    if start {
+        w.kept(x).start().unwrap();
     }
-    interleaved::at(usize::MAX, || {});
-    assert!(
-        failed.is_empty(),
-        "failed before sections {failed:?} of {count}; first: {}",
-        first.unwrap_or_default()
-    );
+    if take {
+        w.take(x);
+    }
+    (w, x)
+}
+
+/// A scenario's name: its layout, its lock and `rest`.
+fn named<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
+    let rest = format!("{rest}");
+    let sep = if rest.is_empty() { "" } else { ", " };
+    format!("{layout:?}, {}{sep}{rest}", core::any::type_name::<L>())
+}
+
+/// A lane's counting waker and its count, `'static` so that a scenario stays `Copy`.
+fn counter() -> &'static (Waker, Arc<Count>) {
+    Box::leak(Box::new(counting()))
+}
+
+/// A [`Joiner`] that every copy of a scenario shares (both lanes and the checks).
+type Shared = &'static RefCell<Joiner>;
+
+/// [`Joiner::started`], shared.
+fn joiner<L: Lock + 'static, const N: usize, const B: usize>(
+    w: &World<L, N, B>,
+    id: SeqId,
+) -> Shared {
+    Box::leak(Box::new(RefCell::new(Joiner::started(w, id))))
+}
+
+/// The wake-ups of `j`'s lane so far.
+fn wakes(j: Shared) -> usize {
+    woken(&j.borrow().wakes)
 }
 
 /// Where the other lane came.
@@ -389,24 +115,16 @@ fn interleave<S: Copy + 'static, R, Q: 'static>(
     other: impl Fn(S) -> Q + Copy + 'static,
     expect: impl Fn(&str, At, R, Q, S),
 ) {
-    let count = {
-        let s = setup();
-        interleaved::at(usize::MAX, || {});
-        let _ = op(s);
-        interleaved::taken()
-    };
-    assert!(count >= 1, "{name}: {count} sections");
+    let count = sections_at_least(1, &setup, |s| {
+        let _ = op(*s);
+    });
     every_k(count + 1, |k| {
         let s = setup();
         let out: Rc<RefCell<Option<Q>>> = Rc::new(RefCell::new(None));
         let into = out.clone();
         interleaved::at(k, move || *into.borrow_mut() = Some(other(s)));
         let r = op(s);
-        let after = interleaved::taken() <= k;
-        if after {
-            interleaved::at(usize::MAX, || {});
-            *out.borrow_mut() = Some(other(s));
-        }
+        let after = or_after(k, || *out.borrow_mut() = Some(other(s)));
         let q = out.borrow_mut().take().expect("the other lane ran");
         let what = format!(
             "{name}, k={k}/{count}{}",
@@ -416,102 +134,23 @@ fn interleave<S: Copy + 'static, R, Q: 'static>(
     });
 }
 
-/// A joiner: its sequence, the run it joined (set at its first poll), its lane's waker.
-#[derive(Clone, Copy)]
-struct Joiner {
-    id: SeqId,
-    run: &'static Cell<Option<u16>>,
-    wakes: Counter,
-}
-
-impl Joiner {
-    /// `id` is started and its lane takes the start with a counting waker.
-    fn started<L: Lock + 'static, const N: usize, const B: usize>(
-        w: &World<L, N, B>,
-        id: SeqId,
-    ) -> Joiner {
-        let wakes = Counter::new();
-        w.handle(id).start().unwrap();
-        Port::take_start(w.seq, id, 0, &wakes.waker()).unwrap();
-        Joiner {
-            id,
-            run: Box::leak(Box::new(Cell::new(None))),
-            wakes,
-        }
-    }
-
-    fn poll<L: Lock + 'static, const N: usize, const B: usize>(
-        self,
-        w: &World<L, N, B>,
-        target: SeqId,
-    ) -> Poll<Result<Outcome, Error>> {
-        let mut run = self.run.get();
-        let r = Port::join(w.seq, self.id, target, &mut run);
-        self.run.set(run);
-        r
-    }
-
-    fn joining<L: Lock + 'static, const N: usize, const B: usize>(
-        self,
-        w: &World<L, N, B>,
-    ) -> bool {
-        w.in_set(Set::Joining, self.id)
-    }
-
-    /// A poll that began at `before` wake-ups and gave `polled`: polled again (as an
-    /// executor does) while it is pending and was woken meanwhile.
-    fn repoll<L: Lock + 'static, const N: usize, const B: usize>(
-        self,
-        w: &World<L, N, B>,
-        target: SeqId,
-        mut before: usize,
-        mut polled: Poll<Result<Outcome, Error>>,
-    ) -> Poll<Result<Outcome, Error>> {
-        while polled.is_pending() && self.wakes.woken() > before {
-            before = self.wakes.woken();
-            polled = self.poll(w, target);
-        }
-        polled
-    }
-
-    /// After a pending poll at `before` wake-ups: the joined run ended since, so the
-    /// joiner was released and woken, and its next poll is ready.
-    fn released<L: Lock + 'static, const N: usize, const B: usize>(
-        self,
-        w: &World<L, N, B>,
-        target: SeqId,
-        before: usize,
-        what: &str,
-    ) -> Result<Outcome, Error> {
-        assert!(!self.joining(w), "{what}: {:?} not released", self.id);
-        assert!(
-            self.wakes.woken() > before,
-            "{what}: {:?} not woken",
-            self.id
-        );
-        match self.poll(w, target) {
-            Poll::Ready(r) => {
-                assert!(!self.joining(w), "{what}");
-                r
-            }
-            Poll::Pending => panic!("{what}: {:?} still pending after its release", self.id),
-        }
-    }
-
-    /// The outcome of a join whose last poll gave `polled` at `before` wake-ups, once the
-    /// joined run is over.
-    fn outcome<L: Lock + 'static, const N: usize, const B: usize>(
-        self,
-        w: &World<L, N, B>,
-        target: SeqId,
-        before: usize,
-        polled: Poll<Result<Outcome, Error>>,
-        what: &str,
-    ) -> Result<Outcome, Error> {
-        match polled {
-            Poll::Ready(r) => r,
-            Poll::Pending => self.released(w, target, before, what),
-        }
+/// [`interleave`] of `a` and `b`, one preempting the other: `b` before each section of
+/// `a` (`a_first`: `a` is the preempted operation), or `a` before each section of `b`.
+/// `expect` gets `a`'s result, then `b`'s, either way.
+fn preempting<S: Copy + 'static, R: 'static, Q: 'static>(
+    name: &str,
+    a_first: bool,
+    setup: impl Fn() -> S,
+    a: impl Fn(S) -> R + Copy + 'static,
+    b: impl Fn(S) -> Q + Copy + 'static,
+    expect: impl Fn(&str, At, R, Q, S),
+) {
+    if a_first {
+        interleave(name, setup, a, b, expect);
+    } else {
+        interleave(name, setup, b, a, |what, at, q, r, s| {
+            expect(what, at, r, q, s)
+        });
     }
 }
 
@@ -556,7 +195,7 @@ impl How {
         q: SeqId,
     ) -> Result<(), Error> {
         match (self, self.caller(p, q)) {
-            (How::Handle, _) => w.handle(x).start(),
+            (How::Handle, _) => w.kept(x).start(),
             (How::InLaneByP | How::InLaneByQ, Some(c)) => w.in_lane(x, c),
             (_, Some(c)) => w.blocking(x, c),
             (_, None) => unreachable!(),
@@ -572,19 +211,13 @@ impl How {
 /// takes: run 1).
 fn two_starts<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout, a: How, b: How) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let [p, q] = ["P", "Q"].map(|n| w.seq(n));
-        w.split();
-        let x = w.seq("X");
+        let (w, [p, q], [x]) = World::<L, N, B>::of(layout, ["P", "Q"], ["X"]);
         w.start_taken(p);
         w.start_taken(q);
         (w, [x, p, q])
     };
     interleave(
-        &format!(
-            "{layout:?}, {}, A {a:?}, B {b:?}",
-            core::any::type_name::<L>()
-        ),
+        &named::<L>(layout, format_args!("A {a:?}, B {b:?}")),
         setup,
         move |(w, [x, p, q])| a.start(&w, x, p, q),
         move |(w, [x, p, q])| b.start(&w, x, p, q),
@@ -596,7 +229,7 @@ fn two_starts<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
             assert_eq!(w.moves(x, Idle, Running), 1, "{what}");
             assert_eq!(w.transitions(x).len(), 1, "{what}");
             #[cfg(feature = "counters")]
-            assert_eq!(w.handle(x).counters().runs, 1, "{what}");
+            assert_eq!(w.kept(x).counters().runs, 1, "{what}");
             let caller = winner.caller(p, q);
             assert_eq!(w.caller(x), caller, "{what}: the winner's link");
             assert_eq!(w.in_set(Set::Called, x), caller.is_some(), "{what}: Called");
@@ -620,7 +253,7 @@ fn two_starts<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
 
 #[test]
 fn two_starts_of_the_same_sequence_in_two_lanes_one_wins() {
-    use How::*;
+    use self::How::*;
     for (a, b) in [
         (Handle, Handle),
         (InLaneByP, Handle),
@@ -646,33 +279,24 @@ fn start_by_a_replaced_caller<L: Lock + 'static, const N: usize, const B: usize>
     blocking: bool,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let p = w.seq("P");
-        w.split();
-        let x = w.seq("X");
+        let (w, [p], [x]) = World::<L, N, B>::of(layout, ["P"], ["X"]);
         let old = w.start_taken(p);
-        w.handle(p).abort().unwrap();
+        w.kept(p).abort().unwrap();
         w.tick(1);
         assert_eq!(w.ended(p), (Aborted, Cause::Abort));
         (w, [p, x], old)
     };
+    let how = if blocking {
+        super::How::Blocking
+    } else {
+        super::How::InLane
+    };
     interleave(
-        &format!(
-            "{layout:?}, {}, blocking {blocking}",
-            core::any::type_name::<L>()
-        ),
+        &named::<L>(layout, format_args!("blocking {blocking}")),
         setup,
-        move |(w, [_, x], old)| {
-            if blocking {
-                w.seq
-                    .begin(x, Some(old), Mode::Blocking { maker: 0 }, Cause::Start, 0)
-                    .map(|_| ())
-            } else {
-                Port::start_in_lane(w.seq, x, Some(old))
-            }
-        },
+        move |(w, [_, x], old)| start_child(&w, old, x, how),
         |(w, [p, _], _)| {
-            w.handle(p).start()?;
+            w.kept(p).start()?;
             Ok::<_, Error>(w.take(p))
         },
         |what, _, ra, rb, (w, [p, x], _)| {
@@ -700,15 +324,12 @@ fn start_while_its_lane_starts_a_child<L: Lock + 'static, const N: usize, const 
     layout: Layout,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let p = w.seq("P");
-        w.split();
-        let [x, c] = ["X", "C"].map(|n| w.seq(n));
+        let (w, [p], [x, c]) = World::<L, N, B>::of(layout, ["P"], ["X", "C"]);
         w.start_taken(p);
         (w, [p, x, c])
     };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
+        &named::<L>(layout, format_args!("")),
         setup,
         |(w, [p, x, _])| w.in_lane(x, p),
         |(w, [_, x, c])| {
@@ -764,55 +385,47 @@ fn start_against_end<L: Lock + 'static, const N: usize, const B: usize>(
     end_first: bool,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let j = w.seq("J");
-        w.split();
-        let x = w.seq("X");
+        let (w, [j], [x]) = World::<L, N, B>::of(layout, ["J"], ["X"]);
         w.start_taken(x);
-        let j = Joiner::started(&w, j);
-        assert_eq!(j.poll(&w, x), Poll::Pending);
-        (w, x, j, j.wakes.woken())
+        let j = joiner(&w, j);
+        assert_eq!(j.borrow_mut().poll(&w, x), Poll::Pending);
+        (w, x, j, wakes(j))
     };
-    let end = |(w, x, _, _): (World<L, N, B>, SeqId, Joiner, usize)| w.complete(x);
-    let start = |(w, x, _, _): (World<L, N, B>, SeqId, Joiner, usize)| w.handle(x).start();
-    let expect = |what: &str,
-                  ended: bool,
-                  started: Result<(), Error>,
-                  s: (World<L, N, B>, SeqId, Joiner, usize)| {
-        let (w, x, j, before) = s;
-        assert!(ended, "{what}: the end of run 1");
-        match started {
-            Ok(()) => {
-                assert_eq!((w.state(x), w.runs(x)), (Running, 2), "{what}");
-                assert_eq!(w.try_take(x), Some(RunId { seq: x, count: 2 }), "{what}");
+    preempting(
+        &named::<L>(layout, format_args!("end first {end_first}")),
+        end_first,
+        setup,
+        |(w, x, _, _)| w.complete(x),
+        |(w, x, _, _)| w.kept(x).start(),
+        move |what, at, ended, started, (w, x, j, before)| {
+            if !end_first {
+                // The start is checked first (X running): only a whole end before it lets
+                // it win.
+                assert_eq!(
+                    started.is_ok(),
+                    at.k == 0 && !at.after,
+                    "{what}: {started:?}"
+                );
             }
-            Err(e) => {
-                assert_eq!(e, Error::AlreadyRunning(x), "{what}");
-                assert_eq!((w.state(x), w.runs(x)), (Terminated, 1), "{what}");
+            assert!(ended, "{what}: the end of run 1");
+            match started {
+                Ok(()) => {
+                    assert_eq!((w.state(x), w.runs(x)), (Running, 2), "{what}");
+                    assert_eq!(w.try_take(x), Some(RunId { seq: x, count: 2 }), "{what}");
+                }
+                Err(e) => {
+                    assert_eq!(e, Error::AlreadyRunning(x), "{what}");
+                    assert_eq!((w.state(x), w.runs(x)), (Terminated, 1), "{what}");
+                }
             }
-        }
-        assert_eq!(
-            j.released(&w, x, before, what),
-            Ok(Outcome::Completed),
-            "{what}: J"
-        );
-        w.check(what);
-    };
-    let name = format!(
-        "{layout:?}, {}, end first {end_first}",
-        core::any::type_name::<L>()
+            assert_eq!(
+                j.borrow_mut().released(&w, x, before, what),
+                Ok(Outcome::Completed),
+                "{what}: J"
+            );
+            w.check(what);
+        },
     );
-    if end_first {
-        interleave(&name, setup, end, start, |what, _, e, s, sc| {
-            expect(what, e, s, sc)
-        });
-    } else {
-        interleave(&name, setup, start, end, |what, at, s, e, sc| {
-            // The start is checked first (X running): only a whole end before it lets it win.
-            assert_eq!(s.is_ok(), at.k == 0 && !at.after, "{what}: {s:?}");
-            expect(what, e, s, sc)
-        });
-    }
 }
 
 #[test]
@@ -842,63 +455,48 @@ fn start_against_caller<L: Lock + 'static, const N: usize, const B: usize>(
     start_first: bool,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let p = w.seq("P");
-        w.split();
-        let [x, c] = ["X", "C"].map(|n| w.seq(n));
+        let (w, [p], [x, c]) = World::<L, N, B>::of(layout, ["P"], ["X", "C"]);
         w.start_taken(p);
         w.in_lane(x, p).unwrap();
         w.take(x);
         (w, [p, x, c])
     };
-    type S<L, const N: usize, const B: usize> = (World<L, N, B>, [SeqId; 3]);
-    let start = |(w, [_, x, c]): S<L, N, B>| w.in_lane(c, x);
-    let caller = move |(w, [p, _, _]): S<L, N, B>| match to_caller {
-        ToCaller::Ends => {
-            assert!(w.complete(p));
-        }
-        ToCaller::Dropped => Port::abandon(w.seq, p, &()),
-    };
-    let expect = move |what: &str, started: Result<(), Error>, (w, [p, x, c]): S<L, N, B>| {
-        match to_caller {
+    preempting(
+        &named::<L>(
+            layout,
+            format_args!("{to_caller:?}, start first {start_first}"),
+        ),
+        start_first,
+        setup,
+        |(w, [_, x, c])| w.in_lane(c, x),
+        move |(w, [p, _, _])| match to_caller {
             ToCaller::Ends => {
-                assert_eq!(started, Ok(()), "{what}");
-                assert_eq!(
-                    (w.state(p), w.state(x), w.state(c)),
-                    (Terminated, Running, Running),
-                    "{what}"
-                );
-                assert_eq!(w.caller(c), Some(x), "{what}");
-                assert_eq!(w.try_take(c), Some(RunId { seq: c, count: 1 }), "{what}");
+                assert!(w.complete(p));
             }
-            ToCaller::Dropped => {
-                assert_eq!(w.ended(p), (Aborted, Cause::Dropped), "{what}: P");
-                assert_eq!(w.ended(x), (Aborted, Cause::Dropped), "{what}: X");
-                match started {
-                    Ok(()) => assert_eq!(w.ended(c), (Aborted, Cause::Dropped), "{what}: C"),
-                    Err(e) => {
-                        assert_eq!(e, Error::NotRunning(x), "{what}");
-                        assert_eq!(w.state(c), Idle, "{what}");
-                    }
+            ToCaller::Dropped => Port::abandon(w.seq, p, &()),
+        },
+        move |what, _, started, (), (w, [p, x, c])| {
+            match to_caller {
+                ToCaller::Ends => {
+                    assert_eq!(started, Ok(()), "{what}");
+                    assert_eq!(
+                        (w.state(p), w.state(x), w.state(c)),
+                        (Terminated, Running, Running),
+                        "{what}"
+                    );
+                    assert_eq!(w.caller(c), Some(x), "{what}");
+                    assert_eq!(w.try_take(c), Some(RunId { seq: c, count: 1 }), "{what}");
                 }
-                assert!(!w.pending(c), "{what}");
+                ToCaller::Dropped => {
+                    assert_eq!(w.ended(p), (Aborted, Cause::Dropped), "{what}: P");
+                    // X aborted; C refused or aborted with it.
+                    torn_down_with(what, started, &w, x, c, (Aborted, Cause::Dropped));
+                    assert!(!w.pending(c), "{what}");
+                }
             }
-        }
-        w.check(what);
-    };
-    let name = format!(
-        "{layout:?}, {}, {to_caller:?}, start first {start_first}",
-        core::any::type_name::<L>()
+            w.check(what);
+        },
     );
-    if start_first {
-        interleave(&name, setup, start, caller, |what, _, r, (), s| {
-            expect(what, r, s)
-        });
-    } else {
-        interleave(&name, setup, caller, start, |what, _, (), r, s| {
-            expect(what, r, s)
-        });
-    }
 }
 
 #[test]
@@ -933,7 +531,7 @@ fn end_and_then<L: Lock + 'static, const N: usize, const B: usize>(
 ) {
     assert!(w.complete(x));
     if then != Then::End {
-        w.handle(x).start().unwrap();
+        w.kept(x).start().unwrap();
     }
     if then == Then::EndTwice {
         w.take(x);
@@ -953,24 +551,19 @@ fn join_against_end<L: Lock + 'static, const N: usize, const B: usize>(
     then: Then,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let j2 = w.seq("J2");
-        w.split();
-        let [x, j1] = ["X", "J1"].map(|n| w.seq(n));
+        let (w, [j2], [x, j1]) = World::<L, N, B>::of(layout, ["J2"], ["X", "J1"]);
         w.start_taken(x);
-        let js = [Joiner::started(&w, j1), Joiner::started(&w, j2)];
+        let js = [joiner(&w, j1), joiner(&w, j2)];
         if two {
-            assert_eq!(js[1].poll(&w, x), Poll::Pending);
+            assert_eq!(js[1].borrow_mut().poll(&w, x), Poll::Pending);
         }
-        (w, x, js, [js[0].wakes.woken(), js[1].wakes.woken()])
+        (w, x, js, js.map(wakes))
     };
     interleave(
-        &format!(
-            "{layout:?}, {}, two {two}, {then:?}",
-            core::any::type_name::<L>()
-        ),
+        &named::<L>(layout, format_args!("two {two}, {then:?}")),
         setup,
         |(w, x, [j1, _], [b1, _])| {
+            let mut j1 = j1.borrow_mut();
             let first = j1.poll(&w, x);
             j1.repoll(&w, x, b1, first)
         },
@@ -981,16 +574,17 @@ fn join_against_end<L: Lock + 'static, const N: usize, const B: usize>(
                 _ => Ok(o),
             };
             if two {
-                let r = j2.released(&w, x, b2, what);
+                let r = j2.borrow_mut().released(&w, x, b2, what);
                 assert_eq!(r, lost_or(Outcome::Completed), "{what}: J2");
             }
             if at.after {
                 // J1 joined run 1 before the end: as J2.
                 assert_eq!(first, Poll::Pending, "{what}");
-                let r = j1.released(&w, x, 0, what);
+                let r = j1.borrow_mut().released(&w, x, 0, what);
                 assert_eq!(r, lost_or(Outcome::Completed), "{what}: J1");
             } else {
-                match (first, j1.run.get()) {
+                let run = j1.borrow().run;
+                match (first, run) {
                     (Poll::Ready(r), Some(1)) => {
                         assert_eq!(r, lost_or(Outcome::Completed), "{what}")
                     }
@@ -1000,16 +594,16 @@ fn join_against_end<L: Lock + 'static, const N: usize, const B: usize>(
                     }
                     (Poll::Pending, Some(2)) => {
                         assert_eq!(then, Then::EndAndStart, "{what}");
-                        let before = j1.wakes.woken();
+                        let before = wakes(j1);
                         w.take(x);
                         assert!(w.end(x, Outcome::Skipped));
-                        let r = j1.released(&w, x, before, what);
+                        let r = j1.borrow_mut().released(&w, x, before, what);
                         assert_eq!(r, Ok(Outcome::Skipped), "{what}: J1");
                     }
                     other => panic!("{what}: J1 {other:?}"),
                 }
             }
-            assert!(!j1.joining(&w), "{what}");
+            assert!(!j1.borrow().joining(&w), "{what}");
             w.check(what);
         },
     );
@@ -1033,46 +627,32 @@ fn join_against_drop<L: Lock + 'static, const N: usize, const B: usize>(
     join_first: bool,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let [r, x] = ["R", "X"].map(|n| w.seq(n));
-        w.split();
-        let j = w.seq("J");
+        let (w, [r, x], [j]) = World::<L, N, B>::of(layout, ["R", "X"], ["J"]);
         w.start_taken(r);
         w.blocking(x, r).unwrap();
-        let j = Joiner::started(&w, j);
-        (w, [r, x], j)
+        (w, [r, x], joiner(&w, j))
     };
-    type S<L, const N: usize, const B: usize> = (World<L, N, B>, [SeqId; 2], Joiner);
-    let join = |(w, [_, x], j): S<L, N, B>| {
-        let before = j.wakes.woken();
-        let first = j.poll(&w, x);
-        (before, j.repoll(&w, x, before, first))
-    };
-    let drop = |(w, [r, _], _): S<L, N, B>| Port::abandon(w.seq, r, &());
-    let expect = |what: &str,
-                  (before, polled): (usize, Poll<Result<Outcome, Error>>),
-                  (w, [r, x], j): S<L, N, B>| {
-        for id in [r, x] {
-            assert_eq!(w.ended(id), (Aborted, Cause::Dropped), "{what}: {id:?}");
-        }
-        let r = j.outcome(&w, x, before, polled, what);
-        assert_eq!(r, Ok(Outcome::Aborted(Cause::Dropped)), "{what}");
-        assert!(!j.joining(&w), "{what}");
-        w.check(what);
-    };
-    let name = format!(
-        "{layout:?}, {}, join first {join_first}",
-        core::any::type_name::<L>()
+    preempting(
+        &named::<L>(layout, format_args!("join first {join_first}")),
+        join_first,
+        setup,
+        |(w, [_, x], j)| {
+            let mut j = j.borrow_mut();
+            let before = woken(&j.wakes);
+            let first = j.poll(&w, x);
+            (before, j.repoll(&w, x, before, first))
+        },
+        |(w, [r, _], _)| Port::abandon(w.seq, r, &()),
+        |what, _, (before, polled), (), (w, [r, x], j)| {
+            for id in [r, x] {
+                assert_eq!(w.ended(id), (Aborted, Cause::Dropped), "{what}: {id:?}");
+            }
+            let r = j.borrow_mut().outcome(&w, x, before, polled, what);
+            assert_eq!(r, Ok(Outcome::Aborted(Cause::Dropped)), "{what}");
+            assert!(!j.borrow().joining(&w), "{what}");
+            w.check(what);
+        },
     );
-    if join_first {
-        interleave(&name, setup, join, drop, |what, _, p, (), s| {
-            expect(what, p, s)
-        });
-    } else {
-        interleave(&name, setup, drop, join, |what, _, (), p, s| {
-            expect(what, p, s)
-        });
-    }
 }
 
 #[test]
@@ -1085,25 +665,23 @@ fn a_join_against_a_dropped_run_gets_aborted_dropped() {
 /// before section `k`; then X ends. Both are released and woken and get `Completed`.
 fn two_joiners<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let [x, j1] = ["X", "J1"].map(|n| w.seq(n));
-        w.split();
-        let j2 = w.seq("J2");
+        let (w, [x, j1], [j2]) = World::<L, N, B>::of(layout, ["X", "J1"], ["J2"]);
         w.start_taken(x);
-        let js = [Joiner::started(&w, j1), Joiner::started(&w, j2)];
+        let js = [joiner(&w, j1), joiner(&w, j2)];
         (w, x, js)
     };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
+        &named::<L>(layout, format_args!("")),
         setup,
-        |(w, x, [j1, _])| j1.poll(&w, x),
-        |(w, x, [_, j2])| j2.poll(&w, x),
-        |what, _, p1, p2, (w, x, [j1, j2])| {
+        |(w, x, [j1, _])| j1.borrow_mut().poll(&w, x),
+        |(w, x, [_, j2])| j2.borrow_mut().poll(&w, x),
+        |what, _, p1, p2, (w, x, js)| {
             assert_eq!((p1, p2), (Poll::Pending, Poll::Pending), "{what}");
-            let before = [j1.wakes.woken(), j2.wakes.woken()];
+            let before = js.map(wakes);
             assert!(w.complete(x));
-            for (j, b) in [(j1, before[0]), (j2, before[1])] {
-                assert_eq!(j.released(&w, x, b, what), Ok(Outcome::Completed), "{what}");
+            for (j, b) in js.into_iter().zip(before) {
+                let r = j.borrow_mut().released(&w, x, b, what);
+                assert_eq!(r, Ok(Outcome::Completed), "{what}");
             }
             w.check(what);
         },
@@ -1121,37 +699,35 @@ fn two_joiners_preempting_one_another_are_both_released() {
 /// and woken and gets `Skipped`).
 fn join_against_new_start<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let x = w.seq("X");
-        w.split();
-        let j = w.seq("J");
+        let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
         w.start_taken(x);
         assert!(w.complete(x));
-        let j = Joiner::started(&w, j);
-        (w, x, j)
+        (w, x, joiner(&w, j))
     };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
+        &named::<L>(layout, format_args!("")),
         setup,
-        |(w, x, j)| j.poll(&w, x),
+        |(w, x, j)| j.borrow_mut().poll(&w, x),
         |(w, x, _)| {
-            w.start_taken(x);
+            w.kept(x).start().unwrap();
+            w.take(x);
         },
         |what, _, polled, (), (w, x, j)| {
-            match (polled, j.run.get()) {
+            let run = j.borrow().run;
+            match (polled, run) {
                 (Poll::Ready(r), Some(1)) => assert_eq!(r, Ok(Outcome::Completed), "{what}"),
                 (Poll::Pending, Some(2)) => {
-                    let before = j.wakes.woken();
+                    let before = wakes(j);
                     assert!(w.end(x, Outcome::Skipped));
                     assert_eq!(
-                        j.released(&w, x, before, what),
+                        j.borrow_mut().released(&w, x, before, what),
                         Ok(Outcome::Skipped),
                         "{what}"
                     );
                 }
                 other => panic!("{what}: {other:?}"),
             }
-            assert!(!j.joining(&w), "{what}");
+            assert!(!j.borrow().joining(&w), "{what}");
             w.check(what);
         },
     );
@@ -1188,10 +764,7 @@ enum During {
 /// pending; after the teardown it runs (pending for R's lane).
 fn drop_against<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout, during: During) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let [r, x] = ["R", "X"].map(|n| w.seq(n));
-        w.split();
-        let [c, d] = ["C", "D"].map(|n| w.seq(n));
+        let (w, [r, x], [c, d]) = World::<L, N, B>::of(layout, ["R", "X"], ["C", "D"]);
         w.start_taken(r);
         w.blocking(x, r).unwrap();
         w.in_lane(c, x).unwrap();
@@ -1199,13 +772,13 @@ fn drop_against<L: Lock + 'static, const N: usize, const B: usize>(layout: Layou
         (w, [r, x, c, d])
     };
     interleave(
-        &format!("{layout:?}, {}, {during:?}", core::any::type_name::<L>()),
+        &named::<L>(layout, format_args!("{during:?}")),
         setup,
         |(w, [r, ..])| Port::abandon(w.seq, r, &()),
         move |(w, [r, _, c, d])| match during {
             During::ChildEnds => Ok(w.complete(c)),
             During::ChildStarts => w.in_lane(d, c).map(|()| true),
-            During::StartAgain => w.handle(r).start().map(|()| true),
+            During::StartAgain => w.kept(r).start().map(|()| true),
         },
         move |what, at, (), got, (w, [r, x, c, d])| {
             assert_eq!(w.ended(x), (Aborted, Cause::Dropped), "{what}: X");
@@ -1220,14 +793,9 @@ fn drop_against<L: Lock + 'static, const N: usize, const B: usize>(layout: Layou
                 }
                 During::ChildStarts => {
                     assert_eq!(w.ended(r), (Aborted, Cause::Dropped), "{what}: R");
-                    assert_eq!(w.ended(c), (Aborted, Cause::Dropped), "{what}: C");
-                    match got {
-                        Ok(_) => assert_eq!(w.ended(d), (Aborted, Cause::Dropped), "{what}: D"),
-                        Err(e) => {
-                            assert_eq!(e, Error::NotRunning(c), "{what}");
-                            assert_eq!(w.state(d), Idle, "{what}");
-                        }
-                    }
+                    // C aborted; D refused or aborted with it.
+                    let started = got.map(|_| ());
+                    torn_down_with(what, started, &w, c, d, (Aborted, Cause::Dropped));
                     assert!(!w.pending(d), "{what}");
                 }
                 During::StartAgain => {
@@ -1263,7 +831,7 @@ fn a_dropped_runs_teardown_against_a_lane_below_it_leaves_nothing_under_way() {
 //    queued for the run it was made of).
 // =======================================================================================
 
-/// A request by a handle.
+/// A request by a handle: the shared [`super::Ask`] and an abort.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Ask {
     Abort,
@@ -1276,7 +844,7 @@ fn ask<L: Lock + 'static, const N: usize, const B: usize>(
     x: SeqId,
     a: Ask,
 ) -> Result<(), Error> {
-    let h = w.handle(x);
+    let h = w.kept(x);
     match a {
         Ask::Abort => h.abort(),
         Ask::Pause => h.pause(),
@@ -1293,20 +861,14 @@ fn request_against_end_and_start<L: Lock + 'static, const N: usize, const B: usi
     layout: Layout,
     a: Ask,
 ) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        w.start_taken(x);
-        (w, x)
-    };
     interleave(
-        &format!("{layout:?}, {}, {a:?}", core::any::type_name::<L>()),
-        setup,
+        &named::<L>(layout, format_args!("{a:?}")),
+        move || lone::<L, N, B>(layout, true, true),
         move |(w, x)| ask(&w, x, a),
         |(w, x)| {
             assert!(w.complete(x));
-            w.start_taken(x)
+            w.kept(x).start().unwrap();
+            w.take(x)
         },
         move |what, at, asked, run2, (w, x)| {
             assert_eq!(asked, Ok(()), "{what}");
@@ -1348,53 +910,29 @@ fn end_against_request<L: Lock + 'static, const N: usize, const B: usize>(
     a: Ask,
     end_first: bool,
 ) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        w.start_taken(x);
-        (w, x)
-    };
-    let expect = move |what: &str,
-                       ended: bool,
-                       asked: Result<(), Error>,
-                       (w, x): (World<L, N, B>, SeqId)| {
-        assert!(ended, "{what}");
-        assert!(
-            asked == Ok(()) || asked == Err(Error::NotRunning(x)),
-            "{what}: {asked:?}"
-        );
-        w.tick(1);
-        w.tick(2);
-        assert_eq!((w.state(x), w.runs(x)), (Terminated, 1), "{what}");
-        assert_eq!(
-            w.moves(x, Running, Aborting) + w.moves(x, Running, Paused),
-            0,
-            "{what}"
-        );
-        w.check(what);
-    };
-    let name = format!(
-        "{layout:?}, {}, {a:?}, end first {end_first}",
-        core::any::type_name::<L>()
+    preempting(
+        &named::<L>(layout, format_args!("{a:?}, end first {end_first}")),
+        end_first,
+        move || lone::<L, N, B>(layout, true, true),
+        |(w, x)| w.complete(x),
+        move |(w, x)| ask(&w, x, a),
+        |what, _, ended, asked, (w, x)| {
+            assert!(ended, "{what}");
+            assert!(
+                asked == Ok(()) || asked == Err(Error::NotRunning(x)),
+                "{what}: {asked:?}"
+            );
+            w.tick(1);
+            w.tick(2);
+            assert_eq!((w.state(x), w.runs(x)), (Terminated, 1), "{what}");
+            assert_eq!(
+                w.moves(x, Running, Aborting) + w.moves(x, Running, Paused),
+                0,
+                "{what}"
+            );
+            w.check(what);
+        },
     );
-    if end_first {
-        interleave(
-            &name,
-            setup,
-            |(w, x)| w.complete(x),
-            move |(w, x)| ask(&w, x, a),
-            |what, _, e, r, s| expect(what, e, r, s),
-        );
-    } else {
-        interleave(
-            &name,
-            setup,
-            move |(w, x)| ask(&w, x, a),
-            |(w, x)| w.complete(x),
-            |what, _, r, e, s| expect(what, e, r, s),
-        );
-    }
 }
 
 #[test]
@@ -1411,16 +949,10 @@ fn an_end_against_a_request_stands() {
 /// running at its check, and then carried out: X `Aborted(Abort)` and no start left for
 /// its lane to take; else (`NotRunning(X)`) X runs and its lane takes run 1.
 fn start_against_abort_request<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        (w, x)
-    };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
-        setup,
-        |(w, x)| w.handle(x).start(),
+        &named::<L>(layout, format_args!("")),
+        move || lone::<L, N, B>(layout, false, false),
+        |(w, x)| w.kept(x).start(),
         |(w, x)| ask(&w, x, Ask::Abort),
         |what, _, started, asked, (w, x)| {
             assert_eq!(started, Ok(()), "{what}");
@@ -1455,40 +987,26 @@ fn blocking_start_against_pause<L: Lock + 'static, const N: usize, const B: usiz
     start_first: bool,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let p = w.seq("P");
-        w.split();
-        let x = w.seq("X");
+        let (w, [p], [x]) = World::<L, N, B>::of(layout, ["P"], ["X"]);
         w.start_taken(p);
         (w, [p, x])
     };
-    let expect = |what: &str,
-                  started: Result<(), Error>,
-                  asked: Result<(), Error>,
-                  (w, [p, x]): (World<L, N, B>, [SeqId; 2])| {
-        assert_eq!((started, asked), (Ok(()), Ok(())), "{what}");
-        w.tick(1);
-        assert_eq!((w.state(p), w.state(x)), (Paused, Paused), "{what}");
-        ask(&w, p, Ask::Resume).unwrap();
-        w.tick(2);
-        assert_eq!((w.state(p), w.state(x)), (Running, Running), "{what}");
-        w.check(what);
-    };
-    let name = format!(
-        "{layout:?}, {}, start first {start_first}",
-        core::any::type_name::<L>()
+    preempting(
+        &named::<L>(layout, format_args!("start first {start_first}")),
+        start_first,
+        setup,
+        |(w, [p, x])| w.blocking(x, p),
+        |(w, [p, _])| ask(&w, p, Ask::Pause),
+        |what, _, started, asked, (w, [p, x])| {
+            assert_eq!((started, asked), (Ok(()), Ok(())), "{what}");
+            w.tick(1);
+            assert_eq!((w.state(p), w.state(x)), (Paused, Paused), "{what}");
+            ask(&w, p, Ask::Resume).unwrap();
+            w.tick(2);
+            assert_eq!((w.state(p), w.state(x)), (Running, Running), "{what}");
+            w.check(what);
+        },
     );
-    let start = |(w, [p, x]): (World<L, N, B>, [SeqId; 2])| w.blocking(x, p);
-    let pause = |(w, [p, _]): (World<L, N, B>, [SeqId; 2])| ask(&w, p, Ask::Pause);
-    if start_first {
-        interleave(&name, setup, start, pause, |what, _, s, a, sc| {
-            expect(what, s, a, sc)
-        });
-    } else {
-        interleave(&name, setup, pause, start, |what, _, a, s, sc| {
-            expect(what, s, a, sc)
-        });
-    }
 }
 
 #[test]
@@ -1507,44 +1025,33 @@ fn request_against_drop<L: Lock + 'static, const N: usize, const B: usize>(
     drop_first: bool,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        w.start_taken(x);
+        let (w, x) = lone::<L, N, B>(layout, true, true);
         ask(&w, x, Ask::Pause).unwrap();
         w.tick(1);
         assert_eq!(w.state(x), Paused);
         (w, x)
     };
-    let expect = move |what: &str, asked: Result<(), Error>, (w, x): (World<L, N, B>, SeqId)| {
-        let refused = match a {
-            Ask::Resume => Error::NotPaused(x),
-            _ => Error::NotRunning(x),
-        };
-        assert!(
-            asked == Ok(()) || asked == Err(refused),
-            "{what}: {asked:?}"
-        );
-        assert_eq!(w.ended(x), (Aborted, Cause::Dropped), "{what}");
-        w.tick(2);
-        assert_eq!(w.ended(x), (Aborted, Cause::Dropped), "{what}");
-        w.check(what);
-    };
-    let name = format!(
-        "{layout:?}, {}, {a:?}, drop first {drop_first}",
-        core::any::type_name::<L>()
+    preempting(
+        &named::<L>(layout, format_args!("{a:?}, drop first {drop_first}")),
+        drop_first,
+        setup,
+        |(w, x)| Port::abandon(w.seq, x, &()),
+        move |(w, x)| ask(&w, x, a),
+        move |what, _, (), asked, (w, x)| {
+            let refused = match a {
+                Ask::Resume => Error::NotPaused(x),
+                _ => Error::NotRunning(x),
+            };
+            assert!(
+                asked == Ok(()) || asked == Err(refused),
+                "{what}: {asked:?}"
+            );
+            assert_eq!(w.ended(x), (Aborted, Cause::Dropped), "{what}");
+            w.tick(2);
+            assert_eq!(w.ended(x), (Aborted, Cause::Dropped), "{what}");
+            w.check(what);
+        },
     );
-    let drop = |(w, x): (World<L, N, B>, SeqId)| Port::abandon(w.seq, x, &());
-    let req = move |(w, x): (World<L, N, B>, SeqId)| ask(&w, x, a);
-    if drop_first {
-        interleave(&name, setup, drop, req, |what, _, (), r, s| {
-            expect(what, r, s)
-        });
-    } else {
-        interleave(&name, setup, req, drop, |what, _, r, (), s| {
-            expect(what, r, s)
-        });
-    }
 }
 
 #[test]
@@ -1570,55 +1077,35 @@ fn take_against_start<L: Lock + 'static, const N: usize, const B: usize>(
     take_first: bool,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        (w, x, Counter::new())
+        let (w, x) = lone::<L, N, B>(layout, false, false);
+        (w, x, counter())
     };
-    type S<L, const N: usize, const B: usize> = (World<L, N, B>, SeqId, Counter);
-    let take = |(w, x, c): S<L, N, B>| Port::take_start(w.seq, x, 0, &c.waker());
-    let start = |(w, x, _): S<L, N, B>| w.handle(x).start();
-    let expect = |what: &str,
-                  at: At,
-                  taken: Option<RunId>,
-                  started: Result<(), Error>,
-                  (w, x, c): S<L, N, B>| {
-        assert_eq!(started, Ok(()), "{what}");
-        let run = RunId { seq: x, count: 1 };
-        match taken {
-            Some(r) => assert_eq!(r, run, "{what}"),
-            None => {
-                // Taken before the start: the lane's waker is known to the start only if
-                // the lane parked before it.
-                if take_first || !at.after {
-                    assert!(c.woken() > 0, "{what}: the lane not woken");
+    preempting(
+        &named::<L>(layout, format_args!("take first {take_first}")),
+        take_first,
+        setup,
+        |(w, x, (waker, _))| Port::take_start(w.seq, x, 0, waker),
+        |(w, x, _)| w.kept(x).start(),
+        move |what, at, taken, started, (w, x, (waker, count))| {
+            assert_eq!(started, Ok(()), "{what}");
+            let run = RunId { seq: x, count: 1 };
+            match taken {
+                Some(r) => assert_eq!(r, run, "{what}"),
+                None => {
+                    // Taken before the start: the lane's waker is known to the start only
+                    // if the lane parked before it. (A take after the start, before its
+                    // lane was woken, takes the run.)
+                    if take_first || !at.after {
+                        assert!(woken(count) > 0, "{what}: the lane not woken");
+                    }
+                    assert_eq!(Port::take_start(w.seq, x, 0, waker), Some(run), "{what}");
                 }
-                assert_eq!(
-                    Port::take_start(w.seq, x, 0, &c.waker()),
-                    Some(run),
-                    "{what}"
-                );
             }
-        }
-        assert!(!w.pending(x), "{what}");
-        assert_eq!(w.clearance(run), Clearance::Go, "{what}");
-        w.check(what);
-    };
-    let name = format!(
-        "{layout:?}, {}, take first {take_first}",
-        core::any::type_name::<L>()
+            assert!(!w.pending(x), "{what}");
+            assert_eq!(w.clearance(run), Clearance::Go, "{what}");
+            w.check(what);
+        },
     );
-    if take_first {
-        interleave(&name, setup, take, start, |what, at, t, s, sc| {
-            expect(what, at, t, s, sc)
-        });
-    } else {
-        interleave(&name, setup, start, take, |what, at, s, t, sc| {
-            // A take before the start found nothing; one after it, before its lane was
-            // woken, takes the run.
-            expect(what, at, t, s, sc)
-        });
-    }
 }
 
 #[test]
@@ -1632,16 +1119,9 @@ fn a_take_against_a_handle_start_takes_the_run_once() {
 /// takes run 1 (the start was pending), the request is accepted and carried out: run 1's
 /// clearance is `Aborted(Abort)`, nothing left pending.
 fn take_against_abort<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        w.handle(x).start().unwrap();
-        (w, x)
-    };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
-        setup,
+        &named::<L>(layout, format_args!("")),
+        move || lone::<L, N, B>(layout, true, false),
         |(w, x)| w.try_take(x),
         |(w, x)| ask(&w, x, Ask::Abort),
         |what, _, taken, asked, (w, x)| {
@@ -1664,16 +1144,9 @@ fn a_take_against_an_abort_request_takes_the_run_and_is_aborted() {
 /// X was started by a handle (pending). Two lane futures of X take the start, one
 /// preempting the other: exactly one takes run 1.
 fn two_takes<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        w.handle(x).start().unwrap();
-        (w, x)
-    };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
-        setup,
+        &named::<L>(layout, format_args!("")),
+        move || lone::<L, N, B>(layout, true, false),
         |(w, x)| w.try_take(x),
         |(w, x)| w.try_take(x),
         |what, _, a, b, (w, x)| {
@@ -1701,23 +1174,11 @@ fn abandon_start_against_start<L: Lock + 'static, const N: usize, const B: usize
     layout: Layout,
     pending: bool,
 ) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        w.split();
-        let x = w.seq("X");
-        if pending {
-            w.handle(x).start().unwrap();
-        }
-        (w, x)
-    };
     interleave(
-        &format!(
-            "{layout:?}, {}, pending {pending}",
-            core::any::type_name::<L>()
-        ),
-        setup,
+        &named::<L>(layout, format_args!("pending {pending}")),
+        move || lone::<L, N, B>(layout, pending, false),
         |(w, x)| Port::abandon_start(w.seq, x, 0, &()),
-        |(w, x)| w.handle(x).start(),
+        |(w, x)| w.kept(x).start(),
         move |what, at, (), started, (w, x)| {
             let before_look = at.k == 0 && !at.after;
             if pending || before_look {
@@ -1764,40 +1225,39 @@ fn a_lane_dropped_against_a_handle_start_aborts_what_it_would_have_taken() {
 /// is released and woken by Y's end (`Completed`).
 fn joins_in_a_select<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let x = w.seq("X");
-        w.split();
-        let [y, j] = ["Y", "J"].map(|n| w.seq(n));
+        let (w, [x], [y, j]) = World::<L, N, B>::of(layout, ["X"], ["Y", "J"]);
         w.start_taken(x);
         w.start_taken(y);
-        let jx = Joiner::started(&w, j);
-        let jy = Joiner {
-            run: Box::leak(Box::new(Cell::new(None))),
-            ..jx
-        };
-        assert_eq!(jx.poll(&w, x), Poll::Pending);
-        (w, [x, y], [jx, jy], jx.wakes.woken())
+        let jx = joiner(&w, j);
+        // The same action, its own join: one lane, one waker.
+        let jy: Shared = Box::leak(Box::new(RefCell::new(Joiner {
+            id: j,
+            run: None,
+            wakes: jx.borrow().wakes.clone(),
+        })));
+        assert_eq!(jx.borrow_mut().poll(&w, x), Poll::Pending);
+        (w, [x, y], [jx, jy], wakes(jx))
     };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
+        &named::<L>(layout, format_args!("")),
         setup,
-        |(w, [_, y], [_, jy], _)| jy.poll(&w, y),
+        |(w, [_, y], [_, jy], _)| jy.borrow_mut().poll(&w, y),
         |(w, [x, _], _, _)| assert!(w.complete(x)),
         |what, _, first, (), (w, [x, y], [jx, jy], before)| {
             assert_eq!(first, Poll::Pending, "{what}: Y runs");
-            assert!(jx.wakes.woken() > before, "{what}: not woken by X's end");
+            assert!(wakes(jx) > before, "{what}: not woken by X's end");
             // The executor polls both joins again.
             assert_eq!(
-                jx.poll(&w, x),
+                jx.borrow_mut().poll(&w, x),
                 Poll::Ready(Ok(Outcome::Completed)),
                 "{what}"
             );
-            assert_eq!(jy.poll(&w, y), Poll::Pending, "{what}");
-            let before = jy.wakes.woken();
+            assert_eq!(jy.borrow_mut().poll(&w, y), Poll::Pending, "{what}");
+            let before = wakes(jy);
             assert!(w.complete(y));
-            assert!(jy.wakes.woken() > before, "{what}: not woken by Y's end");
+            assert!(wakes(jy) > before, "{what}: not woken by Y's end");
             assert_eq!(
-                jy.poll(&w, y),
+                jy.borrow_mut().poll(&w, y),
                 Poll::Ready(Ok(Outcome::Completed)),
                 "{what}"
             );
@@ -1824,28 +1284,19 @@ fn start_of_an_exception_sequence_against_its_end<
     layout: Layout,
 ) {
     let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let o = w.seq("O");
-        w.split();
-        let e = w.seq("E");
-        let on: &'static core::sync::atomic::AtomicBool =
-            Box::leak(Box::new(core::sync::atomic::AtomicBool::new(true)));
-        let condition: &'static mut (dyn crate::Condition<()> + Send) =
-            Box::leak(Box::new(move |_: &(), _: Instant| {
-                on.load(Ordering::Relaxed)
-            }));
-        let m = crate::Monitor::new("m", condition, crate::Behaviour::AbortOwner).exception(e);
-        let id = w.monitors.borrow_mut().add(o, m).unwrap();
+        let (w, [o], [e]) = World::<L, N, B>::of(layout, ["O"], ["E"]);
+        let on = flag_of(true);
+        let cause = w.monitor(o, on, Behaviour::AbortOwner, Some(e));
         w.start_taken(o);
         w.tick(1);
         assert_eq!((w.state(o), w.state(e)), (Running, Running));
         on.store(false, Ordering::Relaxed);
-        (w, [o, e], Cause::Monitor(id))
+        (w, [o, e], cause)
     };
     interleave(
-        &format!("{layout:?}, {}", core::any::type_name::<L>()),
+        &named::<L>(layout, format_args!("")),
         setup,
-        |(w, [_, e], _)| w.handle(e).start(),
+        |(w, [_, e], _)| w.kept(e).start(),
         |(w, [_, e], _)| {
             w.take(e);
             w.complete(e)
@@ -1856,7 +1307,7 @@ fn start_of_an_exception_sequence_against_its_end<
             assert_eq!(w.state(e), Terminated, "{what}");
             w.tick(2);
             assert_eq!(w.ended(o), (Aborted, cause), "{what}");
-            assert_eq!(w.handle(e).start(), Ok(()), "{what}: E free again");
+            assert_eq!(w.kept(e).start(), Ok(()), "{what}: E free again");
             w.take(e);
             w.check(what);
         },
