@@ -296,11 +296,11 @@ fn admit<
     })
 }
 
-/// Whether the polling class of `id` has a member whose run is under way (`Running`,
-/// `Paused`, or between them: `Restarting`, `Aborting`): a start of `id` then joins the
-/// class's grid; else the class starts a new one. The tick's sets say it of the members
-/// that did not change since its last fold; a member that changed since (started, or
-/// ended in the same lane poll as this start) is looked at. One section for the members
+/// Whether the polling class of `id` has a member whose run is under way: one active
+/// (`Running`, `Paused`) at the tick's last fold and unchanged since, or one that changed
+/// since (started, or ended in the same lane poll as this start) whose state is under way
+/// (`Running`, `Paused`, or between them: `Restarting`, `Aborting`). A start of `id` then
+/// joins the class's grid; else the class starts a new one. One section for the members
 /// that did not change, then one per member that did; a transition in between makes the
 /// commit schedule again.
 fn class_busy<

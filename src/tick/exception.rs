@@ -297,8 +297,8 @@ fn mark<
             restarts = restarts.saturating_add(1);
         }
     }
-    // Only the tick marks an exception, and only a new run (another run count) clears
-    // the mark: the count stands for the first section's `Excepting` test.
+    // Only the tick marks an exception, and outside the tick only a new run (another run
+    // count) clears the mark: the count stands for the first section's `Excepting` test.
     s.section(|s| {
         let b = s
             .block_mut(owner)
