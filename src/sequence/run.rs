@@ -31,7 +31,7 @@
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
 //! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
 //! | Action → ActionFailed | [`Port::clearance`], the body's action (`Err`) |
-//! | ActionDone → ExitCondition | [`Port::clearance`], [`Port::set_poll_wait`] |
+//! | ActionDone → ExitCondition | [`Port::set_poll_wait`], then [`Port::clearance`] |
 //! | ExitCondition → AwaitPoll | the body's exit condition (false) |
 //! | AwaitPoll → ExitCondition | [`Port::due_poll`] |
 //! | … → Ended | [`Port::end`] (completed, skipped, failed), or a clearance `Aborted` |
@@ -199,14 +199,17 @@ impl<'a, C> Run<'a, C> {
                 Stage::Action => return Poll::Ready(()),
                 // The tick may have stopped or paused the run while its action ran: the
                 // exit condition is checked only with the clearance `Go`.
-                Stage::ActionDone => match port.clearance(self.run(), w.waker()) {
-                    Clearance::Go => {
-                        port.set_poll_wait(self.run(), true);
-                        self.stage.set(Stage::ExitCondition);
+                Stage::ActionDone => {
+                    // The poll wait first, then the clearance (as `Cx::wait_until` does): the
+                    // check right after the action follows the clearance with no section in
+                    // between, so a tick that stops or pauses the run meanwhile comes first.
+                    port.set_poll_wait(self.run(), true);
+                    match port.clearance(self.run(), w.waker()) {
+                        Clearance::Go => self.stage.set(Stage::ExitCondition),
+                        Clearance::Hold => return Poll::Pending,
+                        other => self.obey(other),
                     }
-                    Clearance::Hold => return Poll::Pending,
-                    other => self.obey(other),
-                },
+                }
                 Stage::ActionFailed => match port.clearance(self.run(), w.waker()) {
                     Clearance::Go => self.try_end(self.outcome.get(), w),
                     Clearance::Hold => return Poll::Pending,

@@ -33,6 +33,9 @@
 //!   word and of two, and `abort_all` inserted anywhere.
 //! - [`lanes`]: a lane of higher priority preempting another lane's operation (no tick in
 //!   between), under both locks, in sequencers of one word and of two.
+//! - [`polls`]: polled conditions (real lanes polled by hand: the check right after the
+//!   action, due polls, their wake-ups), restarts driven by the lane, a child's end against
+//!   a `PauseOwner` monitor, under both locks, in one word and two.
 //!
 //! This module holds what they share: the [`World`] (generic over the lock and the
 //! sequencer's size), the loops over `k` ([`sections`], [`every_k`]) and the set-ups and
@@ -55,6 +58,7 @@ mod coarse;
 mod fine;
 mod lanes;
 mod more;
+mod polls;
 
 use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
