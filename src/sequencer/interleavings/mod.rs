@@ -56,6 +56,7 @@ extern crate std;
 
 mod coarse;
 mod fine;
+mod holds;
 mod lanes;
 mod more;
 mod polls;
