@@ -283,11 +283,15 @@ fn leave<
         return Leave::Raced;
     }
     if pause {
-        // The run's clock (and its timeout) stops while paused.
+        // The run's clock (and its timeout) stops while paused, and a due poll its lane has
+        // not taken yet is skipped, not taken when the pause ends (semantics 1).
         s.section(|s| {
             let now = Stamp::of(s.now);
             if let Some(b) = s.block_mut(id) {
                 b.flip_clock(now);
+            }
+            if to == RunningState::Paused {
+                s.sets.put(Set::PollDue, id, false);
             }
         });
     }

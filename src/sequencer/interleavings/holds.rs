@@ -506,14 +506,12 @@ fn a_blocked_child_skips_its_polls_while_its_caller_handles_an_exception() {
 
 /// Fails today: the mark of 2 ms is taken at the release at 5 ms.
 #[test]
-#[ignore = "defect: a blocked child's untaken poll mark survives its caller's pause request (taken at the resume, 5 ms); tick/mod.rs drops marks only for this tick's due polls"]
 fn a_mark_left_before_a_pause_request_of_the_caller_is_dropped() {
     polls_against_hold(Hold::Request, &MARK_LEFT);
 }
 
 /// Fails today: the mark of 2 ms is taken at the release at 5 ms.
 #[test]
-#[ignore = "defect: a blocked child's untaken poll mark survives its caller's PauseOwner hold (taken at the release, 5 ms); tick/mod.rs drops marks only for this tick's due polls"]
 fn a_mark_left_before_a_pause_owner_hold_of_the_caller_is_dropped() {
     polls_against_hold(Hold::Monitor, &MARK_LEFT);
 }
