@@ -26,7 +26,7 @@ use super::*;
 use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
 
 /// Runs a scenario `f::<L, N, B>(layout, args...)` under both locks, in one word and in two.
-macro_rules! every_world {
+macro_rules! every_split_world {
     ($f:ident $(, $arg:expr)*) => {{
         $f::<Interleaved, 8, 1>(Layout::One $(, $arg)*);
         $f::<Interleaved, 64, 2>(Layout::Split $(, $arg)*);
@@ -265,7 +265,7 @@ fn two_starts_of_the_same_sequence_in_two_lanes_one_wins() {
         (InLaneByQ, BlockingByP),
         (BlockingByP, BlockingByQ),
     ] {
-        every_world!(two_starts, a, b);
+        every_split_world!(two_starts, a, b);
     }
 }
 
@@ -311,8 +311,8 @@ fn start_by_a_replaced_caller<L: Lock + 'static, const N: usize, const B: usize>
 
 #[test]
 fn a_start_by_a_caller_started_again_meanwhile_is_refused() {
-    every_world!(start_by_a_replaced_caller, false);
-    every_world!(start_by_a_replaced_caller, true);
+    every_split_world!(start_by_a_replaced_caller, false);
+    every_split_world!(start_by_a_replaced_caller, true);
 }
 
 /// P runs; lane A (P's) starts X in X's lane. X's lane, of higher priority, runs before
@@ -368,7 +368,7 @@ fn start_while_its_lane_starts_a_child<L: Lock + 'static, const N: usize, const 
 
 #[test]
 fn a_start_while_its_lane_takes_it_and_starts_a_child_is_taken_once() {
-    every_world!(start_while_its_lane_starts_a_child);
+    every_split_world!(start_while_its_lane_starts_a_child);
 }
 
 // =======================================================================================
@@ -430,8 +430,8 @@ fn start_against_end<L: Lock + 'static, const N: usize, const B: usize>(
 
 #[test]
 fn a_start_against_the_end_of_the_previous_run_wins_only_after_the_end() {
-    every_world!(start_against_end, true);
-    every_world!(start_against_end, false);
+    every_split_world!(start_against_end, true);
+    every_split_world!(start_against_end, false);
 }
 
 /// What P's lane does while X's run starts C (or the other way round).
@@ -503,7 +503,7 @@ fn start_against_caller<L: Lock + 'static, const N: usize, const B: usize>(
 fn a_start_below_a_caller_that_ends_runs_and_below_a_dropped_one_is_torn_down() {
     for to_caller in [ToCaller::Ends, ToCaller::Dropped] {
         for start_first in [true, false] {
-            every_world!(start_against_caller, to_caller, start_first);
+            every_split_world!(start_against_caller, to_caller, start_first);
         }
     }
 }
@@ -613,7 +613,7 @@ fn join_against_end<L: Lock + 'static, const N: usize, const B: usize>(
 fn a_join_against_the_end_of_the_joined_run_gets_its_outcome_or_outcome_lost() {
     for two in [false, true] {
         for then in [Then::End, Then::EndAndStart, Then::EndTwice] {
-            every_world!(join_against_end, two, then);
+            every_split_world!(join_against_end, two, then);
         }
     }
 }
@@ -657,8 +657,8 @@ fn join_against_drop<L: Lock + 'static, const N: usize, const B: usize>(
 
 #[test]
 fn a_join_against_a_dropped_run_gets_aborted_dropped() {
-    every_world!(join_against_drop, true);
-    every_world!(join_against_drop, false);
+    every_split_world!(join_against_drop, true);
+    every_split_world!(join_against_drop, false);
 }
 
 /// X runs; J1's first poll of its join of X, with J2's first poll of its own join of X
@@ -690,7 +690,7 @@ fn two_joiners<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout
 
 #[test]
 fn two_joiners_preempting_one_another_are_both_released() {
-    every_world!(two_joiners);
+    every_split_world!(two_joiners);
 }
 
 /// X's run 1 ended (`Completed`). J's first poll of its join of X, with a handle start of
@@ -735,7 +735,7 @@ fn join_against_new_start<L: Lock + 'static, const N: usize, const B: usize>(lay
 
 #[test]
 fn a_join_against_a_new_start_joins_the_run_current_at_its_look() {
-    every_world!(join_against_new_start);
+    every_split_world!(join_against_new_start);
 }
 
 // =======================================================================================
@@ -822,7 +822,7 @@ fn drop_against<L: Lock + 'static, const N: usize, const B: usize>(layout: Layou
 #[test]
 fn a_dropped_runs_teardown_against_a_lane_below_it_leaves_nothing_under_way() {
     for during in [During::ChildEnds, During::ChildStarts, During::StartAgain] {
-        every_world!(drop_against, during);
+        every_split_world!(drop_against, during);
     }
 }
 
@@ -897,8 +897,8 @@ fn request_against_end_and_start<L: Lock + 'static, const N: usize, const B: usi
 
 #[test]
 fn a_request_against_an_end_and_a_new_start_is_carried_out_on_its_own_run_only() {
-    every_world!(request_against_end_and_start, Ask::Abort);
-    every_world!(request_against_end_and_start, Ask::Pause);
+    every_split_world!(request_against_end_and_start, Ask::Abort);
+    every_split_world!(request_against_end_and_start, Ask::Pause);
 }
 
 /// X runs; its lane ends it (completed) and a handle requests an abort (or pause) of it,
@@ -939,7 +939,7 @@ fn end_against_request<L: Lock + 'static, const N: usize, const B: usize>(
 fn an_end_against_a_request_stands() {
     for a in [Ask::Abort, Ask::Pause] {
         for end_first in [true, false] {
-            every_world!(end_against_request, a, end_first);
+            every_split_world!(end_against_request, a, end_first);
         }
     }
 }
@@ -975,7 +975,7 @@ fn start_against_abort_request<L: Lock + 'static, const N: usize, const B: usize
 
 #[test]
 fn an_abort_requested_during_a_start_is_carried_out_iff_accepted() {
-    every_world!(start_against_abort_request);
+    every_split_world!(start_against_abort_request);
 }
 
 /// P runs. P's lane starts X blocking (lane A) while a handle requests a pause of P
@@ -1011,8 +1011,8 @@ fn blocking_start_against_pause<L: Lock + 'static, const N: usize, const B: usiz
 
 #[test]
 fn a_blocking_start_against_a_pause_request_of_its_caller_is_paused_with_it() {
-    every_world!(blocking_start_against_pause, true);
-    every_world!(blocking_start_against_pause, false);
+    every_split_world!(blocking_start_against_pause, true);
+    every_split_world!(blocking_start_against_pause, false);
 }
 
 /// X was paused by a request (1 ms). A handle requests a resume (or an abort) of X while
@@ -1058,7 +1058,7 @@ fn request_against_drop<L: Lock + 'static, const N: usize, const B: usize>(
 fn a_request_against_a_dropped_run_leaves_it_aborted_dropped() {
     for a in [Ask::Resume, Ask::Abort] {
         for drop_first in [true, false] {
-            every_world!(request_against_drop, a, drop_first);
+            every_split_world!(request_against_drop, a, drop_first);
         }
     }
 }
@@ -1110,8 +1110,8 @@ fn take_against_start<L: Lock + 'static, const N: usize, const B: usize>(
 
 #[test]
 fn a_take_against_a_handle_start_takes_the_run_once() {
-    every_world!(take_against_start, true);
-    every_world!(take_against_start, false);
+    every_split_world!(take_against_start, true);
+    every_split_world!(take_against_start, false);
 }
 
 /// X was started by a handle (pending). X's lane takes the start (lane A) while a handle
@@ -1138,7 +1138,7 @@ fn take_against_abort<L: Lock + 'static, const N: usize, const B: usize>(layout:
 
 #[test]
 fn a_take_against_an_abort_request_takes_the_run_and_is_aborted() {
-    every_world!(take_against_abort);
+    every_split_world!(take_against_abort);
 }
 
 /// X was started by a handle (pending). Two lane futures of X take the start, one
@@ -1161,7 +1161,7 @@ fn two_takes<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) 
 
 #[test]
 fn two_takes_of_one_start_take_it_once() {
-    every_world!(two_takes);
+    every_split_world!(two_takes);
 }
 
 /// X's lane is dropped while it waits for a start (`Port::abandon_start`, lane A), and a
@@ -1211,8 +1211,8 @@ fn abandon_start_against_start<L: Lock + 'static, const N: usize, const B: usize
 
 #[test]
 fn a_lane_dropped_against_a_handle_start_aborts_what_it_would_have_taken() {
-    every_world!(abandon_start_against_start, true);
-    every_world!(abandon_start_against_start, false);
+    every_split_world!(abandon_start_against_start, true);
+    every_split_world!(abandon_start_against_start, false);
 }
 
 // =======================================================================================
@@ -1268,7 +1268,7 @@ fn joins_in_a_select<L: Lock + 'static, const N: usize, const B: usize>(layout: 
 
 #[test]
 fn an_action_in_two_joins_is_woken_by_each_end() {
-    every_world!(joins_in_a_select);
+    every_split_world!(joins_in_a_select);
 }
 
 /// O's `AbortOwner` monitor fired at 1 ms and started its exception sequence E (pending
@@ -1316,5 +1316,5 @@ fn start_of_an_exception_sequence_against_its_end<
 
 #[test]
 fn a_start_of_an_exception_sequence_against_its_end_is_refused_until_reported() {
-    every_world!(start_of_an_exception_sequence_against_its_end);
+    every_split_world!(start_of_an_exception_sequence_against_its_end);
 }

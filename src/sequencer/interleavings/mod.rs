@@ -54,6 +54,34 @@
 
 extern crate std;
 
+/// Runs a scenario `f::<L, N, B>(layout, args...)` under both locks, in one word and with
+/// the sequences under test in the second; fails naming every world that failed.
+macro_rules! every_world {
+    ($f:ident $(, $arg:expr)*) => {{
+        let mut failed: Vec<String> = Vec::new();
+        let mut one = |world: &str, r: std::thread::Result<()>| {
+            if let Err(e) = r {
+                let msg = e
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .unwrap_or_default();
+                failed.push(format!("[{world}] {msg}"));
+            }
+        };
+        let run = |f: &dyn Fn()| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+        one("fine, one word", run(&|| $f::<Interleaved, 8, 1>(Layout::One $(, $arg)*)));
+        one("fine, two words", run(&|| $f::<Interleaved, 64, 2>(Layout::Second $(, $arg)*)));
+        one("coarse, one word", run(&|| $f::<InterleavedCoarse, 8, 1>(Layout::One $(, $arg)*)));
+        one("coarse, two words", run(&|| $f::<InterleavedCoarse, 64, 2>(Layout::Second $(, $arg)*)));
+        assert!(failed.is_empty(), "{}", failed.join("\n"));
+    }};
+}
+
+/// The name of a world and a case, for failure messages.
+fn name<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
+    format!("{layout:?}, {}, {rest}", core::any::type_name::<L>())
+}
+
 mod coarse;
 mod fine;
 mod holds;
