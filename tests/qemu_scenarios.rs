@@ -649,14 +649,14 @@ fn firmware_sizes_with_and_without_rtseq() {
     // lost, PauseOwner holds are counted and kept through a caller's resume, a late tick
     // still aborts, a run knows which run of its sequence it drives, an exception
     // sequence's end is reported by the tick, a dropped run's teardown walks again, the
-    // nine defects of session 30's reviews and the seven of session 31's;
-    // docs/footprint.md): held to known ceilings of 13 KiB (scenarios) and 14.5 KiB
+    // nine defects of session 30's reviews and the ten of session 31's and 32's;
+    // docs/footprint.md): held to known ceilings of 13.25 KiB (scenarios) and 14.5 KiB
     // (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
         12 * 1024,
-        13 * 1024,
+        13 * 1024 + 256,
     );
     budget(
         "rtseq's sequencer code in the demo firmware [bytes]",

@@ -10,6 +10,7 @@ use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
+use crate::tick::skip_untaken_polls;
 use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, SeqId, Sequencer};
 
 /// How an exception of one monitor (or of a sequence's timeout) is handled, with its
@@ -272,7 +273,7 @@ fn mark<
     // Four sections. With the portable lock a lane of higher priority may end or start
     // the owner in between: the mark is made only if the owner still runs the run the
     // first section saw, in a state that takes it; then it is counted and recorded.
-    let (target, owner_runs) = s.section(|s| {
+    let (target, owner_runs, lane) = s.section(|s| {
         let b = s.block(owner)?;
         if !states.has(b.state) || s.sets.has(Set::Excepting, owner) {
             return None;
@@ -281,7 +282,7 @@ fn mark<
             Some(caller) if targets_caller => caller,
             _ => owner,
         };
-        Some((target, b.runs))
+        Some((target, b.runs, b.lane))
     })?;
     let target_runs = s.section(|s| s.block(target).map(|b| b.runs))?;
     let mut behaviour = reaction.behaviour;
@@ -297,6 +298,8 @@ fn mark<
             restarts = restarts.saturating_add(1);
         }
     }
+    // From the mark on, the owner and the sequences it blocks in its lane are held.
+    skip_untaken_polls(s, lane);
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.
     s.section(|s| {

@@ -20,6 +20,7 @@ use crate::model::set::{SetWord, Words};
 use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
+use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
@@ -444,6 +445,34 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn held(&self, id: SeqId) -> bool {
         let lane = self.with(|s| s.lane_slot(id));
         held(id, |c| self.with(|s| s.held_step(c, lane)))
+    }
+}
+
+/// Before a hold (an exception marked, a pause walk) of a sequence in `lane`: the due
+/// polls that `lane` has not taken yet are skipped. The held sequence and those it blocks
+/// are the only ones of that lane that may wait for a poll, and a poll that falls due
+/// while held is missed, not taken once the hold ends (semantics 1). Done before the hold,
+/// one section per mark: only the tick makes marks, so none is left for a held run to take,
+/// also when a pause reaches the sequences below the target a section after the target.
+pub(crate) fn skip_untaken_polls<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    lane: u8,
+) {
+    for w in s.section(|s| s.sets.words(Set::PollDue)) {
+        for id in s.section(|s| s.sets.word(Set::PollDue, w)) {
+            s.section(|s| {
+                if s.lane_slot(id) == lane {
+                    s.sets.remove(Set::PollDue, id);
+                }
+            });
+        }
     }
 }
 

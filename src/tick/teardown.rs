@@ -11,6 +11,7 @@ use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
+use crate::tick::skip_untaken_polls;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
@@ -73,6 +74,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // Active, not already `Aborting`.
             (States::entering(RunningState::Aborting), None)
         };
+        if let (RunningState::Paused, Some(lane)) = (to, lane) {
+            // The target is paused first and the sequences it blocks after it.
+            in_sections!(self, |s| skip_untaken_polls(s, lane));
+        }
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
         // sequences below it.
         let move_one = |id: SeqId| match to {
@@ -283,15 +288,11 @@ fn leave<
         return Leave::Raced;
     }
     if pause {
-        // The run's clock (and its timeout) stops while paused, and a due poll its lane has
-        // not taken yet is skipped, not taken when the pause ends (semantics 1).
+        // The run's clock (and its timeout) stops while paused.
         s.section(|s| {
             let now = Stamp::of(s.now);
             if let Some(b) = s.block_mut(id) {
                 b.flip_clock(now);
-            }
-            if to == RunningState::Paused {
-                s.sets.put(Set::PollDue, id, false);
             }
         });
     }
