@@ -649,20 +649,20 @@ fn firmware_sizes_with_and_without_rtseq() {
     // lost, PauseOwner holds are counted and kept through a caller's resume, a late tick
     // still aborts, a run knows which run of its sequence it drives, an exception
     // sequence's end is reported by the tick, a dropped run's teardown walks again, the
-    // nine defects of session 30's reviews and the ten of session 31's and 32's;
-    // docs/footprint.md): held to known ceilings of 13.25 KiB (scenarios) and 14.5 KiB
-    // (demo).
+    // nine defects of session 30's reviews, the ten of session 31's and 32's, and the
+    // teardown's marks of session 32; docs/footprint.md): held to known ceilings of
+    // 13.75 KiB (scenarios) and 15 KiB (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
         12 * 1024,
-        13 * 1024 + 256,
+        13 * 1024 + 768,
     );
     budget(
         "rtseq's sequencer code in the demo firmware [bytes]",
         demo_code.rtseq - demo_code.safety,
         12 * 1024,
-        14 * 1024 + 512,
+        15 * 1024,
     );
     budget(
         "rtseq's safety-system code in the demo firmware [bytes]",

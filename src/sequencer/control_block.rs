@@ -71,6 +71,9 @@ pub(crate) mod flag {
     // Bit 0 is free (a declared lane is known by its lane slot).
     /// A non-blocking start waits for the lane to pick it up.
     pub const START_PENDING: u16 = 1 << 1;
+    /// A teardown placed it and has not moved it yet: it starts nothing (a start by it is
+    /// refused as by a stopped caller).
+    pub const STOPPING: u16 = 1 << 3;
     /// A pause request paused it: a `PauseOwner` monitor whose condition clears does not
     /// resume it (only a resume request does).
     pub const PAUSED_BY_REQUEST: u16 = 1 << 2;

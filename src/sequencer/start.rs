@@ -82,13 +82,16 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// start a run. The tick can stop a sequence while its action runs on to its next await
     /// point (the tick preempts the lanes), and a lane of higher priority start it again; a
     /// start the stopped run makes meanwhile is refused ([`Error::NotRunning`] with the
-    /// caller's id), so nothing outlives its caller's stop.
+    /// caller's id), so nothing outlives its caller's stop; so is a start by a caller that
+    /// a teardown is stopping ([`flag::STOPPING`]).
     fn open_start(&self, caller: Option<RunId>) -> Result<u32, Error> {
         match caller {
             Some(c)
-                if self
-                    .block(c.seq)
-                    .is_none_or(|b| b.runs != c.count || !States::ACTIVE_RUNNING.has(b.state)) =>
+                if self.block(c.seq).is_none_or(|b| {
+                    b.runs != c.count
+                        || !States::ACTIVE_RUNNING.has(b.state)
+                        || b.has(flag::STOPPING)
+                }) =>
             {
                 Err(Error::NotRunning(c.seq))
             }

@@ -91,6 +91,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         exception: Option<SeqId>,
     ) -> bool {
         let active = self.with(|s| {
+            // A run begun (or restarted) since this tick's scan is not the one the
+            // evaluation saw: its monitors are evaluated from the next tick (from "false"),
+            // which holds it then if the condition still holds.
+            if s.sets.has(Set::Fresh, owner) {
+                return None;
+            }
             let b = s.block_mut(owner)?;
             // Its monitors are evaluated only while it is running or paused.
             b.monitor_holds = b.monitor_holds.saturating_add(1);
@@ -263,7 +269,10 @@ fn mark<
     reaction: &mut Reaction,
 ) -> Option<(SeqId, Behaviour)> {
     let timeout = matches!(cause, Cause::Timeout(_));
-    // Active (a paused timeout is frozen), and not handling an exception already.
+    // Active (a paused timeout is frozen), not handling an exception already, not being
+    // torn down (its teardown comes first), and the run the evaluation saw: a run begun
+    // (or restarted) since this tick's scan is fresh, and its monitors are evaluated from
+    // the next tick.
     let states = if timeout {
         States::of(RunningState::Running)
     } else {
@@ -275,7 +284,11 @@ fn mark<
     // first section saw, in a state that takes it; then it is counted and recorded.
     let (target, owner_runs, lane) = s.section(|s| {
         let b = s.block(owner)?;
-        if !states.has(b.state) || s.sets.has(Set::Excepting, owner) {
+        if !states.has(b.state)
+            || s.sets.has(Set::Excepting, owner)
+            || b.has(flag::STOPPING)
+            || s.sets.has(Set::Fresh, owner)
+        {
             return None;
         }
         let target = match b.caller.get() {
@@ -284,7 +297,8 @@ fn mark<
         };
         Some((target, b.runs, b.lane))
     })?;
-    let target_runs = s.section(|s| s.block(target).map(|b| b.runs))?;
+    let (target_runs, due) =
+        s.section(|s| Some((s.block(target)?.runs, s.sets.words(Set::PollDue))))?;
     let mut behaviour = reaction.behaviour;
     let (mut restarts, mut runs_seen) = (reaction.restarts, reaction.runs_seen);
     if behaviour.is_restart() {
@@ -299,7 +313,7 @@ fn mark<
         }
     }
     // From the mark on, the owner and the sequences it blocks in its lane are held.
-    skip_untaken_polls(s, lane);
+    skip_untaken_polls(s, lane, due);
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.
     s.section(|s| {
@@ -313,6 +327,8 @@ fn mark<
             s.sets.put(Set::Armed, owner, false);
         }
         s.sets.put(Set::Excepting, owner, true);
+        // Held from now on: a due poll its lane has not taken is skipped.
+        s.sets.remove(Set::PollDue, owner);
         Some(())
     })?;
     s.section(|s| {
@@ -369,6 +385,8 @@ mod tests {
     /// `e`): `e` starts for `owner`, whose behaviour waits for `e`'s end.
     fn fire_with(seq: &Sequencer<(), 4>, owner: SeqId, e: SeqId) {
         let cause = Cause::Monitor(MonitorId(0));
+        // The scan of the tick whose evaluation fires took the owner's fresh mark.
+        seq.with(|s| s.sets.put(Set::Fresh, owner, false));
         assert!(seq.raise(&(), owner, cause, &mut abort_owner_with(e)));
     }
 

@@ -449,11 +449,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 }
 
 /// Before a hold (an exception marked, a pause walk) of a sequence in `lane`: the due
-/// polls that `lane` has not taken yet are skipped. The held sequence and those it blocks
-/// are the only ones of that lane that may wait for a poll, and a poll that falls due
-/// while held is missed, not taken once the hold ends (semantics 1). Done before the hold,
-/// one section per mark: only the tick makes marks, so none is left for a held run to take,
-/// also when a pause reaches the sequences below the target a section after the target.
+/// polls of the sequences it blocks (called sequences, in its lane), which their lane has
+/// not taken yet, are skipped; the held sequence's own goes with its hold. A poll that
+/// falls due while held is missed, not taken once the hold ends (semantics 1). `due`: the
+/// words of `Set::PollDue` as read before (marks only go meanwhile). Done before the hold,
+/// one section per word and per mark: only the tick makes marks, so none is left for a
+/// held run to take, also when a pause reaches the sequences below its target a section
+/// after the target.
 pub(crate) fn skip_untaken_polls<
     C,
     S: Sections<C, N, T, W, B>,
@@ -464,9 +466,15 @@ pub(crate) fn skip_untaken_polls<
 >(
     s: &mut S,
     lane: u8,
+    due: Words,
 ) {
-    for w in s.section(|s| s.sets.words(Set::PollDue)) {
-        for id in s.section(|s| s.sets.word(Set::PollDue, w)) {
+    for w in due {
+        let called = s.section(|s| {
+            s.sets
+                .word(Set::PollDue, w)
+                .and(s.sets.word(Set::Called, w))
+        });
+        for id in called {
             s.section(|s| {
                 if s.lane_slot(id) == lane {
                     s.sets.remove(Set::PollDue, id);

@@ -11,6 +11,7 @@ use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
+use crate::sequencer::State;
 use crate::tick::skip_untaken_polls;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer, MAX_DEPTH};
@@ -31,23 +32,34 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// * `Paused` (`Running`): pauses (resumes) a running (paused) `target` and the
     ///   sequences it blocks in its lane, outermost first.
     ///
-    /// The walk places the sequences once, then moves them one at a time; between two of
-    /// its sections a lane of higher priority (or, in a lane's walk, the tick) may start a
-    /// run below a sequence it has not reached yet, or move a sequence it placed before it
-    /// gets there (a restart, a pause). So it walks again while a run began during the
-    /// walk ([`State::runs_begun`]) or a move lost such a race, at most `N` times:
-    /// nothing started below a sequence outlives its teardown.
+    /// The walk places the sequences, then moves them one at a time; between two of its
+    /// sections a lane of higher priority (or, in a lane's walk, the tick) may start a run
+    /// below a sequence it has not reached yet, or move a sequence it placed before it gets
+    /// there (a restart, an end). So it walks again while a pass was disturbed (see
+    /// [`Pass`]): nothing started below a sequence outlives its teardown, and a teardown's
+    /// target moves once, so a restarted target's new round is left alone.
     pub(crate) fn walk(&self, control: &C, target: Option<SeqId>, to: RunningState, cause: Cause) {
-        for _ in 0..N {
+        // A teardown pass is disturbed by a sequence below the target that its own lane
+        // moved (an end, or taking up a restart made before the walk: at most twice per
+        // sequence), or by a run begun before the pass had marked what it placed.
+        for _ in 0..=2 * N {
             let begun = self.with(|s| s.runs_begun);
-            let raced = self.walk_once(control, target, to, cause);
-            if !raced && self.with(|s| s.runs_begun) == begun {
+            if self.walk_once(control, target, to, cause, begun) == Pass::Done {
                 return;
             }
         }
+        // Disturbed every time (parties above the walker beginning runs without a pause):
+        // the target, which a disturbed pass leaves in place, still moves, so no teardown
+        // is lost.
+        if let (Some(t), false) = (
+            target,
+            matches!(to, RunningState::Paused | RunningState::Running),
+        ) {
+            self.stop(control, t, cause, States::entering(to), to);
+        }
     }
 
-    /// One walk of [`walk`](Self::walk). True when a move lost a race (see [`stop`]).
+    /// One pass of [`walk`](Self::walk), begun when [`State::runs_begun`] was `begun`.
     #[inline(never)]
     fn walk_once(
         &self,
@@ -55,7 +67,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         target: Option<SeqId>,
         to: RunningState,
         cause: Cause,
-    ) -> bool {
+        begun: u32,
+    ) -> Pass {
         let pause = matches!(to, RunningState::Paused | RunningState::Running);
         // What a pause leaves (a resume: `Paused`).
         let from = if to == RunningState::Paused {
@@ -67,7 +80,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             let Some(lane) = target.and_then(|t| {
                 self.with(|s| s.block(t).filter(|b| b.state == from).map(|b| b.lane))
             }) else {
-                return false;
+                return Pass::Done;
             };
             (States::of(from), Some(lane))
         } else {
@@ -76,7 +89,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         };
         if let (RunningState::Paused, Some(lane)) = (to, lane) {
             // The target is paused first and the sequences it blocks after it.
-            in_sections!(self, |s| skip_untaken_polls(s, lane));
+            in_sections!(self, |s| {
+                let due = s.section(|s| s.sets.words(Set::PollDue));
+                skip_untaken_polls(s, lane, due)
+            });
         }
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
         // sequences below it.
@@ -89,19 +105,39 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             _ => self.stop(control, id, cause, states, to),
         };
-        // A sequence below the target has a caller link: when no other sequence has one,
-        // the target is all there is to move.
-        if let Some(t) = target {
-            if self.with(|s| s.sets.none_but(Set::Called, t)) {
-                return move_one(t);
+        // A teardown's target is marked first (it starts nothing from now on); a sequence
+        // below it has a caller link: when no other sequence has one, the target is all
+        // there is to move.
+        if let (false, Some(t)) = (pause, target) {
+            let alone = self.with(|s| {
+                s.mark_stopping(t);
+                s.sets.none_but(Set::Called, t)
+            });
+            if alone {
+                return Pass::of(!move_one(t));
             }
         }
         let (rows, deepest) = self.levels(target, states, lane);
+        // A teardown's pass is disturbed like a lost race by a run begun before it marked
+        // what it placed: the run may not be placed, and is in the next pass.
         let mut raced = false;
+        if target.is_some() && !pause {
+            // What a teardown placed starts nothing from now on.
+            for id in rows.iter().take(deepest + 1).flat_map(|row| *row) {
+                self.with(|s| s.mark_stopping(id));
+            }
+            raced = self.with(|s| s.runs_begun) != begun;
+        }
         for k in 0..=deepest {
             // Pauses outermost first, teardowns innermost first.
             let depth = if pause { k } else { deepest - k };
             for id in rows.get(depth).copied().unwrap_or_default() {
+                // A teardown's target moves last, and only in a pass in which everything
+                // below it moved: once it moved, its lane may take up a restart, and what
+                // begins then is its new round's.
+                if raced && Some(id) == target {
+                    return Pass::Again;
+                }
                 // A resume of the target resumes the sequences it blocks unless something
                 // else holds them (outermost first: one kept paused keeps those below it).
                 let kept = to == RunningState::Running
@@ -112,7 +148,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 }
             }
         }
-        raced
+        // Below a teardown's target nothing began (it is all marked); a pause or an
+        // abort-all walks again for a run begun during the pass (a blocking start below a
+        // sequence not paused yet, a start anywhere).
+        let begun_below = (target.is_none() || pause) && self.with(|s| s.runs_begun) != begun;
+        Pass::of(!raced && !begun_below)
     }
 
     /// A run of `id` was dropped before it ended: it and every sequence below it are
@@ -120,7 +160,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// and so may a lane of higher priority that it wakes (by a cleanup hook, or by
     /// handing an abort up).
     pub(crate) fn abort_dropped(&self, control: &C, id: SeqId) {
-        self.walk(control, Some(id), RunningState::Aborting, Cause::Dropped);
+        // A run of `id` begun during the walk (its start came once the dropped run was
+        // aborted) is one that no future will take: the dropped future held the object.
+        // It is aborted too.
+        for _ in 0..N {
+            let runs = self.with(|s| s.block(id).map(|b| b.runs));
+            self.walk(control, Some(id), RunningState::Aborting, Cause::Dropped);
+            if self.with(|s| s.block(id).map(|b| b.runs)) == runs {
+                return;
+            }
+        }
     }
 
     /// Moves one sequence from a state in `states` (states `to` may be entered from) to
@@ -233,6 +282,38 @@ fn depth_below<
     below.then_some(depth)
 }
 
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
+    /// A teardown placed `id`: it starts nothing until it is moved ([`flag::STOPPING`]).
+    /// Counted as a change, so a start by it that was scheduled before is scheduled again,
+    /// and refused ([`State::changes`]).
+    fn mark_stopping(&mut self, id: SeqId) {
+        if let Some(b) = self.block_mut(id) {
+            b.set(flag::STOPPING, true);
+            self.changes = self.changes.wrapping_add(1);
+        }
+    }
+}
+
+/// How a pass of [`Sequencer::walk`] ended.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Pass {
+    /// Everything it placed moved, and nothing it should have placed began meanwhile.
+    Done,
+    /// A move lost a race to another transition, or a run began that the pass did not
+    /// place: walk again.
+    Again,
+}
+
+impl Pass {
+    fn of(done: bool) -> Pass {
+        if done {
+            Pass::Done
+        } else {
+            Pass::Again
+        }
+    }
+}
+
 /// What [`leave`] did.
 enum Leave<C> {
     /// Left its state, with the hook to run (set at registration; none for a pause or
@@ -284,15 +365,25 @@ fn leave<
         return Leave::Stays;
     };
     let change = StateChange::new(id, from, to, cause);
-    if s.section(|s| s.transition(&change).is_none()) {
+    // Moved, it is no longer being stopped (a restarted target's new round starts runs).
+    let moved = s.section(|s| {
+        s.transition(&change)
+            .map(|b| b.set(flag::STOPPING, false))
+            .is_some()
+    });
+    if !moved {
         return Leave::Raced;
     }
     if pause {
-        // The run's clock (and its timeout) stops while paused.
+        // The run's clock (and its timeout) stops while paused, and a due poll its lane has
+        // not taken yet is skipped, not taken when the pause ends (semantics 1).
         s.section(|s| {
             let now = Stamp::of(s.now);
             if let Some(b) = s.block_mut(id) {
                 b.flip_clock(now);
+            }
+            if to == RunningState::Paused {
+                s.sets.remove(Set::PollDue, id);
             }
         });
     }
@@ -329,9 +420,10 @@ mod tests {
     /// blocking in its lane. R's run is dropped: the walk tears R's tree down innermost
     /// first, X, then Y, then R. After X's stop, Y's lane is woken and, of higher priority,
     /// preempts the walk: X's run hands `Err(Aborted(Dropped))` to Y, still running, whose
-    /// action starts G (a fallback). G's start is made while Y runs; the walk, whose rows
-    /// were placed before, must still not leave G running below an aborted Y (semantics 9:
-    /// nothing an action starts outlives its abort).
+    /// action starts G (a fallback). G's start is made while Y runs, but the walk placed Y
+    /// before: Y is being stopped and starts nothing (`NotRunning`), so nothing it starts
+    /// outlives its abort (semantics 9). (Before session 32 G was started and torn down by
+    /// a second walk.)
     #[test]
     fn a_start_made_below_a_dropped_run_while_its_walk_is_preempted_does_not_outlive_it() {
         let seq: &'static Sequencer<(), 8> = Box::leak(Box::new(Sequencer::new()));
@@ -380,9 +472,9 @@ mod tests {
                 RunningState::Aborted
             ]
         );
-        // Y, still running, started G; G is torn down with Y (a second walk).
-        assert_eq!(*fallback.borrow(), Some(Ok(())));
-        assert_eq!(state(g), RunningState::Aborted);
+        // Y, still running but being stopped, started nothing.
+        assert_eq!(*fallback.borrow(), Some(Err(crate::Error::NotRunning(y))));
+        assert_eq!(state(g), RunningState::Idle);
     }
 
     /// O, a main sequence with nothing below it, has an `AbortOwner` monitor with
