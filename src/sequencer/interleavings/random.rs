@@ -4,9 +4,9 @@
 //! sequence M runs a blocking child A twice, each time followed by a non-blocking child B
 //! (its own lane) that M joins; the second time, A's run races a `Cx::wait_until` of a
 //! cancel flag in `embassy_futures::select`, which drops A's run when the flag wins. A runs
-//! a blocking dwell step W and then polls its exit condition; B waits in
-//! `Cx::wait_until`. A has a monitor of a random behaviour (with
-//! the exception sequence E, its own lane, or without) and maybe a timeout; so has M (its
+//! A2 blocking, which runs a dwell step W, and each then polls its exit condition; B waits
+//! in `Cx::wait_until`. A and A2 have a monitor of a random behaviour each (with the
+//! exception sequence E, its own lane, or without), A maybe a timeout; so has M (its
 //! exception sequence E2). The application flips the conditions, starts M again and asks
 //! for pauses, resumes and aborts at random.
 //!
@@ -38,7 +38,7 @@ const SAFETY: u8 = 4;
 
 /// M: A blocking (the second time against `cancel`), then B in its lane, joined; twice.
 struct Main {
-    a: Seq<Child>,
+    a: Seq<Middle>,
     b: SeqId,
     cancel: &'static AtomicBool,
 }
@@ -61,7 +61,24 @@ impl Sequence<()> for Main {
     }
 }
 
-/// A (and E): a blocking dwell step, then the exit condition `exit`, polled.
+/// A: runs A2 blocking, then the exit condition `exit`, polled.
+struct Middle {
+    inner: Seq<Child>,
+    exit: &'static AtomicBool,
+}
+
+impl Sequence<()> for Middle {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        let _ = cx.run(&mut self.inner).await;
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, _: &Cx<'_, ()>) -> bool {
+        self.exit.load(Ordering::Relaxed)
+    }
+}
+
+/// A2, E and E2: a blocking dwell step, then the exit condition `exit`, polled.
 struct Child {
     dwell: Seq<Wait>,
     exit: &'static AtomicBool,
@@ -258,6 +275,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     )));
     let draw = |n: u64| below(rng, n);
     let (fa, fm, exit, go) = (flag_of(false), flag_of(false), flag_of(true), flag_of(true));
+    let fa2 = flag_of(false);
     let cancel = flag_of(false);
     let always = flag_of(true);
     let ms = |n| Wait::new(Duration::from_millis(n));
@@ -268,7 +286,12 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         1 => a_config = a_config.timeout(Duration::from_millis(7)),
         _ => {}
     }
-    let a = w.seq.add(a_config, Child { dwell, exit }).unwrap();
+    let a2 = w
+        .seq
+        .add(SeqConfig::new("A2"), Child { dwell, exit })
+        .unwrap();
+    let ia2 = a2.id();
+    let a = w.seq.add(a_config, Middle { inner: a2, exit }).unwrap();
     let b = w.seq.add(SeqConfig::new("B"), Waiter { go }).unwrap();
     let e_dwell = w.seq.add(SeqConfig::new("EW"), ms(1)).unwrap();
     let e = w
@@ -302,6 +325,10 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     let behaviour_a = BEHAVIOURS[draw(6) as usize];
     let with_e = behaviour_a != Behaviour::PauseOwner && draw(2) == 0;
     w.monitor(ia, fa, behaviour_a, with_e.then_some(ie));
+    // A2's monitor shares E (refused while E runs for A: an exception not run).
+    let behaviour_a2 = BEHAVIOURS[draw(6) as usize];
+    let with_e_a2 = behaviour_a2 != Behaviour::PauseOwner && draw(2) == 0;
+    w.monitor(ia2, fa2, behaviour_a2, with_e_a2.then_some(ie));
     let behaviour_m = [
         Behaviour::Nothing,
         Behaviour::AbortOwner,
@@ -325,7 +352,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         now: Box::leak(Box::new(Cell::new(0))),
     };
     let what = format!(
-        "{what}, A's monitor {behaviour_a:?} (E: {with_e}), M's {behaviour_m:?} (E2: {with_e2}), lanes {:?}",
+        "{what}, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), lanes {:?}",
         lanes.iter().map(|l| l.priority).collect::<Vec<_>>()
     );
     // Each lane is polled once when its task is spawned: it waits for a start.
@@ -340,7 +367,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     for _ in 0..40 {
         // The application, preemptible by everything.
         for _ in 0..s.below(3) {
-            let flag = [fa, fm, exit, go, cancel][s.below(5) as usize];
+            let flag = [fa, fa2, fm, exit, go, cancel][s.below(6) as usize];
             flag.store(s.chance(2), Ordering::Relaxed);
             let id = [im, ia][s.below(2) as usize];
             s.run_as(0, || {
@@ -360,7 +387,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         w.check_tree(&format!("{what}, at {} ms", s.now.get()));
     }
     // Everything let go: it must come to rest.
-    for f in [fa, fm] {
+    for f in [fa, fa2, fm] {
         f.store(false, Ordering::Relaxed);
     }
     for f in [exit, go] {
@@ -368,7 +395,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     }
     for _ in 0..100 {
         s.run_as(0, || {
-            for id in [im, ia, ib, ie, ie2] {
+            for id in [im, ia, ia2, ib, ie, ie2] {
                 let _ = w.kept(id).resume();
             }
         });
@@ -380,7 +407,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     }
     let what = format!("{what}, at rest at {} ms", s.now.get());
     w.check_tree(&what);
-    for id in [im, ia, ib, ie, ie2] {
+    for id in [im, ia, ia2, ib, ie, ie2] {
         let state = w.state(id);
         assert!(
             ![Running, Paused, Restarting, Aborting].contains(&state),
@@ -397,8 +424,30 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
 fn random_runs(seeds: core::ops::Range<u64>) {
     let mut failed = Vec::new();
     for seed in seeds {
+        // Nine sequences: 16 in a sequencer of one word.
         let r = std::panic::catch_unwind(|| {
-            every_world!(random_run, seed);
+            let mut failed: Vec<String> = Vec::new();
+            let worlds: [(&str, fn(u64)); 4] = [
+                ("fine, one word", |seed| {
+                    random_run::<Interleaved, 16, 1>(Layout::One, seed)
+                }),
+                ("fine, two words", |seed| {
+                    random_run::<Interleaved, 64, 2>(Layout::Second, seed)
+                }),
+                ("coarse, one word", |seed| {
+                    random_run::<InterleavedCoarse, 16, 1>(Layout::One, seed)
+                }),
+                ("coarse, two words", |seed| {
+                    random_run::<InterleavedCoarse, 64, 2>(Layout::Second, seed)
+                }),
+            ];
+            for (world, run) in worlds {
+                if let Err(e) = std::panic::catch_unwind(|| run(seed)) {
+                    let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
+                    failed.push(format!("[{world}] {msg}"));
+                }
+            }
+            assert!(failed.is_empty(), "{}", failed.join("\n"));
         });
         if let Err(e) = r {
             let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
