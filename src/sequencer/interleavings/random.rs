@@ -420,6 +420,9 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     }
 }
 
+/// One world's [`random_run`] of a seed.
+type RandomRun = fn(u64);
+
 /// Runs `random_run` for `seeds` in every world; fails naming every failed seed.
 fn random_runs(seeds: core::ops::Range<u64>) {
     let mut failed = Vec::new();
@@ -427,7 +430,7 @@ fn random_runs(seeds: core::ops::Range<u64>) {
         // Nine sequences: 16 in a sequencer of one word.
         let r = std::panic::catch_unwind(|| {
             let mut failed: Vec<String> = Vec::new();
-            let worlds: [(&str, fn(u64)); 4] = [
+            let worlds: [(&str, RandomRun); 4] = [
                 ("fine, one word", |seed| {
                     random_run::<Interleaved, 16, 1>(Layout::One, seed)
                 }),
