@@ -1,4 +1,5 @@
-//! Random preemption of real lanes, under both locks, in sequencers of one word and of two.
+//! Random preemption of real lanes, under both locks, in sequencers of one word and of two
+//! (the tree in the second word, or across both).
 //!
 //! A small tree runs in real lanes (`lane()`, polled by a scheduler written here): a main
 //! sequence M runs a blocking child A twice, each time followed by a non-blocking child B
@@ -292,6 +293,8 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         .unwrap();
     let ia2 = a2.id();
     let a = w.seq.add(a_config, Middle { inner: a2, exit }).unwrap();
+    // With `Layout::Split`, W, A2 and A in the first word, the others in the second.
+    w.split();
     let b = w.seq.add(SeqConfig::new("B"), Waiter { go }).unwrap();
     let e_dwell = w.seq.add(SeqConfig::new("EW"), ms(1)).unwrap();
     let e = w
@@ -430,7 +433,7 @@ fn random_runs(seeds: core::ops::Range<u64>) {
         // Nine sequences: 16 in a sequencer of one word.
         let r = std::panic::catch_unwind(|| {
             let mut failed: Vec<String> = Vec::new();
-            let worlds: [(&str, RandomRun); 4] = [
+            let worlds: [(&str, RandomRun); 6] = [
                 ("fine, one word", |seed| {
                     random_run::<Interleaved, 16, 1>(Layout::One, seed)
                 }),
@@ -442,6 +445,12 @@ fn random_runs(seeds: core::ops::Range<u64>) {
                 }),
                 ("coarse, two words", |seed| {
                     random_run::<InterleavedCoarse, 64, 2>(Layout::Second, seed)
+                }),
+                ("fine, split", |seed| {
+                    random_run::<Interleaved, 64, 2>(Layout::Split, seed)
+                }),
+                ("coarse, split", |seed| {
+                    random_run::<InterleavedCoarse, 64, 2>(Layout::Split, seed)
                 }),
             ];
             for (world, run) in worlds {
@@ -460,7 +469,7 @@ fn random_runs(seeds: core::ops::Range<u64>) {
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
 
-/// 200 seeds from `RTSEQ_RANDOM_SEED` (0 if unset), each in every world: about 1.5 s
+/// 200 seeds from `RTSEQ_RANDOM_SEED` (0 if unset), each in every world: about 2.5 s
 /// (under Miri, which checks the runs' unsafe code under preemption, one seed). A failure
 /// names the seed and the world; explore further with other start seeds.
 #[test]
