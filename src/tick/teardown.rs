@@ -122,9 +122,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // what it placed: the run may not be placed, and is in the next pass.
         let mut raced = false;
         if target.is_some() && !pause {
-            // What a teardown placed starts nothing from now on.
+            // What a teardown placed starts nothing from now on (the target is marked).
             for id in rows.iter().take(deepest + 1).flat_map(|row| *row) {
-                self.with(|s| s.mark_stopping(id));
+                if Some(id) != target {
+                    self.with(|s| s.mark_stopping(id));
+                }
             }
             raced = self.with(|s| s.runs_begun) != begun;
         }
