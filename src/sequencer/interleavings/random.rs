@@ -5,11 +5,15 @@
 //! sequence M runs a blocking child A twice, each time followed by a non-blocking child B
 //! (its own lane) that M joins; the second time, A's run races a `Cx::wait_until` of a
 //! cancel flag in `embassy_futures::select`, which drops A's run when the flag wins. A runs
-//! A2 blocking, which runs a dwell step W, and each then polls its exit condition; B waits
-//! in `Cx::wait_until`. A and A2 have a monitor of a random behaviour each (with the
-//! exception sequence E, its own lane, or without), A maybe a timeout; so has M (its
-//! exception sequence E2). The application flips the conditions, starts M again and asks
-//! for pauses, resumes and aborts at random.
+//! A2 blocking (handing A2's failure on, or not), which, when its pre-condition holds,
+//! runs a dwell step W, may fail, and then polls its exit condition; so does A. B waits in
+//! `Cx::wait_until`. A supervisor J, in a lane of its own, makes a request of A or M (a
+//! pause, resume, abort or new timeout, through `Cx::sequence_by_id`), then joins B (a
+//! second joiner beside M) and M. A and A2 have a monitor of a random behaviour each (with
+//! the exception sequence E, its own lane, or without), A maybe a timeout; so has M (its
+//! exception sequence E2). The application flips the conditions (monitors, exit and
+//! pre-conditions, failures), starts M and J again and asks for pauses, resumes, aborts
+//! and new timeouts at random.
 //!
 //! The scheduler follows RTIC's rules for the parties: the application (priority 0), the
 //! lanes (priorities 1 and 3, drawn per lane), the tick (2) and the safety system's
@@ -30,7 +34,7 @@ use core::task::Context;
 use embassy_futures::select::select;
 
 use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
-use crate::{lane, Cx, Failure, Seq, Sequence, Wait};
+use crate::{lane, Cx, Failure, Seq, Sequence, Trigger, Wait};
 
 /// The tick's priority.
 const TICK: u8 = 2;
@@ -62,15 +66,20 @@ impl Sequence<()> for Main {
     }
 }
 
-/// A: runs A2 blocking, then the exit condition `exit`, polled.
+/// A: runs A2 blocking, handing its failure on while `hand_on` holds, then the exit
+/// condition `exit`, polled.
 struct Middle {
     inner: Seq<Child>,
     exit: &'static AtomicBool,
+    hand_on: &'static AtomicBool,
 }
 
 impl Sequence<()> for Middle {
     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
-        let _ = cx.run(&mut self.inner).await;
+        let done = cx.run(&mut self.inner).await;
+        if self.hand_on.load(Ordering::Relaxed) {
+            done?;
+        }
         Ok(())
     }
 
@@ -79,20 +88,59 @@ impl Sequence<()> for Middle {
     }
 }
 
-/// A2, E and E2: a blocking dwell step, then the exit condition `exit`, polled.
+/// A2, E and E2: when `pre` holds, a blocking dwell step, then a failure while `fail`
+/// holds, then the exit condition `exit`, polled.
 struct Child {
     dwell: Seq<Wait>,
+    pre: &'static AtomicBool,
+    fail: &'static AtomicBool,
     exit: &'static AtomicBool,
 }
 
 impl Sequence<()> for Child {
     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
         let _ = cx.step(&mut self.dwell).await;
+        if self.fail.load(Ordering::Relaxed) {
+            return Err(Failure::App(7));
+        }
         Ok(())
+    }
+
+    fn check_pre_condition(&mut self, _: &Cx<'_, ()>) -> bool {
+        self.pre.load(Ordering::Relaxed)
     }
 
     fn check_exit_condition(&mut self, _: &Cx<'_, ()>) -> bool {
         self.exit.load(Ordering::Relaxed)
+    }
+}
+
+/// J: makes the request `order` says of A or M (from its lane, as a supervisor would),
+/// then joins B, then M: a second joiner of B's runs beside M, in another lane.
+struct Joiner {
+    a: SeqId,
+    b: SeqId,
+    m: SeqId,
+    order: &'static AtomicUsize,
+}
+
+impl Sequence<()> for Joiner {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        let order = self.order.load(Ordering::Relaxed);
+        let target = if order.is_multiple_of(2) { self.a } else { self.m };
+        if let Some(h) = cx.sequence_by_id(target) {
+            let _ = match order / 2 {
+                0 => h.pause(),
+                1 => h.resume(),
+                2 => h.abort(),
+                3 => h.set_timeout(Some(Duration::from_millis(3))),
+                4 => h.set_timeout(None),
+                _ => Ok(()),
+            };
+        }
+        let _ = cx.join(self.b).await;
+        let _ = cx.join(self.m).await;
+        Ok(())
     }
 }
 
@@ -267,6 +315,37 @@ const BEHAVIOURS: [Behaviour; 6] = [
     Behaviour::PauseOwner,
 ];
 
+/// The monitors' triggers drawn from.
+const TRIGGERS: [Trigger; 4] = [
+    Trigger::RisingEdge,
+    Trigger::FallingEdge,
+    Trigger::Change,
+    Trigger::Level,
+];
+
+/// A monitor of `owner` whose condition is `flag`, with `trigger` and `limit` restarts.
+fn random_monitor<L: Lock + 'static, const N: usize, const B: usize>(
+    w: World<L, N, B>,
+    owner: SeqId,
+    flag: &'static AtomicBool,
+    behaviour: Behaviour,
+    exception: Option<SeqId>,
+    trigger: Trigger,
+    limit: u8,
+) {
+    let condition: &'static mut (dyn Condition<()> + Send) =
+        Box::leak(Box::new(move |_: &(), _: Instant| {
+            flag.load(Ordering::Relaxed)
+        }));
+    let mut m = Monitor::new("m", condition, behaviour)
+        .trigger(trigger)
+        .restart_limit(limit);
+    if let Some(e) = exception {
+        m = m.exception(e);
+    }
+    w.monitors.borrow_mut().add(owner, m).unwrap();
+}
+
 /// One random run from `seed` (see the module's documentation).
 fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout, seed: u64) {
     let w = World::<L, N, B>::new(layout);
@@ -279,9 +358,14 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     let fa2 = flag_of(false);
     let cancel = flag_of(false);
     let always = flag_of(true);
+    let never = flag_of(false);
+    let (pre, fail, hand_on) = (flag_of(true), flag_of(false), flag_of(false));
     let ms = |n| Wait::new(Duration::from_millis(n));
     let dwell = w.seq.add(SeqConfig::new("W"), ms(2)).unwrap();
-    let mut a_config = SeqConfig::new("A");
+    // Polling periods of 1 to 3 ms: several polling classes, their grids started and
+    // joined under preemption.
+    let polling = |name| SeqConfig::new(name).polling(Duration::from_millis(draw(3) + 1));
+    let mut a_config = polling("A");
     match draw(3) {
         0 => a_config = a_config.timeout(Duration::from_millis(4)),
         1 => a_config = a_config.timeout(Duration::from_millis(7)),
@@ -289,13 +373,31 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     }
     let a2 = w
         .seq
-        .add(SeqConfig::new("A2"), Child { dwell, exit })
+        .add(
+            polling("A2"),
+            Child {
+                dwell,
+                pre,
+                fail,
+                exit,
+            },
+        )
         .unwrap();
     let ia2 = a2.id();
-    let a = w.seq.add(a_config, Middle { inner: a2, exit }).unwrap();
+    let a = w
+        .seq
+        .add(
+            a_config,
+            Middle {
+                inner: a2,
+                exit,
+                hand_on,
+            },
+        )
+        .unwrap();
     // With `Layout::Split`, W, A2 and A in the first word, the others in the second.
     w.split();
-    let b = w.seq.add(SeqConfig::new("B"), Waiter { go }).unwrap();
+    let b = w.seq.add(polling("B"), Waiter { go }).unwrap();
     let e_dwell = w.seq.add(SeqConfig::new("EW"), ms(1)).unwrap();
     let e = w
         .seq
@@ -303,6 +405,8 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
             SeqConfig::new("E"),
             Child {
                 dwell: e_dwell,
+                pre: always,
+                fail: never,
                 exit: always,
             },
         )
@@ -314,6 +418,8 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
             SeqConfig::new("E2"),
             Child {
                 dwell: e2_dwell,
+                pre: always,
+                fail: never,
                 exit: always,
             },
         )
@@ -325,13 +431,34 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     }
     let m = w.seq.add(m_config, Main { a, b: ib, cancel }).unwrap();
     let im = m.id();
+    let order: &'static AtomicUsize = Box::leak(Box::new(AtomicUsize::new(usize::MAX)));
+    let j = w
+        .seq
+        .add(
+            SeqConfig::new("J"),
+            Joiner {
+                a: ia,
+                b: ib,
+                m: im,
+                order,
+            },
+        )
+        .unwrap();
+    let ij = j.id();
     let behaviour_a = BEHAVIOURS[draw(6) as usize];
     let with_e = behaviour_a != Behaviour::PauseOwner && draw(2) == 0;
-    w.monitor(ia, fa, behaviour_a, with_e.then_some(ie));
+    let monitor = |owner, flag, behaviour, e| {
+        let trigger = TRIGGERS[draw(4) as usize];
+        let limit = draw(4) as u8;
+        random_monitor(w, owner, flag, behaviour, e, trigger, limit);
+        (trigger, limit)
+    };
+    let mut monitors_drawn = Vec::new();
+    monitors_drawn.push(monitor(ia, fa, behaviour_a, with_e.then_some(ie)));
     // A2's monitor shares E (refused while E runs for A: an exception not run).
     let behaviour_a2 = BEHAVIOURS[draw(6) as usize];
     let with_e_a2 = behaviour_a2 != Behaviour::PauseOwner && draw(2) == 0;
-    w.monitor(ia2, fa2, behaviour_a2, with_e_a2.then_some(ie));
+    monitors_drawn.push(monitor(ia2, fa2, behaviour_a2, with_e_a2.then_some(ie)));
     let behaviour_m = [
         Behaviour::Nothing,
         Behaviour::AbortOwner,
@@ -339,13 +466,14 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         Behaviour::PauseOwner,
     ][draw(4) as usize];
     let with_e2 = behaviour_m != Behaviour::PauseOwner && draw(2) == 0;
-    w.monitor(im, fm, behaviour_m, with_e2.then_some(ie2));
+    monitors_drawn.push(monitor(im, fm, behaviour_m, with_e2.then_some(ie2)));
     let priority = || if draw(2) == 0 { 1 } else { 3 };
     let lanes: &'static [&'static RandomLane] = Box::leak(Box::new([
         RandomLane::new(w, m, priority()),
         RandomLane::new(w, b, priority()),
         RandomLane::new(w, e, priority()),
         RandomLane::new(w, e2, priority()),
+        RandomLane::new(w, j, priority()),
     ]));
     let s = Sched::<L, N, B> {
         w,
@@ -355,7 +483,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         now: Box::leak(Box::new(Cell::new(0))),
     };
     let what = format!(
-        "{what}, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), lanes {:?}",
+        "{what}, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), their triggers and restart limits {monitors_drawn:?}, lanes {:?}",
         lanes.iter().map(|l| l.priority).collect::<Vec<_>>()
     );
     // Each lane is polled once when its task is spawned: it waits for a start.
@@ -370,16 +498,28 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     for _ in 0..40 {
         // The application, preemptible by everything.
         for _ in 0..s.below(3) {
-            let flag = [fa, fa2, fm, exit, go, cancel][s.below(6) as usize];
+            let flag = [fa, fa2, fm, exit, go, cancel, pre, fail, hand_on][s.below(9) as usize];
             flag.store(s.chance(2), Ordering::Relaxed);
-            let id = [im, ia][s.below(2) as usize];
+            // Mostly M and A; sometimes any other, and a start of any with a lane (B, E
+            // or E2 started by hand, J).
+            let id = if s.chance(3) {
+                [ia2, ib, ie, ie2, ij][s.below(5) as usize]
+            } else {
+                [im, ia][s.below(2) as usize]
+            };
             s.run_as(0, || {
                 let h = w.kept(id);
-                let _ = match s.below(8) {
+                let _ = match s.below(10) {
                     0 => h.pause(),
                     1 => h.resume(),
                     2 => h.abort(),
                     3 => w.kept(im).start(),
+                    6 if [ib, ie, ie2].contains(&id) => h.start(),
+                    4 => {
+                        order.store(s.below(12) as usize, Ordering::Relaxed);
+                        w.kept(ij).start()
+                    }
+                    5 => h.set_timeout(Some(Duration::from_millis(s.below(9) + 1))),
                     _ => Ok(()),
                 };
             });
@@ -393,12 +533,12 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     for f in [fa, fa2, fm] {
         f.store(false, Ordering::Relaxed);
     }
-    for f in [exit, go] {
+    for f in [exit, go, pre] {
         f.store(true, Ordering::Relaxed);
     }
     for _ in 0..100 {
         s.run_as(0, || {
-            for id in [im, ia, ia2, ib, ie, ie2] {
+            for id in [im, ia, ia2, ib, ie, ie2, ij] {
                 let _ = w.kept(id).resume();
             }
         });
@@ -410,13 +550,28 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     }
     let what = format!("{what}, at rest at {} ms", s.now.get());
     w.check_tree(&what);
-    for id in [im, ia, ia2, ib, ie, ie2] {
+    for id in [im, ia, ia2, ib, ie, ie2, ij] {
         let state = w.state(id);
         assert!(
             ![Running, Paused, Restarting, Aborting].contains(&state),
             "{what}: {id:?} {state:?}"
         );
         assert!(!w.pending(id), "{what}: {id:?} has a start pending");
+        // The last run's outcome is the one its last transition says.
+        let (outcome, cause) = w.seq.with(|s| {
+            let b = s.block(id).unwrap();
+            (b.outcome, b.last_cause)
+        });
+        let agrees = match (state, outcome) {
+            (Idle, None) => true,
+            (Terminated, Some(Outcome::Completed | Outcome::Skipped | Outcome::Failed(_))) => true,
+            (Aborted, Some(Outcome::Aborted(c))) => c == cause,
+            _ => false,
+        };
+        assert!(
+            agrees,
+            "{what}: {id:?} {state:?} with outcome {outcome:?} ({cause:?})"
+        );
     }
     for l in lanes {
         assert!(!l.woken(), "{what}: a lane is woken");
@@ -430,7 +585,7 @@ type RandomRun = fn(u64);
 fn random_runs(seeds: core::ops::Range<u64>) {
     let mut failed = Vec::new();
     for seed in seeds {
-        // Nine sequences: 16 in a sequencer of one word.
+        // Ten sequences: 16 in a sequencer of one word.
         let r = std::panic::catch_unwind(|| {
             let mut failed: Vec<String> = Vec::new();
             let worlds: [(&str, RandomRun); 6] = [
