@@ -11,7 +11,8 @@
 //! pause, resume, abort or new timeout, through `Cx::sequence_by_id`), then joins B (a
 //! second joiner beside M) and M. A and A2 have a monitor of a random behaviour each (with
 //! the exception sequence E, its own lane, or without), A maybe a timeout; so has M (its
-//! exception sequence E2). The application flips the conditions (monitors, exit and
+//! exception sequence E2). The lanes run in tasks of one lane or several joined (sharing
+//! the task's waker, as `embassy_futures::join` in one RTIC task). The application flips the conditions (monitors, exit and
 //! pre-conditions, failures), starts M and J again and asks for pauses, resumes, aborts
 //! and new timeouts at random.
 //!
@@ -127,7 +128,11 @@ struct Joiner {
 impl Sequence<()> for Joiner {
     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
         let order = self.order.load(Ordering::Relaxed);
-        let target = if order.is_multiple_of(2) { self.a } else { self.m };
+        let target = if order.is_multiple_of(2) {
+            self.a
+        } else {
+            self.m
+        };
         if let Some(h) = cx.sequence_by_id(target) {
             let _ = match order / 2 {
                 0 => h.pause(),
@@ -157,10 +162,24 @@ impl Sequence<()> for Waiter {
     }
 }
 
-/// A lane future of a priority, with a counting waker; `seen`: the wake-ups when its last
-/// poll began.
+/// A lane's future, boxed.
+type LaneFuture = Pin<Box<dyn Future<Output = Infallible>>>;
+
+/// `seq`'s lane, declared.
+fn lane_of<S: Sequence<()> + 'static, L: Lock + 'static, const N: usize, const B: usize>(
+    w: World<L, N, B>,
+    seq: Seq<S>,
+) -> LaneFuture {
+    let seq: &'static mut Seq<S> = Box::leak(Box::new(seq));
+    w.handle(seq.id()).declare_lane().unwrap();
+    Box::pin(lane(w.seq, &(), seq))
+}
+
+/// A task of a priority that runs one lane or several joined (as `embassy_futures::join`
+/// does: each poll of the task polls every lane, and they share the task's waker), with a
+/// counting waker; `seen`: the wake-ups when its last poll began.
 struct RandomLane {
-    fut: RefCell<Pin<Box<dyn Future<Output = Infallible>>>>,
+    futs: RefCell<Vec<LaneFuture>>,
     waker: Waker,
     wakes: Arc<Count>,
     seen: Cell<usize>,
@@ -168,16 +187,10 @@ struct RandomLane {
 }
 
 impl RandomLane {
-    fn new<S: Sequence<()> + 'static, L: Lock + 'static, const N: usize, const B: usize>(
-        w: World<L, N, B>,
-        seq: Seq<S>,
-        priority: u8,
-    ) -> &'static RandomLane {
-        let seq: &'static mut Seq<S> = Box::leak(Box::new(seq));
-        w.handle(seq.id()).declare_lane().unwrap();
+    fn new(futs: Vec<LaneFuture>, priority: u8) -> &'static RandomLane {
         let (waker, wakes) = counting();
         Box::leak(Box::new(RandomLane {
-            fut: RefCell::new(Box::pin(lane(w.seq, &(), seq))),
+            futs: RefCell::new(futs),
             waker,
             wakes,
             seen: Cell::new(0),
@@ -189,11 +202,14 @@ impl RandomLane {
         woken(&self.wakes) > self.seen.get()
     }
 
-    /// Polls the lane (a poll while it is being polled fails the test: a harness error).
+    /// Polls the task's lanes (a poll while it is being polled fails the test: a harness
+    /// error).
     fn poll(&self) {
         self.seen.set(woken(&self.wakes));
         let mut cx = Context::from_waker(&self.waker);
-        let _ = self.fut.borrow_mut().as_mut().poll(&mut cx);
+        for fut in self.futs.borrow_mut().iter_mut() {
+            let _ = fut.as_mut().poll(&mut cx);
+        }
     }
 }
 
@@ -467,14 +483,26 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     ][draw(4) as usize];
     let with_e2 = behaviour_m != Behaviour::PauseOwner && draw(2) == 0;
     monitors_drawn.push(monitor(im, fm, behaviour_m, with_e2.then_some(ie2)));
-    let priority = || if draw(2) == 0 { 1 } else { 3 };
-    let lanes: &'static [&'static RandomLane] = Box::leak(Box::new([
-        RandomLane::new(w, m, priority()),
-        RandomLane::new(w, b, priority()),
-        RandomLane::new(w, e, priority()),
-        RandomLane::new(w, e2, priority()),
-        RandomLane::new(w, j, priority()),
-    ]));
+    // The lanes in tasks: each joins the task before it or begins a new one, of a
+    // random priority.
+    let mut tasks: Vec<Vec<LaneFuture>> = Vec::new();
+    for fut in [
+        lane_of(w, m),
+        lane_of(w, b),
+        lane_of(w, e),
+        lane_of(w, e2),
+        lane_of(w, j),
+    ] {
+        match tasks.last_mut() {
+            Some(task) if draw(3) == 0 => task.push(fut),
+            _ => tasks.push(std::vec![fut]),
+        }
+    }
+    let lanes: &'static [&'static RandomLane] = tasks
+        .into_iter()
+        .map(|futs| RandomLane::new(futs, if draw(2) == 0 { 1 } else { 3 }))
+        .collect::<Vec<_>>()
+        .leak();
     let s = Sched::<L, N, B> {
         w,
         lanes,
@@ -483,10 +511,10 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         now: Box::leak(Box::new(Cell::new(0))),
     };
     let what = format!(
-        "{what}, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), their triggers and restart limits {monitors_drawn:?}, lanes {:?}",
-        lanes.iter().map(|l| l.priority).collect::<Vec<_>>()
+        "{what}, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
+        lanes.iter().map(|l| (l.futs.borrow().len(), l.priority)).collect::<Vec<_>>()
     );
-    // Each lane is polled once when its task is spawned: it waits for a start.
+    // Each task is polled once when it is spawned: its lanes wait for a start.
     for l in lanes {
         l.poll();
     }
