@@ -14,7 +14,8 @@
 //! exception sequence E2). The lanes run in tasks of one lane or several joined (sharing
 //! the task's waker, as `embassy_futures::join` in one RTIC task). The application flips the conditions (monitors, exit and
 //! pre-conditions, failures), starts M and J again and asks for pauses, resumes, aborts
-//! and new timeouts at random.
+//! and new timeouts at random. Half the runs begin 20 ms before the sequencer's 32-bit µs
+//! stamps wrap.
 //!
 //! The scheduler follows RTIC's rules for the parties: the application (priority 0), the
 //! lanes (priorities 1 and 3, drawn per lane), the tick (2) and the safety system's
@@ -321,6 +322,9 @@ fn below(rng: &Cell<u64>, n: u64) -> u64 {
     x.wrapping_mul(0x2545_f491_4f6c_dd1d) % n
 }
 
+/// The last whole millisecond before 2^32 µs, where the sequencer's 32-bit stamps wrap.
+const WRAP_MS: u64 = (1 << 32) / 1_000;
+
 /// The monitors' behaviours drawn from.
 const BEHAVIOURS: [Behaviour; 6] = [
     Behaviour::Nothing,
@@ -370,6 +374,9 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1,
     )));
     let draw = |n: u64| below(rng, n);
+    // From 0, or 20 ms before the sequencer's 32-bit µs stamps wrap (deadlines and
+    // polls compared by wrapping difference across the wrap).
+    let start_ms = if draw(2) == 0 { 0 } else { WRAP_MS - 20 };
     let (fa, fm, exit, go) = (flag_of(false), flag_of(false), flag_of(true), flag_of(true));
     let fa2 = flag_of(false);
     let cancel = flag_of(false);
@@ -508,12 +515,16 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         lanes,
         running: Box::leak(Box::new(RefCell::new(Vec::new()))),
         rng,
-        now: Box::leak(Box::new(Cell::new(0))),
+        now: Box::leak(Box::new(Cell::new(start_ms))),
     };
     let what = format!(
-        "{what}, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
+        "{what}, from {start_ms} ms, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
         lanes.iter().map(|l| (l.futs.borrow().len(), l.priority)).collect::<Vec<_>>()
     );
+    if start_ms != 0 {
+        // The sequencer's time before M starts.
+        w.tick(start_ms);
+    }
     // Each task is polled once when it is spawned: its lanes wait for a start.
     for l in lanes {
         l.poll();
