@@ -8,6 +8,7 @@
 mod common;
 use common::*;
 
+use std::cell::RefCell;
 use std::future::Future;
 use std::pin::{pin, Pin};
 use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
@@ -739,6 +740,54 @@ fn a_tick_earlier_than_the_last_is_an_error_and_moves_nothing() {
             tr(5, id, Running, Aborting, t),
             tr(5, id, Aborting, Aborted, t),
         ]
+    );
+}
+
+/// A sequencer has one heartbeat. A tick from inside a tick (here a monitor's condition
+/// that ticks the same sequencer with a table of its own, as a second task that ticks it
+/// would between two sections) is refused with `Error::TickInProgress` and changes nothing:
+/// the sequencer's time stays the outer tick's. The tick under way goes on (the timeout
+/// still fires at 5 ms), and the ticks after it work.
+#[test]
+fn a_tick_inside_a_tick_is_refused_and_changes_nothing() {
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let id = seq
+        .register(SeqConfig::new("main").timeout(Duration::from_millis(5)))
+        .unwrap();
+    seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+    let inner_table = RefCell::new(Monitors::<Ctrl, 1>::new());
+    // (the inner tick's result, the sequencer's time right after it), per evaluation
+    let seen: RefCell<Vec<(Result<(), Error>, Instant)>> = RefCell::new(Vec::new());
+    let reentrant = |c: &Ctrl, now: Instant| {
+        let later = now + Duration::from_millis(1);
+        let r = seq.tick(later, c, &mut inner_table.borrow_mut());
+        seen.borrow_mut().push((r, seq.now()));
+        false
+    };
+    let mut monitors = Monitors::<Ctrl, 1, _>::new();
+    monitors
+        .add(
+            id,
+            rtseq::Monitor::with_condition("ticks", reentrant, rtseq::Behaviour::AbortOwner),
+        )
+        .unwrap();
+    seq.tick(ms_at(0), &ctrl, &mut monitors).unwrap();
+    seq.sequence_by_id(id).unwrap().start().unwrap();
+    for ms in 1..=5 {
+        assert_eq!(seq.tick(ms_at(ms), &ctrl, &mut monitors), Ok(()));
+    }
+    let expected: Vec<_> = (1..=5)
+        .map(|ms| (Err(Error::TickInProgress), ms_at(ms)))
+        .collect();
+    assert_eq!(*seen.borrow(), expected);
+    assert_eq!(
+        seq.sequence_by_id(id).unwrap().last_outcome(),
+        Some(Outcome::Aborted(rtseq::Cause::Timeout(id)))
+    );
+    assert_eq!(
+        Error::TickInProgress.to_string(),
+        "a tick while another tick of the same sequencer is under way"
     );
 }
 

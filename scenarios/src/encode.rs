@@ -145,6 +145,7 @@ fn error_code(e: Error) -> u32 {
         Error::HeldByMonitor(_) => 21,
         Error::OutcomeLost(_) => 22,
         Error::PauseOwnerMonitorsExceeded(_) => 23,
+        Error::TickInProgress => 24,
     }
 }
 

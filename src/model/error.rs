@@ -79,6 +79,11 @@ pub enum Error {
     /// A monitor table of 256 [`PauseOwner`](crate::Behaviour::PauseOwner) monitors, all
     /// of this one sequence: at most 255 monitors can hold one sequence paused at once.
     PauseOwnerMonitorsExceeded(SeqId),
+    /// A [`tick`](crate::Sequencer::tick) while another tick of the same sequencer is under
+    /// way (two tasks that tick it, or a tick from a condition, cleanup hook or waker of
+    /// that tick): a sequencer has one heartbeat. This tick did nothing; the tick under way
+    /// goes on.
+    TickInProgress,
 }
 
 impl Error {
@@ -117,6 +122,7 @@ impl Error {
             Error::ForeignSequence(_) => "sequence object of another sequencer",
             Error::HeldByMonitor(_) => "sequence held paused by a monitor",
             Error::OutcomeLost(_) => "joined run's outcome lost to a later run",
+            Error::TickInProgress => "another tick is under way",
             Error::PauseOwnerMonitorsExceeded(_) => {
                 "more than 255 PauseOwner monitors of one sequence"
             }
@@ -173,6 +179,10 @@ impl core::fmt::Display for Error {
                 f,
                 "the joined run of sequence {} ended, and so did a later run, whose outcome replaced it",
                 id.index()
+            ),
+            Error::TickInProgress => write!(
+                f,
+                "a tick while another tick of the same sequencer is under way"
             ),
             Error::PauseOwnerMonitorsExceeded(id) => write!(
                 f,

@@ -23,7 +23,7 @@
 
 use core::cell::{Cell, UnsafeCell};
 use core::marker::PhantomData;
-use core::sync::atomic::AtomicU8;
+use core::sync::atomic::{AtomicBool, AtomicU8};
 
 use crate::lock::{CriticalSection, Lock};
 use crate::safety::SafetyHandle;
@@ -101,6 +101,9 @@ pub struct Sequencer<
     /// What any priority left for the next tick (`inbox`): abort-all requests, and whether
     /// the safety system queued notes. An atomic: the safety task sits above the ceiling.
     pub(crate) inbox: AtomicU8,
+    /// A tick is under way: set in its first section, cleared when it returns (see
+    /// [`Sequencer::tick`]). An atomic, so that the tick clears it without a section.
+    pub(crate) ticking: AtomicBool,
     /// The safety system's levels and tripped inputs, until the tick records them.
     pub(crate) safety_notes: SafetyNotes,
     /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
@@ -244,6 +247,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             state: UnsafeCell::new(State::new()),
             lanes: Lanes::new(),
             inbox: AtomicU8::new(0),
+            ticking: AtomicBool::new(false),
             safety_notes: SafetyNotes::new(),
             safety: critical_section::Mutex::new(Cell::new(None)),
             _control: PhantomData,

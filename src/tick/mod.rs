@@ -15,6 +15,8 @@
 //! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour, requests |
 //! | `teardown.rs` | aborts, restarts, pauses and resumes of a sequence and those below it |
 
+use core::sync::atomic::{AtomicBool, Ordering};
+
 use crate::lock::Lock;
 use crate::model::set::{SetWord, Words};
 use crate::model::time::{Stamp, NEVER_AHEAD};
@@ -147,6 +149,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// [`Error::TickBeforeLast`]: time does not go back, so it evaluates nothing, but it
     /// carries out the requests and abort-alls made since the last tick, at the last
     /// tick's time, so a broken time base never holds off the safety system's abort-all.
+    /// A sequencer has one heartbeat: a tick while another tick of it is under way (a
+    /// second task that ticks it, or a condition, cleanup hook or waker of the tick that
+    /// does) does nothing and returns [`Error::TickInProgress`].
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
     /// monotonics do). The sequencer keeps its deadlines as 32-bit µs and compares them by
@@ -176,7 +181,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
         // The words of the sets that hold an active sequence, as of the last fold.
-        let (late, mut requests, any_due, changed, mut words) = self.with(|s| {
+        let first = self.with(|s| {
+            // One tick at a time: a second one would walk and scan beside the first.
+            if self.ticking.load(Ordering::Relaxed) {
+                return None;
+            }
+            self.ticking.store(true, Ordering::Relaxed);
             let late = now < s.now;
             if !late {
                 s.now = now;
@@ -188,14 +198,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 s.polling.next_due = stamp.plus(NEVER_AHEAD);
             }
             s.changes = s.changes.wrapping_add(1);
-            (
+            Some((
                 late,
                 !s.sets.is_empty(Set::Requested),
                 any_due,
                 !s.sets.is_empty(Set::Changed),
                 s.sets.words(Set::Active),
-            )
+            ))
         });
+        let Some((late, mut requests, any_due, changed, mut words)) = first else {
+            return Err(Error::TickInProgress);
+        };
+        let _turn = TickTurn(&self.ticking);
         if late {
             return Err(self.tick_late(control));
         }
@@ -445,6 +459,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn held(&self, id: SeqId) -> bool {
         let lane = self.with(|s| s.lane_slot(id));
         held(id, |c| self.with(|s| s.held_step(c, lane)))
+    }
+}
+
+/// The turn of the tick under way: when the tick returns, the next one may begin.
+struct TickTurn<'a>(&'a AtomicBool);
+
+impl Drop for TickTurn<'_> {
+    fn drop(&mut self) {
+        // Release: the next tick, on another core, sees what this one did.
+        self.0.store(false, Ordering::Release);
     }
 }
 

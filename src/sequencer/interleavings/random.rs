@@ -14,7 +14,9 @@
 //! exception sequence E2). The lanes run in tasks of one lane or several joined (sharing
 //! the task's waker, as `embassy_futures::join` in one RTIC task). The application flips the conditions (monitors, exit and
 //! pre-conditions, failures), starts M and J again and asks for pauses, resumes, aborts
-//! and new timeouts at random. Half the runs begin 20 ms before the sequencer's 32-bit µs
+//! and new timeouts at random. A second task (priority 3) ticks the sequencer too, with a
+//! monitor table of its own (a monitor of A2): refused (`Error::TickInProgress`) while
+//! the tick runs, a tick at the time of the last one otherwise. Half the runs begin 20 ms before the sequencer's 32-bit µs
 //! stamps wrap.
 //!
 //! The scheduler follows RTIC's rules for the parties: the application (priority 0), the
@@ -40,6 +42,9 @@ use crate::{lane, Cx, Failure, Seq, Sequence, Trigger, Wait};
 
 /// The tick's priority.
 const TICK: u8 = 2;
+/// The priority of a second task that ticks the sequencer (misuse, refused while the
+/// tick runs).
+const SECOND_TICK: u8 = 3;
 /// The safety system's priority (its abort-all).
 const SAFETY: u8 = 4;
 
@@ -224,6 +229,8 @@ struct Sched<L: Lock + 'static, const N: usize, const B: usize> {
     rng: &'static Cell<u64>,
     /// The time of the last tick (ms).
     now: &'static Cell<u64>,
+    /// The monitor table of the second task that ticks the sequencer.
+    second: &'static RefCell<Monitors<'static, (), 4>>,
 }
 
 impl<L: Lock + 'static, const N: usize, const B: usize> Clone for Sched<L, N, B> {
@@ -270,6 +277,29 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
             .copied()
             .filter(|l| l.priority > current && l.woken())
             .collect();
+        if SECOND_TICK > current && self.chance(5) {
+            // A second task that ticks the sequencer (misuse): refused while the tick is
+            // under way, which it preempts; else a tick at the time of the last one.
+            // The tick holds its turn from its first section on.
+            let held = self.w.seq.ticking.load(Ordering::Relaxed);
+            assert!(
+                !held || self.running.borrow().contains(&TICK),
+                "a tick's turn is held with no tick under way"
+            );
+            self.run_as(SECOND_TICK, || {
+                let r = self.w.seq.tick(
+                    Instant::from_ticks(self.now.get() * 1_000),
+                    &(),
+                    &mut self.second.borrow_mut(),
+                );
+                let expected = if held {
+                    Err(Error::TickInProgress)
+                } else {
+                    Ok(())
+                };
+                assert_eq!(r, expected, "the second task's tick");
+            });
+        }
         let mut parties = woken.len() as u64;
         let tick = TICK > current && self.chance(4);
         let abort_all = SAFETY > current && self.chance(40);
@@ -477,6 +507,20 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         (trigger, limit)
     };
     let mut monitors_drawn = Vec::new();
+    // The second task's table: a monitor of A2.
+    let fb = flag_of(false);
+    let second: &'static RefCell<Monitors<'static, (), 4>> =
+        Box::leak(Box::new(RefCell::new(Monitors::new())));
+    let condition: &'static mut (dyn Condition<()> + Send) =
+        Box::leak(Box::new(move |_: &(), _: Instant| {
+            fb.load(Ordering::Relaxed)
+        }));
+    let behaviour_b2 = BEHAVIOURS[draw(6) as usize];
+    let mut m2 = Monitor::new("second", condition, behaviour_b2);
+    if behaviour_b2 != Behaviour::PauseOwner && draw(2) == 0 {
+        m2 = m2.exception(ie2);
+    }
+    second.borrow_mut().add(ia2, m2).unwrap();
     monitors_drawn.push(monitor(ia, fa, behaviour_a, with_e.then_some(ie)));
     // A2's monitor shares E (refused while E runs for A: an exception not run).
     let behaviour_a2 = BEHAVIOURS[draw(6) as usize];
@@ -516,9 +560,10 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         running: Box::leak(Box::new(RefCell::new(Vec::new()))),
         rng,
         now: Box::leak(Box::new(Cell::new(start_ms))),
+        second,
     };
     let what = format!(
-        "{what}, from {start_ms} ms, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
+        "{what}, from {start_ms} ms, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), A2's in the second table {behaviour_b2:?}, their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
         lanes.iter().map(|l| (l.futs.borrow().len(), l.priority)).collect::<Vec<_>>()
     );
     if start_ms != 0 {
@@ -537,7 +582,8 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     for _ in 0..40 {
         // The application, preemptible by everything.
         for _ in 0..s.below(3) {
-            let flag = [fa, fa2, fm, exit, go, cancel, pre, fail, hand_on][s.below(9) as usize];
+            let flag =
+                [fa, fa2, fm, exit, go, cancel, pre, fail, hand_on, fb][s.below(10) as usize];
             flag.store(s.chance(2), Ordering::Relaxed);
             // Mostly M and A; sometimes any other, and a start of any with a lane (B, E
             // or E2 started by hand, J).
@@ -569,7 +615,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         w.check_tree(&format!("{what}, at {} ms", s.now.get()));
     }
     // Everything let go: it must come to rest.
-    for f in [fa, fa2, fm] {
+    for f in [fa, fa2, fm, fb] {
         f.store(false, Ordering::Relaxed);
     }
     for f in [exit, go, pre] {
