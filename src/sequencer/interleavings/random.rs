@@ -11,7 +11,8 @@
 //! pause, resume, abort or new timeout, through `Cx::sequence_by_id`), then joins B (a
 //! second joiner beside M) and M. A and A2 have a monitor of a random behaviour each (with
 //! the exception sequence E, its own lane, or without), A maybe a timeout; so has M (its
-//! exception sequence E2). The lanes run in tasks of one lane or several joined (sharing
+//! exception sequence E2); A's timeout has a random behaviour. The cleanup hooks of A and
+//! A2 start J or B, ask for a pause or resume of M, or abort all. The lanes run in tasks of one lane or several joined (sharing
 //! the task's waker, as `embassy_futures::join` in one RTIC task). The application flips the conditions (monitors, exit and
 //! pre-conditions, failures), starts M and J again and asks for pauses, resumes, aborts
 //! and new timeouts at random. A second task (priority 3) ticks the sequencer too, with a
@@ -365,6 +366,28 @@ const BEHAVIOURS: [Behaviour; 6] = [
     Behaviour::PauseOwner,
 ];
 
+/// The behaviours of A's timeout drawn from.
+const TIMEOUT_BEHAVIOURS: [Behaviour; 4] = [
+    Behaviour::AbortOwner,
+    Behaviour::RestartOwner,
+    Behaviour::AbortCallerOfOwner,
+    Behaviour::RestartCallerOfOwner,
+];
+
+std::thread_local! {
+    /// What the cleanup hooks of the run under way do.
+    static HOOK: RefCell<Option<Box<dyn Fn()>>> = RefCell::new(None);
+}
+
+/// The cleanup hook of A and A2: [`HOOK`].
+fn cleanup_hook(_: &()) {
+    HOOK.with(|h| {
+        if let Some(f) = h.borrow().as_ref() {
+            f();
+        }
+    });
+}
+
 /// The monitors' triggers drawn from.
 const TRIGGERS: [Trigger; 4] = [
     Trigger::RisingEdge,
@@ -418,16 +441,18 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     // Polling periods of 1 to 3 ms: several polling classes, their grids started and
     // joined under preemption.
     let polling = |name| SeqConfig::new(name).polling(Duration::from_millis(draw(3) + 1));
-    let mut a_config = polling("A");
+    let mut a_config = polling("A").on_abort(cleanup_hook);
     match draw(3) {
         0 => a_config = a_config.timeout(Duration::from_millis(4)),
         1 => a_config = a_config.timeout(Duration::from_millis(7)),
         _ => {}
     }
+    let timeout_behaviour = TIMEOUT_BEHAVIOURS[draw(4) as usize];
+    a_config = a_config.timeout_behaviour(timeout_behaviour);
     let a2 = w
         .seq
         .add(
-            polling("A2"),
+            polling("A2").on_abort(cleanup_hook),
             Child {
                 dwell,
                 pre,
@@ -498,6 +523,24 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         )
         .unwrap();
     let ij = j.id();
+    // What the cleanup hooks of A and A2 do (in the tick, or in a lane's teardown of a
+    // dropped run, between two sections): a start, a request or an abort-all.
+    let hook_action = draw(6);
+    HOOK.with(|h| {
+        *h.borrow_mut() = Some(Box::new(move || {
+            let _ = match hook_action {
+                0 => w.kept(ij).start(),
+                1 => w.kept(im).pause(),
+                2 => w.kept(im).resume(),
+                3 => w.kept(ib).start(),
+                4 => {
+                    w.seq.abort_all();
+                    Ok(())
+                }
+                _ => Ok(()),
+            };
+        }));
+    });
     let behaviour_a = BEHAVIOURS[draw(6) as usize];
     let with_e = behaviour_a != Behaviour::PauseOwner && draw(2) == 0;
     let monitor = |owner, flag, behaviour, e| {
@@ -563,7 +606,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         second,
     };
     let what = format!(
-        "{what}, from {start_ms} ms, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), A2's in the second table {behaviour_b2:?}, their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
+        "{what}, from {start_ms} ms, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), A2's in the second table {behaviour_b2:?}, A's timeout {timeout_behaviour:?}, the hooks' action {hook_action}, their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
         lanes.iter().map(|l| (l.futs.borrow().len(), l.priority)).collect::<Vec<_>>()
     );
     if start_ms != 0 {
