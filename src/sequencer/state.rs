@@ -289,9 +289,20 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// transition, which must stay short.
     #[inline]
     pub(crate) fn transition(&mut self, change: &StateChange) -> Option<&mut ControlBlock> {
+        self.transition_if(change, |_| true)
+    }
+
+    /// As [`transition`](Self::transition), only if the sequence's block also satisfies
+    /// `allowed` (read in the same section, with the state).
+    #[inline]
+    pub(crate) fn transition_if(
+        &mut self,
+        change: &StateChange,
+        allowed: impl FnOnce(&ControlBlock) -> bool,
+    ) -> Option<&mut ControlBlock> {
         let id = change.sequence;
         let b = self.blocks.get_mut(id.index())?;
-        if b.state != change.from {
+        if b.state != change.from || !allowed(b) {
             return None;
         }
         b.state = change.to;

@@ -117,17 +117,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 return Pass::of(!move_one(t));
             }
         }
-        let (rows, deepest) = self.levels(target, states, lane);
+        // A teardown marks what it places, in the section that finds the run it looked at
+        // still under way: the mark is that run's (a new run's commit clears it), and only
+        // a marked sequence moves (`leave`). A pause marks nothing.
+        let (rows, deepest) = self.levels(target, states, lane, &mut |id, runs| {
+            pause || self.with(|s| s.mark_placed(id, runs, states))
+        });
         // A teardown's pass is disturbed like a lost race by a run begun before it marked
         // what it placed: the run may not be placed, and is in the next pass.
         let mut raced = false;
         if target.is_some() && !pause {
-            // What a teardown placed starts nothing from now on (the target is marked).
-            for id in rows.iter().take(deepest + 1).flat_map(|row| *row) {
-                if Some(id) != target {
-                    self.with(|s| s.mark_stopping(id));
-                }
-            }
             raced = self.with(|s| s.runs_begun) != begun;
         }
         for k in 0..=deepest {
@@ -227,6 +226,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         target: Option<SeqId>,
         states: States,
         lane: Option<u8>,
+        keep: &mut dyn FnMut(SeqId, u16) -> bool,
     ) -> ([SeqSet<B>; DEPTHS], usize) {
         let candidates = self.with(|s| match target {
             Some(t) => s.sets.members(Set::Called).with(t),
@@ -239,10 +239,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut rows = [SeqSet::EMPTY; DEPTHS];
         let mut deepest = 0;
         for id in candidates {
-            let depth = in_sections!(self, |s| depth_below(s, id, target, states, lane));
-            if let Some(row) = depth.and_then(|d| rows.get_mut(d)) {
+            let found = in_sections!(self, |s| depth_below(s, id, target, states, lane));
+            let Some((depth, runs)) = found else {
+                continue;
+            };
+            if let (Some(row), true) = (rows.get_mut(depth), keep(id, runs)) {
                 row.insert(id);
-                deepest = deepest.max(depth.unwrap_or(0));
+                deepest = deepest.max(depth);
             }
         }
         (rows, deepest)
@@ -251,7 +254,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
 /// Where [`Sequencer::levels`] places `id`: its depth (its number of callers, at most
 /// `MAX_DEPTH`) when its state is in `states`, it runs in `lane` (if given) and it is
-/// `target` or below it (every one without a target); else `None`.
+/// `target` or below it (every one without a target), with the count of the run looked
+/// at; else `None`.
 fn depth_below<
     C,
     S: Sections<C, N, T, W, B>,
@@ -265,11 +269,11 @@ fn depth_below<
     target: Option<SeqId>,
     states: States,
     lane: Option<u8>,
-) -> Option<usize> {
-    let mut up = s.section(|s| {
+) -> Option<(usize, u16)> {
+    let (mut up, runs) = s.section(|s| {
         let b = s.block(id)?;
         let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
-        ok.then_some(b.caller)
+        ok.then_some((b.caller, b.runs))
     })?;
     let mut below = target.is_none_or(|t| t == id);
     let mut depth = 0;
@@ -281,10 +285,23 @@ fn depth_below<
         depth += 1;
         up = s.section(|s| s.block(at).map_or(Link::NONE, |b| b.caller));
     }
-    below.then_some(depth)
+    below.then_some((depth, runs))
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
+    /// A teardown placed `id` when its run `runs` was in `states`: if that run is still
+    /// under way there, it is marked ([`mark_stopping`](Self::mark_stopping)). False when
+    /// it ended meanwhile, or another run began: that one is not this teardown's.
+    fn mark_placed(&mut self, id: SeqId, runs: u16, states: States) -> bool {
+        let placed = self
+            .block(id)
+            .is_some_and(|b| b.runs == runs && states.has(b.state));
+        if placed {
+            self.mark_stopping(id);
+        }
+        placed
+    }
+
     /// A teardown placed `id`: it starts nothing until it is moved ([`flag::STOPPING`]).
     /// Counted as a change, so a start by it that was scheduled before is scheduled again,
     /// and refused ([`State::changes`]).
@@ -348,31 +365,51 @@ fn leave<
     // abort no pending request and no start left for its lane to take (the run is over
     // before it began: nothing of it must look under way; a restart goes on with the same
     // run, which keeps the requests made of it); and the hook.
-    let Some((from, hook)) = s.section(|s| {
-        let b = s.block_mut(id)?;
+    let looked = s.section(|s| {
+        let b = s.block_mut(id).ok_or(Leave::Stays)?;
         let from = b.state;
         if !states.has(from) {
-            return None;
+            return Err(Leave::Stays);
         }
         if pause {
-            return Some((from, None));
+            return Ok((from, None));
+        }
+        // A teardown moves only a run it marked (`walk_once`): without its mark, the run
+        // it marked ended and a new one began, or another teardown moved it meanwhile.
+        if !b.has(flag::STOPPING) {
+            return Err(Leave::Raced);
         }
         b.last_cause = cause;
         if to == RunningState::Aborting {
             b.drop_requests();
             b.set(flag::START_PENDING, false);
         }
-        Some((from, s.hooks.get(id.index()).copied().flatten()))
-    }) else {
-        return Leave::Stays;
+        Ok((from, s.hooks.get(id.index()).copied().flatten()))
+    });
+    let (from, hook) = match looked {
+        Ok(found) => found,
+        Err(other) => return other,
     };
     let change = StateChange::new(id, from, to, cause);
-    // Moved, it is no longer being stopped (a restarted target's new round starts runs).
-    let moved = s.section(|s| {
-        s.transition(&change)
-            .map(|b| b.set(flag::STOPPING, false))
-            .is_some()
-    });
+    let moved = if pause {
+        s.section(|s| s.transition(&change).is_some())
+    } else {
+        s.section(|s| {
+            // The mark may be gone as in the look above: the next pass marks what is there
+            // then. (A pause keeps a teardown's mark: the teardown still moves the paused
+            // run.)
+            let moved = s.transition_if(&change, |b| b.has(flag::STOPPING));
+            // A restarted run is no longer being stopped: its new round starts runs. (An
+            // aborted one starts nothing, marked or not, and a new run clears the mark.)
+            moved
+                .map(|b| {
+                    if to == RunningState::Restarting {
+                        b.set(flag::STOPPING, false);
+                    }
+                })
+                .is_some()
+        })
+    };
     if !moved {
         return Leave::Raced;
     }

@@ -9,7 +9,9 @@
 //! preemption test (`random.rs`): a lane that took up its restart and started a child
 //! during the walk had its target restarted again, up to `2 N` times in one tick; a new
 //! run started during an abort's walk was aborted too; a `PauseOwner` monitor held a
-//! round begun in its tick twice, and one release left it paused for good.
+//! round begun in its tick twice, and one release left it paused for good. A fourth, found
+//! by the last test here: a new run of a sequence below the target, begun by a caller
+//! outside the tree after the teardown had looked at its old run, was aborted too.
 
 use super::*;
 
@@ -226,4 +228,62 @@ fn teardown_disturbed_every_time<L: Lock + 'static, const N: usize, const B: usi
 #[test]
 fn a_teardown_disturbed_in_every_pass_still_moves_its_target() {
     every_world!(teardown_disturbed_every_time);
+}
+
+/// T (its `AbortOwner` monitor M0 holds) has started C in C's own lane (C in the second
+/// word with `Layout::Split`). Returns the world, T and C.
+fn non_blocking_setup<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId, SeqId) {
+    let w = World::<L, N, B>::new(layout);
+    let t = w.seq("T");
+    w.split();
+    let c = w.seq("C");
+    w.monitor(t, flag_of(true), Behaviour::AbortOwner, None);
+    w.start_taken(t);
+    w.in_lane(c, t).unwrap();
+    w.take(c);
+    (w, t, c)
+}
+
+/// The tick at 1 ms aborts T and C, which T started; before each section of that tick (or
+/// after it), once: C's lane, above the tick, ends C's run, and a supervisor starts C
+/// again, with no caller. That new run is not below T: it is left alone, `Running`,
+/// whether the walk had not placed C yet or had looked at C's old run and was about to
+/// move it. T is aborted once.
+fn new_run_of_a_placed_child<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    let count = sections(
+        || non_blocking_setup::<L, N, B>(layout),
+        |(w, ..)| w.tick(1),
+    );
+    every_k(count + 1, |k| {
+        let (w, t, c) = non_blocking_setup::<L, N, B>(layout);
+        let restarted: &'static AtomicBool = flag_of(false);
+        let party = move || {
+            if w.state(c) == Running && w.runs(c) == 1 {
+                assert!(w.complete(c));
+                w.kept(c).start().unwrap();
+                restarted.store(true, Ordering::Relaxed);
+            }
+        };
+        interleaved::at(k, party);
+        w.tick(1);
+        interleaved::at(usize::MAX, || {});
+        let what = name::<L>(layout, format_args!("k={k}"));
+        assert_eq!(w.ended(t), (Aborted, M0), "{what}: T");
+        assert_eq!(w.moves(t, Running, Aborting), 1, "{what}");
+        if restarted.load(Ordering::Relaxed) {
+            assert_eq!(w.state(c), Running, "{what}: C's new run");
+            assert_eq!(w.caller(c), None, "{what}");
+            assert_eq!(w.runs(c), 2, "{what}");
+        } else {
+            assert_eq!(w.ended(c), (Aborted, M0), "{what}: C");
+        }
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_new_run_of_a_child_the_walk_had_looked_at_is_left_alone() {
+    every_world!(new_run_of_a_placed_child);
 }
