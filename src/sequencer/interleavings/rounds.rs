@@ -74,9 +74,9 @@ fn a_restart_taken_up_by_a_lane_above_the_tick_during_its_walk_restarts_once() {
     every_world!(restart_taken_up_during_its_walk);
 }
 
-/// T (its `AbortOwner` monitor M0 holds) runs C blocking (C in the second word with
+/// T runs, its `AbortOwner` monitor M0 holds; C is registered (in the second word with
 /// `Layout::Split`). Returns the world, T and C.
-fn abort_setup<L: Lock + 'static, const N: usize, const B: usize>(
+fn monitored_setup<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,
 ) -> (World<L, N, B>, SeqId, SeqId) {
     let w = World::<L, N, B>::new(layout);
@@ -85,6 +85,14 @@ fn abort_setup<L: Lock + 'static, const N: usize, const B: usize>(
     let c = w.seq("C");
     w.monitor(t, flag_of(true), Behaviour::AbortOwner, None);
     w.start_taken(t);
+    (w, t, c)
+}
+
+/// As [`monitored_setup`], and T runs C blocking.
+fn abort_setup<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId, SeqId) {
+    let (w, t, c) = monitored_setup::<L, N, B>(layout);
     w.blocking(c, t).unwrap();
     (w, t, c)
 }
@@ -230,17 +238,11 @@ fn a_teardown_disturbed_in_every_pass_still_moves_its_target() {
     every_world!(teardown_disturbed_every_time);
 }
 
-/// T (its `AbortOwner` monitor M0 holds) has started C in C's own lane (C in the second
-/// word with `Layout::Split`). Returns the world, T and C.
+/// As [`abort_setup`], but T has started C in C's own lane (non-blocking).
 fn non_blocking_setup<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,
 ) -> (World<L, N, B>, SeqId, SeqId) {
-    let w = World::<L, N, B>::new(layout);
-    let t = w.seq("T");
-    w.split();
-    let c = w.seq("C");
-    w.monitor(t, flag_of(true), Behaviour::AbortOwner, None);
-    w.start_taken(t);
+    let (w, t, c) = monitored_setup::<L, N, B>(layout);
     w.in_lane(c, t).unwrap();
     w.take(c);
     (w, t, c)
