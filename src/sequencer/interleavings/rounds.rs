@@ -11,7 +11,8 @@
 //! run started during an abort's walk was aborted too; a `PauseOwner` monitor held a
 //! round begun in its tick twice, and one release left it paused for good. A fourth, found
 //! by the last test here: a new run of a sequence below the target, begun by a caller
-//! outside the tree after the teardown had looked at its old run, was aborted too.
+//! outside the tree after the teardown had looked at its old run, was aborted too. The
+//! last one checks the same of the target: a firing aborts only the run it was raised on.
 
 use super::*;
 
@@ -288,4 +289,54 @@ fn new_run_of_a_placed_child<L: Lock + 'static, const N: usize, const B: usize>(
 #[test]
 fn a_new_run_of_a_child_the_walk_had_looked_at_is_left_alone() {
     every_world!(new_run_of_a_placed_child);
+}
+
+/// The tick at 1 ms aborts T (its monitor M0 holds); before each section of that tick (or
+/// after it), once: T's lane, above the tick, ends T's run, and a supervisor starts T
+/// again. A firing aborts only the run it was raised on: the second run is aborted only by
+/// a firing recorded after it began (begun before the tick's scan, M0 evaluates it from
+/// "false" and fires on it), else it is left alone in this tick.
+fn new_run_of_the_target<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    let count = sections(|| monitored_setup::<L, N, B>(layout), |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, t, _) = monitored_setup::<L, N, B>(layout);
+        let restarted: &'static AtomicBool = flag_of(false);
+        let party = move || {
+            // Once the tick has marked the exception, the run's end loses to its abort.
+            if w.state(t) == Running && w.runs(t) == 1 && w.complete(t) {
+                w.kept(t).start().unwrap();
+                restarted.store(true, Ordering::Relaxed);
+            }
+        };
+        interleaved::at(k, party);
+        w.tick(1);
+        interleaved::at(usize::MAX, || {});
+        let what = name::<L>(layout, format_args!("k={k}"));
+        if restarted.load(Ordering::Relaxed) {
+            assert_eq!(w.runs(t), 2, "{what}");
+            let records = w.records();
+            let began = records.iter().rposition(|r| {
+                r.transition()
+                    .is_some_and(|tr| tr.sequence == t && tr.to == Running)
+            });
+            let fired = records
+                .iter()
+                .rposition(|r| matches!(r.event(), Some(Event::Fired { owner, .. }) if owner == t));
+            if w.state(t) != Running {
+                assert_eq!(w.ended(t), (Aborted, M0), "{what}: T's new run");
+                assert!(
+                    fired > began,
+                    "{what}: T's new run aborted by a firing before it began"
+                );
+            }
+        } else {
+            assert_eq!(w.ended(t), (Aborted, M0), "{what}: T");
+        }
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_new_run_of_the_target_begun_before_it_moved_is_left_alone() {
+    every_world!(new_run_of_the_target);
 }
