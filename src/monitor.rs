@@ -641,10 +641,11 @@ impl Group {
         (changed & ((now & self.rise) | (last & self.fall))) | (now & self.level)
     }
 
-    /// The bit of the group's first monitor (its last is bit 0).
+    /// The index in the group of the monitor at bit `position` (the group's first monitor
+    /// holds its highest bit, its last bit 0).
     #[inline]
-    pub(crate) fn first_bit(&self) -> u32 {
-        1u32 << (u32::from(self.len.saturating_sub(1)) & 31)
+    pub(crate) fn index_of(&self, position: u32) -> u8 {
+        self.len.wrapping_sub(1).wrapping_sub(position as u8)
     }
 }
 

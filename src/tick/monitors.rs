@@ -129,8 +129,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// Monitors of `group` triggered (`firing`, bits as in [`Group`]; the group's `last`
     /// holds this evaluation's values): raise their exceptions in table order (out of the
-    /// hot loop). A `PauseOwner` monitor whose condition cleared is marked `releasing`
-    /// instead; true when one was.
+    /// hot loop; it visits only the monitors that fired, not the whole group). A
+    /// `PauseOwner` monitor whose condition cleared is marked `releasing` instead; true
+    /// when one was.
     #[inline(never)]
     fn fire_group<K>(
         &self,
@@ -140,21 +141,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         control: &C,
     ) -> bool {
         let mut releasing = false;
-        // The group's first monitor holds its highest bit.
-        let mut bit = group.first_bit();
-        let mut id = group.start;
-        for monitor in members.iter_mut() {
-            if firing & bit != 0 {
-                let holds = group.last & bit != 0;
-                if monitor.def.behaviour == Behaviour::PauseOwner && !holds {
-                    monitor.releasing = true;
-                    releasing = true;
-                } else {
-                    self.fire(monitor, MonitorId(id), holds, control);
-                }
+        // Only the monitors that fired, highest bit first: the group's first monitor holds
+        // its highest bit, so this is table order.
+        let mut rest = firing;
+        while rest != 0 {
+            let position = 31 - rest.leading_zeros();
+            let bit = 1u32 << position;
+            rest &= !bit;
+            let index = group.index_of(position);
+            let Some(monitor) = members.get_mut(usize::from(index)) else {
+                break;
+            };
+            let holds = group.last & bit != 0;
+            if monitor.def.behaviour == Behaviour::PauseOwner && !holds {
+                monitor.releasing = true;
+                releasing = true;
+            } else {
+                let id = MonitorId(group.start.wrapping_add(index));
+                self.fire(monitor, id, holds, control);
             }
-            bit >>= 1;
-            id = id.wrapping_add(1);
         }
         releasing
     }
