@@ -651,19 +651,20 @@ fn firmware_sizes_with_and_without_rtseq() {
     // sequence's end is reported by the tick, a dropped run's teardown walks again, the
     // nine defects of session 30's reviews, the ten of session 31's and 32's, and the
     // teardown's marks of session 32, a teardown moving only the runs it marked, session
-    // 33; docs/footprint.md): held to known ceilings of 14 KiB (scenarios) and 15 KiB
-    // (demo).
+    // 33, a paused caller's blocked child paused after a restart or a start during the
+    // pause's walk, session 34; docs/footprint.md): held to known ceilings of 14.5 KiB
+    // (scenarios) and 15.25 KiB (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
         12 * 1024,
-        14 * 1024,
+        14 * 1024 + 512,
     );
     budget(
         "rtseq's sequencer code in the demo firmware [bytes]",
         demo_code.rtseq - demo_code.safety,
         12 * 1024,
-        15 * 1024,
+        15 * 1024 + 256,
     );
     budget(
         "rtseq's safety-system code in the demo firmware [bytes]",

@@ -243,6 +243,20 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
+    /// After the commit of a restart of `run`: if the caller it blocks (in the same lane)
+    /// is paused, the run is paused with it, as [`pause_with_caller`](Self::pause_with_caller)
+    /// pauses a run begun blocking by a paused caller. A pause walk passes over a
+    /// `Restarting` sequence, and its lane takes the restart up below its paused caller.
+    fn pause_with_blocking_caller(&mut self, run: RunId) {
+        let Some(b) = self.block(run.seq) else {
+            return;
+        };
+        let (lane, caller) = (b.lane, b.caller.get());
+        if let Some(c) = caller.filter(|&c| self.block(c).is_some_and(|c| c.lane == lane)) {
+            self.pause_with_caller(run, c);
+        }
+    }
+
     /// The commit of a restart: as [`commit_new`](Self::commit_new), keeping the run's
     /// caller and flags; the behaviour it was waiting to apply is dropped.
     #[inline(never)]
@@ -403,6 +417,9 @@ fn relaunch<
         s.section(|s| s.due_by(id, busy));
         let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);
         let done = s.section(|s| s.commit_restart(&change, seen));
+        if done {
+            s.section(|s| s.pause_with_blocking_caller(run));
+        }
         if done || S::ONE_SECTION {
             return;
         }

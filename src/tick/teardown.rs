@@ -42,11 +42,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // A teardown pass is disturbed by a sequence below the target that its own lane
         // moved (an end, or taking up a restart made before the walk: at most twice per
         // sequence), or by a run begun before the pass had marked what it placed.
+        // A pause's (resume's) first pass moves its target from the state it leaves; a
+        // pass again, for a run begun below the target during the last one, finds the
+        // target in the state it entered and moves only what began below it.
+        let mut target_in = if to == RunningState::Paused {
+            RunningState::Running
+        } else {
+            RunningState::Paused
+        };
         for _ in 0..=2 * N {
             let begun = self.with(|s| s.runs_begun);
-            if self.walk_once(control, target, to, cause, begun) == Pass::Done {
+            if self.walk_once(control, target, to, cause, begun, target_in) == Pass::Done {
                 return;
             }
+            target_in = to;
         }
         // Disturbed every time (parties above the walker beginning runs without a pause):
         // the target, which a disturbed pass leaves in place, still moves, so no teardown
@@ -59,7 +68,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
     }
 
-    /// One pass of [`walk`](Self::walk), begun when [`State::runs_begun`] was `begun`.
+    /// One pass of [`walk`](Self::walk), begun when [`State::runs_begun`] was `begun`; a
+    /// pause's or resume's target is in `target_in` (else the pass is done).
     #[inline(never)]
     fn walk_once(
         &self,
@@ -68,6 +78,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         to: RunningState,
         cause: Cause,
         begun: u32,
+        target_in: RunningState,
     ) -> Pass {
         let pause = matches!(to, RunningState::Paused | RunningState::Running);
         // What a pause leaves (a resume: `Paused`).
@@ -78,7 +89,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         };
         let (states, lane) = if pause {
             let Some(lane) = target.and_then(|t| {
-                self.with(|s| s.block(t).filter(|b| b.state == from).map(|b| b.lane))
+                self.with(|s| s.block(t).filter(|b| b.state == target_in).map(|b| b.lane))
             }) else {
                 return Pass::Done;
             };

@@ -16,6 +16,14 @@
 //! 3. C's lane, of higher priority than the tick, polls before each section of the tick
 //!    that holds O: C is never checked while O is held, also when a pause has reached O
 //!    but not C yet.
+//! 4. O's lane, of higher priority than the tick, starts C blocking before each section of
+//!    the tick that holds O: C is paused with O, also when it began after the pause had
+//!    looked below O.
+//! 5. O's lane takes up C's restart while the tick pauses O: the restarted C is paused
+//!    with O.
+//!
+//! 4 and 5 were found by the random preemption test's check of a settled world (a paused
+//! caller's blocked child is paused).
 
 use super::*;
 
@@ -584,4 +592,115 @@ fn a_blocked_childs_lane_polling_during_a_pause_owner_hold_never_checks_while_he
 fn a_blocked_childs_lane_polling_during_an_exception_of_its_caller_never_checks_while_held() {
     every_world!(lane_poll_into_holding_tick, Hold::Exception, 2);
     every_world!(lane_poll_into_holding_tick, Hold::Exception, 1);
+}
+
+// =======================================================================================
+// 4. A blocking child started by its caller's lane while the tick holds the caller.
+// =======================================================================================
+
+/// O's lane, of higher priority than the tick, starts C blocking (O's action runs on to
+/// `Cx::run` while O is not paused yet) before each section of the tick at 1 ms that holds
+/// O (its `PauseOwner` monitor's condition rose), or after it. C is paused with O: a run
+/// begun below the target while the pause walks is paused by the walk's next pass, one
+/// begun once O is paused begins paused (semantics 7). C stays paused while O is held and
+/// runs again with O at the release (3 ms). Found by the random preemption test: the
+/// walk's next pass found O paused already and ended, leaving C running below it.
+fn start_into_holding_tick<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    let setup = move || held_owner::<L, N, B>(layout, Op::Begin, false);
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, o, c, on) = setup();
+        let what = name::<L>(layout, format_args!("k={k}"));
+        // A paused O's action does not run on: its lane starts C only while O runs.
+        let lane = move || {
+            if w.state(o) == Running {
+                assert_eq!(w.blocking(c, o), Ok(()));
+            }
+        };
+        interleaved::at(k, lane);
+        w.tick(1);
+        or_after(k, lane);
+        assert_eq!(w.state(o), Paused, "{what}");
+        if w.state(c) == Idle {
+            // The lane came after O's move: O's action did not run on.
+            assert!(k > 0, "{what}: C not started");
+            w.check(&what);
+            return;
+        }
+        follows(&what, &w, o, c);
+        w.tick(2);
+        assert_eq!(
+            (w.state(o), w.state(c)),
+            (Paused, Paused),
+            "{what}: at 2 ms"
+        );
+        on.store(false, Ordering::Relaxed);
+        w.tick(3);
+        assert_eq!(
+            (w.state(o), w.state(c)),
+            (Running, Running),
+            "{what}: released at 3 ms"
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_blocking_start_by_the_callers_lane_during_the_tick_that_holds_the_caller() {
+    every_world!(start_into_holding_tick);
+}
+
+// =======================================================================================
+// 5. A blocking child's restart taken up below a paused caller.
+// =======================================================================================
+
+/// O runs C blocking; C's `RestartOwner` monitor restarted C at 1 ms (its condition clear
+/// again), and a pause request of O is pending. Returns the world, O, C and C's run.
+fn restarting_below<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId, SeqId, RunId) {
+    let w = World::<L, N, B>::new(layout);
+    let o = w.seq("O");
+    w.split();
+    let c = w.seq("C");
+    let fault = flag_of(true);
+    w.monitor(c, fault, Behaviour::RestartOwner, None);
+    w.start_taken(o);
+    w.blocking(c, o).unwrap();
+    w.tick(1);
+    assert_eq!(w.state(c), Restarting);
+    fault.store(false, Ordering::Relaxed);
+    w.handle(o).pause().unwrap();
+    (w, o, c, w.run(c))
+}
+
+/// O's lane takes C's restart up (`Sequencer::restart`: the lane was preempted inside C's
+/// poll, past O's clearance) while the tick at 2 ms, before each section of the restart or
+/// after it, pauses O. The pause walk passes over a `Restarting` C; C's new round is
+/// paused with O all the same (as a blocking start by a paused caller), stays paused
+/// while O is, and resumes with O (semantics 7). Found by the random preemption test: the
+/// restarted C ran on below its paused caller.
+fn restart_below_paused_caller<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    let setup = move || restarting_below::<L, N, B>(layout);
+    let count = sections(setup, |(w, _, _, run)| w.seq.restart(*run));
+    every_k(count + 1, |k| {
+        let (w, o, c, run) = setup();
+        let what = name::<L>(layout, format_args!("k={k}"));
+        interleaved::at(k, move || w.tick(2));
+        w.seq.restart(run);
+        or_after(k, || w.tick(2));
+        assert_eq!((w.state(o), w.state(c)), (Paused, Paused), "{what}");
+        assert_eq!(w.moves(c, Restarting, Running), 1, "{what}");
+        w.tick(3);
+        follows(&what, &w, o, c);
+        w.handle(o).resume().unwrap();
+        w.tick(4);
+        assert_eq!((w.state(o), w.state(c)), (Running, Running), "{what}");
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_blocking_childs_restart_taken_up_below_a_paused_caller_is_paused_with_it() {
+    every_world!(restart_below_paused_caller);
 }

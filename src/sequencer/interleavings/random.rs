@@ -343,6 +343,44 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
     }
 }
 
+/// The invariants of a settled world (the tick done, every woken lane polled), beyond
+/// [`World::check_tree`]: a sequence under way that its caller blocks (same lane) has a
+/// caller that is running or paused (a caller's restart, end or abort takes what it blocks
+/// with it), and a paused caller's blocked child is paused too (a pause walks what the
+/// target blocks; a blocking start by a paused caller begins paused).
+fn check_settled<L: Lock + 'static, const N: usize, const B: usize>(w: World<L, N, B>, what: &str) {
+    for i in 0..w.count() {
+        let id = SeqId::from_index(i);
+        let state = w.state(id);
+        if ![Running, Paused, Restarting].contains(&state) {
+            continue;
+        }
+        let (caller, blocking) = w.seq.with(|s| {
+            let b = s.block(id).unwrap();
+            let caller = b.caller.get();
+            let lane = b.lane;
+            (
+                caller,
+                caller.is_some_and(|c| s.block(c).unwrap().lane == lane),
+            )
+        });
+        let (Some(c), true) = (caller, blocking) else {
+            continue;
+        };
+        let caller_state = w.state(c);
+        assert!(
+            [Running, Paused].contains(&caller_state),
+            "{what}: {id:?} is {state:?}, blocked by {c:?}, which is {caller_state:?}"
+        );
+        if caller_state == Paused && state != Restarting {
+            assert_eq!(
+                state, Paused,
+                "{what}: {id:?} is {state:?}, blocked by paused {c:?}"
+            );
+        }
+    }
+}
+
 /// A number in `0..n` from `rng` (xorshift64*).
 fn below(rng: &Cell<u64>, n: u64) -> u64 {
     let mut x = rng.get();
@@ -655,7 +693,9 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         s.tick();
         s.settle(&what);
         s.disarm();
-        w.check_tree(&format!("{what}, at {} ms", s.now.get()));
+        let at = format!("{what}, at {} ms", s.now.get());
+        w.check_tree(&at);
+        check_settled(w, &at);
     }
     // Everything let go: it must come to rest.
     for f in [fa, fa2, fm, fb] {
