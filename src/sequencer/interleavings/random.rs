@@ -25,7 +25,9 @@
 //! abort-all (4). Before a random section of whatever runs, a party of higher priority
 //! (a woken lane, the next tick, an abort-all) may run to its end, preempted in turn
 //! by one still higher; parties of equal priority never preempt each other. After each
-//! millisecond the interleaving invariants hold ([`World::check_tree`]); then every
+//! millisecond the interleaving invariants hold ([`World::check_tree`]), and those of a
+//! settled world ([`check_settled`]: a blocked child is paused with a paused caller, a
+//! timeout fires within a polling period of running out); then every
 //! condition is let go and everything resumed, and within 100 ms everything must come to
 //! rest: nothing under way, no start pending, no lane woken.
 
@@ -39,6 +41,7 @@ use core::task::Context;
 use embassy_futures::select::select;
 
 use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
+use crate::model::time::Stamp;
 use crate::{lane, Cx, Failure, Seq, Sequence, Trigger, Wait};
 
 /// The tick's priority.
@@ -343,15 +346,63 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
     }
 }
 
-/// The invariants of a settled world (the tick done, every woken lane polled), beyond
-/// [`World::check_tree`]: a sequence under way that its caller blocks (same lane) has a
-/// caller that is running or paused (a caller's restart, end or abort takes what it blocks
-/// with it), and a paused caller's blocked child is paused too (a pause walks what the
-/// target blocks; a blocking start by a paused caller begins paused).
-fn check_settled<L: Lock + 'static, const N: usize, const B: usize>(w: World<L, N, B>, what: &str) {
-    for i in 0..w.count() {
+/// Since when (ms) a sequence has been seen running, armed, not handling an exception,
+/// with the same run and timeout, at every settled point (see [`check_settled`]).
+#[derive(Clone, Copy, PartialEq)]
+struct Watch {
+    since: u64,
+    runs: u16,
+    timeout: u32,
+}
+
+/// The invariants of a settled world at `now` ms (the tick done, every woken lane polled),
+/// beyond [`World::check_tree`]:
+/// - a sequence under way that its caller blocks (same lane) has a caller that is running
+///   or paused (a caller's restart, end or abort takes what it blocks with it), and a
+///   paused caller's blocked child is paused too (a pause walks what the target blocks; a
+///   blocking start or a restart below a paused caller begins paused);
+/// - a timeout fires within a polling period (at most 3 ms here) of running out: a
+///   sequence seen running for 4 ms or more (`watches`, by id), armed, not handling an
+///   exception (which takes no other), with the same run and timeout, has run less than
+///   its timeout and 4 ms.
+fn check_settled<L: Lock + 'static, const N: usize, const B: usize>(
+    w: World<L, N, B>,
+    what: &str,
+    now: u64,
+    watches: &mut Vec<Option<Watch>>,
+) {
+    watches.resize(w.count(), None);
+    for (i, watch) in watches.iter_mut().enumerate() {
         let id = SeqId::from_index(i);
         let state = w.state(id);
+        let (armed, excepting, timeout, runs, run_time) = w.seq.with(|s| {
+            let b = s.block(id).unwrap();
+            (
+                s.sets.has(Set::Armed, id),
+                s.sets.has(Set::Excepting, id),
+                b.timeout,
+                b.runs,
+                b.run_time(Stamp::of(s.now)),
+            )
+        });
+        if state == Running && armed && !excepting && timeout != 0 {
+            let since = match *watch {
+                Some(seen) if seen.runs == runs && seen.timeout == timeout => seen.since,
+                _ => now,
+            };
+            *watch = Some(Watch {
+                since,
+                runs,
+                timeout,
+            });
+            assert!(
+                now - since < 4 || run_time < timeout + 4_000,
+                "{what}: {id:?} runs {run_time} µs with a timeout of {timeout} µs, \
+                 watched since {since} ms"
+            );
+        } else {
+            *watch = None;
+        }
         if ![Running, Paused, Restarting].contains(&state) {
             continue;
         }
@@ -660,6 +711,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     });
     s.disarm();
     s.settle(&what);
+    let mut watches = Vec::new();
     for _ in 0..40 {
         // The application, preemptible by everything.
         for _ in 0..s.below(3) {
@@ -695,7 +747,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         s.disarm();
         let at = format!("{what}, at {} ms", s.now.get());
         w.check_tree(&at);
-        check_settled(w, &at);
+        check_settled(w, &at, s.now.get(), &mut watches);
     }
     // Everything let go: it must come to rest.
     for f in [fa, fa2, fm, fb] {
