@@ -235,6 +235,9 @@ struct Sched<L: Lock + 'static, const N: usize, const B: usize> {
     now: &'static Cell<u64>,
     /// The monitor table of the second task that ticks the sequencer.
     second: &'static RefCell<Monitors<'static, (), 4>>,
+    /// The liveness checks' memory, and the run's description for their failures.
+    live: &'static RefCell<Liveness>,
+    what: &'static Cell<&'static str>,
 }
 
 impl<L: Lock + 'static, const N: usize, const B: usize> Clone for Sched<L, N, B> {
@@ -291,11 +294,16 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
                 "a tick's turn is held with no tick under way"
             );
             self.run_as(SECOND_TICK, || {
-                let r = self.w.seq.tick(
-                    Instant::from_ticks(self.now.get() * 1_000),
-                    &(),
-                    &mut self.second.borrow_mut(),
-                );
+                let now = Instant::from_ticks(self.now.get() * 1_000);
+                let first = self.w.seq.now() < now;
+                let r = self.w.seq.tick(now, &(), &mut self.second.borrow_mut());
+                if r.is_ok() && first {
+                    // It took the polls due then: the main table's monitors missed them.
+                    self.live.borrow_mut().forget_levels();
+                }
+                if r.is_ok() {
+                    self.observe();
+                }
                 let expected = if held {
                     Err(Error::TickInProgress)
                 } else {
@@ -326,6 +334,21 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
         let ms = self.now.get() + 1;
         self.now.set(ms);
         self.run_as(TICK, || self.w.tick(ms));
+        self.observe();
+    }
+
+    /// The liveness checks after a tick (no preemption meanwhile; the party under way
+    /// arms the next).
+    fn observe(self) {
+        self.disarm();
+        let what = format!(
+            "{}, after the tick at {} ms",
+            self.what.get(),
+            self.now.get()
+        );
+        self.live
+            .borrow_mut()
+            .observe(self.w, &what, self.now.get());
     }
 
     /// Polls the woken lanes, the highest priority first, until none is woken.
@@ -347,7 +370,7 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
 }
 
 /// Since when (ms) a sequence has been seen running, armed, not handling an exception,
-/// with the same run and timeout, at every settled point (see [`check_settled`]).
+/// with the same run and timeout, at every observation (see [`Liveness`]).
 #[derive(Clone, Copy, PartialEq)]
 struct Watch {
     since: u64,
@@ -355,37 +378,59 @@ struct Watch {
     timeout: u32,
 }
 
-/// The invariants of a settled world at `now` ms (the tick done, every woken lane polled),
-/// beyond [`World::check_tree`]:
-/// - a sequence under way that its caller blocks (same lane) has a caller that is running
-///   or paused (a caller's restart, end or abort takes what it blocks with it), and a
-///   paused caller's blocked child is paused too (a pause walks what the target blocks; a
-///   blocking start or a restart below a paused caller begins paused);
-/// - a timeout fires within a polling period (at most 3 ms here) of running out: a
-///   sequence seen running for 4 ms or more (`watches`, by id), armed, not handling an
-///   exception (which takes no other), with the same run and timeout, has run less than
-///   its timeout and 4 ms.
-fn check_settled<L: Lock + 'static, const N: usize, const B: usize>(
-    w: World<L, N, B>,
-    what: &str,
-    now: u64,
-    watches: &mut Vec<Option<Watch>>,
-) {
-    watches.resize(w.count(), None);
-    for (i, watch) in watches.iter_mut().enumerate() {
-        let id = SeqId::from_index(i);
-        let state = w.state(id);
-        let (armed, excepting, timeout, runs, run_time) = w.seq.with(|s| {
-            let b = s.block(id).unwrap();
-            (
-                s.sets.has(Set::Armed, id),
-                s.sets.has(Set::Excepting, id),
-                b.timeout,
-                b.runs,
-                b.run_time(Stamp::of(s.now)),
-            )
-        });
-        if state == Running && armed && !excepting && timeout != 0 {
+/// A `Level` monitor of the main table (not `PauseOwner`), for [`Liveness`].
+struct LevelMonitor {
+    id: MonitorId,
+    owner: SeqId,
+    flag: &'static AtomicBool,
+    /// Since when (ms) its condition has been seen true at every observation, its owner
+    /// running the same round (by the start of its clock) and not handling an exception,
+    /// with this many firings.
+    watch: Option<(u64, u32, u16)>,
+}
+
+/// Timeouts and `Level` monitors fire within a polling period (at most 3 ms here). Observed
+/// after every tick and at every settled point (exceptions are marked and cleared only by
+/// ticks, so a sequence handling one is seen doing so):
+/// - a sequence seen running for 4 ms or more, armed, not handling an exception (which
+///   takes no other), with the same run and timeout, has run less than its timeout and
+///   4 ms;
+/// - a `Level` monitor whose condition was seen true for 4 ms or more, its owner running
+///   the same round (a restarted round's monitors are evaluated from its first poll) and
+///   not handling an exception, its flag not set meanwhile ([`Liveness::flags_set`]) and
+///   no poll taken by the second task's table ([`Liveness::forget_levels`]), has fired.
+#[derive(Default)]
+struct Liveness {
+    /// By id.
+    timeouts: Vec<Option<Watch>>,
+    levels: Vec<LevelMonitor>,
+}
+
+impl Liveness {
+    fn observe<L: Lock + 'static, const N: usize, const B: usize>(
+        &mut self,
+        w: World<L, N, B>,
+        what: &str,
+        now: u64,
+    ) {
+        self.timeouts.resize(w.count(), None);
+        for (i, watch) in self.timeouts.iter_mut().enumerate() {
+            let id = SeqId::from_index(i);
+            let (state, armed, excepting, timeout, runs, run_time) = w.seq.with(|s| {
+                let b = s.block(id).unwrap();
+                (
+                    b.state,
+                    s.sets.has(Set::Armed, id),
+                    s.sets.has(Set::Excepting, id),
+                    b.timeout,
+                    b.runs,
+                    b.run_time(Stamp::of(s.now)),
+                )
+            });
+            if !(state == Running && armed && !excepting && timeout != 0) {
+                *watch = None;
+                continue;
+            }
             let since = match *watch {
                 Some(seen) if seen.runs == runs && seen.timeout == timeout => seen.since,
                 _ => now,
@@ -400,9 +445,70 @@ fn check_settled<L: Lock + 'static, const N: usize, const B: usize>(
                 "{what}: {id:?} runs {run_time} µs with a timeout of {timeout} µs, \
                  watched since {since} ms"
             );
-        } else {
-            *watch = None;
         }
+        // Not while the main tick holds its table (the second task's tick preempted it
+        // before its first section).
+        let Ok(table) = w.monitors.try_borrow() else {
+            return;
+        };
+        for m in &mut self.levels {
+            // The round: a new run or a restart starts the clock again (a running round's
+            // start stays where it is).
+            let (state, round, excepting) = w.seq.with(|s| {
+                let b = s.block(m.owner).unwrap();
+                let now = Stamp::of(s.now);
+                (
+                    b.state,
+                    now.0.wrapping_sub(b.run_time(now)),
+                    s.sets.has(Set::Excepting, m.owner),
+                )
+            });
+            let fired = table.fired(m.id);
+            if !(state == Running && !excepting && m.flag.load(Ordering::Relaxed)) {
+                m.watch = None;
+                continue;
+            }
+            let since = match m.watch {
+                Some((since, r, f)) if r == round && f == fired => since,
+                _ => now,
+            };
+            m.watch = Some((since, round, fired));
+            assert!(
+                now - since < 4,
+                "{what}: {:?} of {:?} true since {since} ms, not fired",
+                m.id,
+                m.owner
+            );
+        }
+    }
+
+    /// The application set `flags`: a tick that preempted it may have seen them before.
+    fn flags_set(&mut self, flags: &[&'static AtomicBool]) {
+        for m in &mut self.levels {
+            if flags.iter().any(|f| core::ptr::eq(*f, m.flag)) {
+                m.watch = None;
+            }
+        }
+    }
+
+    /// The second task's tick took the polls due at its time: the main table's monitors
+    /// missed them.
+    fn forget_levels(&mut self) {
+        for m in &mut self.levels {
+            m.watch = None;
+        }
+    }
+}
+
+/// The invariants of a settled world (the tick done, every woken lane polled), beyond
+/// [`World::check_tree`]: a sequence under way that its caller blocks (same lane) has a
+/// caller that is running or paused (a caller's restart, end or abort takes what it blocks
+/// with it), and a paused caller's blocked child is paused too (a pause walks what the
+/// target blocks; a blocking start or a restart below a paused caller begins paused).
+fn check_settled<L: Lock + 'static, const N: usize, const B: usize>(w: World<L, N, B>, what: &str) {
+    for i in 0..w.count() {
+        let id = SeqId::from_index(i);
+        let state = w.state(id);
         if ![Running, Paused, Restarting].contains(&state) {
             continue;
         }
@@ -494,7 +600,7 @@ fn random_monitor<L: Lock + 'static, const N: usize, const B: usize>(
     exception: Option<SeqId>,
     trigger: Trigger,
     limit: u8,
-) {
+) -> MonitorId {
     let condition: &'static mut (dyn Condition<()> + Send) =
         Box::leak(Box::new(move |_: &(), _: Instant| {
             flag.load(Ordering::Relaxed)
@@ -505,7 +611,7 @@ fn random_monitor<L: Lock + 'static, const N: usize, const B: usize>(
     if let Some(e) = exception {
         m = m.exception(e);
     }
-    w.monitors.borrow_mut().add(owner, m).unwrap();
+    w.monitors.borrow_mut().add(owner, m).unwrap()
 }
 
 /// One random run from `seed` (see the module's documentation).
@@ -632,10 +738,20 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     });
     let behaviour_a = BEHAVIOURS[draw(6) as usize];
     let with_e = behaviour_a != Behaviour::PauseOwner && draw(2) == 0;
-    let monitor = |owner, flag, behaviour, e| {
+    // The main table's `Level` monitors, for the liveness checks.
+    let mut levels = Vec::new();
+    let mut monitor = |owner, flag, behaviour, e| {
         let trigger = TRIGGERS[draw(4) as usize];
         let limit = draw(4) as u8;
-        random_monitor(w, owner, flag, behaviour, e, trigger, limit);
+        let id = random_monitor(w, owner, flag, behaviour, e, trigger, limit);
+        if trigger == Trigger::Level && behaviour != Behaviour::PauseOwner {
+            levels.push(LevelMonitor {
+                id,
+                owner,
+                flag,
+                watch: None,
+            });
+        }
         (trigger, limit)
     };
     let mut monitors_drawn = Vec::new();
@@ -693,11 +809,17 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         rng,
         now: Box::leak(Box::new(Cell::new(start_ms))),
         second,
+        live: Box::leak(Box::new(RefCell::new(Liveness {
+            timeouts: Vec::new(),
+            levels,
+        }))),
+        what: Box::leak(Box::new(Cell::new(""))),
     };
     let what = format!(
         "{what}, from {start_ms} ms, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), A2's in the second table {behaviour_b2:?}, A's timeout {timeout_behaviour:?}, the hooks' action {hook_action}, their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
         lanes.iter().map(|l| (l.futs.borrow().len(), l.priority)).collect::<Vec<_>>()
     );
+    s.what.set(Box::leak(what.clone().into_boxed_str()));
     if start_ms != 0 {
         // The sequencer's time before M starts.
         w.tick(start_ms);
@@ -711,13 +833,16 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
     });
     s.disarm();
     s.settle(&what);
-    let mut watches = Vec::new();
     for _ in 0..40 {
+        // The flags the application sets in this millisecond: a tick that preempts it
+        // may see a flag before or after it is set.
+        let mut stored = Vec::new();
         // The application, preemptible by everything.
         for _ in 0..s.below(3) {
             let flag =
                 [fa, fa2, fm, exit, go, cancel, pre, fail, hand_on, fb][s.below(10) as usize];
             flag.store(s.chance(2), Ordering::Relaxed);
+            stored.push(flag);
             // Mostly M and A; sometimes any other, and a start of any with a lane (B, E
             // or E2 started by hand, J).
             let id = if s.chance(3) {
@@ -747,7 +872,9 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         s.disarm();
         let at = format!("{what}, at {} ms", s.now.get());
         w.check_tree(&at);
-        check_settled(w, &at, s.now.get(), &mut watches);
+        check_settled(w, &at);
+        s.live.borrow_mut().flags_set(&stored);
+        s.live.borrow_mut().observe(w, &at, s.now.get());
     }
     // Everything let go: it must come to rest.
     for f in [fa, fa2, fm, fb] {
