@@ -26,8 +26,9 @@
 //! (a woken lane, the next tick, an abort-all) may run to its end, preempted in turn
 //! by one still higher; parties of equal priority never preempt each other. After each
 //! millisecond the interleaving invariants hold ([`World::check_tree`]), and those of a
-//! settled world ([`check_settled`]: a blocked child is paused with a paused caller, a
-//! timeout fires within a polling period of running out); then every
+//! settled world ([`check_settled`]: a blocked child is paused with a paused caller);
+//! after every tick and millisecond, timeouts, `Level` monitors and `PauseOwner` holds
+//! act within a polling period ([`Liveness`]); then every
 //! condition is let go and everything resumed, and within 100 ms everything must come to
 //! rest: nothing under way, no start pending, no lane woken.
 
@@ -294,13 +295,13 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
                 "a tick's turn is held with no tick under way"
             );
             self.run_as(SECOND_TICK, || {
-                let now = Instant::from_ticks(self.now.get() * 1_000);
-                let first = self.w.seq.now() < now;
-                let r = self.w.seq.tick(now, &(), &mut self.second.borrow_mut());
-                if r.is_ok() && first {
-                    // It took the polls due then: the main table's monitors missed them.
-                    self.live.borrow_mut().forget_levels();
-                }
+                // At the time of the tick's last call: a tick at a later time with this
+                // table would take polls the tick's table then misses (a sequencer has one
+                // heartbeat, with one table).
+                let r = self
+                    .w
+                    .seq
+                    .tick(self.w.seq.now(), &(), &mut self.second.borrow_mut());
                 if r.is_ok() {
                     self.observe();
                 }
@@ -378,11 +379,13 @@ struct Watch {
     timeout: u32,
 }
 
-/// A `Level` monitor of the main table (not `PauseOwner`), for [`Liveness`].
+/// A `Level` or `PauseOwner` monitor of the main table, for [`Liveness`].
 struct LevelMonitor {
     id: MonitorId,
     owner: SeqId,
     flag: &'static AtomicBool,
+    /// A `PauseOwner` monitor: while its condition holds, its owner is paused.
+    pause: bool,
     /// Since when (ms) its condition has been seen true at every observation, its owner
     /// running the same round (by the start of its clock) and not handling an exception,
     /// with this many firings.
@@ -397,8 +400,10 @@ struct LevelMonitor {
 ///   4 ms;
 /// - a `Level` monitor whose condition was seen true for 4 ms or more, its owner running
 ///   the same round (a restarted round's monitors are evaluated from its first poll) and
-///   not handling an exception, its flag not set meanwhile ([`Liveness::flags_set`]) and
-///   no poll taken by the second task's table ([`Liveness::forget_levels`]), has fired.
+///   not handling an exception, its flag not set meanwhile ([`Liveness::flags_set`]), has
+///   fired;
+///   a `PauseOwner` monitor seen so has paused its owner (it marks no exception: its
+///   owner's own is no excuse).
 #[derive(Default)]
 struct Liveness {
     /// By id.
@@ -464,10 +469,13 @@ impl Liveness {
                 )
             });
             let fired = table.fired(m.id);
-            if !(state == Running && !excepting && m.flag.load(Ordering::Relaxed)) {
+            let excused = excepting && !m.pause;
+            if !(state == Running && !excused && m.flag.load(Ordering::Relaxed)) {
                 m.watch = None;
                 continue;
             }
+            // A hold leaves its owner paused: it does not count a firing while it runs.
+            let fired = if m.pause { 0 } else { fired };
             let since = match m.watch {
                 Some((since, r, f)) if r == round && f == fired => since,
                 _ => now,
@@ -475,7 +483,7 @@ impl Liveness {
             m.watch = Some((since, round, fired));
             assert!(
                 now - since < 4,
-                "{what}: {:?} of {:?} true since {since} ms, not fired",
+                "{what}: {:?} of {:?} true since {since} ms, not fired (or not holding)",
                 m.id,
                 m.owner
             );
@@ -488,14 +496,6 @@ impl Liveness {
             if flags.iter().any(|f| core::ptr::eq(*f, m.flag)) {
                 m.watch = None;
             }
-        }
-    }
-
-    /// The second task's tick took the polls due at its time: the main table's monitors
-    /// missed them.
-    fn forget_levels(&mut self) {
-        for m in &mut self.levels {
-            m.watch = None;
         }
     }
 }
@@ -744,11 +744,13 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         let trigger = TRIGGERS[draw(4) as usize];
         let limit = draw(4) as u8;
         let id = random_monitor(w, owner, flag, behaviour, e, trigger, limit);
-        if trigger == Trigger::Level && behaviour != Behaviour::PauseOwner {
+        let pause = behaviour == Behaviour::PauseOwner;
+        if trigger == Trigger::Level || pause {
             levels.push(LevelMonitor {
                 id,
                 owner,
                 flag,
+                pause,
                 watch: None,
             });
         }
