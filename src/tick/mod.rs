@@ -151,7 +151,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// tick's time, so a broken time base never holds off the safety system's abort-all.
     /// A sequencer has one heartbeat: a tick while another tick of it is under way (a
     /// second task that ticks it, or a condition, cleanup hook or waker of the tick that
-    /// does) does nothing and returns [`Error::TickInProgress`].
+    /// does) does nothing and returns [`Error::TickInProgress`]. Tick it with one monitor
+    /// table: the polls due at a tick are taken by the table passed to it, and another
+    /// table misses them.
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
     /// monotonics do). The sequencer keeps its deadlines as 32-bit µs and compares them by
