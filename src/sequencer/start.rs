@@ -187,8 +187,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// After the schedule, before the commit: the tick scans by the first poll of `id`'s
     /// run starting now: its class's next poll if the class is `busy` (see
-    /// [`class_busy`]), else one period from now (the class starts its grid).
-    fn due_by(&mut self, id: SeqId, busy: bool) {
+    /// [`class_busy`]), else one period from now (the class starts its grid). Only if
+    /// nothing changed since the start opened when the count of changes was `seen`: else
+    /// `busy` may be stale (a member started meanwhile, on the grid a new one would move
+    /// back), and the commit, which compares the same count, fails and schedules again.
+    fn due_by(&mut self, id: SeqId, busy: bool, seen: u32) {
+        if self.changes != seen {
+            return;
+        }
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
         let classes = &mut self.polling.classes;
@@ -365,7 +371,7 @@ fn launch<
         }
         s.section(|s| s.prepare(id, at.armed));
         let busy = class_busy(s, id);
-        s.section(|s| s.due_by(id, busy));
+        s.section(|s| s.due_by(id, busy, seen));
         // Before the link is set: a teardown in between visits one sequence too many
         // (it is not active yet), never one too few. Not over a start that won meanwhile.
         s.section(|s| {
@@ -414,7 +420,7 @@ fn relaunch<
         }
         s.section(|s| s.prepare(id, at.armed));
         let busy = class_busy(s, id);
-        s.section(|s| s.due_by(id, busy));
+        s.section(|s| s.due_by(id, busy, seen));
         let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);
         let done = s.section(|s| s.commit_restart(&change, seen));
         if done {

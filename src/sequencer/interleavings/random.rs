@@ -394,7 +394,9 @@ struct LevelMonitor {
 
 /// Timeouts and `Level` monitors fire within a polling period (at most 3 ms here). Observed
 /// after every tick and at every settled point (exceptions are marked and cleared only by
-/// ticks, so a sequence handling one is seen doing so):
+/// ticks, so a sequence handling one is seen doing so). A sequence that a teardown has
+/// marked (`flag::STOPPING`: a dropped run's teardown in a lane may take several ticks)
+/// counts as handling an exception: it takes none until it is moved.
 /// - a sequence seen running for 4 ms or more, armed, not handling an exception (which
 ///   takes no other), with the same run and timeout, has run less than its timeout and
 ///   4 ms;
@@ -426,7 +428,7 @@ impl Liveness {
                 (
                     b.state,
                     s.sets.has(Set::Armed, id),
-                    s.sets.has(Set::Excepting, id),
+                    s.sets.has(Set::Excepting, id) || b.has(flag::STOPPING),
                     b.timeout,
                     b.runs,
                     b.run_time(Stamp::of(s.now)),
@@ -459,17 +461,18 @@ impl Liveness {
         for m in &mut self.levels {
             // The round: a new run or a restart starts the clock again (a running round's
             // start stays where it is).
-            let (state, round, excepting) = w.seq.with(|s| {
+            let (state, round, excepting, stopping) = w.seq.with(|s| {
                 let b = s.block(m.owner).unwrap();
                 let now = Stamp::of(s.now);
                 (
                     b.state,
                     now.0.wrapping_sub(b.run_time(now)),
                     s.sets.has(Set::Excepting, m.owner),
+                    b.has(flag::STOPPING),
                 )
             });
             let fired = table.fired(m.id);
-            let excused = excepting && !m.pause;
+            let excused = (excepting && !m.pause) || stopping;
             if !(state == Running && !excused && m.flag.load(Ordering::Relaxed)) {
                 m.watch = None;
                 continue;

@@ -12,7 +12,9 @@
 //! round begun in its tick twice, and one release left it paused for good. A fourth, found
 //! by the last test here: a new run of a sequence below the target, begun by a caller
 //! outside the tree after the teardown had looked at its old run, was aborted too. The
-//! last one checks the same of the target: a firing aborts only the run it was raised on.
+//! next one checks the same of the target: a firing aborts only the run it was raised on.
+//! The last one (found by the random test's liveness check): a start that looked at its
+//! polling class before a member started there keeps that member's grid.
 
 use super::*;
 
@@ -339,4 +341,52 @@ fn new_run_of_the_target<L: Lock + 'static, const N: usize, const B: usize>(layo
 #[test]
 fn a_new_run_of_the_target_begun_before_it_moved_is_left_alone() {
     every_world!(new_run_of_the_target);
+}
+
+/// A and B share a polling class of 2 ms; A has an `AbortOwner` monitor whose condition
+/// holds (it fires at A's first poll). The application starts B at 0 ms; before each
+/// section of that start (or after it) a party of higher priority starts A (taken) and
+/// the tick at 1 ms runs. A was started at 0 into an idle class, so its first poll is at
+/// 2 ms, and B's start, whatever it found, must not move that grid: A is aborted by its
+/// monitor at the tick at 2 ms. Found by the random preemption test's liveness check: a
+/// start that found the class idle, preempted before it scheduled its first poll, started
+/// the grid again from its later time, and A's first poll came a period late.
+fn start_with_a_stale_class_look<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let every_2_ms = |name| SeqConfig::new(name).polling(Duration::from_millis(2));
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        w.split();
+        let (a, b) = (w.add(every_2_ms("A")), w.add(every_2_ms("B")));
+        let cause = w.monitor(a, flag_of(true), Behaviour::AbortOwner, None);
+        (w, a, b, cause)
+    };
+    let count = sections(setup, |(w, _, b, _)| {
+        w.handle(*b).start().unwrap();
+    });
+    every_k(count + 1, |k| {
+        let (w, a, b, cause) = setup();
+        let what = name::<L>(layout, format_args!("k={k}"));
+        let party = move || {
+            w.start_taken(a);
+            w.tick(1);
+        };
+        interleaved::at(k, party);
+        assert_eq!(w.handle(b).start(), Ok(()), "{what}");
+        or_after(k, party);
+        assert_eq!(w.state(a), Running, "{what}");
+        w.tick(2);
+        assert_eq!(
+            w.ended(a),
+            (Aborted, cause),
+            "{what}: A's first poll at 2 ms"
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_start_that_looked_at_its_class_before_a_member_started_keeps_the_members_grid() {
+    every_world!(start_with_a_stale_class_look);
 }
