@@ -11,7 +11,7 @@ use rtseq::Cause::{Completed, Monitor as Mon, Restart, Start};
 use rtseq::RunningState::*;
 use rtseq::{
     Behaviour, Done, Duration, Failure, Monitor, MonitorId, Monitors, SeqConfig, SeqId, Sequencer,
-    Transition, Wait,
+    Transition, Trigger, Wait,
 };
 
 struct Ids {
@@ -249,4 +249,45 @@ fn pause_owner_without_exception_sequence() {
 #[test]
 fn pause_owner_with_exception_sequence() {
     check(Behaviour::PauseOwner, true);
+}
+
+/// A warning: a `Level` monitor with `Nothing` and no exception sequence, whose condition
+/// holds from 2 ms on, fires at every poll of its owner, a move that ends once flag 1 is
+/// set (at 6 ms). The exception is handled at once, so it holds nothing: the move takes
+/// its exit-condition poll in the same ticks and ends at 6 ms. (Before the fix each
+/// firing skipped the poll due in its tick, and the step never ended.)
+#[test]
+fn a_level_warning_with_nothing_does_not_hold_its_owner() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq
+        .add(SeqConfig::new("move"), Node::of(vec![]).until(1))
+        .unwrap();
+    let si = step.id();
+    let mut hot = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(
+            si,
+            Monitor::new("warning", &mut hot, Behaviour::Nothing).trigger(Trigger::Level),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(step);
+    sim.before_tick(|t, c| {
+        c.set(1, ms(t) >= 6);
+        c.set(2, ms(t) >= 2);
+    });
+    sim.start(si).unwrap();
+    let end = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(end.map(ms), Some(6), "{}", show(sim.trace()));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, si, Idle, Running, Start),
+            tr(6, si, Running, Terminated, Completed)
+        ]
+    );
+    // Fired at every poll from 2 ms to 6 ms.
+    assert_eq!(sim.monitors().fired(m), 5);
 }

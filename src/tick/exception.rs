@@ -312,8 +312,14 @@ fn mark<
             restarts = restarts.saturating_add(1);
         }
     }
-    // From the mark on, the owner and the sequences it blocks in its lane are held.
-    skip_untaken_polls(s, lane, due);
+    // From the mark on, the owner and the sequences it blocks in its lane are held; but an
+    // exception handled at once (`Nothing`, no exception sequence) holds nothing: their
+    // due polls stand, else a monitor that fires at every poll (a `Level` warning) would
+    // keep its owner from ever taking one.
+    let holds = behaviour != Behaviour::Nothing || reaction.exception.is_some();
+    if holds {
+        skip_untaken_polls(s, lane, due);
+    }
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.
     s.section(|s| {
@@ -328,7 +334,9 @@ fn mark<
         }
         s.sets.put(Set::Excepting, owner, true);
         // Held from now on: a due poll its lane has not taken is skipped.
-        s.sets.remove(Set::PollDue, owner);
+        if holds {
+            s.sets.remove(Set::PollDue, owner);
+        }
         Some(())
     })?;
     s.section(|s| {

@@ -28,7 +28,8 @@
 //! millisecond the interleaving invariants hold ([`World::check_tree`]), and those of a
 //! settled world ([`check_settled`]: a blocked child is paused with a paused caller);
 //! after every tick and millisecond, timeouts, `Level` monitors and `PauseOwner` holds
-//! act within a polling period ([`Liveness`]); then every
+//! act, and polled conditions are taken, within a polling period ([`Liveness`]); then
+//! every
 //! condition is let go and everything resumed, and within 100 ms everything must come to
 //! rest: nothing under way, no start pending, no lane woken.
 
@@ -347,9 +348,9 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
             self.what.get(),
             self.now.get()
         );
-        self.live
-            .borrow_mut()
-            .observe(self.w, &what, self.now.get());
+        let mut live = self.live.borrow_mut();
+        live.observe(self.w, &what, self.now.get());
+        live.watch_polls(self.w, self.now.get());
     }
 
     /// Polls the woken lanes, the highest priority first, until none is woken.
@@ -392,6 +393,15 @@ struct LevelMonitor {
     watch: Option<(u64, u32, u16)>,
 }
 
+/// A sequence that waits for a polled condition (its exit condition, or `Cx::wait_until`):
+/// which flag it polls, for [`Liveness`].
+struct PollWatch {
+    id: SeqId,
+    flag: &'static AtomicBool,
+    /// Since when (ms) it has been seen waiting for the flag, which was true, not held.
+    since: Option<u64>,
+}
+
 /// Timeouts and `Level` monitors fire within a polling period (at most 3 ms here). Observed
 /// after every tick and at every settled point (exceptions are marked and cleared only by
 /// ticks, so a sequence handling one is seen doing so). A sequence that a teardown has
@@ -406,11 +416,18 @@ struct LevelMonitor {
 ///   fired;
 ///   a `PauseOwner` monitor seen so has paused its owner (it marks no exception: its
 ///   owner's own is no excuse).
+///
+/// And a polled condition is taken within a polling period: a sequence seen at every
+/// observation waiting for it (`Set::PollWait`) while it holds, not held (paused, handling
+/// an exception, marked by a teardown, or blocking a caller that is paused or handles an
+/// exception), for 4 ms or more, its flag not set meanwhile, is over it at the next settled
+/// point ([`Liveness::check_polls`]; a lane preempted inside its poll finishes it there).
 #[derive(Default)]
 struct Liveness {
     /// By id.
     timeouts: Vec<Option<Watch>>,
     levels: Vec<LevelMonitor>,
+    polls: Vec<PollWatch>,
 }
 
 impl Liveness {
@@ -498,6 +515,76 @@ impl Liveness {
         for m in &mut self.levels {
             if flags.iter().any(|f| core::ptr::eq(*f, m.flag)) {
                 m.watch = None;
+            }
+        }
+        for p in &mut self.polls {
+            if flags.iter().any(|f| core::ptr::eq(*f, p.flag)) {
+                p.since = None;
+            }
+        }
+    }
+
+    /// Whether `id` waits for its polled condition, not held (see [`Liveness`]).
+    fn waits_unheld<L: Lock + 'static, const N: usize, const B: usize>(
+        w: World<L, N, B>,
+        id: SeqId,
+    ) -> bool {
+        w.seq.with(|s| {
+            let held = |id: SeqId| {
+                let b = s.block(id).unwrap();
+                b.state == Paused || s.sets.has(Set::Excepting, id) || b.has(flag::STOPPING)
+            };
+            let b = s.block(id).unwrap();
+            if b.state != Running || !s.sets.has(Set::PollWait, id) || held(id) {
+                return false;
+            }
+            let mut at = b;
+            while let Some(c) = at.caller.get() {
+                let cb = s.block(c).unwrap();
+                if cb.lane != b.lane {
+                    break;
+                }
+                if held(c) {
+                    return false;
+                }
+                at = cb;
+            }
+            true
+        })
+    }
+
+    /// Starts or ends the polled-condition watches at `now` (after a tick, or at a settled
+    /// point).
+    fn watch_polls<L: Lock + 'static, const N: usize, const B: usize>(
+        &mut self,
+        w: World<L, N, B>,
+        now: u64,
+    ) {
+        for p in &mut self.polls {
+            if p.flag.load(Ordering::Relaxed) && Self::waits_unheld(w, p.id) {
+                p.since.get_or_insert(now);
+            } else {
+                p.since = None;
+            }
+        }
+    }
+
+    /// At a settled point `now`: no sequence still waits for a condition that has held for
+    /// 4 ms or more (see [`Liveness`]).
+    fn check_polls<L: Lock + 'static, const N: usize, const B: usize>(
+        &mut self,
+        w: World<L, N, B>,
+        what: &str,
+        now: u64,
+    ) {
+        self.watch_polls(w, now);
+        for p in &self.polls {
+            if let Some(since) = p.since {
+                assert!(
+                    now - since < 4,
+                    "{what}: {:?} waits for its polled condition, true since {since} ms",
+                    p.id
+                );
             }
         }
     }
@@ -817,6 +904,21 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         live: Box::leak(Box::new(RefCell::new(Liveness {
             timeouts: Vec::new(),
             levels,
+            // What each waits for when it waits for a polled condition.
+            polls: [
+                (ia, exit),
+                (ia2, exit),
+                (ie, always),
+                (ie2, always),
+                (ib, go),
+            ]
+            .into_iter()
+            .map(|(id, flag)| PollWatch {
+                id,
+                flag,
+                since: None,
+            })
+            .collect(),
         }))),
         what: Box::leak(Box::new(Cell::new(""))),
     };
@@ -878,8 +980,11 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         let at = format!("{what}, at {} ms", s.now.get());
         w.check_tree(&at);
         check_settled(w, &at);
-        s.live.borrow_mut().flags_set(&stored);
-        s.live.borrow_mut().observe(w, &at, s.now.get());
+        let mut live = s.live.borrow_mut();
+        live.flags_set(&stored);
+        live.observe(w, &at, s.now.get());
+        live.check_polls(w, &at, s.now.get());
+        drop(live);
     }
     // Everything let go: it must come to rest.
     for f in [fa, fa2, fm, fb] {
