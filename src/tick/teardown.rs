@@ -45,11 +45,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // A pause's (resume's) first pass moves its target from the state it leaves; a
         // pass again, for a run begun below the target during the last one, finds the
         // target in the state it entered and moves only what began below it.
-        let mut target_in = if to == RunningState::Paused {
-            RunningState::Running
-        } else {
-            RunningState::Paused
-        };
+        let mut target_in = left_by(to);
         for _ in 0..=2 * N {
             let begun = self.with(|s| s.runs_begun);
             if self.walk_once(control, target, to, cause, begun, target_in) == Pass::Done {
@@ -81,12 +77,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         target_in: RunningState,
     ) -> Pass {
         let pause = matches!(to, RunningState::Paused | RunningState::Running);
-        // What a pause leaves (a resume: `Paused`).
-        let from = if to == RunningState::Paused {
-            RunningState::Running
-        } else {
-            RunningState::Paused
-        };
+        let from = left_by(to);
         let (states, lane) = if pause {
             let Some(lane) = target.and_then(|t| {
                 self.with(|s| s.block(t).filter(|b| b.state == target_in).map(|b| b.lane))
@@ -260,6 +251,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
         }
         (rows, deepest)
+    }
+}
+
+/// The state a pause (`to`: `Paused`) or a resume (`Running`) moves its sequences from.
+fn left_by(to: RunningState) -> RunningState {
+    if to == RunningState::Paused {
+        RunningState::Running
+    } else {
+        RunningState::Paused
     }
 }
 
