@@ -741,6 +741,11 @@ pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// The groups over `entries`, in table order (room for the most monitors a table
     /// holds: the length cannot follow `M` on stable Rust).
     pub(crate) groups: Groups,
+    /// The address of the sequencer whose due ticks this table takes (0: none yet). Set by
+    /// that sequencer's first due tick with it, if the table is not empty: a sequencer is
+    /// ticked with one table, and a table belongs to one sequencer (its owners are that
+    /// sequencer's ids). The sequencer keeps the table's address.
+    pub(crate) ticked_by: usize,
 }
 
 impl<C, const M: usize, K> Default for Monitors<'_, C, M, K> {
@@ -763,6 +768,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         Monitors {
             entries: ManuallyDrop::new(heapless::Vec::new()),
             groups: Groups::EMPTY,
+            ticked_by: 0,
         }
     }
 
@@ -815,6 +821,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         Ok(Monitors {
             entries: ManuallyDrop::new(heapless::Vec::from_array(monitors)),
             groups,
+            ticked_by: 0,
         })
     }
 

@@ -197,7 +197,9 @@ pub struct Sim<
 > {
     sequencer: &'a Sequencer<C, N, T, L, W, B>,
     control: &'a C,
-    monitors: Monitors<'a, C, M, K>,
+    /// Boxed: a sequencer is ticked with its table at one place
+    /// ([`Sequencer::tick`]), and a simulator may be moved.
+    monitors: Box<Monitors<'a, C, M, K>>,
     lanes: Vec<SimLane<'a>>,
     period: Duration,
     now: Instant,
@@ -265,7 +267,7 @@ impl<
         Sim {
             sequencer,
             control,
-            monitors,
+            monitors: Box::new(monitors),
             lanes: Vec::new(),
             period: Duration::from_millis(1),
             now: Instant::from_ticks(0),
@@ -821,7 +823,7 @@ impl<
         }
         if let Err(e) = self
             .sequencer
-            .tick(self.now, self.control, &mut self.monitors)
+            .tick(self.now, self.control, &mut *self.monitors)
         {
             self.tick_error.get_or_insert(e);
         }

@@ -11,7 +11,7 @@ use common::*;
 use std::cell::RefCell;
 use std::future::Future;
 use std::pin::{pin, Pin};
-use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering::SeqCst};
 use std::sync::Arc;
 use std::task::{Context, Poll, Wake, Waker};
 
@@ -20,8 +20,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Dropped, Start};
 use rtseq::RunningState::{self, *};
 use rtseq::{
-    Cx, Done, Duration, Error, Failure, Instant, Monitors, Outcome, Seq, SeqConfig, SeqId,
-    Sequence, Sequencer, Step, Wait,
+    Behaviour, Cx, Done, Duration, Error, Failure, Instant, Monitor, Monitors, Outcome, Seq,
+    SeqConfig, SeqId, Sequence, Sequencer, Step, Wait,
 };
 
 // ---------------------------------------------------------------------------------------
@@ -1174,4 +1174,182 @@ fn a_dropped_lane_of_another_sequencers_object_leaves_the_pending_start_alone() 
         ),
         (Terminated, Some(Outcome::Completed))
     );
+}
+
+// ---------------------------------------------------------------------------------------
+// 8. A sequencer is ticked with one monitor table; a table belongs to one sequencer.
+// ---------------------------------------------------------------------------------------
+
+/// `main`, registered with a lane and started in `seq`, polled every millisecond.
+fn running_main(seq: &Sequencer<(), 2>) -> SeqId {
+    let id = seq.register(SeqConfig::new("main")).unwrap();
+    let h = seq.sequence_by_id(id).unwrap();
+    h.declare_lane().unwrap();
+    h.start().unwrap();
+    id
+}
+
+/// A second task ticks the sequencer with a table of its own (a monitor of the same
+/// sequence). The sequencer's table is the first that came with a due tick. The other
+/// table's tick with nothing due does nothing; with polls due it is refused with
+/// `Error::ForeignMonitorTable` and evaluates nothing: neither table's monitor, and the
+/// time stays. The polls wait for the sequencer's table, whose monitor fires at 2 ms as
+/// it would have without the misuse. A refused tick still carries out the safety
+/// system's abort-all.
+#[test]
+fn a_tick_with_a_second_monitor_table_is_refused_and_evaluates_nothing() {
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let main = running_main(&seq);
+    let (hot, looked) = (AtomicBool::new(false), AtomicU32::new(0));
+    let mut is_hot = |_: &(), _: Instant| hot.load(SeqCst);
+    let mut counts = |_: &(), _: Instant| {
+        looked.fetch_add(1, SeqCst);
+        false
+    };
+    let mut table = Monitors::<(), 1>::new();
+    let m = table
+        .add(
+            main,
+            Monitor::new("hot", &mut is_hot, Behaviour::AbortOwner),
+        )
+        .unwrap();
+    let mut second = Monitors::<(), 1>::new();
+    second
+        .add(
+            main,
+            Monitor::new("counts", &mut counts, Behaviour::Nothing),
+        )
+        .unwrap();
+    assert_eq!(seq.tick(ms_at(1), &(), &mut table), Ok(()));
+    // Nothing due at the time of the last tick: nothing to refuse.
+    assert_eq!(seq.tick(ms_at(1), &(), &mut second), Ok(()));
+    hot.store(true, SeqCst);
+    assert_eq!(
+        seq.tick(ms_at(2), &(), &mut second),
+        Err(Error::ForeignMonitorTable)
+    );
+    let state = || seq.sequence_by_id(main).unwrap().state();
+    assert_eq!(
+        (looked.load(SeqCst), table.fired(m), state()),
+        (0, 0, Running)
+    );
+    assert_eq!(seq.now(), ms_at(1));
+    assert_eq!(seq.tick(ms_at(2), &(), &mut table), Ok(()));
+    assert_eq!(
+        (looked.load(SeqCst), table.fired(m), state()),
+        (0, 1, Aborted)
+    );
+    assert_eq!(
+        Error::ForeignMonitorTable.to_string(),
+        "a tick with a monitor table other than the sequencer's own (one table per sequencer)"
+    );
+
+    // A refused tick carries out the abort-all.
+    hot.store(false, SeqCst);
+    seq.sequence_by_id(main).unwrap().start().unwrap();
+    assert_eq!(seq.tick(ms_at(3), &(), &mut table), Ok(()));
+    seq.abort_all();
+    assert_eq!(
+        seq.tick(ms_at(4), &(), &mut second),
+        Err(Error::ForeignMonitorTable)
+    );
+    assert_eq!(
+        seq.sequence_by_id(main).unwrap().last_outcome(),
+        Some(Outcome::Aborted(rtseq::Cause::AbortAll))
+    );
+    assert_eq!(looked.load(SeqCst), 0);
+}
+
+/// Two sequencers, each with its own table. An empty table ticks a sequencer that has
+/// none yet (it evaluates nothing, and binds nothing). The first sequencer's table, once
+/// its own, is refused by the second sequencer: its owners are the first one's ids. Once
+/// a sequencer has its table, an empty one is refused too.
+#[test]
+fn a_monitor_table_of_another_sequencer_is_refused() {
+    let (first, second): (Sequencer<(), 2>, Sequencer<(), 2>) =
+        (Sequencer::new(), Sequencer::new());
+    let (a, b) = (running_main(&first), running_main(&second));
+    assert_eq!(a, b);
+    let mut never = |_: &(), _: Instant| false;
+    let mut table = Monitors::<(), 1>::new();
+    table
+        .add(a, Monitor::new("never", &mut never, Behaviour::AbortOwner))
+        .unwrap();
+    let mut empty = Monitors::<(), 1>::new();
+    assert_eq!(second.tick(ms_at(1), &(), &mut empty), Ok(()));
+    assert_eq!(first.tick(ms_at(1), &(), &mut table), Ok(()));
+    assert_eq!(
+        second.tick(ms_at(2), &(), &mut table),
+        Err(Error::ForeignMonitorTable)
+    );
+    assert_eq!(second.now(), ms_at(1));
+    assert_eq!(second.tick(ms_at(2), &(), &mut empty), Ok(()));
+    assert_eq!(first.tick(ms_at(2), &(), &mut table), Ok(()));
+    // The empty table bound nothing: the second sequencer's own table is its table.
+    let mut quiet = |_: &(), _: Instant| false;
+    let mut own = Monitors::<(), 1>::new();
+    own.add(b, Monitor::new("quiet", &mut quiet, Behaviour::AbortOwner))
+        .unwrap();
+    assert_eq!(second.tick(ms_at(3), &(), &mut own), Ok(()));
+    assert_eq!(
+        second.tick(ms_at(4), &(), &mut empty),
+        Err(Error::ForeignMonitorTable)
+    );
+    // Once the sequencer has a table, an empty one is refused too: it would take the
+    // polls that the table's monitors miss.
+    let mut throwaway = Monitors::<(), 1>::new();
+    assert_eq!(
+        first.tick(ms_at(3), &(), &mut throwaway),
+        Err(Error::ForeignMonitorTable)
+    );
+}
+
+/// A table made anew in the place of the sequencer's table (its monitors changed while
+/// their owners do not run) is the sequencer's table; and a simulator, which boxes its
+/// table, may be moved.
+#[test]
+fn a_table_made_anew_in_its_place_stays_the_sequencers() {
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let main = running_main(&seq);
+    let mut never = |_: &(), _: Instant| false;
+    let mut always = |_: &(), _: Instant| true;
+    let mut table = Monitors::<(), 1>::new();
+    table
+        .add(
+            main,
+            Monitor::new("never", &mut never, Behaviour::AbortOwner),
+        )
+        .unwrap();
+    assert_eq!(seq.tick(ms_at(1), &(), &mut table), Ok(()));
+    seq.sequence_by_id(main).unwrap().abort().unwrap();
+    assert_eq!(seq.tick(ms_at(2), &(), &mut table), Ok(()));
+    table = Monitors::new();
+    let m = table
+        .add(
+            main,
+            Monitor::new("always", &mut always, Behaviour::AbortOwner),
+        )
+        .unwrap();
+    seq.sequence_by_id(main).unwrap().start().unwrap();
+    assert_eq!(seq.tick(ms_at(3), &(), &mut table), Ok(()));
+    assert_eq!(seq.tick(ms_at(4), &(), &mut table), Ok(()));
+    assert_eq!(table.fired(m), 1);
+    assert_eq!(
+        seq.sequence_by_id(main).unwrap().last_outcome(),
+        Some(Outcome::Aborted(rtseq::Cause::Monitor(m)))
+    );
+
+    let sim_seq: Sequencer<(), 2> = Sequencer::new();
+    let id = running_main(&sim_seq);
+    let mut quiet = |_: &(), _: Instant| false;
+    let mut monitors = Monitors::<(), 1>::new();
+    monitors
+        .add(id, Monitor::new("quiet", &mut quiet, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(&sim_seq, &(), monitors);
+    sim.run_for(Duration::from_millis(2));
+    let mut moved = Box::new(sim);
+    moved.run_for(Duration::from_millis(2));
+    assert_eq!(moved.tick_error(), None);
+    assert_eq!(moved.now(), ms_at(4));
 }

@@ -146,6 +146,7 @@ fn error_code(e: Error) -> u32 {
         Error::OutcomeLost(_) => 22,
         Error::PauseOwnerMonitorsExceeded(_) => 23,
         Error::TickInProgress => 24,
+        Error::ForeignMonitorTable => 25,
     }
 }
 

@@ -84,6 +84,12 @@ pub enum Error {
     /// that tick): a sequencer has one heartbeat. This tick did nothing; the tick under way
     /// goes on.
     TickInProgress,
+    /// A [`tick`](crate::Sequencer::tick) with polls due and a monitor table that is not
+    /// this sequencer's: a sequencer is ticked with one table (the first non-empty one a
+    /// due tick came with), and a table belongs to one sequencer. Such a tick evaluated
+    /// nothing (it carried out the requests and abort-alls made since, at the last tick's
+    /// time); the due polls wait for a tick with the sequencer's table.
+    ForeignMonitorTable,
 }
 
 impl Error {
@@ -123,6 +129,7 @@ impl Error {
             Error::HeldByMonitor(_) => "sequence held paused by a monitor",
             Error::OutcomeLost(_) => "joined run's outcome lost to a later run",
             Error::TickInProgress => "another tick is under way",
+            Error::ForeignMonitorTable => "monitor table of another sequencer or tick",
             Error::PauseOwnerMonitorsExceeded(_) => {
                 "more than 255 PauseOwner monitors of one sequence"
             }
@@ -183,6 +190,10 @@ impl core::fmt::Display for Error {
             Error::TickInProgress => write!(
                 f,
                 "a tick while another tick of the same sequencer is under way"
+            ),
+            Error::ForeignMonitorTable => write!(
+                f,
+                "a tick with a monitor table other than the sequencer's own (one table per sequencer)"
             ),
             Error::PauseOwnerMonitorsExceeded(id) => write!(
                 f,

@@ -759,9 +759,8 @@ mod tests {
             (Err(Error::AlreadyRunning(e)), RunningState::Terminated)
         );
         // The next tick reports E's end to O: O's behaviour, abort.
-        let mut none = Monitors::<(), 1>::new();
         for ms in 2..5 {
-            seq.tick(Instant::from_ticks(ms * 1_000), &(), &mut none)
+            seq.tick(Instant::from_ticks(ms * 1_000), &(), &mut monitors)
                 .unwrap();
         }
         assert_eq!(state(o), RunningState::Aborted);

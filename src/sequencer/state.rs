@@ -51,6 +51,10 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     pub(crate) counters: [crate::Counters; N],
     /// The transition trace.
     pub(crate) trace: Ring<T>,
+    /// The address of the monitor table this sequencer is ticked with (0: none yet): the
+    /// first non-empty table a due tick came with. Due ticks with a table elsewhere are
+    /// refused.
+    pub(crate) table: usize,
 }
 
 /// When the tick must look again, and whom it woke last time.
@@ -123,6 +127,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             #[cfg(feature = "counters")]
             counters: [crate::Counters::ZERO; N],
             trace: Ring::new(),
+            table: 0,
         }
     }
 

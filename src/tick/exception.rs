@@ -551,8 +551,7 @@ mod tests {
             .unwrap();
         assert_eq!(seq.state_of_for_test(o), RunningState::Restarting);
         seq.abort_all();
-        let mut none = Monitors::<(), 1>::new();
-        seq.tick(Instant::from_ticks(2_000), &(), &mut none)
+        seq.tick(Instant::from_ticks(2_000), &(), &mut monitors)
             .unwrap();
         assert_eq!(seq.state_of_for_test(o), RunningState::Aborted);
     }

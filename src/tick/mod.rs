@@ -96,6 +96,35 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         (polls, running.and(sets.word(Set::Armed, w)))
     }
 
+    /// Whether a due tick with `table` may take the due polls: the table is this
+    /// sequencer's (it is where the sequencer's table is, and its `ticked_by` is `me`,
+    /// this sequencer's address), or the first non-empty table a due tick came with,
+    /// which is bound here (both ways); or an empty table while none is bound (it
+    /// evaluates nothing, and no table misses the polls). A table that another sequencer
+    /// ticks, or any table at another place once one is bound, may not: the polls it took
+    /// would be lost to the table that holds their monitors. A table made anew in the
+    /// place of the bound one is bound again.
+    #[inline(always)]
+    fn takes_polls<const M: usize, K>(
+        &mut self,
+        me: usize,
+        table: &mut Monitors<'_, C, M, K>,
+    ) -> bool {
+        let here = core::ptr::from_ref(table).addr();
+        if self.table == here && table.ticked_by == me {
+            return true;
+        }
+        let ours = self.table == 0 || self.table == here;
+        if !ours || (table.ticked_by != 0 && table.ticked_by != me) {
+            return false;
+        }
+        if !table.is_empty() {
+            self.table = here;
+            table.ticked_by = me;
+        }
+        true
+    }
+
     /// Whether some active sequence is paused or handles an exception.
     #[inline(always)]
     fn careful(&self) -> bool {
@@ -151,9 +180,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// tick's time, so a broken time base never holds off the safety system's abort-all.
     /// A sequencer has one heartbeat: a tick while another tick of it is under way (a
     /// second task that ticks it, or a condition, cleanup hook or waker of the tick that
-    /// does) does nothing and returns [`Error::TickInProgress`]. Tick it with one monitor
-    /// table: the polls due at a tick are taken by the table passed to it, and another
-    /// table misses them.
+    /// does) does nothing and returns [`Error::TickInProgress`].
+    ///
+    /// A sequencer is ticked with one monitor table, and a table belongs to one sequencer
+    /// (its owners are that sequencer's ids). The first non-empty table that comes with a
+    /// due tick becomes the sequencer's; keep it in one place (a `static`, an RTIC
+    /// resource, a local of the function that ticks). A tick with polls due and another
+    /// table, or with the table of another sequencer, would take polls that the
+    /// sequencer's table then misses: it returns [`Error::ForeignMonitorTable`] and
+    /// evaluates nothing (it carries out the requests and abort-alls, as a late tick
+    /// does). A table made anew in the place of the sequencer's is its table.
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
     /// monotonics do). The sequencer keeps its deadlines as 32-bit µs and compares them by
@@ -175,6 +211,23 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// assert_eq!(late, Err(rtseq::Error::TickBeforeLast));
     /// assert_eq!(seq.now().as_ticks(), 1_000);
     /// ```
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Error, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let run = seq.register(SeqConfig::new("run")).unwrap();
+    /// seq.sequence_by_id(run).unwrap().declare_lane().unwrap();
+    /// seq.sequence_by_id(run).unwrap().start().unwrap();
+    /// let (mut cold, mut also_cold) = (|_: &(), _: Instant| false, |_: &(), _: Instant| false);
+    /// let mut monitors: Monitors<(), 1> = Monitors::new();
+    /// monitors.add(run, Monitor::new("hot", &mut cold, Behaviour::AbortOwner)).unwrap();
+    /// let mut other: Monitors<(), 1> = Monitors::new();
+    /// other.add(run, Monitor::new("hot", &mut also_cold, Behaviour::AbortOwner)).unwrap();
+    /// let ms = |n: u64| Instant::from_ticks(n * 1_000);
+    /// seq.tick(ms(1), &(), &mut monitors).unwrap(); // the sequencer's table from now on
+    /// assert_eq!(seq.tick(ms(2), &(), &mut other), Err(Error::ForeignMonitorTable));
+    /// assert_eq!(seq.tick(ms(2), &(), &mut monitors), Ok(()));
+    /// ```
     pub fn tick<const M: usize, K: crate::Condition<C>>(
         &self,
         now: Instant,
@@ -182,6 +235,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         monitors: &mut Monitors<'_, C, M, K>,
     ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
+        let me = core::ptr::from_ref(self).addr();
         // The words of the sets that hold an active sequence, as of the last fold.
         let first = self.with(|s| {
             // One tick at a time: a second one would walk and scan beside the first.
@@ -190,30 +244,37 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             self.ticking.store(true, Ordering::Relaxed);
             let late = now < s.now;
-            if !late {
-                s.now = now;
-            }
             let any_due = stamp.reached(s.polling.next_due);
-            if any_due && !late {
-                // The scans bring it forward again, and so does a start made meanwhile
-                // (see `scan`).
-                s.polling.next_due = stamp.plus(NEVER_AHEAD);
+            let foreign = any_due && !late && !s.takes_polls(me, monitors);
+            if !late && !foreign {
+                s.now = now;
+                if any_due {
+                    // The scans bring it forward again, and so does a start made meanwhile
+                    // (see `scan`).
+                    s.polling.next_due = stamp.plus(NEVER_AHEAD);
+                }
             }
             s.changes = s.changes.wrapping_add(1);
             Some((
                 late,
+                foreign,
                 !s.sets.is_empty(Set::Requested),
                 any_due,
                 !s.sets.is_empty(Set::Changed),
                 s.sets.words(Set::Active),
             ))
         });
-        let Some((late, mut requests, any_due, changed, mut words)) = first else {
+        let Some((late, foreign, mut requests, any_due, changed, mut words)) = first else {
             return Err(Error::TickInProgress);
         };
         let _turn = TickTurn(&self.ticking);
-        if late {
-            return Err(self.tick_late(control));
+        if late || foreign {
+            self.carry_out_requests(control);
+            return Err(if late {
+                Error::TickBeforeLast
+            } else {
+                Error::ForeignMonitorTable
+            });
         }
         let inbox = self.take_inbox();
         if changed {
@@ -249,20 +310,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Ok(())
     }
 
-    /// A tick whose time is earlier than the last tick's: time does not go back, so it
-    /// evaluates nothing (nothing new fell due at the last tick's time), but it carries out
-    /// the abort-all and the requests made since, at the last tick's time: a broken time
-    /// base must not hold off the safety system's abort-all.
+    /// The work of a tick that evaluates nothing (its time went back, or it came with
+    /// another sequencer's or another monitor table): the abort-all and the requests made
+    /// since the last tick, at the last tick's time. A broken time base or a misused table
+    /// must not hold off the safety system's abort-all.
     #[cold]
     #[inline(never)]
-    fn tick_late(&self, control: &C) -> Error {
+    fn carry_out_requests(&self, control: &C) {
         let inbox = self.take_inbox();
         self.fold();
         if let Some(inbox) = inbox {
             self.apply_inbox(control, inbox);
         }
         self.apply_requests(control);
-        Error::TickBeforeLast
     }
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the

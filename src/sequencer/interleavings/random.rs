@@ -16,8 +16,10 @@
 //! the task's waker, as `embassy_futures::join` in one RTIC task). The application flips the conditions (monitors, exit and
 //! pre-conditions, failures), starts M and J again and asks for pauses, resumes, aborts
 //! and new timeouts at random. A second task (priority 3) ticks the sequencer too, with a
-//! monitor table of its own (a monitor of A2): refused (`Error::TickInProgress`) while
-//! the tick runs, a tick at the time of the last one otherwise. Half the runs begin 20 ms before the sequencer's 32-bit µs
+//! monitor table of its own (a monitor of A2), at the time of the last tick or the next:
+//! refused (`Error::TickInProgress`) while the tick runs, refused
+//! (`Error::ForeignMonitorTable`) when polls are due, a tick that evaluates nothing
+//! otherwise. Half the runs begin 20 ms before the sequencer's 32-bit µs
 //! stamps wrap.
 //!
 //! The scheduler follows RTIC's rules for the parties: the application (priority 0), the
@@ -286,7 +288,10 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
             .copied()
             .filter(|l| l.priority > current && l.woken())
             .collect();
-        if SECOND_TICK > current && self.chance(5) {
+        // Once the world's table is the sequencer's (its first due tick binds it; a second
+        // table that came first would be the sequencer's instead).
+        let bound = self.w.seq.with(|s| s.table != 0);
+        if SECOND_TICK > current && bound && self.chance(5) {
             // A second task that ticks the sequencer (misuse): refused while the tick is
             // under way, which it preempts; else a tick at the time of the last one.
             // The tick holds its turn from its first section on.
@@ -295,23 +300,32 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
                 !held || self.running.borrow().contains(&TICK),
                 "a tick's turn is held with no tick under way"
             );
+            // At the time of the tick's last call, or of its next (unless the tick is
+            // under way: the world's clock is then already its time): with polls due
+            // there, the second table is refused (the sequencer is ticked with the
+            // world's).
+            let at = if self.running.borrow().contains(&TICK) || self.chance(2) {
+                self.w.seq.now()
+            } else {
+                Instant::from_ticks((self.now.get() + 1) * 1_000)
+            };
             self.run_as(SECOND_TICK, || {
-                // At the time of the tick's last call: a tick at a later time with this
-                // table would take polls the tick's table then misses (a sequencer has one
-                // heartbeat, with one table).
-                let r = self
+                let due = self
                     .w
                     .seq
-                    .tick(self.w.seq.now(), &(), &mut self.second.borrow_mut());
+                    .with(|s| Stamp::of(at).reached(s.polling.next_due));
+                let r = self.w.seq.tick(at, &(), &mut self.second.borrow_mut());
                 if r.is_ok() {
                     self.observe();
                 }
                 let expected = if held {
                     Err(Error::TickInProgress)
+                } else if due {
+                    Err(Error::ForeignMonitorTable)
                 } else {
                     Ok(())
                 };
-                assert_eq!(r, expected, "the second task's tick");
+                assert_eq!(r, expected, "the second task's tick at {at}");
             });
         }
         let mut parties = woken.len() as u64;
