@@ -332,10 +332,8 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
     }
     // One-word sets: the number registered is free. The two sequencers are separate
     // monomorphizations of the same code, and inlining may differ between them by a few
-    // instructions (0 until session 16, 6 since the trace records events, 9 in session 31;
-    // profiled line by line, both ticks take the same path and differ by one or two
-    // instructions in a dozen places); a cost per registered sequence would show as
-    // dozens.
+    // instructions (both ticks take the same path); a cost per registered sequence would
+    // show as dozens.
     let free = |a: u64, b: u64| a.abs_diff(b) <= 12;
     assert!(
         free(f(8, 8), f(8, 32)),
@@ -348,7 +346,7 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
     );
     assert!(f(1, 256) < f(8, 256), "and in a sequencer of 256");
     // A teardown visits the target and the sequences with a caller, not every registered
-    // one (until session 21, 8 -> 32 registered cost +530 and 256 registered 2.6 times 8).
+    // one.
     let firing = |registered: u32| {
         figure(
             &out,
@@ -365,8 +363,8 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
         firing(256) * 2 < firing(8) * 3,
         "a firing with 256 registered costs less than 1.5 times one with 8"
     );
-    // Rounded to the nearest per cent, as the firmware prints it. Known ceiling 120 %
-    // since session 30's fixes (docs/footprint.md).
+    // Rounded to the nearest per cent, as the firmware prints it. Held to a known ceiling
+    // of 120 % (docs/footprint.md says why the goal is missed).
     budget(
         "tick 8 x 4 due with 256 registered, in % of the same with 8 registered",
         (f(8, 256) * 200 / f(8, 8)).div_ceil(2),
@@ -644,17 +642,9 @@ fn firmware_sizes_with_and_without_rtseq() {
     // The README's firmware (the motor controller) and the scenario suite's (one set-up per
     // scenario, each building its tree by value: their moves into `Seq`s are rtseq's lines).
     // Budgets (ceilings, not targets): the sequencer's code 12 KiB, the safety system's
-    // 2 KiB. The sequencer's code misses its budget by the fixes of sessions 27 to 30 (a
-    // stopped caller starts nothing, a join keeps its run and knows when its outcome is
-    // lost, PauseOwner holds are counted and kept through a caller's resume, a late tick
-    // still aborts, a run knows which run of its sequence it drives, an exception
-    // sequence's end is reported by the tick, a dropped run's teardown walks again, the
-    // nine defects of session 30's reviews, the ten of session 31's and 32's, and the
-    // teardown's marks of session 32, a teardown moving only the runs it marked, session
-    // 33, a paused caller's blocked child paused after a restart or a start during the
-    // pause's walk, session 34; a tick refuses a monitor table that is not the
-    // sequencer's, session 35; docs/footprint.md): held to known ceilings of 14.5 KiB
-    // (scenarios) and 15.5 KiB (demo).
+    // 2 KiB. The sequencer's code misses its budget by the defect fixes that followed the
+    // 0.2 core (docs/footprint.md lists them with their costs): held to known ceilings of
+    // 14.5 KiB (scenarios) and 15.5 KiB (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
