@@ -1077,8 +1077,9 @@ impl<
     }
 
     /// The first error a tick of the simulator returned: [`Error::TickBeforeLast`] when
-    /// the sequencer was ticked by hand past the simulator's time (those ticks evaluated
-    /// nothing).
+    /// the sequencer was ticked by hand past the simulator's time, or
+    /// [`Error::ForeignMonitorTable`] when it was ticked by hand with a table of monitors
+    /// first (those ticks evaluated nothing).
     ///
     /// ```
     /// use rtseq::{sim::Sim, Error, Instant, Monitors, Sequencer};
