@@ -218,11 +218,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// let run = seq.register(SeqConfig::new("run")).unwrap();
     /// seq.sequence_by_id(run).unwrap().declare_lane().unwrap();
     /// seq.sequence_by_id(run).unwrap().start().unwrap();
-    /// let (mut cold, mut also_cold) = (|_: &(), _: Instant| false, |_: &(), _: Instant| false);
+    /// let (mut jam, mut also_jam) = (|_: &(), _: Instant| false, |_: &(), _: Instant| false);
     /// let mut monitors: Monitors<(), 1> = Monitors::new();
-    /// monitors.add(run, Monitor::new("hot", &mut cold, Behaviour::AbortOwner)).unwrap();
+    /// monitors.add(run, Monitor::new("jam", &mut jam, Behaviour::AbortOwner)).unwrap();
     /// let mut other: Monitors<(), 1> = Monitors::new();
-    /// other.add(run, Monitor::new("hot", &mut also_cold, Behaviour::AbortOwner)).unwrap();
+    /// other.add(run, Monitor::new("jam", &mut also_jam, Behaviour::AbortOwner)).unwrap();
     /// let ms = |n: u64| Instant::from_ticks(n * 1_000);
     /// seq.tick(ms(1), &(), &mut monitors).unwrap(); // the sequencer's table from now on
     /// assert_eq!(seq.tick(ms(2), &(), &mut other), Err(Error::ForeignMonitorTable));
