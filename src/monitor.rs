@@ -714,8 +714,10 @@ const fn group_mut(list: &mut [Group], at: usize) -> Option<&mut Group> {
 /// conditions (it lives as long as the firmware).
 ///
 /// On the chip the timer interrupt owns the table and passes it to every
-/// [`tick`](crate::Sequencer::tick); here two ticks by hand, with the owner started (its lane
-/// declared but not run):
+/// [`tick`](crate::Sequencer::tick). A table is one sequencer's, and a sequencer is ticked
+/// with one table: the first due tick with a non-empty table binds the two, and a due tick
+/// with another table is refused ([`Error::ForeignMonitorTable`]). Here two ticks by hand,
+/// with the owner started (its lane declared but not run):
 ///
 /// ```
 /// use core::cell::Cell;
