@@ -291,3 +291,54 @@ fn a_level_warning_with_nothing_does_not_hold_its_owner() {
     // Fired at every poll from 2 ms to 6 ms.
     assert_eq!(sim.monitors().fired(m), 5);
 }
+
+/// The same warning with an exception sequence that is already running (a log sequence
+/// started by hand, which never ends): each firing finds it running (the exception is
+/// not run), so the exception is handled at once and holds nothing: the move takes its
+/// exit-condition poll in the same ticks and ends at 6 ms. (Before the fix each firing's
+/// mark skipped the poll due in its tick before the exception sequence's start failed,
+/// and the step never ended.)
+#[test]
+fn a_level_warning_whose_exception_sequence_is_busy_does_not_hold_its_owner() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq
+        .add(SeqConfig::new("move"), Node::of(vec![]).until(1))
+        .unwrap();
+    let log = seq
+        .add(SeqConfig::new("log"), Node::of(vec![]).until(9))
+        .unwrap();
+    let (si, li) = (step.id(), log.id());
+    let mut hot = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(
+            si,
+            Monitor::new("warning", &mut hot, Behaviour::Nothing)
+                .trigger(Trigger::Level)
+                .exception(li),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(step);
+    sim.lane(log);
+    sim.before_tick(|t, c| {
+        c.set(1, ms(t) >= 6);
+        c.set(2, ms(t) >= 2);
+    });
+    sim.start(li).unwrap();
+    sim.start(si).unwrap();
+    sim.run_for(Duration::from_millis(10));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, li, Idle, Running, Start),
+            tr(0, si, Idle, Running, Start),
+            tr(6, si, Running, Terminated, Completed)
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(sim.monitors().fired(m), 5);
+    assert_eq!(seq.exceptions_not_run(), 5);
+}

@@ -56,7 +56,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         cause: Cause,
         reaction: &mut Reaction,
     ) -> bool {
-        let Some((target, behaviour)) = in_sections!(self, |s| mark(s, owner, cause, reaction))
+        let Some(Marked {
+            target,
+            behaviour,
+            skipped,
+        }) = in_sections!(self, |s| mark(s, owner, cause, reaction))
         else {
             return false;
         };
@@ -75,6 +79,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         });
         if !deferred {
             self.apply(control, owner, behaviour, target, cause);
+            if behaviour == Behaviour::Nothing {
+                // Handled at once after all (its exception sequence could not start): the
+                // owner was not held, so the polls the mark skipped stand.
+                for id in skipped {
+                    self.with(|s| {
+                        if s.sets.has(Set::PollWait, id) {
+                            s.sets.put(Set::PollDue, id, true);
+                        }
+                    });
+                }
+            }
         }
         true
     }
@@ -251,10 +266,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 }
 
+/// What [`mark`] did.
+struct Marked<const B: usize> {
+    /// The behaviour's target: the owner, or its caller.
+    target: SeqId,
+    /// The behaviour, escalated past the restart limit.
+    behaviour: Behaviour,
+    /// The sequences whose due poll the mark skipped (the owner, and those it blocks in
+    /// its lane), held from the mark on.
+    skipped: SeqSet<B>,
+}
+
 /// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
 /// the exception (active; for a timeout, running; not handling one already), counts the
-/// restart and marks the exception. Returns the behaviour's target and the behaviour
-/// (escalated past the restart limit).
+/// restart and marks the exception, skipping the due polls it holds.
 fn mark<
     C,
     S: Sections<C, N, T, W, B>,
@@ -267,7 +292,7 @@ fn mark<
     owner: SeqId,
     cause: Cause,
     reaction: &mut Reaction,
-) -> Option<(SeqId, Behaviour)> {
+) -> Option<Marked<B>> {
     let timeout = matches!(cause, Cause::Timeout(_));
     // Active (a paused timeout is frozen), not handling an exception already, not being
     // torn down (its teardown comes first), and the run the evaluation saw: a run begun
@@ -317,12 +342,13 @@ fn mark<
     // due polls stand, else a monitor that fires at every poll (a `Level` warning) would
     // keep its owner from ever taking one.
     let holds = behaviour != Behaviour::Nothing || reaction.exception.is_some();
+    let mut skipped = SeqSet::EMPTY;
     if holds {
-        skip_untaken_polls(s, lane, due);
+        skipped = skip_untaken_polls(s, lane, due);
     }
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.
-    s.section(|s| {
+    let owner_skipped = s.section(|s| {
         let b = s
             .block_mut(owner)
             .filter(|b| states.has(b.state) && b.runs == owner_runs)?;
@@ -334,11 +360,15 @@ fn mark<
         }
         s.sets.put(Set::Excepting, owner, true);
         // Held from now on: a due poll its lane has not taken is skipped.
-        if holds {
+        let skip = holds && s.sets.has(Set::PollDue, owner);
+        if skip {
             s.sets.remove(Set::PollDue, owner);
         }
-        Some(())
+        Some(skip)
     })?;
+    if owner_skipped {
+        skipped.insert(owner);
+    }
     s.section(|s| {
         #[cfg(feature = "counters")]
         if let Some(c) = s.counters.get_mut(owner.index()) {
@@ -352,7 +382,11 @@ fn mark<
     });
     reaction.restarts = restarts;
     reaction.runs_seen = runs_seen;
-    Some((target, behaviour))
+    Some(Marked {
+        target,
+        behaviour,
+        skipped,
+    })
 }
 
 #[cfg(test)]

@@ -18,7 +18,7 @@
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use crate::lock::Lock;
-use crate::model::set::{SetWord, Words};
+use crate::model::set::{SeqSet, SetWord, Words};
 use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::held;
 use crate::sequencer::lanes::{LaneSet, NO_WAKER};
@@ -541,7 +541,8 @@ impl Drop for TickTurn<'_> {
 /// words of `Set::PollDue` as read before (marks only go meanwhile). Done before the hold,
 /// one section per word and per mark: only the tick makes marks, so none is left for a
 /// held run to take, also when a pause reaches the sequences below its target a section
-/// after the target.
+/// after the target. Returns the sequences whose due poll it skipped: an exception that
+/// turns out to hold nothing gives them back ([`Sequencer::raise`]).
 pub(crate) fn skip_untaken_polls<
     C,
     S: Sections<C, N, T, W, B>,
@@ -553,7 +554,8 @@ pub(crate) fn skip_untaken_polls<
     s: &mut S,
     lane: u8,
     due: Words,
-) {
+) -> SeqSet<B> {
+    let mut skipped = SeqSet::EMPTY;
     for w in due {
         let called = s.section(|s| {
             s.sets
@@ -561,13 +563,19 @@ pub(crate) fn skip_untaken_polls<
                 .and(s.sets.word(Set::Called, w))
         });
         for id in called {
-            s.section(|s| {
-                if s.lane_slot(id) == lane {
+            let in_lane = s.section(|s| {
+                let in_lane = s.lane_slot(id) == lane;
+                if in_lane {
                     s.sets.remove(Set::PollDue, id);
                 }
+                in_lane
             });
+            if in_lane {
+                skipped.insert(id);
+            }
         }
     }
+    skipped
 }
 
 #[cfg(test)]

@@ -93,7 +93,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // The target is paused first and the sequences it blocks after it.
             in_sections!(self, |s| {
                 let due = s.section(|s| s.sets.words(Set::PollDue));
-                skip_untaken_polls(s, lane, due)
+                skip_untaken_polls(s, lane, due);
             });
         }
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
