@@ -1305,8 +1305,8 @@ fn a_monitor_table_of_another_sequencer_is_refused() {
 }
 
 /// A table made anew in the place of the sequencer's table (its monitors changed while
-/// their owners do not run) is the sequencer's table; and a simulator, which boxes its
-/// table, may be moved.
+/// their owners do not run) is the sequencer's table, bound to it again; a simulator,
+/// which boxes its table, may be moved.
 #[test]
 fn a_table_made_anew_in_its_place_stays_the_sequencers() {
     let seq: Sequencer<(), 2> = Sequencer::new();
@@ -1339,6 +1339,14 @@ fn a_table_made_anew_in_its_place_stays_the_sequencers() {
         Some(Outcome::Aborted(rtseq::Cause::Monitor(m)))
     );
 
+    // Made anew, the table was bound again: another sequencer may not take it.
+    let other: Sequencer<(), 2> = Sequencer::new();
+    running_main(&other);
+    assert_eq!(
+        other.tick(ms_at(1), &(), &mut table),
+        Err(Error::ForeignMonitorTable)
+    );
+
     let sim_seq: Sequencer<(), 2> = Sequencer::new();
     let id = running_main(&sim_seq);
     let mut quiet = |_: &(), _: Instant| false;
@@ -1352,4 +1360,32 @@ fn a_table_made_anew_in_its_place_stays_the_sequencers() {
     moved.run_for(Duration::from_millis(2));
     assert_eq!(moved.tick_error(), None);
     assert_eq!(moved.now(), ms_at(4));
+}
+
+/// The sequencer knows its table by its place: moved after a due tick made it the
+/// sequencer's, the table is another table, though it still names the sequencer it
+/// belongs to. The refused tick evaluates nothing.
+#[test]
+fn a_monitor_table_moved_after_its_first_due_tick_is_another_table() {
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let main = running_main(&seq);
+    let hot = AtomicBool::new(false);
+    let mut is_hot = |_: &(), _: Instant| hot.load(SeqCst);
+    let mut table = Monitors::<(), 1>::new();
+    let m = table
+        .add(
+            main,
+            Monitor::new("hot", &mut is_hot, Behaviour::AbortOwner),
+        )
+        .unwrap();
+    assert_eq!(seq.tick(ms_at(1), &(), &mut table), Ok(()));
+    hot.store(true, SeqCst);
+    let mut moved = Box::new(table);
+    assert_eq!(
+        seq.tick(ms_at(2), &(), &mut moved),
+        Err(Error::ForeignMonitorTable)
+    );
+    assert_eq!(seq.now(), ms_at(1));
+    let state = seq.sequence_by_id(main).unwrap().state();
+    assert_eq!((moved.fired(m), state), (0, Running));
 }
