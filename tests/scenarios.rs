@@ -9,6 +9,7 @@ use rtseq::{
     Behaviour, Done, Duration, Error, Failure, Monitor, Monitors, Outcome, SeqConfig, SeqId,
     Sequencer, Transition, Trigger,
 };
+use std::sync::atomic::{AtomicU32, Ordering::SeqCst};
 
 type Seqr = Sequencer<Ctrl, 16>;
 
@@ -653,6 +654,57 @@ fn monitor_and_exit_condition_due_in_the_same_tick_monitor_first() {
     want.extend(aborted(5, &[si], Mon(m)));
     want.extend(completed(5, &[mi]));
     assert_trace(sim.trace(), &want);
+}
+
+/// A tick applies the requests made since the last one before it evaluates anything: a
+/// sequence it aborts for a request (or an abort-all) is not polled in that tick. Main's
+/// abort is requested just before the tick at 5 ms, where its monitor's condition turns
+/// true and its step's exit condition holds: main and its step are aborted for the
+/// request, the monitor's condition is not looked at again, and the step's action code
+/// never runs again.
+#[test]
+fn a_request_applied_by_a_tick_comes_before_its_polls() {
+    for all in [false, true] {
+        let seq = Seqr::new();
+        let ctrl = Ctrl::default();
+        let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+        let si = s.id();
+        let main = seq
+            .add(SeqConfig::new("main"), Node::of(vec![Op::Step(s)]))
+            .unwrap();
+        let mi = main.id();
+        let looked = AtomicU32::new(0);
+        let mut c0 = |c: &Ctrl, _| {
+            looked.fetch_add(1, SeqCst);
+            c.flag(0)
+        };
+        let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+        let m = monitors
+            .add(mi, Monitor::new("m", &mut c0, Behaviour::AbortOwner))
+            .unwrap();
+        let mut sim = Sim::new(&seq, &ctrl, monitors);
+        sim.lane(main);
+        sim.before_tick(|t, c| {
+            c.set(0, ms(t) >= 5);
+            c.set(1, ms(t) >= 5);
+        });
+        sim.start(mi).unwrap();
+        sim.run_until(rtseq::Instant::from_ticks(4_000));
+        assert_eq!(looked.load(SeqCst), 4);
+        let cause = if all {
+            sim.abort_all();
+            Cause::AbortAll
+        } else {
+            sim.abort(mi).unwrap();
+            Cause::Abort
+        };
+        sim.run_until_idle(Duration::from_millis(20));
+        let mut want = started(0, &[mi, si]);
+        want.extend(aborted(5, &[si, mi], cause));
+        assert_trace(sim.trace(), &want);
+        assert_eq!((looked.load(SeqCst), sim.monitors().fired(m)), (4, 0));
+        assert_lines_ran_live(&ctrl);
+    }
 }
 
 #[test]
