@@ -9,7 +9,9 @@
 //! has the tick inserted before each of its sections, and (portable lock) the lane's poll
 //! is inserted before each section of the tick. Semantics 1: the condition is checked
 //! right after the action only with the clearance to go on, once per due poll, never while
-//! held; a poll that falls due while its sequence is held is skipped.
+//! held; a poll that falls due while its sequence is held is skipped. Last, lanes joined
+//! in one task, one of which moves to a task of its own during the tick: the lanes the
+//! tick remembers for its wake-ups (portable lock).
 
 use super::*;
 
@@ -868,4 +870,139 @@ fn a_child_ends_only_while_the_pause_owner_monitor_lets_it() {
     for held in [false, true] {
         every_world!(child_end_against_pause_owner, held);
     }
+}
+
+// =======================================================================================
+// 5. Lanes joined in one task: the lanes remembered for the tick's wake-ups.
+// =======================================================================================
+
+/// A lane future of a [`Probe`] that starts out joined with others in one task (their
+/// shared waker) and may move to a task of its own (another waker).
+struct TaskLane {
+    fut: RefCell<Pin<Box<dyn Future<Output = Infallible>>>>,
+    checks: &'static AtomicUsize,
+}
+
+impl TaskLane {
+    fn poll(&self, waker: &Waker) {
+        let mut cx = Context::from_waker(waker);
+        let _ = self.fut.borrow_mut().as_mut().poll(&mut cx);
+    }
+
+    fn checks(&self) -> usize {
+        self.checks.load(Ordering::Relaxed)
+    }
+}
+
+/// A started [`Probe`] (gate open, exit condition false, polled every ms) with its lane,
+/// not polled yet.
+fn task_lane<const N: usize, const B: usize>(
+    w: World<Interleaved, N, B>,
+    name: &'static str,
+) -> (SeqId, &'static TaskLane) {
+    let checks: &'static AtomicUsize = Box::leak(Box::new(AtomicUsize::new(0)));
+    let probe = Probe {
+        gate: flag_of(true),
+        exit: flag_of(false),
+        checks,
+        wait: false,
+    };
+    let seq: &'static mut Seq<Probe> =
+        Box::leak(Box::new(w.seq.add(SeqConfig::new(name), probe).unwrap()));
+    let id = seq.id();
+    w.handle(id).declare_lane().unwrap();
+    let fut: Pin<Box<dyn Future<Output = Infallible>>> = Box::pin(lane(w.seq, &(), seq));
+    w.handle(id).start().unwrap();
+    (
+        id,
+        Box::leak(Box::new(TaskLane {
+            fut: RefCell::new(fut),
+            checks,
+        })),
+    )
+}
+
+/// With the portable lock the tick remembers the lanes it woke for a set of due polls, and
+/// wakes one task once: lanes A and B, joined in one task, are woken through A's slot
+/// alone. B moves to a task of its own (its next poll comes with another waker) before
+/// each section of the first due tick (1 ms), or after it. The tick at 1 ms wakes the
+/// joined task once; the tick at 2 ms wakes both tasks once, whatever it remembered: both
+/// conditions are checked at 1 ms and at 2 ms. Before
+/// the tick remembered only what no waker changed during its look, a move during the look
+/// left B's task asleep from 2 ms on.
+fn a_lane_moved_to_its_own_task<const N: usize, const B: usize>(layout: Layout) {
+    let setup = move || {
+        let w = World::<Interleaved, N, B>::new(layout);
+        let (a, lane_a) = task_lane(w, "A");
+        let (b, lane_b) = task_lane(w, "B");
+        let (joined, joined_wakes) = counting();
+        let (own, own_wakes) = counting();
+        // The action, then the check right after it.
+        lane_a.poll(&joined);
+        lane_b.poll(&joined);
+        assert_eq!((w.state(a), w.state(b)), (Running, Running));
+        assert_eq!((lane_a.checks(), lane_b.checks()), (1, 1));
+        (
+            w,
+            [lane_a, lane_b],
+            [joined, own],
+            [joined_wakes, own_wakes],
+        )
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, [lane_a, lane_b], [joined, own], [joined_wakes, own_wakes]) = setup();
+        let what = name::<Interleaved>(layout, format_args!("k={k}"));
+        // Each task polls its lanes when woken since its last poll.
+        let seen = Cell::new([0, 0]);
+        let moved = Rc::new(Cell::new(false));
+        let run_tasks = || {
+            let [j, o] = [woken(&joined_wakes), woken(&own_wakes)];
+            let [sj, so] = seen.get();
+            seen.set([j, o]);
+            if j > sj {
+                lane_a.poll(&joined);
+                if !moved.get() {
+                    lane_b.poll(&joined);
+                }
+            }
+            if o > so {
+                lane_b.poll(&own);
+            }
+        };
+        let into = moved.clone();
+        let own_b = own.clone();
+        let move_b = move || {
+            into.set(true);
+            lane_b.poll(&own_b);
+        };
+        let wakes = || [woken(&joined_wakes), woken(&own_wakes)];
+        interleaved::at(k, move_b.clone());
+        w.tick(1);
+        // One wake-up per task woken: a task polls all its lanes.
+        let [j, o] = wakes();
+        assert!(j == 1 && o <= 1, "{what}: woken {j} and {o} times at 1 ms");
+        or_after(k, move_b);
+        run_tasks();
+        assert_eq!(
+            (lane_a.checks(), lane_b.checks()),
+            (2, 2),
+            "{what}: the polls at 1 ms"
+        );
+        w.tick(2);
+        assert_eq!(wakes(), [j + 1, o + 1], "{what}: both tasks woken at 2 ms");
+        run_tasks();
+        assert_eq!(
+            (lane_a.checks(), lane_b.checks()),
+            (3, 3),
+            "{what}: the polls at 2 ms"
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_lane_that_moves_to_its_own_task_during_the_tick_is_woken_by_the_next() {
+    a_lane_moved_to_its_own_task::<8, 1>(Layout::One);
+    a_lane_moved_to_its_own_task::<64, 2>(Layout::Second);
 }
