@@ -403,3 +403,61 @@ fn exception_sequence_in_an_earlier_word<L: rtseq::lock::Lock>(
         show(sim.trace())
     );
 }
+
+/// A condition on flag 2, so that one table holds many monitors of one type.
+struct Flag2;
+
+impl rtseq::Condition<Ctrl> for Flag2 {
+    fn validate(&mut self, c: &Ctrl, _: rtseq::Instant) -> bool {
+        c.flag(2)
+    }
+}
+
+/// A table evaluates its monitors in at most 16 groups, a group's owners in one word of
+/// the sets while enough groups are left for the rest of the table's capacity. Registered
+/// alternately for owners in two words, the first monitors of a table of 256 get a group
+/// each and the rest share one group across both words, which the tick evaluates in each
+/// word for the owners there. `a` (id 5, word 0) and `b` (id 37, word 1: the same bit of
+/// its word) each own ten `Level` warnings (`Nothing`) on flag 2, set from 3 ms; `b` is
+/// aborted at 4 ms. Each of `a`'s warnings fires at 3, 4 and 5 ms, each of `b`'s at 3 ms.
+#[test]
+fn a_monitor_group_across_words_is_evaluated_for_the_owners_of_each_word() {
+    let seq: Sequencer<Ctrl, 64, 64, CriticalSection, 8, 2> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let mut lanes = Vec::new();
+    for at in [5, 37] {
+        while seq.len() < at {
+            let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
+            seq.register(SeqConfig::new(name)).unwrap();
+        }
+        let name: &'static str = Box::leak(format!("waits {at}").into_boxed_str());
+        lanes.push(
+            seq.add(SeqConfig::new(name), Node::of(vec![]).until(9))
+                .unwrap(),
+        );
+    }
+    let (a, b) = (lanes[0].id(), lanes[1].id());
+    assert_eq!((a.index(), b.index()), (5, 37));
+    let mut monitors: Monitors<Ctrl, 256, Flag2> = Monitors::new();
+    let warnings: Vec<MonitorId> = (0..20)
+        .map(|i| {
+            let warning = Monitor::with_condition("warning", Flag2, Behaviour::Nothing)
+                .trigger(rtseq::Trigger::Level);
+            monitors.add([a, b][i % 2], warning).unwrap()
+        })
+        .collect();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    for lane in lanes {
+        sim.lane(lane);
+    }
+    sim.before_tick(|t, c| c.set(2, ms(t) >= 3));
+    sim.start(a).unwrap();
+    sim.start(b).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(3_000));
+    sim.abort(b).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(5_000));
+    let fired: Vec<u16> = warnings.iter().map(|&m| sim.monitors().fired(m)).collect();
+    assert_eq!(fired, [3, 1].repeat(10));
+    assert_eq!(sim.state(a), Running);
+    assert_eq!(sim.state(b), Aborted);
+}
