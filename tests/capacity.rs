@@ -404,6 +404,64 @@ fn exception_sequence_in_an_earlier_word<L: rtseq::lock::Lock>(
     );
 }
 
+/// A polling class is due once per tick, in every word that holds one of its active
+/// members. In a sequencer of two words, `fast` (id 0) polls every millisecond (the first
+/// class); `x` (id 1, word 0) and `y` (id 40, word 1) poll every 2 ms (the second class),
+/// on one grid from their start at 0 ms. Their exit condition (flag 3) holds from 3 ms:
+/// both take it at their poll at 4 ms, `fast` at 3 ms.
+#[test]
+fn a_polling_class_with_members_in_two_words_polls_them_together() {
+    let locked: Sequencer<Ctrl, 64, 64, CriticalSection, 8, 2> = Sequencer::new();
+    class_in_two_words(&locked);
+    let single: Sequencer<Ctrl, 64, 64, rtseq::lock::SingleThread, 8, 2> =
+        Sequencer::single_thread();
+    class_in_two_words(&single);
+}
+
+fn class_in_two_words<L: rtseq::lock::Lock>(seq: &Sequencer<Ctrl, 64, 64, L, 8, 2>) {
+    let ctrl = Ctrl::default();
+    let every = |n| Duration::from_millis(n);
+    let until = || Node::of(vec![]).until(3);
+    let fast = seq
+        .add(SeqConfig::new("fast").polling(every(1)), until())
+        .unwrap();
+    let x = seq
+        .add(SeqConfig::new("x").polling(every(2)), until())
+        .unwrap();
+    while seq.len() < 40 {
+        let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
+        seq.register(SeqConfig::new(name)).unwrap();
+    }
+    let y = seq
+        .add(SeqConfig::new("y").polling(every(2)), until())
+        .unwrap();
+    let ids = [fast.id(), x.id(), y.id()];
+    assert_eq!(ids.map(SeqId::index), [0, 1, 40]);
+    let mut sim = Sim::new(seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(fast);
+    sim.lane(x);
+    sim.lane(y);
+    sim.before_tick(|t, c| c.set(3, ms(t) >= 3));
+    for id in ids {
+        sim.start(id).unwrap();
+    }
+    sim.run_until(rtseq::Instant::from_ticks(6_000));
+    let [f, x, y] = ids;
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, f, Idle, Running, Start),
+            tr(0, x, Idle, Running, Start),
+            tr(0, y, Idle, Running, Start),
+            tr(3, f, Running, Terminated, Completed),
+            tr(4, x, Running, Terminated, Completed),
+            tr(4, y, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+}
+
 /// A condition on flag 2, so that one table holds many monitors of one type.
 struct Flag2;
 

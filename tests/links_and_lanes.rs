@@ -217,3 +217,49 @@ fn callers_nest_max_depth_deep_and_a_deeper_start_is_refused() {
         Some(rtseq::Instant::from_ticks(0))
     );
 }
+
+/// A teardown reaches the deepest nesting: in a chain `s0` runs `s1` runs … `s8` (8
+/// callers, `MAX_DEPTH`), which waits, an abort of `s0` aborts all nine, innermost first,
+/// each through `Aborting`.
+#[test]
+fn an_abort_tears_down_a_chain_max_depth_deep_innermost_first() {
+    let seq: Sequencer<Ctrl, 16> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let mut below = seq
+        .add(SeqConfig::new("s8"), Node::of(vec![]).until(15))
+        .unwrap();
+    let mut ids = vec![below.id()];
+    for name in ["s7", "s6", "s5", "s4", "s3", "s2", "s1", "s0"] {
+        below = seq
+            .add(SeqConfig::new(name), Node::of(vec![Op::Run(below)]))
+            .unwrap();
+        ids.push(below.id());
+    }
+    let s0 = below.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(below);
+    sim.start(s0).unwrap();
+    assert_eq!(
+        sim.handle(ids[0]).unwrap().caller_stack().len(),
+        rtseq::MAX_DEPTH
+    );
+    sim.run_until(rtseq::Instant::from_ticks(2_000));
+    sim.abort(s0).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(3_000));
+    let aborts: Vec<rtseq::Transition> = sim
+        .trace()
+        .iter()
+        .filter(|t| ms(t.time) == 3)
+        .copied()
+        .collect();
+    let want: Vec<rtseq::Transition> = ids
+        .iter()
+        .flat_map(|&s| {
+            [
+                tr(3, s, Running, Aborting, rtseq::Cause::Abort),
+                tr(3, s, Aborting, Aborted, rtseq::Cause::Abort),
+            ]
+        })
+        .collect();
+    assert_eq!(aborts, want, "{}", show(sim.trace()));
+}
