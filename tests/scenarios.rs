@@ -233,6 +233,64 @@ fn restart_limit_escalates_to_abort() {
     assert_lines_ran_live(&ctrl);
 }
 
+/// The restart limit counts the restarts of one run of the monitor's target: the world of
+/// [`restart_limit_escalates_to_abort`], started again once it has ended at 8 ms, with the
+/// fault still there. A's new run restarts three times again (9 to 11 ms) before the
+/// fourth firing escalates to an abort at 12 ms.
+#[test]
+fn the_restart_limit_counts_anew_for_each_run() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+    let si = s.id();
+    let a = seq
+        .add(SeqConfig::new("A"), Node::of(vec![Op::Step(s)]))
+        .unwrap();
+    let ai = a.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Run(a)]))
+        .unwrap();
+    let mi = main.id();
+    let mut c0 = |c: &Ctrl, _| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(
+            ai,
+            Monitor::new("stuck", &mut c0, Behaviour::RestartOwner).restart_limit(3),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.before_tick(|t, c| c.set(0, ms(t) >= 5));
+    sim.start(mi).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)).map(ms),
+        Some(8)
+    );
+    let first = sim.take_trace();
+    assert_eq!(first.len(), 3 + 3 * 5 + 4 + 1);
+    sim.start(mi).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)).map(ms),
+        Some(12)
+    );
+    let mut want = vec![
+        tr(8, mi, Terminated, Running, Start),
+        tr(8, ai, Aborted, Running, Start),
+        tr(8, si, Aborted, Running, Start),
+    ];
+    for t in 9..=11 {
+        want.extend(aborted(t, &[si], Mon(m)));
+        want.push(tr(t, ai, Running, Restarting, Mon(m)));
+        want.push(tr(t, ai, Restarting, Running, Cause::Restart));
+        want.push(tr(t, si, Aborted, Running, Start));
+    }
+    want.extend(aborted(12, &[si, ai], Mon(m)));
+    want.extend(completed(12, &[mi]));
+    assert_trace(sim.trace(), &want);
+    assert_eq!(sim.monitors().fired(m), 8);
+}
+
 /// main ─run→ A ─step→ S (exit flag 1, never). A's timeout (3 ms) restarts it, at most
 /// twice: each restart gives the run a fresh clock, so the timeout fires once per run, 3 ms
 /// after each (re)start, and the third firing escalates to an abort.
