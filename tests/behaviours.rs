@@ -292,70 +292,22 @@ fn a_level_warning_with_nothing_does_not_hold_its_owner() {
     assert_eq!(sim.monitors().fired(m), 5);
 }
 
-/// The same warning with an exception sequence that is already running (a log sequence
-/// started by hand, which never ends): each firing finds it running (the exception is
-/// not run), so the exception is handled at once and holds nothing: the move takes its
-/// exit-condition poll in the same ticks and ends at 6 ms. (Before the fix each firing's
-/// mark skipped the poll due in its tick before the exception sequence's start failed,
-/// and the step never ended.)
-#[test]
-fn a_level_warning_whose_exception_sequence_is_busy_does_not_hold_its_owner() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let step = seq
-        .add(SeqConfig::new("move"), Node::of(vec![]).until(1))
-        .unwrap();
-    let log = seq
-        .add(SeqConfig::new("log"), Node::of(vec![]).until(9))
-        .unwrap();
-    let (si, li) = (step.id(), log.id());
-    let mut hot = |c: &Ctrl, _| c.flag(2);
-    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
-    let m = monitors
-        .add(
-            si,
-            Monitor::new("warning", &mut hot, Behaviour::Nothing)
-                .trigger(Trigger::Level)
-                .exception(li),
-        )
-        .unwrap();
-    let mut sim = Sim::new(&seq, &ctrl, monitors);
-    sim.lane(step);
-    sim.lane(log);
-    sim.before_tick(|t, c| {
-        c.set(1, ms(t) >= 6);
-        c.set(2, ms(t) >= 2);
-    });
-    sim.start(li).unwrap();
-    sim.start(si).unwrap();
-    sim.run_for(Duration::from_millis(10));
-    assert_eq!(
-        sim.trace(),
-        [
-            tr(0, li, Idle, Running, Start),
-            tr(0, si, Idle, Running, Start),
-            tr(6, si, Running, Terminated, Completed)
-        ],
-        "{}",
-        show(sim.trace())
-    );
-    assert_eq!(sim.monitors().fired(m), 5);
-    assert_eq!(seq.exceptions_not_run(), 5);
-}
-
-/// The busy-exception warning of the test above, while its owner is paused: a poll that
-/// falls due while its sequence is held is missed, not taken once the hold ends
-/// (semantics 1), and the warning handled at once gives the paused owner no poll either.
-/// The move polls every 10 ms; it is paused at 5 ms and resumed at 13 ms; the warning
-/// fires at its poll at 10 ms (while paused); its exit condition holds from 11 ms. The
-/// move checks it next at 20 ms, on its grid, and ends then.
-#[test]
-fn a_warning_that_fires_while_its_owner_is_paused_gives_it_no_poll_at_the_resume() {
+/// A move (exit condition flag 1 from `done_ms`, polled every `period`) with a `Level`
+/// warning (`Nothing`) on flag 2 from `hot_ms`, whose exception sequence is a log sequence
+/// started by hand before the move, which never ends: every firing finds it running.
+/// Both are started at 0 ms; `drive` runs the simulator with the move's, the log's and the
+/// warning's ids.
+fn busy_warning(
+    period: Duration,
+    done_ms: u64,
+    hot_ms: u64,
+    drive: impl FnOnce(&mut Sim<'_, Ctrl, 4, 64, 1>, SeqId, SeqId, MonitorId),
+) {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
     let step = seq
         .add(
-            SeqConfig::new("move").polling(Duration::from_millis(10)),
+            SeqConfig::new("move").polling(period),
             Node::of(vec![]).until(1),
         )
         .unwrap();
@@ -376,28 +328,66 @@ fn a_warning_that_fires_while_its_owner_is_paused_gives_it_no_poll_at_the_resume
     let mut sim = Sim::new(&seq, &ctrl, monitors);
     sim.lane(step);
     sim.lane(log);
-    sim.before_tick(|t, c| {
-        c.set(1, ms(t) >= 11);
-        c.set(2, ms(t) >= 10);
+    sim.before_tick(move |t, c| {
+        c.set(1, ms(t) >= done_ms);
+        c.set(2, ms(t) >= hot_ms);
     });
     sim.start(li).unwrap();
     sim.start(si).unwrap();
-    sim.run_until(rtseq::Instant::from_ticks(4_000));
-    sim.pause(si).unwrap();
-    sim.run_until(rtseq::Instant::from_ticks(12_000));
-    sim.resume(si).unwrap();
-    sim.run_for(Duration::from_millis(18));
-    assert_eq!(
-        sim.trace(),
-        [
-            tr(0, li, Idle, Running, Start),
-            tr(0, si, Idle, Running, Start),
-            tr(5, si, Running, Paused, rtseq::Cause::Pause),
-            tr(13, si, Paused, Running, rtseq::Cause::Resume),
-            tr(20, si, Running, Terminated, Completed)
-        ],
-        "{}",
-        show(sim.trace())
-    );
-    assert_eq!(sim.monitors().fired(m), 2);
+    drive(&mut sim, si, li, m);
+    assert_eq!(seq.exceptions_not_run(), sim.monitors().fired(m));
+}
+
+/// The same warning with an exception sequence that is already running (a log sequence
+/// started by hand, which never ends): each firing finds it running (the exception is
+/// not run), so the exception is handled at once and holds nothing: the move takes its
+/// exit-condition poll in the same ticks and ends at 6 ms. (Before the fix each firing's
+/// mark skipped the poll due in its tick before the exception sequence's start failed,
+/// and the step never ended.)
+#[test]
+fn a_level_warning_whose_exception_sequence_is_busy_does_not_hold_its_owner() {
+    busy_warning(Duration::from_millis(1), 6, 2, |sim, si, li, m| {
+        sim.run_for(Duration::from_millis(10));
+        assert_eq!(
+            sim.trace(),
+            [
+                tr(0, li, Idle, Running, Start),
+                tr(0, si, Idle, Running, Start),
+                tr(6, si, Running, Terminated, Completed)
+            ],
+            "{}",
+            show(sim.trace())
+        );
+        assert_eq!(sim.monitors().fired(m), 5);
+    });
+}
+
+/// The busy-exception warning of the test above, while its owner is paused: a poll that
+/// falls due while its sequence is held is missed, not taken once the hold ends
+/// (semantics 1), and the warning handled at once gives the paused owner no poll either.
+/// The move polls every 10 ms; it is paused at 5 ms and resumed at 13 ms; the warning
+/// fires at its poll at 10 ms (while paused); its exit condition holds from 11 ms. The
+/// move checks it next at 20 ms, on its grid, and ends then.
+#[test]
+fn a_warning_that_fires_while_its_owner_is_paused_gives_it_no_poll_at_the_resume() {
+    busy_warning(Duration::from_millis(10), 11, 10, |sim, si, li, m| {
+        sim.run_until(rtseq::Instant::from_ticks(4_000));
+        sim.pause(si).unwrap();
+        sim.run_until(rtseq::Instant::from_ticks(12_000));
+        sim.resume(si).unwrap();
+        sim.run_for(Duration::from_millis(18));
+        assert_eq!(
+            sim.trace(),
+            [
+                tr(0, li, Idle, Running, Start),
+                tr(0, si, Idle, Running, Start),
+                tr(5, si, Running, Paused, rtseq::Cause::Pause),
+                tr(13, si, Paused, Running, rtseq::Cause::Resume),
+                tr(20, si, Running, Terminated, Completed)
+            ],
+            "{}",
+            show(sim.trace())
+        );
+        assert_eq!(sim.monitors().fired(m), 2);
+    });
 }
