@@ -363,6 +363,74 @@ fn a_run_dropped_by_a_hand_written_timeout_ends_and_the_sequencer_goes_idle() {
     assert_eq!(*ctrl.hooks.borrow(), ["slow"]);
 }
 
+/// A request made of a run that is then dropped is dropped with it: the next run of the
+/// same step, started before the next tick, is not paused by it.
+#[test]
+fn a_request_of_a_dropped_run_does_not_reach_the_next_run() {
+    struct Main {
+        slow: Seq<Leaf>,
+        quick: Seq<Wait>,
+    }
+    impl Sequence<Ctrl> for Main {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+            let s = self.slow.id();
+            let quick = cx.step(&mut self.quick);
+            // The quick wait wins; before the select drops the slow step's run, the step
+            // is asked to pause (the request waits for the next tick).
+            let paused_then_won = async {
+                let r = quick.await;
+                assert_eq!(cx.sequence_by_id(s).unwrap().pause(), Ok(()));
+                r
+            };
+            let first = select(cx.step(&mut self.slow), paused_then_won).await;
+            assert!(matches!(first, Either::Second(Ok(Done::Completed))));
+            // The next run of the step, in the same poll.
+            assert_eq!(cx.step(&mut self.slow).await, Ok(Done::Completed));
+            Ok(())
+        }
+    }
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let slow = seq
+        .add(SeqConfig::new("slow").on_abort(hook_slow), Leaf::until(0))
+        .unwrap();
+    let s = slow.id();
+    let quick = seq
+        .add(SeqConfig::new("quick"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let q = quick.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Main { slow, quick })
+        .unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    sim.run_until(ms_at(4));
+    ctrl.set(0, true);
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(5))
+    );
+    assert_eq!(
+        sim.trace(),
+        &[
+            tr(0, m, Idle, Running, Start),
+            tr(0, s, Idle, Running, Start),
+            tr(0, q, Idle, Running, Start),
+            tr(2, q, Running, Terminated, Completed),
+            tr(2, s, Running, Aborting, Dropped),
+            tr(2, s, Aborting, Aborted, Dropped),
+            tr(2, s, Aborted, Running, Start),
+            tr(5, s, Running, Terminated, Completed),
+            tr(5, m, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(*ctrl.hooks.borrow(), ["slow"]);
+}
+
 fn hook_main(c: &Ctrl) {
     c.hooks.borrow_mut().push("main");
 }
@@ -493,6 +561,53 @@ fn three_joiners_of_one_run_all_get_its_outcome() {
             (5, b, Ok(Done::Completed)),
         ]
     );
+}
+
+/// A joiner's lane is woken by the end of the run it joined, not by other ends: main
+/// starts B (ends at 1 ms) and C (ends at 5 ms) and joins C.
+#[test]
+fn a_joiner_is_woken_by_the_end_of_the_run_it_joined_only() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let short = seq
+        .add(SeqConfig::new("short"), Wait::new(Duration::from_millis(1)))
+        .unwrap();
+    let long = seq
+        .add(SeqConfig::new("long"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let b = seq
+        .add(SeqConfig::new("B"), Node::of(vec![Op::Wait(short)]))
+        .unwrap();
+    let c = seq
+        .add(SeqConfig::new("C"), Node::of(vec![Op::Wait(long)]))
+        .unwrap();
+    let (bi, ci) = (b.id(), c.id());
+    let main = seq
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(bi), Op::Start(ci), Op::Join(ci)]),
+        )
+        .unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(b);
+    sim.lane(c);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(ms_at(5))
+    );
+    // main's lane: parked once, then its start (up to the join), then C's end.
+    assert_eq!(sim.lane_polls()[0], 3);
+    let joined: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == m && r.line == 2)
+        .map(|r| (r.ms, r.result))
+        .collect();
+    assert_eq!(joined, [(5, Ok(Done::Completed))]);
 }
 
 /// What a race of joiners and a new start left: T's transitions, X's and J's join results

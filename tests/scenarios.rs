@@ -651,7 +651,15 @@ fn pre_condition_false_skips_steps_and_sequences() {
         ctrl.lines_of(si).is_empty(),
         "a skipped step's action must not run"
     );
-    assert_eq!(sim.handle(si).unwrap().counters().skipped, 1);
+    // A skipped run counts as a run and a skip, not as a completion; main's as both.
+    let counts = |id| {
+        let c = sim.handle(id).unwrap().counters();
+        (c.runs, c.completed, c.skipped, c.aborts)
+    };
+    assert_eq!(
+        [counts(si), counts(bi), counts(mi)],
+        [(1, 0, 1, 0), (1, 0, 1, 0), (1, 1, 0, 0)]
+    );
 }
 
 #[test]
@@ -1076,6 +1084,18 @@ fn handle_requests_check_the_state() {
     let mi = main.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
+    // Registered, never run: idle, with no outcome, no exception, no caller, no counts.
+    let h = sim.handle(mi).unwrap();
+    assert_eq!(
+        (
+            h.state(),
+            h.last_outcome(),
+            h.active_exception(),
+            h.caller()
+        ),
+        (Idle, None, None, None)
+    );
+    assert_eq!(h.counters(), rtseq::Counters::default());
     assert_eq!(sim.pause(mi), Err(Error::NotRunning(mi)));
     sim.start(mi).unwrap();
     assert_eq!(sim.resume(mi), Err(Error::NotPaused(mi)));
