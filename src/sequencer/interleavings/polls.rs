@@ -896,8 +896,8 @@ impl TaskLane {
 
 /// A started [`Probe`] (gate open, exit condition false, polled every ms) with its lane,
 /// not polled yet.
-fn task_lane<const N: usize, const B: usize>(
-    w: World<Interleaved, N, B>,
+fn task_lane<L: Lock + 'static, const N: usize, const B: usize>(
+    w: World<L, N, B>,
     name: &'static str,
 ) -> (SeqId, &'static TaskLane) {
     let checks: &'static AtomicUsize = Box::leak(Box::new(AtomicUsize::new(0)));
@@ -1005,4 +1005,36 @@ fn a_lane_moved_to_its_own_task<const N: usize, const B: usize>(layout: Layout) 
 fn a_lane_that_moves_to_its_own_task_during_the_tick_is_woken_by_the_next() {
     a_lane_moved_to_its_own_task::<8, 1>(Layout::One);
     a_lane_moved_to_its_own_task::<64, 2>(Layout::Second);
+}
+
+/// Lanes joined in one task share a waker: each tick with both their polls due wakes the
+/// task once, under either lock (the portable lock's walk in short sections and the coarse
+/// lock's one section each skip the waker just found).
+fn joined_lanes<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    let w = World::<L, N, B>::new(layout);
+    let (_, lane_a) = task_lane(w, "A");
+    let (_, lane_b) = task_lane(w, "B");
+    let (joined, wakes) = counting();
+    let poll_task = || {
+        lane_a.poll(&joined);
+        lane_b.poll(&joined);
+    };
+    poll_task();
+    for ms in 1..=3 {
+        w.tick(ms);
+        assert_eq!(
+            woken(&wakes),
+            ms as usize,
+            "{layout:?}: woken once at {ms} ms"
+        );
+        poll_task();
+        let checks = ms as usize + 1;
+        assert_eq!((lane_a.checks(), lane_b.checks()), (checks, checks));
+    }
+    w.check(&format!("{layout:?}"));
+}
+
+#[test]
+fn lanes_joined_in_one_task_are_woken_once_per_tick() {
+    every_world!(joined_lanes);
 }
