@@ -282,6 +282,40 @@ fn a_sequence_in_a_lane_gets_its_slot_at_registration() {
     assert!(seq.sequence_by_name("fan").is_none());
 }
 
+/// An installed table's sequences in lanes take the first lane slots, in table order: a
+/// table with two of them fits two slots and leaves none for a registration after it, and
+/// is refused whole by a sequencer of one slot.
+#[test]
+fn a_tables_sequences_in_lanes_take_the_first_slots() {
+    use rtseq::lock::CriticalSection;
+    const TWO_LANES: rtseq::Table<Ctrl, 3> = match rtseq::Table::new([
+        SeqConfig::new("main").in_lane(),
+        SeqConfig::new("stop"),
+        SeqConfig::new("fan").in_lane(),
+    ]) {
+        Ok(table) => table,
+        Err(e) => panic!("{}", e.reason()),
+    };
+    let two: Sequencer<Ctrl, 4, 64, CriticalSection, 2> = Sequencer::new();
+    assert!(two.is_empty());
+    assert_eq!(two.install(&TWO_LANES), Ok(()));
+    assert!(!two.is_empty());
+    assert_eq!(
+        two.register(SeqConfig::new("pump").in_lane()),
+        Err(Error::LaneCapacityExceeded(SeqId::from_index(3)))
+    );
+    assert_eq!(
+        two.register(SeqConfig::new("pump")),
+        Ok(SeqId::from_index(3))
+    );
+    let one: Sequencer<Ctrl, 4, 64, CriticalSection, 1> = Sequencer::new();
+    assert_eq!(
+        one.install(&TWO_LANES),
+        Err(Error::LaneCapacityExceeded(SeqId::from_index(2)))
+    );
+    assert!(one.is_empty());
+}
+
 /// A sequence counts the `PauseOwner` monitors that hold it paused in a byte: a table of 256
 /// of them, all of one sequence, is refused (by `add` and by the `const` table), one fewer
 /// or one of another owner is not.
