@@ -235,6 +235,22 @@ mod at_compile_time {
         }
     }
 
+    /// The error names the monitor by its place in the table, as `Monitors::table` numbers
+    /// them: a fine first monitor, then one owned by an unknown sequence.
+    #[test]
+    fn the_error_names_the_monitor_by_its_place() {
+        let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+        seq.install(&table(true)).unwrap();
+        let monitors = [jam(MOVES, STOP), jam(UNKNOWN, STOP)];
+        let want = Err(ConfigError::UnknownOwner {
+            monitor: (MonitorId::from_index(1), "jam"),
+            owner: UNKNOWN,
+        });
+        assert_eq!(table(true).validate(&monitors), want);
+        let monitors: Monitors<'static, Ctrl, 2, Cond> = Monitors::table(monitors).unwrap();
+        assert_eq!(seq.validate(&monitors), want);
+    }
+
     /// Evaluated by the compiler: the result is a constant.
     #[test]
     fn the_compiler_evaluates_the_check() {
