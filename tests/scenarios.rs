@@ -1173,6 +1173,8 @@ fn the_tick_wakes_only_the_lanes_that_must_act() {
 
 #[test]
 fn triggers_rising_falling_change_and_level() {
+    // True from 5 to 7 ms, and again from 12 to 13 ms.
+    let condition = |t: u64| matches!(t, 5..=7 | 12..=13);
     let fired = |trigger: Trigger| {
         let seq = Seqr::new();
         let ctrl = Ctrl::default();
@@ -1192,8 +1194,7 @@ fn triggers_rising_falling_change_and_level() {
             .unwrap();
         let mut sim = Sim::new(&seq, &ctrl, monitors);
         sim.lane(main);
-        // True from 5 to 7 ms, and again from 12 to 13 ms.
-        sim.before_tick(|t, c| c.set(0, matches!(ms(t), 5..=7 | 12..=13)));
+        sim.before_tick(|t, c| c.set(0, condition(ms(t))));
         sim.start(mi).unwrap();
         sim.run_for(Duration::from_millis(20));
         let fired = sim.monitors().fired(m);
@@ -1204,6 +1205,18 @@ fn triggers_rising_falling_change_and_level() {
     assert_eq!(fired(Trigger::FallingEdge), 2); // 8, 14
     assert_eq!(fired(Trigger::Change), 4); // 5, 8, 12, 14
     assert_eq!(fired(Trigger::Level), 5); // 5, 6, 7, 12, 13
+    // The tick fires exactly where `Trigger::fires` says, from "false" before the run.
+    for trigger in [
+        Trigger::RisingEdge,
+        Trigger::FallingEdge,
+        Trigger::Change,
+        Trigger::Level,
+    ] {
+        let by_fires = (1..=20)
+            .filter(|&t| trigger.fires(condition(t - 1), condition(t)))
+            .count();
+        assert_eq!(usize::from(fired(trigger)), by_fires, "{trigger:?}");
+    }
 }
 
 /// The pause/timeout scenario, started at `base`: its trace with times relative to `base`.
