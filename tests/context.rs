@@ -43,6 +43,73 @@ fn two_polled_conditions_awaited_at_once_both_end() {
     assert!(ctrl.flag(2));
 }
 
+/// Both conditions hold from the same poll (5 ms): the first wait takes the due poll and
+/// ends; the second checks its condition at that poll too and ends with it.
+#[test]
+fn two_polled_conditions_that_hold_at_the_same_poll_end_together() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let both = seq.add(SeqConfig::new("both"), Both).unwrap();
+    let id = both.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(both);
+    sim.before_tick(|t, c| {
+        c.set(0, ms(t) >= 5);
+        c.set(1, ms(t) >= 5);
+    });
+    sim.start(id).unwrap();
+    let done = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(done.map(ms), Some(5), "{}", show(sim.trace()));
+}
+
+/// A polled wait (X) beside a step followed by a second polled wait (Y), in one action
+/// (`join`). The sequence polls every 10 ms; the step ends at 13 ms and wakes the lane off
+/// the grid, where Y, new and already true, ends at once. X's condition holds from 12 ms,
+/// but X is checked only at the sequence's polls: it ends at 20 ms, not with Y at 13.
+struct OffGrid {
+    step: rtseq::Seq<Leaf>,
+}
+impl Sequence<Ctrl> for OffGrid {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let step_then_y = async {
+            let _ = cx.step(&mut self.step).await;
+            cx.wait_until(|_| true).await;
+        };
+        let x = async {
+            cx.wait_until(|cx| cx.control().flag(1)).await;
+            cx.control().set(2, true);
+        };
+        join(step_then_y, x).await;
+        Ok(())
+    }
+}
+
+#[test]
+fn a_new_polled_wait_ending_off_the_grid_does_not_take_the_others_off_it() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq.add(SeqConfig::new("C"), Leaf::until(0)).unwrap();
+    let off = seq
+        .add(
+            SeqConfig::new("off grid").polling(Duration::from_millis(10)),
+            OffGrid { step },
+        )
+        .unwrap();
+    let id = off.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(off);
+    sim.before_tick(|t, c| {
+        c.set(0, ms(t) >= 13);
+        c.set(1, ms(t) >= 12);
+    });
+    sim.start(id).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(19_000));
+    assert!(!ctrl.flag(2), "X ended off its grid: {}", show(sim.trace()));
+    let done = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(done.map(ms), Some(20), "{}", show(sim.trace()));
+    assert!(ctrl.flag(2));
+}
+
 /// A step S (polled every 10 ms, grid 10, 20, ...) has a monitor (flag 0, rising at
 /// 10 ms, `Behaviour::Nothing`) whose exception sequence E waits 3 ms. S's exit
 /// condition (flag 1) holds from 12 ms. The tick at 10 ms marked S's poll due before the

@@ -1205,7 +1205,7 @@ fn triggers_rising_falling_change_and_level() {
     assert_eq!(fired(Trigger::FallingEdge), 2); // 8, 14
     assert_eq!(fired(Trigger::Change), 4); // 5, 8, 12, 14
     assert_eq!(fired(Trigger::Level), 5); // 5, 6, 7, 12, 13
-    // The tick fires exactly where `Trigger::fires` says, from "false" before the run.
+                                          // The tick fires exactly where `Trigger::fires` says, from "false" before the run.
     for trigger in [
         Trigger::RisingEdge,
         Trigger::FallingEdge,
