@@ -29,6 +29,7 @@ fn monitor_ids_stay_in_registration_order_while_the_table_groups_by_owner() {
         |c: &Ctrl, _| c.flag(2),
     );
     let mut monitors: Monitors<Ctrl, 3> = Monitors::new();
+    assert!(monitors.is_empty());
     let m0 = monitors
         .add(b, Monitor::new("b0", &mut f0, Behaviour::Nothing))
         .unwrap();
@@ -43,6 +44,7 @@ fn monitor_ids_stay_in_registration_order_while_the_table_groups_by_owner() {
         [0, 1, 2].map(MonitorId::from_index),
         "ids follow registration"
     );
+    assert_eq!((monitors.len(), monitors.is_empty()), (3, false));
     assert_eq!(
         [m0, m1, m2].map(|m| (monitors.name(m), monitors.owner(m))),
         [
