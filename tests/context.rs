@@ -292,3 +292,26 @@ fn an_exit_condition_is_not_checked_after_an_abort_during_the_action() {
     assert_eq!(sim.state(id), rtseq::RunningState::Aborted);
     assert_eq!(EXIT_CHECKS.load(std::sync::atomic::Ordering::SeqCst), 0);
 }
+
+/// An action finds sequences by name through its context, itself included.
+struct Lookup;
+impl Sequence<Ctrl> for Lookup {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let own = cx.sequence_by_name("lookup").map(|h| h.id());
+        cx.control().set(3, own == Some(cx.id()));
+        cx.control().set(4, cx.sequence_by_name("nope").is_none());
+        Ok(())
+    }
+}
+
+#[test]
+fn an_action_finds_sequences_by_name() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let lookup = seq.add(SeqConfig::new("lookup"), Lookup).unwrap();
+    let id = lookup.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(lookup);
+    sim.start(id).unwrap();
+    assert_eq!((ctrl.flag(3), ctrl.flag(4)), (true, true));
+}
