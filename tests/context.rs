@@ -315,3 +315,47 @@ fn an_action_finds_sequences_by_name() {
     sim.start(id).unwrap();
     assert_eq!((ctrl.flag(3), ctrl.flag(4)), (true, true));
 }
+
+/// A dwell whose duration the action changes between two runs of it: 2 ms, then 5 ms.
+struct Dwells {
+    dwell: rtseq::Seq<rtseq::Wait>,
+}
+impl Sequence<Ctrl> for Dwells {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.step(&mut self.dwell)
+            .await
+            .map_err(|_| Failure::App(1))?;
+        self.dwell.body_mut().set_duration(Duration::from_millis(5));
+        cx.step(&mut self.dwell)
+            .await
+            .map_err(|_| Failure::App(2))?;
+        Ok(())
+    }
+}
+
+#[test]
+fn a_dwell_changed_between_runs_waits_its_new_duration() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(
+            SeqConfig::new("dwell"),
+            rtseq::Wait::new(Duration::from_millis(2)),
+        )
+        .unwrap();
+    let d = dwell.id();
+    let main = seq.add(SeqConfig::new("main"), Dwells { dwell }).unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    let done = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(done.map(ms), Some(7), "{}", show(sim.trace()));
+    let ends: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == d && t.to == rtseq::RunningState::Terminated)
+        .map(|t| ms(t.time))
+        .collect();
+    assert_eq!(ends, [2, 7]);
+}
