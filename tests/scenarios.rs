@@ -905,9 +905,16 @@ fn an_installed_table_runs_exactly_like_the_same_registrations() {
 
 #[test]
 fn a_table_goes_into_an_empty_sequencer_only() {
+    assert_eq!((TABLE.len(), TABLE.is_empty()), (4, false));
+    let none: rtseq::Table<Ctrl, 0> = match rtseq::Table::new([]) {
+        Ok(table) => table,
+        Err(e) => panic!("{}", e.reason()),
+    };
+    assert_eq!((none.len(), none.is_empty()), (0, true));
     let seq = Seqr::new();
     seq.install(&TABLE).unwrap();
     assert_eq!(seq.install(&TABLE), Err(Error::NotEmpty));
+    assert_eq!(Error::NotEmpty.reason(), "sequencer not empty");
     assert_eq!(seq.len(), 4);
     // Registration goes on after the table, with its checks.
     assert_eq!(
@@ -992,6 +999,15 @@ fn registry_errors_are_reported_not_panicked() {
         monitors.add(a, Monitor::new("m2", &mut t2, Behaviour::Nothing)),
         Err(Error::MonitorCapacityExceeded)
     ));
+    // Ids past the last of a sequencer of 256 saturate.
+    assert_eq!(
+        [254, 255, 256, 1_000].map(|i| SeqId::from_index(i).index()),
+        [254, 255, 255, 255]
+    );
+    assert_eq!(
+        [254, 255, 256, 1_000].map(|i| rtseq::MonitorId::from_index(i).index()),
+        [254, 255, 255, 255]
+    );
     // Every `SeqId` is one a sequencer of 256 can hand out: an owner that is not
     // registered is `Sequencer::validate`'s error (tests/validation.rs).
     // One polling class per distinct period, at most `MAX_POLLING_CLASSES`; a period
