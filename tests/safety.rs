@@ -1194,6 +1194,26 @@ mod told {
         assert_eq!(cycle(&mut sim), ["level emergency", "abort all"]);
         assert!(cycle(&mut sim).is_empty());
     }
+
+    /// An application that keeps its sequences as a reference (`&'static Sequencer`,
+    /// say) and passes that on: every call reaches the referenced sequences.
+    #[test]
+    fn a_reference_to_the_sequences_is_told_everything() {
+        let log: Log = Rc::default();
+        let mut sim = Sim::new(&log);
+        let told = Told::default();
+        let by_reference: &Told = &told;
+        let handle = SafetyHandle::new();
+        let mut ss = SafetySystem::new(&PROPS, &handle).unwrap();
+        let mut cycle = |sim: &mut Sim| {
+            ss.cycle(sim, &by_reference);
+            told.take()
+        };
+        assert_eq!(cycle(&mut sim), ["level off"]);
+        sim.inputs[0] = IoValue::Bool(true);
+        assert_eq!(cycle(&mut sim), ["tripped estop"]);
+        assert_eq!(cycle(&mut sim), ["level emergency", "abort all"]);
+    }
 }
 
 // ---------------------------------------------------------------------------
@@ -1793,4 +1813,238 @@ fn a_bound_static_handle_still_refuses_a_second_live_system() {
     drop(first);
     let second = SafetySystem::new(&PROPS, &STATIC_HANDLE);
     assert!(second.is_ok());
+}
+
+// ---------------------------------------------------------------------------
+// Events waiting in several places at once: each is taken in the next cycle
+// ---------------------------------------------------------------------------
+
+/// A rig whose first cycle has run (level OFF), its log cleared.
+fn started_in_off(handle: &SafetyHandle) -> Rig<'_> {
+    let mut rig = Rig::new(handle);
+    rig.cycle();
+    assert!(rig.ss.is_started());
+    rig.take_log();
+    rig
+}
+
+#[test]
+fn a_known_and_an_out_of_range_event_from_outside_are_taken_in_one_cycle() {
+    let handle = SafetyHandle::new();
+    let mut rig = started_in_off(&handle);
+    handle.trigger(SWITCH_ON);
+    handle.trigger(PublicEvent::new(40));
+    let r = rig.cycle();
+    assert_eq!((r.change, r.unknown_events), (change(OFF, POWER_ON), 1));
+    assert_eq!(
+        rig.ss.last_unknown_event(),
+        Some(UnknownEvent {
+            event: EventId::public(40),
+            level: OFF
+        })
+    );
+}
+
+#[test]
+fn an_out_of_range_event_from_outside_and_one_from_inside_are_taken_in_one_cycle() {
+    let handle = SafetyHandle::new();
+    let mut rig = started_in_off(&handle);
+    rig.sim.level_private.push(ESTOP);
+    assert_eq!(rig.cycle().change, None); // ESTOP waits for the next cycle
+    handle.trigger(PublicEvent::new(40));
+    let r = rig.cycle();
+    assert_eq!((r.change, r.unknown_events), (change(OFF, EMERGENCY), 1));
+}
+
+#[test]
+fn a_private_and_an_out_of_range_public_event_from_inside_are_taken_in_one_cycle() {
+    let handle = SafetyHandle::new();
+    let mut rig = started_in_off(&handle);
+    rig.sim.level_private.push(ESTOP);
+    rig.sim.level_public.push(PublicEvent::new(40));
+    assert_eq!(rig.cycle().change, None);
+    let r = rig.cycle();
+    assert_eq!((r.change, r.unknown_events), (change(OFF, EMERGENCY), 1));
+}
+
+/// A public and a private event of the same index, both raised by a level action.
+#[test]
+fn a_public_and_a_private_event_of_one_index_from_inside_are_both_resolved() {
+    let handle = SafetyHandle::new();
+    let mut rig = started_in_off(&handle);
+    rig.sim.level_public.push(SWITCH_ON); // public 0: OFF -> POWER ON
+    rig.sim.level_private.push(ESTOP); // private 0: -> EMERGENCY, the safer
+    assert_eq!(rig.cycle().change, None);
+    assert_eq!(rig.cycle().change, change(OFF, EMERGENCY));
+}
+
+/// The same public event raised by a level action and triggered from outside before the
+/// next cycle is one event.
+#[test]
+fn a_public_event_from_inside_and_outside_at_once_is_taken_once() {
+    let handle = SafetyHandle::new();
+    let mut rig = started_in_off(&handle);
+    rig.sim.level_public.push(SWITCH_ON);
+    assert_eq!(rig.cycle().change, None);
+    handle.trigger(SWITCH_ON);
+    let r = rig.cycle();
+    assert_eq!((r.change, r.unknown_events), (change(OFF, POWER_ON), 0));
+    assert_eq!(rig.ss.stats(POWER_ON).unwrap().activations, 1);
+}
+
+// ---------------------------------------------------------------------------
+// Values, names, equality and diagnostic forms
+// ---------------------------------------------------------------------------
+
+#[test]
+fn io_values_give_their_own_kind_only() {
+    let values = [IoValue::Bool(true), IoValue::Int(-7), IoValue::Float(2.5)];
+    let as_bool: Vec<_> = values.iter().map(|v| v.as_bool()).collect();
+    let as_int: Vec<_> = values.iter().map(|v| v.as_int()).collect();
+    let as_float: Vec<_> = values.iter().map(|v| v.as_float()).collect();
+    assert_eq!(as_bool, [Some(true), None, None]);
+    assert_eq!(as_int, [None, Some(-7), None]);
+    assert_eq!(as_float, [None, None, Some(2.5)]);
+    assert_eq!(IoValue::Bool(false).as_bool(), Some(false));
+    assert_eq!(IoValue::Int(0).as_int(), Some(0));
+}
+
+#[test]
+fn inputs_and_outputs_keep_their_names() {
+    assert_eq!(ESTOP_IN.name(), "estop pressed");
+    assert_eq!(SPEED.name(), "speed");
+    assert_eq!(ENABLE.name(), "drive enable");
+    assert_eq!(DUTY.name(), "duty");
+    assert_eq!(
+        format!("{ESTOP_IN:?}"),
+        r#"CriticalInput { id: InputId(0), name: "estop pressed" }"#
+    );
+    assert_eq!(
+        format!("{DUTY:?}"),
+        r#"CriticalOutput { id: OutputId(2), name: "duty" }"#
+    );
+}
+
+#[test]
+fn events_are_equal_by_index() {
+    assert_eq!(SWITCH_ON, PublicEvent::new(0));
+    assert_ne!(SWITCH_ON, SWITCH_OFF);
+    assert_eq!(HOMED, PrivateEvent::new(2));
+    assert_ne!(HOMED, OVERCURRENT);
+}
+
+#[test]
+fn events_and_levels_are_shown_by_kind_and_number() {
+    assert_eq!(EventId::public(3).to_string(), "public event 3");
+    assert_eq!(EventId::private(200).to_string(), "private event 200");
+    assert_eq!(format!("{STOP:?}"), format!("{:?}", EventId::public(3)));
+    assert_eq!(format!("{HOMED:?}"), format!("{:?}", EventId::private(2)));
+    assert_eq!(MOVING.to_string(), "level 5");
+}
+
+#[test]
+fn properties_and_systems_show_their_definitions_and_state() {
+    let props = format!("{PROPS:?}");
+    assert!(
+        props.starts_with(
+            "SafetyProperties { levels: [LevelDef { level: SafetyLevel(0), name: \"emergency\", "
+        ),
+        "{props}"
+    );
+    assert!(props.ends_with(", entry: SafetyLevel(1) }"), "{props}");
+    for name in NAMES {
+        assert!(props.contains(&format!("name: \"{name}\"")), "{name}");
+    }
+    const ONE_LEVEL: SafetyProperties<'static, Sim, 1> = SafetyProperties::new(
+        [LevelDef::new(SafetyLevel::new(0), "only")],
+        &[],
+        &[],
+        &[],
+        SafetyLevel::new(0),
+    );
+    let valid = format!("{:?}", ONE_LEVEL.validated().unwrap());
+    assert_eq!(valid, format!("ValidProperties({ONE_LEVEL:?})"));
+    assert!(valid.contains("name: \"only\""), "{valid}");
+
+    let handle = SafetyHandle::new();
+    let rig = started_in_off(&handle);
+    let system = format!("{:?}", rig.ss);
+    assert!(
+        system.starts_with("SafetySystem { level: SafetyLevel(1), started: true, "),
+        "{system}"
+    );
+    assert!(
+        system.ends_with("unknown_events: 0, last_unknown: None }"),
+        "{system}"
+    );
+}
+
+/// The safety system's input and output lists hold up to 32 entries each.
+#[test]
+fn thirty_two_inputs_and_outputs_are_accepted_and_thirty_three_refused() {
+    struct NoIo;
+    impl SafetyIo for NoIo {
+        fn read_input(&mut self, _: InputId) -> IoValue {
+            IoValue::Bool(false)
+        }
+        fn write_output(&mut self, _: OutputId, _: IoValue) {}
+    }
+    const fn inputs<const K: usize>() -> [CriticalInputInfo; K] {
+        let mut list = [CriticalInput::<bool>::new(0, "in").info(); K];
+        let mut i = 0;
+        while i < K {
+            list[i] = CriticalInput::<bool>::new(i as u8, "in").info();
+            i += 1;
+        }
+        list
+    }
+    const fn outputs<const K: usize>() -> [CriticalOutputInfo; K] {
+        let mut list = [CriticalOutput::<bool>::new(0, "out").info(); K];
+        let mut i = 0;
+        while i < K {
+            list[i] = CriticalOutput::<bool>::new(i as u8, "out").info();
+            i += 1;
+        }
+        list
+    }
+    const OFF_ONLY: SafetyLevel = SafetyLevel::new(0);
+    static IN_32: [CriticalInputInfo; 32] = inputs::<32>();
+    static IN_33: [CriticalInputInfo; 33] = inputs::<33>();
+    static OUT_32: [CriticalOutputInfo; 32] = outputs::<32>();
+    static OUT_33: [CriticalOutputInfo; 33] = outputs::<33>();
+    let level = |inputs: &'static [InputAction], outputs: &'static [OutputAction]| {
+        [LevelDef::<NoIo>::new(OFF_ONLY, "off")
+            .inputs(inputs)
+            .outputs(outputs)]
+    };
+    static IGNORE_32: [InputAction; 32] = {
+        let mut list = [CriticalInput::<bool>::new(0, "in").ignore(); 32];
+        let mut i = 0;
+        while i < 32 {
+            list[i] = CriticalInput::<bool>::new(i as u8, "in").ignore();
+            i += 1;
+        }
+        list
+    };
+    static LEAVE_32: [OutputAction; 32] = {
+        let mut list = [CriticalOutput::<bool>::new(0, "out").leave(); 32];
+        let mut i = 0;
+        while i < 32 {
+            list[i] = CriticalOutput::<bool>::new(i as u8, "out").leave();
+            i += 1;
+        }
+        list
+    };
+    let full = SafetyProperties::new(level(&IGNORE_32, &LEAVE_32), &IN_32, &OUT_32, &[], OFF_ONLY);
+    assert_eq!(full.validate(), Ok(()));
+    let inputs_33 = SafetyProperties::new(level(&[], &[]), &IN_33, &[], &[], OFF_ONLY);
+    assert_eq!(
+        inputs_33.validate(),
+        Err(SafetyError::TooManyInputs { count: 33 })
+    );
+    let outputs_33 = SafetyProperties::new(level(&[], &[]), &[], &OUT_33, &[], OFF_ONLY);
+    assert_eq!(
+        outputs_33.validate(),
+        Err(SafetyError::TooManyOutputs { count: 33 })
+    );
 }

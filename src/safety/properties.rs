@@ -10,7 +10,7 @@ use super::input::{CriticalInputInfo, InputAction, InputCheck};
 use super::io::{IoValue, OutputId};
 use super::level::SafetyLevel;
 use super::level_def::LevelDef;
-use super::output::{CriticalOutputInfo, OutputAction, OutputMode};
+use super::output::{CriticalOutputInfo, OutputAction};
 use super::transition::LevelTransition;
 use super::{MAX_INPUTS, MAX_OUTPUTS};
 
@@ -491,15 +491,8 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
                 });
             }
             seen |= bit;
-            let kind_ok = info.kind().same(action.kind())
-                && match action.mode() {
-                    OutputMode::Set(v) => info.kind().same(v.kind()),
-                    OutputMode::Leave => true,
-                    OutputMode::Toggle { low, high } => {
-                        info.kind().same(low.kind()) && info.kind().same(high.kind())
-                    }
-                };
-            if !kind_ok {
+            // The typed constructors give an action's values the action's kind.
+            if !info.kind().same(action.kind()) {
                 return Err(SafetyError::OutputKindMismatch {
                     level,
                     level_name,
