@@ -6,8 +6,8 @@ use common::*;
 use rtseq::safety::{LevelDef, SafetyLevel, SafetyProperties};
 use rtseq::sim::Sim;
 use rtseq::{
-    Behaviour, Cause, Duration, Monitor, MonitorId, Monitors, Outcome, SeqConfig, SeqId, Sequencer,
-    WithNames,
+    Behaviour, Cause, Duration, Failure, Failures, Monitor, MonitorId, Monitors, Names, Outcome,
+    SeqConfig, SeqId, Sequencer, WithNames,
 };
 
 #[test]
@@ -85,5 +85,94 @@ fn safety_levels_print_with_their_names() {
     assert_eq!(
         format!("{} at {}", id.named(&all), OFF.named(&all)),
         "main at off"
+    );
+}
+
+/// Failure codes, sequences and monitors are found whichever source of a pair or a triple
+/// names them, and a source that does not name a kind leaves it to the others.
+#[test]
+fn each_kind_of_name_is_found_in_any_source_of_a_tuple() {
+    const FAILURES: Failures = Failures(&[(1, "part lost"), (2, "gripper stuck")]);
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let main = seq.register(SeqConfig::new("main")).unwrap();
+    let mut never = |_: &(), _| false;
+    let mut monitors: Monitors<(), 1> = Monitors::new();
+    let jam = monitors
+        .add(main, Monitor::new("jam", &mut never, Behaviour::AbortOwner))
+        .unwrap();
+
+    let failure_last = (&seq, &FAILURES);
+    let sequence_last = (&monitors, &seq);
+    let triple = (&seq, &monitors, &FAILURES);
+    let reversed = (&FAILURES, &monitors, &seq);
+    assert_eq!(
+        Failure::App(2).named(&failure_last).to_string(),
+        "gripper stuck"
+    );
+    assert_eq!(main.named(&sequence_last).to_string(), "main");
+    assert_eq!(jam.named(&sequence_last).to_string(), "monitor `jam`");
+    for names in [&triple as &dyn Names, &reversed] {
+        assert_eq!(Failure::App(1).named(names).to_string(), "part lost");
+        assert_eq!(main.named(names).to_string(), "main");
+        assert_eq!(jam.named(names).to_string(), "monitor `jam`");
+        assert_eq!(Failure::App(9).named(names).to_string(), "failure #9");
+    }
+}
+
+/// The simulator's trace file names the safety levels and critical inputs it was given
+/// (`Sim::name_safety`) and numbers the others.
+#[test]
+fn the_trace_file_names_safety_levels_and_inputs() {
+    use rtseq::safety::{CriticalInput, Sequences};
+    const OFF: SafetyLevel = SafetyLevel::new(0);
+    const ON: SafetyLevel = SafetyLevel::new(1);
+    const UNNAMED: SafetyLevel = SafetyLevel::new(4);
+    const ESTOP: CriticalInput<bool> = CriticalInput::new(0, "estop");
+    const DOOR: CriticalInput<bool> = CriticalInput::new(1, "door \"left\"");
+    static PROPS: SafetyProperties<'static, (), 2> = SafetyProperties::new(
+        [LevelDef::new(OFF, "off"), LevelDef::new(ON, "powered")],
+        &[ESTOP.info(), DOOR.info()],
+        &[],
+        &[],
+        OFF,
+    );
+    let record = |named: bool| {
+        let seq: Sequencer<(), 2> = Sequencer::new();
+        let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+        if named {
+            sim.name_safety(&PROPS);
+        }
+        seq.level_entered(ON);
+        seq.input_tripped(DOOR.id());
+        seq.input_tripped(CriticalInput::<bool>::new(7, "none").id());
+        seq.level_entered(UNNAMED);
+        sim.step();
+        let mut file = Vec::new();
+        sim.write_trace(&mut file).unwrap();
+        String::from_utf8(file).unwrap()
+    };
+    let lines = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| l.contains("\"level\"") || l.contains("\"input\""))
+            .map(String::from)
+            .collect()
+    };
+    assert_eq!(
+        lines(&record(true)),
+        [
+            r#"{"t":1000,"level":"powered","id":1}"#,
+            r#"{"t":1000,"event":"input","input":1,"name":"door \"left\"","text":"critical input 'door \"left\"' tripped"}"#,
+            r#"{"t":1000,"event":"input","input":7,"name":"input 7","text":"critical input 'input 7' tripped"}"#,
+            r#"{"t":1000,"level":"level 4","id":4}"#,
+        ]
+    );
+    assert_eq!(
+        lines(&record(false)),
+        [
+            r#"{"t":1000,"level":"level 1","id":1}"#,
+            r#"{"t":1000,"event":"input","input":1,"name":"input 1","text":"critical input 'input 1' tripped"}"#,
+            r#"{"t":1000,"event":"input","input":7,"name":"input 7","text":"critical input 'input 7' tripped"}"#,
+            r#"{"t":1000,"level":"level 4","id":4}"#,
+        ]
     );
 }

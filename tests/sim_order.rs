@@ -226,10 +226,58 @@ fn a_tick_period_of_zero_is_an_error() {
     let seq: Sequencer<(), 2> = Sequencer::new();
     let sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).with_period(Duration::from_ticks(0));
     assert_eq!(sim.err(), Some(SimError::ZeroPeriod));
+    assert_eq!(
+        SimError::ZeroPeriod.to_string(),
+        "the tick period must be longer than 0"
+    );
     // The shortest period, 1 µs, works and ends.
     let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
         .with_period(Duration::from_ticks(1))
         .unwrap();
     sim.run_for(Duration::from_ticks(3));
     assert_eq!(sim.now(), Instant::from_ticks(3));
+}
+
+/// A task of the application's own that wakes itself by value (a consumed clone of its
+/// waker, as a hand-written yield does) is polled again in the same settle.
+#[test]
+fn a_task_that_wakes_itself_by_value_is_polled_again() {
+    use core::convert::Infallible;
+    use core::future::Future;
+    use core::pin::Pin;
+    use core::task::{Context, Poll};
+    use std::cell::Cell;
+
+    /// Yields `left` times, each time by waking a clone of its waker, then pends for good.
+    struct YieldByValue<'a> {
+        left: u32,
+        polls: &'a Cell<u32>,
+    }
+    impl Future for YieldByValue<'_> {
+        type Output = Infallible;
+        fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Infallible> {
+            self.polls.set(self.polls.get() + 1);
+            if self.left > 0 {
+                self.left -= 1;
+                cx.waker().clone().wake();
+            }
+            Poll::Pending
+        }
+    }
+
+    let polls = Cell::new(0);
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    sim.task_with_priority(
+        YieldByValue {
+            left: 2,
+            polls: &polls,
+        },
+        DEFAULT_LANE_PRIORITY,
+    );
+    assert_eq!(polls.get(), 3);
+    assert_eq!(sim.lane_polls(), [3]);
+    sim.step();
+    assert_eq!(polls.get(), 3, "not woken again, not polled again");
+    assert!(!sim.stalled());
 }
