@@ -1,5 +1,6 @@
 //! Names everywhere: a run's trace, causes, outcomes and safety levels print with the names
-//! of the application's tables (`WithNames`), not numbers.
+//! of the application's tables (`WithNames`), not numbers; so does the simulator's trace
+//! file.
 
 mod common;
 use common::*;
@@ -175,4 +176,58 @@ fn the_trace_file_names_safety_levels_and_inputs() {
             r#"{"t":1000,"level":"level 4","id":4}"#,
         ]
     );
+}
+
+/// The simulator's trace file (`docs/trace-format.md`): the header with the sequences, their
+/// callers and the monitors, then every record in order, names quoted as JSON strings.
+#[test]
+fn the_trace_file_holds_the_run_with_its_names() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq
+        .add(SeqConfig::new("move \"fast\""), Leaf::until(1))
+        .unwrap();
+    let main = seq
+        .add(SeqConfig::new("cycle\\1"), Node::of(vec![Op::Step(step)]))
+        .unwrap();
+    let id = main.id();
+    let mut jam = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    monitors
+        .add(id, Monitor::new("jam\t1", &mut jam, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.before_tick(|t, c| c.set(2, ms(t) == 2));
+    sim.start(id).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    let mut file = Vec::new();
+    sim.write_trace(&mut file).unwrap();
+    let text = String::from_utf8(file).unwrap();
+    assert_eq!(
+        text.lines().collect::<Vec<_>>(),
+        [
+            concat!(
+                r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":3000,"lost":0,"#,
+                r#""sequences":[{"id":0,"name":"move \"fast\"","caller":1},"#,
+                r#"{"id":1,"name":"cycle\\1","caller":null}],"#,
+                r#""monitors":[{"id":0,"name":"jam\u00091","owner":1}]}"#
+            ),
+            r#"{"t":0,"seq":1,"from":"Idle","to":"Running","cause":"start"}"#,
+            r#"{"t":0,"seq":0,"from":"Idle","to":"Running","cause":"start"}"#,
+            concat!(
+                r#"{"t":2000,"event":"monitor","owner":1,"behaviour":"AbortOwner","monitor":0,"#,
+                r#""text":"monitor 'jam\u00091' of 'cycle\\1' fired: AbortOwner"}"#
+            ),
+            r#"{"t":2000,"seq":0,"from":"Running","to":"Aborting","cause":"monitor","monitor":0}"#,
+            r#"{"t":2000,"seq":0,"from":"Aborting","to":"Aborted","cause":"monitor","monitor":0}"#,
+            r#"{"t":2000,"seq":1,"from":"Running","to":"Aborting","cause":"monitor","monitor":0}"#,
+            r#"{"t":2000,"seq":1,"from":"Aborting","to":"Aborted","cause":"monitor","monitor":0}"#,
+        ]
+    );
+    let path = std::env::temp_dir().join(format!("rtseq-names-{}.jsonl", std::process::id()));
+    sim.save_trace(&path).unwrap();
+    let saved = std::fs::read_to_string(&path).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    assert_eq!(saved, text);
 }

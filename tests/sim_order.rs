@@ -1,7 +1,9 @@
 //! The simulator polls lanes in RTIC 2's order: the highest woken priority first, a lane of
 //! higher priority woken by a poll before the pass of the lower level goes on (preemption),
 //! lanes of equal priority in a fixed order per pass, or shuffled per seed
-//! (`Sim::shuffle_equal_priorities`). And a tick period of 0 is an error, not a hang.
+//! (`Sim::shuffle_equal_priorities`). And the simulator's limits: a tick period of 0 is an
+//! error, not a hang; `run_until_idle` never runs past its limit; a full trace buffer counts
+//! what it lost; a lane that wakes itself forever stops at the poll bound.
 
 use rtseq::sim::{Sim, SimError, DEFAULT_LANE_PRIORITY};
 use rtseq::Cause::{Completed, Start};
@@ -280,4 +282,161 @@ fn a_task_that_wakes_itself_by_value_is_polled_again() {
     sim.step();
     assert_eq!(polls.get(), 3, "not woken again, not polled again");
     assert!(!sim.stalled());
+}
+
+/// `run_until_idle` runs whole ticks up to its limit, never past it: idle exactly at the
+/// limit counts, and a limit between two ticks stops at the tick before it.
+#[test]
+fn run_until_idle_stops_at_its_limit_never_past_it() {
+    let seq: Sequencer<(), 4> = Sequencer::new();
+    let wait = seq
+        .add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(30)))
+        .unwrap();
+    let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    let id = main.id();
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    sim.lane(main);
+    sim.start(id).unwrap();
+    assert_eq!(sim.run_until_idle(Duration::from_micros(2_500)), None);
+    assert_eq!(sim.now(), Instant::from_ticks(2_000));
+    assert_eq!(sim.run_until_idle(Duration::from_millis(8)), None);
+    assert_eq!(sim.now(), Instant::from_ticks(10_000));
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)),
+        Some(Instant::from_ticks(30_000))
+    );
+    assert_eq!(sim.now(), Instant::from_ticks(30_000));
+    // Already idle: no tick.
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)),
+        Some(Instant::from_ticks(30_000))
+    );
+}
+
+/// At the end of simulated time `run_until` ends: the clock saturates, it does not hang.
+#[test]
+fn run_until_the_end_of_time_ends() {
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let start = Instant::from_ticks(u64::MAX - 1_500);
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).starting_at(start);
+    sim.run_until(Instant::from_ticks(u64::MAX));
+    assert_eq!(sim.now(), Instant::from_ticks(u64::MAX));
+}
+
+/// Transitions that do not fit the sequencer's trace buffer between two drains are
+/// counted, not silently dropped: the buffer keeps the newest.
+#[test]
+fn transitions_beyond_the_trace_buffer_are_counted_as_lost() {
+    let seq: Sequencer<(), 4, 1> = Sequencer::new();
+    let wait = seq
+        .add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(3)))
+        .unwrap();
+    let wait_id = wait.id();
+    let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    let id = main.id();
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    sim.lane(main);
+    sim.start(id).unwrap();
+    // main's start and the wait's, in one settle: the ring keeps the newest.
+    assert_eq!(sim.lost(), 1);
+    assert_eq!(
+        sim.trace(),
+        [Transition::at_millis(0, wait_id, Idle, Running, Start)]
+    );
+}
+
+/// A tick of the sequencer made by hand past the simulator's time makes the simulator's
+/// ticks fail, and the simulator says so.
+#[test]
+fn a_tick_by_hand_past_the_simulators_time_is_reported() {
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    sim.run_for(Duration::from_millis(2));
+    assert_eq!(sim.tick_error(), None);
+    let mut none = Monitors::<(), 1>::new();
+    seq.tick(Instant::from_ticks(5_000), &(), &mut none)
+        .unwrap();
+    sim.run_until(Instant::from_ticks(3_000));
+    assert_eq!(sim.tick_error(), Some(rtseq::Error::TickBeforeLast));
+}
+
+/// A task that wakes itself forever.
+struct Spin<'a> {
+    polls: &'a std::cell::Cell<u32>,
+}
+
+impl core::future::Future for Spin<'_> {
+    type Output = core::convert::Infallible;
+    fn poll(
+        self: core::pin::Pin<&mut Self>,
+        cx: &mut core::task::Context<'_>,
+    ) -> core::task::Poll<Self::Output> {
+        self.polls.set(self.polls.get() + 1);
+        cx.waker().wake_by_ref();
+        core::task::Poll::Pending
+    }
+}
+
+/// A livelock (a lane that wakes itself forever) stops at the settle's bound of 100 000
+/// polls and is reported, at the lane's own priority and when it preempts another.
+#[test]
+fn a_lane_that_wakes_itself_forever_stops_at_the_poll_bound() {
+    let polls = std::cell::Cell::new(0);
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    assert!(!sim.stalled());
+    sim.task_with_priority(Spin { polls: &polls }, 1);
+    assert!(sim.stalled());
+    assert_eq!(polls.get(), 100_001);
+
+    // The spinning lane preempts a lane of lower priority, which woke it.
+    struct WakeOther<'a>(&'a std::cell::RefCell<Option<core::task::Waker>>);
+    impl core::future::Future for WakeOther<'_> {
+        type Output = core::convert::Infallible;
+        fn poll(
+            self: core::pin::Pin<&mut Self>,
+            _: &mut core::task::Context<'_>,
+        ) -> core::task::Poll<Self::Output> {
+            if let Some(w) = self.0.borrow_mut().take() {
+                w.wake();
+            }
+            core::task::Poll::Pending
+        }
+    }
+    /// Parks its waker on the first poll; spins from the second on.
+    struct SpinOnceWoken<'a> {
+        waker: &'a std::cell::RefCell<Option<core::task::Waker>>,
+        spin: Spin<'a>,
+    }
+    impl core::future::Future for SpinOnceWoken<'_> {
+        type Output = core::convert::Infallible;
+        fn poll(
+            mut self: core::pin::Pin<&mut Self>,
+            cx: &mut core::task::Context<'_>,
+        ) -> core::task::Poll<Self::Output> {
+            if self.spin.polls.get() == 0 {
+                self.spin.polls.set(1);
+                *self.waker.borrow_mut() = Some(cx.waker().clone());
+                return core::task::Poll::Pending;
+            }
+            core::pin::Pin::new(&mut self.spin).poll(cx)
+        }
+    }
+    let (high_polls, waker) = (std::cell::Cell::new(0), std::cell::RefCell::new(None));
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    sim.task_with_priority(
+        SpinOnceWoken {
+            waker: &waker,
+            spin: Spin { polls: &high_polls },
+        },
+        2,
+    );
+    assert!(!sim.stalled());
+    sim.task_with_priority(WakeOther(&waker), 1);
+    assert!(sim.stalled());
+    // The settle's 100 001 polls: the waking lane's one and the spinning lane's 100 000,
+    // after its first.
+    assert_eq!(high_polls.get(), 1 + 100_000);
+    assert_eq!(sim.lane_polls(), [100_001, 1]);
 }
