@@ -6,7 +6,10 @@
 //! its monitors', [`SafetyProperties`] their levels', [`Failures`] the application's
 //! failure codes; a tuple of sources asks each in turn. [`WithNames::named`] pairs a
 //! value (an id, a [`Cause`], an [`Outcome`], a [`Failure`], a [`Transition`], a
-//! [`SafetyLevel`]) with a source for printing:
+//! [`SafetyLevel`]) with a source for printing. The `defmt` forms read as the `Display`
+//! forms, but for one part: the error of a [`Failure::NotStarted`] prints in
+//! [`Error`](crate::Error)'s own `defmt` form, its variant and id
+//! (`not started: AlreadyRunning(SeqId(1))`).
 //!
 //! ```
 //! use rtseq::{Behaviour, Cause, Instant, Monitor, Monitors, RunningState, SeqConfig, Sequencer,

@@ -140,6 +140,84 @@ fn invalid_configuration_is_logged_as_on_the_host() {
     );
 }
 
+/// Values logged with names on the target (`WithNames`'s defmt forms) read as the host
+/// prints them (`Display`), from the same tables: the firmware's sequencer (`main`,
+/// `safe stop`) and monitor (`jam`), failure codes (1: `part lost`) and safety levels
+/// (`off`, `powered`). One form differs: the error of a `Failure::NotStarted` is printed
+/// in `Error`'s own defmt form, its variant and id.
+#[test]
+fn names_print_on_the_target_as_on_the_host() {
+    use rtseq::safety::{LevelDef, SafetyLevel, SafetyProperties};
+    use rtseq::{
+        Behaviour, Cause, Error, Failure, Failures, Instant, Monitor, MonitorId, Monitors, Outcome,
+        RunningState, SeqConfig, SeqId, Sequencer, Transition, WithNames,
+    };
+    let out = run("panic", &["names"]);
+    expect_exit(&out, 0);
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    seq.register(SeqConfig::new("safe stop")).unwrap();
+    let main = seq.register(SeqConfig::new("main")).unwrap();
+    let mut jammed = |_: &(), _: Instant| false;
+    let mut monitors: Monitors<(), 1> = Monitors::new();
+    let jam = monitors
+        .add(
+            main,
+            Monitor::new("jam", &mut jammed, Behaviour::AbortOwner),
+        )
+        .unwrap();
+    let failures = Failures(&[(1, "part lost")]);
+    let levels: SafetyProperties<'static, (), 2> = SafetyProperties::new(
+        [
+            LevelDef::new(SafetyLevel::new(0), "off"),
+            LevelDef::new(SafetyLevel::new(1), "powered"),
+        ],
+        &[],
+        &[],
+        &[],
+        SafetyLevel::new(0),
+    );
+    let names = (&seq, &monitors, (&failures, &levels));
+    let at = |us: u64, cause: Cause| Transition {
+        time: Instant::from_ticks(us),
+        sequence: main,
+        from: RunningState::Running,
+        to: RunningState::Aborting,
+        cause,
+    };
+    let host = [
+        main.named(&names).to_string(),
+        SeqId::from_index(7).named(&names).to_string(),
+        jam.named(&names).to_string(),
+        MonitorId::from_index(5).named(&names).to_string(),
+        Cause::Timeout(main).named(&names).to_string(),
+        Cause::AbortAll.named(&names).to_string(),
+        Outcome::Aborted(Cause::Monitor(jam))
+            .named(&names)
+            .to_string(),
+        Outcome::Completed.named(&names).to_string(),
+        Failure::App(1).named(&names).to_string(),
+        Failure::App(9).named(&names).to_string(),
+        Failure::Aborted(Cause::Abort).named(&names).to_string(),
+        "not started: AlreadyRunning(SeqId(1))".to_string(),
+        at(12_500, Cause::Monitor(jam)).named(&names).to_string(),
+        at(3_000, Cause::Abort).named(&names).to_string(),
+        SafetyLevel::new(1).named(&names).to_string(),
+        SafetyLevel::new(4).named(&names).to_string(),
+    ];
+    assert_eq!(
+        Failure::NotStarted(Error::AlreadyRunning(main))
+            .named(&names)
+            .to_string(),
+        "not started: sequence 1 is already running"
+    );
+    let target: Vec<&str> = out
+        .lines
+        .iter()
+        .filter_map(|l| l.message.strip_prefix("names: "))
+        .collect();
+    assert_eq!(target, host, "{}", out.transcript());
+}
+
 /// Firmware that never exits is killed by the runner's time limit (exit code 124).
 #[test]
 fn hanging_firmware_hits_the_time_limit() {

@@ -8,7 +8,10 @@
 //! - `fail`: the firmware reports a failure it detected itself → exit code 1;
 //! - `hang`: never exits (the host runner's time limit must end it, exit code 124);
 //! - `config`: a sequencer whose monitor's exception sequence has no lane fails
-//!   `Sequencer::validate` in `init` → the error is logged, exit code 1.
+//!   `Sequencer::validate` in `init` → the error is logged, exit code 1;
+//! - `names`: ids, causes, outcomes, failures, transitions and safety levels logged with
+//!   the names of the same sequencer's tables (`WithNames`'s defmt forms, which the host
+//!   test compares with their `Display` forms) → exit code 0.
 //!
 //! Built with `--features no-panic` it must NOT link (it contains an explicit `panic!`): that
 //! is the negative half of the no-panic proof.
@@ -25,6 +28,7 @@ enum Mode {
     Fail,
     Hang,
     Config,
+    Names,
 }
 
 /// Reads the mode from the semihosting command line (`qemu-run panic.elf hardfault`).
@@ -42,6 +46,7 @@ fn mode() -> Mode {
         Some("fail") => Mode::Fail,
         Some("hang") => Mode::Hang,
         Some("config") => Mode::Config,
+        Some("names") => Mode::Names,
         _ => Mode::Panic,
     }
 }
@@ -57,19 +62,19 @@ mod config {
         false
     }
     rtseq::sequences! {
-        mod seqs for () {
+        pub(super) mod seqs for () {
             SAFE_STOP = SeqConfig::new("safe stop"),
             MAIN = SeqConfig::new("main"),
         }
     }
     rtseq::monitors! {
-        mod monitor_ids for (), Cond {
+        pub(super) mod monitor_ids for (), Cond {
             JAM = Monitor::with_condition("jam", jammed as Cond, Behaviour::AbortOwner)
                 .exception(seqs::SAFE_STOP)
                 .owned_by(seqs::MAIN),
         }
     }
-    static SEQ: Sequencer<(), { seqs::COUNT }> = Sequencer::new();
+    pub(super) static SEQ: Sequencer<(), { seqs::COUNT }> = Sequencer::new();
 
     /// Builds the configuration and validates it: the error is logged, the firmware ends.
     pub fn check() -> ! {
@@ -85,9 +90,71 @@ mod config {
     }
 }
 
+/// The values a firmware logs, with the names of the `config` sequencer's tables, a table
+/// of failure codes and a safety system's levels; what no table names, by number.
+mod names {
+    use super::{board, config};
+    use rtseq::safety::{LevelDef, SafetyLevel, SafetyProperties};
+    use rtseq::{
+        Cause, Error, Failure, Failures, Instant, MonitorId, Outcome, RunningState, SeqId,
+        Transition, WithNames,
+    };
+
+    const FAILURES: Failures = Failures(&[(1, "part lost")]);
+    static LEVELS: SafetyProperties<'static, (), 2> = SafetyProperties::new(
+        [
+            LevelDef::new(SafetyLevel::new(0), "off"),
+            LevelDef::new(SafetyLevel::new(1), "powered"),
+        ],
+        &[],
+        &[],
+        &[],
+        SafetyLevel::new(0),
+    );
+
+    pub fn print() -> ! {
+        let (Ok(()), Ok(monitors)) = (
+            config::seqs::table().and_then(|t| config::SEQ.install(&t)),
+            config::monitor_ids::table::<{ config::monitor_ids::COUNT }>(),
+        ) else {
+            defmt::error!("panic firmware: the tables could not be built");
+            board::exit_failure()
+        };
+        let names = (&config::SEQ, &monitors, (&FAILURES, &LEVELS));
+        let (main, jam) = (config::seqs::MAIN, config::monitor_ids::JAM);
+        defmt::info!("names: {}", main.named(&names));
+        defmt::info!("names: {}", SeqId::from_index(7).named(&names));
+        defmt::info!("names: {}", jam.named(&names));
+        defmt::info!("names: {}", MonitorId::from_index(5).named(&names));
+        defmt::info!("names: {}", Cause::Timeout(main).named(&names));
+        defmt::info!("names: {}", Cause::AbortAll.named(&names));
+        defmt::info!("names: {}", Outcome::Aborted(Cause::Monitor(jam)).named(&names));
+        defmt::info!("names: {}", Outcome::Completed.named(&names));
+        defmt::info!("names: {}", Failure::App(1).named(&names));
+        defmt::info!("names: {}", Failure::App(9).named(&names));
+        defmt::info!("names: {}", Failure::Aborted(Cause::Abort).named(&names));
+        defmt::info!(
+            "names: {}",
+            Failure::NotStarted(Error::AlreadyRunning(main)).named(&names)
+        );
+        let at = |us: u64, cause: Cause| Transition {
+            time: Instant::from_ticks(us),
+            sequence: main,
+            from: RunningState::Running,
+            to: RunningState::Aborting,
+            cause,
+        };
+        defmt::info!("names: {}", at(12_500, Cause::Monitor(jam)).named(&names));
+        defmt::info!("names: {}", at(3_000, Cause::Abort).named(&names));
+        defmt::info!("names: {}", SafetyLevel::new(1).named(&names));
+        defmt::info!("names: {}", SafetyLevel::new(4).named(&names));
+        board::exit_success()
+    }
+}
+
 #[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
 mod app {
-    use super::{board, config, mode, Mode};
+    use super::{board, config, mode, names, Mode};
     use board::clock::TickTimer;
     use board::signal::TickSignal;
 
@@ -106,8 +173,10 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         let mode = mode();
         defmt::info!("panic firmware: mode {}", mode);
-        if mode == Mode::Config {
-            config::check();
+        match mode {
+            Mode::Config => config::check(),
+            Mode::Names => names::print(),
+            _ => {}
         }
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
         lane::spawn().ok();
@@ -142,7 +211,7 @@ mod app {
                     defmt::error!("deliberate failure at {=u64} us", now.as_ticks());
                     board::exit_failure()
                 }
-                Mode::Hang | Mode::Config => {}
+                Mode::Hang | Mode::Config | Mode::Names => {}
             }
         }
     }
