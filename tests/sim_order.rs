@@ -261,6 +261,8 @@ fn a_task_that_wakes_itself_by_value_is_polled_again() {
             self.polls.set(self.polls.get() + 1);
             if self.left > 0 {
                 self.left -= 1;
+                // By value on purpose: the simulator's waker must handle a consumed clone.
+                #[allow(clippy::waker_clone_wake)]
                 cx.waker().clone().wake();
             }
             Poll::Pending
