@@ -128,7 +128,10 @@ mod names {
         defmt::info!("names: {}", MonitorId::from_index(5).named(&names));
         defmt::info!("names: {}", Cause::Timeout(main).named(&names));
         defmt::info!("names: {}", Cause::AbortAll.named(&names));
-        defmt::info!("names: {}", Outcome::Aborted(Cause::Monitor(jam)).named(&names));
+        defmt::info!(
+            "names: {}",
+            Outcome::Aborted(Cause::Monitor(jam)).named(&names)
+        );
         defmt::info!("names: {}", Outcome::Completed.named(&names));
         defmt::info!("names: {}", Failure::App(1).named(&names));
         defmt::info!("names: {}", Failure::App(9).named(&names));
