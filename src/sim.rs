@@ -212,7 +212,8 @@ pub struct Sim<
     tick_error: Option<Error>,
     /// The configuration was validated (before the first start).
     validated: bool,
-    before_tick: Option<BeforeTick<'a, C>>,
+    /// The before-tick hooks, in the order they were added.
+    before_tick: Vec<BeforeTick<'a, C>>,
     /// Shuffles the order of each pass (`shuffle_equal_priorities`).
     shuffle: Option<Shuffle>,
     /// Names of the safety levels and critical inputs for the trace file (`name_safety`).
@@ -277,7 +278,7 @@ impl<
             stalled: false,
             tick_error: None,
             validated: false,
-            before_tick: None,
+            before_tick: Vec::new(),
             shuffle: None,
             safety_names: SafetyNames::default(),
         }
@@ -426,7 +427,9 @@ impl<
         self
     }
 
-    /// Called before every tick with the new time: step the plant, inject faults.
+    /// Called before every tick with the new time: step the plant, inject faults. Each call
+    /// adds a hook; the hooks run in the order they were added (a plant model, then a
+    /// fault injector, say, or the safety system's cycle).
     ///
     /// A heater model: each tick raises the temperature by one degree, and a step waits for 30°:
     ///
@@ -461,7 +464,7 @@ impl<
     /// assert_eq!(temperature.get(), 30);
     /// ```
     pub fn before_tick(&mut self, f: impl FnMut(Instant, &C) + 'a) {
-        self.before_tick = Some(Box::new(f));
+        self.before_tick.push(Box::new(f));
     }
 
     /// Adds a lane running `seq` whenever it is started non-blocking, at
@@ -626,7 +629,10 @@ impl<
     /// The first start validates the configuration ([`Sequencer::validate`]): an exception
     /// sequence without a lane, for example, is an `Err(Error::InvalidConfig)` here, and
     /// `seq.validate(sim.monitors())` ([`Sequencer::validate`]) names the monitor and the
-    /// reason.
+    /// reason. It also checks that every declared lane ([`SeqConfig::in_lane`](crate::SeqConfig::in_lane),
+    /// [`Handle::declare_lane`](crate::Handle::declare_lane)) was given to the simulator
+    /// ([`lane`](Self::lane), or a task that runs it): a sequence whose lane nothing runs
+    /// is an `Err(Error::NoLane(id))` here; on the chip its starts would wait for good.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
@@ -654,6 +660,11 @@ impl<
             self.sequencer
                 .validate(&self.monitors)
                 .map_err(|_| Error::InvalidConfig)?;
+            // Every lane added has run up to its first wait (`task_with_priority` settles):
+            // a declared lane without one would take no start, silently.
+            if let Some(never_run) = self.sequencer.lane_never_run() {
+                return Err(Error::NoLane(never_run));
+            }
             self.validated = true;
         }
         self.sequencer
@@ -818,7 +829,7 @@ impl<
     /// ```
     pub fn step(&mut self) {
         self.now = self.later(self.now, self.period);
-        if let Some(f) = self.before_tick.as_mut() {
+        for f in &mut self.before_tick {
             f(self.now, self.control);
         }
         if let Err(e) = self

@@ -442,3 +442,72 @@ fn a_lane_that_wakes_itself_forever_stops_at_the_poll_bound() {
     assert_eq!(high_polls.get(), 1 + 100_000);
     assert_eq!(sim.lane_polls(), [100_001, 1]);
 }
+
+/// A sequence declared in a lane (`in_lane`) whose lane was never given to the simulator
+/// would take no start: the monitor's exception sequence would stay `Running` without
+/// running and hold its owner for good, with no error. The first start says so instead,
+/// naming it; once its lane is added, the same start is taken.
+#[test]
+fn a_declared_lane_that_nothing_runs_is_an_error_at_the_first_start() {
+    use rtseq::{Behaviour, Error, Monitor};
+    let seq: Sequencer<(), 4> = Sequencer::new();
+    let wait = seq
+        .add(SeqConfig::new("wait"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
+    let stop = seq
+        .add(SeqConfig::new("safe stop").in_lane(), Blink)
+        .unwrap();
+    let (m, s) = (main.id(), stop.id());
+    let mut hot = |_: &(), now: Instant| now.as_ticks() >= 2_000;
+    let mut monitors = Monitors::<(), 1>::new();
+    monitors
+        .add(
+            m,
+            Monitor::new("hot", &mut hot, Behaviour::AbortOwner).exception(s),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &(), monitors);
+    sim.lane(main);
+    assert_eq!(sim.start(m), Err(Error::NoLane(s)));
+    assert_eq!(sim.state(m), Idle);
+    sim.lane(stop);
+    sim.start(m).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    let ran: Vec<_> = sim
+        .trace()
+        .iter()
+        .map(|t| (t.time, t.sequence, t.to))
+        .collect();
+    let ms = |n: u64| Instant::from_ticks(n * 1_000);
+    use rtseq::RunningState::{Aborted, Aborting};
+    assert_eq!(
+        ran,
+        [
+            (ms(0), m, Running),
+            (ms(0), SeqId::from_index(0), Running),
+            (ms(2), s, Running),
+            (ms(2), s, Terminated),
+            // The next tick applies `AbortOwner`: innermost first.
+            (ms(3), SeqId::from_index(0), Aborting),
+            (ms(3), SeqId::from_index(0), Aborted),
+            (ms(3), m, Aborting),
+            (ms(3), m, Aborted),
+        ]
+    );
+}
+
+/// Each `before_tick` adds a hook; they run before every tick in the order they were added
+/// (a second one used to replace the first, silently).
+#[test]
+fn before_tick_hooks_run_in_the_order_they_were_added() {
+    use core::cell::Cell;
+    let seq: Sequencer<Cell<u32>, 1> = Sequencer::new();
+    let plant = Cell::new(1);
+    let mut sim = Sim::new(&seq, &plant, Monitors::<Cell<u32>, 1>::new());
+    sim.before_tick(|_, p| p.set(p.get() + 1));
+    sim.before_tick(|now, p| p.set(p.get() * 10 + u32::try_from(now.as_ticks() / 1_000).unwrap()));
+    sim.run_for(Duration::from_millis(2));
+    // Tick 1 ms: (1 + 1) * 10 + 1 = 21; tick 2 ms: (21 + 1) * 10 + 2 = 222.
+    assert_eq!(plant.get(), 222);
+}

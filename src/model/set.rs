@@ -139,13 +139,6 @@ impl<const B: usize> SeqSet<B> {
     /// Word `w` of the set (empty beyond it).
     #[inline(always)]
     pub(crate) fn word(&self, w: usize) -> SetWord<B> {
-        self.word_as(w)
-    }
-
-    /// Word `w` of the set as a word of a sequencer with `M`-word sets (a monitor table's
-    /// sets have room for every id, whatever the sequencer).
-    #[inline(always)]
-    pub(crate) fn word_as<const M: usize>(&self, w: usize) -> SetWord<M> {
         let bits = if B == 1 {
             self.words.first()
         } else {

@@ -40,7 +40,8 @@ pub enum RunningState {
     Idle,
     /// Started and advancing (or blocked by a blocking child).
     Running,
-    /// Paused by a request: stops at its next await point, monitors stay active.
+    /// Paused by a pause request, a `PauseOwner` monitor, or with the paused caller it
+    /// blocks: stops at its next await point, monitors stay active.
     Paused,
     /// Being aborted: the cleanup hook runs in this state.
     Aborting,

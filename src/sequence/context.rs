@@ -10,8 +10,8 @@ use crate::model::id::RunId;
 use crate::sequence::erased::{sequence_run, ErasedBody, StepRun};
 use crate::sequence::run::Run;
 use crate::sequence::SeqHead;
+use crate::sequencer::clearance::Clearance;
 use crate::sequencer::port::Port;
-use crate::sequencer::transition::Clearance;
 use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId, Sequence, Step};
 
 /// What a running sequence or step sees: its id, the time, typed access to the control

@@ -55,8 +55,8 @@ use core::task::{Context, Poll};
 use crate::model::id::RunId;
 use crate::sequence::erased::ErasedBody;
 use crate::sequence::SeqHead;
+use crate::sequencer::clearance::Clearance;
 use crate::sequencer::port::Port;
-use crate::sequencer::transition::Clearance;
 use crate::{Cx, Done, Failure, Outcome};
 
 /// Where a run stands. Without payload: the outcome has a cell of its own.
@@ -91,11 +91,19 @@ enum Stage {
 /// copy serves every sequence and step type, started blocking or in a lane.
 pub(crate) struct Run<'a, C> {
     pub(crate) cx: Cx<'a, C>,
-    /// The run of the blocking caller; `None`: the sequence's lane.
-    caller: Option<RunId>,
+    driver: Driver,
     stage: Cell<Stage>,
     /// The outcome, once the run has ended.
     outcome: Cell<Outcome>,
+}
+
+/// What drives a run: the sequence's lane, or the future of a blocking start.
+#[derive(Clone, Copy)]
+enum Driver {
+    /// The lane: takes every non-blocking start, runs it, then waits for the next.
+    Lane,
+    /// A blocking start by the run `caller`, which waits for the outcome.
+    Blocking { caller: RunId },
 }
 
 impl<'a, C> Run<'a, C> {
@@ -103,7 +111,7 @@ impl<'a, C> Run<'a, C> {
     pub(crate) fn blocking(cx: Cx<'a, C>, caller: RunId) -> Self {
         Run {
             cx,
-            caller: Some(caller),
+            driver: Driver::Blocking { caller },
             stage: Cell::new(Stage::Begin),
             outcome: Cell::new(Outcome::Completed),
         }
@@ -113,7 +121,7 @@ impl<'a, C> Run<'a, C> {
     pub(crate) fn lane(cx: Cx<'a, C>) -> Self {
         Run {
             cx,
-            caller: None,
+            driver: Driver::Lane,
             stage: Cell::new(Stage::Idle),
             outcome: Cell::new(Outcome::Completed),
         }
@@ -170,20 +178,21 @@ impl<'a, C> Run<'a, C> {
                     self.cx.enter(run);
                     self.stage.set(Stage::PreCondition);
                 }
-                Stage::Begin => match self
-                    .caller
-                    .map(|caller| port.start_blocking(id, head.maker, caller))
-                {
-                    Some(Ok(run)) => {
-                        self.cx.enter(run);
-                        self.stage.set(Stage::PreCondition);
+                Stage::Begin => match self.driver {
+                    Driver::Blocking { caller } => {
+                        match port.start_blocking(id, head.maker, caller) {
+                            Ok(run) => {
+                                self.cx.enter(run);
+                                self.stage.set(Stage::PreCondition);
+                            }
+                            Err(e) => {
+                                head.result.set(Some(Err(Failure::NotStarted(e))));
+                                self.stage.set(Stage::Done);
+                            }
+                        }
                     }
-                    Some(Err(e)) => {
-                        head.result.set(Some(Err(Failure::NotStarted(e))));
-                        self.stage.set(Stage::Done);
-                    }
-                    // Only a blocking run begins; a lane waits for a start.
-                    None => self.stage.set(Stage::Idle),
+                    // Only a blocking run begins; a lane begins in `Idle`.
+                    Driver::Lane => self.stage.set(Stage::Idle),
                 },
                 Stage::PreCondition => match port.clearance(self.run(), w.waker()) {
                     Clearance::Go => {
@@ -231,15 +240,15 @@ impl<'a, C> Run<'a, C> {
                 },
                 Stage::Ended => {
                     port.finished(self.run());
-                    self.stage.set(match self.caller {
-                        Some(_) => Stage::HandOver,
-                        None => Stage::Idle,
+                    self.stage.set(match self.driver {
+                        Driver::Blocking { .. } => Stage::HandOver,
+                        Driver::Lane => Stage::Idle,
                     });
                 }
                 // Hands over only when the caller may advance: once the caller is aborted
                 // or restarting this stays pending and the caller drops it (sticky abort).
                 Stage::HandOver => {
-                    if let Some(caller) = self.caller {
+                    if let Driver::Blocking { caller } = self.driver {
                         if port.clearance(caller, w.waker()) == Clearance::Go {
                             head.result.set(Some(self.outcome.get().done()));
                             self.stage.set(Stage::Done);

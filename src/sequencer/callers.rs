@@ -1,4 +1,4 @@
-//! The caller tree, walked from 1-byte caller links.
+//! The caller tree, walked from the caller links (`Link`: an optional id).
 //!
 //! Each control block stores only its `callerSequence`. The seed's `callerStack`, its depth
 //! and its blocking part (`callerStackBlocking`: the callers in the same lane) are derived

@@ -68,15 +68,16 @@ impl Counters {
 /// paused, fresh, timeout armed, exception active, waiting for a poll) is kept as sets in
 /// the sequencer instead (`sequencer::sets::Sets`).
 pub(crate) mod flag {
-    // Bit 0 is free (a declared lane is known by its lane slot).
+    // Bits 0, 4, 7 and 8 are free; bits 10 to 15 are the requests and the pending
+    // behaviour.
     /// A non-blocking start waits for the lane to pick it up.
     pub const START_PENDING: u16 = 1 << 1;
-    /// A teardown placed it and has not moved it yet: it starts nothing (a start by it is
-    /// refused as by a stopped caller).
-    pub const STOPPING: u16 = 1 << 3;
     /// A pause request paused it: a `PauseOwner` monitor whose condition clears does not
     /// resume it (only a resume request does).
     pub const PAUSED_BY_REQUEST: u16 = 1 << 2;
+    /// A teardown placed it and has not moved it yet: it starts nothing (a start by it is
+    /// refused as by a stopped caller).
+    pub const STOPPING: u16 = 1 << 3;
     /// The exception sequence ended; the tick applies the pending behaviour.
     pub const EXCEPTION_DONE: u16 = 1 << 5;
     /// A [`Seq`](crate::Seq) object was bound to this id.
@@ -136,8 +137,9 @@ impl JoinWait {
     }
 }
 
-/// One registered sequence's state: 44 bytes on a 32-bit target (with its cleanup-hook slot
-/// 48), so a sequencer for 32 sequences needs 1.5 KiB plus its sets and polling classes.
+/// One registered sequence's state. Its size on the target is a budget (`bench_seq` prints
+/// it, the QEMU suite checks it, docs/footprint.md has the figure): a sequencer holds one
+/// per sequence.
 ///
 /// The caller stack is not stored: each block links to its caller, and the stack, its depth
 /// and its blocking part are walked from the links (at most [`MAX_DEPTH`] steps). Wakers

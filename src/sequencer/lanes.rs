@@ -145,6 +145,20 @@ impl<const W: usize> Lanes<W> {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
+    /// The first sequence whose lane is declared but that no lane has waited in yet (its
+    /// slot has no waker): a non-blocking start of it would wait for good. The simulator
+    /// asks at its first start, when every lane it was given has run up to its first wait.
+    #[cfg(feature = "std")]
+    pub(crate) fn lane_never_run(&self) -> Option<SeqId> {
+        self.with(|s| {
+            s.registered().enumerate().find_map(|(i, b)| {
+                let never_run =
+                    b.own_lane != NO_LANE && self.lanes.identity(b.own_lane) == NO_WAKER;
+                never_run.then(|| SeqId::from_index(i))
+            })
+        })
+    }
+
     /// Keeps `waker` as the waker of `id`'s lane, then runs `read` on the state: an await
     /// point's wait, in which no wake-up between the registration and the read can be
     /// lost (see [`park_in_then`](Self::park_in_then)).

@@ -7,7 +7,7 @@
 //! | `state.rs` | [`State`]: everything the lock guards, grouped; the one accessor pair for control blocks; the transition function |
 //! | `sets.rs` | the sets of sequences the tick works on (active, paused, due, ...), stored a word of every set together |
 //! | `control_block.rs` | one sequence's control block (the seed's `BaseSequence` fields) |
-//! | `transition.rs` | the clearance of an await point, the normal end of a run |
+//! | `clearance.rs` | the clearance of an await point, the normal end of a run |
 //! | `registry.rs` | registration, tables, binding, look-up by id and name |
 //! | `start.rs` | starts and restarts: the checks, the schedule, the commit |
 //! | `requests.rs` | pause, resume and abort requests for the next tick; abort-all |
@@ -29,6 +29,7 @@ use crate::lock::{CriticalSection, Lock};
 use crate::safety::SafetyHandle;
 
 pub(crate) mod callers;
+pub(crate) mod clearance;
 pub(crate) mod control_block;
 pub(crate) mod handle;
 pub(crate) mod inbox;
@@ -44,7 +45,6 @@ pub(crate) mod sections;
 pub(crate) mod sets;
 pub(crate) mod start;
 pub(crate) mod state;
-pub(crate) mod transition;
 pub(crate) mod validation;
 
 use lanes::Lanes;

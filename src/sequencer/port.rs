@@ -8,13 +8,13 @@ use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::join_would_deadlock;
+use crate::sequencer::clearance::{end_run, Clearance};
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
 use crate::sequencer::requests::ask;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
-use crate::sequencer::transition::{end_run, Clearance};
 use crate::trace::StateChange;
 use crate::{
     Cause, Error, Event, Instant, Outcome, Request, Requester, RunningState, SeqId, Sequencer,
@@ -94,7 +94,8 @@ pub(crate) trait Port<C> {
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues `request` of `id`, made by `by`, for the next tick.
     fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error>;
-    /// Sets `id`'s timeout (µs, 0: off) for its next run.
+    /// Sets `id`'s timeout (µs, 0: off): at once for a run under way whose timeout is
+    /// armed, otherwise from the next start or restart.
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
     /// The connected safety system.
     fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
@@ -118,11 +119,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn start_blocking(&self, id: SeqId, maker: u16, caller: RunId) -> Result<RunId, Error> {
-        self.begin(id, Some(caller), Mode::Blocking { maker }, Cause::Start, 0)
+        self.begin(id, Mode::Blocking { caller, maker }, Cause::Start)
     }
 
     fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<(), Error> {
-        self.begin(id, caller, Mode::Lane, Cause::Start, 0)
+        self.begin(id, Mode::Lane { caller }, Cause::Start)
             .map(|_| ())
     }
 

@@ -15,7 +15,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
     /// Registers a sequence or step. Errors on an empty or duplicate name, an out-of-range
-    /// duration, or when all `N` slots are taken.
+    /// duration, when all `N` slots are taken, when a sequence in a lane of its own finds
+    /// all `W` lane slots taken (`LaneCapacityExceeded`), or when its polling period would
+    /// be a ninth distinct one (`PollingClassesExceeded`).
     ///
     /// ```
     /// use rtseq::{Duration, Error, SeqConfig, Sequencer};

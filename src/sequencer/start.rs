@@ -22,14 +22,38 @@ use crate::sequencer::State;
 use crate::trace::StateChange;
 use crate::{Cause, Error, RunningState, SeqId, Sequencer, MAX_DEPTH};
 
-/// Where a started run runs.
+/// Where a started run runs, and who started it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) enum Mode {
-    /// Inside the caller's future; the caller waits. `maker`: the tag of the sequencer that
-    /// made the started sequence object (a blocking start is of an object in hand).
-    Blocking { maker: u16 },
-    /// In the sequence's own lane; the caller continues.
-    Lane,
+    /// Inside the future of the run `caller`, which waits. `maker`: the tag of the sequencer
+    /// that made the started sequence object (a blocking start is of an object in hand).
+    Blocking { caller: RunId, maker: u16 },
+    /// In the sequence's own lane, started by the run `caller` (none: a main sequence),
+    /// which continues. Also a `PauseOwner` monitor's exception sequence: it runs beside
+    /// its paused owner and nothing waits for its end.
+    Lane { caller: Option<RunId> },
+    /// In the sequence's own lane, as the exception sequence of the run `owner`, which the
+    /// exception holds: its end is reported to the tick, which then applies the behaviour.
+    Exception { owner: RunId },
+}
+
+impl Mode {
+    /// The run that starts the new one, its caller.
+    const fn caller(self) -> Option<RunId> {
+        match self {
+            Mode::Blocking { caller, .. } | Mode::Exception { owner: caller } => Some(caller),
+            Mode::Lane { caller } => caller,
+        }
+    }
+
+    /// The flags the new run starts with.
+    const fn flags(self) -> u16 {
+        match self {
+            Mode::Blocking { .. } => 0,
+            Mode::Lane { .. } => flag::START_PENDING,
+            Mode::Exception { .. } => flag::START_PENDING | flag::HANDLES_EXCEPTION,
+        }
+    }
 }
 
 /// What a start gives its new run.
@@ -57,21 +81,16 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// The read-only checks of a start of `id`: blocking, of an object made here; not
     /// active (nor an ended exception sequence not reported yet); with a blocking caller, the caller's lane. Returns `id`'s `BOUND` flag (set
     /// once, never cleared) and that lane.
-    fn check_start(
-        &self,
-        id: SeqId,
-        caller: Option<SeqId>,
-        mode: Mode,
-    ) -> Result<(u16, u8), Error> {
-        if matches!(mode, Mode::Blocking { maker } if maker != self.tag) {
+    fn check_start(&self, id: SeqId, mode: Mode) -> Result<(u16, u8), Error> {
+        if matches!(mode, Mode::Blocking { maker, .. } if maker != self.tag) {
             return Err(Error::ForeignSequence(id));
         }
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
         if !b.may_start() {
             return Err(Error::AlreadyRunning(id));
         }
-        let lane = match (mode, caller) {
-            (Mode::Blocking { .. }, Some(c)) => self.lane_slot(c),
+        let lane = match mode {
+            Mode::Blocking { caller, .. } => self.lane_slot(caller.seq),
             _ => crate::sequencer::control_block::NO_LANE,
         };
         Ok((b.flags & flag::BOUND, lane))
@@ -278,9 +297,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
-/// The checks of a start of `id` (blocking in `caller`'s lane, or in its own lane) in the
-/// order a start in one piece would fail them, and the cut of a link to an old run of `id`
-/// among `caller`'s callers. Returns the new run's lane and its flags (with `extra`).
+/// The checks of a start of `id` (blocking in its caller's lane, or in its own lane) in
+/// the order a start in one piece would fail them, and the cut of a link to an old run of
+/// `id` among the caller's callers. Returns the new run's lane, caller and flags.
 fn admit<
     C,
     S: Sections<C, N, T, W, B>,
@@ -291,20 +310,18 @@ fn admit<
 >(
     s: &mut S,
     id: SeqId,
-    caller: Option<RunId>,
     mode: Mode,
-    extra: u16,
 ) -> Result<NewRun, Error> {
-    let (bound, caller_lane) = s.section(|s| s.check_start(id, caller.map(|c| c.seq), mode))?;
-    let (lane, pending) = match mode {
-        Mode::Blocking { .. } => (caller_lane, 0),
+    let (bound, caller_lane) = s.section(|s| s.check_start(id, mode))?;
+    let lane = match mode {
+        Mode::Blocking { .. } => caller_lane,
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
         // `Handle::declare_lane`).
-        Mode::Lane => (
-            lane_slot_of(s, id).ok_or(Error::NoLane(id))?,
-            flag::START_PENDING,
-        ),
+        Mode::Lane { .. } | Mode::Exception { .. } => {
+            lane_slot_of(s, id).ok_or(Error::NoLane(id))?
+        }
     };
+    let caller = mode.caller();
     // `caller` is the starting sequence itself (a context's or an exception's owner):
     // registered by construction.
     if let Some(c) = caller {
@@ -315,7 +332,7 @@ fn admit<
     Ok(NewRun {
         lane,
         caller,
-        flags: bound | pending | extra,
+        flags: bound | mode.flags(),
     })
 }
 
@@ -435,28 +452,20 @@ fn relaunch<
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Starts `id` by the run `caller` (blocking in its lane), or in its own lane (by
-    /// `caller`, or as a main sequence), with `extra` flags for the new run: the checks,
-    /// the schedule and commit and, in its lane, the wake-up. Returns the new run. With a
-    /// coarse lock two sections: the checks walk the callers, which grows with the depth.
-    pub(crate) fn begin(
-        &self,
-        id: SeqId,
-        caller: Option<RunId>,
-        mode: Mode,
-        cause: Cause,
-        extra: u16,
-    ) -> Result<RunId, Error> {
-        let run = in_sections!(self, |s| admit(s, id, caller, mode, extra))?;
+    /// Starts `id` as `mode` says (blocking in its caller's lane, or in its own lane): the
+    /// checks, the schedule and commit and, in its lane, the wake-up. Returns the new run.
+    /// With a coarse lock two sections: the checks walk the callers, which grows with the
+    /// depth.
+    pub(crate) fn begin(&self, id: SeqId, mode: Mode, cause: Cause) -> Result<RunId, Error> {
+        let run = in_sections!(self, |s| admit(s, id, mode))?;
         let (new, lane) = in_sections!(self, |s| {
             let new = launch(s, id, run, cause)?;
-            let lane = match (mode, caller) {
-                (Mode::Lane, _) => s.section(|s| s.lane_of(id)),
-                (Mode::Blocking { .. }, Some(c)) => {
-                    s.section(|s| s.pause_with_caller(new, c.seq));
+            let lane = match mode {
+                Mode::Lane { .. } | Mode::Exception { .. } => s.section(|s| s.lane_of(id)),
+                Mode::Blocking { caller, .. } => {
+                    s.section(|s| s.pause_with_caller(new, caller.seq));
                     LaneSet::EMPTY
                 }
-                (Mode::Blocking { .. }, None) => LaneSet::EMPTY,
             };
             Ok((new, lane))
         })?;
@@ -717,9 +726,9 @@ mod tests {
     /// (`admit`, its first sections). Before L's schedule and commit (its next sections) the
     /// tick preempts it: O's monitor fires and starts E as O's exception sequence (O's
     /// `AbortOwner` waits for E's end), and E's lane, of higher priority than L, runs E to
-    /// its end. L goes on. E is O's until the tick has reported its end (defect 2): L's
+    /// its end. L goes on. E is O's until the tick has reported its end: L's
     /// start must be refused (`AlreadyRunning`), and the next tick must report E's end to
-    /// O and abort O. Before its fix L's commit started E again (as a main sequence,
+    /// O and abort O. Without the check L's commit started E again (as a main sequence,
     /// without `HANDLES_EXCEPTION`): E's end was never reported and O stayed held forever.
     #[test]
     fn a_start_checked_before_the_tick_ran_the_exception_sequence_does_not_take_it_from_its_owner()
@@ -731,7 +740,7 @@ mod tests {
         }
         seq.sequence_by_id(o).unwrap().start().unwrap();
         // L: the checks of its start of E (E idle).
-        let checked = admit(&mut EachStep(&seq), e, None, Mode::Lane, 0).unwrap();
+        let checked = admit(&mut EachStep(&seq), e, Mode::Lane { caller: None }).unwrap();
         // The tick preempts L: O's monitor fires, E starts for O.
         let mut fault = |_: &(), _: Instant| true;
         let mut monitors = Monitors::<(), 1>::new();

@@ -1,6 +1,5 @@
 //! A firing (seed §1.7): the exception is marked, the exception sequence runs in its lane
-//! while the owner is held, and then the behaviour applies. Also where the tick applies
-//! the requests queued since the last tick.
+//! while the owner is held, and then the behaviour applies.
 
 use crate::lock::Lock;
 use crate::model::id::RunId;
@@ -11,7 +10,7 @@ use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
 use crate::tick::skip_untaken_polls;
-use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, SeqId, Sequencer};
+use crate::{Behaviour, Cause, Event, RunningState, SeqId, Sequencer};
 
 /// How an exception of one monitor (or of a sequence's timeout) is handled, with its
 /// restart bookkeeping.
@@ -66,7 +65,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         };
         let deferred = reaction.exception.is_some_and(|e| {
             let by = self.with(|s| s.current_run(owner));
-            let started = self.begin(e, Some(by), Mode::Lane, cause, flag::HANDLES_EXCEPTION);
+            let started = self.begin(e, Mode::Exception { owner: by }, cause);
             self.with(|s| match started {
                 Ok(_) => {
                     if let Some(b) = s.block_mut(owner) {
@@ -134,7 +133,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         if let Some(e) = exception {
-            if let Err(why) = self.begin(e, Some(run), Mode::Lane, cause, 0) {
+            if let Err(why) = self.begin(e, Mode::Lane { caller: Some(run) }, cause) {
                 self.with(|s| s.exception_not_run(e, owner, why));
             }
         }
@@ -160,7 +159,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
-    fn apply(&self, control: &C, owner: SeqId, behaviour: Behaviour, target: SeqId, cause: Cause) {
+    pub(super) fn apply(
+        &self,
+        control: &C,
+        owner: SeqId,
+        behaviour: Behaviour,
+        target: SeqId,
+        cause: Cause,
+    ) {
         let to = match behaviour {
             Behaviour::Nothing => {
                 in_sections_then_wake!(self, |s| {
@@ -175,94 +181,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Behaviour::PauseOwner => RunningState::Paused,
         };
         self.walk(control, Some(target), to, cause);
-    }
-
-    /// Aborts every active sequence, innermost first, for an abort-all request by `by`,
-    /// which is recorded when there is anything to abort (a safety level that demands
-    /// abort-all while it lasts asks at every cycle).
-    #[inline(never)]
-    pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) {
-        if !self.any_under_way() {
-            return;
-        }
-        self.with(|s| s.record(Event::AbortAll { by }));
-        self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
-    }
-
-    /// Whether a run is under way that an abort-all would abort (`Running`, `Paused`,
-    /// `Restarting`). The set `Active` says it of the sequences as of the tick's last fold;
-    /// while it is empty, one short section per candidate (every registered sequence, or
-    /// with several words those live at the fold or changed since), and a run begun
-    /// meanwhile counts too (a lane of higher priority may start one while the tick looks).
-    fn any_under_way(&self) -> bool {
-        let (active, candidates, begun) = self.with(|s| {
-            let candidates = if B == 1 {
-                SeqSet::first(s.count())
-            } else {
-                s.sets
-                    .members(Set::Live)
-                    .union(&s.sets.members(Set::Changed))
-            };
-            (!s.sets.is_empty(Set::Active), candidates, s.runs_begun)
-        });
-        if active {
-            return true;
-        }
-        let abortable = States::entering(RunningState::Aborting);
-        candidates
-            .into_iter()
-            .any(|id| self.with(|s| abortable.has(s.state_of(id))))
-            || self.with(|s| s.runs_begun) != begun
-    }
-
-    /// Applies the behaviours of finished exception sequences and the pause, resume and
-    /// abort requests of the sequences that have them, in id order (out of line: one copy,
-    /// whatever the monitor tables the tick is instantiated for).
-    #[inline(never)]
-    pub(crate) fn apply_requests(&self, control: &C) {
-        let requested = self.with(|s| s.sets.take(Set::Requested));
-        for id in requested {
-            // The requests, and the behaviour pending for an exception sequence that ended.
-            let (req, done) = self.with(|s| {
-                let Some(b) = s.block_mut(id) else {
-                    return (None, None);
-                };
-                let mut done = None;
-                if b.has(flag::EXCEPTION_DONE) {
-                    b.set(flag::EXCEPTION_DONE, false);
-                    done = b.pending();
-                    b.set_pending(None);
-                }
-                (b.take_request(), done)
-            });
-            if let Some(behaviour) = done {
-                // Unless it was stopped meanwhile: the cause and the target.
-                let still = self.with(|s| {
-                    s.block(id)
-                        .filter(|b| States::ACTIVE_RUNNING.has(b.state))
-                        .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
-                });
-                if let Some((cause, caller)) = still {
-                    let target = if behaviour.targets_caller() {
-                        caller.unwrap_or(id)
-                    } else {
-                        id
-                    };
-                    self.apply(control, id, behaviour, target, cause);
-                }
-            }
-            let (to, cause) = match req {
-                Some(Request::Abort) => (RunningState::Aborting, Cause::Abort),
-                Some(Request::Pause) => (RunningState::Paused, Cause::Pause),
-                // A sequence frozen by the paused caller it blocks resumes with that
-                // caller (its clock stays stopped meanwhile): the request lifted its own
-                // pause, if any.
-                Some(Request::Resume) if self.with(|s| s.stays_paused(id)) => continue,
-                Some(Request::Resume) => (RunningState::Running, Cause::Resume),
-                None => continue,
-            };
-            self.walk(control, Some(id), to, cause);
-        }
     }
 }
 
@@ -532,9 +450,8 @@ mod tests {
     /// (a lane starved for a tick), an abort-all comes (the safety system entering an
     /// emergency level). The next tick must abort O: a `Restarting` sequence is under way
     /// (an abort request of it is accepted), and the emergency bound says every sequence
-    /// is aborted in that tick. Before session 30 the abort-all looked only at the active
-    /// (running or paused) sequences, found none, and did nothing: O's lane then ran it
-    /// again.
+    /// is aborted in that tick. An abort-all that looked only at the active (running or
+    /// paused) sequences would find none and do nothing: O's lane would then run it again.
     #[test]
     fn an_abort_all_aborts_a_sequence_whose_lane_has_not_restarted_it_yet() {
         let seq: Sequencer<(), 4> = Sequencer::new();

@@ -12,7 +12,8 @@
 //! | `mod.rs` | the tick's order of work; which polls are due; the wake-ups of due exit-condition polls |
 //! | `schedule.rs` | polling classes: one grid per polling period |
 //! | `monitors.rs` | monitor evaluation in groups, edges and triggers |
-//! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour, requests |
+//! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour |
+//! | `requests.rs` | abort-all, pause, resume and abort requests, ended exception sequences' behaviours |
 //! | `teardown.rs` | aborts, restarts, pauses and resumes of a sequence and those below it |
 
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -30,6 +31,7 @@ use crate::{Cause, Error, Instant, Monitors, SeqId, Sequencer};
 
 mod exception;
 mod monitors;
+mod requests;
 pub(crate) mod schedule;
 mod teardown;
 
@@ -127,7 +129,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// Whether some active sequence is paused or handles an exception.
     #[inline(always)]
-    fn careful(&self) -> bool {
+    fn any_held(&self) -> bool {
         let sets = &self.sets;
         if B == 1 {
             let held = sets.word(Set::Paused, 0).or(sets.word(Set::Excepting, 0));
@@ -280,7 +282,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if changed {
             // Folding reports the ends of exception sequences: their owners are requested.
             let requested;
-            (words, requested) = self.fold();
+            (words, requested) = self.fold_changed();
             requests |= requested;
         }
         let aborted_all = match inbox {
@@ -295,17 +297,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
         if aborted_all || requests {
             // What they stopped or paused is not due any more.
-            words = self.fold().0;
+            words = self.fold_changed().0;
         }
         let mut scan = Scan::new();
         if B == 1 {
             self.tick_word(0, now, &mut scan, false, monitors, control);
             return Ok(());
         }
-        let mut careful = false;
+        let mut raised = false;
         // With no active sequence the first section's horizon stands.
         for w in words {
-            careful = self.tick_word(w, now, &mut scan, careful, monitors, control);
+            raised = self.tick_word(w, now, &mut scan, raised, monitors, control);
         }
         Ok(())
     }
@@ -318,7 +320,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(never)]
     fn carry_out_requests(&self, control: &C) {
         let inbox = self.take_inbox();
-        self.fold();
+        self.fold_changed();
         if let Some(inbox) = inbox {
             self.apply_inbox(control, inbox);
         }
@@ -327,7 +329,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the
     /// monitors of the due sequences, their expired timeouts and the wake-ups of their due
-    /// exit-condition polls. `careful`: a monitor fired or a timeout expired in this tick
+    /// exit-condition polls. `raised`: a monitor fired or a timeout expired in this tick
     /// (in this word or an earlier one), so a wake-up checks that its sequence is not held,
     /// as it does while an active sequence is paused or handles an exception. Returns it
     /// for the next word.
@@ -337,13 +339,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         w: usize,
         now: Instant,
         scan: &mut Scan,
-        mut careful: bool,
+        mut raised: bool,
         monitors: &mut Monitors<'_, C, M, K>,
         control: &C,
     ) -> bool {
         let polls = self.scan(w, Stamp::of(now), scan);
         if self.evaluate_monitors(&polls, monitors, control, now) {
-            careful = true;
+            raised = true;
         }
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
@@ -352,13 +354,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if let Some(mut reaction) = self.with(|s| s.block(id).map(|b| b.timeout_reaction())) {
                 self.raise(control, id, Cause::Timeout(id), &mut reaction);
             }
-            careful = true;
+            raised = true;
         }
         if polls.wake != 0 {
             if L::COARSE {
                 // One section: the held check walks the callers inside it.
                 self.update_and_wake(|s| {
-                    let wake = if careful || s.careful() {
+                    let wake = if raised || s.any_held() {
                         let unheld = s.unheld(polls.wake());
                         // A held sequence misses this poll: its mark goes, else it would
                         // take the poll off its grid once it is let go.
@@ -372,17 +374,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     s.lanes_of_polls(wake, &self.lanes)
                 });
             } else {
-                self.wake_lanes(self.lanes_to_wake(polls.wake(), careful));
+                self.wake_lanes(self.lanes_to_wake(polls.wake(), raised));
             }
         }
-        careful
+        raised
     }
 
     /// Folds the state of the sequences that changed into the sets `active`, `paused` (and,
     /// with several words, `live`), one short section per sequence. Returns the words that
     /// then hold an active sequence, and whether any sequence is requested (the owner of
     /// an exception sequence that ended is).
-    fn fold(&self) -> (Words, bool) {
+    fn fold_changed(&self) -> (Words, bool) {
         let mut reported = false;
         loop {
             // Each section says whether more are left.
@@ -454,13 +456,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// With a portable lock: the lanes of the due polls `wake`. While something is held
-    /// (`careful`, or a paused or excepting active sequence) found by a walk that skips the
+    /// (`raised`, or a paused or excepting active sequence) found by a walk that skips the
     /// held ones and those whose state changed in this tick; else those remembered from the
     /// last tick with the same polls, or found by a walk and remembered, unless a lane or
     /// waker changed meanwhile.
-    fn lanes_to_wake(&self, wake: SetWord<B>, careful: bool) -> LaneSet {
+    fn lanes_to_wake(&self, wake: SetWord<B>, raised: bool) -> LaneSet {
         let (held, remembered, forgotten, changed) = self.with(|s| {
-            let held = careful || s.careful();
+            let held = raised || s.any_held();
             let changed = s.sets.word(Set::Changed, wake.index());
             (
                 held,
@@ -470,14 +472,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             )
         });
         if held {
-            // A sequence whose state changed in this tick is not woken for its poll: the
-            // change woke its lane.
-            return self.lanes_of_polls(wake, true, changed);
+            // A held sequence misses this poll: its mark goes, else it would take the poll
+            // off its grid once it is let go. A sequence whose state changed in this tick
+            // is not woken for its poll: the change woke its lane.
+            return self.lanes_of_polls_in_sections(wake, |id| {
+                if self.held_in_sections(id) {
+                    self.with(|s| s.sets.remove(Set::PollDue, id));
+                    return true;
+                }
+                changed.has(id)
+            });
         }
         if let Some(lanes) = remembered {
             return lanes;
         }
-        let lanes = self.lanes_of_polls(wake, false, SetWord::empty(wake.index()));
+        let lanes = self.lanes_of_polls_in_sections(wake, |_| false);
         self.with(|s| {
             if s.polling.forgotten == forgotten {
                 s.polling.woken = WakeMemo { polls: wake, lanes };
@@ -486,22 +495,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         lanes
     }
 
-    /// With a portable lock: the lanes whose polled condition is due, except those held
-    /// (checked only when `careful`: after a monitor fired or while something is held),
-    /// which miss this poll (their mark goes, else they would take it off their grid once
-    /// let go), and those in `changed`, in short sections. A lane whose waker is the one
-    /// just found (lanes joined in one task, in id order) is not woken again; a task woken
-    /// twice is still polled once.
+    /// With a portable lock: the lanes whose polled condition is due (`wake`), except those
+    /// of the sequences that `skip` leaves out, in short sections. A lane whose waker is the
+    /// one just found (lanes joined in one task, in id order) is not woken again; a task
+    /// woken twice is still polled once.
     #[inline(never)]
-    fn lanes_of_polls(&self, wake: SetWord<B>, careful: bool, changed: SetWord<B>) -> LaneSet {
+    fn lanes_of_polls_in_sections(
+        &self,
+        wake: SetWord<B>,
+        mut skip: impl FnMut(SeqId) -> bool,
+    ) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
         let mut woken = NO_WAKER;
         for id in wake {
-            if careful && self.held(id) {
-                self.with(|s| s.sets.remove(Set::PollDue, id));
-                continue;
-            }
-            if changed.has(id) {
+            if skip(id) {
                 continue;
             }
             let (lane, waker) = self.with(|s| {
@@ -518,7 +525,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// Whether sequence `id` is held, or frozen by a caller it blocks: one short section
     /// per caller.
-    fn held(&self, id: SeqId) -> bool {
+    fn held_in_sections(&self, id: SeqId) -> bool {
         let lane = self.with(|s| s.lane_slot(id));
         held(id, |c| self.with(|s| s.held_step(c, lane)))
     }

@@ -152,36 +152,31 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             let Some(monitor) = members.get_mut(usize::from(index)) else {
                 break;
             };
+            let id = MonitorId(group.start.wrapping_add(index));
             let holds = group.last & bit != 0;
-            if monitor.def.behaviour == Behaviour::PauseOwner && !holds {
-                monitor.releasing = true;
-                releasing = true;
-            } else {
-                let id = MonitorId(group.start.wrapping_add(index));
-                self.fire(monitor, id, holds, control);
+            match (monitor.def.behaviour, holds) {
+                (Behaviour::PauseOwner, true) => self.hold_owner(monitor, id, control),
+                (Behaviour::PauseOwner, false) => {
+                    monitor.releasing = true;
+                    releasing = true;
+                }
+                _ => self.fire(monitor, id, control),
             }
         }
         releasing
     }
 
-    /// A monitor triggered (its condition now `holds` or not): raise its exception, or, for
-    /// a `PauseOwner` monitor whose condition holds, hold its owner.
-    fn fire<K>(
-        &self,
-        monitor: &mut OwnedMonitor<'_, C, K>,
-        id: MonitorId,
-        holds: bool,
-        control: &C,
-    ) {
-        let def = &monitor.def;
-        if def.behaviour == Behaviour::PauseOwner {
-            // Its condition now holds (a release is made by `release_all`).
-            let (owner, cause) = (monitor.owner, Cause::Monitor(id));
-            if holds && self.hold(control, owner, cause, def.exception) {
-                monitor.fired = monitor.fired.wrapping_add(1);
-            }
-            return;
+    /// A `PauseOwner` monitor's condition now holds: hold its owner (its release, once the
+    /// condition clears, is made by `release_pending`).
+    fn hold_owner<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) {
+        let (owner, cause) = (monitor.owner, Cause::Monitor(id));
+        if self.hold(control, owner, cause, monitor.def.exception) {
+            monitor.fired = monitor.fired.wrapping_add(1);
         }
+    }
+
+    /// A monitor (not `PauseOwner`) triggered: raise its exception.
+    fn fire<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) {
         let mut reaction = Reaction {
             behaviour: monitor.def.behaviour,
             exception: monitor.def.exception,

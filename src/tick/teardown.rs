@@ -472,8 +472,8 @@ mod tests {
     /// preempts the walk: X's run hands `Err(Aborted(Dropped))` to Y, still running, whose
     /// action starts G (a fallback). G's start is made while Y runs, but the walk placed Y
     /// before: Y is being stopped and starts nothing (`NotRunning`), so nothing it starts
-    /// outlives its abort (semantics 9). (Before session 32 G was started and torn down by
-    /// a second walk.)
+    /// outlives its abort (semantics 9); G is not started and then torn down by a second
+    /// walk.
     #[test]
     fn a_start_made_below_a_dropped_run_while_its_walk_is_preempted_does_not_outlive_it() {
         let seq: &'static Sequencer<(), 8> = Box::leak(Box::new(Sequencer::new()));
@@ -489,10 +489,11 @@ mod tests {
         Port::start_in_lane(seq, y, Some(run(r))).unwrap();
         seq.begin(
             x,
-            Some(run(y)),
-            Mode::Blocking { maker: 0 },
+            Mode::Blocking {
+                caller: run(y),
+                maker: 0,
+            },
             Cause::Start,
-            0,
         )
         .unwrap();
         let state = |id: SeqId| seq.with(|s| s.state_of(id));
@@ -533,8 +534,8 @@ mod tests {
     /// one section to see that, then O's stop, and no second walk. The tick preempts the
     /// lane between the two: O, still running, has its monitor fire, and the tick starts E
     /// below O (caller O). Nothing started below a sequence outlives its abort (semantics
-    /// 9, defect 3): E must be aborted with O (`Dropped`). Before its fix the walk returned
-    /// false after O's stop, `abort_dropped` stopped, and E ran on below the aborted O.
+    /// 9): E must be aborted with O (`Dropped`). A walk that returned after O's stop,
+    /// without looking again, would leave E running below the aborted O.
     #[test]
     fn an_exception_sequence_the_tick_starts_during_a_dropped_runs_shortcut_walk_is_torn_down() {
         let seq: &'static Sequencer<(), 4, 64, Interleaved> =

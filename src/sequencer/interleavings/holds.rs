@@ -500,7 +500,7 @@ fn a_mark_left_before_a_pause_owner_hold_of_the_caller_is_dropped() {
     polls_against_hold(Hold::Monitor, &MARK_LEFT);
 }
 
-/// Failed in session 31: the mark of 2 ms was taken at 3 ms, while O handled its
+/// Without the drop, the mark of 2 ms was taken at 3 ms, while O handled its
 /// exception (C's own clearance is `Go`).
 #[test]
 fn a_mark_left_before_an_exception_of_the_caller_is_dropped() {

@@ -106,11 +106,11 @@ use std::vec::Vec;
 use crate::lock::interleaved;
 use crate::lock::Lock;
 use crate::model::id::RunId;
+use crate::sequencer::clearance::Clearance;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::port::Port;
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
-use crate::sequencer::transition::Clearance;
 use crate::trace::{Record, Transition};
 use crate::{
     Behaviour, Cause, Condition, Duration, Error, Event, Instant, Monitor, MonitorId, Monitors,
@@ -730,7 +730,14 @@ fn start_child<L: Lock + 'static, const N: usize, const B: usize>(
         How::InLane => Port::start_in_lane(w.seq, c, Some(by)),
         How::Blocking => w
             .seq
-            .begin(c, Some(by), Mode::Blocking { maker: 0 }, Cause::Start, 0)
+            .begin(
+                c,
+                Mode::Blocking {
+                    caller: by,
+                    maker: 0,
+                },
+                Cause::Start,
+            )
             .map(|_| ()),
     }
 }
@@ -891,10 +898,11 @@ fn chain<L: Lock + 'static, const N: usize, const B: usize>(
     w.seq
         .begin(
             x,
-            Some(w.run(y)),
-            Mode::Blocking { maker: 0 },
+            Mode::Blocking {
+                caller: w.run(y),
+                maker: 0,
+            },
             Cause::Start,
-            0,
         )
         .unwrap();
 }
@@ -1675,10 +1683,11 @@ fn caller_and_blocked<L: Lock + 'static, const N: usize, const B: usize>(
     w.seq
         .begin(
             x,
-            Some(w.run(r)),
-            Mode::Blocking { maker: 0 },
+            Mode::Blocking {
+                caller: w.run(r),
+                maker: 0,
+            },
             Cause::Start,
-            0,
         )
         .unwrap();
     (w, [r, x, e])

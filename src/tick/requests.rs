@@ -1,0 +1,102 @@
+//! Requests the tick carries out: an abort-all (the safety system's, or a handle's), the
+//! pause, resume and abort requests queued since the last tick, and the behaviours of
+//! exception sequences that ended (their owners are requested when the tick folds the end).
+
+use crate::lock::Lock;
+use crate::model::set::SeqSet;
+use crate::model::state::States;
+use crate::sequencer::control_block::flag;
+use crate::sequencer::sets::Set;
+use crate::{Cause, Event, Request, Requester, RunningState, Sequencer};
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
+    /// Aborts every active sequence, innermost first, for an abort-all request by `by`,
+    /// which is recorded when there is anything to abort (a safety level that demands
+    /// abort-all while it lasts asks at every cycle).
+    #[inline(never)]
+    pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) {
+        if !self.any_under_way() {
+            return;
+        }
+        self.with(|s| s.record(Event::AbortAll { by }));
+        self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+    }
+
+    /// Whether a run is under way that an abort-all would abort (`Running`, `Paused`,
+    /// `Restarting`). The set `Active` says it of the sequences as of the tick's last fold;
+    /// while it is empty, one short section per candidate (every registered sequence, or
+    /// with several words those live at the fold or changed since), and a run begun
+    /// meanwhile counts too (a lane of higher priority may start one while the tick looks).
+    fn any_under_way(&self) -> bool {
+        let (active, candidates, begun) = self.with(|s| {
+            let candidates = if B == 1 {
+                SeqSet::first(s.count())
+            } else {
+                s.sets
+                    .members(Set::Live)
+                    .union(&s.sets.members(Set::Changed))
+            };
+            (!s.sets.is_empty(Set::Active), candidates, s.runs_begun)
+        });
+        if active {
+            return true;
+        }
+        let abortable = States::entering(RunningState::Aborting);
+        candidates
+            .into_iter()
+            .any(|id| self.with(|s| abortable.has(s.state_of(id))))
+            || self.with(|s| s.runs_begun) != begun
+    }
+
+    /// Applies the behaviours of finished exception sequences and the pause, resume and
+    /// abort requests of the sequences that have them, in id order (out of line: one copy,
+    /// whatever the monitor tables the tick is instantiated for).
+    #[inline(never)]
+    pub(crate) fn apply_requests(&self, control: &C) {
+        let requested = self.with(|s| s.sets.take(Set::Requested));
+        for id in requested {
+            // The requests, and the behaviour pending for an exception sequence that ended.
+            let (req, done) = self.with(|s| {
+                let Some(b) = s.block_mut(id) else {
+                    return (None, None);
+                };
+                let mut done = None;
+                if b.has(flag::EXCEPTION_DONE) {
+                    b.set(flag::EXCEPTION_DONE, false);
+                    done = b.pending();
+                    b.set_pending(None);
+                }
+                (b.take_request(), done)
+            });
+            if let Some(behaviour) = done {
+                // Unless it was stopped meanwhile: the cause and the target.
+                let still = self.with(|s| {
+                    s.block(id)
+                        .filter(|b| States::ACTIVE_RUNNING.has(b.state))
+                        .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
+                });
+                if let Some((cause, caller)) = still {
+                    let target = if behaviour.targets_caller() {
+                        caller.unwrap_or(id)
+                    } else {
+                        id
+                    };
+                    self.apply(control, id, behaviour, target, cause);
+                }
+            }
+            let (to, cause) = match req {
+                Some(Request::Abort) => (RunningState::Aborting, Cause::Abort),
+                Some(Request::Pause) => (RunningState::Paused, Cause::Pause),
+                // A sequence frozen by the paused caller it blocks resumes with that
+                // caller (its clock stays stopped meanwhile): the request lifted its own
+                // pause, if any.
+                Some(Request::Resume) if self.with(|s| s.stays_paused(id)) => continue,
+                Some(Request::Resume) => (RunningState::Running, Cause::Resume),
+                None => continue,
+            };
+            self.walk(control, Some(id), to, cause);
+        }
+    }
+}
