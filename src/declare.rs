@@ -42,7 +42,7 @@
 /// // Checked by the compiler: a duplicate name would not compile.
 /// static TABLE: Table<Axis, { seqs::COUNT }> = match seqs::table(&LIMITS) {
 ///     Ok(table) => table,
-///     Err(e) => panic!("{}", e.reason()),
+///     Err(e) => panic!("{}", e.message().as_str()),
 /// };
 ///
 /// fn main() {
@@ -150,13 +150,14 @@ macro_rules! sequences {
 /// }
 ///
 /// // The whole configuration, checked by the compiler: without `.in_lane()` on the safe
-/// // stop this item would not compile ("an exception sequence has no lane").
+/// // stop this item would not compile ("the exception sequence `safe stop` of monitor
+/// // `over-travel` has no lane ...").
 /// const CHECKED: () = match seqs::table() {
 ///     Ok(table) => match monitor_ids::validate(&table) {
 ///         Ok(()) => (),
-///         Err(e) => panic!("{}", e.reason()),
+///         Err(e) => panic!("{}", e.message().as_str()),
 ///     },
-///     Err(e) => panic!("{}", e.reason()),
+///     Err(e) => panic!("{}", e.message().as_str()),
 /// };
 ///
 /// fn main() {

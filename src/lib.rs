@@ -146,8 +146,8 @@ pub mod sim;
 
 pub use condition::{Condition, Stable, Toggle};
 pub use model::{
-    set_words, Cause, Done, Duration, Error, Failure, Instant, MonitorId, Outcome, RunningState,
-    SeqConfig, SeqId, Table, MAX_SEQUENCES,
+    set_words, Cause, Done, Duration, Error, ErrorMessage, Failure, Instant, MonitorId, Outcome,
+    RunningState, SeqConfig, SeqId, Table, MAX_SEQUENCES,
 };
 pub use monitor::{
     Behaviour, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger, DEFAULT_RESTART_LIMIT,

@@ -790,7 +790,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     ///     Monitor::with_condition("too hot", Hot, Behaviour::AbortOwner).owned_by(HEATING),
     /// ]) {
     ///     Ok(table) => table,
-    ///     Err(e) => panic!("{}", e.reason()), // a compile error, never a run-time panic
+    ///     Err(e) => panic!("{}", e.message().as_str()), // a compile error, never a run-time panic
     /// };
     /// let monitors = MONITORS;
     /// assert_eq!(monitors.owner(MonitorId::from_index(0)), Some(HEATING));

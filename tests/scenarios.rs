@@ -839,7 +839,7 @@ static TABLE: rtseq::Table<Ctrl, 4> = match rtseq::Table::new([
     SeqConfig::new("X"),
 ]) {
     Ok(table) => table,
-    Err(e) => panic!("{}", e.reason()),
+    Err(e) => panic!("{}", e.message().as_str()),
 };
 
 /// The same tree registered at run time.
@@ -908,7 +908,7 @@ fn a_table_goes_into_an_empty_sequencer_only() {
     assert_eq!((TABLE.len(), TABLE.is_empty()), (4, false));
     let none: rtseq::Table<Ctrl, 0> = match rtseq::Table::new([]) {
         Ok(table) => table,
-        Err(e) => panic!("{}", e.reason()),
+        Err(e) => panic!("{}", e.message().as_str()),
     };
     assert_eq!((none.len(), none.is_empty()), (0, true));
     let seq = Seqr::new();

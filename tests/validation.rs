@@ -269,6 +269,16 @@ mod at_compile_time {
             WITHOUT_LANE.map_err(|e| e.reason()),
             Err("an exception sequence has no lane")
         );
+        // What a `const` item's compile error says (`panic!("{}", e.message().as_str())`):
+        // the `Display` form, names included, made by the compiler.
+        const MESSAGE: Option<rtseq::ErrorMessage> = match WITHOUT_LANE {
+            Err(e) => Some(e.message()),
+            Ok(()) => None,
+        };
+        assert_eq!(
+            MESSAGE.map(|m| m.as_str().to_owned()),
+            Some(WITHOUT_LANE.unwrap_err().to_string())
+        );
     }
 }
 
@@ -310,7 +320,7 @@ fn a_tables_sequences_in_lanes_take_the_first_slots() {
         SeqConfig::new("fan").in_lane(),
     ]) {
         Ok(table) => table,
-        Err(e) => panic!("{}", e.reason()),
+        Err(e) => panic!("{}", e.message().as_str()),
     };
     let two: Sequencer<Ctrl, 4, 64, CriticalSection, 2> = Sequencer::new();
     assert!(two.is_empty());

@@ -574,18 +574,18 @@ impl Setup {
     pub const DEFAULT: Setup = match Setup::new(AppConfig::DEFAULT) {
         Ok(setup) => match setup.validate() {
             Ok(()) => setup,
-            Err(e) => panic!("{}", e.reason()),
+            Err(e) => panic!("{}", e.message().as_str()),
         },
-        Err(e) => panic!("{}", e.reason()),
+        Err(e) => panic!("{}", e.message().as_str()),
     };
     /// The set-up of [`AppConfig::DEMO`].
     #[allow(clippy::panic)]
     pub const DEMO: Setup = match Setup::new(AppConfig::DEMO) {
         Ok(setup) => match setup.validate() {
             Ok(()) => setup,
-            Err(e) => panic!("{}", e.reason()),
+            Err(e) => panic!("{}", e.message().as_str()),
         },
-        Err(e) => panic!("{}", e.reason()),
+        Err(e) => panic!("{}", e.message().as_str()),
     };
 
     /// The set-up of `config`: its table is [`seq_ids::table`].

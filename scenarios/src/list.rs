@@ -24,7 +24,7 @@ const fn cfg(name: &'static str) -> SeqConfig<Ctrl> {
 const fn table<const K: usize>(configs: [SeqConfig<Ctrl>; K]) -> Table<Ctrl, K> {
     match Table::new(configs) {
         Ok(t) => t,
-        Err(e) => panic!("{}", e.reason()),
+        Err(e) => panic!("{}", e.message().as_str()),
     }
 }
 
@@ -54,7 +54,7 @@ const fn on_flag(name: &'static str, flag: u8, b: Behaviour) -> Monitor<'static,
 const fn monitors<const L: usize>(monitors: [OwnedMonitor<'static, Ctrl, FlagCond>; L]) -> Mons {
     match Monitors::table(monitors) {
         Ok(t) => t,
-        Err(e) => panic!("{}", e.reason()),
+        Err(e) => panic!("{}", e.message().as_str()),
     }
 }
 

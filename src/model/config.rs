@@ -306,7 +306,7 @@ impl<C> SeqConfig<C> {
     ///     SeqConfig::new("safe stop").in_lane(),
     /// ]) {
     ///     Ok(t) => t,
-    ///     Err(e) => panic!("{}", e.reason()),
+    ///     Err(e) => panic!("{}", e.message().as_str()),
     /// };
     /// let seq: Sequencer<(), 2> = Sequencer::new();
     /// seq.install(&TABLE).unwrap();

@@ -1,6 +1,6 @@
 //! Configuration and start errors. rtseq never panics: every misuse is one of these.
 
-use crate::SeqId;
+use crate::{ErrorMessage, SeqId};
 
 /// Everything that can go wrong when configuring or commanding the sequencer.
 ///
@@ -94,7 +94,7 @@ pub enum Error {
 
 impl Error {
     /// What went wrong, without the name or id: for a `const` item's compile error
-    /// (`panic!("{}", e.reason())`), where no formatting is available.
+    /// (`panic!("{}", e.message().as_str())`), where no formatting is available.
     ///
     /// ```
     /// use rtseq::Error;
@@ -137,75 +137,64 @@ impl Error {
     }
 }
 
+impl Error {
+    /// What went wrong, naming the sequence by its id: the `Display` form, made by a
+    /// `const fn`, so that a `const` item fails to compile with it
+    /// (`Err(e) => panic!("{}", e.message().as_str())`).
+    ///
+    /// ```
+    /// use rtseq::{Error, SeqConfig, Table};
+    /// const E: Error = match Table::<(), 2>::new([SeqConfig::new("move"), SeqConfig::new("move")]) {
+    ///     Ok(_) => panic!("a duplicate name is refused"),
+    ///     Err(e) => e,
+    /// };
+    /// assert_eq!(E.message().as_str(), "duplicate name: sequence 0 has it");
+    /// assert_eq!(E.to_string(), E.message().as_str());
+    /// ```
+    pub const fn message(&self) -> ErrorMessage {
+        let m = ErrorMessage::new();
+        match *self {
+            Error::EmptyName => m.with("empty name"),
+            Error::DuplicateName(id) => naming(id, "duplicate name: sequence ", " has it"),
+            Error::SequenceCapacityExceeded => m.with("sequence capacity exceeded"),
+            Error::MonitorCapacityExceeded => m.with("monitor capacity exceeded"),
+            Error::UnknownSequence(id) => naming(id, "unknown sequence ", ""),
+            Error::AlreadyRunning(id) => naming(id, "sequence ", " is already running"),
+            Error::NotRunning(id) => naming(id, "sequence ", " is not running"),
+            Error::NotPaused(id) => naming(id, "sequence ", " is not paused"),
+            Error::CallerDepthExceeded(id) => naming(id, "starting sequence ", " exceeds the caller depth"),
+            Error::NoLane(id) => naming(id, "sequence ", " has no lane"),
+            Error::LaneCapacityExceeded(id) => naming(id, "no lane slot left for sequence ", ""),
+            Error::DurationOutOfRange => m.with("duration is zero or too long"),
+            Error::NeverStarted(id) => naming(id, "sequence ", " was never started"),
+            Error::AlreadyBound(id) => naming(id, "sequence ", " is already bound"),
+            Error::PollingClassesExceeded => m.with("too many distinct polling periods"),
+            Error::NotEmpty => m.with("a table needs an empty sequencer"),
+            Error::InvalidConfig => m.with("invalid configuration (see Sequencer::validate)"),
+            Error::TickBeforeLast => m.with("a tick's time is earlier than the last tick's"),
+            Error::PauseOnTimeout => m.with("a timeout cannot pause its sequence (PauseOwner is a monitor behaviour)"),
+            Error::ForeignSequence(id) => naming(id, "the object of sequence ", " was made by another sequencer"),
+            Error::HeldByMonitor(id) => naming(id, "sequence ", " is held paused by a monitor whose condition holds"),
+            Error::OutcomeLost(id) => naming(id, "the joined run of sequence ", " ended, and so did a later run, whose outcome replaced it"),
+            Error::TickInProgress => m.with("a tick while another tick of the same sequencer is under way"),
+            Error::ForeignMonitorTable => m.with("a tick with a monitor table other than the sequencer's own (one table per sequencer)"),
+            Error::PauseOwnerMonitorsExceeded(id) => naming(id, "sequence ", " has 256 PauseOwner monitors; at most 255 can hold it paused"),
+            Error::JoinWouldDeadlock(id) => naming(id, "joining sequence ", " would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)"),
+        }
+    }
+}
+
+/// `before`, the index of `id`, `after`.
+const fn naming(id: SeqId, before: &str, after: &str) -> ErrorMessage {
+    ErrorMessage::new()
+        .with(before)
+        .with_number(id.index())
+        .with(after)
+}
+
 impl core::fmt::Display for Error {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            Error::EmptyName => write!(f, "empty name"),
-            Error::DuplicateName(id) => {
-                write!(f, "duplicate name: sequence {} has it", id.index())
-            }
-            Error::SequenceCapacityExceeded => write!(f, "sequence capacity exceeded"),
-            Error::MonitorCapacityExceeded => write!(f, "monitor capacity exceeded"),
-            Error::UnknownSequence(id) => write!(f, "unknown sequence {}", id.index()),
-            Error::AlreadyRunning(id) => write!(f, "sequence {} is already running", id.index()),
-            Error::NotRunning(id) => write!(f, "sequence {} is not running", id.index()),
-            Error::NotPaused(id) => write!(f, "sequence {} is not paused", id.index()),
-            Error::CallerDepthExceeded(id) => {
-                write!(
-                    f,
-                    "starting sequence {} exceeds the caller depth",
-                    id.index()
-                )
-            }
-            Error::NoLane(id) => write!(f, "sequence {} has no lane", id.index()),
-            Error::LaneCapacityExceeded(id) => {
-                write!(f, "no lane slot left for sequence {}", id.index())
-            }
-            Error::DurationOutOfRange => write!(f, "duration is zero or too long"),
-            Error::NeverStarted(id) => write!(f, "sequence {} was never started", id.index()),
-            Error::AlreadyBound(id) => write!(f, "sequence {} is already bound", id.index()),
-            Error::PollingClassesExceeded => write!(f, "too many distinct polling periods"),
-            Error::NotEmpty => write!(f, "a table needs an empty sequencer"),
-            Error::InvalidConfig => write!(f, "invalid configuration (see Sequencer::validate)"),
-            Error::TickBeforeLast => write!(f, "a tick's time is earlier than the last tick's"),
-            Error::PauseOnTimeout => write!(
-                f,
-                "a timeout cannot pause its sequence (PauseOwner is a monitor behaviour)"
-            ),
-            Error::ForeignSequence(id) => write!(
-                f,
-                "the object of sequence {} was made by another sequencer",
-                id.index()
-            ),
-            Error::HeldByMonitor(id) => write!(
-                f,
-                "sequence {} is held paused by a monitor whose condition holds",
-                id.index()
-            ),
-            Error::OutcomeLost(id) => write!(
-                f,
-                "the joined run of sequence {} ended, and so did a later run, whose outcome replaced it",
-                id.index()
-            ),
-            Error::TickInProgress => write!(
-                f,
-                "a tick while another tick of the same sequencer is under way"
-            ),
-            Error::ForeignMonitorTable => write!(
-                f,
-                "a tick with a monitor table other than the sequencer's own (one table per sequencer)"
-            ),
-            Error::PauseOwnerMonitorsExceeded(id) => write!(
-                f,
-                "sequence {} has 256 PauseOwner monitors; at most 255 can hold it paused",
-                id.index()
-            ),
-            Error::JoinWouldDeadlock(id) => write!(
-                f,
-                "joining sequence {} would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)",
-                id.index()
-            ),
-        }
+        f.write_str(self.message().as_str())
     }
 }
 

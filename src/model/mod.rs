@@ -9,6 +9,7 @@
 pub(crate) mod config;
 pub(crate) mod error;
 pub(crate) mod id;
+pub(crate) mod message;
 pub(crate) mod outcome;
 pub(crate) mod set;
 pub(crate) mod state;
@@ -18,6 +19,7 @@ pub(crate) mod time;
 pub use config::SeqConfig;
 pub use error::Error;
 pub use id::{MonitorId, SeqId};
+pub use message::ErrorMessage;
 pub use outcome::{Cause, Done, Failure, Outcome};
 pub use set::{set_words, MAX_SEQUENCES};
 pub use state::RunningState;

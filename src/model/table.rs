@@ -111,7 +111,7 @@ impl<C> CheckedConfig<C> {
 ///         .timeout_behaviour(Behaviour::AbortOwner),
 /// ]) {
 ///     Ok(table) => table,
-///     Err(e) => panic!("{}", e.reason()), // a compile error, never a run-time panic
+///     Err(e) => panic!("{}", e.message().as_str()), // a compile error, never a run-time panic
 /// };
 /// // The ids the code uses are the ones the names say.
 /// const _: () = assert!(matches!(TABLE.id("homing"), Some(id) if id.index() == HOMING.index()));
@@ -134,7 +134,7 @@ impl<C> CheckedConfig<C> {
 /// static TABLE: Table<(), 2> =
 ///     match Table::new([SeqConfig::new("move"), SeqConfig::new("move")]) {
 ///         Ok(table) => table,
-///         Err(e) => panic!("{}", e.reason()),
+///         Err(e) => panic!("{}", e.message().as_str()),
 ///     };
 /// ```
 pub struct Table<C, const N: usize> {
@@ -202,7 +202,7 @@ impl<C, const N: usize> Table<C, N> {
     /// use rtseq::{SeqConfig, SeqId, Table};
     /// const TABLE: Table<(), 2> = match Table::new([SeqConfig::new("a"), SeqConfig::new("go")]) {
     ///     Ok(table) => table,
-    ///     Err(e) => panic!("{}", e.reason()),
+    ///     Err(e) => panic!("{}", e.message().as_str()),
     /// };
     /// const GO: SeqId = match TABLE.id("go") { Some(id) => id, None => panic!("no such entry") };
     /// assert_eq!(GO.index(), 1);

@@ -66,7 +66,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// use rtseq::{SeqConfig, Sequencer, Table};
     /// static TABLE: Table<(), 2> = match Table::new([SeqConfig::new("a"), SeqConfig::new("b")]) {
     ///     Ok(t) => t,
-    ///     Err(e) => panic!("{}", e.reason()),
+    ///     Err(e) => panic!("{}", e.message().as_str()),
     /// };
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// seq.install(&TABLE).unwrap();

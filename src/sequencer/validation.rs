@@ -7,7 +7,7 @@ use core::fmt;
 
 use crate::lock::Lock;
 use crate::model::table::CheckedConfig;
-use crate::{MonitorId, Monitors, OwnedMonitor, SeqId, Sequencer, Table};
+use crate::{ErrorMessage, MonitorId, Monitors, OwnedMonitor, SeqId, Sequencer, Table};
 
 /// Who raises an exception: a monitor, or a sequence's timeout.
 ///
@@ -70,8 +70,7 @@ pub enum ConfigError {
 }
 
 impl ConfigError {
-    /// A short description without the names, for a `const` item's panic (which cannot
-    /// format): the `Display` form names the monitor and the sequences.
+    /// A short description without the names.
     ///
     /// ```
     /// use rtseq::{ConfigError, MonitorId, Raiser};
@@ -86,40 +85,72 @@ impl ConfigError {
             ConfigError::ExceptionWithoutLane { .. } => "an exception sequence has no lane",
         }
     }
+
+    /// What is wrong, naming the monitor and the sequences: the `Display` form, made by a
+    /// `const fn`, so that a configuration checked in a `const` item fails to compile
+    /// with it (`Err(e) => panic!("{}", e.message().as_str())`).
+    ///
+    /// ```
+    /// use rtseq::{ConfigError, MonitorId, Raiser, SeqId};
+    /// let e = ConfigError::UnknownException {
+    ///     raiser: Raiser::Timeout(SeqId::from_index(1), "homing"),
+    ///     exception: SeqId::from_index(7),
+    /// };
+    /// assert_eq!(
+    ///     e.message().as_str(),
+    ///     "the exception sequence 7 of the timeout of `homing` is not registered"
+    /// );
+    /// assert_eq!(e.to_string(), e.message().as_str());
+    /// ```
+    pub const fn message(&self) -> ErrorMessage {
+        let m = ErrorMessage::new();
+        match *self {
+            ConfigError::UnknownOwner { monitor, owner } => m
+                .with("monitor `")
+                .with(monitor.1)
+                .with("` is owned by sequence ")
+                .with_number(owner.index())
+                .with(", which is not registered"),
+            ConfigError::UnknownException { raiser, exception } => raiser
+                .named_in(
+                    m.with("the exception sequence ")
+                        .with_number(exception.index())
+                        .with(" of "),
+                )
+                .with(" is not registered"),
+            ConfigError::ExceptionIsOwner { raiser } => raiser
+                .named_in(m)
+                .with(" names its own owner as its exception sequence"),
+            ConfigError::ExceptionWithoutLane { raiser, exception } => raiser
+                .named_in(
+                    m.with("the exception sequence `")
+                        .with(exception.1)
+                        .with("` of "),
+                )
+                .with(" has no lane (declare one before the first tick)"),
+        }
+    }
+}
+
+impl Raiser {
+    /// `m` with this raiser's `Display` form added.
+    const fn named_in(self, m: ErrorMessage) -> ErrorMessage {
+        match self {
+            Raiser::Monitor(_, name) => m.with("monitor `").with(name).with("`"),
+            Raiser::Timeout(_, name) => m.with("the timeout of `").with(name).with("`"),
+        }
+    }
 }
 
 impl fmt::Display for Raiser {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Raiser::Monitor(_, name) => write!(f, "monitor `{name}`"),
-            Raiser::Timeout(_, name) => write!(f, "the timeout of `{name}`"),
-        }
+        f.write_str(self.named_in(ErrorMessage::new()).as_str())
     }
 }
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ConfigError::UnknownOwner { monitor, owner } => write!(
-                f,
-                "monitor `{}` is owned by sequence {}, which is not registered",
-                monitor.1,
-                owner.index()
-            ),
-            ConfigError::UnknownException { raiser, exception } => write!(
-                f,
-                "the exception sequence {} of {raiser} is not registered",
-                exception.index()
-            ),
-            ConfigError::ExceptionIsOwner { raiser } => {
-                write!(f, "{raiser} names its own owner as its exception sequence")
-            }
-            ConfigError::ExceptionWithoutLane { raiser, exception } => write!(
-                f,
-                "the exception sequence `{}` of {raiser} has no lane (declare one before the first tick)",
-                exception.1
-            ),
-        }
+        f.write_str(self.message().as_str())
     }
 }
 
@@ -299,7 +330,7 @@ impl<C, const N: usize> Table<C, N> {
     /// const fn table(safe_stop: SeqConfig<()>) -> Table<(), 2> {
     ///     match Table::new([SeqConfig::new("moves").in_lane(), safe_stop]) {
     ///         Ok(t) => t,
-    ///         Err(e) => panic!("{}", e.reason()),
+    ///         Err(e) => panic!("{}", e.message().as_str()),
     ///     }
     /// }
     /// const JAM: [rtseq::OwnedMonitor<'static, (), Cond>; 1] = [
@@ -310,7 +341,7 @@ impl<C, const N: usize> Table<C, N> {
     /// // Checked by the compiler: a bad configuration would not build.
     /// const CHECKED: () = match table(SeqConfig::new("safe stop").in_lane()).validate(&JAM) {
     ///     Ok(()) => (),
-    ///     Err(e) => panic!("{}", e.reason()),
+    ///     Err(e) => panic!("{}", e.message().as_str()),
     /// };
     /// // The safe stop without a lane could not run when the jam monitor fires.
     /// assert_eq!(
@@ -333,7 +364,7 @@ impl<C, const N: usize> Table<C, N> {
     ///     SeqConfig::new("safe stop"), // no lane
     /// ]) {
     ///     Ok(t) => t,
-    ///     Err(e) => panic!("{}", e.reason()),
+    ///     Err(e) => panic!("{}", e.message().as_str()),
     /// };
     /// const CHECKED: () = match TABLE.validate(&[
     ///     Monitor::with_condition("jam", jammed as Cond, Behaviour::AbortOwner)
@@ -341,7 +372,7 @@ impl<C, const N: usize> Table<C, N> {
     ///         .owned_by(SeqId::from_index(0)),
     /// ]) {
     ///     Ok(()) => (),
-    ///     Err(e) => panic!("{}", e.reason()), // error: an exception sequence has no lane
+    ///     Err(e) => panic!("{}", e.message().as_str()), // error: an exception sequence has no lane
     /// };
     /// ```
     pub const fn validate<K>(

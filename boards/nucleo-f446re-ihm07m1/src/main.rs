@@ -261,7 +261,7 @@ mod app {
         let monitors = const {
             match app::monitor_ids::table(&AppConfig::DEFAULT) {
                 Ok(m) => m,
-                Err(e) => panic!("{}", e.reason()),
+                Err(e) => panic!("{}", e.message().as_str()),
             }
         };
         let app = match app::register(&SEQ, &SETUP) {

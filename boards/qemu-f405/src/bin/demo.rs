@@ -1537,7 +1537,7 @@ mod rtic_app {
         let monitors = const {
             match app::monitor_ids::table(&CONFIG) {
                 Ok(m) => m,
-                Err(e) => panic!("{}", e.reason()),
+                Err(e) => panic!("{}", e.message().as_str()),
             }
         };
         let app = match app::register(&SEQ, &SETUP) {

@@ -104,9 +104,9 @@ impl SafetyIo for Io {
 static TABLE: Table<Axis, { seqs::COUNT }> = match seqs::table() {
     Ok(t) => match monitor_ids::validate(&t) {
         Ok(()) => t,
-        Err(e) => panic!("{}", e.reason()),
+        Err(e) => panic!("{}", e.message().as_str()),
     },
-    Err(e) => panic!("{}", e.reason()),
+    Err(e) => panic!("{}", e.message().as_str()),
 };
 // SAFETY: SEQ is used at the tick's priority 2 and below; the safety task (3) only calls
 // `abort_all`, which any priority may.
@@ -151,7 +151,7 @@ mod app {
         let monitors = const {
             match monitor_ids::table() {
                 Ok(m) => m,
-                Err(e) => panic!("{}", e.reason()),
+                Err(e) => panic!("{}", e.message().as_str()),
             }
         };
         or_exit(SEQ.install(&TABLE));
