@@ -10,7 +10,7 @@ use core::cell::Cell;
 use rtseq::sim::Sim;
 use rtseq::{
     Behaviour, Cx, Done, Duration, Failure, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer,
-    Step, Transition,
+    Step, WithNames,
 };
 
 /// The application's control system: what sequences command and conditions read.
@@ -115,8 +115,20 @@ impl Sequence<Axis> for SafeStop {
     }
 }
 
-/// Runs homing once; returns its outcome, the end time in ms and the trace.
-pub fn run(end_stop_works: bool) -> (Option<Outcome>, u64, Vec<Transition>, Vec<&'static str>) {
+/// What one homing run did.
+pub struct Homed {
+    /// How homing ended (`None`: it never ran).
+    pub outcome: Option<Outcome>,
+    /// When the last sequence came to rest, in ms.
+    pub end_ms: u64,
+    /// The run's records, transitions and events, printed with the sequences' names.
+    pub lines: Vec<String>,
+    /// The outcome with names, for a person to read.
+    pub summary: String,
+}
+
+/// Runs homing once.
+pub fn run(end_stop_works: bool) -> Homed {
     let seq: Sequencer<Axis, 8> = Sequencer::new();
     let axis = Axis::default();
     axis.end_stop_works.set(end_stop_works);
@@ -142,22 +154,24 @@ pub fn run(end_stop_works: bool) -> (Option<Outcome>, u64, Vec<Transition>, Vec<
     sim.lane(safe_stop);
     sim.before_tick(|_, axis| axis.step(0.001));
     sim.start(id).unwrap();
-    let end = sim
+    let end_ms = sim
         .run_until_idle(Duration::from_secs(10))
         .map_or(u64::MAX, |t| t.as_ticks() / 1000);
-    let names = (0..seq.len())
-        .map(|i| {
-            seq.sequence_by_id(rtseq::SeqId::from_index(i))
-                .unwrap()
-                .name()
-        })
-        .collect();
-    (
-        sim.handle(id).unwrap().last_outcome(),
-        end,
-        sim.take_trace(),
-        names,
-    )
+    let outcome = sim.handle(id).unwrap().last_outcome();
+    let summary = match outcome {
+        Some(o) => format!("homing {} at {end_ms} ms", o.named(&seq)),
+        None => "homing never ran".to_string(),
+    };
+    Homed {
+        outcome,
+        end_ms,
+        summary,
+        lines: sim
+            .records()
+            .iter()
+            .map(|r| r.named(&seq).to_string())
+            .collect(),
+    }
 }
 
 #[allow(dead_code)] // also compiled into the homing test, which has its own main
@@ -167,17 +181,10 @@ fn main() {
             "--- homing, end stop {} ---",
             if works { "wired" } else { "broken" }
         );
-        let (outcome, end, trace, names) = run(works);
-        for t in trace {
-            println!(
-                "{:>6} ms  {:<14} {:?} -> {:?} ({:?})",
-                t.time.as_ticks() / 1000,
-                names[t.sequence.index()],
-                t.from,
-                t.to,
-                t.cause
-            );
+        let homed = run(works);
+        for line in &homed.lines {
+            println!("{line}");
         }
-        println!("outcome {outcome:?} at {end} ms\n");
+        println!("{}\n", homed.summary);
     }
 }

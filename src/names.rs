@@ -3,12 +3,14 @@
 //! `defmt::Format`.
 //!
 //! A [`Names`] source answers names: a [`Sequencer`] its sequences', a [`Monitors`] table
-//! its monitors', [`SafetyProperties`] their levels', [`Failures`] the application's
-//! failure codes; a tuple of sources asks each in turn. [`WithNames::named`] pairs a
-//! value (an id, a [`Cause`], an [`Outcome`], a [`Failure`], a [`Transition`], a
-//! [`SafetyLevel`]) with a source for printing. The `defmt` forms read as the `Display`
-//! forms, but for one part: the error of a [`Failure::NotStarted`] prints in
-//! [`Error`](crate::Error)'s own `defmt` form, its variant and id
+//! its monitors', [`SafetyProperties`] their levels' and critical inputs', [`Failures`] the
+//! application's failure codes; a tuple of sources asks each in turn.
+//! [`WithNames::named`] pairs a value (an id, a [`Cause`], an [`Outcome`], a [`Failure`], a
+//! [`Transition`], an [`Event`], a [`Record`], a [`SafetyLevel`]) with a source for
+//! printing: a run's records print as the lines of the run ("4 ms monitor `jam` of `cycle`
+//! fired: AbortOwner"). The `defmt` forms read as the `Display` forms, but for one part:
+//! an [`Error`](crate::Error) inside a [`Failure::NotStarted`] or an
+//! [`Event::ExceptionNotRun`] prints in its own `defmt` form, its variant and id
 //! (`not started: AlreadyRunning(SeqId(1))`).
 //!
 //! ```
@@ -31,8 +33,11 @@
 use core::fmt;
 
 use crate::lock::Lock;
-use crate::safety::{SafetyLevel, SafetyProperties};
-use crate::{Cause, Failure, MonitorId, Monitors, Outcome, SeqId, Sequencer, Transition};
+use crate::safety::{InputId, SafetyLevel, SafetyProperties};
+use crate::{
+    Cause, Entry, Event, Failure, MonitorId, Monitors, Outcome, Record, Requester, SeqId,
+    Sequencer, Transition,
+};
 
 /// A source of names for printing with [`WithNames::named`]. Each method answers `None`
 /// for what the source does not name.
@@ -60,6 +65,12 @@ pub trait Names {
         let _ = code;
         None
     }
+
+    /// The name of critical input `input` of the safety system.
+    fn input(&self, input: InputId) -> Option<&'static str> {
+        let _ = input;
+        None
+    }
 }
 
 impl<T: Names + ?Sized> Names for &T {
@@ -74,6 +85,9 @@ impl<T: Names + ?Sized> Names for &T {
     }
     fn failure(&self, code: u16) -> Option<&'static str> {
         (**self).failure(code)
+    }
+    fn input(&self, input: InputId) -> Option<&'static str> {
+        (**self).input(input)
     }
 }
 
@@ -90,6 +104,9 @@ impl<A: Names, B: Names> Names for (A, B) {
     fn failure(&self, code: u16) -> Option<&'static str> {
         self.0.failure(code).or_else(|| self.1.failure(code))
     }
+    fn input(&self, input: InputId) -> Option<&'static str> {
+        self.0.input(input).or_else(|| self.1.input(input))
+    }
 }
 
 impl<A: Names, B: Names, C: Names> Names for (A, B, C) {
@@ -104,6 +121,9 @@ impl<A: Names, B: Names, C: Names> Names for (A, B, C) {
     }
     fn failure(&self, code: u16) -> Option<&'static str> {
         (&self.0, (&self.1, &self.2)).failure(code)
+    }
+    fn input(&self, input: InputId) -> Option<&'static str> {
+        (&self.0, (&self.1, &self.2)).input(input)
     }
 }
 
@@ -123,10 +143,16 @@ impl<C, const M: usize, K> Names for Monitors<'_, C, M, K> {
     }
 }
 
-/// The levels' names.
+/// The levels' and the critical inputs' names.
 impl<IO, const L: usize> Names for SafetyProperties<'_, IO, L> {
     fn level(&self, level: SafetyLevel) -> Option<&'static str> {
         self.level(level).map(|d| d.name())
+    }
+    fn input(&self, input: InputId) -> Option<&'static str> {
+        self.inputs()
+            .iter()
+            .find(|i| i.id() == input)
+            .map(|i| i.name())
     }
 }
 
@@ -165,8 +191,8 @@ impl<V: Copy, N: Names + ?Sized> Named<'_, V, N> {
     }
 }
 
-/// Values that print with names: ids, causes, outcomes, failures, transitions, safety
-/// levels.
+/// Values that print with names: ids, causes, outcomes, failures, transitions, events,
+/// records, safety levels.
 pub trait WithNames: Copy {
     /// This value with `names`, for `Display` and `defmt::Format`.
     ///
@@ -188,6 +214,8 @@ impl WithNames for Outcome {}
 impl WithNames for Failure {}
 impl WithNames for Transition {}
 impl WithNames for SafetyLevel {}
+impl WithNames for Event {}
+impl WithNames for Record {}
 
 /// What a cause without an id says.
 fn cause_word(c: Cause) -> Option<&'static str> {
@@ -267,10 +295,7 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, Failure, N> {
 impl<N: Names + ?Sized> fmt::Display for Named<'_, Transition, N> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let t = self.value;
-        match millis(t.time) {
-            (ms, None) => write!(f, "{ms} ms ")?,
-            (ms, Some(us)) => write!(f, "{ms}.{us:03} ms ")?,
-        }
+        write_time(f, t.time)?;
         write!(
             f,
             "{}: {:?} -> {:?} ({})",
@@ -291,11 +316,138 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, SafetyLevel, N> {
     }
 }
 
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Requester, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.value {
+            Requester::Sequence(id) => write!(f, "`{}`", self.with(id)),
+            Requester::Application => f.write_str("the application"),
+            Requester::SafetySystem => f.write_str("the safety system"),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, InputId, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.names.input(self.value) {
+            Some(name) => write!(f, "critical input `{name}`"),
+            None => write!(f, "critical input #{}", self.value.index()),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Event, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.value {
+            Event::Fired {
+                cause: cause @ Cause::Timeout(_),
+                behaviour,
+                ..
+            } => write!(f, "{} ran out: {behaviour:?}", self.with(cause)),
+            Event::Fired {
+                owner,
+                cause,
+                behaviour,
+            } => write!(
+                f,
+                "{} of `{}` fired: {behaviour:?}",
+                self.with(cause),
+                self.with(owner)
+            ),
+            Event::ExceptionNotRun {
+                exception,
+                owner,
+                why,
+            } => write!(
+                f,
+                "exception sequence `{}` of `{}` not run: {why}",
+                self.with(exception),
+                self.with(owner)
+            ),
+            Event::Requested {
+                sequence,
+                request,
+                by,
+            } => write!(
+                f,
+                "{} of `{}` requested by {}",
+                request_word(request),
+                self.with(sequence),
+                self.with(by)
+            ),
+            Event::AbortAll { by } => write!(f, "abort-all requested by {}", self.with(by)),
+            Event::Failed { sequence, failure } => {
+                write!(
+                    f,
+                    "`{}` failed: {}",
+                    self.with(sequence),
+                    self.with(failure)
+                )
+            }
+            Event::SafetyLevel { level } => write!(f, "safety level {}", self.with(level)),
+            Event::InputTripped { input } => write!(f, "{} tripped", self.with(input)),
+        }
+    }
+}
+
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Record, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let time = self.value.time;
+        match self.value.entry {
+            Entry::Transition {
+                sequence,
+                from,
+                to,
+                cause,
+            } => {
+                let t = Transition {
+                    time,
+                    sequence,
+                    from,
+                    to,
+                    cause,
+                };
+                write!(f, "{}", self.with(t))
+            }
+            Entry::Event(e) => {
+                write_time(f, time)?;
+                write!(f, "{}", self.with(e))
+            }
+        }
+    }
+}
+
+/// What a request is called in a sentence.
+fn request_word(r: crate::Request) -> &'static str {
+    match r {
+        crate::Request::Pause => "pause",
+        crate::Request::Resume => "resume",
+        crate::Request::Abort => "abort",
+    }
+}
+
+/// `t` as the lines of a run print it: "12 ms ", "12.500 ms ".
+fn write_time(f: &mut fmt::Formatter<'_>, t: crate::Instant) -> fmt::Result {
+    match millis(t) {
+        (ms, None) => write!(f, "{ms} ms "),
+        (ms, Some(us)) => write!(f, "{ms}.{us:03} ms "),
+    }
+}
+
 #[cfg(feature = "defmt")]
 mod defmt_format {
-    use super::{cause_word, millis, Named, Names};
-    use crate::safety::SafetyLevel;
-    use crate::{Cause, Failure, MonitorId, Outcome, SeqId, Transition};
+    use super::{cause_word, millis, request_word, Named, Names};
+    use crate::safety::{InputId, SafetyLevel};
+    use crate::{
+        Cause, Entry, Event, Failure, MonitorId, Outcome, Record, Requester, SeqId, Transition,
+    };
+
+    /// `t` as the lines of a run print it.
+    fn write_time(f: defmt::Formatter<'_>, t: crate::Instant) {
+        match millis(t) {
+            (ms, None) => defmt::write!(f, "{=u64} ms ", ms),
+            (ms, Some(us)) => defmt::write!(f, "{=u64}.{=u64:03} ms ", ms, us),
+        }
+    }
 
     impl<N: Names + ?Sized> defmt::Format for Named<'_, SeqId, N> {
         fn format(&self, f: defmt::Formatter<'_>) {
@@ -352,10 +504,7 @@ mod defmt_format {
     impl<N: Names + ?Sized> defmt::Format for Named<'_, Transition, N> {
         fn format(&self, f: defmt::Formatter<'_>) {
             let t = self.value;
-            match millis(t.time) {
-                (ms, None) => defmt::write!(f, "{=u64} ms ", ms),
-                (ms, Some(us)) => defmt::write!(f, "{=u64}.{=u64:03} ms ", ms, us),
-            }
+            write_time(f, t.time);
             defmt::write!(
                 f,
                 "{}: {} -> {} ({})",
@@ -372,6 +521,109 @@ mod defmt_format {
             match self.names.level(self.value) {
                 Some(name) => defmt::write!(f, "{=str}", name),
                 None => defmt::write!(f, "level {=u8}", self.value.id()),
+            }
+        }
+    }
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Requester, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.value {
+                Requester::Sequence(id) => defmt::write!(f, "`{}`", self.with(id)),
+                Requester::Application => defmt::write!(f, "the application"),
+                Requester::SafetySystem => defmt::write!(f, "the safety system"),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, InputId, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.names.input(self.value) {
+                Some(name) => defmt::write!(f, "critical input `{=str}`", name),
+                None => defmt::write!(f, "critical input #{=usize}", self.value.index()),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Event, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.value {
+                Event::Fired {
+                    cause: cause @ Cause::Timeout(_),
+                    behaviour,
+                    ..
+                } => defmt::write!(f, "{} ran out: {}", self.with(cause), behaviour),
+                Event::Fired {
+                    owner,
+                    cause,
+                    behaviour,
+                } => defmt::write!(
+                    f,
+                    "{} of `{}` fired: {}",
+                    self.with(cause),
+                    self.with(owner),
+                    behaviour
+                ),
+                Event::ExceptionNotRun {
+                    exception,
+                    owner,
+                    why,
+                } => defmt::write!(
+                    f,
+                    "exception sequence `{}` of `{}` not run: {}",
+                    self.with(exception),
+                    self.with(owner),
+                    why
+                ),
+                Event::Requested {
+                    sequence,
+                    request,
+                    by,
+                } => defmt::write!(
+                    f,
+                    "{=str} of `{}` requested by {}",
+                    request_word(request),
+                    self.with(sequence),
+                    self.with(by)
+                ),
+                Event::AbortAll { by } => {
+                    defmt::write!(f, "abort-all requested by {}", self.with(by))
+                }
+                Event::Failed { sequence, failure } => defmt::write!(
+                    f,
+                    "`{}` failed: {}",
+                    self.with(sequence),
+                    self.with(failure)
+                ),
+                Event::SafetyLevel { level } => {
+                    defmt::write!(f, "safety level {}", self.with(level))
+                }
+                Event::InputTripped { input } => defmt::write!(f, "{} tripped", self.with(input)),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Record, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            let time = self.value.time;
+            match self.value.entry {
+                Entry::Transition {
+                    sequence,
+                    from,
+                    to,
+                    cause,
+                } => {
+                    let t = Transition {
+                        time,
+                        sequence,
+                        from,
+                        to,
+                        cause,
+                    };
+                    defmt::write!(f, "{}", self.with(t));
+                }
+                Entry::Event(e) => {
+                    write_time(f, time);
+                    defmt::write!(f, "{}", self.with(e));
+                }
             }
         }
     }

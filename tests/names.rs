@@ -118,6 +118,39 @@ fn each_kind_of_name_is_found_in_any_source_of_a_tuple() {
         assert_eq!(jam.named(names).to_string(), "monitor `jam`");
         assert_eq!(Failure::App(9).named(names).to_string(), "failure #9");
     }
+
+    // Critical inputs are named by the safety properties, first, last or in the middle.
+    use rtseq::safety::{CriticalInput, CriticalInputInfo};
+    use rtseq::Event;
+    const ESTOP: CriticalInput<bool> = CriticalInput::new(0, "estop");
+    static INPUTS: [CriticalInputInfo; 1] = [ESTOP.info()];
+    let props: SafetyProperties<'static, (), 1> = SafetyProperties::new(
+        [LevelDef::new(SafetyLevel::new(0), "off")],
+        &INPUTS,
+        &[],
+        &[],
+        SafetyLevel::new(0),
+    );
+    let tripped = Event::InputTripped { input: ESTOP.id() };
+    let input_last = (&seq, &props);
+    let input_first = (&props, &seq);
+    let input_middle = (&seq, &props, &monitors);
+    let input_last_of_three = (&seq, &monitors, &props);
+    for names in [
+        &input_last as &dyn Names,
+        &input_first,
+        &input_middle,
+        &input_last_of_three,
+    ] {
+        assert_eq!(
+            tripped.named(names).to_string(),
+            "critical input `estop` tripped"
+        );
+    }
+    assert_eq!(
+        tripped.named(&(&seq, &monitors)).to_string(),
+        "critical input #0 tripped"
+    );
 }
 
 /// The simulator's trace file names the safety levels and critical inputs it was given
@@ -230,4 +263,152 @@ fn the_trace_file_holds_the_run_with_its_names() {
     let saved = std::fs::read_to_string(&path).unwrap();
     std::fs::remove_file(&path).unwrap();
     assert_eq!(saved, text);
+}
+
+/// A run's records, transitions and events alike, print as lines of the run with names: the
+/// requests and who made them, the monitor that fired, the transitions they explain.
+#[test]
+fn records_print_with_names_as_the_run_reads() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq.add(SeqConfig::new("move"), Leaf::until(1)).unwrap();
+    let main = seq
+        .add(SeqConfig::new("cycle"), Node::of(vec![Op::Step(step)]))
+        .unwrap();
+    let id = main.id();
+    let mut jam = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    monitors
+        .add(id, Monitor::new("jam", &mut jam, Behaviour::AbortOwner))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.before_tick(|t, c| c.set(2, ms(t) == 4));
+    sim.start(id).unwrap();
+    sim.run_for(Duration::from_millis(1));
+    sim.pause(id).unwrap();
+    sim.run_for(Duration::from_millis(1));
+    sim.resume(id).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    let names = (&seq, sim.monitors());
+    let lines: Vec<String> = sim
+        .records()
+        .iter()
+        .map(|r| r.named(&names).to_string())
+        .collect();
+    assert_eq!(
+        lines,
+        [
+            "0 ms cycle: Idle -> Running (start)",
+            "0 ms move: Idle -> Running (start)",
+            "1 ms pause of `cycle` requested by the application",
+            "2 ms cycle: Running -> Paused (pause)",
+            "2 ms move: Running -> Paused (pause)",
+            "2 ms resume of `cycle` requested by the application",
+            "3 ms cycle: Paused -> Running (resume)",
+            "3 ms move: Paused -> Running (resume)",
+            "4 ms monitor `jam` of `cycle` fired: AbortOwner",
+            "4 ms move: Running -> Aborting (monitor `jam`)",
+            "4 ms move: Aborting -> Aborted (monitor `jam`)",
+            "4 ms cycle: Running -> Aborting (monitor `jam`)",
+            "4 ms cycle: Aborting -> Aborted (monitor `jam`)",
+        ]
+    );
+}
+
+/// Every kind of event prints with the names of its tables, and with numbers where no
+/// table names it.
+#[test]
+fn every_event_prints_with_names_or_numbers() {
+    use rtseq::safety::CriticalInput;
+    use rtseq::{Entry, Error, Event, Instant, Record, Request, Requester};
+    const ESTOP: CriticalInput<bool> = CriticalInput::new(0, "estop");
+    const CURRENT: CriticalInput<f32> = CriticalInput::new(3, "current");
+    static INPUTS: [rtseq::safety::CriticalInputInfo; 1] = [ESTOP.info()];
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let stop = seq.register(SeqConfig::new("safe stop")).unwrap();
+    let main = seq.register(SeqConfig::new("main")).unwrap();
+    let mut never = |_: &Ctrl, _| false;
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let jam = monitors
+        .add(main, Monitor::new("jam", &mut never, Behaviour::AbortOwner))
+        .unwrap();
+    let levels: SafetyProperties<'static, (), 2> = SafetyProperties::new(
+        [
+            LevelDef::new(SafetyLevel::new(0), "off"),
+            LevelDef::new(SafetyLevel::new(1), "powered"),
+        ],
+        &INPUTS,
+        &[],
+        &[],
+        SafetyLevel::new(0),
+    );
+    let failures = Failures(&[(1, "part lost")]);
+    let names = (&seq, &monitors, (&failures, &levels));
+    let events = [
+        Event::Fired {
+            owner: main,
+            cause: Cause::Monitor(jam),
+            behaviour: Behaviour::AbortOwner,
+        },
+        Event::Fired {
+            owner: main,
+            cause: Cause::Timeout(main),
+            behaviour: Behaviour::RestartOwner,
+        },
+        Event::ExceptionNotRun {
+            exception: stop,
+            owner: main,
+            why: Error::NoLane(stop),
+        },
+        Event::Requested {
+            sequence: main,
+            request: Request::Abort,
+            by: Requester::Sequence(stop),
+        },
+        Event::AbortAll {
+            by: Requester::SafetySystem,
+        },
+        Event::Failed {
+            sequence: main,
+            failure: Failure::App(1),
+        },
+        Event::SafetyLevel {
+            level: SafetyLevel::new(1),
+        },
+        Event::InputTripped { input: ESTOP.id() },
+        Event::InputTripped {
+            input: CURRENT.id(),
+        },
+        Event::Failed {
+            sequence: SeqId::from_index(9),
+            failure: Failure::App(7),
+        },
+    ];
+    let lines: Vec<String> = events.iter().map(|e| e.named(&names).to_string()).collect();
+    assert_eq!(
+        lines,
+        [
+            "monitor `jam` of `main` fired: AbortOwner",
+            "timeout of `main` ran out: RestartOwner",
+            "exception sequence `safe stop` of `main` not run: sequence 0 has no lane",
+            "abort of `main` requested by `safe stop`",
+            "abort-all requested by the safety system",
+            "`main` failed: part lost",
+            "safety level powered",
+            "critical input `estop` tripped",
+            "critical input #3 tripped",
+            "`#9` failed: failure #7",
+        ]
+    );
+    let record = Record {
+        time: Instant::from_ticks(12_500),
+        entry: Entry::Event(Event::AbortAll {
+            by: Requester::Application,
+        }),
+    };
+    assert_eq!(
+        record.named(&names).to_string(),
+        "12.500 ms abort-all requested by the application"
+    );
 }

@@ -147,11 +147,17 @@ fn invalid_configuration_is_logged_as_on_the_host() {
 /// in `Error`'s own defmt form, its variant and id.
 #[test]
 fn names_print_on_the_target_as_on_the_host() {
-    use rtseq::safety::{LevelDef, SafetyLevel, SafetyProperties};
-    use rtseq::{
-        Behaviour, Cause, Error, Failure, Failures, Instant, Monitor, MonitorId, Monitors, Outcome,
-        RunningState, SeqConfig, SeqId, Sequencer, Transition, WithNames,
+    use rtseq::safety::{
+        CriticalInput, CriticalInputInfo, LevelDef, SafetyLevel, SafetyProperties,
     };
+    use rtseq::{
+        Behaviour, Cause, Entry, Error, Event, Failure, Failures, Instant, Monitor, MonitorId,
+        Monitors, Outcome, Record, Request, Requester, RunningState, SeqConfig, SeqId, Sequencer,
+        Transition, WithNames,
+    };
+    const ESTOP: CriticalInput<bool> = CriticalInput::new(0, "estop");
+    const CURRENT: CriticalInput<f32> = CriticalInput::new(3, "current");
+    static INPUTS: [CriticalInputInfo; 1] = [ESTOP.info()];
     let out = run("panic", &["names"]);
     expect_exit(&out, 0);
     let seq: Sequencer<(), 2> = Sequencer::new();
@@ -171,7 +177,7 @@ fn names_print_on_the_target_as_on_the_host() {
             LevelDef::new(SafetyLevel::new(0), "off"),
             LevelDef::new(SafetyLevel::new(1), "powered"),
         ],
-        &[],
+        &INPUTS,
         &[],
         &[],
         SafetyLevel::new(0),
@@ -204,6 +210,58 @@ fn names_print_on_the_target_as_on_the_host() {
         SafetyLevel::new(1).named(&names).to_string(),
         SafetyLevel::new(4).named(&names).to_string(),
     ];
+    // One event of each kind, as the firmware logs them, and a record.
+    let stop = SeqId::from_index(0);
+    let events = [
+        Event::Fired {
+            owner: main,
+            cause: Cause::Monitor(jam),
+            behaviour: Behaviour::AbortOwner,
+        },
+        Event::Fired {
+            owner: main,
+            cause: Cause::Timeout(main),
+            behaviour: Behaviour::RestartOwner,
+        },
+        Event::ExceptionNotRun {
+            exception: stop,
+            owner: main,
+            why: Error::NoLane(stop),
+        },
+        Event::Requested {
+            sequence: main,
+            request: Request::Pause,
+            by: Requester::Sequence(stop),
+        },
+        Event::AbortAll {
+            by: Requester::SafetySystem,
+        },
+        Event::Failed {
+            sequence: main,
+            failure: Failure::App(1),
+        },
+        Event::SafetyLevel {
+            level: SafetyLevel::new(1),
+        },
+        Event::InputTripped { input: ESTOP.id() },
+        Event::InputTripped {
+            input: CURRENT.id(),
+        },
+    ];
+    let mut host: Vec<String> = host.into_iter().collect();
+    host.extend(events.iter().map(|e| e.named(&names).to_string()));
+    let record = Record {
+        time: Instant::from_ticks(12_500),
+        entry: Entry::Event(Event::AbortAll {
+            by: Requester::Application,
+        }),
+    };
+    host.push(record.named(&names).to_string());
+    // An error inside an event prints in `Error`'s defmt form on the target, as in
+    // `Failure::NotStarted`.
+    let not_run = "exception sequence `safe stop` of `main` not run: ";
+    assert_eq!(host[18], format!("{not_run}sequence 0 has no lane"));
+    host[18] = format!("{not_run}NoLane(SeqId(0))");
     assert_eq!(
         Failure::NotStarted(Error::AlreadyRunning(main))
             .named(&names)

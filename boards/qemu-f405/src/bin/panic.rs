@@ -9,9 +9,9 @@
 //! - `hang`: never exits (the host runner's time limit must end it, exit code 124);
 //! - `config`: a sequencer whose monitor's exception sequence has no lane fails
 //!   `Sequencer::validate` in `init` → the error is logged, exit code 1;
-//! - `names`: ids, causes, outcomes, failures, transitions and safety levels logged with
-//!   the names of the same sequencer's tables (`WithNames`'s defmt forms, which the host
-//!   test compares with their `Display` forms) → exit code 0.
+//! - `names`: ids, causes, outcomes, failures, transitions, events, records and safety
+//!   levels logged with the names of the same sequencer's tables (`WithNames`'s defmt
+//!   forms, which the host test compares with their `Display` forms) → exit code 0.
 //!
 //! Built with `--features no-panic` it must NOT link (it contains an explicit `panic!`): that
 //! is the negative half of the no-panic proof.
@@ -94,23 +94,66 @@ mod config {
 /// of failure codes and a safety system's levels; what no table names, by number.
 mod names {
     use super::{board, config};
-    use rtseq::safety::{LevelDef, SafetyLevel, SafetyProperties};
+    use rtseq::safety::{CriticalInput, LevelDef, SafetyLevel, SafetyProperties};
     use rtseq::{
-        Cause, Error, Failure, Failures, Instant, MonitorId, Outcome, RunningState, SeqId,
-        Transition, WithNames,
+        Behaviour, Cause, Entry, Error, Event, Failure, Failures, Instant, MonitorId, Outcome,
+        Record, Request, Requester, RunningState, SeqId, Transition, WithNames,
     };
 
     const FAILURES: Failures = Failures(&[(1, "part lost")]);
+    const ESTOP: CriticalInput<bool> = CriticalInput::new(0, "estop");
+    const CURRENT: CriticalInput<f32> = CriticalInput::new(3, "current");
     static LEVELS: SafetyProperties<'static, (), 2> = SafetyProperties::new(
         [
             LevelDef::new(SafetyLevel::new(0), "off"),
             LevelDef::new(SafetyLevel::new(1), "powered"),
         ],
-        &[],
+        &[ESTOP.info()],
         &[],
         &[],
         SafetyLevel::new(0),
     );
+
+    /// One event of each kind (`tests/qemu.rs` prints the same on the host).
+    fn events(main: SeqId, jam: MonitorId) -> [Event; 9] {
+        let stop = SeqId::from_index(0);
+        [
+            Event::Fired {
+                owner: main,
+                cause: Cause::Monitor(jam),
+                behaviour: Behaviour::AbortOwner,
+            },
+            Event::Fired {
+                owner: main,
+                cause: Cause::Timeout(main),
+                behaviour: Behaviour::RestartOwner,
+            },
+            Event::ExceptionNotRun {
+                exception: stop,
+                owner: main,
+                why: Error::NoLane(stop),
+            },
+            Event::Requested {
+                sequence: main,
+                request: Request::Pause,
+                by: Requester::Sequence(stop),
+            },
+            Event::AbortAll {
+                by: Requester::SafetySystem,
+            },
+            Event::Failed {
+                sequence: main,
+                failure: Failure::App(1),
+            },
+            Event::SafetyLevel {
+                level: SafetyLevel::new(1),
+            },
+            Event::InputTripped { input: ESTOP.id() },
+            Event::InputTripped {
+                input: CURRENT.id(),
+            },
+        ]
+    }
 
     pub fn print() -> ! {
         let (Ok(()), Ok(monitors)) = (
@@ -151,6 +194,16 @@ mod names {
         defmt::info!("names: {}", at(3_000, Cause::Abort).named(&names));
         defmt::info!("names: {}", SafetyLevel::new(1).named(&names));
         defmt::info!("names: {}", SafetyLevel::new(4).named(&names));
+        for event in events(main, jam) {
+            defmt::info!("names: {}", event.named(&names));
+        }
+        let record = Record {
+            time: Instant::from_ticks(12_500),
+            entry: Entry::Event(Event::AbortAll {
+                by: Requester::Application,
+            }),
+        };
+        defmt::info!("names: {}", record.named(&names));
         board::exit_success()
     }
 }
