@@ -97,13 +97,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// are paused (a paused owner stays paused, now held by the monitor too), and its
     /// exception sequence (if any) starts in its lane. No exception is marked: the owner's
     /// other monitors keep firing. True when the owner was active (running or paused).
-    pub(crate) fn hold(
-        &self,
-        control: &C,
-        owner: SeqId,
-        cause: Cause,
-        exception: Option<SeqId>,
-    ) -> bool {
+    pub(crate) fn hold(&self, owner: SeqId, cause: Cause, exception: Option<SeqId>) -> bool {
         let active = self.with(|s| {
             // A run begun (or restarted) since this tick's scan is not the one the
             // evaluation saw: its monitors are evaluated from the next tick (from "false"),
@@ -138,7 +132,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
         }
         if running {
-            self.walk(control, Some(owner), RunningState::Paused, cause);
+            self.pause_tree(owner, cause);
         }
         true
     }
@@ -146,7 +140,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// A `PauseOwner` monitor's condition cleared: `owner` and the sequences it blocks
     /// resume once nothing else holds the owner: no other `PauseOwner` monitor of it, no
     /// pause request, no paused caller it blocks (whose resume then resumes it).
-    pub(crate) fn release(&self, control: &C, owner: SeqId, cause: Cause) {
+    pub(crate) fn release(&self, owner: SeqId, cause: Cause) {
         let released = self.with(|s| {
             if let Some(b) = s.block_mut(owner) {
                 b.monitor_holds = b.monitor_holds.saturating_sub(1);
@@ -154,7 +148,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             !s.stays_paused(owner)
         });
         if released {
-            self.walk(control, Some(owner), RunningState::Running, cause);
+            self.resume_tree(owner, cause);
         }
     }
 
@@ -167,20 +161,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         target: SeqId,
         cause: Cause,
     ) {
-        let to = match behaviour {
+        match behaviour {
             Behaviour::Nothing => {
                 in_sections_then_wake!(self, |s| {
                     s.section(|s| s.sets.put(Set::Excepting, owner, false));
                     s.section(|s| s.lane_of(owner))
                 });
-                return;
             }
-            Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => RunningState::Aborting,
-            Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => RunningState::Restarting,
+            Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => {
+                self.tear_down(control, target, cause);
+            }
+            Behaviour::RestartOwner | Behaviour::RestartCallerOfOwner => {
+                self.restart_tree(control, target, cause);
+            }
             // Applied once, it pauses (the tick's `hold` also resumes).
-            Behaviour::PauseOwner => RunningState::Paused,
-        };
-        self.walk(control, Some(target), to, cause);
+            Behaviour::PauseOwner => self.pause_tree(target, cause),
+        }
     }
 }
 

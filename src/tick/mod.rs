@@ -14,7 +14,9 @@
 //! | `monitors.rs` | monitor evaluation in groups, edges and triggers |
 //! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour |
 //! | `requests.rs` | abort-all, pause, resume and abort requests, ended exception sequences' behaviours |
-//! | `teardown.rs` | aborts, restarts, pauses and resumes of a sequence and those below it |
+//! | `teardown.rs` | aborts and restarts of a sequence and those below it, abort-all, dropped runs |
+//! | `pause.rs` | pauses and resumes of a sequence and those it blocks |
+//! | `walk.rs` | what teardowns and pauses share: the sequences below a target, by depth |
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
@@ -31,9 +33,11 @@ use crate::{Cause, Error, Instant, Monitors, SeqId, Sequencer};
 
 mod exception;
 mod monitors;
+mod pause;
 mod requests;
 pub(crate) mod schedule;
 mod teardown;
+mod walk;
 
 use schedule::Scan;
 

@@ -110,7 +110,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
         }
         if releasing {
-            self.release_pending(monitors.entries.as_mut_slice(), control);
+            self.release_pending(monitors.entries.as_mut_slice());
         }
         fired
     }
@@ -118,11 +118,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// Releases the owners of the `PauseOwner` monitors whose condition cleared in this
     /// evaluation, in table order (out of the hot loop: only after such a monitor fired).
     #[inline(never)]
-    fn release_pending<K>(&self, entries: &mut [OwnedMonitor<'_, C, K>], control: &C) {
+    fn release_pending<K>(&self, entries: &mut [OwnedMonitor<'_, C, K>]) {
         for (i, m) in entries.iter_mut().enumerate() {
             if m.releasing {
                 m.releasing = false;
-                self.release(control, m.owner, Cause::Monitor(MonitorId::from_index(i)));
+                self.release(m.owner, Cause::Monitor(MonitorId::from_index(i)));
             }
         }
     }
@@ -155,7 +155,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             let id = MonitorId(group.start.wrapping_add(index));
             let holds = group.last & bit != 0;
             match (monitor.def.behaviour, holds) {
-                (Behaviour::PauseOwner, true) => self.hold_owner(monitor, id, control),
+                (Behaviour::PauseOwner, true) => self.hold_owner(monitor, id),
                 (Behaviour::PauseOwner, false) => {
                     monitor.releasing = true;
                     releasing = true;
@@ -168,9 +168,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// A `PauseOwner` monitor's condition now holds: hold its owner (its release, once the
     /// condition clears, is made by `release_pending`).
-    fn hold_owner<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) {
+    fn hold_owner<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId) {
         let (owner, cause) = (monitor.owner, Cause::Monitor(id));
-        if self.hold(control, owner, cause, monitor.def.exception) {
+        if self.hold(owner, cause, monitor.def.exception) {
             monitor.fired = monitor.fired.wrapping_add(1);
         }
     }

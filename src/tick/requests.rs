@@ -21,7 +21,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return;
         }
         self.with(|s| s.record(Event::AbortAll { by }));
-        self.walk(control, None, RunningState::Aborting, Cause::AbortAll);
+        self.abort_every_run(control);
     }
 
     /// Whether a run is under way that an abort-all would abort (`Running`, `Paused`,
@@ -86,17 +86,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     self.apply(control, id, behaviour, target, cause);
                 }
             }
-            let (to, cause) = match req {
-                Some(Request::Abort) => (RunningState::Aborting, Cause::Abort),
-                Some(Request::Pause) => (RunningState::Paused, Cause::Pause),
+            match req {
+                Some(Request::Abort) => self.tear_down(control, id, Cause::Abort),
+                Some(Request::Pause) => self.pause_tree(id, Cause::Pause),
                 // A sequence frozen by the paused caller it blocks resumes with that
                 // caller (its clock stays stopped meanwhile): the request lifted its own
                 // pause, if any.
-                Some(Request::Resume) if self.with(|s| s.stays_paused(id)) => continue,
-                Some(Request::Resume) => (RunningState::Running, Cause::Resume),
-                None => continue,
-            };
-            self.walk(control, Some(id), to, cause);
+                Some(Request::Resume) if self.with(|s| s.stays_paused(id)) => {}
+                Some(Request::Resume) => self.resume_tree(id, Cause::Resume),
+                None => {}
+            }
         }
     }
 }

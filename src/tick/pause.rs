@@ -1,0 +1,168 @@
+//! Pauses and resumes: a sequence and the sequences it blocks in its lane are paused or
+//! resumed, outermost first, one short section at a time. A paused run's clock (and its
+//! timeout) stops, its monitors stay active.
+
+use crate::lock::Lock;
+use crate::model::state::States;
+use crate::model::time::Stamp;
+use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
+use crate::sequencer::sets::Set;
+use crate::tick::skip_untaken_polls;
+use crate::tick::walk::{Move, Pass};
+use crate::trace::StateChange;
+use crate::{Cause, RunningState, SeqId, Sequencer};
+
+/// A pause or a resume.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Pausing {
+    /// `Running` → `Paused`.
+    Pause,
+    /// `Paused` → `Running`.
+    Resume,
+}
+
+impl Pausing {
+    /// The state its sequences leave.
+    const fn from(self) -> RunningState {
+        match self {
+            Pausing::Pause => RunningState::Running,
+            Pausing::Resume => RunningState::Paused,
+        }
+    }
+
+    /// The state its sequences enter.
+    const fn to(self) -> RunningState {
+        match self {
+            Pausing::Pause => RunningState::Paused,
+            Pausing::Resume => RunningState::Running,
+        }
+    }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
+    /// Pauses a running `target` and the sequences it blocks in its lane, outermost first,
+    /// for `cause` (a pause request, a `PauseOwner` monitor).
+    pub(crate) fn pause_tree(&self, target: SeqId, cause: Cause) {
+        self.pausing(target, Pausing::Pause, cause);
+    }
+
+    /// Resumes a paused `target` and the sequences it blocks in its lane, outermost first,
+    /// unless something else holds them: one kept paused keeps those below it.
+    pub(crate) fn resume_tree(&self, target: SeqId, cause: Cause) {
+        self.pausing(target, Pausing::Resume, cause);
+    }
+
+    /// The passes of a pause or resume of `target`. Between two sections a lane of
+    /// higher priority (or, in a lane's walk, the tick) may start a run below a sequence
+    /// the pass has not reached yet: the pass is then made again, for what began below
+    /// the target, which is found in the state it entered.
+    fn pausing(&self, target: SeqId, how: Pausing, cause: Cause) {
+        let mut target_in = how.from();
+        for _ in 0..=2 * N {
+            let begun = self.with(|s| s.runs_begun);
+            if self.pausing_pass(target, how, cause, begun, target_in) == Pass::Done {
+                return;
+            }
+            target_in = how.to();
+        }
+    }
+
+    /// One pass of a pause or resume of `target`, in state `target_in` (else the pass is
+    /// done), begun when [`State::runs_begun`](crate::sequencer::State::runs_begun) was
+    /// `begun`.
+    #[inline(never)]
+    fn pausing_pass(
+        &self,
+        target: SeqId,
+        how: Pausing,
+        cause: Cause,
+        begun: u32,
+        target_in: RunningState,
+    ) -> Pass {
+        let Some(lane) = self.with(|s| {
+            s.block(target)
+                .filter(|b| b.state == target_in)
+                .map(|b| b.lane)
+        }) else {
+            return Pass::Done;
+        };
+        let states = States::of(how.from());
+        if how == Pausing::Pause {
+            // The target is paused first and the sequences it blocks after it.
+            in_sections!(self, |s| {
+                let due = s.section(|s| s.sets.words(Set::PollDue));
+                skip_untaken_polls(s, lane, due);
+            });
+        }
+        let rows = self.levels(Some(target), states, Some(lane), &mut |_, _| true);
+        let mut raced = false;
+        for depth in 0..=rows.deepest() {
+            for id in rows.at(depth) {
+                // A resume of the target resumes the sequences it blocks unless something
+                // else holds them.
+                let kept =
+                    how == Pausing::Resume && id != target && self.with(|s| s.stays_paused(id));
+                if !kept {
+                    raced |= self.pause_one(id, cause, states, how.to());
+                }
+            }
+        }
+        // A run begun during the pass (a blocking start below a sequence not paused yet)
+        // is found by the next.
+        let begun_below = self.with(|s| s.runs_begun) != begun;
+        Pass::of(!raced && !begun_below)
+    }
+
+    /// Pauses or resumes one sequence: from a state in `states` to `to` (`Paused`,
+    /// `Running`), and wakes its lane. True when it lost a race: the sequence was in
+    /// `states`, but another transition came between the look and the move.
+    fn pause_one(&self, id: SeqId, cause: Cause, states: States, to: RunningState) -> bool {
+        match in_sections!(self, |s| leave_for_pause(s, id, cause, states, to)) {
+            Move::Left(()) => {}
+            Move::Stays => return false,
+            Move::Raced => return true,
+        }
+        in_sections_then_wake!(self, |s| s.section(|s| s.lane_of(id)));
+        false
+    }
+}
+
+/// The steps of [`Sequencer::pause_one`] before the wake-up: `id` leaves a state in
+/// `states` for `to`; its run's clock (and its timeout) stops or goes on.
+fn leave_for_pause<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    cause: Cause,
+    states: States,
+    to: RunningState,
+) -> Move<()> {
+    let Some(from) = s.section(|s| s.block(id).map(|b| b.state).filter(|&f| states.has(f))) else {
+        return Move::Stays;
+    };
+    let change = StateChange::new(id, from, to, cause);
+    // A pause keeps a teardown's mark: the teardown still moves the paused run.
+    if !s.section(|s| s.transition(&change).is_some()) {
+        return Move::Raced;
+    }
+    // A due poll its lane has not taken yet is skipped, not taken when the pause ends
+    // (semantics 1).
+    s.section(|s| {
+        let now = Stamp::of(s.now);
+        if let Some(b) = s.block_mut(id) {
+            b.flip_clock(now);
+        }
+        if to == RunningState::Paused {
+            s.sets.remove(Set::PollDue, id);
+        }
+    });
+    Move::Left(())
+}

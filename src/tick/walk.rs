@@ -1,0 +1,144 @@
+//! The walk over a subtree that teardowns and pauses share: which sequences are a target
+//! or below it, by depth, and how a pass over them ended.
+
+use crate::lock::Lock;
+use crate::model::id::Link;
+use crate::model::set::SeqSet;
+use crate::model::state::States;
+use crate::sequencer::sections::{in_sections, Sections};
+use crate::sequencer::sets::Set;
+use crate::{SeqId, Sequencer, MAX_DEPTH};
+
+/// The depths a sequence can have (0 to `MAX_DEPTH` callers).
+const DEPTHS: usize = MAX_DEPTH + 1;
+
+/// The sequences a pass moves, by depth (its number of callers: outermost first, ids
+/// ascending in each row), and the deepest row that has one.
+pub(super) struct Rows<const B: usize> {
+    rows: [SeqSet<B>; DEPTHS],
+    deepest: usize,
+}
+
+impl<const B: usize> Rows<B> {
+    /// The sequences at depth `depth`.
+    pub(super) fn at(&self, depth: usize) -> SeqSet<B> {
+        self.rows.get(depth).copied().unwrap_or_default()
+    }
+
+    /// The deepest row that has a sequence (0 when none has).
+    pub(super) fn deepest(&self) -> usize {
+        self.deepest
+    }
+}
+
+/// How a pass of a teardown or a pause ended.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum Pass {
+    /// Everything it placed moved, and nothing it should have placed began meanwhile.
+    Done,
+    /// A move lost a race to another transition, or a run began that the pass did not
+    /// place: walk again.
+    Again,
+}
+
+impl Pass {
+    pub(super) fn of(done: bool) -> Pass {
+        if done {
+            Pass::Done
+        } else {
+            Pass::Again
+        }
+    }
+}
+
+/// What the first steps of a move of one sequence did.
+pub(super) enum Move<T> {
+    /// It left its state; `T` is what the move goes on with.
+    Left(T),
+    /// Not in the states it would leave: nothing to do.
+    Stays,
+    /// In those states when looked at, but another transition came before the move.
+    Raced,
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
+    /// The sequences that are `target` or below it (every one without a target) whose
+    /// state is in `states` and, with a `lane`, that run in that lane, and that `keep`
+    /// keeps (given the count of the run looked at), by depth.
+    ///
+    /// Only the sequences that can qualify are visited: below a target, the target and
+    /// those with a caller link (`Called`; a sequence below another one has one); without
+    /// a target, every one whose run may be under way (with several words `Live` as of
+    /// the last fold and those `Changed` since, else every registered one). Each is placed
+    /// by walking its caller links up (a non-blocking child may outlive its caller and
+    /// still link to it): with a coarse lock in one section, else one short section per
+    /// step. The tree may change meanwhile: each change made from the rows is re-checked
+    /// where it is made, and a run begun meanwhile makes the walk pass again.
+    pub(super) fn levels(
+        &self,
+        target: Option<SeqId>,
+        states: States,
+        lane: Option<u8>,
+        keep: &mut dyn FnMut(SeqId, u16) -> bool,
+    ) -> Rows<B> {
+        let candidates = self.with(|s| match target {
+            Some(t) => s.sets.members(Set::Called).with(t),
+            None if B == 1 => SeqSet::first(s.count()),
+            None => s
+                .sets
+                .members(Set::Live)
+                .union(&s.sets.members(Set::Changed)),
+        });
+        let mut rows = [SeqSet::EMPTY; DEPTHS];
+        let mut deepest = 0;
+        for id in candidates {
+            let found = in_sections!(self, |s| depth_below(s, id, target, states, lane));
+            let Some((depth, runs)) = found else {
+                continue;
+            };
+            if let (Some(row), true) = (rows.get_mut(depth), keep(id, runs)) {
+                row.insert(id);
+                deepest = deepest.max(depth);
+            }
+        }
+        Rows { rows, deepest }
+    }
+}
+
+/// Where [`Sequencer::levels`] places `id`: its depth (its number of callers, at most
+/// `MAX_DEPTH`) when its state is in `states`, it runs in `lane` (if given) and it is
+/// `target` or below it (every one without a target), with the count of the run looked
+/// at; else `None`.
+fn depth_below<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    target: Option<SeqId>,
+    states: States,
+    lane: Option<u8>,
+) -> Option<(usize, u16)> {
+    let (mut up, runs) = s.section(|s| {
+        let b = s.block(id)?;
+        let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
+        ok.then_some((b.caller, b.runs))
+    })?;
+    let mut below = target.is_none_or(|t| t == id);
+    let mut depth = 0;
+    while let Some(at) = up.get() {
+        if depth == MAX_DEPTH {
+            break;
+        }
+        below |= target == Some(at);
+        depth += 1;
+        up = s.section(|s| s.block(at).map_or(Link::NONE, |b| b.caller));
+    }
+    below.then_some((depth, runs))
+}
