@@ -122,6 +122,13 @@ mod tests {
     }
 
     #[test]
+    fn a_message_prints_as_its_text() {
+        let m = ErrorMessage::new().with("sequence `a\"b` ").with_number(7);
+        assert_eq!(format!("{m}"), "sequence `a\"b` 7");
+        assert_eq!(format!("{m:?}"), "\"sequence `a\\\"b` 7\"");
+    }
+
+    #[test]
     fn a_message_too_long_is_cut_at_a_character_boundary() {
         // 239 bytes, then a 3-byte character of which only 1 byte fits.
         let m = ErrorMessage::new()

@@ -85,6 +85,11 @@ use crate::{Done, Failure, SeqId};
 /// }
 /// ```
 #[allow(async_fn_in_trait)] // lanes poll on one core: no `Send` bound wanted
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` is not a `Sequence<{C}>`",
+    label = "not a sequence of this control system",
+    note = "`Cx::run` runs a `Sequence`; a `Step` (one command and an exit condition) is run with `Cx::step`"
+)]
 pub trait Sequence<C> {
     /// The sequence's work: starts steps and sub-sequences and awaits them. `Err` ends the
     /// run at once with [`Outcome::Failed`](crate::Outcome::Failed) (no exit condition is polled); `?` on a child's
@@ -121,6 +126,11 @@ pub trait Sequence<C> {
 ///     }
 /// }
 /// ```
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` is not a `Step<{C}>`",
+    label = "not a step of this control system",
+    note = "`Cx::step` runs a `Step`; a `Sequence` (an async action) is run with `Cx::run`"
+)]
 pub trait Step<C> {
     /// The single, non-blocking command. `Err` ends the step at once with
     /// [`Outcome::Failed`](crate::Outcome::Failed) (no exit condition is polled).

@@ -8,7 +8,7 @@ use crate::model::time::Stamp;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::tick::skip_untaken_polls;
-use crate::tick::walk::{Move, Pass};
+use crate::tick::walk::Pass;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer};
 
@@ -97,7 +97,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             });
         }
         let rows = self.levels(Some(target), states, Some(lane), &mut |_, _| true);
-        let mut raced = false;
         for depth in 0..=rows.deepest() {
             for id in rows.at(depth) {
                 // A resume of the target resumes the sequences it blocks unless something
@@ -105,32 +104,29 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let kept =
                     how == Pausing::Resume && id != target && self.with(|s| s.stays_paused(id));
                 if !kept {
-                    raced |= self.pause_one(id, cause, states, how.to());
+                    self.pause_one(id, cause, states, how.to());
                 }
             }
         }
         // A run begun during the pass (a blocking start below a sequence not paused yet)
-        // is found by the next.
-        let begun_below = self.with(|s| s.runs_begun) != begun;
-        Pass::of(!raced && !begun_below)
+        // is found by the next. A move that lost its race needs no pass of its own: only
+        // the tick, which pauses, restarts a sequence, so one that left its state between
+        // the look and the move ended or is being torn down, and no pass would move it.
+        Pass::of(self.with(|s| s.runs_begun) == begun)
     }
 
     /// Pauses or resumes one sequence: from a state in `states` to `to` (`Paused`,
-    /// `Running`), and wakes its lane. True when it lost a race: the sequence was in
-    /// `states`, but another transition came between the look and the move.
-    fn pause_one(&self, id: SeqId, cause: Cause, states: States, to: RunningState) -> bool {
-        match in_sections!(self, |s| leave_for_pause(s, id, cause, states, to)) {
-            Move::Left(()) => {}
-            Move::Stays => return false,
-            Move::Raced => return true,
+    /// `Running`), and wakes its lane.
+    fn pause_one(&self, id: SeqId, cause: Cause, states: States, to: RunningState) {
+        if in_sections!(self, |s| leave_for_pause(s, id, cause, states, to)) {
+            in_sections_then_wake!(self, |s| s.section(|s| s.lane_of(id)));
         }
-        in_sections_then_wake!(self, |s| s.section(|s| s.lane_of(id)));
-        false
     }
 }
 
 /// The steps of [`Sequencer::pause_one`] before the wake-up: `id` leaves a state in
-/// `states` for `to`; its run's clock (and its timeout) stops or goes on.
+/// `states` for `to`; its run's clock (and its timeout) stops or goes on. False when it
+/// was not in `states`, or left them for another transition before the move.
 fn leave_for_pause<
     C,
     S: Sections<C, N, T, W, B>,
@@ -144,14 +140,14 @@ fn leave_for_pause<
     cause: Cause,
     states: States,
     to: RunningState,
-) -> Move<()> {
+) -> bool {
     let Some(from) = s.section(|s| s.block(id).map(|b| b.state).filter(|&f| states.has(f))) else {
-        return Move::Stays;
+        return false;
     };
     let change = StateChange::new(id, from, to, cause);
     // A pause keeps a teardown's mark: the teardown still moves the paused run.
     if !s.section(|s| s.transition(&change).is_some()) {
-        return Move::Raced;
+        return false;
     }
     // A due poll its lane has not taken yet is skipped, not taken when the pause ends
     // (semantics 1).
@@ -164,5 +160,5 @@ fn leave_for_pause<
             s.sets.remove(Set::PollDue, id);
         }
     });
-    Move::Left(())
+    true
 }

@@ -10,7 +10,7 @@ use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
-use crate::tick::walk::{Move, Pass};
+use crate::tick::walk::Pass;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer};
 
@@ -41,6 +41,16 @@ impl Teardown {
             Teardown::Abort(_) | Teardown::AbortAll => RunningState::Aborting,
         }
     }
+}
+
+/// What the first steps of a teardown's move of one sequence did.
+enum Move<T> {
+    /// It left its state; `T` is what the move goes on with.
+    Left(T),
+    /// Not in the states it would leave: nothing to do.
+    Stays,
+    /// In those states when looked at, but another transition came before the move.
+    Raced,
 }
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>

@@ -51,16 +51,6 @@ impl Pass {
     }
 }
 
-/// What the first steps of a move of one sequence did.
-pub(super) enum Move<T> {
-    /// It left its state; `T` is what the move goes on with.
-    Left(T),
-    /// Not in the states it would leave: nothing to do.
-    Stays,
-    /// In those states when looked at, but another transition came before the move.
-    Raced,
-}
-
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
