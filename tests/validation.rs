@@ -97,6 +97,36 @@ fn unknown_owners_unknown_exceptions_and_self_exceptions_are_named() {
         ),
         Ok(())
     );
+    // Each error's message names them; so does a raiser on its own.
+    let lost = Raiser::Monitor(m0, "lost");
+    assert_eq!(lost.to_string(), "monitor `lost`");
+    assert_eq!(Raiser::Timeout(a, "a").to_string(), "the timeout of `a`");
+    let messages = [
+        ConfigError::UnknownOwner {
+            monitor: (m0, "orphan"),
+            owner: unknown,
+        },
+        ConfigError::UnknownException {
+            raiser: lost,
+            exception: unknown,
+        },
+        ConfigError::ExceptionIsOwner { raiser: lost },
+        ConfigError::ExceptionWithoutLane {
+            raiser: Raiser::Timeout(a, "a"),
+            exception: (b, "b"),
+        },
+    ]
+    .map(|e| e.to_string());
+    assert_eq!(
+        messages,
+        [
+            "monitor `orphan` is owned by sequence 3, which is not registered",
+            "the exception sequence 3 of monitor `lost` is not registered",
+            "monitor `lost` names its own owner as its exception sequence",
+            "the exception sequence `b` of the timeout of `a` has no lane (declare one before \
+             the first tick)",
+        ]
+    );
 }
 
 #[test]

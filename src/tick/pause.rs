@@ -54,10 +54,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.pausing(target, Pausing::Resume, cause);
     }
 
-    /// The passes of a pause or resume of `target`. Between two sections a lane of
-    /// higher priority (or, in a lane's walk, the tick) may start a run below a sequence
-    /// the pass has not reached yet: the pass is then made again, for what began below
-    /// the target, which is found in the state it entered.
+    /// The passes of a pause or resume of `target` (made by the tick). Between two
+    /// sections a lane of higher priority may start a run below a sequence the pass has not
+    /// reached yet: the pass is then made again, for what began below the target, which is
+    /// found in the state it entered.
     fn pausing(&self, target: SeqId, how: Pausing, cause: Cause) {
         let mut target_in = how.from();
         for _ in 0..=2 * N {
@@ -109,9 +109,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
         }
         // A run begun during the pass (a blocking start below a sequence not paused yet)
-        // is found by the next. A move that lost its race needs no pass of its own: only
-        // the tick, which pauses, restarts a sequence, so one that left its state between
-        // the look and the move ended or is being torn down, and no pass would move it.
+        // is found by the next. A move that lost its race needs no pass of its own: a
+        // sequence leaves `Running` or `Paused` and comes back only through a restart,
+        // which only the tick (this one) begins; so one that left its state between the
+        // look and the move ended or is being torn down, and no pass would move it.
         Pass::of(self.with(|s| s.runs_begun) == begun)
     }
 
