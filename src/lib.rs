@@ -172,8 +172,8 @@ pub const MAX_DEPTH: usize = 8;
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
 
-/// So is the example of docs/safety.md.
-#[cfg(doctest)]
+/// So are the examples of docs/safety.md (the second on the simulator).
+#[cfg(all(doctest, feature = "std"))]
 #[doc = include_str!("../docs/safety.md")]
 struct SafetyDocDoctests;
 
