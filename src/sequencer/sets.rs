@@ -18,7 +18,9 @@ use crate::SeqId;
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) enum Set {
     /// `Running` or `Paused`, as of the last fold of `Changed` (the tick folds before it
-    /// scans).
+    /// scans): the sequences whose monitors are evaluated. Narrower than
+    /// [`RunningState::is_active`](crate::RunningState::is_active), which counts every run
+    /// under way (`Live` here).
     Active,
     /// `Paused`, as `Active`.
     Paused,
