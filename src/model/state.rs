@@ -129,11 +129,11 @@ pub(crate) struct States(u8);
 
 impl States {
     /// `Running` or `Paused`: the states in which monitors are evaluated.
-    pub(crate) const ACTIVE_RUNNING: States =
+    pub(crate) const RUNNING_OR_PAUSED: States =
         States::of(RunningState::Running).with(RunningState::Paused);
 
     /// A run is under way: every state but `Idle` and the ends (`Terminated`, `Aborted`).
-    pub(crate) const LIVE: States = States::ACTIVE_RUNNING
+    pub(crate) const LIVE: States = States::RUNNING_OR_PAUSED
         .with(RunningState::Restarting)
         .with(RunningState::Aborting);
 
@@ -164,8 +164,8 @@ impl States {
         match to {
             Running => States::STARTABLE.with(Paused).with(Restarting),
             Paused | Terminated => States::of(Running),
-            Restarting => States::ACTIVE_RUNNING,
-            Aborting => States::ACTIVE_RUNNING.with(Restarting),
+            Restarting => States::RUNNING_OR_PAUSED,
+            Aborting => States::RUNNING_OR_PAUSED.with(Restarting),
             Aborted => States::of(Aborting),
             Idle => States(0),
         }

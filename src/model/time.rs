@@ -42,7 +42,7 @@ pub(crate) const fn to_interval(d: Duration) -> Option<u32> {
 ///
 /// Two stamps compare by their wrapping difference, which is right while every interval
 /// between them is below 2^31 µs: registration keeps polling periods and timeouts there,
-/// and the tick looks at every active sequence at least once per interval.
+/// and the tick looks at every monitored sequence at least once per interval.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub(crate) struct Stamp(pub(crate) u32);
 

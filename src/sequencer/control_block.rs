@@ -64,7 +64,7 @@ impl Counters {
     }
 }
 
-/// Flag bits of [`ControlBlock::flags`]. What the tick reads of every sequence (active,
+/// Flag bits of [`ControlBlock::flags`]. What the tick reads of every sequence (monitored,
 /// paused, fresh, timeout armed, exception active, waiting for a poll) is kept as sets in
 /// the sequencer instead (`sequencer::sets::Sets`).
 pub(crate) mod flag {

@@ -5,7 +5,7 @@
 //! |---|---|
 //! | `mod.rs` | the type, its constructors, [`Sequencer::with`] and `borrow_state` (the only way into the state) |
 //! | `state.rs` | [`State`]: everything the lock guards, grouped; the one accessor pair for control blocks; the transition function |
-//! | `sets.rs` | the sets of sequences the tick works on (active, paused, due, ...), stored a word of every set together |
+//! | `sets.rs` | the sets of sequences the tick works on (monitored, paused, due, ...), stored a word of every set together |
 //! | `control_block.rs` | one sequence's control block (the seed's `BaseSequence` fields) |
 //! | `clearance.rs` | the clearance of an await point, the normal end of a run |
 //! | `registry.rs` | registration, tables, binding, look-up by id and name |

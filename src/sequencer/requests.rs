@@ -17,7 +17,7 @@ impl Request {
         match self {
             Request::Pause => States::of(RunningState::Running),
             Request::Resume => States::of(RunningState::Paused),
-            Request::Abort => States::ACTIVE_RUNNING.with(RunningState::Restarting),
+            Request::Abort => States::RUNNING_OR_PAUSED.with(RunningState::Restarting),
         }
     }
 

@@ -1,7 +1,7 @@
-//! The sequencer's sets of sequences: active, paused, fresh, waiting for a poll, ...
+//! The sequencer's sets of sequences: monitored, paused, fresh, waiting for a poll, ...
 //!
 //! The tick works on whole sets, a few word operations per tick instead of a visit to
-//! every control block. It visits the words of 32 ids that hold an active sequence one
+//! every control block. It visits the words of 32 ids that hold a monitored sequence one
 //! at a time and, in each, reads and writes the same word of several sets. So the sets
 //! are stored as a table: a [`Row`] per word of 32 ids, a column per [`Set`]. One word of
 //! every set is then one reference away, whatever word the tick is in. (Stored set by
@@ -17,18 +17,19 @@ use crate::SeqId;
 /// One of the sequencer's sets of sequences.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) enum Set {
-    /// `Running` or `Paused`, as of the last fold of `Changed` (the tick folds before it
-    /// scans): the sequences whose monitors are evaluated. Narrower than
+    /// `Running` or `Paused` (`States::RUNNING_OR_PAUSED`), as of the last fold of `Changed` (the
+    /// tick folds before it scans): the sequences whose monitors and timeouts are
+    /// evaluated and whose polling classes keep their grids. Narrower than
     /// [`RunningState::is_active`](crate::RunningState::is_active), which counts every run
     /// under way (`Live` here).
-    Active,
-    /// `Paused`, as `Active`.
+    Monitored,
+    /// `Paused`, as `Monitored`.
     Paused,
-    /// A run is under way (`States::LIVE`), as `Active`: with `Changed`, the sequences a
+    /// A run is under way (`States::LIVE`), as `Monitored`: with `Changed`, the sequences a
     /// teardown or pause may have to visit. Kept only with several words (a teardown in a
     /// sequencer of at most 32 visits all of them).
     Live,
-    /// The state changed since the tick last folded it into `Active`, `Paused`, `Live`.
+    /// The state changed since the tick last folded it into `Monitored`, `Paused`, `Live`.
     Changed,
     /// A new run or restart began: the tick resets the edge detection of these
     /// sequences' monitors before their next evaluation.
@@ -61,7 +62,7 @@ impl Set {
     const fn indexed(self) -> bool {
         matches!(
             self,
-            Set::Active
+            Set::Monitored
                 | Set::Paused
                 | Set::Live
                 | Set::Changed
@@ -77,7 +78,7 @@ impl Set {
 /// `32 * w + 31`.
 #[derive(Clone, Copy)]
 pub(crate) struct Row {
-    active: u32,
+    monitored: u32,
     paused: u32,
     live: u32,
     changed: u32,
@@ -93,7 +94,7 @@ pub(crate) struct Row {
 
 impl Row {
     const EMPTY: Row = Row {
-        active: 0,
+        monitored: 0,
         paused: 0,
         live: 0,
         changed: 0,
@@ -110,7 +111,7 @@ impl Row {
     #[inline(always)]
     fn get(&self, set: Set) -> u32 {
         match set {
-            Set::Active => self.active,
+            Set::Monitored => self.monitored,
             Set::Paused => self.paused,
             Set::Live => self.live,
             Set::Changed => self.changed,
@@ -128,7 +129,7 @@ impl Row {
     #[inline(always)]
     fn get_mut(&mut self, set: Set) -> &mut u32 {
         match set {
-            Set::Active => &mut self.active,
+            Set::Monitored => &mut self.monitored,
             Set::Paused => &mut self.paused,
             Set::Live => &mut self.live,
             Set::Changed => &mut self.changed,
@@ -341,14 +342,14 @@ mod tests {
     fn each_set_holds_its_own_ids() {
         let mut s = Sets::<8>::EMPTY;
         for id in [200, 3, 40, 41] {
-            s.insert(Set::Active, SeqId(id));
+            s.insert(Set::Monitored, SeqId(id));
         }
         s.insert(Set::Paused, SeqId(40));
         s.put(Set::Fresh, SeqId(255), true);
-        assert!(holds(&s, Set::Active, &[3, 40, 41, 200]));
+        assert!(holds(&s, Set::Monitored, &[3, 40, 41, 200]));
         assert!(holds(&s, Set::Paused, &[40]));
         assert!(holds(&s, Set::Fresh, &[255]));
-        assert!(s.has(Set::Active, SeqId(41)) && !s.has(Set::Paused, SeqId(41)));
+        assert!(s.has(Set::Monitored, SeqId(41)) && !s.has(Set::Paused, SeqId(41)));
         assert!(s.is_empty(Set::Armed) && !s.is_empty(Set::Fresh));
         s.put(Set::Fresh, SeqId(255), false);
         assert!(s.is_empty(Set::Fresh));
@@ -357,24 +358,27 @@ mod tests {
     #[test]
     fn an_indexed_set_knows_its_words() {
         let mut s = Sets::<8>::EMPTY;
-        assert!(s.is_empty(Set::Active) && s.words(Set::Active).next().is_none());
+        assert!(s.is_empty(Set::Monitored) && s.words(Set::Monitored).next().is_none());
         for id in [200, 3, 40, 41] {
-            s.insert(Set::Active, SeqId(id));
+            s.insert(Set::Monitored, SeqId(id));
         }
-        assert!(s.words(Set::Active).eq([0, 1, 6]));
-        s.remove(Set::Active, SeqId(40));
-        assert!(s.words(Set::Active).eq([0, 1, 6]));
-        s.remove(Set::Active, SeqId(41));
-        assert!(s.words(Set::Active).eq([0, 6]));
-        assert!(s.word(Set::Active, 6).eq([SeqId(200)]));
+        assert!(s.words(Set::Monitored).eq([0, 1, 6]));
+        s.remove(Set::Monitored, SeqId(40));
+        assert!(s.words(Set::Monitored).eq([0, 1, 6]));
+        s.remove(Set::Monitored, SeqId(41));
+        assert!(s.words(Set::Monitored).eq([0, 6]));
+        assert!(s.word(Set::Monitored, 6).eq([SeqId(200)]));
         let mut t = s;
-        assert!(holds(&t, Set::Active, &[3, 200]));
-        assert!(t.take(Set::Active).into_iter().eq([SeqId(3), SeqId(200)]));
-        assert!(t.is_empty(Set::Active) && t.words(Set::Active).next().is_none());
-        assert_eq!(s.pop(Set::Active), Some(SeqId(3)));
-        assert!(s.words(Set::Active).eq([6]) && !s.is_empty(Set::Active));
-        assert_eq!(s.pop(Set::Active), Some(SeqId(200)));
-        assert!(s.is_empty(Set::Active) && s.pop(Set::Active).is_none());
+        assert!(holds(&t, Set::Monitored, &[3, 200]));
+        assert!(t
+            .take(Set::Monitored)
+            .into_iter()
+            .eq([SeqId(3), SeqId(200)]));
+        assert!(t.is_empty(Set::Monitored) && t.words(Set::Monitored).next().is_none());
+        assert_eq!(s.pop(Set::Monitored), Some(SeqId(3)));
+        assert!(s.words(Set::Monitored).eq([6]) && !s.is_empty(Set::Monitored));
+        assert_eq!(s.pop(Set::Monitored), Some(SeqId(200)));
+        assert!(s.is_empty(Set::Monitored) && s.pop(Set::Monitored).is_none());
         // A set without an index finds its words too.
         s.insert(Set::Fresh, SeqId(100));
         assert!(s.words(Set::Fresh).eq([3]));

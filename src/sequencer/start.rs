@@ -108,7 +108,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             Some(c)
                 if self.block(c.seq).is_none_or(|b| {
                     b.runs != c.count
-                        || !States::ACTIVE_RUNNING.has(b.state)
+                        || !States::RUNNING_OR_PAUSED.has(b.state)
                         || b.has(flag::STOPPING)
                 }) =>
             {
@@ -167,11 +167,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         })
     }
 
-    /// After the schedule, before the commit, for a sequence that is not active (else
-    /// nothing): the sets the tick reads of an active sequence (fresh, no exception, not
+    /// After the schedule, before the commit, for a sequence that is not monitored
+    /// (else nothing): the sets the tick reads of a monitored sequence (fresh, no exception, not
     /// waiting for a poll, the timeout `armed` or not).
     fn prepare(&mut self, id: SeqId, armed: bool) {
-        if States::ACTIVE_RUNNING.has(self.state_of(id)) {
+        if States::RUNNING_OR_PAUSED.has(self.state_of(id)) {
             return;
         }
         self.sets.put(Set::Fresh, id, true);
@@ -181,8 +181,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         self.sets.put(Set::PollWait, id, false);
     }
 
-    /// For [`class_busy`]: whether a member of `id`'s polling class that was active at the
-    /// tick's last fold has not changed since (then its run is still active and the class
+    /// For [`class_busy`]: whether a member of `id`'s polling class that was monitored at
+    /// the tick's last fold has not changed since (then its run is still under way and the class
     /// keeps its grid), and, if none, the members that changed since the fold, whose
     /// states must be looked at.
     fn class_activity(&self, id: SeqId) -> (bool, SeqSet<B>) {
@@ -191,12 +191,12 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let mut changed = SeqSet::EMPTY;
         let words = self
             .sets
-            .words(Set::Active)
+            .words(Set::Monitored)
             .with(self.sets.words(Set::Changed));
         for w in words {
-            let active = self.sets.word(Set::Active, w).and(members.word(w));
+            let monitored = self.sets.word(Set::Monitored, w).and(members.word(w));
             let since = self.sets.word(Set::Changed, w);
-            if !active.minus(since).is_empty() {
+            if !monitored.minus(since).is_empty() {
                 return (true, SeqSet::EMPTY);
             }
             changed.insert_all(members.word(w).and(since));
@@ -336,7 +336,7 @@ fn admit<
     })
 }
 
-/// Whether the polling class of `id` has a member whose run is under way: one active
+/// Whether the polling class of `id` has a member whose run is under way: one monitored
 /// (`Running`, `Paused`) at the tick's last fold and unchanged since, or one that changed
 /// since (started, or ended in the same lane poll as this start) whose state is under way
 /// (`Running`, `Paused`, or between them: `Restarting`, `Aborting`). A start of `id` then
@@ -619,11 +619,11 @@ mod tests {
         (busy, s.taken)
     }
 
-    /// A member active at the fold and unchanged since keeps the grid (one section); one
+    /// A member monitored at the fold and unchanged since keeps the grid (one section); one
     /// that changed is looked at (a section more): still under way it keeps the grid,
     /// ended (in the same lane poll as the start) it does not.
     #[test]
-    fn a_class_is_busy_while_a_member_active_at_the_fold_is_under_way() {
+    fn a_class_is_busy_while_a_member_monitored_at_the_fold_is_under_way() {
         assert_eq!(class_of_three(None), (true, 1));
         assert_eq!(class_of_three(Some(RunningState::Paused)), (true, 2));
         assert_eq!(class_of_three(Some(RunningState::Restarting)), (true, 2));

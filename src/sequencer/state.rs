@@ -61,8 +61,8 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
 pub(crate) struct Polling<const B: usize> {
     /// The polling classes: one schedule per distinct polling period.
     pub(crate) classes: Classes<B>,
-    /// Earliest next poll of a class with an active member (`NEVER_AHEAD` after the last
-    /// scan when none is active).
+    /// Earliest next poll of a class with a monitored member (`NEVER_AHEAD` after the last
+    /// scan when none has one).
     pub(crate) next_due: Stamp,
     /// The lanes the tick's last exit-condition wake-up woke, for reuse.
     pub(crate) woken: WakeMemo<B>,
@@ -217,7 +217,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         LaneSet::of(self.lane_slot(id))
     }
 
-    /// Folds the state of sequence `id` into the sets `active`, `paused` and (sets of
+    /// Folds the state of sequence `id` into the sets `Monitored`, `Paused` and (sets of
     /// several words) `live`. True when `id` is an exception sequence whose run ended:
     /// the tick then reports the end to its owner
     /// ([`exception_ended`](Self::exception_ended)). Until then it keeps its owner and
@@ -226,7 +226,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     pub(crate) fn fold(&mut self, id: SeqId) -> bool {
         let state = self.state_of(id);
         self.sets
-            .put(Set::Active, id, States::ACTIVE_RUNNING.has(state));
+            .put(Set::Monitored, id, States::RUNNING_OR_PAUSED.has(state));
         self.sets
             .put(Set::Paused, id, state == RunningState::Paused);
         if B > 1 {

@@ -96,9 +96,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// A `PauseOwner` monitor's condition became true: `owner` and the sequences it blocks
     /// are paused (a paused owner stays paused, now held by the monitor too), and its
     /// exception sequence (if any) starts in its lane. No exception is marked: the owner's
-    /// other monitors keep firing. True when the owner was active (running or paused).
+    /// other monitors keep firing. True when the owner was monitored (running or paused).
     pub(crate) fn hold(&self, owner: SeqId, cause: Cause, exception: Option<SeqId>) -> bool {
-        let active = self.with(|s| {
+        let monitored = self.with(|s| {
             // A run begun (or restarted) since this tick's scan is not the one the
             // evaluation saw: its monitors are evaluated from the next tick (from "false"),
             // which holds it then if the condition still holds.
@@ -113,17 +113,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 count: b.runs,
             };
             let running = b.state == RunningState::Running;
-            let active = States::ACTIVE_RUNNING.has(b.state);
-            if active {
+            let monitored = States::RUNNING_OR_PAUSED.has(b.state);
+            if monitored {
                 s.record(Event::Fired {
                     owner,
                     cause,
                     behaviour: Behaviour::PauseOwner,
                 });
             }
-            active.then_some((run, running))
+            monitored.then_some((run, running))
         });
-        let Some((run, running)) = active else {
+        let Some((run, running)) = monitored else {
             return false;
         };
         if let Some(e) = exception {
@@ -192,7 +192,7 @@ struct Marked<const B: usize> {
 }
 
 /// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
-/// the exception (active; for a timeout, running; not handling one already), counts the
+/// the exception (monitored; for a timeout, running; not handling one already), counts the
 /// restart and marks the exception, skipping the due polls it holds.
 fn mark<
     C,
@@ -208,14 +208,14 @@ fn mark<
     reaction: &mut Reaction,
 ) -> Option<Marked<B>> {
     let timeout = matches!(cause, Cause::Timeout(_));
-    // Active (a paused timeout is frozen), not handling an exception already, not being
+    // Monitored (a paused timeout is frozen), not handling an exception already, not being
     // torn down (its teardown comes first), and the run the evaluation saw: a run begun
     // (or restarted) since this tick's scan is fresh, and its monitors are evaluated from
     // the next tick.
     let states = if timeout {
         States::of(RunningState::Running)
     } else {
-        States::ACTIVE_RUNNING
+        States::RUNNING_OR_PAUSED
     };
     let targets_caller = reaction.behaviour.targets_caller();
     // Four sections. With the portable lock a lane of higher priority may end or start

@@ -42,11 +42,11 @@ mod walk;
 use schedule::Scan;
 
 /// What the tick must do for the due polls in one word of the sets (the tick visits the
-/// words that hold an active sequence one at a time).
+/// words that hold a monitored sequence one at a time).
 pub(crate) struct Polls<const B: usize> {
     /// The word of the sets.
     word: usize,
-    /// Active sequences whose polling class is due: their monitors are evaluated.
+    /// Monitored sequences whose polling class is due: their monitors are evaluated.
     due: u32,
     /// Due in a new run or restart: their monitors' edge detection starts from "false".
     fresh: u32,
@@ -80,7 +80,7 @@ impl<const B: usize> Polls<B> {
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// The due polls `due` (active sequences of one word whose polling class is due):
+    /// The due polls `due` (monitored sequences of one word whose polling class is due):
     /// takes their fresh marks and marks their due exit-condition polls. Returns what to
     /// do, without the expired timeouts, and the running ones with an armed timeout.
     #[inline(always)]
@@ -131,20 +131,20 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         true
     }
 
-    /// Whether some active sequence is paused or handles an exception.
+    /// Whether some monitored sequence is paused or handles an exception.
     #[inline(always)]
     fn any_held(&self) -> bool {
         let sets = &self.sets;
         if B == 1 {
             let held = sets.word(Set::Paused, 0).or(sets.word(Set::Excepting, 0));
-            return sets.word(Set::Active, 0).meets(held);
+            return sets.word(Set::Monitored, 0).meets(held);
         }
-        // The paused sequences are active (both sets are folded from the same states);
+        // The paused sequences are monitored (both sets are folded from the same states);
         // a sequence that handled an exception may have ended since.
         !sets.is_empty(Set::Paused)
             || sets.words(Set::Excepting).any(|w| {
                 sets.word(Set::Excepting, w)
-                    .meets(sets.word(Set::Active, w))
+                    .meets(sets.word(Set::Monitored, w))
             })
     }
 
@@ -203,7 +203,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// than 2^31 µs (about 35.8 minutes) apart, which a periodic timer interrupt always
     /// does; after a longer gap, polls and timeouts that fell due in it may come late. In a
     /// sequencer of more than 32 sequences (sets of `B > 1` words) the tick visits only the
-    /// words of 32 ids that hold an active sequence, lowest first, and in each does what
+    /// words of 32 ids that hold a running or paused sequence, lowest first, and in each does what
     /// the tick of a sequencer of 32 does: monitors in table order, then timeouts, then
     /// wake-ups.
     ///
@@ -242,7 +242,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
         let me = core::ptr::from_ref(self).addr();
-        // The words of the sets that hold an active sequence, as of the last fold.
+        // The words of the sets that hold a monitored sequence, as of the last fold.
         let first = self.with(|s| {
             // One tick at a time: a second one would walk and scan beside the first.
             if self.ticking.load(Ordering::Relaxed) {
@@ -267,7 +267,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 !s.sets.is_empty(Set::Requested),
                 any_due,
                 !s.sets.is_empty(Set::Changed),
-                s.sets.words(Set::Active),
+                s.sets.words(Set::Monitored),
             ))
         });
         let Some((late, foreign, mut requests, any_due, changed, mut words)) = first else {
@@ -309,7 +309,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return Ok(());
         }
         let mut raised = false;
-        // With no active sequence the first section's horizon stands.
+        // With no monitored sequence the first section's horizon stands.
         for w in words {
             raised = self.tick_word(w, now, &mut scan, raised, monitors, control);
         }
@@ -335,7 +335,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// monitors of the due sequences, their expired timeouts and the wake-ups of their due
     /// exit-condition polls. `raised`: a monitor fired or a timeout expired in this tick
     /// (in this word or an earlier one), so a wake-up checks that its sequence is not held,
-    /// as it does while an active sequence is paused or handles an exception. Returns it
+    /// as it does while a monitored sequence is paused or handles an exception. Returns it
     /// for the next word.
     #[inline(always)]
     fn tick_word<const M: usize, K: crate::Condition<C>>(
@@ -384,9 +384,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         raised
     }
 
-    /// Folds the state of the sequences that changed into the sets `active`, `paused` (and,
+    /// Folds the state of the sequences that changed into the sets `Monitored`, `Paused` (and,
     /// with several words, `live`), one short section per sequence. Returns the words that
-    /// then hold an active sequence, and whether any sequence is requested (the owner of
+    /// then hold a monitored sequence, and whether any sequence is requested (the owner of
     /// an exception sequence that ended is).
     fn fold_changed(&self) -> (Words, bool) {
         let mut reported = false;
@@ -398,7 +398,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 (
                     ended,
                     more,
-                    s.sets.words(Set::Active),
+                    s.sets.words(Set::Monitored),
                     !s.sets.is_empty(Set::Requested),
                 )
             });
@@ -433,7 +433,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let due = s
                     .polling
                     .classes
-                    .scan_all(now, s.sets.word(Set::Active, w), scan);
+                    .scan_all(now, s.sets.word(Set::Monitored, w), scan);
                 s.polling.next_due = next_due(scan, s.polling.next_due);
                 let (mut polls, timed) = s.take_polls(due);
                 polls.expired = s.expired(timed, now).bits();
@@ -446,7 +446,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             due = due.or(self.with(|s| {
                 s.polling
                     .classes
-                    .scan(i, now, s.sets.word(Set::Active, w), scan)
+                    .scan(i, now, s.sets.word(Set::Monitored, w), scan)
             }));
         }
         let (mut polls, timed) = self.with(|s| {
@@ -460,7 +460,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// With a portable lock: the lanes of the due polls `wake`. While something is held
-    /// (`raised`, or a paused or excepting active sequence) found by a walk that skips the
+    /// (`raised`, or a paused or excepting monitored sequence) found by a walk that skips the
     /// held ones and those whose state changed in this tick; else those remembered from the
     /// last tick with the same polls, or found by a walk and remembered, unless a lane or
     /// waker changed meanwhile.
@@ -604,7 +604,7 @@ mod tests {
     /// of higher priority before section `k` of the tick at 100 ms, where A is due (with
     /// the portable lock any task may call anything). `fillers` sequences are registered
     /// first (32: A and B in the sets' second word). With `abort_a`, A's abort is requested
-    /// before that tick: the tick finds no active sequence left to scan. Returns the
+    /// before that tick: the tick finds no monitored sequence left to scan. Returns the
     /// sequencer, B, and the number of sections that tick took.
     fn start_during_the_tick<const N: usize, const B: usize>(
         fillers: usize,
@@ -661,7 +661,7 @@ mod tests {
     /// Before its fix, in a sequencer of up to 32 sequences a start made between the
     /// tick's scan of the polling classes and its last section lost its first poll: the
     /// tick set the next due time from the classes it had scanned (A's, 200 ms); in a
-    /// larger one, a tick that found no active sequence set it to the horizon.
+    /// larger one, a tick that found no monitored sequence set it to the horizon.
     #[test]
     fn a_start_that_preempts_the_tick_keeps_its_first_poll() {
         for abort_a in [false, true] {

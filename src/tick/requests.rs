@@ -25,12 +25,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// Whether a run is under way that an abort-all would abort (`Running`, `Paused`,
-    /// `Restarting`). The set `Active` says it of the sequences as of the tick's last fold;
+    /// `Restarting`). The set `Monitored` says it of the sequences as of the tick's last fold;
     /// while it is empty, one short section per candidate (every registered sequence, or
     /// with several words those live at the fold or changed since), and a run begun
     /// meanwhile counts too (a lane of higher priority may start one while the tick looks).
     fn any_under_way(&self) -> bool {
-        let (active, candidates, begun) = self.with(|s| {
+        let (monitored, candidates, begun) = self.with(|s| {
             let candidates = if B == 1 {
                 SeqSet::first(s.count())
             } else {
@@ -38,9 +38,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     .members(Set::Live)
                     .union(&s.sets.members(Set::Changed))
             };
-            (!s.sets.is_empty(Set::Active), candidates, s.runs_begun)
+            (!s.sets.is_empty(Set::Monitored), candidates, s.runs_begun)
         });
-        if active {
+        if monitored {
             return true;
         }
         let abortable = States::entering(RunningState::Aborting);
@@ -74,7 +74,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 // Unless it was stopped meanwhile: the cause and the target.
                 let still = self.with(|s| {
                     s.block(id)
-                        .filter(|b| States::ACTIVE_RUNNING.has(b.state))
+                        .filter(|b| States::RUNNING_OR_PAUSED.has(b.state))
                         .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
                 });
                 if let Some((cause, caller)) = still {

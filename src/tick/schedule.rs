@@ -2,8 +2,8 @@
 //!
 //! Each distinct polling period registered with a sequencer is one class with one
 //! schedule, like the cyclic tasks of a PLC. The tick tests one deadline per class, not
-//! one per sequence, and takes the due sequences as a set. While a class has active
-//! members its polls keep a fixed grid of its period. A start into an idle class starts
+//! one per sequence, and takes the due sequences as a set. While a class has monitored
+//! (running or paused) members its polls keep a fixed grid of its period. A start into an idle class starts
 //! the grid: the first poll comes one period after that start. A start into a busy class
 //! joins its grid: the first poll comes within one period.
 
@@ -22,7 +22,7 @@ pub(crate) struct Class<const B: usize> {
     /// The period (µs); `None` (zero bytes, so an empty sequencer is all zeros) only in
     /// an unused class.
     period: Option<NonZeroU32>,
-    /// The next poll while the class has an active member.
+    /// The next poll while the class has an monitored member.
     next: Stamp,
     members: SeqSet<B>,
 }
@@ -40,9 +40,9 @@ pub(crate) struct Classes<const B: usize> {
 /// of the sets it visits (one word in a sequencer of up to 32 sequences).
 pub(crate) struct Scan {
     /// The classes found due in this tick, bit `i` for class `i`: a class is due once per
-    /// tick, whichever words hold its active members.
+    /// tick, whichever words hold its monitored members.
     due_classes: u8,
-    /// Time from now to the next poll of a class with an active member (µs; `u32::MAX`
+    /// Time from now to the next poll of a class with an monitored member (µs; `u32::MAX`
     /// when there is none).
     pub(crate) ahead: u32,
 }
@@ -136,13 +136,13 @@ impl<const B: usize> Classes<B> {
             .map_or(SeqSet::EMPTY, |c| c.members)
     }
 
-    /// The next poll of class `index`, whose grid a start into it joins (an active member
+    /// The next poll of class `index`, whose grid a start into it joins (an monitored member
     /// keeps the grid).
     pub(crate) fn next_poll(&self, index: u8, now: Stamp) -> Stamp {
         self.list.get(usize::from(index)).map_or(now, |c| c.next)
     }
 
-    /// Starts the grid of class `index`, which has no active member, for a start at `now`:
+    /// Starts the grid of class `index`, which has no monitored member, for a start at `now`:
     /// its first poll one period from now. Returns that poll.
     pub(crate) fn start_grid(&mut self, index: u8, now: Stamp) -> Stamp {
         match self.list.get_mut(usize::from(index)) {
@@ -154,36 +154,36 @@ impl<const B: usize> Classes<B> {
         }
     }
 
-    /// The scan of class `index` at `now` in the word `active` of the active sequences
+    /// The scan of class `index` at `now` in the word `monitored` of the monitored sequences
     /// (see [`Class::scan`]).
     #[inline(always)]
     pub(crate) fn scan(
         &mut self,
         index: usize,
         now: Stamp,
-        active: SetWord<B>,
+        monitored: SetWord<B>,
         scan: &mut Scan,
     ) -> SetWord<B> {
         // An unused class has no members: no need to test `len`.
         match self.list.get_mut(index) {
-            Some(c) => c.scan(1 << (index & 7), now, active, scan),
-            None => SetWord::empty(active.index()),
+            Some(c) => c.scan(1 << (index & 7), now, monitored, scan),
+            None => SetWord::empty(monitored.index()),
         }
     }
 
-    /// The scan of every class at `now` in the word `active` of the active sequences.
+    /// The scan of every class at `now` in the word `monitored` of the monitored sequences.
     #[inline(always)]
     pub(crate) fn scan_all(
         &mut self,
         now: Stamp,
-        active: SetWord<B>,
+        monitored: SetWord<B>,
         scan: &mut Scan,
     ) -> SetWord<B> {
         let len = self.len();
-        let mut due = SetWord::empty(active.index());
+        let mut due = SetWord::empty(monitored.index());
         let mut bit = 1;
         for c in self.list.iter_mut().take(len) {
-            due = due.or(c.scan(bit, now, active, scan));
+            due = due.or(c.scan(bit, now, monitored, scan));
             bit <<= 1;
         }
         due
@@ -192,14 +192,14 @@ impl<const B: usize> Classes<B> {
 
 impl<const B: usize> Class<B> {
     /// The due polls of this class (bit `bit` of [`Scan::due_classes`]) in the word
-    /// `active` of the active sequences. When the class has an active member there and its
+    /// `monitored` of the monitored sequences. When the class has an monitored member there and its
     /// poll is due, advances its grid, unless an earlier word of this tick did.
     #[inline(always)]
-    fn scan(&mut self, bit: u8, now: Stamp, active: SetWord<B>, scan: &mut Scan) -> SetWord<B> {
-        let live = self.members.word(active.index()).and(active);
+    fn scan(&mut self, bit: u8, now: Stamp, monitored: SetWord<B>, scan: &mut Scan) -> SetWord<B> {
+        let live = self.members.word(monitored.index()).and(monitored);
         // A class with members has a period.
         let (false, Some(period)) = (live.is_empty(), self.period) else {
-            return SetWord::empty(active.index());
+            return SetWord::empty(monitored.index());
         };
         let advanced = B > 1 && scan.due_classes & bit != 0;
         let due = advanced || now.reached(self.next);
@@ -215,7 +215,7 @@ impl<const B: usize> Class<B> {
         if due {
             live
         } else {
-            SetWord::empty(active.index())
+            SetWord::empty(monitored.index())
         }
     }
 }
@@ -233,16 +233,16 @@ mod tests {
     }
 
     #[test]
-    fn a_class_polls_its_active_members_on_its_grid() {
+    fn a_class_polls_its_monitored_members_on_its_grid() {
         let mut c = Classes::<8>::new();
         assert_eq!(c.join(SeqId(0), 1_000), Ok(0));
         assert_eq!(c.join(SeqId(1), 2_000), Ok(1));
         assert_eq!(c.join(SeqId(2), 1_000), Ok(0));
-        let active = live(&[0, 1]);
+        let monitored = live(&[0, 1]);
         assert_eq!(c.start_grid(0, Stamp(500)), Stamp(1_500));
         assert_eq!(c.start_grid(1, Stamp(500)), Stamp(2_500));
         // Already busy: sequence 2 joins the grid of sequence 0.
-        assert!(c.members(0).word(0).meets(active.word(0)));
+        assert!(c.members(0).word(0).meets(monitored.word(0)));
         assert_eq!(c.next_poll(0, Stamp(900)), Stamp(1_500));
         let scan = |c: &mut Classes<8>, now| {
             let mut scan = Scan::new();
@@ -265,12 +265,12 @@ mod tests {
         for id in [3, 100, 250] {
             assert_eq!(c.join(SeqId(id), 1_000), Ok(0));
         }
-        let active = live(&[3, 100, 250]);
+        let monitored = live(&[3, 100, 250]);
         assert_eq!(c.start_grid(0, Stamp(0)), Stamp(1_000));
         let tick = |c: &mut Classes<8>, now| {
             let mut scan = Scan::new();
             let due: [SetWord<8>; 3] =
-                [0, 3, 7].map(|w| c.scan_all(Stamp(now), active.word(w), &mut scan));
+                [0, 3, 7].map(|w| c.scan_all(Stamp(now), monitored.word(w), &mut scan));
             (due.map(|d| d.count()), scan.ahead)
         };
         // Word 0 advances the grid to 2 000; words 3 and 7 are due in the same tick.

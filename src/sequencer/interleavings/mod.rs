@@ -928,7 +928,7 @@ fn tree<L: Lock + 'static, const N: usize, const B: usize>(
     if deep {
         chain(&w, r, y, x);
     }
-    // A tick before the one under test folds the tree into the active sets: the class is
+    // A tick before the one under test folds the tree into the monitored set: the class is
     // busy, so a start made during the tick at 1 ms keeps its grid.
     w.tick(0);
     match how {
