@@ -662,9 +662,7 @@ impl<
                 .map_err(|_| Error::InvalidConfig)?;
             // Every lane added has run up to its first wait (`task_with_priority` settles):
             // a declared lane without one would take no start, silently.
-            if let Some(never_run) = self.sequencer.lane_never_run() {
-                return Err(Error::NoLane(never_run));
-            }
+            self.sequencer.check_lanes()?;
             self.validated = true;
         }
         self.sequencer

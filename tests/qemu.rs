@@ -140,6 +140,19 @@ fn invalid_configuration_is_logged_as_on_the_host() {
     );
 }
 
+/// A declared lane that no task polls (its task was never spawned) would take the safe
+/// stop's start and never run it: `check_lanes` at the top of `idle`, where every task
+/// spawned in `init` has run up to its first wait, names it.
+#[test]
+fn a_lane_no_task_polls_is_named_at_the_top_of_idle() {
+    let out = run("panic", &["lanes"]);
+    expect_exit(&out, 1);
+    expect_line(
+        &out,
+        "panic firmware: no task polls the lane of `safe stop`",
+    );
+}
+
 /// Values logged with names on the target (`WithNames`'s defmt forms) read as the host
 /// prints them (`Display`), from the same tables: the firmware's sequencer (`main`,
 /// `safe stop`) and monitor (`jam`), failure codes (1: `part lost`) and safety levels

@@ -412,3 +412,50 @@ fn a_table_of_256_pause_owner_monitors_of_one_sequence_is_refused() {
     assert_eq!(table(HOLD_A, HOLD_B), Ok(()));
     assert_eq!(table(ABORT_A, HOLD_A), Ok(()));
 }
+
+/// A lane declared but never polled takes no start: the safe stop a monitor starts in it
+/// would stay `Running` for good. `check_lanes` names the first such sequence until every
+/// declared lane has run up to its first wait (`lanes!` polls each of its lanes).
+#[test]
+fn a_declared_lane_that_no_task_polls_is_named_by_check_lanes() {
+    use core::future::Future;
+    use core::task::{Context, Poll, Waker};
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let mut main = seq
+        .add(SeqConfig::new("main").in_lane(), Node::of(vec![]))
+        .unwrap();
+    let mut stop = seq
+        .add(SeqConfig::new("safe stop"), Node::of(vec![]))
+        .unwrap();
+    let _plain = seq.add(SeqConfig::new("plain"), Node::of(vec![])).unwrap();
+    let (m, s) = (main.id(), stop.id());
+    seq.sequence_by_id(s).unwrap().declare_lane().unwrap();
+    assert_eq!(seq.check_lanes(), Err(Error::NoLane(m)));
+    assert_eq!(
+        Error::NoLane(m).message().as_str(),
+        "sequence 0 has no lane"
+    );
+    // What the check prevents: the start is taken, the sequence is `Running`, and no lane
+    // runs it.
+    seq.sequence_by_id(s).unwrap().start().unwrap();
+    assert_eq!(
+        seq.sequence_by_id(s).unwrap().state(),
+        rtseq::RunningState::Running
+    );
+    let mut cx = Context::from_waker(Waker::noop());
+    {
+        let mut task = core::pin::pin!(rtseq::lane(&seq, &ctrl, &mut main));
+        assert_eq!(task.as_mut().poll(&mut cx), Poll::Pending);
+        // `main`'s lane waited once; `safe stop`'s is still missing.
+        assert_eq!(seq.check_lanes(), Err(Error::NoLane(s)));
+    }
+    let (main, stop) = (&mut main, &mut stop);
+    let mut task = core::pin::pin!(rtseq::lanes!(&seq, &ctrl, main, stop));
+    assert_eq!(task.as_mut().poll(&mut cx), Poll::Pending);
+    assert_eq!(seq.check_lanes(), Ok(()));
+    assert_eq!(
+        seq.sequence_by_id(s).unwrap().state(),
+        rtseq::RunningState::Terminated
+    );
+}

@@ -34,7 +34,9 @@ pub enum Error {
     NotPaused(SeqId),
     /// Starting would nest callers deeper than [`MAX_DEPTH`](crate::MAX_DEPTH).
     CallerDepthExceeded(SeqId),
-    /// A non-blocking start of a sequence that has no lane to run in.
+    /// A non-blocking start of a sequence that has no lane to run in; or, from
+    /// [`Sequencer::check_lanes`](crate::Sequencer::check_lanes), a declared lane that no
+    /// task has polled.
     NoLane(SeqId),
     /// All `W` lane slots of the sequencer are declared.
     LaneCapacityExceeded(SeqId),

@@ -16,7 +16,7 @@ use crate::sequencer::control_block::NO_LANE;
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::state::WakeMemo;
 use crate::sequencer::State;
-use crate::{SeqId, Sequencer};
+use crate::{Error, SeqId, Sequencer};
 
 /// The identity of a waker: the addresses of its data and vtable, only ever compared.
 /// Addresses rather than pointers, so that nothing suggests they are dereferenced and the
@@ -145,18 +145,47 @@ impl<const W: usize> Lanes<W> {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// The first sequence whose lane is declared but that no lane has waited in yet (its
-    /// slot has no waker): a non-blocking start of it would wait for good. The simulator
-    /// asks at its first start, when every lane it was given has run up to its first wait.
-    #[cfg(feature = "std")]
-    pub(crate) fn lane_never_run(&self) -> Option<SeqId> {
-        self.with(|s| {
+    /// Checks that every declared lane has run up to its first wait. A lane declared with
+    /// [`SeqConfig::in_lane`](crate::SeqConfig::in_lane) or
+    /// [`Handle::declare_lane`](crate::Handle::declare_lane) whose future no task polls takes
+    /// no start: a non-blocking start of its sequence (a monitor's safe stop) would be
+    /// `Running` for good, and its owner held by the exception it never handles.
+    /// Returns [`Error::NoLane`] with the first such sequence.
+    ///
+    /// Call it once every lane task has been polled: in RTIC, at the top of `idle` (the
+    /// tasks spawned in `init` run up to their first wait before `idle` starts). The host
+    /// simulator makes the same check at its first start.
+    ///
+    /// ```
+    /// use core::pin::pin;
+    /// use core::future::Future;
+    /// use core::task::{Context, Waker};
+    /// use rtseq::{lane, Cx, Error, Failure, SeqConfig, Sequence, Sequencer};
+    /// struct SafeStop;
+    /// impl Sequence<()> for SafeStop {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let mut safe_stop = seq.add(SeqConfig::new("safe stop").in_lane(), SafeStop).unwrap();
+    /// let id = safe_stop.id();
+    /// // Declared, but no task polls its lane yet.
+    /// assert_eq!(seq.check_lanes(), Err(Error::NoLane(id)));
+    /// let mut task = pin!(lane(&seq, &(), &mut safe_stop));
+    /// let _ = task.as_mut().poll(&mut Context::from_waker(Waker::noop()));
+    /// assert_eq!(seq.check_lanes(), Ok(()));
+    /// ```
+    pub fn check_lanes(&self) -> Result<(), Error> {
+        let never_run = self.with(|s| {
             s.registered().enumerate().find_map(|(i, b)| {
                 let never_run =
                     b.own_lane != NO_LANE && self.lanes.identity(b.own_lane) == NO_WAKER;
                 never_run.then(|| SeqId::from_index(i))
             })
-        })
+        });
+        match never_run {
+            Some(id) => Err(Error::NoLane(id)),
+            None => Ok(()),
+        }
     }
 
     /// Keeps `waker` as the waker of `id`'s lane, then runs `read` on the state: an await

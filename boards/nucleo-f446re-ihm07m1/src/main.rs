@@ -113,7 +113,7 @@ fn log_status(cs: &ControlSystem, level: u8, sw: sensors::Switches) {
 
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART6])]
 mod app {
-    use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
+    use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
     use rtseq::safety::{SafetyHandle, SafetySystem};
     use rtseq::{SeqId, Sequencer};
@@ -164,6 +164,8 @@ mod app {
     static LEVEL: AtomicU8 = AtomicU8::new(0);
     /// The switches of the last sample, packed, for the log.
     static SWITCHES: AtomicU32 = AtomicU32::new(0);
+    /// Every declared lane has a task that polls it (`idle` checks once): B1 may start.
+    static LANES_READY: AtomicBool = AtomicBool::new(false);
 
     #[shared]
     struct Shared {
@@ -321,6 +323,12 @@ mod app {
     /// Logs the status four times a second; sleeps in between.
     #[idle]
     fn idle(_: idle::Context) -> ! {
+        // The tasks spawned in `init` have run up to their first wait: a declared lane no
+        // task polls would take a start (a safe stop) and never run it.
+        match SEQ.check_lanes() {
+            Ok(()) => LANES_READY.store(true, Ordering::Relaxed),
+            Err(e) => defmt::error!("idle: {}: B1 will not start the machine", e),
+        }
         let mut last = 0u32;
         loop {
             let now = TICKS.load(Ordering::Relaxed);
@@ -379,7 +387,13 @@ mod app {
 
         // Start on the first press of B1 (a falling edge of the raw button).
         if !*cx.local.started && sw.button && !*cx.local.button_was {
-            if let Some(h) = cx.local.main.and_then(|id| SEQ.sequence_by_id(id)) {
+            let ready = LANES_READY.load(Ordering::Relaxed);
+            if let Some(h) = cx
+                .local
+                .main
+                .filter(|_| ready)
+                .and_then(|id| SEQ.sequence_by_id(id))
+            {
                 match h.start() {
                     Ok(()) => defmt::info!("B1: main started"),
                     Err(e) => defmt::error!("B1: main cannot start: {}", e),

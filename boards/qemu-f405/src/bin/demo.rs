@@ -1577,6 +1577,11 @@ mod rtic_app {
     /// Prints what happened, samples the axis, ends the run.
     #[idle(local = [log])]
     fn idle(cx: idle::Context) -> ! {
+        // The tasks spawned in `init` have run up to their first wait.
+        if let Err(e) = SEQ.check_lanes() {
+            defmt::error!("demo: a lane task is missing: {=str}", e.reason());
+            board::exit_failure();
+        }
         let log = cx.local.log;
         loop {
             log.drain_events();

@@ -198,6 +198,7 @@ mod app {
 
     #[idle]
     fn idle(_: idle::Context) -> ! {
+        or_exit(SEQ.check_lanes()); // no lane task is missing
         loop {
             if let Some(outcome) = handle(HOMING).last_outcome() {
                 defmt::info!("minimal: homing {} at {}", outcome, SEQ.now());

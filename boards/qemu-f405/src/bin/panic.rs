@@ -9,6 +9,8 @@
 //! - `hang`: never exits (the host runner's time limit must end it, exit code 124);
 //! - `config`: a sequencer whose monitor's exception sequence has no lane fails
 //!   `Sequencer::validate` in `init` → the error is logged, exit code 1;
+//! - `lanes`: a valid configuration whose `safe stop` lane no task polls (its task was
+//!   never spawned) → `Sequencer::check_lanes` at the top of `idle` names it, exit code 1;
 //! - `names`: ids, causes, outcomes, failures, transitions, events, records and safety
 //!   levels logged with the names of the same sequencer's tables (`WithNames`'s defmt
 //!   forms, which the host test compares with their `Display` forms) → exit code 0.
@@ -28,6 +30,7 @@ enum Mode {
     Fail,
     Hang,
     Config,
+    Lanes,
     Names,
 }
 
@@ -46,6 +49,7 @@ fn mode() -> Mode {
         Some("fail") => Mode::Fail,
         Some("hang") => Mode::Hang,
         Some("config") => Mode::Config,
+        Some("lanes") => Mode::Lanes,
         Some("names") => Mode::Names,
         _ => Mode::Panic,
     }
@@ -85,6 +89,84 @@ mod config {
                 Ok(()) => defmt::error!("panic firmware: the configuration was accepted"),
             },
             _ => defmt::error!("panic firmware: the configuration could not be built"),
+        }
+        board::exit_failure()
+    }
+}
+
+/// Another mistake: every lane is declared (`in_lane`), so `validate` accepts the tree,
+/// but the task that runs the `safe stop` lane was never spawned. A jam would start the
+/// safe stop and nothing would run it; `check_lanes` in `idle` finds the lane first.
+mod lanes {
+    use super::board;
+    use core::convert::Infallible;
+    use rtseq::{Behaviour, Cx, Failure, Instant, Monitor, SeqConfig, Sequence, Sequencer, Table};
+
+    type Cond = fn(&(), Instant) -> bool;
+    fn jammed(_: &(), _: Instant) -> bool {
+        false
+    }
+    rtseq::sequences! {
+        pub(super) mod seqs for () {
+            MAIN = SeqConfig::new("main").in_lane(),
+            SAFE_STOP = SeqConfig::new("safe stop").in_lane(),
+        }
+    }
+    rtseq::monitors! {
+        pub(super) mod monitor_ids for (), Cond {
+            JAM = Monitor::with_condition("jam", jammed as Cond, Behaviour::AbortOwner)
+                .exception(seqs::SAFE_STOP)
+                .owned_by(seqs::MAIN),
+        }
+    }
+    /// Checked by the compiler: every exception sequence has a lane.
+    static TABLE: Table<(), { seqs::COUNT }> = match seqs::table() {
+        Ok(table) => match monitor_ids::validate(&table) {
+            Ok(()) => table,
+            Err(e) => panic!("{}", e.message().as_str()),
+        },
+        Err(e) => panic!("{}", e.message().as_str()),
+    };
+    pub(super) static SEQ: Sequencer<(), { seqs::COUNT }> = Sequencer::new();
+
+    /// The main sequence: nothing to do.
+    struct Main;
+    impl Sequence<()> for Main {
+        async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            Ok(())
+        }
+    }
+
+    /// Installs the table (in `init`).
+    pub fn install() {
+        if let Err(e) = SEQ.install(&TABLE) {
+            defmt::error!("panic firmware: install: {}", e);
+            board::exit_failure();
+        }
+    }
+
+    /// The lane of `main`, the only lane task the firmware spawns.
+    pub async fn main_lane() -> Infallible {
+        let mut main = match SEQ.bind(seqs::MAIN, Main) {
+            Ok(main) => main,
+            Err(e) => {
+                defmt::error!("panic firmware: bind: {}", e);
+                board::exit_failure();
+            }
+        };
+        rtseq::lane(&SEQ, &(), &mut main).await
+    }
+
+    /// At the top of `idle`: every spawned lane task has run up to its first wait (`main`,
+    /// the first id, was polled: the check names the second).
+    pub fn check() -> ! {
+        match SEQ.check_lanes() {
+            Err(rtseq::Error::NoLane(id)) => {
+                let name = SEQ.sequence_by_id(id).map_or("?", |h| h.name());
+                defmt::error!("panic firmware: no task polls the lane of `{=str}`", name);
+            }
+            Err(e) => defmt::error!("panic firmware: check_lanes: {}", e),
+            Ok(()) => defmt::error!("panic firmware: every lane was polled"),
         }
         board::exit_failure()
     }
@@ -210,7 +292,7 @@ mod names {
 
 #[rtic::app(device = rtseq_qemu_f405::pac, dispatchers = [CAN1_TX])]
 mod app {
-    use super::{board, config, mode, names, Mode};
+    use super::{board, config, lanes, mode, names, Mode};
     use board::clock::TickTimer;
     use board::signal::TickSignal;
 
@@ -223,6 +305,7 @@ mod app {
     struct Local {
         timer: TickTimer,
         mode: Mode,
+        idle_mode: Mode,
     }
 
     #[init]
@@ -232,15 +315,28 @@ mod app {
         match mode {
             Mode::Config => config::check(),
             Mode::Names => names::print(),
+            Mode::Lanes => {
+                lanes::install();
+                // The safe stop's lane task is forgotten: only `main`'s is spawned.
+                main_lane::spawn().ok();
+            }
             _ => {}
         }
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
         lane::spawn().ok();
-        (Shared {}, Local { timer, mode })
+        let local = Local {
+            timer,
+            mode,
+            idle_mode: mode,
+        };
+        (Shared {}, local)
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
+    #[idle(local = [idle_mode])]
+    fn idle(cx: idle::Context) -> ! {
+        if *cx.local.idle_mode == Mode::Lanes {
+            lanes::check();
+        }
         loop {
             cortex_m::asm::wfi();
         }
@@ -249,6 +345,11 @@ mod app {
     #[task(binds = TIM2, priority = 2, local = [timer])]
     fn tick(cx: tick::Context) {
         TO_LANE.signal(cx.local.timer.on_interrupt());
+    }
+
+    #[task(priority = 1)]
+    async fn main_lane(_: main_lane::Context) {
+        match lanes::main_lane().await {}
     }
 
     #[task(priority = 1, local = [mode])]
@@ -267,7 +368,7 @@ mod app {
                     defmt::error!("deliberate failure at {=u64} us", now.as_ticks());
                     board::exit_failure()
                 }
-                Mode::Hang | Mode::Config | Mode::Names => {}
+                Mode::Hang | Mode::Config | Mode::Lanes | Mode::Names => {}
             }
         }
     }
