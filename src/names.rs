@@ -5,13 +5,11 @@
 //! A [`Names`] source answers names: a [`Sequencer`] its sequences', a [`Monitors`] table
 //! its monitors', [`SafetyProperties`] their levels' and critical inputs', [`Failures`] the
 //! application's failure codes; a tuple of sources asks each in turn.
-//! [`WithNames::named`] pairs a value (an id, a [`Cause`], an [`Outcome`], a [`Failure`], a
-//! [`Transition`], an [`Event`], a [`Record`], a [`SafetyLevel`]) with a source for
-//! printing: a run's records print as the lines of the run ("4 ms monitor `jam` of `cycle`
-//! fired: AbortOwner"). The `defmt` forms read as the `Display` forms, but for one part:
-//! an [`Error`](crate::Error) inside a [`Failure::NotStarted`] or an
-//! [`Event::ExceptionNotRun`] prints in its own `defmt` form, its variant and id
-//! (`not started: AlreadyRunning(SeqId(1))`).
+//! [`WithNames::named`] pairs a value (an id, a [`Cause`], an [`Outcome`], a [`Failure`], an
+//! [`Error`], a [`Transition`], an [`Event`], a [`Record`], a [`SafetyLevel`]) with a source
+//! for printing: a run's records print as the lines of the run ("4 ms monitor `jam` of
+//! `cycle` fired: AbortOwner"), an error as its message with the sequence's name ("sequence
+//! `safe stop` has no lane"). The `defmt` forms read as the `Display` forms.
 //!
 //! ```
 //! use rtseq::{Behaviour, Cause, Instant, Monitor, Monitors, RunningState, SeqConfig, Sequencer,
@@ -26,6 +24,8 @@
 //!                               Cause::Monitor(m));
 //! assert_eq!(t.named(&names).to_string(), "12 ms homing: Running -> Aborting (monitor `jam`)");
 //! assert_eq!(Cause::Timeout(homing).named(&names).to_string(), "timeout of `homing`");
+//! assert_eq!(rtseq::Error::NoLane(homing).named(&names).to_string(),
+//!            "sequence `homing` has no lane");
 //! // Without a name: the number.
 //! assert_eq!(rtseq::SeqId::from_index(7).named(&names).to_string(), "#7");
 //! ```
@@ -35,7 +35,7 @@ use core::fmt;
 use crate::lock::Lock;
 use crate::safety::{InputId, SafetyLevel, SafetyProperties};
 use crate::{
-    Cause, Entry, Event, Failure, MonitorId, Monitors, Outcome, Record, Requester, SeqId,
+    Cause, Entry, Error, Event, Failure, MonitorId, Monitors, Outcome, Record, Requester, SeqId,
     Sequencer, Transition,
 };
 
@@ -191,8 +191,8 @@ impl<V: Copy, N: Names + ?Sized> Named<'_, V, N> {
     }
 }
 
-/// Values that print with names: ids, causes, outcomes, failures, transitions, events,
-/// records, safety levels.
+/// Values that print with names: ids, causes, outcomes, failures, errors, transitions,
+/// events, records, safety levels.
 pub trait WithNames: Copy {
     /// This value with `names`, for `Display` and `defmt::Format`.
     ///
@@ -212,6 +212,7 @@ impl WithNames for MonitorId {}
 impl WithNames for Cause {}
 impl WithNames for Outcome {}
 impl WithNames for Failure {}
+impl WithNames for Error {}
 impl WithNames for Transition {}
 impl WithNames for SafetyLevel {}
 impl WithNames for Event {}
@@ -287,7 +288,21 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, Failure, N> {
                 None => write!(f, "failure #{code}"),
             },
             Failure::Aborted(c) => write!(f, "aborted ({})", self.with(c)),
-            Failure::NotStarted(e) => write!(f, "not started: {e}"),
+            Failure::NotStarted(e) => write!(f, "not started: {}", self.with(e)),
+        }
+    }
+}
+
+/// The error's message with the name of the sequence it names; by index (as its own
+/// `Display`) where the source has no name for it.
+impl<N: Names + ?Sized> fmt::Display for Named<'_, Error, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.value.parts() {
+            (before, Some(id), after) => match self.names.sequence(id) {
+                Some(name) => write!(f, "{before}`{name}`{after}"),
+                None => write!(f, "{before}{}{after}", id.index()),
+            },
+            (text, None, _) => f.write_str(text),
         }
     }
 }
@@ -359,9 +374,10 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, Event, N> {
                 why,
             } => write!(
                 f,
-                "exception sequence `{}` of `{}` not run: {why}",
+                "exception sequence `{}` of `{}` not run: {}",
                 self.with(exception),
-                self.with(owner)
+                self.with(owner),
+                self.with(why)
             ),
             Event::Requested {
                 sequence,
@@ -438,7 +454,8 @@ mod defmt_format {
     use super::{cause_word, millis, request_word, Named, Names};
     use crate::safety::{InputId, SafetyLevel};
     use crate::{
-        Cause, Entry, Event, Failure, MonitorId, Outcome, Record, Requester, SeqId, Transition,
+        Cause, Entry, Error, Event, Failure, MonitorId, Outcome, Record, Requester, SeqId,
+        Transition,
     };
 
     /// `t` as the lines of a run print it.
@@ -496,7 +513,19 @@ mod defmt_format {
                     None => defmt::write!(f, "failure #{=u16}", code),
                 },
                 Failure::Aborted(c) => defmt::write!(f, "aborted ({})", self.with(c)),
-                Failure::NotStarted(e) => defmt::write!(f, "not started: {}", e),
+                Failure::NotStarted(e) => defmt::write!(f, "not started: {}", self.with(e)),
+            }
+        }
+    }
+
+    impl<N: Names + ?Sized> defmt::Format for Named<'_, Error, N> {
+        fn format(&self, f: defmt::Formatter<'_>) {
+            match self.value.parts() {
+                (before, Some(id), after) => match self.names.sequence(id) {
+                    Some(name) => defmt::write!(f, "{=str}`{=str}`{=str}", before, name, after),
+                    None => defmt::write!(f, "{=str}{=usize}{=str}", before, id.index(), after),
+                },
+                (text, None, _) => defmt::write!(f, "{=str}", text),
             }
         }
     }
@@ -571,7 +600,7 @@ mod defmt_format {
                     "exception sequence `{}` of `{}` not run: {}",
                     self.with(exception),
                     self.with(owner),
-                    why
+                    self.with(why)
                 ),
                 Event::Requested {
                     sequence,

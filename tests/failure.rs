@@ -326,9 +326,15 @@ fn a_refused_start_is_a_not_started_failure() {
         seq.sequence_by_id(id).unwrap().last_outcome(),
         Some(Outcome::Failed(failure))
     );
+    // Without a source that names sequences the error says the index; with the sequencer,
+    // the name.
     assert_eq!(
         failure.named(&FAILURES).to_string(),
         "not started: sequence 0 has no lane"
+    );
+    assert_eq!(
+        failure.named(&(&seq, &FAILURES)).to_string(),
+        "not started: sequence `blink` has no lane"
     );
 }
 

@@ -149,15 +149,14 @@ fn a_lane_no_task_polls_is_named_at_the_top_of_idle() {
     expect_exit(&out, 1);
     expect_line(
         &out,
-        "panic firmware: no task polls the lane of `safe stop`",
+        "panic firmware: sequence `safe stop` has no lane: no task polls it",
     );
 }
 
 /// Values logged with names on the target (`WithNames`'s defmt forms) read as the host
 /// prints them (`Display`), from the same tables: the firmware's sequencer (`main`,
 /// `safe stop`) and monitor (`jam`), failure codes (1: `part lost`) and safety levels
-/// (`off`, `powered`). One form differs: the error of a `Failure::NotStarted` is printed
-/// in `Error`'s own defmt form, its variant and id.
+/// (`off`, `powered`).
 #[test]
 fn names_print_on_the_target_as_on_the_host() {
     use rtseq::safety::{
@@ -217,7 +216,9 @@ fn names_print_on_the_target_as_on_the_host() {
         Failure::App(1).named(&names).to_string(),
         Failure::App(9).named(&names).to_string(),
         Failure::Aborted(Cause::Abort).named(&names).to_string(),
-        "not started: AlreadyRunning(SeqId(1))".to_string(),
+        Failure::NotStarted(Error::AlreadyRunning(main))
+            .named(&names)
+            .to_string(),
         at(12_500, Cause::Monitor(jam)).named(&names).to_string(),
         at(3_000, Cause::Abort).named(&names).to_string(),
         SafetyLevel::new(1).named(&names).to_string(),
@@ -270,16 +271,11 @@ fn names_print_on_the_target_as_on_the_host() {
         }),
     };
     host.push(record.named(&names).to_string());
-    // An error inside an event prints in `Error`'s defmt form on the target, as in
-    // `Failure::NotStarted`.
-    let not_run = "exception sequence `safe stop` of `main` not run: ";
-    assert_eq!(host[18], format!("{not_run}sequence 0 has no lane"));
-    host[18] = format!("{not_run}NoLane(SeqId(0))");
+    // Errors print with the names of the sequences they name, on both sides.
+    assert_eq!(host[11], "not started: sequence `main` is already running");
     assert_eq!(
-        Failure::NotStarted(Error::AlreadyRunning(main))
-            .named(&names)
-            .to_string(),
-        "not started: sequence 1 is already running"
+        host[18],
+        "exception sequence `safe stop` of `main` not run: sequence `safe stop` has no lane"
     );
     let target: Vec<&str> = out
         .lines

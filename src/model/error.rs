@@ -154,44 +154,48 @@ impl Error {
     /// assert_eq!(E.to_string(), E.message().as_str());
     /// ```
     pub const fn message(&self) -> ErrorMessage {
-        let m = ErrorMessage::new();
-        match *self {
-            Error::EmptyName => m.with("empty name"),
-            Error::DuplicateName(id) => naming(id, "duplicate name: sequence ", " has it"),
-            Error::SequenceCapacityExceeded => m.with("sequence capacity exceeded"),
-            Error::MonitorCapacityExceeded => m.with("monitor capacity exceeded"),
-            Error::UnknownSequence(id) => naming(id, "unknown sequence ", ""),
-            Error::AlreadyRunning(id) => naming(id, "sequence ", " is already running"),
-            Error::NotRunning(id) => naming(id, "sequence ", " is not running"),
-            Error::NotPaused(id) => naming(id, "sequence ", " is not paused"),
-            Error::CallerDepthExceeded(id) => naming(id, "starting sequence ", " exceeds the caller depth"),
-            Error::NoLane(id) => naming(id, "sequence ", " has no lane"),
-            Error::LaneCapacityExceeded(id) => naming(id, "no lane slot left for sequence ", ""),
-            Error::DurationOutOfRange => m.with("duration is zero or too long"),
-            Error::NeverStarted(id) => naming(id, "sequence ", " was never started"),
-            Error::AlreadyBound(id) => naming(id, "sequence ", " is already bound"),
-            Error::PollingClassesExceeded => m.with("too many distinct polling periods"),
-            Error::NotEmpty => m.with("a table needs an empty sequencer"),
-            Error::InvalidConfig => m.with("invalid configuration (see Sequencer::validate)"),
-            Error::TickBeforeLast => m.with("a tick's time is earlier than the last tick's"),
-            Error::PauseOnTimeout => m.with("a timeout cannot pause its sequence (PauseOwner is a monitor behaviour)"),
-            Error::ForeignSequence(id) => naming(id, "the object of sequence ", " was made by another sequencer"),
-            Error::HeldByMonitor(id) => naming(id, "sequence ", " is held paused by a monitor whose condition holds"),
-            Error::OutcomeLost(id) => naming(id, "the joined run of sequence ", " ended, and so did a later run, whose outcome replaced it"),
-            Error::TickInProgress => m.with("a tick while another tick of the same sequencer is under way"),
-            Error::ForeignMonitorTable => m.with("a tick with a monitor table other than the sequencer's own (one table per sequencer)"),
-            Error::PauseOwnerMonitorsExceeded(id) => naming(id, "sequence ", " has 256 PauseOwner monitors; at most 255 can hold it paused"),
-            Error::JoinWouldDeadlock(id) => naming(id, "joining sequence ", " would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)"),
+        match self.parts() {
+            (before, Some(id), after) => ErrorMessage::new()
+                .with(before)
+                .with_number(id.index())
+                .with(after),
+            (text, None, _) => ErrorMessage::new().with(text),
         }
     }
-}
 
-/// `before`, the index of `id`, `after`.
-const fn naming(id: SeqId, before: &str, after: &str) -> ErrorMessage {
-    ErrorMessage::new()
-        .with(before)
-        .with_number(id.index())
-        .with(after)
+    /// The message in its parts: the text before the sequence it names, that sequence (if
+    /// any), the text after it. [`message`](Self::message) writes the sequence's index,
+    /// [`WithNames`](crate::WithNames) its name.
+    pub(crate) const fn parts(&self) -> (&'static str, Option<SeqId>, &'static str) {
+        match *self {
+            Error::EmptyName => ("empty name", None, ""),
+            Error::DuplicateName(id) => ("duplicate name: sequence ", Some(id), " has it"),
+            Error::SequenceCapacityExceeded => ("sequence capacity exceeded", None, ""),
+            Error::MonitorCapacityExceeded => ("monitor capacity exceeded", None, ""),
+            Error::UnknownSequence(id) => ("unknown sequence ", Some(id), ""),
+            Error::AlreadyRunning(id) => ("sequence ", Some(id), " is already running"),
+            Error::NotRunning(id) => ("sequence ", Some(id), " is not running"),
+            Error::NotPaused(id) => ("sequence ", Some(id), " is not paused"),
+            Error::CallerDepthExceeded(id) => ("starting sequence ", Some(id), " exceeds the caller depth"),
+            Error::NoLane(id) => ("sequence ", Some(id), " has no lane"),
+            Error::LaneCapacityExceeded(id) => ("no lane slot left for sequence ", Some(id), ""),
+            Error::DurationOutOfRange => ("duration is zero or too long", None, ""),
+            Error::NeverStarted(id) => ("sequence ", Some(id), " was never started"),
+            Error::AlreadyBound(id) => ("sequence ", Some(id), " is already bound"),
+            Error::PollingClassesExceeded => ("too many distinct polling periods", None, ""),
+            Error::NotEmpty => ("a table needs an empty sequencer", None, ""),
+            Error::InvalidConfig => ("invalid configuration (see Sequencer::validate)", None, ""),
+            Error::TickBeforeLast => ("a tick's time is earlier than the last tick's", None, ""),
+            Error::PauseOnTimeout => ("a timeout cannot pause its sequence (PauseOwner is a monitor behaviour)", None, ""),
+            Error::ForeignSequence(id) => ("the object of sequence ", Some(id), " was made by another sequencer"),
+            Error::HeldByMonitor(id) => ("sequence ", Some(id), " is held paused by a monitor whose condition holds"),
+            Error::OutcomeLost(id) => ("the joined run of sequence ", Some(id), " ended, and so did a later run, whose outcome replaced it"),
+            Error::TickInProgress => ("a tick while another tick of the same sequencer is under way", None, ""),
+            Error::ForeignMonitorTable => ("a tick with a monitor table other than the sequencer's own (one table per sequencer)", None, ""),
+            Error::PauseOwnerMonitorsExceeded(id) => ("sequence ", Some(id), " has 256 PauseOwner monitors; at most 255 can hold it paused"),
+            Error::JoinWouldDeadlock(id) => ("joining sequence ", Some(id), " would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)"),
+        }
+    }
 }
 
 impl core::fmt::Display for Error {

@@ -100,7 +100,9 @@ mod config {
 mod lanes {
     use super::board;
     use core::convert::Infallible;
-    use rtseq::{Behaviour, Cx, Failure, Instant, Monitor, SeqConfig, Sequence, Sequencer, Table};
+    use rtseq::{
+        Behaviour, Cx, Failure, Instant, Monitor, SeqConfig, Sequence, Sequencer, Table, WithNames,
+    };
 
     type Cond = fn(&(), Instant) -> bool;
     fn jammed(_: &(), _: Instant) -> bool {
@@ -161,11 +163,7 @@ mod lanes {
     /// the first id, was polled: the check names the second).
     pub fn check() -> ! {
         match SEQ.check_lanes() {
-            Err(rtseq::Error::NoLane(id)) => {
-                let name = SEQ.sequence_by_id(id).map_or("?", |h| h.name());
-                defmt::error!("panic firmware: no task polls the lane of `{=str}`", name);
-            }
-            Err(e) => defmt::error!("panic firmware: check_lanes: {}", e),
+            Err(e) => defmt::error!("panic firmware: {}: no task polls it", e.named(&SEQ)),
             Ok(()) => defmt::error!("panic firmware: every lane was polled"),
         }
         board::exit_failure()
