@@ -110,6 +110,32 @@ fn a_waker_that_calls_back_into_the_sequencer_is_never_called_while_its_state_is
     assert!(calls.load(SeqCst) >= 4, "the wakers ran: {calls:?}");
 }
 
+/// A lane dropped (the loser of a `select`) while its slot keeps a waker that calls back
+/// into the sequencer from its `Drop`: closing the lane drops that waker once the state's
+/// borrow has ended.
+#[test]
+fn a_dropped_lane_drops_its_waker_while_the_state_is_not_borrowed() {
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    static CALLS: AtomicUsize = AtomicUsize::new(0);
+    let (seq, calls) = (&SEQ, &CALLS);
+    let once = seq.add(SeqConfig::new("once"), Once).unwrap();
+    let mut main = seq.add(SeqConfig::new("main"), Twice { once }).unwrap();
+    let id = main.id();
+    {
+        let mut lane = pin!(rtseq::lane(seq, &(), &mut main));
+        let waker = Waker::from(Arc::new(Meddler { seq, calls }));
+        assert!(lane
+            .as_mut()
+            .poll(&mut Context::from_waker(&waker))
+            .is_pending());
+        // The slot's clone is the last one.
+        drop(waker);
+        assert_eq!(calls.load(SeqCst), 0);
+    }
+    assert_eq!(calls.load(SeqCst), 1);
+    assert_eq!(seq.check_lanes(), Err(Error::NoLane(id)));
+}
+
 #[test]
 fn a_waker_that_aborts_its_own_sequence_when_woken_takes_effect_at_the_next_tick() {
     struct Aborter(&'static Sequencer<(), 4>);
@@ -1258,6 +1284,124 @@ fn a_start_pending_in_a_lane_dropped_while_idle_does_not_stay_running() {
         (x.state(), x.last_outcome()),
         (Aborted, Some(Outcome::Aborted(Dropped)))
     );
+}
+
+/// A lane future dropped after it waited (the loser of a `select`, a task that stops its
+/// lane) closes its lane: a later start would wait for good, so it is `Err(NoLane)` and
+/// `check_lanes` names the lane, until a lane future waits in the slot again.
+#[test]
+fn a_dropped_lane_takes_no_start_until_a_lane_waits_again() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let mut x = seq
+        .add(SeqConfig::new("X").in_lane(), Node::of(vec![]))
+        .unwrap();
+    let xi = x.id();
+    let mut cx = Context::from_waker(Waker::noop());
+    {
+        let mut lane = pin!(rtseq::lane(&seq, &ctrl, &mut x));
+        assert!(lane.as_mut().poll(&mut cx).is_pending());
+        assert_eq!(seq.check_lanes(), Ok(()));
+    }
+    assert_eq!(seq.check_lanes(), Err(Error::NoLane(xi)));
+    let x_handle = seq.sequence_by_id(xi).unwrap();
+    assert_eq!(x_handle.start(), Err(Error::NoLane(xi)));
+    assert_eq!(x_handle.state(), Idle);
+    // A new lane future waits in the slot: the lane is open again and runs the start.
+    let mut lane = pin!(rtseq::lane(&seq, &ctrl, &mut x));
+    assert!(lane.as_mut().poll(&mut cx).is_pending());
+    assert_eq!(seq.check_lanes(), Ok(()));
+    assert_eq!(x_handle.start(), Ok(()));
+    assert!(lane.as_mut().poll(&mut cx).is_pending());
+    assert_eq!(
+        (x_handle.state(), x_handle.last_outcome()),
+        (Terminated, Some(Outcome::Completed))
+    );
+}
+
+/// The safe stop's lane lost a `select` against a shutdown signal. When the jam monitor
+/// fires, its exception sequence has no lane: the exception counts as not run, with an
+/// event saying why, and the behaviour (`AbortOwner`) is applied in the same tick, instead
+/// of the owner being held for good by a safe stop that never runs.
+#[test]
+fn an_exception_in_a_dropped_lane_is_not_run_and_the_behaviour_is_applied_at_once() {
+    use rtseq::{Entry, Event};
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![]).until(0))
+        .unwrap();
+    let mut stop = seq
+        .add(SeqConfig::new("safe stop").in_lane(), Node::of(vec![]))
+        .unwrap();
+    let (mi, si) = (main.id(), stop.id());
+    let mut jam = |c: &Ctrl, _: Instant| c.flag(1);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    let m = monitors
+        .add(
+            mi,
+            Monitor::new("jam", &mut jam, Behaviour::AbortOwner).exception(si),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    let (s, c) = (&seq, &ctrl);
+    sim.task_with_priority(
+        async move {
+            let shutdown = std::future::ready(());
+            let _ = select(rtseq::lane(s, c, &mut stop), shutdown).await;
+            std::future::pending::<std::convert::Infallible>().await
+        },
+        1,
+    );
+    // The first start validates: the safe stop has no lane any more.
+    assert_eq!(sim.start(mi), Err(Error::InvalidConfig));
+    assert_eq!(
+        seq.validate(sim.monitors()),
+        Err(rtseq::ConfigError::ExceptionWithoutLane {
+            raiser: rtseq::Raiser::Monitor(m, "jam"),
+            exception: (si, "safe stop"),
+        })
+    );
+    // Started all the same (on the chip nothing stops it after `init`'s check):
+    seq.sequence_by_id(mi).unwrap().start().unwrap();
+    sim.run_for(Duration::from_millis(3));
+    ctrl.flags[1].set(true);
+    sim.run_for(Duration::from_millis(2));
+    let cause = rtseq::Cause::Monitor(m);
+    assert_eq!(
+        sim.trace(),
+        &[
+            tr(0, mi, Idle, Running, Start),
+            tr(4, mi, Running, Aborting, cause),
+            tr(4, mi, Aborting, Aborted, cause),
+        ]
+    );
+    let events: Vec<Event> = sim
+        .records()
+        .iter()
+        .filter_map(|r| match r.entry {
+            Entry::Event(e) => Some(e),
+            Entry::Transition { .. } => None,
+        })
+        .collect();
+    assert_eq!(
+        events,
+        [
+            Event::Fired {
+                owner: mi,
+                cause,
+                behaviour: Behaviour::AbortOwner
+            },
+            Event::ExceptionNotRun {
+                exception: si,
+                owner: mi,
+                why: Error::NoLane(si)
+            },
+        ]
+    );
+    assert_eq!(seq.exceptions_not_run(), 1);
+    assert_eq!(sim.state(si), Idle);
 }
 
 /// The lane of another sequencer's object (a wiring mistake) dropped while a start of the

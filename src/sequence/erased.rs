@@ -319,14 +319,14 @@ where
     }
 }
 
-/// A lane dropped while it waits for a start gives up a start made but not taken: this
-/// is where the object's head is at hand (the run's own `Drop` covers the other stages).
+/// A lane dropped gives up a start made but not taken and closes its lane: this is where
+/// the object's head is at hand (the run's own `Drop` aborts a run under way).
 impl<C, S, F, M> Drop for SequenceRun<'_, '_, C, S, F, M> {
     fn drop(&mut self) {
         // SAFETY: `seq` is the run's `&'s mut Seq<S>`, live until the run is dropped, and
         // only its head is borrowed here, shared (invariant 6).
         let head = unsafe { &*addr_of!((*self.seq.as_ptr()).head) };
-        self.run.drop_waiting_lane(head);
+        self.run.drop_lane(head);
     }
 }
 

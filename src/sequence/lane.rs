@@ -40,7 +40,11 @@ use crate::{Cx, Seq, Sequence, Sequencer};
 /// [`Error::LaneCapacityExceeded`](crate::Error::LaneCapacityExceeded) there instead.
 ///
 /// The lane is the sequence's run itself (see `sequence/run.rs`): between runs it waits for
-/// the next non-blocking start.
+/// the next non-blocking start. Dropping the lane's future (the loser of a `select`, a
+/// task that stops it) aborts its run, if any, with [`Cause::Dropped`](crate::Cause::Dropped)
+/// and closes the lane: a start of the sequence is then `Err(Error::NoLane)` (an exception
+/// sequence's counts as not run, and its behaviour applies at once), and
+/// [`Sequencer::check_lanes`] names it, until a lane future for it waits again.
 pub fn lane<
     'a,
     C,

@@ -287,15 +287,20 @@ impl<'a, C> Run<'a, C> {
         }
     }
 
-    /// The future of a lane is dropped (an executor shut down): if it waits for a start, a
-    /// start made but not taken is aborted, as in a dropped run ([`Port::abandon_start`];
-    /// `head`, the object's, says whether the object is this sequencer's). The rest of a
-    /// dropped run is `Drop`'s, which has no head.
-    pub(crate) fn drop_waiting_lane(&self, head: &SeqHead) {
+    /// The future of a lane is dropped (the loser of a `select`, an executor shut down):
+    /// if it waits for a start, a start made but not taken is aborted, as in a dropped run
+    /// ([`Port::abandon_start`]), and the lane is closed ([`Port::close_lane`]): a later
+    /// start would wait for good. `head`, the object's, says whether the object is this
+    /// sequencer's. The rest of a dropped run is `Drop`'s, which has no head.
+    pub(crate) fn drop_lane(&self, head: &SeqHead) {
+        let Driver::Lane = self.driver else {
+            return;
+        };
+        let port = self.port();
         if self.stage.get() == Stage::Idle {
-            self.port()
-                .abandon_start(self.cx.id(), head.maker, self.cx.control());
+            port.abandon_start(self.cx.id(), head.maker, self.cx.control());
         }
+        port.close_lane(self.cx.id(), head.maker);
     }
 
     /// A run's whole poll; `Ready` with a blocking run's result once it is handed over.
@@ -344,7 +349,7 @@ impl<C> Drop for Run<'_, C> {
             | Stage::ExitCondition
             | Stage::AwaitPoll => port.abandon(self.cx.id(), self.cx.control()),
             Stage::Ended => port.finished(self.run()),
-            // Not started or over; a lane waiting for a start is `drop_waiting_lane`'s.
+            // Not started or over; a lane waiting for a start is `drop_lane`'s.
             Stage::Idle | Stage::Begin | Stage::HandOver | Stage::Done => {}
         }
     }

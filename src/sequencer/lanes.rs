@@ -103,6 +103,14 @@ impl LaneWaker {
         true
     }
 
+    /// Forgets the lane's waker: its lane future was dropped.
+    fn forget(&self) {
+        let kept = self.waker.take();
+        self.identity.set(NO_WAKER);
+        // Dropped after the cell is consistent again: its `drop` may call back.
+        drop(kept);
+    }
+
     /// Wakes the lane (nothing before it first parked).
     #[inline]
     fn wake(&self) {
@@ -175,6 +183,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// assert_eq!(seq.check_lanes(), Ok(()));
     /// ```
     pub fn check_lanes(&self) -> Result<(), Error> {
+        // A closed lane's waker is forgotten too.
         let never_run = self.with(|s| {
             s.registered().enumerate().find_map(|(i, b)| {
                 let never_run =
@@ -186,6 +195,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Some(id) => Err(Error::NoLane(id)),
             None => Ok(()),
         }
+    }
+
+    /// The lane future of `id`, whose sequence object was made by the sequencer tagged
+    /// `maker`, was dropped (the loser of a `select`, a task that stopped its lane): the
+    /// lane is closed and its waker forgotten, so that a start of `id` is
+    /// [`Error::NoLane`] (an exception sequence's counts as not run) and
+    /// [`check_lanes`](Self::check_lanes) names it, until a lane future waits in it
+    /// again. The lane of another sequencer's object changes nothing here.
+    pub(crate) fn close_lane(&self, id: SeqId, maker: u16) {
+        L::lock(|| {
+            let closed = self.borrow_state(|s| s.close_lane(id, maker));
+            if let Some(lane) = closed.and_then(|l| self.lanes.slots.get(usize::from(l))) {
+                lane.forget();
+            }
+        });
     }
 
     /// Keeps `waker` as the waker of `id`'s lane, then runs `read` on the state: an await
@@ -272,6 +296,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
+    /// Closes the lane of `id` if the object `maker` made is this sequencer's (see
+    /// [`Sequencer::close_lane`]): its slot, whose waker is to be forgotten.
+    fn close_lane(&mut self, id: SeqId, maker: u16) -> Option<u8> {
+        if self.tag != maker {
+            return None;
+        }
+        let lane = self
+            .block(id)
+            .map(|b| b.own_lane)
+            .filter(|&l| l != NO_LANE)?;
+        self.lanes_closed |= 1 << (lane & 31);
+        // The remembered wake-ups may name its waker.
+        self.polling.forget_woken();
+        Some(lane)
+    }
+
+    /// A lane future waits in slot `lane`: the lane is open (again).
+    pub(crate) fn open_lane(&mut self, lane: u8) {
+        self.lanes_closed &= !(1 << (lane & 31));
+    }
+
+    /// Whether `lane` is open: no lane future in it was dropped since one last waited.
+    fn lane_open(&self, lane: u8) -> bool {
+        self.lanes_closed & (1 << (lane & 31)) == 0
+    }
+
     /// The lanes to wake for the due exit-condition polls `polls`: the lanes found for the
     /// same set last time, or, when the set changed, a walk over the sequences. A lane
     /// whose waker is the one just found (lanes joined in one task, in id order) is not
@@ -295,7 +345,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
-/// The lane slot `id` declared, if any.
+/// The lane slot `id` declared, if any and open (see [`Sequencer::close_lane`]).
 pub(crate) fn lane_slot_of<
     C,
     S: Sections<C, N, T, W, B>,
@@ -307,7 +357,11 @@ pub(crate) fn lane_slot_of<
     s: &mut S,
     id: SeqId,
 ) -> Option<u8> {
-    s.section(|s| s.block(id).map(|b| b.own_lane).filter(|&l| l != NO_LANE))
+    s.section(|s| {
+        s.block(id)
+            .map(|b| b.own_lane)
+            .filter(|&l| l != NO_LANE && s.lane_open(l))
+    })
 }
 
 /// Declares a lane for `id` (idempotent) and returns its slot (`None`: all `W` slots are

@@ -74,6 +74,9 @@ pub(crate) trait Port<C> {
     /// in [`abandon`](Self::abandon), since only a future holding that object could take
     /// it. The lane of another sequencer's object changes nothing here.
     fn abandon_start(&self, id: SeqId, maker: u16, control: &C);
+    /// The lane future of `id`, whose sequence object was made by the sequencer tagged
+    /// `maker`, was dropped: its lane takes no start until a lane future waits in it again.
+    fn close_lane(&self, id: SeqId, maker: u16);
     /// Finds or claims `id`'s lane slot.
     fn declare_lane(&self, id: SeqId) -> Result<u8, Error>;
     /// A lane's wait for a start of `id`, whose sequence object was made by the sequencer
@@ -200,6 +203,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         in_sections!(self, |s| declare_lane(s, id)).ok_or(Error::LaneCapacityExceeded(id))
     }
 
+    fn close_lane(&self, id: SeqId, maker: u16) {
+        Sequencer::close_lane(self, id, maker);
+    }
+
     fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> Option<RunId> {
         // Another sequencer's object declares nothing here; with no slot left the lane
         // never runs (see `lane`).
@@ -216,6 +223,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             |_| lane,
             waker,
             |s| {
+                s.open_lane(lane);
                 let b = s.block_mut(id).filter(|b| b.has(flag::START_PENDING))?;
                 b.set(flag::START_PENDING, false);
                 Some(RunId {

@@ -40,6 +40,9 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// The lane slots declared so far: slots `0..lanes_declared` (their wakers are in
     /// [`Sequencer::lanes`]).
     pub(crate) lanes_declared: u8,
+    /// The lane slots whose lane future was dropped (bit `l` for slot `l`): their sequence
+    /// takes no start until a lane future waits in the slot again.
+    pub(crate) lanes_closed: u32,
     /// This sequencer's tag, given when its first sequence object is bound (0: none yet),
     /// unique among the first 65 535 sequencers of a program. A sequence object carries
     /// it, so that a lane or a blocking start refuses the object of another sequencer.
@@ -121,6 +124,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             exceptions_not_run: 0,
             count: 0,
             lanes_declared: 0,
+            lanes_closed: 0,
             tag: 0,
             blocks: [ControlBlock::UNREGISTERED; N],
             hooks: [None; N],
