@@ -113,3 +113,84 @@ fn a_timeout_paused_for_2_s_runs_out_2_s_later() {
         show(sim.trace())
     );
 }
+
+/// An operator's "hold" and "continue" handled in one pass of the application, before the
+/// tick: the later request counts. A resume takes back a pending pause (the sequence never
+/// pauses), a pause takes back a pending resume (it stays paused); both are recorded. A
+/// pause of a sequence paused already, with nothing pending, is refused as such.
+#[test]
+fn of_a_pause_and_a_resume_before_the_same_tick_the_later_counts() {
+    use rtseq::{Entry, Error, Event, Request, Requester, WithNames};
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(10)))
+        .unwrap();
+    let wi = w.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    let h = seq.sequence_by_id(mi).unwrap();
+    sim.run_until(Instant::from_ticks(2_000));
+    // Hold, then continue, before the tick at 3 ms: it never pauses.
+    assert_eq!((h.pause(), h.resume()), (Ok(()), Ok(())));
+    sim.run_until(Instant::from_ticks(3_000));
+    assert_eq!(h.state(), Running);
+    // Hold at 4 ms; at 5 ms a continue and a second hold: it stays paused.
+    h.pause().unwrap();
+    sim.run_until(Instant::from_ticks(4_000));
+    assert_eq!(h.pause(), Err(Error::AlreadyPaused(mi)));
+    assert_eq!(
+        Error::AlreadyPaused(mi).named(&seq).to_string(),
+        "sequence `main` is paused already"
+    );
+    assert_eq!((h.resume(), h.pause()), (Ok(()), Ok(())));
+    sim.run_until(Instant::from_ticks(5_000));
+    assert_eq!(h.state(), Paused);
+    h.resume().unwrap();
+    let end = sim.run_until_idle(Duration::from_secs(1)).unwrap();
+    // Paused from 4 to 6 ms: the 10 ms wait ends at 12 ms.
+    assert_eq!(end, Instant::from_ticks(12_000));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(0, wi, Idle, Running, Start),
+            tr(4, mi, Running, Paused, Pause),
+            tr(4, wi, Running, Paused, Pause),
+            tr(6, mi, Paused, Running, Resume),
+            tr(6, wi, Paused, Running, Resume),
+            tr(12, wi, Running, Terminated, Completed),
+            tr(12, mi, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    let requests: Vec<(u64, Request)> = sim
+        .records()
+        .iter()
+        .filter_map(|r| match r.entry {
+            Entry::Event(Event::Requested {
+                request,
+                by: Requester::Application,
+                ..
+            }) => Some((r.time.duration_since_epoch().as_millis(), request)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        requests,
+        [
+            (2, Request::Pause),
+            (2, Request::Resume),
+            (3, Request::Pause),
+            (4, Request::Resume),
+            (4, Request::Pause),
+            (5, Request::Resume),
+        ]
+    );
+}

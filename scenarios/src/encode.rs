@@ -147,6 +147,7 @@ fn error_code(e: Error) -> u32 {
         Error::PauseOwnerMonitorsExceeded(_) => 23,
         Error::TickInProgress => 24,
         Error::ForeignMonitorTable => 25,
+        Error::AlreadyPaused(_) => 26,
     }
 }
 

@@ -30,7 +30,7 @@ pub enum Error {
     /// The request needs a running (or paused) sequence; or a start by a sequence the tick
     /// stopped while its action ran on (its id).
     NotRunning(SeqId),
-    /// Resume was requested for a sequence that is not paused.
+    /// Resume was requested for a sequence that is not paused (and has no pause pending).
     NotPaused(SeqId),
     /// Starting would nest callers deeper than [`MAX_DEPTH`](crate::MAX_DEPTH).
     CallerDepthExceeded(SeqId),
@@ -92,6 +92,10 @@ pub enum Error {
     /// nothing (it carried out the requests and abort-alls made since, at the last tick's
     /// time); the due polls wait for a tick with the sequencer's table.
     ForeignMonitorTable,
+    /// A pause was requested of a sequence that is paused already (by a monitor, a
+    /// request, or the paused caller it blocks) and has no resume pending: the request
+    /// would do nothing.
+    AlreadyPaused(SeqId),
 }
 
 impl Error {
@@ -135,6 +139,7 @@ impl Error {
             Error::PauseOwnerMonitorsExceeded(_) => {
                 "more than 255 PauseOwner monitors of one sequence"
             }
+            Error::AlreadyPaused(_) => "sequence already paused",
         }
     }
 }
@@ -193,6 +198,7 @@ impl Error {
             Error::TickInProgress => ("a tick while another tick of the same sequencer is under way", None, ""),
             Error::ForeignMonitorTable => ("a tick with a monitor table other than the sequencer's own (one table per sequencer)", None, ""),
             Error::PauseOwnerMonitorsExceeded(id) => ("sequence ", Some(id), " has 256 PauseOwner monitors; at most 255 can hold it paused"),
+            Error::AlreadyPaused(id) => ("sequence ", Some(id), " is paused already"),
             Error::JoinWouldDeadlock(id) => ("joining sequence ", Some(id), " would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)"),
         }
     }

@@ -433,7 +433,10 @@ impl<'a, C> Handle<'a, C> {
         self.port.start_in_lane(self.id, None)
     }
 
-    /// Requests a pause of the sequence and the sequences it blocks (next tick).
+    /// Requests a pause of the sequence and the sequences it blocks (next tick). Of a pause
+    /// and a resume requested before the same tick, the later counts: a pause while a
+    /// resume is pending takes it back. A sequence paused already, with no resume pending,
+    /// gives [`Error::AlreadyPaused`].
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
@@ -467,7 +470,8 @@ impl<'a, C> Handle<'a, C> {
         self.port.request(self.id, Request::Pause, self.by)
     }
 
-    /// Requests that a paused sequence resume where it stopped (next tick).
+    /// Requests that a paused sequence resume where it stopped (next tick). A resume while a
+    /// pause is pending takes the pause back (the sequence does not pause).
     ///
     /// ```
     /// # #[cfg(feature = "std")] {

@@ -12,7 +12,8 @@ use crate::sequencer::{inbox, State};
 use crate::{Error, Event, Request, Requester, RunningState, SeqId, Sequencer};
 
 impl Request {
-    /// The states in which the request can be made.
+    /// The states in which the request can be made (a pause or a resume also while the
+    /// other is pending: see [`replaces`](Self::replaces)).
     const fn allowed(self) -> States {
         match self {
             Request::Pause => States::of(RunningState::Running),
@@ -29,6 +30,16 @@ impl Request {
             Request::Abort => request::ABORT,
         }
     }
+
+    /// The bit of the request it replaces: of a pause and a resume made before the same
+    /// tick, the later one counts.
+    const fn replaces(self) -> u16 {
+        match self {
+            Request::Pause => request::RESUME,
+            Request::Resume => request::PAUSE,
+            Request::Abort => 0,
+        }
+    }
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
@@ -36,10 +47,12 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// made of (its run count).
     fn check_request(&self, id: SeqId, req: Request) -> Result<u16, Error> {
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
-        if !req.allowed().has(b.state) {
-            return Err(match req {
-                Request::Resume => Error::NotPaused(id),
-                Request::Pause | Request::Abort => Error::NotRunning(id),
+        let takes_back = b.flags & req.replaces() != 0;
+        if !req.allowed().has(b.state) && !takes_back {
+            return Err(match (req, b.state) {
+                (Request::Resume, _) => Error::NotPaused(id),
+                (Request::Pause, RunningState::Paused) => Error::AlreadyPaused(id),
+                (Request::Pause | Request::Abort, _) => Error::NotRunning(id),
             });
         }
         if req == Request::Resume && b.monitor_holds > 0 {
@@ -64,7 +77,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// (the run may end before the tick; a new run's start drops it).
     fn queue_request(&mut self, id: SeqId, req: Request, run: u16) {
         if let Some(b) = self.block_mut(id).filter(|b| b.runs == run) {
-            b.flags |= req.bit();
+            b.flags = (b.flags & !req.replaces()) | req.bit();
             self.sets.insert(Set::Requested, id);
         }
     }

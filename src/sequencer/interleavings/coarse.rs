@@ -227,7 +227,7 @@ fn an_abort_requested_while_the_tick_aborts_the_sequence_aborts_it_once() {
 
 /// A pause of O is requested while the tick at 1 ms pauses O (its `PauseOwner` monitor,
 /// condition true at 1 ms, false from 2 ms). Accepted, the request's pause outlasts the
-/// monitor; refused (`NotRunning`), O resumes at 2 ms.
+/// monitor; refused (`AlreadyPaused`), O resumes at 2 ms.
 #[test]
 fn a_pause_requested_while_the_tick_pauses_the_sequence_outlasts_the_monitor_iff_accepted() {
     let setup = || {
@@ -251,7 +251,7 @@ fn a_pause_requested_while_the_tick_pauses_the_sequence_outlasts_the_monitor_iff
         match asked {
             Ok(()) => assert_eq!(w.state(o), Paused, "k={k}: the request's pause"),
             Err(e) => {
-                assert_eq!(e, Error::NotRunning(o), "k={k}");
+                assert_eq!(e, Error::AlreadyPaused(o), "k={k}");
                 assert_eq!(w.state(o), Running, "k={k}: released");
             }
         }
@@ -329,7 +329,7 @@ fn a_resume_requested_during_a_releasing_tick_resumes_once() {
 
 /// O was paused by its `PauseOwner` monitor at 1 ms; the condition clears at 2 ms. A pause
 /// of O is requested, the tick at 2 ms before it (accepted: O paused at 3 ms until a
-/// resume request applied at 5 ms, timeout at 8 ms) or after it (refused, `NotRunning`:
+/// resume request applied at 5 ms, timeout at 8 ms) or after it (refused, `AlreadyPaused`:
 /// timeout at 6 ms).
 fn pause_request_around_releasing_tick<const N: usize, const B: usize>(layout: Layout) {
     tick_into_request(

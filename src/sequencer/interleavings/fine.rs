@@ -228,7 +228,7 @@ fn an_abort_requested_while_the_tick_aborts_the_sequence_aborts_it_once() {
 /// condition true at 1 ms, false from 2 ms), inserted before each section of the request.
 /// If the request was accepted (O still running when it was checked), O stays paused when
 /// the monitor lets go (only a resume request lifts a request's pause, semantics 7); if it
-/// was refused (`NotRunning`: the monitor paused O first), O resumes at 2 ms.
+/// was refused (`AlreadyPaused`: the monitor paused O first), O resumes at 2 ms.
 #[test]
 fn a_pause_requested_while_the_tick_pauses_the_sequence_outlasts_the_monitor_iff_accepted() {
     let setup = || {
@@ -252,7 +252,7 @@ fn a_pause_requested_while_the_tick_pauses_the_sequence_outlasts_the_monitor_iff
         match asked {
             Ok(()) => assert_eq!(w.state(o), Paused, "k={k}: the request's pause"),
             Err(e) => {
-                assert_eq!(e, Error::NotRunning(o), "k={k}");
+                assert_eq!(e, Error::AlreadyPaused(o), "k={k}");
                 assert_eq!(w.state(o), Running, "k={k}: released");
             }
         }

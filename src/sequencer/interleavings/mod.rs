@@ -1233,7 +1233,7 @@ fn resumed_around_releasing_tick<L: Lock + 'static, const N: usize, const B: usi
 /// After a pause of O (`asked`) around the tick at 2 ms, on a world from
 /// [`paused_then_released`]. Accepted, it pauses O at 3 ms (the next tick) until a resume
 /// request (applied at 5 ms): the timeout (2 ms used) runs out at exactly 8 ms; refused
-/// (`NotRunning`), O runs from 2 ms and its timeout runs out at 6 ms.
+/// (`AlreadyPaused`), O runs from 2 ms and its timeout runs out at 6 ms.
 fn paused_around_releasing_tick<L: Lock + 'static, const N: usize, const B: usize>(
     what: &str,
     asked: Result<(), Error>,
@@ -1254,7 +1254,7 @@ fn paused_around_releasing_tick<L: Lock + 'static, const N: usize, const B: usiz
             assert_eq!(w.runs_until(o, 6, 20), 8, "{what}: the timeout");
         }
         Err(e) => {
-            assert_eq!(e, Error::NotRunning(o), "{what}");
+            assert_eq!(e, Error::AlreadyPaused(o), "{what}");
             assert_eq!(w.runs_until(o, 3, 20), 6, "{what}: the timeout");
         }
     }

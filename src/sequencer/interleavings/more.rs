@@ -146,7 +146,7 @@ fn around_tick<const N: usize, const B: usize>(
 /// O's `PauseOwner` monitor holds from 1 ms; a pause of O is requested by a lane of
 /// higher priority before each section of that tick. Accepted (O still running when
 /// checked), the request's pause outlasts the monitor: O stays paused when the condition
-/// clears (2 ms) until a resume request (applied at 4 ms); refused (`NotRunning`: the
+/// clears (2 ms) until a resume request (applied at 4 ms); refused (`AlreadyPaused`: the
 /// monitor paused O first), O resumes when the condition clears. While the monitor holds,
 /// a resume request is `HeldByMonitor`. O's clock stops while paused: its 5 ms timeout,
 /// 1 ms used at the pause, runs out 4 ms after the resume, at exactly 8 ms or 6 ms.
@@ -175,7 +175,7 @@ fn pause_request_into_holding_tick<const N: usize, const B: usize>(layout: Layou
                     assert_eq!(w.runs_until(o, 5, 20), 8, "{what}: the timeout");
                 }
                 Err(e) => {
-                    assert_eq!(e, Error::NotRunning(o), "{what}");
+                    assert_eq!(e, Error::AlreadyPaused(o), "{what}");
                     assert_eq!(w.state(o), Running, "{what}: released");
                     assert_eq!(w.runs_until(o, 4, 20), 6, "{what}: the timeout");
                 }
@@ -262,7 +262,7 @@ fn a_resume_requested_during_a_releasing_tick_resumes_once() {
 }
 
 /// O was paused by its `PauseOwner` monitor at 1 ms; the condition clears at 2 ms. A pause
-/// of O is requested around that tick (`into`): refused (`NotRunning`, O still paused) or
+/// of O is requested around that tick (`into`): refused (`AlreadyPaused`, O still paused) or
 /// accepted (after the release): see [`paused_around_releasing_tick`].
 fn pause_request_around_releasing_tick<const N: usize, const B: usize>(layout: Layout, into: Into) {
     around_tick(
