@@ -95,13 +95,24 @@ pub enum SimError {
     /// A tick period of 0: simulated time would never advance and `run_for` would never
     /// end.
     ZeroPeriod,
+    /// A tick period of 2^31 µs (about 35.8 minutes) or more: the sequencer compares times
+    /// by their wrapping difference in 32 bits of µs, so polls and timeouts would come
+    /// late (see [`Sequencer::tick`]).
+    PeriodTooLong,
+    /// A start time earlier than the sequencer's (it was ticked before): time does not go
+    /// back.
+    StartBeforeSequencerTime,
 }
 
 impl core::fmt::Display for SimError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            SimError::ZeroPeriod => f.write_str("the tick period must be longer than 0"),
-        }
+        f.write_str(match self {
+            SimError::ZeroPeriod => "the tick period must be longer than 0",
+            SimError::PeriodTooLong => "the tick period must be shorter than 2^31 us (35.8 min)",
+            SimError::StartBeforeSequencerTime => {
+                "the simulator cannot start before its sequencer's time"
+            }
+        })
     }
 }
 
@@ -248,7 +259,8 @@ impl<
         L: Lock,
     > Sim<'a, C, N, T, M, K, W, B, L>
 {
-    /// A simulation at time 0 with a 1 ms (1 kHz) tick.
+    /// A simulation with a 1 ms (1 kHz) tick, from the sequencer's time (0 for a sequencer
+    /// never ticked).
     ///
     /// ```
     /// use rtseq::{sim::Sim, Instant, Monitors, SeqConfig, Sequencer};
@@ -271,7 +283,7 @@ impl<
             monitors: Box::new(monitors),
             lanes: Vec::new(),
             period: Duration::from_millis(1),
-            now: Instant::from_ticks(0),
+            now: sequencer.now(),
             trace: Vec::new(),
             records: Vec::new(),
             lost: 0,
@@ -328,7 +340,7 @@ impl<
     }
 
     /// Changes the tick period; a period of 0 is an `Err(SimError::ZeroPeriod)` (simulated
-    /// time would stand still).
+    /// time would stand still), one of 2^31 µs or more `Err(SimError::PeriodTooLong)`.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Duration, Monitors, Sequencer};
@@ -343,6 +355,9 @@ impl<
     pub fn with_period(mut self, period: Duration) -> Result<Self, SimError> {
         if period.as_ticks() == 0 {
             return Err(SimError::ZeroPeriod);
+        }
+        if period.as_ticks() >= 1 << 31 {
+            return Err(SimError::PeriodTooLong);
         }
         self.period = period;
         Ok(self)
@@ -395,8 +410,10 @@ impl<
         self
     }
 
-    /// Starts the simulated clock at `t` instead of 0 (e.g. to run across the wrap of the
-    /// control blocks' 32-bit microsecond times at 2^32 µs ≈ 71.6 min).
+    /// Starts the simulated clock at `t` instead of the sequencer's time (0 for a sequencer
+    /// never ticked), e.g. to run across the wrap of the control blocks' 32-bit microsecond
+    /// times at 2^32 µs ≈ 71.6 min. A time earlier than the sequencer's is
+    /// `Err(SimError::StartBeforeSequencerTime)`.
     ///
     /// A 5 ms dwell across the wrap:
     ///
@@ -415,16 +432,20 @@ impl<
     /// let main = seq.add(SeqConfig::new("main"), Dwell(wait)).unwrap();
     /// let id = main.id();
     /// let start = Instant::from_ticks((1 << 32) - 2_000); // 2 ms before the wrap
-    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).starting_at(start);
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).starting_at(start)?;
     /// sim.lane(main);
     /// sim.start(id).unwrap();
     /// let done = sim.run_until_idle(Duration::from_millis(10)).unwrap();
     /// assert_eq!(done - start, Duration::from_millis(5));
+    /// # Ok::<(), rtseq::sim::SimError>(())
     /// ```
-    pub fn starting_at(mut self, t: Instant) -> Self {
+    pub fn starting_at(mut self, t: Instant) -> Result<Self, SimError> {
+        if t < self.sequencer.now() {
+            return Err(SimError::StartBeforeSequencerTime);
+        }
         self.now = t;
         self.sequencer.with(|s| s.now = t);
-        self
+        Ok(self)
     }
 
     /// Called before every tick with the new time: step the plant, inject faults. Each call
@@ -633,6 +654,9 @@ impl<
     /// [`Handle::declare_lane`](crate::Handle::declare_lane)) was given to the simulator
     /// ([`lane`](Self::lane), or a task that runs it): a sequence whose lane nothing runs
     /// is an `Err(Error::NoLane(id))` here; on the chip its starts would wait for good.
+    /// And that no other simulator's monitor table, still alive, is the sequencer's
+    /// (`Err(Error::ForeignMonitorTable)`): this one's ticks would evaluate nothing. A
+    /// simulator's table goes with it, so simulators of one sequencer can take turns.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
@@ -663,6 +687,11 @@ impl<
             // Every lane added has run up to its first wait (`task_with_priority` settles):
             // a declared lane without one would take no start, silently.
             self.sequencer.check_lanes()?;
+            // Another simulator's table, alive, is the sequencer's: this one's due ticks
+            // would evaluate nothing.
+            if self.sequencer.is_foreign_table(&self.monitors) {
+                return Err(Error::ForeignMonitorTable);
+            }
             self.validated = true;
         }
         self.sequencer
@@ -1291,6 +1320,27 @@ impl<
             }
         }
         true
+    }
+}
+
+/// The simulator's monitor table goes with it: a later simulator of the same sequencer
+/// brings its own.
+impl<
+        'a,
+        C,
+        const N: usize,
+        const T: usize,
+        const M: usize,
+        K,
+        const W: usize,
+        const B: usize,
+        L,
+    > Drop for Sim<'a, C, N, T, M, K, W, B, L>
+where
+    L: Lock,
+{
+    fn drop(&mut self) {
+        self.sequencer.release_table(&self.monitors);
     }
 }
 

@@ -1253,7 +1253,8 @@ fn pause_timeout_trace(base: u64) -> Vec<(u64, SeqId, RunningState, RunningState
         .unwrap();
     let mi = main.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new())
-        .starting_at(rtseq::Instant::from_ticks(base));
+        .starting_at(rtseq::Instant::from_ticks(base))
+        .unwrap();
     sim.lane(main);
     sim.start(mi).unwrap();
     sim.run_until(rtseq::Instant::from_ticks(base + 3_000));

@@ -1,9 +1,11 @@
 //! The simulator polls lanes in RTIC 2's order: the highest woken priority first, a lane of
 //! higher priority woken by a poll before the pass of the lower level goes on (preemption),
 //! lanes of equal priority in a fixed order per pass, or shuffled per seed
-//! (`Sim::shuffle_equal_priorities`). And the simulator's limits: a tick period of 0 is an
-//! error, not a hang; `run_until_idle` never runs past its limit; a full trace buffer counts
-//! what it lost; a lane that wakes itself forever stops at the poll bound.
+//! (`Sim::shuffle_equal_priorities`). And the simulator's limits: a tick period of 0, or of
+//! 2^31 µs or more, is an error, not a hang or late timeouts; `run_until_idle` never runs
+//! past its limit; a full trace buffer counts what it lost; a lane that wakes itself forever
+//! stops at the poll bound; simulators of one sequencer take turns, a second one alive is
+//! refused.
 
 use rtseq::sim::{Sim, SimError, DEFAULT_LANE_PRIORITY};
 use rtseq::Cause::{Completed, Start};
@@ -320,7 +322,9 @@ fn run_until_idle_stops_at_its_limit_never_past_it() {
 fn run_until_the_end_of_time_ends() {
     let seq: Sequencer<(), 2> = Sequencer::new();
     let start = Instant::from_ticks(u64::MAX - 1_500);
-    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new()).starting_at(start);
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new())
+        .starting_at(start)
+        .unwrap();
     sim.run_until(Instant::from_ticks(u64::MAX));
     assert_eq!(sim.now(), Instant::from_ticks(u64::MAX));
 }
@@ -510,4 +514,101 @@ fn before_tick_hooks_run_in_the_order_they_were_added() {
     sim.run_for(Duration::from_millis(2));
     // Tick 1 ms: (1 + 1) * 10 + 1 = 21; tick 2 ms: (21 + 1) * 10 + 2 = 222.
     assert_eq!(plant.get(), 222);
+}
+
+/// A tick period the sequencer's 32-bit wrapping times cannot take (2^31 µs or more) is an
+/// error, as a polling period or timeout of that length is; just below it is accepted.
+#[test]
+fn a_tick_period_of_2_pow_31_us_or_more_is_an_error() {
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let sim = || Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    let too_long = sim().with_period(Duration::from_ticks(1 << 31));
+    assert_eq!(too_long.err(), Some(SimError::PeriodTooLong));
+    assert_eq!(
+        SimError::PeriodTooLong.to_string(),
+        "the tick period must be shorter than 2^31 us (35.8 min)"
+    );
+    let longest = sim().with_period(Duration::from_ticks((1 << 31) - 1));
+    assert!(longest.is_ok());
+}
+
+/// One sequencer, simulators one after another (a test helper called twice): each starts
+/// at the sequencer's time, and its monitor table is the sequencer's once the one before
+/// is dropped. While another simulator's table is alive, the first start says so: its due
+/// ticks would evaluate nothing. Starting before the sequencer's time is an error.
+#[test]
+fn simulators_of_one_sequencer_take_turns_and_a_second_one_alive_is_refused() {
+    use rtseq::{Behaviour, Cause, Error, Monitor, RunningState::*};
+    struct Forever;
+    impl Sequence<()> for Forever {
+        async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            cx.wait_until(|_| false).await;
+            Ok(())
+        }
+    }
+    let seq: Sequencer<(), 2> = Sequencer::new();
+    let id = seq.register(SeqConfig::new("main").in_lane()).unwrap();
+    let mut main = seq.bind(id, Forever).unwrap();
+    // A simulator whose jam monitor holds from `jam_from` µs, run for 5 ms.
+    let scenario = |main: &mut Seq<Forever>, jam_from: u64| {
+        let mut jam = move |_: &(), now: Instant| now.as_ticks() >= jam_from;
+        let mut monitors: Monitors<(), 1> = Monitors::new();
+        let m = monitors
+            .add(id, Monitor::new("jam", &mut jam, Behaviour::AbortOwner))
+            .unwrap();
+        let mut sim = Sim::new(&seq, &(), monitors);
+        sim.task_with_priority(rtseq::lane(&seq, &(), main), DEFAULT_LANE_PRIORITY);
+        let at = sim.now();
+        sim.start(id).unwrap();
+        sim.run_for(Duration::from_millis(5));
+        (m, at, sim.trace().to_vec(), sim.tick_error())
+    };
+    let (m, at, trace, err) = scenario(&mut main, 3_000);
+    assert_eq!((at, err), (Instant::from_ticks(0), None));
+    assert_eq!(
+        trace,
+        [
+            Transition::at_millis(0, id, Idle, Running, Start),
+            Transition::at_millis(3, id, Running, Aborting, Cause::Monitor(m)),
+            Transition::at_millis(3, id, Aborting, Aborted, Cause::Monitor(m)),
+        ]
+    );
+    // The second simulator goes on from 5 ms, its table is the sequencer's, and its lane
+    // future takes the place of the first one's.
+    let (m, at, trace, err) = scenario(&mut main, 8_000);
+    assert_eq!((at, err), (Instant::from_ticks(5_000), None));
+    assert_eq!(
+        trace,
+        [
+            Transition::at_millis(5, id, Aborted, Running, Start),
+            Transition::at_millis(8, id, Running, Aborting, Cause::Monitor(m)),
+            Transition::at_millis(8, id, Aborting, Aborted, Cause::Monitor(m)),
+        ]
+    );
+    // Two simulators at once: the second one's first start is refused.
+    let mut jam = |_: &(), _: Instant| false;
+    let mut monitors: Monitors<(), 1> = Monitors::new();
+    monitors
+        .add(id, Monitor::new("jam", &mut jam, Behaviour::AbortOwner))
+        .unwrap();
+    let mut first = Sim::new(&seq, &(), monitors);
+    first.task_with_priority(rtseq::lane(&seq, &(), &mut main), DEFAULT_LANE_PRIORITY);
+    first.start(id).unwrap();
+    first.step(); // due: its table is the sequencer's
+    let mut also_jam = |_: &(), _: Instant| false;
+    let mut other: Monitors<(), 1> = Monitors::new();
+    other
+        .add(
+            id,
+            Monitor::new("jam", &mut also_jam, Behaviour::AbortOwner),
+        )
+        .unwrap();
+    let mut second = Sim::new(&seq, &(), other);
+    assert_eq!(second.start(id), Err(Error::ForeignMonitorTable));
+    assert_eq!(
+        Sim::new(&seq, &(), Monitors::<(), 1>::new())
+            .starting_at(Instant::from_ticks(0))
+            .err(),
+        Some(SimError::StartBeforeSequencerTime)
+    );
 }

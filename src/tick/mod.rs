@@ -120,8 +120,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if self.table == here && table.ticked_by == me {
             return true;
         }
-        let ours = self.table == 0 || self.table == here;
-        if !ours || (table.ticked_by != 0 && table.ticked_by != me) {
+        if self.is_foreign(me, table) {
             return false;
         }
         if !table.is_empty() {
@@ -129,6 +128,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             table.ticked_by = me;
         }
         true
+    }
+
+    /// Whether `table` may not be ticked by this sequencer (`me`, its address): another
+    /// table is bound here, or `table` is bound to another sequencer.
+    #[inline(always)]
+    fn is_foreign<const M: usize, K>(&self, me: usize, table: &Monitors<'_, C, M, K>) -> bool {
+        let here = core::ptr::from_ref(table).addr();
+        let ours = self.table == 0 || self.table == here;
+        !ours || (table.ticked_by != 0 && table.ticked_by != me)
     }
 
     /// Whether some monitored sequence is paused or handles an exception.
@@ -314,6 +322,29 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             raised = self.tick_word(w, now, &mut scan, raised, monitors, control);
         }
         Ok(())
+    }
+
+    /// Whether a due tick with `table` would be refused with
+    /// [`Error::ForeignMonitorTable`]: the simulator's first start asks.
+    #[cfg(feature = "std")]
+    pub(crate) fn is_foreign_table<const M: usize, K>(
+        &self,
+        table: &Monitors<'_, C, M, K>,
+    ) -> bool {
+        let me = core::ptr::from_ref(self).addr();
+        self.with(|s| s.is_foreign(me, table))
+    }
+
+    /// `table`, bound to this sequencer, is dropped (with the simulator that owned it):
+    /// the next table that comes with a due tick is the sequencer's.
+    #[cfg(feature = "std")]
+    pub(crate) fn release_table<const M: usize, K>(&self, table: &Monitors<'_, C, M, K>) {
+        let here = core::ptr::from_ref(table).addr();
+        self.with(|s| {
+            if s.table == here {
+                s.table = 0;
+            }
+        });
     }
 
     /// The work of a tick that evaluates nothing (its time went back, or it came with
