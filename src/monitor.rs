@@ -64,9 +64,12 @@ pub enum Behaviour {
     AbortOwner,
     /// The owner's sub-sequences are aborted and the owner runs again from its pre-condition.
     RestartOwner,
-    /// Like `AbortOwner`, one level up: the owner's caller (the owner itself for a main sequence).
+    /// Like `AbortOwner`, one level up: the owner's caller (the owner itself for a main
+    /// sequence). A non-blocking owner whose caller has ended is aborted itself.
     AbortCallerOfOwner,
-    /// Like `RestartOwner`, one level up: the owner's caller (the owner itself for a main sequence).
+    /// Like `RestartOwner`, one level up: the owner's caller (the owner itself for a main
+    /// sequence). A non-blocking owner whose caller has ended cannot be restarted by it:
+    /// the owner is aborted.
     RestartCallerOfOwner,
     /// While the condition holds, the owner and the sequences it blocks are paused; when it
     /// clears, they resume (a PLC's feed hold). The exception sequence, if any, is started

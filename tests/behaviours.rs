@@ -391,3 +391,53 @@ fn a_warning_that_fires_while_its_owner_is_paused_gives_it_no_poll_at_the_resume
         assert_eq!(sim.monitors().fired(m), 2);
     });
 }
+
+/// `RestartCallerOfOwner` on a non-blocking child whose caller has ended: the caller cannot
+/// restart (it ran to its end), so the owner is aborted, with the monitor as the cause, and
+/// nothing restarts.
+#[test]
+fn a_caller_behaviour_on_an_owner_whose_caller_has_ended_aborts_the_owner() {
+    use rtseq::{Behaviour, Cause, Instant, Monitor, Outcome};
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let child = seq
+        .add(SeqConfig::new("child"), Node::of(vec![]).until(0))
+        .unwrap();
+    let ci = child.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Start(ci)]))
+        .unwrap();
+    let mi = main.id();
+    let mut retry = |c: &Ctrl, _: Instant| c.flag(1);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    let m = monitors
+        .add(
+            ci,
+            Monitor::new("retry", &mut retry, Behaviour::RestartCallerOfOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(child);
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.flags[1].set(true);
+    sim.run_for(Duration::from_millis(2));
+    let cause = Cause::Monitor(m);
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(0, ci, Idle, Running, Start),
+            tr(0, mi, Running, Terminated, Completed),
+            tr(3, ci, Running, Aborting, cause),
+            tr(3, ci, Aborting, Aborted, cause),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(
+        sim.handle(ci).unwrap().last_outcome(),
+        Some(Outcome::Aborted(cause))
+    );
+}

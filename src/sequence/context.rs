@@ -522,7 +522,9 @@ impl<'a, C> Cx<'a, C> {
     /// The seed's `getSafetySystem()`: trigger public events, read the level.
     ///
     /// A sequence triggers a public event of the safety system connected with
-    /// [`Sequencer::set_safety_system`](crate::Sequencer::set_safety_system):
+    /// [`Sequencer::set_safety_system`](crate::Sequencer::set_safety_system). `None`: no
+    /// safety system is connected (call it in `init`, with the handle the system was made
+    /// with); an action that must reach the safety system fails then rather than go on:
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
@@ -530,12 +532,12 @@ impl<'a, C> Cx<'a, C> {
     /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
     /// static SAFETY: SafetyHandle = SafetyHandle::new();
     /// const START_MOTORS: PublicEvent = PublicEvent::new(1);
+    /// const NO_SAFETY_SYSTEM: u16 = 1; // the application's failure code
     /// struct PowerUp;
     /// impl Sequence<()> for PowerUp {
     ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
-    ///         if let Some(safety) = cx.safety_system() {
-    ///             safety.trigger(START_MOTORS);
-    ///         }
+    ///         let safety = cx.safety_system().ok_or(Failure::App(NO_SAFETY_SYSTEM))?;
+    ///         safety.trigger(START_MOTORS);
     ///         Ok(())
     ///     }
     /// }
