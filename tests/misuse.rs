@@ -1293,11 +1293,17 @@ fn a_start_pending_in_a_lane_dropped_while_idle_does_not_stay_running() {
 fn a_dropped_lane_takes_no_start_until_a_lane_waits_again() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
+    // Another lane in slot 0, X's in slot 1.
+    let mut other = seq
+        .add(SeqConfig::new("other").in_lane(), Node::of(vec![]))
+        .unwrap();
     let mut x = seq
         .add(SeqConfig::new("X").in_lane(), Node::of(vec![]))
         .unwrap();
     let xi = x.id();
     let mut cx = Context::from_waker(Waker::noop());
+    let mut other_lane = pin!(rtseq::lane(&seq, &ctrl, &mut other));
+    assert!(other_lane.as_mut().poll(&mut cx).is_pending());
     {
         let mut lane = pin!(rtseq::lane(&seq, &ctrl, &mut x));
         assert!(lane.as_mut().poll(&mut cx).is_pending());
@@ -1328,8 +1334,9 @@ fn an_exception_in_a_dropped_lane_is_not_run_and_the_behaviour_is_applied_at_onc
     use rtseq::{Entry, Event};
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
+    // Main's lane takes slot 0, the safe stop's slot 1.
     let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![]).until(0))
+        .add(SeqConfig::new("main").in_lane(), Node::of(vec![]).until(0))
         .unwrap();
     let mut stop = seq
         .add(SeqConfig::new("safe stop").in_lane(), Node::of(vec![]))

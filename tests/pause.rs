@@ -140,8 +140,8 @@ fn of_a_pause_and_a_resume_before_the_same_tick_the_later_counts() {
     assert_eq!((h.pause(), h.resume()), (Ok(()), Ok(())));
     sim.run_until(Instant::from_ticks(3_000));
     assert_eq!(h.state(), Running);
-    // Hold at 4 ms; at 5 ms a continue and a second hold: it stays paused.
-    h.pause().unwrap();
+    // Hold twice at 4 ms; at 5 ms a continue and a second hold: it stays paused.
+    assert_eq!((h.pause(), h.pause()), (Ok(()), Ok(())));
     sim.run_until(Instant::from_ticks(4_000));
     assert_eq!(h.pause(), Err(Error::AlreadyPaused(mi)));
     assert_eq!(
@@ -187,6 +187,7 @@ fn of_a_pause_and_a_resume_before_the_same_tick_the_later_counts() {
         [
             (2, Request::Pause),
             (2, Request::Resume),
+            (3, Request::Pause),
             (3, Request::Pause),
             (4, Request::Resume),
             (4, Request::Pause),

@@ -574,7 +574,9 @@ fn simulators_of_one_sequencer_take_turns_and_a_second_one_alive_is_refused() {
         ]
     );
     // The second simulator goes on from 5 ms, its table is the sequencer's, and its lane
-    // future takes the place of the first one's.
+    // future takes the place of the first one's. (The first one's table is gone: a box
+    // taken now gets its place, not the second simulator's table.)
+    let _elsewhere = Box::new(Monitors::<(), 1>::new());
     let (m, at, trace, err) = scenario(&mut main, 8_000);
     assert_eq!((at, err), (Instant::from_ticks(5_000), None));
     assert_eq!(
