@@ -840,6 +840,146 @@ fn joining_ones_blocking_caller_is_an_error_not_a_hang() {
     );
 }
 
+/// The join of `result` by `seq` in the log of returned results.
+fn join_result(ctrl: &Ctrl, seq: SeqId) -> Option<Result<Done, Failure>> {
+    ctrl.returned
+        .borrow()
+        .iter()
+        .rev()
+        .find(|r| r.seq == seq)
+        .map(|r| r.result)
+}
+
+/// A supervisor starts a worker and joins it; the worker joins the supervisor ("wait until
+/// the cycle is over"). The second join closes a cycle of joins: it is an error at once,
+/// the worker goes on and ends, and the supervisor's join returns its outcome.
+#[test]
+fn two_sequences_that_join_each_other_get_an_error_not_a_hang() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let sup = SeqId::from_index(1);
+    let worker = seq
+        .add(SeqConfig::new("worker"), Node::of(vec![Op::Join(sup)]))
+        .unwrap();
+    let w = worker.id();
+    let supervisor = seq
+        .add(
+            SeqConfig::new("supervisor"),
+            Node::of(vec![Op::Start(w), Op::Join(w)]),
+        )
+        .unwrap();
+    assert_eq!(supervisor.id(), sup);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(supervisor);
+    sim.lane(worker);
+    sim.start(sup).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(10)),
+        Some(ms_at(0))
+    );
+    drop(sim);
+    assert_eq!(
+        join_result(&ctrl, w),
+        Some(Err(Failure::NotStarted(Error::JoinWouldDeadlock(sup))))
+    );
+    assert_eq!(join_result(&ctrl, sup), Some(Ok(Done::Completed)));
+}
+
+/// The cycle through a blocking child: main runs `child` blocking, `child` joins `worker`,
+/// and `worker` joins main, which waits for `child`: the worker's join is the error.
+#[test]
+fn a_cycle_of_joins_through_a_blocking_child_is_an_error_not_a_hang() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let (w, m) = (SeqId::from_index(1), SeqId::from_index(3));
+    // The worker waits a tick before it joins main, so that the child's join is pending.
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(1)))
+        .unwrap();
+    let worker = seq
+        .add(
+            SeqConfig::new("worker"),
+            Node::of(vec![Op::Wait(dwell), Op::Join(m)]),
+        )
+        .unwrap();
+    assert_eq!(worker.id(), w);
+    let child = seq
+        .add(SeqConfig::new("child"), Node::of(vec![Op::Join(w)]))
+        .unwrap();
+    let c = child.id();
+    let main = seq
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(w), Op::Run(child)]),
+        )
+        .unwrap();
+    assert_eq!(main.id(), m);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(worker);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(10)),
+        Some(ms_at(1))
+    );
+    drop(sim);
+    assert_eq!(
+        join_result(&ctrl, w),
+        Some(Err(Failure::NotStarted(Error::JoinWouldDeadlock(m))))
+    );
+    assert_eq!(join_result(&ctrl, c), Some(Ok(Done::Completed)));
+}
+
+/// A join that lost a `select` against a timeout no longer waits: a later join the other
+/// way is no cycle, and waits for the run as usual.
+#[test]
+fn a_join_dropped_by_a_select_is_no_longer_a_wait() {
+    struct Impatient {
+        worker: SeqId,
+        dwell: Seq<Wait>,
+    }
+    impl Sequence<Ctrl> for Impatient {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+            cx.start(self.worker)?;
+            // Gives up on the worker after 2 ms, then dwells 5 ms more.
+            let _ = select(cx.join(self.worker), cx.step(&mut self.dwell)).await;
+            let _ = cx.step(&mut self.dwell).await;
+            Ok(())
+        }
+    }
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let sup = SeqId::from_index(3);
+    let until = seq
+        .add(SeqConfig::new("until"), Wait::new(Duration::from_millis(3)))
+        .unwrap();
+    let worker = seq
+        .add(
+            SeqConfig::new("worker"),
+            Node::of(vec![Op::Wait(until), Op::Join(sup)]),
+        )
+        .unwrap();
+    let w = worker.id();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let impatient = seq
+        .add(SeqConfig::new("supervisor"), Impatient { worker: w, dwell })
+        .unwrap();
+    assert_eq!(impatient.id(), sup);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(impatient);
+    sim.lane(worker);
+    sim.start(sup).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)),
+        Some(ms_at(4))
+    );
+    drop(sim);
+    // The worker joined at 3 ms, after the supervisor's join was dropped at 2 ms.
+    assert_eq!(join_result(&ctrl, w), Some(Ok(Done::Completed)));
+}
+
 fn ms_at(ms: u64) -> Instant {
     Instant::from_ticks(ms * 1_000)
 }

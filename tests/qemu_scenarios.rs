@@ -643,14 +643,14 @@ fn firmware_sizes_with_and_without_rtseq() {
     // scenario, each building its tree by value: their moves into `Seq`s are rtseq's lines).
     // Budgets (ceilings, not targets): the sequencer's code 12 KiB, the safety system's
     // 2 KiB. The sequencer's code misses its budget by the defect fixes that followed the
-    // 0.2 core, the split of the teardown and pause walks and the closing of dropped lanes
-    // (docs/footprint.md lists them with their costs): held to known ceilings of 15 KiB
-    // (scenarios) and 16.5 KiB (demo).
+    // 0.2 core, the split of the teardown and pause walks, the closing of dropped lanes and
+    // the join cycles (docs/footprint.md lists them with their costs): held to known
+    // ceilings of 15.5 KiB (scenarios) and 16.5 KiB (demo).
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
         12 * 1024,
-        15 * 1024,
+        31 * 512,
     );
     budget(
         "rtseq's sequencer code in the demo firmware [bytes]",

@@ -116,6 +116,25 @@ impl<const B: usize> SeqSet<B> {
         }
     }
 
+    /// Whether `id` is in.
+    pub(crate) fn has(&self, id: SeqId) -> bool {
+        self.word(place(id).0).has(id)
+    }
+
+    /// Whether no id is in.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.words.iter().all(|&w| w == 0)
+    }
+
+    /// The ids of this set that are not in `other`.
+    pub(crate) fn minus(&self, other: &Self) -> Self {
+        let mut out = *self;
+        for (o, w) in out.words.iter_mut().zip(other.words.iter()) {
+            *o &= !*w;
+        }
+        out
+    }
+
     /// The ids of both sets.
     #[inline]
     pub(crate) fn union(&self, other: &Self) -> Self {

@@ -1,7 +1,6 @@
 //! The context every action and condition method receives.
 
 use core::cell::Cell;
-use core::future::poll_fn;
 use core::task::Poll;
 
 use core::future::Future;
@@ -422,7 +421,12 @@ impl<'a, C> Cx<'a, C> {
     /// control block, which keeps one outcome, holds the new run's: the join is then
     /// [`Error::OutcomeLost`], never the other run's outcome.
     ///
-    /// Joins fail at once where they could never return:
+    /// Joins fail at once where they could never return: a join of a sequence never
+    /// started ([`Error::NeverStarted`]), and one that would wait for itself
+    /// ([`Error::JoinWouldDeadlock`]): a join of oneself, of a caller one blocks, of an
+    /// exception sequence's owner, or one that closes a cycle of joins (A joins B while B
+    /// joins A, or through a blocking child). A join dropped before it returned (the loser
+    /// of a `select`) no longer waits:
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
@@ -462,16 +466,13 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn join(&self, id: SeqId) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
-        let (port, me) = (self.port, self.run_id());
-        // The run joined, set at the first poll.
-        let mut run = None;
-        poll_fn(move |w| {
-            // Only while this run may advance: an aborted joiner never resumes.
-            if port.clearance(me, w.waker()) != Clearance::Go {
-                return Poll::Pending;
-            }
-            port.join(me.seq, id, &mut run)
-        })
+        Join {
+            port: self.port,
+            me: self.run_id(),
+            target: id,
+            run: None,
+            waiting: false,
+        }
     }
 
     /// Waits, without a control block of its own, until `condition` holds; it is checked now
@@ -720,5 +721,44 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
 impl<C, F> Drop for WaitUntil<'_, '_, C, F> {
     fn drop(&mut self) {
         self.finish();
+    }
+}
+
+/// The future of [`Cx::join`]. While it waits its sequence is marked as joining the
+/// target (what the deadlock check of a later join follows); dropped before it returned
+/// (the loser of a `select`, an action aborted or restarted), it no longer waits.
+struct Join<'a, C> {
+    port: &'a dyn Port<C>,
+    me: RunId,
+    target: SeqId,
+    /// The run joined, set at the first poll.
+    run: Option<u16>,
+    /// The last poll left the sequence marked as joining.
+    waiting: bool,
+}
+
+impl<C> Future for Join<'_, C> {
+    type Output = Result<Outcome, Error>;
+
+    fn poll(
+        mut self: core::pin::Pin<&mut Self>,
+        w: &mut core::task::Context<'_>,
+    ) -> Poll<Self::Output> {
+        // Only while this run may advance: an aborted joiner never resumes.
+        if self.port.clearance(self.me, w.waker()) != Clearance::Go {
+            return Poll::Pending;
+        }
+        let this = &mut *self;
+        let result = this.port.join(this.me.seq, this.target, &mut this.run);
+        this.waiting = result.is_pending();
+        result
+    }
+}
+
+impl<C> Drop for Join<'_, C> {
+    fn drop(&mut self) {
+        if self.waiting {
+            self.port.stop_join(self.me.seq);
+        }
     }
 }

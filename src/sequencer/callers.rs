@@ -7,6 +7,7 @@
 //! tick only while something is held.
 
 use crate::model::id::Link;
+use crate::model::set::SeqSet;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
@@ -98,9 +99,11 @@ pub(crate) fn cut_and_depth<
     depth
 }
 
-/// Whether `joiner` waiting for `target` could never return: it is `target`, or `target`
-/// is one of the callers it holds up: its callers in its own lane (which it blocks) and,
-/// for an exception sequence, its owner (held until its end) and those the owner holds up.
+/// Whether `joiner` waiting for `target` could never return: `target` waits, directly or
+/// not, for `joiner`. Found outward from `joiner`: the callers it holds up (its callers
+/// in its own lane, which it blocks, and, for an exception sequence, its owner, held until
+/// its end), the sequences waiting in a join for one of those, and so on. A cycle of joins
+/// (A joins B while B joins A, or through a blocking child) is one of them.
 pub(crate) fn join_would_deadlock<
     C,
     S: Sections<C, N, T, W, B>,
@@ -113,12 +116,52 @@ pub(crate) fn join_would_deadlock<
     joiner: SeqId,
     target: SeqId,
 ) -> bool {
-    let mut lane = s.section(|s| s.lane_slot(joiner));
-    let mut at = joiner;
+    let mut waiting = SeqSet::<B>::EMPTY;
+    let mut round = SeqSet::<B>::EMPTY.with(joiner);
+    // Each round visits at least one sequence no round visited before.
+    for _ in 0..=N {
+        let mut joiners = SeqSet::EMPTY;
+        for from in round {
+            if holds_up(s, from, target, &mut waiting, &mut joiners) {
+                return true;
+            }
+        }
+        round = joiners.minus(&waiting);
+        if round.is_empty() {
+            return false;
+        }
+    }
+    false
+}
+
+/// One step of [`join_would_deadlock`]: walks up the callers `from` holds up, marking
+/// each `waiting` and collecting the sequences waiting in a join for one of them in
+/// `joiners`. True when it meets `target`.
+fn holds_up<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    from: SeqId,
+    target: SeqId,
+    waiting: &mut SeqSet<B>,
+    joiners: &mut SeqSet<B>,
+) -> bool {
+    let mut lane = s.section(|s| s.lane_slot(from));
+    let mut at = from;
     for _ in 0..=MAX_DEPTH {
         if at == target {
             return true;
         }
+        if waiting.has(at) {
+            return false;
+        }
+        waiting.insert(at);
+        *joiners = joiners.union(&s.section(|s| s.joiners_of(at)));
         match s.section(|s| s.held_caller(at, lane)) {
             Some((up, up_lane)) => (at, lane) = (up, up_lane),
             None => return false,

@@ -4,6 +4,7 @@
 //! the end of a run releases every joiner of it and wakes their lanes. So any number of
 //! sequences can join one run.
 
+use crate::model::set::SeqSet;
 use crate::sequencer::control_block::JoinWait;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::Set;
@@ -38,6 +39,21 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             b.joins = JoinWait::NOTHING;
         }
         self.sets.put(Set::Joining, joiner, false);
+    }
+
+    /// The sequences waiting in a join for the end of `target`'s run alone (one waiting in
+    /// several joins at once is left out: it may go on at another end).
+    pub(crate) fn joiners_of(&self, target: SeqId) -> SeqSet<B> {
+        let mut out = SeqSet::EMPTY;
+        for j in self.sets.members(Set::Joining) {
+            if self
+                .block(j)
+                .is_some_and(|b| b.joins == JoinWait::end_of(target))
+            {
+                out.insert(j);
+            }
+        }
+        out
     }
 
     /// The run of `target` ended: every sequence waiting in a join for it is released.

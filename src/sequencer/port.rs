@@ -93,6 +93,9 @@ pub(crate) trait Port<C> {
         target: SeqId,
         run: &mut Option<u16>,
     ) -> Poll<Result<Outcome, Error>>;
+    /// A join of `joiner` was dropped while it waited (the loser of a `select`, an action
+    /// aborted or restarted): it no longer waits.
+    fn stop_join(&self, joiner: SeqId);
     /// A snapshot of `id`'s control block.
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues `request` of `id`, made by `by`, for the next tick.
@@ -267,6 +270,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         };
         self.with(|s| s.stop_waiting_for_join(joiner));
         Poll::Ready(result)
+    }
+
+    fn stop_join(&self, joiner: SeqId) {
+        self.with(|s| s.stop_waiting_for_join(joiner));
     }
 
     /// The block's own fields, in one section.
