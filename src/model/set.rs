@@ -458,6 +458,18 @@ mod tests {
     }
 
     #[test]
+    fn membership_emptiness_and_difference_in_every_word() {
+        let a: SeqSet<8> = set(&[0, 31, 32, 200, 255]);
+        let b: SeqSet<8> = set(&[31, 200]);
+        assert!(a.has(SeqId(255)) && a.has(SeqId(32)) && !a.has(SeqId(33)));
+        assert!(!a.is_empty() && SeqSet::<8>::EMPTY.is_empty());
+        assert!(a.minus(&b).into_iter().eq([0, 32, 255].map(SeqId)));
+        assert!(b.minus(&a).is_empty());
+        let one: SeqSet<1> = set(&[3]);
+        assert!(one.has(SeqId(3)) && !one.has(SeqId(35)));
+    }
+
+    #[test]
     fn one_word_sets_iterate_lowest_first() {
         let mut s = set::<1>(&[31, 0]);
         assert!(s.into_iter().eq([SeqId(0), SeqId(31)]));
