@@ -300,7 +300,7 @@ impl<N: Names + ?Sized> fmt::Display for Named<'_, Error, N> {
         match self.value.parts() {
             (before, Some(id), after) => match self.names.sequence(id) {
                 Some(name) => write!(f, "{before}`{name}`{after}"),
-                None => write!(f, "{before}{}{after}", id.index()),
+                None => f.write_str(self.value.message().as_str()),
             },
             (text, None, _) => f.write_str(text),
         }

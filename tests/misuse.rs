@@ -828,19 +828,13 @@ fn joining_ones_blocking_caller_is_an_error_not_a_hang() {
         Some(ms_at(0))
     );
     drop(sim);
-    let child_join = ctrl
-        .returned
-        .borrow()
-        .iter()
-        .find(|r| r.seq == c)
-        .map(|r| r.result);
     assert_eq!(
-        child_join,
+        join_result(&ctrl, c),
         Some(Err(Failure::NotStarted(Error::JoinWouldDeadlock(main_id))))
     );
 }
 
-/// The join of `result` by `seq` in the log of returned results.
+/// The last result `seq` logged (its join, in the tests that use it).
 fn join_result(ctrl: &Ctrl, seq: SeqId) -> Option<Result<Done, Failure>> {
     ctrl.returned
         .borrow()

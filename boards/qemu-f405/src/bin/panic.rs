@@ -61,8 +61,8 @@ mod config {
     use super::board;
     use rtseq::{Behaviour, Instant, Monitor, SeqConfig, Sequencer};
 
-    type Cond = fn(&(), Instant) -> bool;
-    fn jammed(_: &(), _: Instant) -> bool {
+    pub(super) type Cond = fn(&(), Instant) -> bool;
+    pub(super) fn jammed(_: &(), _: Instant) -> bool {
         false
     }
     rtseq::sequences! {
@@ -99,15 +99,12 @@ mod config {
 /// safe stop and nothing would run it; `check_lanes` in `idle` finds the lane first.
 mod lanes {
     use super::board;
+    use super::config::{jammed, Cond};
     use core::convert::Infallible;
     use rtseq::{
-        Behaviour, Cx, Failure, Instant, Monitor, SeqConfig, Sequence, Sequencer, Table, WithNames,
+        Behaviour, Cx, Failure, Monitor, SeqConfig, Sequence, Sequencer, Table, WithNames,
     };
 
-    type Cond = fn(&(), Instant) -> bool;
-    fn jammed(_: &(), _: Instant) -> bool {
-        false
-    }
     rtseq::sequences! {
         pub(super) mod seqs for () {
             MAIN = SeqConfig::new("main").in_lane(),
