@@ -236,7 +236,8 @@ struct World {
     ids: Ids,
     states: Vec<(SeqId, rtseq::RunningState, Option<Outcome>)>,
     any_active: bool,
-    handle: &'static SafetyHandle,
+    /// The safety level at the end of the run.
+    level: SafetyLevel,
 }
 
 /// Builds the tree and the safety system, runs the safety cycle every `safety_every` ticks
@@ -244,9 +245,7 @@ struct World {
 /// safety cycle, runs for `run_ms`.
 fn run(safety_every: u64, run_ms: u64, inject: impl Fn(u64, &Ctrl) + 'static) -> World {
     let ctrl: &'static Ctrl = Box::leak(Box::default());
-    let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
     let seq = Seqr::new();
-    seq.set_safety_system(handle);
 
     let cfg = SeqConfig::new;
     let request = |event, until| Request { event, until };
@@ -306,7 +305,7 @@ fn run(safety_every: u64, run_ms: u64, inject: impl Fn(u64, &Ctrl) + 'static) ->
     };
 
     let cycles: Rc<RefCell<Vec<Cycle>>> = Rc::default();
-    let mut safety = SafetySystem::new_validated(&PROPS, handle).unwrap();
+    let mut safety = SafetySystem::new_validated(&PROPS, seq.safety_handle()).unwrap();
     let mut sim = Sim::new(&seq, ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
     sim.lane(axis_b);
@@ -347,6 +346,7 @@ fn run(safety_every: u64, run_ms: u64, inject: impl Fn(u64, &Ctrl) + 'static) ->
         .filter_map(|r| Some((ms(r.time), r.event()?)))
         .collect();
     let trace = sim.take_trace();
+    let level = seq.safety_handle().level();
     drop(sim);
     let cycles = cycles.borrow().clone();
     World {
@@ -357,7 +357,7 @@ fn run(safety_every: u64, run_ms: u64, inject: impl Fn(u64, &Ctrl) + 'static) ->
         ids,
         states,
         any_active,
-        handle,
+        level,
     }
 }
 
@@ -502,7 +502,7 @@ fn estop_input_during_a_running_tree_aborts_everything_within_one_safety_cycle()
     ]);
     assert_eq!(w.events, events);
     assert_all_stopped(&w, &[i.power_on, i.start], &[i.report]);
-    assert_eq!(w.handle.level(), EMERGENCY);
+    assert_eq!(w.level, EMERGENCY);
 
     // No action line ran after the abort (sticky): the log ends with the travels' starts.
     assert_eq!(
@@ -608,4 +608,67 @@ fn with_a_slower_safety_period_the_bound_is_one_safety_period() {
     let tail = aborted(45, &[i.travel_a, i.report, i.move_a, i.axis_b, i.main]);
     assert_trace(&w.trace[w.trace.len() - tail.len()..], &tail);
     assert_all_stopped(&w, &[i.power_on, i.start, i.travel_b], &[]);
+}
+
+// ---------------------------------------------------------------------------------------
+// The sequencer holds its safety system's handle: nothing to connect, nothing to forget.
+// ---------------------------------------------------------------------------------------
+
+/// A sequence that needs the safety system: it fails (`Failure::App(1)`) without one.
+struct SwitchOn;
+impl Sequence<Ctrl> for SwitchOn {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.safety_system()
+            .ok_or(Failure::App(1))?
+            .trigger(SWITCH_ON);
+        Ok(())
+    }
+}
+
+/// A sequence reaches the safety system built on its sequencer's handle, with no other
+/// call. Without one — none built, one built on a handle of its own, one dropped —
+/// `cx.safety_system()` is `None` and the action that needs it fails; no event is left
+/// pending where no system takes it.
+#[test]
+fn sequences_reach_the_safety_system_built_on_their_sequencers_handle_and_no_other() {
+    static OWN_HANDLE: SafetyHandle = SafetyHandle::new();
+    let ctrl: &'static Ctrl = Box::leak(Box::default());
+    let mut io: Io = ctrl;
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let switch_on = seq.add(SeqConfig::new("switch on"), SwitchOn).unwrap();
+    let id = switch_on.id();
+    let mut sim = Sim::new(&seq, ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(switch_on);
+    let run_once = |sim: &mut Sim<'_, Ctrl, 2, _, 1>| {
+        sim.start(id).unwrap();
+        sim.run_until_idle(rtseq::Duration::from_millis(10));
+        sim.handle(id).unwrap().last_outcome()
+    };
+    let without = Some(Outcome::Failed(Failure::App(1)));
+
+    assert!(seq.safety_system().is_none());
+    assert_eq!(run_once(&mut sim), without, "no safety system");
+
+    let own = SafetySystem::new_validated(&PROPS, &OWN_HANDLE).unwrap();
+    assert!(seq.safety_system().is_none());
+    assert_eq!(
+        run_once(&mut sim),
+        without,
+        "a system on a handle of its own"
+    );
+    assert_eq!(OWN_HANDLE.pending_events(), 0);
+    drop(own);
+
+    let mut system = SafetySystem::new_validated(&PROPS, seq.safety_handle()).unwrap();
+    system.cycle(&mut io, &seq);
+    assert_eq!(seq.safety_system().map(SafetyHandle::level), Some(OFF));
+    assert_eq!(run_once(&mut sim), Some(Outcome::Completed));
+    assert_eq!(seq.safety_handle().pending_events(), 1 << 0);
+    system.cycle(&mut io, &seq);
+    assert_eq!(seq.safety_system().map(SafetyHandle::level), Some(POWERING));
+
+    drop(system);
+    assert!(seq.safety_system().is_none());
+    assert_eq!(run_once(&mut sim), without, "the system dropped");
+    assert_eq!(seq.safety_handle().pending_events(), 0);
 }

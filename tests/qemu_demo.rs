@@ -20,7 +20,7 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use qemu_harness::{expect_exit, require_tools, root, try_build, Config, Echo, Outcome, TARGET};
-use rtseq::safety::{SafetyHandle, SafetySystem};
+use rtseq::safety::SafetySystem;
 use rtseq::sim::Sim;
 use rtseq::{Cause, Instant, Outcome as SeqOutcome, RunningState, SeqId, Sequencer};
 use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
@@ -229,9 +229,7 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
     cs.set_fault_plan(plan);
     let monitors: app::AppMonitors = app::monitor_ids::table(&CONFIG).unwrap();
     let app = app::register(seq, &app::Setup::DEMO).unwrap();
-    let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
-    seq.set_safety_system(handle);
-    let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
+    let mut system = SafetySystem::new(&PROPERTIES, seq.safety_handle()).unwrap();
     let mut sim = Sim::new(seq, cs, monitors);
     if let Some(seed) = seed {
         // A task per lane, polled in a random order per pass: exposes same-tick races.
@@ -291,7 +289,11 @@ fn host_shuffled(plan: FaultPlan, end_ms: u64, seed: Option<u64>) -> Host {
     put("end_ms", end_ms.to_string());
     put(
         "level",
-        PROPERTIES.level(handle.level()).unwrap().name().into(),
+        PROPERTIES
+            .level(seq.safety_handle().level())
+            .unwrap()
+            .name()
+            .into(),
     );
     put("phase", phase_name(cs.phase()).into());
     put("main", outcome(MAIN));

@@ -14,20 +14,20 @@
 //! writes the outputs back — [`safety_cycle`] does the three:
 //!
 //! ```
-//! use rtseq::safety::{SafetyHandle, SafetySystem};
+//! use rtseq::safety::SafetySystem;
 //! use rtseq::Sequencer;
 //! use rtseq_motor::control_system::ControlSystem;
 //! use rtseq_motor::safety::{self, PROPERTIES};
-//! static HANDLE: SafetyHandle = SafetyHandle::new();
 //! static SEQ: Sequencer<ControlSystem, 4> = Sequencer::new();
 //! let cs = ControlSystem::new(0.02);
-//! let mut system = SafetySystem::new_validated(&PROPERTIES, &HANDLE).unwrap();
+//! let mut system = SafetySystem::new_validated(&PROPERTIES, SEQ.safety_handle()).unwrap();
 //! safety::safety_cycle(&cs, &mut system, &SEQ);
-//! assert_eq!(HANDLE.level(), safety::OFF);
+//! let handle = SEQ.safety_handle();
+//! assert_eq!(handle.level(), safety::OFF);
 //! assert!(!cs.drive_permit());
-//! HANDLE.trigger(safety::SWITCH_ON);
+//! handle.trigger(safety::SWITCH_ON);
 //! safety::safety_cycle(&cs, &mut system, &SEQ);
-//! assert_eq!(HANDLE.level(), safety::POWER_ON);
+//! assert_eq!(handle.level(), safety::POWER_ON);
 //! assert!(cs.drive_permit());
 //! ```
 

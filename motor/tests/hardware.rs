@@ -10,7 +10,7 @@ use std::cell::Cell;
 use std::rc::Rc;
 
 use common::*;
-use rtseq::safety::{SafetyHandle, SafetySystem};
+use rtseq::safety::SafetySystem;
 use rtseq::{Duration, Transition};
 use rtseq_motor::app::{AppConfig, Fault, FaultPlan, Reaction, Summary};
 use rtseq_motor::control_system::{ControlSystem, Phase, Status, STANDSTILL_VELOCITY};
@@ -38,12 +38,9 @@ fn measured_world(
 ) -> (World, Rc<Cell<Plant>>) {
     let config = AppConfig::DEFAULT;
     let (mut sim, seq, cs) = app_sim(plan, config);
-    let safety = with_safety.then(|| {
-        let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
-        seq.set_safety_system(handle);
-        handle
-    });
-    let mut system = safety.map(|h| SafetySystem::new(&PROPERTIES, h).unwrap());
+    let mut system =
+        with_safety.then(|| SafetySystem::new(&PROPERTIES, seq.safety_handle()).unwrap());
+    let safety = with_safety.then(|| seq.safety_handle());
     let plant = Rc::new(Cell::new(Plant::new(config.start_position)));
     let machine = plant.clone();
     let sample = move |p: &Plant| Measurements {

@@ -12,6 +12,11 @@ use super::level::SafetyLevel;
 /// highest-priority safety task owns the [`SafetySystem`](super::SafetySystem)
 /// and runs its cycle.
 ///
+/// A [`Sequencer`](crate::Sequencer) holds one
+/// ([`safety_handle`](crate::Sequencer::safety_handle)): build its safety
+/// system on that one. A handle of its own, as in the examples below, is
+/// for a safety system without a sequencer.
+///
 /// Everything is a single atomic operation (no lock, no critical
 /// section): triggering is one `fetch_or` on a 32-bit pending-event
 /// bitmask, reading the level is one load. Triggering the same event

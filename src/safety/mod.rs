@@ -23,6 +23,10 @@
 //!   a `static` and checked at compile time); [`SafetySystem`] is the
 //!   owned, running part; [`SafetySystem::cycle`] is one safety period.
 //! * A level can demand "abort all sequences" through [`Sequences`].
+//! * With a sequencer, the system is built on the handle the sequencer holds
+//!   ([`Sequencer::safety_handle`](crate::Sequencer::safety_handle)), so its
+//!   sequences reach it ([`Cx::safety_system`](crate::Cx::safety_system)); a
+//!   `static` handle of its own serves a safety system without a sequencer.
 //!
 //! Everything is `no_std`, heap-free and panic-free; see
 //! [`SafetySystem::cycle`] for the exact order of a cycle.

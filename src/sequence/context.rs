@@ -522,16 +522,19 @@ impl<'a, C> Cx<'a, C> {
 
     /// The seed's `getSafetySystem()`: trigger public events, read the level.
     ///
-    /// A sequence triggers a public event of the safety system connected with
-    /// [`Sequencer::set_safety_system`](crate::Sequencer::set_safety_system). `None`: no
-    /// safety system is connected (call it in `init`, with the handle the system was made
-    /// with); an action that must reach the safety system fails then rather than go on:
+    /// The handle of the safety system built on the sequencer's
+    /// [`safety_handle`](crate::Sequencer::safety_handle). `None`: no safety system is built
+    /// on it (a firmware without one, or a system built on a handle of its own); an action
+    /// that must reach the safety system fails then rather than go on:
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
-    /// use rtseq::safety::{PublicEvent, SafetyHandle};
+    /// use rtseq::safety::*;
     /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
-    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// # struct Io;
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// static PROPS: SafetyProperties<'static, Io, 1> =
+    ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
     /// const START_MOTORS: PublicEvent = PublicEvent::new(1);
     /// const NO_SAFETY_SYSTEM: u16 = 1; // the application's failure code
     /// struct PowerUp;
@@ -543,16 +546,18 @@ impl<'a, C> Cx<'a, C> {
     ///     }
     /// }
     /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// seq.set_safety_system(&SAFETY);
+    /// let safety = SafetySystem::new(&PROPS, seq.safety_handle()).unwrap();
     /// let power_up = seq.add(SeqConfig::new("power up"), PowerUp).unwrap();
     /// let id = power_up.id();
     /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     /// sim.lane(power_up);
     /// sim.start(id).unwrap();
-    /// assert_eq!(SAFETY.pending_events(), 1 << 1); // the safety task's next cycle takes it
+    /// // The safety task's next cycle takes it.
+    /// assert_eq!(seq.safety_handle().pending_events(), 1 << 1);
+    /// # drop(safety);
     /// # }
     /// ```
-    pub fn safety_system(&self) -> Option<&'static crate::safety::SafetyHandle> {
+    pub fn safety_system(&self) -> Option<&'a crate::safety::SafetyHandle> {
         self.port.safety()
     }
 

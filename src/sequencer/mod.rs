@@ -21,7 +21,7 @@
 //! | `port.rs` | the object-safe port contexts and handles use: one method per operation |
 //! | `handle.rs` | [`Handle`](crate::Handle): inspect and command one sequence |
 
-use core::cell::{Cell, UnsafeCell};
+use core::cell::UnsafeCell;
 use core::marker::PhantomData;
 use core::sync::atomic::{AtomicBool, AtomicU8};
 
@@ -106,8 +106,9 @@ pub struct Sequencer<
     pub(crate) ticking: AtomicBool,
     /// The safety system's levels and tripped inputs, until the tick records them.
     pub(crate) safety_notes: SafetyNotes,
-    /// The safety system's lock-free handle (the seed's `getSafetySystem()`).
-    pub(crate) safety: critical_section::Mutex<Cell<Option<&'static SafetyHandle>>>,
+    /// The lock-free handle of this sequencer's safety system (the seed's
+    /// `getSafetySystem()`): the system is built on it, so there is no connection to forget.
+    pub(crate) safety: SafetyHandle,
     _control: PhantomData<fn(&C)>,
     _lock: PhantomData<L>,
 }
@@ -198,7 +199,7 @@ impl<
     ///
     /// `PRIORITY` must be the highest RTIC priority at which any method of this sequencer is
     /// called — normally the tick's — and no method other than [`abort_all`](Self::abort_all),
-    /// [`safety_system`](Self::safety_system) and those of
+    /// [`safety_handle`](Self::safety_handle), [`safety_system`](Self::safety_system) and those of
     /// [`Sequences`](crate::safety::Sequences) may be called from above it.
     ///
     /// The tick runs at RTIC priority 2, the lanes at 1; the safety task at 3 only calls
@@ -208,8 +209,8 @@ impl<
     /// ```
     /// use rtseq::lock::PriorityCeiling;
     /// use rtseq::{SeqConfig, Sequencer};
-    /// // SAFETY: no method but `abort_all`, `safety_system` and those of `Sequences` is called
-    /// // above priority 2.
+    /// // SAFETY: no method but `abort_all`, `safety_handle`, `safety_system` and those of
+    /// // `Sequences` is called above priority 2.
     /// static SEQ: Sequencer<(), 8, 64, PriorityCeiling<2>> =
     ///     unsafe { Sequencer::with_priority_ceiling() };
     /// fn init() { // RTIC `init` (priority 0 with interrupts off): register the tree
@@ -249,7 +250,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             inbox: AtomicU8::new(0),
             ticking: AtomicBool::new(false),
             safety_notes: SafetyNotes::new(),
-            safety: critical_section::Mutex::new(Cell::new(None)),
+            safety: SafetyHandle::new(),
             _control: PhantomData,
             _lock: PhantomData,
         }

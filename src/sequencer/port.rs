@@ -103,8 +103,8 @@ pub(crate) trait Port<C> {
     /// Sets `id`'s timeout (µs, 0: off): at once for a run under way whose timeout is
     /// armed, otherwise from the next start or restart.
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
-    /// The connected safety system.
-    fn safety(&self) -> Option<&'static crate::safety::SafetyHandle>;
+    /// The handle of the safety system built on this sequencer's handle, if one is.
+    fn safety(&self) -> Option<&crate::safety::SafetyHandle>;
 }
 
 /// With the portable lock each method is a few short sections (a waker is kept in its own
@@ -305,7 +305,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         })
     }
 
-    fn safety(&self) -> Option<&'static crate::safety::SafetyHandle> {
+    fn safety(&self) -> Option<&crate::safety::SafetyHandle> {
         self.safety_system()
     }
 }

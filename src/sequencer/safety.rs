@@ -118,31 +118,42 @@ impl SafetyNotes {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Connects the safety system: sequences reach it through
-    /// [`Cx::safety_system`](crate::Cx::safety_system) to trigger public events and read the
-    /// level.
+    /// The handle to build this sequencer's [`SafetySystem`](crate::safety::SafetySystem)
+    /// on. The sequencer holds it, so its sequences reach the system that is built on it
+    /// without a further step: [`Cx::safety_system`](crate::Cx::safety_system) triggers
+    /// public events and reads the level through it. Pass the same sequencer to the
+    /// system's [`cycle`](crate::safety::SafetySystem::cycle).
     ///
     /// ```
-    /// use rtseq::safety::{PublicEvent, SafetyHandle};
+    /// use rtseq::safety::*;
     /// use rtseq::Sequencer;
-    /// static SAFETY: SafetyHandle = SafetyHandle::new();
+    /// # struct Io;
+    /// const OFF: SafetyLevel = SafetyLevel::new(0);
+    /// static PROPS: SafetyProperties<'static, Io, 1> =
+    ///     SafetyProperties::new([LevelDef::new(OFF, "off")], &[], &[], &[], OFF);
     /// static SEQ: Sequencer<(), 4> = Sequencer::new();
-    /// SEQ.set_safety_system(&SAFETY);
+    /// assert!(SEQ.safety_system().is_none());
+    /// let safety = SafetySystem::new(&PROPS, SEQ.safety_handle())?;
     /// SEQ.safety_system().unwrap().trigger(PublicEvent::new(0));
+    /// assert_eq!(SEQ.safety_handle().pending_events(), 1 << 0);
+    /// # drop(safety);
+    /// # Ok::<(), SafetyError>(())
     /// ```
-    pub fn set_safety_system(&self, safety: &'static SafetyHandle) {
-        critical_section::with(|cs| self.safety.borrow(cs).set(Some(safety)));
+    pub fn safety_handle(&self) -> &SafetyHandle {
+        &self.safety
     }
 
-    /// The seed's `getSafetySystem()`: the connected safety system's handle.
+    /// The seed's `getSafetySystem()`: the handle of the safety system built on
+    /// [`safety_handle`](Self::safety_handle), or `None` while there is none (before
+    /// `init` built it, in a firmware without one, or one built on a handle of its own).
     ///
     /// ```
     /// use rtseq::Sequencer;
     /// let seq: Sequencer<(), 4> = Sequencer::new();
     /// assert!(seq.safety_system().is_none());
     /// ```
-    pub fn safety_system(&self) -> Option<&'static SafetyHandle> {
-        critical_section::with(|cs| self.safety.borrow(cs).get())
+    pub fn safety_system(&self) -> Option<&SafetyHandle> {
+        self.safety.is_bound().then_some(&self.safety)
     }
 
     /// Queues `note` for the next tick's trace.

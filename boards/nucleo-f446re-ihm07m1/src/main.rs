@@ -115,7 +115,7 @@ fn log_status(cs: &ControlSystem, level: u8, sw: sensors::Switches) {
 mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
-    use rtseq::safety::{SafetyHandle, SafetySystem};
+    use rtseq::safety::SafetySystem;
     use rtseq::{SeqId, Sequencer};
     use rtseq_motor::app::seq_ids::MAIN;
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
@@ -155,8 +155,6 @@ mod app {
     static CS: ControlSystem = ControlSystem::new(AppConfig::DEFAULT.start_position);
     /// The sequence table, checked by the compiler: `init` only copies it in.
     static SETUP: app::Setup = app::Setup::DEFAULT;
-    /// The lock-free part of the safety system (level, public events).
-    static SAFETY: SafetyHandle = SafetyHandle::new();
     /// Control periods since start, wrapping (the defmt timestamp and the idle loop's
     /// pace; the sequencer's clock counts them in 64 bits).
     pub static TICKS: AtomicU32 = AtomicU32::new(0);
@@ -273,11 +271,8 @@ mod app {
                 None
             }
         };
-        let system = match SafetySystem::new_validated(&PROPERTIES, &SAFETY) {
-            Ok(s) => {
-                SEQ.set_safety_system(&SAFETY);
-                Some(s)
-            }
+        let system = match SafetySystem::new_validated(&PROPERTIES, SEQ.safety_handle()) {
+            Ok(s) => Some(s),
             Err(e) => {
                 defmt::error!("init: the safety system cannot start: {}", e);
                 None

@@ -83,8 +83,7 @@ impl World {
     pub fn with_config(plan: FaultPlan, with_safety: bool, config: AppConfig) -> World {
         let (mut sim, seq, cs) = app_sim(plan, config);
         let safety = if with_safety {
-            let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
-            seq.set_safety_system(handle);
+            let handle = seq.safety_handle();
             let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
             sim.before_tick(move |now, cs: &ControlSystem| {
                 cs.inject(now);

@@ -31,7 +31,7 @@
 
 use core::cell::UnsafeCell;
 
-use rtseq::safety::{InputId, SafetyHandle, SafetyLevel};
+use rtseq::safety::{InputId, SafetyLevel};
 use rtseq::{
     Behaviour, Cause, Entry, Failure, Instant, MonitorId, Outcome, Request, Requester,
     RunningState, SeqId, Sequencer, Transition,
@@ -84,8 +84,6 @@ static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }, 64, Lock> =
     unsafe { Sequencer::with_priority_ceiling() };
 /// The control system: plant, controller, fault injection, summary.
 static CS: ControlSystem = ControlSystem::new(CONFIG.start_position);
-/// The safety system's lock-free handle (sequences trigger events, everyone reads the level).
-static HANDLE: SafetyHandle = SafetyHandle::new();
 /// Events for the log, from the tick and the safety task to idle.
 static EVENTS: EventQueue = EventQueue::new();
 
@@ -1099,7 +1097,7 @@ fn status_line() {
         Fixed::new(st.velocity * 1000.0, 1, 6),
         Fixed::new(st.true_current, 2, 5),
         phase_name(CS.phase()),
-        level_name(HANDLE.level()),
+        level_name(SEQ.safety_handle().level()),
         if CS.led() { "on" } else { "off" }
     );
 }
@@ -1122,7 +1120,7 @@ impl Log {
         let plant = CS.plant();
         let fired = self.seen.fired;
         let fired_of = |m: MonitorId| fired.get(m.index()).copied().unwrap_or(0);
-        let level = HANDLE.level();
+        let level = SEQ.safety_handle().level();
         status_line();
         defmt::info!("---------------------------------------- summary");
         defmt::info!(
@@ -1548,11 +1546,11 @@ mod rtic_app {
                 board::exit_failure();
             }
         };
-        let Ok(system) = SafetySystem::new_validated(&safety::PROPERTIES, &HANDLE) else {
+        let Ok(system) = SafetySystem::new_validated(&safety::PROPERTIES, SEQ.safety_handle())
+        else {
             defmt::error!("demo: the safety system could not start");
             board::exit_failure();
         };
-        SEQ.set_safety_system(&HANDLE);
         if let Some(Err(e)) = SEQ.sequence_by_id(MAIN).map(|h| h.start()) {
             defmt::error!("demo: cannot start main: {=str}", e.reason());
             board::exit_failure();

@@ -408,7 +408,6 @@ mod app {
     use rtseq::{Monitors, RunningState};
 
     static SEQ: Seqr = Seqr::new();
-    static SAFETY: SafetyHandle = SafetyHandle::new();
     static TO_SAFETY: TickSignal = TickSignal::new();
     static DONE: AtomicBool = AtomicBool::new(false);
     static FAULT_MODE: AtomicBool = AtomicBool::new(false);
@@ -466,7 +465,6 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         let fault = fault_mode();
         FAULT_MODE.store(fault, Relaxed);
-        SEQ.set_safety_system(&SAFETY);
         let Ok((main, axis_b)) = build() else {
             defmt::error!("emergency: registration failed");
             board::exit_failure();
@@ -476,7 +474,7 @@ mod app {
                 let _ = h.declare_lane();
             }
         }
-        let Ok(system) = SafetySystem::new_validated(&PROPS, &SAFETY) else {
+        let Ok(system) = SafetySystem::new_validated(&PROPS, SEQ.safety_handle()) else {
             defmt::error!("emergency: cannot bind the safety handle");
             board::exit_failure();
         };
@@ -659,7 +657,7 @@ mod app {
                     failures,
                     cycle_failures,
                     stopped,
-                    SAFETY.level().id(),
+                    SEQ.safety_handle().level().id(),
                     CTRL.enable.load(Relaxed)
                 );
                 // Every sequence stopped in the tick of the cycle that entered EMERGENCY.
@@ -667,7 +665,7 @@ mod app {
                 if failures == 0
                     && cycle_failures == 0
                     && in_time
-                    && SAFETY.level() == EMERGENCY
+                    && SEQ.safety_handle().level() == EMERGENCY
                     && !CTRL.enable.load(Relaxed)
                 {
                     defmt::info!("emergency: all expectations hold");

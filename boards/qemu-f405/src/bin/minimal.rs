@@ -112,7 +112,6 @@ static TABLE: Table<Axis, { seqs::COUNT }> = match seqs::table() {
 // `abort_all`, which any priority may.
 static SEQ: Sequencer<Axis, { seqs::COUNT }, 64, PriorityCeiling<2>> =
     unsafe { Sequencer::with_priority_ceiling() };
-static SAFETY: SafetyHandle = SafetyHandle::new();
 static AXIS: Axis = Axis {
     position: AtomicI32::new(1_000),
     speed: AtomicI32::new(0),
@@ -158,8 +157,7 @@ mod app {
         let seek = or_exit(SEQ.bind(SEEK, Seek));
         let homing = or_exit(SEQ.bind(HOMING, Homing { seek }));
         let safe_stop = or_exit(SEQ.bind(SAFE_STOP, SafeStop));
-        SEQ.set_safety_system(&SAFETY);
-        let safety = or_exit(SafetySystem::new_validated(&PROPS, &SAFETY));
+        let safety = or_exit(SafetySystem::new_validated(&PROPS, SEQ.safety_handle()));
         or_exit(handle(HOMING).start()); // applied by the first tick
         lanes::spawn().ok();
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use rtseq::safety::{SafetyHandle, SafetySystem};
+use rtseq::safety::SafetySystem;
 use rtseq::sim::Sim;
 use rtseq::{Instant, Sequencer};
 use rtseq_motor::app::seq_ids::MAIN;
@@ -54,9 +54,7 @@ pub fn host_following_error_trace(end_ms: u64) -> PathBuf {
     }));
     let monitors: app::AppMonitors = app::monitor_ids::table(&config).unwrap();
     let app = app::register(seq, &app::Setup::DEMO).unwrap();
-    let handle: &'static SafetyHandle = Box::leak(Box::new(SafetyHandle::new()));
-    seq.set_safety_system(handle);
-    let mut system = SafetySystem::new(&PROPERTIES, handle).unwrap();
+    let mut system = SafetySystem::new(&PROPERTIES, seq.safety_handle()).unwrap();
     let mut sim = Sim::new(seq, cs, monitors);
     sim.name_safety(&PROPERTIES);
     sim.lane(app.main);
