@@ -26,6 +26,7 @@ use rtseq::Cause::{AbortAll, Completed, Start};
 use rtseq::RunningState::{Aborted, Aborting, Idle, Running, Terminated};
 use rtseq::{
     Cx, Event, Failure, Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step,
+    WithNames,
 };
 use rtseq_scenarios::emergency::{
     self, Machine, EMERGENCY, ENABLE, ESTOP_IN, FAULT, MOVING, OFF, POWERING, READY, START_MOVING,
@@ -671,4 +672,51 @@ fn sequences_reach_the_safety_system_built_on_their_sequencers_handle_and_no_oth
     assert!(seq.safety_system().is_none());
     assert_eq!(run_once(&mut sim), without, "the system dropped");
     assert_eq!(seq.safety_handle().pending_events(), 0);
+}
+
+/// A sequence that runs until it is aborted.
+struct Forever;
+impl Sequence<Ctrl> for Forever {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.wait_until(|_| false).await;
+        Ok(())
+    }
+}
+
+/// The abort-all a level demands reaches the sequencer whose handle the system is built on
+/// even when the cycle is given `NoSequences` (as in the safety module's examples, which
+/// have no sequencer): it goes through the handle. Only the trace notes of the level need
+/// the sequencer as `Sequences`.
+#[test]
+fn the_safety_abort_reaches_the_sequencer_holding_the_handle_whatever_the_cycle_is_given() {
+    let ctrl: &'static Ctrl = Box::leak(Box::default());
+    let mut io: Io = ctrl;
+    let seq: Sequencer<Ctrl, 1> = Sequencer::new();
+    let forever = seq.add(SeqConfig::new("forever"), Forever).unwrap();
+    let id = forever.id();
+    let mut system = SafetySystem::new_validated(&PROPS, seq.safety_handle()).unwrap();
+    let mut sim = Sim::new(&seq, ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(forever);
+    system.cycle(&mut io, &NoSequences); // enters OFF
+    sim.start(id).unwrap();
+    sim.run_for(rtseq::Duration::from_millis(2));
+    seq.safety_handle().trigger(FAULT);
+    let report = system.cycle(&mut io, &NoSequences);
+    assert_eq!((report.level, report.aborted), (EMERGENCY, true));
+    sim.step();
+    let names = (&seq, PROPS.properties());
+    let lines: Vec<String> = sim
+        .records()
+        .iter()
+        .map(|r| r.named(&names).to_string())
+        .collect();
+    assert_eq!(
+        lines,
+        [
+            "0 ms forever: Idle -> Running (start)",
+            "3 ms abort-all requested by the safety system",
+            "3 ms forever: Running -> Aborting (abort-all)",
+            "3 ms forever: Aborting -> Aborted (abort-all)",
+        ]
+    );
 }

@@ -6,6 +6,9 @@ use super::bits::bit_of;
 use super::event::{EventId, PublicEvent};
 use super::level::SafetyLevel;
 
+/// The bit of [`SafetyHandle::inbox`] by which the safety system asks for abort-all.
+pub(crate) const ABORT_ALL_BY_SAFETY_SYSTEM: u8 = 2;
+
 /// The shared, lock-free part of the safety system: lower-priority code
 /// (sequences, conditions, other tasks) triggers public events and reads
 /// the current level through a plain `&SafetyHandle`, while the
@@ -88,6 +91,11 @@ use super::level::SafetyLevel;
 /// ```
 #[derive(Debug)]
 pub struct SafetyHandle {
+    /// What the sequencer holding this handle is asked to do at its next tick, as bits:
+    /// [`ABORT_ALL_BY_SAFETY_SYSTEM`], raised by the cycle of the system built on the
+    /// handle, whatever [`Sequences`](super::Sequences) the cycle is given; the other bits
+    /// are the sequencer's own (`sequencer::inbox`). Unread in a handle of its own.
+    pub(crate) inbox: AtomicU8,
     pending: AtomicU32,
     level: AtomicU8,
     bound: AtomicBool,
@@ -108,6 +116,7 @@ impl SafetyHandle {
     /// ```
     pub const fn new() -> Self {
         Self {
+            inbox: AtomicU8::new(0),
             pending: AtomicU32::new(0),
             level: AtomicU8::new(0),
             bound: AtomicBool::new(false),
@@ -197,7 +206,8 @@ impl SafetyHandle {
 
     /// Back to the state of [`new`](Self::new), then unbound: called by the
     /// owning system's `Drop` only, so no other system writes the handle
-    /// meanwhile (the binding is given up last). An event triggered while
+    /// meanwhile (the binding is given up last). The inbox is the holding
+    /// sequencer's and is left to it. An event triggered while
     /// the reset runs may be kept for the next system or dropped; nothing
     /// was bound to resolve it.
     pub(crate) fn release(&self) {
@@ -208,6 +218,12 @@ impl SafetyHandle {
         self.level
             .store(SafetyLevel::SAFEST.id(), Ordering::Relaxed);
         self.bound.store(false, Ordering::Release);
+    }
+
+    /// Asks the sequencer holding this handle to abort every sequence at its next tick.
+    pub(crate) fn request_abort_all(&self) {
+        self.inbox
+            .fetch_or(ABORT_ALL_BY_SAFETY_SYSTEM, Ordering::Release);
     }
 
     pub(crate) fn publish_level(&self, level: SafetyLevel) {

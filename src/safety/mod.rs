@@ -188,6 +188,7 @@ pub use event::{
     EventId, EventKind, EventVisibility, Private, PrivateEvent, Public, PublicEvent, SafetyEvent,
 };
 pub use handle::SafetyHandle;
+pub(crate) use handle::ABORT_ALL_BY_SAFETY_SYSTEM;
 pub use input::{CriticalInput, CriticalInputInfo, InputAction, InputCheck};
 pub use io::{InputId, IoKind, IoType, IoValue, OutputId, SafetyIo};
 pub use level::SafetyLevel;

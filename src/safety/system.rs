@@ -576,8 +576,11 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
     ///    count the activation, entry action of the new level. (In the
     ///    first cycle: enter the entry level, no exit action.) A new level
     ///    is told to `sequences` ([`Sequences::level_entered`]);
-    /// 2. abort all sequences through `sequences` if the level demands it
-    ///    ([`AbortPolicy`]);
+    /// 2. abort all sequences if the level demands it ([`AbortPolicy`]):
+    ///    those of the [`Sequencer`](crate::Sequencer) that holds the handle
+    ///    (the system is built on its
+    ///    [`safety_handle`](crate::Sequencer::safety_handle)), whatever
+    ///    `sequences` is, and through `sequences`;
     /// 3. input actions, in the level's order (events they trigger are
     ///    resolved in the next cycle); an input whose check fires now and
     ///    did not in the cycle before is told to `sequences`
@@ -641,6 +644,7 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
             AbortPolicy::WhileActive => true,
         };
         if abort {
+            self.handle.request_abort_all();
             sequences.abort_all();
             report.aborted = true;
         }

@@ -1,5 +1,7 @@
 //! The inbox: what code above the sequencer's priority ceiling (the safety task) or any
 //! other context left for the next tick without taking the lock, as bits of one atomic.
+//! It is kept in the sequencer's safety handle, so that the cycle of the safety system
+//! built on that handle reaches it whatever `Sequences` the cycle is given.
 
 use core::sync::atomic::Ordering;
 
@@ -8,9 +10,9 @@ use crate::{Requester, Sequencer};
 
 /// [`Sequencer::abort_all`](crate::Sequencer::abort_all) was called.
 pub(crate) const ABORT_ALL_BY_APPLICATION: u8 = 1;
-/// The safety system asked for abort-all, through
+/// The safety system asked for abort-all: its cycle on the sequencer's handle, or through
 /// [`Sequences`](crate::safety::Sequences).
-pub(crate) const ABORT_ALL_BY_SAFETY_SYSTEM: u8 = 2;
+pub(crate) use crate::safety::ABORT_ALL_BY_SAFETY_SYSTEM;
 /// The safety system queued notes for the trace (`sequencer::safety`).
 pub(crate) const SAFETY_NOTES: u8 = 4;
 
@@ -43,11 +45,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// costs one load; the atomic swap is only for a tick that finds something.
     #[inline(always)]
     pub(crate) fn take_inbox(&self) -> Option<Inbox> {
-        if self.inbox.load(Ordering::Relaxed) == 0 {
+        let inbox = &self.safety.inbox;
+        if inbox.load(Ordering::Relaxed) == 0 {
             return None;
         }
         // Acquire: the safety system's notes are queued before their bit is raised.
-        Some(Inbox(self.inbox.swap(0, Ordering::Acquire)))
+        Some(Inbox(inbox.swap(0, Ordering::Acquire)))
     }
 
     /// Does what the tick found in the inbox: records the safety system's notes, then

@@ -23,7 +23,7 @@
 
 use core::cell::UnsafeCell;
 use core::marker::PhantomData;
-use core::sync::atomic::{AtomicBool, AtomicU8};
+use core::sync::atomic::AtomicBool;
 
 use crate::lock::{CriticalSection, Lock};
 use crate::safety::SafetyHandle;
@@ -98,9 +98,6 @@ pub struct Sequencer<
     /// The lanes' wakers, outside `state`: a waker is foreign code, called only while the
     /// state is not borrowed.
     pub(crate) lanes: Lanes<W>,
-    /// What any priority left for the next tick (`inbox`): abort-all requests, and whether
-    /// the safety system queued notes. An atomic: the safety task sits above the ceiling.
-    pub(crate) inbox: AtomicU8,
     /// A tick is under way: set in its first section, cleared when it returns (see
     /// [`Sequencer::tick`]). An atomic, so that the tick clears it without a section.
     pub(crate) ticking: AtomicBool,
@@ -108,6 +105,9 @@ pub struct Sequencer<
     pub(crate) safety_notes: SafetyNotes,
     /// The lock-free handle of this sequencer's safety system (the seed's
     /// `getSafetySystem()`): the system is built on it, so there is no connection to forget.
+    /// It holds the inbox (`inbox`): what any priority left for the next tick, abort-all
+    /// requests and whether the safety system queued notes; an atomic, as the safety task
+    /// sits above the ceiling.
     pub(crate) safety: SafetyHandle,
     _control: PhantomData<fn(&C)>,
     _lock: PhantomData<L>,
@@ -247,7 +247,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Sequencer {
             state: UnsafeCell::new(State::new()),
             lanes: Lanes::new(),
-            inbox: AtomicU8::new(0),
             ticking: AtomicBool::new(false),
             safety_notes: SafetyNotes::new(),
             safety: SafetyHandle::new(),

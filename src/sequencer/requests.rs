@@ -119,7 +119,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// SEQ.abort_all(); // nothing runs: the next tick has nothing to abort
     /// ```
     pub fn abort_all(&self) {
-        self.inbox
+        self.safety
+            .inbox
             .fetch_or(inbox::ABORT_ALL_BY_APPLICATION, Ordering::Release);
     }
 }

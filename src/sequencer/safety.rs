@@ -159,7 +159,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// Queues `note` for the next tick's trace.
     fn note(&self, note: Note) {
         if self.safety_notes.push(note) {
-            self.inbox.fetch_or(inbox::SAFETY_NOTES, Ordering::Release);
+            self.safety
+                .inbox
+                .fetch_or(inbox::SAFETY_NOTES, Ordering::Release);
         }
     }
 
@@ -185,8 +187,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     for Sequencer<C, N, T, L, W, B>
 {
     fn abort_all(&self) {
-        self.inbox
-            .fetch_or(inbox::ABORT_ALL_BY_SAFETY_SYSTEM, Ordering::Release);
+        self.safety.request_abort_all();
     }
 
     fn level_entered(&self, level: SafetyLevel) {
