@@ -28,10 +28,11 @@ impl SeqId {
         self.0 as usize
     }
 
-    /// The id at registry position `index` (ids are handed out in registration order).
-    /// Saturates at 255, which is never a valid id of a smaller sequencer.
-    ///
-    /// Ids of a [`Table`](crate::Table) are known at compile time:
+    /// The id at registry position `index` (ids are handed out in registration order),
+    /// for positions known to be below 256, as the ids of a [`Table`](crate::Table) are
+    /// at compile time. It saturates at 255, which is the last id of a sequencer of 256:
+    /// an index computed at run time (from a bus, a file, a loop) takes
+    /// [`try_from_index`](Self::try_from_index).
     ///
     /// ```
     /// use rtseq::{SeqConfig, SeqId, Sequencer};
@@ -43,6 +44,23 @@ impl SeqId {
     /// ```
     pub const fn from_index(index: usize) -> Self {
         SeqId(if index > 255 { 255 } else { index as u8 })
+    }
+
+    /// The id at registry position `index`, or `None` when no sequencer has that
+    /// position (256 and above). Whether the id is registered is the sequencer's to say
+    /// ([`Sequencer::sequence_by_id`](crate::Sequencer::sequence_by_id)).
+    ///
+    /// ```
+    /// use rtseq::SeqId;
+    /// assert_eq!(SeqId::try_from_index(255).map(SeqId::index), Some(255));
+    /// assert_eq!(SeqId::try_from_index(256), None);
+    /// ```
+    pub const fn try_from_index(index: usize) -> Option<Self> {
+        if index > 255 {
+            None
+        } else {
+            Some(SeqId(index as u8))
+        }
     }
 }
 
@@ -77,7 +95,9 @@ impl MonitorId {
         self.0 as usize
     }
 
-    /// The id at table position `index` (ids are handed out in order). Saturates at 255.
+    /// The id at table position `index` (ids are handed out in order), for positions
+    /// known to be below 256. It saturates at 255, the last id of a table of 256: an
+    /// index computed at run time takes [`try_from_index`](Self::try_from_index).
     ///
     /// ```
     /// use rtseq::{Behaviour, Instant, Monitor, MonitorId, Monitors, SeqId};
@@ -89,6 +109,22 @@ impl MonitorId {
     /// ```
     pub const fn from_index(index: usize) -> Self {
         MonitorId(if index > 255 { 255 } else { index as u8 })
+    }
+
+    /// The id at table position `index`, or `None` when no table has that position (256
+    /// and above).
+    ///
+    /// ```
+    /// use rtseq::MonitorId;
+    /// assert_eq!(MonitorId::try_from_index(255).map(MonitorId::index), Some(255));
+    /// assert_eq!(MonitorId::try_from_index(256), None);
+    /// ```
+    pub const fn try_from_index(index: usize) -> Option<Self> {
+        if index > 255 {
+            None
+        } else {
+            Some(MonitorId(index as u8))
+        }
     }
 }
 
