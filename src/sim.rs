@@ -1085,7 +1085,13 @@ impl<
         &self.records
     }
 
-    /// Transitions lost to overflow of the sequencer's trace buffer (0 unless `T` is tiny).
+    /// Records (transitions and events) lost to overflow of the sequencer's trace buffer.
+    /// The simulator drains the buffer after every lane poll, so a record is lost only
+    /// when more than `T` (64 by default) are made in between: in one poll of a lane
+    /// whose action runs many steps that end at once (each step's run makes two
+    /// transitions), or in a tick that tears down a large tree and the poll after it. Choose `T` for the busiest poll when
+    /// the trace matters; [`save_trace`](Self::save_trace) writes the count, and
+    /// `rtseq-trace` shows a trace with losses as incomplete.
     ///
     /// A trace buffer of one record (`T` = 1), while a start records two transitions before the
     /// simulator drains it:
