@@ -460,6 +460,11 @@ impl<'a, C, K> Monitor<'a, C, K> {
     /// How many restarts this monitor may cause per run of its target before a restarting
     /// behaviour escalates to the matching abort.
     ///
+    /// A run of the target is told from the next by its count of starts, which wraps at
+    /// 65 536: a monitor that restarted its target in one run and next fires exactly
+    /// 65 536 starts of that target later (firing in none between) finds the old run's
+    /// count (`docs/semantics.md`, item 5).
+    ///
     /// With a limit of 1, a condition that stays true restarts its owner once, then aborts it:
     ///
     /// ```

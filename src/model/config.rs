@@ -208,7 +208,8 @@ impl<C> SeqConfig<C> {
         self
     }
 
-    /// Restart limit of the timeout monitor.
+    /// Restart limit of the timeout monitor, per run of its target (counted as a
+    /// monitor's: [`Monitor::restart_limit`](crate::Monitor::restart_limit)).
     ///
     /// A 10 ms dwell under a 4 ms timeout that restarts it at most twice, then aborts it:
     ///
