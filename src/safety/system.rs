@@ -20,7 +20,9 @@ use super::transition::LevelTransition;
 /// flags, queue a record) and return in bounded time.
 ///
 /// Only [`abort_all`](Self::abort_all) must be written; the others do nothing unless
-/// overridden.
+/// overridden. The sequencer whose [`safety_handle`](crate::Sequencer::safety_handle) the
+/// system is built on is aborted through that handle whatever `Sequences` the cycle is
+/// given; passing it here also puts the levels and tripped inputs in its trace.
 ///
 /// ```
 /// use core::sync::atomic::{AtomicU32, Ordering};
@@ -64,7 +66,9 @@ impl<T: Sequences + ?Sized> Sequences for &T {
     }
 }
 
-/// [`Sequences`] for applications without a sequencer (or tests): does nothing.
+/// [`Sequences`] for applications without a sequencer (or tests): does nothing. (A
+/// sequencer whose handle the system is built on is still aborted through the handle, but
+/// its trace shows no safety levels: pass the sequencer instead.)
 ///
 /// ```
 /// use rtseq::safety::{NoSequences, Sequences};

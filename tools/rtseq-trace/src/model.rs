@@ -175,6 +175,51 @@ pub struct Signal {
     pub samples: Vec<(u64, f64)>,
 }
 
+/// Records the source says are missing: the sequencer's trace ring overwrote them before
+/// they were read (`"lost"` in a trace file's header), or a firmware reported losing some.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lost {
+    /// None lost (or the source does not say).
+    #[default]
+    None,
+    /// This many records were lost (more than 0).
+    Count(u64),
+    /// Records were lost; the source does not say how many (the demo firmware's failed check
+    /// `no trace record or event lost`).
+    Uncounted,
+}
+
+impl Lost {
+    /// `n` records lost (`Lost::None` for 0).
+    pub fn count(n: u64) -> Lost {
+        if n == 0 {
+            Lost::None
+        } else {
+            Lost::Count(n)
+        }
+    }
+
+    /// Whether any record is missing.
+    pub fn any(self) -> bool {
+        self != Lost::None
+    }
+
+    /// The warning every output shows when records are missing (`None` when none are):
+    /// `3 records were lost: the trace is incomplete`.
+    pub fn warning(self) -> Option<String> {
+        match self {
+            Lost::None => None,
+            Lost::Count(1) => Some(String::from(
+                "1 record was lost: the trace is incomplete",
+            )),
+            Lost::Count(n) => Some(format!("{n} records were lost: the trace is incomplete")),
+            Lost::Uncounted => Some(String::from(
+                "records were lost (the source does not say how many): the trace is incomplete",
+            )),
+        }
+    }
+}
+
 /// One whole run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Run {
@@ -188,6 +233,9 @@ pub struct Run {
     /// The source recorded the sequencer's requests as events (a trace of rtseq with
     /// events, or a log that prints them): none is guessed from transitions.
     pub core_requests: bool,
+    /// Records missing from the source (the ring overwrote them before they were read).
+    /// Where in time they were is unknown: every output warns about the whole run.
+    pub lost: Lost,
 }
 
 /// A span of one state of one sequence.
@@ -270,7 +318,9 @@ impl Run {
     }
 
     /// The sequences in tree order (roots in order of first appearance, each followed by
-    /// the sequences it called), with their depth.
+    /// the sequences it called), with their depth. A sequence whose callers lead nowhere
+    /// (an unknown id) or into a cycle is a root. Linear in the sequences and transitions,
+    /// without recursion (a header can chain any number of callers).
     pub fn tree_order(&self) -> Vec<(usize, usize)> {
         let n = self.sequences.len();
         // First appearance in the trace, then registration order.
@@ -282,62 +332,114 @@ impl Run {
         }
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by_key(|&i| (first[i], i));
+        let caller = |i: usize| self.sequences.get(i).and_then(|s| s.caller);
+        // Whether the callers of a sequence end at a sequence without a caller (else they
+        // reach an unknown id or a cycle).
+        #[derive(Clone, Copy, PartialEq)]
+        enum Chain {
+            Unknown,
+            Walking,
+            Ends,
+            Broken,
+        }
+        let mut chain = vec![Chain::Unknown; n];
+        let mut path = Vec::new();
+        for i in 0..n {
+            let mut at = i;
+            let result = loop {
+                match chain[at] {
+                    Chain::Ends => break Chain::Ends,
+                    Chain::Broken | Chain::Walking => break Chain::Broken,
+                    Chain::Unknown => {}
+                }
+                chain[at] = Chain::Walking;
+                path.push(at);
+                match caller(at) {
+                    None => break Chain::Ends,
+                    Some(c) if c >= n => break Chain::Broken,
+                    Some(c) => at = c,
+                }
+            };
+            for k in path.drain(..) {
+                chain[k] = result;
+            }
+        }
+        let is_root = |i: usize| caller(i).is_none() || chain[i] == Chain::Broken;
+        // The sequences each one called, in `order`.
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for &c in &order {
+            if let Some(p) = caller(c).filter(|&p| p < n) {
+                children[p].push(c);
+            }
+        }
         let mut out = Vec::with_capacity(n);
         let mut seen = vec![false; n];
-        // A caller link that points nowhere or into a cycle makes the sequence a root.
-        let is_root = |i: usize| {
-            let mut up = self.sequences[i].caller;
-            let mut steps = 0;
-            while let Some(c) = up {
-                if c == i || c >= n || steps > n {
-                    return true;
+        let mut stack: Vec<(usize, usize)> = Vec::new();
+        // Roots first, then whatever a cycle left out.
+        let starts = order
+            .iter()
+            .filter(|&&i| is_root(i))
+            .chain(order.iter())
+            .copied();
+        for start in starts {
+            stack.push((start, 0));
+            while let Some((i, depth)) = stack.pop() {
+                if seen[i] {
+                    continue;
                 }
-                up = self.sequences[c].caller;
-                steps += 1;
-            }
-            self.sequences[i].caller.is_none_or(|c| c >= n)
-        };
-        fn visit(
-            run: &Run,
-            order: &[usize],
-            i: usize,
-            depth: usize,
-            seen: &mut [bool],
-            out: &mut Vec<(usize, usize)>,
-        ) {
-            if seen[i] {
-                return;
-            }
-            seen[i] = true;
-            out.push((i, depth));
-            for &c in order {
-                if run.sequences[c].caller == Some(i) {
-                    visit(run, order, c, depth + 1, seen, out);
+                seen[i] = true;
+                out.push((i, depth));
+                // Pushed in reverse: visited in order.
+                for &c in children[i].iter().rev() {
+                    if !seen[c] {
+                        stack.push((c, depth + 1));
+                    }
                 }
             }
-        }
-        for &i in &order {
-            if is_root(i) {
-                visit(self, &order, i, 0, &mut seen, &mut out);
-            }
-        }
-        // Whatever a cycle left out.
-        for &i in &order {
-            visit(self, &order, i, 0, &mut seen, &mut out);
         }
         out
     }
 
-    /// The state spans of sequence `seq`, from 0 to `end_us`, starting in `Idle`.
+    /// The transitions of every sequence, grouped in one pass: per sequence (index into
+    /// [`Run::sequences`]), the indexes into [`Run::transitions`] of its transitions, in
+    /// order. For [`Run::state_spans_in`] and [`Run::run_spans_in`].
+    pub fn by_sequence(&self) -> Vec<Vec<usize>> {
+        let mut out = vec![Vec::new(); self.sequences.len()];
+        for (k, t) in self.transitions.iter().enumerate() {
+            if let Some(v) = out.get_mut(t.seq) {
+                v.push(k);
+            }
+        }
+        out
+    }
+
+    fn indexes_of(&self, seq: usize) -> Vec<usize> {
+        self.transitions
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t.seq == seq)
+            .map(|(k, _)| k)
+            .collect()
+    }
+
+    /// The state spans of sequence `seq`, from 0 to `end_us`, starting in `Idle`. (One pass
+    /// over all transitions: for every sequence, use [`Run::by_sequence`] and
+    /// [`Run::state_spans_in`].)
     pub fn state_spans(&self, seq: usize) -> Vec<StateSpan> {
-        let mut spans = Vec::new();
+        self.state_spans_in(&self.indexes_of(seq))
+    }
+
+    /// The state spans of the sequence whose transitions are `transitions` (indexes into
+    /// [`Run::transitions`], in order: an entry of [`Run::by_sequence`]).
+    pub fn state_spans_in(&self, transitions: &[usize]) -> Vec<StateSpan> {
+        let mut spans = Vec::with_capacity(transitions.len() + 1);
         let mut cur = StateSpan {
             start_us: 0,
             end_us: 0,
             state: State::Idle,
             cause: None,
         };
-        for t in self.transitions.iter().filter(|t| t.seq == seq) {
+        for t in transitions.iter().filter_map(|&k| self.transitions.get(k)) {
             let mut done = cur.clone();
             done.end_us = t.time_us;
             spans.push(done);
@@ -354,15 +456,20 @@ impl Run {
     }
 
     /// The runs of sequence `seq`: a run starts when the sequence leaves an inactive state
-    /// (`Idle`, `Terminated`, `Aborted`) and ends when it enters one.
+    /// (`Idle`, `Terminated`, `Aborted`) and ends when it enters one. (One pass over all
+    /// transitions: for every sequence, use [`Run::by_sequence`] and [`Run::run_spans_in`].)
     pub fn run_spans(&self, seq: usize) -> Vec<RunSpan> {
+        self.run_spans_in(&self.indexes_of(seq))
+    }
+
+    /// The runs of the sequence whose transitions are `transitions` (indexes into
+    /// [`Run::transitions`], in order: an entry of [`Run::by_sequence`]).
+    pub fn run_spans_in(&self, transitions: &[usize]) -> Vec<RunSpan> {
         let mut runs = Vec::new();
         let mut open: Option<RunSpan> = None;
-        for (k, t) in self
-            .transitions
+        for (k, t) in transitions
             .iter()
-            .enumerate()
-            .filter(|(_, t)| t.seq == seq)
+            .filter_map(|&k| self.transitions.get(k).map(|t| (k, t)))
         {
             if !t.from.is_active() {
                 if let Some(r) = open.take() {
