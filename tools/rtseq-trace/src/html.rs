@@ -12,6 +12,14 @@
 //! live in an inner `<svg>` whose `viewBox` is the visible time window (in µs), so the
 //! script only changes the `viewBox` and redraws the axis. `page.html#t=2.4,2.8` opens on
 //! the window from 2.4 s to 2.8 s.
+//!
+//! A run with lost records ([`Run::lost`]) gets a banner above the chart (class
+//! `lost-warning`): `N records were lost: the trace is incomplete`.
+//!
+//! Linear in the size of the run: the transitions are grouped by sequence once, and the
+//! run of each state span (for its tooltip) is found by walking the sequence's runs and
+//! spans together, both in time order. The run must be in time order ([`Run::finish`];
+//! both readers do it).
 
 use std::fmt::Write as _;
 use std::io::Write;
@@ -60,6 +68,7 @@ pub fn write(run: &Run, title: &str, out: &mut impl Write) -> std::io::Result<()
 pub fn render(run: &Run, title: &str) -> String {
     let end = run.end_us.max(1) as f64;
     let order = run.tree_order();
+    let by_seq = run.by_sequence();
     let rows = order.len() as f64;
     let level_y = TOP + rows * (ROW_H + ROW_GAP) + 6.0;
     let rows_bottom = level_y + ROW_H;
@@ -97,17 +106,24 @@ pub fn render(run: &Run, title: &str) -> String {
             r#"<g class="seq-row" data-seq="{}"><rect class="row-bg" x="0" y="{y:.1}" width="{end}" height="{ROW_H}"/>"#,
             esc(&s.name)
         );
-        let runs = run.run_spans(*i);
+        let trs = by_seq.get(*i).map_or(&[][..], Vec::as_slice);
+        let runs = run.run_spans_in(trs);
+        // Spans and runs are both in time order: the run of a span is found by one index
+        // that only moves forward (the first run that has not ended before the span starts).
+        let mut r = 0;
         // Short states (a restart, an abort) are drawn last, on top, at least 2 px wide.
         let mut on_top = String::new();
-        for sp in run.state_spans(*i) {
+        for sp in run.state_spans_in(trs) {
             if sp.state == State::Idle {
                 continue;
             }
+            while runs.get(r).is_some_and(|x| x.end_us < sp.start_us) {
+                r += 1;
+            }
             let outcome = runs
-                .iter()
-                .find(|r| r.start_us <= sp.start_us && sp.start_us <= r.end_us)
-                .map(|r| format!("\nrun: started by {}; outcome {}", r.start_cause, r.outcome))
+                .get(r)
+                .filter(|x| x.start_us <= sp.start_us)
+                .map(|x| format!("\nrun: started by {}; outcome {}", x.start_cause, x.outcome))
                 .unwrap_or_default();
             let tip = format!(
                 "{}: {} from {} s to {} s ({} µs)\ncause: {}{}",
@@ -115,7 +131,7 @@ pub fn render(run: &Run, title: &str) -> String {
                 sp.state,
                 secs(sp.start_us),
                 secs(sp.end_us),
-                sp.end_us - sp.start_us,
+                sp.end_us.saturating_sub(sp.start_us),
                 sp.cause.as_deref().unwrap_or("-"),
                 outcome
             );
@@ -127,7 +143,7 @@ pub fn render(run: &Run, title: &str) -> String {
             } else {
                 &mut data
             };
-            let w = sp.end_us - sp.start_us;
+            let w = sp.end_us.saturating_sub(sp.start_us);
             let _ = write!(
                 layer,
                 r#"<rect class="span {}" x="{}" y="{y:.1}" width="{w}" data-w="{w}" height="{ROW_H}"><title>{}</title></rect>"#,
@@ -269,6 +285,14 @@ pub fn render(run: &Run, title: &str) -> String {
     }
     legend.push_str(r#"<span class="key"><b class="m-monitor"></b>monitor fired</span><span class="key"><b class="m-request"></b>request</span><span class="key"><b class="m-fault"></b>fault</span><span class="key"><b class="m-input"></b>critical input</span><span class="key"><b class="m-exception"></b>exception not run</span><span class="key"><b class="m-failure"></b>failure</span>"#);
 
+    let warning = run.lost.warning().map_or_else(String::new, |w| {
+        format!(
+            r#"<div class="lost-warning" role="alert"><b>Warning:</b> {}. Where in time they were is not known; runs and states may be missing anywhere.</div>
+"#,
+            esc(&w)
+        )
+    });
+
     let mut o = String::new();
     let _ = write!(
         o,
@@ -296,10 +320,11 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 .signal {{ fill: none; stroke: #1565c0; stroke-width: 1.5; vector-effect: non-scaling-stroke; }}
 .zero {{ stroke: #bbb; stroke-width: 1; vector-effect: non-scaling-stroke; }}
 .sample {{ fill: #1565c0; opacity: 0; }} .sample:hover {{ opacity: 1; }}
+.lost-warning {{ margin: 0 0 8px; padding: 6px 10px; background: #fde2e1; border: 2px solid #d0021b; color: #7a0010; font-size: 14px; }}
 #tip {{ position: fixed; display: none; background: #ffffe8; border: 1px solid #999; padding: 4px 6px; white-space: pre; font-size: 12px; pointer-events: none; }}
 </style></head><body>
 <h1>{t}</h1>
-<div class="bar"><button id="zin">zoom in</button><button id="zout">zoom out</button><button id="zall">whole run</button> wheel: zoom at the pointer; drag: pan; hover: details</div>
+{warning}<div class="bar"><button id="zin">zoom in</button><button id="zout">zoom out</button><button id="zall">whole run</button> wheel: zoom at the pointer; drag: pan; hover: details</div>
 <div class="bar">{legend}</div>
 <svg id="chart" xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height:.0}">
 <g class="labels">{labels}</g>

@@ -5,6 +5,12 @@
 //! `./x demo`, or `probe-rs run` on a board) — and writes a self-contained HTML timeline,
 //! VCD, Perfetto trace-event JSON, the trace format itself, or shows it live in the
 //! terminal.
+//!
+//! A run whose source lost records ([`model::Run::lost`]: a trace file's `"lost"`, a
+//! firmware's failed `no trace record or event lost` check) is incomplete, and every output
+//! says so: a banner on the HTML page, a `$comment` in the VCD, the Perfetto document's
+//! `metadata` and process label, `"lost"` in a written trace file, a warning on standard
+//! error from the command line and in the live view's header.
 
 pub mod html;
 pub mod live;

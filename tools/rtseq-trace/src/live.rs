@@ -127,7 +127,7 @@ impl Live {
         } else {
             "running; q: quit"
         };
-        let head_line = TextLine::from(vec![
+        let mut head_spans = vec![
             Span::raw(format!("t = {} s   ", secs(self.parser.now_us()))),
             Span::raw("safety level: "),
             Span::styled(
@@ -139,7 +139,18 @@ impl Live {
                 run.sequences.len(),
                 run.transitions.len()
             )),
-        ]);
+        ];
+        if run.lost.any() {
+            // First, so that a narrow terminal does not cut it off.
+            head_spans.insert(
+                0,
+                Span::styled(
+                    "RECORDS LOST (incomplete)   ",
+                    Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
+                ),
+            );
+        }
+        let head_line = TextLine::from(head_spans);
         f.render_widget(
             Paragraph::new(head_line).block(
                 Block::default()

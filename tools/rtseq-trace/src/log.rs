@@ -20,11 +20,17 @@
 //! BUTTON    pause button pressed (pause|resume)
 //! move      ...  |  reaction  ...
 //! tree      CHILD < CALLER          (a caller hint; see `Hints`)
+//! check     FAIL  no trace record or event lost
 //! ```
+//!
+//! The firmware does not count the records its trace ring lost in the log; its final check
+//! fails when it lost any (trace records or its own events). That line sets
+//! [`Run::lost`](crate::model::Run::lost) to [`Lost::Uncounted`]: every output then says
+//! that the trace is incomplete.
 
 use std::collections::HashMap;
 
-use crate::model::{Event, EventKind, LevelChange, Run, State, Transition};
+use crate::model::{Event, EventKind, LevelChange, Lost, Run, State, Transition};
 
 /// The first `'quoted'` name in `text`.
 fn quoted_name(text: &str) -> Option<&str> {
@@ -199,6 +205,15 @@ impl LogParser {
                 let name = rest.split(" by ").next().unwrap_or(rest).replace('\'', "");
                 self.event(t, EventKind::Request, &name, msg)
             }
+            "check" => match rest.strip_prefix("FAIL") {
+                Some(what) if what.contains("lost") => {
+                    if !self.run.lost.any() {
+                        self.run.lost = Lost::Uncounted;
+                    }
+                    self.event(t, EventKind::Note, "records lost", msg)
+                }
+                _ => Line::Other,
+            },
             "tree" => {
                 if self.hints.add_line(rest) {
                     Line::Hint
@@ -448,6 +463,42 @@ mod tests {
         // The recorded request replaces the one guessed from the transition's cause.
         assert!(r.core_requests);
         assert!(r.requests().is_empty());
+    }
+
+    /// The demo firmware's final check says whether it lost trace records (it does not
+    /// print how many).
+    #[test]
+    fn a_failed_lost_check_marks_the_run_incomplete() {
+        let mut p = LogParser::default();
+        p.line("   0.000005 INFO  seq       main           Idle -> Running            (start)");
+        p.line("   2.957034 INFO  check     ok    every exception sequence ran");
+        assert_eq!(p.run.lost, Lost::None);
+        p.line("   2.957034 INFO  check     ok    no trace record or event lost");
+        assert_eq!(p.run.lost, Lost::None);
+        assert_eq!(
+            p.line("   2.957040 ERROR check     FAIL  no trace record or event lost"),
+            Line::Event(0)
+        );
+        let r = p.finish();
+        assert_eq!(r.lost, Lost::Uncounted);
+        assert_eq!(
+            (
+                r.events[0].time_us,
+                r.events[0].kind,
+                r.events[0].name.as_str()
+            ),
+            (2_957_040, EventKind::Note, "records lost")
+        );
+        assert_eq!(
+            r.lost.warning().as_deref(),
+            Some("records were lost (the source does not say how many): the trace is incomplete")
+        );
+        // Another failed check is not a loss.
+        let r = LogParser::parse_all(
+            "   1.000000 ERROR check     FAIL  main has ended\n",
+            Hints::default(),
+        );
+        assert_eq!(r.lost, Lost::None);
     }
 
     #[test]

@@ -21,6 +21,9 @@ struct Cli {
 enum Command {
     /// Writes pictures and exports of a finished run.
     ///
+    /// When the run's source lost records (a trace file's `lost`, a firmware's failed
+    /// check), it says so on standard error and in every output.
+    ///
     /// Example: rtseq-trace render run.log --html run.html --vcd run.vcd --perfetto run.json
     Render {
         /// The run: a trace file (JSON lines, docs/trace-format.md) or a decoded defmt log;
@@ -129,6 +132,9 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             let text = read_input(input.as_deref())?;
             let run = read_run(&text, hints(tree.as_deref())?)?;
+            if let Some(w) = run.lost.warning() {
+                eprintln!("rtseq-trace: warning: {w}");
+            }
             let title = title.unwrap_or_else(|| {
                 let name = input.as_deref().and_then(Path::file_name).map_or_else(
                     || String::from("stdin"),

@@ -209,9 +209,7 @@ impl Lost {
     pub fn warning(self) -> Option<String> {
         match self {
             Lost::None => None,
-            Lost::Count(1) => Some(String::from(
-                "1 record was lost: the trace is incomplete",
-            )),
+            Lost::Count(1) => Some(String::from("1 record was lost: the trace is incomplete")),
             Lost::Count(n) => Some(format!("{n} records were lost: the trace is incomplete")),
             Lost::Uncounted => Some(String::from(
                 "records were lost (the source does not say how many): the trace is incomplete",
@@ -574,6 +572,142 @@ mod tests {
             to,
             cause: cause.to_string(),
         }
+    }
+
+    #[test]
+    fn the_lost_warning() {
+        assert_eq!(Lost::count(0), Lost::None);
+        assert_eq!(Lost::None.warning(), None);
+        assert!(!Lost::None.any());
+        assert_eq!(
+            Lost::count(1).warning().as_deref(),
+            Some("1 record was lost: the trace is incomplete")
+        );
+        assert_eq!(
+            Lost::count(82).warning().as_deref(),
+            Some("82 records were lost: the trace is incomplete")
+        );
+        assert!(Lost::Uncounted.any());
+    }
+
+    fn seqs(callers: &[Option<usize>]) -> Run {
+        Run {
+            sequences: callers
+                .iter()
+                .enumerate()
+                .map(|(i, &caller)| Sequence {
+                    name: format!("s{i}"),
+                    caller,
+                })
+                .collect(),
+            ..Run::default()
+        }
+    }
+
+    #[test]
+    fn tree_order_of_callers_cycles_and_unknown_ids() {
+        // 0 calls 1 and 3, 1 calls 2; 4 calls 5 calls 4 (a cycle); 6 calls itself; 7's
+        // caller is unknown; 8's caller is on the cycle.
+        let run = seqs(&[
+            None,
+            Some(0),
+            Some(1),
+            Some(0),
+            Some(5),
+            Some(4),
+            Some(6),
+            Some(99),
+            Some(4),
+        ]);
+        assert_eq!(
+            run.tree_order(),
+            [
+                (0, 0),
+                (1, 1),
+                (2, 2),
+                (3, 1),
+                (4, 0),
+                (5, 1),
+                (8, 1),
+                (6, 0),
+                (7, 0)
+            ]
+        );
+        // First appearance orders the roots and the children.
+        let mut run = seqs(&[None, Some(0), Some(0), None]);
+        for (t, seq) in [(10, 3), (20, 2), (30, 0), (40, 1)] {
+            run.transitions.push(Transition {
+                time_us: t,
+                seq,
+                from: State::Idle,
+                to: State::Running,
+                cause: String::from("start"),
+            });
+        }
+        assert_eq!(run.tree_order(), [(3, 0), (0, 0), (2, 1), (1, 1)]);
+    }
+
+    /// A chain of callers as long as a header can make does not recurse.
+    #[test]
+    fn tree_order_of_a_long_chain() {
+        let n: usize = 200_000;
+        let callers: Vec<Option<usize>> = (0..n).map(|i| i.checked_sub(1)).collect();
+        let order = seqs(&callers).tree_order();
+        assert_eq!(order.len(), n);
+        assert!(order
+            .iter()
+            .enumerate()
+            .all(|(k, &(i, d))| i == k && d == k));
+        // Closed into a cycle: one root, the first.
+        let mut callers = callers;
+        callers[0] = Some(n - 1);
+        let order = seqs(&callers).tree_order();
+        assert_eq!(order.len(), n);
+        assert!(order
+            .iter()
+            .enumerate()
+            .all(|(k, &(i, d))| i == k && d == k));
+    }
+
+    /// Grouped once or filtered per sequence, the spans are the same.
+    #[test]
+    fn spans_from_the_grouped_transitions() {
+        let mut run = seqs(&[None, Some(0)]);
+        let steps = [
+            (0, 0, State::Idle, State::Running, "start"),
+            (5, 1, State::Idle, State::Running, "start"),
+            (7, 1, State::Running, State::Paused, "pause"),
+            (9, 0, State::Running, State::Aborting, "abort"),
+            (9, 1, State::Paused, State::Aborted, "abort"),
+            (12, 0, State::Aborting, State::Aborted, "abort"),
+            (20, 1, State::Aborted, State::Running, "start"),
+        ];
+        for (t, seq, from, to, cause) in steps {
+            run.transitions.push(Transition {
+                time_us: t,
+                seq,
+                from,
+                to,
+                cause: cause.to_string(),
+            });
+        }
+        run.finish();
+        let by = run.by_sequence();
+        assert_eq!(by, [vec![0, 3, 5], vec![1, 2, 4, 6]]);
+        for (i, trs) in by.iter().enumerate() {
+            assert_eq!(run.state_spans_in(trs), run.state_spans(i));
+            assert_eq!(run.run_spans_in(trs), run.run_spans(i));
+        }
+        let runs = run.run_spans(1);
+        let got: Vec<_> = runs
+            .iter()
+            .map(|r| (r.start_us, r.end_us, r.outcome.as_str()))
+            .collect();
+        assert_eq!(got, [(5, 9, "aborted (abort)"), (20, 20, "still running")]);
+        assert_eq!(runs[0].transitions, [1, 2, 4]);
+        // Indexes out of range are skipped.
+        assert_eq!(run.run_spans_in(&[99]), []);
+        assert_eq!(run.state_spans_in(&[99]).len(), 1);
     }
 
     #[test]

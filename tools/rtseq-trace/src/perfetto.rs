@@ -6,12 +6,16 @@
 //! `Aborting`, `Restarting`); a `safety level` track with a span per level; an `events`
 //! track with instant events (monitor firings, requests, faults, tripped inputs, moves);
 //! counters for the signals. Times in µs, as integers.
+//!
+//! A run with lost records (see [`Run::lost`]) says so twice: in the document's `metadata`
+//! (`"lost_records"`: the count, or `"unknown"`; `"warning"`: the text) and as the
+//! process's label (`process_labels`), which the Perfetto UI shows next to `rtseq`.
 
 use std::io::Write;
 
 use serde_json::{json, Value};
 
-use crate::model::{secs, Run, State};
+use crate::model::{secs, Lost, Run, State};
 
 /// The thread id of sequence `i` (ids start at 1).
 pub fn tid_of(seq: usize) -> usize {
@@ -27,6 +31,10 @@ pub const EVENTS_TID: usize = 100_001;
 pub fn events(run: &Run) -> Vec<Value> {
     let mut ev =
         vec![json!({"ph": "M", "pid": 1, "name": "process_name", "args": {"name": "rtseq"}})];
+    if let Some(w) = run.lost.warning() {
+        ev.push(json!({"ph": "M", "pid": 1, "name": "process_labels", "args": {"labels": format!("WARNING: {w}")}}));
+    }
+    let by_seq = run.by_sequence();
     for (row, (i, depth)) in run.tree_order().into_iter().enumerate() {
         let Some(s) = run.sequences.get(i) else {
             continue;
@@ -35,7 +43,8 @@ pub fn events(run: &Run) -> Vec<Value> {
         let label = format!("{}{}", "  ".repeat(depth), s.name);
         ev.push(json!({"ph": "M", "pid": 1, "tid": tid, "name": "thread_name", "args": {"name": label}}));
         ev.push(json!({"ph": "M", "pid": 1, "tid": tid, "name": "thread_sort_index", "args": {"sort_index": row}}));
-        for r in run.run_spans(i) {
+        let trs = by_seq.get(i).map_or(&[][..], Vec::as_slice);
+        for r in run.run_spans_in(trs) {
             let steps: Vec<String> = r
                 .transitions
                 .iter()
@@ -44,18 +53,18 @@ pub fn events(run: &Run) -> Vec<Value> {
                 .collect();
             ev.push(json!({
                 "ph": "X", "pid": 1, "tid": tid, "name": s.name, "cat": "run",
-                "ts": r.start_us, "dur": r.end_us - r.start_us,
+                "ts": r.start_us, "dur": r.end_us.saturating_sub(r.start_us),
                 "args": {"outcome": r.outcome, "started by": r.start_cause, "transitions": steps},
             }));
         }
-        for sp in run.state_spans(i) {
+        for sp in run.state_spans_in(trs) {
             if matches!(
                 sp.state,
                 State::Paused | State::Aborting | State::Restarting
             ) {
                 ev.push(json!({
                     "ph": "X", "pid": 1, "tid": tid, "name": sp.state.name(), "cat": "state",
-                    "ts": sp.start_us, "dur": sp.end_us - sp.start_us,
+                    "ts": sp.start_us, "dur": sp.end_us.saturating_sub(sp.start_us),
                     "args": {"cause": sp.cause},
                 }));
             }
@@ -77,7 +86,8 @@ pub fn events(run: &Run) -> Vec<Value> {
     }
     ev.push(json!({"ph": "M", "pid": 1, "tid": EVENTS_TID, "name": "thread_name", "args": {"name": "events"}}));
     ev.push(json!({"ph": "M", "pid": 1, "tid": EVENTS_TID, "name": "thread_sort_index", "args": {"sort_index": rows + 1}}));
-    for e in run.events.iter().chain(run.requests().iter()) {
+    let requests = run.requests();
+    for e in run.events.iter().chain(requests.iter()) {
         ev.push(json!({
             "ph": "i", "s": "t", "pid": 1, "tid": EVENTS_TID, "cat": e.kind.name(),
             "name": format!("{} {}", e.kind.name(), e.name), "ts": e.time_us,
@@ -97,9 +107,23 @@ pub fn events(run: &Run) -> Vec<Value> {
     ev
 }
 
+/// The document's `metadata`: what the run's source says about it as a whole (lost records).
+pub fn metadata(run: &Run) -> Value {
+    let mut m = json!({"source": "rtseq-trace"});
+    if let Some(w) = run.lost.warning() {
+        m["lost_records"] = match run.lost {
+            Lost::Count(n) => json!(n),
+            _ => json!("unknown"),
+        };
+        m["warning"] = json!(w);
+    }
+    m
+}
+
 /// Writes `run` as trace-event JSON.
 pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
-    let doc = json!({"traceEvents": events(run), "displayTimeUnit": "ms"});
+    let doc =
+        json!({"traceEvents": events(run), "displayTimeUnit": "ms", "metadata": metadata(run)});
     serde_json::to_writer(&mut *out, &doc)?;
     writeln!(out)
 }

@@ -1,11 +1,12 @@
 //! The trace file format (JSON lines, `docs/trace-format.md`): written by
 //! `rtseq::sim::Sim::save_trace` and by `rtseq-trace render --trace`.
 
+use std::collections::HashMap;
 use std::io::Write;
 
 use serde_json::{json, Map, Value};
 
-use crate::model::{Event, EventKind, LevelChange, Run, Sequence, State, Transition};
+use crate::model::{Event, EventKind, LevelChange, Lost, Run, Sequence, State, Transition};
 
 /// The `format` field of the header.
 pub const FORMAT: &str = "rtseq-trace";
@@ -37,73 +38,80 @@ fn str_of<'a>(v: &'a Value, key: &str, line: usize) -> Result<&'a str, String> {
         .ok_or_else(|| format!("line {line}: `{key}` is not a string"))
 }
 
-fn opt_index(v: &Value, key: &str) -> Option<usize> {
-    v.get(key)
-        .and_then(Value::as_u64)
-        .and_then(|i| usize::try_from(i).ok())
+/// Reads the header's `lost`: absent, a count, or `true` (lost, count unknown).
+fn lost_of(head: &Value, line: usize) -> Result<Lost, String> {
+    match head.get("lost") {
+        None | Some(Value::Null) => Ok(Lost::None),
+        Some(Value::Bool(true)) => Ok(Lost::Uncounted),
+        Some(v) => v.as_u64().map(Lost::count).ok_or_else(|| {
+            format!("line {line}: `lost` is neither an unsigned integer nor `true`")
+        }),
+    }
 }
 
-/// Reads a trace file.
+/// Reads a trace file. Malformed input is an `Err` naming the line: a header that is not
+/// one, a sequence or monitor id given twice, a record of an unknown sequence, a field of
+/// the wrong type.
 pub fn read(text: &str) -> Result<Run, String> {
     let mut lines = text
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
-    let (_, head) = lines.next().ok_or("empty trace file")?;
-    let head: Value = serde_json::from_str(head).map_err(|e| format!("line 1: {e}"))?;
+    let (h, head) = lines.next().ok_or("empty trace file")?;
+    let h = h + 1;
+    let head: Value = serde_json::from_str(head).map_err(|e| format!("line {h}: {e}"))?;
     if head.get("format").and_then(Value::as_str) != Some(FORMAT) {
-        return Err(format!("line 1: not an {FORMAT} header"));
+        return Err(format!("line {h}: not an {FORMAT} header"));
     }
-    let version = u64_of(&head, "version", 1)?;
+    let version = u64_of(&head, "version", h)?;
     if version != VERSION {
         return Err(format!(
-            "line 1: version {version}; this tool reads version {VERSION}"
+            "line {h}: version {version}; this tool reads version {VERSION}"
         ));
     }
     let mut run = Run::default();
     // Sequences and monitors by id (ids need not be dense).
-    let mut seq_ids = Vec::new();
-    for s in field(&head, "sequences", 1)?
+    let sequences = field(&head, "sequences", h)?
         .as_array()
-        .ok_or("line 1: `sequences` is not a list")?
-    {
-        seq_ids.push(u64_of(s, "id", 1)?);
+        .ok_or_else(|| format!("line {h}: `sequences` is not a list"))?;
+    let mut seq_index: HashMap<u64, usize> = HashMap::with_capacity(sequences.len());
+    for s in sequences {
+        let id = u64_of(s, "id", h)?;
+        if seq_index.insert(id, run.sequences.len()).is_some() {
+            return Err(format!("line {h}: sequence id {id} twice"));
+        }
         run.sequences.push(Sequence {
-            name: str_of(s, "name", 1)?.to_string(),
+            name: str_of(s, "name", h)?.to_string(),
             caller: None,
         });
     }
-    let index_of = |id: u64| seq_ids.iter().position(|&i| i == id);
-    for (k, s) in field(&head, "sequences", 1)?
-        .as_array()
-        .into_iter()
-        .flatten()
-        .enumerate()
-    {
-        let caller = s.get("caller").and_then(Value::as_u64).and_then(index_of);
-        if let Some(seq) = run.sequences.get_mut(k) {
-            seq.caller = caller;
-        }
+    let index_of = |id: u64| seq_index.get(&id).copied();
+    for (s, seq) in sequences.iter().zip(run.sequences.iter_mut()) {
+        seq.caller = s.get("caller").and_then(Value::as_u64).and_then(index_of);
     }
-    let mut monitors: Vec<(u64, String)> = Vec::new();
+    let mut monitors: HashMap<u64, String> = HashMap::new();
     if let Some(ms) = head.get("monitors").and_then(Value::as_array) {
         for m in ms {
-            monitors.push((u64_of(m, "id", 1)?, str_of(m, "name", 1)?.to_string()));
+            let id = u64_of(m, "id", h)?;
+            let name = str_of(m, "name", h)?.to_string();
+            if monitors.insert(id, name).is_some() {
+                return Err(format!("line {h}: monitor id {id} twice"));
+            }
         }
     }
     let monitor_name = |id: u64| {
         monitors
-            .iter()
-            .find(|(i, _)| *i == id)
-            .map_or_else(|| format!("#{id}"), |(_, n)| n.clone())
+            .get(&id)
+            .map_or_else(|| format!("#{id}"), String::clone)
     };
     if let Some(sigs) = head.get("signals").and_then(Value::as_array) {
         for s in sigs {
             let unit = s.get("unit").and_then(Value::as_str).unwrap_or("");
-            run.signal_mut(str_of(s, "name", 1)?, unit);
+            run.signal_mut(str_of(s, "name", h)?, unit);
         }
     }
     run.end_us = head.get("end").and_then(Value::as_u64).unwrap_or(0);
+    run.lost = lost_of(&head, h)?;
 
     for (n, line) in lines {
         let n = n + 1;
@@ -114,8 +122,8 @@ pub fn read(text: &str) -> Result<Run, String> {
                 run.core_requests = true;
             }
             let kind = EventKind::parse(kind).unwrap_or(EventKind::Note);
-            let name = match (kind, opt_index(&v, "monitor")) {
-                (EventKind::Monitor, Some(m)) => monitor_name(m as u64),
+            let name = match (kind, v.get("monitor").and_then(Value::as_u64)) {
+                (EventKind::Monitor, Some(m)) => monitor_name(m),
                 _ => v
                     .get("name")
                     .and_then(Value::as_str)
@@ -225,10 +233,15 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
         .iter()
         .map(|s| json!({"name": s.name, "unit": s.unit}))
         .collect();
-    let head = json!({
+    let mut head = json!({
         "format": FORMAT, "version": VERSION, "time_unit": "us", "end": run.end_us,
         "sequences": sequences, "monitors": [], "signals": signals,
     });
+    match run.lost {
+        Lost::None => {}
+        Lost::Count(n) => head["lost"] = json!(n),
+        Lost::Uncounted => head["lost"] = json!(true),
+    }
     writeln!(out, "{head}")?;
     for t in &run.transitions {
         let mut o = Map::new();
@@ -256,4 +269,126 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn head(fields: &str, sequences: &str, monitors: &str) -> String {
+        format!(
+            r#"{{"format":"rtseq-trace","version":1,"time_unit":"us","end":5000{fields},"sequences":[{sequences}],"monitors":[{monitors}]}}"#
+        )
+    }
+
+    const TWO: &str =
+        r#"{"id":0,"name":"homing","caller":null},{"id":3,"name":"moves","caller":0}"#;
+
+    #[test]
+    fn the_header_lost_count_is_kept() {
+        let lost = |fields: &str| read(&head(fields, TWO, "")).map(|r| r.lost);
+        assert_eq!(lost(""), Ok(Lost::None));
+        assert_eq!(lost(r#","lost":0"#), Ok(Lost::None));
+        assert_eq!(lost(r#","lost":null"#), Ok(Lost::None));
+        assert_eq!(lost(r#","lost":17"#), Ok(Lost::Count(17)));
+        assert_eq!(lost(r#","lost":true"#), Ok(Lost::Uncounted));
+        let bad = Err(String::from(
+            "line 1: `lost` is neither an unsigned integer nor `true`",
+        ));
+        assert_eq!(lost(r#","lost":-1"#), bad);
+        assert_eq!(lost(r#","lost":"many""#), bad);
+        assert_eq!(lost(r#","lost":false"#), bad);
+        assert_eq!(lost(r#","lost":2.5"#), bad);
+    }
+
+    #[test]
+    fn the_lost_count_is_written() {
+        for lost in [
+            Lost::None,
+            Lost::Count(1),
+            Lost::Count(123),
+            Lost::Uncounted,
+        ] {
+            let run = Run {
+                lost,
+                ..Run::default()
+            };
+            let mut out = Vec::new();
+            write(&run, &mut out).unwrap();
+            let text = String::from_utf8(out).unwrap();
+            let header: Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
+            let want = match lost {
+                Lost::None => Value::Null,
+                Lost::Count(n) => json!(n),
+                Lost::Uncounted => json!(true),
+            };
+            assert_eq!(header.get("lost").cloned().unwrap_or(Value::Null), want);
+            assert_eq!(read(&text).unwrap().lost, lost);
+        }
+    }
+
+    #[test]
+    fn duplicate_ids_in_the_header_are_errors() {
+        let seqs =
+            r#"{"id":0,"name":"homing","caller":null},{"id":0,"name":"moves","caller":null}"#;
+        let record = r#"{"t":1000,"seq":0,"from":"Idle","to":"Running","cause":"start"}"#;
+        assert_eq!(
+            read(&format!("{}\n{record}\n", head("", seqs, ""))),
+            Err(String::from("line 1: sequence id 0 twice"))
+        );
+        let seqs = r#"{"id":4,"name":"a","caller":null},{"id":2,"name":"b","caller":null},{"id":4,"name":"c","caller":null}"#;
+        assert_eq!(
+            read(&head("", seqs, "")),
+            Err(String::from("line 1: sequence id 4 twice"))
+        );
+        // The same name under two ids is two sequences.
+        let seqs = r#"{"id":0,"name":"same","caller":null},{"id":1,"name":"same","caller":null}"#;
+        assert_eq!(read(&head("", seqs, "")).unwrap().sequences.len(), 2);
+        let mons = r#"{"id":2,"name":"jam","owner":0},{"id":5,"name":"x","owner":3},{"id":2,"name":"over-current","owner":3}"#;
+        assert_eq!(
+            read(&head("", TWO, mons)),
+            Err(String::from("line 1: monitor id 2 twice"))
+        );
+        // The header's line, blank lines before it counted.
+        assert_eq!(
+            read(&format!("\n  \n{}\n", head("", TWO, mons))),
+            Err(String::from("line 3: monitor id 2 twice"))
+        );
+        let mons = r#"{"id":2,"name":"jam","owner":0},{"id":5,"name":"jam","owner":3}"#;
+        assert!(read(&head("", TWO, mons)).is_ok());
+    }
+
+    #[test]
+    fn ids_need_not_be_dense() {
+        let mons = r#"{"id":9,"name":"jam","owner":3}"#;
+        let text = format!(
+            "{}\n{}\n{}\n",
+            head("", TWO, mons),
+            r#"{"t":1000,"seq":3,"from":"Idle","to":"Running","cause":"start"}"#,
+            r#"{"t":2000,"seq":3,"from":"Running","to":"Aborting","cause":"monitor","monitor":9}"#
+        );
+        let run = read(&text).unwrap();
+        assert_eq!(run.sequences[1].name, "moves");
+        assert_eq!(run.sequences[1].caller, Some(0));
+        assert_eq!(run.transitions[0].seq, 1);
+        assert_eq!(run.transitions[1].cause, "monitor jam");
+    }
+
+    /// Times up to `u64::MAX` are times (the sequencer's `Instant` is a `u64` of µs).
+    #[test]
+    fn the_last_time_is_read() {
+        let text = format!(
+            "{}\n{{\"t\":{},\"event\":\"fault\",\"name\":\"x\"}}\n",
+            head("", TWO, ""),
+            u64::MAX
+        );
+        let run = read(&text).unwrap();
+        assert_eq!(run.events[0].time_us, u64::MAX);
+        assert_eq!(run.end_us, u64::MAX);
+        let text = text.replace(&u64::MAX.to_string(), "18446744073709551616");
+        assert_eq!(
+            read(&text),
+            Err(String::from("line 2: `t` is not an unsigned integer"))
+        );
+    }
 }

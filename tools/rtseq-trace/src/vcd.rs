@@ -8,9 +8,12 @@
 //! rtseq.events.<kind>_<name> 1 bit a 1 µs pulse per event (monitor, request, fault, input)
 //! rtseq.signals.<name>_<unit> real  position, velocity, current
 //! ```
-//! Names are sanitized (characters other than letters, digits and `_` become `_`).
+//! Names are sanitized (characters other than letters, digits and `_` become `_`). A run
+//! with lost records (see [`Run::lost`]) gets a `$comment` saying so after `$timescale`.
+//! An event at the last representable time (`u64::MAX` µs) rises and has no fall: there is
+//! no later time to put it at.
 
-use std::collections::BTreeMap;
+use std::collections::{HashMap, HashSet};
 use std::io::Write;
 
 use crate::model::{EventKind, Run, State};
@@ -67,14 +70,15 @@ impl Val {
 
 /// The events drawn as pulses: kind and name, in order of first appearance.
 pub fn pulse_names(run: &Run) -> Vec<(EventKind, String)> {
+    let requests = run.requests();
     let mut names: Vec<(EventKind, String)> = Vec::new();
-    for e in run.events.iter().chain(run.requests().iter()) {
+    let mut seen: HashSet<(EventKind, &str)> = HashSet::new();
+    for e in run.events.iter().chain(requests.iter()) {
         if matches!(e.kind, EventKind::Move | EventKind::Note) {
             continue;
         }
-        let key = (e.kind, e.name.clone());
-        if !names.contains(&key) {
-            names.push(key);
+        if seen.insert((e.kind, e.name.as_str())) {
+            names.push((e.kind, e.name.clone()));
         }
     }
     names
@@ -93,6 +97,10 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
         env!("CARGO_PKG_VERSION")
     )?;
     writeln!(out, "$timescale 1 us $end")?;
+    if let Some(w) = run.lost.warning() {
+        // `$end` closes a comment: the warning has no `$`.
+        writeln!(out, "$comment {} $end", w.replace('$', "S"))?;
+    }
     writeln!(out, "$scope module rtseq $end")?;
     // Changes: (time, order within the time, id, value). Pulse ends (order 0) come before
     // the values of the same time.
@@ -130,23 +138,34 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
     }
 
     writeln!(out, "$scope module events $end")?;
-    let mut pulse_ids = BTreeMap::new();
-    for (kind, name) in pulse_names(run) {
+    let requests = run.requests();
+    let events = || run.events.iter().chain(requests.iter());
+    // In order of first appearance (`pulse_names`).
+    let mut pulse_ids: HashMap<(EventKind, &str), String> = HashMap::new();
+    for e in events() {
+        if matches!(e.kind, EventKind::Move | EventKind::Note)
+            || pulse_ids.contains_key(&(e.kind, e.name.as_str()))
+        {
+            continue;
+        }
         let id = next();
         writeln!(
             out,
             "$var wire 1 {id} {}_{} $end",
-            kind.name(),
-            sanitize(&name)
+            e.kind.name(),
+            sanitize(&e.name)
         )?;
         init.push((id.clone(), Val::Bit(false)));
-        pulse_ids.insert((kind.name(), name), id);
+        pulse_ids.insert((e.kind, e.name.as_str()), id);
     }
     writeln!(out, "$upscope $end")?;
-    for e in run.events.iter().chain(run.requests().iter()) {
-        if let Some(id) = pulse_ids.get(&(e.kind.name(), e.name.clone())) {
+    for e in events() {
+        if let Some(id) = pulse_ids.get(&(e.kind, e.name.as_str())) {
             changes.push((e.time_us, 1, id.clone(), Val::Bit(true)));
-            changes.push((e.time_us + 1, 0, id.clone(), Val::Bit(false)));
+            // A pulse at `u64::MAX` has no later time to fall at: it stays high.
+            if let Some(fall) = e.time_us.checked_add(1) {
+                changes.push((fall, 0, id.clone(), Val::Bit(false)));
+            }
         }
     }
 

@@ -7,8 +7,8 @@ mod common;
 
 use std::collections::HashMap;
 
-use rtseq_trace::model::{EventKind, Run, State};
-use rtseq_trace::{perfetto, read_run, tracefile, vcd};
+use rtseq_trace::model::{EventKind, Lost, Run, State};
+use rtseq_trace::{html, perfetto, read_run, tracefile, vcd};
 use serde_json::Value;
 
 fn sources() -> Vec<(&'static str, Run)> {
@@ -259,5 +259,157 @@ fn trace_format_round_trip() {
         assert_eq!(back.levels, run.levels, "{what}");
         assert_eq!(back.signals, run.signals, "{what}");
         assert_eq!(back.end_us, run.end_us, "{what}");
+        assert_eq!(back.lost, run.lost, "{what}");
     }
+}
+
+/// A trace of one sequence and two faults, the second at the last time a file can hold.
+fn trace_text(lost: &str, last_fault_us: u64) -> String {
+    format!(
+        r#"{{"format":"rtseq-trace","version":1,"time_unit":"us","end":9000{lost},"sequences":[{{"id":0,"name":"homing","caller":null}}],"monitors":[]}}
+{{"t":1000,"seq":0,"from":"Idle","to":"Running","cause":"start"}}
+{{"t":5000,"event":"fault","name":"jam","text":"jam injected"}}
+{{"t":{last_fault_us},"event":"fault","name":"jam","text":"jam injected"}}
+"#
+    )
+}
+
+/// The comments of a VCD file's header, read by the `vcd` crate.
+fn vcd_comments(buf: &[u8]) -> Vec<String> {
+    let header = ::vcd::Parser::new(buf).parse_header().unwrap();
+    header
+        .items
+        .iter()
+        .filter_map(|i| match i {
+            ::vcd::ScopeItem::Comment(c) => Some(c.trim().to_string()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Records the source lost: the VCD has a `$comment`, the Perfetto JSON a `metadata` entry
+/// and a process label, the written trace file `"lost"`; a complete run has none of them.
+#[test]
+fn lost_records_are_in_every_export() {
+    let cases = [
+        (
+            r#","lost":82"#,
+            Lost::Count(82),
+            Some("82 records were lost: the trace is incomplete"),
+            Value::from(82),
+        ),
+        (
+            r#","lost":true"#,
+            Lost::Uncounted,
+            Some("records were lost (the source does not say how many): the trace is incomplete"),
+            Value::from("unknown"),
+        ),
+        (r#","lost":0"#, Lost::None, None, Value::Null),
+        ("", Lost::None, None, Value::Null),
+    ];
+    for (field, lost, warning, count) in cases {
+        let run = tracefile::read(&trace_text(field, 6000)).unwrap();
+        assert_eq!(run.lost, lost, "{field}");
+
+        let mut buf = Vec::new();
+        vcd::write(&run, &mut buf).unwrap();
+        let comments = vcd_comments(&buf);
+        match warning {
+            Some(w) => assert_eq!(comments, [w], "{field}"),
+            None => assert!(comments.is_empty(), "{field}: {comments:?}"),
+        }
+
+        let mut buf = Vec::new();
+        perfetto::write(&run, &mut buf).unwrap();
+        let doc: Value = serde_json::from_slice(&buf).unwrap();
+        let meta = &doc["metadata"];
+        assert_eq!(meta["lost_records"], count, "{field}");
+        assert_eq!(
+            meta["warning"],
+            warning.map_or(Value::Null, Value::from),
+            "{field}"
+        );
+        let labels: Vec<&Value> = doc["traceEvents"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|e| e["ph"] == "M" && e["name"] == "process_labels")
+            .map(|e| &e["args"]["labels"])
+            .collect();
+        match warning {
+            Some(w) => assert_eq!(labels, [&Value::from(format!("WARNING: {w}"))]),
+            None => assert!(labels.is_empty(), "{field}"),
+        }
+
+        let mut buf = Vec::new();
+        tracefile::write(&run, &mut buf).unwrap();
+        assert_eq!(
+            tracefile::read(&String::from_utf8(buf).unwrap())
+                .unwrap()
+                .lost,
+            lost
+        );
+    }
+    // The demo's log and the simulator's trace of it lost nothing.
+    for (what, run) in sources() {
+        assert_eq!(run.lost, Lost::None, "{what}");
+    }
+}
+
+/// An event at `u64::MAX` µs, the last time a trace file holds: its pulse rises there and
+/// has no fall (there is no later time), the earlier pulse of the same name falls 1 µs
+/// after it rose, and no time goes back. The other exports take it too.
+#[test]
+fn vcd_pulse_at_the_last_time() {
+    let run = tracefile::read(&trace_text("", u64::MAX)).unwrap();
+    assert_eq!(run.end_us, u64::MAX);
+    let mut buf = Vec::new();
+    vcd::write(&run, &mut buf).unwrap();
+    let mut parser = ::vcd::Parser::new(&buf[..]);
+    let header = parser.parse_header().unwrap();
+    let jam = header
+        .find_var(&["rtseq", "events", "fault_jam"])
+        .unwrap()
+        .code;
+    let (mut t, mut in_dump) = (0u64, false);
+    let mut pulse = Vec::new();
+    for cmd in parser {
+        match cmd.unwrap() {
+            ::vcd::Command::Timestamp(x) => {
+                assert!(x >= t, "time goes back: {x} after {t}");
+                t = x;
+            }
+            ::vcd::Command::Begin(::vcd::SimulationCommand::Dumpvars) => in_dump = true,
+            ::vcd::Command::End(::vcd::SimulationCommand::Dumpvars) => in_dump = false,
+            ::vcd::Command::ChangeScalar(id, v) if id == jam && !in_dump => pulse.push((t, v)),
+            _ => {}
+        }
+    }
+    assert_eq!(t, u64::MAX);
+    assert_eq!(
+        pulse,
+        [
+            (5000, ::vcd::Value::V1),
+            (5001, ::vcd::Value::V0),
+            (u64::MAX, ::vcd::Value::V1)
+        ]
+    );
+    let mut out = Vec::new();
+    perfetto::write(&run, &mut out).unwrap();
+    let doc: Value = serde_json::from_slice(&out).unwrap();
+    let last = doc["traceEvents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["ph"] == "i")
+        .map(|e| e["ts"].as_u64().unwrap())
+        .max();
+    assert_eq!(last, Some(u64::MAX));
+    // The run of `homing` lasts to the end of the record.
+    let page = html::render(&run, "end of time");
+    assert!(page.contains(&format!(
+        "homing: Running from 0.001000 s to {} s ({} µs)",
+        rtseq_trace::model::secs(u64::MAX),
+        u64::MAX - 1000
+    )));
 }

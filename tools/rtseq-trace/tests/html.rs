@@ -11,7 +11,8 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use rtseq_trace::model::EventKind;
+use rtseq_trace::model::{secs, EventKind};
+use rtseq_trace::{html, tracefile};
 
 fn chromium() -> PathBuf {
     if let Some(p) = std::env::var_os("RTSEQ_CHROMIUM") {
@@ -79,6 +80,8 @@ fn timeline_in_headless_chromium() {
         assert!(!html.contains(external), "self-contained: found {external}");
     }
     let run = common::fixture_run();
+    // The run is complete: no warning.
+    assert!(!html.contains(r#"class="lost-warning""#));
 
     // The page after its script ran.
     let dom = browse(&dir.join("profile-dom"), &["--dump-dom"], &page);
@@ -157,4 +160,141 @@ fn help_lists_the_commands() {
     for opt in ["--html", "--vcd", "--perfetto", "--trace", "--tree"] {
         assert!(text.contains(opt), "{text}");
     }
+}
+
+/// A trace file of one sequence `move`, started every ms: `runs` runs, each running 500 µs
+/// and completing, except every 1000th, which is aborted (250 µs `Aborting`), and the last,
+/// which has not ended.
+fn many_runs(runs: u64) -> String {
+    let mut text = String::from(
+        r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":0,"sequences":[{"id":0,"name":"move","caller":null}],"monitors":[]}"#,
+    );
+    text.push('\n');
+    let rec = |text: &mut String, t: u64, from: &str, to: &str, cause: &str| {
+        text.push_str(&format!(
+            r#"{{"t":{t},"seq":0,"from":"{from}","to":"{to}","cause":"{cause}"}}"#
+        ));
+        text.push('\n');
+    };
+    for k in 0..runs {
+        let t = k * 1000;
+        rec(&mut text, t, "Idle", "Running", "start");
+        if k + 1 == runs {
+            break;
+        }
+        if k % 1000 == 999 {
+            rec(&mut text, t + 500, "Running", "Aborting", "abort");
+            rec(&mut text, t + 750, "Aborting", "Aborted", "abort");
+        } else {
+            rec(&mut text, t + 500, "Running", "Terminated", "completed");
+        }
+    }
+    text
+}
+
+/// The tooltip of a state span in the page (as `html::render` writes it, escaped).
+fn tip(state: &str, from: u64, to: u64, cause: &str, outcome: &str) -> String {
+    html::esc(&format!(
+        "move: {state} from {} s to {} s ({} µs)\ncause: {cause}\nrun: started by start; outcome {outcome}",
+        secs(from),
+        secs(to),
+        to - from
+    ))
+}
+
+/// 100 000 runs of one sequence (a periodic sequence of a long simulation): one span per
+/// state, and every span's tooltip names the run it belongs to. (How long it takes:
+/// `cargo run --release --example html_scale`; rendering was quadratic in the runs.)
+#[test]
+fn timeline_of_100000_runs_of_one_sequence() {
+    let n = 100_000u64;
+    let run = tracefile::read(&many_runs(n)).unwrap();
+    assert_eq!(run.transitions.len() as u64, 2 * n - 1 + (n - 1) / 1000);
+    let page = html::render(&run, "100 000 runs");
+    let aborted = (n - 1) / 1000;
+    assert_eq!(page.matches(r#"class="span s-running""#).count() as u64, n);
+    assert_eq!(
+        page.matches(r#"class="span s-terminated""#).count() as u64,
+        n - 1 - aborted
+    );
+    assert_eq!(
+        page.matches(r#"class="span s-aborting""#).count() as u64,
+        aborted
+    );
+    assert_eq!(
+        page.matches(r#"class="span s-aborted""#).count() as u64,
+        aborted
+    );
+    // Every span but the initial `Idle` has its run.
+    let spans = 2 * n - 1 + aborted;
+    assert_eq!(
+        page.matches("\nrun: started by start; outcome ").count() as u64,
+        spans
+    );
+    assert_eq!(
+        page.matches("outcome aborted (abort)").count() as u64,
+        3 * aborted
+    );
+    let last = (n - 1) * 1000;
+    for want in [
+        tip("Running", 0, 500, "start", "completed"),
+        tip("Terminated", 500, 1000, "completed", "completed"),
+        tip("Running", 998_000, 998_500, "start", "completed"),
+        tip("Running", 999_000, 999_500, "start", "aborted (abort)"),
+        tip("Aborting", 999_500, 999_750, "abort", "aborted (abort)"),
+        tip("Aborted", 999_750, 1_000_000, "abort", "aborted (abort)"),
+        tip("Running", 1_000_000, 1_000_500, "start", "completed"),
+        tip("Running", 50_000_000, 50_000_500, "start", "completed"),
+        tip("Terminated", last - 500, last, "completed", "completed"),
+        tip("Running", last, last, "start", "still running"),
+    ] {
+        assert!(page.contains(&want), "no span with\n{want}");
+    }
+}
+
+/// A trace whose header says records were lost: a banner at the top of the page says so,
+/// and the command line warns on standard error.
+#[test]
+fn lost_records_banner() {
+    let text = many_runs(3).replace(r#""end":0,"#, r#""end":0,"lost":5,"#);
+    let run = tracefile::read(&text).unwrap();
+    let page = html::render(&run, "lost");
+    let banner = r#"<div class="lost-warning" role="alert"><b>Warning:</b> 5 records were lost: the trace is incomplete. Where in time they were is not known; runs and states may be missing anywhere.</div>"#;
+    assert_eq!(page.matches(banner).count(), 1, "{}", &page[..2000]);
+    // Above the chart.
+    assert!(page.find(banner) < page.find(r#"<svg id="chart""#));
+    assert!(page.contains(".lost-warning {"));
+
+    let dir = common::scratch("lost");
+    let input = dir.join("lost.jsonl");
+    std::fs::write(&input, &text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_rtseq-trace"))
+        .arg("render")
+        .arg(&input)
+        .arg("--html")
+        .arg(dir.join("lost.html"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("rtseq-trace: warning: 5 records were lost: the trace is incomplete\n"),
+        "{stderr}"
+    );
+    let written = std::fs::read_to_string(dir.join("lost.html")).unwrap();
+    assert!(written.contains(banner));
+
+    // None lost: no banner, no warning.
+    let page = html::render(&tracefile::read(&many_runs(3)).unwrap(), "complete");
+    assert!(!page.contains(r#"class="lost-warning""#));
+    std::fs::write(&input, many_runs(3)).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_rtseq-trace"))
+        .arg("render")
+        .arg(&input)
+        .arg("--html")
+        .arg(dir.join("complete.html"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
 }

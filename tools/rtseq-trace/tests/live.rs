@@ -71,3 +71,47 @@ fn following_error_restarting_then_aborted_and_level_off() {
     assert_eq!(indent("move") + 2, indent("safe stop"));
     assert!(screen.contains("input ended"));
 }
+
+/// The demo's log as if its firmware had lost records (its final check failed): from that
+/// line on, the header of the view says the record is incomplete, and the check is among
+/// the latest events; the HTML timeline of the same log has the warning banner.
+#[test]
+fn a_failed_lost_check_shows_in_the_header() {
+    let ok = "check     ok    no trace record or event lost";
+    let text = common::fixture_text();
+    assert_eq!(text.matches(ok).count(), 1);
+    let text = text.replace(ok, "check     FAIL  no trace record or event lost");
+    let mut live = Live::new(common::demo_hints(), "rtseq live");
+    let mut failed = false;
+    for line in text.lines() {
+        live.feed(line);
+        failed |= line.contains("FAIL  no trace record");
+        let screen = live.to_text(140, 32);
+        let head = screen.lines().nth(1).unwrap_or("");
+        assert_eq!(
+            head.contains("RECORDS LOST (incomplete)"),
+            failed,
+            "{screen}"
+        );
+    }
+    live.end();
+    let screen = live.to_text(140, 32);
+    assert!(
+        screen.contains("check FAIL no trace record or event lost"),
+        "{screen}"
+    );
+    // Narrow: the warning comes first in the header.
+    let narrow = live.to_text(40, 12);
+    assert!(
+        narrow.lines().nth(1).unwrap_or("").contains("RECORDS LOST"),
+        "{narrow}"
+    );
+
+    let run = rtseq_trace::log::LogParser::parse_all(&text, common::demo_hints());
+    assert_eq!(run.lost, rtseq_trace::model::Lost::Uncounted);
+    let page = rtseq_trace::html::render(&run, "demo");
+    assert!(page
+        .contains("records were lost (the source does not say how many): the trace is incomplete"));
+    // The fixture itself lost nothing.
+    assert!(!common::fixture_run().lost.any());
+}

@@ -86,3 +86,73 @@ fn host_trace_file_equals_the_qemu_log() {
         );
     }
 }
+
+/// A simulator whose trace ring (`T` = 1 record) is too small for what one poll records:
+/// it loses records and writes how many (`"lost"`); the tool keeps the count and every
+/// output of the command line says the trace is incomplete.
+#[test]
+fn records_the_simulator_lost_are_reported_everywhere() {
+    use rtseq::sim::Sim;
+    use rtseq::{Cx, Duration, Failure, Monitors, Seq, SeqConfig, Sequence, Sequencer, Wait};
+    use rtseq_trace::model::Lost;
+    use std::process::Command;
+
+    struct Dwells(Seq<Wait>);
+    impl Sequence<()> for Dwells {
+        async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            for _ in 0..4 {
+                cx.step(&mut self.0).await?;
+            }
+            Ok(())
+        }
+    }
+    let seq: Sequencer<(), 2, 1> = Sequencer::new();
+    let wait = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let main = seq.add(SeqConfig::new("main"), Dwells(wait)).unwrap();
+    let id = main.id();
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    sim.lane(main);
+    sim.start(id).unwrap();
+    sim.run_until_idle(Duration::from_millis(50)).unwrap();
+    let lost = u64::from(sim.lost());
+    assert!(lost > 0, "nothing lost: make the scenario busier");
+    let dir = common::scratch("sim-lost");
+    let path = dir.join("lost.jsonl");
+    sim.save_trace(&path).unwrap();
+
+    let run = tracefile::read(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(run.lost, Lost::Count(lost));
+    // What survived is there.
+    assert!(!run.transitions.is_empty());
+    let warning = format!("{lost} records were lost: the trace is incomplete");
+    let warning = if lost == 1 {
+        String::from("1 record was lost: the trace is incomplete")
+    } else {
+        warning
+    };
+
+    let out = Command::new(env!("CARGO_BIN_EXE_rtseq-trace"))
+        .arg("render")
+        .arg(&path)
+        .args(["--html", "t.html", "--vcd", "t.vcd", "--perfetto", "t.json"])
+        .args(["--trace", "t.jsonl"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        stderr.lines().next(),
+        Some(format!("rtseq-trace: warning: {warning}").as_str()),
+        "{stderr}"
+    );
+    let file = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap();
+    assert!(file("t.html").contains(&format!("<b>Warning:</b> {warning}.")));
+    assert!(file("t.vcd").contains(&format!("$comment {warning} $end")));
+    let doc: serde_json::Value = serde_json::from_str(&file("t.json")).unwrap();
+    assert_eq!(doc["metadata"]["lost_records"], lost);
+    assert_eq!(doc["metadata"]["warning"], warning.as_str());
+    assert_eq!(tracefile::read(&file("t.jsonl")).unwrap().lost, run.lost);
+}
