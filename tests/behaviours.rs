@@ -441,3 +441,90 @@ fn a_caller_behaviour_on_an_owner_whose_caller_has_ended_aborts_the_owner() {
         Some(Outcome::Aborted(cause))
     );
 }
+
+/// The records of a run, named, as lines.
+fn named_lines(names: &impl rtseq::Names, records: &[rtseq::Record]) -> Vec<String> {
+    use rtseq::WithNames;
+    records.iter().map(|r| r.named(names).to_string()).collect()
+}
+
+/// A monitor whose condition becomes true while its owner handles another monitor's
+/// exception is not lost: its edge waits, and it fires at the first evaluation after the
+/// exception ended, if its condition still holds. An end stop hit during a warning's
+/// exception sequence aborts the move once the warning is handled; one released before
+/// then fires no more.
+#[test]
+fn a_firing_the_owner_cannot_take_during_an_exception_waits_for_its_end() {
+    let run = |end_stop_until_ms: u64| {
+        let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+        let ctrl = Ctrl::default();
+        let s = seq.add(SeqConfig::new("S"), Leaf::until(1)).unwrap();
+        let w = seq
+            .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
+            .unwrap();
+        let log = seq
+            .add(SeqConfig::new("log").in_lane(), Node::of(vec![Op::Wait(w)]))
+            .unwrap();
+        let main = seq
+            .add(SeqConfig::new("move"), Node::of(vec![Op::Step(s)]))
+            .unwrap();
+        let (id, log_id) = (main.id(), log.id());
+        let mut warn = |c: &Ctrl, _: rtseq::Instant| c.flag(0);
+        let mut end_stop = |c: &Ctrl, _: rtseq::Instant| c.flag(2);
+        let mut monitors = Monitors::<Ctrl, 2>::new();
+        let warning = Monitor::new("warn", &mut warn, Behaviour::Nothing).exception(log_id);
+        monitors.add(id, warning).unwrap();
+        let stop = Monitor::new("end stop", &mut end_stop, Behaviour::AbortOwner);
+        let stop = monitors.add(id, stop).unwrap();
+        let mut sim = Sim::new(&seq, &ctrl, monitors);
+        sim.lane(main);
+        sim.lane(log);
+        sim.before_tick(move |now, c| {
+            let ms = now.as_ticks() / 1000;
+            c.set(0, ms == 3); // a warning at 3 ms: `log` runs from 3 to 8 ms
+            c.set(2, (5..end_stop_until_ms).contains(&ms)); // the end stop from 5 ms
+        });
+        sim.start(id).unwrap();
+        sim.run_for(Duration::from_millis(20));
+        let lines = named_lines(&(&seq, sim.monitors()), sim.records());
+        (lines, sim.monitors().fired(stop), sim.state(id))
+    };
+
+    // Held from 5 ms on: it fires at 9 ms, the first tick after `log` ended at 8 ms.
+    let (lines, fired, state) = run(u64::MAX);
+    assert_eq!(fired, 1);
+    assert_eq!(state, Aborted);
+    assert_eq!(
+        lines,
+        [
+            "0 ms move: Idle -> Running (start)",
+            "0 ms S: Idle -> Running (start)",
+            "3 ms monitor `warn` of `move` fired: Nothing",
+            "3 ms log: Idle -> Running (monitor `warn`)",
+            "3 ms W: Idle -> Running (start)",
+            "8 ms W: Running -> Terminated (completed)",
+            "8 ms log: Running -> Terminated (completed)",
+            "9 ms monitor `end stop` of `move` fired: AbortOwner",
+            "9 ms S: Running -> Aborting (monitor `end stop`)",
+            "9 ms S: Aborting -> Aborted (monitor `end stop`)",
+            "9 ms move: Running -> Aborting (monitor `end stop`)",
+            "9 ms move: Aborting -> Aborted (monitor `end stop`)",
+        ]
+    );
+
+    // Released at 7 ms, before `log` ended: it never fires.
+    let (lines, fired, state) = run(7);
+    assert_eq!((fired, state), (0, Running));
+    assert_eq!(
+        lines,
+        [
+            "0 ms move: Idle -> Running (start)",
+            "0 ms S: Idle -> Running (start)",
+            "3 ms monitor `warn` of `move` fired: Nothing",
+            "3 ms log: Idle -> Running (monitor `warn`)",
+            "3 ms W: Idle -> Running (start)",
+            "8 ms W: Running -> Terminated (completed)",
+            "8 ms log: Running -> Terminated (completed)",
+        ]
+    );
+}

@@ -102,9 +102,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // The common case, nothing changed and no level monitor true, is one test.
             if (values ^ g.last) | (values & g.level) != 0 {
                 let firing = g.firing(values) & evaluated;
+                let before = g.last;
                 g.last = values;
                 if firing != 0 {
-                    releasing |= self.fire_group(g, members, firing, control);
+                    let outcome = self.fire_group(g, members, firing, control);
+                    releasing |= outcome.releasing;
+                    // A firing the owner could not take (it was handling another
+                    // exception) is not used up: its edge is seen again at the next
+                    // evaluation, so it fires once the owner can take it, if its
+                    // condition still says so.
+                    g.last = (values & !outcome.not_taken) | (before & outcome.not_taken);
                     fired = true;
                 }
             }
@@ -130,8 +137,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// Monitors of `group` triggered (`firing`, bits as in [`Group`]; the group's `last`
     /// holds this evaluation's values): raise their exceptions in table order (out of the
     /// hot loop; it visits only the monitors that fired, not the whole group). A
-    /// `PauseOwner` monitor whose condition cleared is marked `releasing` instead; true
-    /// when one was.
+    /// `PauseOwner` monitor whose condition cleared is marked `releasing` instead.
     #[inline(never)]
     fn fire_group<K>(
         &self,
@@ -139,8 +145,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         members: &mut [OwnedMonitor<'_, C, K>],
         firing: u32,
         control: &C,
-    ) -> bool {
-        let mut releasing = false;
+    ) -> GroupFiring {
+        let mut outcome = GroupFiring {
+            releasing: false,
+            not_taken: 0,
+        };
         // Only the monitors that fired, highest bit first: the group's first monitor holds
         // its highest bit, so this is table order.
         let mut rest = firing;
@@ -158,12 +167,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 (Behaviour::PauseOwner, true) => self.hold_owner(monitor, id),
                 (Behaviour::PauseOwner, false) => {
                     monitor.releasing = true;
-                    releasing = true;
+                    outcome.releasing = true;
                 }
-                _ => self.fire(monitor, id, control),
+                _ => {
+                    if !self.fire(monitor, id, control) {
+                        outcome.not_taken |= bit;
+                    }
+                }
             }
         }
-        releasing
+        outcome
     }
 
     /// A `PauseOwner` monitor's condition now holds: hold its owner (its release, once the
@@ -175,8 +188,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
     }
 
-    /// A monitor (not `PauseOwner`) triggered: raise its exception.
-    fn fire<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) {
+    /// A monitor (not `PauseOwner`) triggered: raise its exception. False when its owner
+    /// could not take it (see [`raise`](Self::raise)).
+    fn fire<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) -> bool {
         let mut reaction = Reaction {
             behaviour: monitor.def.behaviour,
             exception: monitor.def.exception,
@@ -184,10 +198,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             runs_seen: monitor.target_runs_seen,
             limit: monitor.def.restart_limit,
         };
-        if self.raise(control, monitor.owner, Cause::Monitor(id), &mut reaction) {
+        let raised = self.raise(control, monitor.owner, Cause::Monitor(id), &mut reaction);
+        if raised {
             monitor.fired = monitor.fired.wrapping_add(1);
         }
         monitor.restarts = reaction.restarts;
         monitor.target_runs_seen = reaction.runs_seen;
+        raised
     }
+}
+
+/// What the firings of one group came to.
+struct GroupFiring {
+    /// A `PauseOwner` monitor's condition cleared: its release is pending.
+    releasing: bool,
+    /// The monitors (bits as in [`Group`]) whose owner could not take their exception.
+    not_taken: u32,
 }
