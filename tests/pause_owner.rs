@@ -270,6 +270,27 @@ fn a_curtain_that_clears_keeps_the_operators_pause() {
     );
 }
 
+/// The operator's pause made while a curtain holds the cycle (broken from 5 to 10 ms,
+/// the pause at 7 ms) is kept: the cycle stays paused when the curtain clears, until the
+/// operator's resume (at 15 ms). A second pause is then `AlreadyPaused`.
+#[test]
+fn an_operators_pause_made_while_a_curtain_holds_outlasts_the_curtain() {
+    let (trace, c) = curtains(
+        |t| (5..10).contains(&t),
+        |_| false,
+        &[(7, Operator::Pause), (15, Operator::Resume)],
+    );
+    let a = Mon(MonitorId::from_index(0));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(5, c, Running, Paused, a),
+            tr(16, c, Paused, Running, rtseq::Cause::Resume),
+        ]
+    );
+}
+
 /// While a curtain holds the cycle (broken from 5 to 20 ms), a resume request is refused
 /// with `HeldByMonitor`; the cycle resumes when the curtain clears.
 #[test]
@@ -589,5 +610,29 @@ fn a_curtain_that_clears_in_the_tick_another_breaks_does_not_resume_the_cycle() 
         ],
         "{}",
         show(&trace)
+    );
+}
+
+/// The operator's pause of the feed made while the cycle's curtain holds both (broken from
+/// 5 to 10 ms, the pause at 7 ms) is kept: the cycle resumes when its curtain clears, the
+/// feed stays paused until the operator resumes it (at 15 ms).
+#[test]
+fn an_operators_pause_of_a_feed_frozen_by_its_paused_cycle_outlasts_the_cycles_hold() {
+    let (trace, c, f) = cycle_and_feed(
+        |t| (5..10).contains(&t),
+        |_| false,
+        &[(7, Operator::Pause), (15, Operator::Resume)],
+    );
+    let curtain = Mon(MonitorId::from_index(0));
+    assert_eq!(
+        trace,
+        [
+            tr(0, c, Idle, Running, Start),
+            tr(0, f, Idle, Running, Start),
+            tr(5, c, Running, Paused, curtain),
+            tr(5, f, Running, Paused, curtain),
+            tr(10, c, Paused, Running, curtain),
+            tr(16, f, Paused, Running, rtseq::Cause::Resume),
+        ]
     );
 }

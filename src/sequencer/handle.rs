@@ -435,8 +435,10 @@ impl<'a, C> Handle<'a, C> {
 
     /// Requests a pause of the sequence and the sequences it blocks (next tick). Of a pause
     /// and a resume requested before the same tick, the later counts: a pause while a
-    /// resume is pending takes it back. A sequence paused already, with no resume pending,
-    /// gives [`Error::AlreadyPaused`].
+    /// resume is pending takes it back. A sequence paused by a pause request already, with
+    /// no resume pending, gives [`Error::AlreadyPaused`]. One held paused by something else
+    /// (a `PauseOwner` monitor, the paused caller it blocks) takes the request: it stays
+    /// paused when that hold ends, until a resume request.
     ///
     /// ```
     /// # #[cfg(feature = "std")] {

@@ -5,7 +5,7 @@ use core::sync::atomic::Ordering;
 
 use crate::lock::Lock;
 use crate::model::state::States;
-use crate::sequencer::control_block::request;
+use crate::sequencer::control_block::{flag, request};
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::{inbox, State};
@@ -48,7 +48,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     fn check_request(&self, id: SeqId, req: Request) -> Result<u16, Error> {
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
         let takes_back = b.flags & req.replaces() != 0;
-        if !req.allowed().has(b.state) && !takes_back {
+        // A sequence held paused by something else (a `PauseOwner` monitor, the paused
+        // caller it blocks) takes a pause request: it then stays paused when that hold
+        // ends, until a resume request.
+        let held_paused = req == Request::Pause
+            && b.state == RunningState::Paused
+            && !b.has(flag::PAUSED_BY_REQUEST);
+        if !req.allowed().has(b.state) && !takes_back && !held_paused {
             return Err(match (req, b.state) {
                 (Request::Resume, _) => Error::NotPaused(id),
                 (Request::Pause, RunningState::Paused) => Error::AlreadyPaused(id),

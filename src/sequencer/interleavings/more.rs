@@ -262,8 +262,8 @@ fn a_resume_requested_during_a_releasing_tick_resumes_once() {
 }
 
 /// O was paused by its `PauseOwner` monitor at 1 ms; the condition clears at 2 ms. A pause
-/// of O is requested around that tick (`into`): refused (`AlreadyPaused`, O still paused) or
-/// accepted (after the release): see [`paused_around_releasing_tick`].
+/// of O is requested around that tick (`into`), accepted either way: it keeps O paused or
+/// pauses it again: see [`paused_around_releasing_tick`].
 fn pause_request_around_releasing_tick<const N: usize, const B: usize>(layout: Layout, into: Into) {
     around_tick(
         || paused_then_released::<Interleaved, N, B>(layout),
@@ -275,7 +275,7 @@ fn pause_request_around_releasing_tick<const N: usize, const B: usize>(layout: L
 }
 
 #[test]
-fn a_pause_requested_during_a_releasing_tick_pauses_iff_accepted() {
+fn a_pause_requested_around_a_releasing_tick_is_kept() {
     for into in [Into::RequestIntoTick, Into::TickIntoRequest] {
         pause_request_around_releasing_tick::<8, 1>(Layout::One, into);
         pause_request_around_releasing_tick::<64, 2>(Layout::Second, into);
