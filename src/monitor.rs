@@ -71,7 +71,7 @@ pub enum Behaviour {
     /// sequence). A non-blocking owner whose caller has ended cannot be restarted by it:
     /// the owner is aborted.
     RestartCallerOfOwner,
-    /// While the condition holds, the owner and the sequences it blocks are paused; when it
+    /// While the condition holds, the owner and its blocking children are paused; when it
     /// clears, they resume (a PLC's feed hold). The exception sequence, if any, is started
     /// on entry and runs in its lane while the owner is paused. Not one of the seed's five:
     /// it marks no exception, so the owner's other monitors keep firing (a following-error

@@ -433,7 +433,7 @@ impl<'a, C> Handle<'a, C> {
         self.port.start_in_lane(self.id, None)
     }
 
-    /// Requests a pause of the sequence and the sequences it blocks (next tick). Of a pause
+    /// Requests a pause of the sequence and its blocking children (next tick). Of a pause
     /// and a resume requested before the same tick, the later counts: a pause while a
     /// resume is pending takes it back. A sequence paused by a pause request already, with
     /// no resume pending, gives [`Error::AlreadyPaused`]. One held paused by something else

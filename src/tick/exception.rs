@@ -93,7 +93,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         true
     }
 
-    /// A `PauseOwner` monitor's condition became true: `owner` and the sequences it blocks
+    /// A `PauseOwner` monitor's condition became true: `owner` and its blocking children
     /// are paused (a paused owner stays paused, now held by the monitor too), and its
     /// exception sequence (if any) starts in its lane. No exception is marked: the owner's
     /// other monitors keep firing. True when the owner was monitored (running or paused).
@@ -137,7 +137,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         true
     }
 
-    /// A `PauseOwner` monitor's condition cleared: `owner` and the sequences it blocks
+    /// A `PauseOwner` monitor's condition cleared: `owner` and its blocking children
     /// resume once nothing else holds the owner: no other `PauseOwner` monitor of it, no
     /// pause request, no paused caller it blocks (whose resume then resumes it).
     pub(crate) fn release(&self, owner: SeqId, cause: Cause) {
@@ -186,7 +186,7 @@ struct Marked<const B: usize> {
     target: SeqId,
     /// The behaviour, escalated past the restart limit.
     behaviour: Behaviour,
-    /// The sequences whose due poll the mark skipped (the owner, and those it blocks in
+    /// The sequences whose due poll the mark skipped (the owner, and its blocking children in
     /// its lane), held from the mark on.
     skipped: SeqSet<B>,
 }
@@ -251,7 +251,7 @@ fn mark<
             restarts = restarts.saturating_add(1);
         }
     }
-    // From the mark on, the owner and the sequences it blocks in its lane are held; but an
+    // From the mark on, the owner and its blocking children (in its lane) are held; but an
     // exception handled at once (`Nothing`, no exception sequence) holds nothing: their
     // due polls stand, else a monitor that fires at every poll (a `Level` warning) would
     // keep its owner from ever taking one.

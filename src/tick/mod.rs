@@ -15,7 +15,7 @@
 //! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour |
 //! | `requests.rs` | abort-all, pause, resume and abort requests, ended exception sequences' behaviours |
 //! | `teardown.rs` | aborts and restarts of a sequence and those below it, abort-all, dropped runs |
-//! | `pause.rs` | pauses and resumes of a sequence and those it blocks |
+//! | `pause.rs` | pauses and resumes of a sequence and its blocking children |
 //! | `walk.rs` | what teardowns and pauses share: the sequences below a target, by depth |
 
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -577,7 +577,7 @@ impl Drop for TickTurn<'_> {
 }
 
 /// Before a hold (an exception marked, a pause walk) of a sequence in `lane`: the due
-/// polls of the sequences it blocks (called sequences, in its lane), which their lane has
+/// polls of its blocking children (called sequences, in its lane), which their lane has
 /// not taken yet, are skipped; the held sequence's own goes with its hold. A poll that
 /// falls due while held is missed, not taken once the hold ends (semantics 1). `due`: the
 /// words of `Set::PollDue` as read before (marks only go meanwhile). Done before the hold,

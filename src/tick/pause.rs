@@ -1,4 +1,4 @@
-//! Pauses and resumes: a sequence and the sequences it blocks in its lane are paused or
+//! Pauses and resumes: a sequence and its blocking children (in its lane) are paused or
 //! resumed, outermost first, one short section at a time. A paused run's clock (and its
 //! timeout) stops, its monitors stay active.
 
@@ -42,13 +42,13 @@ impl Pausing {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Pauses a running `target` and the sequences it blocks in its lane, outermost first,
+    /// Pauses a running `target` and its blocking children (in its lane), outermost first,
     /// for `cause` (a pause request, a `PauseOwner` monitor).
     pub(crate) fn pause_tree(&self, target: SeqId, cause: Cause) {
         self.pausing(target, Pausing::Pause, cause);
     }
 
-    /// Resumes a paused `target` and the sequences it blocks in its lane, outermost first,
+    /// Resumes a paused `target` and its blocking children (in its lane), outermost first,
     /// unless something else holds them: one kept paused keeps those below it.
     pub(crate) fn resume_tree(&self, target: SeqId, cause: Cause) {
         self.pausing(target, Pausing::Resume, cause);
@@ -90,7 +90,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         };
         let states = States::of(how.from());
         if how == Pausing::Pause {
-            // The target is paused first and the sequences it blocks after it.
+            // The target is paused first and its blocking children after it.
             in_sections!(self, |s| {
                 let due = s.section(|s| s.sets.words(Set::PollDue));
                 skip_untaken_polls(s, lane, due);
@@ -99,7 +99,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let rows = self.levels(Some(target), states, Some(lane), &mut |_, _| true);
         for depth in 0..=rows.deepest() {
             for id in rows.at(depth) {
-                // A resume of the target resumes the sequences it blocks unless something
+                // A resume of the target resumes its blocking children unless something
                 // else holds them.
                 let kept =
                     how == Pausing::Resume && id != target && self.with(|s| s.stays_paused(id));

@@ -110,7 +110,7 @@ pub enum Event {
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Request {
-    /// Pause a running sequence and the sequences it blocks.
+    /// Pause a running sequence and its blocking children.
     Pause,
     /// Resume a paused sequence where it stopped.
     Resume,

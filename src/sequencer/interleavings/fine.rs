@@ -35,7 +35,7 @@ fn a_start_by_a_sequence_the_tick_restarts_is_torn_down_by_the_restart() {
 }
 
 /// O starts C in C's own lane while the tick pauses O (`PauseOwner`): a pause holds O and
-/// the sequences it blocks in its lane, not a non-blocking child: the start succeeds and C
+/// its blocking children (in its lane), not a non-blocking child: the start succeeds and C
 /// runs; O is paused.
 #[test]
 fn a_non_blocking_start_by_a_sequence_the_tick_pauses_runs() {

@@ -980,7 +980,7 @@ fn an_abort_requested_during_a_start_is_carried_out_iff_accepted() {
 
 /// P runs. P's lane starts X blocking (lane A) while a handle requests a pause of P
 /// (lane B, before section `k`), or the other way round; then the tick at 1 ms. The pause
-/// holds P and what it blocks in its lane (semantics 7): P and X end up `Paused`; after a
+/// holds P and its blocking children in its lane (semantics 7): P and X end up `Paused`; after a
 /// resume request (2 ms) both run.
 fn blocking_start_against_pause<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,

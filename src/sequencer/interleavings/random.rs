@@ -611,7 +611,7 @@ impl Liveness {
 
 /// The invariants of a settled world (the tick done, every woken lane polled), beyond
 /// [`World::check_tree`]: a sequence under way that its caller blocks (same lane) has a
-/// caller that is running or paused (a caller's restart, end or abort takes what it blocks
+/// caller that is running or paused (a caller's restart, end or abort takes its blocking children
 /// with it), and a paused caller's blocked child is paused too (a pause walks what the
 /// target blocks; a blocking start or a restart below a paused caller begins paused).
 fn check_settled<L: Lock + 'static, const N: usize, const B: usize>(w: World<L, N, B>, what: &str) {
