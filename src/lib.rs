@@ -111,7 +111,8 @@
 //!
 //! ## Features
 //!
-//! The crate is `no_std` and allocates nothing with every feature set; none is on by default.
+//! The crate is `no_std` and allocates nothing, with every feature set but `std`, whose host
+//! simulator (`sim`) uses the heap; none is on by default.
 //!
 #![cfg_attr(feature = "document-features", doc = document_features::document_features!())]
 #![cfg_attr(

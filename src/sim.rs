@@ -656,7 +656,11 @@ impl<
     /// is an `Err(Error::NoLane(id))` here; on the chip its starts would wait for good.
     /// And that no other simulator's monitor table, still alive, is the sequencer's
     /// (`Err(Error::ForeignMonitorTable)`): this one's ticks would evaluate nothing. A
-    /// simulator's table goes with it, so simulators of one sequencer can take turns.
+    /// simulator's table goes with it, so simulators of one sequencer can take turns; the
+    /// lanes go with it too (a lane given by value is closed when its simulator drops it),
+    /// so a later simulator is given every declared lane again: keep the `Seq`s and give
+    /// [`task_with_priority`](Self::task_with_priority) an [`rtseq::lane`](crate::lane) of
+    /// each.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
