@@ -167,6 +167,22 @@ pub(crate) struct RunId {
 mod tests {
     use super::*;
 
+    /// Positions 0 to 255 are ids, 256 and above none; `from_index` saturates there.
+    #[test]
+    fn ids_from_positions_stop_at_255() {
+        for i in [0, 1, 254, 255] {
+            assert_eq!(SeqId::try_from_index(i), Some(SeqId(i as u8)));
+            assert_eq!(MonitorId::try_from_index(i), Some(MonitorId(i as u8)));
+            assert_eq!(SeqId::from_index(i), SeqId(i as u8));
+        }
+        for i in [256, 257, usize::MAX] {
+            assert_eq!(SeqId::try_from_index(i), None);
+            assert_eq!(MonitorId::try_from_index(i), None);
+            assert_eq!(SeqId::from_index(i), SeqId(255));
+            assert_eq!(MonitorId::from_index(i), MonitorId(255));
+        }
+    }
+
     #[test]
     fn links_round_trip_and_none_is_zero() {
         assert_eq!(Link::NONE, Link(0));
