@@ -8,11 +8,12 @@ use rtseq::{lock::PriorityCeiling, Behaviour, Cx, Duration, Failure, Instant, Mo
 use rtseq::{Error, Handle, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Table};
 use rtseq_qemu_f405 as board;
 
-/// The machine: position in µm, speed in µm per tick, the e-stop button.
+/// The machine: position in µm, speed in µm per tick, the e-stop, the drive's enable.
 pub struct Axis {
     position: AtomicI32,
     speed: AtomicI32,
     estop: AtomicBool,
+    enable: AtomicBool,
 }
 
 /// Drives towards the reference switch at 0 until it is reached.
@@ -71,20 +72,25 @@ rtseq::monitors! {
     }
 }
 
-// Safety: in `run` a pressed e-stop leads to `emergency`, which aborts every sequence.
+// Safety: in `run` a pressed e-stop leads to `emergency`, which disables the drive and
+// aborts every sequence.
 const EMERGENCY: SafetyLevel = SafetyLevel::new(0);
 const RUN: SafetyLevel = SafetyLevel::new(1);
 const ESTOP: PrivateEvent = PrivateEvent::new(0);
 const ESTOP_IN: CriticalInput<bool> = CriticalInput::new(0, "e-stop pressed");
+const ENABLE: CriticalOutput<bool> = CriticalOutput::new(0, "drive enable");
 const LEVELS: SafetyProperties<'static, Io, 2> = SafetyProperties::new(
     [
         LevelDef::new(EMERGENCY, "emergency")
             .inputs(&[ESTOP_IN.ignore()])
+            .outputs(&[ENABLE.set(false)])
             .abort_sequences(AbortPolicy::OnEntry),
-        LevelDef::new(RUN, "run").inputs(&[ESTOP_IN.check(false, ESTOP)]),
+        LevelDef::new(RUN, "run")
+            .inputs(&[ESTOP_IN.check(false, ESTOP)])
+            .outputs(&[ENABLE.set(true)]),
     ],
     &[ESTOP_IN.info()],
-    &[],
+    &[ENABLE.info()],
     &[LevelTransition::on(RUN, ESTOP, EMERGENCY)],
     RUN,
 );
@@ -97,7 +103,9 @@ impl SafetyIo for Io {
     fn read_input(&mut self, _: InputId) -> IoValue {
         IoValue::Bool(AXIS.estop.load(Relaxed))
     }
-    fn write_output(&mut self, _: OutputId, _: IoValue) {}
+    fn write_output(&mut self, _: OutputId, on: IoValue) {
+        AXIS.enable.store(on == IoValue::Bool(true), Relaxed);
+    }
 }
 
 // Checked by the compiler, with the monitors: every exception sequence has a lane.
@@ -109,13 +117,14 @@ static TABLE: Table<Axis, { seqs::COUNT }> = match seqs::table() {
     Err(e) => panic!("{}", e.message().as_str()),
 };
 // SAFETY: SEQ is used at the tick's priority 2 and below; the safety task (3) only calls
-// `abort_all`, which any priority may.
+// the `Sequences` methods (through its cycle), which take no lock.
 static SEQ: Sequencer<Axis, { seqs::COUNT }, 64, PriorityCeiling<2>> =
     unsafe { Sequencer::with_priority_ceiling() };
 static AXIS: Axis = Axis {
     position: AtomicI32::new(1_000),
     speed: AtomicI32::new(0),
     estop: AtomicBool::new(false),
+    enable: AtomicBool::new(false),
 };
 
 fn or_exit<T, E: defmt::Format>(r: Result<T, E>) -> T {
@@ -178,13 +187,17 @@ mod app {
     fn tick(cx: tick::Context) {
         let now = cx.local.timer.on_interrupt();
         rtic::pend(Interrupt::EXTI0); // the safety task preempts right here
-        AXIS.position.fetch_add(AXIS.speed.load(Relaxed), Relaxed);
-        or_exit(SEQ.tick(now, &AXIS, cx.local.monitors));
+        if AXIS.enable.load(Relaxed) {
+            AXIS.position.fetch_add(AXIS.speed.load(Relaxed), Relaxed);
+        }
+        if let Err(e) = SEQ.tick(now, &AXIS, cx.local.monitors) {
+            defmt::error!("minimal: tick: {}", e); // report, carry on
+        }
     }
 
     #[task(binds = EXTI0, priority = 3, local = [safety, io: Io = Io])]
     fn safety(cx: safety::Context) {
-        cx.local.safety.cycle(cx.local.io, &SEQ); // may call SEQ.abort_all()
+        cx.local.safety.cycle(cx.local.io, &SEQ); // may abort every sequence
     }
 
     /// The lanes (non-blocking and exception sequences), joined in one task.
