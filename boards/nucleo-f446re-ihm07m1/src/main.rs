@@ -42,8 +42,12 @@ pub fn control_time(periods: u64) -> rtseq::Instant {
     const PERIOD_US: u64 = 1_000_000 / CONTROL_HZ as u64;
     rtseq::Instant::from_ticks(periods.saturating_mul(PERIOD_US))
 }
-/// Watchdog timeout, ms: the control loop feeds it every period.
+/// Watchdog timeout, ms: the control loop feeds it every period in which the sequencer's
+/// tick did its work, or failed fewer than [`TICK_ERRORS_TOLERATED`] times in a row.
 pub const WATCHDOG_MS: u32 = 50;
+/// Tick errors in a row after which the control loop stops feeding the watchdog: a tick
+/// that keeps failing evaluates no monitor and no timeout (its time base is broken).
+pub const TICK_ERRORS_TOLERATED: u32 = 10;
 
 /// Puts the power stage in its safe state straight through the registers, whatever owns the
 /// pins: EN1–EN3 low (PC10–PC12), DIAG/EN driven low (PA11, an open-drain output from init
@@ -82,6 +86,18 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     force_safe_outputs();
     defmt::error!("hard fault at pc = {=u32:#010x}", frame.pc());
+    loop {
+        cortex_m::asm::bkpt();
+    }
+}
+
+/// An interrupt or exception nothing handles: outputs safe, report, stop (the watchdog,
+/// no longer fed, then resets the chip). The runtime's default would loop with the power
+/// stage as it was.
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(irqn: i16) -> ! {
+    force_safe_outputs();
+    defmt::error!("unexpected interrupt {=i16}", irqn);
     loop {
         cortex_m::asm::bkpt();
     }
@@ -347,7 +363,8 @@ mod app {
     /// heartbeat.
     #[task(binds = TIM6_DAC, priority = 2, shared = [bridge],
            local = [timer, sensors, monitors, main, watchdog, led, model,
-                    started: bool = false, button_was: bool = true, periods: u64 = 0])]
+                    started: bool = false, button_was: bool = true, periods: u64 = 0,
+                    tick_errors: u32 = 0])]
     fn control(mut cx: control::Context) {
         cx.local.timer.clear_flags(Flag::Update);
         *cx.local.periods += 1;
@@ -390,16 +407,22 @@ mod app {
                 .and_then(|id| SEQ.sequence_by_id(id))
             {
                 match h.start() {
-                    Ok(()) => defmt::info!("B1: main started"),
+                    Ok(()) => {
+                        defmt::info!("B1: main started");
+                        *cx.local.started = true;
+                    }
                     Err(e) => defmt::error!("B1: main cannot start: {}", e),
                 }
             }
-            *cx.local.started = true;
         }
         *cx.local.button_was = sw.button;
 
-        if let Err(e) = SEQ.tick(now, &CS, cx.local.monitors) {
-            defmt::error!("tick: {}", e);
+        match SEQ.tick(now, &CS, cx.local.monitors) {
+            Ok(()) => *cx.local.tick_errors = 0,
+            Err(e) => {
+                *cx.local.tick_errors = cx.local.tick_errors.saturating_add(1);
+                defmt::error!("tick: {}", e);
+            }
         }
 
         if CS.led() {
@@ -413,7 +436,9 @@ mod app {
             | u32::from(sw.driver_fault) << 3
             | u32::from(sw.button) << 4;
         SWITCHES.store(bits, Ordering::Relaxed);
-        cx.local.watchdog.feed();
+        if *cx.local.tick_errors < crate::TICK_ERRORS_TOLERATED {
+            cx.local.watchdog.feed();
+        }
     }
 
     /// The safety system, highest priority: one cycle per control period. Withdrawing the
