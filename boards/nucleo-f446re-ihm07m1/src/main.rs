@@ -270,6 +270,10 @@ mod app {
             off_u,
             off_v
         );
+        let offsets_ok = super::sensors::offsets_plausible(off_u, off_v);
+        if !offsets_ok {
+            defmt::error!("init: current offsets implausible (check J5/J6): drive stays off");
+        }
 
         // The application, its safety system, its lanes.
         CS.set_fault_plan(FaultPlan::NONE);
@@ -298,7 +302,7 @@ mod app {
 
         let mut timer = dp.TIM6.counter_hz(&mut rcc);
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
-        if app.is_some() && system.is_some() {
+        if app.is_some() && system.is_some() && offsets_ok {
             if timer.start(CONTROL_HZ.Hz()).is_ok() {
                 timer.listen(Event::Update);
                 watchdog.start(WATCHDOG_MS.millis());

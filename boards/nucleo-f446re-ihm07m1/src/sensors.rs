@@ -41,6 +41,16 @@ pub const VBUS_DIVIDER: f32 = 9.31 / (169.0 + 9.31);
 const VBUS_VOLTS_PER_COUNT: f32 = 3.3 / 4096.0 / VBUS_DIVIDER;
 /// ADC samples averaged for the zero-current offset at start-up (bridge off).
 pub const OFFSET_SAMPLES: u32 = 64;
+/// How far a zero-current offset may lie from mid-scale (2048 counts, 1.65 V), in counts
+/// (about 0.3 A): farther, the amplifier is not in the three-shunt configuration (J5/J6) or
+/// is faulty, and the current the control loop and the safety system read is not the
+/// motor's.
+pub const OFFSET_TOLERANCE: f32 = 200.0;
+
+/// Whether both measured offsets are plausible (see [`OFFSET_TOLERANCE`]).
+pub fn offsets_plausible(u: f32, v: f32) -> bool {
+    (u - 2048.0).abs() <= OFFSET_TOLERANCE && (v - 2048.0).abs() <= OFFSET_TOLERANCE
+}
 /// ADC sample time: 28 cycles + 12 at 21 MHz ≈ 1.9 µs per conversion.
 const SAMPLE_TIME: SampleTime = SampleTime::Cycles_28;
 
