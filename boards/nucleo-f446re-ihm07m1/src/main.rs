@@ -274,6 +274,10 @@ mod app {
         if !offsets_ok {
             defmt::error!("init: current offsets implausible (check J5/J6): drive stays off");
         }
+        // The first safety cycle, before the first control step, reads these (a pressed
+        // e-stop, an end stop), not the control system's simulated plant.
+        let (first, _) = sensors.sample(true, false, false);
+        CS.update_measurements(&first);
 
         // The application, its safety system, its lanes.
         CS.set_fault_plan(FaultPlan::NONE);
@@ -455,15 +459,16 @@ mod app {
         };
         let report = safety_cycle(&CS, system, &SEQ);
         LEVEL.store(report.level.index() as u8, Ordering::Relaxed);
-        if let Some(change) = report.change {
-            defmt::warn!("safety level -> {}", change.to.index() as u8);
-        }
         if !CS.drive_permit() {
             cx.shared.bridge.lock(|b| {
                 if b.is_on() {
                     b.off();
                 }
             });
+        }
+        // Logged after the power stage is safe: a log may wait for the host.
+        if let Some(change) = report.change {
+            defmt::warn!("safety level -> {}", change.to.index() as u8);
         }
     }
 
