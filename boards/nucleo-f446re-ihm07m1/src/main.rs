@@ -132,7 +132,7 @@ mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
     use rtseq::safety::SafetySystem;
-    use rtseq::{SeqId, Sequencer};
+    use rtseq::{SeqId, Sequencer, WithNames};
     use rtseq_motor::app::seq_ids::MAIN;
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
     use rtseq_motor::control_system::ControlSystem;
@@ -348,8 +348,19 @@ mod app {
             Ok(()) => LANES_READY.store(true, Ordering::Relaxed),
             Err(e) => defmt::error!("idle: {}: B1 will not start the machine", e),
         }
-        let mut last = 0u32;
+        let (mut last, mut not_run_seen) = (0u32, 0u16);
         loop {
+            // The run as the sequencer recorded it, by name, and what went wrong without a
+            // panic (firmware guide, section 5).
+            let lost = SEQ.drain_records(|r| defmt::info!("{}", r.named(&SEQ)));
+            if lost != 0 {
+                defmt::warn!("trace: {=u32} records lost", lost);
+            }
+            let not_run = SEQ.exceptions_not_run();
+            if not_run != not_run_seen {
+                not_run_seen = not_run;
+                defmt::error!("{=u16} exception sequences could not run", not_run);
+            }
             let now = TICKS.load(Ordering::Relaxed);
             if now.wrapping_sub(last) >= 250 {
                 last = now;
