@@ -131,6 +131,7 @@ fn log_status(cs: &ControlSystem, level: u8, sw: sensors::Switches) {
 mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
+    use rtseq::lock::PriorityCeiling;
     use rtseq::safety::SafetySystem;
     use rtseq::{SeqId, Sequencer, WithNames};
     use rtseq_motor::app::seq_ids::MAIN;
@@ -165,8 +166,12 @@ mod app {
         pins::BrakeRelease,
     >;
 
-    /// The sequencer: the application's sequences and steps.
-    static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }> = Sequencer::new();
+    /// The sequencer: the application's sequences and steps. Its sections raise BASEPRI to
+    /// the control task's priority, so they never hold off the safety task.
+    // SAFETY: SEQ is used at the control task's priority 2 and below; the safety task (3)
+    // only calls the `Sequences` methods, through `safety_cycle`, which take no lock.
+    static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }, 64, PriorityCeiling<2>> =
+        unsafe { Sequencer::with_priority_ceiling() };
     /// The control system (its simulated plant is not used: the sensors are the truth).
     static CS: ControlSystem = ControlSystem::new(AppConfig::DEFAULT.start_position);
     /// The sequence table, checked by the compiler: `init` only copies it in.
