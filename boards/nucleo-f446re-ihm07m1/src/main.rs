@@ -129,7 +129,10 @@ fn log_status(cs: &ControlSystem, level: u8, sw: sensors::Switches) {
 
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART6])]
 mod app {
+    use core::cell::Cell;
     use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
+
+    use critical_section::Mutex;
 
     use rtseq::lock::PriorityCeiling;
     use rtseq::safety::SafetySystem;
@@ -185,6 +188,37 @@ mod app {
     static SWITCHES: AtomicU32 = AtomicU32::new(0);
     /// Every declared lane has a task that polls it (`idle` checks once): B1 may start.
     static LANES_READY: AtomicBool = AtomicBool::new(false);
+    /// What the control task has to report, logged by `idle`: a log in an interrupt may
+    /// wait for the host (an RTT channel in blocking mode) with the power stage live.
+    static REPORT: Mutex<Cell<Report>> = Mutex::new(Cell::new(Report::NONE));
+
+    /// See [`REPORT`].
+    #[derive(Clone, Copy)]
+    struct Report {
+        /// B1's start of `main`: `Ok` or why it was refused.
+        start: Option<Result<(), rtseq::Error>>,
+        /// Failed ticks since the last report, and the last one's error.
+        tick_errors: u32,
+        last_tick_error: Option<rtseq::Error>,
+    }
+
+    impl Report {
+        const NONE: Report = Report {
+            start: None,
+            tick_errors: 0,
+            last_tick_error: None,
+        };
+    }
+
+    /// Changes what the control task has to report (a short critical section).
+    fn report(f: impl FnOnce(&mut Report)) {
+        critical_section::with(|cs| {
+            let cell = REPORT.borrow(cs);
+            let mut r = cell.get();
+            f(&mut r);
+            cell.set(r);
+        });
+    }
 
     #[shared]
     struct Shared {
@@ -361,6 +395,15 @@ mod app {
             if lost != 0 {
                 defmt::warn!("trace: {=u32} records lost", lost);
             }
+            let r = critical_section::with(|cs| REPORT.borrow(cs).replace(Report::NONE));
+            match r.start {
+                Some(Ok(())) => defmt::info!("B1: main started"),
+                Some(Err(e)) => defmt::error!("B1: main cannot start: {}", e.named(&SEQ)),
+                None => {}
+            }
+            if let Some(e) = r.last_tick_error {
+                defmt::error!("tick failed {=u32} times: {}", r.tick_errors, e.named(&SEQ));
+            }
             let not_run = SEQ.exceptions_not_run();
             if not_run != not_run_seen {
                 not_run_seen = not_run;
@@ -430,13 +473,9 @@ mod app {
                 .filter(|_| ready)
                 .and_then(|id| SEQ.sequence_by_id(id))
             {
-                match h.start() {
-                    Ok(()) => {
-                        defmt::info!("B1: main started");
-                        *cx.local.started = true;
-                    }
-                    Err(e) => defmt::error!("B1: main cannot start: {}", e),
-                }
+                let started = h.start();
+                *cx.local.started = started.is_ok();
+                report(|r| r.start = Some(started));
             }
         }
         *cx.local.button_was = sw.button;
@@ -445,7 +484,10 @@ mod app {
             Ok(()) => *cx.local.tick_errors = 0,
             Err(e) => {
                 *cx.local.tick_errors = cx.local.tick_errors.saturating_add(1);
-                defmt::error!("tick: {}", e);
+                report(|r| {
+                    r.tick_errors = r.tick_errors.saturating_add(1);
+                    r.last_tick_error = Some(e);
+                });
             }
         }
 
@@ -482,10 +524,7 @@ mod app {
                 }
             });
         }
-        // Logged after the power stage is safe: a log may wait for the host.
-        if let Some(change) = report.change {
-            defmt::warn!("safety level -> {}", change.to.index() as u8);
-        }
+        // Its level changes reach the log as the sequencer's records (`idle`).
     }
 
     /// The application's five lanes, joined (they sleep until the tick wakes them).
