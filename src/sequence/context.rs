@@ -557,6 +557,12 @@ impl<'a, C> Cx<'a, C> {
     /// # drop(safety);
     /// # }
     /// ```
+    ///
+    /// To go on once the safety system has taken the event, a step waits for the level it
+    /// leads to in its exit condition (`cx.safety_system().is_some_and(|s| s.level() ==
+    /// READY)`): the next safety cycle applies the event. A cleanup hook, which has no
+    /// `Cx`, reaches the handle through the control system
+    /// ([`Sequencer::safety_handle`](crate::Sequencer::safety_handle) is a `const fn`).
     pub fn safety_system(&self) -> Option<&'a crate::safety::SafetyHandle> {
         self.port.safety()
     }

@@ -139,7 +139,23 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// # drop(safety);
     /// # Ok::<(), SafetyError>(())
     /// ```
-    pub fn safety_handle(&self) -> &SafetyHandle {
+    ///
+    /// A `const fn`: a `static` control system can keep the handle, for the code that has
+    /// no [`Cx`](crate::Cx), such as a cleanup hook that asks the safety system to switch
+    /// the actuators off:
+    ///
+    /// ```
+    /// use rtseq::safety::{PublicEvent, SafetyHandle};
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// const STOP: PublicEvent = PublicEvent::new(1);
+    /// struct Station { safety: &'static SafetyHandle }
+    /// static SEQ: Sequencer<Station, 4> = Sequencer::new();
+    /// static STATION: Station = Station { safety: SEQ.safety_handle() };
+    /// fn stop_actuators(s: &Station) { s.safety.trigger(STOP) }
+    /// let config = SeqConfig::new("fill").on_abort(stop_actuators);
+    /// # let _ = (config, &STATION);
+    /// ```
+    pub const fn safety_handle(&self) -> &SafetyHandle {
         &self.safety
     }
 
