@@ -8,6 +8,7 @@ use core::future::Future;
 use crate::model::id::RunId;
 use crate::sequence::erased::{sequence_run, ErasedBody, StepRun};
 use crate::sequence::run::Run;
+use crate::sequence::scoped::Scoped;
 use crate::sequence::SeqHead;
 use crate::sequencer::clearance::Clearance;
 use crate::sequencer::port::Port;
@@ -377,7 +378,9 @@ impl<'a, C> Cx<'a, C> {
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
     /// it is already running or has no lane, and with [`Error::NotRunning`] (this
     /// sequence's id) if the tick stopped this sequence while its action ran on (a tick
-    /// preempts the lanes): nothing an action starts outlives its abort.
+    /// preempts the lanes): nothing an action starts outlives its abort. It does outlive
+    /// this sequence's end, a failure through `?` included: to end it with the action,
+    /// start it with [`start_scoped`](Self::start_scoped).
     ///
     /// `blink` has a lane, `fan` has none:
     ///
@@ -411,7 +414,67 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn start(&self, id: SeqId) -> Result<(), Error> {
-        self.port.start_in_lane(id, Some(self.run_id()))
+        self.port.start_in_lane(id, Some(self.run_id())).map(|_| ())
+    }
+
+    /// Starts sequence `id` **non-blocking** in its lane, as [`start`](Self::start) does,
+    /// bound to the returned [`Scoped`]: when the action drops it (it returns, fails
+    /// through `?`, is aborted or restarted) the next tick aborts the started run, if it
+    /// has not ended. [`Scoped::join`] waits for its end; [`Scoped::detach`] lets it run
+    /// on.
+    ///
+    /// A conveyor that runs while `main` works, and stops when `main` fails:
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cause, Cx, Failure, Monitors, Outcome, RunningState, Seq, SeqConfig,
+    ///             SeqId, Sequence, Sequencer, Step};
+    /// struct Conveyor;
+    /// impl Step<()> for Conveyor {
+    ///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+    ///     fn check_exit_condition(&mut self, _cx: &Cx<'_, ()>) -> bool { false }
+    /// }
+    /// struct Grip;
+    /// impl Step<()> for Grip {
+    ///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         Err(Failure::App(1)) // no part
+    ///     }
+    /// }
+    /// struct Main { conveyor: SeqId, grip: Seq<Grip> }
+    /// impl Sequence<()> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let _conveyor = cx.start_scoped(self.conveyor)?;
+    ///         cx.step(&mut self.grip).await?; // fails: `_conveyor` is dropped
+    ///         Ok(())
+    ///     }
+    /// }
+    /// struct Lane(Seq<Conveyor>);
+    /// impl Sequence<()> for Lane {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         cx.step(&mut self.0).await?;
+    ///         Ok(())
+    ///     }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let belt = seq.add(SeqConfig::new("belt"), Conveyor).unwrap();
+    /// let conveyor = seq.add(SeqConfig::new("conveyor"), Lane(belt)).unwrap();
+    /// let grip = seq.add(SeqConfig::new("grip"), Grip).unwrap();
+    /// let main = seq.add(SeqConfig::new("main"), Main { conveyor: conveyor.id(), grip }).unwrap();
+    /// let (id, c) = (main.id(), conveyor.id());
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.lane(conveyor);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.state(id), RunningState::Terminated); // failed
+    /// assert_eq!(sim.state(c), RunningState::Running);     // until the next tick
+    /// sim.step();
+    /// assert_eq!(sim.state(c), RunningState::Aborted);
+    /// assert_eq!(sim.handle(c).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
+    /// # }
+    /// ```
+    pub fn start_scoped(&self, id: SeqId) -> Result<Scoped<'a, C>, Error> {
+        let run = self.port.start_in_lane(id, Some(self.run_id()))?;
+        Ok(Scoped::new(self.port, self.run_id(), run))
     }
 
     /// Waits until non-blocking sequence `id` has ended and returns its outcome: that of
@@ -738,14 +801,27 @@ impl<C, F> Drop for WaitUntil<'_, '_, C, F> {
 /// The future of [`Cx::join`]. While it waits its sequence is marked as joining the
 /// target (what the deadlock check of a later join follows); dropped before it returned
 /// (the loser of a `select`, an action aborted or restarted), it no longer waits.
-struct Join<'a, C> {
+pub(crate) struct Join<'a, C> {
     port: &'a dyn Port<C>,
     me: RunId,
     target: SeqId,
-    /// The run joined, set at the first poll.
+    /// The run joined, set at the first poll unless the join was made of one run.
     run: Option<u16>,
     /// The last poll left the sequence marked as joining.
     waiting: bool,
+}
+
+impl<'a, C> Join<'a, C> {
+    /// The join by `me` of the run `target` (not of a later run of its sequence).
+    pub(crate) fn of_run(port: &'a dyn Port<C>, me: RunId, target: RunId) -> Self {
+        Join {
+            port,
+            me,
+            target: target.seq,
+            run: Some(target.count),
+            waiting: false,
+        }
+    }
 }
 
 impl<C> Future for Join<'_, C> {

@@ -8,6 +8,7 @@
 //! | `run.rs` | a run: the seed's `actionFramework` as a state machine, with its diagram |
 //! | `erased.rs` | all type erasure (and so all `unsafe`) of this module, its invariants listed |
 //! | `lane.rs` | [`lane`](fn@crate::lane): a non-blocking sequence's execution context |
+//! | `scoped.rs` | [`Scoped`]: a non-blocking child that ends with its caller's action |
 //! | `wait.rs` | [`Wait`], the dwell-time step |
 
 use core::cell::Cell;
@@ -16,10 +17,12 @@ pub(crate) mod context;
 pub(crate) mod erased;
 pub(crate) mod lane;
 pub(crate) mod run;
+pub(crate) mod scoped;
 pub(crate) mod wait;
 
 pub use context::Cx;
 pub use lane::lane;
+pub use scoped::Scoped;
 pub use wait::Wait;
 
 use crate::{Done, Failure, SeqId};

@@ -430,7 +430,7 @@ impl<'a, C> Handle<'a, C> {
     /// assert_eq!(h.start(), Err(Error::AlreadyRunning(id)));
     /// ```
     pub fn start(&self) -> Result<(), Error> {
-        self.port.start_in_lane(self.id, None)
+        self.port.start_in_lane(self.id, None).map(|_| ())
     }
 
     /// Requests a pause of the sequence and its blocking children (next tick). Of a pause

@@ -11,7 +11,7 @@ use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::clearance::{end_run, Clearance};
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
-use crate::sequencer::requests::ask;
+use crate::sequencer::requests::{ask, ask_of_run};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
@@ -46,7 +46,8 @@ pub(crate) trait Port<C> {
     /// blocking: it runs in the lane of `caller`, inside its future. Returns the new run.
     fn start_blocking(&self, id: SeqId, maker: u16, caller: RunId) -> Result<RunId, Error>;
     /// Starts `id` in its own lane, by the run `caller` (`None`: as a main sequence).
-    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<(), Error>;
+    /// Returns the new run.
+    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<RunId, Error>;
     /// Keeps `waker` for the lane of `run`'s sequence, then says what an await point of
     /// `run` must do (a run that is not the current one: `Aborted`).
     fn clearance(&self, run: RunId, waker: &Waker) -> Clearance;
@@ -100,6 +101,9 @@ pub(crate) trait Port<C> {
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues `request` of `id`, made by `by`, for the next tick.
     fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error>;
+    /// Queues an abort of `run` (not of a later run of its sequence), made by the
+    /// sequence `by`, for the next tick.
+    fn abort_run(&self, run: RunId, by: SeqId) -> Result<(), Error>;
     /// Sets `id`'s timeout (µs, 0: off): at once for a run under way whose timeout is
     /// armed, otherwise from the next start or restart.
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
@@ -128,9 +132,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.begin(id, Mode::Blocking { caller, maker }, Cause::Start)
     }
 
-    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<(), Error> {
+    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<RunId, Error> {
         self.begin(id, Mode::Lane { caller }, Cause::Start)
-            .map(|_| ())
     }
 
     fn clearance(&self, run: RunId, waker: &Waker) -> Clearance {
@@ -296,6 +299,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error> {
         in_sections!(self, |s| ask(s, id, request, by))
+    }
+
+    fn abort_run(&self, run: RunId, by: SeqId) -> Result<(), Error> {
+        in_sections!(self, |s| ask_of_run(
+            s,
+            run,
+            Request::Abort,
+            Requester::Sequence(by)
+        ))
     }
 
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {

@@ -4,6 +4,7 @@
 use core::sync::atomic::Ordering;
 
 use crate::lock::Lock;
+use crate::model::id::RunId;
 use crate::model::state::States;
 use crate::sequencer::control_block::{flag, request};
 use crate::sequencer::sections::Sections;
@@ -107,9 +108,52 @@ pub(crate) fn ask<
     by: Requester,
 ) -> Result<(), Error> {
     let run = s.section(|s| s.check_request(id, req))?;
+    carry_out(s, id, req, by, run);
+    Ok(())
+}
+
+/// Makes `req` of the run `run` for `by`, as [`ask`] does of a sequence's current run:
+/// refused ([`Error::NotRunning`]) when `run` is over and its sequence runs again, so a
+/// later run is never asked.
+pub(crate) fn ask_of_run<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    run: RunId,
+    req: Request,
+    by: Requester,
+) -> Result<(), Error> {
+    let id = run.seq;
+    let current = s.section(|s| s.check_request(id, req))?;
+    if current != run.count {
+        return Err(Error::NotRunning(id));
+    }
+    carry_out(s, id, req, by, current);
+    Ok(())
+}
+
+/// The record and the queueing of an accepted request `req` of `id`'s run `run`.
+fn carry_out<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    req: Request,
+    by: Requester,
+    run: u16,
+) {
     s.section(|s| s.record_request(id, req, by));
     s.section(|s| s.queue_request(id, req, run));
-    Ok(())
 }
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>

@@ -365,7 +365,7 @@ mod tests {
         BETWEEN.with(|b| {
             *b.borrow_mut() = Some(Box::new(move || {
                 // Y's lane: Y is still running, its child X was aborted; it starts G.
-                *result.borrow_mut() = Some(Port::start_in_lane(seq, g, Some(run(y))));
+                *result.borrow_mut() = Some(Port::start_in_lane(seq, g, Some(run(y))).map(drop));
             }))
         });
         Port::abandon(seq, r, &());

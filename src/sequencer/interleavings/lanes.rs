@@ -901,6 +901,52 @@ fn a_request_against_an_end_and_a_new_start_is_carried_out_on_its_own_run_only()
     every_split_world!(request_against_end_and_start, Ask::Pause);
 }
 
+/// X runs (run 1), started by P. Lane A asks for the abort of X's run 1 (`abort_run`, what
+/// a dropped `Scoped` of P does); lane B, before section `k`, ends run 1, starts X again
+/// and X's lane takes run 2. Then the ticks. Run 2 runs on whatever `k`: the abort is
+/// refused (`NotRunning(X)`) when B came before its check, else accepted for run 1, which
+/// has ended by the tick.
+fn abort_of_a_run_against_end_and_start<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        move || {
+            let (w, [p], [x]) = World::<L, N, B>::of(layout, ["P"], ["X"]);
+            w.start_taken(p);
+            w.in_lane(x, p).unwrap();
+            let run1 = w.take(x);
+            (w, p, x, run1)
+        },
+        |(w, p, _, run1)| Port::abort_run(w.seq, run1, p),
+        |(w, _, x, _)| {
+            assert!(w.complete(x));
+            w.kept(x).start().unwrap();
+            w.take(x)
+        },
+        |what, at, asked, run2, (w, _, x, _)| {
+            assert_eq!(run2.count, 2, "{what}");
+            let before_check = at.k == 0 && !at.after;
+            let expected = if before_check {
+                Err(Error::NotRunning(x))
+            } else {
+                Ok(())
+            };
+            assert_eq!(asked, expected, "{what}");
+            w.tick(1);
+            w.tick(2);
+            assert_eq!((w.state(x), w.runs(x)), (Running, 2), "{what}");
+            assert_eq!(w.moves(x, Running, Aborting), 0, "{what}");
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn an_abort_of_a_run_is_never_carried_out_on_a_later_run() {
+    every_split_world!(abort_of_a_run_against_end_and_start);
+}
+
 /// X runs; its lane ends it (completed) and a handle requests an abort (or pause) of it,
 /// one preempting the other (`end_first`: the end is preempted). The end stands whatever
 /// came first (a request waits for the tick; semantics 8): X `Terminated` after the ticks,

@@ -727,7 +727,7 @@ fn start_child<L: Lock + 'static, const N: usize, const B: usize>(
     how: How,
 ) -> Result<(), Error> {
     match how {
-        How::InLane => Port::start_in_lane(w.seq, c, Some(by)),
+        How::InLane => Port::start_in_lane(w.seq, c, Some(by)).map(drop),
         How::Blocking => w
             .seq
             .begin(
@@ -957,7 +957,7 @@ fn lane_start_into_teardown<L: Lock + 'static, const N: usize, const B: usize>(
         let out = result.clone();
         interleaved::at(k, move || {
             let by = Some(w.run(starter));
-            *out.borrow_mut() = Some(Port::start_in_lane(w.seq, g, by));
+            *out.borrow_mut() = Some(Port::start_in_lane(w.seq, g, by).map(drop));
         });
         w.tick(1);
         let what = format!("{layout:?}, {how:?}, deep {deep}, k={k}");

@@ -1,0 +1,148 @@
+//! A non-blocking child bound to a value of its caller's action ([`Cx::start_scoped`]).
+
+use core::future::Future;
+use core::pin::Pin;
+use core::task::{Context, Poll};
+
+use crate::model::id::RunId;
+use crate::sequence::context::Join;
+use crate::sequencer::port::Port;
+use crate::{Error, Outcome, SeqId};
+
+#[cfg(doc)]
+use crate::Cx;
+
+/// A sequence started non-blocking by [`Cx::start_scoped`], whose run ends with this value:
+/// when it is dropped (the action returns, fails through `?`, is aborted or restarted, or
+/// a `select` drops the future that holds it) the next tick aborts the run, unless it has
+/// ended. [`join`](Self::join) waits for its end instead, and [`detach`](Self::detach)
+/// lets it run on, as [`Cx::start`] does.
+///
+/// The abort is a request of the calling sequence
+/// ([`Requester::Sequence`](crate::Requester::Sequence)) of this run alone: a later run of
+/// the sequence, started after this one ended, is never aborted by it.
+#[must_use = "a `Scoped` dropped at once aborts the sequence it started: keep it in a variable"]
+pub struct Scoped<'a, C> {
+    port: &'a dyn Port<C>,
+    /// The run that started it, which a join waits in.
+    caller: RunId,
+    /// The started run.
+    run: RunId,
+}
+
+impl<'a, C> Scoped<'a, C> {
+    pub(crate) fn new(port: &'a dyn Port<C>, caller: RunId, run: RunId) -> Self {
+        Scoped { port, caller, run }
+    }
+
+    /// The id of the started sequence.
+    pub fn id(&self) -> SeqId {
+        self.run.seq
+    }
+
+    /// Waits until the started run has ended and returns its outcome, as [`Cx::join`]
+    /// does; if it has ended and its sequence has been started again since, the outcome
+    /// kept is the new run's, so the join is [`Error::OutcomeLost`]. A join dropped before
+    /// it returned drops the `Scoped` with it: the run is aborted.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Outcome, RunningState, Seq, SeqConfig,
+    ///             SeqId, Sequence, Sequencer, Wait};
+    /// struct Fill(Seq<Wait>);
+    /// impl Sequence<()> for Fill {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         cx.step(&mut self.0).await?;
+    ///         Ok(())
+    ///     }
+    /// }
+    /// struct Main(SeqId);
+    /// impl Sequence<()> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         let fill = cx.start_scoped(self.0)?;
+    ///         assert_eq!(fill.id(), self.0);
+    ///         // (work beside the filling), then wait for it:
+    ///         assert_eq!(fill.join().await, Ok(Outcome::Completed));
+    ///         Ok(())
+    ///     }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let fill = seq.add(SeqConfig::new("fill"), Fill(dwell)).unwrap();
+    /// let (f, main) = (fill.id(), seq.add(SeqConfig::new("main"), Main(fill.id())).unwrap());
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.lane(fill);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.run_until_idle(Duration::from_millis(20)).map(|t| t.as_ticks()), Some(5_000));
+    /// assert_eq!(sim.state(f), RunningState::Terminated);
+    /// # }
+    /// ```
+    pub fn join(self) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
+        JoinScoped {
+            join: Join::of_run(self.port, self.caller, self.run),
+            _scoped: self,
+        }
+    }
+
+    /// Lets the started run outlive this value, as a run started by [`Cx::start`] does.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use rtseq::{sim::Sim, Cx, Duration, Failure, Monitors, Outcome, RunningState, Seq, SeqConfig,
+    ///             SeqId, Sequence, Sequencer, Wait};
+    /// struct Fill(Seq<Wait>);
+    /// impl Sequence<()> for Fill {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         cx.step(&mut self.0).await?;
+    ///         Ok(())
+    ///     }
+    /// }
+    /// struct Main(SeqId);
+    /// impl Sequence<()> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+    ///         cx.start_scoped(self.0)?.detach();
+    ///         Ok(())
+    ///     }
+    /// }
+    /// let seq: Sequencer<(), 4> = Sequencer::new();
+    /// let dwell = seq.add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5))).unwrap();
+    /// let fill = seq.add(SeqConfig::new("fill"), Fill(dwell)).unwrap();
+    /// let (f, main) = (fill.id(), seq.add(SeqConfig::new("main"), Main(fill.id())).unwrap());
+    /// let id = main.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(main);
+    /// sim.lane(fill);
+    /// sim.start(id).unwrap();
+    /// assert_eq!(sim.state(id), RunningState::Terminated);
+    /// sim.step();
+    /// assert_eq!(sim.state(f), RunningState::Running); // not aborted
+    /// # }
+    /// ```
+    pub fn detach(self) {
+        core::mem::forget(self);
+    }
+}
+
+impl<C> Drop for Scoped<'_, C> {
+    fn drop(&mut self) {
+        // Refused (`NotRunning`) when the run has ended: nothing to abort.
+        let _ = self.port.abort_run(self.run, self.caller.seq);
+    }
+}
+
+/// The future of [`Scoped::join`]. Its fields drop in order: the join stops waiting
+/// before the `Scoped`, kept for its `Drop`, asks for the abort.
+struct JoinScoped<'a, C> {
+    join: Join<'a, C>,
+    _scoped: Scoped<'a, C>,
+}
+
+impl<C> Future for JoinScoped<'_, C> {
+    type Output = Result<Outcome, Error>;
+
+    fn poll(mut self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
+        Pin::new(&mut self.join).poll(w)
+    }
+}

@@ -1,0 +1,386 @@
+//! Non-blocking children bound to their caller's action (`Cx::start_scoped`): a child is
+//! aborted by the tick after its `Scoped` is dropped, never a later run of its sequence;
+//! `join` waits for it, `detach` lets it run on.
+
+mod common;
+use std::cell::Cell;
+use std::rc::Rc;
+
+use common::*;
+use embassy_futures::select::{select, Either};
+use rtseq::sim::Sim;
+use rtseq::Cause::{Abort, Completed, Failed, Start};
+use rtseq::RunningState::*;
+use rtseq::{
+    Cx, Duration, Entry, Error, Event, Failure, Instant, Monitors, Outcome, Record, Request,
+    Requester, RunningState, Seq, SeqConfig, SeqId, Sequence, Sequencer, Wait,
+};
+
+/// What the main sequence does with its scoped child once its own dwell is over.
+#[derive(Clone, Copy)]
+enum Then {
+    /// Returns `Ok`.
+    Return,
+    /// Fails (`Err(Failure::App(7))`).
+    Fail,
+    /// Joins the child through its `Scoped`.
+    Join,
+    /// Detaches the child, then returns.
+    Detach,
+    /// Joins the child by id, starts it again (not scoped), then drops the `Scoped`.
+    StartAgain,
+    /// Races the child's join against a second dwell, which wins.
+    RaceJoin,
+}
+
+type Joined = Rc<Cell<Option<Result<Outcome, Error>>>>;
+
+struct Main {
+    child: SeqId,
+    then: Then,
+    dwell: Seq<Wait>,
+    joined: Joined,
+}
+
+impl Sequence<Ctrl> for Main {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let child = cx.start_scoped(self.child)?;
+        assert_eq!(child.id(), self.child);
+        cx.step(&mut self.dwell).await?;
+        match self.then {
+            Then::Return => Ok(()),
+            Then::Fail => Err(Failure::App(7)),
+            Then::Join => {
+                self.joined.set(Some(child.join().await));
+                Ok(())
+            }
+            Then::Detach => {
+                child.detach();
+                Ok(())
+            }
+            Then::StartAgain => {
+                self.joined.set(Some(cx.join(self.child).await));
+                cx.start(self.child)?;
+                drop(child);
+                Ok(())
+            }
+            Then::RaceJoin => {
+                match select(child.join(), cx.step(&mut self.dwell)).await {
+                    Either::First(joined) => self.joined.set(Some(joined)),
+                    Either::Second(dwell) => assert_eq!(dwell, Ok(rtseq::Done::Completed)),
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+/// The child: a dwell of `child_ms` in a sequence of its own lane.
+struct Child(Seq<Wait>);
+
+impl Sequence<Ctrl> for Child {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.step(&mut self.0).await?;
+        Ok(())
+    }
+}
+
+/// Ids of the tree, in registration order: main's dwell 0, main 1, the child's dwell 2,
+/// the child 3.
+const DWELL: usize = 0;
+const MAIN: usize = 1;
+const CHILD_DWELL: usize = 2;
+const CHILD: usize = 3;
+
+/// Runs main (a 3 ms dwell, then `then`) with a child that dwells `child_ms`, for 20 ms.
+/// Returns the records and what a join returned.
+fn run(then: Then, child_ms: u64) -> (Vec<Record>, Option<Result<Outcome, Error>>) {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ms = |n| Wait::new(Duration::from_millis(n));
+    let dwell = seq.add(SeqConfig::new("dwell"), ms(3)).unwrap();
+    let joined = Joined::default();
+    let main = Main {
+        child: SeqId::from_index(CHILD),
+        then,
+        dwell,
+        joined: joined.clone(),
+    };
+    let main = seq.add(SeqConfig::new("main"), main).unwrap();
+    let child_dwell = seq.add(SeqConfig::new("child dwell"), ms(child_ms));
+    let child = seq
+        .add(SeqConfig::new("child"), Child(child_dwell.unwrap()))
+        .unwrap();
+    assert_eq!(
+        [main.id(), child.id()],
+        [MAIN, CHILD].map(SeqId::from_index)
+    );
+    let ctrl = Ctrl::default();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    let id = main.id();
+    sim.lane(main);
+    sim.lane(child);
+    sim.start(id).unwrap();
+    sim.run_for(Duration::from_millis(20));
+    (sim.records().to_vec(), joined.get())
+}
+
+fn t(ms: u64, id: usize, from: RunningState, to: RunningState, cause: rtseq::Cause) -> Record {
+    Record {
+        time: Instant::from_ticks(ms * 1000),
+        entry: Entry::Transition {
+            sequence: SeqId::from_index(id),
+            from,
+            to,
+            cause,
+        },
+    }
+}
+
+fn e(ms: u64, event: Event) -> Record {
+    Record {
+        time: Instant::from_ticks(ms * 1000),
+        entry: Entry::Event(event),
+    }
+}
+
+/// Main's request to abort its child.
+fn main_aborts_child(ms: u64) -> Record {
+    e(
+        ms,
+        Event::Requested {
+            sequence: SeqId::from_index(CHILD),
+            request: Request::Abort,
+            by: Requester::Sequence(SeqId::from_index(MAIN)),
+        },
+    )
+}
+
+fn assert_records(got: &[Record], want: &[Record]) {
+    let show = |r: &[Record]| {
+        r.iter()
+            .map(|r| format!("{:>6} {:?}\n", r.time.as_ticks(), r.entry))
+            .collect::<String>()
+    };
+    assert_eq!(got, want, "\n got:\n{}want:\n{}", show(got), show(want));
+}
+
+/// The first records of every run: main starts its child (in the child's lane), then
+/// its dwell; the child's lane then starts the child's dwell.
+fn started() -> Vec<Record> {
+    vec![
+        t(0, MAIN, Idle, Running, Start),
+        t(0, CHILD, Idle, Running, Start),
+        t(0, DWELL, Idle, Running, Start),
+        t(0, CHILD_DWELL, Idle, Running, Start),
+        t(3, DWELL, Running, Terminated, Completed),
+    ]
+}
+
+#[test]
+fn a_scoped_child_is_aborted_by_the_tick_after_its_caller_failed() {
+    let (records, _) = run(Then::Fail, 100);
+    let mut want = started();
+    want.extend([
+        main_aborts_child(3),
+        t(3, MAIN, Running, Terminated, Failed),
+        e(
+            3,
+            Event::Failed {
+                sequence: SeqId::from_index(MAIN),
+                failure: Failure::App(7),
+            },
+        ),
+        t(4, CHILD_DWELL, Running, Aborting, Abort),
+        t(4, CHILD_DWELL, Aborting, Aborted, Abort),
+        t(4, CHILD, Running, Aborting, Abort),
+        t(4, CHILD, Aborting, Aborted, Abort),
+    ]);
+    assert_records(&records, &want);
+}
+
+#[test]
+fn a_scoped_child_is_aborted_by_the_tick_after_its_caller_completed() {
+    let (records, _) = run(Then::Return, 100);
+    let mut want = started();
+    want.extend([
+        main_aborts_child(3),
+        t(3, MAIN, Running, Terminated, Completed),
+        t(4, CHILD_DWELL, Running, Aborting, Abort),
+        t(4, CHILD_DWELL, Aborting, Aborted, Abort),
+        t(4, CHILD, Running, Aborting, Abort),
+        t(4, CHILD, Aborting, Aborted, Abort),
+    ]);
+    assert_records(&records, &want);
+}
+
+#[test]
+fn a_scoped_child_that_ended_is_not_asked_to_abort() {
+    let (records, _) = run(Then::Return, 2);
+    let mut want = started();
+    want.truncate(4);
+    want.extend([
+        t(2, CHILD_DWELL, Running, Terminated, Completed),
+        t(2, CHILD, Running, Terminated, Completed),
+        t(3, DWELL, Running, Terminated, Completed),
+        t(3, MAIN, Running, Terminated, Completed),
+    ]);
+    assert_records(&records, &want);
+}
+
+#[test]
+fn a_join_through_the_scoped_child_gets_its_outcome_and_aborts_nothing() {
+    let (records, joined) = run(Then::Join, 5);
+    let mut want = started();
+    want.extend([
+        t(5, CHILD_DWELL, Running, Terminated, Completed),
+        t(5, CHILD, Running, Terminated, Completed),
+        t(5, MAIN, Running, Terminated, Completed),
+    ]);
+    assert_records(&records, &want);
+    assert_eq!(joined, Some(Ok(Outcome::Completed)));
+}
+
+#[test]
+fn a_detached_child_outlives_its_caller() {
+    let (records, _) = run(Then::Detach, 100);
+    let mut want = started();
+    want.push(t(3, MAIN, Running, Terminated, Completed));
+    assert_records(&records, &want);
+}
+
+#[test]
+fn a_scoped_child_never_aborts_a_later_run_of_its_sequence() {
+    // The child ends at 2; main joins it at 3, starts it again (not scoped), and drops
+    // the `Scoped` of the first run: the second run dwells its 2 ms to the end.
+    let (records, joined) = run(Then::StartAgain, 2);
+    let mut want = started();
+    want.truncate(4);
+    want.extend([
+        t(2, CHILD_DWELL, Running, Terminated, Completed),
+        t(2, CHILD, Running, Terminated, Completed),
+        t(3, DWELL, Running, Terminated, Completed),
+        t(3, CHILD, Terminated, Running, Start),
+        t(3, MAIN, Running, Terminated, Completed),
+        t(3, CHILD_DWELL, Terminated, Running, Start),
+        t(5, CHILD_DWELL, Running, Terminated, Completed),
+        t(5, CHILD, Running, Terminated, Completed),
+    ]);
+    assert_records(&records, &want);
+    assert_eq!(joined, Some(Ok(Outcome::Completed)));
+}
+
+#[test]
+fn a_join_that_loses_a_select_aborts_the_scoped_child() {
+    // The second dwell (3 to 6 ms) wins the race against the join of a 100 ms child.
+    let (records, joined) = run(Then::RaceJoin, 100);
+    let mut want = started();
+    want.extend([
+        t(3, DWELL, Terminated, Running, Start),
+        t(6, DWELL, Running, Terminated, Completed),
+        main_aborts_child(6),
+        t(6, MAIN, Running, Terminated, Completed),
+        t(7, CHILD_DWELL, Running, Aborting, Abort),
+        t(7, CHILD_DWELL, Aborting, Aborted, Abort),
+        t(7, CHILD, Running, Aborting, Abort),
+        t(7, CHILD, Aborting, Aborted, Abort),
+    ]);
+    assert_records(&records, &want);
+    assert_eq!(joined, None);
+}
+
+#[test]
+fn an_aborted_caller_takes_its_scoped_child_down_in_the_same_tick_and_asks_nothing_more() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ms = |n| Wait::new(Duration::from_millis(n));
+    let dwell = seq.add(SeqConfig::new("dwell"), ms(10)).unwrap();
+    let main = Main {
+        child: SeqId::from_index(CHILD),
+        then: Then::Return,
+        dwell,
+        joined: Joined::default(),
+    };
+    let main = seq.add(SeqConfig::new("main"), main).unwrap();
+    let child_dwell = seq.add(SeqConfig::new("child dwell"), ms(100)).unwrap();
+    let child = seq
+        .add(SeqConfig::new("child"), Child(child_dwell))
+        .unwrap();
+    let ctrl = Ctrl::default();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    let id = main.id();
+    sim.lane(main);
+    sim.lane(child);
+    sim.start(id).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    sim.abort(id).unwrap();
+    sim.run_for(Duration::from_millis(5));
+    let mut want = started();
+    want.truncate(4);
+    want.extend([
+        e(
+            2,
+            Event::Requested {
+                sequence: id,
+                request: Request::Abort,
+                by: Requester::Application,
+            },
+        ),
+        t(3, CHILD_DWELL, Running, Aborting, Abort),
+        t(3, CHILD_DWELL, Aborting, Aborted, Abort),
+        t(3, DWELL, Running, Aborting, Abort),
+        t(3, DWELL, Aborting, Aborted, Abort),
+        t(3, CHILD, Running, Aborting, Abort),
+        t(3, CHILD, Aborting, Aborted, Abort),
+        t(3, MAIN, Running, Aborting, Abort),
+        t(3, MAIN, Aborting, Aborted, Abort),
+    ]);
+    assert_records(sim.records(), &want);
+}
+
+#[test]
+fn a_scoped_start_is_refused_as_a_start_is() {
+    struct Twice(SeqId);
+    impl Sequence<Ctrl> for Twice {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+            let first = cx.start_scoped(self.0)?;
+            let again = cx.start_scoped(self.0).map(|s| s.id());
+            assert_eq!(again, Err(Error::AlreadyRunning(self.0)));
+            let unknown = SeqId::from_index(CHILD);
+            assert_eq!(
+                cx.start_scoped(unknown).map(|s| s.id()),
+                Err(Error::UnknownSequence(unknown))
+            );
+            first.detach();
+            Ok(())
+        }
+    }
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let child_dwell = seq
+        .add(
+            SeqConfig::new("child dwell"),
+            Wait::new(Duration::from_millis(5)),
+        )
+        .unwrap();
+    let child = seq
+        .add(SeqConfig::new("child"), Child(child_dwell))
+        .unwrap();
+    let twice = seq.add(SeqConfig::new("twice"), Twice(child.id())).unwrap();
+    let ctrl = Ctrl::default();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    let (id, c) = (twice.id(), child.id());
+    sim.lane(twice);
+    sim.lane(child);
+    sim.start(id).unwrap();
+    assert_eq!(sim.state(id), Terminated);
+    assert_eq!(
+        sim.handle(id).unwrap().last_outcome(),
+        Some(Outcome::Completed)
+    );
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)),
+        Some(Instant::from_ticks(5_000))
+    );
+    assert_eq!(
+        sim.handle(c).unwrap().last_outcome(),
+        Some(Outcome::Completed)
+    );
+}
