@@ -77,7 +77,9 @@ pub enum Behaviour {
     /// it marks no exception, so the owner's other monitors keep firing (a following-error
     /// monitor still restarts a paused owner; the restarted owner pauses again at once if
     /// the condition still holds). A `PauseOwner` monitor watches both edges, whatever its
-    /// [`Trigger`]; it is not a timeout behaviour (`register` refuses it there).
+    /// [`Trigger`]; it is not a timeout behaviour (`register` refuses it there). A pause
+    /// holds the sequences, not the machine: see [`Handle::pause`](crate::Handle::pause)
+    /// for holding the motion too.
     PauseOwner,
 }
 

@@ -440,6 +440,13 @@ impl<'a, C> Handle<'a, C> {
     /// (a `PauseOwner` monitor, the paused caller it blocks) takes the request: it stays
     /// paused when that hold ends, until a resume request.
     ///
+    /// A pause holds the sequences, not the machine: their actions stop at their next
+    /// await point, but what their steps commanded goes on (a speed, a trajectory). A feed
+    /// hold holds the motion in the control system too, before the pause: the motor demo's
+    /// `feed hold` exception sequence has the control system decelerate the move and keep
+    /// it, then pauses the moves; `feed resume` continues the move, then resumes them. A stop the machine must make
+    /// whatever the sequences do belongs to the safety system (a safety event).
+    ///
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use rtseq::{sim::Sim, Cx, Duration, Error, Failure, Monitors, RunningState, Seq, SeqConfig,
