@@ -3,7 +3,9 @@
 //!
 //! A small tree runs in real lanes (`lane()`, polled by a scheduler written here): a main
 //! sequence M runs a blocking child A twice, each time followed by a non-blocking child B
-//! (its own lane) that M joins; the second time, A's run races a `Cx::wait_until` of a
+//! (its own lane) that M joins, the second time started scoped (`Cx::start_scoped`) and
+//! joined through its `Scoped`, whose drop (M aborted or restarted meanwhile) asks for
+//! B's abort; the second time, A's run races a `Cx::wait_until` of a
 //! cancel flag in `embassy_futures::select`, which drops A's run when the flag wins. A runs
 //! A2 blocking (handing A2's failure on, or not), which, when its pre-condition holds,
 //! runs a dwell step W, may fail, and then polls its exit condition; so does A. B waits in
@@ -56,7 +58,8 @@ const SECOND_TICK: u8 = 3;
 /// The safety system's priority (its abort-all).
 const SAFETY: u8 = 4;
 
-/// M: A blocking (the second time against `cancel`), then B in its lane, joined; twice.
+/// M: A blocking (the second time against `cancel`), then B in its lane, joined (the
+/// second time scoped); twice.
 struct Main {
     a: Seq<Middle>,
     b: SeqId,
@@ -73,8 +76,12 @@ impl Sequence<()> for Main {
                 let cancelled = cx.wait_until(move |_| cancel.load(Ordering::Relaxed));
                 let _ = select(cx.run(&mut self.a), cancelled).await;
             }
-            if cx.start(self.b).is_ok() {
-                let _ = cx.join(self.b).await;
+            if round == 0 {
+                if cx.start(self.b).is_ok() {
+                    let _ = cx.join(self.b).await;
+                }
+            } else if let Ok(b) = cx.start_scoped(self.b) {
+                let _ = b.join().await;
             }
         }
         Ok(())
