@@ -123,7 +123,8 @@ pub enum Request {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Requester {
     /// A sequence, through a handle from its context
-    /// ([`Cx::sequence_by_id`](crate::Cx::sequence_by_id)).
+    /// ([`Cx::sequence_by_id`](crate::Cx::sequence_by_id)), or the abort of a child it
+    /// started scoped, when it dropped the [`Scoped`](crate::Scoped).
     Sequence(SeqId),
     /// The application, through a handle from the sequencer
     /// ([`Sequencer::sequence_by_id`](crate::Sequencer::sequence_by_id)) or
