@@ -418,10 +418,10 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Starts sequence `id` **non-blocking** in its lane, as [`start`](Self::start) does,
-    /// bound to the returned [`Scoped`]: when the action drops it (it returns, fails
-    /// through `?`, is aborted or restarted) the next tick aborts the started run, if it
-    /// has not ended. [`Scoped::join`] waits for its end; [`Scoped::detach`] lets it run
-    /// on.
+    /// bound to the returned [`Scoped`]: when the action drops it (it returns, or fails
+    /// through `?`) the next tick aborts the started run, if it has not ended; an abort or
+    /// restart of this sequence takes it down as every child. [`Scoped::join`] waits for
+    /// its end; [`Scoped::detach`] lets it run on.
     ///
     /// A conveyor that runs while `main` works, and stops when `main` fails:
     ///

@@ -13,9 +13,10 @@ use crate::{Error, Outcome, SeqId};
 use crate::Cx;
 
 /// A sequence started non-blocking by [`Cx::start_scoped`], whose run ends with this value:
-/// when it is dropped (the action returns, fails through `?`, is aborted or restarted, or
-/// a `select` drops the future that holds it) the next tick aborts the run, unless it has
-/// ended. [`join`](Self::join) waits for its end instead, and [`detach`](Self::detach)
+/// when it is dropped (the action returns, fails through `?`, or a `select` drops the
+/// future that holds it) the next tick aborts the run, unless it has ended. (An abort or
+/// restart of the caller takes the run down itself, in its own tick, as it takes every
+/// child.) [`join`](Self::join) waits for its end instead, and [`detach`](Self::detach)
 /// lets it run on, as [`Cx::start`] does.
 ///
 /// The abort is a request of the calling sequence
