@@ -3,7 +3,7 @@
 //! | level | drive enable | brake | e-stop | current | end stops | entered by |
 //! |---|---|---|---|---|---|---|
 //! | `EMERGENCY` (0) | off | on | ignore | ignore | ignore | `EMERGENCY_STOP` (private) from any level ≥ `OFF`; aborts every sequence while active |
-//! | `OFF` (1) | off | on | check | range ±[`CURRENT_TRIP`] | ignore | start; `SWITCH_OFF`; `RESET` from `EMERGENCY` |
+//! | `OFF` (1) | off | on | check | range ± the trip ([`Watches`]; [`CURRENT_TRIP`] in [`PROPERTIES`]) | ignore | start; `SWITCH_OFF`; `RESET` from `EMERGENCY` |
 //! | `POWER_ON` (2) | on | off | check | range | ignore (homing seeks the switch) | [`SWITCH_ON`] from `OFF`; `LIMIT` from `HOMED` |
 //! | `HOMED` (3) | on | off | check | range | check open → `LIMIT` | [`HOMED_EVENT`] from `POWER_ON` |
 //!
@@ -32,9 +32,9 @@
 //! ```
 
 use rtseq::safety::{
-    AbortPolicy, CriticalInput, CriticalOutput, CycleReport, InputAction, InputId, IoValue,
-    LevelDef, LevelTransition, OutputAction, OutputId, PrivateEvent, PublicEvent, SafetyIo,
-    SafetyLevel, SafetyProperties, SafetySystem, Sequences, ValidProperties,
+    AbortPolicy, CriticalInput, CriticalInputInfo, CriticalOutput, CriticalOutputInfo, CycleReport,
+    InputAction, InputId, IoValue, LevelDef, LevelTransition, OutputAction, OutputId, PrivateEvent,
+    PublicEvent, SafetyIo, SafetyLevel, SafetyProperties, SafetySystem, Sequences, ValidProperties,
 };
 
 use crate::control_system::ControlSystem;
@@ -61,7 +61,9 @@ pub const EMERGENCY_STOP: PrivateEvent = PrivateEvent::new(0);
 /// Private: an end stop closed while homed.
 pub const LIMIT: PrivateEvent = PrivateEvent::new(1);
 
-/// Over-current trip level of the current input, A (the drive limit is 4 A).
+/// Over-current trip level of the current input of the simulated drive, A (its current
+/// limit is 4 A), in [`PROPERTIES`]. A real drive trips where its sensor can still
+/// measure: build its table with [`Watches::new`] and [`properties`].
 pub const CURRENT_TRIP: f32 = 6.0;
 
 /// Critical input: e-stop button pressed.
@@ -77,18 +79,63 @@ pub const ENABLE_OUT: CriticalOutput<bool> = CriticalOutput::new(0, "drive enabl
 /// Critical output: brake engaged.
 pub const BRAKE_OUT: CriticalOutput<bool> = CriticalOutput::new(1, "brake");
 
-const WATCH: [InputAction; 4] = [
-    ESTOP_IN.check(false, EMERGENCY_STOP),
-    CURRENT_IN.range(-CURRENT_TRIP, CURRENT_TRIP, EMERGENCY_STOP),
-    END_NEG_IN.ignore(),
-    END_POS_IN.ignore(),
-];
-const WATCH_HOMED: [InputAction; 4] = [
-    ESTOP_IN.check(false, EMERGENCY_STOP),
-    CURRENT_IN.range(-CURRENT_TRIP, CURRENT_TRIP, EMERGENCY_STOP),
-    END_NEG_IN.check(false, LIMIT),
-    END_POS_IN.check(false, LIMIT),
-];
+/// What the levels above `EMERGENCY` watch, for a drive whose over-current trip is
+/// ±`current_trip` A: the input lists [`properties`] builds the table from. A `static`, so
+/// the table can borrow it for good:
+///
+/// ```
+/// use rtseq::safety::{SafetySystem, ValidProperties};
+/// use rtseq::Sequencer;
+/// use rtseq_motor::control_system::ControlSystem;
+/// use rtseq_motor::safety::{self, DriveIo, Watches};
+/// /// A board whose current sensor measures up to ±3.2 A trips at 2 A.
+/// static WATCHES: Watches = Watches::new(2.0);
+/// static PROPERTIES: ValidProperties<'static, DriveIo, 4> =
+///     match safety::properties(&WATCHES).validated() {
+///         Ok(valid) => valid,
+///         Err(_) => panic!("invalid safety properties"),
+///     };
+/// static SEQ: Sequencer<ControlSystem, 4> = Sequencer::new();
+/// let mut system = SafetySystem::new_validated(&PROPERTIES, SEQ.safety_handle()).unwrap();
+/// let mut level_at = |amps: f32| {
+///     let mut io = DriveIo { current: amps, ..DriveIo::default() };
+///     system.cycle(&mut io, &SEQ);
+///     system.cycle(&mut io, &SEQ);
+///     SEQ.safety_handle().level()
+/// };
+/// assert_eq!(level_at(1.9), safety::OFF);
+/// assert_eq!(level_at(2.1), safety::EMERGENCY);
+/// ```
+pub struct Watches {
+    /// Off and power on: e-stop and current; the end stops are ignored (homing seeks one).
+    off: [InputAction; 4],
+    /// Homed: e-stop, current and both end stops.
+    homed: [InputAction; 4],
+}
+
+impl Watches {
+    /// The watches of a drive that trips at ±`current_trip` A.
+    pub const fn new(current_trip: f32) -> Self {
+        let current = CURRENT_IN.range(-current_trip, current_trip, EMERGENCY_STOP);
+        Watches {
+            off: [
+                ESTOP_IN.check(false, EMERGENCY_STOP),
+                current,
+                END_NEG_IN.ignore(),
+                END_POS_IN.ignore(),
+            ],
+            homed: [
+                ESTOP_IN.check(false, EMERGENCY_STOP),
+                current,
+                END_NEG_IN.check(false, LIMIT),
+                END_POS_IN.check(false, LIMIT),
+            ],
+        }
+    }
+}
+
+/// The simulated drive's watches (trip at [`CURRENT_TRIP`]).
+static WATCHES: Watches = Watches::new(CURRENT_TRIP);
 const IGNORE_ALL: [InputAction; 4] = [
     ESTOP_IN.ignore(),
     CURRENT_IN.ignore(),
@@ -98,46 +145,56 @@ const IGNORE_ALL: [InputAction; 4] = [
 const SAFE: [OutputAction; 2] = [ENABLE_OUT.set(false), BRAKE_OUT.set(true)];
 const DRIVE: [OutputAction; 2] = [ENABLE_OUT.set(true), BRAKE_OUT.set(false)];
 
-/// The safety properties, validated at compile time: start the system with
-/// [`SafetySystem::new_validated`], which links no run-time validation.
-pub static PROPERTIES: ValidProperties<'static, DriveIo, 4> = match TABLE.validated() {
+/// The safety properties of the simulated drive, validated at compile time: start the
+/// system with [`SafetySystem::new_validated`], which links no run-time validation.
+pub static PROPERTIES: ValidProperties<'static, DriveIo, 4> = match properties(&WATCHES).validated()
+{
     Ok(valid) => valid,
     // A compile error (the `static` is evaluated by the compiler), never a run-time panic.
     Err(_) => panic!("invalid safety properties"),
 };
 
-/// The table behind [`PROPERTIES`].
-const TABLE: SafetyProperties<'static, DriveIo, 4> = SafetyProperties::new(
-    [
-        LevelDef::new(EMERGENCY, "emergency")
-            .inputs(&IGNORE_ALL)
-            .outputs(&SAFE)
-            .abort_sequences(AbortPolicy::WhileActive),
-        LevelDef::new(OFF, "off").inputs(&WATCH).outputs(&SAFE),
-        LevelDef::new(POWER_ON, "power on")
-            .inputs(&WATCH)
-            .outputs(&DRIVE),
-        LevelDef::new(HOMED, "homed")
-            .inputs(&WATCH_HOMED)
-            .outputs(&DRIVE),
-    ],
-    &[
-        ESTOP_IN.info(),
-        CURRENT_IN.info(),
-        END_NEG_IN.info(),
-        END_POS_IN.info(),
-    ],
-    &[ENABLE_OUT.info(), BRAKE_OUT.info()],
-    &[
-        LevelTransition::on_level_and_above(OFF, EMERGENCY_STOP, EMERGENCY),
-        LevelTransition::on(EMERGENCY, RESET, OFF),
-        LevelTransition::on(OFF, SWITCH_ON, POWER_ON),
-        LevelTransition::on(POWER_ON, HOMED_EVENT, HOMED),
-        LevelTransition::on(HOMED, LIMIT, POWER_ON),
-        LevelTransition::on_levels_between(POWER_ON, HOMED, SWITCH_OFF, OFF),
-    ],
-    OFF,
-);
+/// The safety table of the motor application (the levels, events and transitions above)
+/// for a drive with `watches`.
+pub const fn properties(watches: &Watches) -> SafetyProperties<'_, DriveIo, 4> {
+    SafetyProperties::new(
+        [
+            LevelDef::new(EMERGENCY, "emergency")
+                .inputs(&IGNORE_ALL)
+                .outputs(&SAFE)
+                .abort_sequences(AbortPolicy::WhileActive),
+            LevelDef::new(OFF, "off")
+                .inputs(&watches.off)
+                .outputs(&SAFE),
+            LevelDef::new(POWER_ON, "power on")
+                .inputs(&watches.off)
+                .outputs(&DRIVE),
+            LevelDef::new(HOMED, "homed")
+                .inputs(&watches.homed)
+                .outputs(&DRIVE),
+        ],
+        &INPUTS,
+        &OUTPUTS,
+        &TRANSITIONS,
+        OFF,
+    )
+}
+
+const INPUTS: [CriticalInputInfo; 4] = [
+    ESTOP_IN.info(),
+    CURRENT_IN.info(),
+    END_NEG_IN.info(),
+    END_POS_IN.info(),
+];
+const OUTPUTS: [CriticalOutputInfo; 2] = [ENABLE_OUT.info(), BRAKE_OUT.info()];
+const TRANSITIONS: [LevelTransition; 6] = [
+    LevelTransition::on_level_and_above(OFF, EMERGENCY_STOP, EMERGENCY),
+    LevelTransition::on(EMERGENCY, RESET, OFF),
+    LevelTransition::on(OFF, SWITCH_ON, POWER_ON),
+    LevelTransition::on(POWER_ON, HOMED_EVENT, HOMED),
+    LevelTransition::on(HOMED, LIMIT, POWER_ON),
+    LevelTransition::on_levels_between(POWER_ON, HOMED, SWITCH_OFF, OFF),
+];
 
 /// The safety system's view of the drive for one cycle: inputs sampled from the control
 /// system, outputs collected and written back by [`DriveIo::apply`].

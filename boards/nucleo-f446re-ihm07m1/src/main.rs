@@ -24,7 +24,9 @@ pub mod drive;
 pub mod pins;
 pub mod sensors;
 
+use rtseq::safety::ValidProperties;
 use rtseq_motor::control_system::ControlSystem;
+use rtseq_motor::safety::{DriveIo, Watches};
 
 /// Control rate, Hz: TIM6's update rate and the sequencer's tick.
 pub const CONTROL_HZ: u32 = 1_000;
@@ -103,6 +105,16 @@ unsafe fn DefaultHandler(irqn: i16) -> ! {
     }
 }
 
+/// What the safety levels watch on this board: the motor application's inputs, with the
+/// board's over-current trip ([`sensors::CURRENT_TRIP`]).
+static WATCHES: Watches = Watches::new(sensors::CURRENT_TRIP);
+/// The motor application's safety table for this board, validated by the compiler.
+static PROPERTIES: ValidProperties<'static, DriveIo, 4> =
+    match rtseq_motor::safety::properties(&WATCHES).validated() {
+        Ok(valid) => valid,
+        Err(_) => panic!("invalid safety properties"),
+    };
+
 // defmt timestamps: milliseconds of control time.
 defmt::timestamp!(
     "{=u32}ms",
@@ -141,7 +153,7 @@ mod app {
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
     use rtseq_motor::control_system::ControlSystem;
     use rtseq_motor::hardware::DriveCommand;
-    use rtseq_motor::safety::{safety_cycle, DriveIo, PROPERTIES};
+    use rtseq_motor::safety::{safety_cycle, DriveIo};
     use stm32f4xx_hal::adc::config::{AdcConfig, Clock};
     use stm32f4xx_hal::adc::Adc;
     use stm32f4xx_hal::gpio::PinState;
@@ -156,7 +168,7 @@ mod app {
     use super::pins;
     use super::sensors::{Sensors, Switches};
     use super::{control_time, CONTROL_HZ};
-    use super::{log_status, DT, WATCHDOG_MS};
+    use super::{log_status, DT, PROPERTIES, WATCHDOG_MS};
 
     /// The power stage with this board's pins.
     pub type Power = Bridge<

@@ -47,6 +47,16 @@ pub const OFFSET_SAMPLES: u32 = 64;
 /// motor's.
 pub const OFFSET_TOLERANCE: f32 = 200.0;
 
+/// The least current the amplifiers measure before the ADC clips, A: half the scale
+/// (2048 counts) less the farthest plausible offset ([`OFFSET_TOLERANCE`]), about 2.9 A.
+pub const MEASURABLE_AMPS: f32 = (2048.0 - OFFSET_TOLERANCE) / COUNTS_PER_AMP;
+/// The software over-current trip of this board, A: above the command limit
+/// ([`I_LIMIT`](crate::drive::I_LIMIT), 1.4 A) with room for the current loop's overshoot,
+/// and below [`MEASURABLE_AMPS`], so a current the ADC clips at trips too. (The motor
+/// application's 6 A trip is its simulated sensor's; this sensor never reads 6 A.)
+pub const CURRENT_TRIP: f32 = 2.0;
+const _: () = assert!(CURRENT_TRIP > crate::drive::I_LIMIT && CURRENT_TRIP < MEASURABLE_AMPS);
+
 /// Whether both measured offsets are plausible (see [`OFFSET_TOLERANCE`]).
 pub fn offsets_plausible(u: f32, v: f32) -> bool {
     (u - 2048.0).abs() <= OFFSET_TOLERANCE && (v - 2048.0).abs() <= OFFSET_TOLERANCE
