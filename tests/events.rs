@@ -1,31 +1,15 @@
 //! The events of the trace, in exact order among the transitions they explain.
 
+mod common;
+use common::{assert_records, event_at as e, transition_at as t};
+
 use rtseq::sim::Sim;
 use rtseq::Cause::{self, Completed, Failed, Monitor as Mon, Start};
-use rtseq::RunningState::{self, *};
+use rtseq::RunningState::*;
 use rtseq::{
-    Behaviour, Cx, Entry, Error, Event, Failure, Instant, Monitor, MonitorId, Monitors, Record,
-    Request, Requester, SeqConfig, SeqId, Sequence, Sequencer,
+    Behaviour, Cx, Error, Event, Failure, Instant, Monitor, MonitorId, Monitors, Record, Request,
+    Requester, SeqConfig, SeqId, Sequence, Sequencer,
 };
-
-fn t(ms: u64, id: usize, from: RunningState, to: RunningState, cause: Cause) -> Record {
-    Record {
-        time: Instant::from_ticks(ms * 1000),
-        entry: Entry::Transition {
-            sequence: SeqId::from_index(id),
-            from,
-            to,
-            cause,
-        },
-    }
-}
-
-fn e(ms: u64, event: Event) -> Record {
-    Record {
-        time: Instant::from_ticks(ms * 1000),
-        entry: Entry::Event(event),
-    }
-}
 
 fn id(i: usize) -> SeqId {
     SeqId::from_index(i)
@@ -34,15 +18,6 @@ fn id(i: usize) -> SeqId {
 fn scenario(name: &str) -> Vec<Record> {
     let sc = rtseq_scenarios::find(name).expect("a scenario");
     rtseq_scenarios::host::run(sc).expect("registers").records
-}
-
-fn assert_records(got: &[Record], want: &[Record]) {
-    let show = |r: &[Record]| {
-        r.iter()
-            .map(|r| format!("{:>6} {:?}\n", r.time.as_ticks(), r.entry))
-            .collect::<String>()
-    };
-    assert_eq!(got, want, "\n got:\n{}want:\n{}", show(got), show(want));
 }
 
 /// Two monitors share the exception sequence E (id 3) and fire in the same tick: E starts

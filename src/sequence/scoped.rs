@@ -20,8 +20,10 @@ use crate::Cx;
 /// lets it run on, as [`Cx::start`] does.
 ///
 /// The abort is a request of the calling sequence
-/// ([`Requester::Sequence`](crate::Requester::Sequence)) of this run alone: a later run of
-/// the sequence, started after this one ended, is never aborted by it.
+/// ([`Requester::Sequence`](crate::Requester::Sequence)) of this run alone, restarts (by
+/// its own monitors) included: a later run of the sequence, started after this one ended,
+/// is never aborted by it. A paused caller does not pause it (it runs in its own lane).
+/// The rules, with the corner cases, are item 11 of docs/semantics.md.
 #[must_use = "a `Scoped` dropped at once aborts the sequence it started: keep it in a variable"]
 pub struct Scoped<'a, C> {
     port: &'a dyn Port<C>,
@@ -42,9 +44,9 @@ impl<'a, C> Scoped<'a, C> {
     }
 
     /// Waits until the started run has ended and returns its outcome, as [`Cx::join`]
-    /// does; if it has ended and its sequence has been started again since, the outcome
-    /// kept is the new run's, so the join is [`Error::OutcomeLost`]. A join dropped before
-    /// it returned drops the `Scoped` with it: the run is aborted.
+    /// does: also while a later run of the sequence is under way; once that later run has
+    /// ended too, the outcome kept is its own, and the join is [`Error::OutcomeLost`]. A
+    /// join dropped before it returned drops the `Scoped` with it: the run is aborted.
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
@@ -129,7 +131,7 @@ impl<'a, C> Scoped<'a, C> {
 impl<C> Drop for Scoped<'_, C> {
     fn drop(&mut self) {
         // Refused (`NotRunning`) when the run has ended: nothing to abort.
-        let _ = self.port.abort_run(self.run, self.caller.seq);
+        let _ = self.port.abort_child(self.run, self.caller.seq);
     }
 }
 

@@ -11,7 +11,7 @@ use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::clearance::{end_run, Clearance};
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::declare_lane;
-use crate::sequencer::requests::{ask, ask_of_run};
+use crate::sequencer::requests::{abort_child, ask};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
@@ -101,9 +101,9 @@ pub(crate) trait Port<C> {
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues `request` of `id`, made by `by`, for the next tick.
     fn request(&self, id: SeqId, request: Request, by: Requester) -> Result<(), Error>;
-    /// Queues an abort of `run` (not of a later run of its sequence), made by the
-    /// sequence `by`, for the next tick.
-    fn abort_run(&self, run: RunId, by: SeqId) -> Result<(), Error>;
+    /// Queues an abort of `child`, a run started by `caller` (not of a later run of its
+    /// sequence), made by `caller`, for the next tick.
+    fn abort_child(&self, child: RunId, caller: SeqId) -> Result<(), Error>;
     /// Sets `id`'s timeout (µs, 0: off): at once for a run under way whose timeout is
     /// armed, otherwise from the next start or restart.
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
@@ -301,13 +301,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         in_sections!(self, |s| ask(s, id, request, by))
     }
 
-    fn abort_run(&self, run: RunId, by: SeqId) -> Result<(), Error> {
-        in_sections!(self, |s| ask_of_run(
-            s,
-            run,
-            Request::Abort,
-            Requester::Sequence(by)
-        ))
+    fn abort_child(&self, child: RunId, caller: SeqId) -> Result<(), Error> {
+        in_sections!(self, |s| abort_child(s, child, caller))
     }
 
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error> {

@@ -112,10 +112,13 @@ pub(crate) fn ask<
     Ok(())
 }
 
-/// Makes `req` of the run `run` for `by`, as [`ask`] does of a sequence's current run:
-/// refused ([`Error::NotRunning`]) when `run` is over and its sequence runs again, so a
-/// later run is never asked.
-pub(crate) fn ask_of_run<
+/// Asks, for `caller`, the abort of its child's run `child` (a dropped [`Scoped`]), as
+/// [`ask`] asks of a sequence's current run. Refused ([`Error::NotRunning`]) unless `child`
+/// is its sequence's current run and `caller` its caller: a later run, started by another
+/// party, is never asked, even once the 16-bit run count has wrapped.
+///
+/// [`Scoped`]: crate::Scoped
+pub(crate) fn abort_child<
     C,
     S: Sections<C, N, T, W, B>,
     const N: usize,
@@ -124,16 +127,21 @@ pub(crate) fn ask_of_run<
     const B: usize,
 >(
     s: &mut S,
-    run: RunId,
-    req: Request,
-    by: Requester,
+    child: RunId,
+    caller: SeqId,
 ) -> Result<(), Error> {
-    let id = run.seq;
-    let current = s.section(|s| s.check_request(id, req))?;
-    if current != run.count {
-        return Err(Error::NotRunning(id));
-    }
-    carry_out(s, id, req, by, current);
+    let id = child.seq;
+    let run = s.section(|s| {
+        let run = s.check_request(id, Request::Abort)?;
+        let ours =
+            run == child.count && s.block(id).is_some_and(|b| b.caller.get() == Some(caller));
+        if ours {
+            Ok(run)
+        } else {
+            Err(Error::NotRunning(id))
+        }
+    })?;
+    carry_out(s, id, Request::Abort, Requester::Sequence(caller), run);
     Ok(())
 }
 

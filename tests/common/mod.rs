@@ -8,8 +8,8 @@ use std::future::Future;
 use std::pin::Pin;
 
 use rtseq::{
-    Cause, Cx, Done, Failure, Instant, Outcome, RunningState, Seq, SeqId, Sequence, Step,
-    Transition, Wait,
+    Cause, Cx, Done, Entry, Event, Failure, Instant, Outcome, Record, RunningState, Seq, SeqId,
+    Sequence, Step, Transition, Wait,
 };
 
 /// One executed line of action code.
@@ -215,4 +215,41 @@ pub fn show(trace: &[Transition]) -> String {
             )
         })
         .collect()
+}
+
+/// The record of a transition at `ms` of the sequence with index `id`.
+pub fn transition_at(
+    ms: u64,
+    id: usize,
+    from: RunningState,
+    to: RunningState,
+    cause: Cause,
+) -> Record {
+    Record {
+        time: Instant::from_ticks(ms * 1000),
+        entry: Entry::Transition {
+            sequence: SeqId::from_index(id),
+            from,
+            to,
+            cause,
+        },
+    }
+}
+
+/// The record of `event` at `ms`.
+pub fn event_at(ms: u64, event: Event) -> Record {
+    Record {
+        time: Instant::from_ticks(ms * 1000),
+        entry: Entry::Event(event),
+    }
+}
+
+/// Records equal, or both printed a line each.
+pub fn assert_records(got: &[Record], want: &[Record]) {
+    let show = |r: &[Record]| {
+        r.iter()
+            .map(|r| format!("{:>6} {:?}\n", r.time.as_ticks(), r.entry))
+            .collect::<String>()
+    };
+    assert_eq!(got, want, "\n got:\n{}want:\n{}", show(got), show(want));
 }

@@ -901,11 +901,11 @@ fn a_request_against_an_end_and_a_new_start_is_carried_out_on_its_own_run_only()
     every_split_world!(request_against_end_and_start, Ask::Pause);
 }
 
-/// X runs (run 1), started by P. Lane A asks for the abort of X's run 1 (`abort_run`, what
-/// a dropped `Scoped` of P does); lane B, before section `k`, ends run 1, starts X again
-/// and X's lane takes run 2. Then the ticks. Run 2 runs on whatever `k`: the abort is
-/// refused (`NotRunning(X)`) when B came before its check, else accepted for run 1, which
-/// has ended by the tick.
+/// X runs (run 1), started by P. Lane A asks for the abort of X's run 1 (`abort_child`,
+/// what a dropped `Scoped` of P does); lane B, before section `k`, ends run 1, has P start X
+/// again (in X's lane: P is the caller of both runs) and X's lane takes run 2. Then the
+/// ticks. Run 2 runs on whatever `k`: the abort is refused (`NotRunning(X)`) when B came
+/// before its check, else accepted for run 1, which has ended by the tick.
 fn abort_of_a_run_against_end_and_start<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,
 ) {
@@ -918,10 +918,10 @@ fn abort_of_a_run_against_end_and_start<L: Lock + 'static, const N: usize, const
             let run1 = w.take(x);
             (w, p, x, run1)
         },
-        |(w, p, _, run1)| Port::abort_run(w.seq, run1, p),
-        |(w, _, x, _)| {
+        |(w, p, _, run1)| Port::abort_child(w.seq, run1, p),
+        |(w, p, x, _)| {
             assert!(w.complete(x));
-            w.kept(x).start().unwrap();
+            w.in_lane(x, p).unwrap();
             w.take(x)
         },
         |what, at, asked, run2, (w, _, x, _)| {
