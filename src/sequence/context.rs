@@ -421,7 +421,8 @@ impl<'a, C> Cx<'a, C> {
     /// bound to the returned [`Scoped`]: when the action drops it (it returns, or fails
     /// through `?`) the next tick aborts the started run, if it has not ended; an abort or
     /// restart of this sequence takes it down as every child. [`Scoped::join`] waits for
-    /// its end; [`Scoped::detach`] lets it run on.
+    /// its end; [`Scoped::detach`] lets it run on. Bind the `Scoped` to a name
+    /// (`let _conveyor = ...`): `let _ = ...` drops it at once.
     ///
     /// A conveyor that runs while `main` works, and stops when `main` fails:
     ///
