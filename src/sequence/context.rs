@@ -422,7 +422,9 @@ impl<'a, C> Cx<'a, C> {
     /// through `?`) the next tick aborts the started run, if it has not ended; an abort or
     /// restart of this sequence takes it down as every child. [`Scoped::join`] waits for
     /// its end; [`Scoped::detach`] lets it run on. Bind the `Scoped` to a name
-    /// (`let _conveyor = ...`): `let _ = ...` drops it at once.
+    /// (`let _conveyor = ...`): `let _ = ...` drops it at once. A [`Step`]'s action (a
+    /// `fn`) drops it when it returns, before the exit condition is polled: a child that
+    /// must live through a step is started by a sequence around it.
     ///
     /// A conveyor that runs while `main` works, and stops when `main` fails:
     ///
