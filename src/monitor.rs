@@ -77,9 +77,16 @@ pub enum Behaviour {
     /// it marks no exception, so the owner's other monitors keep firing (a following-error
     /// monitor still restarts a paused owner; the restarted owner pauses again at once if
     /// the condition still holds). A `PauseOwner` monitor watches both edges, whatever its
-    /// [`Trigger`]; it is not a timeout behaviour (`register` refuses it there). A pause
-    /// holds the sequences, not the machine: see [`Handle::pause`](crate::Handle::pause)
-    /// for holding the motion too.
+    /// [`Trigger`]; it is not a timeout behaviour (`register` refuses it there).
+    ///
+    /// A pause holds the sequences, not the machine (see
+    /// [`Handle::pause`](crate::Handle::pause)). To hold the motion too, give the monitor
+    /// an exception sequence that holds it in the control system, waits until the
+    /// condition clears ([`Cx::wait_until`](crate::Cx::wait_until)) and lets it go; it
+    /// runs in its lane from the firing tick on, the owner already paused. Nothing runs
+    /// when the condition clears but that wait, so let the hold go in its cleanup hook
+    /// ([`SeqConfig::on_abort`](crate::SeqConfig::on_abort)) too, for an abort that comes
+    /// while the condition holds.
     PauseOwner,
 }
 

@@ -37,7 +37,8 @@ pub enum Cause {
     Pause,
     /// A resume request.
     Resume,
-    /// An explicit abort request through a [`Handle`](crate::Handle).
+    /// An explicit abort request through a [`Handle`](crate::Handle), or that of a
+    /// scoped child whose [`Scoped`](crate::Scoped) its caller dropped.
     Abort,
     /// [`Sequencer::abort_all`](crate::Sequencer::abort_all), e.g. from the safety system.
     AbortAll,

@@ -1,8 +1,6 @@
 //! A non-blocking child bound to a value of its caller's action ([`Cx::start_scoped`]).
 
 use core::future::Future;
-use core::pin::Pin;
-use core::task::{Context, Poll};
 
 use crate::model::id::RunId;
 use crate::sequence::context::Join;
@@ -45,8 +43,10 @@ impl<'a, C> Scoped<'a, C> {
 
     /// Waits until the started run has ended and returns its outcome, as [`Cx::join`]
     /// does: also while a later run of the sequence is under way; once that later run has
-    /// ended too, the outcome kept is its own, and the join is [`Error::OutcomeLost`]. A
-    /// join dropped before it returned drops the `Scoped` with it: the run is aborted.
+    /// ended too, the outcome kept is its own, and the join is [`Error::OutcomeLost`]. The
+    /// join borrows nothing: joins of several children may race in a `select`, and one
+    /// dropped before it returned only stops waiting (the run goes on while its `Scoped`
+    /// lives).
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
@@ -82,11 +82,8 @@ impl<'a, C> Scoped<'a, C> {
     /// assert_eq!(sim.state(f), RunningState::Terminated);
     /// # }
     /// ```
-    pub fn join(self) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
-        JoinScoped {
-            join: Join::of_run(self.port, self.caller, self.run),
-            _scoped: self,
-        }
+    pub fn join(&self) -> impl Future<Output = Result<Outcome, Error>> + use<'a, C> {
+        Join::of_run(self.port, self.caller, self.run)
     }
 
     /// Lets the started run outlive this value, as a run started by [`Cx::start`] does.
@@ -132,20 +129,5 @@ impl<C> Drop for Scoped<'_, C> {
     fn drop(&mut self) {
         // Refused (`NotRunning`) when the run has ended: nothing to abort.
         let _ = self.port.abort_child(self.run, self.caller.seq);
-    }
-}
-
-/// The future of [`Scoped::join`]. Its fields drop in order: the join stops waiting
-/// before the `Scoped`, kept for its `Drop`, asks for the abort.
-struct JoinScoped<'a, C> {
-    join: Join<'a, C>,
-    _scoped: Scoped<'a, C>,
-}
-
-impl<C> Future for JoinScoped<'_, C> {
-    type Output = Result<Outcome, Error>;
-
-    fn poll(mut self: Pin<&mut Self>, w: &mut Context<'_>) -> Poll<Self::Output> {
-        Pin::new(&mut self.join).poll(w)
     }
 }

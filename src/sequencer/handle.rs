@@ -444,8 +444,10 @@ impl<'a, C> Handle<'a, C> {
     /// await point, but what their steps commanded goes on (a speed, a trajectory). A feed
     /// hold holds the motion in the control system too, before the pause: the motor demo's
     /// `feed hold` exception sequence has the control system decelerate the move and keep
-    /// it, then pauses the moves; `feed resume` continues the move, then resumes them. A stop the machine must make
-    /// whatever the sequences do belongs to the safety system (a safety event).
+    /// it, then pauses the moves; `feed resume` continues the move, then resumes them. A
+    /// `PauseOwner` monitor's exception sequence can hold it the same way
+    /// ([`Behaviour::PauseOwner`](crate::Behaviour::PauseOwner)). A stop the machine must
+    /// make whatever the sequences do belongs to the safety system (a safety event).
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
