@@ -127,7 +127,8 @@ impl<'a, C> Scoped<'a, C> {
 
 impl<C> Drop for Scoped<'_, C> {
     fn drop(&mut self) {
-        // Refused (`NotRunning`) when the run has ended: nothing to abort.
+        // Refused (`NotRunning`) when the run has ended (or its sequence runs again):
+        // nothing of this run to abort.
         let _ = self.port.abort_child(self.run, self.caller.seq);
     }
 }
