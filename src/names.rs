@@ -4,7 +4,7 @@
 //!
 //! A [`Names`] source answers names: a [`Sequencer`] its sequences', a [`Monitors`] table
 //! its monitors', [`SafetyProperties`] their levels' and critical inputs', [`Failures`] the
-//! application's failure codes; a tuple of sources asks each in turn.
+//! application's failure codes; a tuple of up to four sources asks each in turn.
 //! [`WithNames::named`] pairs a value (an id, a [`Cause`], an [`Outcome`], a [`Failure`], an
 //! [`Error`], a [`Transition`], an [`Event`], a [`Record`], a [`SafetyLevel`]) with a source
 //! for printing: a run's records print as the lines of the run ("4 ms monitor `jam` of
@@ -124,6 +124,26 @@ impl<A: Names, B: Names, C: Names> Names for (A, B, C) {
     }
     fn input(&self, input: InputId) -> Option<&'static str> {
         (&self.0, (&self.1, &self.2)).input(input)
+    }
+}
+
+/// All four kinds of source at once: the sequencer, the monitor table, the safety
+/// properties and the failure codes.
+impl<A: Names, B: Names, C: Names, D: Names> Names for (A, B, C, D) {
+    fn sequence(&self, id: SeqId) -> Option<&'static str> {
+        ((&self.0, &self.1), (&self.2, &self.3)).sequence(id)
+    }
+    fn monitor(&self, id: MonitorId) -> Option<&'static str> {
+        ((&self.0, &self.1), (&self.2, &self.3)).monitor(id)
+    }
+    fn level(&self, level: SafetyLevel) -> Option<&'static str> {
+        ((&self.0, &self.1), (&self.2, &self.3)).level(level)
+    }
+    fn failure(&self, code: u16) -> Option<&'static str> {
+        ((&self.0, &self.1), (&self.2, &self.3)).failure(code)
+    }
+    fn input(&self, input: InputId) -> Option<&'static str> {
+        ((&self.0, &self.1), (&self.2, &self.3)).input(input)
     }
 }
 

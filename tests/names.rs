@@ -89,8 +89,9 @@ fn safety_levels_print_with_their_names() {
     );
 }
 
-/// Failure codes, sequences and monitors are found whichever source of a pair or a triple
-/// names them, and a source that does not name a kind leaves it to the others.
+/// Failure codes, sequences, monitors, critical inputs and levels are found whichever
+/// source of a pair, a triple or a quadruple names them, and a source that does not name
+/// a kind leaves it to the others.
 #[test]
 fn each_kind_of_name_is_found_in_any_source_of_a_tuple() {
     const FAILURES: Failures = Failures(&[(1, "part lost"), (2, "gripper stuck")]);
@@ -151,6 +152,20 @@ fn each_kind_of_name_is_found_in_any_source_of_a_tuple() {
         tripped.named(&(&seq, &monitors)).to_string(),
         "critical input #0 tripped"
     );
+
+    // All four kinds of source in one tuple, in any order.
+    let four = (&seq, &monitors, &props, &FAILURES);
+    let four_reversed = (&FAILURES, &props, &monitors, &seq);
+    for names in [&four as &dyn Names, &four_reversed] {
+        assert_eq!(main.named(names).to_string(), "main");
+        assert_eq!(jam.named(names).to_string(), "monitor `jam`");
+        assert_eq!(Failure::App(2).named(names).to_string(), "gripper stuck");
+        assert_eq!(
+            tripped.named(names).to_string(),
+            "critical input `estop` tripped"
+        );
+        assert_eq!(SafetyLevel::new(0).named(names).to_string(), "off");
+    }
 }
 
 /// The simulator's trace file names the safety levels and critical inputs it was given

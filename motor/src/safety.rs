@@ -136,6 +136,7 @@ impl Watches {
 
 /// The simulated drive's watches (trip at [`CURRENT_TRIP`]).
 static WATCHES: Watches = Watches::new(CURRENT_TRIP);
+
 const IGNORE_ALL: [InputAction; 4] = [
     ESTOP_IN.ignore(),
     CURRENT_IN.ignore(),
