@@ -151,7 +151,8 @@ pub use model::{
     RunningState, SeqConfig, SeqId, Table, MAX_SEQUENCES,
 };
 pub use monitor::{
-    Behaviour, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger, DEFAULT_RESTART_LIMIT,
+    Behaviour, ConditionFn, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger,
+    DEFAULT_RESTART_LIMIT,
 };
 pub use names::{Failures, Named, Names, WithNames};
 pub use sequence::{lane, Cx, Scoped, Seq, Sequence, Step, Wait};

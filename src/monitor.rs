@@ -306,6 +306,28 @@ type Borrows<'a, C> = (&'a (), fn(&C));
 /// ```
 pub type DynCondition<'a, C> = &'a mut (dyn Condition<C> + Send);
 
+/// A plain function as a monitor's condition. A table of them needs neither `&mut`
+/// borrows nor an enum of the application's conditions, so it can be a `const`; the tick
+/// calls each through its pointer. Build its monitors with [`Monitor::with_fn`].
+///
+/// ```
+/// use rtseq::{Behaviour, ConditionFn, Instant, Monitor, Monitors, SeqId};
+/// struct Drive { current: f32, end_stop: bool }
+/// fn over_current(d: &Drive, _: Instant) -> bool { d.current > 5.0 }
+/// fn end_stop(d: &Drive, _: Instant) -> bool { d.end_stop }
+/// const MOVE: SeqId = SeqId::from_index(0);
+/// const MONITORS: Monitors<'static, Drive, 2, ConditionFn<Drive>> = match Monitors::table([
+///     Monitor::with_fn("over-current", over_current, Behaviour::AbortOwner).owned_by(MOVE),
+///     Monitor::with_fn("end stop", end_stop, Behaviour::AbortOwner).owned_by(MOVE),
+/// ]) {
+///     Ok(table) => table,
+///     Err(e) => panic!("{}", e.message().as_str()), // a compile error, never a run-time panic
+/// };
+/// let monitors = MONITORS;
+/// assert_eq!(monitors.len(), 2);
+/// ```
+pub type ConditionFn<C> = fn(&C, crate::Instant) -> bool;
+
 impl<'a, C> Condition<C> for &'a mut (dyn Condition<C> + Send + 'a) {
     #[inline]
     fn validate(&mut self, control: &C, now: crate::Instant) -> bool {
@@ -331,6 +353,31 @@ impl<'a, C> Monitor<'a, C> {
     pub fn new(
         name: &'static str,
         condition: &'a mut (dyn Condition<C> + Send),
+        behaviour: Behaviour,
+    ) -> Self {
+        Monitor::with_condition(name, condition, behaviour)
+    }
+}
+
+impl<C> Monitor<'_, C, ConditionFn<C>> {
+    /// Like [`with_condition`](Monitor::with_condition), for a table of plain functions
+    /// ([`ConditionFn`]): a function item becomes a pointer here, so the monitors of one
+    /// table need no cast to one type.
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, ConditionFn, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+    /// fn too_hot(t: &f32, _: Instant) -> bool { *t > 80.0 }
+    /// fn too_cold(t: &f32, _: Instant) -> bool { *t < -20.0 }
+    /// let seq: Sequencer<f32, 2> = Sequencer::new();
+    /// let heating = seq.register(SeqConfig::new("heating")).unwrap();
+    /// let mut monitors: Monitors<f32, 2, ConditionFn<f32>> = Monitors::new();
+    /// monitors.add(heating, Monitor::with_fn("too hot", too_hot, Behaviour::AbortOwner)).unwrap();
+    /// let cold = monitors.add(heating, Monitor::with_fn("too cold", too_cold, Behaviour::AbortOwner));
+    /// assert_eq!(monitors.name(cold.unwrap()), Some("too cold"));
+    /// ```
+    pub const fn with_fn(
+        name: &'static str,
+        condition: ConditionFn<C>,
         behaviour: Behaviour,
     ) -> Self {
         Monitor::with_condition(name, condition, behaviour)

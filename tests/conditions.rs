@@ -131,3 +131,45 @@ fn stable_as_a_stall_monitor_aborts_a_move_that_stopped_moving() {
         show(sim.trace())
     );
 }
+
+/// Plain functions as conditions, in a `const` table (`Monitor::with_fn`, no cast): the
+/// second monitor's condition rises at 5 ms and aborts the move; the first never holds.
+#[test]
+fn a_const_table_of_plain_functions_monitors_a_move() {
+    fn over_current(c: &Ctrl, _: Instant) -> bool {
+        c.flag(1)
+    }
+    fn end_stop(c: &Ctrl, _: Instant) -> bool {
+        c.flag(0)
+    }
+    const MOVE: rtseq::SeqId = rtseq::SeqId::from_index(0);
+    const MONITORS: Monitors<'static, Ctrl, 2, rtseq::ConditionFn<Ctrl>> = match Monitors::table([
+        Monitor::with_fn("over-current", over_current, Behaviour::AbortOwner).owned_by(MOVE),
+        Monitor::with_fn("end stop", end_stop, Behaviour::AbortOwner).owned_by(MOVE),
+    ]) {
+        Ok(table) => table,
+        Err(_) => panic!("the table is checked by the compiler"),
+    };
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let mv = seq
+        .add(SeqConfig::new("move"), Node::of(vec![]).until(15))
+        .unwrap();
+    assert_eq!(mv.id(), MOVE);
+    let mut sim = Sim::new(&seq, &ctrl, MONITORS);
+    sim.lane(mv);
+    sim.before_tick(|t, c| c.set(0, ms(t) >= 5));
+    sim.start(MOVE).unwrap();
+    sim.run_for(Duration::from_millis(10));
+    let end_stop = rtseq::MonitorId::from_index(1);
+    assert_eq!(
+        sim.trace(),
+        &[
+            tr(0, MOVE, Idle, Running, Start),
+            tr(5, MOVE, Running, Aborting, Mon(end_stop)),
+            tr(5, MOVE, Aborting, Aborted, Mon(end_stop)),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+}

@@ -172,7 +172,7 @@ mod at_compile_time {
     use super::*;
     use rtseq::{OwnedMonitor, Table};
 
-    type Cond = fn(&Ctrl, rtseq::Instant) -> bool;
+    type Cond = rtseq::ConditionFn<Ctrl>;
     const NEVER: Cond = never;
     const MOVES: SeqId = SeqId::from_index(0);
     const STOP: SeqId = SeqId::from_index(1);
@@ -377,17 +377,17 @@ fn a_tables_sequences_in_lanes_take_the_first_slots() {
 /// or one of another owner is not.
 #[test]
 fn a_table_of_256_pause_owner_monitors_of_one_sequence_is_refused() {
-    type Cond = fn(&Ctrl, rtseq::Instant) -> bool;
+    type Cond = rtseq::ConditionFn<Ctrl>;
     const A: SeqId = SeqId::from_index(0);
     const B: SeqId = SeqId::from_index(1);
     const HOLD_A: rtseq::OwnedMonitor<'static, Ctrl, Cond> =
-        Monitor::with_condition("hold", never as Cond, Behaviour::PauseOwner).owned_by(A);
+        Monitor::with_fn("hold", never, Behaviour::PauseOwner).owned_by(A);
     const HOLD_B: rtseq::OwnedMonitor<'static, Ctrl, Cond> =
-        Monitor::with_condition("hold", never as Cond, Behaviour::PauseOwner).owned_by(B);
+        Monitor::with_fn("hold", never, Behaviour::PauseOwner).owned_by(B);
     const ABORT_A: rtseq::OwnedMonitor<'static, Ctrl, Cond> =
-        Monitor::with_condition("abort", never as Cond, Behaviour::AbortOwner).owned_by(A);
+        Monitor::with_fn("abort", never, Behaviour::AbortOwner).owned_by(A);
 
-    let hold = || Monitor::with_condition("hold", never as Cond, Behaviour::PauseOwner);
+    let hold = || Monitor::with_fn("hold", never, Behaviour::PauseOwner);
     let mut monitors: Monitors<Ctrl, 256, Cond> = Monitors::new();
     for _ in 0..255 {
         assert!(monitors.add(A, hold()).is_ok());

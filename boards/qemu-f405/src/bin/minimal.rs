@@ -4,8 +4,9 @@
 
 use core::sync::atomic::{AtomicBool, AtomicI32, Ordering::Relaxed};
 use rtseq::safety::*;
-use rtseq::{lock::PriorityCeiling, Behaviour, Cx, Duration, Failure, Instant, Monitor};
-use rtseq::{Error, Handle, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Table};
+use rtseq::Table;
+use rtseq::{lock::PriorityCeiling, Behaviour, ConditionFn, Cx, Duration, Failure, Instant};
+use rtseq::{Error, Handle, Monitor, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
 use rtseq_qemu_f405 as board;
 
 /// The machine: position in µm, speed in µm per tick, the e-stop, the drive's enable.
@@ -60,13 +61,12 @@ rtseq::sequences! {
 }
 use seqs::{HOMING, SAFE_STOP, SEEK};
 
-type Cond = fn(&Axis, Instant) -> bool;
 fn over_travel(axis: &Axis, _: Instant) -> bool {
     axis.position.load(Relaxed) < -500
 }
 rtseq::monitors! {
-    mod monitor_ids for Axis, Cond {
-        OVER_TRAVEL = Monitor::with_condition("over-travel", over_travel as Cond, Behaviour::AbortOwner)
+    mod monitor_ids for Axis, ConditionFn<Axis> {
+        OVER_TRAVEL = Monitor::with_fn("over-travel", over_travel, Behaviour::AbortOwner)
             .exception(SAFE_STOP)
             .owned_by(HOMING),
     }
@@ -148,7 +148,7 @@ mod app {
     #[local]
     struct Local {
         timer: TickTimer,
-        monitors: Monitors<'static, Axis, 1, Cond>,
+        monitors: Monitors<'static, Axis, 1, ConditionFn<Axis>>,
         safety: SafetySystem<'static, Io, 2>,
         homing: Seq<Homing>,
         safe_stop: Seq<SafeStop>,
