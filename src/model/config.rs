@@ -250,6 +250,12 @@ impl<C> SeqConfig<C> {
     /// A bounded cleanup run while the sequence is `Aborting` (or restarting), e.g. stop the
     /// motor. It runs in the tick: keep it short.
     ///
+    /// The hook gets the control system, not the sequence's object: that object is its
+    /// action's, borrowed by the action's future until the lane drops it, after the tick.
+    /// What a cleanup needs to know (which axis moves, the last set point) belongs in the
+    /// control system; the action's own locals are dropped with its future (a guard's
+    /// `Drop` runs then, in the lane, not in the tick).
+    ///
     /// ```
     /// # #[cfg(feature = "std")] {
     /// use core::cell::Cell;
