@@ -167,6 +167,42 @@ pub use trace::{Entry, Event, Record, Request, Requester, Transition};
 
 /// Maximum nesting of callers (`callerStack` length). Starting deeper is an
 /// [`Error::CallerDepthExceeded`].
+///
+/// A chain of ten, each starting the next and waiting for it: `s8` has eight callers
+/// (`s0` to `s7`), so its start of `s9` is refused, and the failure climbs the chain.
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{lock::CriticalSection, sim::Sim, Cx, Error, Failure, Monitors, Outcome,
+///             SeqConfig, SeqId, Sequence, Sequencer, MAX_DEPTH};
+/// struct Link(Option<SeqId>);
+/// impl Sequence<()> for Link {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         if let Some(next) = self.0 {
+///             cx.start(next)?;
+///             cx.join(next).await?.done()?;
+///         }
+///         Ok(())
+///     }
+/// }
+/// // Ten sequences, each in a lane of its own.
+/// let seq: Sequencer<(), 10, 64, CriticalSection, 10> = Sequencer::new();
+/// let names = ["s9", "s8", "s7", "s6", "s5", "s4", "s3", "s2", "s1", "s0"];
+/// let (mut next, mut links) = (None, Vec::new());
+/// for name in names {
+///     let link = seq.add(SeqConfig::new(name), Link(next)).unwrap();
+///     next = Some(link.id());
+///     links.push(link);
+/// }
+/// let (s9, s8, s0) = (links[0].id(), links[1].id(), links[9].id());
+/// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+/// links.into_iter().for_each(|link| sim.lane(link));
+/// sim.start(s0).unwrap();
+/// assert_eq!(sim.handle(s8).unwrap().caller_stack().len(), MAX_DEPTH);
+/// let refused = Failure::NotStarted(Error::CallerDepthExceeded(s9));
+/// assert_eq!(sim.handle(s0).unwrap().last_outcome(), Some(Outcome::Failed(refused)));
+/// # }
+/// ```
 pub const MAX_DEPTH: usize = 8;
 
 /// The README's examples are compiled and run as doctests (they use the simulator).

@@ -41,6 +41,27 @@ use crate::{
 
 /// A source of names for printing with [`WithNames::named`]. Each method answers `None`
 /// for what the source does not name.
+///
+/// The application's own source (here, the axes of its wiring list), beside the
+/// sequencer's:
+///
+/// ```
+/// use rtseq::{Cause, Names, SeqConfig, SeqId, Sequencer, WithNames};
+/// struct Axes;
+/// impl Names for Axes {
+///     fn sequence(&self, id: SeqId) -> Option<&'static str> {
+///         ["x axis", "y axis"].get(id.index()).copied()
+///     }
+/// }
+/// let y = SeqId::from_index(1);
+/// assert_eq!(Axes.sequence(y), Some("y axis"));
+/// assert_eq!(Cause::Timeout(y).named(&Axes).to_string(), "timeout of `y axis`");
+/// assert_eq!(SeqId::from_index(2).named(&Axes).to_string(), "#2"); // no name
+/// let seq: Sequencer<(), 1> = Sequencer::new();
+/// let homing = seq.register(SeqConfig::new("homing")).unwrap();
+/// assert_eq!(seq.sequence(homing), Some("homing"));
+/// assert_eq!(seq.monitor(rtseq::MonitorId::from_index(0)), None); // not its kind of name
+/// ```
 pub trait Names {
     /// The name of sequence `id`.
     fn sequence(&self, id: SeqId) -> Option<&'static str> {
@@ -197,6 +218,36 @@ impl Names for Failures<'_> {
 }
 
 /// A value with the names to print it with ([`WithNames::named`]).
+///
+/// A run's records printed as its lines, with the sequencer's names and the application's
+/// failure codes:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{sim::Sim, Cx, Failure, Failures, Monitors, SeqConfig, Sequence, Sequencer,
+///             WithNames};
+/// struct Grip;
+/// impl Sequence<()> for Grip {
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         Err(Failure::App(1))
+///     }
+/// }
+/// const FAILURES: Failures = Failures(&[(1, "no part")]);
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let grip = seq.add(SeqConfig::new("grip"), Grip).unwrap();
+/// let id = grip.id();
+/// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+/// sim.lane(grip);
+/// sim.start(id).unwrap();
+/// let names = (&seq, &FAILURES);
+/// let lines: Vec<String> = sim.records().iter().map(|r| r.named(&names).to_string()).collect();
+/// assert_eq!(lines, [
+///     "0 ms grip: Idle -> Running (start)",
+///     "0 ms grip: Running -> Terminated (failed)",
+///     "0 ms `grip` failed: no part",
+/// ]);
+/// # }
+/// ```
 pub struct Named<'n, V, N: ?Sized> {
     value: V,
     names: &'n N,
@@ -213,6 +264,22 @@ impl<V: Copy, N: Names + ?Sized> Named<'_, V, N> {
 
 /// Values that print with names: ids, causes, outcomes, failures, errors, transitions,
 /// events, records, safety levels.
+///
+/// Outcomes and failures, with the sequencer's names and the application's failure codes:
+///
+/// ```
+/// use rtseq::{Cause, Error, Failure, Failures, Outcome, SeqConfig, Sequencer, WithNames};
+/// const FAILURES: Failures = Failures(&[(1, "no part")]);
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let belt = seq.register(SeqConfig::new("belt")).unwrap();
+/// let names = (&seq, &FAILURES);
+/// let failed = Outcome::Failed(Failure::App(1));
+/// assert_eq!(failed.named(&names).to_string(), "failed (no part)");
+/// let timed_out = Outcome::Aborted(Cause::Timeout(belt));
+/// assert_eq!(timed_out.named(&names).to_string(), "aborted (timeout of `belt`)");
+/// let refused = Failure::NotStarted(Error::NoLane(belt));
+/// assert_eq!(refused.named(&names).to_string(), "not started: sequence `belt` has no lane");
+/// ```
 pub trait WithNames: Copy {
     /// This value with `names`, for `Display` and `defmt::Format`.
     ///

@@ -1406,6 +1406,32 @@ impl<
     }
 
     /// Writes the trace in the format of [`save_trace`](Self::save_trace) to `out`.
+    ///
+    /// The trace of one run, in memory:
+    ///
+    /// ```
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, Sequence, Sequencer};
+    /// struct Blink;
+    /// impl Sequence<()> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
+    /// }
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let id = blink.id();
+    /// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    /// sim.lane(blink);
+    /// sim.start(id).unwrap();
+    /// let mut out = Vec::new();
+    /// sim.write_trace(&mut out).unwrap();
+    /// let text = String::from_utf8(out).unwrap();
+    /// let lines: Vec<&str> = text.lines().collect();
+    /// assert_eq!(lines, [
+    ///     concat!(r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":0,"lost":0,"#,
+    ///             r#""sequences":[{"id":0,"name":"blink","caller":null}],"monitors":[]}"#),
+    ///     r#"{"t":0,"seq":0,"from":"Idle","to":"Running","cause":"start"}"#,
+    ///     r#"{"t":0,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}"#,
+    /// ]);
+    /// ```
     pub fn write_trace(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
         use crate::{Cause, MonitorId};
         use std::string::String;

@@ -73,6 +73,19 @@ impl ErrorMessage {
     }
 
     /// The message (cut at the last whole character if it did not fit).
+    ///
+    /// The message of a refused start, for a log that cannot format:
+    ///
+    /// ```
+    /// use rtseq::{SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("press")).unwrap();
+    /// let press = seq.sequence_by_id(id).unwrap();
+    /// press.declare_lane().unwrap();
+    /// press.start().unwrap();
+    /// let refused = press.start().unwrap_err();
+    /// assert_eq!(refused.message().as_str(), "sequence 0 is already running");
+    /// ```
     pub const fn as_str(&self) -> &str {
         let Some((written, _)) = self.bytes.split_at_checked(self.len) else {
             return "";

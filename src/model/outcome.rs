@@ -62,6 +62,34 @@ pub enum Cause {
 /// completed or was skipped, a [`Failure`] when it was aborted or failed, so `?` hands an
 /// aborted or failed child on to the caller's own outcome.
 ///
+/// A gripper that fails without a part, then completes with one:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use core::cell::Cell;
+/// use rtseq::{sim::Sim, Cx, Done, Failure, Monitors, Outcome, SeqConfig, Sequence, Sequencer};
+/// struct Grip;
+/// impl Sequence<Cell<bool>> for Grip {
+///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> {
+///         if cx.control().get() { Ok(()) } else { Err(Failure::App(1)) } // 1: no part
+///     }
+/// }
+/// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
+/// let grip = seq.add(SeqConfig::new("grip"), Grip).unwrap();
+/// let h = seq.sequence_by_id(grip.id()).unwrap();
+/// let part = Cell::new(false);
+/// let mut sim = Sim::new(&seq, &part, Monitors::<Cell<bool>, 1>::new());
+/// sim.lane(grip);
+/// sim.start(h.id()).unwrap();
+/// assert_eq!(h.last_outcome(), Some(Outcome::Failed(Failure::App(1))));
+/// assert_eq!(h.last_outcome().map(Outcome::done), Some(Err(Failure::App(1))));
+/// part.set(true);
+/// sim.start(h.id()).unwrap();
+/// assert_eq!(h.last_outcome(), Some(Outcome::Completed));
+/// assert_eq!(h.last_outcome().map(Outcome::done), Some(Ok(Done::Completed)));
+/// # }
+/// ```
+///
 /// [`Handle::last_outcome`]: crate::Handle::last_outcome
 /// [`Cx::join`]: crate::Cx::join
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]

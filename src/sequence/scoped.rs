@@ -22,6 +22,55 @@ use crate::Cx;
 /// its own monitors) included: a later run of the sequence, started after this one ended,
 /// is never aborted by it. A paused caller does not pause it (it runs in its own lane).
 /// The rules, with the corner cases, are item 11 of docs/semantics.md.
+///
+/// A belt that runs while `load` waits for a part, and stops when `load` returns:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use core::cell::Cell;
+/// use rtseq::{sim::Sim, Cause, Cx, Event, Failure, Monitors, Outcome, Record, Request,
+///             Requester, RunningState::*, SeqConfig, SeqId, Sequence, Sequencer};
+/// struct Belt;
+/// impl Sequence<Cell<bool>> for Belt {
+///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> {
+///         cx.wait_until(|_| false).await; // runs until stopped
+///         Ok(())
+///     }
+/// }
+/// struct Load(SeqId);
+/// impl Sequence<Cell<bool>> for Load {
+///     async fn action(&mut self, cx: &Cx<'_, Cell<bool>>) -> Result<(), Failure> {
+///         let _belt = cx.start_scoped(self.0)?;
+///         cx.wait_until(|cx| cx.control().get()).await; // a part arrived
+///         Ok(()) // `_belt` dropped: the belt stops
+///     }
+/// }
+/// let seq: Sequencer<Cell<bool>, 2> = Sequencer::new();
+/// let belt = seq.add(SeqConfig::new("belt"), Belt).unwrap();
+/// let b = belt.id();
+/// let load = seq.add(SeqConfig::new("load"), Load(b)).unwrap();
+/// let l = load.id();
+/// let part = Cell::new(false);
+/// let mut sim = Sim::new(&seq, &part, Monitors::<Cell<bool>, 1>::new());
+/// sim.lane(belt);
+/// sim.lane(load);
+/// sim.start(l).unwrap();
+/// sim.step();
+/// assert_eq!((sim.state(l), sim.state(b)), (Running, Running));
+/// part.set(true);
+/// sim.step(); // `load` returns; the next tick aborts the belt
+/// assert_eq!((sim.state(l), sim.state(b)), (Terminated, Running));
+/// sim.step();
+/// assert_eq!(sim.state(b), Aborted);
+/// assert_eq!(sim.handle(b).unwrap().last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
+/// let stop = sim.records().iter().filter_map(Record::event).last();
+/// assert_eq!(stop, Some(Event::Requested {
+///     sequence: b,
+///     request: Request::Abort,
+///     by: Requester::Sequence(l),
+/// }));
+/// # }
+/// ```
 #[must_use = "a `Scoped` dropped at once aborts the sequence it started: keep it in a variable"]
 pub struct Scoped<'a, C> {
     port: &'a dyn Port<C>,
@@ -37,6 +86,38 @@ impl<'a, C> Scoped<'a, C> {
     }
 
     /// The id of the started sequence.
+    ///
+    /// ```
+    /// # #[cfg(feature = "std")] {
+    /// use core::cell::Cell;
+    /// use rtseq::{sim::Sim, Cx, Failure, Monitors, SeqConfig, SeqId, Sequence, Sequencer};
+    /// type Started = Cell<Option<SeqId>>;
+    /// struct Blink;
+    /// impl Sequence<Started> for Blink {
+    ///     async fn action(&mut self, _cx: &Cx<'_, Started>) -> Result<(), Failure> { Ok(()) }
+    /// }
+    /// struct Main(SeqId);
+    /// impl Sequence<Started> for Main {
+    ///     async fn action(&mut self, cx: &Cx<'_, Started>) -> Result<(), Failure> {
+    ///         let blink = cx.start_scoped(self.0)?;
+    ///         cx.control().set(Some(blink.id()));
+    ///         blink.join().await?.done()?;
+    ///         Ok(())
+    ///     }
+    /// }
+    /// let seq: Sequencer<Started, 2> = Sequencer::new();
+    /// let blink = seq.add(SeqConfig::new("blink"), Blink).unwrap();
+    /// let b = blink.id();
+    /// let main = seq.add(SeqConfig::new("main"), Main(b)).unwrap();
+    /// let m = main.id();
+    /// let started = Cell::new(None);
+    /// let mut sim = Sim::new(&seq, &started, Monitors::<Started, 1>::new());
+    /// sim.lane(blink);
+    /// sim.lane(main);
+    /// sim.start(m).unwrap();
+    /// assert_eq!(started.get(), Some(b));
+    /// # }
+    /// ```
     pub fn id(&self) -> SeqId {
         self.run.seq
     }

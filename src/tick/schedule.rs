@@ -14,6 +14,22 @@ use crate::model::time::Stamp;
 use crate::{Error, SeqId};
 
 /// The most distinct polling periods one sequencer holds.
+///
+/// Eight periods fit; a ninth is refused, while a period already in use joins its class:
+///
+/// ```
+/// use rtseq::{Duration, Error, SeqConfig, Sequencer, MAX_POLLING_CLASSES};
+/// let seq: Sequencer<(), 10> = Sequencer::new();
+/// let names = ["p1", "p2", "p3", "p4", "p5", "p6", "p7", "p8"];
+/// assert_eq!(names.len(), MAX_POLLING_CLASSES);
+/// for (ms, name) in (1..).zip(names) {
+///     seq.register(SeqConfig::new(name).polling(Duration::from_millis(ms))).unwrap();
+/// }
+/// let ninth = SeqConfig::new("p9").polling(Duration::from_millis(9));
+/// assert_eq!(seq.register(ninth), Err(Error::PollingClassesExceeded));
+/// let again = SeqConfig::new("p1 again").polling(Duration::from_millis(1));
+/// assert_eq!(seq.register(again).map(|id| id.index()), Ok(8));
+/// ```
 pub const MAX_POLLING_CLASSES: usize = 8;
 
 /// One polling period and the sequences registered with it.

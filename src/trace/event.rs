@@ -107,6 +107,30 @@ pub enum Event {
 
 /// A request to a running sequence ([`Handle::pause`](crate::Handle::pause),
 /// [`resume`](crate::Handle::resume), [`abort`](crate::Handle::abort)).
+///
+/// Each request is recorded as it is made; the next tick carries it out:
+///
+/// ```
+/// use rtseq::{Event, Record, Request, SeqConfig, Sequencer};
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let id = seq.register(SeqConfig::new("press")).unwrap();
+/// let press = seq.sequence_by_id(id).unwrap();
+/// press.declare_lane().unwrap();
+/// press.start().unwrap();
+/// press.pause().unwrap();
+/// press.abort().unwrap();
+/// let mut records = Vec::new();
+/// seq.drain_records(|r| records.push(r));
+/// let requests: Vec<Request> = records
+///     .iter()
+///     .filter_map(Record::event)
+///     .filter_map(|e| match e {
+///         Event::Requested { request, .. } => Some(request),
+///         _ => None,
+///     })
+///     .collect();
+/// assert_eq!(requests, [Request::Pause, Request::Abort]);
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Request {
@@ -119,6 +143,52 @@ pub enum Request {
 }
 
 /// Who made a request.
+///
+/// A pause by the application, then an abort by the sequence `stop`:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{sim::Sim, Cx, Event, Failure, Monitors, Record, Requester, SeqConfig, SeqId,
+///             Sequence, Sequencer};
+/// struct Belt;
+/// impl Sequence<()> for Belt {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         cx.wait_until(|_| false).await;
+///         Ok(())
+///     }
+/// }
+/// struct Stop(SeqId);
+/// impl Sequence<()> for Stop {
+///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         if let Some(belt) = cx.sequence_by_id(self.0) {
+///             belt.abort()?;
+///         }
+///         Ok(())
+///     }
+/// }
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let belt = seq.add(SeqConfig::new("belt"), Belt).unwrap();
+/// let b = belt.id();
+/// let stop = seq.add(SeqConfig::new("stop"), Stop(b)).unwrap();
+/// let s = stop.id();
+/// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+/// sim.lane(belt);
+/// sim.lane(stop);
+/// sim.start(b).unwrap();
+/// sim.pause(b).unwrap();
+/// sim.start(s).unwrap();
+/// let by: Vec<Requester> = sim
+///     .records()
+///     .iter()
+///     .filter_map(Record::event)
+///     .filter_map(|e| match e {
+///         Event::Requested { by, .. } => Some(by),
+///         _ => None,
+///     })
+///     .collect();
+/// assert_eq!(by, [Requester::Application, Requester::Sequence(s)]);
+/// # }
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Requester {

@@ -79,6 +79,43 @@ impl Transition {
 
 /// One record of the trace, as [`Sequencer::drain_records`](crate::Sequencer::drain_records)
 /// passes it on: a state change or an event at `time`, in the order the sequencer made them.
+///
+/// The records of a start and a pause request after a tick at 2 ms, drained from the
+/// sequencer's buffer:
+///
+/// ```
+/// use rtseq::{Cause, Entry, Event, Instant, Monitors, Record, Request, Requester,
+///             RunningState, SeqConfig, Sequencer};
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let id = seq.register(SeqConfig::new("press")).unwrap();
+/// let press = seq.sequence_by_id(id).unwrap();
+/// press.declare_lane().unwrap();
+/// seq.tick(Instant::from_ticks(2_000), &(), &mut Monitors::<(), 1>::new()).unwrap();
+/// press.start().unwrap();
+/// press.pause().unwrap();
+/// let mut records = Vec::new();
+/// seq.drain_records(|r| records.push(r));
+/// let time = Instant::from_ticks(2_000);
+/// assert_eq!(records, [
+///     Record {
+///         time,
+///         entry: Entry::Transition {
+///             sequence: id,
+///             from: RunningState::Idle,
+///             to: RunningState::Running,
+///             cause: Cause::Start,
+///         },
+///     },
+///     Record {
+///         time,
+///         entry: Entry::Event(Event::Requested {
+///             sequence: id,
+///             request: Request::Pause,
+///             by: Requester::Application,
+///         }),
+///     },
+/// ]);
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Record {
@@ -89,6 +126,37 @@ pub struct Record {
 }
 
 /// What a [`Record`] holds: a state change or an event.
+///
+/// A run that fails records its end, then the failure:
+///
+/// ```
+/// # #[cfg(feature = "std")] {
+/// use rtseq::{sim::Sim, Cause, Cx, Entry, Event, Failure, Monitors, RunningState, SeqConfig,
+///             Sequence, Sequencer};
+/// struct Grip;
+/// impl Sequence<()> for Grip {
+///     async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+///         Err(Failure::App(1)) // no part
+///     }
+/// }
+/// let seq: Sequencer<(), 2> = Sequencer::new();
+/// let grip = seq.add(SeqConfig::new("grip"), Grip).unwrap();
+/// let id = grip.id();
+/// let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+/// sim.lane(grip);
+/// sim.start(id).unwrap();
+/// let entries: Vec<Entry> = sim.records().iter().map(|r| r.entry).collect();
+/// assert_eq!(entries[1..], [
+///     Entry::Transition {
+///         sequence: id,
+///         from: RunningState::Running,
+///         to: RunningState::Terminated,
+///         cause: Cause::Failed,
+///     },
+///     Entry::Event(Event::Failed { sequence: id, failure: Failure::App(1) }),
+/// ]);
+/// # }
+/// ```
 // `repr(u8)` with the transition first: the blank records of an empty ring are zero bytes,
 // so a sequencer `static` needs no initial image in flash.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -112,6 +180,22 @@ pub enum Entry {
 
 impl Record {
     /// The state change, if this record is one.
+    ///
+    /// The transitions among the records, events left out:
+    ///
+    /// ```
+    /// use rtseq::{Cause, Record, RunningState::*, SeqConfig, Sequencer, Transition};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("press")).unwrap();
+    /// let press = seq.sequence_by_id(id).unwrap();
+    /// press.declare_lane().unwrap();
+    /// press.start().unwrap();
+    /// press.pause().unwrap(); // a request: an event
+    /// let mut records = Vec::new();
+    /// seq.drain_records(|r| records.push(r));
+    /// let changes: Vec<Transition> = records.iter().filter_map(Record::transition).collect();
+    /// assert_eq!(changes, [Transition::at_millis(0, id, Idle, Running, Cause::Start)]);
+    /// ```
     pub const fn transition(&self) -> Option<Transition> {
         match self.entry {
             Entry::Transition {
@@ -131,6 +215,26 @@ impl Record {
     }
 
     /// The event, if this record is one.
+    ///
+    /// The events among the records, transitions left out:
+    ///
+    /// ```
+    /// use rtseq::{Event, Record, Request, Requester, SeqConfig, Sequencer};
+    /// let seq: Sequencer<(), 2> = Sequencer::new();
+    /// let id = seq.register(SeqConfig::new("press")).unwrap();
+    /// let press = seq.sequence_by_id(id).unwrap();
+    /// press.declare_lane().unwrap();
+    /// press.start().unwrap(); // a state change
+    /// press.pause().unwrap();
+    /// let mut records = Vec::new();
+    /// seq.drain_records(|r| records.push(r));
+    /// let events: Vec<Event> = records.iter().filter_map(Record::event).collect();
+    /// assert_eq!(events, [Event::Requested {
+    ///     sequence: id,
+    ///     request: Request::Pause,
+    ///     by: Requester::Application,
+    /// }]);
+    /// ```
     pub const fn event(&self) -> Option<Event> {
         match self.entry {
             Entry::Event(e) => Some(e),
