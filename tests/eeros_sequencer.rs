@@ -5,8 +5,8 @@
 //! The EEROS sources are `examples/sequencer/SequencerTest{10..14,20..26}.cpp` and
 //! `test/sequencer/SeqTest{1..4}.cpp` of eeros-project/eeros-framework; what EEROS does is
 //! read off its implementation (`src/sequencer/BaseSequence.cpp`, `Sequence.cpp`,
-//! `includes/eeros/sequencer/{Wait,Step,ConditionTimeout}.hpp`), cited by line as
-//! `BaseSequence.cpp:52`.
+//! `includes/eeros/sequencer/{Wait,Step,ConditionTimeout}.hpp`, at commit `e0e8358`), cited
+//! by line as `BaseSequence.cpp:52`.
 //!
 //! How the ports map EEROS:
 //!
@@ -44,7 +44,15 @@
 //!   calling steps, which run if the monitor's condition has gone false;
 //! * monitors are evaluated by the tick at the owner's polling period (item 1), not inside
 //!   every step's own run loop as in EEROS (`BaseSequence.cpp:37,52`); requests (abort)
-//!   are applied by the next tick (item 8).
+//!   are applied by the next tick (item 8);
+//! * steps are registered like sequences, under unique names (design-decisions, "every
+//!   sequence and step is registered"); EEROS registers only `Sequence`s.
+//!
+//! What these EEROS programs use and rtseq has not: `resetTimeout()` of a running
+//! sequence (examples 13, 22, 25; not needed, a timeout fires once per run, item 6), and a
+//! behaviour changed at run time (`setTimeoutBehavior` from the exception sequence in
+//! examples 14, 23, 26, ported as a restart limit; `Monitor::setBehavior` between the runs
+//! of SeqTest3, ported as one monitor table per behaviour).
 
 mod common;
 use common::{show, tr};
@@ -1273,11 +1281,12 @@ fn seq_test_3_until_e1(si: SeqId, ei: SeqId, mi: SeqId, m: MonitorId) -> Vec<Tra
 
 /// EEROS `test/sequencer/SeqTest3.cpp`, `TEST(seqTest3, condition)`, behaviour abort: the
 /// monitor fires after the third step's action (`count` 3), `e1` adds 100 (103), the
-/// main sequence is aborted. EEROS: its action goes on (`BaseSequence.cpp:33-55` runs in
-/// the step only), steps 4 and 5 check the monitor before their action, whose condition
-/// is false now (103), and run: `count == 105`, `eCount == 1`. rtseq (a deliberate
-/// difference, item 4: abort is sticky): step 3 and the main sequence are aborted at
-/// 301 ms (item 3), no step runs after: `count` 103, `eCount` 1.
+/// main sequence is aborted. EEROS: the main sequence's action is a plain call that its
+/// `aborting` state does not interrupt (`BaseSequence.cpp:45`); steps 4 and 5 check the
+/// monitors before their action (`:37`), the condition is false now (103), so they are
+/// not aborted and run: `count == 105`, `eCount == 1`. rtseq (a deliberate difference,
+/// item 4: abort is sticky): step 3 and the main sequence are aborted at 301 ms
+/// (item 3), no step runs after: `count` 103, `eCount` 1.
 #[test]
 fn seq_test_3_monitor_abort_is_sticky() {
     let (trace, [si, ei, mi], m, count, e_count) = seq_test_3(Behaviour::AbortOwner);
@@ -1308,8 +1317,9 @@ fn seq_test_3_monitor_resume_goes_on() {
 /// EEROS `test/sequencer/SeqTest3.cpp`, `TEST(seqTest3, condition)`, behaviour restart:
 /// each run reaches `count` 3, `e1` runs, the main sequence restarts (`count = 0`); the
 /// third `e1` sets `limit = 2`, so the fourth run makes two steps: `count == 2`,
-/// `eCount == 3`. (EEROS runs steps 4 and 5 of each restarted run before restarting, the
-/// condition being false by then; rtseq restarts at once, item 4; the values agree.)
+/// `eCount == 3`. (In the first two runs EEROS runs steps 4 and 5 after the firing, before
+/// restarting, the condition being false by then; rtseq restarts at once, item 4; the
+/// values agree.)
 /// rtseq: restarts at 301, 601 and 901 ms (item 3), three restarts being the default
 /// limit (`DEFAULT_RESTART_LIMIT`, item 5: a fourth firing would abort; EEROS has no
 /// limit); the last run completes at 1100 ms: `count` 2, `eCount` 3.
