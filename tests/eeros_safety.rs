@@ -257,14 +257,11 @@ mod scara {
     pub const AUTO_PARKING_SHUTDOWN_DONE1: PrivateEvent = PrivateEvent::new(13);
     pub const AUTO_PARKING_SHUTDOWN_DONE0: PrivateEvent = PrivateEvent::new(14);
 
-    /// The application's side of the level actions: EEROS's `moving` action reads
-    /// `moving.getNofActivations()`, the count of cycles run in `moving`, which an rtseq
-    /// level action cannot read (it gets the context and the IO); the application counts
-    /// them itself. The test checks the count against `SafetySystem::stats`.
+    /// The application's side of the level actions: the actions that ran, with the
+    /// cycles run in their level as the action saw them.
     #[derive(Default)]
     pub struct Io {
-        pub moving_cycles: u32,
-        pub actions: Vec<(u8, &'static str)>,
+        pub actions: Vec<(u8, &'static str, u32)>,
     }
     impl SafetyIo for Io {
         fn read_input(&mut self, _: InputId) -> IoValue {
@@ -274,21 +271,24 @@ mod scara {
     }
 
     fn off(ctx: &mut SafetyContext<'_>, io: &mut Io) {
-        io.actions.push((ctx.level().id(), "off"));
+        io.actions
+            .push((ctx.level().id(), "off", ctx.stats().cycles));
     }
     fn notinit_emergency(ctx: &mut SafetyContext<'_>, io: &mut Io) {
-        io.actions.push((ctx.level().id(), "notinit_emergency"));
+        io.actions
+            .push((ctx.level().id(), "notinit_emergency", ctx.stats().cycles));
     }
     /// EEROS: `privateContext->triggerEvent(doEmergency)` in every cycle of `homing 3`.
     fn homing3(ctx: &mut SafetyContext<'_>, io: &mut Io) {
-        io.actions.push((ctx.level().id(), "homing3"));
+        io.actions
+            .push((ctx.level().id(), "homing3", ctx.stats().cycles));
         ctx.trigger(DO_EMERGENCY);
     }
     /// EEROS: `if (moving.getNofActivations() > 2) triggerEvent(doEmergency)`.
     fn moving(ctx: &mut SafetyContext<'_>, io: &mut Io) {
-        io.moving_cycles += 1;
-        io.actions.push((ctx.level().id(), "moving"));
-        if io.moving_cycles > 2 {
+        io.actions
+            .push((ctx.level().id(), "moving", ctx.stats().cycles));
+        if ctx.stats().cycles > 2 {
             ctx.trigger(DO_EMERGENCY);
         }
     }
@@ -421,9 +421,8 @@ mod scara {
 ///
 /// rtseq: the same thirty levels and transitions (`doOff`, public on one transition and
 /// private on another, is two events); the same level after every cycle. The `moving`
-/// action counts its cycles in the application's IO (an rtseq level action cannot read
-/// `LevelStats`; reported) and the count equals `SafetySystem::stats(MOVING).cycles`,
-/// rtseq's `nofActivations`. Passes.
+/// action reads `SafetyContext::stats().cycles`, rtseq's `nofActivations`, and sees
+/// 1, 2, 3 as EEROS's does; `SafetySystem::stats(MOVING)` agrees afterwards. Passes.
 #[test]
 fn eeros_level_test_trigger2_scara_level_actions_trigger_the_emergencies() {
     use scara::*;
@@ -463,16 +462,15 @@ fn eeros_level_test_trigger2_scara_level_actions_trigger_the_emergencies() {
         ]
     );
     assert_eq!(ss.stats(MOVING).unwrap().cycles, 3);
-    assert_eq!(io.moving_cycles, ss.stats(MOVING).unwrap().cycles);
     assert_eq!(
         io.actions,
         [
-            (0, "off"),
-            (9, "homing3"),
-            (1, "notinit_emergency"),
-            (22, "moving"),
-            (22, "moving"),
-            (22, "moving"),
+            (0, "off", 1),
+            (9, "homing3", 1),
+            (1, "notinit_emergency", 1),
+            (22, "moving", 1),
+            (22, "moving", 2),
+            (22, "moving", 3),
         ]
     );
     assert_eq!(HANDLE.level(), EMERGENCY);

@@ -57,6 +57,8 @@ struct Sim {
     level_private: Vec<PrivateEvent>,
     /// Events the next entry action triggers.
     entry_private: Vec<PrivateEvent>,
+    /// The counters each entry and level action saw (`SafetyContext::stats`).
+    seen: Vec<(&'static str, SafetyLevel, u32, u32)>,
 }
 
 impl Sim {
@@ -70,6 +72,7 @@ impl Sim {
             level_public: Vec::new(),
             level_private: Vec::new(),
             entry_private: Vec::new(),
+            seen: Vec::new(),
         }
     }
     fn note(&self, s: String) {
@@ -95,6 +98,9 @@ impl SafetyIo for Sim {
 
 fn entry<const N: usize>(ctx: &mut SafetyContext<'_>, io: &mut Sim) {
     io.note(format!("entry {}", NAMES[N]));
+    let seen = ctx.stats();
+    io.seen
+        .push(("entry", ctx.level(), seen.activations, seen.cycles));
     for e in std::mem::take(&mut io.entry_private) {
         ctx.trigger(e);
     }
@@ -105,6 +111,9 @@ fn exit<const N: usize>(io: &mut Sim) {
 fn action<const N: usize>(ctx: &mut SafetyContext<'_>, io: &mut Sim) {
     assert_eq!(ctx.level().index(), N);
     io.note(format!("action {}", NAMES[N]));
+    let seen = ctx.stats();
+    io.seen
+        .push(("action", ctx.level(), seen.activations, seen.cycles));
     for e in std::mem::take(&mut io.level_public) {
         ctx.trigger(e);
     }
@@ -393,6 +402,19 @@ fn activation_counters() {
         );
     }
     assert_eq!(handle.cycles(), 11);
+    // What MOVING's actions saw (`SafetyContext::stats`): the entry counts itself and the
+    // cycles before it; the level action counts its own cycle.
+    let moving: Vec<_> = rig.sim.seen.iter().filter(|s| s.1 == MOVING).collect();
+    assert_eq!(
+        moving,
+        [
+            &("entry", MOVING, 1, 0),
+            &("action", MOVING, 1, 1),
+            &("action", MOVING, 1, 2),
+            &("entry", MOVING, 2, 2),
+            &("action", MOVING, 2, 3),
+        ]
+    );
     // Staying (a self-transition) is not an activation.
     handle.trigger(RESET);
     assert_eq!(rig.cycle().change, None);

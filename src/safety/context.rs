@@ -3,6 +3,7 @@
 use super::bits::bit_of;
 use super::event::{EventId, EventKind, EventVisibility, SafetyEvent};
 use super::level::SafetyLevel;
+use super::level_def::LevelStats;
 
 /// Events triggered inside the safety system during one cycle, resolved
 /// at the start of the next cycle.
@@ -53,7 +54,7 @@ impl PendingEvents {
 ///
 /// ```compile_fail,E0451
 /// use rtseq::safety::SafetyContext;
-/// let ctx = SafetyContext { pending: todo!(), level: todo!() }; // private fields
+/// let ctx = SafetyContext { pending: todo!(), level: todo!(), stats: todo!() }; // private fields
 /// ```
 ///
 /// Events triggered here are resolved at the start of the next cycle
@@ -74,11 +75,20 @@ impl PendingEvents {
 pub struct SafetyContext<'c> {
     pending: &'c mut PendingEvents,
     level: SafetyLevel,
+    stats: LevelStats,
 }
 
 impl<'c> SafetyContext<'c> {
-    pub(crate) fn new(pending: &'c mut PendingEvents, level: SafetyLevel) -> Self {
-        Self { pending, level }
+    pub(crate) fn new(
+        pending: &'c mut PendingEvents,
+        level: SafetyLevel,
+        stats: LevelStats,
+    ) -> Self {
+        Self {
+            pending,
+            level,
+            stats,
+        }
     }
 
     /// Triggers a public or private event; it is resolved against the
@@ -112,5 +122,27 @@ impl<'c> SafetyContext<'c> {
     /// ```
     pub fn level(&self) -> SafetyLevel {
         self.level
+    }
+
+    /// The counters of the level whose action is running, this entry or cycle included:
+    /// in an entry action, `activations` counts this entry and `cycles` the cycles run
+    /// before it; in a level action, `cycles` counts this cycle (EEROS's
+    /// `getNofActivations()`, which level actions use to act after a number of cycles).
+    ///
+    /// Leave `moving` for `emergency` in its third cycle:
+    ///
+    /// ```
+    /// use rtseq::safety::*;
+    /// # struct Io;
+    /// const GIVE_UP: PrivateEvent = PrivateEvent::new(0);
+    /// fn moving(ctx: &mut SafetyContext<'_>, _io: &mut Io) {
+    ///     if ctx.stats().cycles > 2 {
+    ///         ctx.trigger(GIVE_UP);
+    ///     }
+    /// }
+    /// # let _ = moving;
+    /// ```
+    pub fn stats(&self) -> LevelStats {
+        self.stats
     }
 }

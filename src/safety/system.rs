@@ -563,8 +563,9 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
         // (`to` is always defined in validated properties.)
         if let (Some(stats), Some(def)) = (self.stats.get_mut(to.index()), props.level(to)) {
             stats.activations = stats.activations.saturating_add(1);
+            let stats = *stats;
             if let Some(entry) = def.entry_fn() {
-                entry(&mut SafetyContext::new(&mut self.pending, to), io);
+                entry(&mut SafetyContext::new(&mut self.pending, to, stats), io);
             }
         }
     }
@@ -652,9 +653,14 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
             sequences.abort_all();
             report.aborted = true;
         }
-        if let Some(s) = self.stats.get_mut(level.index()) {
-            s.cycles = s.cycles.saturating_add(1);
-        }
+        // (A validated level always has its counters.)
+        let stats = self
+            .stats
+            .get_mut(level.index())
+            .map_or(LevelStats::ZERO, |s| {
+                s.cycles = s.cycles.saturating_add(1);
+                *s
+            });
 
         // 3. Input actions (bit `i` of `fired` = input `i`, as in the report).
         let mut fired: u32 = 0;
@@ -676,7 +682,7 @@ impl<IO: SafetyIo, const L: usize> SafetySystem<'_, IO, L> {
 
         // 4. Level action.
         if let Some(action) = def.action_fn() {
-            action(&mut SafetyContext::new(&mut self.pending, level), io);
+            action(&mut SafetyContext::new(&mut self.pending, level, stats), io);
         }
 
         // 5. Output actions.
