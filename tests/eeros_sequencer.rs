@@ -41,7 +41,8 @@
 //! * a restarted sequence's steps are polled on the 100 ms grid of their polling class
 //!   (item 1), so after a restart 1 ms late its waits end on the grid, 100 ms late;
 //! * abort is sticky (item 4): an aborted action never goes on, where EEROS's goes on
-//!   calling steps, which run if the monitor's condition has gone false;
+//!   calling steps, which run if the monitor's condition has gone false; a sequence whose
+//!   abort is requested begins nothing more, and the tick aborts it (item 8);
 //! * monitors are evaluated by the tick at the owner's polling period (item 1), not inside
 //!   every step's own run loop as in EEROS (`BaseSequence.cpp:37,52`); requests (abort)
 //!   are applied by the next tick (item 8);
@@ -1015,14 +1016,13 @@ fn seq_test_1_params_reach_the_step_and_the_result() {
 /// sequence, `Sequencer.cpp:72-78`). EEROS: the fourth step checks its callers' monitors
 /// before its action (`BaseSequence.cpp:37`), the main sequence's abort monitor fires,
 /// the step is aborted and returns -1, and so are steps 5 to 50: `getResult() == -1`.
-/// rtseq (a deliberate difference, items 8 and 4): the abort is a request, carried out
-/// by the next tick, and a step whose exit condition is true at once does not suspend
-/// its caller, so the whole action (50 steps) runs in the one lane run at 0 ms: the
-/// request is recorded at 0 ms, the main sequence completes with the result 50 before
-/// any tick, and the request finds nothing left to abort. An abort reaches an action
-/// only at an await point where it waits for time.
+/// rtseq: the main sequence requests its own abort after the third step. A sequence whose
+/// abort is requested begins nothing more (semantics item 8): steps 4 to 50 are refused
+/// (`Failure::NotStarted(NotRunning)`, EEROS's -1) without running, the action's end is
+/// held, and the next tick (1 ms) aborts the main sequence. The result, -1, is EEROS's;
+/// the abort comes 1 ms later, when the tick carries the request out (item 8).
 #[test]
-fn seq_test_2_aborting_a_loop_of_instant_steps_comes_too_late() {
+fn seq_test_2_aborting_stops_the_loop_of_steps() {
     let seq = Seqr::new();
     let world = World::default();
     let step = seq.add(cfg("step"), Step1::default()).unwrap();
@@ -1040,8 +1040,9 @@ fn seq_test_2_aborting_a_loop_of_instant_steps_comes_too_late() {
     sim.run_for(Duration::from_millis(300));
     assert_eq!(sim.lost(), 0);
     let mut want = vec![start(0, mi)];
-    want.extend(chain(si, Idle, &[0; 51]));
-    want.push(done(0, mi));
+    want.extend(chain(si, Idle, &[0; 4]));
+    want.push(tr(1, mi, Running, Aborting, Cause::Abort));
+    want.push(tr(1, mi, Aborting, Aborted, Cause::Abort));
     assert_trace(sim.trace(), &want);
     let events: Vec<_> = sim
         .records()
@@ -1057,10 +1058,10 @@ fn seq_test_2_aborting_a_loop_of_instant_steps_comes_too_late() {
         by: Requester::Sequence(mi),
     };
     assert_eq!(events, [(0, requested)]);
-    assert_eq!(world.result.get(), Some(50));
+    assert_eq!(world.result.get(), Some(-1));
     let h = sim.handle(mi).unwrap();
-    assert_eq!(h.last_outcome(), Some(Outcome::Completed));
-    assert_eq!(sim.handle(si).unwrap().counters().runs, 50);
+    assert_eq!(h.last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
+    assert_eq!(sim.handle(si).unwrap().counters().runs, 3);
 }
 
 /// SeqTest2's `SequenceA`: pre-condition `count == 5`, `action() {count++; return count;}`.

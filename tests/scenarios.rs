@@ -1395,3 +1395,144 @@ fn a_timeout_set_during_a_run_applies_to_that_run_at_once() {
         ],
     );
 }
+
+/// A step that asks for the abort of sequence `.0` in its action, as a task that preempts
+/// the lane (an HMI's abort button) would while the step runs.
+struct AskAbort(SeqId);
+impl rtseq::Step<Ctrl> for AskAbort {
+    fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        if let Some(h) = cx.sequence_by_id(self.0) {
+            h.abort()?;
+        }
+        Ok(())
+    }
+}
+
+/// What the steps of a main sequence returned to its action.
+type Got = std::rc::Rc<std::cell::RefCell<Vec<Result<Done, Failure>>>>;
+
+/// A main sequence: unless `asks_itself`, its first step `ask` asks for its abort; else
+/// its action asks for it before that step. Then `more` instant steps; it logs what each
+/// step returned.
+struct Chain {
+    asks_itself: bool,
+    ask: rtseq::Seq<AskAbort>,
+    more: Vec<rtseq::Seq<Leaf>>,
+    got: Got,
+}
+impl rtseq::Sequence<Ctrl> for Chain {
+    async fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        if self.asks_itself {
+            cx.sequence_by_id(cx.id())
+                .ok_or(Error::UnknownSequence(cx.id()))?
+                .abort()?;
+        } else {
+            let r = cx.step(&mut self.ask).await;
+            self.got.borrow_mut().push(r);
+        }
+        for s in &mut self.more {
+            let r = cx.step(s).await;
+            self.got.borrow_mut().push(r);
+        }
+        Ok(())
+    }
+}
+
+/// What a [`Chain`] run came to: the simulator's trace, what the steps returned to the
+/// action, the main sequence's outcome, and the ids of the main sequence and its asking
+/// step.
+struct ChainRun {
+    trace: Vec<Transition>,
+    got: Vec<Result<Done, Failure>>,
+    outcome: Option<Outcome>,
+    ids: [SeqId; 2],
+}
+
+/// Runs a [`Chain`] with `more` instant steps for 3 ms.
+fn chain_with_abort(asks_itself: bool, more: usize) -> ChainRun {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let main_id = SeqId::from_index(more + 1);
+    let ask = seq.add(SeqConfig::new("ask"), AskAbort(main_id)).unwrap();
+    let ask_id = ask.id();
+    let more = (0..more)
+        .map(|i| {
+            let name: &'static str = Box::leak(format!("step {i}").into_boxed_str());
+            seq.add(SeqConfig::new(name), Leaf::default()).unwrap()
+        })
+        .collect();
+    let got = Got::default();
+    let chain = Chain {
+        asks_itself,
+        ask,
+        more,
+        got: got.clone(),
+    };
+    let main = seq.add(SeqConfig::new("main"), chain).unwrap();
+    assert_eq!(main.id(), main_id);
+    let ctrl = Ctrl::default();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(main_id).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    let outcome = sim.handle(main_id).unwrap().last_outcome();
+    let got = got.borrow().clone();
+    ChainRun {
+        trace: sim.trace().to_vec(),
+        got,
+        outcome,
+        ids: [main_id, ask_id],
+    }
+}
+
+/// An abort requested while a step runs (by a task that preempts the lane) holds the
+/// action at its next await point: the step's end does not return into the action, no
+/// further step is begun, and the tick at 1 ms aborts the main sequence (semantics 8).
+#[test]
+fn a_requested_abort_holds_the_action_at_its_next_await_point() {
+    let ChainRun {
+        trace,
+        got,
+        outcome,
+        ids: [main, ask],
+    } = chain_with_abort(false, 3);
+    assert_eq!(
+        trace,
+        [
+            tr(0, main, Idle, Running, Start),
+            tr(0, ask, Idle, Running, Start),
+            tr(0, ask, Running, Terminated, Completed),
+            tr(1, main, Running, Aborting, Cause::Abort),
+            tr(1, main, Aborting, Aborted, Cause::Abort),
+        ],
+        "{}",
+        show(&trace)
+    );
+    assert_eq!(got, []);
+    assert_eq!(outcome, Some(Outcome::Aborted(Cause::Abort)));
+}
+
+/// A sequence whose abort is requested starts nothing: the action that asked for its own
+/// abort has its three steps refused (`NotRunning`) without running them, and its end is
+/// held: it does not complete, and the tick at 1 ms aborts it.
+#[test]
+fn a_sequence_whose_abort_is_requested_starts_nothing_and_does_not_complete() {
+    let ChainRun {
+        trace,
+        got,
+        outcome,
+        ids: [main, _],
+    } = chain_with_abort(true, 3);
+    assert_eq!(
+        trace,
+        [
+            tr(0, main, Idle, Running, Start),
+            tr(1, main, Running, Aborting, Cause::Abort),
+            tr(1, main, Aborting, Aborted, Cause::Abort),
+        ],
+        "{}",
+        show(&trace)
+    );
+    let refused = Err(Failure::NotStarted(Error::NotRunning(main)));
+    assert_eq!(got, [refused; 3]);
+    assert_eq!(outcome, Some(Outcome::Aborted(Cause::Abort)));
+}

@@ -2,6 +2,7 @@
 //! (The transition function itself is [`State::transition`].)
 
 use crate::model::id::RunId;
+use crate::sequencer::control_block::request;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
@@ -24,7 +25,9 @@ pub(crate) enum Clearance {
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// What an await point of `run` must do now. A run that is not its sequence's
     /// current one was aborted, and its sequence started again before its future
-    /// unwound: it is over (the cause of the last teardown).
+    /// unwound: it is over (the cause of the last teardown). A run whose abort is
+    /// requested holds until the tick carries the abort out: its action begins nothing
+    /// more (semantics item 8).
     pub(crate) fn clearance(&self, run: RunId) -> Clearance {
         let id = run.seq;
         let Some(b) = self.block(id) else {
@@ -34,7 +37,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return Clearance::Aborted(b.last_cause);
         }
         match b.state {
-            RunningState::Running if !self.sets.has(Set::Excepting, id) => Clearance::Go,
+            RunningState::Running
+                if !self.sets.has(Set::Excepting, id) && !b.has(request::ABORT) =>
+            {
+                Clearance::Go
+            }
             RunningState::Running | RunningState::Paused => Clearance::Hold,
             RunningState::Restarting => Clearance::Restart,
             RunningState::Aborting | RunningState::Aborted => Clearance::Aborted(b.last_cause),
@@ -54,21 +61,28 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Opens the end of `run`: `Some` (the count of changes its commit compares with) if
-    /// `run` is its sequence's current run, `Running`, and its exception is not being
-    /// handled (a run ends only with the clearance `Go`).
+    /// `run` may end now (see [`may_end`](Self::may_end)).
     fn open_end(&self, run: RunId) -> Option<u32> {
-        let id = run.seq;
-        let b = self.block(id)?;
-        let open = b.runs == run.count
-            && b.state == RunningState::Running
-            && !self.sets.has(Set::Excepting, id);
-        open.then_some(self.changes)
+        self.may_end(run).then_some(self.changes)
+    }
+
+    /// Whether `run` may end now: it is its sequence's current run, `Running`, its
+    /// exception is not being handled and its abort is not requested (a run ends only
+    /// with the clearance `Go`).
+    pub(crate) fn may_end(&self, run: RunId) -> bool {
+        self.block(run.seq).is_some_and(|b| {
+            b.runs == run.count
+                && b.state == RunningState::Running
+                && !self.sets.has(Set::Excepting, run.seq)
+                && !b.has(request::ABORT)
+        })
     }
 
     /// The commit of a run's end opened when the count of changes was `seen`: `change`
     /// (`Running → Terminated`) with the run's outcome, stored with it (a join that sees
     /// the end sees the outcome). False if anything changed since (a transition, a
-    /// start, a tick, which may have marked an exception): open the end again.
+    /// start, a tick, which may have marked an exception, an abort request): open the end
+    /// again.
     fn commit_end(&mut self, seen: u32, change: &StateChange, outcome: Outcome) -> bool {
         if self.changes != seen {
             return false;

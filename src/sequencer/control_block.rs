@@ -298,18 +298,22 @@ impl ControlBlock {
         }
     }
 
-    /// Drops the pending requests (a teardown leaves none).
-    pub(crate) fn drop_requests(&mut self) {
-        self.flags &= !request::ALL;
+    /// Drops the pending pause and resume requests (an abort's teardown leaves none). An
+    /// abort request stays with the run it aborts: it holds the run until the teardown has
+    /// moved it (only a `Running` run reads it), and the next start replaces the flags.
+    pub(crate) fn drop_pause_and_resume(&mut self) {
+        self.flags &= !(request::PAUSE | request::RESUME);
     }
 
     /// Takes the pending requests and returns the one to carry out: an abort before a
     /// pause before a resume. A pause request's pause lasts until a resume request,
     /// whatever `PauseOwner` monitors do; a resume is carried out only while no such
-    /// monitor holds (it was checked when made, but a monitor may have fired since).
+    /// monitor holds (it was checked when made, but a monitor may have fired since). An
+    /// abort request stays (see [`drop_pause_and_resume`](Self::drop_pause_and_resume)):
+    /// until its teardown has moved the run, the run holds and cannot end.
     pub(crate) fn take_request(&mut self) -> Option<Request> {
         let r = self.flags & request::ALL;
-        self.flags &= !request::ALL;
+        self.drop_pause_and_resume();
         if r & request::ABORT != 0 {
             Some(Request::Abort)
         } else if r & request::PAUSE != 0 {
@@ -363,10 +367,10 @@ mod tests {
     fn an_abort_goes_before_a_pause_and_a_held_resume_is_dropped() {
         let mut b = ControlBlock::IDLE;
         b.flags = request::ALL;
-        assert_eq!(
-            (b.take_request(), b.take_request()),
-            (Some(Request::Abort), None)
-        );
+        assert_eq!(b.take_request(), Some(Request::Abort));
+        // The abort stays with the run; the pause and resume are gone.
+        assert_eq!(b.flags, request::ABORT);
+        b.flags = 0;
         b.flags = request::RESUME | request::PAUSE;
         assert_eq!(b.take_request(), Some(Request::Pause));
         assert!(b.has(flag::PAUSED_BY_REQUEST));

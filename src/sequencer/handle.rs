@@ -514,7 +514,9 @@ impl<'a, C> Handle<'a, C> {
         self.port.request(self.id, Request::Resume, self.by)
     }
 
-    /// Requests an abort of the sequence and all its sub-sequences (next tick).
+    /// Requests an abort of the sequence and all its sub-sequences (next tick). Until the
+    /// tick carries it out, the sequence begins nothing more (a start it makes is refused
+    /// with [`Error::NotRunning`]) and its run does not end: it is aborted.
     ///
     /// ```
     /// # #[cfg(feature = "std")] {

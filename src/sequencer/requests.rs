@@ -81,11 +81,17 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// Queues `req` of `id` for the next tick, if `id` is still in the run it was made of
     /// (`run`): never for a later run. The tick carries it out if the state still allows it
-    /// (the run may end before the tick; a new run's start drops it).
+    /// (a pause or resume may find the run ended; a new run's start drops it). A queued
+    /// abort holds the run until then: it begins nothing more and does not end (its
+    /// clearance, [`may_end`](State::may_end), `open_start`).
     fn queue_request(&mut self, id: SeqId, req: Request, run: u16) {
         if let Some(b) = self.block_mut(id).filter(|b| b.runs == run) {
             b.flags = (b.flags & !req.replaces()) | req.bit();
             self.sets.insert(Set::Requested, id);
+            if req == Request::Abort {
+                // An end opened before it must not commit: the run holds for the abort.
+                self.changes = self.changes.wrapping_add(1);
+            }
         }
     }
 }

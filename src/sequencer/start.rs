@@ -14,7 +14,7 @@ use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::cut_and_depth;
-use crate::sequencer::control_block::{flag, ControlBlock};
+use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::sets::Set;
@@ -102,14 +102,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// point (the tick preempts the lanes), and a lane of higher priority start it again; a
     /// start the stopped run makes meanwhile is refused ([`Error::NotRunning`] with the
     /// caller's id), so nothing outlives its caller's stop; so is a start by a caller that
-    /// a teardown is stopping ([`flag::STOPPING`]).
+    /// a teardown is stopping ([`flag::STOPPING`]) or whose abort is requested: it begins
+    /// nothing more.
     fn open_start(&self, caller: Option<RunId>) -> Result<u32, Error> {
         match caller {
             Some(c)
                 if self.block(c.seq).is_none_or(|b| {
                     b.runs != c.count
                         || !States::RUNNING_OR_PAUSED.has(b.state)
-                        || b.has(flag::STOPPING)
+                        || b.has(flag::STOPPING | request::ABORT)
                 }) =>
             {
                 Err(Error::NotRunning(c.seq))

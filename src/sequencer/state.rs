@@ -22,7 +22,7 @@ use crate::{Error, Instant, RunningState, SeqId, Sequencer, Transition};
 pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const B: usize> {
     /// The last tick's time.
     pub(crate) now: Instant,
-    /// Counts the ticks, the transitions and a teardown's marks (wrapping). A start is scheduled in several
+    /// Counts the ticks, the transitions, a teardown's marks and abort requests (wrapping). A start is scheduled in several
     /// sections; its commit compares this count with the one its schedule began with, and
     /// schedules again if anything happened in between that could invalidate its checks.
     pub(crate) changes: u32,

@@ -248,9 +248,9 @@ fn leave_for_teardown<
     to: RunningState,
 ) -> Move<Option<fn(&C)>> {
     // Before a teardown, what it leaves behind: the cause a later gate reports; after an
-    // abort no pending request and no start left for its lane to take (the run is over
-    // before it began: nothing of it must look under way; a restart goes on with the same
-    // run, which keeps the requests made of it); and the hook.
+    // abort no pending pause or resume and no start left for its lane to take (the run is
+    // over before it began: nothing of it must look under way; a restart goes on with the
+    // same run, which keeps the requests made of it); and the hook.
     let looked = s.section(|s| {
         let b = s.block_mut(id).ok_or(Move::Stays)?;
         let from = b.state;
@@ -264,7 +264,7 @@ fn leave_for_teardown<
         }
         b.last_cause = cause;
         if to == RunningState::Aborting {
-            b.drop_requests();
+            b.drop_pause_and_resume();
             b.set(flag::START_PENDING, false);
         }
         Ok((from, s.hooks.get(id.index()).copied().flatten()))

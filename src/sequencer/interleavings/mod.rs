@@ -1808,8 +1808,8 @@ fn exception_to_abort<L: Lock + 'static, const N: usize, const B: usize>(
     (w, o, e, run)
 }
 
-/// After E, of a world from [`exception_to_abort`], ended once (completed, or aborted by
-/// the request): the tick at 3 ms applies O's behaviour, once (O aborted or restarting by
+/// After E, of a world from [`exception_to_abort`], ended once (aborted by the request):
+/// the tick at 3 ms applies O's behaviour, once (O aborted or restarting by
 /// the monitor); E is free again.
 fn behaviour_applied_once<L: Lock + 'static, const N: usize, const B: usize>(
     what: &str,
