@@ -1095,6 +1095,48 @@ fn a_blocking_start_against_a_pause_request_of_its_caller_is_paused_with_it() {
     every_split_world!(blocking_start_against_pause, false);
 }
 
+/// P runs. P's lane starts X blocking (lane A) while a handle requests an abort of P
+/// (lane B), one preempting the other; then the tick at 1 ms. The abort is accepted
+/// (P runs at its check). A start that opens after the request was queued is refused
+/// (`NotRunning(P)`: a sequence whose abort is requested begins nothing, semantics 8);
+/// one that opened before it starts X. Either way the tick aborts P, and X with it.
+fn blocking_start_against_abort<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    start_first: bool,
+) {
+    let setup = move || {
+        let (w, [p], [x]) = World::<L, N, B>::of(layout, ["P"], ["X"]);
+        w.start_taken(p);
+        (w, [p, x])
+    };
+    preempting(
+        &named::<L>(layout, format_args!("start first {start_first}")),
+        start_first,
+        setup,
+        |(w, [p, x])| w.blocking(x, p),
+        |(w, [p, _])| ask(&w, p, Ask::Abort),
+        |what, _, started, asked, (w, [p, x])| {
+            assert_eq!(asked, Ok(()), "{what}");
+            w.tick(1);
+            assert_eq!(w.ended(p), (Aborted, Cause::Abort), "{what}");
+            match started {
+                Ok(()) => assert_eq!(w.ended(x), (Aborted, Cause::Abort), "{what}"),
+                Err(e) => {
+                    assert_eq!(e, Error::NotRunning(p), "{what}");
+                    assert_eq!(w.state(x), Idle, "{what}");
+                }
+            }
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_blocking_start_against_an_abort_request_of_its_caller_is_refused_or_aborted_with_it() {
+    every_split_world!(blocking_start_against_abort, true);
+    every_split_world!(blocking_start_against_abort, false);
+}
+
 /// X was paused by a request (1 ms). A handle requests a resume (or an abort) of X while
 /// X's run is dropped (`Port::abandon`), one preempting the other (`drop_first`: the
 /// teardown is preempted); then the tick at 2 ms. X ends `Aborted(Dropped)` and stays so:
