@@ -1454,11 +1454,10 @@ fn chain_with_abort(asks_itself: bool, more: usize) -> ChainRun {
     let main_id = SeqId::from_index(more + 1);
     let ask = seq.add(SeqConfig::new("ask"), AskAbort(main_id)).unwrap();
     let ask_id = ask.id();
-    let more = (0..more)
-        .map(|i| {
-            let name: &'static str = Box::leak(format!("step {i}").into_boxed_str());
-            seq.add(SeqConfig::new(name), Leaf::default()).unwrap()
-        })
+    let more = ["step 0", "step 1", "step 2"]
+        .into_iter()
+        .take(more)
+        .map(|name| seq.add(SeqConfig::new(name), Leaf::default()).unwrap())
         .collect();
     let got = Got::default();
     let chain = Chain {

@@ -260,8 +260,8 @@ impl<'a, C> Cx<'a, C> {
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
     /// waits for its outcome. Errors if `child` is already running, or if the tick stopped
-    /// this sequence while its action ran on ([`Error::NotRunning`], as
-    /// [`start`](Self::start)).
+    /// this sequence while its action ran on or its abort is requested
+    /// ([`Error::NotRunning`], as [`start`](Self::start)).
     ///
     /// If this sequence is aborted or paused meanwhile, the call does not return into the
     /// action until it may advance again (sticky abort: an aborted action never resumes).
@@ -378,7 +378,8 @@ impl<'a, C> Cx<'a, C> {
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
     /// it is already running or has no lane, and with [`Error::NotRunning`] (this
     /// sequence's id) if the tick stopped this sequence while its action ran on (a tick
-    /// preempts the lanes): nothing an action starts outlives its abort. It does outlive
+    /// preempts the lanes), or its abort is requested (the tick has not carried it out
+    /// yet): nothing an action starts outlives its abort. It does outlive
     /// this sequence's end, a failure through `?` included: to end it with the action,
     /// start it with [`start_scoped`](Self::start_scoped).
     ///
