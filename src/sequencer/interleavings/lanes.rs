@@ -978,8 +978,8 @@ fn an_abort_of_a_run_is_never_carried_out_on_a_later_run() {
 /// one preempting the other (`end_first`: the end is preempted). A pause request waits
 /// for the tick, so the end stands whatever came first (semantics 8): X `Terminated`,
 /// never paused. An abort request queued before the end's commit holds the run: the end is
-/// refused and the tick aborts X; queued after it, it finds X ended. The request is
-/// accepted iff made before the end's commit.
+/// refused (also when it was opened before the request) and the tick aborts X; queued
+/// after it, it finds X ended. The request is accepted iff made before the end's commit.
 fn end_against_request<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,
     a: Ask,
@@ -996,6 +996,11 @@ fn end_against_request<L: Lock + 'static, const N: usize, const B: usize>(
                 asked == Ok(()) || asked == Err(Error::NotRunning(x)),
                 "{what}: {asked:?}"
             );
+            if a == Ask::Abort && end_first {
+                // The whole request came before one of the end's sections: accepted, it
+                // was queued before the commit, which it refuses.
+                assert_eq!(ended, asked.is_err(), "{what}");
+            }
             w.tick(1);
             w.tick(2);
             if ended {
