@@ -300,7 +300,7 @@ impl ControlBlock {
 
     /// Drops the pending pause and resume requests (an abort's teardown leaves none). An
     /// abort request stays with the run it aborts: it holds the run until the teardown has
-    /// moved it (only a `Running` run reads it), and the next start replaces the flags.
+    /// moved it (only a run under way reads it), and the next start replaces the flags.
     pub(crate) fn drop_pause_and_resume(&mut self) {
         self.flags &= !(request::PAUSE | request::RESUME);
     }
@@ -370,7 +370,6 @@ mod tests {
         assert_eq!(b.take_request(), Some(Request::Abort));
         // The abort stays with the run; the pause and resume are gone.
         assert_eq!(b.flags, request::ABORT);
-        b.flags = 0;
         b.flags = request::RESUME | request::PAUSE;
         assert_eq!(b.take_request(), Some(Request::Pause));
         assert!(b.has(flag::PAUSED_BY_REQUEST));
