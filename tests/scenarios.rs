@@ -1535,3 +1535,82 @@ fn a_sequence_whose_abort_is_requested_starts_nothing_and_does_not_complete() {
     assert_eq!(got, [refused; 3]);
     assert_eq!(outcome, Some(Outcome::Aborted(Cause::Abort)));
 }
+
+/// An exception sequence that waits for flag 5, then asks for the abort of `.0`.
+struct AskAbortAtFlag5(SeqId);
+impl rtseq::Sequence<Ctrl> for AskAbortAtFlag5 {
+    async fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.wait_until(|cx| cx.control().flag(5)).await;
+        cx.sequence_by_id(self.0)
+            .ok_or(Error::UnknownSequence(self.0))?
+            .abort()?;
+        Ok(())
+    }
+}
+
+/// Two aborts of one run in one tick: the owner's `AbortOwner` monitor fires at 2 ms and
+/// its exception sequence E asks for the owner's abort at 4 ms, then ends. The owner holds
+/// from the request; the tick at 5 ms reports E's end and applies the monitor's behaviour
+/// before the requests (semantics items 3 and 8), so the owner ends aborted by the monitor,
+/// and the request finds it aborted.
+#[test]
+fn a_behaviour_applied_in_the_tick_of_a_requested_abort_comes_first() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let leaf = seq.add(SeqConfig::new("leaf"), Leaf::until(0)).unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(leaf)]))
+        .unwrap();
+    let (l, m) = (SeqId::from_index(0), main.id());
+    let e = seq
+        .add(SeqConfig::new("E").in_lane(), AskAbortAtFlag5(m))
+        .unwrap();
+    let ei = e.id();
+    let mut fault = |c: &Ctrl, _: rtseq::Instant| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let fired = monitors
+        .add(
+            m,
+            Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(e);
+    sim.before_tick(|t, c| {
+        c.set(2, ms(t) >= 2);
+        c.set(5, ms(t) >= 4);
+    });
+    sim.start(m).unwrap();
+    assert!(sim.run_until_idle(Duration::from_millis(30)).is_some());
+    let trace = sim.trace();
+    let mine: Vec<_> = trace
+        .iter()
+        .filter(|t| t.sequence == m || t.sequence == l)
+        .copied()
+        .collect();
+    assert_eq!(
+        mine,
+        [
+            tr(0, m, Idle, Running, Start),
+            tr(0, l, Idle, Running, Start),
+            tr(5, l, Running, Aborting, Mon(fired)),
+            tr(5, l, Aborting, Aborted, Mon(fired)),
+            tr(5, m, Running, Aborting, Mon(fired)),
+            tr(5, m, Aborting, Aborted, Mon(fired)),
+        ],
+        "{}",
+        show(trace)
+    );
+    let requests = sim
+        .records()
+        .iter()
+        .filter_map(rtseq::Record::event)
+        .filter(|e| matches!(e, rtseq::Event::Requested { .. }))
+        .count();
+    assert_eq!(requests, 1);
+    assert_eq!(
+        sim.handle(ei).unwrap().last_outcome(),
+        Some(Outcome::Completed)
+    );
+}
