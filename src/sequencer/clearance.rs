@@ -69,7 +69,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// Whether `run` may end now: it is its sequence's current run, `Running`, its
     /// exception is not being handled and its abort is not requested (a run ends only
     /// with the clearance `Go`).
-    pub(crate) fn may_end(&self, run: RunId) -> bool {
+    fn may_end(&self, run: RunId) -> bool {
         self.block(run.seq).is_some_and(|b| {
             b.runs == run.count
                 && b.state == RunningState::Running

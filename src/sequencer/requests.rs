@@ -83,7 +83,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// (`run`): never for a later run. The tick carries it out if the state still allows it
     /// (a pause or resume may find the run ended; a new run's start drops it). A queued
     /// abort holds the run until then: it begins nothing more and does not end (its
-    /// clearance, [`may_end`](State::may_end), `open_start`).
+    /// clearance, `may_end`, `open_start`).
     fn queue_request(&mut self, id: SeqId, req: Request, run: u16) {
         if let Some(b) = self.block_mut(id).filter(|b| b.runs == run) {
             b.flags = (b.flags & !req.replaces()) | req.bit();
