@@ -1396,38 +1396,65 @@ fn a_timeout_set_during_a_run_applies_to_that_run_at_once() {
     );
 }
 
-/// A step that asks for the abort of sequence `.0` in its action, as a task that preempts
-/// the lane (an HMI's abort button) would while the step runs.
-struct AskAbort(SeqId);
-impl rtseq::Step<Ctrl> for AskAbort {
-    fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
-        if let Some(h) = cx.sequence_by_id(self.0) {
-            h.abort()?;
+/// What a [`Chain`] asks for, as a task that preempts the lane would while the chain runs
+/// (an HMI's abort button, the safety system).
+#[derive(Clone, Copy)]
+enum Ask {
+    /// The abort of the main sequence.
+    Abort,
+    /// Abort-all.
+    AbortAll,
+}
+
+/// The sequencer of a [`Chain`].
+type ChainSequencer = Sequencer<Ctrl, 8>;
+
+/// Asks the sequencer for `ask` (of the main sequence `main`).
+fn ask_for(seq: &ChainSequencer, ask: Ask, main: SeqId) -> Result<(), Error> {
+    match ask {
+        Ask::Abort => seq
+            .sequence_by_id(main)
+            .ok_or(Error::UnknownSequence(main))?
+            .abort(),
+        Ask::AbortAll => {
+            seq.abort_all();
+            Ok(())
         }
-        Ok(())
+    }
+}
+
+/// A step that asks for `ask` in its action.
+#[derive(Clone, Copy)]
+struct Asking<'s> {
+    seq: &'s ChainSequencer,
+    ask: Ask,
+    main: SeqId,
+}
+impl rtseq::Step<Ctrl> for Asking<'_> {
+    fn action(&mut self, _cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Ok(ask_for(self.seq, self.ask, self.main)?)
     }
 }
 
 /// What the steps of a main sequence returned to its action.
 type Got = std::rc::Rc<std::cell::RefCell<Vec<Result<Done, Failure>>>>;
 
-/// A main sequence: unless `asks_itself`, its first step `ask` asks for its abort; else
+/// A main sequence: unless `asks_itself`, its first step `asking` asks for an abort; else
 /// its action asks for it before that step. Then `more` instant steps; it logs what each
 /// step returned.
-struct Chain {
+struct Chain<'s> {
     asks_itself: bool,
-    ask: rtseq::Seq<AskAbort>,
+    asking: rtseq::Seq<Asking<'s>>,
     more: Vec<rtseq::Seq<Leaf>>,
     got: Got,
 }
-impl rtseq::Sequence<Ctrl> for Chain {
+impl rtseq::Sequence<Ctrl> for Chain<'_> {
     async fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
         if self.asks_itself {
-            cx.sequence_by_id(cx.id())
-                .ok_or(Error::UnknownSequence(cx.id()))?
-                .abort()?;
+            let Asking { seq, ask, main } = *self.asking.body();
+            ask_for(seq, ask, main)?;
         } else {
-            let r = cx.step(&mut self.ask).await;
+            let r = cx.step(&mut self.asking).await;
             self.got.borrow_mut().push(r);
         }
         for s in &mut self.more {
@@ -1448,12 +1475,17 @@ struct ChainRun {
     ids: [SeqId; 2],
 }
 
-/// Runs a [`Chain`] with `more` instant steps for 3 ms.
-fn chain_with_abort(asks_itself: bool, more: usize) -> ChainRun {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+/// Runs a [`Chain`] that asks for `ask` with `more` instant steps for 3 ms.
+fn chain_asking(ask: Ask, asks_itself: bool, more: usize) -> ChainRun {
+    let seq: ChainSequencer = Sequencer::new();
     let main_id = SeqId::from_index(more + 1);
-    let ask = seq.add(SeqConfig::new("ask"), AskAbort(main_id)).unwrap();
-    let ask_id = ask.id();
+    let asking = Asking {
+        seq: &seq,
+        ask,
+        main: main_id,
+    };
+    let asking = seq.add(SeqConfig::new("ask"), asking).unwrap();
+    let ask_id = asking.id();
     let more = ["step 0", "step 1", "step 2"]
         .into_iter()
         .take(more)
@@ -1462,7 +1494,7 @@ fn chain_with_abort(asks_itself: bool, more: usize) -> ChainRun {
     let got = Got::default();
     let chain = Chain {
         asks_itself,
-        ask,
+        asking,
         more,
         got: got.clone(),
     };
@@ -1481,6 +1513,11 @@ fn chain_with_abort(asks_itself: bool, more: usize) -> ChainRun {
         outcome,
         ids: [main_id, ask_id],
     }
+}
+
+/// Runs a [`Chain`] that asks for the abort of its main sequence.
+fn chain_with_abort(asks_itself: bool, more: usize) -> ChainRun {
+    chain_asking(Ask::Abort, asks_itself, more)
 }
 
 /// An abort requested while a step runs (by a task that preempts the lane) holds the
@@ -1534,6 +1571,107 @@ fn a_sequence_whose_abort_is_requested_starts_nothing_and_does_not_complete() {
     let refused = Err(Failure::NotStarted(Error::NotRunning(main)));
     assert_eq!(got, [refused; 3]);
     assert_eq!(outcome, Some(Outcome::Aborted(Cause::Abort)));
+}
+
+/// An abort-all asked for while a step runs (the safety system, which preempts the lane)
+/// holds every run at its next await point until the tick carries it out (semantics 8):
+/// the asking step does not end, no further step is begun, and the tick at 1 ms aborts
+/// the step and the main sequence, innermost first.
+#[test]
+fn an_abort_all_holds_every_run_at_its_next_await_point() {
+    let ChainRun {
+        trace,
+        got,
+        outcome,
+        ids: [main, ask],
+    } = chain_asking(Ask::AbortAll, false, 3);
+    assert_eq!(
+        trace,
+        [
+            tr(0, main, Idle, Running, Start),
+            tr(0, ask, Idle, Running, Start),
+            tr(1, ask, Running, Aborting, Cause::AbortAll),
+            tr(1, ask, Aborting, Aborted, Cause::AbortAll),
+            tr(1, main, Running, Aborting, Cause::AbortAll),
+            tr(1, main, Aborting, Aborted, Cause::AbortAll),
+        ],
+        "{}",
+        show(&trace)
+    );
+    assert_eq!(got, []);
+    assert_eq!(outcome, Some(Outcome::Aborted(Cause::AbortAll)));
+}
+
+/// While an abort-all waits for the tick, a run starts nothing and does not complete:
+/// the action that asked for it has its three steps refused (`NotRunning`) without
+/// running them, and the tick at 1 ms aborts it.
+#[test]
+fn while_an_abort_all_waits_a_run_starts_nothing_and_does_not_complete() {
+    let ChainRun {
+        trace,
+        got,
+        outcome,
+        ids: [main, _],
+    } = chain_asking(Ask::AbortAll, true, 3);
+    assert_eq!(
+        trace,
+        [
+            tr(0, main, Idle, Running, Start),
+            tr(1, main, Running, Aborting, Cause::AbortAll),
+            tr(1, main, Aborting, Aborted, Cause::AbortAll),
+        ],
+        "{}",
+        show(&trace)
+    );
+    let refused = Err(Failure::NotStarted(Error::NotRunning(main)));
+    assert_eq!(got, [refused; 3]);
+    assert_eq!(outcome, Some(Outcome::Aborted(Cause::AbortAll)));
+}
+
+/// A pre-condition that counts its checks.
+struct Counted(std::rc::Rc<std::cell::Cell<u32>>);
+impl rtseq::Sequence<Ctrl> for Counted {
+    fn check_pre_condition(&mut self, _cx: &rtseq::Cx<'_, Ctrl>) -> bool {
+        self.0.set(self.0.get() + 1);
+        true
+    }
+    async fn action(&mut self, _cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Ok(())
+    }
+}
+
+/// A start by a handle (no caller to refuse it) while an abort-all waits is taken, and the
+/// run it begins is under way when the tick carries the abort-all out: it holds before
+/// its pre-condition, which is never checked, and the tick at 1 ms aborts it. After the
+/// abort-all a start runs as usual.
+#[test]
+fn a_start_while_an_abort_all_waits_holds_before_its_pre_condition() {
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let checks = std::rc::Rc::new(std::cell::Cell::new(0));
+    let x = seq
+        .add(SeqConfig::new("x"), Counted(checks.clone()))
+        .unwrap();
+    let xi = x.id();
+    let ctrl = Ctrl::default();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(x);
+    seq.abort_all();
+    assert_eq!(sim.start(xi), Ok(()));
+    assert_eq!((sim.state(xi), checks.get()), (Running, 0));
+    sim.run_for(Duration::from_millis(1));
+    assert_eq!((sim.state(xi), checks.get()), (Aborted, 0));
+    assert_eq!(sim.start(xi), Ok(()));
+    assert_eq!((sim.state(xi), checks.get()), (Terminated, 1));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, xi, Idle, Running, Start),
+            tr(1, xi, Running, Aborting, Cause::AbortAll),
+            tr(1, xi, Aborting, Aborted, Cause::AbortAll),
+            tr(1, xi, Aborted, Running, Start),
+            tr(1, xi, Running, Terminated, Completed),
+        ]
+    );
 }
 
 /// An exception sequence that waits for flag 5, then asks for the abort of `.0`.

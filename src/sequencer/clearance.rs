@@ -1,8 +1,11 @@
 //! What the running state means for a run's await points, and the normal end of a run.
 //! (The transition function itself is [`State::transition`].)
 
+use core::sync::atomic::AtomicU8;
+
 use crate::model::id::RunId;
-use crate::sequencer::control_block::request;
+use crate::sequencer::control_block::{request, ControlBlock};
+use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
@@ -26,9 +29,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// What an await point of `run` must do now. A run that is not its sequence's
     /// current one was aborted, and its sequence started again before its future
     /// unwound: it is over (the cause of the last teardown). A run whose abort is
-    /// requested holds until the tick carries the abort out: its action begins nothing
-    /// more (semantics item 8).
-    pub(crate) fn clearance(&self, run: RunId) -> Clearance {
+    /// requested, or (`abort_all_posted`) that an abort-all in the inbox is to abort,
+    /// holds until the tick carries the abort out: its action begins nothing more
+    /// (semantics item 8).
+    pub(crate) fn clearance(&self, run: RunId, abort_all_posted: bool) -> Clearance {
         let id = run.seq;
         let Some(b) = self.block(id) else {
             return Clearance::Aborted(Cause::Abort);
@@ -38,7 +42,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         match b.state {
             RunningState::Running
-                if !self.sets.has(Set::Excepting, id) && !b.has(request::ABORT) =>
+                if !self.sets.has(Set::Excepting, id) && !stops_soon(b, abort_all_posted) =>
             {
                 Clearance::Go
             }
@@ -62,19 +66,19 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// Opens the end of `run`: `Some` (the count of changes its commit compares with) if
     /// `run` may end now (see [`may_end`](Self::may_end)).
-    fn open_end(&self, run: RunId) -> Option<u32> {
-        self.may_end(run).then_some(self.changes)
+    fn open_end(&self, run: RunId, abort_all_posted: bool) -> Option<u32> {
+        self.may_end(run, abort_all_posted).then_some(self.changes)
     }
 
     /// Whether `run` may end now: it is its sequence's current run, `Running`, its
-    /// exception is not being handled and its abort is not requested (a run ends only
-    /// with the clearance `Go`).
-    fn may_end(&self, run: RunId) -> bool {
+    /// exception is not being handled and the tick is not to abort it (see
+    /// [`clearance`](Self::clearance): a run ends only with the clearance `Go`).
+    fn may_end(&self, run: RunId, abort_all_posted: bool) -> bool {
         self.block(run.seq).is_some_and(|b| {
             b.runs == run.count
                 && b.state == RunningState::Running
                 && !self.sets.has(Set::Excepting, run.seq)
-                && !b.has(request::ABORT)
+                && !stops_soon(b, abort_all_posted)
         })
     }
 
@@ -95,12 +99,19 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
+/// Whether the run of `b` is to be aborted by the tick: its abort is requested, or
+/// (`abort_all_posted`) an abort-all waits in the inbox.
+pub(crate) fn stops_soon(b: &ControlBlock, abort_all_posted: bool) -> bool {
+    b.has(request::ABORT) || abort_all_posted
+}
+
 /// Ends `run` with `outcome`: `change` is `Running → Terminated` (cause `Completed`,
 /// `PreConditionFalse` or `Failed`). Opened and committed in two steps (the commit again if
 /// anything changed in between). The end of an exception sequence is reported to its
 /// owner by the next tick (see [`State::fold`]). False, and nothing changes, if the run
-/// was aborted or restarted meanwhile, a later run of its sequence was started, or its
-/// exception is being handled (its clearance says what to do instead).
+/// was aborted or restarted meanwhile, a later run of its sequence was started, its
+/// exception is being handled, or the tick is to abort it (`inbox`: the sequencer's, for an
+/// abort-all; its clearance says what to do instead).
 pub(crate) fn end_run<
     C,
     S: Sections<C, N, T, W, B>,
@@ -113,9 +124,11 @@ pub(crate) fn end_run<
     run: RunId,
     change: &StateChange,
     outcome: Outcome,
+    inbox: &AtomicU8,
 ) -> bool {
     loop {
-        let Some(seen) = s.section(|s| s.open_end(run)) else {
+        let posted = abort_all_posted(inbox);
+        let Some(seen) = s.section(|s| s.open_end(run, posted)) else {
             return false;
         };
         if s.section(|s| s.commit_end(seen, change, outcome)) {
@@ -148,7 +161,7 @@ mod tests {
             RunningState::Terminated,
             Cause::Completed,
         );
-        let ended = end_run(&mut s, run, &change, Outcome::Completed);
+        let ended = end_run(&mut s, run, &change, Outcome::Completed, &AtomicU8::new(0));
         let taken = s.taken;
         (ended, taken, state.state_of(id))
     }

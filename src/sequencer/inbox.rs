@@ -3,9 +3,10 @@
 //! It is kept in the sequencer's safety handle, so that the cycle of the safety system
 //! built on that handle reaches it whatever `Sequences` the cycle is given.
 
-use core::sync::atomic::Ordering;
+use core::sync::atomic::{AtomicU8, Ordering};
 
 use crate::lock::Lock;
+use crate::sequencer::lanes::LaneSet;
 use crate::{Requester, Sequencer};
 
 /// [`Sequencer::abort_all`](crate::Sequencer::abort_all) was called.
@@ -15,8 +16,17 @@ pub(crate) const ABORT_ALL_BY_APPLICATION: u8 = 1;
 pub(crate) use crate::safety::ABORT_ALL_BY_SAFETY_SYSTEM;
 /// The safety system queued notes for the trace (`sequencer::safety`).
 pub(crate) const SAFETY_NOTES: u8 = 4;
+/// Either abort-all bit.
+const ABORT_ALL: u8 = ABORT_ALL_BY_APPLICATION | ABORT_ALL_BY_SAFETY_SYSTEM;
 
-/// What the tick took from the inbox.
+/// Whether an abort-all waits in `inbox` (a sequencer's): asked for and not carried out
+/// yet. Until it is, a run begins nothing more, as a run whose abort is requested
+/// (semantics item 8): its await points hold, its end and the starts it makes are refused.
+pub(crate) fn abort_all_posted(inbox: &AtomicU8) -> bool {
+    inbox.load(Ordering::Relaxed) & ABORT_ALL != 0
+}
+
+/// What the tick found in the inbox.
 #[derive(Clone, Copy)]
 pub(crate) struct Inbox(u8);
 
@@ -41,20 +51,27 @@ impl Inbox {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Empties the inbox (the tick is its only reader): `None` when nothing is in it, which
-    /// costs one load; the atomic swap is only for a tick that finds something.
+    /// Looks into the inbox (the tick is its only reader): `None` when nothing is in it,
+    /// which costs one load. The safety system's notes are taken out: their bit is cleared
+    /// before they are read, so a note queued meanwhile raises it again. An abort-all
+    /// stays in until it is carried out ([`apply_inbox`](Self::apply_inbox)): until then
+    /// the runs under way hold for it ([`abort_all_posted`](Self::abort_all_posted)).
     #[inline(always)]
     pub(crate) fn take_inbox(&self) -> Option<Inbox> {
         let inbox = &self.safety.inbox;
-        if inbox.load(Ordering::Relaxed) == 0 {
+        let found = inbox.load(Ordering::Relaxed);
+        if found == 0 {
             return None;
         }
-        // Acquire: the safety system's notes are queued before their bit is raised.
-        Some(Inbox(inbox.swap(0, Ordering::Acquire)))
+        if found & SAFETY_NOTES != 0 {
+            // Acquire: the safety system's notes are queued before their bit is raised.
+            inbox.fetch_and(!SAFETY_NOTES, Ordering::Acquire);
+        }
+        Some(Inbox(found))
     }
 
     /// Does what the tick found in the inbox: records the safety system's notes, then
-    /// applies abort-all if asked. Returns whether it was asked.
+    /// carries out abort-all if asked. Returns whether it was asked.
     #[inline(never)]
     pub(crate) fn apply_inbox(&self, control: &C, inbox: Inbox) -> bool {
         if inbox.safety_notes() {
@@ -63,7 +80,27 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let Some(by) = inbox.abort_all() else {
             return false;
         };
+        let begun = self.with(|s| s.runs_begun);
         self.apply_abort_all(control, by);
+        self.lift_abort_all(inbox, begun);
         true
+    }
+
+    /// The abort-all found in `inbox` was carried out: it leaves the inbox (one asked for
+    /// since by another requester stays for the next tick), and the runs hold for it no
+    /// more. A run begun since `begun` (by a lane of higher priority than the tick) may
+    /// have begun after the teardown looked: it held for the abort-all, and nothing else
+    /// wakes it, so every lane looks again (a lane with nothing to do goes back to
+    /// waiting). In one section: a run begun after it does not hold.
+    fn lift_abort_all(&self, inbox: Inbox, begun: u32) {
+        let (begun_since, declared) = self.with(|s| {
+            self.safety
+                .inbox
+                .fetch_and(!(inbox.0 & ABORT_ALL), Ordering::Release);
+            (s.runs_begun != begun, s.lanes_declared)
+        });
+        if begun_since {
+            self.wake_lanes(LaneSet::first(declared));
+        }
     }
 }

@@ -49,6 +49,15 @@ impl LaneSet {
         LaneSet(1u32.checked_shl(u32::from(lane)).unwrap_or(0))
     }
 
+    /// The first `count` lane slots (every slot declared when `count` is the number
+    /// declared).
+    pub(crate) fn first(count: u8) -> LaneSet {
+        LaneSet(
+            1u32.checked_shl(u32::from(count))
+                .map_or(u32::MAX, |b| b.wrapping_sub(1)),
+        )
+    }
+
     #[inline]
     pub(crate) fn with(self, other: LaneSet) -> LaneSet {
         LaneSet(self.0 | other.0)
@@ -390,4 +399,21 @@ pub(crate) fn declare_lane<
         s.lanes_declared = next.saturating_add(1);
         Some(next)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LaneSet;
+
+    #[test]
+    fn the_first_lane_slots() {
+        assert_eq!(LaneSet::first(0), LaneSet::EMPTY);
+        let mut three = LaneSet::first(3);
+        assert_eq!(
+            [three.next(), three.next(), three.next()],
+            [Some(0), Some(1), Some(2)]
+        );
+        assert_eq!(three, LaneSet::EMPTY);
+        assert_eq!(LaneSet::first(32).count(), 32);
+    }
 }

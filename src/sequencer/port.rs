@@ -10,6 +10,7 @@ use crate::model::time::Stamp;
 use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::clearance::{end_run, Clearance};
 use crate::sequencer::control_block::flag;
+use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::lanes::declare_lane;
 use crate::sequencer::requests::{abort_child, ask};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
@@ -137,12 +138,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn clearance(&self, run: RunId, waker: &Waker) -> Clearance {
-        self.park_then(run.seq, waker, |s| s.clearance(run))
+        let posted = abort_all_posted(&self.safety.inbox);
+        self.park_then(run.seq, waker, |s| s.clearance(run, posted))
     }
 
     fn due_poll(&self, run: RunId, waker: &Waker) -> Clearance {
         let id = run.seq;
-        self.park_then(id, waker, |s| match s.clearance(run) {
+        let posted = abort_all_posted(&self.safety.inbox);
+        self.park_then(id, waker, |s| match s.clearance(run, posted) {
             Clearance::Go if s.sets.has(Set::PollDue, id) => {
                 s.sets.put(Set::PollDue, id, false);
                 Clearance::Go
@@ -173,7 +176,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             RunningState::Terminated,
             cause,
         );
-        let ended = in_sections!(self, |s| end_run(s, run, &change, outcome));
+        let inbox = &self.safety.inbox;
+        let ended = in_sections!(self, |s| end_run(s, run, &change, outcome, inbox));
         if let (true, Outcome::Failed(failure)) = (ended, outcome) {
             self.with(|s| {
                 s.record(Event::Failed {

@@ -175,7 +175,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 {
     /// Requests that every running sequence be aborted (the safety system asks through
     /// [`Sequences`](crate::safety::Sequences)). Applied by the next tick, innermost
-    /// sequences first. Safe to call from any priority.
+    /// sequences first. Safe to call from any priority (it sets an atomic flag). Until
+    /// the tick has carried it out every run holds: a start it makes is refused with
+    /// [`Error::NotRunning`](crate::Error::NotRunning), its await points wait and it does
+    /// not end, so every run under way ends aborted (`Cause::AbortAll`).
     ///
     /// ```
     /// use rtseq::Sequencer;

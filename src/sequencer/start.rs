@@ -8,6 +8,8 @@
 //! scheduled again. A restart (after `Restarting`) takes the same path with the run's lane,
 //! caller and flags as they are.
 
+use core::sync::atomic::AtomicU8;
+
 use crate::lock::Lock;
 use crate::model::id::{Link, RunId};
 use crate::model::set::SeqSet;
@@ -15,6 +17,7 @@ use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::cut_and_depth;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
+use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::sets::Set;
@@ -96,21 +99,24 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         Ok((b.flags & flag::BOUND, lane))
     }
 
-    /// Opens the schedule of a new run with caller `caller` (if any): the count of changes
-    /// that its commit compares with ([`State::changes`]), if the caller's run may still
-    /// start a run. The tick can stop a sequence while its action runs on to its next await
-    /// point (the tick preempts the lanes), and a lane of higher priority start it again; a
-    /// start the stopped run makes meanwhile is refused ([`Error::NotRunning`] with the
-    /// caller's id), so nothing outlives its caller's stop; so is a start by a caller that
-    /// a teardown is stopping ([`flag::STOPPING`]) or whose abort is requested: it begins
-    /// nothing more.
-    fn open_start(&self, caller: Option<RunId>) -> Result<u32, Error> {
-        match caller {
+    /// Opens the schedule of the new run `run`: the count of changes that its commit
+    /// compares with ([`State::changes`]), if its caller's run (if any) may still start a
+    /// run. The tick can stop a sequence while its action runs on to its next await point
+    /// (the tick preempts the lanes), and a lane of higher priority start it again; a start
+    /// the stopped run makes meanwhile is refused ([`Error::NotRunning`] with the caller's
+    /// id), so nothing outlives its caller's stop; so is a start by a caller that a
+    /// teardown is stopping ([`flag::STOPPING`]), whose abort is requested, or, unless it
+    /// is the tick's start of an exception sequence, while an abort-all waits in the inbox
+    /// (`abort_all_posted`): it begins nothing more.
+    fn open_start(&self, run: &NewRun, abort_all_posted: bool) -> Result<u32, Error> {
+        let by_tick = run.flags & flag::HANDLES_EXCEPTION != 0;
+        match run.caller {
             Some(c)
                 if self.block(c.seq).is_none_or(|b| {
                     b.runs != c.count
                         || !States::RUNNING_OR_PAUSED.has(b.state)
                         || b.has(flag::STOPPING | request::ABORT)
+                        || (!by_tick && abort_all_posted)
                 }) =>
             {
                 Err(Error::NotRunning(c.seq))
@@ -378,9 +384,11 @@ fn launch<
     id: SeqId,
     run: NewRun,
     cause: Cause,
+    inbox: &AtomicU8,
 ) -> Result<RunId, Error> {
     loop {
-        let seen = s.section(|s| s.open_start(run.caller))?;
+        let posted = abort_all_posted(inbox);
+        let seen = s.section(|s| s.open_start(&run, posted))?;
         let at = s
             .section(|s| s.schedule_new(id, run.lane))
             .ok_or(Error::UnknownSequence(id))?;
@@ -459,8 +467,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// depth.
     pub(crate) fn begin(&self, id: SeqId, mode: Mode, cause: Cause) -> Result<RunId, Error> {
         let run = in_sections!(self, |s| admit(s, id, mode))?;
+        let inbox = &self.safety.inbox;
         let (new, lane) = in_sections!(self, |s| {
-            let new = launch(s, id, run, cause)?;
+            let new = launch(s, id, run, cause, inbox)?;
             let lane = match mode {
                 Mode::Lane { .. } | Mode::Exception { .. } => s.section(|s| s.lane_of(id)),
                 Mode::Blocking { caller, .. } => {
@@ -491,6 +500,9 @@ mod tests {
 
     use crate::sequencer::sections::tests::{registered, Preempted, S};
 
+    /// An inbox without an abort-all.
+    static NO_INBOX: AtomicU8 = AtomicU8::new(0);
+
     /// The first run of `id`.
     fn first_run(id: SeqId) -> RunId {
         RunId { seq: id, count: 1 }
@@ -513,7 +525,7 @@ mod tests {
             }),
             flags: 0,
         };
-        let result = launch(&mut s, id, new, Cause::Start);
+        let result = launch(&mut s, id, new, Cause::Start, &NO_INBOX);
         let taken = s.taken;
         (result, taken, state.state_of(id))
     }
@@ -582,7 +594,10 @@ mod tests {
                 }),
                 flags: 0,
             };
-            assert_eq!(launch(s, id, won, Cause::Start), Ok(first_run(id)));
+            assert_eq!(
+                launch(s, id, won, Cause::Start, &NO_INBOX),
+                Ok(first_run(id))
+            );
         });
         let lost = NewRun {
             lane: NO_LANE,
@@ -590,7 +605,7 @@ mod tests {
             flags: 0,
         };
         assert_eq!(
-            launch(&mut s, id, lost, Cause::Start),
+            launch(&mut s, id, lost, Cause::Start, &NO_INBOX),
             Err(Error::AlreadyRunning(id))
         );
         assert!(state.sets.has(Set::Called, id));
@@ -680,7 +695,10 @@ mod tests {
             caller: None,
             flags: 0,
         };
-        assert_eq!(launch(&mut s, id, new, Cause::Start), Ok(first_run(id)));
+        assert_eq!(
+            launch(&mut s, id, new, Cause::Start, &NO_INBOX),
+            Ok(first_run(id))
+        );
         assert_eq!(s.taken, 2 * PASS + COUNTED);
         assert_eq!(state.block(id).map(|b| b.runs), Some(1));
     }
@@ -762,7 +780,13 @@ mod tests {
         assert!(Port::end(&seq, run, Outcome::Completed));
         Port::finished(&seq, run);
         // L goes on: its schedule and commit.
-        let late = launch(&mut EachStep(&seq), e, checked, Cause::Start);
+        let late = launch(
+            &mut EachStep(&seq),
+            e,
+            checked,
+            Cause::Start,
+            &seq.safety.inbox,
+        );
         let state = |id: SeqId| seq.with(|s| s.state_of(id));
         assert_eq!(
             (late, state(e)),

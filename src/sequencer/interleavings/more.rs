@@ -529,11 +529,12 @@ fn a_join_during_a_dropped_runs_teardown_gets_aborted_dropped() {
 
 /// An abort-all is requested while nothing runs; G (a main sequence) is started by a lane
 /// of higher priority before section `k` of the tick at 1 ms that carries the abort-all
-/// out. When G's start commits before the tick has finished looking for what to abort,
-/// G runs when it looks: the tick must abort it (`AbortAll`, recorded), as it does a
-/// start made during the walk of an abort-all while another sequence runs
+/// out, and G's lane takes the start and polls its run, which holds for the abort-all.
+/// When G's start commits before the tick has finished looking for what to abort, G runs
+/// when it looks: the tick must abort it (`AbortAll`, recorded), as it does a start made
+/// during the walk of an abort-all while another sequence runs
 /// (`a_start_during_the_shortcut_walk_of_an_abort_all_is_torn_down`). A start after the
-/// look runs.
+/// look runs: the tick wakes its lane once the abort-all is lifted, and it goes on.
 fn start_into_lone_abort_all<const N: usize, const B: usize>(layout: Layout) {
     let setup = move || {
         let w = World::<N, B>::new(layout);
@@ -546,18 +547,42 @@ fn start_into_lone_abort_all<const N: usize, const B: usize>(layout: Layout) {
         let (w, g) = setup();
         let what = format!("{layout:?}, k={k}");
         let h = w.handle(g);
-        interleaved::at(k, move || h.start().unwrap());
+        let seq = w.seq;
+        let (waker, wakes) = counting();
+        let polled = Arc::new(std::sync::Mutex::new(None));
+        let first_poll = polled.clone();
+        interleaved::at(k, move || {
+            h.start().unwrap();
+            let run = Port::take_start(seq, g, 0, &waker).unwrap();
+            let held = Port::clearance(seq, run, &waker);
+            *first_poll.lock().unwrap() = Some((run, held, woken(&wakes), wakes));
+        });
         w.tick(1);
         assert!(inserted(k), "{what}");
-        // The tick's first section, then the abort-all's look: one section, one probe per
-        // candidate (with one word every registered sequence; with two the live and
-        // changed ones: none before G's start), and the count of runs begun read again. A
-        // start after the look is a start after the abort-all, and runs.
-        let looked = 2 + if B == 1 { w.count() } else { 0 };
+        let (run, held, wakes_then, wakes) = polled.lock().unwrap().take().unwrap();
+
+        // The tick's first section, then the abort-all's count of runs begun and its look:
+        // one section, one probe per candidate (with one word every registered sequence;
+        // with two the live and changed ones: none before G's start), and the count of
+        // runs begun read again. A start after the look is a start after the abort-all,
+        // and runs; until the section that lifts the abort-all it holds for it, and that
+        // section finds a run begun and wakes the lanes.
+        let looked = 3 + if B == 1 { w.count() } else { 0 };
+        let lifted = looked + 1;
+        let expected = if k <= lifted {
+            Clearance::Hold
+        } else {
+            Clearance::Go
+        };
+        assert_eq!(held, expected, "{what}: G's first poll");
         if k <= looked {
             assert_eq!(w.ended(g), (Aborted, Cause::AbortAll), "{what}: G");
         } else {
             assert_eq!(w.state(g), Running, "{what}: G started after the abort-all");
+            if k == lifted {
+                assert_eq!(woken(&wakes), wakes_then + 1, "{what}: G's lane is woken");
+            }
+            assert_eq!(w.clearance(run), Clearance::Go, "{what}: G goes on");
         }
         w.check(&what);
     });
