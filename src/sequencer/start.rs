@@ -450,7 +450,12 @@ fn relaunch<
         let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);
         let done = s.section(|s| s.commit_restart(&change, seen));
         if done {
-            s.section(|s| s.pause_with_blocking_caller(run));
+            // Counted like a run begun: a pause walk that passed over the `Restarting`
+            // sequence and has not paused its caller yet walks again.
+            s.section(|s| {
+                s.runs_begun = s.runs_begun.wrapping_add(1);
+                s.pause_with_blocking_caller(run);
+            });
         }
         if done || S::ONE_SECTION {
             return;

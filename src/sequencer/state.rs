@@ -26,8 +26,8 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// sections; its commit compares this count with the one its schedule began with, and
     /// schedules again if anything happened in between that could invalidate its checks.
     pub(crate) changes: u32,
-    /// Counts the runs begun (right after a start's commit, not a restart; wrapping): a
-    /// teardown walks again when a run began while it walked.
+    /// Counts the runs begun (right after a start's or a restart's commit; wrapping): a
+    /// teardown or a pause walks again when a run began while it walked.
     pub(crate) runs_begun: u32,
     /// The sequences as sets ([`Set`]): what the tick works on.
     pub(crate) sets: Sets<B>,

@@ -108,8 +108,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 }
             }
         }
-        // A run begun during the pass (a blocking start below a sequence not paused yet)
-        // is found by the next. A move that lost its race needs no pass of its own: a
+        // A run begun during the pass (a blocking start below a sequence not paused yet, or
+        // a restart taken up below the target, which the look passed over while it was
+        // `Restarting`) is found by the next. A move that lost its race needs no pass of its own: a
         // sequence leaves `Running` or `Paused` and comes back only through a restart,
         // which only the tick (this one) begins; so one that left its state between the
         // look and the move ended or is being torn down, and no pass would move it.

@@ -48,6 +48,7 @@ use embassy_futures::select::select;
 
 use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
 use crate::model::time::Stamp;
+use crate::sequencer::inbox::abort_all_posted;
 use crate::{lane, Cx, Failure, Seq, Sequence, Trigger, Wait};
 
 /// The tick's priority.
@@ -555,10 +556,15 @@ impl Liveness {
         w: World<L, N, B>,
         id: SeqId,
     ) -> bool {
+        // An abort-all asked for holds every run until the tick carries it out.
+        let abort_all = abort_all_posted(&w.seq.safety.inbox);
         w.seq.with(|s| {
             let held = |id: SeqId| {
                 let b = s.block(id).unwrap();
-                b.state == Paused || s.sets.has(Set::Excepting, id) || b.has(flag::STOPPING)
+                b.state == Paused
+                    || s.sets.has(Set::Excepting, id)
+                    || b.has(flag::STOPPING)
+                    || abort_all
             };
             let b = s.block(id).unwrap();
             if b.state != Running || !s.sets.has(Set::PollWait, id) || held(id) {

@@ -13,8 +13,10 @@
 //! by the last test here: a new run of a sequence below the target, begun by a caller
 //! outside the tree after the teardown had looked at its old run, was aborted too. The
 //! next one checks the same of the target: a firing aborts only the run it was raised on.
-//! The last one (found by the random test's liveness check): a start that looked at its
-//! polling class before a member started there keeps that member's grid.
+//! Another (found by the random test's liveness check): a start that looked at its
+//! polling class before a member started there keeps that member's grid. The last one
+//! (found by the random test's settled-world check): a restart taken up while the tick
+//! paused its caller is paused with it.
 
 use super::*;
 
@@ -389,4 +391,64 @@ fn start_with_a_stale_class_look<L: Lock + 'static, const N: usize, const B: usi
 #[test]
 fn a_start_that_looked_at_its_class_before_a_member_started_keeps_the_members_grid() {
     every_world!(start_with_a_stale_class_look);
+}
+
+/// M runs A blocking (A in the second word with `Layout::Split`); A's `RestartOwner`
+/// monitor M0 fired at 1 ms, so A is `Restarting`, its lane has not taken the restart up,
+/// and a pause of M is requested. Returns the world, M and A.
+fn restart_under_a_pause_setup<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId, SeqId) {
+    let w = World::<L, N, B>::new(layout);
+    let m = w.seq("M");
+    w.split();
+    let a = w.seq("A");
+    let fault = flag_of(true);
+    w.monitor(a, fault, Behaviour::RestartOwner, None);
+    w.start_taken(m);
+    w.blocking(a, m).unwrap();
+    w.tick(1);
+    fault.store(false, Ordering::Relaxed);
+    assert_eq!(w.state(a), Restarting);
+    w.handle(m).pause().unwrap();
+    (w, m, a)
+}
+
+/// The tick at 2 ms pauses M and what M blocks; M's lane, above the tick, before each
+/// section of that tick (or after it): A takes its restart up. However the two
+/// interleave, A ends paused with M: a pause walk that passed over A while it was
+/// `Restarting` walks again once A's new round began (a restart counts in
+/// `State::runs_begun`), and a restart taken up below a caller already paused begins
+/// paused. Found by the random preemption test: A ran on below its paused caller.
+fn restart_taken_up_during_a_pause<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = || restart_under_a_pause_setup::<L, N, B>(layout);
+    let count = sections(setup, |(w, ..)| w.tick(2));
+    every_k(count + 1, |k| {
+        let (w, m, a) = setup();
+        let run = w.run(a);
+        let lane = move || {
+            if w.state(a) == Restarting {
+                w.seq.restart(run);
+            }
+        };
+        interleaved::at(k, lane);
+        w.tick(2);
+        interleaved::at(usize::MAX, || {});
+        lane();
+        let what = name::<L>(layout, format_args!("k={k}"));
+        assert_eq!([w.state(m), w.state(a)], [Paused, Paused], "{what}");
+        assert_eq!(
+            w.moves(a, Restarting, Running),
+            1,
+            "{what}: A restarted once"
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_restart_taken_up_during_a_pause_of_its_caller_is_paused_with_it() {
+    every_world!(restart_taken_up_during_a_pause);
 }
