@@ -659,7 +659,7 @@ impl<
     /// simulator's table goes with it, so simulators of one sequencer can take turns; the
     /// lanes go with it too (a lane given by value is closed when its simulator drops it),
     /// so a later simulator is given every declared lane again: keep the `Seq`s and give
-    /// [`task_with_priority`](Self::task_with_priority) an [`rtseq::lane`](crate::lane) of
+    /// [`task_with_priority`](Self::task_with_priority) an [`rtseq::lane`](crate::lane()) of
     /// each.
     ///
     /// ```

@@ -55,7 +55,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// which costs one load. The safety system's notes are taken out: their bit is cleared
     /// before they are read, so a note queued meanwhile raises it again. An abort-all
     /// stays in until it is carried out ([`apply_inbox`](Self::apply_inbox)): until then
-    /// the runs under way hold for it ([`abort_all_posted`](Self::abort_all_posted)).
+    /// the runs under way hold for it ([`abort_all_posted`]).
     #[inline(always)]
     pub(crate) fn take_inbox(&self) -> Option<Inbox> {
         let inbox = &self.safety.inbox;

@@ -177,7 +177,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// [`Sequences`](crate::safety::Sequences)). Applied by the next tick, innermost
     /// sequences first. Safe to call from any priority (it sets an atomic flag). Until
     /// the tick has carried it out every run holds: a start it makes is refused with
-    /// [`Error::NotRunning`](crate::Error::NotRunning), its await points wait and it does
+    /// [`Error::NotRunning`], its await points wait and it does
     /// not end, so every run under way ends aborted (`Cause::AbortAll`).
     ///
     /// ```
