@@ -1674,6 +1674,63 @@ fn a_start_while_an_abort_all_waits_holds_before_its_pre_condition() {
     );
 }
 
+/// An abort-all asked for during the monitor evaluation (after the tick took the inbox)
+/// and, later in the same evaluation, a `PauseOwner` monitor that fires with an exception
+/// sequence: the tick's start of the exception sequence is taken (not refused as a run's
+/// start would be), its run holds before its pre-condition, and the tick at 3 ms aborts
+/// it and its paused owner, innermost first.
+#[test]
+fn the_ticks_start_of_an_exception_sequence_is_taken_while_an_abort_all_waits() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![]).until(9))
+        .unwrap();
+    let m = main.id();
+    let e = seq
+        .add(SeqConfig::new("E").in_lane(), Node::of(vec![]).until(9))
+        .unwrap();
+    let ei = e.id();
+    let mut ask = |c: &Ctrl, _: rtseq::Instant| {
+        if c.flag(0) {
+            seq.abort_all();
+        }
+        false
+    };
+    let mut hold = |c: &Ctrl, _: rtseq::Instant| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    monitors
+        .add(m, Monitor::new("ask", &mut ask, Behaviour::Nothing))
+        .unwrap();
+    let held = monitors
+        .add(
+            m,
+            Monitor::new("hold", &mut hold, Behaviour::PauseOwner).exception(ei),
+        )
+        .unwrap();
+    let ctrl = Ctrl::default();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(e);
+    sim.before_tick(|t, c| c.set(0, ms(t) >= 2));
+    sim.start(m).unwrap();
+    sim.run_for(Duration::from_millis(4));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, m, Idle, Running, Start),
+            tr(2, ei, Idle, Running, Mon(held)),
+            tr(2, m, Running, Paused, Mon(held)),
+            tr(3, ei, Running, Aborting, Cause::AbortAll),
+            tr(3, ei, Aborting, Aborted, Cause::AbortAll),
+            tr(3, m, Paused, Aborting, Cause::AbortAll),
+            tr(3, m, Aborting, Aborted, Cause::AbortAll),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(seq.exceptions_not_run(), 0);
+}
+
 /// An exception sequence that waits for flag 5, then asks for the abort of `.0`.
 struct AskAbortAtFlag5(SeqId);
 impl rtseq::Sequence<Ctrl> for AskAbortAtFlag5 {

@@ -260,7 +260,7 @@ impl<'a, C> Cx<'a, C> {
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
     /// waits for its outcome. Errors if `child` is already running, or if the tick stopped
-    /// this sequence while its action ran on or its abort is requested
+    /// this sequence while its action ran on, its abort is requested or an abort-all waits
     /// ([`Error::NotRunning`], as [`start`](Self::start)).
     ///
     /// If this sequence is aborted or paused meanwhile, the call does not return into the
@@ -378,8 +378,8 @@ impl<'a, C> Cx<'a, C> {
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
     /// it is already running or has no lane, and with [`Error::NotRunning`] (this
     /// sequence's id) if the tick stopped this sequence while its action ran on (a tick
-    /// preempts the lanes), or its abort is requested (the tick has not carried it out
-    /// yet): nothing an action starts outlives its abort. It does outlive
+    /// preempts the lanes), or its abort is requested or an abort-all waits (the tick has
+    /// not carried it out yet): nothing an action starts outlives its abort. It does outlive
     /// this sequence's end, a failure through `?` included: to end it with the action,
     /// start it with [`start_scoped`](Self::start_scoped).
     ///

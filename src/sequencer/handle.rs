@@ -413,7 +413,9 @@ impl<'a, C> Handle<'a, C> {
         self.port.info(self.id).and_then(|i| i.outcome)
     }
 
-    /// Starts the sequence non-blocking in its lane, as a main sequence (no caller).
+    /// Starts the sequence non-blocking in its lane, as a main sequence (no caller). While
+    /// an abort-all waits for the tick, the start is taken and its run holds before its
+    /// pre-condition until the tick aborts it with the rest.
     ///
     /// A start needs a lane to run the sequence (here declared, as RTIC's `init` would before
     /// the lane tasks run):

@@ -18,12 +18,18 @@ pub(crate) use crate::safety::ABORT_ALL_BY_SAFETY_SYSTEM;
 pub(crate) const SAFETY_NOTES: u8 = 4;
 /// Either abort-all bit.
 const ABORT_ALL: u8 = ABORT_ALL_BY_APPLICATION | ABORT_ALL_BY_SAFETY_SYSTEM;
+/// The abort-all the tick took and is carrying out: its bits, moved up by this much. One
+/// asked for again meanwhile raises its bit again, which stays for the next tick.
+const TAKEN_SHIFT: u32 = 4;
+/// The bits of an abort-all taken.
+const ABORT_ALL_TAKEN: u8 = ABORT_ALL << TAKEN_SHIFT;
 
-/// Whether an abort-all waits in `inbox` (a sequencer's): asked for and not carried out
-/// yet. Until it is, a run begins nothing more, as a run whose abort is requested
-/// (semantics item 8): its await points hold, its end and the starts it makes are refused.
+/// Whether an abort-all waits in `inbox` (a sequencer's): asked for, or taken by the tick,
+/// and not carried out yet. Until it is, a run begins nothing more, as a run whose abort
+/// is requested (semantics item 8): its await points hold, its end and the starts it
+/// makes are refused.
 pub(crate) fn abort_all_posted(inbox: &AtomicU8) -> bool {
-    inbox.load(Ordering::Relaxed) & ABORT_ALL != 0
+    inbox.load(Ordering::Relaxed) & (ABORT_ALL | ABORT_ALL_TAKEN) != 0
 }
 
 /// What the tick found in the inbox.
@@ -51,23 +57,25 @@ impl Inbox {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Looks into the inbox (the tick is its only reader): `None` when nothing is in it,
-    /// which costs one load. The safety system's notes are taken out: their bit is cleared
-    /// before they are read, so a note queued meanwhile raises it again. An abort-all
-    /// stays in until it is carried out ([`apply_inbox`](Self::apply_inbox)): until then
-    /// the runs under way hold for it ([`abort_all_posted`]).
+    /// Takes what is in the inbox (the tick is its only reader): `None` when nothing is in
+    /// it, which costs one load. The safety system's notes are taken out: their bit is
+    /// cleared before they are read, so a note queued meanwhile raises it again. An
+    /// abort-all is marked taken and stays in until it is carried out
+    /// ([`apply_inbox`](Self::apply_inbox)): until then the runs under way hold for it
+    /// ([`abort_all_posted`]); one asked for again meanwhile stays for the next tick.
     #[inline(always)]
     pub(crate) fn take_inbox(&self) -> Option<Inbox> {
         let inbox = &self.safety.inbox;
-        let found = inbox.load(Ordering::Relaxed);
-        if found == 0 {
+        if inbox.load(Ordering::Relaxed) == 0 {
             return None;
         }
-        if found & SAFETY_NOTES != 0 {
-            // Acquire: the safety system's notes are queued before their bit is raised.
-            inbox.fetch_and(!SAFETY_NOTES, Ordering::Acquire);
-        }
-        Some(Inbox(found))
+        let take = |bits: u8| {
+            let asked = bits & ABORT_ALL;
+            Some((bits & !(SAFETY_NOTES | ABORT_ALL)) | (asked << TAKEN_SHIFT))
+        };
+        // Acquire: the safety system's notes are queued before their bit is raised.
+        let found = inbox.fetch_update(Ordering::Acquire, Ordering::Relaxed, take);
+        Some(Inbox(found.unwrap_or_else(|bits| bits)))
     }
 
     /// Does what the tick found in the inbox: records the safety system's notes, then
@@ -82,21 +90,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         };
         let begun = self.with(|s| s.runs_begun);
         self.apply_abort_all(control, by);
-        self.lift_abort_all(inbox, begun);
+        self.lift_abort_all(begun);
         true
     }
 
-    /// The abort-all found in `inbox` was carried out: it leaves the inbox (one asked for
-    /// since by another requester stays for the next tick), and the runs hold for it no
-    /// more. A run begun since `begun` (by a lane of higher priority than the tick) may
-    /// have begun after the teardown looked: it held for the abort-all, and nothing else
-    /// wakes it, so every lane looks again (a lane with nothing to do goes back to
-    /// waiting). In one section: a run begun after it does not hold.
-    fn lift_abort_all(&self, inbox: Inbox, begun: u32) {
+    /// The abort-all taken was carried out: it leaves the inbox (one asked for since stays
+    /// for the next tick), and the runs hold for it no more. A run begun since `begun` (by
+    /// a lane of higher priority than the tick) may have begun after the teardown looked:
+    /// it held for the abort-all, and nothing else wakes it, so every lane looks again (a
+    /// lane with nothing to do goes back to waiting). In one section: a run begun after it
+    /// does not hold.
+    fn lift_abort_all(&self, begun: u32) {
         let (begun_since, declared) = self.with(|s| {
             self.safety
                 .inbox
-                .fetch_and(!(inbox.0 & ABORT_ALL), Ordering::Release);
+                .fetch_and(!ABORT_ALL_TAKEN, Ordering::Release);
             (s.runs_begun != begun, s.lanes_declared)
         });
         if begun_since {

@@ -32,28 +32,39 @@ pub(crate) enum Mode {
     /// that made the started sequence object (a blocking start is of an object in hand).
     Blocking { caller: RunId, maker: u16 },
     /// In the sequence's own lane, started by the run `caller` (none: a main sequence),
-    /// which continues. Also a `PauseOwner` monitor's exception sequence: it runs beside
-    /// its paused owner and nothing waits for its end.
+    /// which continues.
     Lane { caller: Option<RunId> },
     /// In the sequence's own lane, as the exception sequence of the run `owner`, which the
     /// exception holds: its end is reported to the tick, which then applies the behaviour.
     Exception { owner: RunId },
+    /// In the sequence's own lane, as the exception sequence of a `PauseOwner` monitor of
+    /// the run `owner`: it runs beside its paused owner and nothing waits for its end.
+    BesidePause { owner: RunId },
 }
 
 impl Mode {
     /// The run that starts the new one, its caller.
     const fn caller(self) -> Option<RunId> {
         match self {
-            Mode::Blocking { caller, .. } | Mode::Exception { owner: caller } => Some(caller),
+            Mode::Blocking { caller, .. }
+            | Mode::Exception { owner: caller }
+            | Mode::BesidePause { owner: caller } => Some(caller),
             Mode::Lane { caller } => caller,
         }
+    }
+
+    /// Whether the tick starts the run (an exception sequence): a start the tick makes
+    /// while an abort-all waits is not refused (its run holds, and is aborted with the
+    /// rest).
+    const fn by_tick(self) -> bool {
+        matches!(self, Mode::Exception { .. } | Mode::BesidePause { .. })
     }
 
     /// The flags the new run starts with.
     const fn flags(self) -> u16 {
         match self {
             Mode::Blocking { .. } => 0,
-            Mode::Lane { .. } => flag::START_PENDING,
+            Mode::Lane { .. } | Mode::BesidePause { .. } => flag::START_PENDING,
             Mode::Exception { .. } => flag::START_PENDING | flag::HANDLES_EXCEPTION,
         }
     }
@@ -68,6 +79,8 @@ struct NewRun {
     caller: Option<RunId>,
     /// Its flags, all of them.
     flags: u16,
+    /// The tick starts it (see [`Mode::by_tick`]).
+    by_tick: bool,
 }
 
 /// What the schedule of a run saw, for its commit.
@@ -109,14 +122,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// is the tick's start of an exception sequence, while an abort-all waits in the inbox
     /// (`abort_all_posted`): it begins nothing more.
     fn open_start(&self, run: &NewRun, abort_all_posted: bool) -> Result<u32, Error> {
-        let by_tick = run.flags & flag::HANDLES_EXCEPTION != 0;
         match run.caller {
             Some(c)
                 if self.block(c.seq).is_none_or(|b| {
                     b.runs != c.count
                         || !States::RUNNING_OR_PAUSED.has(b.state)
                         || b.has(flag::STOPPING | request::ABORT)
-                        || (!by_tick && abort_all_posted)
+                        || (!run.by_tick && abort_all_posted)
                 }) =>
             {
                 Err(Error::NotRunning(c.seq))
@@ -324,7 +336,7 @@ fn admit<
         Mode::Blocking { .. } => caller_lane,
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
         // `Handle::declare_lane`).
-        Mode::Lane { .. } | Mode::Exception { .. } => {
+        Mode::Lane { .. } | Mode::Exception { .. } | Mode::BesidePause { .. } => {
             lane_slot_of(s, id).ok_or(Error::NoLane(id))?
         }
     };
@@ -340,6 +352,7 @@ fn admit<
         lane,
         caller,
         flags: bound | mode.flags(),
+        by_tick: mode.by_tick(),
     })
 }
 
@@ -476,7 +489,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let (new, lane) = in_sections!(self, |s| {
             let new = launch(s, id, run, cause, inbox)?;
             let lane = match mode {
-                Mode::Lane { .. } | Mode::Exception { .. } => s.section(|s| s.lane_of(id)),
+                Mode::Lane { .. } | Mode::Exception { .. } | Mode::BesidePause { .. } => {
+                    s.section(|s| s.lane_of(id))
+                }
                 Mode::Blocking { caller, .. } => {
                     s.section(|s| s.pause_with_caller(new, caller.seq));
                     LaneSet::EMPTY
@@ -529,6 +544,7 @@ mod tests {
                 count: 0,
             }),
             flags: 0,
+            by_tick: false,
         };
         let result = launch(&mut s, id, new, Cause::Start, &NO_INBOX);
         let taken = s.taken;
@@ -598,6 +614,7 @@ mod tests {
                     count: 0,
                 }),
                 flags: 0,
+                by_tick: false,
             };
             assert_eq!(
                 launch(s, id, won, Cause::Start, &NO_INBOX),
@@ -608,6 +625,7 @@ mod tests {
             lane: NO_LANE,
             caller: None,
             flags: 0,
+            by_tick: false,
         };
         assert_eq!(
             launch(&mut s, id, lost, Cause::Start, &NO_INBOX),
@@ -699,6 +717,7 @@ mod tests {
             lane: NO_LANE,
             caller: None,
             flags: 0,
+            by_tick: false,
         };
         assert_eq!(
             launch(&mut s, id, new, Cause::Start, &NO_INBOX),

@@ -127,7 +127,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         if let Some(e) = exception {
-            if let Err(why) = self.begin(e, Mode::Lane { caller: Some(run) }, cause) {
+            if let Err(why) = self.begin(e, Mode::BesidePause { owner: run }, cause) {
                 self.with(|s| s.exception_not_run(e, owner, why));
             }
         }

@@ -15,6 +15,7 @@
 use super::*;
 
 use crate::lock::interleaved::Interleaved;
+use crate::sequencer::inbox::abort_all_posted;
 
 /// The world every test here uses: the portable interleaving lock, `N` sequences in `B`
 /// words.
@@ -586,6 +587,49 @@ fn start_into_lone_abort_all<const N: usize, const B: usize>(layout: Layout) {
         }
         w.check(&what);
     });
+}
+
+/// G runs and an abort-all is asked for; it is asked for again (the same requester)
+/// before section `k` of the tick at 1 ms that carries the first out. Asked before the
+/// tick took the inbox (before its first section is over), the two are one; asked after,
+/// the second stays for the next tick, which aborts what was started meanwhile (G again):
+/// an abort-all is never lost to the one being carried out.
+fn abort_all_asked_again_during_one<const N: usize, const B: usize>(layout: Layout) {
+    let setup = move || {
+        let w = World::<N, B>::new(layout);
+        let g = w.seq("G");
+        w.start_taken(g);
+        w.seq.abort_all();
+        (w, g)
+    };
+    let count = sections(setup, |(w, _)| w.tick(1));
+    every_k(count, |k| {
+        let (w, g) = setup();
+        let what = format!("{layout:?}, k={k}");
+        let seq = w.seq;
+        interleaved::at(k, move || seq.abort_all());
+        w.tick(1);
+        assert!(inserted(k), "{what}");
+        assert_eq!(w.ended(g), (Aborted, Cause::AbortAll), "{what}");
+        let again = k > 0;
+        assert_eq!(abort_all_posted(&w.seq.safety.inbox), again, "{what}");
+        w.kept(g).start().unwrap();
+        w.tick(2);
+        if again {
+            assert_eq!(w.ended(g), (Aborted, Cause::AbortAll), "{what}: G again");
+            assert_eq!(w.aborts_all(), 2, "{what}");
+        } else {
+            assert_eq!(w.state(g), Running, "{what}: G again");
+            assert_eq!(w.aborts_all(), 1, "{what}");
+        }
+        w.check(&what);
+    });
+}
+
+#[test]
+fn an_abort_all_asked_again_while_one_is_carried_out_stays_for_the_next_tick() {
+    abort_all_asked_again_during_one::<64, 2>(Layout::Second);
+    abort_all_asked_again_during_one::<8, 1>(Layout::One);
 }
 
 #[test]
