@@ -702,13 +702,7 @@ fn abort_all_into_tick_into_start<const N: usize, const B: usize>(layout: Layout
             w.tick(2);
             w.tick(3);
             assert_eq!(w.ended(o), (Aborted, Cause::AbortAll), "{what}: O");
-            match started {
-                Ok(()) => assert_eq!(w.ended(c), (Aborted, Cause::AbortAll), "{what}: C"),
-                Err(err) => {
-                    assert_eq!(err, Error::NotRunning(o), "{what}");
-                    assert_eq!(w.state(c), Idle, "{what}: C");
-                }
-            }
+            child_aborted_all_or_refused(&w, o, c, started, &what);
             let e_state = w.ended(e);
             assert!(
                 e_state.0 == Idle || e_state == (Aborted, Cause::AbortAll),
@@ -748,13 +742,7 @@ fn an_abort_all_anywhere_in_a_lanes_operation_is_carried_out_by_the_next_tick() 
             let started = start_child(&w, run, c, how);
             w.tick(1);
             assert_eq!(w.ended(o), (Aborted, Cause::AbortAll), "{what}: O");
-            match started {
-                Ok(()) => assert_eq!(w.ended(c), (Aborted, Cause::AbortAll), "{what}: C"),
-                Err(err) => {
-                    assert_eq!(err, Error::NotRunning(o), "{what}");
-                    assert_eq!(w.state(c), Idle, "{what}: C");
-                }
-            }
+            child_aborted_all_or_refused(&w, o, c, started, &what);
             assert_eq!(w.fired(o, M0), 0, "{what}");
             w.check(&what);
             accepted.borrow_mut().push(started.is_ok());
@@ -983,4 +971,22 @@ fn a_start_preempted_by_the_tick_polls_one_period_after_it_commits() {
     tick_into_a_start_in_a_polled_class::<8, 1>(Layout::One);
     tick_into_a_start_in_a_polled_class::<64, 2>(Layout::Split);
     tick_into_a_start_in_a_polled_class::<64, 2>(Layout::Second);
+}
+
+/// After an abort-all: C, started by O (`started`), was aborted with the rest, or its start
+/// was refused (O begins nothing more) and C never ran.
+fn child_aborted_all_or_refused<L: Lock + 'static, const N: usize, const B: usize>(
+    w: &World<L, N, B>,
+    o: SeqId,
+    c: SeqId,
+    started: Result<(), Error>,
+    what: &str,
+) {
+    match started {
+        Ok(()) => assert_eq!(w.ended(c), (Aborted, Cause::AbortAll), "{what}: C"),
+        Err(err) => {
+            assert_eq!(err, Error::NotRunning(o), "{what}");
+            assert_eq!(w.state(c), Idle, "{what}: C");
+        }
+    }
 }
