@@ -1063,6 +1063,16 @@ fn an_abort_requested_during_a_start_is_carried_out_iff_accepted() {
     every_split_world!(start_against_abort_request);
 }
 
+/// P runs (its lane took the start), X is registered (in the second word with a split
+/// layout). Returns the world and `[P, X]`.
+fn p_running_x_registered<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, [SeqId; 2]) {
+    let (w, [p], [x]) = World::<L, N, B>::of(layout, ["P"], ["X"]);
+    w.start_taken(p);
+    (w, [p, x])
+}
+
 /// P runs. P's lane starts X blocking (lane A) while a handle requests a pause of P
 /// (lane B, before section `k`), or the other way round; then the tick at 1 ms. The pause
 /// holds P and its blocking children in its lane (semantics 7): P and X end up `Paused`; after a
@@ -1071,11 +1081,7 @@ fn blocking_start_against_pause<L: Lock + 'static, const N: usize, const B: usiz
     layout: Layout,
     start_first: bool,
 ) {
-    let setup = move || {
-        let (w, [p], [x]) = World::<L, N, B>::of(layout, ["P"], ["X"]);
-        w.start_taken(p);
-        (w, [p, x])
-    };
+    let setup = move || p_running_x_registered::<L, N, B>(layout);
     preempting(
         &named::<L>(layout, format_args!("start first {start_first}")),
         start_first,
@@ -1109,11 +1115,7 @@ fn blocking_start_against_abort<L: Lock + 'static, const N: usize, const B: usiz
     layout: Layout,
     start_first: bool,
 ) {
-    let setup = move || {
-        let (w, [p], [x]) = World::<L, N, B>::of(layout, ["P"], ["X"]);
-        w.start_taken(p);
-        (w, [p, x])
-    };
+    let setup = move || p_running_x_registered::<L, N, B>(layout);
     preempting(
         &named::<L>(layout, format_args!("start first {start_first}")),
         start_first,
