@@ -974,6 +974,99 @@ fn a_join_dropped_by_a_select_is_no_longer_a_wait() {
     assert_eq!(join_result(&ctrl, w), Some(Ok(Done::Completed)));
 }
 
+/// A waits in two joins at once (a `select` of the joins of X and Y, which Y's end wins at
+/// 1 ms), then joins B alone; at 3 ms B joins A. After the `select`, A waits in one join
+/// again, so B's join closes a cycle that the check follows: it is an error at once, not a
+/// wait until some other run's end (X's, at 20 ms) happens to wake A.
+#[test]
+fn a_cycle_closed_after_a_select_of_two_joins_is_an_error_at_once() {
+    /// Records what a join returned.
+    fn record(cx: &Cx<'_, Ctrl>, r: Result<Outcome, Error>) {
+        cx.control().returned.borrow_mut().push(Returned {
+            ms: cx.now().as_ticks() / 1000,
+            seq: cx.id(),
+            line: 0,
+            result: r.map_err(Failure::from).and_then(Outcome::done),
+        });
+    }
+    struct SelectThenJoin {
+        x: SeqId,
+        y: SeqId,
+        b: SeqId,
+    }
+    impl Sequence<Ctrl> for SelectThenJoin {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+            cx.start(self.x)?;
+            cx.start(self.y)?;
+            let _ = select(cx.join(self.x), cx.join(self.y)).await;
+            record(cx, cx.join(self.b).await);
+            Ok(())
+        }
+    }
+    /// Joins `a` once flag 0 is set.
+    struct JoinOnFlag {
+        a: SeqId,
+    }
+    impl Sequence<Ctrl> for JoinOnFlag {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+            cx.wait_until(|cx| cx.control().flag(0)).await;
+            record(cx, cx.join(self.a).await);
+            Ok(())
+        }
+    }
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = |name, ms| {
+        seq.add(SeqConfig::new(name), Wait::new(Duration::from_millis(ms)))
+            .unwrap()
+    };
+    let x = seq
+        .add(
+            SeqConfig::new("X"),
+            Node::of(vec![Op::Wait(dwell("x", 20))]),
+        )
+        .unwrap();
+    let y = seq
+        .add(SeqConfig::new("Y"), Node::of(vec![Op::Wait(dwell("y", 1))]))
+        .unwrap();
+    let a = SeqId::from_index(5);
+    let b = seq.add(SeqConfig::new("B"), JoinOnFlag { a }).unwrap();
+    let (xi, yi, bi) = (x.id(), y.id(), b.id());
+    let sel = SelectThenJoin {
+        x: xi,
+        y: yi,
+        b: bi,
+    };
+    let sel = seq.add(SeqConfig::new("A"), sel).unwrap();
+    assert_eq!(sel.id(), a);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    for s in [x, y] {
+        sim.lane(s);
+    }
+    sim.lane(b);
+    sim.lane(sel);
+    sim.before_tick(|t, c| c.set(0, t.as_ticks() >= 3_000));
+    sim.start(bi).unwrap();
+    sim.start(a).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(30)),
+        Some(ms_at(20))
+    );
+    drop(sim);
+    let joined = |id| {
+        let r = ctrl.returned.borrow();
+        r.iter()
+            .filter(|r| r.seq == id)
+            .map(|r| (r.ms, r.result))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        joined(bi),
+        [(3, Err(Failure::NotStarted(Error::JoinWouldDeadlock(a))))]
+    );
+    assert_eq!(joined(a), [(3, Ok(Done::Completed))]);
+}
+
 fn ms_at(ms: u64) -> Instant {
     Instant::from_ticks(ms * 1_000)
 }

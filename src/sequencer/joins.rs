@@ -5,11 +5,12 @@
 //! sequences can join one run.
 
 use crate::model::set::SeqSet;
+use crate::sequencer::control_block::flag;
 use crate::sequencer::control_block::JoinWait;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
-use crate::SeqId;
+use crate::{Error, Outcome, RunningState, SeqId};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// `joiner` waits for the end of the run of `target`. An action may wait in several
@@ -29,16 +30,46 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// A join of `joiner` returned. A joiner that waits for any end keeps waiting: another
-    /// of its joins may still be pending (the next end releases it).
-    pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) {
-        if let Some(b) = self.block_mut(joiner) {
-            if b.joins == JoinWait::ANY_END {
-                return;
-            }
-            b.joins = JoinWait::NOTHING;
-        }
+    /// A join of `joiner` returned, or its future was dropped: it no longer waits. One
+    /// that waited in several joins at once (`JoinWait::ANY_END`) cannot tell which of
+    /// them are still pending: its wait is cleared all the same, and its lane is returned,
+    /// to wake, so that its pending joins, polled again, register anew (the first as the
+    /// join of its own run, which the cycle check follows). Otherwise `ANY_END` would stay
+    /// after a `select` of joins, and a cycle closed by a later join would go unseen.
+    pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) -> LaneSet {
+        let Some(b) = self.block_mut(joiner) else {
+            return LaneSet::EMPTY;
+        };
+        let several = b.joins == JoinWait::ANY_END;
+        b.joins = JoinWait::NOTHING;
+        let lane = b.lane;
         self.sets.put(Set::Joining, joiner, false);
+        if several {
+            LaneSet::of(lane)
+        } else {
+            LaneSet::EMPTY
+        }
+    }
+
+    /// What a join of `target`'s run `run` (the run current at its first look, when
+    /// `None`) sees: `None` while that run is under way, else its outcome, which is kept
+    /// while that run is the last one, ended, or the one before the run under way.
+    pub(crate) fn joined_outcome(
+        &self,
+        target: SeqId,
+        run: &mut Option<u16>,
+    ) -> Result<Option<Outcome>, Error> {
+        let b = self.block(target).ok_or(Error::UnknownSequence(target))?;
+        if b.state == RunningState::Idle {
+            return Err(Error::NeverStarted(target));
+        }
+        let joined = *run.get_or_insert(b.runs);
+        let under_way = b.state.is_active() || b.has(flag::START_PENDING);
+        match (b.runs.wrapping_sub(joined), under_way) {
+            (0, true) => Ok(None),
+            (0, false) | (1, true) => Ok(b.outcome),
+            _ => Err(Error::OutcomeLost(target)),
+        }
     }
 
     /// The sequences waiting in a join for the end of `target`'s run alone (one waiting in

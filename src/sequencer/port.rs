@@ -250,37 +250,27 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         target: SeqId,
         run: &mut Option<u16>,
     ) -> Poll<Result<Outcome, Error>> {
-        if in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
-            return Poll::Ready(Err(Error::JoinWouldDeadlock(target)));
-        }
-        // Registered before the run's end is looked for: an end in between releases it.
+        // Registered before the cycle check and the look for the run's end. Of two joins
+        // that close a cycle, the one registered later sees the other's registration (a
+        // check before the registration could miss a join registered in between, and both
+        // would wait for good); an end in between releases it.
         self.with(|s| s.wait_for_join(joiner, target));
-        let ended = self.with(|s| {
-            let b = s.block(target).ok_or(Error::UnknownSequence(target))?;
-            if b.state == RunningState::Idle {
-                return Err(Error::NeverStarted(target));
-            }
-            let joined = *run.get_or_insert(b.runs);
-            let under_way = b.state.is_active() || b.has(flag::START_PENDING);
-            // The outcome is the joined run's while that run is the last one, ended, or
-            // the one before the run under way.
-            match (b.runs.wrapping_sub(joined), under_way) {
-                (0, true) => Ok(None),
-                (0, false) | (1, true) => Ok(b.outcome),
-                _ => Err(Error::OutcomeLost(target)),
-            }
-        });
+        let ended = if in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
+            Err(Error::JoinWouldDeadlock(target))
+        } else {
+            self.with(|s| s.joined_outcome(target, run))
+        };
         let result = match ended {
             Ok(None) => return Poll::Pending,
             Ok(Some(outcome)) => Ok(outcome),
             Err(e) => Err(e),
         };
-        self.with(|s| s.stop_waiting_for_join(joiner));
+        self.update_and_wake(|s| s.stop_waiting_for_join(joiner));
         Poll::Ready(result)
     }
 
     fn stop_join(&self, joiner: SeqId) {
-        self.with(|s| s.stop_waiting_for_join(joiner));
+        self.update_and_wake(|s| s.stop_waiting_for_join(joiner));
     }
 
     /// The block's own fields, in one section.

@@ -693,6 +693,43 @@ fn two_joiners_preempting_one_another_are_both_released() {
     every_split_world!(two_joiners);
 }
 
+/// A and B run. A's first poll of its join of B, with B's first poll of its join of A
+/// before section `k`: the two joins close a cycle, so exactly one of them is
+/// `JoinWouldDeadlock` and leaves nothing registered, whichever comes first; the other
+/// waits, and gets the outcome when the run it joined completes.
+fn crossing_joins<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    let setup = move || {
+        let (w, [a], [b]) = World::<L, N, B>::of(layout, ["A"], ["B"]);
+        (w, [a, b], [joiner(&w, a), joiner(&w, b)])
+    };
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        setup,
+        |(w, [_, b], [ja, _])| ja.borrow_mut().poll(&w, b),
+        |(w, [a, _], [_, jb])| jb.borrow_mut().poll(&w, a),
+        |what, _, pa, pb, (w, [a, b], [ja, jb])| {
+            let cycle = |id: SeqId| Poll::Ready(Err(Error::JoinWouldDeadlock(id)));
+            // The refused one's run, and the joiner that waits for it.
+            let (ended, waiting) = match (pa, pb) {
+                (p, Poll::Pending) if p == cycle(b) => (a, jb),
+                (Poll::Pending, p) if p == cycle(a) => (b, ja),
+                other => panic!("{what}: {other:?}"),
+            };
+            assert!(!w.in_set(Set::Joining, ended), "{what}: left joining");
+            let before = wakes(waiting);
+            assert!(w.complete(ended));
+            let got = waiting.borrow_mut().released(&w, ended, before, what);
+            assert_eq!(got, Ok(Outcome::Completed), "{what}");
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn of_two_joins_that_close_a_cycle_exactly_one_is_refused() {
+    every_split_world!(crossing_joins);
+}
+
 /// X's run 1 ended (`Completed`). J's first poll of its join of X, with a handle start of
 /// X (run 2, taken by X's lane) before section `k`. J joins the run current at its look:
 /// run 1 (`Completed` at once) or run 2 (pending; when run 2 ends, skipped, J is released
