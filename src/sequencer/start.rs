@@ -77,7 +77,7 @@ struct NewRun {
     lane: u8,
     /// The run of its caller, if any.
     caller: Option<RunId>,
-    /// Its flags, all of them.
+    /// Its flags (the sequence's `BOUND` flag stays as it is).
     flags: u16,
     /// The tick starts it (see [`Mode::by_tick`]).
     by_tick: bool,
@@ -95,9 +95,9 @@ struct Scheduled {
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The read-only checks of a start of `id`: blocking, of an object made here; not
-    /// active (nor an ended exception sequence not reported yet); with a blocking caller, the caller's lane. Returns `id`'s `BOUND` flag (set
-    /// once, never cleared) and that lane.
-    fn check_start(&self, id: SeqId, mode: Mode) -> Result<(u16, u8), Error> {
+    /// active (nor an ended exception sequence not reported yet). Returns the lane of its
+    /// blocking caller, if any.
+    fn check_start(&self, id: SeqId, mode: Mode) -> Result<u8, Error> {
         if matches!(mode, Mode::Blocking { maker, .. } if maker != self.tag) {
             return Err(Error::ForeignSequence(id));
         }
@@ -109,7 +109,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             Mode::Blocking { caller, .. } => self.lane_slot(caller.seq),
             _ => crate::sequencer::control_block::NO_LANE,
         };
-        Ok((b.flags & flag::BOUND, lane))
+        Ok(lane)
     }
 
     /// Opens the schedule of the new run `run`: the count of changes that its commit
@@ -257,7 +257,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         let b = self.transition(change)?;
         b.caller = Link::to(run.caller.map(|c| c.seq));
-        b.flags = run.flags;
+        // `BOUND` as it is now: an object may have been bound since the start's checks.
+        b.flags = (b.flags & flag::BOUND) | run.flags;
         b.runs = b.runs.wrapping_add(1);
         Some(RunId {
             seq: change.sequence,
@@ -331,7 +332,7 @@ fn admit<
     id: SeqId,
     mode: Mode,
 ) -> Result<NewRun, Error> {
-    let (bound, caller_lane) = s.section(|s| s.check_start(id, mode))?;
+    let caller_lane = s.section(|s| s.check_start(id, mode))?;
     let lane = match mode {
         Mode::Blocking { .. } => caller_lane,
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
@@ -351,7 +352,7 @@ fn admit<
     Ok(NewRun {
         lane,
         caller,
-        flags: bound | mode.flags(),
+        flags: mode.flags(),
         by_tick: mode.by_tick(),
     })
 }

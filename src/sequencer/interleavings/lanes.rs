@@ -269,6 +269,30 @@ fn two_starts_of_the_same_sequence_in_two_lanes_one_wins() {
     }
 }
 
+/// X is registered with a lane, not bound to an object yet. A handle starts it (lane A);
+/// lane B, of higher priority, binds X's object before section `k` of the start. Both
+/// succeed, and X stays bound: a second object for X is `AlreadyBound` whatever `k` (two
+/// objects of one id would both drive its run).
+fn start_against_bind<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        move || lone::<L, N, B>(layout, false, false),
+        |(w, x)| w.kept(x).start(),
+        |(w, x)| w.seq.bind(x, ()).map(|object| object.id()),
+        |what, _, started, bound, (w, x)| {
+            assert_eq!((started, bound), (Ok(()), Ok(x)), "{what}");
+            let again = w.seq.bind(x, ()).map(|object| object.id());
+            assert_eq!(again, Err(Error::AlreadyBound(x)), "{what}");
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_bind_during_a_start_of_its_sequence_stays() {
+    every_split_world!(start_against_bind);
+}
+
 /// P's run 1 was aborted (a request, applied at 1 ms); its action runs on to its next
 /// await point and starts X (in X's lane, or blocking) by run 1, lane A. Lane B, of higher
 /// priority, starts P again (a handle; P's lane takes run 2) before section `k` of it. A
