@@ -148,19 +148,19 @@ fn leave_for_pause<
     };
     let change = StateChange::new(id, from, to, cause);
     // A pause keeps a teardown's mark: the teardown still moves the paused run.
-    if !s.section(|s| s.transition(&change).is_some()) {
-        return false;
-    }
-    // A due poll its lane has not taken yet is skipped, not taken when the pause ends
-    // (semantics 1).
     s.section(|s| {
         let now = Stamp::of(s.now);
-        if let Some(b) = s.block_mut(id) {
-            b.flip_clock(now);
-        }
+        let Some(b) = s.transition(&change) else {
+            return false;
+        };
+        // The clock stops or goes on with the move: the run time read by a lane of higher
+        // priority is never the new state's with the old clock.
+        b.flip_clock(now);
+        // A due poll its lane has not taken yet is skipped, not taken when the pause
+        // ends (semantics 1).
         if to == RunningState::Paused {
             s.sets.remove(Set::PollDue, id);
         }
-    });
-    true
+        true
+    })
 }

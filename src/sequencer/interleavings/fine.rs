@@ -224,6 +224,39 @@ fn an_abort_requested_while_the_tick_aborts_the_sequence_aborts_it_once() {
     });
 }
 
+/// O runs from 0; its pause is requested, and the tick at 3 ms pauses it. A lane of
+/// higher priority reads O's run time before each section of that tick: the run time so
+/// far, 1 ms (the time of the last tick) or 3 ms, never a paused state with a running
+/// clock. Then O is paused with a run time of 3 ms, and it stays 3 ms while paused.
+#[test]
+fn the_run_time_read_during_a_pause_is_the_time_so_far() {
+    let setup = || {
+        let w = World::new(Layout::One);
+        let o = w.seq("O");
+        w.start_taken(o);
+        w.tick(1);
+        w.seq.sequence_by_id(o).unwrap().pause().unwrap();
+        (w, o)
+    };
+    let count = sections(setup, |(w, _)| w.tick(3));
+    every_k(count, |k| {
+        let (w, o) = setup();
+        let read = Rc::new(Cell::new(None));
+        let into = read.clone();
+        interleaved::at(k, move || into.set(Some(Port::run_time(w.seq, o))));
+        w.tick(3);
+        let what = format!("k={k}");
+        assert!(
+            matches!(read.get(), Some(1_000 | 3_000)),
+            "{what}: {read:?}"
+        );
+        assert_eq!(w.state(o), Paused, "{what}");
+        w.tick(5);
+        assert_eq!(Port::run_time(w.seq, o), 3_000, "{what}");
+        w.check(&what);
+    });
+}
+
 /// A pause of O is requested while the tick at 1 ms pauses O (its `PauseOwner` monitor,
 /// condition true at 1 ms, false from 2 ms), inserted before each section of the request.
 /// If the request was accepted (O still running when it was checked), O stays paused when
