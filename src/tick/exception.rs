@@ -56,6 +56,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         reaction: &mut Reaction,
     ) -> bool {
         let Some(Marked {
+            owner: marked,
             target,
             behaviour,
             skipped,
@@ -63,31 +64,38 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         else {
             return false;
         };
-        let deferred = reaction.exception.is_some_and(|e| {
-            let by = self.with(|s| s.current_run(owner));
-            let started = self.begin(e, Mode::Exception { owner: by }, cause);
-            self.with(|s| match started {
-                Ok(_) => {
-                    if let Some(b) = s.block_mut(owner) {
-                        b.set_pending(Some(behaviour));
-                    }
-                }
-                Err(why) => s.exception_not_run(e, owner, why),
-            });
-            started.is_ok()
-        });
-        if !deferred {
-            self.apply(control, owner, behaviour, target, cause);
-            if behaviour == Behaviour::Nothing {
-                // Handled at once after all (its exception sequence could not start): the
-                // owner was not held, so the polls the mark skipped stand.
-                for id in skipped {
-                    self.with(|s| {
-                        if s.sets.has(Set::PollWait, id) {
-                            s.sets.put(Set::PollDue, id, true);
+        if let Some(e) = reaction.exception {
+            let started = self.begin(e, Mode::Exception { owner: marked }, cause);
+            // A lane of higher priority may have ended the marked run and begun another
+            // since the mark: the exception went with the run it was raised on.
+            let current = self.with(|s| {
+                let current = s.current_run(owner) == marked;
+                match started {
+                    Ok(_) if current => {
+                        if let Some(b) = s.block_mut(owner) {
+                            b.set_pending(Some(behaviour));
                         }
-                    });
+                    }
+                    Err(why) if current => s.exception_not_run(e, owner, why),
+                    _ => {}
                 }
+                current
+            });
+            // The behaviour waits for the exception sequence's end.
+            if started.is_ok() || !current {
+                return true;
+            }
+        }
+        self.apply(control, owner, behaviour, target, cause);
+        if behaviour == Behaviour::Nothing {
+            // Handled at once after all (its exception sequence could not start): the
+            // owner was not held, so the polls the mark skipped stand.
+            for id in skipped {
+                self.with(|s| {
+                    if s.sets.has(Set::PollWait, id) {
+                        s.sets.put(Set::PollDue, id, true);
+                    }
+                });
             }
         }
         true
@@ -152,13 +160,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
     }
 
-    /// Applies a behaviour after an exception (and its exception sequence) of `owner`.
+    /// Applies a behaviour after an exception (and its exception sequence) of `owner` to
+    /// the run `target` (the owner's, or its caller's).
     pub(super) fn apply(
         &self,
         control: &C,
         owner: SeqId,
         behaviour: Behaviour,
-        target: SeqId,
+        target: RunId,
         cause: Cause,
     ) {
         match behaviour {
@@ -175,15 +184,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 self.restart_tree(control, target, cause);
             }
             // Applied once, it pauses (the tick's `hold` also resumes).
-            Behaviour::PauseOwner => self.pause_tree(target, cause),
+            Behaviour::PauseOwner => self.pause_tree(target.seq, cause),
         }
     }
 }
 
 /// What [`mark`] did.
 struct Marked<const B: usize> {
-    /// The behaviour's target: the owner, or its caller.
-    target: SeqId,
+    /// The owner's run it marked.
+    owner: RunId,
+    /// The behaviour's target: the owner's run, or its caller's.
+    target: RunId,
     /// The behaviour, escalated past the restart limit.
     behaviour: Behaviour,
     /// The sequences whose due poll the mark skipped (the owner, and its blocking children in
@@ -297,7 +308,14 @@ fn mark<
     reaction.restarts = restarts;
     reaction.runs_seen = runs_seen;
     Some(Marked {
-        target,
+        owner: RunId {
+            seq: owner,
+            count: owner_runs,
+        },
+        target: RunId {
+            seq: target,
+            count: target_runs,
+        },
         behaviour,
         skipped,
     })

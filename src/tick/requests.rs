@@ -57,10 +57,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     pub(crate) fn apply_requests(&self, control: &C) {
         let requested = self.with(|s| s.sets.take(Set::Requested));
         for id in requested {
-            // The requests, and the behaviour pending for an exception sequence that ended.
-            let (req, done) = self.with(|s| {
+            // The requests (of the current run: a new run's commit clears them), and the
+            // behaviour pending for an exception sequence that ended.
+            let (req, done, run) = self.with(|s| {
+                let run = s.current_run(id);
                 let Some(b) = s.block_mut(id) else {
-                    return (None, None);
+                    return (None, None, run);
                 };
                 let mut done = None;
                 if b.has(flag::EXCEPTION_DONE) {
@@ -68,26 +70,27 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     done = b.pending();
                     b.set_pending(None);
                 }
-                (b.take_request(), done)
+                (b.take_request(), done, run)
             });
             if let Some(behaviour) = done {
                 // Unless it was stopped meanwhile: the cause and the target.
                 let still = self.with(|s| {
-                    s.block(id)
-                        .filter(|b| States::RUNNING_OR_PAUSED.has(b.state))
-                        .map(|b| (b.active_exception.unwrap_or(Cause::Abort), b.caller.get()))
-                });
-                if let Some((cause, caller)) = still {
-                    let target = if behaviour.targets_caller() {
-                        caller.unwrap_or(id)
-                    } else {
-                        id
+                    let b = s
+                        .block(id)
+                        .filter(|b| States::RUNNING_OR_PAUSED.has(b.state))?;
+                    let target = match b.caller.get() {
+                        Some(caller) if behaviour.targets_caller() => caller,
+                        _ => id,
                     };
+                    let cause = b.active_exception.unwrap_or(Cause::Abort);
+                    Some((cause, s.current_run(target)))
+                });
+                if let Some((cause, target)) = still {
                     self.apply(control, id, behaviour, target, cause);
                 }
             }
             match req {
-                Some(Request::Abort) => self.tear_down(control, id, Cause::Abort),
+                Some(Request::Abort) => self.tear_down(control, run, Cause::Abort),
                 Some(Request::Pause) => self.pause_tree(id, Cause::Pause),
                 // A sequence frozen by the paused caller it blocks resumes with that
                 // caller (its clock stays stopped meanwhile): the request lifted its own

@@ -4,6 +4,7 @@
 //! dropped is aborted with what is below it. One short section at a time.
 
 use crate::lock::Lock;
+use crate::model::id::RunId;
 use crate::model::state::States;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::LaneSet;
@@ -14,20 +15,22 @@ use crate::tick::walk::Pass;
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer};
 
-/// What a teardown tears down.
+/// What a teardown tears down. A target is a run: what was decided on one run (a monitor
+/// that fired on it, a request made of it) does nothing to a later run of its sequence,
+/// which a lane of higher priority may start before the teardown's first section.
 #[derive(Clone, Copy)]
 enum Teardown {
-    /// The sequence and everything below it are aborted.
-    Abort(SeqId),
-    /// The sequence restarts; everything below it is aborted.
-    Restart(SeqId),
+    /// The run and everything below it are aborted.
+    Abort(RunId),
+    /// The run restarts; everything below it is aborted.
+    Restart(RunId),
     /// Every active sequence is aborted.
     AbortAll,
 }
 
 impl Teardown {
-    /// The sequence whose subtree is torn down (none: every active sequence).
-    const fn target(self) -> Option<SeqId> {
+    /// The run whose subtree is torn down (none: every active sequence).
+    const fn target(self) -> Option<RunId> {
         match self {
             Teardown::Abort(t) | Teardown::Restart(t) => Some(t),
             Teardown::AbortAll => None,
@@ -56,15 +59,17 @@ enum Move<T> {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Aborts `target` and every active sequence below it (blocking and non-blocking),
-    /// innermost first, each through `Aborting` (cleanup hook) to `Aborted`, for `cause`.
-    pub(crate) fn tear_down(&self, control: &C, target: SeqId, cause: Cause) {
+    /// Aborts the run `target` and every active sequence below it (blocking and
+    /// non-blocking), innermost first, each through `Aborting` (cleanup hook) to
+    /// `Aborted`, for `cause`. Nothing, once `target` is no longer its sequence's run.
+    pub(crate) fn tear_down(&self, control: &C, target: RunId, cause: Cause) {
         self.teardown(control, Teardown::Abort(target), cause);
     }
 
-    /// Restarts `target` (from `Running` or `Paused`: its lane runs it again from its
-    /// pre-condition) and aborts every active sequence below it, innermost first.
-    pub(crate) fn restart_tree(&self, control: &C, target: SeqId, cause: Cause) {
+    /// Restarts the run `target` (from `Running` or `Paused`: its lane runs it again from
+    /// its pre-condition) and aborts every active sequence below it, innermost first.
+    /// Nothing, once `target` is no longer its sequence's run.
+    pub(crate) fn restart_tree(&self, control: &C, target: RunId, cause: Cause) {
         self.teardown(control, Teardown::Restart(target), cause);
     }
 
@@ -82,9 +87,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // aborted) is one that no future will take: the dropped future held the object.
         // It is aborted too.
         for _ in 0..N {
-            let runs = self.with(|s| s.block(id).map(|b| b.runs));
-            self.tear_down(control, id, Cause::Dropped);
-            if self.with(|s| s.block(id).map(|b| b.runs)) == runs {
+            let run = self.with(|s| s.current_run(id));
+            self.tear_down(control, run, Cause::Dropped);
+            if self.with(|s| s.current_run(id)) == run {
                 return;
             }
         }
@@ -112,7 +117,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // is lost.
         if let Some(t) = teardown.target() {
             let to = teardown.target_to();
-            self.stop(control, t, cause, States::entering(to), to);
+            self.stop(control, t.seq, cause, States::entering(to), to);
         }
     }
 
@@ -121,26 +126,31 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn teardown_pass(&self, control: &C, teardown: Teardown, cause: Cause, begun: u32) -> Pass {
         // Active, not already `Aborting`.
         let states = States::entering(RunningState::Aborting);
-        let target = teardown.target();
+        let target = teardown.target().map(|t| t.seq);
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
         // sequences below it.
         let move_one = |id: SeqId| match teardown {
-            Teardown::Restart(t) if id == t => {
+            Teardown::Restart(t) if id == t.seq => {
                 let to = RunningState::Restarting;
                 self.stop(control, id, cause, States::entering(to), to)
             }
             _ => self.stop(control, id, cause, states, RunningState::Aborting),
         };
-        // The target is marked first (it starts nothing from now on); a sequence below it
-        // has a caller link: when no other sequence has one, the target is all there is to
-        // move.
-        if let Some(t) = target {
+        // The target is marked first (it starts nothing from now on), unless its run is
+        // over and another one began; a sequence below it has a caller link: when no other
+        // sequence has one, the target is all there is to move.
+        if let Some(t) = teardown.target() {
             let alone = self.with(|s| {
-                s.mark_stopping(t);
-                s.sets.none_but(Set::Called, t)
+                if s.current_run(t.seq) != t {
+                    return None;
+                }
+                s.mark_stopping(t.seq);
+                Some(s.sets.none_but(Set::Called, t.seq))
             });
-            if alone {
-                return Pass::of(!move_one(t));
+            match alone {
+                None => return Pass::Done,
+                Some(true) => return Pass::of(!move_one(t.seq)),
+                Some(false) => {}
             }
         }
         // A teardown marks what it places, in the section that finds the run it looked at

@@ -164,6 +164,55 @@ fn an_end_during_a_timeout_is_either_first_or_refused() {
     end_into_firing_tick::<Interleaved, 8, 1>(Layout::One, Firing::Timeout);
 }
 
+/// `replaced_during_firing_tick` for every kind of firing, in one word and in two.
+#[test]
+fn a_run_replaced_during_a_firing_on_it_leaves_the_new_run_alone() {
+    for firing in [
+        Firing::Abort,
+        Firing::AbortAfterE,
+        Firing::Restart,
+        Firing::RestartAfterE,
+        Firing::Timeout,
+    ] {
+        replaced_during_firing_tick::<Interleaved, 8, 1>(Layout::One, firing);
+        replaced_during_firing_tick::<Interleaved, 64, 2>(Layout::Second, firing);
+    }
+}
+
+/// O runs, its abort is requested; O's lane, of higher priority than the tick, drops O's
+/// run and starts O again (a handle; the lane takes run 2) before section `k` of the tick
+/// at 1 ms that carries the request out. The request was run 1's (a new run's commit
+/// clears it): run 2 runs on, whatever `k`, unless the tick's teardown had O `Aborting`
+/// (then the start is refused and there is no run 2).
+#[test]
+fn a_run_replaced_during_the_abort_requested_of_it_runs_on() {
+    let setup = || {
+        let w = World::new(Layout::One);
+        let o = w.seq("O");
+        w.start_taken(o);
+        w.handle(o).abort().unwrap();
+        (w, o)
+    };
+    let count = sections(setup, |(w, _)| w.tick(1));
+    every_k(count, |k| {
+        let (w, o) = setup();
+        interleaved::at(k, move || {
+            Port::abandon(w.seq, o, &());
+            if w.handle(o).start().is_ok() {
+                w.take(o);
+            }
+        });
+        w.tick(1);
+        let what = format!("k={k}");
+        if w.runs(o) == 2 {
+            assert_eq!(w.state(o), Running, "{what}");
+        } else {
+            assert_eq!(w.ended(o), (Aborted, Cause::Abort), "{what}");
+        }
+        w.check(&what);
+    });
+}
+
 // ---------------------------------------------------------------------------------------
 // 5. The tick inserted into requests, restarts, joins and dropped runs.
 // ---------------------------------------------------------------------------------------

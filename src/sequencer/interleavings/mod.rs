@@ -111,7 +111,7 @@ use crate::sequencer::control_block::flag;
 use crate::sequencer::port::Port;
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
-use crate::trace::{Record, Transition};
+use crate::trace::{Entry, Record, Transition};
 use crate::{
     Behaviour, Cause, Condition, Duration, Error, Event, Instant, Monitor, MonitorId, Monitors,
     Outcome, RunningState, SeqConfig, SeqId, Sequencer,
@@ -1113,6 +1113,57 @@ fn end_into_firing_tick<L: Lock + 'static, const N: usize, const B: usize>(
             return;
         }
         firing_carried_out(&what, &w, firing, o, e, || w.complete(o));
+        w.check(&what);
+    });
+}
+
+/// O's lane, of higher priority than the tick, drops O's run (`Port::abandon`: aborted,
+/// `Dropped`) and starts O again (a handle; the lane takes run 2) before section `k` of the
+/// tick at 1 ms in which `firing` fires on O. A firing recorded before run 2 began is run
+/// 1's and never reaches run 2: after the tick, run 2 is `Running` and holds no exception,
+/// and E, if it started for run 1, was aborted with it. (A run 2 begun before the tick's
+/// scan is due in it, and its own firing takes its course; one begun after it is evaluated
+/// from the next tick, semantics 3.)
+fn replaced_during_firing_tick<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    firing: Firing,
+) {
+    let setup = move || firing_on::<L, N, B>(layout, firing);
+    let count = sections(setup, |(w, _, _, _)| w.tick(1));
+    every_k(count, |k| {
+        let (w, o, e, _) = setup();
+        interleaved::at(k, move || {
+            Port::abandon(w.seq, o, &());
+            // Refused while the tick's teardown has O `Aborting`.
+            if w.handle(o).start().is_ok() {
+                w.take(o);
+            }
+        });
+        w.tick(1);
+        let what = format!("{layout:?}, {firing:?}, k={k}");
+        let records = w.records();
+        let run_2_began = records.iter().rposition(|r| {
+            matches!(r.entry, Entry::Transition { sequence, to: Running, cause: Cause::Start, .. }
+                if sequence == o)
+        });
+        let fired = records
+            .iter()
+            .position(|r| matches!(r.event(), Some(Event::Fired { owner, .. }) if owner == o));
+        if fired > run_2_began || w.runs(o) == 1 {
+            // Run 2's own firing, or no run 2.
+            w.check(&what);
+            return;
+        }
+        assert_eq!((w.state(o), w.runs(o)), (Running, 2), "{what}");
+        assert!(
+            !w.in_set(Set::Excepting, o),
+            "{what}: run 2 holds run 1's exception"
+        );
+        assert!(
+            matches!(w.state(e), Idle | Aborted),
+            "{what}: E {:?}",
+            w.state(e)
+        );
         w.check(&what);
     });
 }
