@@ -27,8 +27,9 @@ pub enum Error {
     UnknownSequence(SeqId),
     /// The sequence is already running (or paused, aborting, restarting).
     AlreadyRunning(SeqId),
-    /// The request needs a running (or paused) sequence; or a start by a sequence the tick
-    /// stopped while its action ran on (its id).
+    /// The request needs a running (or paused) sequence, not one idle, ended or between
+    /// two rounds (`Restarting`, `Aborting`); or a start by a sequence the tick stopped
+    /// while its action ran on (its id).
     NotRunning(SeqId),
     /// Resume was requested for a sequence that is not paused (and has no pause pending).
     NotPaused(SeqId),

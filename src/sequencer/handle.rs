@@ -440,7 +440,10 @@ impl<'a, C> Handle<'a, C> {
     /// resume is pending takes it back. A sequence paused by a pause request already, with
     /// no resume pending, gives [`Error::AlreadyPaused`]. One held paused by something else
     /// (a `PauseOwner` monitor, the paused caller it blocks) takes the request: it stays
-    /// paused when that hold ends, until a resume request.
+    /// paused when that hold ends, until a resume request. A sequence that is not running
+    /// or paused (idle, ended, or between two rounds: `Restarting`, `Aborting`) gives
+    /// [`Error::NotRunning`]; a `Restarting` blocking child below a paused caller begins
+    /// its next round paused anyway.
     ///
     /// A pause holds the sequences, not the machine: their actions stop at their next
     /// await point, but what their steps commanded goes on (a speed, a trajectory). A feed

@@ -114,10 +114,11 @@ pub struct Sequencer<
 }
 
 // SAFETY: `state` is only reached through `Sequencer::borrow_state` (from `with`,
-// `update_and_wake` and `park_in_then`), and `lanes` only through
-// `Sequencer::park_in_then`, `Sequencer::wake_lane` and the tick's reads of a slot's
-// identity (`lanes_of_polls`); all of them run under the lock, and a
-// critical section keeps every other user of this sequencer out. The other fields are
+// `update_and_wake`, `park_in_then` and `close_lane`), and the cells of `lanes` only
+// through `park_in_then` (a waker registered), `close_lane` (forgotten), `wake_lane` and
+// the reads of a slot's identity (`check_lanes`, the tick's `lanes_of_polls` and
+// `State::lanes_of_polls`); all of them run under the lock, and a critical section keeps
+// every other user of this sequencer out. The other fields are
 // `Sync` themselves. `State` and `Lanes` are `Send` for every `C` (they hold only plain
 // data, wakers and `fn(&C)` pointers). (`SingleThread`, which keeps no one out, has no
 // such impl: its sequencers are not `Sync`.)

@@ -772,8 +772,8 @@ mod tests {
     /// `AbortOwner` waits for E's end), and E's lane, of higher priority than L, runs E to
     /// its end. L goes on. E is O's until the tick has reported its end: L's
     /// start must be refused (`AlreadyRunning`), and the next tick must report E's end to
-    /// O and abort O. Without the check L's commit started E again (as a main sequence,
-    /// without `HANDLES_EXCEPTION`): E's end was never reported and O stayed held forever.
+    /// O and abort O. (A start of E as a main sequence, without `HANDLES_EXCEPTION`, would
+    /// take E from O: its end would never be reported, and O would stay held for good.)
     #[test]
     fn a_start_checked_before_the_tick_ran_the_exception_sequence_does_not_take_it_from_its_owner()
     {

@@ -689,10 +689,10 @@ mod tests {
         }
     }
 
-    /// Before its fix, in a sequencer of up to 32 sequences a start made between the
-    /// tick's scan of the polling classes and its last section lost its first poll: the
-    /// tick set the next due time from the classes it had scanned (A's, 200 ms); in a
-    /// larger one, a tick that found no monitored sequence set it to the horizon.
+    /// A start made between the tick's scan of the polling classes and its last section
+    /// keeps its first poll: the next due time the tick sets is not the one of the
+    /// classes it scanned (A's, 200 ms), nor, in a sequencer of several words with no
+    /// monitored sequence, the horizon.
     #[test]
     fn a_start_that_preempts_the_tick_keeps_its_first_poll() {
         for abort_a in [false, true] {
