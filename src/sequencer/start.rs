@@ -95,9 +95,8 @@ struct Scheduled {
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The read-only checks of a start of `id`: blocking, of an object made here; not
-    /// active (nor an ended exception sequence not reported yet). Returns the lane of its
-    /// blocking caller, if any.
-    fn check_start(&self, id: SeqId, mode: Mode) -> Result<u8, Error> {
+    /// active (nor an ended exception sequence not reported yet).
+    fn check_start(&self, id: SeqId, mode: Mode) -> Result<(), Error> {
         if matches!(mode, Mode::Blocking { maker, .. } if maker != self.tag) {
             return Err(Error::ForeignSequence(id));
         }
@@ -105,11 +104,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if !b.may_start() {
             return Err(Error::AlreadyRunning(id));
         }
-        let lane = match mode {
-            Mode::Blocking { caller, .. } => self.lane_slot(caller.seq),
-            _ => crate::sequencer::control_block::NO_LANE,
-        };
-        Ok(lane)
+        Ok(())
     }
 
     /// Opens the schedule of the new run `run`: the count of changes that its commit
@@ -332,9 +327,10 @@ fn admit<
     id: SeqId,
     mode: Mode,
 ) -> Result<NewRun, Error> {
-    let caller_lane = s.section(|s| s.check_start(id, mode))?;
+    s.section(|s| s.check_start(id, mode))?;
     let lane = match mode {
-        Mode::Blocking { .. } => caller_lane,
+        // A blocking run runs in its caller's lane.
+        Mode::Blocking { caller, .. } => s.section(|s| s.lane_slot(caller.seq)),
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
         // `Handle::declare_lane`).
         Mode::Lane { .. } | Mode::Exception { .. } | Mode::BesidePause { .. } => {

@@ -50,8 +50,6 @@ pub(crate) struct Polls<const B: usize> {
     due: u32,
     /// Due in a new run or restart: their monitors' edge detection starts from "false".
     fresh: u32,
-    /// Running, due, with an expired timeout (raised after the monitors).
-    expired: u32,
     /// Running, due, waiting for a polled condition: their lanes are woken (after the
     /// monitors).
     wake: u32,
@@ -69,11 +67,6 @@ impl<const B: usize> Polls<B> {
     }
 
     #[inline(always)]
-    fn expired(&self) -> SetWord<B> {
-        SetWord::new(self.word, self.expired)
-    }
-
-    #[inline(always)]
     fn wake(&self) -> SetWord<B> {
         SetWord::new(self.word, self.wake)
     }
@@ -82,7 +75,7 @@ impl<const B: usize> Polls<B> {
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The due polls `due` (monitored sequences of one word whose polling class is due):
     /// takes their fresh marks and marks their due exit-condition polls. Returns what to
-    /// do, without the expired timeouts, and the running ones with an armed timeout.
+    /// do for them, and the running ones with an armed timeout.
     #[inline(always)]
     fn take_polls(&mut self, due: SetWord<B>) -> (Polls<B>, SetWord<B>) {
         let w = due.index();
@@ -96,7 +89,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             word: w,
             due: due.bits(),
             fresh: fresh.bits(),
-            expired: 0,
             wake: wake.bits(),
         };
         (polls, running.and(sets.word(Set::Armed, w)))
@@ -378,13 +370,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         monitors: &mut Monitors<'_, C, M, K>,
         control: &C,
     ) -> bool {
-        let polls = self.scan(w, Stamp::of(now), scan);
+        let (polls, expired) = self.scan(w, Stamp::of(now), scan);
         if self.evaluate_monitors(&polls, monitors, control, now) {
             raised = true;
         }
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
-        for id in polls.expired() {
+        for id in expired {
             // The configuration is fixed and its bookkeeping is the tick's: read once.
             if let Some(mut reaction) = self.with(|s| s.block(id).map(|b| b.timeout_reaction())) {
                 self.raise(control, id, Cause::Timeout(id), &mut reaction);
@@ -446,10 +438,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// Finds the due polls in word `w`: advances the schedules of the polling classes that
     /// are due, recomputes the next due time, takes the due sequences' fresh marks, marks
-    /// their due exit-condition polls and finds their expired timeouts. With a coarse lock
-    /// in one section; otherwise one short section per class and per armed timeout.
+    /// their due exit-condition polls and finds their expired timeouts (raised after the
+    /// monitors), which it returns beside the polls. With a coarse lock in one section;
+    /// otherwise one short section per class and per armed timeout.
     #[inline(always)]
-    fn scan(&self, w: usize, now: Stamp, scan: &mut Scan) -> Polls<B> {
+    fn scan(&self, w: usize, now: Stamp, scan: &mut Scan) -> (Polls<B>, SetWord<B>) {
         // A scan only brings the next due time forward: the tick's first section put it
         // off to the horizon, and a start made since may have brought it forward (an
         // exception sequence the work in an earlier word started, or, with the portable
@@ -466,9 +459,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     .classes
                     .scan_all(now, s.sets.word(Set::Monitored, w), scan);
                 s.polling.next_due = next_due(scan, s.polling.next_due);
-                let (mut polls, timed) = s.take_polls(due);
-                polls.expired = s.expired(timed, now).bits();
-                polls
+                let (polls, timed) = s.take_polls(due);
+                (polls, s.expired(timed, now))
             });
         }
         let classes = self.with(|s| s.polling.classes.len());
@@ -480,14 +472,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     .scan(i, now, s.sets.word(Set::Monitored, w), scan)
             }));
         }
-        let (mut polls, timed) = self.with(|s| {
+        let (polls, timed) = self.with(|s| {
             s.polling.next_due = next_due(scan, s.polling.next_due);
             s.take_polls(due)
         });
+        let mut expired = SetWord::empty(w);
         for id in timed {
-            polls.expired |= self.with(|s| s.expired(SetWord::of(id), now)).bits();
+            expired = expired.or(self.with(|s| s.expired(SetWord::of(id), now)));
         }
-        polls
+        (polls, expired)
     }
 
     /// With a portable lock: the lanes of the due polls `wake`. While something is held

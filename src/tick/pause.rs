@@ -8,7 +8,7 @@ use crate::model::time::Stamp;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::tick::skip_untaken_polls;
-use crate::tick::walk::Pass;
+use crate::tick::walk::{Pass, Scope};
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer};
 
@@ -96,7 +96,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 skip_untaken_polls(s, lane, due);
             });
         }
-        let rows = self.levels(Some(target), states, Some(lane), &mut |_, _| true);
+        let scope = Scope::InLane { target, lane };
+        let rows = self.levels(scope, states, &mut |_, _| true);
         for depth in 0..=rows.deepest() {
             for id in rows.at(depth) {
                 // A resume of the target resumes its blocking children unless something
@@ -104,7 +105,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let kept =
                     how == Pausing::Resume && id != target && self.with(|s| s.stays_paused(id));
                 if !kept {
-                    self.pause_one(id, cause, states, how.to());
+                    self.pause_one(id, cause, how);
                 }
             }
         }
@@ -117,18 +118,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Pass::of(self.with(|s| s.runs_begun) == begun)
     }
 
-    /// Pauses or resumes one sequence: from a state in `states` to `to` (`Paused`,
-    /// `Running`), and wakes its lane.
-    fn pause_one(&self, id: SeqId, cause: Cause, states: States, to: RunningState) {
-        if in_sections!(self, |s| leave_for_pause(s, id, cause, states, to)) {
+    /// Pauses or resumes one sequence (`how`: from `Running` to `Paused`, or back), and
+    /// wakes its lane.
+    fn pause_one(&self, id: SeqId, cause: Cause, how: Pausing) {
+        if in_sections!(self, |s| leave_for_pause(s, id, cause, how)) {
             in_sections_then_wake!(self, |s| s.section(|s| s.lane_of(id)));
         }
     }
 }
 
-/// The steps of [`Sequencer::pause_one`] before the wake-up: `id` leaves a state in
-/// `states` for `to`; its run's clock (and its timeout) stops or goes on. False when it
-/// was not in `states`, or left them for another transition before the move.
+/// The steps of [`Sequencer::pause_one`] before the wake-up: `id` leaves the state `how`
+/// leaves for the one it enters; its run's clock (and its timeout) stops or goes on. False
+/// when it was not in that state, or left it for another transition before the move.
 fn leave_for_pause<
     C,
     S: Sections<C, N, T, W, B>,
@@ -140,12 +141,12 @@ fn leave_for_pause<
     s: &mut S,
     id: SeqId,
     cause: Cause,
-    states: States,
-    to: RunningState,
+    how: Pausing,
 ) -> bool {
-    let Some(from) = s.section(|s| s.block(id).map(|b| b.state).filter(|&f| states.has(f))) else {
+    let (from, to) = (how.from(), how.to());
+    if s.section(|s| s.state_of(id)) != from {
         return false;
-    };
+    }
     let change = StateChange::new(id, from, to, cause);
     // A pause keeps a teardown's mark: the teardown still moves the paused run.
     s.section(|s| {

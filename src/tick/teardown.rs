@@ -11,7 +11,7 @@ use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
-use crate::tick::walk::Pass;
+use crate::tick::walk::{Pass, Scope};
 use crate::trace::StateChange;
 use crate::{Cause, RunningState, SeqId, Sequencer};
 
@@ -116,8 +116,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // the target, which a disturbed pass leaves in place, still moves, so no teardown
         // is lost.
         if let Some(t) = teardown.target() {
-            let to = teardown.target_to();
-            self.stop(control, t.seq, cause, States::entering(to), to);
+            self.stop(control, t.seq, cause, teardown.target_to());
         }
     }
 
@@ -131,10 +130,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // sequences below it.
         let move_one = |id: SeqId| match teardown {
             Teardown::Restart(t) if id == t.seq => {
-                let to = RunningState::Restarting;
-                self.stop(control, id, cause, States::entering(to), to)
+                self.stop(control, id, cause, RunningState::Restarting)
             }
-            _ => self.stop(control, id, cause, states, RunningState::Aborting),
+            _ => self.stop(control, id, cause, RunningState::Aborting),
         };
         // The target is marked first (it starts nothing from now on), unless its run is
         // over and another one began; a sequence below it has a caller link: when no other
@@ -156,7 +154,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // A teardown marks what it places, in the section that finds the run it looked at
         // still under way: the mark is that run's (a new run's commit clears it), and only
         // a marked sequence moves (`leave_for_teardown`).
-        let rows = self.levels(target, states, None, &mut |id, runs| {
+        let scope = match target {
+            Some(t) => Scope::Subtree(t),
+            None => Scope::Everything,
+        };
+        let rows = self.levels(scope, states, &mut |id, runs| {
             self.with(|s| s.mark_placed(id, runs, states))
         });
         // A pass is disturbed like a lost race by a run begun before it marked what it
@@ -180,14 +182,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Pass::of(!raced && !begun_anywhere)
     }
 
-    /// Moves one sequence from a state in `states` (states `to` may be entered from) to
-    /// `to`: to `Aborting → Aborted` or to `Restarting`, running its hook. True when it
-    /// lost a race: the sequence was in `states`, but another transition came between the
-    /// look and the move.
-    fn stop(&self, control: &C, id: SeqId, cause: Cause, states: States, to: RunningState) -> bool {
+    /// Moves one sequence from a state `to` may be entered from to `to`: to `Aborting →
+    /// Aborted` or to `Restarting`, running its hook. True when it lost a race: the
+    /// sequence was in such a state, but another transition came between the look and the
+    /// move.
+    fn stop(&self, control: &C, id: SeqId, cause: Cause, to: RunningState) -> bool {
         // With a coarse lock, the steps before the hook in one section and those after it
         // in another: the tick runs at the ceiling, so a longer section delays no one.
-        let hook = match in_sections!(self, |s| leave_for_teardown(s, id, cause, states, to)) {
+        let hook = match in_sections!(self, |s| leave_for_teardown(s, id, cause, to)) {
             Move::Left(hook) => hook,
             Move::Stays => return false,
             Move::Raced => return true,
@@ -241,8 +243,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
-/// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state in `states` for
-/// `to` (`Aborting` or `Restarting`). Returns the hook to run.
+/// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state `to` may be
+/// entered from for `to` (`Aborting` or `Restarting`). Returns the hook to run.
 fn leave_for_teardown<
     C,
     S: Sections<C, N, T, W, B>,
@@ -254,7 +256,6 @@ fn leave_for_teardown<
     s: &mut S,
     id: SeqId,
     cause: Cause,
-    states: States,
     to: RunningState,
 ) -> Move<Option<fn(&C)>> {
     // Before a teardown, what it leaves behind: the cause a later gate reports; after an
@@ -264,7 +265,7 @@ fn leave_for_teardown<
     let looked = s.section(|s| {
         let b = s.block_mut(id).ok_or(Move::Stays)?;
         let from = b.state;
-        if !states.has(from) {
+        if !States::entering(to).has(from) {
             return Err(Move::Stays);
         }
         // A teardown moves only a run it marked (`teardown_pass`): without its mark, the

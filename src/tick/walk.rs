@@ -51,29 +51,57 @@ impl Pass {
     }
 }
 
+/// Which sequences a walk places.
+#[derive(Clone, Copy)]
+pub(super) enum Scope {
+    /// Every sequence whose run may be under way (an abort-all).
+    Everything,
+    /// A target and the sequences below it (a teardown).
+    Subtree(SeqId),
+    /// A target and the sequences below it that run in `lane`, the target's: its blocking
+    /// children (a pause or resume).
+    InLane { target: SeqId, lane: u8 },
+}
+
+impl Scope {
+    /// The sequence the walk is over the subtree of (none: every sequence).
+    fn target(self) -> Option<SeqId> {
+        match self {
+            Scope::Everything => None,
+            Scope::Subtree(t) | Scope::InLane { target: t, .. } => Some(t),
+        }
+    }
+
+    /// Whether a sequence that runs in `lane` may be placed.
+    fn takes_lane(self, lane: u8) -> bool {
+        match self {
+            Scope::InLane { lane: l, .. } => l == lane,
+            Scope::Everything | Scope::Subtree(_) => true,
+        }
+    }
+}
+
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// The sequences that are `target` or below it (every one without a target) whose
-    /// state is in `states` and, with a `lane`, that run in that lane, and that `keep`
-    /// keeps (given the count of the run looked at), by depth.
+    /// The sequences in `scope` whose state is in `states` and that `keep` keeps (given the
+    /// count of the run looked at), by depth.
     ///
     /// Only the sequences that can qualify are visited: below a target, the target and
-    /// those with a caller link (`Called`; a sequence below another one has one); without
-    /// a target, every one whose run may be under way (with several words `Live` as of
-    /// the last fold and those `Changed` since, else every registered one). Each is placed
-    /// by walking its caller links up (a non-blocking child may outlive its caller and
-    /// still link to it): with a coarse lock in one section, else one short section per
-    /// step. The tree may change meanwhile: each change made from the rows is re-checked
-    /// where it is made, and a run begun meanwhile makes the walk pass again.
+    /// those with a caller link (`Called`; a sequence below another one has one); for
+    /// every sequence, every one whose run may be under way (with several words `Live` as
+    /// of the last fold and those `Changed` since, else every registered one). Each is
+    /// placed by walking its caller links up (a non-blocking child may outlive its caller
+    /// and still link to it): with a coarse lock in one section, else one short section
+    /// per step. The tree may change meanwhile: each change made from the rows is
+    /// re-checked where it is made, and a run begun meanwhile makes the walk pass again.
     pub(super) fn levels(
         &self,
-        target: Option<SeqId>,
+        scope: Scope,
         states: States,
-        lane: Option<u8>,
         keep: &mut dyn FnMut(SeqId, u16) -> bool,
     ) -> Rows<B> {
-        let candidates = self.with(|s| match target {
+        let candidates = self.with(|s| match scope.target() {
             Some(t) => s.sets.members(Set::Called).with(t),
             None if B == 1 => SeqSet::first(s.count()),
             None => s
@@ -84,7 +112,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut rows = [SeqSet::EMPTY; DEPTHS];
         let mut deepest = 0;
         for id in candidates {
-            let found = in_sections!(self, |s| depth_below(s, id, target, states, lane));
+            let found = in_sections!(self, |s| depth_below(s, id, scope, states));
             let Some((depth, runs)) = found else {
                 continue;
             };
@@ -98,9 +126,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 }
 
 /// Where [`Sequencer::levels`] places `id`: its depth (its number of callers, at most
-/// `MAX_DEPTH`) when its state is in `states`, it runs in `lane` (if given) and it is
-/// `target` or below it (every one without a target), with the count of the run looked
-/// at; else `None`.
+/// `MAX_DEPTH`) when its state is in `states` and it is in `scope`, with the count of the
+/// run looked at; else `None`.
 fn depth_below<
     C,
     S: Sections<C, N, T, W, B>,
@@ -111,15 +138,15 @@ fn depth_below<
 >(
     s: &mut S,
     id: SeqId,
-    target: Option<SeqId>,
+    scope: Scope,
     states: States,
-    lane: Option<u8>,
 ) -> Option<(usize, u16)> {
     let (mut up, runs) = s.section(|s| {
         let b = s.block(id)?;
-        let ok = states.has(b.state) && lane.is_none_or(|l| l == b.lane);
+        let ok = states.has(b.state) && scope.takes_lane(b.lane);
         ok.then_some((b.caller, b.runs))
     })?;
+    let target = scope.target();
     let mut below = target.is_none_or(|t| t == id);
     let mut depth = 0;
     while let Some(at) = up.get() {
