@@ -54,8 +54,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// One step of the held check of a due wake-up ([`held`]): `None` when `at` holds its
-    /// callees (its clearance is not `Go`), else its caller in `lane` to check next
-    /// ([`Link::NONE`] at the top of the lane).
+    /// callees (not running, or handling an exception), else its caller in `lane` to check
+    /// next ([`Link::NONE`] at the top of the lane). A run the tick is to abort (its abort
+    /// requested, an abort-all waiting) holds too, but is not checked here: it is never
+    /// let go, so its due poll needs no skipping, and its wake-up finds it holding.
     pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
         let b = self.block(at)?;
         if b.state != RunningState::Running || self.sets.has(Set::Excepting, at) {

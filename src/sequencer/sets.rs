@@ -172,7 +172,8 @@ impl<const B: usize> Sets<B> {
         }
     };
 
-    /// Row `w`. A sequencer of one-word sets hands out only ids below 32.
+    /// Row `w`. A sequencer of one-word sets hands out only ids below 32, so its one row
+    /// is every row: the index needs no check.
     #[inline(always)]
     fn row(&self, w: usize) -> Option<&Row> {
         if B == 1 {
@@ -234,7 +235,9 @@ impl<const B: usize> Sets<B> {
         }
     }
 
-    /// Word `w` of `set` (empty beyond the sets' words).
+    /// Word `w` of `set`: empty beyond the sets' words, except with one word, where every
+    /// `w` reads word 0 (see [`row`](Self::row)): such a sequencer has no ids of 32 and
+    /// above, so no caller asks for another word.
     #[inline(always)]
     pub(crate) fn word(&self, set: Set, w: usize) -> SetWord<B> {
         let bits = self.row(w).map_or(0, |row| row.get(set));
