@@ -135,6 +135,15 @@ impl Behaviour {
             Behaviour::AbortCallerOfOwner | Behaviour::RestartCallerOfOwner
         )
     }
+
+    /// The sequence this behaviour acts on for `owner` whose caller is `caller`: the
+    /// caller for a `…CallerOfOwner` behaviour of an owner that has one, else the owner.
+    pub(crate) const fn target(self, owner: SeqId, caller: Option<SeqId>) -> SeqId {
+        match caller {
+            Some(c) if self.targets_caller() => c,
+            _ => owner,
+        }
+    }
 }
 
 /// When a monitor fires.

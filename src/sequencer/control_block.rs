@@ -155,7 +155,9 @@ pub(crate) struct ControlBlock {
     pub(crate) clock: u32,
     /// [`flag`]s, [`request`]s and the pending behaviour.
     pub(crate) flags: u16,
-    /// Starts (not restarts): a new run resets the restart books of the monitors.
+    /// The count of starts (not restarts), wrapping: the current run's count in its
+    /// `RunId`, by which futures, contexts, joins, requests and teardowns tell its runs
+    /// apart. A new run also resets the monitors' restart books.
     pub(crate) runs: u16,
     pub(crate) timeout_runs_seen: u16,
     /// `activeException`: the monitor (or timeout) whose exception is active or was last.

@@ -2,7 +2,7 @@
 
 use crate::lock::Lock;
 use crate::model::id::RunId;
-use crate::model::set::SetWord;
+use crate::model::set::{SeqSet, SetWord};
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
@@ -242,12 +242,24 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
                 .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION))
     }
 
-    /// The current (or last) run of `id`: for a start the tick makes for `id`, which no
-    /// lane preempts.
+    /// The current (or last) run of `id` (count 0 for an id not registered).
     pub(crate) fn current_run(&self, id: SeqId) -> RunId {
         RunId {
             seq: id,
             count: self.block(id).map_or(0, |b| b.runs),
+        }
+    }
+
+    /// The sequences whose run may be under way: with one word every registered one (a
+    /// word is cheap to walk), with several those live at the tick's last fold
+    /// (`Set::Live`) and those changed since (`Set::Changed`).
+    pub(crate) fn maybe_under_way(&self) -> SeqSet<B> {
+        if B == 1 {
+            SeqSet::first(self.count())
+        } else {
+            self.sets
+                .members(Set::Live)
+                .union(&self.sets.members(Set::Changed))
         }
     }
 

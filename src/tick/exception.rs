@@ -228,7 +228,6 @@ fn mark<
     } else {
         States::RUNNING_OR_PAUSED
     };
-    let targets_caller = reaction.behaviour.targets_caller();
     // Four sections. With the portable lock a lane of higher priority may end or start
     // the owner in between: the mark is made only if the owner still runs the run the
     // first section saw, in a state that takes it; then it is counted and recorded.
@@ -241,10 +240,7 @@ fn mark<
         {
             return None;
         }
-        let target = match b.caller.get() {
-            Some(caller) if targets_caller => caller,
-            _ => owner,
-        };
+        let target = reaction.behaviour.target(owner, b.caller.get());
         Some((target, b.runs, b.lane))
     })?;
     let (target_runs, due) =

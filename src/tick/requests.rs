@@ -3,7 +3,6 @@
 //! exception sequences that ended (their owners are requested when the tick folds the end).
 
 use crate::lock::Lock;
-use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sets::Set;
@@ -31,14 +30,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// meanwhile counts too (a lane of higher priority may start one while the tick looks).
     fn any_under_way(&self) -> bool {
         let (monitored, candidates, begun) = self.with(|s| {
-            let candidates = if B == 1 {
-                SeqSet::first(s.count())
-            } else {
-                s.sets
-                    .members(Set::Live)
-                    .union(&s.sets.members(Set::Changed))
-            };
-            (!s.sets.is_empty(Set::Monitored), candidates, s.runs_begun)
+            (
+                !s.sets.is_empty(Set::Monitored),
+                s.maybe_under_way(),
+                s.runs_begun,
+            )
         });
         if monitored {
             return true;
@@ -78,10 +74,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     let b = s
                         .block(id)
                         .filter(|b| States::RUNNING_OR_PAUSED.has(b.state))?;
-                    let target = match b.caller.get() {
-                        Some(caller) if behaviour.targets_caller() => caller,
-                        _ => id,
-                    };
+                    let target = behaviour.target(id, b.caller.get());
                     let cause = b.active_exception.unwrap_or(Cause::Abort);
                     Some((cause, s.current_run(target)))
                 });

@@ -38,7 +38,7 @@ pub(crate) struct Class<const B: usize> {
     /// The period (µs); `None` (zero bytes, so an empty sequencer is all zeros) only in
     /// an unused class.
     period: Option<NonZeroU32>,
-    /// The next poll while the class has an monitored member.
+    /// The next poll while the class has a monitored member.
     next: Stamp,
     members: SeqSet<B>,
 }
@@ -58,7 +58,7 @@ pub(crate) struct Scan {
     /// The classes found due in this tick, bit `i` for class `i`: a class is due once per
     /// tick, whichever words hold its monitored members.
     due_classes: u8,
-    /// Time from now to the next poll of a class with an monitored member (µs; `u32::MAX`
+    /// Time from now to the next poll of a class with a monitored member (µs; `u32::MAX`
     /// when there is none).
     pub(crate) ahead: u32,
 }
@@ -152,7 +152,7 @@ impl<const B: usize> Classes<B> {
             .map_or(SeqSet::EMPTY, |c| c.members)
     }
 
-    /// The next poll of class `index`, whose grid a start into it joins (an monitored member
+    /// The next poll of class `index`, whose grid a start into it joins (a monitored member
     /// keeps the grid).
     pub(crate) fn next_poll(&self, index: u8, now: Stamp) -> Stamp {
         self.list.get(usize::from(index)).map_or(now, |c| c.next)
@@ -208,7 +208,7 @@ impl<const B: usize> Classes<B> {
 
 impl<const B: usize> Class<B> {
     /// The due polls of this class (bit `bit` of [`Scan::due_classes`]) in the word
-    /// `monitored` of the monitored sequences. When the class has an monitored member there and its
+    /// `monitored` of the monitored sequences. When the class has a monitored member there and its
     /// poll is due, advances its grid, unless an earlier word of this tick did.
     #[inline(always)]
     fn scan(&mut self, bit: u8, now: Stamp, monitored: SetWord<B>, scan: &mut Scan) -> SetWord<B> {

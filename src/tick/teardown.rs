@@ -258,7 +258,7 @@ fn leave_for_teardown<
     cause: Cause,
     to: RunningState,
 ) -> Move<Option<fn(&C)>> {
-    // Before a teardown, what it leaves behind: the cause a later gate reports; after an
+    // Before a teardown, what it leaves behind: the cause a later clearance reports; after an
     // abort no pending pause or resume and no start left for its lane to take (the run is
     // over before it began: nothing of it must look under way; a restart goes on with the
     // same run, which keeps the requests made of it); and the hook.

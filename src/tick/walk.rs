@@ -103,11 +103,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Rows<B> {
         let candidates = self.with(|s| match scope.target() {
             Some(t) => s.sets.members(Set::Called).with(t),
-            None if B == 1 => SeqSet::first(s.count()),
-            None => s
-                .sets
-                .members(Set::Live)
-                .union(&s.sets.members(Set::Changed)),
+            None => s.maybe_under_way(),
         });
         let mut rows = [SeqSet::EMPTY; DEPTHS];
         let mut deepest = 0;
