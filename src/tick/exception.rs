@@ -140,7 +140,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
         }
         if running {
-            self.pause_tree(owner, cause);
+            self.pause_tree(run, cause);
         }
         true
     }
@@ -153,10 +153,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if let Some(b) = s.block_mut(owner) {
                 b.monitor_holds = b.monitor_holds.saturating_sub(1);
             }
-            !s.stays_paused(owner)
+            (!s.stays_paused(owner)).then(|| s.current_run(owner))
         });
-        if released {
-            self.resume_tree(owner, cause);
+        if let Some(run) = released {
+            self.resume_tree(run, cause);
         }
     }
 
@@ -184,7 +184,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 self.restart_tree(control, target, cause);
             }
             // Applied once, it pauses (the tick's `hold` also resumes).
-            Behaviour::PauseOwner => self.pause_tree(target.seq, cause),
+            Behaviour::PauseOwner => self.pause_tree(target, cause),
         }
     }
 }

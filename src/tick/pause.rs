@@ -3,6 +3,7 @@
 //! timeout) stops, its monitors stay active.
 
 use crate::lock::Lock;
+use crate::model::id::RunId;
 use crate::model::state::States;
 use crate::model::time::Stamp;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
@@ -10,7 +11,7 @@ use crate::sequencer::sets::Set;
 use crate::tick::skip_untaken_polls;
 use crate::tick::walk::{Pass, Scope};
 use crate::trace::StateChange;
-use crate::{Cause, RunningState, SeqId, Sequencer};
+use crate::{Cause, RunningState, Sequencer};
 
 /// A pause or a resume.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -42,15 +43,18 @@ impl Pausing {
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Pauses a running `target` and its blocking children (in its lane), outermost first,
-    /// for `cause` (a pause request, a `PauseOwner` monitor).
-    pub(crate) fn pause_tree(&self, target: SeqId, cause: Cause) {
+    /// Pauses the running run `target` and its blocking children (in its lane), outermost
+    /// first, for `cause` (a pause request, a `PauseOwner` monitor). Nothing once `target`
+    /// is no longer its sequence's run (a lane of higher priority may end it and start the
+    /// sequence again before the pause's first section).
+    pub(crate) fn pause_tree(&self, target: RunId, cause: Cause) {
         self.pausing(target, Pausing::Pause, cause);
     }
 
-    /// Resumes a paused `target` and its blocking children (in its lane), outermost first,
-    /// unless something else holds them: one kept paused keeps those below it.
-    pub(crate) fn resume_tree(&self, target: SeqId, cause: Cause) {
+    /// Resumes the paused run `target` and its blocking children (in its lane), outermost
+    /// first, unless something else holds them: one kept paused keeps those below it.
+    /// Nothing once `target` is no longer its sequence's run.
+    pub(crate) fn resume_tree(&self, target: RunId, cause: Cause) {
         self.pausing(target, Pausing::Resume, cause);
     }
 
@@ -58,7 +62,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// sections a lane of higher priority may start a run below a sequence the pass has not
     /// reached yet: the pass is then made again, for what began below the target, which is
     /// found in the state it entered.
-    fn pausing(&self, target: SeqId, how: Pausing, cause: Cause) {
+    fn pausing(&self, target: RunId, how: Pausing, cause: Cause) {
         let mut target_in = how.from();
         for _ in 0..=2 * N {
             let begun = self.with(|s| s.runs_begun);
@@ -75,15 +79,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(never)]
     fn pausing_pass(
         &self,
-        target: SeqId,
+        run: RunId,
         how: Pausing,
         cause: Cause,
         begun: u32,
         target_in: RunningState,
     ) -> Pass {
+        let target = run.seq;
         let Some(lane) = self.with(|s| {
             s.block(target)
-                .filter(|b| b.state == target_in)
+                .filter(|b| b.state == target_in && b.runs == run.count)
                 .map(|b| b.lane)
         }) else {
             return Pass::Done;
@@ -102,34 +107,45 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             for id in rows.at(depth) {
                 // A resume of the target resumes its blocking children unless something
                 // else holds them.
-                let kept =
-                    how == Pausing::Resume && id != target && self.with(|s| s.stays_paused(id));
+                if id == target {
+                    self.pause_one(run, cause, how);
+                    continue;
+                }
+                // A blocking child is moved whatever run it is in: one begun below the
+                // target belongs to the target's run.
+                let (child, kept) = self.with(|s| {
+                    let kept = how == Pausing::Resume && s.stays_paused(id);
+                    (s.current_run(id), kept)
+                });
                 if !kept {
-                    self.pause_one(id, cause, how);
+                    self.pause_one(child, cause, how);
                 }
             }
         }
-        // A run begun during the pass (a blocking start below a sequence not paused yet, or
-        // a restart taken up below the target, which the look passed over while it was
-        // `Restarting`) is found by the next. A move that lost its race needs no pass of its own: a
-        // sequence leaves `Running` or `Paused` and comes back only through a restart,
-        // which only the tick (this one) begins; so one that left its state between the
-        // look and the move ended or is being torn down, and no pass would move it.
+        // A run begun during the pass (a blocking start below a sequence not paused yet, a
+        // restart taken up below the target, which the look passed over while it was
+        // `Restarting`, a child ended and begun again) is found by the next. A move that
+        // lost its race needs no pass of its own: a run leaves `Running` or `Paused` and
+        // comes back only through a restart, which only the tick (this one) begins; so one
+        // that left its state between the look and the move ended or is being torn down.
+        // A new run of the target is not this pause's: `leave_for_pause` moves only the
+        // run it names.
         Pass::of(self.with(|s| s.runs_begun) == begun)
     }
 
-    /// Pauses or resumes one sequence (`how`: from `Running` to `Paused`, or back), and
+    /// Pauses or resumes the run `run` (`how`: from `Running` to `Paused`, or back), and
     /// wakes its lane.
-    fn pause_one(&self, id: SeqId, cause: Cause, how: Pausing) {
-        if in_sections!(self, |s| leave_for_pause(s, id, cause, how)) {
-            in_sections_then_wake!(self, |s| s.section(|s| s.lane_of(id)));
+    fn pause_one(&self, run: RunId, cause: Cause, how: Pausing) {
+        if in_sections!(self, |s| leave_for_pause(s, run, cause, how)) {
+            in_sections_then_wake!(self, |s| s.section(|s| s.lane_of(run.seq)));
         }
     }
 }
 
-/// The steps of [`Sequencer::pause_one`] before the wake-up: `id` leaves the state `how`
-/// leaves for the one it enters; its run's clock (and its timeout) stops or goes on. False
-/// when it was not in that state, or left it for another transition before the move.
+/// The steps of [`Sequencer::pause_one`] before the wake-up: the run `run` leaves the state
+/// `how` leaves for the one it enters; its clock (and its timeout) stops or goes on. False
+/// when it was not in that state, is over, or left it for another transition before the
+/// move.
 fn leave_for_pause<
     C,
     S: Sections<C, N, T, W, B>,
@@ -139,19 +155,15 @@ fn leave_for_pause<
     const B: usize,
 >(
     s: &mut S,
-    id: SeqId,
+    run: RunId,
     cause: Cause,
     how: Pausing,
 ) -> bool {
-    let (from, to) = (how.from(), how.to());
-    if s.section(|s| s.state_of(id)) != from {
-        return false;
-    }
-    let change = StateChange::new(id, from, to, cause);
+    let change = StateChange::new(run.seq, how.from(), how.to(), cause);
     // A pause keeps a teardown's mark: the teardown still moves the paused run.
     s.section(|s| {
         let now = Stamp::of(s.now);
-        let Some(b) = s.transition(&change) else {
+        let Some(b) = s.transition_if(&change, |b| b.runs == run.count) else {
             return false;
         };
         // The clock stops or goes on with the move: the run time read by a lane of higher
@@ -159,8 +171,8 @@ fn leave_for_pause<
         b.flip_clock(now);
         // A due poll its lane has not taken yet is skipped, not taken when the pause
         // ends (semantics 1).
-        if to == RunningState::Paused {
-            s.sets.remove(Set::PollDue, id);
+        if how == Pausing::Pause {
+            s.sets.remove(Set::PollDue, run.seq);
         }
         true
     })

@@ -84,12 +84,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             match req {
                 Some(Request::Abort) => self.tear_down(control, run, Cause::Abort),
-                Some(Request::Pause) => self.pause_tree(id, Cause::Pause),
+                Some(Request::Pause) => self.pause_tree(run, Cause::Pause),
                 // A sequence frozen by the paused caller it blocks resumes with that
                 // caller (its clock stays stopped meanwhile): the request lifted its own
                 // pause, if any.
                 Some(Request::Resume) if self.with(|s| s.stays_paused(id)) => {}
-                Some(Request::Resume) => self.resume_tree(id, Cause::Resume),
+                Some(Request::Resume) => self.resume_tree(run, Cause::Resume),
                 None => {}
             }
         }

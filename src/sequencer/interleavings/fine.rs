@@ -9,6 +9,7 @@
 use super::*;
 
 use crate::lock::interleaved::Interleaved;
+use crate::Request;
 
 /// The world every test here uses: the portable interleaving lock, one word.
 type World = super::World<Interleaved, 8, 1>;
@@ -179,18 +180,21 @@ fn a_run_replaced_during_a_firing_on_it_leaves_the_new_run_alone() {
     }
 }
 
-/// O runs, its abort is requested; O's lane, of higher priority than the tick, drops O's
-/// run and starts O again (a handle; the lane takes run 2) before section `k` of the tick
-/// at 1 ms that carries the request out. The request was run 1's (a new run's commit
-/// clears it): run 2 runs on, whatever `k`, unless the tick's teardown had O `Aborting`
-/// (then the start is refused and there is no run 2).
-#[test]
-fn a_run_replaced_during_the_abort_requested_of_it_runs_on() {
-    let setup = || {
+/// O runs, its abort (or pause) is requested; O's lane, of higher priority than the tick,
+/// drops O's run and starts O again (a handle; the lane takes run 2) before section `k` of
+/// the tick at 1 ms that carries the request out. The request was run 1's (a new run's
+/// commit clears it): run 2 runs on, whatever `k`, unless the tick's teardown had O
+/// `Aborting` (then the start is refused and there is no run 2).
+fn replaced_during_request(request: Request) {
+    let setup = move || {
         let w = World::new(Layout::One);
         let o = w.seq("O");
         w.start_taken(o);
-        w.handle(o).abort().unwrap();
+        match request {
+            Request::Abort => w.handle(o).abort().unwrap(),
+            Request::Pause => w.handle(o).pause().unwrap(),
+            Request::Resume => unreachable!("not requested here"),
+        }
         (w, o)
     };
     let count = sections(setup, |(w, _)| w.tick(1));
@@ -203,14 +207,20 @@ fn a_run_replaced_during_the_abort_requested_of_it_runs_on() {
             }
         });
         w.tick(1);
-        let what = format!("k={k}");
-        if w.runs(o) == 2 {
-            assert_eq!(w.state(o), Running, "{what}");
-        } else {
-            assert_eq!(w.ended(o), (Aborted, Cause::Abort), "{what}");
+        let what = format!("{request:?}, k={k}");
+        match (w.runs(o), request) {
+            (2, _) => assert_eq!(w.state(o), Running, "{what}"),
+            (_, Request::Abort) => assert_eq!(w.ended(o), (Aborted, Cause::Abort), "{what}"),
+            other => panic!("{what}: {other:?}"),
         }
         w.check(&what);
     });
+}
+
+#[test]
+fn a_run_replaced_during_the_request_of_it_runs_on() {
+    replaced_during_request(Request::Abort);
+    replaced_during_request(Request::Pause);
 }
 
 // ---------------------------------------------------------------------------------------
