@@ -80,8 +80,10 @@ pub(crate) mod flag {
     pub const STOPPING: u16 = 1 << 3;
     /// The exception sequence ended; the tick applies the pending behaviour.
     pub const EXCEPTION_DONE: u16 = 1 << 5;
-    /// A [`Seq`](crate::Seq) object was bound to this id.
-    pub const BOUND: u16 = 1 << 6;
+    /// The run's clock is stopped (it is paused): [`ControlBlock::clock`] holds its
+    /// unpaused time so far. The clock's own mark, not the state, says how to read it:
+    /// a pause moves the state and the clock in two sections.
+    pub const CLOCK_STOPPED: u16 = 1 << 6;
     /// This run is an exception sequence: its caller is the owner whose exception it
     /// handles, and its end is reported to the tick.
     pub const HANDLES_EXCEPTION: u16 = 1 << 9;
@@ -236,22 +238,25 @@ impl ControlBlock {
 
     /// The current run's unpaused time at `now` (µs, modulo 2³² µs, about 71.6 minutes):
     /// what its timeout and [`Cx::run_time`](crate::Cx::run_time) count. A run's start
-    /// sets the clock to 0; a pause and a resume each flip it ([`flip_clock`]).
+    /// sets it to 0; a pause stops the clock ([`stop_clock`]), a resume lets it run on
+    /// ([`run_clock`]).
     ///
-    /// [`flip_clock`]: Self::flip_clock
+    /// [`stop_clock`]: Self::stop_clock
+    /// [`run_clock`]: Self::run_clock
     #[inline]
     pub(crate) fn run_time(&self, now: Stamp) -> u32 {
-        if self.state == RunningState::Paused {
+        if self.has(flag::CLOCK_STOPPED) {
             self.clock
         } else {
             now.0.wrapping_sub(self.clock)
         }
     }
 
-    /// Starts the run's clock at `now`.
+    /// Starts the run's clock at `now`, running.
     #[inline]
     pub(crate) fn start_clock(&mut self, now: Stamp) {
         self.clock = now.0;
+        self.set(flag::CLOCK_STOPPED, false);
     }
 
     /// A run starts (or restarts) unpaused: no `PauseOwner` monitor holds it (their edge
@@ -262,11 +267,25 @@ impl ControlBlock {
         self.set(flag::PAUSED_BY_REQUEST, false);
     }
 
-    /// At a pause (a resume) at `now`: the clock keeps the run's unpaused time (the stamp
-    /// from which it counts again). Both are `now` minus what the clock held.
+    /// At a pause at `now`: the clock keeps the run's unpaused time so far (`now` minus
+    /// the stamp from which it counted). A stopped clock stays as it is.
     #[inline]
-    pub(crate) fn flip_clock(&mut self, now: Stamp) {
-        self.clock = now.0.wrapping_sub(self.clock);
+    pub(crate) fn stop_clock(&mut self, now: Stamp) {
+        if !self.has(flag::CLOCK_STOPPED) {
+            self.clock = now.0.wrapping_sub(self.clock);
+            self.set(flag::CLOCK_STOPPED, true);
+        }
+    }
+
+    /// At a resume at `now`: the clock counts again, from the stamp that makes its run
+    /// time what it was (`now` minus the unpaused time it kept). A running clock stays as
+    /// it is.
+    #[inline]
+    pub(crate) fn run_clock(&mut self, now: Stamp) {
+        if self.has(flag::CLOCK_STOPPED) {
+            self.clock = now.0.wrapping_sub(self.clock);
+            self.set(flag::CLOCK_STOPPED, false);
+        }
     }
 
     /// Whether the armed timeout has run out at `now` (paused time not counted).
@@ -349,19 +368,19 @@ mod tests {
     #[test]
     fn pending_behaviour_round_trips_without_touching_the_flags() {
         let mut b = ControlBlock::IDLE;
-        b.flags = flag::BOUND | flag::START_PENDING | request::PAUSE;
+        b.flags = flag::STOPPING | flag::START_PENDING | request::PAUSE;
         for p in pending::BEHAVIOURS.iter().copied().map(Some).chain([None]) {
             b.set_pending(p);
             assert_eq!(b.pending(), p);
             assert_eq!(
                 b.flags & !pending::MASK,
-                flag::BOUND | flag::START_PENDING | request::PAUSE
+                flag::STOPPING | flag::START_PENDING | request::PAUSE
             );
         }
         assert_eq!(b.take_request(), Some(Request::Pause));
         assert_eq!(
             b.flags,
-            flag::BOUND | flag::START_PENDING | flag::PAUSED_BY_REQUEST
+            flag::STOPPING | flag::START_PENDING | flag::PAUSED_BY_REQUEST
         );
     }
 

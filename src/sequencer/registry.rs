@@ -6,8 +6,9 @@ use core::cell::Cell;
 use crate::lock::Lock;
 use crate::model::table::CheckedConfig;
 use crate::sequence::SeqHead;
-use crate::sequencer::control_block::{flag, NO_LANE};
+use crate::sequencer::control_block::NO_LANE;
 use crate::sequencer::port::Port;
+use crate::sequencer::sets::Set;
 use crate::tick::schedule::Classes;
 use crate::{Error, Handle, Seq, SeqConfig, SeqId, Sequencer, Table};
 
@@ -170,11 +171,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // tag counter's critical section is the platform's code).
         let fresh = (self.with(|s| s.tag) == 0).then(next_tag);
         let maker = self.with(|s| {
-            let b = s.block_mut(id).ok_or(Error::UnknownSequence(id))?;
-            if b.has(flag::BOUND) {
+            s.block(id).ok_or(Error::UnknownSequence(id))?;
+            if s.sets.has(Set::Bound, id) {
                 return Err(Error::AlreadyBound(id));
             }
-            b.set(flag::BOUND, true);
+            s.sets.insert(Set::Bound, id);
             if let (0, Some(tag)) = (s.tag, fresh) {
                 s.tag = tag;
             }

@@ -50,10 +50,14 @@ pub(crate) enum Set {
     /// Its caller link is set (`callerSequence`): the sequences below another one are
     /// among these, so a teardown or pause of one sequence visits only them.
     Called,
+    /// A sequence object ([`Seq`](crate::Seq)) was bound to it: a property of the
+    /// registration, set once and never cleared, kept apart from a run's flags, which
+    /// every start writes anew.
+    Bound,
 }
 
 /// The number of sets (the index has a place for each).
-const SETS: usize = 12;
+const SETS: usize = 13;
 
 impl Set {
     /// Whether the set keeps an index of its non-empty words: the sets the tick tests
@@ -90,6 +94,7 @@ pub(crate) struct Row {
     joining: u32,
     requested: u32,
     called: u32,
+    bound: u32,
 }
 
 impl Row {
@@ -106,6 +111,7 @@ impl Row {
         joining: 0,
         requested: 0,
         called: 0,
+        bound: 0,
     };
 
     #[inline(always)]
@@ -123,6 +129,7 @@ impl Row {
             Set::Joining => self.joining,
             Set::Requested => self.requested,
             Set::Called => self.called,
+            Set::Bound => self.bound,
         }
     }
 
@@ -141,6 +148,7 @@ impl Row {
             Set::Joining => &mut self.joining,
             Set::Requested => &mut self.requested,
             Set::Called => &mut self.called,
+            Set::Bound => &mut self.bound,
         }
     }
 }

@@ -77,7 +77,7 @@ struct NewRun {
     lane: u8,
     /// The run of its caller, if any.
     caller: Option<RunId>,
-    /// Its flags (the sequence's `BOUND` flag stays as it is).
+    /// Its flags, all of them.
     flags: u16,
     /// The tick starts it (see [`Mode::by_tick`]).
     by_tick: bool,
@@ -252,8 +252,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         let b = self.transition(change)?;
         b.caller = Link::to(run.caller.map(|c| c.seq));
-        // `BOUND` as it is now: an object may have been bound since the start's checks.
-        b.flags = (b.flags & flag::BOUND) | run.flags;
+        b.flags = run.flags;
         b.runs = b.runs.wrapping_add(1);
         Some(RunId {
             seq: change.sequence,
@@ -279,7 +278,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             Cause::Pause,
         );
         if let Some(b) = self.transition(&change) {
-            b.flip_clock(now);
+            b.stop_clock(now);
         }
     }
 

@@ -161,19 +161,29 @@ fn leave_for_pause<
 ) -> bool {
     let change = StateChange::new(run.seq, how.from(), how.to(), cause);
     // A pause keeps a teardown's mark: the teardown still moves the paused run.
+    if !s.section(|s| s.transition_if(&change, |b| b.runs == run.count).is_some()) {
+        return false;
+    }
+    // Then its clock stops or runs on (the clock's mark says which, so the run time read
+    // in between is the running clock's), and a due poll its lane has not taken yet is
+    // skipped, not taken when the pause ends (semantics 1): unless the run was moved
+    // again meanwhile.
     s.section(|s| {
         let now = Stamp::of(s.now);
-        let Some(b) = s.transition_if(&change, |b| b.runs == run.count) else {
-            return false;
+        let to = how.to();
+        let Some(b) = s
+            .block_mut(run.seq)
+            .filter(|b| b.runs == run.count && b.state == to)
+        else {
+            return;
         };
-        // The clock stops or goes on with the move: the run time read by a lane of higher
-        // priority is never the new state's with the old clock.
-        b.flip_clock(now);
-        // A due poll its lane has not taken yet is skipped, not taken when the pause
-        // ends (semantics 1).
-        if how == Pausing::Pause {
-            s.sets.remove(Set::PollDue, run.seq);
+        match how {
+            Pausing::Pause => {
+                b.stop_clock(now);
+                s.sets.remove(Set::PollDue, run.seq);
+            }
+            Pausing::Resume => b.run_clock(now),
         }
-        true
-    })
+    });
+    true
 }
