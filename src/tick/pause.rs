@@ -113,11 +113,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 }
                 // A blocking child is moved whatever run it is in: one begun below the
                 // target belongs to the target's run.
-                let (child, kept) = self.with(|s| {
-                    let kept = how == Pausing::Resume && s.stays_paused(id);
-                    (s.current_run(id), kept)
-                });
+                let kept = how == Pausing::Resume && self.with(|s| s.stays_paused(id));
                 if !kept {
+                    let child = self.with(|s| s.current_run(id));
                     self.pause_one(child, cause, how);
                 }
             }
