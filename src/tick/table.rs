@@ -48,7 +48,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
     /// Whether a due tick with `table` would be refused with
-    /// [`Error::ForeignMonitorTable`]: the simulator's first start asks.
+    /// [`Error::ForeignMonitorTable`](crate::Error::ForeignMonitorTable): the simulator's
+    /// first start asks.
     #[cfg(feature = "std")]
     pub(crate) fn is_foreign_table<const M: usize, K>(
         &self,
