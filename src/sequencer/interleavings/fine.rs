@@ -200,12 +200,7 @@ fn replaced_during_request(request: Request) {
     let count = sections(setup, |(w, _)| w.tick(1));
     every_k(count, |k| {
         let (w, o) = setup();
-        interleaved::at(k, move || {
-            Port::abandon(w.seq, o, &());
-            if w.handle(o).start().is_ok() {
-                w.take(o);
-            }
-        });
+        interleaved::at(k, move || w.replace_run(o));
         w.tick(1);
         let what = format!("{request:?}, k={k}");
         match (w.runs(o), request) {

@@ -324,6 +324,16 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
         self.take(id)
     }
 
+    /// `id`'s lane drops its run (`Port::abandon`: aborted, `Dropped`), and a handle starts
+    /// `id` again, its lane taking the start; unless the start is refused (a teardown has
+    /// `id` `Aborting`).
+    fn replace_run(&self, id: SeqId) {
+        Port::abandon(self.seq, id, &());
+        if self.handle(id).start().is_ok() {
+            self.take(id);
+        }
+    }
+
     /// `id`'s lane takes its pending start.
     fn take(&self, id: SeqId) -> RunId {
         self.try_take(id).unwrap()
@@ -1132,13 +1142,7 @@ fn replaced_during_firing_tick<L: Lock + 'static, const N: usize, const B: usize
     let count = sections(setup, |(w, _, _, _)| w.tick(1));
     every_k(count, |k| {
         let (w, o, e, _) = setup();
-        interleaved::at(k, move || {
-            Port::abandon(w.seq, o, &());
-            // Refused while the tick's teardown has O `Aborting`.
-            if w.handle(o).start().is_ok() {
-                w.take(o);
-            }
-        });
+        interleaved::at(k, move || w.replace_run(o));
         w.tick(1);
         let what = format!("{layout:?}, {firing:?}, k={k}");
         let records = w.records();
