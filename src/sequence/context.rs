@@ -17,6 +17,15 @@ use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId
 /// What a running sequence or step sees: its id, the time, typed access to the control
 /// system, and the sequencer (start, join and inspect other sequences).
 ///
+/// Its futures ([`run`](Self::run), [`step`](Self::step), [`join`](Self::join),
+/// [`wait_until`](Self::wait_until), [`Scoped::join`]) are awaited in the action. They share
+/// the lane's one waker: each keeps the waker it was polled with as the lane's. So a
+/// combinator inside an action must poll every branch when the task is woken, as
+/// embassy-futures' `join` and `select` do; one that gives each branch a waker of its own
+/// and polls only the woken ones (`FuturesUnordered`) misses wake-ups. Nor are they polled
+/// from a condition method: with a waker of its own (`now_or_never`), a poll there takes
+/// the lane's place, and the lane is not woken again.
+///
 /// A main sequence that starts a status blinker non-blocking, runs a move blocking, and
 /// waits for the blinker:
 ///
@@ -71,13 +80,16 @@ pub struct Cx<'a, C> {
     /// The run of this sequence the context acts for (its count): set when the run
     /// starts, fixed while its action runs.
     run: Cell<u16>,
-    /// The polled waits ([`wait_until`](Self::wait_until)) of its action under way (bits 0
-    /// to 6), and [`DUE_TAKEN`]: one of them took the run's due poll in the action's
-    /// current poll, so the others check their conditions at that poll too (the run
-    /// clears it before each poll of the action). In the context's padding.
+    /// The polled waits ([`wait_until`](Self::wait_until)) of its run under way (bits 0
+    /// to 6, [`WAIT_COUNT`]) and [`DUE_TAKEN`]. In the context's padding; set anew for each
+    /// round of a run ([`new_round`](Self::new_round)).
     waits: Cell<u8>,
 }
 
+/// Bits of [`Cx::waits`]: the count of polled waits under way. A count that reached its
+/// top stays there until the round ends: the run then waits for polls until its end (a
+/// spurious poll at most), never stops waiting while a wait is under way.
+const WAIT_COUNT: u8 = 0x7F;
 /// Bit of [`Cx::waits`]: a polled wait took the due poll in the action's current poll.
 const DUE_TAKEN: u8 = 1 << 7;
 
@@ -109,6 +121,13 @@ impl<'a, C> Cx<'a, C> {
     /// From now on the context acts for `run` (of its sequence), which just started.
     pub(crate) fn enter(&self, run: RunId) {
         self.run.set(run.count);
+        self.new_round();
+    }
+
+    /// A run begins (or begins again after a restart): none of its polled waits is under
+    /// way. One of an earlier round that was leaked (`mem::forget`) is not counted.
+    pub(crate) fn new_round(&self) {
+        self.waits.set(0);
     }
 
     pub(crate) fn port(&self) -> &'a dyn Port<C> {
@@ -738,13 +757,14 @@ struct WaitUntil<'s, 'a, C, F> {
 impl<C, F> Unpin for WaitUntil<'_, '_, C, F> {}
 
 impl<C, F> WaitUntil<'_, '_, C, F> {
-    /// It no longer waits: the last polled wait of the action to end stops the polls.
+    /// It no longer waits: the last polled wait of the run to end stops the polls.
     fn finish(&mut self) {
-        if self.stage == WaitStage::Waiting {
-            let cx = self.cx;
-            let waits = cx.waits.get();
-            let left = (waits & !DUE_TAKEN).saturating_sub(1);
-            cx.waits.set((waits & DUE_TAKEN) | left);
+        let cx = self.cx;
+        let waits = cx.waits.get();
+        let count = waits & WAIT_COUNT;
+        if self.stage == WaitStage::Waiting && count != WAIT_COUNT {
+            let left = count.saturating_sub(1);
+            cx.waits.set((waits & !WAIT_COUNT) | left);
             if left == 0 {
                 cx.port.set_poll_wait(cx.run_id(), false);
             }
@@ -765,9 +785,9 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
             WaitStage::New => {
                 this.stage = WaitStage::Waiting;
                 let waits = cx.waits.get();
-                let count = waits & !DUE_TAKEN;
-                cx.waits
-                    .set((waits & DUE_TAKEN) | count.saturating_add(1).min(!DUE_TAKEN));
+                let count = waits & WAIT_COUNT;
+                let more = count.saturating_add(1).min(WAIT_COUNT);
+                cx.waits.set((waits & !WAIT_COUNT) | more);
                 if count == 0 {
                     port.set_poll_wait(run, true);
                 }
@@ -849,7 +869,7 @@ impl<C> Future for Join<'_, C> {
 impl<C> Drop for Join<'_, C> {
     fn drop(&mut self) {
         if self.waiting {
-            self.port.stop_join(self.me.seq);
+            self.port.stop_join(self.me.seq, self.target);
         }
     }
 }

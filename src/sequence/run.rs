@@ -150,6 +150,7 @@ impl<'a, C> Run<'a, C> {
             Clearance::Aborted(cause) => self.ended(Outcome::Aborted(cause)),
             Clearance::Restart => {
                 self.port().restart(self.run());
+                self.cx.new_round();
                 self.stage.set(Stage::PreCondition);
             }
         }
@@ -297,10 +298,13 @@ impl<'a, C> Run<'a, C> {
             return;
         };
         let port = self.port();
+        // Closed first: a start from now on is refused (`NoLane`), and one made before is
+        // aborted by the abandon (a start that checked the lane before the close is
+        // refused at its commit, which the close makes schedule again).
+        port.close_lane(self.cx.id(), head.maker);
         if self.stage.get() == Stage::Idle {
             port.abandon_start(self.cx.id(), head.maker, self.cx.control());
         }
-        port.close_lane(self.cx.id(), head.maker);
     }
 
     /// A run's whole poll; `Ready` with a blocking run's result once it is handed over.

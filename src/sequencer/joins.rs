@@ -30,21 +30,23 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// A join of `joiner` returned, or its future was dropped: it no longer waits. One
-    /// that waited in several joins at once (`JoinWait::ANY_END`) cannot tell which of
-    /// them are still pending: its wait is cleared all the same, and its lane is returned,
-    /// to wake, so that its pending joins, polled again, register anew (the first as the
-    /// join of its own run, which the cycle check follows). Otherwise `ANY_END` would stay
-    /// after a `select` of joins, and a cycle closed by a later join would go unseen.
-    pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId) -> LaneSet {
+    /// A join of `joiner` of `target` returned, or its future was dropped: `joiner` no
+    /// longer waits. A wait that was not this join's alone (several joins at once,
+    /// `JoinWait::ANY_END`, or another join of the same action registered since this one
+    /// last was) is cleared all the same, and the joiner's lane is returned, to wake, so
+    /// that its pending joins, polled again, register anew (one alone as the join of its
+    /// own run, which the cycle check follows). Otherwise a wait in several joins would
+    /// stay after a `select` of joins, and a cycle closed by a later join go unseen; or a
+    /// dropped join would take a pending one's wait with it, and its end wake no one.
+    pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId, target: SeqId) -> LaneSet {
         let Some(b) = self.block_mut(joiner) else {
             return LaneSet::EMPTY;
         };
-        let several = b.joins == JoinWait::ANY_END;
+        let others = b.joins != JoinWait::NOTHING && b.joins != JoinWait::end_of(target);
         b.joins = JoinWait::NOTHING;
         let lane = b.lane;
         self.sets.put(Set::Joining, joiner, false);
-        if several {
+        if others {
             LaneSet::of(lane)
         } else {
             LaneSet::EMPTY

@@ -316,6 +316,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             .map(|b| b.own_lane)
             .filter(|&l| l != NO_LANE)?;
         self.lanes_closed |= 1 << (lane & 31);
+        // A start that checked the lane before schedules again (its commit compares the
+        // count of changes) and is refused.
+        self.changes = self.changes.wrapping_add(1);
         // The remembered wake-ups may name its waker.
         self.polling.forget_woken();
         Some(lane)
@@ -327,7 +330,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Whether `lane` is open: no lane future in it was dropped since one last waited.
-    fn lane_open(&self, lane: u8) -> bool {
+    pub(crate) fn lane_open(&self, lane: u8) -> bool {
         self.lanes_closed & (1 << (lane & 31)) == 0
     }
 

@@ -73,6 +73,8 @@ impl Mode {
 /// What a start gives its new run.
 #[derive(Clone, Copy)]
 struct NewRun {
+    /// Its sequence.
+    seq: SeqId,
     /// Its lane slot.
     lane: u8,
     /// The run of its caller, if any.
@@ -115,8 +117,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// id), so nothing outlives its caller's stop; so is a start by a caller that a
     /// teardown is stopping ([`flag::STOPPING`]), whose abort is requested, or, unless it
     /// is the tick's start of an exception sequence, while an abort-all waits in the inbox
-    /// (`abort_all_posted`): it begins nothing more.
+    /// (`abort_all_posted`): it begins nothing more. A start in a lane whose lane future
+    /// was dropped since the start's checks is [`Error::NoLane`]: the close counts as a
+    /// change, so a start that opened before it schedules again and finds the lane closed.
     fn open_start(&self, run: &NewRun, abort_all_posted: bool) -> Result<u32, Error> {
+        if run.flags & flag::START_PENDING != 0 && !self.lane_open(run.lane) {
+            return Err(Error::NoLane(run.seq));
+        }
         match run.caller {
             Some(c)
                 if self.block(c.seq).is_none_or(|b| {
@@ -345,6 +352,7 @@ fn admit<
         }
     }
     Ok(NewRun {
+        seq: id,
         lane,
         caller,
         flags: mode.flags(),
@@ -534,6 +542,7 @@ mod tests {
         let mut state = registered(2, &[caller]);
         let mut s = Preempted::new(&mut state, at, between);
         let new = NewRun {
+            seq: id,
             lane: NO_LANE,
             caller: Some(RunId {
                 seq: caller,
@@ -604,6 +613,7 @@ mod tests {
         let mut state = registered(2, &[caller]);
         let mut s = Preempted::new(&mut state, PASS - 2, |s: &mut S| {
             let won = NewRun {
+                seq: id,
                 lane: NO_LANE,
                 caller: Some(RunId {
                     seq: caller,
@@ -618,6 +628,7 @@ mod tests {
             );
         });
         let lost = NewRun {
+            seq: id,
             lane: NO_LANE,
             caller: None,
             flags: 0,
@@ -710,6 +721,7 @@ mod tests {
             s.changes = s.changes.wrapping_add(1);
         });
         let new = NewRun {
+            seq: id,
             lane: NO_LANE,
             caller: None,
             flags: 0,

@@ -1399,6 +1399,57 @@ fn abandon_start_against_start<L: Lock + 'static, const N: usize, const B: usize
     );
 }
 
+/// X's lane future is dropped while it waits for a start (`Run::drop_lane`: its lane
+/// closed, then `Port::abandon_start`), and a handle starts X; each preempts the other
+/// before every section (`drop_first`: the drop is the preempted operation). With
+/// `pending`, a start was made before. No start is left pending in the closed lane, which
+/// no future would ever take: the handle's start is refused (`NoLane` once the lane is
+/// closed, `AlreadyRunning` while the earlier start is pending), or its run is aborted
+/// (`Dropped`) with what was pending.
+fn drop_lane_against_start<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    pending: bool,
+    drop_first: bool,
+) {
+    preempting(
+        &named::<L>(
+            layout,
+            format_args!("pending {pending}, drop first {drop_first}"),
+        ),
+        drop_first,
+        move || lone::<L, N, B>(layout, pending, false),
+        |(w, x)| {
+            Port::close_lane(w.seq, x, 0);
+            Port::abandon_start(w.seq, x, 0, &());
+        },
+        |(w, x)| w.kept(x).start(),
+        move |what, _, (), started, (w, x)| {
+            assert!(
+                !w.pending(x),
+                "{what}: {started:?}, a start pending in a closed lane"
+            );
+            match started {
+                Ok(()) => assert!(!pending, "{what}"),
+                Err(Error::NoLane(id) | Error::AlreadyRunning(id)) => assert_eq!(id, x, "{what}"),
+                Err(e) => panic!("{what}: {e:?}"),
+            }
+            if pending || started.is_ok() {
+                assert_eq!(w.ended(x), (Aborted, Cause::Dropped), "{what}");
+            } else {
+                assert_eq!(w.state(x), Idle, "{what}");
+            }
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_lane_dropped_while_it_waits_leaves_no_start_it_would_have_taken() {
+    for (pending, drop_first) in [(false, true), (false, false), (true, true), (true, false)] {
+        every_split_world!(drop_lane_against_start, pending, drop_first);
+    }
+}
+
 #[test]
 fn a_lane_dropped_against_a_handle_start_aborts_what_it_would_have_taken() {
     every_split_world!(abandon_start_against_start, true);

@@ -1,0 +1,303 @@
+//! Futures combined inside actions, as an application combines them: joins in `join` and
+//! `select`, a polled wait leaked, and an action holding every kind of
+//! rtseq future (a blocking run, a step, polled waits, joins, a `Scoped`) dropped by its
+//! lane or by a restart mid-way. Run under Miri too (`./x miri`, Stacked and Tree
+//! Borrows): the dropped actions are self-referential and dropped in place.
+//!
+//! An action's futures share its lane's one waker: a combinator inside an action must poll
+//! every branch when the task is woken (embassy-futures' `join` and `select` do), or
+//! forward the task's waker to each; one that gives each branch a waker of its own and
+//! polls only the woken ones (`FuturesUnordered`) misses wake-ups (`Cx` says so).
+
+use std::cell::Cell;
+use std::future::Future;
+use std::pin::{pin, Pin};
+use std::sync::atomic::{AtomicBool, Ordering::SeqCst};
+use std::task::{Context, Poll, Waker};
+
+use embassy_futures::join::join;
+use embassy_futures::select::select;
+use embassy_futures::yield_now;
+use rtseq::sim::Sim;
+use rtseq::RunningState::*;
+use rtseq::{
+    Behaviour, Cause, Cx, Duration, Error, Failure, Instant, Monitor, Monitors, Outcome, Seq,
+    SeqConfig, SeqId, Sequence, Sequencer, Wait,
+};
+
+#[derive(Default)]
+struct Ctrl {
+    /// What a join returned, and when (µs).
+    got: Cell<Option<(u64, Result<Outcome, Error>)>>,
+}
+
+/// Ends at its first poll.
+struct Quick;
+impl Sequence<Ctrl> for Quick {
+    async fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Ok(())
+    }
+}
+
+/// Ends after its dwell.
+struct Slow(Seq<Wait>);
+impl Sequence<Ctrl> for Slow {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.step(&mut self.0).await?;
+        Ok(())
+    }
+}
+
+/// Waits for Y; beside it, peeks once whether X is over (a `select` of a `yield_now` and
+/// a join of X, which the `yield_now` wins and so drops the join).
+struct Peek {
+    x: SeqId,
+    y: SeqId,
+}
+impl Sequence<Ctrl> for Peek {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.start(self.x)?;
+        cx.start(self.y)?;
+        let (y, _) = join(cx.join(self.y), select(yield_now(), cx.join(self.x))).await;
+        cx.control().got.set(Some((cx.now().as_ticks(), y)));
+        Ok(())
+    }
+}
+
+/// X ends at once, which wakes J (its join of X is pending beside the join of Y); J's
+/// join of X is then dropped by the `select`. That drop must not take the join of Y's
+/// wait with it: Y's end at 5 ms wakes J, whose join returns then.
+#[test]
+fn a_dropped_join_leaves_a_pending_join_of_the_same_action_waiting() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let x = seq.add(SeqConfig::new("X"), Quick).unwrap();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
+    let (xi, yi) = (x.id(), y.id());
+    let j = seq.add(SeqConfig::new("J"), Peek { x: xi, y: yi }).unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.lane(x);
+    sim.lane(y);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)),
+        Some(Instant::from_ticks(5_000))
+    );
+    assert_eq!((sim.state(xi), sim.state(yi)), (Terminated, Terminated));
+    assert_eq!(sim.state(ji), Terminated);
+    assert_eq!(ctrl.got.get(), Some((5_000, Ok(Outcome::Completed))));
+}
+
+/// Its first run leaks a polled wait (`mem::forget`, safe code) after one poll; its
+/// second run waits 3 ms in a polled wait.
+struct Leaks {
+    runs: u32,
+}
+impl Sequence<Ctrl> for Leaks {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        self.runs += 1;
+        if self.runs == 1 {
+            let mut w = cx.wait_until(|_| false);
+            std::future::poll_fn(|c| {
+                let _ = Pin::new(&mut w).poll(c);
+                Poll::Ready(())
+            })
+            .await;
+            std::mem::forget(w);
+            return Ok(());
+        }
+        let start = cx.now().as_ticks();
+        cx.wait_until(move |c| c.now().as_ticks() >= start + 3_000)
+            .await;
+        Ok(())
+    }
+}
+
+/// The wait leaked in the first run is not counted in the second: the second run's
+/// polled wait is polled, and the run ends 3 ms after its start.
+#[test]
+fn a_polled_wait_leaked_in_one_run_does_not_stall_the_next() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let l = seq.add(SeqConfig::new("leaks"), Leaks { runs: 0 }).unwrap();
+    let li = l.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(l);
+    sim.start(li).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    assert_eq!(sim.state(li), Terminated);
+    sim.start(li).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(10)),
+        Some(Instant::from_ticks(5_000))
+    );
+    assert_eq!(sim.state(li), Terminated);
+}
+
+/// Runs a dwell step beside a polled wait that never holds.
+struct Inner(Seq<Wait>);
+impl Sequence<Ctrl> for Inner {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let _ = join(cx.step(&mut self.0), cx.wait_until(|_| false)).await;
+        Ok(())
+    }
+}
+
+/// Holds every kind of rtseq future at once: a blocking run (whose action holds a step
+/// and a polled wait), a polled wait, a `Scoped`'s join and a join.
+struct Outer {
+    inner: Seq<Inner>,
+    other: SeqId,
+}
+impl Sequence<Ctrl> for Outer {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let scoped = cx.start_scoped(self.other)?;
+        let _ = join(
+            join(cx.run(&mut self.inner), cx.wait_until(|_| false)),
+            join(scoped.join(), cx.join(self.other)),
+        )
+        .await;
+        Ok(())
+    }
+}
+
+/// Outer's lane future is dropped at 3 ms, mid-action: Outer, its blocking child and the
+/// scoped child are aborted (`Dropped`), and the scoped child's own lane goes on.
+#[test]
+fn a_lane_dropped_mid_action_with_every_kind_of_future_aborts_its_runs() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let long = seq
+        .add(SeqConfig::new("long"), Wait::new(Duration::from_millis(50)))
+        .unwrap();
+    let long2 = seq
+        .add(
+            SeqConfig::new("long2"),
+            Wait::new(Duration::from_millis(50)),
+        )
+        .unwrap();
+    let mut other = seq.add(SeqConfig::new("other"), Slow(long2)).unwrap();
+    let oi = other.id();
+    let inner = seq.add(SeqConfig::new("inner"), Inner(long)).unwrap();
+    let ii = inner.id();
+    let mut outer = seq
+        .add(SeqConfig::new("outer"), Outer { inner, other: oi })
+        .unwrap();
+    let id = outer.id();
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let mut cx = Context::from_waker(Waker::noop());
+    let mut other_lane = pin!(rtseq::lane(&seq, &ctrl, &mut other));
+    assert!(other_lane.as_mut().poll(&mut cx).is_pending());
+    {
+        let mut lane = pin!(rtseq::lane(&seq, &ctrl, &mut outer));
+        assert!(lane.as_mut().poll(&mut cx).is_pending());
+        seq.sequence_by_id(id).unwrap().start().unwrap();
+        for ms in 1..=3u64 {
+            assert!(lane.as_mut().poll(&mut cx).is_pending());
+            assert!(other_lane.as_mut().poll(&mut cx).is_pending());
+            seq.tick(Instant::from_ticks(ms * 1_000), &ctrl, &mut monitors)
+                .unwrap();
+        }
+        assert!(lane.as_mut().poll(&mut cx).is_pending());
+        assert_eq!(seq.sequence_by_id(ii).unwrap().state(), Running);
+    }
+    for i in [id, ii, oi] {
+        let h = seq.sequence_by_id(i).unwrap();
+        assert_eq!(
+            (h.state(), h.last_outcome()),
+            (Aborted, Some(Outcome::Aborted(Cause::Dropped))),
+            "{i:?}"
+        );
+    }
+    assert!(other_lane.as_mut().poll(&mut cx).is_pending());
+}
+
+/// As `Outer`, restarted by its `RestartOwner` monitor at 3 ms (the action dropped in
+/// place and made again), then run to its end.
+struct Restartable {
+    inner: Seq<Inner2>,
+    other: SeqId,
+    fault: &'static AtomicBool,
+}
+/// A 4 ms dwell beside a polled wait that holds from 1 ms.
+struct Inner2(Seq<Wait>);
+impl Sequence<Ctrl> for Inner2 {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let _ = join(
+            cx.step(&mut self.0),
+            cx.wait_until(|c| c.now().as_ticks() >= 1_000),
+        )
+        .await;
+        Ok(())
+    }
+}
+impl Sequence<Ctrl> for Restartable {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let scoped = cx.start_scoped(self.other)?;
+        let fault = self.fault;
+        let _ = join(
+            join(
+                cx.run(&mut self.inner),
+                cx.wait_until(move |_| !fault.load(SeqCst)),
+            ),
+            select(scoped.join(), cx.join(self.other)),
+        )
+        .await;
+        Ok(())
+    }
+}
+
+#[test]
+fn a_restart_mid_action_with_every_kind_of_future_runs_the_action_again() {
+    static FAULT: AtomicBool = AtomicBool::new(false);
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w4 = seq
+        .add(SeqConfig::new("w4"), Wait::new(Duration::from_millis(4)))
+        .unwrap();
+    let w2 = seq
+        .add(SeqConfig::new("w2"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let other = seq.add(SeqConfig::new("other"), Slow(w2)).unwrap();
+    let oi = other.id();
+    let inner = seq.add(SeqConfig::new("inner"), Inner2(w4)).unwrap();
+    let outer = seq
+        .add(
+            SeqConfig::new("outer"),
+            Restartable {
+                inner,
+                other: oi,
+                fault: &FAULT,
+            },
+        )
+        .unwrap();
+    let id = outer.id();
+    let mut cond = |_: &Ctrl, t: Instant| t.as_ticks() == 3_000;
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    monitors
+        .add(
+            id,
+            Monitor::new("fault", &mut cond, Behaviour::RestartOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(outer);
+    sim.lane(other);
+    sim.start(id).unwrap();
+    sim.run_for(Duration::from_millis(30));
+    assert_eq!(seq.sequence_by_id(id).unwrap().state(), Terminated);
+    let restarts: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == id && t.cause == Cause::Restart)
+        .map(|t| t.time.as_ticks())
+        .collect();
+    // Restarting at 3 ms, running again at once.
+    assert_eq!(restarts.first(), Some(&3_000), "{:?}", sim.trace());
+    assert!(restarts.iter().all(|&t| t == 3_000), "{:?}", sim.trace());
+}
