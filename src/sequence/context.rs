@@ -650,7 +650,7 @@ impl<'a, C> Cx<'a, C> {
     /// `Cx`, reaches the handle through the control system
     /// ([`Sequencer::safety_handle`](crate::Sequencer::safety_handle) is a `const fn`).
     pub fn safety_system(&self) -> Option<&'a crate::safety::SafetyHandle> {
-        self.port.safety()
+        self.port.safety_system()
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByID`).

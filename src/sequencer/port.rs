@@ -109,7 +109,7 @@ pub(crate) trait Port<C> {
     /// armed, otherwise from the next start or restart.
     fn set_timeout(&self, id: SeqId, micros: u32) -> Result<(), Error>;
     /// The handle of the safety system built on this sequencer's handle, if one is.
-    fn safety(&self) -> Option<&crate::safety::SafetyHandle>;
+    fn safety_system(&self) -> Option<&crate::safety::SafetyHandle>;
 }
 
 /// With the portable lock each method is a few short sections (a waker is kept in its own
@@ -306,8 +306,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         })
     }
 
-    fn safety(&self) -> Option<&crate::safety::SafetyHandle> {
-        self.safety_system()
+    fn safety_system(&self) -> Option<&crate::safety::SafetyHandle> {
+        Sequencer::safety_system(self)
     }
 }
 
