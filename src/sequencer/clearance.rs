@@ -47,6 +47,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
                 Clearance::Go
             }
             RunningState::Running | RunningState::Paused => Clearance::Hold,
+            // Its next round is not begun while the tick is to abort it.
+            RunningState::Restarting if stops_soon(b, abort_all_posted) => Clearance::Hold,
             RunningState::Restarting => Clearance::Restart,
             RunningState::Aborting | RunningState::Aborted => Clearance::Aborted(b.last_cause),
             // Not started by this run: treat as aborted so nothing of it advances.

@@ -218,6 +218,34 @@ fn a_run_replaced_during_the_request_of_it_runs_on() {
     replaced_during_request(Request::Pause);
 }
 
+/// O's `RestartOwner` monitor restarted O at 1 ms; before O's lane takes the restart up,
+/// O's abort is requested (or an abort-all asked for). O's next round is not begun (its
+/// action begins nothing more, semantics 8): its clearance holds, and the tick at 2 ms
+/// aborts O from `Restarting`, with no `Restarting → Running` in its trace.
+#[test]
+fn a_restart_not_taken_up_before_an_abort_is_asked_for_is_not_begun() {
+    for all in [false, true] {
+        let (w, o, run) = restarting::<Interleaved, 8, 1>(Layout::One);
+        if all {
+            w.seq.abort_all();
+        } else {
+            w.handle(o).abort().unwrap();
+        }
+        let what = format!("abort-all {all}");
+        let clearance = Port::clearance(w.seq, run, Waker::noop());
+        assert_eq!(clearance, Clearance::Hold, "{what}");
+        w.tick(2);
+        let cause = if all { Cause::AbortAll } else { Cause::Abort };
+        assert_eq!(w.ended(o), (Aborted, cause), "{what}");
+        let taken_up = w
+            .transitions(o)
+            .iter()
+            .any(|t| t.from == Restarting && t.to == Running);
+        assert!(!taken_up, "{what}: {:?}", w.transitions(o));
+        w.check(&what);
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // 5. The tick inserted into requests, restarts, joins and dropped runs.
 // ---------------------------------------------------------------------------------------
