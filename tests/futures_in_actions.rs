@@ -93,6 +93,109 @@ fn a_dropped_join_leaves_a_pending_join_of_the_same_action_waiting() {
     assert_eq!(ctrl.got.get(), Some((5_000, Ok(Outcome::Completed))));
 }
 
+/// Joins Y; beside it, a join of Y with a timeout (a `select` of a second join of Y
+/// against a polled wait, which the wait wins at 2 ms).
+struct TimedJoin {
+    y: SeqId,
+}
+impl Sequence<Ctrl> for TimedJoin {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.start(self.y)?;
+        let timed = select(
+            cx.join(self.y),
+            cx.wait_until(|cx| cx.now().as_ticks() >= 2_000),
+        );
+        let (y, _) = join(cx.join(self.y), timed).await;
+        cx.control().got.set(Some((cx.now().as_ticks(), y)));
+        Ok(())
+    }
+}
+
+/// The join with a timeout gives up at 2 ms; its drop leaves the other join of the same
+/// run waiting, and Y's end at 5 ms returns it.
+#[test]
+fn a_timed_out_join_leaves_another_join_of_the_same_run_waiting() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
+    let yi = y.id();
+    let j = seq.add(SeqConfig::new("J"), TimedJoin { y: yi }).unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.lane(y);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(5_000))
+    );
+    assert_eq!((sim.state(yi), sim.state(ji)), (Terminated, Terminated));
+    assert_eq!(ctrl.got.get(), Some((5_000, Ok(Outcome::Completed))));
+}
+
+/// Joins `target`, from `from` µs on; records what it got.
+struct JoinFrom {
+    target: SeqId,
+    from: u64,
+}
+impl Sequence<Ctrl> for JoinFrom {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let from = self.from;
+        cx.wait_until(move |cx| cx.now().as_ticks() >= from).await;
+        let r = cx.join(self.target).await;
+        if cx.id() == SeqId::from_index(1) {
+            cx.control().got.set(Some((cx.now().as_ticks(), r)));
+        }
+        Ok(())
+    }
+}
+
+/// A (id 0) joins B (id 1). A's abort, requested at 2 ms, is carried out by the tick at 3
+/// ms; in that tick B, in a lane above A's (so A's future has not unwound its join yet),
+/// joins A. A's join ended with its run: B's join is no cycle, and returns A's outcome.
+#[test]
+fn a_join_of_a_run_the_tick_just_aborted_is_no_cycle() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let b_id = SeqId::from_index(1);
+    let a = seq
+        .add(
+            SeqConfig::new("A"),
+            JoinFrom {
+                target: b_id,
+                from: 0,
+            },
+        )
+        .unwrap();
+    let ai = a.id();
+    let b = seq
+        .add(
+            SeqConfig::new("B"),
+            JoinFrom {
+                target: ai,
+                from: 3_000,
+            },
+        )
+        .unwrap();
+    assert_eq!(b.id(), b_id);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane_with_priority(a, 1);
+    sim.lane_with_priority(b, 2);
+    sim.start(b_id).unwrap();
+    sim.start(ai).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    sim.abort(ai).unwrap();
+    sim.run_for(Duration::from_millis(6));
+    assert_eq!((sim.state(ai), sim.state(b_id)), (Aborted, Terminated));
+    assert_eq!(
+        ctrl.got.get(),
+        Some((3_000, Ok(Outcome::Aborted(Cause::Abort))))
+    );
+}
+
 /// Its first run leaks a polled wait (`mem::forget`, safe code) after one poll; its
 /// second run waits 3 ms in a polled wait.
 struct Leaks {

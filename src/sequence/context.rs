@@ -869,7 +869,7 @@ impl<C> Future for Join<'_, C> {
 impl<C> Drop for Join<'_, C> {
     fn drop(&mut self) {
         if self.waiting {
-            self.port.stop_join(self.me.seq, self.target);
+            self.port.stop_join(self.me.seq);
         }
     }
 }

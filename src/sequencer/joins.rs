@@ -5,6 +5,7 @@
 //! sequences can join one run.
 
 use crate::model::set::SeqSet;
+use crate::model::state::States;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::control_block::JoinWait;
 use crate::sequencer::lanes::LaneSet;
@@ -30,23 +31,35 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// A join of `joiner` of `target` returned, or its future was dropped: `joiner` no
-    /// longer waits. A wait that was not this join's alone (several joins at once,
-    /// `JoinWait::ANY_END`, or another join of the same action registered since this one
-    /// last was) is cleared all the same, and the joiner's lane is returned, to wake, so
-    /// that its pending joins, polled again, register anew (one alone as the join of its
-    /// own run, which the cycle check follows). Otherwise a wait in several joins would
-    /// stay after a `select` of joins, and a cycle closed by a later join go unseen; or a
-    /// dropped join would take a pending one's wait with it, and its end wake no one.
-    pub(crate) fn stop_waiting_for_join(&mut self, joiner: SeqId, target: SeqId) -> LaneSet {
+    /// A join of `joiner` of `target` returned: `joiner` no longer waits. A wait that was
+    /// not this join's alone (several joins at once, `JoinWait::ANY_END`) is cleared all
+    /// the same, and the joiner's lane is returned, to wake, so that its pending joins,
+    /// polled again, register anew (one alone as the join of its own run, which the cycle
+    /// check follows): else the wait in several joins would stay after a `select` of
+    /// joins, and a cycle closed by a later join go unseen.
+    pub(crate) fn join_returned(&mut self, joiner: SeqId, target: SeqId) -> LaneSet {
+        let own = JoinWait::end_of(target);
+        self.stop_waiting(joiner, |wait| wait != JoinWait::NOTHING && wait != own)
+    }
+
+    /// A join of `joiner` was dropped while it waited (the loser of a `select`, an action
+    /// aborted or restarted): `joiner` no longer waits. Another join of the same action
+    /// may still be pending, of another run or of the same one, and nothing says which:
+    /// the joiner's lane is returned, to wake, so that those register anew.
+    pub(crate) fn join_dropped(&mut self, joiner: SeqId) -> LaneSet {
+        self.stop_waiting(joiner, |wait| wait != JoinWait::NOTHING)
+    }
+
+    /// Clears `joiner`'s wait; its lane, to wake, if `wake` says so of the wait.
+    fn stop_waiting(&mut self, joiner: SeqId, wake: impl FnOnce(JoinWait) -> bool) -> LaneSet {
         let Some(b) = self.block_mut(joiner) else {
             return LaneSet::EMPTY;
         };
-        let others = b.joins != JoinWait::NOTHING && b.joins != JoinWait::end_of(target);
+        let woken = wake(b.joins);
         b.joins = JoinWait::NOTHING;
         let lane = b.lane;
         self.sets.put(Set::Joining, joiner, false);
-        if others {
+        if woken {
             LaneSet::of(lane)
         } else {
             LaneSet::EMPTY
@@ -75,14 +88,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// The sequences waiting in a join for the end of `target`'s run alone (one waiting in
-    /// several joins at once is left out: it may go on at another end).
+    /// several joins at once is left out: it may go on at another end), and still running
+    /// or paused: the join of a run that the tick aborted or restarted is over, although
+    /// its future, which clears the wait when dropped, has not unwound yet.
     pub(crate) fn joiners_of(&self, target: SeqId) -> SeqSet<B> {
         let mut out = SeqSet::EMPTY;
         for j in self.sets.members(Set::Joining) {
-            if self
-                .block(j)
-                .is_some_and(|b| b.joins == JoinWait::end_of(target))
-            {
+            if self.block(j).is_some_and(|b| {
+                b.joins == JoinWait::end_of(target) && States::RUNNING_OR_PAUSED.has(b.state)
+            }) {
                 out.insert(j);
             }
         }

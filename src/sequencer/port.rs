@@ -95,9 +95,9 @@ pub(crate) trait Port<C> {
         target: SeqId,
         run: &mut Option<u16>,
     ) -> Poll<Result<Outcome, Error>>;
-    /// A join of `joiner` of `target` was dropped while it waited (the loser of a `select`,
-    /// an action aborted or restarted): it no longer waits.
-    fn stop_join(&self, joiner: SeqId, target: SeqId);
+    /// A join of `joiner` was dropped while it waited (the loser of a `select`, an action
+    /// aborted or restarted): it no longer waits.
+    fn stop_join(&self, joiner: SeqId);
     /// A snapshot of `id`'s control block.
     fn info(&self, id: SeqId) -> Option<Info>;
     /// Queues `request` of `id`, made by `by`, for the next tick.
@@ -265,12 +265,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Ok(Some(outcome)) => Ok(outcome),
             Err(e) => Err(e),
         };
-        self.update_and_wake(|s| s.stop_waiting_for_join(joiner, target));
+        self.update_and_wake(|s| s.join_returned(joiner, target));
         Poll::Ready(result)
     }
 
-    fn stop_join(&self, joiner: SeqId, target: SeqId) {
-        self.update_and_wake(|s| s.stop_waiting_for_join(joiner, target));
+    fn stop_join(&self, joiner: SeqId) {
+        self.update_and_wake(|s| s.join_dropped(joiner));
     }
 
     /// The block's own fields, in one section.

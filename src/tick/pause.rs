@@ -111,11 +111,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     self.pause_one(run, cause, how);
                     continue;
                 }
-                // A blocking child is moved whatever run it is in: one begun below the
-                // target belongs to the target's run.
+                // A blocking child is moved whatever run it is in, as long as the target
+                // runs the run this pause is of: what is below a later run of the target
+                // is not this pause's, and the pause is over.
                 let kept = how == Pausing::Resume && self.with(|s| s.stays_paused(id));
                 if !kept {
-                    let child = self.with(|s| s.current_run(id));
+                    let child =
+                        self.with(|s| (s.current_run(target) == run).then(|| s.current_run(id)));
+                    let Some(child) = child else {
+                        return Pass::Done;
+                    };
                     self.pause_one(child, cause, how);
                 }
             }
