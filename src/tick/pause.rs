@@ -105,15 +105,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let rows = self.levels(scope, states, &mut |_, _| true);
         for depth in 0..=rows.deepest() {
             for id in rows.at(depth) {
-                // A resume of the target resumes its blocking children unless something
-                // else holds them.
                 if id == target {
                     self.pause_one(run, cause, how);
                     continue;
                 }
                 // A blocking child is moved whatever run it is in, as long as the target
                 // runs the run this pause is of: what is below a later run of the target
-                // is not this pause's, and the pause is over.
+                // is not this pause's, and the pause is over. A resume of the target
+                // resumes its blocking children unless something else holds them.
                 let kept = how == Pausing::Resume && self.with(|s| s.stays_paused(id));
                 if !kept {
                     let child =
