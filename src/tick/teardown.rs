@@ -158,8 +158,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Some(t) => Scope::Subtree(t),
             None => Scope::Everything,
         };
+        // What is below a later run of the target is not this teardown's: a sequence is
+        // marked only while the target runs the run the teardown is of.
+        let of_target = teardown.target();
         let rows = self.levels(scope, states, &mut |id, runs| {
-            self.with(|s| s.mark_placed(id, runs, states))
+            self.with(|s| {
+                of_target.is_none_or(|t| s.current_run(t.seq) == t)
+                    && s.mark_placed(id, runs, states)
+            })
         });
         // A pass is disturbed like a lost race by a run begun before it marked what it
         // placed: the run may not be placed, and is in the next pass.
