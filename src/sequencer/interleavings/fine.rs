@@ -282,6 +282,40 @@ fn a_pause_of_a_run_replaced_during_it_pauses_nothing_below_the_new_run() {
     });
 }
 
+/// The same for a teardown (found by the random preemption test, seed 5 833 146, where an
+/// abort request was queued on a run that had just ended). P's run 1 has ended; Q runs with
+/// Y blocking below it, so P is not alone with a caller link and the teardown of P's run 1
+/// walks the tree. Before its section `k`, P's lane starts P again and P's run 2 starts X
+/// blocking. The teardown was of run 1, which is over: it aborts nothing, not the new run
+/// or X below it, not Q or Y.
+#[test]
+fn a_teardown_of_an_ended_run_aborts_nothing_of_the_new_run() {
+    let setup = || {
+        let w = World::new(Layout::One);
+        let [p, q, x, y] = ["P", "Q", "X", "Y"].map(|name| w.seq(name));
+        w.start_taken(p);
+        w.start_taken(q);
+        w.blocking(y, q).unwrap();
+        let ended = w.run(p);
+        assert!(w.complete(p));
+        (w, [p, q, x, y], ended)
+    };
+    let tear_down = |w: &World, ended| w.seq.tear_down(&(), ended, Cause::Abort);
+    let count = sections(setup, |(w, _, ended)| tear_down(w, *ended));
+    every_k(count, |k| {
+        let (w, [p, q, x, y], ended) = setup();
+        interleaved::at(k, move || {
+            w.start_taken(p);
+            w.blocking(x, p).unwrap();
+        });
+        tear_down(&w, ended);
+        let what = format!("k={k}");
+        let states = [p, x, q, y].map(|id| w.state(id));
+        assert_eq!(states, [Running; 4], "{what}");
+        w.check(&what);
+    });
+}
+
 // ---------------------------------------------------------------------------------------
 // 5. The tick inserted into requests, restarts, joins and dropped runs.
 // ---------------------------------------------------------------------------------------
