@@ -222,12 +222,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Folds the state of sequence `id` into the sets `Monitored`, `Paused` and (sets of
-    /// several words) `live`. True when `id` is an exception sequence whose run ended:
-    /// the tick then reports the end to its owner
-    /// ([`exception_ended`](Self::exception_ended)). Until then it keeps its owner and
-    /// may not be started again ([`ControlBlock::may_start`]), so no later run of it, for
-    /// another owner, can be credited with this end.
-    pub(crate) fn fold(&mut self, id: SeqId) -> bool {
+    /// several words) `live`.
+    pub(crate) fn fold(&mut self, id: SeqId) {
         let state = self.state_of(id);
         self.sets
             .put(Set::Monitored, id, States::RUNNING_OR_PAUSED.has(state));
@@ -236,10 +232,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if B > 1 {
             self.sets.put(Set::Live, id, States::LIVE.has(state));
         }
-        !States::LIVE.has(state)
-            && self
-                .block(id)
-                .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION))
+    }
+
+    /// Whether `id` is an exception sequence whose run ended: the tick then reports the end
+    /// to its owner ([`exception_ended`](Self::exception_ended)). Until then it keeps its
+    /// owner and may not be started again ([`ControlBlock::may_start`]), so no later run of
+    /// it, for another owner, can be credited with this end.
+    pub(crate) fn exception_run_ended(&self, id: SeqId) -> bool {
+        self.block(id)
+            .is_some_and(|b| !States::LIVE.has(b.state) && b.has(flag::HANDLES_EXCEPTION))
     }
 
     /// The current (or last) run of `id` (count 0 for an id not registered).

@@ -113,7 +113,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
         let me = core::ptr::from_ref(self).addr();
-        // The words of the sets that hold a monitored sequence, as of the last fold.
         let first = self.with(|s| {
             // One tick at a time: a second one would walk and scan beside the first.
             if self.ticking.load(Ordering::Relaxed) {
@@ -132,16 +131,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 }
             }
             s.changes = s.changes.wrapping_add(1);
-            Some((
+            Some(Opening {
                 late,
                 foreign,
-                !s.sets.is_empty(Set::Requested),
+                requests: !s.sets.is_empty(Set::Requested),
                 any_due,
-                !s.sets.is_empty(Set::Changed),
-                s.sets.words(Set::Monitored),
-            ))
+                changed: !s.sets.is_empty(Set::Changed),
+                words: s.sets.words(Set::Monitored),
+            })
         });
-        let Some((late, foreign, mut requests, any_due, changed, mut words)) = first else {
+        let Some(Opening {
+            late,
+            foreign,
+            mut requests,
+            any_due,
+            changed,
+            mut words,
+        }) = first
+        else {
             return Err(Error::TickInProgress);
         };
         let _turn = TickTurn(&self.ticking);
@@ -244,7 +251,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         loop {
             // Each section says whether more are left.
             let (ended, more, words, requested) = self.with(|s| {
-                let ended = s.sets.pop(Set::Changed).filter(|&id| s.fold(id));
+                let changed = s.sets.pop(Set::Changed);
+                if let Some(id) = changed {
+                    s.fold(id);
+                }
+                let ended = changed.filter(|&id| s.exception_run_ended(id));
                 let more = !s.sets.is_empty(Set::Changed);
                 (
                     ended,
@@ -263,6 +274,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
         }
     }
+}
+
+/// What a tick's first section finds.
+struct Opening {
+    /// The tick's time is before the last tick's.
+    late: bool,
+    /// Polls are due, and the monitor table is not the one the sequencer evaluates.
+    foreign: bool,
+    /// Some sequence has a request queued (`Set::Requested`).
+    requests: bool,
+    /// Polls are due: the scheduling horizon has been reached.
+    any_due: bool,
+    /// Some sequence changed state since the last fold (`Set::Changed`).
+    changed: bool,
+    /// The words of the sets that hold a monitored sequence, as of the last fold.
+    words: Words,
 }
 
 /// The turn of the tick under way: when the tick returns, the next one may begin.

@@ -75,7 +75,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                         .block(id)
                         .filter(|b| States::RUNNING_OR_PAUSED.has(b.state))?;
                     let target = behaviour.target(id, b.caller.get());
-                    let cause = b.active_exception.unwrap_or(Cause::Abort);
+                    // Set by the firing that made the behaviour pending, in the same run.
+                    let cause = b.active_exception?;
                     Some((cause, s.current_run(target)))
                 });
                 if let Some((cause, target)) = still {
