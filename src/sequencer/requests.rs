@@ -99,9 +99,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 }
 
 /// Makes `req` of `id` for `by`: the check, the record, the queueing. Between the steps a
-/// tick may end the run, or a lane of higher priority start a new one: the request was
-/// accepted and recorded, and nothing is carried out (as if the run had ended a moment
-/// later).
+/// tick or a lane of higher priority may end the run, and a lane start a new one: the
+/// request was accepted and recorded, and nothing is queued (the run it was made of ended
+/// first).
 pub(crate) fn ask<
     C,
     S: Sections<C, N, T, W, B>,
