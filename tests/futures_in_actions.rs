@@ -404,3 +404,55 @@ fn a_restart_mid_action_with_every_kind_of_future_runs_the_action_again() {
     assert_eq!(restarts.first(), Some(&3_000), "{:?}", sim.trace());
     assert!(restarts.iter().all(|&t| t == 3_000), "{:?}", sim.trace());
 }
+
+/// Starts Y; waits in two polled waits at once (the first holds from 1 ms, the second
+/// from 2 ms), then joins Y.
+struct TwoWaitsThenJoin {
+    y: SeqId,
+}
+impl Sequence<Ctrl> for TwoWaitsThenJoin {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.start(self.y)?;
+        join(
+            cx.wait_until(|cx| cx.now().as_ticks() >= 1_000),
+            cx.wait_until(|cx| cx.now().as_ticks() >= 2_000),
+        )
+        .await;
+        let y = cx.join(self.y).await;
+        cx.control().got.set(Some((cx.now().as_ticks(), y)));
+        Ok(())
+    }
+}
+
+/// J's run asks for polls while one of its polled waits waits, and only then: J's lane
+/// is polled as it waits for the start, at the start, and at the polls of 1 and 2 ms (the
+/// second wait's end stops the polls); then not until Y ends at 10 ms, which wakes its
+/// join. Five polls.
+#[test]
+fn the_polls_stop_when_the_last_polled_wait_ends() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(
+            SeqConfig::new("dwell"),
+            Wait::new(Duration::from_millis(10)),
+        )
+        .unwrap();
+    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
+    let yi = y.id();
+    let j = seq
+        .add(SeqConfig::new("J"), TwoWaitsThenJoin { y: yi })
+        .unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.lane(y);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(10_000))
+    );
+    assert_eq!((sim.state(yi), sim.state(ji)), (Terminated, Terminated));
+    assert_eq!(ctrl.got.get(), Some((10_000, Ok(Outcome::Completed))));
+    assert_eq!(sim.lane_polls()[0], 5);
+}
