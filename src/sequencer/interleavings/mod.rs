@@ -1130,8 +1130,8 @@ fn end_into_firing_tick<L: Lock + 'static, const N: usize, const B: usize>(
 /// O's lane, of higher priority than the tick, drops O's run (`Port::abandon`: aborted,
 /// `Dropped`) and starts O again (a handle; the lane takes run 2) before section `k` of the
 /// tick at 1 ms in which `firing` fires on O. A firing recorded before run 2 began is run
-/// 1's and never reaches run 2: after the tick, run 2 is `Running` and holds no exception,
-/// and E, if it started for run 1, was aborted with it. (A run 2 begun before the tick's
+/// 1's and never reaches run 2: after the tick, run 2 is `Running` and holds no exception
+/// and no behaviour waiting for E, and E, if it started for run 1, was aborted with it. (A run 2 begun before the tick's
 /// scan is due in it, and its own firing takes its course; one begun after it is evaluated
 /// from the next tick, semantics 3.)
 fn replaced_during_firing_tick<L: Lock + 'static, const N: usize, const B: usize>(
@@ -1163,6 +1163,8 @@ fn replaced_during_firing_tick<L: Lock + 'static, const N: usize, const B: usize
             !w.in_set(Set::Excepting, o),
             "{what}: run 2 holds run 1's exception"
         );
+        let pending = w.seq.with(|s| s.block(o).unwrap().pending());
+        assert_eq!(pending, None, "{what}: run 2 waits with run 1's behaviour");
         assert!(
             matches!(w.state(e), Idle | Aborted),
             "{what}: E {:?}",
