@@ -456,3 +456,87 @@ fn the_polls_stop_when_the_last_polled_wait_ends() {
     assert_eq!(ctrl.got.get(), Some((10_000, Ok(Outcome::Completed))));
     assert_eq!(sim.lane_polls()[0], 5);
 }
+
+/// Starts Y; its exit condition asks whether Y is over by polling a join of Y once (a
+/// misuse that `Cx` warns of: its futures are the action's).
+struct PeeksInItsCondition {
+    y: SeqId,
+}
+impl Sequence<Ctrl> for PeeksInItsCondition {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.start(self.y)?;
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        embassy_futures::poll_once(cx.join(self.y)).is_ready()
+    }
+}
+
+/// A join polled once from J's exit condition (with a waker of its own, which does
+/// nothing) leaves J's lane its waker: J's lane is polled at every due poll, and J ends at
+/// the first one after Y's end at 5 ms, at 6 ms (at 5 ms J's lane, registered first, is
+/// polled before Y's). Before, the join kept its do-nothing waker for J's lane, and J
+/// waited for good.
+#[test]
+fn a_join_polled_from_a_condition_leaves_the_lane_its_wake_ups() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
+    let yi = y.id();
+    let j = seq
+        .add(SeqConfig::new("J"), PeeksInItsCondition { y: yi })
+        .unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.lane(y);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(6_000))
+    );
+    assert_eq!((sim.state(yi), sim.state(ji)), (Terminated, Terminated));
+    let ended = |id| {
+        sim.trace()
+            .iter()
+            .find(|t| t.sequence == id && t.to == Terminated)
+            .map(|t| t.time.as_ticks())
+    };
+    assert_eq!((ended(yi), ended(ji)), (Some(5_000), Some(6_000)));
+}
+
+/// Its exit condition polls a polled wait once (a misuse, as above), and holds from 3 ms.
+struct WaitsInItsCondition;
+impl Sequence<Ctrl> for WaitsInItsCondition {
+    async fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        let _ = embassy_futures::poll_once(cx.wait_until(|_| false));
+        cx.now().as_ticks() >= 3_000
+    }
+}
+
+/// A polled wait polled from the exit condition is not the action's: it waits and counts
+/// nothing, so the run still waits for the polls of its exit condition and ends at 3 ms.
+/// Before, the wait's drop ended the run's poll wait, and the run waited for good.
+#[test]
+fn a_polled_wait_polled_from_a_condition_leaves_the_exit_polls_alone() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let j = seq.add(SeqConfig::new("J"), WaitsInItsCondition).unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(3_000))
+    );
+    assert_eq!(sim.state(ji), Terminated);
+}

@@ -18,13 +18,14 @@ use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId
 /// system, and the sequencer (start, join and inspect other sequences).
 ///
 /// Its futures ([`run`](Self::run), [`step`](Self::step), [`join`](Self::join),
-/// [`wait_until`](Self::wait_until), [`Scoped::join`]) are awaited in the action. They share
-/// the lane's one waker: each keeps the waker it was polled with as the lane's. So a
-/// combinator inside an action must poll every branch when the task is woken, as
-/// embassy-futures' `join` and `select` do; one that gives each branch a waker of its own
-/// and polls only the woken ones (`FuturesUnordered`) misses wake-ups. Nor are they polled
-/// from a condition method: with a waker of its own (`now_or_never`), a poll there takes
-/// the lane's place, and the lane is not woken again.
+/// [`wait_until`](Self::wait_until), [`Scoped::join`]) are awaited in the action. They keep
+/// no waker of their own: they are woken through their lane, whose waker the lane's run
+/// keeps each time it polls the action. So a combinator inside an action must poll every
+/// branch when the task is woken, as embassy-futures' `join` and `select` do; one that
+/// gives each branch a waker of its own and polls only the woken ones (`FuturesUnordered`)
+/// misses wake-ups. Polled from a condition method (`poll_once`), a join still says
+/// whether its run is over, but a polled wait only waits, and a blocking run starts a run
+/// that its drop then aborts: a condition asks a [`Handle`] instead.
 ///
 /// A main sequence that starts a status blinker non-blocking, runs a move blocking, and
 /// waits for the blinker:
@@ -84,6 +85,9 @@ pub struct Cx<'a, C> {
     /// to 6, [`WAIT_COUNT`]) and [`DUE_TAKEN`]. In the context's padding; set anew for each
     /// round of a run ([`new_round`](Self::new_round)).
     waits: Cell<u8>,
+    /// Its action is being polled: the polled waits made with it may count themselves
+    /// and take polls. Polled from a condition method, they wait and touch nothing.
+    acting: Cell<bool>,
 }
 
 /// Bits of [`Cx::waits`]: the count of polled waits under way. A count that reached its
@@ -101,12 +105,19 @@ impl<'a, C> Cx<'a, C> {
             id,
             run: Cell::new(0),
             waits: Cell::new(0),
+            acting: Cell::new(false),
         }
     }
 
-    /// A new poll of the action: no polled wait has taken a due poll in it yet.
-    pub(crate) fn next_poll(&self) {
+    /// A poll of the action begins: no polled wait has taken a due poll in it yet.
+    pub(crate) fn begin_action_poll(&self) {
         self.waits.set(self.waits.get() & !DUE_TAKEN);
+        self.acting.set(true);
+    }
+
+    /// The poll of the action is over.
+    pub(crate) fn end_action_poll(&self) {
+        self.acting.set(false);
     }
 
     /// The run this context acts for: every await point and start of its action names
@@ -776,10 +787,18 @@ impl<C, F> WaitUntil<'_, '_, C, F> {
 impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
     type Output = ();
 
-    fn poll(self: core::pin::Pin<&mut Self>, w: &mut core::task::Context<'_>) -> Poll<()> {
+    fn poll(self: core::pin::Pin<&mut Self>, _: &mut core::task::Context<'_>) -> Poll<()> {
         let this = self.get_mut();
         let cx = this.cx;
         let (port, run) = (cx.port, cx.run_id());
+        if this.stage == WaitStage::Done {
+            return Poll::Ready(());
+        }
+        if !cx.acting.get() {
+            // Not the action's wait (polled from a condition method): counting it would
+            // end the poll wait that the run's exit condition relies on.
+            return Poll::Pending;
+        }
         let go = match this.stage {
             WaitStage::Done => return Poll::Ready(()),
             WaitStage::New => {
@@ -791,14 +810,14 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
                 if count == 0 {
                     port.set_poll_wait(run, true);
                 }
-                port.clearance(run, w.waker()) == Clearance::Go
+                port.clearance_of(run) == Clearance::Go
             }
             // Another polled wait took this poll: check at it too.
             WaitStage::Waiting if cx.waits.get() & DUE_TAKEN != 0 => {
-                port.clearance(run, w.waker()) == Clearance::Go
+                port.clearance_of(run) == Clearance::Go
             }
             WaitStage::Waiting => {
-                let due = port.due_poll(run, w.waker()) == Clearance::Go;
+                let due = port.due_poll_of(run) == Clearance::Go;
                 if due {
                     cx.waits.set(cx.waits.get() | DUE_TAKEN);
                 }
@@ -853,10 +872,10 @@ impl<C> Future for Join<'_, C> {
 
     fn poll(
         mut self: core::pin::Pin<&mut Self>,
-        w: &mut core::task::Context<'_>,
+        _: &mut core::task::Context<'_>,
     ) -> Poll<Self::Output> {
         // Only while this run may advance: an aborted joiner never resumes.
-        if self.port.clearance(self.me, w.waker()) != Clearance::Go {
+        if self.port.clearance_of(self.me) != Clearance::Go {
             return Poll::Pending;
         }
         let this = &mut *self;

@@ -37,7 +37,14 @@
 //! | … → Ended | [`Port::end`] (completed, skipped, failed), or a clearance `Aborted` |
 //! | … → PreCondition | a clearance `Restart`, then [`Port::restart`] |
 //! | Ended → Idle / HandOver | [`Port::finished`] |
-//! | HandOver → Done | [`Port::clearance`] of the caller |
+//! | HandOver → Done | [`Port::clearance_of`] the caller |
+//!
+//! A lane keeps the waker it is polled with at each of its await points
+//! ([`Port::take_start`], [`Port::clearance`], [`Port::due_poll`]): the lane's wake-ups go
+//! there. A blocking run, and every future of an action's [`Cx`], is polled inside that
+//! poll, after the lane kept its waker, and only reads ([`Port::clearance_of`],
+//! [`Port::due_poll_of`]): a future polled elsewhere with another waker (from a condition
+//! method) cannot take the lane's wake-ups.
 //!
 //! A held sequence (paused, or handling an exception) stays at its await point; an aborted
 //! one never runs another line of its action (sticky abort). A run whose future is dropped
@@ -156,13 +163,32 @@ impl<'a, C> Run<'a, C> {
         }
     }
 
+    /// What this run must do at an await point. A lane keeps the waker it is polled with
+    /// first (its wake-ups go there), then reads, so no wake-up in between is lost. A
+    /// blocking run is polled inside its caller's action, in the same lane, whose run kept
+    /// the waker at the top of this poll: it only reads.
+    fn clearance(&self, w: &Context<'_>) -> Clearance {
+        match self.driver {
+            Driver::Lane => self.port().clearance(self.run(), w.waker()),
+            Driver::Blocking { .. } => self.port().clearance_of(self.run()),
+        }
+    }
+
+    /// As [`clearance`](Self::clearance), for the poll of the exit condition.
+    fn due_poll(&self, w: &Context<'_>) -> Clearance {
+        match self.driver {
+            Driver::Lane => self.port().due_poll(self.run(), w.waker()),
+            Driver::Blocking { .. } => self.port().due_poll_of(self.run()),
+        }
+    }
+
     /// Ends the run normally with `outcome`; when refused (aborted, restarting or holding
     /// meanwhile) the clearance says what happens instead.
     fn try_end(&self, outcome: Outcome, w: &mut Context<'_>) {
         if self.port().end(self.run(), outcome) {
             self.ended(outcome);
         } else {
-            self.obey(self.port().clearance(self.run(), w.waker()));
+            self.obey(self.clearance(w));
         }
     }
 
@@ -195,7 +221,7 @@ impl<'a, C> Run<'a, C> {
                     // Only a blocking run begins; a lane begins in `Idle`.
                     Driver::Lane => self.stage.set(Stage::Idle),
                 },
-                Stage::PreCondition => match port.clearance(self.run(), w.waker()) {
+                Stage::PreCondition => match self.clearance(w) {
                     Clearance::Go => {
                         if body.pre(&self.cx) {
                             self.stage.set(Stage::Action);
@@ -214,13 +240,13 @@ impl<'a, C> Run<'a, C> {
                     // check right after the action follows the clearance with no section in
                     // between, so a tick that stops or pauses the run meanwhile comes first.
                     port.set_poll_wait(self.run(), true);
-                    match port.clearance(self.run(), w.waker()) {
+                    match self.clearance(w) {
                         Clearance::Go => self.stage.set(Stage::ExitCondition),
                         Clearance::Hold => return Poll::Pending,
                         other => self.obey(other),
                     }
                 }
-                Stage::ActionFailed => match port.clearance(self.run(), w.waker()) {
+                Stage::ActionFailed => match self.clearance(w) {
                     Clearance::Go => self.try_end(self.outcome.get(), w),
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
@@ -234,7 +260,7 @@ impl<'a, C> Run<'a, C> {
                     }
                     self.try_end(Outcome::Completed, w);
                 }
-                Stage::AwaitPoll => match port.due_poll(self.run(), w.waker()) {
+                Stage::AwaitPoll => match self.due_poll(w) {
                     Clearance::Go => self.stage.set(Stage::ExitCondition),
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
@@ -250,7 +276,7 @@ impl<'a, C> Run<'a, C> {
                 // or restarting this stays pending and the caller drops it (sticky abort).
                 Stage::HandOver => {
                     if let Driver::Blocking { caller } = self.driver {
-                        if port.clearance(caller, w.waker()) == Clearance::Go {
+                        if port.clearance_of(caller) == Clearance::Go {
                             head.result.set(Some(self.outcome.get().done()));
                             self.stage.set(Stage::Done);
                         }
@@ -266,10 +292,12 @@ impl<'a, C> Run<'a, C> {
     /// advance, an aborted or restarting one never runs another line of it (its action is
     /// dropped). `Ready`: the action is over; `drive` next.
     fn act(&self, w: &mut Context<'_>, body: &mut ErasedBody<'_, C>) -> Poll<()> {
-        match self.port().clearance(self.run(), w.waker()) {
+        match self.clearance(w) {
             Clearance::Go => {
-                self.cx.next_poll();
-                match body.advance(&self.cx, w) {
+                self.cx.begin_action_poll();
+                let advanced = body.advance(&self.cx, w);
+                self.cx.end_action_poll();
+                match advanced {
                     Poll::Pending => return Poll::Pending,
                     Poll::Ready(Ok(())) => self.stage.set(Stage::ActionDone),
                     Poll::Ready(Err(failure)) => {

@@ -56,6 +56,21 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
+    /// As [`clearance`](Self::clearance), but `Go` only when the tick said `run`'s polled
+    /// condition is due, and then the due poll is taken.
+    #[inline(always)]
+    pub(crate) fn take_due_poll(&mut self, run: RunId, abort_all_posted: bool) -> Clearance {
+        let id = run.seq;
+        match self.clearance(run, abort_all_posted) {
+            Clearance::Go if self.sets.has(Set::PollDue, id) => {
+                self.sets.put(Set::PollDue, id, false);
+                Clearance::Go
+            }
+            Clearance::Go => Clearance::Hold,
+            other => other,
+        }
+    }
+
     /// Sets whether `run` waits for a polled condition (the tick then wakes it when its
     /// poll is due); a stale due poll is dropped. Only for the current run.
     pub(crate) fn set_poll_wait(&mut self, run: RunId, waiting: bool) {

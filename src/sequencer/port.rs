@@ -50,11 +50,20 @@ pub(crate) trait Port<C> {
     /// Returns the new run.
     fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<RunId, Error>;
     /// Keeps `waker` for the lane of `run`'s sequence, then says what an await point of
-    /// `run` must do (a run that is not the current one: `Aborted`).
+    /// `run` must do (a run that is not the current one: `Aborted`). For the run that
+    /// drives a lane: the lane's wake-ups go to the waker it polls with.
     fn clearance(&self, run: RunId, waker: &Waker) -> Clearance;
     /// As [`clearance`](Self::clearance), but `Go` only when the tick said `run`'s polled
     /// condition is due (and takes that due poll).
     fn due_poll(&self, run: RunId, waker: &Waker) -> Clearance;
+    /// What an await point of `run` must do, keeping no waker: for what is polled inside
+    /// a lane's poll after the lane's run kept its waker (an action's futures, a blocking
+    /// run), so no wake-up between the two is lost. A future polled elsewhere, with
+    /// another waker (from a condition method), leaves the lane's waker alone.
+    fn clearance_of(&self, run: RunId) -> Clearance;
+    /// As [`clearance_of`](Self::clearance_of), but `Go` only when `run`'s polled condition
+    /// is due (and takes that due poll).
+    fn due_poll_of(&self, run: RunId) -> Clearance;
     /// Sets whether `run` waits for a polled condition; a stale due poll is dropped.
     fn set_poll_wait(&self, run: RunId, waiting: bool);
     /// `run`, `Restarting`, runs again from its pre-condition.
@@ -143,16 +152,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn due_poll(&self, run: RunId, waker: &Waker) -> Clearance {
-        let id = run.seq;
         let posted = abort_all_posted(&self.safety.inbox);
-        self.park_then(id, waker, |s| match s.clearance(run, posted) {
-            Clearance::Go if s.sets.has(Set::PollDue, id) => {
-                s.sets.put(Set::PollDue, id, false);
-                Clearance::Go
-            }
-            Clearance::Go => Clearance::Hold,
-            other => other,
-        })
+        self.park_then(run.seq, waker, |s| s.take_due_poll(run, posted))
+    }
+
+    fn clearance_of(&self, run: RunId) -> Clearance {
+        let posted = abort_all_posted(&self.safety.inbox);
+        self.with(|s| s.clearance(run, posted))
+    }
+
+    fn due_poll_of(&self, run: RunId) -> Clearance {
+        let posted = abort_all_posted(&self.safety.inbox);
+        self.with(|s| s.take_due_poll(run, posted))
     }
 
     fn set_poll_wait(&self, run: RunId, waiting: bool) {
