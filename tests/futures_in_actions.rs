@@ -4,10 +4,11 @@
 //! lane or by a restart mid-way. Run under Miri too (`./x miri`, Stacked and Tree
 //! Borrows): the dropped actions are self-referential and dropped in place.
 //!
-//! An action's futures share its lane's one waker: a combinator inside an action must poll
-//! every branch when the task is woken (embassy-futures' `join` and `select` do), or
-//! forward the task's waker to each; one that gives each branch a waker of its own and
-//! polls only the woken ones (`FuturesUnordered`) misses wake-ups (`Cx` says so).
+//! An action's futures keep no waker of their own: they are woken through their lane, whose
+//! run keeps the task's waker. A combinator inside an action must poll every branch when
+//! the task is woken (embassy-futures' `join` and `select` do); one that gives each branch
+//! a waker of its own and polls only the woken ones (`FuturesUnordered`) misses wake-ups
+//! (`Cx` says so). Polled from a condition method, they leave the lane's waker alone.
 
 use std::cell::Cell;
 use std::future::Future;
