@@ -82,8 +82,8 @@ pub struct Cx<'a, C> {
     /// starts, fixed while its action runs.
     run: Cell<u16>,
     /// The polled waits ([`wait_until`](Self::wait_until)) of its run under way (bits 0
-    /// to 6, [`WAIT_COUNT`]) and [`DUE_TAKEN`]. In the context's padding; set anew for each
-    /// round of a run ([`new_round`](Self::new_round)).
+    /// to 6, [`WAIT_COUNT`]) and [`DUE_TAKEN`]; set anew for each round of a run
+    /// ([`new_round`](Self::new_round)).
     waits: Cell<u8>,
     /// Its action is being polled: the polled waits made with it may count themselves
     /// and take polls. Polled from a condition method, they wait and touch nothing.
@@ -791,16 +791,11 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
         let this = self.get_mut();
         let cx = this.cx;
         let (port, run) = (cx.port, cx.run_id());
-        if this.stage == WaitStage::Done {
-            return Poll::Ready(());
-        }
-        if !cx.acting.get() {
-            // Not the action's wait (polled from a condition method): counting it would
-            // end the poll wait that the run's exit condition relies on.
-            return Poll::Pending;
-        }
         let go = match this.stage {
             WaitStage::Done => return Poll::Ready(()),
+            // Not the action's wait (polled from a condition method): counting it would
+            // end the poll wait that the run's exit condition relies on.
+            _ if !cx.acting.get() => return Poll::Pending,
             WaitStage::New => {
                 this.stage = WaitStage::Waiting;
                 let waits = cx.waits.get();
