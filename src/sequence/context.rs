@@ -81,20 +81,21 @@ pub struct Cx<'a, C> {
     /// The run of this sequence the context acts for (its count): set when the run
     /// starts, fixed while its action runs.
     run: Cell<u16>,
-    /// The polled waits ([`wait_until`](Self::wait_until)) of its run under way (bits 0
-    /// to 6, [`WAIT_COUNT`]) and [`DUE_TAKEN`]; set anew for each round of a run
-    /// ([`new_round`](Self::new_round)).
-    waits: Cell<u8>,
-    /// Its action is being polled: the polled waits made with it may count themselves
-    /// and take polls. Polled from a condition method, they wait and touch nothing.
-    acting: Cell<bool>,
+    /// Where its action stands: the count of its polled waits
+    /// ([`wait_until`](Self::wait_until)) under way ([`WAIT_COUNT`]), [`ACTING`] and
+    /// [`DUE_TAKEN`]; set anew for each round of a run ([`new_round`](Self::new_round)).
+    action: Cell<u8>,
 }
 
-/// Bits of [`Cx::waits`]: the count of polled waits under way. A count that reached its
+/// Bits of [`Cx::action`]: the count of polled waits under way. A count that reached its
 /// top stays there until the round ends: the run then waits for polls until its end (a
 /// spurious poll at most), never stops waiting while a wait is under way.
-const WAIT_COUNT: u8 = 0x7F;
-/// Bit of [`Cx::waits`]: a polled wait took the due poll in the action's current poll.
+const WAIT_COUNT: u8 = 0x3F;
+/// Bit of [`Cx::action`]: the action is being polled, so the polled waits made with the
+/// context may count themselves and take polls. Polled from a condition method, they wait
+/// and touch nothing.
+const ACTING: u8 = 1 << 6;
+/// Bit of [`Cx::action`]: a polled wait took the due poll in the action's current poll.
 const DUE_TAKEN: u8 = 1 << 7;
 
 impl<'a, C> Cx<'a, C> {
@@ -104,20 +105,18 @@ impl<'a, C> Cx<'a, C> {
             control,
             id,
             run: Cell::new(0),
-            waits: Cell::new(0),
-            acting: Cell::new(false),
+            action: Cell::new(0),
         }
     }
 
     /// A poll of the action begins: no polled wait has taken a due poll in it yet.
     pub(crate) fn begin_action_poll(&self) {
-        self.waits.set(self.waits.get() & !DUE_TAKEN);
-        self.acting.set(true);
+        self.action.set((self.action.get() & !DUE_TAKEN) | ACTING);
     }
 
     /// The poll of the action is over.
     pub(crate) fn end_action_poll(&self) {
-        self.acting.set(false);
+        self.action.set(self.action.get() & !ACTING);
     }
 
     /// The run this context acts for: every await point and start of its action names
@@ -138,7 +137,7 @@ impl<'a, C> Cx<'a, C> {
     /// A run begins (or begins again after a restart): none of its polled waits is under
     /// way. One of an earlier round that was leaked (`mem::forget`) is not counted.
     pub(crate) fn new_round(&self) {
-        self.waits.set(0);
+        self.action.set(0);
     }
 
     pub(crate) fn port(&self) -> &'a dyn Port<C> {
@@ -756,7 +755,7 @@ enum WaitStage {
 }
 
 /// The future of [`Cx::wait_until`]. The run waits for polls while any of its action's
-/// polled waits does (counted in [`Cx::waits`]): the first one to start sets that, the
+/// polled waits does (counted in [`Cx::action`]): the first one to start sets that, the
 /// last one to end or be dropped clears it.
 struct WaitUntil<'s, 'a, C, F> {
     cx: &'s Cx<'a, C>,
@@ -771,11 +770,11 @@ impl<C, F> WaitUntil<'_, '_, C, F> {
     /// It no longer waits: the last polled wait of the run to end stops the polls.
     fn finish(&mut self) {
         let cx = self.cx;
-        let waits = cx.waits.get();
+        let waits = cx.action.get();
         let count = waits & WAIT_COUNT;
         if self.stage == WaitStage::Waiting && count != WAIT_COUNT {
             let left = count.saturating_sub(1);
-            cx.waits.set((waits & !WAIT_COUNT) | left);
+            cx.action.set((waits & !WAIT_COUNT) | left);
             if left == 0 {
                 cx.port.set_poll_wait(cx.run_id(), false);
             }
@@ -795,26 +794,26 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
             WaitStage::Done => return Poll::Ready(()),
             // Not the action's wait (polled from a condition method): counting it would
             // end the poll wait that the run's exit condition relies on.
-            _ if !cx.acting.get() => return Poll::Pending,
+            _ if cx.action.get() & ACTING == 0 => return Poll::Pending,
             WaitStage::New => {
                 this.stage = WaitStage::Waiting;
-                let waits = cx.waits.get();
+                let waits = cx.action.get();
                 let count = waits & WAIT_COUNT;
                 let more = count.saturating_add(1).min(WAIT_COUNT);
-                cx.waits.set((waits & !WAIT_COUNT) | more);
+                cx.action.set((waits & !WAIT_COUNT) | more);
                 if count == 0 {
                     port.set_poll_wait(run, true);
                 }
                 port.clearance_of(run) == Clearance::Go
             }
             // Another polled wait took this poll: check at it too.
-            WaitStage::Waiting if cx.waits.get() & DUE_TAKEN != 0 => {
+            WaitStage::Waiting if cx.action.get() & DUE_TAKEN != 0 => {
                 port.clearance_of(run) == Clearance::Go
             }
             WaitStage::Waiting => {
                 let due = port.due_poll_of(run) == Clearance::Go;
                 if due {
-                    cx.waits.set(cx.waits.get() | DUE_TAKEN);
+                    cx.action.set(cx.action.get() | DUE_TAKEN);
                 }
                 due
             }
