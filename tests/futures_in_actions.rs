@@ -49,6 +49,53 @@ impl Sequence<Ctrl> for Slow {
     }
 }
 
+/// What [`j_beside_slow_y`] saw.
+struct Seen {
+    /// When the simulator came to rest (µs).
+    rest: Option<u64>,
+    /// When Y and J ended (µs).
+    ended: (Option<u64>, Option<u64>),
+    /// J's lane polls.
+    j_polls: usize,
+    /// What J got from its join, and when.
+    got: Option<(u64, Result<Outcome, Error>)>,
+}
+
+/// Y, which ends after a dwell of `dwell_ms`, and J, made with Y's id, each in a lane
+/// (J's registered first, so polled first at a tick); J is started and the simulator
+/// runs until it comes to rest (at most 50 ms).
+fn j_beside_slow_y<S: Sequence<Ctrl>>(dwell_ms: u64, j: impl FnOnce(SeqId) -> S) -> Seen {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(
+            SeqConfig::new("dwell"),
+            Wait::new(Duration::from_millis(dwell_ms)),
+        )
+        .unwrap();
+    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
+    let yi = y.id();
+    let j = seq.add(SeqConfig::new("J"), j(yi)).unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.lane(y);
+    sim.start(ji).unwrap();
+    let rest = sim.run_until_idle(Duration::from_millis(50));
+    let ended = |id| {
+        sim.trace()
+            .iter()
+            .find(|t| t.sequence == id && t.to == Terminated)
+            .map(|t| t.time.as_ticks())
+    };
+    Seen {
+        rest: rest.map(|t| t.as_ticks()),
+        ended: (ended(yi), ended(ji)),
+        j_polls: sim.lane_polls()[0],
+        got: ctrl.got.take(),
+    }
+}
+
 /// Waits for Y; beside it, peeks once whether X is over (a `select` of a `yield_now` and
 /// a join of X, which the `yield_now` wins and so drops the join).
 struct Peek {
@@ -116,25 +163,10 @@ impl Sequence<Ctrl> for TimedJoin {
 /// run waiting, and Y's end at 5 ms returns it.
 #[test]
 fn a_timed_out_join_leaves_another_join_of_the_same_run_waiting() {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let dwell = seq
-        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
-    let yi = y.id();
-    let j = seq.add(SeqConfig::new("J"), TimedJoin { y: yi }).unwrap();
-    let ji = j.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(j);
-    sim.lane(y);
-    sim.start(ji).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(5_000))
-    );
-    assert_eq!((sim.state(yi), sim.state(ji)), (Terminated, Terminated));
-    assert_eq!(ctrl.got.get(), Some((5_000, Ok(Outcome::Completed))));
+    let seen = j_beside_slow_y(5, |y| TimedJoin { y });
+    assert_eq!(seen.rest, Some(5_000));
+    assert_eq!(seen.ended, (Some(5_000), Some(5_000)));
+    assert_eq!(seen.got, Some((5_000, Ok(Outcome::Completed))));
 }
 
 /// Joins `target`, from `from` µs on; records what it got.
@@ -431,31 +463,11 @@ impl Sequence<Ctrl> for TwoWaitsThenJoin {
 /// join. Five polls.
 #[test]
 fn the_polls_stop_when_the_last_polled_wait_ends() {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let dwell = seq
-        .add(
-            SeqConfig::new("dwell"),
-            Wait::new(Duration::from_millis(10)),
-        )
-        .unwrap();
-    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
-    let yi = y.id();
-    let j = seq
-        .add(SeqConfig::new("J"), TwoWaitsThenJoin { y: yi })
-        .unwrap();
-    let ji = j.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(j);
-    sim.lane(y);
-    sim.start(ji).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(10_000))
-    );
-    assert_eq!((sim.state(yi), sim.state(ji)), (Terminated, Terminated));
-    assert_eq!(ctrl.got.get(), Some((10_000, Ok(Outcome::Completed))));
-    assert_eq!(sim.lane_polls()[0], 5);
+    let seen = j_beside_slow_y(10, |y| TwoWaitsThenJoin { y });
+    assert_eq!(seen.rest, Some(10_000));
+    assert_eq!(seen.ended, (Some(10_000), Some(10_000)));
+    assert_eq!(seen.got, Some((10_000, Ok(Outcome::Completed))));
+    assert_eq!(seen.j_polls, 5);
 }
 
 /// Starts Y; its exit condition asks whether Y is over by polling a join of Y once (a
@@ -481,33 +493,9 @@ impl Sequence<Ctrl> for PeeksInItsCondition {
 /// waited for good.
 #[test]
 fn a_join_polled_from_a_condition_leaves_the_lane_its_wake_ups() {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let dwell = seq
-        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let y = seq.add(SeqConfig::new("Y"), Slow(dwell)).unwrap();
-    let yi = y.id();
-    let j = seq
-        .add(SeqConfig::new("J"), PeeksInItsCondition { y: yi })
-        .unwrap();
-    let ji = j.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(j);
-    sim.lane(y);
-    sim.start(ji).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(6_000))
-    );
-    assert_eq!((sim.state(yi), sim.state(ji)), (Terminated, Terminated));
-    let ended = |id| {
-        sim.trace()
-            .iter()
-            .find(|t| t.sequence == id && t.to == Terminated)
-            .map(|t| t.time.as_ticks())
-    };
-    assert_eq!((ended(yi), ended(ji)), (Some(5_000), Some(6_000)));
+    let seen = j_beside_slow_y(5, |y| PeeksInItsCondition { y });
+    assert_eq!(seen.rest, Some(6_000));
+    assert_eq!(seen.ended, (Some(5_000), Some(6_000)));
 }
 
 /// Its exit condition polls a polled wait once (a misuse, as above), and holds from 3 ms.
