@@ -529,3 +529,39 @@ fn a_polled_wait_polled_from_a_condition_leaves_the_exit_polls_alone() {
     );
     assert_eq!(sim.state(ji), Terminated);
 }
+
+/// Makes a polled wait and drops it unpolled, while another polled wait, which holds from
+/// 3 ms, is under way.
+struct DropsAnUnpolledWait;
+impl Sequence<Ctrl> for DropsAnUnpolledWait {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let made = cx.wait_until(|_| false);
+        join(
+            cx.wait_until(|cx| cx.now().as_ticks() >= 3_000),
+            async move {
+                yield_now().await;
+                drop(made);
+            },
+        )
+        .await;
+        Ok(())
+    }
+}
+
+/// A polled wait dropped before its first poll was never counted, and its drop counts
+/// nothing off: the wait under way still has its polls, and the run ends at 3 ms.
+#[test]
+fn a_polled_wait_dropped_unpolled_leaves_the_polls_of_another() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let j = seq.add(SeqConfig::new("J"), DropsAnUnpolledWait).unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(3_000))
+    );
+    assert_eq!(sim.state(ji), Terminated);
+}
