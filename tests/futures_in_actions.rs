@@ -565,3 +565,57 @@ fn a_polled_wait_dropped_unpolled_leaves_the_polls_of_another() {
     );
     assert_eq!(sim.state(ji), Terminated);
 }
+
+/// Its exit condition polls a blocking run of its step once (a misuse, as above), and
+/// holds from 2 ms.
+struct RunsInItsCondition(Seq<Wait>);
+impl Sequence<Ctrl> for RunsInItsCondition {
+    async fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        let _ = embassy_futures::poll_once(cx.step(&mut self.0));
+        cx.now().as_ticks() >= 2_000
+    }
+}
+
+/// A blocking run polled once from J's exit condition starts its step, and its drop aborts
+/// the step (`Dropped`) at once, at each poll of the condition (0, 1 and 2 ms); J's lane
+/// keeps its waker, and J ends at 2 ms. (Before, the step's run kept the do-nothing
+/// waker as the lane's, and J waited for good.)
+#[test]
+fn a_blocking_run_polled_from_a_condition_is_aborted_by_its_drop() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq
+        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let si = step.id();
+    let j = seq
+        .add(SeqConfig::new("J"), RunsInItsCondition(step))
+        .unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(2_000))
+    );
+    let of_step: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == si)
+        .map(|t| (t.time.as_ticks(), t.to, t.cause))
+        .collect();
+    let round = |at| {
+        [
+            (at, Running, Cause::Start),
+            (at, Aborting, Cause::Dropped),
+            (at, Aborted, Cause::Dropped),
+        ]
+    };
+    assert_eq!(of_step, [round(0), round(1_000), round(2_000)].concat());
+    assert_eq!(sim.state(ji), Terminated);
+}
