@@ -619,3 +619,35 @@ fn a_blocking_run_polled_from_a_condition_is_aborted_by_its_drop() {
     assert_eq!(of_step, [round(0), round(1_000), round(2_000)].concat());
     assert_eq!(sim.state(ji), Terminated);
 }
+
+/// Waits in two polled waits at once whose conditions hold already; records when they
+/// both returned.
+struct TwoWaitsThatHold;
+impl Sequence<Ctrl> for TwoWaitsThatHold {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        join(cx.wait_until(|_| true), cx.wait_until(|_| true)).await;
+        let now = cx.now().as_ticks();
+        cx.control().got.set(Some((now, Ok(Outcome::Completed))));
+        Ok(())
+    }
+}
+
+/// Both polled waits are checked in the action's first poll (the first one's count does
+/// not take the action's mark from the second): the action goes on at 0 ms, and the run
+/// ends there, after two lane polls (the wait for the start, the start).
+#[test]
+fn two_polled_waits_that_hold_both_return_in_the_first_poll() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let j = seq.add(SeqConfig::new("J"), TwoWaitsThatHold).unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.start(ji).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(0))
+    );
+    assert_eq!(ctrl.got.get(), Some((0, Ok(Outcome::Completed))));
+    assert_eq!((sim.state(ji), sim.lane_polls()[0]), (Terminated, 2));
+}
