@@ -49,7 +49,7 @@ impl Sequence<Ctrl> for Slow {
     }
 }
 
-/// What [`j_beside_slow_y`] saw.
+/// What [`j_beside_slow_y`] or [`j_alone`] saw.
 struct Seen {
     /// When the simulator came to rest (µs).
     rest: Option<u64>,
@@ -91,6 +91,30 @@ fn j_beside_slow_y<S: Sequence<Ctrl>>(dwell_ms: u64, j: impl FnOnce(SeqId) -> S)
     Seen {
         rest: rest.map(|t| t.as_ticks()),
         ended: (ended(yi), ended(ji)),
+        j_polls: sim.lane_polls()[0],
+        got: ctrl.got.take(),
+    }
+}
+
+/// J alone in its lane: started, then run until the simulator comes to rest (at most 50
+/// ms). `ended.0` is `None` (there is no Y).
+fn j_alone<S: Sequence<Ctrl>>(j: S) -> Seen {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let j = seq.add(SeqConfig::new("J"), j).unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(j);
+    sim.start(ji).unwrap();
+    let rest = sim.run_until_idle(Duration::from_millis(50));
+    let ended = sim
+        .trace()
+        .iter()
+        .find(|t| t.sequence == ji && t.to == Terminated)
+        .map(|t| t.time.as_ticks());
+    Seen {
+        rest: rest.map(|t| t.as_ticks()),
+        ended: (None, ended),
         j_polls: sim.lane_polls()[0],
         got: ctrl.got.take(),
     }
@@ -516,18 +540,8 @@ impl Sequence<Ctrl> for WaitsInItsCondition {
 /// Before, the wait's drop ended the run's poll wait, and the run waited for good.
 #[test]
 fn a_polled_wait_polled_from_a_condition_leaves_the_exit_polls_alone() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let j = seq.add(SeqConfig::new("J"), WaitsInItsCondition).unwrap();
-    let ji = j.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(j);
-    sim.start(ji).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(3_000))
-    );
-    assert_eq!(sim.state(ji), Terminated);
+    let seen = j_alone(WaitsInItsCondition);
+    assert_eq!((seen.rest, seen.ended.1), (Some(3_000), Some(3_000)));
 }
 
 /// Makes a polled wait and drops it unpolled, while another polled wait, which holds from
@@ -552,18 +566,8 @@ impl Sequence<Ctrl> for DropsAnUnpolledWait {
 /// nothing off: the wait under way still has its polls, and the run ends at 3 ms.
 #[test]
 fn a_polled_wait_dropped_unpolled_leaves_the_polls_of_another() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let j = seq.add(SeqConfig::new("J"), DropsAnUnpolledWait).unwrap();
-    let ji = j.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(j);
-    sim.start(ji).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(3_000))
-    );
-    assert_eq!(sim.state(ji), Terminated);
+    let seen = j_alone(DropsAnUnpolledWait);
+    assert_eq!((seen.rest, seen.ended.1), (Some(3_000), Some(3_000)));
 }
 
 /// Its exit condition polls a blocking run of its step once (a misuse, as above), and
@@ -637,17 +641,8 @@ impl Sequence<Ctrl> for TwoWaitsThatHold {
 /// ends there, after two lane polls (the wait for the start, the start).
 #[test]
 fn two_polled_waits_that_hold_both_return_in_the_first_poll() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let j = seq.add(SeqConfig::new("J"), TwoWaitsThatHold).unwrap();
-    let ji = j.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(j);
-    sim.start(ji).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(0))
-    );
-    assert_eq!(ctrl.got.get(), Some((0, Ok(Outcome::Completed))));
-    assert_eq!((sim.state(ji), sim.lane_polls()[0]), (Terminated, 2));
+    let seen = j_alone(TwoWaitsThatHold);
+    assert_eq!((seen.rest, seen.ended.1), (Some(0), Some(0)));
+    assert_eq!(seen.got, Some((0, Ok(Outcome::Completed))));
+    assert_eq!(seen.j_polls, 2);
 }
