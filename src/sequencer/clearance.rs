@@ -57,7 +57,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// As [`clearance`](Self::clearance), but `Go` only when the tick said `run`'s polled
-    /// condition is due, and then the due poll is taken.
+    /// condition is due, and then the due poll is taken. Inline: it is the whole of a
+    /// due poll's section, which must stay short.
     #[inline(always)]
     pub(crate) fn take_due_poll(&mut self, run: RunId, abort_all_posted: bool) -> Clearance {
         let id = run.seq;
