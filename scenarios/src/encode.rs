@@ -148,6 +148,7 @@ fn error_code(e: Error) -> u32 {
         Error::TickInProgress => 24,
         Error::ForeignMonitorTable => 25,
         Error::AlreadyPaused(_) => 26,
+        Error::OutsideAction(_) => 27,
     }
 }
 

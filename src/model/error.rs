@@ -97,6 +97,11 @@ pub enum Error {
     /// request, or the paused caller it blocks) and has no resume pending: the request
     /// would do nothing.
     AlreadyPaused(SeqId),
+    /// A start of this sequence ([`Cx::run`](crate::Cx::run), [`Cx::step`](crate::Cx::step),
+    /// [`Cx::start`](crate::Cx::start) or [`Cx::start_scoped`](crate::Cx::start_scoped))
+    /// made outside the action of the sequence whose context it used: from its pre- or
+    /// exit condition. A condition looks; an action acts.
+    OutsideAction(SeqId),
 }
 
 impl Error {
@@ -141,6 +146,7 @@ impl Error {
                 "more than 255 PauseOwner monitors of one sequence"
             }
             Error::AlreadyPaused(_) => "sequence already paused",
+            Error::OutsideAction(_) => "start outside an action",
         }
     }
 }
@@ -200,6 +206,7 @@ impl Error {
             Error::ForeignMonitorTable => ("a tick with a monitor table other than the sequencer's own (one table per sequencer)", None, ""),
             Error::PauseOwnerMonitorsExceeded(id) => ("sequence ", Some(id), " has 256 PauseOwner monitors; at most 255 can hold it paused"),
             Error::AlreadyPaused(id) => ("sequence ", Some(id), " is paused already"),
+            Error::OutsideAction(id) => ("sequence ", Some(id), " was started from a condition method (only an action starts)"),
             Error::JoinWouldDeadlock(id) => ("joining sequence ", Some(id), " would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)"),
         }
     }

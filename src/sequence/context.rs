@@ -23,9 +23,11 @@ use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId
 /// keeps each time it polls the action. So a combinator inside an action must poll every
 /// branch when the task is woken, as embassy-futures' `join` and `select` do; one that
 /// gives each branch a waker of its own and polls only the woken ones (`FuturesUnordered`)
-/// misses wake-ups. Polled from a condition method (`poll_once`), a join still says
-/// whether its run is over, but a polled wait only waits, and a blocking run starts a run
-/// that its drop then aborts: a condition asks a [`Handle`] instead.
+/// misses wake-ups. A condition method looks, an action acts: from a pre- or exit
+/// condition every start ([`run`](Self::run), [`step`](Self::step), [`start`](Self::start),
+/// [`start_scoped`](Self::start_scoped)) is refused with [`Error::OutsideAction`]. Polled
+/// there (`poll_once`), a join still says whether its run is over, and a polled wait only
+/// waits; a condition asks a [`Handle`] instead.
 ///
 /// A main sequence that starts a status blinker non-blocking, runs a move blocking, and
 /// waits for the blinker:
@@ -117,6 +119,11 @@ impl<'a, C> Cx<'a, C> {
     /// The poll of the action is over.
     pub(crate) fn end_action_poll(&self) {
         self.action.set(self.action.get() & !ACTING);
+    }
+
+    /// Whether the action is being polled: only then does the context start anything.
+    fn acting(&self) -> bool {
+        self.action.get() & ACTING != 0
     }
 
     /// The run this context acts for: every await point and start of its action names
@@ -290,7 +297,8 @@ impl<'a, C> Cx<'a, C> {
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
     /// waits for its outcome. Errors if `child` is already running, or if the tick stopped
     /// this sequence while its action ran on, its abort is requested or an abort-all waits
-    /// ([`Error::NotRunning`], as [`start`](Self::start)).
+    /// ([`Error::NotRunning`], as [`start`](Self::start)), and with
+    /// [`Error::OutsideAction`] when asked for from a condition method.
     ///
     /// If this sequence is aborted or paused meanwhile, the call does not return into the
     /// action until it may advance again (sticky abort: an aborted action never resumes).
@@ -399,18 +407,25 @@ impl<'a, C> Cx<'a, C> {
         }
     }
 
-    /// A blocking run, by this sequence, of the sequence or step `id`.
+    /// A blocking run, by this sequence, of the sequence or step `id`; one asked for from
+    /// a condition method is refused at its first poll.
     fn blocking_run(&self, id: SeqId) -> Run<'a, C> {
-        Run::blocking(Cx::new(self.port, self.control, id), self.run_id())
+        let child = Cx::new(self.port, self.control, id);
+        if self.acting() {
+            Run::blocking(child, self.run_id())
+        } else {
+            Run::outside_action(child, self.run_id())
+        }
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if
     /// it is already running or has no lane, and with [`Error::NotRunning`] (this
     /// sequence's id) if the tick stopped this sequence while its action ran on (a tick
     /// preempts the lanes), or its abort is requested or an abort-all waits (the tick has
-    /// not carried it out yet): nothing an action starts outlives its abort. It does outlive
-    /// this sequence's end, a failure through `?` included: to end it with the action,
-    /// start it with [`start_scoped`](Self::start_scoped).
+    /// not carried it out yet): nothing an action starts outlives its abort. From a
+    /// condition method it is [`Error::OutsideAction`]. It does outlive this sequence's
+    /// end, a failure through `?` included: to end it with the action, start it with
+    /// [`start_scoped`](Self::start_scoped).
     ///
     /// `blink` has a lane, `fan` has none:
     ///
@@ -444,6 +459,9 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn start(&self, id: SeqId) -> Result<(), Error> {
+        if !self.acting() {
+            return Err(Error::OutsideAction(id));
+        }
         self.port.start_in_lane(id, Some(self.run_id())).map(|_| ())
     }
 
@@ -506,6 +524,9 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn start_scoped(&self, id: SeqId) -> Result<Scoped<'a, C>, Error> {
+        if !self.acting() {
+            return Err(Error::OutsideAction(id));
+        }
         let run = self.port.start_in_lane(id, Some(self.run_id()))?;
         Ok(Scoped::new(self.port, self.run_id(), run))
     }

@@ -1,6 +1,7 @@
 //! A run of a sequence or step: the seed's `actionFramework` as a state machine.
 //!
 //! ```text
+//!                                      asked for in a condition: OutsideAction ──► Done, Err
 //!   lane:  Idle ──take_start──┐        blocking:  Begin ──start_blocking──┐  (refused: Done, Err)
 //!                             ▼                                           ▼
 //!                 ┌──► PreCondition ◄──────────────────── restart ─────────────────┐
@@ -28,6 +29,7 @@
 //! |---|---|
 //! | Idle → PreCondition | [`Port::take_start`] |
 //! | Begin → PreCondition / Done | [`Port::start_blocking`] |
+//! | OutsideAction → Done | none: asked for from a condition method, refused ([`Run::outside_action`]) |
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
 //! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
 //! | Action → ActionFailed | [`Port::clearance`], the body's action (`Err`) |
@@ -64,7 +66,7 @@ use crate::sequence::erased::ErasedBody;
 use crate::sequence::SeqHead;
 use crate::sequencer::clearance::Clearance;
 use crate::sequencer::port::Port;
-use crate::{Cx, Done, Failure, Outcome};
+use crate::{Cx, Done, Error, Failure, Outcome};
 
 /// Where a run stands. Without payload: the outcome has a cell of its own.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -73,6 +75,9 @@ enum Stage {
     Idle,
     /// A blocking start's first poll: start the child.
     Begin,
+    /// A blocking start asked for outside the caller's action (from a condition method):
+    /// its first poll refuses it ([`Error::OutsideAction`]) and starts nothing.
+    OutsideAction,
     /// At the await point before the pre-condition: the start, or after a restart.
     PreCondition,
     /// The action runs.
@@ -120,6 +125,17 @@ impl<'a, C> Run<'a, C> {
             cx,
             driver: Driver::Blocking { caller },
             stage: Cell::new(Stage::Begin),
+            outcome: Cell::new(Outcome::Completed),
+        }
+    }
+
+    /// A blocking start of `cx`'s sequence asked for by `caller` from a condition method:
+    /// refused at the first poll.
+    pub(crate) fn outside_action(cx: Cx<'a, C>, caller: RunId) -> Self {
+        Run {
+            cx,
+            driver: Driver::Blocking { caller },
+            stage: Cell::new(Stage::OutsideAction),
             outcome: Cell::new(Outcome::Completed),
         }
     }
@@ -221,6 +237,11 @@ impl<'a, C> Run<'a, C> {
                     // Only a blocking run begins; a lane begins in `Idle`.
                     Driver::Lane => self.stage.set(Stage::Idle),
                 },
+                Stage::OutsideAction => {
+                    let refused = Failure::NotStarted(Error::OutsideAction(id));
+                    head.result.set(Some(Err(refused)));
+                    self.stage.set(Stage::Done);
+                }
                 Stage::PreCondition => match self.clearance(w) {
                     Clearance::Go => {
                         if body.pre(&self.cx) {
@@ -382,7 +403,7 @@ impl<C> Drop for Run<'_, C> {
             | Stage::AwaitPoll => port.abandon(self.cx.id(), self.cx.control()),
             Stage::Ended => port.finished(self.run()),
             // Not started or over; a lane waiting for a start is `drop_lane`'s.
-            Stage::Idle | Stage::Begin | Stage::HandOver | Stage::Done => {}
+            Stage::Idle | Stage::Begin | Stage::OutsideAction | Stage::HandOver | Stage::Done => {}
         }
     }
 }

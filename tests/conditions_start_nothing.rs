@@ -1,0 +1,206 @@
+//! A condition looks, an action acts: every start made with a context from a pre- or
+//! exit condition (`Cx::run`, `Cx::step`, `Cx::start`, `Cx::start_scoped`) is refused
+//! with `Error::OutsideAction`, and the sequence it names never starts. The same starts
+//! from the action go ahead.
+
+use std::cell::RefCell;
+use std::task::Poll;
+
+use embassy_futures::poll_once;
+use rtseq::sim::Sim;
+use rtseq::RunningState::*;
+use rtseq::{
+    Cause, Cx, Done, Duration, Error, Failure, Instant, Monitors, Seq, SeqConfig, SeqId, Sequence,
+    Sequencer, Wait,
+};
+
+/// A start's result: when (µs), where it was made, and what it returned.
+type Got = (u64, &'static str, Result<(), Failure>);
+
+/// What each start returned.
+#[derive(Default)]
+struct Ctrl {
+    got: RefCell<Vec<Got>>,
+}
+
+impl Ctrl {
+    fn note<T, E: Into<Failure>>(
+        &self,
+        cx: &Cx<'_, Ctrl>,
+        what: &'static str,
+        result: Result<T, E>,
+    ) {
+        self.got.borrow_mut().push((
+            cx.now().as_ticks(),
+            what,
+            result.map(|_| ()).map_err(Into::into),
+        ));
+    }
+}
+
+/// What a blocking run's first poll gave: `Ok` while it runs.
+fn started(polled: Poll<Result<Done, Failure>>) -> Result<Done, Failure> {
+    match polled {
+        Poll::Ready(done) => done,
+        Poll::Pending => Ok(Done::Completed),
+    }
+}
+
+/// Ends at once.
+struct Quick;
+impl Sequence<Ctrl> for Quick {
+    async fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Ok(())
+    }
+}
+
+/// Tries every kind of start in its pre-condition (which then holds) and its exit
+/// condition (which holds from 1 ms); its action starts `lane` non-blocking and runs
+/// `dwell` blocking.
+struct Tries {
+    lane: SeqId,
+    dwell: Seq<Wait>,
+    quick: Seq<Quick>,
+}
+
+impl Tries {
+    fn try_all(&mut self, cx: &Cx<'_, Ctrl>, at: &'static str) {
+        let c = cx.control();
+        c.note(cx, at, cx.start(self.lane));
+        c.note(cx, at, cx.start_scoped(self.lane));
+        c.note(cx, at, started(poll_once(cx.step(&mut self.dwell))));
+        c.note(cx, at, started(poll_once(cx.run(&mut self.quick))));
+    }
+}
+
+impl Sequence<Ctrl> for Tries {
+    fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        self.try_all(cx, "pre");
+        true
+    }
+
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.control().note(cx, "action", cx.start(self.lane));
+        let done = cx.step(&mut self.dwell).await;
+        cx.control().note(cx, "action", done);
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        self.try_all(cx, "exit");
+        cx.now().as_ticks() >= 3_000
+    }
+}
+
+/// Each start from a condition is refused, naming the sequence it asked for; nothing it
+/// named runs then. The action's start of the lane and its blocking run go ahead: the
+/// lane runs at 0 ms, the dwell from 0 to 2 ms. The exit condition is checked at 2 ms
+/// (refused four times) and 3 ms (again), when it holds.
+#[test]
+fn starts_from_conditions_are_refused_and_start_nothing() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let lane = seq.add(SeqConfig::new("lane"), Quick).unwrap();
+    let li = lane.id();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let di = dwell.id();
+    let quick = seq.add(SeqConfig::new("quick"), Quick).unwrap();
+    let qi = quick.id();
+    let tries = Tries {
+        lane: li,
+        dwell,
+        quick,
+    };
+    let t = seq.add(SeqConfig::new("tries"), tries).unwrap();
+    let ti = t.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(t);
+    sim.lane(lane);
+    sim.start(ti).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(3_000))
+    );
+    let refused = |at, what| {
+        [
+            (at, what, Err(Failure::NotStarted(Error::OutsideAction(li)))),
+            (at, what, Err(Failure::NotStarted(Error::OutsideAction(li)))),
+            (at, what, Err(Failure::NotStarted(Error::OutsideAction(di)))),
+            (at, what, Err(Failure::NotStarted(Error::OutsideAction(qi)))),
+        ]
+    };
+    let mut expected = refused(0, "pre").to_vec();
+    expected.extend([(0, "action", Ok(())), (2_000, "action", Ok(()))]);
+    expected.extend(refused(2_000, "exit"));
+    expected.extend(refused(3_000, "exit"));
+    assert_eq!(*ctrl.got.borrow(), expected);
+    let of = |id| -> Vec<_> {
+        sim.trace()
+            .iter()
+            .filter(|t| t.sequence == id)
+            .map(|t| (t.time.as_ticks(), t.to, t.cause))
+            .collect()
+    };
+    assert_eq!(
+        of(li),
+        [
+            (0, Running, Cause::Start),
+            (0, Terminated, Cause::Completed)
+        ]
+    );
+    assert_eq!(
+        of(di),
+        [
+            (0, Running, Cause::Start),
+            (2_000, Terminated, Cause::Completed)
+        ]
+    );
+    assert!(of(qi).is_empty());
+    assert_eq!(
+        of(ti),
+        [
+            (0, Running, Cause::Start),
+            (3_000, Terminated, Cause::Completed)
+        ]
+    );
+}
+
+/// Asks for a blocking run of its step in its pre-condition and drops it unpolled; its
+/// action then runs the same step.
+struct AsksAndDrops(Seq<Wait>);
+impl Sequence<Ctrl> for AsksAndDrops {
+    fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        drop(cx.step(&mut self.0));
+        true
+    }
+
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let done = cx.step(&mut self.0).await;
+        cx.control().note(cx, "action", done);
+        Ok(())
+    }
+}
+
+/// A refused blocking run never polled leaves nothing behind: the action's run of the same
+/// step waits its 2 ms and completes.
+#[test]
+fn a_refused_run_never_polled_leaves_the_next_run_alone() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq
+        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let a = seq.add(SeqConfig::new("A"), AsksAndDrops(step)).unwrap();
+    let ai = a.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(a);
+    sim.start(ai).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(2_000))
+    );
+    assert_eq!(*ctrl.got.borrow(), [(2_000, "action", Ok(()))]);
+    assert_eq!(sim.state(ai), Terminated);
+}
