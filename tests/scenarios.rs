@@ -6,8 +6,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{self, Completed, Monitor as Mon, PreConditionFalse, Start, Timeout};
 use rtseq::RunningState::{self, *};
 use rtseq::{
-    Behaviour, Done, Duration, Error, Failure, Monitor, Monitors, Outcome, SeqConfig, SeqId,
-    Sequencer, Transition, Trigger,
+    Behaviour, Cx, Done, Duration, Error, Failure, Monitor, Monitors, Outcome, SeqConfig, SeqId,
+    Sequence, Sequencer, Transition, Trigger,
 };
 use std::sync::atomic::{AtomicU32, Ordering::SeqCst};
 
@@ -659,6 +659,34 @@ fn pre_condition_false_skips_steps_and_sequences() {
     assert_eq!(
         [counts(si), counts(bi), counts(mi)],
         [(1, 0, 1, 0), (1, 0, 1, 0), (1, 1, 0, 0)]
+    );
+}
+
+/// Fails at once with the application's code 3.
+struct FailsAtOnce;
+impl Sequence<Ctrl> for FailsAtOnce {
+    async fn action(&mut self, _cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        Err(Failure::App(3))
+    }
+}
+
+/// A failed run counts as a run and a failure, not as a completion (its exit condition is
+/// never checked); a completed run of the same sequence after it as a completion.
+#[test]
+fn a_failed_run_counts_as_a_failure_not_a_completion() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let f = seq.add(SeqConfig::new("F"), FailsAtOnce).unwrap();
+    let fi = f.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(f);
+    sim.start(fi).unwrap();
+    let h = sim.handle(fi).unwrap();
+    assert_eq!(h.last_outcome(), Some(Outcome::Failed(Failure::App(3))));
+    let c = h.counters();
+    assert_eq!(
+        (c.runs, c.completed, c.skipped, c.failed, c.aborts),
+        (1, 0, 0, 1, 0)
     );
 }
 

@@ -8,7 +8,7 @@ use crate::model::time::Stamp;
 use crate::MAX_DEPTH;
 use crate::{Behaviour, Cause, Failure, Outcome, Request, RunningState, SeqId};
 
-/// How often a sequence did what (feature `counters`: 12 bytes per sequence). Counters wrap
+/// How often a sequence did what (feature `counters`: 14 bytes per sequence). Counters wrap
 /// at `u16::MAX`.
 ///
 /// ```
@@ -16,7 +16,7 @@ use crate::{Behaviour, Cause, Failure, Outcome, Request, RunningState, SeqId};
 /// let seq: Sequencer<(), 1> = Sequencer::new();
 /// let id = seq.register(SeqConfig::new("a")).unwrap();
 /// let c = seq.sequence_by_id(id).unwrap().counters();
-/// assert_eq!((c.runs, c.aborts, c.restarts, c.exceptions), (0, 0, 0, 0));
+/// assert_eq!((c.runs, c.failed, c.aborts, c.restarts, c.exceptions), (0, 0, 0, 0, 0));
 /// ```
 #[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
 #[cfg(feature = "counters")]
@@ -29,6 +29,8 @@ pub struct Counters {
     pub completed: u16,
     /// Runs skipped because the pre-condition was false.
     pub skipped: u16,
+    /// Runs whose action failed (returned `Err`).
+    pub failed: u16,
     /// Aborts.
     pub aborts: u16,
     /// Restarts.
@@ -43,6 +45,7 @@ impl Counters {
         runs: 0,
         completed: 0,
         skipped: 0,
+        failed: 0,
         aborts: 0,
         restarts: 0,
         exceptions: 0,
@@ -53,8 +56,11 @@ impl Counters {
         let c = match to {
             RunningState::Aborted => &mut self.aborts,
             RunningState::Restarting => &mut self.restarts,
-            RunningState::Terminated if cause == Cause::PreConditionFalse => &mut self.skipped,
-            RunningState::Terminated => &mut self.completed,
+            RunningState::Terminated => match cause {
+                Cause::PreConditionFalse => &mut self.skipped,
+                Cause::Failed => &mut self.failed,
+                _ => &mut self.completed,
+            },
             RunningState::Running if from != RunningState::Paused && cause != Cause::Restart => {
                 &mut self.runs
             }
