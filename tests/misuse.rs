@@ -1493,6 +1493,76 @@ fn an_exception_sequence_joining_its_owner_is_an_error_not_a_hang() {
     assert_eq!((so, se), (Aborted, Terminated));
 }
 
+/// O runs S blocking, and S steps `wait` (until flag 1). O has an `AbortOwner` monitor on
+/// flag 0 whose exception sequence E joins S, or S's step (`join_step`). O's exception
+/// holds its blocking children with it until E ends, and E would wait for one of them:
+/// `JoinWouldDeadlock`, as a join of the owner itself is. E ends, then O's tree is aborted.
+/// (Before, the cycle check walked up from E to O only, and E waited for good.) Returns
+/// what E's join returned, the id it joined, and the states of O, S, the step and E.
+fn exception_joins_a_held_child(
+    join_step: bool,
+) -> (Vec<Result<Done, Failure>>, SeqId, [RunningState; 4]) {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let wait = seq.add(SeqConfig::new("wait"), Leaf::until(1)).unwrap();
+    let wi = wait.id();
+    let s = seq
+        .add(SeqConfig::new("S"), Node::of(vec![Op::Step(wait)]))
+        .unwrap();
+    let si = s.id();
+    let o = seq
+        .add(SeqConfig::new("O"), Node::of(vec![Op::Run(s)]))
+        .unwrap();
+    let oi = o.id();
+    let joined = if join_step { wi } else { si };
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Join(joined)]))
+        .unwrap();
+    let ei = e.id();
+    let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    monitors
+        .add(
+            oi,
+            Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(o);
+    sim.lane(e);
+    sim.start(oi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.set(0, true);
+    sim.run_for(Duration::from_millis(10));
+    let states = [oi, si, wi, ei].map(|id| sim.state(id));
+    drop(sim);
+    let got = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == ei)
+        .map(|r| r.result)
+        .collect();
+    (got, joined, states)
+}
+
+#[test]
+fn an_exception_sequence_joining_its_owners_blocking_child_is_an_error_not_a_hang() {
+    let (got, s, states) = exception_joins_a_held_child(false);
+    assert_eq!(got, [Err(Failure::NotStarted(Error::JoinWouldDeadlock(s)))]);
+    assert_eq!(states, [Aborted, Aborted, Aborted, Terminated]);
+}
+
+#[test]
+fn an_exception_sequence_joining_its_owners_step_below_a_child_is_an_error_not_a_hang() {
+    let (got, step, states) = exception_joins_a_held_child(true);
+    assert_eq!(
+        got,
+        [Err(Failure::NotStarted(Error::JoinWouldDeadlock(step)))]
+    );
+    assert_eq!(states, [Aborted, Aborted, Aborted, Terminated]);
+}
+
 /// A lane dropped while it waits for a start (an executor shutting down) with a start of
 /// its sequence made but not taken yet: no future will ever drive that run, so it is
 /// aborted (`Dropped`), as the pending start of a lane dropped mid-run is.

@@ -8,6 +8,7 @@
 
 use crate::model::id::Link;
 use crate::model::set::SeqSet;
+use crate::model::state::States;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
@@ -43,14 +44,26 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.monitor_holds > 0 || b.has(flag::PAUSED_BY_REQUEST) || caller_paused
     }
 
-    /// One step of [`join_would_deadlock`]: the caller that `at` (in `lane`) holds up,
-    /// with that caller's lane: its caller in `lane` (which it blocks), or, when `at` is an
-    /// exception sequence whose end is not reported yet, its owner (held until then).
-    fn held_caller(&self, at: SeqId, lane: u8) -> Option<(SeqId, u8)> {
+    /// One step of [`join_would_deadlock`]: the caller that `at` (in `lane`) holds up:
+    /// its caller in `lane` (which it blocks), or, when `at` is an exception sequence
+    /// whose end is not reported yet, its owner (held until then).
+    fn held_caller(&self, at: SeqId, lane: u8) -> Option<HeldCaller> {
         let b = self.block(at)?;
         let c = b.caller.get()?;
         let up = self.lane_slot(c);
-        (up == lane || b.has(flag::HANDLES_EXCEPTION)).then_some((c, up))
+        let exception = b.has(flag::HANDLES_EXCEPTION);
+        (up == lane || exception).then_some(HeldCaller {
+            id: c,
+            lane: up,
+            owner: exception,
+        })
+    }
+
+    /// The caller that a run under way `at` blocks, if `at` runs in `lane`.
+    fn blocking_caller_in(&self, at: SeqId, lane: u8) -> Option<SeqId> {
+        let b = self.block(at)?;
+        let c = b.caller.get()?;
+        (b.lane == lane && self.lane_slot(c) == lane && States::LIVE.has(b.state)).then_some(c)
     }
 
     /// One step of the held check of a due wake-up ([`held`]): `None` when `at` holds its
@@ -69,6 +82,16 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             _ => Link::NONE,
         })
     }
+}
+
+/// A caller that a sequence holds up ([`State::held_caller`]).
+struct HeldCaller {
+    id: SeqId,
+    /// The lane it runs in.
+    lane: u8,
+    /// It is the owner whose exception the sequence handles: its blocking children are
+    /// held with it ([`held_below`]).
+    owner: bool,
 }
 
 /// Before `id` is started by `caller`: walks `caller`'s caller links, one step per link,
@@ -103,9 +126,10 @@ pub(crate) fn cut_and_depth<
 
 /// Whether `joiner` waiting for `target` could never return: `target` waits, directly or
 /// not, for `joiner`. Found outward from `joiner`: the callers it holds up (its callers
-/// in its own lane, which it blocks, and, for an exception sequence, its owner, held until
-/// its end), the sequences waiting in a join for one of those, and so on. A cycle of joins
-/// (A joins B while B joins A, or through a blocking child) is one of them.
+/// in its own lane, which it blocks, and, for an exception sequence, its owner and the
+/// owner's blocking children, held until its end), the sequences waiting in a join for one
+/// of those, and so on. A cycle of joins (A joins B while B joins A, or through a blocking
+/// child) is one of them.
 pub(crate) fn join_would_deadlock<
     C,
     S: Sections<C, N, T, W, B>,
@@ -122,13 +146,13 @@ pub(crate) fn join_would_deadlock<
     let mut round = SeqSet::<B>::EMPTY.with(joiner);
     // Each round visits at least one sequence no round visited before.
     for _ in 0..=N {
-        let mut joiners = SeqSet::EMPTY;
+        let mut next = SeqSet::EMPTY;
         for from in round {
-            if holds_up(s, from, target, &mut waiting, &mut joiners) {
+            if holds_up(s, from, target, &mut waiting, &mut next) {
                 return true;
             }
         }
-        round = joiners.minus(&waiting);
+        round = next.minus(&waiting);
         if round.is_empty() {
             return false;
         }
@@ -137,8 +161,9 @@ pub(crate) fn join_would_deadlock<
 }
 
 /// One step of [`join_would_deadlock`]: walks up the callers `from` holds up, marking
-/// each `waiting` and collecting the sequences waiting in a join for one of them in
-/// `joiners`. True when it meets `target`.
+/// each `waiting` and collecting in `next` the sequences waiting in a join for one of
+/// them, and the blocking children of an owner held for an exception of one of them.
+/// True when it meets `target`.
 fn holds_up<
     C,
     S: Sections<C, N, T, W, B>,
@@ -151,7 +176,7 @@ fn holds_up<
     from: SeqId,
     target: SeqId,
     waiting: &mut SeqSet<B>,
-    joiners: &mut SeqSet<B>,
+    next: &mut SeqSet<B>,
 ) -> bool {
     let mut lane = s.section(|s| s.lane_slot(from));
     let mut at = from;
@@ -163,13 +188,48 @@ fn holds_up<
             return false;
         }
         waiting.insert(at);
-        *joiners = joiners.union(&s.section(|s| s.joiners_of(at)));
-        match s.section(|s| s.held_caller(at, lane)) {
-            Some((up, up_lane)) => (at, lane) = (up, up_lane),
-            None => return false,
+        *next = next.union(&s.section(|s| s.joiners_of(at)));
+        let Some(up) = s.section(|s| s.held_caller(at, lane)) else {
+            return false;
+        };
+        if up.owner {
+            *next = next.union(&held_below(s, up.id, up.lane));
         }
+        (at, lane) = (up.id, up.lane);
     }
     false
+}
+
+/// The runs under way that the exception of `owner` (in `lane`) holds with it: its
+/// blocking children in its lane, and theirs. Each is walked up its callers in the lane,
+/// one section per step, until it meets `owner` or the top of the lane.
+fn held_below<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    owner: SeqId,
+    lane: u8,
+) -> SeqSet<B> {
+    let mut below = SeqSet::EMPTY;
+    for id in s.section(|s| s.sets.members(Set::Called)) {
+        let mut at = id;
+        for _ in 0..MAX_DEPTH {
+            match s.section(|s| s.blocking_caller_in(at, lane)) {
+                Some(up) if up == owner => {
+                    below.insert(id);
+                    break;
+                }
+                Some(up) => at = up,
+                None => break,
+            }
+        }
+    }
+    below
 }
 
 /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding for
