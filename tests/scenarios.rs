@@ -1601,6 +1601,54 @@ fn a_sequence_whose_abort_is_requested_starts_nothing_and_does_not_complete() {
     assert_eq!(outcome, Some(Outcome::Aborted(Cause::Abort)));
 }
 
+/// Requests its own abort, then starts `other` (a main sequence) through a handle of its
+/// context, and keeps what the start returned.
+struct AbortThenStart {
+    other: SeqId,
+    started: std::rc::Rc<std::cell::Cell<Option<Result<(), Error>>>>,
+}
+impl Sequence<Ctrl> for AbortThenStart {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.sequence_by_id(cx.id()).unwrap().abort()?;
+        let started = cx.sequence_by_id(self.other).unwrap().start();
+        self.started.set(Some(started));
+        cx.wait_until(|_| false).await;
+        Ok(())
+    }
+}
+
+/// A start through a handle of a context is a start the sequence makes: once its abort is
+/// requested it is refused (`NotRunning`) as its context's starts are, so nothing it
+/// begins then outlives the abort. `other` never runs; the tick at 1 ms aborts A.
+#[test]
+fn a_sequence_whose_abort_is_requested_starts_nothing_through_a_handle_either() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let other = seq.add(SeqConfig::new("other"), Node::of(vec![])).unwrap();
+    let oi = other.id();
+    let started = std::rc::Rc::default();
+    let a = AbortThenStart {
+        other: oi,
+        started: std::rc::Rc::clone(&started),
+    };
+    let a = seq.add(SeqConfig::new("A"), a).unwrap();
+    let ai = a.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(other);
+    sim.lane(a);
+    sim.start(ai).unwrap();
+    sim.run_for(Duration::from_millis(3));
+    assert_eq!(started.get(), Some(Err(Error::NotRunning(ai))));
+    assert_eq!(
+        sim.trace().to_vec(),
+        [
+            tr(0, ai, Idle, Running, Start),
+            tr(1, ai, Running, Aborting, Cause::Abort),
+            tr(1, ai, Aborting, Aborted, Cause::Abort),
+        ]
+    );
+}
+
 /// An abort-all asked for while a step runs (the safety system, which preempts the lane)
 /// holds every run at its next await point until the tick carries it out (semantics 8):
 /// the asking step does not end, no further step is begun, and the tick at 1 ms aborts

@@ -724,7 +724,7 @@ impl<'a, C> Cx<'a, C> {
     pub fn sequence_by_id(&self, id: SeqId) -> Option<Handle<'a, C>> {
         self.port
             .info(id)
-            .map(|_| Handle::for_sequence(self.port, id, self.id))
+            .map(|_| Handle::for_run(self.port, id, self.run_id()))
     }
 
     /// A handle to any registered sequence (the seed's `getSequenceByName`).
@@ -760,7 +760,7 @@ impl<'a, C> Cx<'a, C> {
     /// ```
     pub fn sequence_by_name(&self, name: &str) -> Option<Handle<'a, C>> {
         let id = self.port.find(name)?;
-        Some(Handle::for_sequence(self.port, id, self.id))
+        Some(Handle::for_run(self.port, id, self.run_id()))
     }
 }
 

@@ -1,5 +1,6 @@
 //! Handles: inspect and command a registered sequence from anywhere.
 
+use crate::model::id::RunId;
 use crate::sequencer::port::Port;
 #[cfg(feature = "counters")]
 use crate::Counters;
@@ -42,8 +43,28 @@ pub type CallerStack = heapless::Vec<SeqId, MAX_DEPTH>;
 pub struct Handle<'a, C> {
     port: &'a dyn Port<C>,
     id: SeqId,
-    /// Who makes this handle's requests (recorded in the trace).
-    by: Requester,
+    /// Who makes this handle's starts and requests.
+    user: User,
+}
+
+/// Who uses a [`Handle`].
+#[derive(Clone, Copy)]
+enum User {
+    /// The application (a handle from the sequencer).
+    Application,
+    /// A run of a sequence, through a handle from its context: its starts are refused
+    /// when its own would be.
+    Run(RunId),
+}
+
+impl User {
+    /// Who makes the requests, as the trace records it.
+    fn requester(self) -> Requester {
+        match self {
+            User::Application => Requester::Application,
+            User::Run(run) => Requester::Sequence(run.seq),
+        }
+    }
 }
 
 impl<'a, C> Handle<'a, C> {
@@ -60,16 +81,16 @@ impl<'a, C> Handle<'a, C> {
         Handle {
             port: seq,
             id,
-            by: Requester::Application,
+            user: User::Application,
         }
     }
 
-    /// A handle of sequence `id` for sequence `by` (from its context).
-    pub(crate) fn for_sequence(port: &'a dyn Port<C>, id: SeqId, by: SeqId) -> Self {
+    /// A handle of sequence `id` for the run `by` (from its context).
+    pub(crate) fn for_run(port: &'a dyn Port<C>, id: SeqId, by: RunId) -> Self {
         Handle {
             port,
             id,
-            by: Requester::Sequence(by),
+            user: User::Run(by),
         }
     }
 
@@ -415,7 +436,11 @@ impl<'a, C> Handle<'a, C> {
 
     /// Starts the sequence non-blocking in its lane, as a main sequence (no caller). While
     /// an abort-all waits for the tick, the start is taken and its run holds before its
-    /// pre-condition until the tick aborts it with the rest.
+    /// pre-condition until the tick aborts it with the rest. Through a handle of a context
+    /// ([`Cx::sequence_by_id`](crate::Cx::sequence_by_id)) the start is the sequence's
+    /// own: refused with [`Error::NotRunning`] (that sequence's id) as its context's
+    /// starts are, once the tick stopped its run, its abort is requested or an abort-all
+    /// waits.
     ///
     /// A start needs a lane to run the sequence (here declared, as RTIC's `init` would before
     /// the lane tasks run):
@@ -432,7 +457,11 @@ impl<'a, C> Handle<'a, C> {
     /// assert_eq!(h.start(), Err(Error::AlreadyRunning(id)));
     /// ```
     pub fn start(&self) -> Result<(), Error> {
-        self.port.start_in_lane(self.id, None).map(|_| ())
+        match self.user {
+            User::Application => self.port.start_in_lane(self.id, None),
+            User::Run(by) => self.port.start_main_by(self.id, by),
+        }
+        .map(|_| ())
     }
 
     /// Requests a pause of the sequence and its blocking children (next tick). Of a pause
@@ -483,7 +512,8 @@ impl<'a, C> Handle<'a, C> {
     /// # }
     /// ```
     pub fn pause(&self) -> Result<(), Error> {
-        self.port.request(self.id, Request::Pause, self.by)
+        self.port
+            .request(self.id, Request::Pause, self.user.requester())
     }
 
     /// Requests that a paused sequence resume where it stopped (next tick). A resume while a
@@ -516,7 +546,8 @@ impl<'a, C> Handle<'a, C> {
     /// # }
     /// ```
     pub fn resume(&self) -> Result<(), Error> {
-        self.port.request(self.id, Request::Resume, self.by)
+        self.port
+            .request(self.id, Request::Resume, self.user.requester())
     }
 
     /// Requests an abort of the sequence and all its sub-sequences (next tick). Until the
@@ -551,7 +582,8 @@ impl<'a, C> Handle<'a, C> {
     /// # }
     /// ```
     pub fn abort(&self) -> Result<(), Error> {
-        self.port.request(self.id, Request::Abort, self.by)
+        self.port
+            .request(self.id, Request::Abort, self.user.requester())
     }
 
     /// Sets (or with `None` switches off) the timeout monitor, like EEROS's

@@ -49,6 +49,9 @@ pub(crate) trait Port<C> {
     /// Starts `id` in its own lane, by the run `caller` (`None`: as a main sequence).
     /// Returns the new run.
     fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<RunId, Error>;
+    /// Starts `id` in its own lane as a main sequence, for the run `by` (through a handle
+    /// of its context): refused as `by`'s own starts are. Returns the new run.
+    fn start_main_by(&self, id: SeqId, by: RunId) -> Result<RunId, Error>;
     /// Keeps `waker` for the lane of `run`'s sequence, then says what an await point of
     /// `run` must do (a run that is not the current one: `Aborted`). For the run that
     /// drives a lane: the lane's wake-ups go to the waker it polls with.
@@ -144,6 +147,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<RunId, Error> {
         self.begin(id, Mode::Lane { caller }, Cause::Start)
+    }
+
+    fn start_main_by(&self, id: SeqId, by: RunId) -> Result<RunId, Error> {
+        self.begin(id, Mode::MainBy { by }, Cause::Start)
     }
 
     fn clearance(&self, run: RunId, waker: &Waker) -> Clearance {

@@ -34,6 +34,9 @@ pub(crate) enum Mode {
     /// In the sequence's own lane, started by the run `caller` (none: a main sequence),
     /// which continues.
     Lane { caller: Option<RunId> },
+    /// In the sequence's own lane as a main sequence (no caller), started by the run `by`
+    /// through a handle of its context: refused as that run's own starts are.
+    MainBy { by: RunId },
     /// In the sequence's own lane, as the exception sequence of the run `owner`, which the
     /// exception holds: its end is reported to the tick, which then applies the behaviour.
     Exception { owner: RunId },
@@ -50,6 +53,17 @@ impl Mode {
             | Mode::Exception { owner: caller }
             | Mode::BesidePause { owner: caller } => Some(caller),
             Mode::Lane { caller } => caller,
+            Mode::MainBy { .. } => None,
+        }
+    }
+
+    /// The run that makes the start, which begins nothing more once it is stopped, placed
+    /// by a teardown or its abort is requested: its caller, or the run that starts a main
+    /// sequence through a handle.
+    const fn starter(self) -> Option<RunId> {
+        match self {
+            Mode::MainBy { by } => Some(by),
+            _ => self.caller(),
         }
     }
 
@@ -64,7 +78,9 @@ impl Mode {
     const fn flags(self) -> u16 {
         match self {
             Mode::Blocking { .. } => 0,
-            Mode::Lane { .. } | Mode::BesidePause { .. } => flag::START_PENDING,
+            Mode::Lane { .. } | Mode::MainBy { .. } | Mode::BesidePause { .. } => {
+                flag::START_PENDING
+            }
             Mode::Exception { .. } => flag::START_PENDING | flag::HANDLES_EXCEPTION,
         }
     }
@@ -79,6 +95,8 @@ struct NewRun {
     lane: u8,
     /// The run of its caller, if any.
     caller: Option<RunId>,
+    /// The run that starts it, if any ([`Mode::starter`]).
+    starter: Option<RunId>,
     /// Its flags, all of them.
     flags: u16,
     /// The tick starts it (see [`Mode::by_tick`]).
@@ -124,7 +142,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if run.flags & flag::START_PENDING != 0 && !self.lane_open(run.lane) {
             return Err(Error::NoLane(run.seq));
         }
-        match run.caller {
+        match run.starter {
             Some(c)
                 if self.block(c.seq).is_none_or(|b| {
                     b.runs != c.count
@@ -339,9 +357,10 @@ fn admit<
         Mode::Blocking { caller, .. } => s.section(|s| s.lane_slot(caller.seq)),
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
         // `Handle::declare_lane`).
-        Mode::Lane { .. } | Mode::Exception { .. } | Mode::BesidePause { .. } => {
-            lane_slot_of(s, id).ok_or(Error::NoLane(id))?
-        }
+        Mode::Lane { .. }
+        | Mode::MainBy { .. }
+        | Mode::Exception { .. }
+        | Mode::BesidePause { .. } => lane_slot_of(s, id).ok_or(Error::NoLane(id))?,
     };
     let caller = mode.caller();
     // `caller` is the starting sequence itself (a context's or an exception's owner):
@@ -355,6 +374,7 @@ fn admit<
         seq: id,
         lane,
         caller,
+        starter: mode.starter(),
         flags: mode.flags(),
         by_tick: mode.by_tick(),
     })
@@ -493,9 +513,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let (new, lane) = in_sections!(self, |s| {
             let new = launch(s, id, run, cause, inbox)?;
             let lane = match mode {
-                Mode::Lane { .. } | Mode::Exception { .. } | Mode::BesidePause { .. } => {
-                    s.section(|s| s.lane_of(id))
-                }
+                Mode::Lane { .. }
+                | Mode::MainBy { .. }
+                | Mode::Exception { .. }
+                | Mode::BesidePause { .. } => s.section(|s| s.lane_of(id)),
                 Mode::Blocking { caller, .. } => {
                     s.section(|s| s.pause_with_caller(new, caller.seq));
                     LaneSet::EMPTY
@@ -527,6 +548,20 @@ mod tests {
     /// An inbox without an abort-all.
     static NO_INBOX: AtomicU8 = AtomicU8::new(0);
 
+    /// A start of `id` with no lane, by `caller` (none: a main sequence) in the run
+    /// [`registered`] gave it (count 0).
+    fn new_run(id: SeqId, caller: Option<SeqId>) -> NewRun {
+        let caller = caller.map(|seq| RunId { seq, count: 0 });
+        NewRun {
+            seq: id,
+            lane: NO_LANE,
+            caller,
+            starter: caller,
+            flags: 0,
+            by_tick: false,
+        }
+    }
+
     /// The first run of `id`.
     fn first_run(id: SeqId) -> RunId {
         RunId { seq: id, count: 1 }
@@ -541,16 +576,7 @@ mod tests {
         let (caller, id) = (SeqId(0), SeqId(1));
         let mut state = registered(2, &[caller]);
         let mut s = Preempted::new(&mut state, at, between);
-        let new = NewRun {
-            seq: id,
-            lane: NO_LANE,
-            caller: Some(RunId {
-                seq: caller,
-                count: 0,
-            }),
-            flags: 0,
-            by_tick: false,
-        };
+        let new = new_run(id, Some(caller));
         let result = launch(&mut s, id, new, Cause::Start, &NO_INBOX);
         let taken = s.taken;
         (result, taken, state.state_of(id))
@@ -612,28 +638,13 @@ mod tests {
         let (caller, id) = (SeqId(0), SeqId(1));
         let mut state = registered(2, &[caller]);
         let mut s = Preempted::new(&mut state, PASS - 2, |s: &mut S| {
-            let won = NewRun {
-                seq: id,
-                lane: NO_LANE,
-                caller: Some(RunId {
-                    seq: caller,
-                    count: 0,
-                }),
-                flags: 0,
-                by_tick: false,
-            };
+            let won = new_run(id, Some(caller));
             assert_eq!(
                 launch(s, id, won, Cause::Start, &NO_INBOX),
                 Ok(first_run(id))
             );
         });
-        let lost = NewRun {
-            seq: id,
-            lane: NO_LANE,
-            caller: None,
-            flags: 0,
-            by_tick: false,
-        };
+        let lost = new_run(id, None);
         assert_eq!(
             launch(&mut s, id, lost, Cause::Start, &NO_INBOX),
             Err(Error::AlreadyRunning(id))
@@ -720,13 +731,7 @@ mod tests {
         let mut s = Preempted::new(&mut state, PASS - 1, |s: &mut S| {
             s.changes = s.changes.wrapping_add(1);
         });
-        let new = NewRun {
-            seq: id,
-            lane: NO_LANE,
-            caller: None,
-            flags: 0,
-            by_tick: false,
-        };
+        let new = new_run(id, None);
         assert_eq!(
             launch(&mut s, id, new, Cause::Start, &NO_INBOX),
             Ok(first_run(id))
