@@ -65,11 +65,14 @@ pub enum Behaviour {
     /// The owner's sub-sequences are aborted and the owner runs again from its pre-condition.
     RestartOwner,
     /// Like `AbortOwner`, one level up: the owner's caller (the owner itself for a main
-    /// sequence). A non-blocking owner whose caller has ended is aborted itself.
+    /// sequence). A non-blocking owner whose caller has ended is aborted itself. The
+    /// caller is a sequence (the seed's `callerSequence`), not a run: one that ended and
+    /// was started again is aborted in its run under way, the owner with it.
     AbortCallerOfOwner,
     /// Like `RestartOwner`, one level up: the owner's caller (the owner itself for a main
     /// sequence). A non-blocking owner whose caller has ended cannot be restarted by it:
-    /// the owner is aborted.
+    /// the owner is aborted. A caller started again since restarts its run under way, as
+    /// for `AbortCallerOfOwner`.
     RestartCallerOfOwner,
     /// While the condition holds, the owner and its blocking children are paused; when it
     /// clears, they resume (a PLC's feed hold). The exception sequence, if any, is started

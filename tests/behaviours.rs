@@ -442,6 +442,68 @@ fn a_caller_behaviour_on_an_owner_whose_caller_has_ended_aborts_the_owner() {
     );
 }
 
+/// `AbortCallerOfOwner` on a non-blocking child whose caller has ended and then started
+/// again: caller links are of sequences (the tree the specification's `callerSequence`
+/// describes), so the behaviour acts on the caller's run under way, though that run did
+/// not start the owner, and tears it down with the owner, innermost first. (A caller that
+/// has ended and not started again is the test above.)
+#[test]
+fn a_caller_behaviour_acts_on_the_callers_run_under_way() {
+    use rtseq::{Behaviour, Cause, Instant, Monitor, Outcome};
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let child = seq
+        .add(SeqConfig::new("child"), Node::of(vec![]).until(0))
+        .unwrap();
+    let ci = child.id();
+    let main = seq
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(ci)]).until(3),
+        )
+        .unwrap();
+    let mi = main.id();
+    let mut jam = |c: &Ctrl, _: Instant| c.flag(1);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    let m = monitors
+        .add(
+            ci,
+            Monitor::new("jam", &mut jam, Behaviour::AbortCallerOfOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(child);
+    ctrl.flags[3].set(true);
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.flags[3].set(false);
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.flags[1].set(true);
+    sim.run_for(Duration::from_millis(2));
+    let cause = Cause::Monitor(m);
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(0, ci, Idle, Running, Start),
+            tr(0, mi, Running, Terminated, Completed),
+            tr(2, mi, Terminated, Running, Start),
+            tr(5, ci, Running, Aborting, cause),
+            tr(5, ci, Aborting, Aborted, cause),
+            tr(5, mi, Running, Aborting, cause),
+            tr(5, mi, Aborting, Aborted, cause),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(
+        sim.handle(mi).unwrap().last_outcome(),
+        Some(Outcome::Aborted(cause))
+    );
+}
+
 /// The records of a run, named, as lines.
 fn named_lines(names: &impl rtseq::Names, records: &[rtseq::Record]) -> Vec<String> {
     use rtseq::WithNames;
