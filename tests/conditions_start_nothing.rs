@@ -158,6 +158,7 @@ fn starts_from_conditions_are_refused_and_start_nothing() {
         ]
     );
     assert!(of(qi).is_empty());
+    assert_eq!(Error::OutsideAction(li).reason(), "start outside an action");
     assert_eq!(
         of(ti),
         [
