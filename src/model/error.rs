@@ -54,7 +54,8 @@ pub enum Error {
     /// A [`Table`](crate::Table) is installed only into a sequencer with nothing registered.
     NotEmpty,
     /// A join that could never return: a sequence joining itself, a caller it blocks, or
-    /// (an exception sequence) the owner held until its end.
+    /// (an exception sequence) the owner held until its end or a blocking child of it,
+    /// held with it; or the last join of a cycle of joins.
     JoinWouldDeadlock(SeqId),
     /// The configuration cannot work as declared: [`Sequencer::validate`](crate::Sequencer::validate)
     /// says what (a small variant: every `Result` of rtseq carries an `Error`).
@@ -207,7 +208,7 @@ impl Error {
             Error::PauseOwnerMonitorsExceeded(id) => ("sequence ", Some(id), " has 256 PauseOwner monitors; at most 255 can hold it paused"),
             Error::AlreadyPaused(id) => ("sequence ", Some(id), " is paused already"),
             Error::OutsideAction(id) => ("sequence ", Some(id), " was started from a condition method (only an action starts)"),
-            Error::JoinWouldDeadlock(id) => ("joining sequence ", Some(id), " would wait for itself (it is the joiner, a caller it blocks or the owner it handles an exception for)"),
+            Error::JoinWouldDeadlock(id) => ("joining sequence ", Some(id), " would wait for itself (it is the joiner, a caller it blocks, the owner it handles an exception for or a child that exception holds)"),
         }
     }
 }

@@ -541,8 +541,9 @@ impl<'a, C> Cx<'a, C> {
     /// Joins fail at once where they could never return: a join of a sequence never
     /// started ([`Error::NeverStarted`]), and one that would wait for itself
     /// ([`Error::JoinWouldDeadlock`]): a join of oneself, of a caller one blocks, of an
-    /// exception sequence's owner, or one that closes a cycle of joins (A joins B while B
-    /// joins A, or through a blocking child). A join dropped before it returned (the loser
+    /// exception sequence's owner or a blocking child of it (the exception holds them), or
+    /// one that closes a cycle of joins (A joins B while B joins A, or through a blocking
+    /// child). A join dropped before it returned (the loser
     /// of a `select`) no longer waits:
     ///
     /// ```
