@@ -1017,10 +1017,13 @@ fn seq_test_1_params_reach_the_step_and_the_result() {
 /// before its action (`BaseSequence.cpp:37`), the main sequence's abort monitor fires,
 /// the step is aborted and returns -1, and so are steps 5 to 50: `getResult() == -1`.
 /// rtseq: the main sequence requests its own abort after the third step. A sequence whose
-/// abort is requested begins nothing more (semantics item 8): steps 4 to 50 are refused
-/// (`Failure::NotStarted(NotRunning)`, EEROS's -1) without running, the action's end is
-/// held, and the next tick (1 ms) aborts the main sequence. The result, -1, is EEROS's;
-/// the abort comes 1 ms later, when the tick carries the request out (item 8).
+/// abort is requested begins nothing more (semantics item 8): the fourth step is refused
+/// without running, and the refusal is not handed into the action, which may not go on
+/// (sticky abort, item 4): the loop stops there, and the next tick (1 ms) aborts the main
+/// sequence. EEROS's result -1 (aborted) is the main sequence's outcome,
+/// `Aborted(Abort)`; its action never reaches the line that stores a result. The abort
+/// comes 1 ms later, when the tick carries the request out (item 8). (Until session 47
+/// each refusal returned into the action, which ran the loop to its end and stored -1.)
 #[test]
 fn seq_test_2_aborting_stops_the_loop_of_steps() {
     let seq = Seqr::new();
@@ -1058,7 +1061,7 @@ fn seq_test_2_aborting_stops_the_loop_of_steps() {
         by: Requester::Sequence(mi),
     };
     assert_eq!(events, [(0, requested)]);
-    assert_eq!(world.result.get(), Some(-1));
+    assert_eq!(world.result.get(), None);
     let h = sim.handle(mi).unwrap();
     assert_eq!(h.last_outcome(), Some(Outcome::Aborted(Cause::Abort)));
     assert_eq!(sim.handle(si).unwrap().counters().runs, 3);

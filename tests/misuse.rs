@@ -1283,7 +1283,7 @@ static STARTS: Starts = Starts::new(Vec::new());
 
 /// Between two await points the tick preempts it (here: the action ticks the sequencer
 /// itself, after an abort-all, as the timer interrupt would), then it starts a sequence
-/// in its lane and runs a step.
+/// in its lane and runs a step, and records each result as it gets it.
 struct Interrupted {
     seq: &'static Sequencer<(), 4>,
     motor: SeqId,
@@ -1295,8 +1295,9 @@ impl Sequence<()> for Interrupted {
         let preempting = self.seq.tick(ms_at(1), &(), &mut Monitors::<(), 1>::new());
         assert_eq!(preempting, Ok(()));
         let started = cx.start(self.motor).map_err(Failure::from);
+        STARTS.lock().unwrap().push(started);
         let stepped = cx.step(&mut self.drive).await.map(|_| ());
-        STARTS.lock().unwrap().extend([started, stepped]);
+        STARTS.lock().unwrap().push(stepped);
         Ok(())
     }
 }
@@ -1327,8 +1328,10 @@ fn an_action_stopped_by_a_preempting_tick_starts_nothing_afterwards() {
         sim.run_until_idle(Duration::from_millis(10)),
         Some(ms_at(0))
     );
+    // The start in its lane is refused at once; the step is refused too, and the refusal
+    // is not handed into the aborted action (sticky abort): no line after the await runs.
     let refused = Err(Failure::NotStarted(Error::NotRunning(id)));
-    assert_eq!(*STARTS.lock().unwrap(), [refused, refused]);
+    assert_eq!(*STARTS.lock().unwrap(), [refused]);
     let all = rtseq::Cause::AbortAll;
     assert_eq!(
         sim.trace(),
@@ -1340,6 +1343,62 @@ fn an_action_stopped_by_a_preempting_tick_starts_nothing_afterwards() {
     );
     assert_eq!((sim.state(m), sim.state(d)), (Idle, Idle));
     assert_eq!((MOTOR_ON.load(SeqCst), DRIVE_ON.load(SeqCst)), (0, 0));
+}
+
+/// The speed the drive is commanded to (10 = jogging, 100 = full), which the cleanup hook
+/// of [`Restarting`]'s sequence sets to 0.
+static SPEED: AtomicUsize = AtomicUsize::new(0);
+
+/// Jogs the drive; the tick preempts it between two await points (as in [`Interrupted`])
+/// and carries out an abort-all, whose cleanup hook stops the drive; then it runs a step
+/// and commands full speed.
+struct Restarting {
+    seq: &'static Sequencer<(), 4>,
+    drive: Seq<DriveOn>,
+}
+impl Sequence<()> for Restarting {
+    async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+        SPEED.store(10, SeqCst);
+        self.seq.abort_all();
+        assert_eq!(
+            self.seq.tick(ms_at(1), &(), &mut Monitors::<(), 1>::new()),
+            Ok(())
+        );
+        assert_eq!(SPEED.load(SeqCst), 0);
+        let _ = cx.step(&mut self.drive).await;
+        SPEED.store(100, SeqCst);
+        Ok(())
+    }
+}
+
+/// No line of an aborted action runs after a blocking start that its abort refused: the
+/// refusal is not handed into the action (sticky abort), so the speed the cleanup hook
+/// set stays 0. (Until session 47 the `Err` returned into the action, which commanded
+/// full speed after the hook.)
+#[test]
+fn a_refused_blocking_start_does_not_return_into_an_aborted_action() {
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    let drive = SEQ.add(SeqConfig::new("drive on"), DriveOn).unwrap();
+    let d = drive.id();
+    let stop = |_: &()| SPEED.store(0, SeqCst);
+    let main = Restarting { seq: &SEQ, drive };
+    let main = SEQ
+        .add(SeqConfig::new("main").on_abort(stop), main)
+        .unwrap();
+    let id = main.id();
+    let mut sim = Sim::new(&SEQ, &(), Monitors::<(), 1>::new());
+    sim.lane(main);
+    sim.start(id).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(10)),
+        Some(ms_at(0))
+    );
+    assert_eq!(SPEED.load(SeqCst), 0);
+    assert_eq!(
+        sim.handle(id).unwrap().last_outcome(),
+        Some(Outcome::Aborted(rtseq::Cause::AbortAll))
+    );
+    assert_eq!(sim.state(d), Idle);
 }
 
 // ---------------------------------------------------------------------------------------

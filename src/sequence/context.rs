@@ -295,10 +295,12 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
-    /// waits for its outcome. Errors if `child` is already running, or if the tick stopped
-    /// this sequence while its action ran on, its abort is requested or an abort-all waits
-    /// ([`Error::NotRunning`], as [`start`](Self::start)), and with
-    /// [`Error::OutsideAction`] when asked for from a condition method.
+    /// waits for its outcome. Errors if `child` is already running, and with
+    /// [`Error::OutsideAction`] when asked for from a condition method. Refused because
+    /// this sequence may not go on (the tick stopped it while its action ran on, its
+    /// abort is requested or an abort-all waits: [`Error::NotRunning`], as
+    /// [`start`](Self::start)), it does not return at all: the action holds there until
+    /// the tick aborts it.
     ///
     /// If this sequence is aborted or paused meanwhile, the call does not return into the
     /// action until it may advance again (sticky abort: an aborted action never resumes).

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //!                                      asked for in a condition: OutsideAction ──► Done, Err
-//!   lane:  Idle ──take_start──┐        blocking:  Begin ──start_blocking──┐  (refused: Done, Err)
+//!   lane:  Idle ──take_start──┐        blocking:  Begin ──start_blocking──┐  (refused: HandOver)
 //!                             ▼                                           ▼
 //!                 ┌──► PreCondition ◄──────────────────── restart ─────────────────┐
 //!                 │      │ clearance Go, pre-condition true                         │
@@ -28,7 +28,7 @@
 //! | transition | function |
 //! |---|---|
 //! | Idle → PreCondition | [`Port::take_start`] |
-//! | Begin → PreCondition / Done | [`Port::start_blocking`] |
+//! | Begin → PreCondition / HandOver (refused) | [`Port::start_blocking`] |
 //! | OutsideAction → Done | none: asked for from a condition method, refused ([`Run::outside_action`]) |
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
 //! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
@@ -92,7 +92,8 @@ enum Stage {
     AwaitPoll,
     /// The run ended with `Run::outcome`: report it.
     Ended,
-    /// A blocking run ended: wait until the caller may advance to hand the outcome over.
+    /// A blocking run ended, or its start was refused: wait until the caller may advance
+    /// to hand the outcome over.
     HandOver,
     /// The result was handed over (or the start refused); pending forever.
     Done,
@@ -105,7 +106,8 @@ pub(crate) struct Run<'a, C> {
     pub(crate) cx: Cx<'a, C>,
     driver: Driver,
     stage: Cell<Stage>,
-    /// The outcome, once the run has ended.
+    /// The outcome, once the run has ended; for a refused blocking start, the refusal
+    /// (`Failed(NotStarted)`), which its caller gets as it would a failed child's.
     outcome: Cell<Outcome>,
 }
 
@@ -228,9 +230,11 @@ impl<'a, C> Run<'a, C> {
                                 self.cx.enter(run);
                                 self.stage.set(Stage::PreCondition);
                             }
+                            // Handed over as an end is: never into an action that may
+                            // not advance (a tick that stopped its run preempted it).
                             Err(e) => {
-                                head.result.set(Some(Err(Failure::NotStarted(e))));
-                                self.stage.set(Stage::Done);
+                                self.outcome.set(Outcome::Failed(Failure::NotStarted(e)));
+                                self.stage.set(Stage::HandOver);
                             }
                         }
                     }

@@ -552,8 +552,9 @@ impl<'a, C> Handle<'a, C> {
 
     /// Requests an abort of the sequence and all its sub-sequences (next tick). Until the
     /// tick carries it out, the sequence begins nothing more (a start it makes is refused,
-    /// with [`Error::NotRunning`] if nothing else refuses it) and its run does not end: it
-    /// is aborted (semantics item 8 in docs/semantics.md).
+    /// with [`Error::NotRunning`] if nothing else refuses it; a blocking start holds its
+    /// action instead of returning) and its run does not end: it is aborted (semantics
+    /// item 8 in docs/semantics.md).
     ///
     /// ```
     /// # #[cfg(feature = "std")] {
