@@ -1622,6 +1622,62 @@ fn an_exception_sequence_joining_its_owners_step_below_a_child_is_an_error_not_a
     assert_eq!(states, [Aborted, Aborted, Aborted, Terminated]);
 }
 
+/// O starts Z non-blocking (Z ends once flag 2 is set) and steps `wait` (until flag 1);
+/// O's `AbortOwner` monitor on flag 0 has exception sequence E, which joins Z. Z is not
+/// held by O's exception (a non-blocking child runs on, semantics 3), so the join waits
+/// for Z's end (flag 2 set at 5 ms, Z's exit condition true at the 6 ms poll), not
+/// an error; then E ends and O's tree is aborted.
+#[test]
+fn an_exception_sequence_joining_its_owners_non_blocking_child_waits_for_its_end() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let z = seq
+        .add(SeqConfig::new("Z"), Node::of(vec![]).until(2))
+        .unwrap();
+    let zi = z.id();
+    let wait = seq.add(SeqConfig::new("wait"), Leaf::until(1)).unwrap();
+    let o = seq
+        .add(
+            SeqConfig::new("O"),
+            Node::of(vec![Op::Start(zi), Op::Step(wait)]),
+        )
+        .unwrap();
+    let oi = o.id();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Join(zi)]))
+        .unwrap();
+    let ei = e.id();
+    let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    monitors
+        .add(
+            oi,
+            Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(o);
+    sim.lane(z);
+    sim.lane(e);
+    sim.start(oi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.set(0, true);
+    sim.run_for(Duration::from_millis(3));
+    ctrl.set(2, true);
+    sim.run_for(Duration::from_millis(5));
+    let states = [oi, zi, ei].map(|id| sim.state(id));
+    drop(sim);
+    let got: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == ei)
+        .map(|r| (r.ms, r.result))
+        .collect();
+    assert_eq!(got, [(6, Ok(Done::Completed))]);
+    assert_eq!(states, [Aborted, Terminated, Terminated]);
+}
+
 /// A lane dropped while it waits for a start (an executor shutting down) with a start of
 /// its sequence made but not taken yet: no future will ever drive that run, so it is
 /// aborted (`Dropped`), as the pending start of a lane dropped mid-run is.
