@@ -205,3 +205,69 @@ fn a_refused_run_never_polled_leaves_the_next_run_alone() {
     assert_eq!(*ctrl.got.borrow(), [(2_000, "action", Ok(()))]);
     assert_eq!(sim.state(ai), Terminated);
 }
+
+/// Waits in its action until 2 ms with a polled wait whose condition tries a blocking run
+/// of `step` and a start of `lane` at each check.
+struct TriesInAWait {
+    lane: SeqId,
+    step: Seq<Wait>,
+}
+impl Sequence<Ctrl> for TriesInAWait {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let (lane, step) = (self.lane, &mut self.step);
+        cx.wait_until(|cx| {
+            cx.control().note(cx, "wait", cx.start(lane));
+            cx.control()
+                .note(cx, "wait", started(poll_once(cx.step(&mut *step))));
+            cx.now().as_ticks() >= 2_000
+        })
+        .await;
+        cx.control().note(cx, "action", cx.start(lane));
+        Ok(())
+    }
+}
+
+/// A polled wait's condition is a condition too: checked inside the action's poll, it
+/// starts nothing (0, 1 and 2 ms), and the action's start after the wait goes ahead.
+#[test]
+fn a_polled_wait_condition_starts_nothing() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let lane = seq.add(SeqConfig::new("lane"), Quick).unwrap();
+    let li = lane.id();
+    let step = seq
+        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let si = step.id();
+    let a = seq
+        .add(SeqConfig::new("A"), TriesInAWait { lane: li, step })
+        .unwrap();
+    let ai = a.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(a);
+    sim.lane(lane);
+    sim.start(ai).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(2_000))
+    );
+    let refused = |at| {
+        [
+            (
+                at,
+                "wait",
+                Err(Failure::NotStarted(Error::OutsideAction(li))),
+            ),
+            (
+                at,
+                "wait",
+                Err(Failure::NotStarted(Error::OutsideAction(si))),
+            ),
+        ]
+    };
+    let mut expected = [refused(0), refused(1_000), refused(2_000)].concat();
+    expected.push((2_000, "action", Ok(())));
+    assert_eq!(*ctrl.got.borrow(), expected);
+    assert!(sim.trace().iter().all(|t| t.sequence != si));
+    assert_eq!(sim.state(li), Terminated);
+}

@@ -1622,6 +1622,63 @@ fn an_exception_sequence_joining_its_owners_step_below_a_child_is_an_error_not_a
     assert_eq!(states, [Aborted, Aborted, Aborted, Terminated]);
 }
 
+/// As [`exception_joins_a_held_child`] with S, the child E joins, under a 5 ms timeout of
+/// its own, which could abort it while O's exception holds it: the check follows the
+/// waits, not what might abort them, so the join is `JoinWouldDeadlock` at once (3 ms),
+/// as a cycle of joins is whatever timeouts its members have; E ends, and O's tree is
+/// aborted by O's monitor before S's timeout comes.
+#[test]
+fn a_join_of_a_held_child_with_a_timeout_is_still_an_error() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let wait = seq.add(SeqConfig::new("wait"), Leaf::until(1)).unwrap();
+    let s = seq
+        .add(
+            SeqConfig::new("S").timeout(Duration::from_millis(5)),
+            Node::of(vec![Op::Step(wait)]),
+        )
+        .unwrap();
+    let si = s.id();
+    let o = seq
+        .add(SeqConfig::new("O"), Node::of(vec![Op::Run(s)]))
+        .unwrap();
+    let oi = o.id();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Join(si)]))
+        .unwrap();
+    let ei = e.id();
+    let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    let m = monitors
+        .add(
+            oi,
+            Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(o);
+    sim.lane(e);
+    sim.start(oi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.set(0, true);
+    sim.run_for(Duration::from_millis(10));
+    let outcomes = [oi, si].map(|id| sim.handle(id).unwrap().last_outcome());
+    drop(sim);
+    let got: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == ei)
+        .map(|r| (r.ms, r.result))
+        .collect();
+    assert_eq!(
+        got,
+        [(3, Err(Failure::NotStarted(Error::JoinWouldDeadlock(si))))]
+    );
+    let by_monitor = Some(Outcome::Aborted(rtseq::Cause::Monitor(m)));
+    assert_eq!(outcomes, [by_monitor, by_monitor]);
+}
+
 /// O starts Z non-blocking (Z ends once flag 2 is set) and steps `wait` (until flag 1);
 /// O's `AbortOwner` monitor on flag 0 has exception sequence E, which joins Z. Z is not
 /// held by O's exception (a non-blocking child runs on, semantics 3), so the join waits

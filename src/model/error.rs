@@ -55,7 +55,8 @@ pub enum Error {
     NotEmpty,
     /// A join that could never return: a sequence joining itself, a caller it blocks, or
     /// (an exception sequence) the owner held until its end or a blocking child of it,
-    /// held with it; or the last join of a cycle of joins.
+    /// held with it; or the last join of a cycle of joins. The check follows the waits: a
+    /// timeout or monitor that could abort one of them does not make the join wait.
     JoinWouldDeadlock(SeqId),
     /// The configuration cannot work as declared: [`Sequencer::validate`](crate::Sequencer::validate)
     /// says what (a small variant: every `Result` of rtseq carries an `Error`).
@@ -101,7 +102,8 @@ pub enum Error {
     /// A start of this sequence ([`Cx::run`](crate::Cx::run), [`Cx::step`](crate::Cx::step),
     /// [`Cx::start`](crate::Cx::start) or [`Cx::start_scoped`](crate::Cx::start_scoped))
     /// made outside the action of the sequence whose context it used: from its pre- or
-    /// exit condition. A condition looks; an action acts.
+    /// exit condition, or the condition of a polled wait
+    /// ([`Cx::wait_until`](crate::Cx::wait_until)). A condition looks; an action acts.
     OutsideAction(SeqId),
 }
 
@@ -207,7 +209,7 @@ impl Error {
             Error::ForeignMonitorTable => ("a tick with a monitor table other than the sequencer's own (one table per sequencer)", None, ""),
             Error::PauseOwnerMonitorsExceeded(id) => ("sequence ", Some(id), " has 256 PauseOwner monitors; at most 255 can hold it paused"),
             Error::AlreadyPaused(id) => ("sequence ", Some(id), " is paused already"),
-            Error::OutsideAction(id) => ("sequence ", Some(id), " was started from a condition method (only an action starts)"),
+            Error::OutsideAction(id) => ("sequence ", Some(id), " was started from a condition (only an action starts)"),
             Error::JoinWouldDeadlock(id) => ("joining sequence ", Some(id), " would wait for itself (it is the joiner, a caller it blocks, the owner it handles an exception for or a child that exception holds)"),
         }
     }

@@ -23,8 +23,9 @@ use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId
 /// keeps each time it polls the action. So a combinator inside an action must poll every
 /// branch when the task is woken, as embassy-futures' `join` and `select` do; one that
 /// gives each branch a waker of its own and polls only the woken ones (`FuturesUnordered`)
-/// misses wake-ups. A condition method looks, an action acts: from a pre- or exit
-/// condition every start ([`run`](Self::run), [`step`](Self::step), [`start`](Self::start),
+/// misses wake-ups. A condition looks, an action acts: from a pre- or exit condition, or
+/// the condition of a polled wait ([`wait_until`](Self::wait_until)), every start
+/// ([`run`](Self::run), [`step`](Self::step), [`start`](Self::start),
 /// [`start_scoped`](Self::start_scoped)) is refused with [`Error::OutsideAction`]. Polled
 /// there (`poll_once`), a join still says whether its run is over, and a polled wait only
 /// waits; a condition asks a [`Handle`] instead.
@@ -124,6 +125,16 @@ impl<'a, C> Cx<'a, C> {
     /// Whether the action is being polled: only then does the context start anything.
     fn acting(&self) -> bool {
         self.action.get() & ACTING != 0
+    }
+
+    /// Checks a polled wait's `condition` inside the action's poll: a condition looks, so
+    /// the context starts nothing while it runs, as in a condition method.
+    fn looking(&self, condition: impl FnOnce() -> bool) -> bool {
+        let acting = self.action.get() & ACTING;
+        self.action.set(self.action.get() & !ACTING);
+        let holds = condition();
+        self.action.set(self.action.get() | acting);
+        holds
     }
 
     /// The run this context acts for: every await point and start of its action names
@@ -299,8 +310,8 @@ impl<'a, C> Cx<'a, C> {
     /// [`Error::OutsideAction`] when asked for from a condition method. Refused because
     /// this sequence may not go on (the tick stopped it while its action ran on, its
     /// abort is requested or an abort-all waits: [`Error::NotRunning`], as
-    /// [`start`](Self::start)), it does not return at all: the action holds there until
-    /// the tick aborts it.
+    /// [`start`](Self::start)), the refusal is handed over as an end is, only when the
+    /// action may advance: an action aborted meanwhile never sees it.
     ///
     /// If this sequence is aborted or paused meanwhile, the call does not return into the
     /// action until it may advance again (sticky abort: an aborted action never resumes).
@@ -545,7 +556,7 @@ impl<'a, C> Cx<'a, C> {
     /// ([`Error::JoinWouldDeadlock`]): a join of oneself, of a caller one blocks, of an
     /// exception sequence's owner or a blocking child of it (the exception holds them), or
     /// one that closes a cycle of joins (A joins B while B joins A, or through a blocking
-    /// child). A join dropped before it returned (the loser
+    /// child), even if a timeout or monitor could abort one of them. A join dropped before it returned (the loser
     /// of a `select`) no longer waits:
     ///
     /// ```
@@ -842,7 +853,7 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
                 due
             }
         };
-        if go && (this.condition)(cx) {
+        if go && cx.looking(|| (this.condition)(cx)) {
             this.finish();
             Poll::Ready(())
         } else {

@@ -440,7 +440,9 @@ impl<'a, C> Handle<'a, C> {
     /// ([`Cx::sequence_by_id`](crate::Cx::sequence_by_id)) the start is the sequence's
     /// own: refused with [`Error::NotRunning`] (that sequence's id) as its context's
     /// starts are, once the tick stopped its run, its abort is requested or an abort-all
-    /// waits.
+    /// waits. Only that run is checked: the main sequence is not below it (an abort of it,
+    /// or of its callers, does not take the main sequence down), and a condition's
+    /// handle may start it (it runs in its own lane).
     ///
     /// A start needs a lane to run the sequence (here declared, as RTIC's `init` would before
     /// the lane tasks run):
