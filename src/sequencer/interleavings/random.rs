@@ -249,6 +249,8 @@ struct Sched<L: Lock + 'static, const N: usize, const B: usize> {
     second: &'static RefCell<Monitors<'static, (), 4>>,
     /// The liveness checks' memory, and the run's description for their failures.
     live: &'static RefCell<Liveness>,
+    /// The priority of each lane slot's task.
+    slot_priority: &'static [u8],
     what: &'static Cell<&'static str>,
 }
 
@@ -359,6 +361,12 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
         self.now.set(ms);
         self.run_as(TICK, || self.w.tick(ms));
         self.observe();
+        if !cfg!(miri) {
+            let busy = self.running.borrow().iter().copied().max().unwrap_or(0);
+            self.live
+                .borrow_mut()
+                .starved(self.w, busy, self.slot_priority);
+        }
     }
 
     /// The liveness checks after a tick (no preemption meanwhile; the party under way
@@ -449,6 +457,8 @@ struct PollWatch {
 /// an exception, marked by a teardown, or blocking a caller that is paused or handles an
 /// exception), for 4 ms or more, its flag not set meanwhile, is over it at the next settled
 /// point ([`Liveness::check_polls`]; a lane preempted inside its poll finishes it there).
+/// A millisecond whose tick preempted a party of its lane's priority or higher is not
+/// counted ([`Liveness::starved`]): its lane could not run then.
 #[derive(Default)]
 struct Liveness {
     /// By id.
@@ -597,6 +607,31 @@ impl Liveness {
                 p.since.get_or_insert(now);
             } else {
                 p.since = None;
+            }
+        }
+    }
+
+    /// After a tick that preempted a party of priority `busy`: a waiting sequence whose
+    /// lane's task (`slot_priority`, by lane slot) is of that priority or below cannot run
+    /// before the party ends (a task of equal priority runs to its end first), so this
+    /// millisecond is not counted against its poll. (The harness may preempt one poll with
+    /// several ticks: a lane's poll that takes milliseconds, which starves the others.)
+    fn starved<L: Lock + 'static, const N: usize, const B: usize>(
+        &mut self,
+        w: World<L, N, B>,
+        busy: u8,
+        slot_priority: &[u8],
+    ) {
+        for p in &mut self.polls {
+            let Some(since) = p.since.as_mut() else {
+                continue;
+            };
+            let lane = w.seq.with(|s| s.lane_slot(p.id));
+            if slot_priority
+                .get(usize::from(lane))
+                .is_some_and(|&priority| busy >= priority)
+            {
+                *since += 1;
             }
         }
     }
@@ -926,6 +961,18 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
         .map(|futs| RandomLane::new(futs, if draw(2) == 0 { 1 } else { 3 }))
         .collect::<Vec<_>>()
         .leak();
+    // The lanes were declared in the order of their futures, which the tasks keep.
+    for (slot, id) in [im, ib, ie, ie2, ij].into_iter().enumerate() {
+        assert_eq!(
+            w.seq.with(|s| usize::from(s.block(id).unwrap().own_lane)),
+            slot
+        );
+    }
+    let slot_priority: &'static [u8] = lanes
+        .iter()
+        .flat_map(|l| core::iter::repeat_n(l.priority, l.futs.borrow().len()))
+        .collect::<Vec<_>>()
+        .leak();
     let s = Sched::<L, N, B> {
         w,
         lanes,
@@ -953,6 +1000,7 @@ fn random_run<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout,
             .collect(),
         }))),
         what: Box::leak(Box::new(Cell::new(""))),
+        slot_priority,
     };
     let what = format!(
         "{what}, from {start_ms} ms, A's monitor {behaviour_a:?} (E: {with_e}), A2's {behaviour_a2:?} (E: {with_e_a2}), M's {behaviour_m:?} (E2: {with_e2}), A2's in the second table {behaviour_b2:?}, A's timeout {timeout_behaviour:?}, the hooks' action {hook_action}, their triggers and restart limits {monitors_drawn:?}, tasks (lanes, priority) {:?}",
