@@ -504,6 +504,119 @@ fn a_caller_behaviour_acts_on_the_callers_run_under_way() {
     );
 }
 
+/// A machine cycle: its first run starts the move non-blocking and ends; a later run
+/// dwells.
+struct Cycle {
+    mv: SeqId,
+    dwell: rtseq::Seq<Wait>,
+    runs: u32,
+}
+impl rtseq::Sequence<Ctrl> for Cycle {
+    async fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        self.runs += 1;
+        if self.runs == 1 {
+            cx.start(self.mv)?;
+        } else {
+            cx.step(&mut self.dwell).await?;
+        }
+        Ok(())
+    }
+}
+
+/// A recovery that starts the cycle again.
+struct Recover(SeqId);
+impl rtseq::Sequence<Ctrl> for Recover {
+    async fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.start(self.0)?;
+        Ok(())
+    }
+}
+
+/// The move (a 10 ms dwell), started by a cycle that then ended, has a monitor with
+/// `behaviour` whose exception sequence starts the cycle again, so the cycle's start cuts
+/// the move's link to its ended run (the links never form a cycle: the cycle is now below
+/// the move, through the exception sequence). The behaviour, pending until the exception
+/// sequence ends, then finds an owner whose caller has ended: the owner is aborted, with
+/// what is below it (the cycle's new run and its dwell), innermost first. (Before session
+/// 47, `RestartCallerOfOwner` restarted the move, as if it were a main sequence.)
+fn caller_behaviour_after_the_link_is_cut(behaviour: Behaviour) -> Vec<Transition> {
+    use rtseq::Instant;
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let ms = |n| Duration::from_millis(n);
+    let md = seq
+        .add(SeqConfig::new("move dwell"), Wait::new(ms(10)))
+        .unwrap();
+    let mv = seq
+        .add(SeqConfig::new("move"), Node::of(vec![Op::Wait(md)]))
+        .unwrap();
+    let mi = mv.id();
+    let cd = seq
+        .add(SeqConfig::new("cycle dwell"), Wait::new(ms(20)))
+        .unwrap();
+    let cycle = Cycle {
+        mv: mi,
+        dwell: cd,
+        runs: 0,
+    };
+    let cycle = seq.add(SeqConfig::new("cycle"), cycle).unwrap();
+    let ci = cycle.id();
+    let recover = seq.add(SeqConfig::new("recover"), Recover(ci)).unwrap();
+    let ri = recover.id();
+    let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    monitors
+        .add(
+            mi,
+            Monitor::new("fault", &mut fault, behaviour).exception(ri),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(mv);
+    sim.lane(cycle);
+    sim.lane(recover);
+    sim.before_tick(|t, c| c.set(0, t.as_ticks() == 2_000));
+    sim.start(ci).unwrap();
+    sim.run_until(Instant::from_ticks(4_000));
+    sim.trace().to_vec()
+}
+
+#[test]
+fn a_caller_behaviour_whose_link_was_cut_aborts_the_owner() {
+    for behaviour in [
+        Behaviour::RestartCallerOfOwner,
+        Behaviour::AbortCallerOfOwner,
+    ] {
+        let trace = caller_behaviour_after_the_link_is_cut(behaviour);
+        // In the order of registration.
+        let [md, mv, cd, cycle, recover] = [0, 1, 2, 3, 4].map(SeqId::from_index);
+        let fault = Mon(MonitorId::from_index(0));
+        assert_eq!(
+            trace,
+            [
+                tr(0, cycle, Idle, Running, Start),
+                tr(0, mv, Idle, Running, Start),
+                tr(0, cycle, Running, Terminated, Completed),
+                tr(0, md, Idle, Running, Start),
+                tr(2, recover, Idle, Running, fault),
+                tr(2, cycle, Terminated, Running, Start),
+                tr(2, recover, Running, Terminated, Completed),
+                tr(2, cd, Idle, Running, Start),
+                tr(3, cd, Running, Aborting, fault),
+                tr(3, cd, Aborting, Aborted, fault),
+                tr(3, cycle, Running, Aborting, fault),
+                tr(3, cycle, Aborting, Aborted, fault),
+                tr(3, md, Running, Aborting, fault),
+                tr(3, md, Aborting, Aborted, fault),
+                tr(3, mv, Running, Aborting, fault),
+                tr(3, mv, Aborting, Aborted, fault),
+            ],
+            "{behaviour:?}:\n{}",
+            show(&trace)
+        );
+    }
+}
+
 /// The records of a run, named, as lines.
 fn named_lines(names: &impl rtseq::Names, records: &[rtseq::Record]) -> Vec<String> {
     use rtseq::WithNames;
