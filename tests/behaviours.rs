@@ -504,6 +504,65 @@ fn a_caller_behaviour_acts_on_the_callers_run_under_way() {
     );
 }
 
+/// As [`a_caller_behaviour_acts_on_the_callers_run_under_way`], with
+/// `RestartCallerOfOwner`: main's run under way restarts (its child, below it, aborted
+/// first), and its new round starts the child again.
+#[test]
+fn a_restart_caller_behaviour_restarts_the_callers_run_under_way() {
+    use rtseq::{Behaviour, Cause, Instant, Monitor};
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let child = seq
+        .add(SeqConfig::new("child"), Node::of(vec![]).until(0))
+        .unwrap();
+    let ci = child.id();
+    let main = seq
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![Op::Start(ci)]).until(3),
+        )
+        .unwrap();
+    let mi = main.id();
+    let mut jam = |c: &Ctrl, _: Instant| c.flag(1);
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    let m = monitors
+        .add(
+            ci,
+            Monitor::new("jam", &mut jam, Behaviour::RestartCallerOfOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(child);
+    ctrl.flags[3].set(true);
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.flags[3].set(false);
+    sim.start(mi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    ctrl.flags[1].set(true);
+    sim.run_for(Duration::from_millis(1));
+    ctrl.flags[1].set(false);
+    sim.run_for(Duration::from_millis(2));
+    let cause = Cause::Monitor(m);
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(0, ci, Idle, Running, Start),
+            tr(0, mi, Running, Terminated, Completed),
+            tr(2, mi, Terminated, Running, Start),
+            tr(5, ci, Running, Aborting, cause),
+            tr(5, ci, Aborting, Aborted, cause),
+            tr(5, mi, Running, Restarting, cause),
+            tr(5, mi, Restarting, Running, Restart),
+            tr(5, ci, Aborted, Running, Start),
+        ],
+        "{}",
+        show(sim.trace())
+    );
+}
+
 /// A machine cycle: its first run starts the move non-blocking and ends; a later run
 /// dwells.
 struct Cycle {

@@ -1,7 +1,7 @@
 //! A condition looks, an action acts: every start made with a context from a pre- or
-//! exit condition (`Cx::run`, `Cx::step`, `Cx::start`, `Cx::start_scoped`) is refused
-//! with `Error::OutsideAction`, and the sequence it names never starts. The same starts
-//! from the action go ahead.
+//! exit condition, or a polled wait's condition (`Cx::run`, `Cx::step`, `Cx::start`,
+//! `Cx::start_scoped`), is refused with `Error::OutsideAction`, and the sequence it names
+//! never starts. The same starts from the action go ahead.
 
 use std::cell::RefCell;
 use std::task::Poll;

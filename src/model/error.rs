@@ -28,8 +28,10 @@ pub enum Error {
     /// The sequence is already running (or paused, aborting, restarting).
     AlreadyRunning(SeqId),
     /// The request needs a running (or paused) sequence, not one idle, ended or between
-    /// two rounds (`Restarting`, `Aborting`); or a start by a sequence the tick stopped
-    /// while its action ran on (its id).
+    /// two rounds (`Restarting`, `Aborting`); or a start by a sequence that may begin
+    /// nothing more (its id): the tick stopped it while its action ran on, a teardown has
+    /// placed it, its abort is requested or an abort-all waits (a start through a handle
+    /// of its context included).
     NotRunning(SeqId),
     /// Resume was requested for a sequence that is not paused (and has no pause pending).
     NotPaused(SeqId),
@@ -103,7 +105,9 @@ pub enum Error {
     /// [`Cx::start`](crate::Cx::start) or [`Cx::start_scoped`](crate::Cx::start_scoped))
     /// made outside the action of the sequence whose context it used: from its pre- or
     /// exit condition, or the condition of a polled wait
-    /// ([`Cx::wait_until`](crate::Cx::wait_until)). A condition looks; an action acts.
+    /// ([`Cx::wait_until`](crate::Cx::wait_until)), or while its action is dropped (an
+    /// abort or restart of it, a `select` that drops its run: a `Drop` of something the
+    /// action held). A condition looks; an action acts.
     OutsideAction(SeqId),
 }
 
@@ -209,7 +213,7 @@ impl Error {
             Error::ForeignMonitorTable => ("a tick with a monitor table other than the sequencer's own (one table per sequencer)", None, ""),
             Error::PauseOwnerMonitorsExceeded(id) => ("sequence ", Some(id), " has 256 PauseOwner monitors; at most 255 can hold it paused"),
             Error::AlreadyPaused(id) => ("sequence ", Some(id), " is paused already"),
-            Error::OutsideAction(id) => ("sequence ", Some(id), " was started from a condition (only an action starts)"),
+            Error::OutsideAction(id) => ("a start of sequence ", Some(id), " from a condition was refused (only an action starts)"),
             Error::JoinWouldDeadlock(id) => ("joining sequence ", Some(id), " would wait for itself (it is the joiner, a caller it blocks, the owner it handles an exception for or a child that exception holds)"),
         }
     }

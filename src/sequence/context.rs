@@ -94,9 +94,9 @@ pub struct Cx<'a, C> {
 /// top stays there until the round ends: the run then waits for polls until its end (a
 /// spurious poll at most), never stops waiting while a wait is under way.
 const WAIT_COUNT: u8 = 0x3F;
-/// Bit of [`Cx::action`]: the action is being polled, so the polled waits made with the
-/// context may count themselves and take polls. Polled from a condition method, they wait
-/// and touch nothing.
+/// Bit of [`Cx::action`]: the action is being polled (not one of its conditions), so the
+/// context may start sequences, and the polled waits made with it may count themselves
+/// and take polls. Polled from a condition, they wait and touch nothing.
 const ACTING: u8 = 1 << 6;
 /// Bit of [`Cx::action`]: a polled wait took the due poll in the action's current poll.
 const DUE_TAKEN: u8 = 1 << 7;
@@ -307,7 +307,8 @@ impl<'a, C> Cx<'a, C> {
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
     /// waits for its outcome. Errors if `child` is already running, and with
-    /// [`Error::OutsideAction`] when asked for from a condition method. Refused because
+    /// [`Error::OutsideAction`] when asked for from a condition (a pre- or exit
+    /// condition, a polled wait's). Refused because
     /// this sequence may not go on (the tick stopped it while its action ran on, its
     /// abort is requested or an abort-all waits: [`Error::NotRunning`], as
     /// [`start`](Self::start)), the refusal is handed over as an end is, only when the
@@ -420,8 +421,8 @@ impl<'a, C> Cx<'a, C> {
         }
     }
 
-    /// A blocking run, by this sequence, of the sequence or step `id`; one asked for from
-    /// a condition method is refused at its first poll.
+    /// A blocking run, by this sequence, of the sequence or step `id`; one asked for
+    /// outside the action's poll (from a condition) is refused at its first poll.
     fn blocking_run(&self, id: SeqId) -> Run<'a, C> {
         let child = Cx::new(self.port, self.control, id);
         if self.acting() {
@@ -436,7 +437,7 @@ impl<'a, C> Cx<'a, C> {
     /// sequence's id) if the tick stopped this sequence while its action ran on (a tick
     /// preempts the lanes), or its abort is requested or an abort-all waits (the tick has
     /// not carried it out yet): nothing an action starts outlives its abort. From a
-    /// condition method it is [`Error::OutsideAction`]. It does outlive this sequence's
+    /// condition (a pre- or exit condition, a polled wait's) it is [`Error::OutsideAction`]. It does outlive this sequence's
     /// end, a failure through `?` included: to end it with the action, start it with
     /// [`start_scoped`](Self::start_scoped).
     ///

@@ -29,7 +29,7 @@
 //! |---|---|
 //! | Idle → PreCondition | [`Port::take_start`] |
 //! | Begin → PreCondition / HandOver (refused) | [`Port::start_blocking`] |
-//! | OutsideAction → Done | none: asked for from a condition method, refused ([`Run::outside_action`]) |
+//! | OutsideAction → Done | none: asked for from a condition, refused ([`Run::outside_action`]) |
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
 //! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
 //! | Action → ActionFailed | [`Port::clearance`], the body's action (`Err`) |
@@ -75,7 +75,7 @@ enum Stage {
     Idle,
     /// A blocking start's first poll: start the child.
     Begin,
-    /// A blocking start asked for outside the caller's action (from a condition method):
+    /// A blocking start asked for outside the caller's action (from a condition):
     /// its first poll refuses it ([`Error::OutsideAction`]) and starts nothing.
     OutsideAction,
     /// At the await point before the pre-condition: the start, or after a restart.
@@ -131,7 +131,7 @@ impl<'a, C> Run<'a, C> {
         }
     }
 
-    /// A blocking start of `cx`'s sequence asked for by `caller` from a condition method:
+    /// A blocking start of `cx`'s sequence asked for by `caller` from a condition:
     /// refused at the first poll.
     pub(crate) fn outside_action(cx: Cx<'a, C>, caller: RunId) -> Self {
         Run {

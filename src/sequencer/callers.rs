@@ -18,8 +18,8 @@ use crate::{Behaviour, RunningState, SeqId, MAX_DEPTH};
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// One step of [`cut_and_depth`]: the caller of `at`, or `None` at the top of the
     /// stack; a link of `at` to `id` (its old run) is cut instead. A behaviour pending for
-    /// `at` that acts on its caller then acts on `at`, as for an owner whose caller has
-    /// ended: it is aborted ([`Behaviour::AbortCallerOfOwner`]).
+    /// `at` that acts on its caller then becomes `AbortOwner`: `at` is aborted, as an owner
+    /// whose caller has ended is ([`Behaviour::AbortCallerOfOwner`]).
     fn cut_step(&mut self, id: SeqId, at: SeqId) -> Option<SeqId> {
         let b = self.block_mut(at)?;
         let up = b.caller.get()?;

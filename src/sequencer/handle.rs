@@ -366,7 +366,8 @@ impl<'a, C> Handle<'a, C> {
         self.port.info(self.id).and_then(|i| i.active_exception)
     }
 
-    /// Runs, completions, skips, aborts, restarts, exceptions (feature `counters`).
+    /// Runs, completions, skips, failures, aborts, restarts, exceptions (feature
+    /// `counters`).
     ///
     /// A sequence guarded by a pre-condition, started once with it false and once with it true:
     ///
@@ -434,11 +435,13 @@ impl<'a, C> Handle<'a, C> {
         self.port.info(self.id).and_then(|i| i.outcome)
     }
 
-    /// Starts the sequence non-blocking in its lane, as a main sequence (no caller). While
-    /// an abort-all waits for the tick, the start is taken and its run holds before its
-    /// pre-condition until the tick aborts it with the rest. Through a handle of a context
-    /// ([`Cx::sequence_by_id`](crate::Cx::sequence_by_id)) the start is the sequence's
-    /// own: refused with [`Error::NotRunning`] (that sequence's id) as its context's
+    /// Starts the sequence non-blocking in its lane, as a main sequence (no caller).
+    /// Through the application's handle, while an abort-all waits for the tick, the start
+    /// is taken and its run holds before its pre-condition until the tick aborts it with
+    /// the rest. Through a handle of a context
+    /// ([`Cx::sequence_by_id`](crate::Cx::sequence_by_id),
+    /// [`Cx::sequence_by_name`](crate::Cx::sequence_by_name)) the start is the context's
+    /// sequence's own: refused with [`Error::NotRunning`] (the context's id) as its
     /// starts are, once the tick stopped its run, its abort is requested or an abort-all
     /// waits. Only that run is checked: the main sequence is not below it (an abort of it,
     /// or of its callers, does not take the main sequence down), and a condition's

@@ -128,12 +128,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Opens the schedule of the new run `run`: the count of changes that its commit
-    /// compares with ([`State::changes`]), if its caller's run (if any) may still start a
-    /// run. The tick can stop a sequence while its action runs on to its next await point
-    /// (the tick preempts the lanes), and a lane of higher priority start it again; a start
-    /// the stopped run makes meanwhile is refused ([`Error::NotRunning`] with the caller's
-    /// id), so nothing outlives its caller's stop; so is a start by a caller that a
-    /// teardown is stopping ([`flag::STOPPING`]), whose abort is requested, or, unless it
+    /// compares with ([`State::changes`]), if the run that starts it (if any: its caller,
+    /// or the run that starts a main sequence through a handle, [`Mode::starter`]) may
+    /// still start a run. The tick can stop a sequence while its action runs on to its
+    /// next await point (the tick preempts the lanes), and a lane of higher priority start
+    /// it again; a start the stopped run makes meanwhile is refused ([`Error::NotRunning`]
+    /// with the starter's id), so nothing outlives its starter's stop; so is a start by a
+    /// starter that a teardown is stopping ([`flag::STOPPING`]), whose abort is requested, or, unless it
     /// is the tick's start of an exception sequence, while an abort-all waits in the inbox
     /// (`abort_all_posted`): it begins nothing more. A start in a lane whose lane future
     /// was dropped since the start's checks is [`Error::NoLane`]: the close counts as a
