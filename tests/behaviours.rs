@@ -442,14 +442,14 @@ fn a_caller_behaviour_on_an_owner_whose_caller_has_ended_aborts_the_owner() {
     );
 }
 
-/// `AbortCallerOfOwner` on a non-blocking child whose caller has ended and then started
-/// again: caller links are of sequences (the tree the specification's `callerSequence`
-/// describes), so the behaviour acts on the caller's run under way, though that run did
-/// not start the owner, and tears it down with the owner, innermost first. (A caller that
-/// has ended and not started again is the test above.)
-#[test]
-fn a_caller_behaviour_acts_on_the_callers_run_under_way() {
-    use rtseq::{Behaviour, Cause, Instant, Monitor, Outcome};
+/// A child, started non-blocking by main's first run, which then ended; main started
+/// again (a run that starts nothing and waits for flag 3) at 2 ms. The child's monitor
+/// (`behaviour`, flag 1) fires at 5 ms. Returns the trace, the child's and main's ids and
+/// the monitor's cause.
+fn caller_behaviour_on_a_later_run(
+    behaviour: Behaviour,
+) -> (Vec<Transition>, SeqId, SeqId, rtseq::Cause) {
+    use rtseq::Instant;
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
     let child = seq
@@ -466,70 +466,7 @@ fn a_caller_behaviour_acts_on_the_callers_run_under_way() {
     let mut jam = |c: &Ctrl, _: Instant| c.flag(1);
     let mut monitors = Monitors::<Ctrl, 1>::new();
     let m = monitors
-        .add(
-            ci,
-            Monitor::new("jam", &mut jam, Behaviour::AbortCallerOfOwner),
-        )
-        .unwrap();
-    let mut sim = Sim::new(&seq, &ctrl, monitors);
-    sim.lane(main);
-    sim.lane(child);
-    ctrl.flags[3].set(true);
-    sim.start(mi).unwrap();
-    sim.run_for(Duration::from_millis(2));
-    ctrl.flags[3].set(false);
-    sim.start(mi).unwrap();
-    sim.run_for(Duration::from_millis(2));
-    ctrl.flags[1].set(true);
-    sim.run_for(Duration::from_millis(2));
-    let cause = Cause::Monitor(m);
-    assert_eq!(
-        sim.trace(),
-        [
-            tr(0, mi, Idle, Running, Start),
-            tr(0, ci, Idle, Running, Start),
-            tr(0, mi, Running, Terminated, Completed),
-            tr(2, mi, Terminated, Running, Start),
-            tr(5, ci, Running, Aborting, cause),
-            tr(5, ci, Aborting, Aborted, cause),
-            tr(5, mi, Running, Aborting, cause),
-            tr(5, mi, Aborting, Aborted, cause),
-        ],
-        "{}",
-        show(sim.trace())
-    );
-    assert_eq!(
-        sim.handle(mi).unwrap().last_outcome(),
-        Some(Outcome::Aborted(cause))
-    );
-}
-
-/// As [`a_caller_behaviour_acts_on_the_callers_run_under_way`], with
-/// `RestartCallerOfOwner`: main's run under way restarts (its child, below it, aborted
-/// first), and its new round starts the child again.
-#[test]
-fn a_restart_caller_behaviour_restarts_the_callers_run_under_way() {
-    use rtseq::{Behaviour, Cause, Instant, Monitor};
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let child = seq
-        .add(SeqConfig::new("child"), Node::of(vec![]).until(0))
-        .unwrap();
-    let ci = child.id();
-    let main = seq
-        .add(
-            SeqConfig::new("main"),
-            Node::of(vec![Op::Start(ci)]).until(3),
-        )
-        .unwrap();
-    let mi = main.id();
-    let mut jam = |c: &Ctrl, _: Instant| c.flag(1);
-    let mut monitors = Monitors::<Ctrl, 1>::new();
-    let m = monitors
-        .add(
-            ci,
-            Monitor::new("jam", &mut jam, Behaviour::RestartCallerOfOwner),
-        )
+        .add(ci, Monitor::new("jam", &mut jam, behaviour))
         .unwrap();
     let mut sim = Sim::new(&seq, &ctrl, monitors);
     sim.lane(main);
@@ -544,9 +481,41 @@ fn a_restart_caller_behaviour_restarts_the_callers_run_under_way() {
     sim.run_for(Duration::from_millis(1));
     ctrl.flags[1].set(false);
     sim.run_for(Duration::from_millis(2));
-    let cause = Cause::Monitor(m);
+    (sim.trace().to_vec(), ci, mi, rtseq::Cause::Monitor(m))
+}
+
+/// `AbortCallerOfOwner` on a non-blocking child whose caller has ended and then started
+/// again: caller links are of sequences (the tree the specification's `callerSequence`
+/// describes), so the behaviour acts on the caller's run under way, though that run did
+/// not start the owner, and tears it down with the owner, innermost first. (A caller that
+/// has ended and not started again is the test above.)
+#[test]
+fn a_caller_behaviour_acts_on_the_callers_run_under_way() {
+    let (trace, ci, mi, cause) = caller_behaviour_on_a_later_run(Behaviour::AbortCallerOfOwner);
     assert_eq!(
-        sim.trace(),
+        trace,
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(0, ci, Idle, Running, Start),
+            tr(0, mi, Running, Terminated, Completed),
+            tr(2, mi, Terminated, Running, Start),
+            tr(5, ci, Running, Aborting, cause),
+            tr(5, ci, Aborting, Aborted, cause),
+            tr(5, mi, Running, Aborting, cause),
+            tr(5, mi, Aborting, Aborted, cause),
+        ],
+        "{}",
+        show(&trace)
+    );
+}
+
+/// The same with `RestartCallerOfOwner`: main's run under way restarts (its child, below
+/// it, aborted first), and its new round starts the child again.
+#[test]
+fn a_restart_caller_behaviour_restarts_the_callers_run_under_way() {
+    let (trace, ci, mi, cause) = caller_behaviour_on_a_later_run(Behaviour::RestartCallerOfOwner);
+    assert_eq!(
+        trace,
         [
             tr(0, mi, Idle, Running, Start),
             tr(0, ci, Idle, Running, Start),
@@ -559,7 +528,7 @@ fn a_restart_caller_behaviour_restarts_the_callers_run_under_way() {
             tr(5, ci, Aborted, Running, Start),
         ],
         "{}",
-        show(sim.trace())
+        show(&trace)
     );
 }
 

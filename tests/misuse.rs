@@ -1552,22 +1552,32 @@ fn an_exception_sequence_joining_its_owner_is_an_error_not_a_hang() {
     assert_eq!((so, se), (Aborted, Terminated));
 }
 
-/// O runs S blocking, and S steps `wait` (until flag 1). O has an `AbortOwner` monitor on
-/// flag 0 whose exception sequence E joins S, or S's step (`join_step`). O's exception
-/// holds its blocking children with it until E ends, and E would wait for one of them:
-/// `JoinWouldDeadlock`, as a join of the owner itself is. E ends, then O's tree is aborted.
-/// (Before, the cycle check walked up from E to O only, and E waited for good.) Returns
-/// what E's join returned, the id it joined, and the states of O, S, the step and E.
-fn exception_joins_a_held_child(
-    join_step: bool,
-) -> (Vec<Result<Done, Failure>>, SeqId, [RunningState; 4]) {
+/// What E's join got in [`exception_joins_a_held_child`], and what became of the others.
+struct HeldChildJoin {
+    /// What E's join returned, and when (ms).
+    got: Vec<(u64, Result<Done, Failure>)>,
+    /// The sequence E joined.
+    joined: SeqId,
+    /// The states of O, S, the step and E at the end.
+    states: [RunningState; 4],
+    /// The last outcomes of O and S.
+    outcomes: [Option<Outcome>; 2],
+    /// O's monitor.
+    fault: rtseq::MonitorId,
+}
+
+/// O runs S blocking (configured by `s_config`), and S steps `wait` (until flag 1). O has
+/// an `AbortOwner` monitor on flag 0 (set at 2 ms) whose exception sequence E joins S, or
+/// S's step (`join_step`). O's exception holds its blocking children with it until E
+/// ends, and E would wait for one of them: `JoinWouldDeadlock`, as a join of the owner
+/// itself is. E ends, then O's tree is aborted. (Before session 47, the cycle check walked
+/// up from E to O only, and E waited for good.)
+fn exception_joins_a_held_child(join_step: bool, s_config: SeqConfig<Ctrl>) -> HeldChildJoin {
     let seq: Sequencer<Ctrl, 8> = Sequencer::new();
     let ctrl = Ctrl::default();
     let wait = seq.add(SeqConfig::new("wait"), Leaf::until(1)).unwrap();
     let wi = wait.id();
-    let s = seq
-        .add(SeqConfig::new("S"), Node::of(vec![Op::Step(wait)]))
-        .unwrap();
+    let s = seq.add(s_config, Node::of(vec![Op::Step(wait)])).unwrap();
     let si = s.id();
     let o = seq
         .add(SeqConfig::new("O"), Node::of(vec![Op::Run(s)]))
@@ -1576,75 +1586,6 @@ fn exception_joins_a_held_child(
     let joined = if join_step { wi } else { si };
     let e = seq
         .add(SeqConfig::new("E"), Node::of(vec![Op::Join(joined)]))
-        .unwrap();
-    let ei = e.id();
-    let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
-    let mut monitors = Monitors::<Ctrl, 1>::new();
-    monitors
-        .add(
-            oi,
-            Monitor::new("fault", &mut fault, Behaviour::AbortOwner).exception(ei),
-        )
-        .unwrap();
-    let mut sim = Sim::new(&seq, &ctrl, monitors);
-    sim.lane(o);
-    sim.lane(e);
-    sim.start(oi).unwrap();
-    sim.run_for(Duration::from_millis(2));
-    ctrl.set(0, true);
-    sim.run_for(Duration::from_millis(10));
-    let states = [oi, si, wi, ei].map(|id| sim.state(id));
-    drop(sim);
-    let got = ctrl
-        .returned
-        .borrow()
-        .iter()
-        .filter(|r| r.seq == ei)
-        .map(|r| r.result)
-        .collect();
-    (got, joined, states)
-}
-
-#[test]
-fn an_exception_sequence_joining_its_owners_blocking_child_is_an_error_not_a_hang() {
-    let (got, s, states) = exception_joins_a_held_child(false);
-    assert_eq!(got, [Err(Failure::NotStarted(Error::JoinWouldDeadlock(s)))]);
-    assert_eq!(states, [Aborted, Aborted, Aborted, Terminated]);
-}
-
-#[test]
-fn an_exception_sequence_joining_its_owners_step_below_a_child_is_an_error_not_a_hang() {
-    let (got, step, states) = exception_joins_a_held_child(true);
-    assert_eq!(
-        got,
-        [Err(Failure::NotStarted(Error::JoinWouldDeadlock(step)))]
-    );
-    assert_eq!(states, [Aborted, Aborted, Aborted, Terminated]);
-}
-
-/// As [`exception_joins_a_held_child`] with S, the child E joins, under a 5 ms timeout of
-/// its own, which could abort it while O's exception holds it: the check follows the
-/// waits, not what might abort them, so the join is `JoinWouldDeadlock` at once (3 ms),
-/// as a cycle of joins is whatever timeouts its members have; E ends, and O's tree is
-/// aborted by O's monitor before S's timeout comes.
-#[test]
-fn a_join_of_a_held_child_with_a_timeout_is_still_an_error() {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let wait = seq.add(SeqConfig::new("wait"), Leaf::until(1)).unwrap();
-    let s = seq
-        .add(
-            SeqConfig::new("S").timeout(Duration::from_millis(5)),
-            Node::of(vec![Op::Step(wait)]),
-        )
-        .unwrap();
-    let si = s.id();
-    let o = seq
-        .add(SeqConfig::new("O"), Node::of(vec![Op::Run(s)]))
-        .unwrap();
-    let oi = o.id();
-    let e = seq
-        .add(SeqConfig::new("E"), Node::of(vec![Op::Join(si)]))
         .unwrap();
     let ei = e.id();
     let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
@@ -1662,21 +1603,53 @@ fn a_join_of_a_held_child_with_a_timeout_is_still_an_error() {
     sim.run_for(Duration::from_millis(2));
     ctrl.set(0, true);
     sim.run_for(Duration::from_millis(10));
+    let states = [oi, si, wi, ei].map(|id| sim.state(id));
     let outcomes = [oi, si].map(|id| sim.handle(id).unwrap().last_outcome());
     drop(sim);
-    let got: Vec<_> = ctrl
+    let got = ctrl
         .returned
         .borrow()
         .iter()
         .filter(|r| r.seq == ei)
         .map(|r| (r.ms, r.result))
         .collect();
-    assert_eq!(
+    HeldChildJoin {
         got,
-        [(3, Err(Failure::NotStarted(Error::JoinWouldDeadlock(si))))]
-    );
-    let by_monitor = Some(Outcome::Aborted(rtseq::Cause::Monitor(m)));
-    assert_eq!(outcomes, [by_monitor, by_monitor]);
+        joined,
+        states,
+        outcomes,
+        fault: m,
+    }
+}
+
+#[test]
+fn an_exception_sequence_joining_its_owners_blocking_child_is_an_error_not_a_hang() {
+    let j = exception_joins_a_held_child(false, SeqConfig::new("S"));
+    let deadlock = Err(Failure::NotStarted(Error::JoinWouldDeadlock(j.joined)));
+    assert_eq!(j.got, [(3, deadlock)]);
+    assert_eq!(j.states, [Aborted, Aborted, Aborted, Terminated]);
+}
+
+#[test]
+fn an_exception_sequence_joining_its_owners_step_below_a_child_is_an_error_not_a_hang() {
+    let j = exception_joins_a_held_child(true, SeqConfig::new("S"));
+    let deadlock = Err(Failure::NotStarted(Error::JoinWouldDeadlock(j.joined)));
+    assert_eq!(j.got, [(3, deadlock)]);
+    assert_eq!(j.states, [Aborted, Aborted, Aborted, Terminated]);
+}
+
+/// The same with S under a 5 ms timeout of its own, which could abort it while O's
+/// exception holds it: the check follows the waits, not what might abort them, so the
+/// join is `JoinWouldDeadlock` at once (3 ms), as a cycle of joins is whatever timeouts
+/// its members have; E ends, and O's tree is aborted by O's monitor before S's timeout.
+#[test]
+fn a_join_of_a_held_child_with_a_timeout_is_still_an_error() {
+    let s = SeqConfig::new("S").timeout(Duration::from_millis(5));
+    let j = exception_joins_a_held_child(false, s);
+    let deadlock = Err(Failure::NotStarted(Error::JoinWouldDeadlock(j.joined)));
+    assert_eq!(j.got, [(3, deadlock)]);
+    let by_monitor = Some(Outcome::Aborted(rtseq::Cause::Monitor(j.fault)));
+    assert_eq!(j.outcomes, [by_monitor, by_monitor]);
 }
 
 /// O starts Z non-blocking (Z ends once flag 2 is set) and steps `wait` (until flag 1);
