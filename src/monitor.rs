@@ -139,6 +139,16 @@ impl Behaviour {
         )
     }
 
+    /// What this behaviour does to an owner without a caller (a main sequence): a
+    /// `…CallerOfOwner` acts on the owner itself.
+    pub(crate) const fn on_owner(self) -> Behaviour {
+        match self {
+            Behaviour::AbortCallerOfOwner => Behaviour::AbortOwner,
+            Behaviour::RestartCallerOfOwner => Behaviour::RestartOwner,
+            other => other,
+        }
+    }
+
     /// The sequence this behaviour acts on for `owner` whose caller is `caller`: the
     /// caller for a `…CallerOfOwner` behaviour of an owner that has one, else the owner.
     pub(crate) const fn target(self, owner: SeqId, caller: Option<SeqId>) -> SeqId {

@@ -26,7 +26,9 @@ use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId
 /// misses wake-ups. A condition looks, an action acts: from a pre- or exit condition, or
 /// the condition of a polled wait ([`wait_until`](Self::wait_until)), every start
 /// ([`run`](Self::run), [`step`](Self::step), [`start`](Self::start),
-/// [`start_scoped`](Self::start_scoped)) is refused with [`Error::OutsideAction`]. Polled
+/// [`start_scoped`](Self::start_scoped)) is refused with [`Error::OutsideAction`] (a
+/// blocking run is judged where it is made: one made in the action and first polled in a
+/// polled wait's condition runs there, so poll it only by awaiting it). Polled
 /// there (`poll_once`), a join still says whether its run is over, and a polled wait only
 /// waits; a condition asks a [`Handle`] instead.
 ///

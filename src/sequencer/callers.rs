@@ -13,21 +13,16 @@ use crate::sequencer::control_block::flag;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
-use crate::{Behaviour, RunningState, SeqId, MAX_DEPTH};
+use crate::{RunningState, SeqId, MAX_DEPTH};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// One step of [`cut_and_depth`]: the caller of `at`, or `None` at the top of the
-    /// stack; a link of `at` to `id` (its old run) is cut instead. A behaviour pending for
-    /// `at` that acts on its caller then becomes `AbortOwner`: `at` is aborted, as an owner
-    /// whose caller has ended is ([`Behaviour::AbortCallerOfOwner`]).
+    /// stack; a link of `at` to `id` (its old run) is cut instead.
     fn cut_step(&mut self, id: SeqId, at: SeqId) -> Option<SeqId> {
         let b = self.block_mut(at)?;
         let up = b.caller.get()?;
         if up == id {
             b.caller = Link::NONE;
-            if b.pending().is_some_and(Behaviour::targets_caller) {
-                b.set_pending(Some(Behaviour::AbortOwner));
-            }
             self.sets.remove(Set::Called, at);
             return None;
         }

@@ -73,7 +73,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 match started {
                     Ok(_) if current => {
                         if let Some(b) = s.block_mut(owner) {
-                            b.set_pending(Some(behaviour));
+                            // Kept as what it does to this owner: one that acts on the
+                            // caller stays so only for an owner that has one now.
+                            let pending = if target.seq == owner {
+                                behaviour.on_owner()
+                            } else {
+                                behaviour
+                            };
+                            b.set_pending(Some(pending));
                         }
                     }
                     Err(why) if current => s.exception_not_run(e, owner, why),

@@ -6,7 +6,7 @@ use crate::lock::Lock;
 use crate::model::state::States;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sets::Set;
-use crate::{Cause, Event, Request, Requester, RunningState, Sequencer};
+use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, Sequencer};
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
@@ -74,12 +74,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     let b = s
                         .block(id)
                         .filter(|b| States::RUNNING_OR_PAUSED.has(b.state))?;
-                    let target = behaviour.target(id, b.caller.get());
+                    // One that acts on the caller was kept for an owner that had one
+                    // (`raise`). Without the link now, its caller ended and was started
+                    // again below it (the start cut the link): the owner is aborted, as
+                    // an owner whose caller has ended is.
+                    let (behaviour, target) = match b.caller.get() {
+                        None if behaviour.targets_caller() => (Behaviour::AbortOwner, id),
+                        caller => (behaviour, behaviour.target(id, caller)),
+                    };
                     // Set by the firing that made the behaviour pending, in the same run.
                     let cause = b.active_exception?;
-                    Some((cause, s.current_run(target)))
+                    Some((behaviour, cause, s.current_run(target)))
                 });
-                if let Some((cause, target)) = still {
+                if let Some((behaviour, cause, target)) = still {
                     self.apply(control, id, behaviour, target, cause);
                 }
             }

@@ -572,3 +572,57 @@ fn an_abort_requested_during_a_restarting_tick_is_carried_out() {
         });
     }
 }
+
+/// C (a cycle, main) started O (a move) non-blocking and ended. O's monitor
+/// (`RestartCallerOfOwner`, exception sequence E) fires in the tick at 1 ms; E's lane, of
+/// higher priority than the tick, takes E's start and E starts C again before section `k`
+/// of that tick (or after it): C's start cuts O's link to C's ended run, also before the
+/// tick made the behaviour pending. Once E has ended, the next tick aborts O, as an owner
+/// whose caller has ended, wherever the cut came (semantics 11); before session 47 it
+/// restarted O as if it were a main sequence. (Found by a review; the first fix, at the
+/// cut, missed a cut before the behaviour was pending, k = 21 to 24.)
+#[test]
+fn a_caller_behaviour_whose_link_is_cut_during_the_firing_aborts_the_owner() {
+    let setup = || {
+        let w = World::new(Layout::One);
+        let c = w.seq("C");
+        let o = w.seq("O");
+        let e = w.seq("E");
+        let cause = w.monitor(o, flag_of(true), Behaviour::RestartCallerOfOwner, Some(e));
+        w.start_taken(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        assert!(w.complete(c));
+        (w, c, o, e, cause)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count, |k| {
+        let (w, c, o, e, cause) = setup();
+        let during: &'static AtomicBool = flag_of(false);
+        interleaved::at(k, move || {
+            if w.try_take(e).is_some() {
+                w.in_lane(c, e).unwrap();
+                during.store(true, Ordering::Relaxed);
+            }
+        });
+        w.tick(1);
+        let during = during.load(Ordering::Relaxed);
+        if !during {
+            interleaved::at(usize::MAX, || {});
+            w.take(e);
+            w.in_lane(c, e).unwrap();
+        }
+        w.take(c);
+        assert_eq!(w.caller(o), None, "k={k}: the link is cut");
+        assert!(w.complete(e), "k={k}");
+        w.tick(2);
+        let what = format!("k={k} (E's start of C during the tick: {during})");
+        assert_eq!(
+            w.ended(o),
+            (Aborted, cause),
+            "{what}: {:?}",
+            w.transitions(o)
+        );
+        w.check(&what);
+    });
+}
