@@ -648,7 +648,7 @@ impl Liveness {
         for p in &self.polls {
             if let Some(since) = p.since {
                 assert!(
-                    now - since < 4,
+                    now.saturating_sub(since) < 4,
                     "{what}: {:?} waits for its polled condition, true since {since} ms",
                     p.id
                 );
