@@ -1,7 +1,8 @@
 //! A condition looks, an action acts: every start made with a context from a pre- or
 //! exit condition, or a polled wait's condition (`Cx::run`, `Cx::step`, `Cx::start`,
 //! `Cx::start_scoped`), is refused with `Error::OutsideAction`, and the sequence it names
-//! never starts. The same starts from the action go ahead.
+//! never starts. The same starts from the action go ahead; a start from the `Drop` of
+//! something the action held goes ahead only where the action ends in its poll.
 
 use std::cell::RefCell;
 use std::task::Poll;
@@ -270,4 +271,76 @@ fn a_polled_wait_condition_starts_nothing() {
     assert_eq!(*ctrl.got.borrow(), expected);
     assert!(sim.trace().iter().all(|t| t.sequence != si));
     assert_eq!(sim.state(li), Terminated);
+}
+
+/// Starts `safe` from its `Drop`, through the context it holds: a start on the way out.
+struct StartOnDrop<'c, 'a> {
+    cx: &'c Cx<'a, Ctrl>,
+    safe: SeqId,
+}
+impl Drop for StartOnDrop<'_, '_> {
+    fn drop(&mut self) {
+        let cx = self.cx;
+        cx.control().note(cx, "drop", cx.start(self.safe));
+    }
+}
+
+/// Holds a [`StartOnDrop`] while it runs its step.
+struct Guarded {
+    safe: SeqId,
+    step: Seq<Wait>,
+}
+impl Sequence<Ctrl> for Guarded {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let _guard = StartOnDrop {
+            cx,
+            safe: self.safe,
+        };
+        cx.step(&mut self.step).await?;
+        Ok(())
+    }
+}
+
+/// G holds a guard that starts `safe` when it is dropped, and runs a 3 ms step; it is
+/// aborted at 2 ms when `abort`. Returns what the guard's start returned, and safe's
+/// state at the end.
+fn guard_dropped(abort: bool) -> (Vec<Got>, rtseq::RunningState) {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let safe = seq.add(SeqConfig::new("safe"), Quick).unwrap();
+    let si = safe.id();
+    let step = seq
+        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(3)))
+        .unwrap();
+    let g = seq
+        .add(SeqConfig::new("G"), Guarded { safe: si, step })
+        .unwrap();
+    let gi = g.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(g);
+    sim.lane(safe);
+    sim.start(gi).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    if abort {
+        sim.handle(gi).unwrap().abort().unwrap();
+    }
+    assert!(sim.run_until_idle(Duration::from_millis(50)).is_some());
+    let state = sim.state(si);
+    drop(sim);
+    (ctrl.got.take(), state)
+}
+
+/// A `Drop` of something an action held runs where the action is dropped: in its poll
+/// when it completes (3 ms: the start goes ahead), outside it when it is aborted (the
+/// tick at 3 ms drops it: `OutsideAction`, nothing starts; the abort's cleanup hook is the
+/// place for a safe stop).
+#[test]
+fn a_start_from_a_drop_goes_ahead_only_inside_the_action() {
+    let (got, safe) = guard_dropped(false);
+    assert_eq!((got, safe), (vec![(3_000, "drop", Ok(()))], Terminated));
+    let (got, safe) = guard_dropped(true);
+    let refused = Err(Failure::NotStarted(Error::OutsideAction(
+        SeqId::from_index(0),
+    )));
+    assert_eq!((got, safe), (vec![(3_000, "drop", refused)], Idle));
 }
