@@ -134,9 +134,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// next await point (the tick preempts the lanes), and a lane of higher priority start
     /// it again; a start the stopped run makes meanwhile is refused ([`Error::NotRunning`]
     /// with the starter's id), so nothing outlives its starter's stop; so is a start by a
-    /// starter that a teardown is stopping ([`flag::STOPPING`]), whose abort is requested, or, unless it
-    /// is the tick's start of an exception sequence, while an abort-all waits in the inbox
-    /// (`abort_all_posted`): it begins nothing more. A start in a lane whose lane future
+    /// starter that a teardown is stopping ([`flag::STOPPING`]), whose abort is requested,
+    /// or, unless it is the tick's start of an exception sequence, while an abort-all
+    /// waits in the inbox (`abort_all_posted`): it begins nothing more. A start in a lane whose lane future
     /// was dropped since the start's checks is [`Error::NoLane`]: the close counts as a
     /// change, so a start that opened before it schedules again and finds the lane closed.
     fn open_start(&self, run: &NewRun, abort_all_posted: bool) -> Result<u32, Error> {
