@@ -15,7 +15,7 @@ use crate::model::id::{Link, RunId};
 use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::model::time::Stamp;
-use crate::sequencer::callers::cut_and_depth;
+use crate::sequencer::callers::ancestry;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
@@ -269,10 +269,19 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// was `seen`) with the run's caller and flags, which also clear the requests and the
     /// pending behaviour, and the run counted: the new run's id. A run's future, a join and
     /// a request name the run they act for by this count, so only a committed run counts.
+    /// The link of `old_link` to an old run of the sequence is cut ([`Ancestry`]).
     /// `None`: a tick or a transition came since (it may have moved the time, rescanned
     /// without the new run, or stopped the run's caller), nothing changed, schedule again.
+    ///
+    /// [`Ancestry`]: crate::sequencer::callers::Ancestry
     #[inline]
-    fn commit_new(&mut self, change: &StateChange, seen: u32, run: &NewRun) -> Option<RunId> {
+    fn commit_new(
+        &mut self,
+        change: &StateChange,
+        seen: u32,
+        run: &NewRun,
+        old_link: Option<SeqId>,
+    ) -> Option<RunId> {
         if self.changes != seen {
             return None;
         }
@@ -280,10 +289,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.caller = Link::to(run.caller.map(|c| c.seq));
         b.flags = run.flags;
         b.runs = b.runs.wrapping_add(1);
-        Some(RunId {
+        let new = RunId {
             seq: change.sequence,
             count: b.runs,
-        })
+        };
+        if let Some(at) = old_link {
+            self.cut_old_link(at, change.sequence);
+        }
+        Some(new)
     }
 
     /// After the commit of `run`, begun blocking by `caller`: if the caller is paused (the
@@ -337,9 +350,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
-/// The checks of a start of `id` (blocking in its caller's lane, or in its own lane) in
-/// the order a start in one piece would fail them, and the cut of a link to an old run of
-/// `id` among the caller's callers. Returns the new run's lane, caller and flags.
+/// The checks of a start of `id` (blocking in its caller's lane, or in its own lane) that
+/// come before its schedule, in the order a start in one piece would fail them. Returns
+/// the new run's lane, caller and flags.
 fn admit<
     C,
     S: Sections<C, N, T, W, B>,
@@ -363,18 +376,10 @@ fn admit<
         | Mode::Exception { .. }
         | Mode::BesidePause { .. } => lane_slot_of(s, id).ok_or(Error::NoLane(id))?,
     };
-    let caller = mode.caller();
-    // `caller` is the starting sequence itself (a context's or an exception's owner):
-    // registered by construction.
-    if let Some(c) = caller {
-        if usize::from(cut_and_depth(s, id, c.seq)) >= MAX_DEPTH {
-            return Err(Error::CallerDepthExceeded(id));
-        }
-    }
     Ok(NewRun {
         seq: id,
         lane,
-        caller,
+        caller: mode.caller(),
         starter: mode.starter(),
         flags: mode.flags(),
         by_tick: mode.by_tick(),
@@ -427,6 +432,18 @@ fn launch<
     loop {
         let posted = abort_all_posted(inbox);
         let seen = s.section(|s| s.open_start(&run, posted))?;
+        // `caller` is the starting sequence itself (a context's or an exception's owner):
+        // registered by construction.
+        let old_link = match run.caller {
+            Some(c) => {
+                let up = ancestry(s, id, c.seq);
+                if usize::from(up.depth) >= MAX_DEPTH {
+                    return Err(Error::CallerDepthExceeded(id));
+                }
+                up.old_link
+            }
+            None => None,
+        };
         let at = s
             .section(|s| s.schedule_new(id, run.lane))
             .ok_or(Error::UnknownSequence(id))?;
@@ -444,7 +461,7 @@ fn launch<
             }
         });
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
-        if let Some(new) = s.section(|s| s.commit_new(&change, seen, &run)) {
+        if let Some(new) = s.section(|s| s.commit_new(&change, seen, &run, old_link)) {
             // Counted for the teardowns that may walk meanwhile (`State::runs_begun`). One
             // that walks between the commit and the count places the new run already: it
             // is committed, with its caller link.
@@ -657,6 +674,78 @@ mod tests {
         );
     }
 
+    /// Sequence 0 ran and started 1, which started 2, and 0 ended; 2 starts 0 blocking,
+    /// and `between` runs before the start's commit. Returns the start's result and the
+    /// caller links of 1 and 0 after it.
+    fn start_of_an_old_caller(
+        between: impl FnOnce(&mut S),
+    ) -> (Result<RunId, Error>, Option<SeqId>, Option<SeqId>) {
+        let [old, child, caller] = [0, 1, 2].map(SeqId);
+        let mut state = registered(3, &[old, child, caller]);
+        let end = StateChange::new(
+            old,
+            RunningState::Running,
+            RunningState::Terminated,
+            Cause::Completed,
+        );
+        assert!(state.transition(&end).is_some());
+        for (id, up) in [(child, old), (caller, child)] {
+            if let Some(b) = state.block_mut(id) {
+                b.caller = Link::to(Some(up));
+            }
+            state.sets.insert(Set::Called, id);
+        }
+        let mode = Mode::Blocking {
+            caller: RunId {
+                seq: caller,
+                count: 0,
+            },
+            maker: state.tag,
+        };
+        // The checks (2), the open (1), the walk from 2 to the link of 1 to 0 (2), the
+        // schedule, the preparation, the class, the due time and the link (5).
+        let commit = 10;
+        let mut s = Preempted::new(&mut state, commit, between);
+        let result = admit(&mut s, old, mode)
+            .and_then(|run| launch(&mut s, old, run, Cause::Start, &NO_INBOX));
+        let link = |id: SeqId| state.block(id).and_then(|b| b.caller.get());
+        (result, link(child), link(old))
+    }
+
+    /// A sequence started again below a child of its old run: the commit cuts the child's
+    /// link to the old run, so the links form no cycle.
+    #[test]
+    fn a_start_below_a_child_of_an_old_run_cuts_the_childs_link() {
+        assert_eq!(
+            start_of_an_old_caller(|_| {}),
+            (
+                Ok(RunId {
+                    seq: SeqId(0),
+                    count: 1
+                }),
+                None,
+                Some(SeqId(2))
+            )
+        );
+    }
+
+    /// The same start, its caller aborted before the commit (by a lane of higher
+    /// priority): the start is refused and cuts nothing, so the child's caller behaviours
+    /// still act on sequence 0.
+    #[test]
+    fn a_refused_start_below_a_child_of_an_old_run_leaves_the_childs_link() {
+        let abort = StateChange::new(
+            SeqId(2),
+            RunningState::Running,
+            RunningState::Aborting,
+            Cause::Dropped,
+        );
+        assert_eq!(
+            start_of_an_old_caller(|s| assert!(s.transition(&abort).is_some())),
+            (Err(Error::NotRunning(SeqId(2))), Some(SeqId(0)), None)
+        );
+    }
+
     /// Sequences 0, 1, 2 in one polling class, 0 running as of the tick's last fold and
     /// then moved by `then` (`None`: left as it is). Returns whether a start of 1 finds the
     /// class busy, and the sections that took.
@@ -688,9 +777,12 @@ mod tests {
         assert_eq!(class_of_three(Some(RunningState::Terminated)), (false, 2));
     }
 
-    /// The sections of one pass: open, schedule, prepare, the class's activity (no member
-    /// changed since the fold), due, link, commit.
+    /// The sections of one pass of a main sequence's start: open, schedule, prepare, the
+    /// class's activity (no member changed since the fold), due, link, commit.
     const PASS: usize = 7;
+    /// The sections of one pass of a start by a caller at the top of its stack: the same
+    /// and, after the open, the walk of the caller's links (one step).
+    const BY_CALLER: usize = PASS + 1;
     /// After a commit: the section that counts the run begun.
     const COUNTED: usize = 1;
 
@@ -701,7 +793,7 @@ mod tests {
             (result, taken, state),
             (
                 Ok(first_run(SeqId(1))),
-                PASS + COUNTED,
+                BY_CALLER + COUNTED,
                 RunningState::Running
             )
         );
@@ -711,14 +803,14 @@ mod tests {
     /// the new run: the commit sees the count of changes move and schedules again.
     #[test]
     fn a_tick_between_the_schedule_and_the_commit_makes_the_start_schedule_again() {
-        let (result, taken, state) = start_preempted(PASS - 1, |s| {
+        let (result, taken, state) = start_preempted(BY_CALLER - 1, |s| {
             s.changes = s.changes.wrapping_add(1);
         });
         assert_eq!(
             (result, taken, state),
             (
                 Ok(first_run(SeqId(1))),
-                2 * PASS + COUNTED,
+                2 * BY_CALLER + COUNTED,
                 RunningState::Running
             )
         );
@@ -760,7 +852,7 @@ mod tests {
     /// priority that dropped a run above it): the start is refused and changes nothing.
     #[test]
     fn a_caller_stopped_before_the_commit_starts_nothing() {
-        let (result, taken, state) = start_preempted(PASS - 1, |s| {
+        let (result, taken, state) = start_preempted(BY_CALLER - 1, |s| {
             let abort = StateChange::new(
                 SeqId(0),
                 RunningState::Running,
@@ -773,7 +865,7 @@ mod tests {
             (result, taken, state),
             (
                 Err(Error::NotRunning(SeqId(0))),
-                PASS + 1,
+                BY_CALLER + 1,
                 RunningState::Idle
             )
         );
