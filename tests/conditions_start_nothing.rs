@@ -5,6 +5,7 @@
 //! something the action held goes ahead only where the action ends in its poll.
 
 use std::cell::RefCell;
+use std::pin::pin;
 use std::task::Poll;
 
 use embassy_futures::poll_once;
@@ -271,6 +272,85 @@ fn a_polled_wait_condition_starts_nothing() {
     assert_eq!(*ctrl.got.borrow(), expected);
     assert!(sim.trace().iter().all(|t| t.sequence != si));
     assert_eq!(sim.state(li), Terminated);
+}
+
+/// Makes a blocking run of its step in its action and polls it first from a polled wait's
+/// condition; then makes one in a polled wait's condition and awaits it in its action.
+struct MadeHerePolledThere(Seq<Wait>);
+impl Sequence<Ctrl> for MadeHerePolledThere {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        {
+            let mut run = pin!(cx.step(&mut self.0));
+            cx.wait_until(|cx| {
+                let polled = started(poll_once(run.as_mut()));
+                cx.control().note(cx, "made in the action", polled);
+                true
+            })
+            .await;
+        }
+        let (mut step, mut made) = (Some(&mut self.0), None);
+        cx.wait_until(|_| {
+            made = step.take().map(|s| cx.step(s));
+            true
+        })
+        .await;
+        if let Some(run) = made {
+            let done = run.await;
+            cx.control().note(cx, "made in a wait", done);
+        }
+        Ok(())
+    }
+}
+
+/// A blocking run starts where it is first polled: made in the action and first polled
+/// from a polled wait's condition, it is refused there and its step does not start; made
+/// in a condition and awaited in the action, it runs (0 to 2 ms). (Before session 48 a run
+/// was judged where it was made: the first started inside the condition and was aborted
+/// when it was dropped, the second was refused.)
+#[test]
+fn a_blocking_run_starts_where_it_is_first_polled() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq
+        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let si = step.id();
+    let m = seq
+        .add(SeqConfig::new("M"), MadeHerePolledThere(step))
+        .unwrap();
+    let mi = m.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(m);
+    sim.start(mi).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(2_000))
+    );
+    assert_eq!(
+        *ctrl.got.borrow(),
+        [
+            (
+                0,
+                "made in the action",
+                Err(Failure::NotStarted(Error::OutsideAction(si)))
+            ),
+            (2_000, "made in a wait", Ok(())),
+        ]
+    );
+    let step_trace: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == si)
+        .map(|t| (t.time.as_ticks(), t.to, t.cause))
+        .collect();
+    assert_eq!(
+        step_trace,
+        [
+            (0, Running, Cause::Start),
+            (2_000, Terminated, Cause::Completed)
+        ]
+    );
+    assert_eq!(sim.state(mi), Terminated);
 }
 
 /// Starts `safe` from its `Drop`, through the context it holds: a start on the way out.

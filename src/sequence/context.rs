@@ -27,8 +27,8 @@ use crate::{Done, Duration, Error, Failure, Handle, Instant, Outcome, Seq, SeqId
 /// the condition of a polled wait ([`wait_until`](Self::wait_until)), every start
 /// ([`run`](Self::run), [`step`](Self::step), [`start`](Self::start),
 /// [`start_scoped`](Self::start_scoped)) is refused with [`Error::OutsideAction`] (a
-/// blocking run is judged where it is made: one made in the action and first polled in a
-/// polled wait's condition runs there, so poll it only by awaiting it). Polled
+/// blocking run starts where it is first polled, so its future borrows the context: one
+/// first polled in a condition is refused there, wherever it was made). Polled
 /// there (`poll_once`), a join still says whether its run is over, and a polled wait only
 /// waits; a condition asks a [`Handle`] instead.
 ///
@@ -125,7 +125,7 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Whether the action is being polled: only then does the context start anything.
-    fn acting(&self) -> bool {
+    pub(crate) fn acting(&self) -> bool {
         self.action.get() & ACTING != 0
     }
 
@@ -357,10 +357,10 @@ impl<'a, C> Cx<'a, C> {
     /// assert_eq!(got.get(), Some((Ok(Done::Completed), 4_000)));
     /// # }
     /// ```
-    pub fn run<'s, S: Sequence<C>>(
-        &self,
+    pub fn run<'c, 's, S: Sequence<C>>(
+        &'c self,
         child: &'s mut Seq<S>,
-    ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 's, C, S> {
+    ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 'c, 's, C, S> {
         sequence_run(self.blocking_run(child.head.id), child)
     }
 
@@ -406,16 +406,20 @@ impl<'a, C> Cx<'a, C> {
     /// assert_eq!((drive.got.get(), drive.ran.get()), (Some(Done::Completed), true));
     /// # }
     /// ```
-    pub fn step<'s, S: Step<C>>(
-        &self,
+    pub fn step<'c, 's, S: Step<C>>(
+        &'c self,
         step: &'s mut Seq<S>,
-    ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 's, C, S> {
+    ) -> impl Future<Output = Result<Done, Failure>> + use<'a, 'c, 's, C, S> {
         let Seq { head, body } = step;
         self.step_run(head, ErasedBody::of_step(body))
     }
 
     /// A blocking run of a step of any type: one future type, one copy of its code.
-    fn step_run<'s>(&self, head: &'s SeqHead, step: ErasedBody<'s, C>) -> StepRun<'a, 's, C> {
+    fn step_run<'c, 's>(
+        &'c self,
+        head: &'s SeqHead,
+        step: ErasedBody<'s, C>,
+    ) -> StepRun<'c, 's, C> {
         StepRun {
             run: self.blocking_run(head.id),
             head,
@@ -423,15 +427,10 @@ impl<'a, C> Cx<'a, C> {
         }
     }
 
-    /// A blocking run, by this sequence, of the sequence or step `id`; one asked for
-    /// outside the action's poll (from a condition) is refused at its first poll.
-    fn blocking_run(&self, id: SeqId) -> Run<'a, C> {
-        let child = Cx::new(self.port, self.control, id);
-        if self.acting() {
-            Run::blocking(child, self.run_id())
-        } else {
-            Run::outside_action(child, self.run_id())
-        }
+    /// A blocking run, by this sequence, of the sequence or step `id`; one first polled
+    /// outside the action's poll (from a condition) is refused there.
+    fn blocking_run<'c>(&'c self, id: SeqId) -> Run<'c, C> {
+        Run::blocking(Cx::new(self.port, self.control, id), self)
     }
 
     /// Starts sequence `id` **non-blocking** in its lane; this sequence continues. Errors if

@@ -1,7 +1,7 @@
 //! A run of a sequence or step: the seed's `actionFramework` as a state machine.
 //!
 //! ```text
-//!                                      asked for in a condition: OutsideAction ──► Done, Err
+//!                                      first polled in a condition: Begin ──► Done, Err
 //!   lane:  Idle ──take_start──┐        blocking:  Begin ──start_blocking──┐  (refused: HandOver)
 //!                             ▼                                           ▼
 //!                 ┌──► PreCondition ◄──────────────────── restart ─────────────────┐
@@ -29,7 +29,7 @@
 //! |---|---|
 //! | Idle → PreCondition | [`Port::take_start`] |
 //! | Begin → PreCondition / HandOver (refused) | [`Port::start_blocking`] |
-//! | OutsideAction → Done | none: asked for from a condition, refused ([`Run::outside_action`]) |
+//! | Begin → Done | none: first polled from a condition ([`Cx::acting`]), refused |
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
 //! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
 //! | Action → ActionFailed | [`Port::clearance`], the body's action (`Err`) |
@@ -73,11 +73,9 @@ use crate::{Cx, Done, Error, Failure, Outcome};
 enum Stage {
     /// A lane between runs (or before its first): wait for a non-blocking start.
     Idle,
-    /// A blocking start's first poll: start the child.
+    /// A blocking start's first poll: start the child, if the poll is the caller's
+    /// action's (else refused: [`Error::OutsideAction`]).
     Begin,
-    /// A blocking start asked for outside the caller's action (from a condition):
-    /// its first poll refuses it ([`Error::OutsideAction`]) and starts nothing.
-    OutsideAction,
     /// At the await point before the pre-condition: the start, or after a restart.
     PreCondition,
     /// The action runs.
@@ -104,7 +102,7 @@ enum Stage {
 /// copy serves every sequence and step type, started blocking or in a lane.
 pub(crate) struct Run<'a, C> {
     pub(crate) cx: Cx<'a, C>,
-    driver: Driver,
+    driver: Driver<'a, C>,
     stage: Cell<Stage>,
     /// The outcome, once the run has ended; for a refused blocking start, the refusal
     /// (`Failed(NotStarted)`), which its caller gets as it would a failed child's.
@@ -112,32 +110,20 @@ pub(crate) struct Run<'a, C> {
 }
 
 /// What drives a run: the sequence's lane, or the future of a blocking start.
-#[derive(Clone, Copy)]
-enum Driver {
+enum Driver<'a, C> {
     /// The lane: takes every non-blocking start, runs it, then waits for the next.
     Lane,
-    /// A blocking start by the run `caller`, which waits for the outcome.
-    Blocking { caller: RunId },
+    /// A blocking start by the caller whose context this is, which waits for the outcome.
+    Blocking { caller: &'a Cx<'a, C> },
 }
 
 impl<'a, C> Run<'a, C> {
     /// A blocking start of `cx`'s sequence by `caller`, starting it at the first poll.
-    pub(crate) fn blocking(cx: Cx<'a, C>, caller: RunId) -> Self {
+    pub(crate) fn blocking(cx: Cx<'a, C>, caller: &'a Cx<'a, C>) -> Self {
         Run {
             cx,
             driver: Driver::Blocking { caller },
             stage: Cell::new(Stage::Begin),
-            outcome: Cell::new(Outcome::Completed),
-        }
-    }
-
-    /// A blocking start of `cx`'s sequence asked for by `caller` from a condition:
-    /// refused at the first poll.
-    pub(crate) fn outside_action(cx: Cx<'a, C>, caller: RunId) -> Self {
-        Run {
-            cx,
-            driver: Driver::Blocking { caller },
-            stage: Cell::new(Stage::OutsideAction),
             outcome: Cell::new(Outcome::Completed),
         }
     }
@@ -224,8 +210,15 @@ impl<'a, C> Run<'a, C> {
                     self.stage.set(Stage::PreCondition);
                 }
                 Stage::Begin => match self.driver {
+                    // A condition looks: a run first polled there (its caller's action
+                    // is not being polled) starts nothing.
+                    Driver::Blocking { caller } if !caller.acting() => {
+                        let refused = Failure::NotStarted(Error::OutsideAction(id));
+                        head.result.set(Some(Err(refused)));
+                        self.stage.set(Stage::Done);
+                    }
                     Driver::Blocking { caller } => {
-                        match port.start_blocking(id, head.maker, caller) {
+                        match port.start_blocking(id, head.maker, caller.run_id()) {
                             Ok(run) => {
                                 self.cx.enter(run);
                                 self.stage.set(Stage::PreCondition);
@@ -241,11 +234,6 @@ impl<'a, C> Run<'a, C> {
                     // Only a blocking run begins; a lane begins in `Idle`.
                     Driver::Lane => self.stage.set(Stage::Idle),
                 },
-                Stage::OutsideAction => {
-                    let refused = Failure::NotStarted(Error::OutsideAction(id));
-                    head.result.set(Some(Err(refused)));
-                    self.stage.set(Stage::Done);
-                }
                 Stage::PreCondition => match self.clearance(w) {
                     Clearance::Go => {
                         if body.pre(&self.cx) {
@@ -301,7 +289,7 @@ impl<'a, C> Run<'a, C> {
                 // or restarting this stays pending and the caller drops it (sticky abort).
                 Stage::HandOver => {
                     if let Driver::Blocking { caller } = self.driver {
-                        if port.clearance_of(caller) == Clearance::Go {
+                        if port.clearance_of(caller.run_id()) == Clearance::Go {
                             head.result.set(Some(self.outcome.get().done()));
                             self.stage.set(Stage::Done);
                         }
@@ -407,7 +395,7 @@ impl<C> Drop for Run<'_, C> {
             | Stage::AwaitPoll => port.abandon(self.cx.id(), self.cx.control()),
             Stage::Ended => port.finished(self.run()),
             // Not started or over; a lane waiting for a start is `drop_lane`'s.
-            Stage::Idle | Stage::Begin | Stage::OutsideAction | Stage::HandOver | Stage::Done => {}
+            Stage::Idle | Stage::Begin | Stage::HandOver | Stage::Done => {}
         }
     }
 }
