@@ -16,19 +16,17 @@ use crate::sequencer::State;
 use crate::{RunningState, SeqId, MAX_DEPTH};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// One step of [`ancestry`]: the caller of `at`, or `None` at the top of the stack.
-    fn caller_of(&self, at: SeqId) -> Option<SeqId> {
-        self.block(at)?.caller.get()
-    }
-
-    /// Cuts the link of `at` to `id` (an old run of `id`), if it is still there: `id` is
-    /// starting again below `at` ([`Ancestry::old_link`]), in the commit of its new run.
-    pub(crate) fn cut_old_link(&mut self, at: SeqId, id: SeqId) {
-        let Some(b) = self.block_mut(at).filter(|b| b.caller.get() == Some(id)) else {
-            return;
-        };
-        b.caller = Link::NONE;
-        self.sets.remove(Set::Called, at);
+    /// One step of [`cut_and_depth`]: the caller of `at`, or `None` at the top of the
+    /// stack; a link of `at` to `id` (its old run) is cut instead.
+    fn cut_step(&mut self, id: SeqId, at: SeqId) -> Option<SeqId> {
+        let b = self.block_mut(at)?;
+        let up = b.caller.get()?;
+        if up == id {
+            b.caller = Link::NONE;
+            self.sets.remove(Set::Called, at);
+            return None;
+        }
+        Some(up)
     }
 
     /// Whether a resume leaves `id` paused: something else holds it. A `PauseOwner`
@@ -96,22 +94,11 @@ struct HeldCaller {
     owner: bool,
 }
 
-/// Where a start of `id` by `caller` stands in the caller tree ([`ancestry`]).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) struct Ancestry {
-    /// The caller's depth: its number of callers, at most `MAX_DEPTH`.
-    pub(crate) depth: u8,
-    /// The caller or one of its callers whose link is to an old (finished) run of `id`.
-    /// The new run's commit cuts it ([`State::cut_old_link`]), so the links never form a
-    /// cycle; a start refused before its commit leaves it.
-    pub(crate) old_link: Option<SeqId>,
-}
-
-/// Before `id` is started by `caller`: walks `caller`'s caller links, one section per
-/// link, up to the top of the stack or a link to `id`. Changes nothing: a link changes
-/// only in a commit, which counts as a change, so a start whose commit sees no change
-/// since the walk commits with the walk's answer.
-pub(crate) fn ancestry<
+/// Before `id` is started by `caller`: walks `caller`'s caller links, one step per link,
+/// and returns its depth (its number of callers, at most `MAX_DEPTH`). If `id` is itself a
+/// (finished) caller of `caller`, the link to its old run is cut there, so the links never
+/// form a cycle.
+pub(crate) fn cut_and_depth<
     C,
     S: Sections<C, N, T, W, B>,
     const N: usize,
@@ -122,17 +109,11 @@ pub(crate) fn ancestry<
     s: &mut S,
     id: SeqId,
     caller: SeqId,
-) -> Ancestry {
+) -> u8 {
     let mut at = caller;
     let mut depth: u8 = 0;
     for _ in 0..MAX_DEPTH {
-        match s.section(|s| s.caller_of(at)) {
-            Some(up) if up == id => {
-                return Ancestry {
-                    depth,
-                    old_link: Some(at),
-                }
-            }
+        match s.section(|s| s.cut_step(id, at)) {
             Some(up) => {
                 at = up;
                 depth = depth.saturating_add(1);
@@ -140,10 +121,7 @@ pub(crate) fn ancestry<
             None => break,
         }
     }
-    Ancestry {
-        depth,
-        old_link: None,
-    }
+    depth
 }
 
 /// Whether `joiner` waiting for `target` could never return: `target` waits, directly or

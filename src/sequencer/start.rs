@@ -15,7 +15,7 @@ use crate::model::id::{Link, RunId};
 use crate::model::set::SeqSet;
 use crate::model::state::States;
 use crate::model::time::Stamp;
-use crate::sequencer::callers::ancestry;
+use crate::sequencer::callers::cut_and_depth;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
@@ -269,19 +269,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// was `seen`) with the run's caller and flags, which also clear the requests and the
     /// pending behaviour, and the run counted: the new run's id. A run's future, a join and
     /// a request name the run they act for by this count, so only a committed run counts.
-    /// The link of `old_link` to an old run of the sequence is cut ([`Ancestry`]).
     /// `None`: a tick or a transition came since (it may have moved the time, rescanned
     /// without the new run, or stopped the run's caller), nothing changed, schedule again.
-    ///
-    /// [`Ancestry`]: crate::sequencer::callers::Ancestry
     #[inline]
-    fn commit_new(
-        &mut self,
-        change: &StateChange,
-        seen: u32,
-        run: &NewRun,
-        old_link: Option<SeqId>,
-    ) -> Option<RunId> {
+    fn commit_new(&mut self, change: &StateChange, seen: u32, run: &NewRun) -> Option<RunId> {
         if self.changes != seen {
             return None;
         }
@@ -289,14 +280,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.caller = Link::to(run.caller.map(|c| c.seq));
         b.flags = run.flags;
         b.runs = b.runs.wrapping_add(1);
-        let new = RunId {
+        Some(RunId {
             seq: change.sequence,
             count: b.runs,
-        };
-        if let Some(at) = old_link {
-            self.cut_old_link(at, change.sequence);
-        }
-        Some(new)
+        })
     }
 
     /// After the commit of `run`, begun blocking by `caller`: if the caller is paused (the
@@ -350,9 +337,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
-/// The checks of a start of `id` (blocking in its caller's lane, or in its own lane) that
-/// come before its schedule, in the order a start in one piece would fail them. Returns
-/// the new run's lane, caller and flags.
+/// The checks of a start of `id` (blocking in its caller's lane, or in its own lane) in
+/// the order a start in one piece would fail them, and the cut of a link to an old run of
+/// `id` among the caller's callers. Returns the new run's lane, caller and flags. The
+/// cut comes after every check the start's open makes ([`State::open_start`]: a starter
+/// that may start nothing more, a closed lane, an abort-all): a start refused for what
+/// was so at its checks cuts nothing. (One refused for what changed between its checks
+/// and its commit, by a tick or a lane of higher priority, has cut it.)
 fn admit<
     C,
     S: Sections<C, N, T, W, B>,
@@ -364,6 +355,7 @@ fn admit<
     s: &mut S,
     id: SeqId,
     mode: Mode,
+    inbox: &AtomicU8,
 ) -> Result<NewRun, Error> {
     s.section(|s| s.check_start(id, mode))?;
     let lane = match mode {
@@ -376,14 +368,24 @@ fn admit<
         | Mode::Exception { .. }
         | Mode::BesidePause { .. } => lane_slot_of(s, id).ok_or(Error::NoLane(id))?,
     };
-    Ok(NewRun {
+    let run = NewRun {
         seq: id,
         lane,
         caller: mode.caller(),
         starter: mode.starter(),
         flags: mode.flags(),
         by_tick: mode.by_tick(),
-    })
+    };
+    let posted = abort_all_posted(inbox);
+    s.section(|s| s.open_start(&run, posted))?;
+    // `caller` is the starting sequence itself (a context's or an exception's owner):
+    // registered by construction.
+    if let Some(c) = run.caller {
+        if usize::from(cut_and_depth(s, id, c.seq)) >= MAX_DEPTH {
+            return Err(Error::CallerDepthExceeded(id));
+        }
+    }
+    Ok(run)
 }
 
 /// Whether the polling class of `id` has a member whose run is under way: one monitored
@@ -432,18 +434,6 @@ fn launch<
     loop {
         let posted = abort_all_posted(inbox);
         let seen = s.section(|s| s.open_start(&run, posted))?;
-        // `caller` is the starting sequence itself (a context's or an exception's owner):
-        // registered by construction.
-        let old_link = match run.caller {
-            Some(c) => {
-                let up = ancestry(s, id, c.seq);
-                if usize::from(up.depth) >= MAX_DEPTH {
-                    return Err(Error::CallerDepthExceeded(id));
-                }
-                up.old_link
-            }
-            None => None,
-        };
         let at = s
             .section(|s| s.schedule_new(id, run.lane))
             .ok_or(Error::UnknownSequence(id))?;
@@ -461,7 +451,7 @@ fn launch<
             }
         });
         let change = StateChange::new(id, at.from, RunningState::Running, cause);
-        if let Some(new) = s.section(|s| s.commit_new(&change, seen, &run, old_link)) {
+        if let Some(new) = s.section(|s| s.commit_new(&change, seen, &run)) {
             // Counted for the teardowns that may walk meanwhile (`State::runs_begun`). One
             // that walks between the commit and the count places the new run already: it
             // is committed, with its caller link.
@@ -526,8 +516,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// With a coarse lock two sections: the checks walk the callers, which grows with the
     /// depth.
     pub(crate) fn begin(&self, id: SeqId, mode: Mode, cause: Cause) -> Result<RunId, Error> {
-        let run = in_sections!(self, |s| admit(s, id, mode))?;
         let inbox = &self.safety.inbox;
+        let run = in_sections!(self, |s| admit(s, id, mode, inbox))?;
         let (new, lane) = in_sections!(self, |s| {
             let new = launch(s, id, run, cause, inbox)?;
             let lane = match mode {
@@ -675,9 +665,10 @@ mod tests {
     }
 
     /// Sequence 0 ran and started 1, which started 2, and 0 ended; 2 starts 0 blocking,
-    /// and `between` runs before the start's commit. Returns the start's result and the
-    /// caller links of 1 and 0 after it.
+    /// and `between` runs before section `at` of the start. Returns the start's result and
+    /// the caller links of 1 and 0 after it.
     fn start_of_an_old_caller(
+        at: usize,
         between: impl FnOnce(&mut S),
     ) -> (Result<RunId, Error>, Option<SeqId>, Option<SeqId>) {
         let [old, child, caller] = [0, 1, 2].map(SeqId);
@@ -702,22 +693,23 @@ mod tests {
             },
             maker: state.tag,
         };
-        // The checks (2), the open (1), the walk from 2 to the link of 1 to 0 (2), the
-        // schedule, the preparation, the class, the due time and the link (5).
-        let commit = 10;
-        let mut s = Preempted::new(&mut state, commit, between);
-        let result = admit(&mut s, old, mode)
+        let mut s = Preempted::new(&mut state, at, between);
+        let result = admit(&mut s, old, mode, &NO_INBOX)
             .and_then(|run| launch(&mut s, old, run, Cause::Start, &NO_INBOX));
         let link = |id: SeqId| state.block(id).and_then(|b| b.caller.get());
         (result, link(child), link(old))
     }
 
-    /// A sequence started again below a child of its old run: the commit cuts the child's
-    /// link to the old run, so the links form no cycle.
+    /// The sections of [`admit`] before its walk of the caller's links: the checks, the
+    /// lane, the starter's.
+    const CHECKS: usize = 3;
+
+    /// A sequence started again below a child of its old run: the child's link to the old
+    /// run is cut, so the links form no cycle.
     #[test]
     fn a_start_below_a_child_of_an_old_run_cuts_the_childs_link() {
         assert_eq!(
-            start_of_an_old_caller(|_| {}),
+            start_of_an_old_caller(usize::MAX, |_| {}),
             (
                 Ok(RunId {
                     seq: SeqId(0),
@@ -729,9 +721,10 @@ mod tests {
         );
     }
 
-    /// The same start, its caller aborted before the commit (by a lane of higher
-    /// priority): the start is refused and cuts nothing, so the child's caller behaviours
-    /// still act on sequence 0.
+    /// The same start by a caller that was stopped before it (the tick stopped it while
+    /// its action ran on to the start): refused, it cuts nothing, so the child's caller
+    /// behaviours still act on sequence 0. (Before session 48 the walk came first and cut
+    /// the link.)
     #[test]
     fn a_refused_start_below_a_child_of_an_old_run_leaves_the_childs_link() {
         let abort = StateChange::new(
@@ -741,7 +734,7 @@ mod tests {
             Cause::Dropped,
         );
         assert_eq!(
-            start_of_an_old_caller(|s| assert!(s.transition(&abort).is_some())),
+            start_of_an_old_caller(CHECKS - 1, |s| assert!(s.transition(&abort).is_some())),
             (Err(Error::NotRunning(SeqId(2))), Some(SeqId(0)), None)
         );
     }
@@ -777,12 +770,9 @@ mod tests {
         assert_eq!(class_of_three(Some(RunningState::Terminated)), (false, 2));
     }
 
-    /// The sections of one pass of a main sequence's start: open, schedule, prepare, the
-    /// class's activity (no member changed since the fold), due, link, commit.
+    /// The sections of one pass: open, schedule, prepare, the class's activity (no member
+    /// changed since the fold), due, link, commit.
     const PASS: usize = 7;
-    /// The sections of one pass of a start by a caller at the top of its stack: the same
-    /// and, after the open, the walk of the caller's links (one step).
-    const BY_CALLER: usize = PASS + 1;
     /// After a commit: the section that counts the run begun.
     const COUNTED: usize = 1;
 
@@ -793,7 +783,7 @@ mod tests {
             (result, taken, state),
             (
                 Ok(first_run(SeqId(1))),
-                BY_CALLER + COUNTED,
+                PASS + COUNTED,
                 RunningState::Running
             )
         );
@@ -803,14 +793,14 @@ mod tests {
     /// the new run: the commit sees the count of changes move and schedules again.
     #[test]
     fn a_tick_between_the_schedule_and_the_commit_makes_the_start_schedule_again() {
-        let (result, taken, state) = start_preempted(BY_CALLER - 1, |s| {
+        let (result, taken, state) = start_preempted(PASS - 1, |s| {
             s.changes = s.changes.wrapping_add(1);
         });
         assert_eq!(
             (result, taken, state),
             (
                 Ok(first_run(SeqId(1))),
-                2 * BY_CALLER + COUNTED,
+                2 * PASS + COUNTED,
                 RunningState::Running
             )
         );
@@ -852,7 +842,7 @@ mod tests {
     /// priority that dropped a run above it): the start is refused and changes nothing.
     #[test]
     fn a_caller_stopped_before_the_commit_starts_nothing() {
-        let (result, taken, state) = start_preempted(BY_CALLER - 1, |s| {
+        let (result, taken, state) = start_preempted(PASS - 1, |s| {
             let abort = StateChange::new(
                 SeqId(0),
                 RunningState::Running,
@@ -865,7 +855,7 @@ mod tests {
             (result, taken, state),
             (
                 Err(Error::NotRunning(SeqId(0))),
-                BY_CALLER + 1,
+                PASS + 1,
                 RunningState::Idle
             )
         );
@@ -889,7 +879,13 @@ mod tests {
         }
         seq.sequence_by_id(o).unwrap().start().unwrap();
         // L: the checks of its start of E (E idle).
-        let checked = admit(&mut EachStep(&seq), e, Mode::Lane { caller: None }).unwrap();
+        let checked = admit(
+            &mut EachStep(&seq),
+            e,
+            Mode::Lane { caller: None },
+            &seq.safety.inbox,
+        )
+        .unwrap();
         // The tick preempts L: O's monitor fires, E starts for O.
         let mut fault = |_: &(), _: Instant| true;
         let mut monitors = Monitors::<(), 1>::new();
