@@ -12,8 +12,8 @@ use embassy_futures::poll_once;
 use rtseq::sim::Sim;
 use rtseq::RunningState::*;
 use rtseq::{
-    Cause, Cx, Done, Duration, Error, Failure, Instant, Monitors, Seq, SeqConfig, SeqId, Sequence,
-    Sequencer, Wait,
+    Behaviour, Cause, Cx, Done, Duration, Error, Failure, Instant, Monitor, Monitors, Seq,
+    SeqConfig, SeqId, Sequence, Sequencer, Step, Wait,
 };
 
 /// A start's result: when (µs), where it was made, and what it returned.
@@ -351,6 +351,130 @@ fn a_blocking_run_starts_where_it_is_first_polled() {
         ]
     );
     assert_eq!(sim.state(mi), Terminated);
+}
+
+/// Polls a blocking run of its step first from a polled wait's condition (refused), then
+/// awaits the same future in its action.
+struct RefusedThenAwaited(Seq<Wait>);
+impl Sequence<Ctrl> for RefusedThenAwaited {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let mut run = pin!(cx.step(&mut self.0));
+        cx.wait_until(|cx| {
+            let polled = started(poll_once(run.as_mut()));
+            cx.control().note(cx, "wait", polled);
+            true
+        })
+        .await;
+        let again = run.await;
+        cx.control().note(cx, "action", again);
+        Ok(())
+    }
+}
+
+/// A refused run polled again gives its refusal again: the action goes on with it at
+/// 0 ms, and the step never starts. (Before session 48 a second poll waited for good.)
+#[test]
+fn a_refused_run_polled_again_gives_its_refusal_again() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq
+        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let si = step.id();
+    let r = seq
+        .add(SeqConfig::new("R"), RefusedThenAwaited(step))
+        .unwrap();
+    let ri = r.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(r);
+    sim.start(ri).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(0))
+    );
+    let refused = Err(Failure::NotStarted(Error::OutsideAction(si)));
+    assert_eq!(
+        *ctrl.got.borrow(),
+        [(0, "wait", refused), (0, "action", refused)]
+    );
+    assert!(sim.trace().iter().all(|t| t.sequence != si));
+    assert_eq!(sim.state(ri), Terminated);
+}
+
+/// A step that records its command; its exit condition holds from 4 ms.
+struct Commands;
+impl Step<Ctrl> for Commands {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.control().note(cx, "command", Ok::<(), Failure>(()));
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        cx.now().as_ticks() >= 4_000
+    }
+}
+
+/// Starts a blocking run of its step in its action, then drives it only from a polled
+/// wait's condition until it is over.
+struct DrivesFromAWait(Seq<Commands>);
+impl Sequence<Ctrl> for DrivesFromAWait {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let mut run = pin!(cx.step(&mut self.0));
+        let first = poll_once(run.as_mut());
+        cx.control().note(cx, "action", started(first));
+        cx.wait_until(|_| poll_once(run.as_mut()).is_ready()).await;
+        Ok(())
+    }
+}
+
+/// Only the first poll of a blocking run is judged: started in the action, the run
+/// advances wherever it is polled, since what runs then is its own step's. Restarted by
+/// its monitor at 2 ms, the step gives its command again in the wait's condition's poll,
+/// and ends at 4 ms.
+#[test]
+fn a_run_started_in_the_action_advances_wherever_it_is_polled() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq.add(SeqConfig::new("step"), Commands).unwrap();
+    let si = step.id();
+    let d = seq.add(SeqConfig::new("D"), DrivesFromAWait(step)).unwrap();
+    let di = d.id();
+    let mut kick = |_: &Ctrl, t: Instant| t.as_ticks() == 2_000;
+    let mut monitors = Monitors::<Ctrl, 1>::new();
+    let m = monitors
+        .add(si, Monitor::new("kick", &mut kick, Behaviour::RestartOwner))
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(d);
+    sim.start(di).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(4_000))
+    );
+    assert_eq!(
+        *ctrl.got.borrow(),
+        [
+            (0, "command", Ok(())),
+            (0, "action", Ok(())),
+            (2_000, "command", Ok(()))
+        ]
+    );
+    let trace: Vec<_> = sim
+        .trace()
+        .iter()
+        .map(|t| (t.time.as_ticks(), t.sequence, t.to, t.cause))
+        .collect();
+    assert_eq!(
+        trace,
+        [
+            (0, di, Running, Cause::Start),
+            (0, si, Running, Cause::Start),
+            (2_000, si, Restarting, Cause::Monitor(m)),
+            (2_000, si, Running, Cause::Restart),
+            (4_000, si, Terminated, Cause::Completed),
+            (4_000, di, Terminated, Cause::Completed),
+        ]
+    );
 }
 
 /// Starts `safe` from its `Drop`, through the context it holds: a start on the way out.

@@ -308,19 +308,23 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence
-    /// waits for its outcome. Errors if `child` is already running, and with
-    /// [`Error::OutsideAction`] when asked for from a condition (a pre- or exit
-    /// condition, a polled wait's). Refused because
+    /// waits for its outcome. The start is made at the future's first poll: errors if
+    /// `child` is already running, and with [`Error::OutsideAction`] when that poll comes
+    /// from a condition (a pre- or exit condition, a polled wait's), wherever the future
+    /// was made; polled again, the future gives the same result. Once started, the run
+    /// advances wherever it is polled (it runs the child's own action). Refused because
     /// this sequence may not go on (the tick stopped it while its action ran on, its
     /// abort is requested or an abort-all waits: [`Error::NotRunning`], as
     /// [`start`](Self::start)), the refusal is handed over as an end is, only when the
     /// action may advance: an action aborted meanwhile never sees it.
     ///
-    /// If this sequence is aborted or paused meanwhile, the call does not return into the
-    /// action until it may advance again (sticky abort: an aborted action never resumes).
+    /// If this sequence is aborted or paused meanwhile, or handles an exception, the call
+    /// does not return into the action until it may advance again (sticky abort: an
+    /// aborted action never resumes); the child holds with it.
     ///
-    /// The returned future borrows `child` but not this context (it copies what it needs),
-    /// so a hand-written action future can hold it.
+    /// The returned future borrows `child` and this context (its first poll asks the
+    /// context whether the action is being polled), so a hand-written action future that
+    /// holds it borrows the context too.
     ///
     /// Main runs `axis` (a 4 ms dwell) blocking and gets its outcome when it ended:
     ///
@@ -365,7 +369,7 @@ impl<'a, C> Cx<'a, C> {
     }
 
     /// Starts `step` (always blocking): its command, then its exit condition every polling
-    /// period.
+    /// period. Started at the future's first poll, as [`run`](Self::run) is.
     ///
     /// A step whose pre-condition is false is skipped: its action does not run.
     ///

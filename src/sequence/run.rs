@@ -93,7 +93,7 @@ enum Stage {
     /// A blocking run ended, or its start was refused: wait until the caller may advance
     /// to hand the outcome over.
     HandOver,
-    /// The result was handed over (or the start refused); pending forever.
+    /// The result was handed over (or the start refused); a poll after that gets it again.
     Done,
 }
 
@@ -211,10 +211,11 @@ impl<'a, C> Run<'a, C> {
                 }
                 Stage::Begin => match self.driver {
                     // A condition looks: a run first polled there (its caller's action
-                    // is not being polled) starts nothing.
+                    // is not being polled) starts nothing. Once started, a run advances
+                    // wherever it is polled: what runs then is its child's own action.
                     Driver::Blocking { caller } if !caller.acting() => {
                         let refused = Failure::NotStarted(Error::OutsideAction(id));
-                        head.result.set(Some(Err(refused)));
+                        self.outcome.set(Outcome::Failed(refused));
                         self.stage.set(Stage::Done);
                     }
                     Driver::Blocking { caller } => {
@@ -296,7 +297,12 @@ impl<'a, C> Run<'a, C> {
                     }
                     return Poll::Pending;
                 }
-                Stage::Done => return Poll::Pending,
+                // Polled again after it returned its result (a misuse of a future): the
+                // same result again, rather than waiting for good.
+                Stage::Done => {
+                    head.result.set(Some(self.outcome.get().done()));
+                    return Poll::Pending;
+                }
             }
         }
     }

@@ -59,6 +59,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         })
     }
 
+    /// The caller of `at` in `at`'s lane (which `at` blocks), and whether it handles an
+    /// exception; `None` at the top of the lane.
+    fn caller_in_lane(&self, at: SeqId) -> Option<(SeqId, bool)> {
+        let b = self.block(at)?;
+        let c = b.caller.get()?;
+        (self.lane_slot(c) == b.lane).then(|| (c, self.sets.has(Set::Excepting, c)))
+    }
+
     /// The caller that a run under way `at` blocks, if `at` runs in `lane`.
     fn blocking_caller_in(&self, at: SeqId, lane: u8) -> Option<SeqId> {
         let b = self.block(at)?;
@@ -230,6 +238,34 @@ fn held_below<
         }
     }
     below
+}
+
+/// Whether a caller that `id` blocks (in its lane, at most [`MAX_DEPTH`] up) handles an
+/// exception, so `id` is held with it: the hold is the owner's and that of its blocking
+/// children (semantics item 3). Only the owner is marked, and its children are held by not
+/// being polled, except in the poll in which the tick (which preempts the lanes) marked
+/// the exception: that poll runs on to the children's await points, which must hold. A
+/// walk up the callers, one section per step.
+pub(crate) fn caller_handles_exception<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+) -> bool {
+    let mut at = id;
+    for _ in 0..MAX_DEPTH {
+        match s.section(|s| s.caller_in_lane(at)) {
+            Some((_, true)) => return true,
+            Some((up, false)) => at = up,
+            None => return false,
+        }
+    }
+    false
 }
 
 /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding for

@@ -3,14 +3,16 @@
 
 use core::sync::atomic::AtomicU8;
 
+use crate::lock::Lock;
 use crate::model::id::RunId;
+use crate::sequencer::callers::caller_handles_exception;
 use crate::sequencer::control_block::{request, ControlBlock};
 use crate::sequencer::inbox::abort_all_posted;
-use crate::sequencer::sections::Sections;
+use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
 use crate::trace::StateChange;
-use crate::{Cause, Outcome, RunningState};
+use crate::{Cause, Outcome, RunningState, Sequencer};
 
 /// What a run's await point must do, decided by its control block.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -115,6 +117,52 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.outcome = Some(outcome);
         true
     }
+}
+
+impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
+    Sequencer<C, N, T, L, W, B>
+{
+    /// What an await point of `run` inside its lane's poll must do (a blocking run's, or
+    /// one of its action's futures'): its own clearance, or `Hold` while a caller it
+    /// blocks handles an exception ([`caller_handles_exception`]).
+    pub(crate) fn clearance_in_lane(&self, run: RunId) -> Clearance {
+        let posted = abort_all_posted(&self.safety.inbox);
+        in_sections!(self, |s| held_in_lane(s, run, posted))
+    }
+}
+
+/// See [`Sequencer::clearance_in_lane`]. The first section gives the run's own clearance
+/// and, when no exception is handled anywhere, that is all. Else the callers are walked,
+/// and the answer is `Go` only if nothing changed from the section that gave it to the
+/// end of the walk (the count of changes): a tick that paused or stopped the run or
+/// marked an exception meanwhile makes it look again, so what follows the answer follows
+/// it with no section in between, as with one section.
+fn held_in_lane<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    run: RunId,
+    posted: bool,
+) -> Clearance {
+    let (mut got, mut seen, excepting) = s.section(|s| {
+        let got = s.clearance(run, posted);
+        (got, s.changes, !s.sets.is_empty(Set::Excepting))
+    });
+    while excepting && got == Clearance::Go {
+        if caller_handles_exception(s, run.seq) {
+            return Clearance::Hold;
+        }
+        if S::ONE_SECTION || s.section(|s| s.changes == seen) {
+            break;
+        }
+        (got, seen) = s.section(|s| (s.clearance(run, posted), s.changes));
+    }
+    got
 }
 
 /// Whether the run of `b` is to be aborted by the tick: its abort is requested, or

@@ -164,10 +164,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn clearance_of(&self, run: RunId) -> Clearance {
-        let posted = abort_all_posted(&self.safety.inbox);
-        self.with(|s| s.clearance(run, posted))
+        self.clearance_in_lane(run)
     }
 
+    // A blocking child held with its caller has no due poll: the hold skips those not
+    // taken yet (`skip_untaken_polls`), and the tick wakes no held sequence for one.
     fn due_poll_of(&self, run: RunId) -> Clearance {
         let posted = abort_all_posted(&self.safety.inbox);
         self.with(|s| s.take_due_poll(run, posted))

@@ -1,0 +1,219 @@
+//! An exception holds its owner and the owner's blocking children at their next await
+//! point (semantics item 3). Only the owner is marked; its children are held because the
+//! owner's action is not polled. The tick preempts the lanes, though, so the poll in which
+//! it marked the exception runs on: to a blocking start the owner's action makes next, or
+//! to the next await point of a child under way. Those must hold too.
+
+use std::cell::{Cell, RefCell};
+
+use rtseq::sim::Sim;
+use rtseq::Cause::{Completed, Start, Timeout};
+use rtseq::RunningState::*;
+use rtseq::{
+    Behaviour, Cause, Cx, Duration, Failure, Instant, Monitors, RunningState, Seq, SeqConfig,
+    SeqId, Sequence, Sequencer, Step,
+};
+
+/// The commands given, with when (µs).
+#[derive(Default)]
+struct Log {
+    commands: RefCell<Vec<(u64, &'static str)>>,
+    /// The sequencer, for a step that ticks it from its command as the timer would.
+    seq: Cell<Option<&'static Sequencer<Log, 4>>>,
+}
+
+impl Log {
+    fn command(&self, cx: &Cx<'_, Log>, what: &'static str) {
+        self.commands.borrow_mut().push((cx.now().as_ticks(), what));
+    }
+
+    /// The timer interrupt preempts the lane here: the tick at 1 ms.
+    fn tick_at_1_ms(&self) {
+        if let Some(seq) = self.seq.get() {
+            let ticked = seq.tick(
+                Instant::from_ticks(1_000),
+                self,
+                &mut Monitors::<Log, 1>::new(),
+            );
+            assert_eq!(ticked, Ok(()));
+        }
+    }
+}
+
+/// A move: its command, then done.
+struct Move;
+impl Step<Log> for Move {
+    fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, "move");
+        Ok(())
+    }
+}
+
+/// A move whose command is preempted by the tick at 1 ms; done at its first exit check.
+struct PreemptedMove;
+impl Step<Log> for PreemptedMove {
+    fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, "preempted move");
+        cx.control().tick_at_1_ms();
+        Ok(())
+    }
+}
+
+/// The safe stop: its command, then it holds until 3 ms.
+struct SafeStop;
+impl Sequence<Log> for SafeStop {
+    async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, "safe stop");
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Log>) -> bool {
+        cx.now().as_ticks() >= 3_000
+    }
+}
+
+/// Preempted by the tick at 1 ms, then runs its move (a blocking start made after the
+/// tick marked its timeout).
+struct ThenMoves(Seq<Move>);
+impl Sequence<Log> for ThenMoves {
+    async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().tick_at_1_ms();
+        cx.step(&mut self.0).await?;
+        Ok(())
+    }
+}
+
+/// Runs a move whose command the tick at 1 ms preempts.
+struct Moves(Seq<PreemptedMove>);
+impl Sequence<Log> for Moves {
+    async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.step(&mut self.0).await?;
+        Ok(())
+    }
+}
+
+/// What a run of a mover with a 1 ms timeout (exception: the safe stop, then
+/// `behaviour`) gave: the commands, the trace `(µs, sequence, state, cause)` and the
+/// mover's id (its timeout's cause names it).
+type Seen = (
+    Vec<(u64, &'static str)>,
+    Vec<(u64, &'static str, RunningState, Cause)>,
+    SeqId,
+);
+
+/// Runs the mover `make` makes (with its move) until idle, which must come at `idle_ms`.
+fn run_mover<S: Sequence<Log> + 'static>(
+    make: impl FnOnce(&'static Sequencer<Log, 4>) -> S,
+    behaviour: Behaviour,
+    idle_ms: u64,
+) -> Seen {
+    let seq: &'static Sequencer<Log, 4> = Box::leak(Box::new(Sequencer::new()));
+    let log: &'static Log = Box::leak(Box::default());
+    log.seq.set(Some(seq));
+    let mover = make(seq);
+    let stop = seq.add(SeqConfig::new("safe stop"), SafeStop).unwrap();
+    let config = SeqConfig::new("mover")
+        .timeout(Duration::from_millis(1))
+        .timeout_exception(stop.id())
+        .timeout_behaviour(behaviour);
+    let mover = seq.add(config, mover).unwrap();
+    let id = mover.id();
+    let mut sim = Sim::new(seq, log, Monitors::<Log, 1>::new());
+    sim.lane(mover);
+    sim.lane(stop);
+    sim.start(id).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(idle_ms * 1_000))
+    );
+    let name = |s: SeqId| seq.sequence_by_id(s).map_or("?", |h| h.name());
+    let trace = sim
+        .trace()
+        .iter()
+        .map(|t| (t.time.as_ticks(), name(t.sequence), t.to, t.cause))
+        .collect();
+    let commands = log.commands.take();
+    (commands, trace, id)
+}
+
+const MOVE: &str = "move";
+const STOP: &str = "safe stop";
+const MOVER: &str = "mover";
+
+/// The mover's timeout fires while its action runs on to its move: the move begins held
+/// (`Running`, at its pre-condition), gives no command during the safe stop (1 to 3 ms),
+/// and is aborted with the mover when the next tick (4 ms) applies `AbortOwner`. (Before
+/// session 48 the move commanded at 1 ms, after the safe stop had begun.)
+#[test]
+fn a_blocking_start_made_after_the_exception_was_marked_begins_held() {
+    let (commands, trace, mover) = run_mover(
+        |seq| ThenMoves(seq.add(SeqConfig::new("move"), Move).unwrap()),
+        Behaviour::AbortOwner,
+        4,
+    );
+    assert_eq!(commands, [(1_000, "safe stop")]);
+    let timeout = Timeout(mover);
+    assert_eq!(
+        trace,
+        [
+            (0, MOVER, Running, Start),
+            (1_000, STOP, Running, timeout),
+            (1_000, MOVE, Running, Start),
+            (3_000, STOP, Terminated, Completed),
+            (4_000, MOVE, Aborting, timeout),
+            (4_000, MOVE, Aborted, timeout),
+            (4_000, MOVER, Aborting, timeout),
+            (4_000, MOVER, Aborted, timeout),
+        ]
+    );
+}
+
+/// The same with `Behaviour::Nothing`: the move is held until the tick (4 ms) reports the
+/// safe stop's end and lets the mover go on, then gives its command.
+#[test]
+fn a_child_begun_held_goes_on_when_the_exception_ends() {
+    let (commands, trace, mover) = run_mover(
+        |seq| ThenMoves(seq.add(SeqConfig::new("move"), Move).unwrap()),
+        Behaviour::Nothing,
+        4,
+    );
+    assert_eq!(commands, [(1_000, "safe stop"), (4_000, "move")]);
+    assert_eq!(
+        trace,
+        [
+            (0, MOVER, Running, Start),
+            (1_000, STOP, Running, Timeout(mover)),
+            (1_000, MOVE, Running, Start),
+            (3_000, STOP, Terminated, Completed),
+            (4_000, MOVE, Terminated, Completed),
+            (4_000, MOVER, Terminated, Completed),
+        ]
+    );
+}
+
+/// The tick marks the mover's timeout while its move's command runs: the move holds at
+/// its next await point (it does not end during the safe stop) and is aborted with the
+/// mover at 4 ms. (Before session 48 it ended at 1 ms, under a held owner.)
+#[test]
+fn a_child_under_way_holds_at_its_next_await_point() {
+    let (commands, trace, mover) = run_mover(
+        |seq| Moves(seq.add(SeqConfig::new("move"), PreemptedMove).unwrap()),
+        Behaviour::AbortOwner,
+        4,
+    );
+    assert_eq!(commands, [(0, "preempted move"), (1_000, "safe stop")]);
+    let timeout = Timeout(mover);
+    assert_eq!(
+        trace,
+        [
+            (0, MOVER, Running, Start),
+            (0, MOVE, Running, Start),
+            (1_000, STOP, Running, timeout),
+            (3_000, STOP, Terminated, Completed),
+            (4_000, MOVE, Aborting, timeout),
+            (4_000, MOVE, Aborted, timeout),
+            (4_000, MOVER, Aborting, timeout),
+            (4_000, MOVER, Aborted, timeout),
+        ]
+    );
+}
