@@ -414,39 +414,48 @@ impl Step<Ctrl> for Commands {
     }
 }
 
-/// Starts a blocking run of its step in its action, then drives it only from a polled
-/// wait's condition until it is over.
-struct DrivesFromAWait(Seq<Commands>);
-impl Sequence<Ctrl> for DrivesFromAWait {
+/// Starts a blocking run of its step in its action, polls it from a polled wait's
+/// condition until 3 ms, then awaits it in its action.
+struct PollsFromAWait(Seq<Commands>);
+impl Sequence<Ctrl> for PollsFromAWait {
     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
         let mut run = pin!(cx.step(&mut self.0));
         let first = poll_once(run.as_mut());
         cx.control().note(cx, "action", started(first));
-        cx.wait_until(|_| poll_once(run.as_mut()).is_ready()).await;
+        cx.wait_until(|cx| {
+            if let Poll::Ready(done) = poll_once(run.as_mut()) {
+                cx.control().note(cx, "wait", done);
+            }
+            cx.now().as_ticks() >= 3_000
+        })
+        .await;
+        let done = run.await;
+        cx.control().note(cx, "action", done);
         Ok(())
     }
 }
 
-/// Only the first poll of a blocking run is judged: started in the action, the run
-/// advances wherever it is polled, since what runs then is its own step's. Restarted by
-/// its monitor at 2 ms, the step gives its command again in the wait's condition's poll,
-/// and ends at 4 ms.
+/// A blocking run polled from a condition after it started does not advance there (what
+/// it would run, its step's command, would run inside the condition): restarted by its
+/// monitor at 2 ms, the step takes up the restart and gives its command again only at
+/// 3 ms, when the action awaits it, and ends at 4 ms. (Until session 48 the command ran
+/// at 2 ms, inside the wait's condition.)
 #[test]
-fn a_run_started_in_the_action_advances_wherever_it_is_polled() {
+fn a_run_polled_from_a_condition_after_it_started_does_not_advance_there() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
     let step = seq.add(SeqConfig::new("step"), Commands).unwrap();
     let si = step.id();
-    let d = seq.add(SeqConfig::new("D"), DrivesFromAWait(step)).unwrap();
-    let di = d.id();
+    let p = seq.add(SeqConfig::new("P"), PollsFromAWait(step)).unwrap();
+    let pi = p.id();
     let mut kick = |_: &Ctrl, t: Instant| t.as_ticks() == 2_000;
     let mut monitors = Monitors::<Ctrl, 1>::new();
     let m = monitors
         .add(si, Monitor::new("kick", &mut kick, Behaviour::RestartOwner))
         .unwrap();
     let mut sim = Sim::new(&seq, &ctrl, monitors);
-    sim.lane(d);
-    sim.start(di).unwrap();
+    sim.lane(p);
+    sim.start(pi).unwrap();
     assert_eq!(
         sim.run_until_idle(Duration::from_millis(50)),
         Some(Instant::from_ticks(4_000))
@@ -456,7 +465,8 @@ fn a_run_started_in_the_action_advances_wherever_it_is_polled() {
         [
             (0, "command", Ok(())),
             (0, "action", Ok(())),
-            (2_000, "command", Ok(()))
+            (3_000, "command", Ok(())),
+            (4_000, "action", Ok(()))
         ]
     );
     let trace: Vec<_> = sim
@@ -467,14 +477,87 @@ fn a_run_started_in_the_action_advances_wherever_it_is_polled() {
     assert_eq!(
         trace,
         [
-            (0, di, Running, Cause::Start),
+            (0, pi, Running, Cause::Start),
             (0, si, Running, Cause::Start),
             (2_000, si, Restarting, Cause::Monitor(m)),
-            (2_000, si, Running, Cause::Restart),
+            (3_000, si, Running, Cause::Restart),
             (4_000, si, Terminated, Cause::Completed),
-            (4_000, di, Terminated, Cause::Completed),
+            (4_000, pi, Terminated, Cause::Completed),
         ]
     );
+}
+
+/// Dwells 1 ms, then runs its command step blocking.
+struct DwellsThenCommands {
+    dwell: Seq<Wait>,
+    command: Seq<Commands>,
+}
+impl Sequence<Ctrl> for DwellsThenCommands {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.step(&mut self.dwell).await?;
+        cx.step(&mut self.command).await?;
+        Ok(())
+    }
+}
+
+/// Starts B blocking in its action, polls it from a polled wait's condition until 3 ms,
+/// then awaits it.
+struct Outer(Seq<DwellsThenCommands>);
+impl Sequence<Ctrl> for Outer {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let mut b = pin!(cx.run(&mut self.0));
+        let first = poll_once(b.as_mut());
+        cx.control().note(cx, "action", started(first));
+        cx.wait_until(|cx| {
+            let _ = poll_once(b.as_mut());
+            cx.now().as_ticks() >= 3_000
+        })
+        .await;
+        let done = b.await;
+        cx.control().note(cx, "action", done);
+        Ok(())
+    }
+}
+
+/// Nor does a nested run: B, polled from A's condition after it started, does not go on
+/// from its dwell (over at 1 ms) to its command step until A's action awaits it at 3 ms.
+/// (Until session 48 B's action ran inside A's condition and started the step there.)
+#[test]
+fn a_nested_run_does_not_start_its_step_inside_an_outer_condition() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(1)))
+        .unwrap();
+    let command = seq.add(SeqConfig::new("command"), Commands).unwrap();
+    let ci = command.id();
+    let b = seq
+        .add(SeqConfig::new("B"), DwellsThenCommands { dwell, command })
+        .unwrap();
+    let a = seq.add(SeqConfig::new("A"), Outer(b)).unwrap();
+    let ai = a.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(a);
+    sim.start(ai).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(4_000))
+    );
+    assert_eq!(
+        *ctrl.got.borrow(),
+        [
+            (0, "action", Ok(())),
+            (3_000, "command", Ok(())),
+            (4_000, "action", Ok(()))
+        ]
+    );
+    let starts: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == ci)
+        .map(|t| (t.time.as_ticks(), t.to))
+        .collect();
+    assert_eq!(starts, [(3_000, Running), (4_000, Terminated)]);
 }
 
 /// Starts `safe` from its `Drop`, through the context it holds: a start on the way out.

@@ -312,7 +312,8 @@ impl<'a, C> Cx<'a, C> {
     /// `child` is already running, and with [`Error::OutsideAction`] when that poll comes
     /// from a condition (a pre- or exit condition, a polled wait's), wherever the future
     /// was made; polled again, the future gives the same result. Once started, the run
-    /// advances wherever it is polled (it runs the child's own action). Refused because
+    /// advances only where the action polls it: polled from a condition, it does not move
+    /// (it would run the child's action there). Refused because
     /// this sequence may not go on (the tick stopped it while its action ran on, its
     /// abort is requested or an abort-all waits: [`Error::NotRunning`], as
     /// [`start`](Self::start)), the refusal is handed over as an end is, only when the

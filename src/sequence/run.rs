@@ -2,6 +2,7 @@
 //!
 //! ```text
 //!                                      first polled in a condition: Begin ──► Done, Err
+//!                                      (polled in a condition later: it does not move)
 //!   lane:  Idle ──take_start──┐        blocking:  Begin ──start_blocking──┐  (refused: HandOver)
 //!                             ▼                                           ▼
 //!                 ┌──► PreCondition ◄──────────────────── restart ─────────────────┐
@@ -29,7 +30,7 @@
 //! |---|---|
 //! | Idle → PreCondition | [`Port::take_start`] |
 //! | Begin → PreCondition / HandOver (refused) | [`Port::start_blocking`] |
-//! | Begin → Done | none: first polled from a condition ([`Cx::acting`]), refused |
+//! | Begin → Done | none: first polled from a condition ([`Cx::acting`]), refused ([`Run::looked_at`]) |
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
 //! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
 //! | Action → ActionFailed | [`Port::clearance`], the body's action (`Err`) |
@@ -210,14 +211,6 @@ impl<'a, C> Run<'a, C> {
                     self.stage.set(Stage::PreCondition);
                 }
                 Stage::Begin => match self.driver {
-                    // A condition looks: a run first polled there (its caller's action
-                    // is not being polled) starts nothing. Once started, a run advances
-                    // wherever it is polled: what runs then is its child's own action.
-                    Driver::Blocking { caller } if !caller.acting() => {
-                        let refused = Failure::NotStarted(Error::OutsideAction(id));
-                        self.outcome.set(Outcome::Failed(refused));
-                        self.stage.set(Stage::Done);
-                    }
                     Driver::Blocking { caller } => {
                         match port.start_blocking(id, head.maker, caller.run_id()) {
                             Ok(run) => {
@@ -335,6 +328,25 @@ impl<'a, C> Run<'a, C> {
         }
     }
 
+    /// A blocking run polled outside its caller's action (from a condition, which looks)
+    /// does not advance: what it would run (its child's action, the child's own starts)
+    /// would run inside the condition. Its first poll there refuses it
+    /// ([`Error::OutsideAction`], nothing started); a run that has given its result
+    /// gives it again; else it is pending, and advances where its caller's action polls
+    /// it next.
+    fn looked_at(&self) -> Poll<Result<Done, Failure>> {
+        match self.stage.get() {
+            Stage::Begin => {
+                let refused = Failure::NotStarted(Error::OutsideAction(self.cx.id()));
+                self.outcome.set(Outcome::Failed(refused));
+                self.stage.set(Stage::Done);
+                Poll::Ready(Err(refused))
+            }
+            Stage::Done => Poll::Ready(self.outcome.get().done()),
+            _ => Poll::Pending,
+        }
+    }
+
     /// The future of a lane is dropped (the loser of a `select`, an executor shut down):
     /// if it waits for a start, a start made but not taken is aborted, as in a dropped run
     /// ([`Port::abandon_start`]), and the lane is closed ([`Port::close_lane`]): a later
@@ -365,6 +377,11 @@ impl<'a, C> Run<'a, C> {
         head: &SeqHead,
         mut body: ErasedBody<'_, C>,
     ) -> Poll<Result<Done, Failure>> {
+        if let Driver::Blocking { caller } = self.driver {
+            if !caller.acting() {
+                return self.looked_at();
+            }
+        }
         loop {
             let ready = if self.stage.get() == Stage::Action {
                 self.act(w, &mut body)
