@@ -10,8 +10,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Start, Timeout};
 use rtseq::RunningState::*;
 use rtseq::{
-    Behaviour, Cause, Cx, Duration, Failure, Instant, Monitors, RunningState, Seq, SeqConfig,
-    SeqId, Sequence, Sequencer, Step,
+    Behaviour, Cause, Cx, Duration, Failure, Instant, Monitor, Monitors, RunningState, Seq,
+    SeqConfig, SeqId, Sequence, Sequencer, Step,
 };
 
 /// The commands given, with when (µs).
@@ -20,6 +20,10 @@ struct Log {
     commands: RefCell<Vec<(u64, &'static str)>>,
     /// The sequencer, for a step that ticks it from its command as the timer would.
     seq: Cell<Option<&'static Sequencer<Log, 4>>>,
+    /// The tick at 1 ms came.
+    ticked: Cell<bool>,
+    /// Flags the monitors and exit conditions of [`join_of_two`] read.
+    flags: [Cell<bool>; 2],
 }
 
 impl Log {
@@ -27,8 +31,11 @@ impl Log {
         self.commands.borrow_mut().push((cx.now().as_ticks(), what));
     }
 
-    /// The timer interrupt preempts the lane here: the tick at 1 ms.
+    /// The timer interrupt preempts the lane here: the tick at 1 ms (once).
     fn tick_at_1_ms(&self) {
+        if self.ticked.replace(true) {
+            return;
+        }
         if let Some(seq) = self.seq.get() {
             let ticked = seq.tick(
                 Instant::from_ticks(1_000),
@@ -59,6 +66,35 @@ impl Step<Log> for PreemptedMove {
     }
 }
 
+/// A move whose exit check the tick at 1 ms preempts; the check holds.
+struct PreemptedCheck;
+impl Step<Log> for PreemptedCheck {
+    fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, "move");
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Log>) -> bool {
+        cx.control().tick_at_1_ms();
+        true
+    }
+}
+
+/// Waits until a condition the tick at 1 ms preempts (it holds), then gives its next
+/// command.
+struct WaitsThenMoves;
+impl Sequence<Log> for WaitsThenMoves {
+    async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.wait_until(|cx| {
+            cx.control().tick_at_1_ms();
+            true
+        })
+        .await;
+        cx.control().command(cx, "next move");
+        Ok(())
+    }
+}
+
 /// The safe stop: its command, then it holds until 3 ms.
 struct SafeStop;
 impl Sequence<Log> for SafeStop {
@@ -84,8 +120,8 @@ impl Sequence<Log> for ThenMoves {
 }
 
 /// Runs a move whose command the tick at 1 ms preempts.
-struct Moves(Seq<PreemptedMove>);
-impl Sequence<Log> for Moves {
+struct Moves<S>(Seq<S>);
+impl<S: Step<Log>> Sequence<Log> for Moves<S> {
     async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
         cx.step(&mut self.0).await?;
         Ok(())
@@ -215,5 +251,137 @@ fn a_child_under_way_holds_at_its_next_await_point() {
             (4_000, MOVER, Aborting, timeout),
             (4_000, MOVER, Aborted, timeout),
         ]
+    );
+}
+
+/// The tick marks the mover's timeout while its move checks its exit condition, which
+/// holds: the move does not end under its held owner (its end is refused, as its await
+/// points hold) and is aborted with it at 4 ms. (Before session 48 it ended at 1 ms.)
+#[test]
+fn a_child_whose_exit_check_the_tick_preempts_does_not_end() {
+    let (commands, trace, mover) = run_mover(
+        |seq| Moves(seq.add(SeqConfig::new("move"), PreemptedCheck).unwrap()),
+        Behaviour::AbortOwner,
+        4,
+    );
+    assert_eq!(commands, [(0, "move"), (1_000, "safe stop")]);
+    let timeout = Timeout(mover);
+    assert_eq!(
+        trace,
+        [
+            (0, MOVER, Running, Start),
+            (0, MOVE, Running, Start),
+            (1_000, STOP, Running, timeout),
+            (3_000, STOP, Terminated, Completed),
+            (4_000, MOVE, Aborting, timeout),
+            (4_000, MOVE, Aborted, timeout),
+            (4_000, MOVER, Aborting, timeout),
+            (4_000, MOVER, Aborted, timeout),
+        ]
+    );
+}
+
+/// The tick marks the mover's timeout while its polled wait checks its condition, which
+/// holds: the wait does not return into the held action; it returns, and the next move
+/// comes, once the exception is over (4 ms). (Before session 48 the next move came at 1 ms,
+/// during the safe stop.)
+#[test]
+fn a_polled_wait_whose_condition_the_tick_preempts_returns_only_once_the_hold_ends() {
+    let (commands, trace, mover) = run_mover(|_| WaitsThenMoves, Behaviour::Nothing, 4);
+    assert_eq!(commands, [(1_000, "safe stop"), (4_000, "next move")]);
+    assert_eq!(
+        trace,
+        [
+            (0, MOVER, Running, Start),
+            (1_000, STOP, Running, Timeout(mover)),
+            (3_000, STOP, Terminated, Completed),
+            (4_000, MOVER, Terminated, Completed),
+        ]
+    );
+}
+
+/// The same with `AbortOwner` and no safe stop: the tick aborts the mover at 1 ms, inside
+/// the condition; no line of the aborted action runs after it (sticky abort).
+#[test]
+fn a_polled_wait_whose_condition_the_tick_preempts_does_not_return_into_an_aborted_action() {
+    let seq: &'static Sequencer<Log, 4> = Box::leak(Box::new(Sequencer::new()));
+    let log: &'static Log = Box::leak(Box::default());
+    log.seq.set(Some(seq));
+    let config = SeqConfig::new("mover")
+        .timeout(Duration::from_millis(1))
+        .timeout_behaviour(Behaviour::AbortOwner);
+    let mover = seq.add(config, WaitsThenMoves).unwrap();
+    let id = mover.id();
+    let mut sim = Sim::new(seq, log, Monitors::<Log, 1>::new());
+    sim.lane(mover);
+    sim.start(id).unwrap();
+    // Idle after the lane's first poll: the simulator's clock is still at 0.
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(50)),
+        Some(Instant::from_ticks(0))
+    );
+    assert_eq!(log.commands.take(), []);
+    assert_eq!(sim.state(id), Aborted);
+}
+
+/// A step whose command is logged and whose exit condition is flag `i`.
+struct Until(&'static str, usize);
+impl Step<Log> for Until {
+    fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, self.0);
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Log>) -> bool {
+        cx.control().flags[self.1].get()
+    }
+}
+
+/// Runs two moves at once.
+struct Both(Seq<Until>, Seq<Until>);
+impl Sequence<Log> for Both {
+    async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        let _ = embassy_futures::join::join(cx.step(&mut self.0), cx.step(&mut self.1)).await;
+        Ok(())
+    }
+}
+
+/// L runs moves a and b at once on a 10 ms grid. At 10 ms a's end stop fires (`Nothing`;
+/// the safe stop's exit condition holds at once) and b reaches its target. b is a's
+/// sibling, not held: its poll at 10 ms stands and it ends then. (Before session 48 the
+/// hold skipped the due polls of every called sequence in the lane: b ended at 20 ms.)
+#[test]
+fn a_hold_leaves_the_due_polls_of_its_owners_siblings() {
+    let seq: &'static Sequencer<Log, 4> = Box::leak(Box::new(Sequencer::new()));
+    let log: &'static Log = Box::leak(Box::default());
+    let every_10_ms = |name| SeqConfig::new(name).polling(Duration::from_millis(10));
+    let stop = seq.add(SeqConfig::new("safe stop"), SafeStop).unwrap();
+    let a = seq.add(every_10_ms("a"), Until("move a", 0)).unwrap();
+    let b = seq.add(every_10_ms("b"), Until("move b", 1)).unwrap();
+    let ai = a.id();
+    let l = seq.add(every_10_ms("L"), Both(a, b)).unwrap();
+    let id = l.id();
+    let mut end_stop = |_: &Log, t: Instant| t.as_ticks() == 10_000;
+    let mut monitors = Monitors::<Log, 1>::new();
+    let monitor =
+        Monitor::new("end stop a", &mut end_stop, Behaviour::Nothing).exception(stop.id());
+    monitors.add(ai, monitor).unwrap();
+    let mut sim = Sim::new(seq, log, monitors);
+    sim.lane(l);
+    sim.lane(stop);
+    sim.before_tick(|t, log| log.flags[1].set(t.as_ticks() >= 10_000));
+    sim.start(id).unwrap();
+    sim.run_for(Duration::from_millis(30));
+    let name = |s: SeqId| seq.sequence_by_id(s).map_or("?", |h| h.name());
+    let ends: Vec<_> = sim
+        .trace()
+        .iter()
+        .filter(|t| t.to == Terminated)
+        .map(|t| (t.time.as_ticks(), name(t.sequence)))
+        .collect();
+    assert_eq!(ends, [(10_000, "b"), (10_000, "safe stop")]);
+    assert_eq!(
+        log.commands.take(),
+        [(0, "move a"), (0, "move b"), (10_000, "safe stop")]
     );
 }

@@ -860,7 +860,10 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
                 due
             }
         };
-        if go && cx.looking(|| (this.condition)(cx)) {
+        // Returns only with the clearance to advance after the condition, too: the tick may
+        // preempt the condition and stop, pause or hold the run (as a run's end is
+        // refused then); its next poll checks again.
+        if go && cx.looking(|| (this.condition)(cx)) && port.clearance_of(run) == Clearance::Go {
             this.finish();
             Poll::Ready(())
         } else {

@@ -225,19 +225,38 @@ fn held_below<
 ) -> SeqSet<B> {
     let mut below = SeqSet::EMPTY;
     for id in s.section(|s| s.sets.members(Set::Called)) {
-        let mut at = id;
-        for _ in 0..MAX_DEPTH {
-            match s.section(|s| s.blocking_caller_in(at, lane)) {
-                Some(up) if up == owner => {
-                    below.insert(id);
-                    break;
-                }
-                Some(up) => at = up,
-                None => break,
-            }
+        if blocks_in_lane(s, id, owner, lane) {
+            below.insert(id);
         }
     }
     below
+}
+
+/// Whether the run under way of `id` blocks `owner`, directly or through the callers it
+/// blocks, all in `lane`: `id` is one of `owner`'s blocking children or theirs. Walked up
+/// from `id`, one section per step.
+pub(crate) fn blocks_in_lane<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    owner: SeqId,
+    lane: u8,
+) -> bool {
+    let mut at = id;
+    for _ in 0..MAX_DEPTH {
+        match s.section(|s| s.blocking_caller_in(at, lane)) {
+            Some(up) if up == owner => return true,
+            Some(up) => at = up,
+            None => return false,
+        }
+    }
+    false
 }
 
 /// Whether a caller that `id` blocks (in its lane, at most [`MAX_DEPTH`] up) handles an

@@ -173,7 +173,8 @@ pub(crate) fn stops_soon(b: &ControlBlock, abort_all_posted: bool) -> bool {
 
 /// Ends `run` with `outcome`: `change` is `Running → Terminated` (cause `Completed`,
 /// `PreConditionFalse` or `Failed`). Opened and committed in two steps (the commit again if
-/// anything changed in between). The end of an exception sequence is reported to its
+/// anything changed in between). Not while a caller it blocks handles an exception
+/// ([`caller_handles_exception`]): the hold is the owner's and its blocking children's. The end of an exception sequence is reported to its
 /// owner by the next tick (see [`State::fold`]). False, and nothing changes, if the run
 /// was aborted or restarted meanwhile, a later run of its sequence was started, its
 /// exception is being handled, or the tick is to abort it (`inbox`: the sequencer's, for an
@@ -194,9 +195,18 @@ pub(crate) fn end_run<
 ) -> bool {
     loop {
         let posted = abort_all_posted(inbox);
-        let Some(seen) = s.section(|s| s.open_end(run, posted)) else {
+        let opened = s.section(|s| {
+            let seen = s.open_end(run, posted)?;
+            Some((seen, !s.sets.is_empty(Set::Excepting)))
+        });
+        let Some((seen, excepting)) = opened else {
             return false;
         };
+        // Held with a caller that handles an exception (the tick may have marked it in
+        // this very poll): no end now. A mark during the walk moves the count of changes.
+        if excepting && caller_handles_exception(s, run.seq) {
+            return false;
+        }
         if s.section(|s| s.commit_end(seen, change, outcome)) {
             return true;
         }

@@ -272,7 +272,7 @@ fn mark<
     let holds = behaviour != Behaviour::Nothing || reaction.exception.is_some();
     let mut skipped = SeqSet::EMPTY;
     if holds {
-        skipped = skip_untaken_polls(s, lane, due);
+        skipped = skip_untaken_polls(s, owner, lane, due);
     }
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.

@@ -98,7 +98,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // The target is paused first and its blocking children after it.
             in_sections!(self, |s| {
                 let due = s.section(|s| s.sets.words(Set::PollDue));
-                skip_untaken_polls(s, lane, due);
+                skip_untaken_polls(s, target, lane, due);
             });
         }
         let scope = Scope::InLane { target, lane };

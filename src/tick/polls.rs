@@ -5,10 +5,11 @@
 use crate::lock::Lock;
 use crate::model::set::{SeqSet, SetWord, Words};
 use crate::model::time::{Stamp, NEVER_AHEAD};
+use crate::sequencer::callers::blocks_in_lane;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
-use crate::Sequencer;
+use crate::{SeqId, Sequencer};
 
 use super::schedule::Scan;
 
@@ -128,15 +129,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 }
 
-/// Before a hold (an exception marked, a pause walk) of a sequence in `lane`: the due
-/// polls of its blocking children (called sequences, in its lane), which their lane has
-/// not taken yet, are skipped; the held sequence's own goes with its hold. A poll that
-/// falls due while held is missed, not taken once the hold ends (semantics 1). `due`: the
-/// words of `Set::PollDue` as read before (marks only go meanwhile). Done before the hold,
-/// one section per word and per mark: only the tick makes marks, so none is left for a
-/// held run to take, also when a pause reaches the sequences below its target a section
-/// after the target. Returns the sequences whose due poll it skipped: an exception that
-/// turns out to hold nothing gives them back ([`Sequencer::raise`]).
+/// Before a hold (an exception marked, a pause walk) of `held` in `lane`: the due polls
+/// of its blocking children (and theirs, all in its lane), which their lane has not taken
+/// yet, are skipped; the held sequence's own goes with its hold. A poll that falls due
+/// while held is missed, not taken once the hold ends (semantics 1); the polls of its
+/// callers and of their other children stand. `due`: the words of `Set::PollDue` as read
+/// before (marks only go meanwhile). Done before the hold, one section per word, per step
+/// up from a mark and per mark: only the tick makes marks, so none is left for a held run
+/// to take, also when a pause reaches the sequences below its target a section after the
+/// target. Returns the sequences whose due poll it skipped: an exception that turns out
+/// to hold nothing gives them back ([`Sequencer::raise`]).
 pub(crate) fn skip_untaken_polls<
     C,
     S: Sections<C, N, T, W, B>,
@@ -146,6 +148,7 @@ pub(crate) fn skip_untaken_polls<
     const B: usize,
 >(
     s: &mut S,
+    held: SeqId,
     lane: u8,
     due: Words,
 ) -> SeqSet<B> {
@@ -157,14 +160,8 @@ pub(crate) fn skip_untaken_polls<
                 .and(s.sets.word(Set::Called, w))
         });
         for id in called {
-            let in_lane = s.section(|s| {
-                let in_lane = s.lane_slot(id) == lane;
-                if in_lane {
-                    s.sets.remove(Set::PollDue, id);
-                }
-                in_lane
-            });
-            if in_lane {
+            if blocks_in_lane(s, id, held, lane) {
+                s.section(|s| s.sets.remove(Set::PollDue, id));
                 skipped.insert(id);
             }
         }
