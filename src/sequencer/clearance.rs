@@ -90,6 +90,22 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         self.may_end(run, abort_all_posted).then_some(self.changes)
     }
 
+    /// Whether some sequence under way (monitored as of the tick's last fold) handles an
+    /// exception. The mark of an owner whose run ended stays (`exception_is_active`) and
+    /// holds nothing.
+    pub(crate) fn exception_in_force(&self) -> bool {
+        let sets = &self.sets;
+        if B == 1 {
+            return sets
+                .word(Set::Excepting, 0)
+                .meets(sets.word(Set::Monitored, 0));
+        }
+        sets.words(Set::Excepting).any(|w| {
+            sets.word(Set::Excepting, w)
+                .meets(sets.word(Set::Monitored, w))
+        })
+    }
+
     /// Whether `run` may end now: it is its sequence's current run, `Running`, its
     /// exception is not being handled and the tick is not to abort it (see
     /// [`clearance`](Self::clearance): a run ends only with the clearance `Go`).
@@ -132,7 +148,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 }
 
 /// See [`Sequencer::clearance_in_lane`]. The first section gives the run's own clearance
-/// and, when no exception is handled anywhere, that is all. Else the callers are walked,
+/// and, when no sequence under way handles an exception, that is all. Else the callers are walked,
 /// and the answer is `Go` only if nothing changed from the section that gave it to the
 /// end of the walk (the count of changes): a tick that paused or stopped the run or
 /// marked an exception meanwhile makes it look again, so what follows the answer follows
@@ -151,7 +167,7 @@ fn held_in_lane<
 ) -> Clearance {
     let (mut got, mut seen, excepting) = s.section(|s| {
         let got = s.clearance(run, posted);
-        (got, s.changes, !s.sets.is_empty(Set::Excepting))
+        (got, s.changes, s.exception_in_force())
     });
     while excepting && got == Clearance::Go {
         if caller_handles_exception(s, run.seq) {
@@ -197,7 +213,7 @@ pub(crate) fn end_run<
         let posted = abort_all_posted(inbox);
         let opened = s.section(|s| {
             let seen = s.open_end(run, posted)?;
-            Some((seen, !s.sets.is_empty(Set::Excepting)))
+            Some((seen, s.exception_in_force()))
         });
         let Some((seen, excepting)) = opened else {
             return false;
@@ -306,5 +322,68 @@ mod tests {
             ),
             (true, false)
         );
+    }
+
+    /// A lane of three: main 0 runs axis 1, which runs step 2, all running and monitored;
+    /// sequence 3, in another lane, handles an exception when `elsewhere`. Returns the
+    /// step's clearance when `between` runs before section `at`, and the sections taken.
+    fn step_clearance(
+        elsewhere: bool,
+        at: usize,
+        between: impl FnOnce(&mut S),
+    ) -> (Clearance, usize) {
+        use crate::model::id::Link;
+        let ids = [0, 1, 2, 3].map(SeqId);
+        let mut state = registered(4, &ids);
+        for (id, caller, lane) in [(0, None, 0), (1, Some(0), 0), (2, Some(1), 0), (3, None, 1)] {
+            if let Some(b) = state.block_mut(SeqId(id)) {
+                b.caller = Link::to(caller.map(SeqId));
+                b.lane = lane;
+            }
+            state.sets.insert(Set::Monitored, SeqId(id));
+        }
+        state.sets.put(Set::Excepting, SeqId(3), elsewhere);
+        let mut s = Preempted::new(&mut state, at, between);
+        let got = held_in_lane(
+            &mut s,
+            RunId {
+                seq: SeqId(2),
+                count: 0,
+            },
+            false,
+        );
+        (got, s.taken)
+    }
+
+    /// The tick marks main's exception (a change counted).
+    fn mark_main(s: &mut S) {
+        s.sets.put(Set::Excepting, SeqId(0), true);
+        s.changes = s.changes.wrapping_add(1);
+    }
+
+    /// No exception in force: one section. One elsewhere: the step walks up to main (two
+    /// steps and the top) and checks the count of changes.
+    #[test]
+    fn the_walk_up_the_callers_comes_only_while_an_exception_is_in_force() {
+        assert_eq!(
+            step_clearance(false, usize::MAX, |_| {}),
+            (Clearance::Go, 1)
+        );
+        assert_eq!(step_clearance(true, usize::MAX, |_| {}), (Clearance::Go, 5));
+        // A mark of a sequence no longer under way (its run ended) holds nothing.
+        let ended = |s: &mut S| {
+            s.sets.remove(Set::Monitored, SeqId(3));
+        };
+        assert_eq!(step_clearance(true, 0, ended), (Clearance::Go, 1));
+    }
+
+    /// Main marked before any section of the step's check, between two of its steps up,
+    /// or before the check of the count of changes: the step holds.
+    #[test]
+    fn a_mark_anywhere_in_the_walk_holds_the_step() {
+        for at in 0..5 {
+            let (got, _) = step_clearance(true, at, mark_main);
+            assert_eq!(got, Clearance::Hold, "marked before section {at}");
+        }
     }
 }
