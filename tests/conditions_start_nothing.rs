@@ -48,6 +48,52 @@ fn started(polled: Poll<Result<Done, Failure>>) -> Result<Done, Failure> {
     }
 }
 
+/// What a run of a sequence around a 2 ms dwell step gave ([`around_a_dwell`]).
+struct AroundADwell {
+    /// When the simulator went idle (µs).
+    idle: Option<u64>,
+    /// What the starts gave.
+    got: Vec<Got>,
+    /// The dwell step's id and its transitions: (µs, state, cause).
+    dwell: SeqId,
+    dwell_trace: Vec<(u64, rtseq::RunningState, Cause)>,
+    /// The sequence's state at the end.
+    state: rtseq::RunningState,
+}
+
+/// Runs the sequence `make` builds around a 2 ms dwell step, in its lane, until idle.
+fn around_a_dwell<S: Sequence<Ctrl> + 'static>(make: impl FnOnce(Seq<Wait>) -> S) -> AroundADwell {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let di = dwell.id();
+    let outer = seq.add(SeqConfig::new("outer"), make(dwell)).unwrap();
+    let id = outer.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(outer);
+    sim.start(id).unwrap();
+    let idle = sim
+        .run_until_idle(Duration::from_millis(50))
+        .map(|t| t.as_ticks());
+    let dwell_trace = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == di)
+        .map(|t| (t.time.as_ticks(), t.to, t.cause))
+        .collect();
+    let state = sim.state(id);
+    drop(sim);
+    AroundADwell {
+        idle,
+        got: ctrl.got.take(),
+        dwell: di,
+        dwell_trace,
+        state,
+    }
+}
+
 /// Ends at once.
 struct Quick;
 impl Sequence<Ctrl> for Quick {
@@ -190,22 +236,10 @@ impl Sequence<Ctrl> for AsksAndDrops {
 /// step waits its 2 ms and completes.
 #[test]
 fn a_refused_run_never_polled_leaves_the_next_run_alone() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let step = seq
-        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(2)))
-        .unwrap();
-    let a = seq.add(SeqConfig::new("A"), AsksAndDrops(step)).unwrap();
-    let ai = a.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(a);
-    sim.start(ai).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(2_000))
-    );
-    assert_eq!(*ctrl.got.borrow(), [(2_000, "action", Ok(()))]);
-    assert_eq!(sim.state(ai), Terminated);
+    let ran = around_a_dwell(AsksAndDrops);
+    assert_eq!(ran.idle, Some(2_000));
+    assert_eq!(ran.got, [(2_000, "action", Ok(()))]);
+    assert_eq!(ran.state, Terminated);
 }
 
 /// Waits in its action until 2 ms with a polled wait whose condition tries a blocking run
@@ -309,48 +343,24 @@ impl Sequence<Ctrl> for MadeHerePolledThere {
 /// when it was dropped, the second was refused.)
 #[test]
 fn a_blocking_run_starts_where_it_is_first_polled() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let step = seq
-        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(2)))
-        .unwrap();
-    let si = step.id();
-    let m = seq
-        .add(SeqConfig::new("M"), MadeHerePolledThere(step))
-        .unwrap();
-    let mi = m.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(m);
-    sim.start(mi).unwrap();
+    let ran = around_a_dwell(MadeHerePolledThere);
+    assert_eq!(ran.idle, Some(2_000));
+    let refused = Err(Failure::NotStarted(Error::OutsideAction(ran.dwell)));
     assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(2_000))
-    );
-    assert_eq!(
-        *ctrl.got.borrow(),
+        ran.got,
         [
-            (
-                0,
-                "made in the action",
-                Err(Failure::NotStarted(Error::OutsideAction(si)))
-            ),
+            (0, "made in the action", refused),
             (2_000, "made in a wait", Ok(())),
         ]
     );
-    let step_trace: Vec<_> = sim
-        .trace()
-        .iter()
-        .filter(|t| t.sequence == si)
-        .map(|t| (t.time.as_ticks(), t.to, t.cause))
-        .collect();
     assert_eq!(
-        step_trace,
+        ran.dwell_trace,
         [
             (0, Running, Cause::Start),
             (2_000, Terminated, Cause::Completed)
         ]
     );
-    assert_eq!(sim.state(mi), Terminated);
+    assert_eq!(ran.state, Terminated);
 }
 
 /// Polls a blocking run of its step first from a polled wait's condition (refused), then
@@ -375,30 +385,12 @@ impl Sequence<Ctrl> for RefusedThenAwaited {
 /// 0 ms, and the step never starts. (Before session 48 a second poll waited for good.)
 #[test]
 fn a_refused_run_polled_again_gives_its_refusal_again() {
-    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let step = seq
-        .add(SeqConfig::new("step"), Wait::new(Duration::from_millis(2)))
-        .unwrap();
-    let si = step.id();
-    let r = seq
-        .add(SeqConfig::new("R"), RefusedThenAwaited(step))
-        .unwrap();
-    let ri = r.id();
-    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
-    sim.lane(r);
-    sim.start(ri).unwrap();
-    assert_eq!(
-        sim.run_until_idle(Duration::from_millis(50)),
-        Some(Instant::from_ticks(0))
-    );
-    let refused = Err(Failure::NotStarted(Error::OutsideAction(si)));
-    assert_eq!(
-        *ctrl.got.borrow(),
-        [(0, "wait", refused), (0, "action", refused)]
-    );
-    assert!(sim.trace().iter().all(|t| t.sequence != si));
-    assert_eq!(sim.state(ri), Terminated);
+    let ran = around_a_dwell(RefusedThenAwaited);
+    assert_eq!(ran.idle, Some(0));
+    let refused = Err(Failure::NotStarted(Error::OutsideAction(ran.dwell)));
+    assert_eq!(ran.got, [(0, "wait", refused), (0, "action", refused)]);
+    assert!(ran.dwell_trace.is_empty());
+    assert_eq!(ran.state, Terminated);
 }
 
 /// A step that records its command; its exit condition holds from 4 ms.

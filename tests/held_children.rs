@@ -227,6 +227,22 @@ fn a_child_begun_held_goes_on_when_the_exception_ends() {
     );
 }
 
+/// The trace of a mover whose move, begun at 0 ms, is held from the tick at 1 ms through
+/// the safe stop and aborted with the mover at 4 ms.
+fn move_held_then_aborted(mover: SeqId) -> Vec<(u64, &'static str, RunningState, Cause)> {
+    let timeout = Timeout(mover);
+    vec![
+        (0, MOVER, Running, Start),
+        (0, MOVE, Running, Start),
+        (1_000, STOP, Running, timeout),
+        (3_000, STOP, Terminated, Completed),
+        (4_000, MOVE, Aborting, timeout),
+        (4_000, MOVE, Aborted, timeout),
+        (4_000, MOVER, Aborting, timeout),
+        (4_000, MOVER, Aborted, timeout),
+    ]
+}
+
 /// The tick marks the mover's timeout while its move's command runs: the move holds at
 /// its next await point (it does not end during the safe stop) and is aborted with the
 /// mover at 4 ms. (Before session 48 it ended at 1 ms, under a held owner.)
@@ -238,20 +254,7 @@ fn a_child_under_way_holds_at_its_next_await_point() {
         4,
     );
     assert_eq!(commands, [(0, "preempted move"), (1_000, "safe stop")]);
-    let timeout = Timeout(mover);
-    assert_eq!(
-        trace,
-        [
-            (0, MOVER, Running, Start),
-            (0, MOVE, Running, Start),
-            (1_000, STOP, Running, timeout),
-            (3_000, STOP, Terminated, Completed),
-            (4_000, MOVE, Aborting, timeout),
-            (4_000, MOVE, Aborted, timeout),
-            (4_000, MOVER, Aborting, timeout),
-            (4_000, MOVER, Aborted, timeout),
-        ]
-    );
+    assert_eq!(trace, move_held_then_aborted(mover));
 }
 
 /// The tick marks the mover's timeout while its move checks its exit condition, which
@@ -265,20 +268,7 @@ fn a_child_whose_exit_check_the_tick_preempts_does_not_end() {
         4,
     );
     assert_eq!(commands, [(0, "move"), (1_000, "safe stop")]);
-    let timeout = Timeout(mover);
-    assert_eq!(
-        trace,
-        [
-            (0, MOVER, Running, Start),
-            (0, MOVE, Running, Start),
-            (1_000, STOP, Running, timeout),
-            (3_000, STOP, Terminated, Completed),
-            (4_000, MOVE, Aborting, timeout),
-            (4_000, MOVE, Aborted, timeout),
-            (4_000, MOVER, Aborting, timeout),
-            (4_000, MOVER, Aborted, timeout),
-        ]
-    );
+    assert_eq!(trace, move_held_then_aborted(mover));
 }
 
 /// The tick marks the mover's timeout while its polled wait checks its condition, which
