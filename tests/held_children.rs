@@ -22,8 +22,11 @@ struct Log {
     seq: Cell<Option<&'static Sequencer<Log, 4>>>,
     /// The tick at 1 ms came.
     ticked: Cell<bool>,
-    /// Flags the monitors and exit conditions of [`join_of_two`] read.
+    /// Flags the exit conditions of [`a_hold_leaves_the_due_polls_of_its_owners_siblings`]
+    /// read.
     flags: [Cell<bool>; 2],
+    /// How often a one-shot "in position" message was read.
+    reads: Cell<u32>,
 }
 
 impl Log {
@@ -373,5 +376,184 @@ fn a_hold_leaves_the_due_polls_of_its_owners_siblings() {
     assert_eq!(
         log.commands.take(),
         [(0, "move a"), (0, "move b"), (10_000, "safe stop")]
+    );
+}
+
+/// Runs `step` (configured by `config`) blocking and says how it ended.
+struct Reports<S>(Seq<S>);
+impl<S: Step<Log>> Sequence<Log> for Reports<S> {
+    async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        let said = match cx.step(&mut self.0).await {
+            Ok(rtseq::Done::Completed) => "move completed",
+            Ok(rtseq::Done::Skipped) => "move skipped",
+            Err(_) => "move failed",
+        };
+        cx.control().command(cx, said);
+        Ok(())
+    }
+}
+
+/// The mover (a 1 ms timeout: the safe stop until 3 ms, then `Nothing`) runs `step`,
+/// configured by `config`, until idle. Returns what it saw and when the simulator went
+/// idle (µs).
+fn mover_reports<S: Step<Log> + 'static>(config: SeqConfig<Log>, step: S) -> (Seen, Option<u64>) {
+    let seq: &'static Sequencer<Log, 4> = Box::leak(Box::new(Sequencer::new()));
+    let log: &'static Log = Box::leak(Box::default());
+    log.seq.set(Some(seq));
+    let step = seq.add(config, step).unwrap();
+    let stop = seq.add(SeqConfig::new("safe stop"), SafeStop).unwrap();
+    let mover = SeqConfig::new("mover")
+        .timeout(Duration::from_millis(1))
+        .timeout_exception(stop.id())
+        .timeout_behaviour(Behaviour::Nothing);
+    let mover = seq.add(mover, Reports(step)).unwrap();
+    let id = mover.id();
+    let mut sim = Sim::new(seq, log, Monitors::<Log, 1>::new());
+    sim.lane(mover);
+    sim.lane(stop);
+    sim.start(id).unwrap();
+    let idle = sim
+        .run_until_idle(Duration::from_millis(100))
+        .map(|t| t.as_ticks());
+    let name = |s: SeqId| seq.sequence_by_id(s).map_or("?", |h| h.name());
+    let trace = sim
+        .trace()
+        .iter()
+        .map(|t| (t.time.as_ticks(), name(t.sequence), t.to, t.cause))
+        .collect();
+    ((log.commands.take(), trace, id), idle)
+}
+
+/// In position at its first exit check (0 ms), which the tick at 1 ms preempts.
+struct InPosition;
+impl Step<Log> for InPosition {
+    fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, "move");
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Log>) -> bool {
+        cx.control().tick_at_1_ms();
+        true
+    }
+}
+
+/// A held end is kept, not decided again: the move, in position at 0 ms, ends when the
+/// hold does (4 ms), not at its next due poll (10 ms, where its 5 ms timeout would abort
+/// it first). (Found by a probe of session 48's first fix, which dropped the decision.)
+#[test]
+fn a_held_end_is_kept_for_when_the_hold_ends() {
+    let config = SeqConfig::new("move")
+        .polling(Duration::from_millis(10))
+        .timeout(Duration::from_millis(5));
+    let ((commands, trace, mover), idle) = mover_reports(config, InPosition);
+    assert_eq!(
+        trace,
+        [
+            (0, MOVER, Running, Start),
+            (0, MOVE, Running, Start),
+            (1_000, STOP, Running, Timeout(mover)),
+            (3_000, STOP, Terminated, Completed),
+            (4_000, MOVE, Terminated, Completed),
+            (4_000, MOVER, Terminated, Completed),
+        ]
+    );
+    assert_eq!(
+        commands,
+        [(0, "move"), (1_000, "safe stop"), (4_000, "move completed")]
+    );
+    assert_eq!(idle, Some(4_000));
+}
+
+/// Its exit condition reads a one-shot "in position" message (true at the first read
+/// only), in the check the tick at 1 ms preempts.
+struct TakesMessage;
+impl Step<Log> for TakesMessage {
+    fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, "move");
+        Ok(())
+    }
+
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Log>) -> bool {
+        let log = cx.control();
+        log.tick_at_1_ms();
+        let n = log.reads.get();
+        log.reads.set(n + 1);
+        n == 0
+    }
+}
+
+/// The message read in the held check is not lost: the move ends at 4 ms. (With the
+/// decision dropped it waited for good.)
+#[test]
+fn a_one_shot_message_read_in_a_held_check_is_not_lost() {
+    let ((commands, _, _), idle) = mover_reports(SeqConfig::new("move"), TakesMessage);
+    assert_eq!(idle, Some(4_000));
+    assert_eq!(
+        commands,
+        [(0, "move"), (1_000, "safe stop"), (4_000, "move completed")]
+    );
+}
+
+/// On the home switch at its pre-condition (0 ms, preempted by the tick at 1 ms), off it
+/// from 2 ms.
+struct Homing;
+impl Step<Log> for Homing {
+    fn check_pre_condition(&mut self, cx: &Cx<'_, Log>) -> bool {
+        cx.control().tick_at_1_ms();
+        cx.now().as_ticks() >= 2_000
+    }
+
+    fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.control().command(cx, "homing move");
+        Ok(())
+    }
+}
+
+/// A held skip stays a skip: the homing step, skipped at 0 ms, ends skipped at 4 ms and
+/// gives no command. (With the decision dropped its pre-condition was asked again at 4 ms
+/// and it moved.)
+#[test]
+fn a_held_skip_stays_a_skip() {
+    let ((commands, _, _), _) = mover_reports(SeqConfig::new("home"), Homing);
+    assert_eq!(commands, [(1_000, "safe stop"), (4_000, "move skipped")]);
+}
+
+/// Runs `WaitsThenMoves` blocking.
+struct RunsAxis(Seq<WaitsThenMoves>);
+impl Sequence<Log> for RunsAxis {
+    async fn action(&mut self, cx: &Cx<'_, Log>) -> Result<(), Failure> {
+        cx.run(&mut self.0).await?;
+        Ok(())
+    }
+}
+
+/// A held wait returns when the hold ends: the axis's wait (10 ms polling), whose
+/// condition held at 0 ms, returns at 4 ms, not at its next due poll (10 ms).
+#[test]
+fn a_held_wait_returns_when_the_hold_ends() {
+    let seq: &'static Sequencer<Log, 4> = Box::leak(Box::new(Sequencer::new()));
+    let log: &'static Log = Box::leak(Box::default());
+    log.seq.set(Some(seq));
+    let axis = SeqConfig::new("axis").polling(Duration::from_millis(10));
+    let axis = seq.add(axis, WaitsThenMoves).unwrap();
+    let stop = seq.add(SeqConfig::new("safe stop"), SafeStop).unwrap();
+    let mover = SeqConfig::new("mover")
+        .timeout(Duration::from_millis(1))
+        .timeout_exception(stop.id())
+        .timeout_behaviour(Behaviour::Nothing);
+    let mover = seq.add(mover, RunsAxis(axis)).unwrap();
+    let id = mover.id();
+    let mut sim = Sim::new(seq, log, Monitors::<Log, 1>::new());
+    sim.lane(mover);
+    sim.lane(stop);
+    sim.start(id).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(100)),
+        Some(Instant::from_ticks(4_000))
+    );
+    assert_eq!(
+        log.commands.take(),
+        [(1_000, "safe stop"), (4_000, "next move")]
     );
 }

@@ -792,6 +792,9 @@ enum WaitStage {
     New,
     /// Counted among its context's polled waits.
     Waiting,
+    /// Its condition held at a check the tick preempted, which stopped, paused or held
+    /// the run meanwhile: it returns once the run may go on, without asking again.
+    Held,
     /// Its condition held, or it was dropped.
     Done,
 }
@@ -814,7 +817,8 @@ impl<C, F> WaitUntil<'_, '_, C, F> {
         let cx = self.cx;
         let waits = cx.action.get();
         let count = waits & WAIT_COUNT;
-        if self.stage == WaitStage::Waiting && count != WAIT_COUNT {
+        let counted = matches!(self.stage, WaitStage::Waiting | WaitStage::Held);
+        if counted && count != WAIT_COUNT {
             let left = count.saturating_sub(1);
             cx.action.set((waits & !WAIT_COUNT) | left);
             if left == 0 {
@@ -837,6 +841,13 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
             // Not the action's wait (polled from a condition method): counting it would
             // end the poll wait that the run's exit condition relies on.
             _ if cx.action.get() & ACTING == 0 => return Poll::Pending,
+            WaitStage::Held => {
+                if port.clearance_of(run) != Clearance::Go {
+                    return Poll::Pending;
+                }
+                this.finish();
+                return Poll::Ready(());
+            }
             WaitStage::New => {
                 this.stage = WaitStage::Waiting;
                 let waits = cx.action.get();
@@ -860,15 +871,18 @@ impl<'a, C, F: FnMut(&Cx<'a, C>) -> bool> Future for WaitUntil<'_, 'a, C, F> {
                 due
             }
         };
+        if !go || !cx.looking(|| (this.condition)(cx)) {
+            return Poll::Pending;
+        }
         // Returns only with the clearance to advance after the condition, too: the tick may
         // preempt the condition and stop, pause or hold the run (as a run's end is
-        // refused then); its next poll checks again.
-        if go && cx.looking(|| (this.condition)(cx)) && port.clearance_of(run) == Clearance::Go {
-            this.finish();
-            Poll::Ready(())
-        } else {
-            Poll::Pending
+        // refused then). It keeps what the condition said.
+        if port.clearance_of(run) != Clearance::Go {
+            this.stage = WaitStage::Held;
+            return Poll::Pending;
         }
+        this.finish();
+        Poll::Ready(())
     }
 }
 

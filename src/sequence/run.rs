@@ -10,7 +10,7 @@
 //!                 │      ▼                                                          │
 //!                 │    Action  ── clearance Go: advance the action ──┐              │
 //!                 │      │ the action completed       │ (Pending)    │              │
-//!                 │      │             the action failed ──► ActionFailed ── end(Failed)
+//!                 │      │             the action failed ──► Ending ── end(Failed)
 //!                 │      ▼                                                          │
 //!                 │    ActionDone ── set_poll_wait ──► ExitCondition ◄──────┐       │
 //!                 │                                      │ false            │ Go    │
@@ -18,7 +18,8 @@
 //!                 │                                    AwaitPoll ── due_poll┘       │
 //!                 │                                                                 │
 //!                 │  pre-condition false: end(Skipped); exit condition true:        │
-//!                 │  end(Completed); clearance Aborted at any await point ──► Ended │
+//!                 │  end(Completed) (refused while held: Ending keeps the outcome); │
+//!                 │  clearance Aborted at any await point ──► Ended                 │
 //!                 │  clearance Restart at any await point ──────────────────────────┘
 //!                 │
 //!   lane: ◄─ Idle ◄── Ended (finished: outcome, joiners) ──► HandOver ──► Done
@@ -33,7 +34,9 @@
 //! | Begin → Done | none: first polled from a condition ([`Cx::acting`]), refused ([`Run::looked_at`]) |
 //! | PreCondition → Action | [`Port::clearance`], the body's pre-condition |
 //! | Action → ActionDone | [`Port::clearance`], the body's action (`Ok`) |
-//! | Action → ActionFailed | [`Port::clearance`], the body's action (`Err`) |
+//! | Action → Ending | [`Port::clearance`], the body's action (`Err`) |
+//! | PreCondition / ExitCondition → Ending | [`Port::end`] refused while the run holds (paused, or held with a caller) |
+//! | Ending → Ended | [`Port::clearance`] `Go`, then [`Port::end`] with the kept outcome |
 //! | ActionDone → ExitCondition | [`Port::set_poll_wait`], then [`Port::clearance`] |
 //! | ExitCondition → AwaitPoll | the body's exit condition (false) |
 //! | AwaitPoll → ExitCondition | [`Port::due_poll`] |
@@ -83,8 +86,10 @@ enum Stage {
     Action,
     /// The action completed: start polling the exit condition.
     ActionDone,
-    /// The action returned `Err` (the run's `outcome`, `Failed`): end the run with it.
-    ActionFailed,
+    /// The run's outcome is decided and kept in `outcome` (its action returned `Err`; or
+    /// its pre- or exit condition decided while the run held, so its end was refused):
+    /// end the run with it once it may go on, without asking the condition again.
+    Ending,
     /// Check the exit condition now.
     ExitCondition,
     /// Wait for the next due poll of the exit condition.
@@ -188,12 +193,21 @@ impl<'a, C> Run<'a, C> {
     }
 
     /// Ends the run normally with `outcome`; when refused (aborted, restarting or holding
-    /// meanwhile) the clearance says what happens instead.
+    /// meanwhile) the clearance says what happens instead. A run that holds (paused, or
+    /// held with a caller that handles an exception) keeps `outcome` and ends with it once
+    /// it may go on ([`Stage::Ending`]): the condition that decided it is not asked
+    /// again, so a one-shot event it read is not lost and a skip stays a skip.
     fn try_end(&self, outcome: Outcome, w: &mut Context<'_>) {
         if self.port().end(self.run(), outcome) {
             self.ended(outcome);
-        } else {
-            self.obey(self.clearance(w));
+            return;
+        }
+        match self.clearance(w) {
+            Clearance::Go | Clearance::Hold => {
+                self.outcome.set(outcome);
+                self.stage.set(Stage::Ending);
+            }
+            other => self.obey(other),
         }
     }
 
@@ -253,7 +267,7 @@ impl<'a, C> Run<'a, C> {
                         other => self.obey(other),
                     }
                 }
-                Stage::ActionFailed => match self.clearance(w) {
+                Stage::Ending => match self.clearance(w) {
                     Clearance::Go => self.try_end(self.outcome.get(), w),
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
@@ -314,7 +328,7 @@ impl<'a, C> Run<'a, C> {
                     Poll::Ready(Ok(())) => self.stage.set(Stage::ActionDone),
                     Poll::Ready(Err(failure)) => {
                         self.outcome.set(Outcome::Failed(failure));
-                        self.stage.set(Stage::ActionFailed);
+                        self.stage.set(Stage::Ending);
                     }
                 }
                 Poll::Ready(())
@@ -413,7 +427,7 @@ impl<C> Drop for Run<'_, C> {
             Stage::PreCondition
             | Stage::Action
             | Stage::ActionDone
-            | Stage::ActionFailed
+            | Stage::Ending
             | Stage::ExitCondition
             | Stage::AwaitPoll => port.abandon(self.cx.id(), self.cx.control()),
             Stage::Ended => port.finished(self.run()),
