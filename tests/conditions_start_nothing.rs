@@ -393,6 +393,38 @@ fn a_refused_run_polled_again_gives_its_refusal_again() {
     assert_eq!(ran.state, Terminated);
 }
 
+/// Awaits a blocking run of its step, then polls the same future from a polled wait's
+/// condition.
+struct AwaitsThenLooks(Seq<Wait>);
+impl Sequence<Ctrl> for AwaitsThenLooks {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let mut run = pin!(cx.step(&mut self.0));
+        let done = run.as_mut().await;
+        cx.control().note(cx, "action", done);
+        cx.wait_until(|cx| {
+            if let Poll::Ready(again) = poll_once(run.as_mut()) {
+                cx.control().note(cx, "wait", again);
+            }
+            true
+        })
+        .await;
+        Ok(())
+    }
+}
+
+/// A run that gave its result gives it again when a condition polls it (it does not move
+/// there, but it has nothing left to do).
+#[test]
+fn a_run_polled_from_a_condition_after_its_result_gives_it_again() {
+    let ran = around_a_dwell(AwaitsThenLooks);
+    assert_eq!(ran.idle, Some(2_000));
+    assert_eq!(
+        ran.got,
+        [(2_000, "action", Ok(())), (2_000, "wait", Ok(()))]
+    );
+    assert_eq!(ran.state, Terminated);
+}
+
 /// A step that records its command; its exit condition holds from 4 ms.
 struct Commands;
 impl Step<Ctrl> for Commands {
