@@ -148,11 +148,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 }
 
 /// See [`Sequencer::clearance_in_lane`]. The first section gives the run's own clearance
-/// and, when no sequence under way handles an exception, that is all. Else the callers are walked,
-/// and the answer is `Go` only if nothing changed from the section that gave it to the
-/// end of the walk (the count of changes): a tick that paused or stopped the run or
-/// marked an exception meanwhile makes it look again, so what follows the answer follows
-/// it with no section in between, as with one section.
+/// and, when no sequence under way handles an exception, that is all. Else the callers
+/// are walked, and the answer is `Go` only if nothing changed from the section that gave
+/// it to the end of the walk (the count of changes): a tick that paused or stopped the
+/// run or marked an exception meanwhile makes it look again, so what follows the answer
+/// follows it with no section in between, as with one section.
 fn held_in_lane<
     C,
     S: Sections<C, N, T, W, B>,
@@ -190,8 +190,9 @@ pub(crate) fn stops_soon(b: &ControlBlock, abort_all_posted: bool) -> bool {
 /// Ends `run` with `outcome`: `change` is `Running → Terminated` (cause `Completed`,
 /// `PreConditionFalse` or `Failed`). Opened and committed in two steps (the commit again if
 /// anything changed in between). Not while a caller it blocks handles an exception
-/// ([`caller_handles_exception`]): the hold is the owner's and its blocking children's. The end of an exception sequence is reported to its
-/// owner by the next tick (see [`State::fold`]). False, and nothing changes, if the run
+/// ([`caller_handles_exception`]): the hold is the owner's and its blocking children's.
+/// The end of an exception sequence is reported to its owner by the next tick (see
+/// [`State::fold`]). False, and nothing changes, if the run
 /// was aborted or restarted meanwhile, a later run of its sequence was started, its
 /// exception is being handled, or the tick is to abort it (`inbox`: the sequencer's, for an
 /// abort-all; its clearance says what to do instead).
