@@ -196,18 +196,23 @@ impl<'a, C> Run<'a, C> {
     /// meanwhile) the clearance says what happens instead. A run that holds (paused, or
     /// held with a caller that handles an exception) keeps `outcome` and ends with it once
     /// it may go on ([`Stage::Ending`]): the condition that decided it is not asked
-    /// again, so a one-shot event it read is not lost and a skip stays a skip.
-    fn try_end(&self, outcome: Outcome, w: &mut Context<'_>) {
+    /// again, so a one-shot event it read is not lost and a skip stays a skip. False when
+    /// the outcome is kept for later.
+    fn try_end(&self, outcome: Outcome, w: &mut Context<'_>) -> bool {
         if self.port().end(self.run(), outcome) {
             self.ended(outcome);
-            return;
+            return true;
         }
         match self.clearance(w) {
             Clearance::Go | Clearance::Hold => {
                 self.outcome.set(outcome);
                 self.stage.set(Stage::Ending);
+                false
             }
-            other => self.obey(other),
+            other => {
+                self.obey(other);
+                true
+            }
         }
     }
 
@@ -248,7 +253,7 @@ impl<'a, C> Run<'a, C> {
                             self.stage.set(Stage::Action);
                             return Poll::Ready(());
                         }
-                        self.try_end(Outcome::Skipped, w);
+                        let _ = self.try_end(Outcome::Skipped, w);
                     }
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
@@ -268,7 +273,13 @@ impl<'a, C> Run<'a, C> {
                     }
                 }
                 Stage::Ending => match self.clearance(w) {
-                    Clearance::Go => self.try_end(self.outcome.get(), w),
+                    // Kept again (the end refused though the clearance said `Go`, a
+                    // change between the two): wait for the next wake-up, do not spin.
+                    Clearance::Go => {
+                        if !self.try_end(self.outcome.get(), w) {
+                            return Poll::Pending;
+                        }
+                    }
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
                 },
@@ -279,7 +290,7 @@ impl<'a, C> Run<'a, C> {
                         // or any change of this run, wakes the lane.
                         return Poll::Pending;
                     }
-                    self.try_end(Outcome::Completed, w);
+                    let _ = self.try_end(Outcome::Completed, w);
                 }
                 Stage::AwaitPoll => match self.due_poll(w) {
                     Clearance::Go => self.stage.set(Stage::ExitCondition),
