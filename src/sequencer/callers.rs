@@ -248,11 +248,31 @@ pub(crate) fn blocks_in_lane<
     owner: SeqId,
     lane: u8,
 ) -> bool {
+    finds_above(s, id, |s, at| {
+        s.blocking_caller_in(at, lane).map(|up| (up, up == owner))
+    })
+}
+
+/// Walks up the callers from `id`, one section per step, at most [`MAX_DEPTH`] steps:
+/// `step` gives the next caller and whether it is what the walk looks for (`None`: the
+/// top, nothing found).
+fn finds_above<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    step: impl Fn(&State<C, N, T, W, B>, SeqId) -> Option<(SeqId, bool)>,
+) -> bool {
     let mut at = id;
     for _ in 0..MAX_DEPTH {
-        match s.section(|s| s.blocking_caller_in(at, lane)) {
-            Some(up) if up == owner => return true,
-            Some(up) => at = up,
+        match s.section(|s| step(s, at)) {
+            Some((_, true)) => return true,
+            Some((up, false)) => at = up,
             None => return false,
         }
     }
@@ -276,15 +296,7 @@ pub(crate) fn caller_handles_exception<
     s: &mut S,
     id: SeqId,
 ) -> bool {
-    let mut at = id;
-    for _ in 0..MAX_DEPTH {
-        match s.section(|s| s.caller_in_lane(at)) {
-            Some((_, true)) => return true,
-            Some((up, false)) => at = up,
-            None => return false,
-        }
-    }
-    false
+    finds_above(s, id, |s, at| s.caller_in_lane(at))
 }
 
 /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding for
