@@ -28,6 +28,18 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             })
     }
 
+    /// Those of `wake` that neither changed state in this tick nor are held (see
+    /// [`Sequencer::wake_due_polls`]); the held ones miss this poll: their marks go, else
+    /// they would take the poll off their grid once let go. In one section; out of line,
+    /// as the wake-ups of a tick with nothing held do not take it.
+    #[inline(never)]
+    fn unheld_and_unchanged(&mut self, wake: SetWord<B>) -> SetWord<B> {
+        let unchanged = wake.minus(self.sets.word(Set::Changed, wake.index()));
+        let unheld = self.unheld(unchanged);
+        self.sets.remove_all(Set::PollDue, unchanged.minus(unheld));
+        unheld
+    }
+
     /// Those of `wake` that are not held (see [`held`]), in one section.
     fn unheld(&self, wake: SetWord<B>) -> SetWord<B> {
         let mut out = SetWord::empty(wake.index());
@@ -48,6 +60,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// `raised`: a monitor fired or a timeout expired in this tick, so a wake-up checks
     /// that its sequence is not held, as it does while a monitored sequence is paused or
     /// handles an exception.
+    ///
+    /// A sequence whose state changed in this tick is not woken for its poll: the change
+    /// woke its lane. It is left out before the held check, whose only other effect, the
+    /// removal of a held sequence's due-poll mark, it does not need: a new run drops a
+    /// stale mark when it first waits for a poll, an ended run takes no poll, and a hold
+    /// the tick gave it (an exception, a pause) took its mark when it was made.
     #[inline(always)]
     pub(super) fn wake_due_polls(&self, wake: SetWord<B>, raised: bool) {
         if wake.is_empty() {
@@ -60,13 +78,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // One section: the held check walks the callers inside it.
         self.update_and_wake(|s| {
             let wake = if raised || s.any_held() {
-                let unheld = s.unheld(wake);
-                // A held sequence misses this poll: its mark goes, else it would take the
-                // poll off its grid once it is let go.
-                s.sets.remove_all(Set::PollDue, wake.minus(unheld));
-                // A sequence whose state changed in this tick is not woken for its poll:
-                // the change woke its lane.
-                unheld.minus(s.sets.word(Set::Changed, wake.index()))
+                s.unheld_and_unchanged(wake)
             } else {
                 wake
             };
@@ -91,15 +103,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             )
         });
         if held {
-            // A held sequence misses this poll: its mark goes, else it would take the poll
-            // off its grid once it is let go. A sequence whose state changed in this tick
-            // is not woken for its poll: the change woke its lane.
-            return self.lanes_of_polls_in_sections(wake, |id| {
-                if self.held_in_sections(id) {
+            // Those whose state changed in this tick are left out first (see
+            // `wake_due_polls`). A held sequence misses this poll: its mark goes, else it
+            // would take the poll off its grid once it is let go.
+            return self.lanes_of_polls_in_sections(wake.minus(changed), |id| {
+                let held = self.held_in_sections(id);
+                if held {
                     self.with(|s| s.sets.remove(Set::PollDue, id));
-                    return true;
                 }
-                changed.has(id)
+                held
             });
         }
         if let Some(lanes) = remembered {
