@@ -125,49 +125,49 @@ impl RunningState {
 /// A set of running states (bit `s as u8` = state `s`): the transition table as sets, for
 /// checks inside short sections.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) struct States(u8);
+pub(crate) struct RunningStates(u8);
 
-impl States {
+impl RunningStates {
     /// `Running` or `Paused`: the states in which monitors are evaluated.
-    pub(crate) const RUNNING_OR_PAUSED: States =
-        States::of(RunningState::Running).with(RunningState::Paused);
+    pub(crate) const RUNNING_OR_PAUSED: RunningStates =
+        RunningStates::of(RunningState::Running).with(RunningState::Paused);
 
     /// A run is under way: every state but `Idle` and the ends (`Terminated`, `Aborted`).
-    pub(crate) const LIVE: States = States::RUNNING_OR_PAUSED
+    pub(crate) const LIVE: RunningStates = RunningStates::RUNNING_OR_PAUSED
         .with(RunningState::Restarting)
         .with(RunningState::Aborting);
 
     /// The states a start may leave (`Idle`, `Terminated`, `Aborted`: not active).
-    pub(crate) const STARTABLE: States = States::of(RunningState::Idle)
+    pub(crate) const STARTABLE: RunningStates = RunningStates::of(RunningState::Idle)
         .with(RunningState::Terminated)
         .with(RunningState::Aborted);
 
     /// The set of `s` alone.
-    pub(crate) const fn of(s: RunningState) -> States {
-        States(1 << s as u8)
+    pub(crate) const fn of(s: RunningState) -> RunningStates {
+        RunningStates(1 << s as u8)
     }
 
     /// This set with `s` in.
-    pub(crate) const fn with(self, s: RunningState) -> States {
-        States(self.0 | States::of(s).0)
+    pub(crate) const fn with(self, s: RunningState) -> RunningStates {
+        RunningStates(self.0 | RunningStates::of(s).0)
     }
 
     /// Whether `s` is in the set.
     pub(crate) const fn has(self, s: RunningState) -> bool {
-        self.0 & States::of(s).0 != 0
+        self.0 & RunningStates::of(s).0 != 0
     }
 
     /// The states from which `to` may be entered: [`RunningState::can_transition_to`] as
     /// a set.
-    pub(crate) const fn entering(to: RunningState) -> States {
+    pub(crate) const fn entering(to: RunningState) -> RunningStates {
         use RunningState::*;
         match to {
-            Running => States::STARTABLE.with(Paused).with(Restarting),
-            Paused | Terminated => States::of(Running),
-            Restarting => States::RUNNING_OR_PAUSED,
-            Aborting => States::RUNNING_OR_PAUSED.with(Restarting),
-            Aborted => States::of(Aborting),
-            Idle => States(0),
+            Running => RunningStates::STARTABLE.with(Paused).with(Restarting),
+            Paused | Terminated => RunningStates::of(Running),
+            Restarting => RunningStates::RUNNING_OR_PAUSED,
+            Aborting => RunningStates::RUNNING_OR_PAUSED.with(Restarting),
+            Aborted => RunningStates::of(Aborting),
+            Idle => RunningStates(0),
         }
     }
 }
@@ -181,12 +181,12 @@ mod tests {
         for from in RunningState::ALL {
             for to in RunningState::ALL {
                 assert_eq!(
-                    States::entering(to).has(from),
+                    RunningStates::entering(to).has(from),
                     from.can_transition_to(to),
                     "{from:?} -> {to:?}"
                 );
             }
-            assert_eq!(States::STARTABLE.has(from), !from.is_active());
+            assert_eq!(RunningStates::STARTABLE.has(from), !from.is_active());
         }
     }
 }

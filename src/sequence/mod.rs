@@ -7,7 +7,7 @@
 //! | `context.rs` | [`Cx`]: what an action and a condition see and can do |
 //! | `run.rs` | a run: the seed's `actionFramework` as a state machine, with its diagram |
 //! | `erased.rs` | all type erasure (and so all `unsafe`) of this module, its invariants listed |
-//! | `lane.rs` | [`lane`](fn@crate::lane): a non-blocking sequence's execution context |
+//! | `lane.rs` | [`lane`](fn@crate::lane): a non-blocking sequence's execution context; [`lanes!`](crate::lanes) (several joined in one task) |
 //! | `scoped.rs` | [`Scoped`]: a non-blocking child that ends with its caller's action |
 //! | `wait.rs` | [`Wait`], the dwell-time step |
 

@@ -3,12 +3,13 @@
 //! Each control block stores only its `callerSequence`. The seed's `callerStack`, its depth
 //! and its blocking part (`callerStackBlocking`: the callers in the same lane) are derived
 //! by walking the links, at most [`MAX_DEPTH`] steps, one section per step with the
-//! portable lock. The walks happen on starts, joins, stops and inspection, and in the
-//! tick only while something is held.
+//! portable lock. The walks happen on starts, joins, stops and inspection; in the tick
+//! only while something is held; and at a lane's await points and ends only while some
+//! exception is handled (`clearance_in_lane`, `end_run`).
 
 use crate::model::id::Link;
 use crate::model::set::SeqSet;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
@@ -47,12 +48,12 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// One step of [`join_would_deadlock`]: the caller that `at` (in `lane`) holds up:
     /// its caller in `lane` (which it blocks), or, when `at` is an exception sequence
     /// whose end is not reported yet, its owner (held until then).
-    fn held_caller(&self, at: SeqId, lane: u8) -> Option<HeldCaller> {
+    fn caller_held_up(&self, at: SeqId, lane: u8) -> Option<CallerHeldUp> {
         let b = self.block(at)?;
         let c = b.caller.get()?;
         let up = self.lane_slot(c);
         let exception = b.has(flag::HANDLES_EXCEPTION);
-        (up == lane || exception).then_some(HeldCaller {
+        (up == lane || exception).then_some(CallerHeldUp {
             id: c,
             lane: up,
             owner: exception,
@@ -71,7 +72,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     fn blocking_caller_in(&self, at: SeqId, lane: u8) -> Option<SeqId> {
         let b = self.block(at)?;
         let c = b.caller.get()?;
-        (b.lane == lane && self.lane_slot(c) == lane && States::LIVE.has(b.state)).then_some(c)
+        (b.lane == lane && self.lane_slot(c) == lane && RunningStates::LIVE.has(b.state))
+            .then_some(c)
     }
 
     /// One step of the held check of a due wake-up ([`held`]): `None` when `at` holds its
@@ -92,8 +94,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
-/// A caller that a sequence holds up ([`State::held_caller`]).
-struct HeldCaller {
+/// A caller that a sequence holds up ([`State::caller_held_up`]).
+struct CallerHeldUp {
     id: SeqId,
     /// The lane it runs in.
     lane: u8,
@@ -197,7 +199,7 @@ fn holds_up<
         }
         waiting.insert(at);
         *next = next.union(&s.section(|s| s.joiners_of(at)));
-        let Some(up) = s.section(|s| s.held_caller(at, lane)) else {
+        let Some(up) = s.section(|s| s.caller_held_up(at, lane)) else {
             return false;
         };
         if up.owner {

@@ -2,7 +2,7 @@
 //! fields), plus its optional counters.
 
 use crate::model::id::Link;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::model::time::Stamp;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
@@ -311,7 +311,7 @@ impl ControlBlock {
     /// whose end the tick has not reported to its owner yet (until then it is the owner's:
     /// a new run would overwrite the owner it names).
     pub(crate) fn may_start(&self) -> bool {
-        States::STARTABLE.has(self.state) && !self.has(flag::HANDLES_EXCEPTION)
+        RunningStates::STARTABLE.has(self.state) && !self.has(flag::HANDLES_EXCEPTION)
     }
 
     pub(crate) fn has(&self, f: u16) -> bool {

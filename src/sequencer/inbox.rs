@@ -38,7 +38,7 @@ pub(crate) struct Inbox(u8);
 
 impl Inbox {
     /// Who asked for abort-all, if anyone did (the safety system when both did).
-    pub(crate) fn abort_all(self) -> Option<Requester> {
+    pub(crate) fn abort_all_by(self) -> Option<Requester> {
         if self.0 & ABORT_ALL_BY_SAFETY_SYSTEM != 0 {
             Some(Requester::SafetySystem)
         } else if self.0 & ABORT_ALL_BY_APPLICATION != 0 {
@@ -85,7 +85,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if inbox.safety_notes() {
             self.record_safety_notes();
         }
-        let Some(by) = inbox.abort_all() else {
+        let Some(by) = inbox.abort_all_by() else {
             return false;
         };
         let begun = self.with(|s| s.runs_begun);

@@ -5,7 +5,7 @@
 //! sequences can join one run.
 
 use crate::model::set::SeqSet;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::control_block::JoinWait;
 use crate::sequencer::lanes::LaneSet;
@@ -95,7 +95,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let mut out = SeqSet::EMPTY;
         for j in self.sets.members(Set::Joining) {
             if self.block(j).is_some_and(|b| {
-                b.joins == JoinWait::end_of(target) && States::RUNNING_OR_PAUSED.has(b.state)
+                b.joins == JoinWait::end_of(target) && RunningStates::RUNNING_OR_PAUSED.has(b.state)
             }) {
                 out.insert(j);
             }

@@ -116,7 +116,7 @@ pub struct Sequencer<
 // SAFETY: `state` is only reached through `Sequencer::borrow_state` (from `with`,
 // `update_and_wake`, `park_in_then` and `close_lane`), and the cells of `lanes` only
 // through `park_in_then` (a waker registered), `close_lane` (forgotten), `wake_lane` and
-// the reads of a slot's identity (`check_lanes`, the tick's `lanes_of_polls` and
+// the reads of a slot's identity (`check_lanes`, `lanes_of_polls_in_sections` and
 // `State::lanes_of_polls`); all of them run under the lock, and a critical section keeps
 // every other user of this sequencer out. The other fields are
 // `Sync` themselves. `State` and `Lanes` are `Send` for every `C` (they hold only plain
@@ -264,9 +264,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// every other context out, and no closure passed here calls `with` again or any
     /// foreign code that could — closures only touch the state. Wakers are woken by
     /// [`wake_lanes`](Self::wake_lanes) and [`update_and_wake`](Self::update_and_wake), and
-    /// kept (cloned, dropped) by [`park_in_then`](Self::park_in_then), each after the
-    /// state's borrow has ended; user conditions run in the tick, and cleanup hooks in the
-    /// tick or in a dropped run's teardown, between sections.
+    /// kept (cloned, dropped) by [`park_in_then`](Self::park_in_then) and forgotten by
+    /// [`close_lane`](Self::close_lane), each after the state's borrow has ended. User code
+    /// runs between sections: monitor conditions in the tick, a sequence's conditions and
+    /// action in its lane's poll, cleanup hooks in the tick's teardowns or in a dropped
+    /// run's.
     #[inline]
     pub(crate) fn with<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
         L::lock(|| self.borrow_state(f))
@@ -275,8 +277,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// Runs `f` on the state; the caller holds the lock. The borrow ends when `f` returns.
     #[inline(always)]
     fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {
-        // SAFETY: only called under the lock `L` (by `with`, `update_and_wake` and
-        // `park_in_then`), which keeps every other context out (with `SingleThread` the
+        // SAFETY: only called under the lock `L` (by `with`, `update_and_wake`,
+        // `park_in_then` and `close_lane`), which keeps every other context out (with `SingleThread` the
         // sequencer is not `Sync`: no other thread or interrupt reaches it), and `f` does
         // not re-enter (see `with`): this is the only reference to the state while it
         // lives.

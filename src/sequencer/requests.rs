@@ -5,7 +5,7 @@ use core::sync::atomic::Ordering;
 
 use crate::lock::Lock;
 use crate::model::id::RunId;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::sections::Sections;
 use crate::sequencer::sets::Set;
@@ -15,11 +15,11 @@ use crate::{Error, Event, Request, Requester, RunningState, SeqId, Sequencer};
 impl Request {
     /// The states in which the request can be made (a pause or a resume also while the
     /// other is pending: see [`replaces`](Self::replaces)).
-    const fn allowed(self) -> States {
+    const fn allowed(self) -> RunningStates {
         match self {
-            Request::Pause => States::of(RunningState::Running),
-            Request::Resume => States::of(RunningState::Paused),
-            Request::Abort => States::RUNNING_OR_PAUSED.with(RunningState::Restarting),
+            Request::Pause => RunningStates::of(RunningState::Running),
+            Request::Resume => RunningStates::of(RunningState::Paused),
+            Request::Abort => RunningStates::RUNNING_OR_PAUSED.with(RunningState::Restarting),
         }
     }
 
@@ -86,7 +86,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// drops it). A queued abort holds the run until then: it begins nothing more and does
     /// not end (its clearance, `may_end`, `open_start`).
     fn queue_request(&mut self, id: SeqId, req: Request, run: u16) {
-        let made_of = |b: &&mut ControlBlock| b.runs == run && States::LIVE.has(b.state);
+        let made_of = |b: &&mut ControlBlock| b.runs == run && RunningStates::LIVE.has(b.state);
         if let Some(b) = self.block_mut(id).filter(made_of) {
             b.flags = (b.flags & !req.replaces()) | req.bit();
             self.sets.insert(Set::Requested, id);

@@ -17,7 +17,7 @@ use crate::SeqId;
 /// One of the sequencer's sets of sequences.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(crate) enum Set {
-    /// `Running` or `Paused` (`States::RUNNING_OR_PAUSED`), as of the last fold of `Changed` (the
+    /// `Running` or `Paused` (`RunningStates::RUNNING_OR_PAUSED`), as of the last fold of `Changed` (the
     /// tick folds before it scans): the sequences whose monitors and timeouts are
     /// evaluated and whose polling classes keep their grids. Narrower than
     /// [`RunningState::is_active`](crate::RunningState::is_active), which counts every run
@@ -25,7 +25,7 @@ pub(crate) enum Set {
     Monitored,
     /// `Paused`, as `Monitored`.
     Paused,
-    /// A run is under way (`States::LIVE`), as `Monitored`: with `Changed`, the sequences a
+    /// A run is under way (`RunningStates::LIVE`), as `Monitored`: with `Changed`, the sequences a
     /// teardown or pause may have to visit. Kept only with several words (a teardown in a
     /// sequencer of at most 32 visits all of them).
     Live,

@@ -13,7 +13,7 @@ use core::sync::atomic::AtomicU8;
 use crate::lock::Lock;
 use crate::model::id::{Link, RunId};
 use crate::model::set::SeqSet;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::cut_and_depth;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
@@ -147,7 +147,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             Some(c)
                 if self.block(c.seq).is_none_or(|b| {
                     b.runs != c.count
-                        || !States::RUNNING_OR_PAUSED.has(b.state)
+                        || !RunningStates::RUNNING_OR_PAUSED.has(b.state)
                         || b.has(flag::STOPPING | request::ABORT)
                         || (!run.by_tick && abort_all_posted)
                 }) =>
@@ -211,7 +211,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// (else nothing): the sets the tick reads of a monitored sequence (fresh, no exception, not
     /// waiting for a poll, the timeout `armed` or not).
     fn prepare(&mut self, id: SeqId, armed: bool) {
-        if States::RUNNING_OR_PAUSED.has(self.state_of(id)) {
+        if RunningStates::RUNNING_OR_PAUSED.has(self.state_of(id)) {
             return;
         }
         self.sets.put(Set::Fresh, id, true);
@@ -410,7 +410,7 @@ fn class_busy<
     settled
         || changed
             .into_iter()
-            .any(|m| s.section(|s| States::LIVE.has(s.state_of(m))))
+            .any(|m| s.section(|s| RunningStates::LIVE.has(s.state_of(m))))
 }
 
 /// Schedules and commits a new run of `id` from a state that is not active; again if a
@@ -723,8 +723,7 @@ mod tests {
 
     /// The same start by a caller that was stopped before it (the tick stopped it while
     /// its action ran on to the start): refused, it cuts nothing, so the child's caller
-    /// behaviours still act on sequence 0. (Before session 48 the walk came first and cut
-    /// the link.)
+    /// behaviours still act on sequence 0.
     #[test]
     fn a_refused_start_below_a_child_of_an_old_run_leaves_the_childs_link() {
         let abort = StateChange::new(

@@ -3,7 +3,7 @@
 use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::set::{SeqSet, SetWord};
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::model::time::Stamp;
 use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
 use crate::sequencer::lanes::LaneSet;
@@ -13,7 +13,8 @@ use crate::trace::{Entry, Event, Record, Ring, StateChange};
 use crate::{Error, Instant, RunningState, SeqId, Sequencer, Transition};
 
 /// The sequencer's state: reached only through `Sequencer::borrow_state` (from
-/// [`Sequencer::with`], `update_and_wake` and `park_in_then`), under the lock.
+/// [`Sequencer::with`], `update_and_wake`, `park_in_then` and `close_lane`), under the
+/// lock.
 ///
 /// `repr(C)` in this order: the words and sets every section reads come first, the arrays
 /// that grow with the capacities last, so that the hot fields stay within a load's
@@ -225,12 +226,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// several words) `live`.
     pub(crate) fn fold(&mut self, id: SeqId) {
         let state = self.state_of(id);
-        self.sets
-            .put(Set::Monitored, id, States::RUNNING_OR_PAUSED.has(state));
+        self.sets.put(
+            Set::Monitored,
+            id,
+            RunningStates::RUNNING_OR_PAUSED.has(state),
+        );
         self.sets
             .put(Set::Paused, id, state == RunningState::Paused);
         if B > 1 {
-            self.sets.put(Set::Live, id, States::LIVE.has(state));
+            self.sets.put(Set::Live, id, RunningStates::LIVE.has(state));
         }
     }
 
@@ -240,7 +244,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// it, for another owner, can be credited with this end.
     pub(crate) fn exception_run_ended(&self, id: SeqId) -> bool {
         self.block(id)
-            .is_some_and(|b| !States::LIVE.has(b.state) && b.has(flag::HANDLES_EXCEPTION))
+            .is_some_and(|b| !RunningStates::LIVE.has(b.state) && b.has(flag::HANDLES_EXCEPTION))
     }
 
     /// The current (or last) run of `id` (count 0 for an id not registered).

@@ -4,7 +4,7 @@
 use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::set::SeqSet;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
@@ -128,7 +128,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 count: b.runs,
             };
             let running = b.state == RunningState::Running;
-            let monitored = States::RUNNING_OR_PAUSED.has(b.state);
+            let monitored = RunningStates::RUNNING_OR_PAUSED.has(b.state);
             if monitored {
                 s.record(Event::Fired {
                     owner,
@@ -231,9 +231,9 @@ fn mark<
     // (or restarted) since this tick's scan is fresh, and its monitors are evaluated from
     // the next tick.
     let states = if timeout {
-        States::of(RunningState::Running)
+        RunningStates::of(RunningState::Running)
     } else {
-        States::RUNNING_OR_PAUSED
+        RunningStates::RUNNING_OR_PAUSED
     };
     // Four sections. With the portable lock a lane of higher priority may end or start
     // the owner in between: the mark is made only if the owner still runs the run the

@@ -10,12 +10,12 @@
 //! | file | what |
 //! |---|---|
 //! | `mod.rs` | the tick's order of work, word by word; the fold of the changed sequences |
-//! | `table.rs` | the monitor table a sequencer is ticked with, bound at the first due tick |
+//! | `table.rs` | the monitor table a sequencer is ticked with, bound by the first due tick that brings a non-empty one |
 //! | `schedule.rs` | polling classes: one grid per polling period |
 //! | `polls.rs` | which polls are due in a word, their expired timeouts; the due polls a hold skips |
-//! | `wake.rs` | the wake-ups of due exit-condition polls, without the held sequences |
-//! | `monitors.rs` | monitor evaluation in groups, edges and triggers |
-//! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour |
+//! | `wake.rs` | the wake-ups of due exit-condition polls, without the held sequences and those the tick changed |
+//! | `monitors.rs` | monitor evaluation in groups, edges and triggers; the firings (`fire_group`, `fire`, `hold_owner`, `release_pending`) |
+//! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour; a `PauseOwner` monitor's hold and release |
 //! | `requests.rs` | abort-all, pause, resume and abort requests, ended exception sequences' behaviours |
 //! | `teardown.rs` | aborts and restarts of a sequence and those below it, abort-all, dropped runs |
 //! | `pause.rs` | pauses and resumes of a sequence and its blocking children |

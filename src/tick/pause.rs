@@ -1,10 +1,11 @@
 //! Pauses and resumes: a sequence and its blocking children (in its lane) are paused or
-//! resumed, outermost first, one short section at a time. A paused run's clock (and its
+//! resumed, outermost first, in sections (with the portable lock, one short section per
+//! step). A paused run's clock (and its
 //! timeout) stops, its monitors stay active.
 
 use crate::lock::Lock;
 use crate::model::id::RunId;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::model::time::Stamp;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
@@ -93,7 +94,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }) else {
             return Pass::Done;
         };
-        let states = States::of(how.from());
+        let states = RunningStates::of(how.from());
         if how == Pausing::Pause {
             // The target is paused first and its blocking children after it.
             in_sections!(self, |s| {
@@ -102,7 +103,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             });
         }
         let scope = Scope::InLane { target, lane };
-        let rows = self.levels(scope, states, &mut |_, _| true);
+        let rows = self.by_depth(scope, states, &mut |_, _| true);
         for depth in 0..=rows.deepest() {
             for id in rows.at(depth) {
                 if id == target {

@@ -3,7 +3,7 @@
 //! exception sequences that ended (their owners are requested when the tick folds the end).
 
 use crate::lock::Lock;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sets::Set;
 use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, Sequencer};
@@ -39,7 +39,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if monitored {
             return true;
         }
-        let abortable = States::entering(RunningState::Aborting);
+        let abortable = RunningStates::entering(RunningState::Aborting);
         candidates
             .into_iter()
             .any(|id| self.with(|s| abortable.has(s.state_of(id))))
@@ -73,7 +73,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let still = self.with(|s| {
                     let b = s
                         .block(id)
-                        .filter(|b| States::RUNNING_OR_PAUSED.has(b.state))?;
+                        .filter(|b| RunningStates::RUNNING_OR_PAUSED.has(b.state))?;
                     // One that acts on the caller was kept for an owner that had one
                     // (`raise`). Without the link now, its caller ended and was started
                     // again below it (the start cut the link): the owner is aborted, as

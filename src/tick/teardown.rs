@@ -1,11 +1,12 @@
 //! Teardowns: a sequence and every sequence below it are aborted (innermost first, each
 //! through `Aborting` and its cleanup hook) or restarted (the target restarts, those below
 //! it are aborted); an abort-all aborts every active sequence; a run whose future was
-//! dropped is aborted with what is below it. One short section at a time.
+//! dropped is aborted with what is below it. In sections (with the portable lock, one
+//! short section per step), the cleanup hooks between them.
 
 use crate::lock::Lock;
 use crate::model::id::RunId;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
@@ -124,7 +125,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     #[inline(never)]
     fn teardown_pass(&self, control: &C, teardown: Teardown, cause: Cause, begun: u32) -> Pass {
         // Active, not already `Aborting`.
-        let states = States::entering(RunningState::Aborting);
+        let states = RunningStates::entering(RunningState::Aborting);
         let target = teardown.target().map(|t| t.seq);
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
         // sequences below it.
@@ -161,7 +162,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // What is below a later run of the target is not this teardown's: a sequence is
         // marked only while the target runs the run the teardown is of.
         let of_target = teardown.target();
-        let rows = self.levels(scope, states, &mut |id, runs| {
+        let rows = self.by_depth(scope, states, &mut |id, runs| {
             self.with(|s| {
                 of_target.is_none_or(|t| s.current_run(t.seq) == t)
                     && s.mark_placed(id, runs, states)
@@ -228,7 +229,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// A teardown placed `id` when its run `runs` was in `states`: if that run is still
     /// under way there, it is marked ([`mark_stopping`](Self::mark_stopping)). False when
     /// it ended meanwhile, or another run began: that one is not this teardown's.
-    fn mark_placed(&mut self, id: SeqId, runs: u16, states: States) -> bool {
+    fn mark_placed(&mut self, id: SeqId, runs: u16, states: RunningStates) -> bool {
         let placed = self
             .block(id)
             .is_some_and(|b| b.runs == runs && states.has(b.state));
@@ -271,7 +272,7 @@ fn leave_for_teardown<
     let looked = s.section(|s| {
         let b = s.block_mut(id).ok_or(Move::Stays)?;
         let from = b.state;
-        if !States::entering(to).has(from) {
+        if !RunningStates::entering(to).has(from) {
             return Err(Move::Stays);
         }
         // A teardown moves only a run it marked (`teardown_pass`): without its mark, the

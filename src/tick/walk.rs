@@ -4,7 +4,7 @@
 use crate::lock::Lock;
 use crate::model::id::Link;
 use crate::model::set::SeqSet;
-use crate::model::state::States;
+use crate::model::state::RunningStates;
 use crate::sequencer::sections::{in_sections, Sections};
 use crate::sequencer::sets::Set;
 use crate::{SeqId, Sequencer, MAX_DEPTH};
@@ -14,12 +14,12 @@ const DEPTHS: usize = MAX_DEPTH + 1;
 
 /// The sequences a pass moves, by depth (its number of callers: outermost first, ids
 /// ascending in each row), and the deepest row that has one.
-pub(super) struct Rows<const B: usize> {
+pub(super) struct Depths<const B: usize> {
     rows: [SeqSet<B>; DEPTHS],
     deepest: usize,
 }
 
-impl<const B: usize> Rows<B> {
+impl<const B: usize> Depths<B> {
     /// The sequences at depth `depth`.
     pub(super) fn at(&self, depth: usize) -> SeqSet<B> {
         self.rows.get(depth).copied().unwrap_or_default()
@@ -95,12 +95,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// and still link to it): with a coarse lock in one section, else one short section
     /// per step. The tree may change meanwhile: each change made from the rows is
     /// re-checked where it is made, and a run begun meanwhile makes the walk pass again.
-    pub(super) fn levels(
+    pub(super) fn by_depth(
         &self,
         scope: Scope,
-        states: States,
+        states: RunningStates,
         keep: &mut dyn FnMut(SeqId, u16) -> bool,
-    ) -> Rows<B> {
+    ) -> Depths<B> {
         let candidates = self.with(|s| match scope.target() {
             Some(t) => s.sets.members(Set::Called).with(t),
             None => s.maybe_under_way(),
@@ -117,11 +117,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 deepest = deepest.max(depth);
             }
         }
-        Rows { rows, deepest }
+        Depths { rows, deepest }
     }
 }
 
-/// Where [`Sequencer::levels`] places `id`: its depth (its number of callers, at most
+/// Where [`Sequencer::by_depth`] places `id`: its depth (its number of callers, at most
 /// `MAX_DEPTH`) when its state is in `states` and it is in `scope`, with the count of the
 /// run looked at; else `None`.
 fn depth_below<
@@ -135,7 +135,7 @@ fn depth_below<
     s: &mut S,
     id: SeqId,
     scope: Scope,
-    states: States,
+    states: RunningStates,
 ) -> Option<(usize, u16)> {
     let (mut up, runs) = s.section(|s| {
         let b = s.block(id)?;

@@ -27,7 +27,7 @@
 //! - [`fine`]: the tick and the lanes under the portable lock, in a sequencer of one word.
 //! - [`more`]: where `fine` did not look: a lane taking its start or dropped while it
 //!   waits, pause and resume requests against a `PauseOwner` monitor, joins, sequencers of
-//!   two words (the multi-word sets, indexes and `levels` candidates), the end of an
+//!   two words (the multi-word sets, indexes and `by_depth` candidates), the end of an
 //!   exception sequence reported once.
 //! - [`coarse`]: the scenarios of both that a coarse lock allows, in sequencers of one
 //!   word and of two, and `abort_all` inserted anywhere.

@@ -7,7 +7,7 @@
 //!    and the reverse; the run's clock checked by a timeout's exact expiry.
 //! 3. Joins against the end, abort and restart of the joined run, one and two joiners,
 //!    with counting wakers.
-//! 4. Sequencers of two words (the multi-word sets, indexes and `levels` candidates).
+//! 4. Sequencers of two words (the multi-word sets, indexes and `by_depth` candidates).
 //! 5. Exception sequences: the end of E reported to its owner exactly once.
 //!
 //! [`Interleaved`]: crate::lock::interleaved::Interleaved
