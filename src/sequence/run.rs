@@ -72,8 +72,8 @@ use crate::sequencer::clearance::Clearance;
 use crate::sequencer::port::Port;
 use crate::{Cx, Done, Error, Failure, Outcome};
 
-/// Where a run stands. Without payload: the outcome has a cell of its own.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+/// Where a run stands; once its outcome is decided, with the outcome.
+#[derive(Clone, Copy, Debug)]
 enum Stage {
     /// A lane between runs (or before its first): wait for a non-blocking start.
     Idle,
@@ -86,21 +86,22 @@ enum Stage {
     Action,
     /// The action completed: start polling the exit condition.
     ActionDone,
-    /// The run's outcome is decided and kept in `outcome` (its action returned `Err`; or
-    /// its pre- or exit condition decided while the run held, so its end was refused):
-    /// end the run with it once it may go on, without asking the condition again.
-    Ending,
+    /// The run's outcome is decided (its action returned `Err`; or its pre- or exit
+    /// condition decided while the run held, so its end was refused): end the run with it
+    /// once it may go on, without asking the condition again.
+    Ending(Outcome),
     /// Check the exit condition now.
     ExitCondition,
     /// Wait for the next due poll of the exit condition.
     AwaitPoll,
-    /// The run ended with `Run::outcome`: report it.
-    Ended,
-    /// A blocking run ended, or its start was refused: wait until the caller may advance
-    /// to hand the outcome over.
-    HandOver,
+    /// The run ended with this outcome: report it.
+    Ended(Outcome),
+    /// A blocking run ended, or its start was refused (`Failed(NotStarted)`, which its
+    /// caller gets as it would a failed child's): wait until the caller may advance to
+    /// hand the outcome over.
+    HandOver(Outcome),
     /// The result was handed over (or the start refused); a poll after that gets it again.
-    Done,
+    Done(Outcome),
 }
 
 /// The body-independent part of a run: the sequence's context, where its result goes, who
@@ -110,9 +111,6 @@ pub(crate) struct Run<'a, C> {
     pub(crate) cx: Cx<'a, C>,
     driver: Driver<'a, C>,
     stage: Cell<Stage>,
-    /// The outcome, once the run has ended; for a refused blocking start, the refusal
-    /// (`Failed(NotStarted)`), which its caller gets as it would a failed child's.
-    outcome: Cell<Outcome>,
 }
 
 /// What drives a run: the sequence's lane, or the future of a blocking start.
@@ -130,7 +128,6 @@ impl<'a, C> Run<'a, C> {
             cx,
             driver: Driver::Blocking { caller },
             stage: Cell::new(Stage::Begin),
-            outcome: Cell::new(Outcome::Completed),
         }
     }
 
@@ -140,7 +137,6 @@ impl<'a, C> Run<'a, C> {
             cx,
             driver: Driver::Lane,
             stage: Cell::new(Stage::Idle),
-            outcome: Cell::new(Outcome::Completed),
         }
     }
 
@@ -155,8 +151,7 @@ impl<'a, C> Run<'a, C> {
 
     /// The run ended with `outcome`.
     fn ended(&self, outcome: Outcome) {
-        self.outcome.set(outcome);
-        self.stage.set(Stage::Ended);
+        self.stage.set(Stage::Ended(outcome));
     }
 
     /// Follows a clearance other than `Go` or `Hold` (the seed's exceptions): an abort
@@ -205,8 +200,7 @@ impl<'a, C> Run<'a, C> {
         }
         match self.clearance(w) {
             Clearance::Go | Clearance::Hold => {
-                self.outcome.set(outcome);
-                self.stage.set(Stage::Ending);
+                self.stage.set(Stage::Ending(outcome));
                 false
             }
             other => {
@@ -239,8 +233,8 @@ impl<'a, C> Run<'a, C> {
                             // Handed over as an end is: never into an action that may
                             // not advance (a tick that stopped its run preempted it).
                             Err(e) => {
-                                self.outcome.set(Outcome::Failed(Failure::NotStarted(e)));
-                                self.stage.set(Stage::HandOver);
+                                let refused = Outcome::Failed(Failure::NotStarted(e));
+                                self.stage.set(Stage::HandOver(refused));
                             }
                         }
                     }
@@ -272,11 +266,11 @@ impl<'a, C> Run<'a, C> {
                         other => self.obey(other),
                     }
                 }
-                Stage::Ending => match self.clearance(w) {
+                Stage::Ending(outcome) => match self.clearance(w) {
                     // Kept again (the end refused though the clearance said `Go`, a
                     // change between the two): wait for the next wake-up, do not spin.
                     Clearance::Go => {
-                        if !self.try_end(self.outcome.get(), w) {
+                        if !self.try_end(outcome, w) {
                             return Poll::Pending;
                         }
                     }
@@ -297,28 +291,28 @@ impl<'a, C> Run<'a, C> {
                     Clearance::Hold => return Poll::Pending,
                     other => self.obey(other),
                 },
-                Stage::Ended => {
+                Stage::Ended(outcome) => {
                     port.finished(self.run());
                     self.stage.set(match self.driver {
-                        Driver::Blocking { .. } => Stage::HandOver,
+                        Driver::Blocking { .. } => Stage::HandOver(outcome),
                         Driver::Lane => Stage::Idle,
                     });
                 }
                 // Hands over only when the caller may advance: once the caller is aborted
                 // or restarting this stays pending and the caller drops it (sticky abort).
-                Stage::HandOver => {
+                Stage::HandOver(outcome) => {
                     if let Driver::Blocking { caller } = self.driver {
                         if port.clearance_of(caller.run_id()) == Clearance::Go {
-                            head.result.set(Some(self.outcome.get().done()));
-                            self.stage.set(Stage::Done);
+                            head.result.set(Some(outcome.done()));
+                            self.stage.set(Stage::Done(outcome));
                         }
                     }
                     return Poll::Pending;
                 }
                 // Polled again after it returned its result (a misuse of a future): the
                 // same result again, rather than waiting for good.
-                Stage::Done => {
-                    head.result.set(Some(self.outcome.get().done()));
+                Stage::Done(outcome) => {
+                    head.result.set(Some(outcome.done()));
                     return Poll::Pending;
                 }
             }
@@ -338,8 +332,7 @@ impl<'a, C> Run<'a, C> {
                     Poll::Pending => return Poll::Pending,
                     Poll::Ready(Ok(())) => self.stage.set(Stage::ActionDone),
                     Poll::Ready(Err(failure)) => {
-                        self.outcome.set(Outcome::Failed(failure));
-                        self.stage.set(Stage::Ending);
+                        self.stage.set(Stage::Ending(Outcome::Failed(failure)));
                     }
                 }
                 Poll::Ready(())
@@ -363,11 +356,10 @@ impl<'a, C> Run<'a, C> {
         match self.stage.get() {
             Stage::Begin => {
                 let refused = Failure::NotStarted(Error::OutsideAction(self.cx.id()));
-                self.outcome.set(Outcome::Failed(refused));
-                self.stage.set(Stage::Done);
+                self.stage.set(Stage::Done(Outcome::Failed(refused)));
                 Poll::Ready(Err(refused))
             }
-            Stage::Done => Poll::Ready(self.outcome.get().done()),
+            Stage::Done(outcome) => Poll::Ready(outcome.done()),
             _ => Poll::Pending,
         }
     }
@@ -386,7 +378,7 @@ impl<'a, C> Run<'a, C> {
         // aborted by the abandon (a start that checked the lane before the close is
         // refused at its commit, which the close makes schedule again).
         port.close_lane(self.cx.id(), head.maker);
-        if self.stage.get() == Stage::Idle {
+        if matches!(self.stage.get(), Stage::Idle) {
             port.abandon_start(self.cx.id(), head.maker, self.cx.control());
         }
     }
@@ -408,7 +400,7 @@ impl<'a, C> Run<'a, C> {
             }
         }
         loop {
-            let ready = if self.stage.get() == Stage::Action {
+            let ready = if matches!(self.stage.get(), Stage::Action) {
                 self.act(w, &mut body)
             } else {
                 self.drive(w, head, &mut body)
@@ -438,12 +430,12 @@ impl<C> Drop for Run<'_, C> {
             Stage::PreCondition
             | Stage::Action
             | Stage::ActionDone
-            | Stage::Ending
+            | Stage::Ending(_)
             | Stage::ExitCondition
             | Stage::AwaitPoll => port.abandon(self.cx.id(), self.cx.control()),
-            Stage::Ended => port.finished(self.run()),
+            Stage::Ended(_) => port.finished(self.run()),
             // Not started or over; a lane waiting for a start is `drop_lane`'s.
-            Stage::Idle | Stage::Begin | Stage::HandOver | Stage::Done => {}
+            Stage::Idle | Stage::Begin | Stage::HandOver(_) | Stage::Done(_) => {}
         }
     }
 }
