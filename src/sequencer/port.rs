@@ -101,6 +101,8 @@ pub(crate) trait Port<C> {
     /// `joiner` waits for the end of a run of `target`: its outcome once it ended. `run`:
     /// which run, by the target's run count; the first poll of a join sets it to the
     /// current run (or the last one, if it ended), so a join never waits for a later run.
+    /// Set in the same section as the first look: a run read in a section of its own
+    /// could end, and another begin, before the look.
     fn join(
         &self,
         joiner: SeqId,

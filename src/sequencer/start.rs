@@ -225,7 +225,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// the tick's last fold has not changed since (then its run is still under way and the class
     /// keeps its grid), and, if none, the members that changed since the fold, whose
     /// states must be looked at.
-    fn class_activity(&self, id: SeqId) -> (bool, SeqSet<B>) {
+    fn class_activity(&self, id: SeqId) -> ClassActivity<B> {
         let class = self.block(id).map_or(0, |b| b.class);
         let members = self.polling.classes.members(class);
         let mut changed = SeqSet::EMPTY;
@@ -237,31 +237,38 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             let monitored = self.sets.word(Set::Monitored, w).and(members.word(w));
             let since = self.sets.word(Set::Changed, w);
             if !monitored.minus(since).is_empty() {
-                return (true, SeqSet::EMPTY);
+                return ClassActivity::UnderWay;
             }
             changed.insert_all(members.word(w).and(since));
         }
-        (false, changed)
+        ClassActivity::Changed(changed)
     }
 
-    /// After the schedule, before the commit: the tick scans by the first poll of `id`'s
-    /// run starting now: its class's next poll if the class is `busy` (see
-    /// [`class_busy`]), else one period from now (the class starts its grid). Only if
-    /// nothing changed since the start opened when the count of changes was `seen`: else
-    /// `busy` may be stale (a member started meanwhile, on the grid a new one would move
-    /// back), and the commit, which compares the same count, fails and schedules again.
-    fn due_by(&mut self, id: SeqId, busy: bool, seen: u32) {
+    /// After the schedule, before the commit, for a start into a busy class (see
+    /// [`class_busy`]): the tick scans by the first poll of `id`'s run, the class's next
+    /// poll. Only if nothing changed since the start opened when the count of changes was
+    /// `seen`: else the class's activity may be stale (a member started meanwhile, on the
+    /// grid a new one would move back), and the commit, which compares the same count,
+    /// fails and schedules again.
+    fn join_grid(&mut self, id: SeqId, seen: u32) {
         if self.changes != seen {
             return;
         }
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
-        let classes = &mut self.polling.classes;
-        let next = if busy {
-            classes.next_poll(class, now)
-        } else {
-            classes.start_grid(class, now)
-        };
+        let next = self.polling.classes.next_poll(class, now);
+        self.polling.next_due = now.first_of(next, self.polling.next_due);
+    }
+
+    /// As [`join_grid`](Self::join_grid), for a start into an idle class: the class starts
+    /// its grid, the first poll one period from now.
+    fn start_grid(&mut self, id: SeqId, seen: u32) {
+        if self.changes != seen {
+            return;
+        }
+        let now = Stamp::of(self.now);
+        let class = self.block(id).map_or(0, |b| b.class);
+        let next = self.polling.classes.start_grid(class, now);
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 
@@ -406,11 +413,41 @@ fn class_busy<
     s: &mut S,
     id: SeqId,
 ) -> bool {
-    let (settled, changed) = s.section(|s| s.class_activity(id));
-    settled
-        || changed
+    match s.section(|s| s.class_activity(id)) {
+        ClassActivity::UnderWay => true,
+        ClassActivity::Changed(changed) => changed
             .into_iter()
-            .any(|m| s.section(|s| RunningStates::LIVE.has(s.state_of(m))))
+            .any(|m| s.section(|s| RunningStates::LIVE.has(s.state_of(m)))),
+    }
+}
+
+/// What a start finds of its polling class's members ([`State::class_activity`]).
+enum ClassActivity<const B: usize> {
+    /// One monitored at the tick's last fold has not changed since: its run is under way.
+    UnderWay,
+    /// None has: these changed since the fold, and their states tell.
+    Changed(SeqSet<B>),
+}
+
+/// Schedules the first poll of a run of `id` starting now (see [`class_busy`]), if nothing
+/// changed since `seen`.
+fn schedule_first_poll<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    id: SeqId,
+    seen: u32,
+) {
+    if class_busy(s, id) {
+        s.section(|s| s.join_grid(id, seen));
+    } else {
+        s.section(|s| s.start_grid(id, seen));
+    }
 }
 
 /// Schedules and commits a new run of `id` from a state that is not active; again if a
@@ -441,8 +478,7 @@ fn launch<
             return Err(Error::AlreadyRunning(id));
         }
         s.section(|s| s.prepare(id, at.armed));
-        let busy = class_busy(s, id);
-        s.section(|s| s.due_by(id, busy, seen));
+        schedule_first_poll(s, id, seen);
         // Before the link is set: a teardown in between visits one sequence too many
         // (it is not active yet), never one too few. Not over a start that won meanwhile.
         s.section(|s| {
@@ -490,8 +526,7 @@ fn relaunch<
             return;
         }
         s.section(|s| s.prepare(id, at.armed));
-        let busy = class_busy(s, id);
-        s.section(|s| s.due_by(id, busy, seen));
+        schedule_first_poll(s, id, seen);
         let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);
         let done = s.section(|s| s.commit_restart(&change, seen));
         if done {

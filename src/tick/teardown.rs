@@ -38,11 +38,32 @@ impl Teardown {
         }
     }
 
-    /// The state the target enters.
-    const fn target_to(self) -> RunningState {
+    /// How the target is stopped.
+    const fn target_stop(self) -> Stop {
         match self {
-            Teardown::Restart(_) => RunningState::Restarting,
-            Teardown::Abort(_) | Teardown::AbortAll => RunningState::Aborting,
+            Teardown::Restart(_) => Stop::Restart,
+            Teardown::Abort(_) | Teardown::AbortAll => Stop::Abort,
+        }
+    }
+}
+
+/// How a teardown stops one sequence.
+#[derive(Clone, Copy)]
+enum Stop {
+    /// Through `Aborting` (its cleanup hook) to `Aborted`: the run is over. Its pending
+    /// pause or resume and a start not taken yet go with it.
+    Abort,
+    /// To `Restarting` (its cleanup hook): its lane runs it again from its pre-condition,
+    /// the same run, which keeps the requests made of it and starts runs again.
+    Restart,
+}
+
+impl Stop {
+    /// The state the sequence enters.
+    const fn to(self) -> RunningState {
+        match self {
+            Stop::Abort => RunningState::Aborting,
+            Stop::Restart => RunningState::Restarting,
         }
     }
 }
@@ -117,7 +138,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // the target, which a disturbed pass leaves in place, still moves, so no teardown
         // is lost.
         if let Some(t) = teardown.target() {
-            self.stop(control, t.seq, cause, teardown.target_to());
+            self.stop(control, t.seq, cause, teardown.target_stop());
         }
     }
 
@@ -130,10 +151,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
         // sequences below it.
         let move_one = |id: SeqId| match teardown {
-            Teardown::Restart(t) if id == t.seq => {
-                self.stop(control, id, cause, RunningState::Restarting)
-            }
-            _ => self.stop(control, id, cause, RunningState::Aborting),
+            Teardown::Restart(t) if id == t.seq => self.stop(control, id, cause, Stop::Restart),
+            _ => self.stop(control, id, cause, Stop::Abort),
         };
         // The target is marked first (it starts nothing from now on), unless its run is
         // over and another one began; a sequence below it has a caller link: when no other
@@ -189,14 +208,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Pass::of(!raced && !begun_anywhere)
     }
 
-    /// Moves one sequence from a state `to` may be entered from to `to`: to `Aborting →
-    /// Aborted` or to `Restarting`, running its hook. True when it lost a race: the
-    /// sequence was in such a state, but another transition came between the look and the
-    /// move.
-    fn stop(&self, control: &C, id: SeqId, cause: Cause, to: RunningState) -> bool {
+    /// Stops one sequence as `how` says, from a state its target state may be entered
+    /// from, running its hook. True when it lost a race: the sequence was in such a state,
+    /// but another transition came between the look and the move.
+    fn stop(&self, control: &C, id: SeqId, cause: Cause, how: Stop) -> bool {
         // With a coarse lock, the steps before the hook in one section and those after it
         // in another: the tick runs at the ceiling, so a longer section delays no one.
-        let hook = match in_sections!(self, |s| leave_for_teardown(s, id, cause, to)) {
+        let hook = match in_sections!(self, |s| leave_for_teardown(s, id, cause, how)) {
             Move::Left(hook) => hook,
             Move::Stays => return false,
             Move::Raced => return true,
@@ -206,10 +224,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
         in_sections_then_wake!(self, |s| {
             let mut lanes = LaneSet::EMPTY;
-            if to == RunningState::Aborting {
+            if let Stop::Abort = how {
                 // A blocking sequence's run is dropped by its aborted caller and
                 // never reports back, so the outcome is recorded here.
-                let change = StateChange::new(id, to, RunningState::Aborted, cause);
+                let change = StateChange::new(id, how.to(), RunningState::Aborted, cause);
                 let aborted = s.section(|s| {
                     let b = s.transition(&change)?;
                     b.outcome = Some(crate::Outcome::Aborted(cause));
@@ -250,8 +268,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 }
 
-/// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state `to` may be
-/// entered from for `to` (`Aborting` or `Restarting`). Returns the hook to run.
+/// The steps of [`Sequencer::stop`] before the hook: `id` leaves a state that `how`'s
+/// target state may be entered from for it. Returns the hook to run.
 fn leave_for_teardown<
     C,
     S: Sections<C, N, T, W, B>,
@@ -263,8 +281,9 @@ fn leave_for_teardown<
     s: &mut S,
     id: SeqId,
     cause: Cause,
-    to: RunningState,
+    how: Stop,
 ) -> Move<Option<fn(&C)>> {
+    let to = how.to();
     // Before a teardown, what it leaves behind: the cause a later clearance reports; after an
     // abort no pending pause or resume and no start left for its lane to take (the run is
     // over before it began: nothing of it must look under way; a restart goes on with the
@@ -281,7 +300,7 @@ fn leave_for_teardown<
             return Err(Move::Raced);
         }
         b.last_cause = cause;
-        if to == RunningState::Aborting {
+        if let Stop::Abort = how {
             b.drop_pause_and_resume();
             b.set(flag::START_PENDING, false);
         }
@@ -300,7 +319,7 @@ fn leave_for_teardown<
         // aborted one starts nothing, marked or not, and a new run clears the mark.)
         moved
             .map(|b| {
-                if to == RunningState::Restarting {
+                if let Stop::Restart = how {
                     b.set(flag::STOPPING, false);
                 }
             })
