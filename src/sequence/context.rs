@@ -84,13 +84,19 @@ pub struct Cx<'a, C> {
     control: &'a C,
     id: SeqId,
     /// The run of this sequence the context acts for (its count): set when the run
-    /// starts, fixed while its action runs.
+    /// starts ([`enter`](Self::enter)), fixed while its action runs. Before the first run
+    /// it is [`BEFORE_THE_FIRST_RUN`], which nothing reads: a run, its action and its
+    /// conditions exist only once it started.
     run: Cell<u16>,
     /// Where its action stands: the count of its polled waits
     /// ([`wait_until`](Self::wait_until)) under way ([`WAIT_COUNT`]), [`ACTING`] and
     /// [`DUE_TAKEN`]; set anew for each round of a run ([`new_round`](Self::new_round)).
     action: Cell<u8>,
 }
+
+/// [`Cx::run`] before the first run: a context is made with its lane or its blocking run,
+/// before the run it acts for is started (and counted).
+const BEFORE_THE_FIRST_RUN: u16 = 0;
 
 /// Bits of [`Cx::action`]: the count of polled waits under way. A count that reached its
 /// top stays there until the round ends: the run then waits for polls until its end (a
@@ -109,7 +115,7 @@ impl<'a, C> Cx<'a, C> {
             port,
             control,
             id,
-            run: Cell::new(0),
+            run: Cell::new(BEFORE_THE_FIRST_RUN),
             action: Cell::new(0),
         }
     }
@@ -482,7 +488,7 @@ impl<'a, C> Cx<'a, C> {
         if !self.acting() {
             return Err(Error::OutsideAction(id));
         }
-        self.port.start_in_lane(id, Some(self.run_id())).map(|_| ())
+        self.port.start_child(id, self.run_id()).map(|_| ())
     }
 
     /// Starts sequence `id` **non-blocking** in its lane, as [`start`](Self::start) does,
@@ -547,7 +553,7 @@ impl<'a, C> Cx<'a, C> {
         if !self.acting() {
             return Err(Error::OutsideAction(id));
         }
-        let run = self.port.start_in_lane(id, Some(self.run_id()))?;
+        let run = self.port.start_child(id, self.run_id())?;
         Ok(Scoped::new(self.port, self.run_id(), run))
     }
 

@@ -76,21 +76,22 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             .then_some(c)
     }
 
-    /// One step of the held check of a due wake-up ([`held`]): `None` when `at` holds its
+    /// One step of the held check of a due wake-up ([`held`]): whether `at` holds its
     /// callees (not running, or handling an exception), else its caller in `lane` to check
-    /// next ([`Link::NONE`] at the top of the lane). A run the tick is to abort (its abort
-    /// requested, an abort-all waiting) holds too, but is not checked here: it is never
-    /// let go, so its due poll needs no skipping, and its wake-up finds it holding.
-    pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> Option<Link> {
-        let b = self.block(at)?;
+    /// next, if any. A run the tick is to abort (its abort requested, an abort-all
+    /// waiting) holds too, but is not checked here: it is never let go, so its due poll
+    /// needs no skipping, and its wake-up finds it holding.
+    pub(crate) fn held_step(&self, at: SeqId, lane: u8) -> HeldStep {
+        let Some(b) = self.block(at) else {
+            return HeldStep::Holds;
+        };
         if b.state != RunningState::Running || self.sets.has(Set::Excepting, at) {
-            return None;
+            return HeldStep::Holds;
         }
-        let up = b.caller;
-        Some(match up.get() {
-            Some(c) if self.lane_slot(c) == lane => up,
-            _ => Link::NONE,
-        })
+        match b.caller.get() {
+            Some(c) if self.lane_slot(c) == lane => HeldStep::Up(c),
+            _ => HeldStep::Top,
+        }
     }
 }
 
@@ -301,17 +302,27 @@ pub(crate) fn caller_handles_exception<
     finds_above(s, id, |s, at| s.caller_in_lane(at))
 }
 
+/// What one step of a held check finds ([`State::held_step`]).
+pub(crate) enum HeldStep {
+    /// The sequence holds its callees: not running, or handling an exception.
+    Holds,
+    /// It goes on; its caller in the lane is checked next.
+    Up(SeqId),
+    /// It goes on, and has no caller in the lane: nothing above holds it.
+    Top,
+}
+
 /// Whether sequence `id` is held, or frozen by a caller it blocks (paused, or holding for
 /// an exception): it is woken when it may go on. `step` is one step up its blocking
 /// callers ([`State::held_step`]).
-pub(crate) fn held(id: SeqId, mut step: impl FnMut(SeqId) -> Option<Link>) -> bool {
-    let mut at = Link::to(Some(id));
+pub(crate) fn held(id: SeqId, mut step: impl FnMut(SeqId) -> HeldStep) -> bool {
+    let mut at = id;
     // The sequence and at most `MAX_DEPTH` callers.
     for _ in 0..=MAX_DEPTH {
-        let Some(c) = at.get() else { return false };
-        match step(c) {
-            Some(up) => at = up,
-            None => return true,
+        match step(at) {
+            HeldStep::Holds => return true,
+            HeldStep::Up(c) => at = c,
+            HeldStep::Top => return false,
         }
     }
     false

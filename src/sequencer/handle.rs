@@ -463,7 +463,7 @@ impl<'a, C> Handle<'a, C> {
     /// ```
     pub fn start(&self) -> Result<(), Error> {
         match self.user {
-            User::Application => self.port.start_in_lane(self.id, None),
+            User::Application => self.port.start_main(self.id),
             User::Run(by) => self.port.start_main_by(self.id, by),
         }
         .map(|_| ())

@@ -46,9 +46,12 @@ pub(crate) trait Port<C> {
     /// Starts `id`, whose sequence object was made by the sequencer tagged `maker`,
     /// blocking: it runs in the lane of `caller`, inside its future. Returns the new run.
     fn start_blocking(&self, id: SeqId, maker: u16, caller: RunId) -> Result<RunId, Error>;
-    /// Starts `id` in its own lane, by the run `caller` (`None`: as a main sequence).
-    /// Returns the new run.
-    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<RunId, Error>;
+    /// Starts `id` in its own lane as a main sequence (the application's start, through a
+    /// handle of its own). Returns the new run.
+    fn start_main(&self, id: SeqId) -> Result<RunId, Error>;
+    /// Starts `id` in its own lane as a non-blocking child of the run `caller`. Returns
+    /// the new run.
+    fn start_child(&self, id: SeqId, caller: RunId) -> Result<RunId, Error>;
     /// Starts `id` in its own lane as a main sequence, for the run `by` (through a handle
     /// of its context): refused as `by`'s own starts are. Returns the new run.
     fn start_main_by(&self, id: SeqId, by: RunId) -> Result<RunId, Error>;
@@ -147,7 +150,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.begin(id, Mode::Blocking { caller, maker }, Cause::Start)
     }
 
-    fn start_in_lane(&self, id: SeqId, caller: Option<RunId>) -> Result<RunId, Error> {
+    fn start_main(&self, id: SeqId) -> Result<RunId, Error> {
+        self.begin(id, Mode::Lane { caller: None }, Cause::Start)
+    }
+
+    fn start_child(&self, id: SeqId, caller: RunId) -> Result<RunId, Error> {
+        let caller = Some(caller);
         self.begin(id, Mode::Lane { caller }, Cause::Start)
     }
 

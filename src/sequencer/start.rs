@@ -107,8 +107,6 @@ struct NewRun {
 struct Scheduled {
     /// The state the run starts from.
     from: RunningState,
-    /// The run was scheduled (else the sequence may not start, or restart, now).
-    scheduled: bool,
     /// Its timeout monitor is on.
     armed: bool,
 }
@@ -161,48 +159,40 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
     /// lane, no pause in force, no last exception yet (the outcome stays the last finished
     /// run's, which a join of that run may still collect). Only for a sequence that may
-    /// start ([`ControlBlock::may_start`]; else it only says so): the tick neither scans it
-    /// nor walks through these fields, and the caller link, flags and state, which it does
-    /// read, change in the commit. `None` for an id not registered. The checks of the start
-    /// came sections before: meanwhile the tick may have started the sequence as an
-    /// exception sequence, and its lane ended it.
-    fn schedule_new(&mut self, id: SeqId, lane: u8) -> Option<Scheduled> {
+    /// start ([`ControlBlock::may_start`]; else [`Error::AlreadyRunning`]): the tick
+    /// neither scans it nor walks through these fields, and the caller link, flags and
+    /// state, which it does read, change in the commit. The checks of the start came
+    /// sections before: meanwhile the tick may have started the sequence as an exception
+    /// sequence, and its lane ended it.
+    fn schedule_new(&mut self, id: SeqId, lane: u8) -> Result<Scheduled, Error> {
         let now = Stamp::of(self.now);
-        let b = self.block_mut(id)?;
-        let from = b.state;
-        let scheduled = b.may_start();
-        let armed = b.timeout != 0;
-        if scheduled {
-            b.start_clock(now);
-            b.lane = lane;
-            b.active_exception = None;
-            b.lift_pauses();
-            // Its lane may be another one now.
-            self.polling.forget_woken();
+        let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
+        if !b.may_start() {
+            return Err(Error::AlreadyRunning(id));
         }
-        Some(Scheduled {
-            from,
-            scheduled,
-            armed,
-        })
+        let from = b.state;
+        let armed = b.timeout != 0;
+        b.start_clock(now);
+        b.lane = lane;
+        b.active_exception = None;
+        b.lift_pauses();
+        // Its lane may be another one now.
+        self.polling.forget_woken();
+        Ok(Scheduled { from, armed })
     }
 
     /// Schedules a restart of `run` from now: its clock (and timeout) starts again, with no
-    /// pause in force. Only for a `Restarting` sequence (else it only says so); `None` when
-    /// `run` is not its sequence's current run.
+    /// pause in force. `None` unless `run` is its sequence's current run and `Restarting`
+    /// (a later run restarts in its own time).
     fn schedule_restart(&mut self, run: RunId) -> Option<Scheduled> {
         let now = Stamp::of(self.now);
-        // Only the current run: a later one restarts in its own time.
-        let b = self.block_mut(run.seq).filter(|b| b.runs == run.count)?;
-        let from = b.state;
-        let scheduled = from == RunningState::Restarting;
-        if scheduled {
-            b.start_clock(now);
-            b.lift_pauses();
-        }
+        let b = self
+            .block_mut(run.seq)
+            .filter(|b| b.runs == run.count && b.state == RunningState::Restarting)?;
+        b.start_clock(now);
+        b.lift_pauses();
         Some(Scheduled {
-            from,
-            scheduled,
+            from: RunningState::Restarting,
             armed: b.timeout != 0,
         })
     }
@@ -471,12 +461,7 @@ fn launch<
     loop {
         let posted = abort_all_posted(inbox);
         let seen = s.section(|s| s.open_start(&run, posted))?;
-        let at = s
-            .section(|s| s.schedule_new(id, run.lane))
-            .ok_or(Error::UnknownSequence(id))?;
-        if !at.scheduled {
-            return Err(Error::AlreadyRunning(id));
-        }
+        let at = s.section(|s| s.schedule_new(id, run.lane))?;
         s.section(|s| s.prepare(id, at.armed));
         schedule_first_poll(s, id, seen);
         // Before the link is set: a teardown in between visits one sequence too many
@@ -522,9 +507,6 @@ fn relaunch<
         let Some(at) = s.section(|s| s.schedule_restart(run)) else {
             return;
         };
-        if !at.scheduled {
-            return;
-        }
         s.section(|s| s.prepare(id, at.armed));
         schedule_first_poll(s, id, seen);
         let change = StateChange::new(id, at.from, RunningState::Running, Cause::Restart);

@@ -377,7 +377,7 @@ mod tests {
         }
         seq.sequence_by_id(r).unwrap().start().unwrap();
         let run = |id: SeqId| seq.with(|s| s.current_run(id));
-        Port::start_in_lane(seq, y, Some(run(r))).unwrap();
+        Port::start_child(seq, y, run(r)).unwrap();
         seq.begin(
             x,
             Mode::Blocking {
@@ -402,7 +402,7 @@ mod tests {
         BETWEEN.with(|b| {
             *b.borrow_mut() = Some(Box::new(move || {
                 // Y's lane: Y is still running, its child X was aborted; it starts G.
-                *result.borrow_mut() = Some(Port::start_in_lane(seq, g, Some(run(y))).map(drop));
+                *result.borrow_mut() = Some(Port::start_child(seq, g, run(y)).map(drop));
             }))
         });
         Port::abandon(seq, r, &());

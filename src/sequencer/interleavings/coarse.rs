@@ -26,9 +26,9 @@ fn the_coarse_lock_takes_a_start_in_two_sections_and_a_wake_up() {
     let w = Cw::<8, 1>::new(Layout::One);
     let [o, c] = ["O", "C"].map(|n| w.seq(n));
     w.start_taken(o);
-    let by = Some(w.run(o));
+    let by = w.run(o);
     interleaved::at(usize::MAX, || {});
-    Port::start_in_lane(w.seq, c, by).unwrap();
+    Port::start_child(w.seq, c, by).unwrap();
     // admit, launch, the lane's wake-up.
     assert_eq!(interleaved::taken(), 3);
     let run = w.run(c);
@@ -87,16 +87,12 @@ fn a_blocking_start_by_a_sequence_the_tick_pauses_is_paused_with_it() {
 fn a_handle_start_during_an_unrelated_abort_runs() {
     let setup = || owner_and_child::<InterleavedCoarse, 8, 1>(Layout::One, Fire::Abort);
     let count = sections(setup, |(w, _, c, _, _)| {
-        Port::start_in_lane(w.seq, *c, None).unwrap();
+        Port::start_main(w.seq, *c).unwrap();
     });
     every_k(count, |k| {
         let (w, o, c, _, _) = setup();
         interleaved::at(k, move || w.tick(1));
-        assert_eq!(
-            Port::start_in_lane(w.seq, c, None).map(drop),
-            Ok(()),
-            "k={k}"
-        );
+        assert_eq!(Port::start_main(w.seq, c).map(drop), Ok(()), "k={k}");
         assert_eq!((w.ended(o), w.state(c)), ((Aborted, M0), Running), "k={k}");
         w.check(&format!("k={k}"));
     });
@@ -935,17 +931,13 @@ fn tick_into_a_start_in_a_polled_class<const N: usize, const B: usize>(layout: L
         (w, r, g)
     };
     let count = sections(setup, |(w, _, g)| {
-        Port::start_in_lane(w.seq, *g, None).unwrap();
+        Port::start_main(w.seq, *g).unwrap();
     });
     every_k(count + 1, |k| {
         let (w, r, g) = setup();
         let what = format!("{layout:?}, k={k}");
         interleaved::at(k, move || w.tick(1));
-        assert_eq!(
-            Port::start_in_lane(w.seq, g, None).map(drop),
-            Ok(()),
-            "{what}"
-        );
+        assert_eq!(Port::start_main(w.seq, g).map(drop), Ok(()), "{what}");
         or_after(k, || w.tick(1));
         assert_eq!(
             w.ended(r),

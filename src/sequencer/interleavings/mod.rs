@@ -691,7 +691,7 @@ enum Fire {
 /// How the child C is started by O.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum How {
-    /// `Port::start_in_lane(C, O's run)`: non-blocking, in C's own lane.
+    /// `Port::start_child(C, O's run)`: non-blocking, in C's own lane.
     InLane,
     /// `Sequencer::begin(C, O's run, Mode::Blocking)`: in O's lane (`Cx::run`).
     Blocking,
@@ -737,7 +737,7 @@ fn start_child<L: Lock + 'static, const N: usize, const B: usize>(
     how: How,
 ) -> Result<(), Error> {
     match how {
-        How::InLane => Port::start_in_lane(w.seq, c, Some(by)).map(drop),
+        How::InLane => Port::start_child(w.seq, c, by).map(drop),
         How::Blocking => w
             .seq
             .begin(
@@ -903,7 +903,7 @@ fn chain<L: Lock + 'static, const N: usize, const B: usize>(
     y: SeqId,
     x: SeqId,
 ) {
-    Port::start_in_lane(w.seq, y, Some(w.run(r))).unwrap();
+    Port::start_child(w.seq, y, w.run(r)).unwrap();
     w.take(y);
     w.seq
         .begin(
@@ -966,8 +966,8 @@ fn lane_start_into_teardown<L: Lock + 'static, const N: usize, const B: usize>(
         let result = Rc::new(RefCell::new(None));
         let out = result.clone();
         interleaved::at(k, move || {
-            let by = Some(w.run(starter));
-            *out.borrow_mut() = Some(Port::start_in_lane(w.seq, g, by).map(drop));
+            let by = w.run(starter);
+            *out.borrow_mut() = Some(Port::start_child(w.seq, g, by).map(drop));
         });
         w.tick(1);
         let what = format!("{layout:?}, {how:?}, deep {deep}, k={k}");
