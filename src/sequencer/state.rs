@@ -58,7 +58,7 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// The address of the monitor table this sequencer is ticked with (0: none yet): the
     /// first non-empty table a due tick came with. Due ticks with a table elsewhere are
     /// refused.
-    pub(crate) table: usize,
+    pub(crate) monitor_table: usize,
 }
 
 /// When the tick must look again, and whom it woke last time.
@@ -72,7 +72,7 @@ pub(crate) struct Polling<const B: usize> {
     pub(crate) woken: WakeMemo<B>,
     /// Counts the times `woken` was forgotten: with the portable lock the tick finds the
     /// lanes in sections of their own, and remembers them only if none changed meanwhile.
-    pub(crate) forgotten: u8,
+    pub(crate) forgets: u8,
 }
 
 impl<const B: usize> Polling<B> {
@@ -80,7 +80,7 @@ impl<const B: usize> Polling<B> {
     /// wake-ups no longer hold.
     pub(crate) fn forget_woken(&mut self) {
         self.woken = WakeMemo::NONE;
-        self.forgotten = self.forgotten.wrapping_add(1);
+        self.forgets = self.forgets.wrapping_add(1);
     }
 
     /// The lanes remembered for the due polls `polls`, if they are the last ones.
@@ -120,7 +120,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
                 classes: Classes::new(),
                 next_due: Stamp(0),
                 woken: WakeMemo::NONE,
-                forgotten: 0,
+                forgets: 0,
             },
             exceptions_not_run: 0,
             count: 0,
@@ -132,7 +132,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             #[cfg(feature = "counters")]
             counters: [crate::Counters::ZERO; N],
             trace: Ring::new(),
-            table: 0,
+            monitor_table: 0,
         }
     }
 
@@ -327,6 +327,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         allowed: impl FnOnce(&ControlBlock) -> bool,
     ) -> Option<&mut ControlBlock> {
         let id = change.sequence;
+        // The field itself, not `block_mut`: the block stays borrowed while the sets and
+        // the trace, the state's other fields, are written.
         let b = self.blocks.get_mut(id.index())?;
         if b.state != change.from || !allowed(b) {
             return None;
@@ -437,7 +439,7 @@ mod tests {
             classes: Classes::new(),
             next_due: Stamp(0),
             woken: WakeMemo::NONE,
-            forgotten: 0,
+            forgets: 0,
         };
         let polls = SetWord::<1>::new(0, 0b101);
         // Nothing remembered: not even for no polls of word 0.
@@ -449,6 +451,6 @@ mod tests {
         // A changed lane or waker forgets them and counts it (the portable tick compares
         // the count before and after its walk).
         p.forget_woken();
-        assert_eq!((p.remembered(polls), p.forgotten), (None, 1));
+        assert_eq!((p.remembered(polls), p.forgets), (None, 1));
     }
 }

@@ -21,14 +21,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         table: &mut Monitors<'_, C, M, K>,
     ) -> bool {
         let here = core::ptr::from_ref(table).addr();
-        if self.table == here && table.ticked_by == me {
+        if self.monitor_table == here && table.ticked_by == me {
             return true;
         }
         if self.is_foreign(me, table) {
             return false;
         }
         if !table.is_empty() {
-            self.table = here;
+            self.monitor_table = here;
             table.ticked_by = me;
         }
         true
@@ -39,7 +39,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     #[inline(always)]
     fn is_foreign<const M: usize, K>(&self, me: usize, table: &Monitors<'_, C, M, K>) -> bool {
         let here = core::ptr::from_ref(table).addr();
-        let ours = self.table == 0 || self.table == here;
+        let ours = self.monitor_table == 0 || self.monitor_table == here;
         !ours || (table.ticked_by != 0 && table.ticked_by != me)
     }
 }
@@ -65,8 +65,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     pub(crate) fn release_table<const M: usize, K>(&self, table: &Monitors<'_, C, M, K>) {
         let here = core::ptr::from_ref(table).addr();
         self.with(|s| {
-            if s.table == here {
-                s.table = 0;
+            if s.monitor_table == here {
+                s.monitor_table = 0;
             }
         });
     }

@@ -92,15 +92,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// last tick with the same polls, or found by a walk and remembered, unless a lane or
     /// waker changed meanwhile.
     fn lanes_to_wake(&self, wake: SetWord<B>, raised: bool) -> LaneSet {
-        let (held, remembered, forgotten, changed) = self.with(|s| {
+        let (held, remembered, forgets, changed) = self.with(|s| {
             let held = raised || s.any_held();
             let changed = s.sets.word(Set::Changed, wake.index());
-            (
-                held,
-                s.polling.remembered(wake),
-                s.polling.forgotten,
-                changed,
-            )
+            (held, s.polling.remembered(wake), s.polling.forgets, changed)
         });
         if held {
             // Those whose state changed in this tick are left out first (see
@@ -119,7 +114,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
         let lanes = self.lanes_of_polls_in_sections(wake, |_| false);
         self.with(|s| {
-            if s.polling.forgotten == forgotten {
+            if s.polling.forgets == forgets {
                 s.polling.woken = WakeMemo { polls: wake, lanes };
             }
         });

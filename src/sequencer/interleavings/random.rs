@@ -300,7 +300,7 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
             .collect();
         // Once the world's table is the sequencer's (its first due tick binds it; a second
         // table that came first would be the sequencer's instead).
-        let bound = self.w.seq.with(|s| s.table != 0);
+        let bound = self.w.seq.with(|s| s.monitor_table != 0);
         if SECOND_TICK > current && bound && self.chance(5) {
             // A second task that ticks the sequencer (misuse): refused while the tick is
             // under way, which it preempts; else a tick at the time of the last one.
