@@ -642,8 +642,8 @@ pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) target_runs_seen: u16,
     /// How often this monitor fired.
     pub(crate) fired: u16,
-    /// A `PauseOwner` monitor whose condition cleared in the evaluation under way: its
-    /// owner is released once that evaluation's holds are done (`release_pending`).
+    /// A `PauseOwner` monitor whose condition cleared in the tick under way: its owner is
+    /// released once the tick's holds, in every word, are made (`release_pending`).
     pub(crate) releasing: bool,
 }
 

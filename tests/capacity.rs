@@ -519,3 +519,148 @@ fn a_monitor_group_across_words_is_evaluated_for_the_owners_of_each_word() {
     assert_eq!(sim.state(a), Running);
     assert_eq!(sim.state(b), Aborted);
 }
+
+/// A caller (`cycle`) running a blocking child (`feed`, exit condition flag 1 at 20 ms),
+/// each with a `PauseOwner` monitor: the cycle's on flag 2 (its light curtain, monitor 0),
+/// the feed's on flag 3 (its feed hold, monitor 1), each true over the given milliseconds.
+/// `at`: the ids of the cycle and the feed. Returns the trace.
+fn curtain_and_feed_hold<const N: usize, const B: usize>(
+    seq: &Sequencer<Ctrl, N, 64, CriticalSection, 8, B>,
+    at: [SeqId; 2],
+    curtain: std::ops::Range<u64>,
+    feed_hold: std::ops::Range<u64>,
+) -> Vec<Transition> {
+    let ctrl = Ctrl::default();
+    let mut sorted = at;
+    sorted.sort();
+    for id in sorted {
+        while seq.len() < id.index() {
+            let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
+            seq.register(SeqConfig::new(name)).unwrap();
+        }
+        let name = if id == at[0] { "cycle" } else { "feed" };
+        assert_eq!(seq.register(SeqConfig::new(name)), Ok(id));
+    }
+    let feed = seq.bind(at[1], Node::of(vec![]).until(1)).unwrap();
+    let cycle = seq.bind(at[0], Node::of(vec![Op::Run(feed)])).unwrap();
+    let (mut on_curtain, mut on_hold) = (|c: &Ctrl, _| c.flag(2), |c: &Ctrl, _| c.flag(3));
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    monitors
+        .add(
+            at[0],
+            Monitor::new("curtain", &mut on_curtain, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    monitors
+        .add(
+            at[1],
+            Monitor::new("feed hold", &mut on_hold, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(seq, &ctrl, monitors);
+    sim.lane(cycle);
+    sim.before_tick(move |t, c| {
+        c.set(1, ms(t) >= 20);
+        c.set(2, curtain.contains(&ms(t)));
+        c.set(3, feed_hold.contains(&ms(t)));
+    });
+    sim.start(at[0]).unwrap();
+    sim.run_for(Duration::from_millis(30));
+    sim.trace().to_vec()
+}
+
+/// A `PauseOwner` release and another monitor's hold in the same tick, of a caller and its
+/// blocking child in different words: the release comes once every word's holds are
+/// made, as in a sequencer of one word, so the child stays paused (no resume and pause
+/// again in the same tick). First the cycle's curtain clears at 5 ms when the feed's own
+/// hold begins; then the curtain breaks at 5 ms when the feed's hold ends.
+#[test]
+fn a_release_comes_after_the_holds_of_every_word() {
+    let (k0, k1) = (MonitorId::from_index(0), MonitorId::from_index(1));
+    let one_word = |at: [usize; 2], curtain, hold| {
+        let small: Sequencer<Ctrl, 8> = Sequencer::new();
+        let at = at.map(SeqId::from_index);
+        (curtain_and_feed_hold(&small, at, curtain, hold), at)
+    };
+    let (trace, [c, f]) = one_word([0, 1], 2..5, 5..9);
+    assert_eq!(
+        trace,
+        vec![
+            tr(0, c, Idle, Running, Start),
+            tr(0, f, Idle, Running, Start),
+            tr(2, c, Running, Paused, Mon(k0)),
+            tr(2, f, Running, Paused, Mon(k0)),
+            tr(5, c, Paused, Running, Mon(k0)),
+            tr(9, f, Paused, Running, Mon(k1)),
+            tr(20, f, Running, Terminated, Completed),
+            tr(20, c, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(&trace)
+    );
+    let (trace, [c, f]) = one_word([1, 0], 5..9, 2..5);
+    assert_eq!(
+        trace,
+        vec![
+            tr(0, c, Idle, Running, Start),
+            tr(0, f, Idle, Running, Start),
+            tr(2, f, Running, Paused, Mon(k1)),
+            tr(5, c, Running, Paused, Mon(k0)),
+            tr(9, c, Paused, Running, Mon(k0)),
+            tr(9, f, Paused, Running, Mon(k0)),
+            tr(20, f, Running, Terminated, Completed),
+            tr(20, c, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(&trace)
+    );
+    // The same in two words, either way round, and in eight.
+    for (at, curtain, hold) in [([0, 32], 2..5, 5..9), ([33, 0], 5..9, 2..5)] {
+        let small = one_word(
+            if at[0] < at[1] { [0, 1] } else { [1, 0] },
+            curtain.clone(),
+            hold.clone(),
+        )
+        .0;
+        let renamed = |id: SeqId| {
+            SeqId::from_index(if id.index() == 0 {
+                at[0].min(at[1])
+            } else {
+                at[0].max(at[1])
+            })
+        };
+        let expected: Vec<Transition> = small
+            .iter()
+            .map(|t| Transition {
+                sequence: renamed(t.sequence),
+                ..*t
+            })
+            .collect();
+        let two: Sequencer<Ctrl, 64, 64, CriticalSection, 8, 2> = Sequencer::new();
+        let got = curtain_and_feed_hold(
+            &two,
+            at.map(SeqId::from_index),
+            curtain.clone(),
+            hold.clone(),
+        );
+        assert_eq!(show(&got), show(&expected), "two words, at {at:?}");
+        let eight: Sequencer<Ctrl, 256, 64, CriticalSection, 8, 8> = Sequencer::new();
+        let far = [at[0] * 7, at[1] * 7];
+        let renamed = |id: SeqId| {
+            SeqId::from_index(if id.index() == 0 {
+                far[0].min(far[1])
+            } else {
+                far[0].max(far[1])
+            })
+        };
+        let expected: Vec<Transition> = small
+            .iter()
+            .map(|t| Transition {
+                sequence: renamed(t.sequence),
+                ..*t
+            })
+            .collect();
+        let got = curtain_and_feed_hold(&eight, far.map(SeqId::from_index), curtain, hold);
+        assert_eq!(show(&got), show(&expected), "eight words, at {far:?}");
+    }
+}

@@ -76,7 +76,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// sequencer of more than 32 sequences (sets of `B > 1` words) the tick visits only the
     /// words of 32 ids that hold a running or paused sequence, lowest first, and in each does what
     /// the tick of a sequencer of 32 does: monitors in table order, then timeouts, then
-    /// wake-ups.
+    /// wake-ups. With any number of words, the releases of `PauseOwner` monitors whose
+    /// condition cleared come last, once every word's holds are made.
     ///
     /// ```
     /// use rtseq::{Instant, Monitors, Sequencer};
@@ -182,14 +183,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             words = self.fold_changed().0;
         }
         let mut scan = Scan::new();
+        let mut found = Found::default();
         if B == 1 {
-            self.tick_word(0, now, &mut scan, false, monitors, control);
+            self.tick_word(0, now, &mut scan, &mut found, monitors, control);
+            if found.releasing {
+                self.release_pending(monitors.entries.as_mut_slice());
+            }
             return Ok(());
         }
-        let mut raised = false;
         // With no monitored sequence the first section's horizon stands.
         for w in words {
-            raised = self.tick_word(w, now, &mut scan, raised, monitors, control);
+            self.tick_word(w, now, &mut scan, &mut found, monitors, control);
+        }
+        // Once every word's holds are made: a hold in a later word of the owner, or of a
+        // sequence its release would resume, keeps it paused rather than paused again.
+        if found.releasing {
+            self.release_pending(monitors.entries.as_mut_slice());
         }
         Ok(())
     }
@@ -211,24 +220,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the
     /// monitors of the due sequences, their expired timeouts and the wake-ups of their due
-    /// exit-condition polls. `raised`: a monitor fired or a timeout expired in this tick
-    /// (in this word or an earlier one), so a wake-up checks that its sequence is not held,
-    /// as it does while a monitored sequence is paused or handles an exception. Returns it
-    /// for the next word.
+    /// exit-condition polls. `found`: what the words before found, and now this one too.
     #[inline(always)]
     fn tick_word<const M: usize, K: crate::Condition<C>>(
         &self,
         w: usize,
         now: Instant,
         scan: &mut Scan,
-        mut raised: bool,
+        found: &mut Found,
         monitors: &mut Monitors<'_, C, M, K>,
         control: &C,
-    ) -> bool {
+    ) {
         let (polls, expired) = self.scan(w, Stamp::of(now), scan);
-        if self.evaluate_monitors(&polls, monitors, control, now) {
-            raised = true;
-        }
+        let evaluation = self.evaluate_monitors(&polls, monitors, control, now);
+        found.releasing |= evaluation.releasing;
+        let mut raised = found.raised || evaluation.fired;
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
         for id in expired {
@@ -239,7 +245,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             raised = true;
         }
         self.wake_due_polls(polls.wake(), raised);
-        raised
+        found.raised = raised;
     }
 
     /// Folds the state of the sequences that changed into the sets `Monitored`, `Paused` (and,
@@ -274,6 +280,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
         }
     }
+}
+
+/// What the words a tick visited so far found.
+#[derive(Default)]
+struct Found {
+    /// A monitor fired or a timeout expired: a wake-up checks that its sequence is not
+    /// held, as it does while a monitored sequence is paused or handles an exception.
+    raised: bool,
+    /// A `PauseOwner` monitor's condition cleared: its owner is released once every
+    /// word's monitors are evaluated.
+    releasing: bool,
 }
 
 /// What a tick's first section finds.

@@ -42,27 +42,39 @@ fn evaluate_due<C, K: crate::Condition<C>, const B: usize>(
     (values | (*last & !evaluated), evaluated)
 }
 
+/// What the evaluation of one word's monitors found.
+pub(super) struct Evaluation {
+    /// A monitor fired.
+    pub(super) fired: bool,
+    /// A `PauseOwner` monitor's condition cleared: its owner is to be released.
+    pub(super) releasing: bool,
+}
+
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
     /// Evaluates the monitors of the due owners and raises the exceptions of those that
-    /// fire. True when one fired.
+    /// fire. A `PauseOwner` monitor whose condition cleared is marked: the tick releases
+    /// its owner once the monitors of every word are evaluated ([`release_pending`]).
+    ///
+    /// [`release_pending`]: Self::release_pending
     ///
     /// The hot loop, one group of up to 32 monitors at a time: when all their owners are
     /// due (the common case), their conditions are shifted into a bit set in one flat
     /// loop; edges and triggers are a few word operations per group.
     #[inline(always)]
-    pub(crate) fn evaluate_monitors<const M: usize, K: crate::Condition<C>>(
+    pub(super) fn evaluate_monitors<const M: usize, K: crate::Condition<C>>(
         &self,
         polls: &Polls<B>,
         monitors: &mut Monitors<'_, C, M, K>,
         control: &C,
         now: Instant,
-    ) -> bool {
+    ) -> Evaluation {
         let mut fired = false;
         // A `PauseOwner` monitor's condition cleared: its release waits for the end of
         // the evaluation, so that another monitor of the same owner that holds from now
-        // on (later in the table) keeps the owner paused rather than paused again.
+        // on (later in the table, or in a later word) keeps the owner paused rather than
+        // paused again.
         let mut releasing = false;
         let due = polls.due();
         let w = due.index();
@@ -116,16 +128,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 }
             }
         }
-        if releasing {
-            self.release_pending(monitors.entries.as_mut_slice());
-        }
-        fired
+        Evaluation { fired, releasing }
     }
 
     /// Releases the owners of the `PauseOwner` monitors whose condition cleared in this
-    /// evaluation, in table order (out of the hot loop: only after such a monitor fired).
+    /// tick's evaluation, in table order (out of the hot loop: only after such a monitor
+    /// fired).
     #[inline(never)]
-    fn release_pending<K>(&self, entries: &mut [OwnedMonitor<'_, C, K>]) {
+    pub(super) fn release_pending<K>(&self, entries: &mut [OwnedMonitor<'_, C, K>]) {
         for (i, m) in entries.iter_mut().enumerate() {
             if m.releasing {
                 m.releasing = false;
