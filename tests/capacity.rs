@@ -616,51 +616,26 @@ fn a_release_comes_after_the_holds_of_every_word() {
     );
     // The same in two words, either way round, and in eight.
     for (at, curtain, hold) in [([0, 32], 2..5, 5..9), ([33, 0], 5..9, 2..5)] {
-        let small = one_word(
-            if at[0] < at[1] { [0, 1] } else { [1, 0] },
-            curtain.clone(),
-            hold.clone(),
-        )
-        .0;
-        let renamed = |id: SeqId| {
-            SeqId::from_index(if id.index() == 0 {
-                at[0].min(at[1])
-            } else {
-                at[0].max(at[1])
-            })
+        let small_at = if at[0] < at[1] { [0, 1] } else { [1, 0] };
+        let small = one_word(small_at, curtain.clone(), hold.clone()).0;
+        // The one-word trace with its ids 0 and 1 moved to the lower and higher of `ids`.
+        let moved = |ids: [usize; 2]| -> Vec<Transition> {
+            let (low, high) = (ids[0].min(ids[1]), ids[0].max(ids[1]));
+            small
+                .iter()
+                .map(|t| Transition {
+                    sequence: SeqId::from_index(if t.sequence.index() == 0 { low } else { high }),
+                    ..*t
+                })
+                .collect()
         };
-        let expected: Vec<Transition> = small
-            .iter()
-            .map(|t| Transition {
-                sequence: renamed(t.sequence),
-                ..*t
-            })
-            .collect();
         let two: Sequencer<Ctrl, 64, 64, CriticalSection, 8, 2> = Sequencer::new();
-        let got = curtain_and_feed_hold(
-            &two,
-            at.map(SeqId::from_index),
-            curtain.clone(),
-            hold.clone(),
-        );
-        assert_eq!(show(&got), show(&expected), "two words, at {at:?}");
+        let ids = at.map(SeqId::from_index);
+        let got = curtain_and_feed_hold(&two, ids, curtain.clone(), hold.clone());
+        assert_eq!(show(&got), show(&moved(at)), "two words, at {at:?}");
         let eight: Sequencer<Ctrl, 256, 64, CriticalSection, 8, 8> = Sequencer::new();
-        let far = [at[0] * 7, at[1] * 7];
-        let renamed = |id: SeqId| {
-            SeqId::from_index(if id.index() == 0 {
-                far[0].min(far[1])
-            } else {
-                far[0].max(far[1])
-            })
-        };
-        let expected: Vec<Transition> = small
-            .iter()
-            .map(|t| Transition {
-                sequence: renamed(t.sequence),
-                ..*t
-            })
-            .collect();
+        let far = at.map(|i| i * 7);
         let got = curtain_and_feed_hold(&eight, far.map(SeqId::from_index), curtain, hold);
-        assert_eq!(show(&got), show(&expected), "eight words, at {far:?}");
+        assert_eq!(show(&got), show(&moved(far)), "eight words, at {far:?}");
     }
 }
