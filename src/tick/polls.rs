@@ -55,7 +55,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let running = due.minus(sets.word(Set::Paused, w));
         let fresh = sets.word(Set::Fresh, w).and(due);
         sets.remove_all(Set::Fresh, due);
-        let wake = running.and(sets.word(Set::PollWait, w));
+        // Not a sequence whose state changed since the fold: paused (in an earlier word of
+        // this tick), ended or begun anew, it misses this poll.
+        let wake = running
+            .and(sets.word(Set::PollWait, w))
+            .minus(sets.word(Set::Changed, w));
         sets.insert_all(Set::PollDue, wake);
         let polls = Polls {
             word: w,

@@ -63,9 +63,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ///
     /// A sequence whose state changed in this tick is not woken for its poll: the change
     /// woke its lane. It is left out before the held check, whose only other effect, the
-    /// removal of a held sequence's due-poll mark, it does not need: a new run drops a
-    /// stale mark when it first waits for a poll, an ended run takes no poll, and a hold
-    /// the tick gave it (an exception, a pause) took its mark when it was made.
+    /// removal of a held sequence's due-poll mark, it does not need. Its mark was made by
+    /// this word's scan (a sequence changed before the scan gets none, `take_polls`), so
+    /// it changed after it: a hold the tick gave it then (an exception, a pause) took the
+    /// mark, a new run drops a stale mark when it first waits for a poll, and an ended
+    /// run takes no poll.
     #[inline(always)]
     pub(super) fn wake_due_polls(&self, wake: SetWord<B>, raised: bool) {
         if wake.is_empty() {
