@@ -46,7 +46,8 @@ impl<const B: usize> Polls<B> {
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// The due polls `due` (monitored sequences of one word whose polling class is due):
-    /// takes their fresh marks and marks their due exit-condition polls. Returns what to
+    /// takes their fresh marks and marks their due exit-condition polls (not those of
+    /// sequences whose state changed since the tick's fold). Returns what to
     /// do for them, and the running ones with an armed timeout.
     #[inline(always)]
     fn take_polls(&mut self, due: SetWord<B>) -> (Polls<B>, SetWord<B>) {
