@@ -520,17 +520,12 @@ fn a_monitor_group_across_words_is_evaluated_for_the_owners_of_each_word() {
     assert_eq!(sim.state(b), Aborted);
 }
 
-/// A caller (`cycle`) running a blocking child (`feed`, exit condition flag 1 at 20 ms),
-/// each with a `PauseOwner` monitor: the cycle's on flag 2 (its light curtain, monitor 0),
-/// the feed's on flag 3 (its feed hold, monitor 1), each true over the given milliseconds.
-/// `at`: the ids of the cycle and the feed. Returns the trace.
-fn curtain_and_feed_hold<const N: usize, const B: usize>(
+/// Registers `cycle` at `at[0]` and `feed` at `at[1]` (fillers before each), the cycle
+/// running the feed blocking, the feed ending on flag 1. Returns the cycle.
+fn cycle_and_feed<const N: usize, const B: usize>(
     seq: &Sequencer<Ctrl, N, 64, CriticalSection, 8, B>,
     at: [SeqId; 2],
-    curtain: std::ops::Range<u64>,
-    feed_hold: std::ops::Range<u64>,
-) -> Vec<Transition> {
-    let ctrl = Ctrl::default();
+) -> rtseq::Seq<Node> {
     let mut sorted = at;
     sorted.sort();
     for id in sorted {
@@ -542,7 +537,21 @@ fn curtain_and_feed_hold<const N: usize, const B: usize>(
         assert_eq!(seq.register(SeqConfig::new(name)), Ok(id));
     }
     let feed = seq.bind(at[1], Node::of(vec![]).until(1)).unwrap();
-    let cycle = seq.bind(at[0], Node::of(vec![Op::Run(feed)])).unwrap();
+    seq.bind(at[0], Node::of(vec![Op::Run(feed)])).unwrap()
+}
+
+/// A caller (`cycle`) running a blocking child (`feed`, exit condition flag 1 at 20 ms),
+/// each with a `PauseOwner` monitor: the cycle's on flag 2 (its light curtain, monitor 0),
+/// the feed's on flag 3 (its feed hold, monitor 1), each true over the given milliseconds.
+/// `at`: the ids of the cycle and the feed. Returns the trace.
+fn curtain_and_feed_hold<const N: usize, const B: usize>(
+    seq: &Sequencer<Ctrl, N, 64, CriticalSection, 8, B>,
+    at: [SeqId; 2],
+    curtain: std::ops::Range<u64>,
+    feed_hold: std::ops::Range<u64>,
+) -> Vec<Transition> {
+    let ctrl = Ctrl::default();
+    let cycle = cycle_and_feed(seq, at);
     let (mut on_curtain, mut on_hold) = (|c: &Ctrl, _| c.flag(2), |c: &Ctrl, _| c.flag(3));
     let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
     monitors
@@ -648,16 +657,7 @@ fn feed_under_a_curtain<const N: usize, const B: usize>(
     at: [SeqId; 2],
 ) -> Vec<Transition> {
     let ctrl = Ctrl::default();
-    for id in at {
-        while seq.len() < id.index() {
-            let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
-            seq.register(SeqConfig::new(name)).unwrap();
-        }
-        let name = if id == at[0] { "cycle" } else { "feed" };
-        assert_eq!(seq.register(SeqConfig::new(name)), Ok(id));
-    }
-    let feed = seq.bind(at[1], Node::of(vec![]).until(1)).unwrap();
-    let cycle = seq.bind(at[0], Node::of(vec![Op::Run(feed)])).unwrap();
+    let cycle = cycle_and_feed(seq, at);
     let mut on_curtain = |c: &Ctrl, _| c.flag(2);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
     monitors
