@@ -428,8 +428,7 @@ impl<'a, C, K> Monitor<'a, C, K> {
     ///     .add(moving, Monitor::with_condition("end stop", Fault::EndStop, Behaviour::AbortOwner))
     ///     .unwrap();
     /// ```
-    // Out of line: set-up code, called once per monitor; inlined, the struct literal
-    // would be copied into every call site.
+    // Out of line: set-up code, called once per monitor; one copy serves every call site.
     #[inline(never)]
     pub const fn with_condition(name: &'static str, condition: K, behaviour: Behaviour) -> Self {
         Monitor {
