@@ -350,6 +350,7 @@ fn demo_equals_host(args: &[&str], plan: FaultPlan) -> Demo {
     assert_eq!(d.out.malformed, 0, "{}", d.out.transcript());
     assert!(d.has_line("outcome as expected: exit 0"));
     assert!(!d.trace.is_empty(), "{}", d.out.transcript());
+    assert_stack_within_its_ceiling(&d);
     let end = d.num("end_ms") as u64;
     let h = host(plan, end);
     if d.trace != h.trace {
@@ -368,6 +369,26 @@ fn demo_equals_host(args: &[&str], plan: FaultPlan) -> Demo {
 }
 
 /// The motor stands still without current and the drive is off, at the end.
+/// The deepest the firmware's one stack went in the run (the paint below the deepest frame
+/// is intact: `board::stack::peak`), held to a ceiling (docs/footprint.md, "Stack"). The
+/// deepest nesting is idle, the tick, the safety task and the application's own code.
+fn assert_stack_within_its_ceiling(d: &Demo) {
+    let prefix = "demo      stack: ";
+    let line = d
+        .out
+        .lines
+        .iter()
+        .find(|l| l.message.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no stack line:\n{}", d.out.transcript()));
+    let bytes: u64 = line.message[prefix.len()..]
+        .split(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .expect("a number of bytes");
+    eprintln!("figure: demo stack at the deepest [bytes] = {bytes}");
+    assert!((1..=4_096).contains(&bytes), "demo stack: {bytes} B");
+}
+
 fn assert_motor_stopped(d: &Demo) {
     assert_eq!(d.num("vel_um_s"), 0, "velocity");
     assert!(d.num("current_ma").abs() < 50, "current");

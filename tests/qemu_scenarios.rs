@@ -107,9 +107,9 @@ fn show_records(records: &[(char, [u32; 6])]) -> String {
         .collect()
 }
 
-/// A scenario compared: the number of its transitions and the kinds of its events, or the
-/// report of how host and QEMU differ.
-type Compared = Result<(usize, Vec<u32>), String>;
+/// A scenario compared: the number of its transitions, the kinds of its events and the
+/// deepest its firmware's stack went, or the report of how host and QEMU differ.
+type Compared = Result<(usize, Vec<u32>, u64), String>;
 
 /// Runs one scenario on both sides.
 fn compare(set: &FirmwareSet, name: &str) -> Compared {
@@ -162,7 +162,7 @@ fn compare(set: &FirmwareSet, name: &str) -> Compared {
             .filter(|(kind, _)| *kind == 'E')
             .map(|(_, e)| e[1])
             .collect();
-        Ok((host.trace.len(), kinds))
+        Ok((host.trace.len(), kinds, figure(&out, "stack: ")))
     } else {
         Err(format!(
             "scenario {name}: {}\nQEMU log:\n{}",
@@ -209,14 +209,16 @@ fn compare_all(set: &FirmwareSet) {
     });
     let mut failures = Vec::new();
     let mut kinds = std::collections::BTreeSet::new();
+    let mut deepest = (0, "");
     for (name, r) in &results {
         match r {
-            Ok((n, events)) => {
+            Ok((n, events, stack)) => {
                 eprintln!(
-                    "qemu scenarios: {name}: {n} transitions, {} events, equal",
+                    "qemu scenarios: {name}: {n} transitions, {} events, equal, stack {stack} B",
                     events.len()
                 );
                 kinds.extend(events.iter().copied());
+                deepest = deepest.max((*stack, name));
             }
             Err(e) => failures.push(e.clone()),
         }
@@ -229,6 +231,13 @@ fn compare_all(set: &FirmwareSet) {
         results.len(),
         failures.join("\n\n")
     );
+    // The deepest stack of a scenario's run is its set-up in `init` (the monitor tables
+    // built by value), held to a ceiling (docs/footprint.md, "Stack").
+    eprintln!(
+        "figure: scenario firmware stack at the deepest [bytes] = {} ({})",
+        deepest.0, deepest.1
+    );
+    assert!((1..=6_144).contains(&deepest.0), "stack: {deepest:?}");
     // The scenarios make every kind of event: a monitor firing (1), an exception sequence
     // that cannot run (2), a request (3), abort-all (4), a failure (5).
     assert_eq!(
@@ -363,6 +372,40 @@ fn bench_scale_tick_follows_the_running_sequences_in_one_word_sets() {
         firing(256) * 2 < firing(8) * 3,
         "a firing with 256 registered costs less than 1.5 times one with 8"
     );
+    // The tick's stack (bytes, painted around one tick: `board::stack::deepest`): free of
+    // the number registered in one-word sets, and within a ceiling at 256 (docs/footprint.md,
+    // "Stack"), where the teardown's rows of 8-word sets are the deepest frames.
+    for (running, registered) in [(8, 8), (8, 32), (8, 64), (8, 256), (1, 256)] {
+        let prefix = format!("bench_scale: stack, {running} running, {registered} registered: ");
+        let due = figure(&out, &format!("{prefix}due tick "));
+        let line = out.find(&prefix).expect("the stack line");
+        let firing: u64 = line.message[line
+            .message
+            .find("firing tick ")
+            .expect("its firing figure")
+            + "firing tick ".len()..]
+            .split(' ')
+            .next()
+            .and_then(|n| n.parse().ok())
+            .expect("a number of bytes");
+        println!("figure: stack of a due tick, {running} running, {registered} registered [bytes] = {due}");
+        println!("figure: stack of a firing tick, {running} running, {registered} registered [bytes] = {firing}");
+        assert!(
+            due <= 256 && firing <= 1_280,
+            "{registered} registered: {due} B, {firing} B"
+        );
+        assert!(
+            due > 0 && firing > due,
+            "a firing goes deeper than a due tick"
+        );
+    }
+    let stack = |registered: u32| {
+        figure(
+            &out,
+            &format!("bench_scale: stack, 8 running, {registered} registered: due tick "),
+        )
+    };
+    assert_eq!(stack(8), stack(32), "one-word sets: the same stack");
     // Rounded to the nearest per cent, as the firmware prints it. Held to a known ceiling
     // of 120 % (docs/footprint.md says why the goal is missed).
     budget(

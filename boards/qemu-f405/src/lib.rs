@@ -5,6 +5,7 @@
 //! - [`clock`]: the 1 kHz sequencer heartbeat on TIM2 (update interrupt) and the
 //!   monotonic time derived from it (`fugit` microsecond [`clock::Instant`]s);
 //! - [`measure`](mod@measure): instruction counting with TIM2 under `-icount shift=0`;
+//! - [`stack`]: stack depth by painting, of a whole run or of one call;
 //! - [`signal`]: [`signal::TickSignal`], how the tick interrupt wakes a lane;
 //! - [`args`]: the firmware's command line (semihosting), e.g. fault injection options;
 //! - [`logger`]: a panic-free `defmt` global logger over semihosting (decoded on the
@@ -29,6 +30,7 @@ pub mod logger;
 pub mod measure;
 pub mod semihost;
 pub mod signal;
+pub mod stack;
 
 pub use exit::{exit, exit_failure, exit_success, ExitCode};
 pub use measure::{measure, measure_with};

@@ -152,18 +152,34 @@ mod app {
         most
     }
 
+    /// The stack one more steady tick uses, in bytes.
+    #[inline(never)]
+    fn steady_stack<const N: usize, L: Lock, const B: usize>(
+        seq: &'static Sequencer<Ctrl, N, 64, L, 8, B>,
+        monitors: &mut Monitors<'static, Ctrl, 32, FlagCond>,
+    ) -> Result<usize, rtseq::Error> {
+        let now = Instant::from_ticks((TICKS + 1) * 1_000);
+        let mut ticked = Ok(());
+        let bytes = board::stack::deepest(&mut || ticked = seq.tick(now, &CTRL, monitors));
+        ticked.map(|()| bytes)
+    }
+
     /// One more tick, in which the last running sequence's fault monitor fires (out of
-    /// line: the steady ticks' measurement stays as it is without it).
+    /// line: the steady ticks' measurement stays as it is without it): its instructions
+    /// and the bytes of stack it uses.
     #[inline(never)]
     fn firing_tick<const N: usize, L: Lock, const B: usize>(
         seq: &'static Sequencer<Ctrl, N, 64, L, 8, B>,
         monitors: &mut Monitors<'static, Ctrl, 32, FlagCond>,
-    ) -> Result<u32, rtseq::Error> {
+    ) -> Result<(u32, usize), rtseq::Error> {
         CTRL.set(FAULT, true);
-        let now = Instant::from_ticks((TICKS + 1) * 1_000);
-        let (firing, ticked) = measure_with(|| seq.tick(now, &CTRL, monitors));
+        let now = Instant::from_ticks((TICKS + 2) * 1_000);
+        let (mut firing, mut ticked) = (0, Ok(()));
+        let bytes = board::stack::deepest(&mut || {
+            (firing, ticked) = measure_with(|| seq.tick(now, &CTRL, monitors));
+        });
         CTRL.set(FAULT, false);
-        ticked.map(|()| firing)
+        ticked.map(|()| (firing, bytes))
     }
 
     /// Sets up, ticks and prints one figure.
@@ -180,12 +196,20 @@ mod app {
             N,
             cost
         );
-        let firing = firing_tick(seq, &mut monitors)?;
+        let steady_bytes = steady_stack(seq, &mut monitors)?;
+        let (firing, firing_bytes) = firing_tick(seq, &mut monitors)?;
         defmt::info!(
             "bench_scale: firing tick (AbortOwner), {=usize} running, {=usize} registered = {=u32} instructions",
             running,
             N,
             firing
+        );
+        defmt::info!(
+            "bench_scale: stack, {=usize} running, {=usize} registered: due tick {=usize} B, firing tick {=usize} B",
+            running,
+            N,
+            steady_bytes,
+            firing_bytes
         );
         Ok(cost)
     }

@@ -1589,6 +1589,11 @@ mod rtic_app {
             if let Some(end) = end_time(&log.plan, log.main_end) {
                 if now >= end {
                     let ok = log.finish(now);
+                    defmt::info!(
+                        "demo      stack: {=usize} B at the deepest, of {=usize} B",
+                        board::stack::peak(),
+                        board::stack::size()
+                    );
                     if ok {
                         defmt::info!("demo      outcome as expected: exit 0");
                         board::exit_success();

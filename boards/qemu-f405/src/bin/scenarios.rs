@@ -196,6 +196,11 @@ mod app {
                     s.digest,
                     lost
                 );
+                defmt::info!(
+                    "stack: {=usize} B at the deepest, of {=usize} B",
+                    board::stack::peak(),
+                    board::stack::size()
+                );
                 if lost == 0 {
                     board::exit_success();
                 }
