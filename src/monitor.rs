@@ -3,6 +3,7 @@
 use core::marker::PhantomData;
 use core::mem::ManuallyDrop;
 
+use crate::model::id::RunId;
 use crate::model::set::Words;
 use crate::{Condition, Error, MonitorId, SeqId};
 
@@ -240,6 +241,43 @@ impl Trigger {
 /// # }
 /// ```
 pub const DEFAULT_RESTART_LIMIT: u8 = 3;
+
+/// The restarts a monitor (or a timeout) caused in one run of its target: the sequence it
+/// restarts and that run's count. A `RestartCallerOfOwner` target is whichever sequence
+/// started the owner, so the book names it: a restart of another caller, or of another
+/// run, starts a new count.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct RestartBook {
+    restarts: u8,
+    target: SeqId,
+    target_runs: u16,
+}
+
+impl RestartBook {
+    /// No restart yet (a run count of 0 is no run: counts start at 1).
+    pub(crate) const NONE: RestartBook = RestartBook {
+        restarts: 0,
+        target: SeqId(0),
+        target_runs: 0,
+    };
+
+    /// One more restart of `target`, if `limit` allows it: false when the restarts of this
+    /// run of `target` have reached `limit` (the behaviour then escalates to an abort).
+    pub(crate) fn charge(&mut self, target: RunId, limit: u8) -> bool {
+        if (self.target, self.target_runs) != (target.seq, target.count) {
+            *self = RestartBook {
+                restarts: 0,
+                target: target.seq,
+                target_runs: target.count,
+            };
+        }
+        if self.restarts >= limit {
+            return false;
+        }
+        self.restarts = self.restarts.saturating_add(1);
+        true
+    }
+}
 
 /// A monitor definition: build it, then add it to a [`Monitors`] table.
 ///
@@ -598,8 +636,7 @@ impl<'a, C, K> Monitor<'a, C, K> {
         OwnedMonitor {
             def: self,
             owner,
-            restarts: 0,
-            target_runs_seen: 0,
+            restarts: RestartBook::NONE,
             fired: 0,
             releasing: false,
         }
@@ -635,10 +672,8 @@ impl<'a, C, K> Monitor<'a, C, K> {
 pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
-    /// Restarts caused in the current run of the target.
-    pub(crate) restarts: u8,
-    /// The target's run counter when `restarts` was last reset.
-    pub(crate) target_runs_seen: u16,
+    /// The restarts it caused in the last run of its target it restarted.
+    pub(crate) restarts: RestartBook,
     /// How often this monitor fired.
     pub(crate) fired: u16,
     /// A `PauseOwner` monitor whose condition cleared in the tick under way: its owner is
@@ -880,10 +915,30 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// let monitors = MONITORS;
     /// assert_eq!(monitors.owner(MonitorId::from_index(0)), Some(HEATING));
     /// ```
+    ///
+    /// Two monitors in a table of one: "more monitors than the table's capacity M".
+    ///
+    /// ```compile_fail,E0080
+    /// use rtseq::{Behaviour, Monitor, Monitors, SeqId};
+    /// fn never(_: &(), _: rtseq::Instant) -> bool { false }
+    /// const S: SeqId = SeqId::from_index(0);
+    /// const TWO: Result<Monitors<'static, (), 1, rtseq::ConditionFn<()>>, rtseq::Error> =
+    ///     Monitors::table([
+    ///         Monitor::with_condition("a", never as rtseq::ConditionFn<()>, Behaviour::Nothing).owned_by(S),
+    ///         Monitor::with_condition("b", never as rtseq::ConditionFn<()>, Behaviour::Nothing).owned_by(S),
+    ///     ]);
+    /// let _ = TWO;
+    /// ```
     pub const fn table<const L: usize>(
         monitors: [OwnedMonitor<'a, C, K>; L],
     ) -> Result<Self, Error> {
         const { assert!(M <= MAX_MONITORS, "at most 256 monitors") };
+        const {
+            assert!(
+                L <= M,
+                "more monitors than the table's capacity M: make M at least their number"
+            )
+        };
         let overflow = match monitors.split_last() {
             Some((last, before)) if holds_overflow(before, last) => Some(last.owner),
             _ => None,
@@ -943,8 +998,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         let entry = OwnedMonitor {
             def: monitor,
             owner,
-            restarts: 0,
-            target_runs_seen: 0,
+            restarts: RestartBook::NONE,
             fired: 0,
             releasing: false,
         };
@@ -1023,7 +1077,9 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         self.entry(id).map(|e| e.owner)
     }
 
-    /// How often a monitor fired.
+    /// How often a monitor fired; it stops at 65 535 (a `Level` warning polled every
+    /// millisecond gets there in 65 s), so a reader that keeps the last value sees no new
+    /// firings from then on.
     ///
     /// Two rising edges while the owner runs, ticked by hand:
     ///

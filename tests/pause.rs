@@ -49,7 +49,7 @@ fn a_wait_paused_at_300_ms_for_2_s_ends_at_3_s() {
     );
 }
 
-/// A wait longer than the run clock's 2³² µs (71.6 minutes): two hours, ticked every second.
+/// A wait longer than 2³² µs (71.6 minutes): two hours, ticked every second.
 #[test]
 fn a_two_hour_wait_ends_after_two_hours() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();

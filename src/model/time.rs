@@ -87,6 +87,47 @@ impl Stamp {
 /// The horizon of "nothing to poll": the tick looks again after this long at the latest.
 pub(crate) const NEVER_AHEAD: u32 = MAX_INTERVAL as u32;
 
+/// A count of µs modulo 2^48 (about 8.9 years): what a run's clock keeps, a stamp while
+/// it runs, the time run so far while it is stopped. A run's time must be exact however
+/// long the run lasts: a run held by an exception is not polled, and its clock runs on
+/// (a [`Stamp`]'s 32 bits wrap after 71.6 minutes, which an operator's acknowledgement can
+/// outlast). Packed to two-byte alignment, so that a control block has room for it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[repr(C, packed(2))]
+pub(crate) struct Micros48 {
+    low: u32,
+    high: u16,
+}
+
+impl Micros48 {
+    const MASK: u64 = (1 << 48) - 1;
+
+    /// Zero.
+    pub(crate) const ZERO: Micros48 = Micros48 { low: 0, high: 0 };
+
+    /// `us` modulo 2^48.
+    #[inline]
+    pub(crate) const fn new(us: u64) -> Micros48 {
+        // Truncation is the point: the low 48 bits.
+        Micros48 {
+            low: us as u32,
+            high: (us >> 32) as u16,
+        }
+    }
+
+    /// The count (below 2^48).
+    #[inline]
+    pub(crate) const fn get(self) -> u64 {
+        (self.high as u64) << 32 | self.low as u64
+    }
+
+    /// The µs from this stamp to `now`, modulo 2^48.
+    #[inline]
+    pub(crate) const fn until(self, now: Instant) -> u64 {
+        now.as_ticks().wrapping_sub(self.get()) & Self::MASK
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -104,6 +145,20 @@ mod tests {
         assert_eq!(s(u32::MAX).plus(2), s(1));
         assert_eq!(s(10).first_of(s(12), s(11)), s(11));
         assert_eq!(s(u32::MAX - 1).first_of(s(1), s(u32::MAX)), s(u32::MAX));
+    }
+
+    #[test]
+    fn micros48_keep_48_bits_and_count_across_their_wrap() {
+        let m = Micros48::new(0x1234_5678_9ABC_DEF0);
+        assert_eq!(m.get(), 0x5678_9ABC_DEF0);
+        let at = |us: u64| Instant::from_ticks(us);
+        assert_eq!(Micros48::new(5).until(at(7)), 2);
+        // Past 2^32 µs: exact (a Stamp's difference would have wrapped).
+        assert_eq!(Micros48::new(10).until(at((1 << 32) + 30)), (1 << 32) + 20);
+        // Across the wrap of 48 bits, and of the instant's own 2^48.
+        assert_eq!(Micros48::new((1 << 48) - 3).until(at(1 << 48)), 3);
+        assert_eq!(Micros48::new((1 << 48) - 3).until(at(2)), 5);
+        assert_eq!(Micros48::ZERO.get(), 0);
     }
 
     #[test]

@@ -264,9 +264,8 @@ impl<'a, C> Cx<'a, C> {
 
     /// How long this run has run, not counting the time it was paused: the time its
     /// timeout counts, and what [`Wait`](crate::Wait) waits for. A start and a restart
-    /// begin at zero. As sequencer time (the last tick's), in µs modulo 2³² µs (it wraps
-    /// after about 71.6 minutes; [`Wait`](crate::Wait) adds up differences, so it waits
-    /// longer than that).
+    /// begin at zero. As sequencer time (the last tick's), exact for runs of up to 2^48 µs
+    /// (about 8.9 years).
     ///
     /// A step that records its run time whenever its exit condition is checked; its caller
     /// is paused and resumed (the ticks at 3 ms and 6 ms apply the requests), and the step
@@ -310,7 +309,7 @@ impl<'a, C> Cx<'a, C> {
     /// # }
     /// ```
     pub fn run_time(&self) -> Duration {
-        Duration::from_ticks(u64::from(self.port.run_time(self.id)))
+        Duration::from_ticks(self.port.run_time(self.id))
     }
 
     /// Starts `child` **blocking**: it runs inside this sequence's future and this sequence

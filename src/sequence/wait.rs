@@ -16,11 +16,8 @@ use crate::{Cx, Duration, Failure, Step};
 /// ```
 pub struct Wait {
     duration: Duration,
-    /// The unpaused time waited so far (µs), summed from differences of the run time
-    /// (which wraps every 2³² µs) so that a wait may be longer than that.
-    waited: u64,
-    /// The run time (µs, modulo 2³²) when `waited` was last brought up to date.
-    seen: u64,
+    /// The run time (µs) at the action, from which the wait counts.
+    since: u64,
 }
 
 impl Wait {
@@ -52,11 +49,7 @@ impl Wait {
     /// # }
     /// ```
     pub const fn new(duration: Duration) -> Self {
-        Wait {
-            duration,
-            waited: 0,
-            seen: 0,
-        }
+        Wait { duration, since: 0 }
     }
 
     /// The configured duration.
@@ -85,17 +78,11 @@ impl Wait {
 
 impl<C> Step<C> for Wait {
     fn action(&mut self, cx: &Cx<'_, C>) -> Result<(), Failure> {
-        self.waited = 0;
-        self.seen = cx.run_time().as_ticks();
+        self.since = cx.run_time().as_ticks();
         Ok(())
     }
 
     fn check_exit_condition(&mut self, cx: &Cx<'_, C>) -> bool {
-        let now = cx.run_time().as_ticks();
-        // The run time wraps at 2³² µs; polls are far closer together than that.
-        let step = now.wrapping_sub(self.seen) & u64::from(u32::MAX);
-        self.seen = now;
-        self.waited = self.waited.saturating_add(step);
-        self.waited >= self.duration.as_ticks()
+        cx.run_time().as_ticks().saturating_sub(self.since) >= self.duration.as_ticks()
     }
 }

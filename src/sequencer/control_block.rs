@@ -3,7 +3,7 @@
 
 use crate::model::id::Link;
 use crate::model::state::RunningStates;
-use crate::model::time::Stamp;
+use crate::monitor::RestartBook;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
 use crate::{Behaviour, Cause, Failure, Outcome, Request, RunningState, SeqId};
@@ -158,17 +158,12 @@ pub(crate) struct ControlBlock {
     pub(crate) name: Option<&'static str>,
     /// Timeout in µs, 0 = off.
     pub(crate) timeout: u32,
-    /// The run's clock, which does not count paused time: while the sequence is paused,
-    /// the run's unpaused time so far (µs); otherwise the [`Stamp`] (µs) from which it
-    /// counts, the run's start moved on by its pauses. See [`run_time`](Self::run_time).
-    pub(crate) clock: u32,
     /// [`flag`]s, [`request`]s and the pending behaviour.
     pub(crate) flags: u16,
     /// The count of starts (not restarts), wrapping: the current run's count in its
     /// `RunId`, by which futures, contexts, joins, requests and teardowns tell its runs
     /// apart. A new run also resets the monitors' restart books.
     pub(crate) runs: u16,
-    pub(crate) timeout_runs_seen: u16,
     /// `activeException`: the monitor (or timeout) whose exception is active or was last.
     pub(crate) active_exception: Option<Cause>,
     /// Cause of the last abort or restart.
@@ -186,7 +181,8 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_behaviour: Behaviour,
     pub(crate) timeout_exception: Link,
     pub(crate) timeout_restart_limit: u8,
-    pub(crate) timeout_restarts: u8,
+    /// The restarts its timeout caused in the last run of a target it restarted.
+    pub(crate) timeout_restarts: RestartBook,
     /// What this sequence waits for in a join.
     pub(crate) joins: JoinWait,
     /// Its [polling class](crate::tick::schedule) (the class holds the period).
@@ -210,10 +206,8 @@ impl ControlBlock {
     pub(crate) const UNREGISTERED: ControlBlock = ControlBlock {
         name: None,
         timeout: 0,
-        clock: 0,
         flags: 0,
         runs: 0,
-        timeout_runs_seen: 0,
         // All-zero bytes (never read: `IDLE` replaces it at registration).
         active_exception: Some(Cause::Start),
         last_cause: Cause::Start,
@@ -226,7 +220,7 @@ impl ControlBlock {
         timeout_behaviour: Behaviour::Nothing,
         timeout_exception: Link::NONE,
         timeout_restart_limit: 0,
-        timeout_restarts: 0,
+        timeout_restarts: RestartBook::NONE,
         joins: JoinWait::NOTHING,
         class: 0,
         monitor_holds: 0,
@@ -243,63 +237,12 @@ impl ControlBlock {
         ..ControlBlock::UNREGISTERED
     };
 
-    /// The current run's unpaused time at `now` (µs, modulo 2³² µs, about 71.6 minutes):
-    /// what its timeout and [`Cx::run_time`](crate::Cx::run_time) count. A run's start
-    /// sets it to 0; a pause stops the clock ([`stop_clock`]), a resume lets it run on
-    /// ([`run_clock`]).
-    ///
-    /// [`stop_clock`]: Self::stop_clock
-    /// [`run_clock`]: Self::run_clock
-    #[inline]
-    pub(crate) fn run_time(&self, now: Stamp) -> u32 {
-        if self.has(flag::CLOCK_STOPPED) {
-            self.clock
-        } else {
-            now.0.wrapping_sub(self.clock)
-        }
-    }
-
-    /// Starts the run's clock at `now`, running.
-    #[inline]
-    pub(crate) fn start_clock(&mut self, now: Stamp) {
-        self.clock = now.0;
-        self.set(flag::CLOCK_STOPPED, false);
-    }
-
     /// A run starts (or restarts) unpaused: no `PauseOwner` monitor holds it (their edge
     /// detection starts again) and no pause request's pause is in force.
     #[inline]
     pub(crate) fn lift_pauses(&mut self) {
         self.monitor_holds = 0;
         self.set(flag::PAUSED_BY_REQUEST, false);
-    }
-
-    /// At a pause at `now`: the clock keeps the run's unpaused time so far (`now` minus
-    /// the stamp from which it counted). A stopped clock stays as it is.
-    #[inline]
-    pub(crate) fn stop_clock(&mut self, now: Stamp) {
-        if !self.has(flag::CLOCK_STOPPED) {
-            self.clock = now.0.wrapping_sub(self.clock);
-            self.set(flag::CLOCK_STOPPED, true);
-        }
-    }
-
-    /// At a resume at `now`: the clock counts again, from the stamp that makes its run
-    /// time what it was (`now` minus the unpaused time it kept). A running clock stays as
-    /// it is.
-    #[inline]
-    pub(crate) fn run_clock(&mut self, now: Stamp) {
-        if self.has(flag::CLOCK_STOPPED) {
-            self.clock = now.0.wrapping_sub(self.clock);
-            self.set(flag::CLOCK_STOPPED, false);
-        }
-    }
-
-    /// Whether the armed timeout has run out at `now` (paused time not counted).
-    #[inline]
-    pub(crate) fn timed_out(&self, now: Stamp) -> bool {
-        // Switched off during the run (`Handle::set_timeout(None)`): never.
-        self.timeout != 0 && self.run_time(now) >= self.timeout
     }
 
     /// The registered name ("" only for an unregistered slot, which no reader reaches).

@@ -30,6 +30,7 @@ use crate::safety::SafetyHandle;
 
 pub(crate) mod callers;
 pub(crate) mod clearance;
+mod clock;
 pub(crate) mod control_block;
 pub(crate) mod handle;
 pub(crate) mod inbox;

@@ -6,7 +6,6 @@ use core::task::{Poll, Waker};
 
 use crate::lock::Lock;
 use crate::model::id::RunId;
-use crate::model::time::Stamp;
 use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::clearance::{end_run, Clearance};
 use crate::sequencer::control_block::flag;
@@ -41,8 +40,8 @@ pub(crate) struct Info {
 pub(crate) trait Port<C> {
     /// The last tick's time.
     fn now(&self) -> Instant;
-    /// The unpaused time of `id`'s current run at the last tick (µs, modulo 2³²).
-    fn run_time(&self, id: SeqId) -> u32;
+    /// The unpaused time of `id`'s current run at the last tick (µs).
+    fn run_time(&self, id: SeqId) -> u64;
     /// Starts `id`, whose sequence object was made by the sequencer tagged `maker`,
     /// blocking: it runs in the lane of `caller`, inside its future. Returns the new run.
     fn start_blocking(&self, id: SeqId, maker: u16, caller: RunId) -> Result<RunId, Error>;
@@ -139,11 +138,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Sequencer::now(self)
     }
 
-    fn run_time(&self, id: SeqId) -> u32 {
-        self.with(|s| {
-            let now = Stamp::of(s.now);
-            s.block(id).map_or(0, |b| b.run_time(now))
-        })
+    fn run_time(&self, id: SeqId) -> u64 {
+        self.with(|s| s.run_time(id))
     }
 
     fn start_blocking(&self, id: SeqId, maker: u16, caller: RunId) -> Result<RunId, Error> {

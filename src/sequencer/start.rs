@@ -165,17 +165,16 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// sections before: meanwhile the tick may have started the sequence as an exception
     /// sequence, and its lane ended it.
     fn schedule_new(&mut self, id: SeqId, lane: u8) -> Result<Scheduled, Error> {
-        let now = Stamp::of(self.now);
         let b = self.block_mut(id).ok_or(Error::UnknownSequence(id))?;
         if !b.may_start() {
             return Err(Error::AlreadyRunning(id));
         }
         let from = b.state;
         let armed = b.timeout != 0;
-        b.start_clock(now);
         b.lane = lane;
         b.active_exception = None;
         b.lift_pauses();
+        self.start_clock(id);
         // Its lane may be another one now.
         self.polling.forget_woken();
         Ok(Scheduled { from, armed })
@@ -185,15 +184,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// pause in force. `None` unless `run` is its sequence's current run and `Restarting`
     /// (a later run restarts in its own time).
     fn schedule_restart(&mut self, run: RunId) -> Option<Scheduled> {
-        let now = Stamp::of(self.now);
         let b = self
             .block_mut(run.seq)
             .filter(|b| b.runs == run.count && b.state == RunningState::Restarting)?;
-        b.start_clock(now);
         b.lift_pauses();
+        let armed = b.timeout != 0;
+        self.start_clock(run.seq);
         Some(Scheduled {
             from: RunningState::Restarting,
-            armed: b.timeout != 0,
+            armed,
         })
     }
 
@@ -293,15 +292,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         {
             return;
         }
-        let now = Stamp::of(self.now);
         let change = StateChange::new(
             run.seq,
             RunningState::Running,
             RunningState::Paused,
             Cause::Pause,
         );
-        if let Some(b) = self.transition(&change) {
-            b.stop_clock(now);
+        if self.transition(&change).is_some() {
+            self.stop_clock(run.seq);
         }
     }
 

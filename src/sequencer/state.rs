@@ -4,7 +4,7 @@ use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::set::{SeqSet, SetWord};
 use crate::model::state::RunningStates;
-use crate::model::time::Stamp;
+use crate::model::time::{Micros48, Stamp};
 use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::{Set, Sets};
@@ -55,6 +55,8 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     pub(crate) counters: [crate::Counters; N],
     /// The transition trace.
     pub(crate) trace: Ring<T>,
+    /// Each sequence's run clock (`clock.rs`).
+    pub(crate) clocks: [Micros48; N],
     /// The address of the monitor table this sequencer is ticked with (0: none yet): the
     /// first non-empty table a due tick came with. Due ticks with a table elsewhere are
     /// refused.
@@ -132,6 +134,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             #[cfg(feature = "counters")]
             counters: [crate::Counters::ZERO; N],
             trace: Ring::new(),
+            clocks: [Micros48::ZERO; N],
             monitor_table: 0,
         }
     }

@@ -5,6 +5,7 @@ use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::set::SeqSet;
 use crate::model::state::RunningStates;
+use crate::monitor::RestartBook;
 use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
@@ -17,10 +18,8 @@ use crate::{Behaviour, Cause, Event, RunningState, SeqId, Sequencer};
 pub(crate) struct Reaction {
     pub(crate) behaviour: Behaviour,
     pub(crate) exception: Option<SeqId>,
-    /// Restarts caused in the current run of the target.
-    pub(crate) restarts: u8,
-    /// The target's run counter when `restarts` was last reset.
-    pub(crate) runs_seen: u16,
+    /// The restarts caused in the last run of a target restarted.
+    pub(crate) restarts: RestartBook,
     pub(crate) limit: u8,
 }
 
@@ -31,7 +30,6 @@ impl ControlBlock {
             behaviour: self.timeout_behaviour,
             exception: self.timeout_exception.get(),
             restarts: self.timeout_restarts,
-            runs_seen: self.timeout_runs_seen,
             limit: self.timeout_restart_limit,
         }
     }
@@ -253,17 +251,13 @@ fn mark<
     let (target_runs, due) =
         s.section(|s| Some((s.block(target)?.runs, s.sets.words(Set::PollDue))))?;
     let mut behaviour = reaction.behaviour;
-    let (mut restarts, mut runs_seen) = (reaction.restarts, reaction.runs_seen);
-    if behaviour.is_restart() {
-        if runs_seen != target_runs {
-            runs_seen = target_runs;
-            restarts = 0;
-        }
-        if restarts >= reaction.limit {
-            behaviour = behaviour.escalated();
-        } else {
-            restarts = restarts.saturating_add(1);
-        }
+    let mut restarts = reaction.restarts;
+    let target_run = RunId {
+        seq: target,
+        count: target_runs,
+    };
+    if behaviour.is_restart() && !restarts.charge(target_run, reaction.limit) {
+        behaviour = behaviour.escalated();
     }
     // From the mark on, the owner and its blocking children (in its lane) are held; but an
     // exception handled at once (`Nothing`, no exception sequence) holds nothing: their
@@ -282,8 +276,6 @@ fn mark<
             .filter(|b| states.has(b.state) && b.runs == owner_runs)?;
         b.active_exception = Some(cause);
         if timeout {
-            b.timeout_restarts = restarts;
-            b.timeout_runs_seen = runs_seen;
             s.sets.put(Set::Armed, owner, false);
         }
         s.sets.put(Set::Excepting, owner, true);
@@ -297,6 +289,14 @@ fn mark<
     if owner_skipped {
         skipped.insert(owner);
     }
+    // A timeout's restart book is the owner's, which only the tick reads and writes.
+    if timeout {
+        s.section(|s| {
+            if let Some(b) = s.block_mut(owner) {
+                b.timeout_restarts = restarts;
+            }
+        });
+    }
     s.section(|s| {
         #[cfg(feature = "counters")]
         if let Some(c) = s.counters.get_mut(owner.index()) {
@@ -309,16 +309,12 @@ fn mark<
         });
     });
     reaction.restarts = restarts;
-    reaction.runs_seen = runs_seen;
     Some(Marked {
         owner: RunId {
             seq: owner,
             count: owner_runs,
         },
-        target: RunId {
-            seq: target,
-            count: target_runs,
-        },
+        target: target_run,
         behaviour,
         skipped,
     })
@@ -336,8 +332,7 @@ mod tests {
         Reaction {
             behaviour: Behaviour::AbortOwner,
             exception: Some(e),
-            restarts: 0,
-            runs_seen: 0,
+            restarts: RestartBook::NONE,
             limit: 3,
         }
     }

@@ -194,7 +194,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn hold_owner<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId) {
         let (owner, cause) = (monitor.owner, Cause::Monitor(id));
         if self.hold(owner, cause, monitor.def.exception) {
-            monitor.fired = monitor.fired.wrapping_add(1);
+            monitor.fired = monitor.fired.saturating_add(1);
         }
     }
 
@@ -205,15 +205,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             behaviour: monitor.def.behaviour,
             exception: monitor.def.exception,
             restarts: monitor.restarts,
-            runs_seen: monitor.target_runs_seen,
             limit: monitor.def.restart_limit,
         };
         let raised = self.raise(control, monitor.owner, Cause::Monitor(id), &mut reaction);
         if raised {
-            monitor.fired = monitor.fired.wrapping_add(1);
+            monitor.fired = monitor.fired.saturating_add(1);
         }
         monitor.restarts = reaction.restarts;
-        monitor.target_runs_seen = reaction.runs_seen;
         raised
     }
 }

@@ -6,7 +6,6 @@
 use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::state::RunningStates;
-use crate::model::time::Stamp;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::tick::skip_untaken_polls;
@@ -172,20 +171,18 @@ fn leave_for_pause<
     // skipped, not taken when the pause ends (semantics 1): unless the run was moved
     // again meanwhile.
     s.section(|s| {
-        let now = Stamp::of(s.now);
         let to = how.to();
-        let Some(b) = s
-            .block_mut(run.seq)
-            .filter(|b| b.runs == run.count && b.state == to)
-        else {
+        if s.block(run.seq)
+            .is_none_or(|b| b.runs != run.count || b.state != to)
+        {
             return;
-        };
+        }
         match how {
             Pausing::Pause => {
-                b.stop_clock(now);
+                s.stop_clock(run.seq);
                 s.sets.remove(Set::PollDue, run.seq);
             }
-            Pausing::Resume => b.run_clock(now),
+            Pausing::Resume => s.run_clock(run.seq),
         }
     });
     true

@@ -71,11 +71,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         (polls, running.and(sets.word(Set::Armed, w)))
     }
 
-    /// Those of `timed` whose timeout has run out at `now`.
-    fn expired(&self, timed: SetWord<B>, now: Stamp) -> SetWord<B> {
+    /// Those of `timed` whose timeout has run out at the tick's time.
+    fn expired(&self, timed: SetWord<B>) -> SetWord<B> {
         let mut out = SetWord::empty(timed.index());
         for id in timed {
-            if self.block(id).is_some_and(|b| b.timed_out(now)) {
+            if self.timed_out(id) {
                 out.insert(id);
             }
         }
@@ -110,7 +110,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     .scan_all(now, s.sets.word(Set::Monitored, w), scan);
                 s.polling.next_due = next_due(scan, s.polling.next_due);
                 let (polls, timed) = s.take_polls(due);
-                (polls, s.expired(timed, now))
+                (polls, s.expired(timed))
             });
         }
         let classes = self.with(|s| s.polling.classes.len());
@@ -128,7 +128,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         });
         let mut expired = SetWord::empty(w);
         for id in timed {
-            expired = expired.or(self.with(|s| s.expired(SetWord::of(id), now)));
+            expired = expired.or(self.with(|s| s.expired(SetWord::of(id))));
         }
         (polls, expired)
     }

@@ -1,11 +1,15 @@
 //! Stack depth, measured by painting: how many bytes of the one Cortex-M main stack a
 //! firmware, or one call, really used.
 //!
-//! cortex-m-rt's `paint-stack` feature fills the whole stack region (`_stack_end` ..
-//! `_stack_start`, which flip-link places below the statics) with [`PAINT`] before `main`.
-//! Every push scrubs the paint off, and nothing paints it back, so the lowest word that no
-//! longer holds it marks the deepest the stack has ever been ([`peak`]). [`deepest`] paints
-//! the free part of the stack again around one call and reads how deep that call went.
+//! [`paint_unused`] fills the stack region below the stack pointer (down to `_stack_end`,
+//! the start of RAM under flip-link) with [`PAINT`]. Every push scrubs the paint off, and
+//! nothing paints it back, so the lowest word that no longer holds it marks the deepest the
+//! stack has been since ([`peak`]). [`deepest`] paints around one call and reads how deep
+//! that call went.
+//!
+//! A firmware paints at the top of `init`, not from reset (cortex-m-rt's `paint-stack`):
+//! that would lengthen every firmware's boot, and the timing of the safety firmware's
+//! preemption test moved with it.
 //!
 //! RTIC runs every task and interrupt handler on this one stack, so the firmware's peak is
 //! the deepest nesting that happened: `idle`, a lane preempted by the tick, the tick
@@ -15,7 +19,7 @@
 use core::hint::black_box;
 use core::ptr::{addr_of, read_volatile};
 
-/// The word cortex-m-rt paints the stack with (`paint-stack`).
+/// The word the stack is painted with (the one cortex-m-rt's `paint-stack` uses).
 pub const PAINT: u32 = 0xCCCC_CCCC;
 
 extern "C" {
@@ -48,7 +52,13 @@ fn lowest_scrubbed(limit: usize) -> usize {
     limit
 }
 
-/// Bytes of stack the firmware has used since reset, at the deepest point so far.
+/// Paints the unused part of the stack, with interrupts masked; [`peak`] then reads how
+/// deep the stack goes from here on. Call it first thing in `init`.
+pub fn paint_unused() {
+    critical_section::with(|_| paint_free());
+}
+
+/// Bytes of stack the firmware has used, at the deepest point since [`paint_unused`].
 pub fn peak() -> usize {
     top() - lowest_scrubbed(top())
 }

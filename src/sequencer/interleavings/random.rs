@@ -425,7 +425,7 @@ struct LevelMonitor {
     /// Since when (ms) its condition has been seen true at every observation, its owner
     /// running the same round (by the start of its clock) and not handling an exception,
     /// with this many firings.
-    watch: Option<(u64, u32, u16)>,
+    watch: Option<(u64, u64, u16)>,
 }
 
 /// A sequence that waits for a polled condition (its exit condition, or `Cx::wait_until`):
@@ -485,7 +485,7 @@ impl Liveness {
                     s.sets.has(Set::Excepting, id) || b.has(flag::STOPPING),
                     b.timeout,
                     b.runs,
-                    b.run_time(Stamp::of(s.now)),
+                    s.run_time(id),
                 )
             });
             if !(state == Running && armed && !excepting && timeout != 0) {
@@ -502,7 +502,7 @@ impl Liveness {
                 timeout,
             });
             assert!(
-                now - since < 4 || run_time < timeout + 4_000,
+                now - since < 4 || run_time < u64::from(timeout) + 4_000,
                 "{what}: {id:?} runs {run_time} µs with a timeout of {timeout} µs, \
                  watched since {since} ms"
             );
@@ -517,10 +517,9 @@ impl Liveness {
             // start stays where it is).
             let (state, round, excepting, stopping) = w.seq.with(|s| {
                 let b = s.block(m.owner).unwrap();
-                let now = Stamp::of(s.now);
                 (
                     b.state,
-                    now.0.wrapping_sub(b.run_time(now)),
+                    s.now.as_ticks().wrapping_sub(s.run_time(m.owner)),
                     s.sets.has(Set::Excepting, m.owner),
                     b.has(flag::STOPPING),
                 )

@@ -1508,6 +1508,8 @@ mod rtic_app {
 
     #[init(local = [args: [u8; 256] = [0; 256]])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        // The run's deepest stack is printed at its end.
+        board::stack::paint_unused();
         let args = match board::args::args(cx.local.args) {
             Ok(a) => a,
             Err(e) => {

@@ -78,6 +78,8 @@ mod app {
     /// `children`: the arena of the scenario's blocking children (the lanes borrow it).
     #[init(local = [children: [Option<Child<'static>>; CHILDREN] = [const { None }; CHILDREN]])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        // The run's deepest stack is printed at its end.
+        board::stack::paint_unused();
         let mut buf = [0u8; 128];
         let name = first_arg(&mut buf);
         let Some(scenario) = SCENARIOS.iter().find(|s| s.name.as_bytes() == name) else {
