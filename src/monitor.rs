@@ -3,7 +3,6 @@
 use core::marker::PhantomData;
 use core::mem::ManuallyDrop;
 
-use crate::model::id::RunId;
 use crate::model::set::Words;
 use crate::{Condition, Error, MonitorId, SeqId};
 
@@ -241,43 +240,6 @@ impl Trigger {
 /// # }
 /// ```
 pub const DEFAULT_RESTART_LIMIT: u8 = 3;
-
-/// The restarts a monitor (or a timeout) caused in one run of its target: the sequence it
-/// restarts and that run's count. A `RestartCallerOfOwner` target is whichever sequence
-/// started the owner, so the book names it: a restart of another caller, or of another
-/// run, starts a new count.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) struct RestartBook {
-    restarts: u8,
-    target: SeqId,
-    target_runs: u16,
-}
-
-impl RestartBook {
-    /// No restart yet (a run count of 0 is no run: counts start at 1).
-    pub(crate) const NONE: RestartBook = RestartBook {
-        restarts: 0,
-        target: SeqId(0),
-        target_runs: 0,
-    };
-
-    /// One more restart of `target`, if `limit` allows it: false when the restarts of this
-    /// run of `target` have reached `limit` (the behaviour then escalates to an abort).
-    pub(crate) fn charge(&mut self, target: RunId, limit: u8) -> bool {
-        if (self.target, self.target_runs) != (target.seq, target.count) {
-            *self = RestartBook {
-                restarts: 0,
-                target: target.seq,
-                target_runs: target.count,
-            };
-        }
-        if self.restarts >= limit {
-            return false;
-        }
-        self.restarts = self.restarts.saturating_add(1);
-        true
-    }
-}
 
 /// A monitor definition: build it, then add it to a [`Monitors`] table.
 ///
@@ -572,13 +534,11 @@ impl<'a, C, K> Monitor<'a, C, K> {
         self
     }
 
-    /// How many restarts this monitor may cause per run of its target before a restarting
-    /// behaviour escalates to the matching abort.
-    ///
-    /// A run of the target is told from the next by its count of starts, which wraps at
-    /// 65 536: a monitor that restarted its target in one run and next fires exactly
-    /// 65 536 starts of that target later (firing in none between) finds the old run's
-    /// count (`docs/semantics.md`, item 5).
+    /// How many restarts of a run of its target this monitor allows: once the run has been
+    /// restarted that often (by this monitor, another one or a timeout), a restarting
+    /// behaviour escalates to the matching abort. The count is the run's: a new run (not a
+    /// restart) begins at 0, whichever sequence the target is (`RestartCallerOfOwner`
+    /// restarts the owner's caller of the moment); `docs/semantics.md`, item 5.
     ///
     /// With a limit of 1, a condition that stays true restarts its owner once, then aborts it:
     ///
@@ -636,7 +596,6 @@ impl<'a, C, K> Monitor<'a, C, K> {
         OwnedMonitor {
             def: self,
             owner,
-            restarts: RestartBook::NONE,
             fired: 0,
             releasing: false,
         }
@@ -672,8 +631,6 @@ impl<'a, C, K> Monitor<'a, C, K> {
 pub struct OwnedMonitor<'a, C, K = DynCondition<'a, C>> {
     pub(crate) def: Monitor<'a, C, K>,
     pub(crate) owner: SeqId,
-    /// The restarts it caused in the last run of its target it restarted.
-    pub(crate) restarts: RestartBook,
     /// How often this monitor fired.
     pub(crate) fired: u16,
     /// A `PauseOwner` monitor whose condition cleared in the tick under way: its owner is
@@ -998,7 +955,6 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
         let entry = OwnedMonitor {
             def: monitor,
             owner,
-            restarts: RestartBook::NONE,
             fired: 0,
             releasing: false,
         };

@@ -1,6 +1,6 @@
 //! A motor controller runs for months: the library's counts at and past their wrap (or
 //! where they stop), from the public API. The 16-bit count of a sequence's starts tells
-//! its runs apart (semantics 5, 11, 14); restart books name their target's run; the field
+//! its runs apart (semantics 11, 14); restarts are counted in the target's run; the field
 //! counts stop at 65 535.
 
 use std::cell::Cell;
@@ -212,11 +212,12 @@ fn a_sequence_runs_on_past_65536_starts() {
     assert_eq!((c.runs, c.completed, c.aborts), (1, 0, 1));
 }
 
-/// Semantics item 5: "a monitor ... that restarted its target in one run and next fires
-/// exactly 65 536 starts of that target later, firing in none between, finds the old
-/// run's count of restarts". With `restart_limit(1)`: 65 536 starts later the firing
-/// escalates at once to `AbortOwner`; 65 535 starts later (another count) it restarts.
-fn monitor_restart_book_after(later: u32) -> (Vec<Transition>, Option<Event>) {
+/// Semantics item 5: restarts are counted in the target's run, and a new run begins at 0,
+/// also the one whose 16-bit count meets the old run's again: with `restart_limit(1)`,
+/// 65 535 and 65 536 starts after a run that was restarted once, the first firing
+/// restarts the new run (until session 50 the monitor's book, which kept the count alone,
+/// found the old run's restart 65 536 starts later and aborted it at once).
+fn monitor_restarts_after(later: u32) -> (Vec<Transition>, Option<Event>) {
     let seq = Seqr::new();
     let ctl = Ctl::default();
     let s = seq.add(SeqConfig::new("s"), Quick).unwrap();
@@ -273,46 +274,32 @@ fn monitor_restart_book_after(later: u32) -> (Vec<Transition>, Option<Event>) {
 }
 
 #[test]
-fn a_monitor_restart_book_is_met_again_exactly_65536_starts_later() {
+fn a_new_run_has_its_own_restarts_also_65536_starts_later() {
     let si = SeqId::from_index(0);
     let m = MonitorId::from_index(0);
-    let (trace, fired) = monitor_restart_book_after(65_535);
-    assert_eq!(
-        trace,
-        [
-            Transition::at_millis(0, si, Terminated, Running, Cause::Start),
-            Transition::at_millis(1, si, Running, Restarting, Cause::Monitor(m)),
-            Transition::at_millis(1, si, Restarting, Running, Cause::Restart),
-        ]
-    );
-    assert!(matches!(
-        fired,
-        Some(Event::Fired {
-            behaviour: Behaviour::RestartOwner,
-            ..
-        })
-    ));
-    let (trace, fired) = monitor_restart_book_after(65_536);
-    assert_eq!(
-        trace,
-        [
-            Transition::at_millis(0, si, Terminated, Running, Cause::Start),
-            Transition::at_millis(1, si, Running, Aborting, Cause::Monitor(m)),
-            Transition::at_millis(1, si, Aborting, Aborted, Cause::Monitor(m)),
-        ]
-    );
-    assert!(matches!(
-        fired,
-        Some(Event::Fired {
-            behaviour: Behaviour::AbortOwner,
-            ..
-        })
-    ));
+    for later in [65_535, 65_536] {
+        let (trace, fired) = monitor_restarts_after(later);
+        assert_eq!(
+            trace,
+            [
+                Transition::at_millis(0, si, Terminated, Running, Cause::Start),
+                Transition::at_millis(1, si, Running, Restarting, Cause::Monitor(m)),
+                Transition::at_millis(1, si, Restarting, Running, Cause::Restart),
+            ],
+            "{later} starts later"
+        );
+        assert!(matches!(
+            fired,
+            Some(Event::Fired {
+                behaviour: Behaviour::RestartOwner,
+                ..
+            })
+        ));
+    }
 }
 
-/// The same for a timeout's restart book (`timeout_restart_limit`), kept in the control
-/// block.
-fn timeout_restart_book_after(later: u32) -> Vec<Transition> {
+/// The same for a timeout (`timeout_restart_limit`).
+fn timeout_restarts_after(later: u32) -> Vec<Transition> {
     let seq = Seqr::new();
     let ctl = Ctl::default();
     let cfg = SeqConfig::new("s")
@@ -351,30 +338,23 @@ fn timeout_restart_book_after(later: u32) -> Vec<Transition> {
 }
 
 #[test]
-fn a_timeout_restart_book_is_met_again_exactly_65536_starts_later() {
+fn a_new_run_has_its_own_timeout_restarts_also_65536_starts_later() {
     let si = SeqId::from_index(0);
-    assert_eq!(
-        timeout_restart_book_after(65_535),
-        [
-            Transition::at_millis(0, si, Terminated, Running, Cause::Start),
-            Transition::at_millis(3, si, Running, Restarting, Cause::Timeout(si)),
-            Transition::at_millis(3, si, Restarting, Running, Cause::Restart),
-        ]
-    );
-    assert_eq!(
-        timeout_restart_book_after(65_536),
-        [
-            Transition::at_millis(0, si, Terminated, Running, Cause::Start),
-            Transition::at_millis(3, si, Running, Aborting, Cause::Timeout(si)),
-            Transition::at_millis(3, si, Aborting, Aborted, Cause::Timeout(si)),
-        ]
-    );
+    for later in [65_535, 65_536] {
+        assert_eq!(
+            timeout_restarts_after(later),
+            [
+                Transition::at_millis(0, si, Terminated, Running, Cause::Start),
+                Transition::at_millis(3, si, Running, Restarting, Cause::Timeout(si)),
+                Transition::at_millis(3, si, Restarting, Running, Cause::Restart),
+            ],
+            "{later} starts later"
+        );
+    }
 }
 
-/// Semantics item 11, the documented case: the caller itself starts the child 65 536
-/// times more while it holds the `Scoped`... here by the last start only (see the finding
-/// above); with the application making the last start (caller link `None`), the later
-/// run is left alone.
+/// Semantics item 11: with the application making the start that brings the count round
+/// (caller link `None`), the later run is left alone.
 #[test]
 fn scoped_drop_leaves_a_later_run_of_another_starter_alone_even_at_the_same_count() {
     let seq = Seqr::new();
@@ -544,12 +524,12 @@ impl Sequence<Ctl> for Starter {
 }
 
 /// `Monitor::restart_limit`: "How many restarts this monitor may cause per run of its
-/// target"; semantics item 5: "Restarts are bounded per monitor and run of its target".
+/// target"; semantics item 5: restarts are bounded per run of the target.
 ///
 /// With `RestartCallerOfOwner` the target is the owner's caller of the moment: `move` is
 /// started by `homing` (run 1) and later by `jog` (run 1, never restarted).
 /// `restart_limit(1)`: the firing in homing's run 1 restarts homing; the first firing in
-/// jog's run 1 restarts jog, since the book names the target's run by sequence and count
+/// jog's run 1 restarts jog, since restarts are counted in the target's run
 /// (until session 50 it kept the count alone, found 1 there, and aborted jog at once).
 #[test]
 fn a_restart_budget_spent_on_one_caller_is_not_charged_to_another_with_the_same_run_count() {
@@ -627,7 +607,126 @@ fn a_restart_budget_spent_on_one_caller_is_not_charged_to_another_with_the_same_
     )));
 }
 
-/// The same for the timeout's restart book (in the owner's control block): the timeout of
+/// Control of the `Looper`s: whose turn it is (0: nobody), and when `Held` ends.
+#[derive(Default)]
+struct Turns {
+    turn: Cell<u8>,
+    fault: Cell<bool>,
+    s_done: Cell<bool>,
+}
+
+/// Waits for `turn == me`, starts `s` non-blocking (its caller), joins it, gives the turn
+/// back; again and again.
+struct Looper {
+    me: u8,
+    s: SeqId,
+}
+impl Sequence<Turns> for Looper {
+    async fn action(&mut self, cx: &Cx<'_, Turns>) -> Result<(), Failure> {
+        loop {
+            cx.wait_until(|cx| cx.control().turn.get() == self.me).await;
+            cx.start(self.s)?;
+            let _ = cx.join(self.s).await;
+            cx.control().turn.set(0);
+        }
+    }
+}
+
+/// Runs until `s_done`.
+struct Held;
+impl Sequence<Turns> for Held {
+    async fn action(&mut self, cx: &Cx<'_, Turns>) -> Result<(), Failure> {
+        cx.wait_until(|cx| cx.control().s_done.get()).await;
+        Ok(())
+    }
+}
+
+/// No storms (semantics item 4): `move` is started in turns by `homing` (run 1
+/// throughout) and `jog` (run 2 throughout: started, aborted, started again); its monitor
+/// (`RestartCallerOfOwner`, `restart_limit(1)`) fires once in each turn. Homing's run is
+/// restarted once, and its second firing aborts it. (Until session 50 a monitor kept one
+/// book of the last target it restarted: each caller's firing reset the other's, and
+/// homing's single run was restarted in every one of its turns, without bound.)
+#[test]
+fn callers_in_turns_each_get_their_own_restarts_and_no_more() {
+    let seq: Sequencer<Turns, 4> = Sequencer::new();
+    let ctl = Turns::default();
+    let mv = seq.add(SeqConfig::new("move"), Held).unwrap();
+    let mi = mv.id();
+    let homing = seq
+        .add(SeqConfig::new("homing"), Looper { me: 1, s: mi })
+        .unwrap();
+    let hi = homing.id();
+    let jog = seq
+        .add(SeqConfig::new("jog"), Looper { me: 2, s: mi })
+        .unwrap();
+    let ji = jog.id();
+    let mut fault = |c: &Turns, _: Instant| c.fault.get();
+    let mut monitors = Monitors::<Turns, 1>::new();
+    let m = monitors
+        .add(
+            mi,
+            Monitor::new(
+                "following error",
+                &mut fault,
+                Behaviour::RestartCallerOfOwner,
+            )
+            .restart_limit(1),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctl, monitors);
+    sim.lane(mv);
+    sim.lane(homing);
+    sim.lane(jog);
+    // jog: run 2 from now on.
+    sim.start(ji).unwrap();
+    sim.abort(ji).unwrap();
+    sim.step();
+    sim.start(ji).unwrap();
+    sim.start(hi).unwrap();
+    let mut homing_fate = Vec::new();
+    for turn in [1u8, 2, 1, 2, 1] {
+        ctl.turn.set(turn);
+        sim.run_for(Duration::from_millis(2));
+        assert_eq!(sim.state(mi), Running, "turn {turn}");
+        ctl.fault.set(true);
+        sim.step();
+        ctl.fault.set(false);
+        sim.step();
+        if turn == 1 {
+            homing_fate.push(sim.state(hi));
+            if sim.state(hi) != Running {
+                break;
+            }
+        }
+        ctl.s_done.set(true);
+        sim.run_for(Duration::from_millis(2));
+        ctl.s_done.set(false);
+        assert_eq!(ctl.turn.get(), 0, "turn {turn} given back");
+    }
+    // homing is still in its first run (a restart is no start).
+    assert_eq!(sim.handle(hi).unwrap().counters().runs, 1);
+    let homing_restarts = sim
+        .trace()
+        .iter()
+        .filter(|t| t.sequence == hi && t.cause == Cause::Monitor(m) && t.to == Restarting)
+        .count();
+    assert_eq!(
+        (
+            homing_restarts,
+            homing_fate,
+            sim.handle(hi).unwrap().last_outcome()
+        ),
+        (
+            1,
+            vec![Running, Aborted],
+            Some(Outcome::Aborted(Cause::Monitor(m)))
+        ),
+        "homing's single run restarted {homing_restarts} times with restart_limit(1)"
+    );
+}
+
+/// The same for a timeout: the timeout of
 /// `move` restarts its caller (`RestartCallerOfOwner`, `timeout_restart_limit(1)`): in
 /// homing's run 1 it restarts homing, and in jog's run 1 jog.
 #[test]

@@ -208,8 +208,9 @@ impl<C> SeqConfig<C> {
         self
     }
 
-    /// Restart limit of the timeout monitor, per run of its target (counted as a
-    /// monitor's: [`Monitor::restart_limit`](crate::Monitor::restart_limit)).
+    /// Restart limit of the timeout monitor: how many restarts of a run of its target it
+    /// allows (counted in the run, as for a monitor:
+    /// [`Monitor::restart_limit`](crate::Monitor::restart_limit)).
     ///
     /// A 10 ms dwell under a 4 ms timeout that restarts it at most twice, then aborts it:
     ///

@@ -3,7 +3,6 @@
 
 use crate::model::id::Link;
 use crate::model::state::RunningStates;
-use crate::monitor::RestartBook;
 #[cfg(doc)]
 use crate::MAX_DEPTH;
 use crate::{Behaviour, Cause, Failure, Outcome, Request, RunningState, SeqId};
@@ -181,8 +180,9 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_behaviour: Behaviour,
     pub(crate) timeout_exception: Link,
     pub(crate) timeout_restart_limit: u8,
-    /// The restarts its timeout caused in the last run of a target it restarted.
-    pub(crate) timeout_restarts: RestartBook,
+    /// The restarts monitors and timeouts made of its current run (a start sets 0):
+    /// restarts are bounded per run of the target.
+    pub(crate) monitor_restarts: u8,
     /// What this sequence waits for in a join.
     pub(crate) joins: JoinWait,
     /// Its [polling class](crate::tick::schedule) (the class holds the period).
@@ -220,7 +220,7 @@ impl ControlBlock {
         timeout_behaviour: Behaviour::Nothing,
         timeout_exception: Link::NONE,
         timeout_restart_limit: 0,
-        timeout_restarts: RestartBook::NONE,
+        monitor_restarts: 0,
         joins: JoinWait::NOTHING,
         class: 0,
         monitor_holds: 0,

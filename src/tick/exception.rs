@@ -5,7 +5,6 @@ use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::set::SeqSet;
 use crate::model::state::RunningStates;
-use crate::monitor::RestartBook;
 use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
@@ -18,8 +17,7 @@ use crate::{Behaviour, Cause, Event, RunningState, SeqId, Sequencer};
 pub(crate) struct Reaction {
     pub(crate) behaviour: Behaviour,
     pub(crate) exception: Option<SeqId>,
-    /// The restarts caused in the last run of a target restarted.
-    pub(crate) restarts: RestartBook,
+    /// How many restarts of a run of the target (by any monitor or timeout) it allows.
     pub(crate) limit: u8,
 }
 
@@ -29,7 +27,6 @@ impl ControlBlock {
         Reaction {
             behaviour: self.timeout_behaviour,
             exception: self.timeout_exception.get(),
-            restarts: self.timeout_restarts,
             limit: self.timeout_restart_limit,
         }
     }
@@ -248,15 +245,17 @@ fn mark<
         let target = reaction.behaviour.target(owner, b.caller.get());
         Some((target, b.runs, b.lane))
     })?;
-    let (target_runs, due) =
-        s.section(|s| Some((s.block(target)?.runs, s.sets.words(Set::PollDue))))?;
-    let mut behaviour = reaction.behaviour;
-    let mut restarts = reaction.restarts;
+    let (target_runs, target_restarts, due) = s.section(|s| {
+        let t = s.block(target)?;
+        Some((t.runs, t.monitor_restarts, s.sets.words(Set::PollDue)))
+    })?;
     let target_run = RunId {
         seq: target,
         count: target_runs,
     };
-    if behaviour.is_restart() && !restarts.charge(target_run, reaction.limit) {
+    // Restarts are bounded per run of the target: past the limit, the matching abort.
+    let mut behaviour = reaction.behaviour;
+    if behaviour.is_restart() && target_restarts >= reaction.limit {
         behaviour = behaviour.escalated();
     }
     // From the mark on, the owner and its blocking children (in its lane) are held; but an
@@ -289,11 +288,12 @@ fn mark<
     if owner_skipped {
         skipped.insert(owner);
     }
-    // A timeout's restart book is the owner's, which only the tick reads and writes.
-    if timeout {
+    // The restart is counted in the target's run (a new run begins at 0), once the mark
+    // is made: a firing the owner could not take counts none.
+    if behaviour.is_restart() {
         s.section(|s| {
-            if let Some(b) = s.block_mut(owner) {
-                b.timeout_restarts = restarts;
+            if let Some(t) = s.block_mut(target).filter(|t| t.runs == target_runs) {
+                t.monitor_restarts = t.monitor_restarts.saturating_add(1);
             }
         });
     }
@@ -308,7 +308,6 @@ fn mark<
             behaviour,
         });
     });
-    reaction.restarts = restarts;
     Some(Marked {
         owner: RunId {
             seq: owner,
@@ -332,7 +331,6 @@ mod tests {
         Reaction {
             behaviour: Behaviour::AbortOwner,
             exception: Some(e),
-            restarts: RestartBook::NONE,
             limit: 3,
         }
     }

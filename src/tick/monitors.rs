@@ -204,14 +204,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut reaction = Reaction {
             behaviour: monitor.def.behaviour,
             exception: monitor.def.exception,
-            restarts: monitor.restarts,
             limit: monitor.def.restart_limit,
         };
         let raised = self.raise(control, monitor.owner, Cause::Monitor(id), &mut reaction);
         if raised {
             monitor.fired = monitor.fired.saturating_add(1);
         }
-        monitor.restarts = reaction.restarts;
         raised
     }
 }
