@@ -85,10 +85,9 @@ pub(crate) mod flag {
     pub const STOPPING: u16 = 1 << 3;
     /// The exception sequence ended; the tick applies the pending behaviour.
     pub const EXCEPTION_DONE: u16 = 1 << 5;
-    /// The run's clock is stopped (it is paused): its
-    /// [`clock`](super::ControlBlock::clock) holds its unpaused time so far. The clock's
-    /// own mark, not the state, says how to read it: a pause moves the state and the clock
-    /// in two sections.
+    /// The run's clock is stopped (it is paused): the clock (`State::clocks`,
+    /// `sequencer/clock.rs`) holds its unpaused time so far. The clock's own mark, not the
+    /// state, says how to read it: a pause moves the state and the clock in two sections.
     pub const CLOCK_STOPPED: u16 = 1 << 6;
     /// This run is an exception sequence: its caller is the owner whose exception it
     /// handles, and its end is reported to the tick.

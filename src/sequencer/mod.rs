@@ -7,6 +7,7 @@
 //! | `state.rs` | [`State`]: everything the lock guards, grouped; the one accessor pair for control blocks; the transition function |
 //! | `sets.rs` | the sets of sequences the tick works on (monitored, paused, due, ...), stored a word of every set together |
 //! | `control_block.rs` | one sequence's control block (the seed's `BaseSequence` fields) |
+//! | `clock.rs` | each sequence's run clock: run time, timeouts run out, start, stop, run on |
 //! | `clearance.rs` | the clearance of an await point, the normal end of a run |
 //! | `registry.rs` | registration, tables, binding, look-up by id and name |
 //! | `start.rs` | starts and restarts: the checks, the schedule, the commit |
