@@ -411,8 +411,8 @@ impl<
     }
 
     /// Starts the simulated clock at `t` instead of the sequencer's time (0 for a sequencer
-    /// never ticked), e.g. to run across the wrap of the control blocks' 32-bit microsecond
-    /// times at 2^32 µs ≈ 71.6 min. A time earlier than the sequencer's is
+    /// never ticked), e.g. to run across the wrap of the polling classes' 32-bit
+    /// microsecond times at 2^32 µs ≈ 71.6 min. A time earlier than the sequencer's is
     /// `Err(SimError::StartBeforeSequencerTime)`.
     ///
     /// A 5 ms dwell across the wrap:

@@ -727,3 +727,69 @@ fn a_pause_owner_hold_of_2_hours_keeps_the_remaining_timeout() {
         );
     }
 }
+
+const B48: u64 = 1 << 48;
+/// A minute in µs.
+const MIN_US: u64 = 60_000_000;
+
+// ---------------------------------------------------------------------------------------
+// 6. Across 2^48 µs, where the run clock itself wraps.
+// ---------------------------------------------------------------------------------------
+
+/// O (timeout 10 min) is paused at 1 min for `pause` µs and resumed; the trace relative to
+/// the start is the same wherever 2^48 µs falls.
+fn paused_timeout(
+    base: u64,
+    pause: u64,
+) -> Vec<(u64, SeqId, rtseq::RunningState, rtseq::RunningState, Cause)> {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let o = seq
+        .add(
+            SeqConfig::new("O")
+                .polling(Duration::from_millis(10))
+                .timeout(Duration::from_ticks(10 * MIN_US)),
+            Node::of(vec![]).until(1),
+        )
+        .unwrap();
+    let oi = o.id();
+    let b = Instant::from_ticks(base);
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new())
+        .with_period(Duration::from_millis(10))
+        .unwrap()
+        .starting_at(b)
+        .unwrap();
+    sim.lane(o);
+    sim.start(oi).unwrap();
+    sim.run_until(b + Duration::from_ticks(MIN_US - 10_000));
+    sim.pause(oi).unwrap();
+    sim.run_until(b + Duration::from_ticks(MIN_US - 10_000 + pause));
+    sim.resume(oi).unwrap();
+    sim.run_until_idle(Duration::from_ticks(60 * MIN_US));
+    sim.trace()
+        .iter()
+        .map(|t| {
+            (
+                (t.time.as_ticks() - base) / 1_000,
+                t.sequence,
+                t.from,
+                t.to,
+                t.cause,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn run_clocks_count_across_2_pow_48_micros() {
+    let reference = paused_timeout(0, 5 * MIN_US);
+    for base in [
+        B48 - 30 * MIN_US,
+        B48 - MIN_US - 5_000,
+        B48 - 6 * MIN_US,
+        B48 - 11 * MIN_US,
+        3 * B48 - 2 * MIN_US,
+    ] {
+        assert_eq!(paused_timeout(base, 5 * MIN_US), reference, "base {base}");
+    }
+}

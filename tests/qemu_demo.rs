@@ -368,7 +368,6 @@ fn demo_equals_host(args: &[&str], plan: FaultPlan) -> Demo {
     d
 }
 
-/// The motor stands still without current and the drive is off, at the end.
 /// The deepest the firmware's one stack went in the run (the paint below the deepest frame
 /// is intact: `board::stack::peak`), held to a ceiling (docs/footprint.md, "Stack"). The
 /// deepest nesting is idle, the tick, the safety task and the application's own code.
@@ -389,6 +388,7 @@ fn assert_stack_within_its_ceiling(d: &Demo) {
     assert!((1..=4_096).contains(&bytes), "demo stack: {bytes} B");
 }
 
+/// The motor stands still without current and the drive is off, at the end.
 fn assert_motor_stopped(d: &Demo) {
     assert_eq!(d.num("vel_um_s"), 0, "velocity");
     assert!(d.num("current_ma").abs() < 50, "current");

@@ -217,7 +217,7 @@ fn a_sequence_runs_on_past_65536_starts() {
 /// 65 535 and 65 536 starts after a run that was restarted once, the first firing
 /// restarts the new run (until session 50 the monitor's book, which kept the count alone,
 /// found the old run's restart 65 536 starts later and aborted it at once).
-fn monitor_restarts_after(later: u32) -> (Vec<Transition>, Option<Event>) {
+fn restarts_after(later: u32) -> (Vec<Transition>, Option<Event>) {
     let seq = Seqr::new();
     let ctl = Ctl::default();
     let s = seq.add(SeqConfig::new("s"), Quick).unwrap();
@@ -278,7 +278,7 @@ fn a_new_run_has_its_own_restarts_also_65536_starts_later() {
     let si = SeqId::from_index(0);
     let m = MonitorId::from_index(0);
     for later in [65_535, 65_536] {
-        let (trace, fired) = monitor_restarts_after(later);
+        let (trace, fired) = restarts_after(later);
         assert_eq!(
             trace,
             [
@@ -390,6 +390,14 @@ fn scoped_drop_leaves_a_later_run_of_another_starter_alone_even_at_the_same_coun
                 ..
             }
         )));
+    // The parent's action went past its `start_scoped` and the drop: it completes.
+    ctl.phase.set(3);
+    sim.run_for(Duration::from_millis(3));
+    assert_eq!(
+        sim.handle(p).unwrap().last_outcome(),
+        Some(Outcome::Completed)
+    );
+    assert_eq!(sim.state(c), Running);
 }
 
 /// Semantics item 14 and `Scoped::join`: the join names the scoped run by its count. After
@@ -523,8 +531,7 @@ impl Sequence<Ctl> for Starter {
     }
 }
 
-/// `Monitor::restart_limit`: "How many restarts this monitor may cause per run of its
-/// target"; semantics item 5: restarts are bounded per run of the target.
+/// Semantics item 5: restarts are bounded per run of the target.
 ///
 /// With `RestartCallerOfOwner` the target is the owner's caller of the moment: `move` is
 /// started by `homing` (run 1) and later by `jog` (run 1, never restarted).

@@ -91,7 +91,7 @@ pub(crate) const NEVER_AHEAD: u32 = MAX_INTERVAL as u32;
 /// it runs, the time run so far while it is stopped. A run's time must be exact however
 /// long the run lasts: a run held by an exception is not polled, and its clock runs on
 /// (a [`Stamp`]'s 32 bits wrap after 71.6 minutes, which an operator's acknowledgement can
-/// outlast). Packed to two-byte alignment, so that a control block has room for it.
+/// outlast). Packed to two-byte alignment: six bytes per sequence, not eight.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[repr(C, packed(2))]
 pub(crate) struct Micros48 {

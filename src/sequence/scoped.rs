@@ -21,7 +21,8 @@ use crate::Cx;
 /// ([`Requester::Sequence`](crate::Requester::Sequence)) of this run alone, restarts (by
 /// its own monitors) included: a later run of the sequence, started after this one ended,
 /// is not aborted by it (unless it is the caller's own start that brings the 16-bit run
-/// count round to this run's again, after 65 536 starts of the sequence in all). A paused caller does not pause it (it runs in its own lane).
+/// count round to this run's again, after 65 536 starts of the sequence in all). A
+/// paused caller does not pause it (it runs in its own lane).
 /// The rules, with the corner cases, are item 11 of docs/semantics.md.
 ///
 /// A belt that runs while `load` waits for a part, and stops when `load` returns:

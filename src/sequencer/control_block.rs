@@ -160,7 +160,7 @@ pub(crate) struct ControlBlock {
     pub(crate) flags: u16,
     /// The count of starts (not restarts), wrapping: the current run's count in its
     /// `RunId`, by which futures, contexts, joins, requests and teardowns tell its runs
-    /// apart. A new run also resets the monitors' restart books.
+    /// apart.
     pub(crate) runs: u16,
     /// `activeException`: the monitor (or timeout) whose exception is active or was last.
     pub(crate) active_exception: Option<Cause>,
@@ -179,9 +179,9 @@ pub(crate) struct ControlBlock {
     pub(crate) timeout_behaviour: Behaviour,
     pub(crate) timeout_exception: Link,
     pub(crate) timeout_restart_limit: u8,
-    /// The restarts monitors and timeouts made of its current run (a start sets 0):
-    /// restarts are bounded per run of the target.
-    pub(crate) monitor_restarts: u8,
+    /// The restarts monitors and timeouts made of its current run (a new run begins at
+    /// 0): a monitor or timeout whose restart limit this has reached escalates.
+    pub(crate) restarts_made: u8,
     /// What this sequence waits for in a join.
     pub(crate) joins: JoinWait,
     /// Its [polling class](crate::tick::schedule) (the class holds the period).
@@ -219,7 +219,7 @@ impl ControlBlock {
         timeout_behaviour: Behaviour::Nothing,
         timeout_exception: Link::NONE,
         timeout_restart_limit: 0,
-        monitor_restarts: 0,
+        restarts_made: 0,
         joins: JoinWait::NOTHING,
         class: 0,
         monitor_holds: 0,

@@ -174,7 +174,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.lane = lane;
         b.active_exception = None;
         b.lift_pauses();
-        b.monitor_restarts = 0;
+        b.restarts_made = 0;
         self.start_clock(id);
         // Its lane may be another one now.
         self.polling.forget_woken();

@@ -12,8 +12,7 @@ use crate::sequencer::start::Mode;
 use crate::tick::skip_untaken_polls;
 use crate::{Behaviour, Cause, Event, RunningState, SeqId, Sequencer};
 
-/// How an exception of one monitor (or of a sequence's timeout) is handled, with its
-/// restart bookkeeping.
+/// How an exception of one monitor (or of a sequence's timeout) is handled.
 pub(crate) struct Reaction {
     pub(crate) behaviour: Behaviour,
     pub(crate) exception: Option<SeqId>,
@@ -22,7 +21,7 @@ pub(crate) struct Reaction {
 }
 
 impl ControlBlock {
-    /// How this sequence's timeout monitor reacts, with its restart bookkeeping.
+    /// How this sequence's timeout monitor reacts.
     pub(crate) fn timeout_reaction(&self) -> Reaction {
         Reaction {
             behaviour: self.timeout_behaviour,
@@ -39,16 +38,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// mark the exception, then start the exception sequence (the behaviour waits for its
     /// end) or apply the behaviour now. Returns false when the owner could not take an
     /// exception any more (a timeout: unless running, its timeout stays armed and is
-    /// checked again at its next poll). The reaction's restart bookkeeping is updated; a
-    /// timeout's is written back to the owner's block with the mark (which also disarms
-    /// the timeout).
+    /// checked again at its next poll). A timeout's mark also disarms it.
     #[inline(never)]
     pub(crate) fn raise(
         &self,
         control: &C,
         owner: SeqId,
         cause: Cause,
-        reaction: &mut Reaction,
+        reaction: &Reaction,
     ) -> bool {
         let Some(Marked {
             owner: marked,
@@ -218,7 +215,7 @@ fn mark<
     s: &mut S,
     owner: SeqId,
     cause: Cause,
-    reaction: &mut Reaction,
+    reaction: &Reaction,
 ) -> Option<Marked<B>> {
     let timeout = matches!(cause, Cause::Timeout(_));
     // Monitored (a paused timeout is frozen), not handling an exception already, not being
@@ -230,7 +227,7 @@ fn mark<
     } else {
         RunningStates::RUNNING_OR_PAUSED
     };
-    // Four sections. With the portable lock a lane of higher priority may end or start
+    // Several sections. With the portable lock a lane of higher priority may end or start
     // the owner in between: the mark is made only if the owner still runs the run the
     // first section saw, in a state that takes it; then it is counted and recorded.
     let (target, owner_runs, lane) = s.section(|s| {
@@ -247,13 +244,14 @@ fn mark<
     })?;
     let (target_runs, target_restarts, due) = s.section(|s| {
         let t = s.block(target)?;
-        Some((t.runs, t.monitor_restarts, s.sets.words(Set::PollDue)))
+        Some((t.runs, t.restarts_made, s.sets.words(Set::PollDue)))
     })?;
     let target_run = RunId {
         seq: target,
         count: target_runs,
     };
-    // Restarts are bounded per run of the target: past the limit, the matching abort.
+    // Restarts are bounded per run of the target (the restarts made of it, counted where
+    // the teardown restarts it): past the limit, the matching abort.
     let mut behaviour = reaction.behaviour;
     if behaviour.is_restart() && target_restarts >= reaction.limit {
         behaviour = behaviour.escalated();
@@ -287,15 +285,6 @@ fn mark<
     })?;
     if owner_skipped {
         skipped.insert(owner);
-    }
-    // The restart is counted in the target's run (a new run begins at 0), once the mark
-    // is made: a firing the owner could not take counts none.
-    if behaviour.is_restart() {
-        s.section(|s| {
-            if let Some(t) = s.block_mut(target).filter(|t| t.runs == target_runs) {
-                t.monitor_restarts = t.monitor_restarts.saturating_add(1);
-            }
-        });
     }
     s.section(|s| {
         #[cfg(feature = "counters")]
@@ -357,7 +346,7 @@ mod tests {
         let cause = Cause::Monitor(MonitorId(0));
         // The scan of the tick whose evaluation fires took the owner's fresh mark.
         seq.with(|s| s.sets.put(Set::Fresh, owner, false));
-        assert!(seq.raise(&(), owner, cause, &mut abort_owner_with(e)));
+        assert!(seq.raise(&(), owner, cause, &abort_owner_with(e)));
     }
 
     /// O and O2 share the exception sequence E (both monitors `AbortOwner`). E, handling

@@ -238,9 +238,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // Timeouts and exit-condition wake-ups after the monitors: a monitor that fired in
         // the same tick comes first.
         for id in expired {
-            // The configuration is fixed and its bookkeeping is the tick's: read once.
-            if let Some(mut reaction) = self.with(|s| s.block(id).map(|b| b.timeout_reaction())) {
-                self.raise(control, id, Cause::Timeout(id), &mut reaction);
+            // The timeout's configuration is fixed: read once.
+            if let Some(reaction) = self.with(|s| s.block(id).map(|b| b.timeout_reaction())) {
+                self.raise(control, id, Cause::Timeout(id), &reaction);
             }
             raised = true;
         }

@@ -201,12 +201,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// A monitor (not `PauseOwner`) triggered: raise its exception. False when its owner
     /// could not take it (see [`raise`](Self::raise)).
     fn fire<K>(&self, monitor: &mut OwnedMonitor<'_, C, K>, id: MonitorId, control: &C) -> bool {
-        let mut reaction = Reaction {
+        let reaction = Reaction {
             behaviour: monitor.def.behaviour,
             exception: monitor.def.exception,
             limit: monitor.def.restart_limit,
         };
-        let raised = self.raise(control, monitor.owner, Cause::Monitor(id), &mut reaction);
+        let raised = self.raise(control, monitor.owner, Cause::Monitor(id), &reaction);
         if raised {
             monitor.fired = monitor.fired.saturating_add(1);
         }

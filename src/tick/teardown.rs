@@ -304,9 +304,9 @@ fn leave_for_teardown<
             b.drop_pause_and_resume();
             b.set(flag::START_PENDING, false);
         }
-        Ok((from, s.hooks.get(id.index()).copied().flatten()))
+        Ok((from, b.runs, s.hooks.get(id.index()).copied().flatten()))
     });
-    let (from, hook) = match looked {
+    let (from, runs, hook) = match looked {
         Ok(found) => found,
         Err(other) => return other,
     };
@@ -327,6 +327,16 @@ fn leave_for_teardown<
     });
     if !moved {
         return Move::Raced;
+    }
+    // A restart made is counted in the run it restarts (a monitor's or timeout's limit is
+    // checked against it when the monitor fires); an abort meanwhile ends the run, and a
+    // new run begins at 0.
+    if let Stop::Restart = how {
+        s.section(|s| {
+            if let Some(b) = s.block_mut(id).filter(|b| b.runs == runs) {
+                b.restarts_made = b.restarts_made.saturating_add(1);
+            }
+        });
     }
     Move::Left(hook)
 }
