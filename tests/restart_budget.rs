@@ -257,3 +257,99 @@ fn two_monitors_share_the_run_s_restart_budget() {
     );
     assert_eq!(sim.state(mi), Aborted);
 }
+
+fn of(
+    trace: &[Transition],
+    id: SeqId,
+) -> Vec<(u64, rtseq::RunningState, rtseq::RunningState, Cause)> {
+    trace
+        .iter()
+        .filter(|t| t.sequence == id)
+        .map(|t| (t.time.as_ticks() / 1000, t.from, t.to, t.cause))
+        .collect()
+}
+
+/// T (own monitor mT: `RestartOwner`, flag 1) starts O non-blocking and ends on flag 6.
+/// O has mO (`RestartCallerOfOwner`, exception sequence E, `restart_limit(1)`, flag 0).
+///
+/// 1. mT restarts T once: T's run 1 has made 1 restart. T completes; O runs on (a
+///    non-blocking child keeps its link to its ended caller).
+/// 2. mO fires: its target is T; the mark reads T's ended run 1 (1 restart, limit 1) and
+///    escalates to `AbortCallerOfOwner`. E runs.
+/// 3. T is started again: run 2, 0 restarts; O is below it (semantics 11).
+/// 4. E ends: the behaviour acts on T's run 2 (semantics 11: "the child is below its new
+///    run, which ... a `…CallerOfOwner` behaviour of the child acts on"). That run has made
+///    no restart ("A new run (a start, not a restart) begins at 0", semantics 5), below
+///    mO's limit of 1: T's run 2 is restarted, not aborted (found by an outside probe in
+///    session 50: the firing judged the limit on the ended run 1 and aborted run 2).
+#[test]
+fn a_caller_behaviour_on_an_ended_callers_run_acts_on_its_next_run_from_0() {
+    let seq = Seqr::new();
+    let ctrl = Ctrl::default();
+    let o = seq
+        .add(SeqConfig::new("O"), Node::of(vec![]).until(7))
+        .unwrap();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![]).until(2))
+        .unwrap();
+    let (oi, ei) = (o.id(), e.id());
+    let t = seq
+        .add(SeqConfig::new("T"), Node::of(vec![Op::Start(oi)]).until(6))
+        .unwrap();
+    let ti = t.id();
+    let mut c0 = |c: &Ctrl, _: Instant| c.flag(0);
+    let mut c1 = |c: &Ctrl, _: Instant| c.flag(1);
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    let mo = monitors
+        .add(
+            oi,
+            Monitor::new("mO", &mut c0, Behaviour::RestartCallerOfOwner)
+                .exception(ei)
+                .restart_limit(1),
+        )
+        .unwrap();
+    monitors
+        .add(
+            ti,
+            Monitor::new("mT", &mut c1, Behaviour::RestartOwner).restart_limit(5),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    for s in [o, e, t] {
+        sim.lane(s);
+    }
+    sim.start(ti).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    // 1. T restarted once by its own monitor.
+    ctrl.set(1, true);
+    sim.step();
+    ctrl.set(1, false);
+    sim.run_for(Duration::from_millis(2));
+    assert_eq!((sim.state(ti), sim.state(oi)), (Running, Running));
+    ctrl.set(6, true);
+    sim.run_for(Duration::from_millis(2));
+    ctrl.set(6, false);
+    assert_eq!((sim.state(ti), sim.state(oi)), (Terminated, Running));
+    assert_eq!(sim.handle(oi).unwrap().caller(), Some(ti));
+    // 2. mO fires, E runs.
+    ctrl.set(0, true);
+    sim.step();
+    ctrl.set(0, false);
+    assert_eq!(sim.state(ei), Running);
+    // 3. T's run 2.
+    sim.start(ti).unwrap();
+    sim.run_for(Duration::from_millis(2));
+    assert_eq!(sim.state(ti), Running);
+    sim.take_trace();
+    // 4. E ends.
+    ctrl.set(2, true);
+    sim.run_for(Duration::from_millis(3));
+    let t_trace = of(sim.trace(), ti);
+    assert!(
+        t_trace
+            .first()
+            .is_some_and(|x| (x.1, x.2, x.3) == (Running, Restarting, Cause::Monitor(mo))),
+        "T's run 2 had made no restart (limit 1): it must be restarted by mO, got {t_trace:?}\n{}",
+        show(sim.trace())
+    );
+}

@@ -244,7 +244,14 @@ fn mark<
     })?;
     let (target_runs, target_restarts, due) = s.section(|s| {
         let t = s.block(target)?;
-        Some((t.runs, t.restarts_made, s.sets.words(Set::PollDue)))
+        // An ended run is restarted no more: the behaviour acts on the target's next run
+        // (a caller started again), which begins at 0.
+        let made = if RunningStates::LIVE.has(t.state) {
+            t.restarts_made
+        } else {
+            0
+        };
+        Some((t.runs, made, s.sets.words(Set::PollDue)))
     })?;
     let target_run = RunId {
         seq: target,
