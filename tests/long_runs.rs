@@ -14,7 +14,7 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{self, Completed, Monitor as Mon, Start, Timeout};
 use rtseq::RunningState::{self, *};
 use rtseq::{
-    Behaviour, Duration, Instant, Monitor, Monitors, SeqConfig, SeqId, Sequencer, Transition,
+    Behaviour, Duration, Instant, Monitor, Monitors, Seq, SeqConfig, SeqId, Sequencer, Transition,
     Trigger, Wait,
 };
 
@@ -61,15 +61,30 @@ fn since(t: Instant, base: Instant) -> u64 {
 /// O's timeout is due at 10 min, while E runs; it must fire right after E ended.
 fn timeout_after_long_exception(base: Instant, exc_end_ms: u64) -> (Rel, [SeqId; 2]) {
     let seq = Seqr::new();
-    let ctrl = Ctrl::default();
     let o = seq
         .add(
             cfg("O").timeout(Duration::from_millis(10 * MIN)),
             Node::of(vec![]).until(1),
         )
         .unwrap();
+    let oi = o.id();
+    let (trace, ei) = with_a_long_exception(&seq, o, base, exc_end_ms, exc_end_ms + 40 * MIN);
+    (trace, [oi, ei])
+}
+
+/// Runs `owner` (in its lane) from `base` with a warning monitor of it (flag 0, set from
+/// 1 min on; `Nothing`) whose exception sequence E ends once flag 2 is set, at
+/// `exc_end_ms`, until idle or `limit_ms`. Returns the trace (ms from `base`) and E's id.
+fn with_a_long_exception(
+    seq: &Seqr,
+    owner: Seq<Node>,
+    base: Instant,
+    exc_end_ms: u64,
+    limit_ms: u64,
+) -> (Rel, SeqId) {
+    let ctrl = Ctrl::default();
     let e = seq.add(cfg("E"), Node::of(vec![]).until(2)).unwrap();
-    let (oi, ei) = (o.id(), e.id());
+    let (oi, ei) = (owner.id(), e.id());
     let mut c0 = |c: &Ctrl, _| c.flag(0);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
     monitors
@@ -78,12 +93,12 @@ fn timeout_after_long_exception(base: Instant, exc_end_ms: u64) -> (Rel, [SeqId;
             Monitor::new("warn", &mut c0, Behaviour::Nothing).exception(ei),
         )
         .unwrap();
-    let mut sim = Sim::new(&seq, &ctrl, monitors)
+    let mut sim = Sim::new(seq, &ctrl, monitors)
         .with_period(ms10())
         .unwrap()
         .starting_at(base)
         .unwrap();
-    sim.lane(o);
+    sim.lane(owner);
     sim.lane(e);
     sim.before_tick(move |t, c| {
         let m = since(t, base);
@@ -91,8 +106,8 @@ fn timeout_after_long_exception(base: Instant, exc_end_ms: u64) -> (Rel, [SeqId;
         c.set(2, m >= exc_end_ms);
     });
     sim.start(oi).unwrap();
-    sim.run_until_idle(Duration::from_millis(exc_end_ms + 40 * MIN));
-    (rel(sim.trace(), base), [oi, ei])
+    sim.run_until_idle(Duration::from_millis(limit_ms));
+    (rel(sim.trace(), base), ei)
 }
 
 fn timeout_after_exception_want(exc_end_ms: u64, [oi, ei]: [SeqId; 2]) -> Rel {
@@ -137,37 +152,14 @@ fn timeout_due_during_a_76_min_exception_fires_right_after_it() {
 /// clock runs on. W should end when its run time reaches 100 min.
 fn wait_held_by_long_exception(base: Instant, exc_end_ms: u64) -> (Rel, [SeqId; 3]) {
     let seq = Seqr::new();
-    let ctrl = Ctrl::default();
     let w = seq
         .add(cfg("W"), Wait::new(Duration::from_millis(100 * MIN)))
         .unwrap();
     let wi = w.id();
     let main = seq.add(cfg("main"), Node::of(vec![Op::Wait(w)])).unwrap();
-    let e = seq.add(cfg("E"), Node::of(vec![]).until(2)).unwrap();
-    let (mi, ei) = (main.id(), e.id());
-    let mut c0 = |c: &Ctrl, _| c.flag(0);
-    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
-    monitors
-        .add(
-            mi,
-            Monitor::new("warn", &mut c0, Behaviour::Nothing).exception(ei),
-        )
-        .unwrap();
-    let mut sim = Sim::new(&seq, &ctrl, monitors)
-        .with_period(ms10())
-        .unwrap()
-        .starting_at(base)
-        .unwrap();
-    sim.lane(main);
-    sim.lane(e);
-    sim.before_tick(move |t, c| {
-        let m = since(t, base);
-        c.set(0, m >= MIN);
-        c.set(2, m >= exc_end_ms);
-    });
-    sim.start(mi).unwrap();
-    sim.run_until_idle(Duration::from_millis(200 * MIN));
-    (rel(sim.trace(), base), [mi, wi, ei])
+    let mi = main.id();
+    let (trace, ei) = with_a_long_exception(&seq, main, base, exc_end_ms, 200 * MIN);
+    (trace, [mi, wi, ei])
 }
 
 fn wait_held_want(exc_end_ms: u64, [mi, wi, ei]: [SeqId; 3]) -> Rel {

@@ -31,8 +31,8 @@ fn firings(sim: &Sim<'_, Ctrl, 8, 64, 2>) -> Vec<(SeqId, Behaviour)> {
 /// exception sequence (E1, E2) and `restart_limit(2)`. Both fire in one tick: T is
 /// restarted once (E1's end restarts T, which takes O2 and its pending behaviour down).
 /// In T's restarted run O1's monitor fires again: T's run was restarted once, below the
-/// limit of 2, so the firing must restart T. It is escalated to `AbortCallerOfOwner`: both
-/// marks charged T's run, the second for a restart that never happened.
+/// limit of 2, so the firing restarts T (a count at the firings charged T's run twice,
+/// the second time for a restart that never happened, and escalated it to an abort).
 #[test]
 fn a_restart_that_never_happens_is_not_charged_to_the_run() {
     let seq = Seqr::new();
@@ -140,8 +140,8 @@ fn a_restart_that_never_happens_is_not_charged_to_the_run() {
 /// T starts O1 and O2 non-blocking. O1's monitor (`RestartCallerOfOwner`, exception
 /// sequence E1, `restart_limit(1)`) fires; while E1 runs, the application aborts O1, so
 /// T is never restarted. Then O2's monitor (`RestartCallerOfOwner`, `restart_limit(1)`)
-/// fires: T's run was never restarted, so it must be restarted; it is aborted, since the
-/// first mark charged T's run.
+/// fires: T's run was never restarted, so it is restarted (a count at the firings had
+/// charged T's run at the first one, and aborted it).
 #[test]
 fn a_restart_dropped_with_its_owner_is_not_charged_to_the_caller_s_run() {
     let seq = Seqr::new();
@@ -274,8 +274,8 @@ fn of(
 ///
 /// 1. mT restarts T once: T's run 1 has made 1 restart. T completes; O runs on (a
 ///    non-blocking child keeps its link to its ended caller).
-/// 2. mO fires: its target is T; the mark reads T's ended run 1 (1 restart, limit 1) and
-///    escalates to `AbortCallerOfOwner`. E runs.
+/// 2. mO fires: its target is T, whose run 1 has ended: the limit is judged as for T's
+///    next run, from 0 (`RestartCallerOfOwner` stands). E runs.
 /// 3. T is started again: run 2, 0 restarts; O is below it (semantics 11).
 /// 4. E ends: the behaviour acts on T's run 2 (semantics 11: "the child is below its new
 ///    run, which ... a `…CallerOfOwner` behaviour of the child acts on"). That run has made
