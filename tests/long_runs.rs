@@ -124,27 +124,21 @@ fn timeout_after_exception_want(exc_end_ms: u64, [oi, ei]: [SeqId; 2]) -> Rel {
     ]
 }
 
-/// An exception of 20 min: the timeout fires in the tick after E ended.
+/// An exception of 20 min, and one that ends 76 min after O's start, when O's run time
+/// has passed 2^32 µs (71.58 min): the timeout fires in the tick after E ended (the 32-bit
+/// clock of session 49 fired it once the run time modulo 2^32 µs reached 10 min again,
+/// at 81.6 min).
 #[test]
-fn reference_timeout_due_during_a_20_min_exception_fires_right_after_it() {
-    let end = 21 * MIN;
-    let (got, ids) = timeout_after_long_exception(Instant::from_ticks(0), end);
-    assert_eq!(got, timeout_after_exception_want(end, ids));
-}
-
-/// The same with an exception that ends 76 min after O's start, when O's run time has
-/// passed 2^32 µs (71.58 min): the timeout fires in the tick after E ended (the 32-bit
-/// clock fired it once the run time modulo 2^32 µs reached 10 min again, 81.6 min).
-#[test]
-fn timeout_due_during_a_76_min_exception_fires_right_after_it() {
-    let end = 76 * MIN;
-    let (got, ids) = timeout_after_long_exception(Instant::from_ticks(0), end);
-    assert_eq!(got, timeout_after_exception_want(end, ids), "{got:#?}");
+fn a_timeout_due_during_an_exception_fires_right_after_it_however_long_it_was() {
+    for end in [21 * MIN, 76 * MIN] {
+        let (got, ids) = timeout_after_long_exception(Instant::from_ticks(0), end);
+        assert_eq!(got, timeout_after_exception_want(end, ids), "{got:#?}");
+    }
 }
 
 // ---------------------------------------------------------------------------------------
 // 2. A `Wait` held (its caller handles an exception) keeps counting: "A held child's clock
-//    runs on"; `Wait` "adds up differences, so it waits longer than that [2^32 µs]".
+//    runs on" (semantics 3).
 // ---------------------------------------------------------------------------------------
 
 /// main ─step→ W (Wait 100 min). A monitor of main (flag 0 from 1 min, `Nothing`) has an
@@ -174,21 +168,14 @@ fn wait_held_want(exc_end_ms: u64, [mi, wi, ei]: [SeqId; 3]) -> Rel {
     ]
 }
 
-/// Held 20 min, the 100 min wait ends at 100 min.
+/// Held 20 min, and held 75 min (more than 2^32 µs), the 100 min wait ends at 100 min
+/// (the 32-bit clock of session 49 lost 2^32 µs: 171.6 min).
 #[test]
-fn reference_wait_held_20_min_by_its_callers_exception_ends_on_time() {
-    let end = 21 * MIN;
-    let (got, ids) = wait_held_by_long_exception(Instant::from_ticks(0), end);
-    assert_eq!(got, wait_held_want(end, ids));
-}
-
-/// Held 75 min (more than 2^32 µs), the 100 min wait ends at 100 min (the 32-bit clock
-/// lost 2^32 µs: 171.6 min).
-#[test]
-fn wait_held_75_min_by_its_callers_exception_ends_on_time() {
-    let end = 76 * MIN;
-    let (got, ids) = wait_held_by_long_exception(Instant::from_ticks(0), end);
-    assert_eq!(got, wait_held_want(end, ids), "{got:#?}");
+fn a_held_wait_ends_on_time_however_long_it_was_held() {
+    for end in [21 * MIN, 76 * MIN] {
+        let (got, ids) = wait_held_by_long_exception(Instant::from_ticks(0), end);
+        assert_eq!(got, wait_held_want(end, ids), "{got:#?}");
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -634,36 +621,23 @@ fn set_timeout_late(set_at_ms: u64) -> Rel {
     rel(sim.trace(), base)
 }
 
-/// Set again at 20 min (run time 20 min ≥ 10 min): the run is still armed, and the
-/// timeout fires at the next poll, 20 min + 10 ms.
+/// Set again at 20 min and at 80 min (run time ≥ 10 min): the run is still armed, and the
+/// timeout fires at once, at the next poll (the 32-bit clock of session 49 fired the one
+/// set at 80 min at 81.6 min, when the run time modulo 2^32 µs reached 10 min).
 #[test]
-fn reference_a_timeout_set_again_at_20_min_fires_at_once() {
+fn a_timeout_set_again_late_in_a_run_fires_at_once() {
     let oi = SeqId::from_index(0);
-    assert_eq!(
-        set_timeout_late(20 * MIN),
-        vec![
-            (0, oi, Idle, Running, Start),
-            (20 * MIN + 10, oi, Running, Aborting, Timeout(oi)),
-            (20 * MIN + 10, oi, Aborting, Aborted, Timeout(oi)),
-        ]
-    );
-}
-
-/// Set again at 80 min (run time 80 min ≥ 10 min): at once, at the next poll (the 32-bit
-/// clock fired at 81.6 min, when the run time modulo 2^32 µs reached 10 min).
-#[test]
-fn a_timeout_set_again_at_80_min_fires_at_once() {
-    let oi = SeqId::from_index(0);
-    let got = set_timeout_late(80 * MIN);
-    assert_eq!(
-        got,
-        vec![
-            (0, oi, Idle, Running, Start),
-            (80 * MIN + 10, oi, Running, Aborting, Timeout(oi)),
-            (80 * MIN + 10, oi, Aborting, Aborted, Timeout(oi)),
-        ],
-        "{got:?}"
-    );
+    for at in [20 * MIN, 80 * MIN] {
+        assert_eq!(
+            set_timeout_late(at),
+            vec![
+                (0, oi, Idle, Running, Start),
+                (at + 10, oi, Running, Aborting, Timeout(oi)),
+                (at + 10, oi, Aborting, Aborted, Timeout(oi)),
+            ],
+            "set again at {at} ms"
+        );
+    }
 }
 
 // ---------------------------------------------------------------------------------------
