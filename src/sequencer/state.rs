@@ -57,6 +57,11 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     pub(crate) trace: Ring<T>,
     /// Each sequence's run clock (`clock.rs`).
     pub(crate) clocks: [Micros48; N],
+    /// Each sequence's restart limit of the monitor or timeout whose behaviour is pending
+    /// (it waits for the end of its exception sequence), set with the pending behaviour:
+    /// the behaviour is judged with it when applied. A byte each beside the blocks rather
+    /// than in them, where it would pad each block by four.
+    pub(crate) exception_limits: [u8; N],
     /// The address of the monitor table this sequencer is ticked with (0: none yet): the
     /// first non-empty table a due tick came with. Due ticks with a table elsewhere are
     /// refused.
@@ -135,6 +140,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             counters: [crate::Counters::ZERO; N],
             trace: Ring::new(),
             clocks: [Micros48::ZERO; N],
+            exception_limits: [0; N],
             monitor_table: 0,
         }
     }

@@ -66,13 +66,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     Ok(_) if current => {
                         if let Some(b) = s.block_mut(owner) {
                             // Kept as what it does to this owner: one that acts on the
-                            // caller stays so only for an owner that has one now.
+                            // caller stays so only for an owner that has one now. Kept
+                            // as configured: the limit is judged again where it is
+                            // applied, on the target's run then.
                             let pending = if target.seq == owner {
-                                behaviour.on_owner()
+                                reaction.behaviour.on_owner()
                             } else {
-                                behaviour
+                                reaction.behaviour
                             };
                             b.set_pending(Some(pending));
+                            if let Some(limit) = s.exception_limits.get_mut(owner.index()) {
+                                *limit = reaction.limit;
+                            }
                         }
                     }
                     Err(why) if current => s.exception_not_run(e, owner, why),
@@ -188,6 +193,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 }
 
+/// What `behaviour` does to the target's run `target` (semantics item 5): restarts are
+/// bounded per run of the target, counted where the teardown restarts it, so a restart of
+/// a run that has made `limit` of them escalates to the matching abort. An ended run is
+/// restarted no more: the behaviour acts on the target's next run (a caller started
+/// again), which begins at 0. Judged at the mark, and again where a behaviour that waited
+/// for its exception sequence is applied: the target's run may have changed meanwhile.
+pub(super) fn judged(behaviour: Behaviour, limit: u8, target: &ControlBlock) -> Behaviour {
+    let made = if RunningStates::LIVE.has(target.state) {
+        target.restarts_made
+    } else {
+        0
+    };
+    if behaviour.is_restart() && made >= limit {
+        behaviour.escalated()
+    } else {
+        behaviour
+    }
+}
+
 /// What [`mark`] did.
 struct Marked<const B: usize> {
     /// The owner's run it marked.
@@ -242,27 +266,15 @@ fn mark<
         let target = reaction.behaviour.target(owner, b.caller.get());
         Some((target, b.runs, b.lane))
     })?;
-    let (target_runs, target_restarts, due) = s.section(|s| {
+    let (target_runs, behaviour, due) = s.section(|s| {
         let t = s.block(target)?;
-        // An ended run is restarted no more: the behaviour acts on the target's next run
-        // (a caller started again), which begins at 0.
-        let made = if RunningStates::LIVE.has(t.state) {
-            t.restarts_made
-        } else {
-            0
-        };
-        Some((t.runs, made, s.sets.words(Set::PollDue)))
+        let behaviour = judged(reaction.behaviour, reaction.limit, t);
+        Some((t.runs, behaviour, s.sets.words(Set::PollDue)))
     })?;
     let target_run = RunId {
         seq: target,
         count: target_runs,
     };
-    // Restarts are bounded per run of the target (the restarts made of it, counted where
-    // the teardown restarts it): past the limit, the matching abort.
-    let mut behaviour = reaction.behaviour;
-    if behaviour.is_restart() && target_restarts >= reaction.limit {
-        behaviour = behaviour.escalated();
-    }
     // From the mark on, the owner and its blocking children (in its lane) are held; but an
     // exception handled at once (`Nothing`, no exception sequence) holds nothing: their
     // due polls stand, else a monitor that fires at every poll (a `Level` warning) would

@@ -6,6 +6,7 @@ use crate::lock::Lock;
 use crate::model::state::RunningStates;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sets::Set;
+use crate::tick::exception::judged;
 use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, Sequencer};
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
@@ -86,7 +87,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     let cause = b.active_exception?;
                     Some((behaviour, cause, s.current_run(target)))
                 });
-                if let Some((behaviour, cause, target)) = still {
+                // Judged on the target's run now: the one under way at the firing may
+                // have ended, or been restarted, meanwhile.
+                let judged = still.and_then(|(behaviour, cause, target)| {
+                    self.with(|s| {
+                        let limit = *s.exception_limits.get(id.index())?;
+                        let judged = judged(behaviour, limit, s.block(target.seq)?);
+                        Some((judged, cause, target))
+                    })
+                });
+                if let Some((behaviour, cause, target)) = judged {
                     self.apply(control, id, behaviour, target, cause);
                 }
             }

@@ -355,12 +355,12 @@ mod app {
         let t32 = size_of::<Sequencer<Ctrl, 8, 32>>();
         let m4 = size_of::<Monitors<'static, Ctrl, 4>>();
         let m8 = size_of::<Monitors<'static, Ctrl, 8>>();
-        // A sequence's RAM: its control block with its run clock (kept beside it), and its
-        // cleanup-hook slot (an array beside).
+        // A sequence's RAM: its control block with its run clock and its exception's restart
+        // limit (kept beside it), and its cleanup-hook slot (an array beside).
         let per_sequence = (b16 - b8) / 8;
         let hook_slot = size_of::<Option<fn(&Ctrl)>>();
         defmt::info!(
-            "bench_seq: size control block = {=usize} bytes (with its run clock; per sequence {=usize}, with its cleanup-hook slot)",
+            "bench_seq: size control block = {=usize} bytes (with its run clock and restart limit; per sequence {=usize}, with its cleanup-hook slot)",
             per_sequence - hook_slot,
             per_sequence
         );
