@@ -302,7 +302,11 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
-    /// sequence was aborted because of it.
+    /// sequence was aborted, or is being restarted, because of it. The restarted run begins
+    /// without it (it is not held), and so does a new start; [`active_exception`] keeps
+    /// naming the last exception until a new start.
+    ///
+    /// [`active_exception`]: Handle::active_exception
     ///
     /// A sequence whose 3 ms timeout fires during a 10 ms dwell (the timeout's default behaviour
     /// aborts it):
