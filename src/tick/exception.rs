@@ -90,7 +90,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 return true;
             }
         }
-        self.apply(control, owner, behaviour, target, cause);
+        self.apply(control, marked, behaviour, target, cause);
         if behaviour == Behaviour::Nothing {
             // Handled at once after all (its exception sequence could not start): the
             // owner was not held, so the polls the mark skipped stand.
@@ -164,21 +164,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
     }
 
-    /// Applies a behaviour after an exception (and its exception sequence) of `owner` to
-    /// the run `target` (the owner's, or its caller's).
+    /// Applies a behaviour after an exception (and its exception sequence) of the owner's
+    /// run `owner` to the run `target` (the owner's, or its caller's).
     pub(super) fn apply(
         &self,
         control: &C,
-        owner: SeqId,
+        owner: RunId,
         behaviour: Behaviour,
         target: RunId,
         cause: Cause,
     ) {
         match behaviour {
             Behaviour::Nothing => {
+                let id = owner.seq;
                 in_sections_then_wake!(self, |s| {
-                    s.section(|s| s.sets.put(Set::Excepting, owner, false));
-                    s.section(|s| s.lane_of(owner))
+                    s.section(|s| s.sets.put(Set::Excepting, id, false));
+                    s.section(|s| s.lane_of(id))
                 });
             }
             Behaviour::AbortOwner | Behaviour::AbortCallerOfOwner => {
@@ -189,6 +190,26 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             // Applied once, it pauses (the tick's `hold` also resumes).
             Behaviour::PauseOwner => self.pause_tree(target, cause),
+        }
+        if target.seq != owner.seq && behaviour != Behaviour::PauseOwner {
+            self.end_if_still_held(control, owner, cause);
+        }
+    }
+
+    /// After a behaviour's teardown of its owner's caller's run: a lane of higher priority
+    /// than the tick may have ended that run and begun another before the teardown looked
+    /// at it, and a teardown does nothing to a later run (semantics 9). The owner's run
+    /// `owner`, below it, still running and marked, would then stay held for good: it is
+    /// aborted, as an owner whose caller's run has ended (semantics 11).
+    #[inline(never)]
+    fn end_if_still_held(&self, control: &C, owner: RunId, cause: Cause) {
+        let held = self.with(|s| {
+            s.current_run(owner.seq) == owner
+                && RunningStates::RUNNING_OR_PAUSED.has(s.state_of(owner.seq))
+                && s.sets.has(Set::Excepting, owner.seq)
+        });
+        if held {
+            self.tear_down(control, owner, cause);
         }
     }
 }

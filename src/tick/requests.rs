@@ -88,7 +88,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     Some((behaviour, cause, s.current_run(target)))
                 });
                 // Judged on the target's run now: the one under way at the firing may
-                // have ended, or been restarted, meanwhile.
+                // have ended and another begun meanwhile (a restart of the target would
+                // have taken this owner down with it). Should a lane of higher priority
+                // replace it before the teardown, `apply` aborts the owner.
                 let judged = still.and_then(|(behaviour, cause, target)| {
                     self.with(|s| {
                         let limit = *s.exception_limits.get(id.index())?;
@@ -97,7 +99,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     })
                 });
                 if let Some((behaviour, cause, target)) = judged {
-                    self.apply(control, id, behaviour, target, cause);
+                    self.apply(control, run, behaviour, target, cause);
                 }
             }
             match req {

@@ -329,8 +329,9 @@ fn leave_for_teardown<
         return Move::Raced;
     }
     // A restart made is counted in the run it restarts (a monitor's or timeout's limit is
-    // checked against it when the monitor fires); an abort meanwhile ends the run, and a
-    // new run begins at 0.
+    // checked against it when the monitor fires, and again where a behaviour that waited
+    // for its exception sequence is applied); an abort meanwhile ends the run, and a new
+    // run begins at 0.
     if let Stop::Restart = how {
         s.section(|s| {
             if let Some(b) = s.block_mut(id).filter(|b| b.runs == runs) {

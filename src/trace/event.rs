@@ -48,13 +48,17 @@ use crate::{Behaviour, Cause, Error, Failure, SeqId};
 pub enum Event {
     /// A monitor of `owner` fired (`cause`: [`Cause::Monitor`]) or its timeout ran out
     /// ([`Cause::Timeout`]); `behaviour` follows (once its restarts are used up, the one it
-    /// escalates to).
+    /// escalates to), as judged at the firing. One that waits for its exception sequence
+    /// is judged again when it is applied, on the target's run then (semantics item 5):
+    /// if that run is another one, what is applied may differ, and the transitions that
+    /// follow show it.
     Fired {
         /// The monitor's owner.
         owner: SeqId,
         /// Which monitor, or the timeout.
         cause: Cause,
-        /// The behaviour applied after the exception sequence (or at once).
+        /// The behaviour, as judged at the firing, applied at once or after the exception
+        /// sequence.
         behaviour: Behaviour,
     },
     /// The exception sequence of an exception of `owner` could not run, so the behaviour

@@ -626,3 +626,78 @@ fn a_caller_behaviour_whose_link_is_cut_during_the_firing_aborts_the_owner() {
         w.check(&what);
     });
 }
+
+/// C (main) started O non-blocking and runs on. O's monitor (`behaviour`, a caller
+/// behaviour; with exception sequence E or without) fired at 1 ms. The tick that applies
+/// the behaviour (at 2 ms after E's end, or at 1 ms without E) reads C's run under way and
+/// tears it down; a lane of higher priority than the tick ends C's run and a handle starts
+/// C again before section `k` of that tick (or after it). Wherever it lands, O's exception
+/// ends: the behaviour acts on C's new run when it began before the tick read C's run
+/// (semantics 11), and O is torn down with C's old run once the teardown had it; a run
+/// replaced between the read and the teardown's first look leaves the teardown nothing,
+/// and O is then aborted, as an owner whose caller's run has ended. Before session 51 O
+/// stayed running, marked and held, for good. (Found by an outside probe.)
+fn caller_run_replaced_while_a_caller_behaviour_is_applied<L: Lock + 'static>(
+    behaviour: Behaviour,
+    with_exception_sequence: bool,
+) {
+    let setup = || {
+        let w = super::World::<L, 8, 1>::new(Layout::One);
+        let (c, o, e) = (w.seq("C"), w.seq("O"), w.seq("E"));
+        w.monitor(
+            o,
+            flag_of(true),
+            behaviour,
+            with_exception_sequence.then_some(e),
+        );
+        w.start_taken(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        if with_exception_sequence {
+            w.tick(1);
+            w.take(e);
+            assert!(w.complete(e));
+        }
+        (w, c, o)
+    };
+    let applying = if with_exception_sequence { 2 } else { 1 };
+    let count = sections(setup, |(w, ..)| w.tick(applying));
+    every_k(count, |k| {
+        let (w, c, o) = setup();
+        let replace = move || {
+            if w.complete(c) {
+                w.start_taken(c);
+            }
+        };
+        interleaved::at(k, replace);
+        w.tick(applying);
+        or_after(k, replace);
+        w.tick(applying + 1);
+        let what = format!("{behaviour:?}, exception sequence {with_exception_sequence}, k={k}");
+        assert!(
+            w.state(o) != Running || !w.in_set(Set::Excepting, o),
+            "{what}: O left held: O {:?}, C {:?}",
+            w.transitions(o),
+            w.transitions(c)
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_caller_run_replaced_while_a_caller_behaviour_is_applied_leaves_no_owner_held() {
+    for behaviour in [
+        Behaviour::RestartCallerOfOwner,
+        Behaviour::AbortCallerOfOwner,
+    ] {
+        for with_exception_sequence in [true, false] {
+            caller_run_replaced_while_a_caller_behaviour_is_applied::<Interleaved>(
+                behaviour,
+                with_exception_sequence,
+            );
+            caller_run_replaced_while_a_caller_behaviour_is_applied::<
+                crate::lock::interleaved::InterleavedCoarse,
+            >(behaviour, with_exception_sequence);
+        }
+    }
+}
