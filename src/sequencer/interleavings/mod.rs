@@ -460,6 +460,25 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
             if ![Running, Paused, Restarting].contains(&state) {
                 continue;
             }
+            // An exception marked on a run under way ends: its behaviour waits for an
+            // exception sequence handling it (or for the tick to report that one's end),
+            // or a restart will begin the run again without it. Else the run is held for
+            // good.
+            if state != Restarting && self.in_set(Set::Excepting, id) {
+                let handled = self.seq.with(|s| {
+                    let b = s.block(id).unwrap();
+                    b.pending().is_some()
+                        || b.has(flag::EXCEPTION_DONE)
+                        || (0..count).any(|e| {
+                            let e = s.block(SeqId::from_index(e)).unwrap();
+                            e.has(flag::HANDLES_EXCEPTION) && e.caller.get() == Some(id)
+                        })
+                });
+                assert!(
+                    handled,
+                    "{what}: {id:?} {state:?} held by an exception that nothing handles"
+                );
+            }
             let blocking = self.seq.with(|s| s.block(id).unwrap().lane)
                 == self.seq.with(|s| {
                     let c = s.block(id).unwrap().caller.get();
