@@ -260,6 +260,13 @@ impl ControlBlock {
         self.flags & f != 0
     }
 
+    /// A teardown has placed it and not moved it yet, or its abort is requested (by a
+    /// lane of higher priority than the tick, during the tick): its stop comes first, so
+    /// it takes no exception and starts no exception sequence (semantics 9).
+    pub(crate) fn being_stopped(&self) -> bool {
+        self.has(flag::STOPPING | request::ABORT)
+    }
+
     pub(crate) fn set(&mut self, f: u16, on: bool) {
         if on {
             self.flags |= f;

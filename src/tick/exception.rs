@@ -5,12 +5,13 @@ use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::set::SeqSet;
 use crate::model::state::RunningStates;
-use crate::sequencer::control_block::{flag, ControlBlock};
+use crate::sequencer::control_block::ControlBlock;
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
+use crate::sequencer::State;
 use crate::tick::skip_untaken_polls;
-use crate::{Behaviour, Cause, Event, RunningState, SeqId, Sequencer};
+use crate::{Behaviour, Cause, Error, Event, RunningState, SeqId, Sequencer};
 
 /// How an exception of one monitor (or of a sequence's timeout) is handled.
 pub(crate) struct Reaction {
@@ -57,37 +58,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         if let Some(e) = reaction.exception {
-            let started = self.begin(e, Mode::Exception { owner: marked }, cause);
-            // A lane of higher priority may have ended the marked run and begun another
-            // since the mark: the exception went with the run it was raised on.
-            let current = self.with(|s| {
-                let current = s.current_run(owner) == marked;
-                match started {
-                    Ok(_) if current => {
-                        if let Some(b) = s.block_mut(owner) {
-                            // Kept as what it does to this owner: one that acts on the
-                            // caller stays so only for an owner that has one now. Kept
-                            // as configured: the limit is judged again where it is
-                            // applied, on the target's run then.
-                            let pending = if target.seq == owner {
-                                reaction.behaviour.on_owner()
-                            } else {
-                                reaction.behaviour
-                            };
-                            b.set_pending(Some(pending));
-                            if let Some(limit) = s.exception_limits.get_mut(owner.index()) {
-                                *limit = reaction.limit;
-                            }
+            // A lane of higher priority may have ended the marked run (and begun
+            // another), or begun its stop, since the mark: the exception went with the
+            // run it was raised on.
+            match self.begin(e, Mode::Exception { owner: marked }, cause) {
+                Ok(_) => {
+                    // The behaviour waits for the exception sequence's end, kept as what
+                    // it does to this owner: one that acts on the caller stays so only
+                    // for an owner that has one now. Kept as configured: the limit is
+                    // judged again where it is applied, on the target's run then.
+                    let pending = if target.seq == owner {
+                        reaction.behaviour.on_owner()
+                    } else {
+                        reaction.behaviour
+                    };
+                    self.with(|s| {
+                        if s.takes_exception(marked) {
+                            s.set_pending(owner, pending, reaction.limit);
                         }
-                    }
-                    Err(why) if current => s.exception_not_run(e, owner, why),
-                    _ => {}
+                    });
+                    return true;
                 }
-                current
-            });
-            // The behaviour waits for the exception sequence's end.
-            if started.is_ok() || !current {
-                return true;
+                // Refused for its starter, the owner: the marked run is not the owner's
+                // any more, or not under way, or being stopped (`open_start` checks what
+                // `takes_exception` does).
+                Err(Error::NotRunning(starter)) if starter == owner => return true,
+                Err(why) => self.with(|s| s.exception_not_run(e, owner, why)),
             }
         }
         self.apply(control, marked, behaviour, target, cause);
@@ -118,6 +114,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 return None;
             }
             let b = s.block_mut(owner)?;
+            // Its stop comes first.
+            if b.being_stopped() {
+                return None;
+            }
             // Its monitors are evaluated only while it is running or paused.
             b.monitor_holds = b.monitor_holds.saturating_add(1);
             let run = RunId {
@@ -139,8 +139,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         if let Some(e) = exception {
-            if let Err(why) = self.begin(e, Mode::BesidePause { owner: run }, cause) {
-                self.with(|s| s.exception_not_run(e, owner, why));
+            match self.begin(e, Mode::BesidePause { owner: run }, cause) {
+                // A lane of higher priority ended the run, or began its stop, since the
+                // first section: the exception sequence went with it.
+                Err(Error::NotRunning(starter)) if starter == owner => {}
+                Err(why) => self.with(|s| s.exception_not_run(e, owner, why)),
+                Ok(_) => {}
             }
         }
         if running {
@@ -214,6 +218,31 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 }
 
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
+    /// Whether `run` is still its sequence's run, under way (running or paused) and not
+    /// being stopped: an exception sequence refused for it was refused for an exception
+    /// it still has (counted, and the behaviour applied at once), not one that went with
+    /// its run.
+    /// `behaviour` (with its monitor's restart `limit`) waits for the end of `owner`'s
+    /// exception sequence.
+    fn set_pending(&mut self, owner: SeqId, behaviour: Behaviour, limit: u8) {
+        if let Some(b) = self.block_mut(owner) {
+            b.set_pending(Some(behaviour));
+        }
+        if let Some(l) = self.exception_limits.get_mut(owner.index()) {
+            *l = limit;
+        }
+    }
+
+    fn takes_exception(&self, run: RunId) -> bool {
+        self.block(run.seq).is_some_and(|b| {
+            b.runs == run.count
+                && RunningStates::RUNNING_OR_PAUSED.has(b.state)
+                && !b.being_stopped()
+        })
+    }
+}
+
 /// What `behaviour` does to the target's run `target` (semantics item 5): restarts are
 /// bounded per run of the target, counted where the teardown restarts it, so a restart of
 /// a run that has made `limit` of them escalates to the matching abort. An ended run is
@@ -279,7 +308,7 @@ fn mark<
         let b = s.block(owner)?;
         if !states.has(b.state)
             || s.sets.has(Set::Excepting, owner)
-            || b.has(flag::STOPPING)
+            || b.being_stopped()
             || s.sets.has(Set::Fresh, owner)
         {
             return None;
@@ -352,6 +381,7 @@ fn mark<
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::sequencer::control_block::flag;
     use crate::sequencer::port::Port;
     use crate::{Error, Instant, Monitor, MonitorId, Monitors, Outcome, SeqConfig};
 

@@ -89,6 +89,7 @@ mod lanes;
 mod more;
 mod polls;
 mod random;
+mod replaced_runs;
 mod rounds;
 
 use core::cell::Cell;
@@ -462,13 +463,14 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
             }
             // An exception marked on a run under way ends: its behaviour waits for an
             // exception sequence handling it (or for the tick to report that one's end),
-            // or a restart will begin the run again without it. Else the run is held for
-            // good.
+            // its stop has begun or is requested, or a restart will begin the run again
+            // without it. Else the run is held for good.
             if state != Restarting && self.in_set(Set::Excepting, id) {
                 let handled = self.seq.with(|s| {
                     let b = s.block(id).unwrap();
                     b.pending().is_some()
                         || b.has(flag::EXCEPTION_DONE)
+                        || b.being_stopped()
                         || (0..count).any(|e| {
                             let e = s.block(SeqId::from_index(e)).unwrap();
                             e.has(flag::HANDLES_EXCEPTION) && e.caller.get() == Some(id)
