@@ -25,8 +25,9 @@
 //! `lost-warning`): `N records were lost: the trace is incomplete`.
 //!
 //! Linear in the size of the run: the transitions are grouped by sequence once, and the
-//! run of each state span (for its tooltip) is found by walking the sequence's runs and
-//! spans together, both in time order. The run must be in time order ([`Run::finish`];
+//! run of each state span (for its tooltip: the run that holds the transition into the
+//! span, even when it started in the µs the previous run ended) is found by walking the
+//! sequence's runs and spans together, both in time order. The run must be in time order ([`Run::finish`];
 //! both readers do it).
 
 use std::fmt::Write as _;
@@ -116,8 +117,9 @@ pub fn render(run: &Run, title: &str) -> String {
         );
         let trs = by_seq.get(*i).map_or(&[][..], Vec::as_slice);
         let runs = run.run_spans_in(trs);
-        // Spans and runs are both in time order: the run of a span is found by one index
-        // that only moves forward (the first run that has not ended before the span starts).
+        // Spans and runs are both in time order: the run of a span is the one holding the
+        // transition into it (a run may start in the µs the previous one ended), found by
+        // one index that only moves forward.
         let mut r = 0;
         // Short states (a restart, an abort) are drawn last, on top, at least 2 px wide.
         let mut on_top = String::new();
@@ -125,12 +127,16 @@ pub fn render(run: &Run, title: &str) -> String {
             if sp.state == State::Idle {
                 continue;
             }
-            while runs.get(r).is_some_and(|x| x.end_us < sp.start_us) {
+            let k = sp.transition.unwrap_or(usize::MAX);
+            while runs
+                .get(r)
+                .is_some_and(|x| x.transitions.last().is_some_and(|&l| l < k))
+            {
                 r += 1;
             }
             let outcome = runs
                 .get(r)
-                .filter(|x| x.start_us <= sp.start_us)
+                .filter(|x| x.transitions.first().is_some_and(|&f| f <= k))
                 .map(|x| format!("\nrun: started by {}; outcome {}", x.start_cause, x.outcome))
                 .unwrap_or_default();
             let tip = format!(

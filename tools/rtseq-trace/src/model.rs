@@ -244,6 +244,9 @@ pub struct StateSpan {
     pub state: State,
     /// The cause of the transition into the state (`None` for the initial `Idle`).
     pub cause: Option<String>,
+    /// The index into [`Run::transitions`] of the transition into the state (`None` for
+    /// the initial `Idle`).
+    pub transition: Option<usize>,
 }
 
 /// One run of one sequence: from leaving an inactive state to entering one.
@@ -436,17 +439,22 @@ impl Run {
             end_us: 0,
             state: State::Idle,
             cause: None,
+            transition: None,
         };
-        for t in transitions.iter().filter_map(|&k| self.transitions.get(k)) {
-            let mut done = cur.clone();
-            done.end_us = t.time_us;
-            spans.push(done);
-            cur = StateSpan {
+        for (k, t) in transitions
+            .iter()
+            .filter_map(|&k| self.transitions.get(k).map(|t| (k, t)))
+        {
+            let next = StateSpan {
                 start_us: t.time_us,
                 end_us: 0,
                 state: t.to,
                 cause: Some(t.cause.clone()),
+                transition: Some(k),
             };
+            let mut done = std::mem::replace(&mut cur, next);
+            done.end_us = t.time_us;
+            spans.push(done);
         }
         cur.end_us = self.end_us.max(cur.start_us);
         spans.push(cur);

@@ -438,3 +438,26 @@ fn late_times_are_drawn_where_they_are() {
     let whole = dom(&pages[1], "");
     assert_eq!(drawn(&whole, w), at("1180", "2"));
 }
+
+/// A run that starts in the µs the previous one ended: each span's tooltip names its own
+/// run (the `Running` after the restart named the aborted run).
+#[test]
+fn a_run_started_when_the_last_ended_is_named() {
+    let text = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":40,"sequences":[{"id":0,"name":"move","caller":null}],"monitors":[]}
+{"t":0,"seq":0,"from":"Idle","to":"Running","cause":"start"}
+{"t":10,"seq":0,"from":"Running","to":"Aborting","cause":"abort"}
+{"t":20,"seq":0,"from":"Aborting","to":"Aborted","cause":"abort"}
+{"t":20,"seq":0,"from":"Aborted","to":"Running","cause":"start"}
+{"t":30,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}
+"#;
+    let page = html::render(&tracefile::read(text).unwrap(), "same µs");
+    for want in [
+        tip("Running", 0, 10, "start", "aborted (abort)"),
+        tip("Aborting", 10, 20, "abort", "aborted (abort)"),
+        tip("Aborted", 20, 20, "abort", "aborted (abort)"),
+        tip("Running", 20, 30, "start", "completed"),
+        tip("Terminated", 30, 40, "completed", "completed"),
+    ] {
+        assert_eq!(page.matches(&want).count(), 1, "no span with\n{want}");
+    }
+}
