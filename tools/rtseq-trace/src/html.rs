@@ -21,6 +21,12 @@
 //! coordinates (Blink near 2^25), which drew everything after 33.5 s at 33.5 s when the
 //! coordinates were µs. Times are exact to 2^53 µs (JavaScript numbers).
 //!
+//! The records decide the states ([`Run::state_spans_in`]): before a sequence's first record
+//! it is drawn in that record's `from` state (its tooltip's cause: `unknown: the state before
+//! the sequence's first record`), and a span after which the next record starts from another
+//! state is drawn faded with a dashed red outline (class `gap`), its tooltip saying
+//! `RECORDS LOST`.
+//!
 //! A run with lost records ([`Run::lost`]) gets a banner above the chart (class
 //! `lost-warning`): `N records were lost: the trace is incomplete`.
 //!
@@ -119,15 +125,20 @@ pub fn render(run: &Run, title: &str) -> String {
         let runs = run.run_spans_in(trs);
         // Spans and runs are both in time order: the run of a span is the one holding the
         // transition into it (a run may start in the µs the previous one ended), found by
-        // one index that only moves forward.
+        // one index that only moves forward. The state before the first record belongs to
+        // the first run if that run was under way.
         let mut r = 0;
-        // Short states (a restart, an abort) are drawn last, on top, at least 2 px wide.
+        // Short states (a restart, an abort) and gaps are drawn last, on top.
         let mut on_top = String::new();
+        let first = trs.first().copied();
         for sp in run.state_spans_in(trs) {
-            if sp.state == State::Idle {
+            if sp.state == State::Idle && sp.gap.is_none() {
                 continue;
             }
-            let k = sp.transition.unwrap_or(usize::MAX);
+            let k = sp
+                .transition
+                .or(first.filter(|_| sp.state.is_active()))
+                .unwrap_or(usize::MAX);
             while runs
                 .get(r)
                 .is_some_and(|x| x.transitions.last().is_some_and(|&l| l < k))
@@ -139,27 +150,38 @@ pub fn render(run: &Run, title: &str) -> String {
                 .filter(|x| x.transitions.first().is_some_and(|&f| f <= k))
                 .map(|x| format!("\nrun: started by {}; outcome {}", x.start_cause, x.outcome))
                 .unwrap_or_default();
+            let cause = match &sp.cause {
+                Some(c) => c.clone(),
+                None if sp.state == State::Idle => String::from("-"),
+                None => String::from("unknown: the state before the sequence's first record"),
+            };
+            let gap = sp.gap.map_or_else(String::new, |to| {
+                format!(
+                    "\nRECORDS LOST: the next record starts from {to}, not {}; what happened between is not known",
+                    sp.state
+                )
+            });
             let tip = format!(
-                "{}: {} from {} s to {} s ({} µs)\ncause: {}{}",
+                "{}: {} from {} s to {} s ({} µs)\ncause: {cause}{outcome}{gap}",
                 s.name,
                 sp.state,
                 secs(sp.start_us),
                 secs(sp.end_us),
                 sp.end_us.saturating_sub(sp.start_us),
-                sp.cause.as_deref().unwrap_or("-"),
-                outcome
             );
-            let layer = if matches!(
-                sp.state,
-                State::Paused | State::Aborting | State::Restarting
-            ) {
+            let layer = if sp.gap.is_some()
+                || matches!(
+                    sp.state,
+                    State::Paused | State::Aborting | State::Restarting
+                ) {
                 &mut on_top
             } else {
                 &mut data
             };
+            let gap_class = if sp.gap.is_some() { " gap" } else { "" };
             let _ = write!(
                 layer,
-                r#"<rect class="span {}" data-t0="{}" data-t1="{}" x="0" y="{y:.1}" width="0" height="{ROW_H}"><title>{}</title></rect>"#,
+                r#"<rect class="span {}{gap_class}" data-t0="{}" data-t1="{}" x="0" y="{y:.1}" width="0" height="{ROW_H}"><title>{}</title></rect>"#,
                 state_class(sp.state),
                 sp.start_us,
                 sp.end_us,
@@ -343,6 +365,7 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 .s-aborting {{ fill: #f07c22; background: #f07c22; }} .s-aborted {{ fill: #f1a9a9; background: #f1a9a9; }}
 .s-terminated {{ fill: #c9dcf2; background: #c9dcf2; }} .s-restarting {{ fill: #8a4fd8; background: #8a4fd8; }}
 .s-idle {{ fill: #f3f3f3; background: #f3f3f3; }}
+.gap {{ fill-opacity: 0.35; stroke: #d0021b; stroke-width: 1; stroke-dasharray: 3 2; }}
 .marker {{ stroke-width: 2; vector-effect: non-scaling-stroke; }}
 .monitor-fire, .m-monitor {{ stroke: #d0021b; background: #d0021b; }}
 .request, .m-request {{ stroke: #0057d8; background: #0057d8; stroke-dasharray: 4 3; }}

@@ -10,6 +10,11 @@
 //! ```
 //! Names are sanitized (characters other than letters, digits and `_` become `_`). A run
 //! with lost records (see [`Run::lost`]) gets a `$comment` saying so after `$timescale`.
+//!
+//! The records decide the states: a sequence starts (`$dumpvars`) in the `from` state of
+//! its first record, and a record whose `from` is not the previous record's `to` (records
+//! were lost between) gets a `$comment` at its time: `records lost: 'child' was Paused at
+//! 20 us; its next record, at 30 us, starts from Aborted`.
 //! An event at the last representable time (`u64::MAX` µs) rises and has no fall: there is
 //! no later time to put it at.
 
@@ -55,11 +60,15 @@ enum Val {
     Bits(u8, usize),
     Bit(bool),
     Real(f64),
+    /// A `$comment` among the changes (its id is unused).
+    Comment(String),
 }
 
 impl Val {
     fn line(&self, id: &str) -> String {
         match self {
+            // `$end` closes a comment: the text has no `$`.
+            Val::Comment(c) => format!("$comment {} $end", c.replace('$', "S")),
             Val::Str(s) => format!("s{} {id}", sanitize(s)),
             Val::Bits(v, w) => format!("b{:0w$b} {id}", v, w = *w),
             Val::Bit(b) => format!("{}{id}", u8::from(*b)),
@@ -107,20 +116,41 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
     let mut changes: Vec<(u64, u8, String, Val)> = Vec::new();
     let mut init: Vec<(String, Val)> = Vec::new();
 
+    // Before its first record a sequence was in that record's `from` state.
+    let by_seq = run.by_sequence();
+    let first_state = |i: usize| {
+        by_seq
+            .get(i)
+            .and_then(|trs| trs.first())
+            .and_then(|&k| run.transitions.get(k))
+            .map_or(State::Idle, |t| t.from)
+    };
     writeln!(out, "$scope module sequences $end")?;
     let seq_ids: Vec<String> = run.sequences.iter().map(|_| next()).collect();
-    for (s, id) in run.sequences.iter().zip(&seq_ids) {
+    for (i, (s, id)) in run.sequences.iter().zip(&seq_ids).enumerate() {
         writeln!(out, "$var string 1 {id} {} $end", sanitize(&s.name))?;
-        init.push((id.clone(), Val::Str(State::Idle.name().into())));
+        init.push((id.clone(), Val::Str(first_state(i).name().into())));
     }
     writeln!(out, "$upscope $end")?;
     writeln!(out, "$scope module state_codes $end")?;
     let code_ids: Vec<String> = run.sequences.iter().map(|_| next()).collect();
-    for (s, id) in run.sequences.iter().zip(&code_ids) {
+    for (i, (s, id)) in run.sequences.iter().zip(&code_ids).enumerate() {
         writeln!(out, "$var wire 3 {id} {} $end", sanitize(&s.name))?;
-        init.push((id.clone(), Val::Bits(0, 3)));
+        init.push((id.clone(), Val::Bits(first_state(i).code(), 3)));
     }
     writeln!(out, "$upscope $end")?;
+    // A record whose `from` is not the previous record's `to`: records were lost between.
+    for (s, trs) in run.sequences.iter().zip(&by_seq) {
+        for sp in run.state_spans_in(trs) {
+            if let Some(to) = sp.gap {
+                let text = format!(
+                    "records lost: '{}' was {} at {} us; its next record, at {} us, starts from {to}",
+                    s.name, sp.state, sp.start_us, sp.end_us
+                );
+                changes.push((sp.end_us, 1, String::new(), Val::Comment(text)));
+            }
+        }
+    }
     for t in &run.transitions {
         if let (Some(s), Some(c)) = (seq_ids.get(t.seq), code_ids.get(t.seq)) {
             changes.push((t.time_us, 1, s.clone(), Val::Str(t.to.name().into())));

@@ -413,3 +413,130 @@ fn vcd_pulse_at_the_last_time() {
         u64::MAX - 1000
     )));
 }
+
+/// `main`'s first record resumes it (the trace starts mid-run); `child`'s third record starts
+/// from `Aborted` although its second left it `Paused` (records lost).
+const MID_RUN_AND_GAP: &str = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":100,"lost":3,"sequences":[{"id":0,"name":"main","caller":null},{"id":1,"name":"child","caller":0}],"monitors":[]}
+{"t":10,"seq":0,"from":"Paused","to":"Running","cause":"resume"}
+{"t":10,"seq":1,"from":"Idle","to":"Running","cause":"start"}
+{"t":20,"seq":1,"from":"Running","to":"Paused","cause":"pause"}
+{"t":30,"seq":1,"from":"Aborted","to":"Running","cause":"start"}
+{"t":40,"seq":1,"from":"Running","to":"Terminated","cause":"completed"}
+{"t":60,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}
+"#;
+
+/// The exports follow a record's `from`: VCD starts `main` in `Paused` and comments the
+/// gap; Perfetto has `main`'s `Paused` from 0, a `records lost` span over the gap and a
+/// run whose end was lost.
+#[test]
+fn exports_follow_the_records_from_state() {
+    let run = tracefile::read(MID_RUN_AND_GAP).unwrap();
+    let mut buf = Vec::new();
+    vcd::write(&run, &mut buf).unwrap();
+    let mut parser = ::vcd::Parser::new(&buf[..]);
+    let header = parser.parse_header().unwrap();
+    let main = header
+        .find_var(&["rtseq", "sequences", "main"])
+        .unwrap()
+        .code;
+    let main_code = header
+        .find_var(&["rtseq", "state_codes", "main"])
+        .unwrap()
+        .code;
+    let (mut t, mut in_dump) = (0u64, false);
+    let (mut initial, mut initial_code, mut comments) = (None, None, Vec::new());
+    for cmd in parser {
+        match cmd.unwrap() {
+            ::vcd::Command::Timestamp(x) => t = x,
+            ::vcd::Command::Begin(::vcd::SimulationCommand::Dumpvars) => in_dump = true,
+            ::vcd::Command::End(::vcd::SimulationCommand::Dumpvars) => in_dump = false,
+            ::vcd::Command::ChangeString(id, s) if in_dump && id == main => initial = Some(s),
+            ::vcd::Command::ChangeVector(id, v) if in_dump && id == main_code => {
+                initial_code = Some(v.to_string())
+            }
+            ::vcd::Command::Comment(c) => comments.push((t, c.trim().to_string())),
+            _ => {}
+        }
+    }
+    assert_eq!(initial.as_deref(), Some("Paused"));
+    assert_eq!(initial_code.as_deref(), Some("010"));
+    assert_eq!(
+        comments,
+        [(
+            30,
+            String::from(
+                "records lost: 'child' was Paused at 20 us; its next record, at 30 us, starts from Aborted"
+            )
+        )]
+    );
+
+    let events = perfetto::events(&run);
+    let on = |tid: usize, cat: &str| -> Vec<(u64, u64, String, Value)> {
+        events
+            .iter()
+            .filter(|e| e["tid"] == tid && e["cat"] == cat)
+            .map(|e| {
+                (
+                    e["ts"].as_u64().unwrap(),
+                    e["dur"].as_u64().unwrap(),
+                    e["name"].as_str().unwrap().to_string(),
+                    e["args"].clone(),
+                )
+            })
+            .collect()
+    };
+    let (main, child) = (perfetto::tid_of(0), perfetto::tid_of(1));
+    let states: Vec<_> = on(main, "state")
+        .into_iter()
+        .map(|e| (e.0, e.1, e.2))
+        .collect();
+    assert_eq!(states, [(0, 10, String::from("Paused"))]);
+    let runs: Vec<_> = on(main, "run")
+        .into_iter()
+        .map(|e| (e.0, e.1, e.3["started by"].clone(), e.3["outcome"].clone()))
+        .collect();
+    assert_eq!(
+        runs,
+        [(
+            0,
+            60,
+            Value::from("(before the record)"),
+            Value::from("completed")
+        )]
+    );
+    assert_eq!(
+        on(child, "gap"),
+        [(
+            20,
+            10,
+            String::from("records lost"),
+            serde_json::json!({
+                "state at the start": "Paused",
+                "state at the end": "Aborted",
+                "note": "records were lost here: what happened between is not known",
+            })
+        )]
+    );
+    let outcomes: Vec<_> = on(child, "run")
+        .into_iter()
+        .map(|e| (e.0, e.1, e.3["outcome"].clone()))
+        .collect();
+    assert_eq!(
+        outcomes,
+        [
+            (10, 20, Value::from("unknown (records lost)")),
+            (30, 10, Value::from("completed"))
+        ]
+    );
+
+    // The HTML timeline: `main` paused from 0, the gap drawn as one (class `gap`).
+    let page = html::render(&run, "gap");
+    let tip = |s: &str| html::esc(s);
+    assert!(page.contains(&tip(
+        "main: Paused from 0.000000 s to 0.000010 s (10 µs)\ncause: unknown: the state before the sequence's first record\nrun: started by (before the record); outcome completed"
+    )));
+    assert!(page.contains(r#"<rect class="span s-paused gap" data-t0="20" data-t1="30""#));
+    assert!(page.contains(&tip(
+        "child: Paused from 0.000020 s to 0.000030 s (10 µs)\ncause: pause\nrun: started by start; outcome unknown (records lost)\nRECORDS LOST: the next record starts from Aborted, not Paused; what happened between is not known"
+    )));
+}

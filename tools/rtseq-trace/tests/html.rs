@@ -181,17 +181,21 @@ fn many_runs(runs: u64) -> String {
         ));
         text.push('\n');
     };
+    // A run starts from the state the previous one ended in, as the sequencer records it.
+    let mut ended = "Idle";
     for k in 0..runs {
         let t = k * 1000;
-        rec(&mut text, t, "Idle", "Running", "start");
+        rec(&mut text, t, ended, "Running", "start");
         if k + 1 == runs {
             break;
         }
         if k % 1000 == 999 {
             rec(&mut text, t + 500, "Running", "Aborting", "abort");
             rec(&mut text, t + 750, "Aborting", "Aborted", "abort");
+            ended = "Aborted";
         } else {
             rec(&mut text, t + 500, "Running", "Terminated", "completed");
+            ended = "Terminated";
         }
     }
     text
