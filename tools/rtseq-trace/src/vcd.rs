@@ -1,4 +1,4 @@
-//! VCD for GTKWave and Surfer (timescale 1 µs).
+//! VCD for GTKWave and Surfer (timescale 1 ns; times are µs × 1000).
 //!
 //! ```text
 //! rtseq.sequences.<name>   string  the running state (`Running`)
@@ -15,8 +15,16 @@
 //! its first record, and a record whose `from` is not the previous record's `to` (records
 //! were lost between) gets a `$comment` at its time: `records lost: 'child' was Paused at
 //! 20 us; its next record, at 30 us, starts from Aborted`.
-//! An event at the last representable time (`u64::MAX` µs) rises and has no fall: there is
-//! no later time to put it at.
+//!
+//! One value per variable per time, none lost: a variable's k-th value within one µs is
+//! written k ns after the µs (the `$dumpvars` value is the first of µs 0), so a state that
+//! lasts 0 µs (an abort and a restart in one tick: `Aborting`, `Aborted`, `Running` at
+//! 5000 µs) is seen for 1 ns each, and every value's µs is exact (more than 1000 values of
+//! one variable in one µs would share its last ns, the latest winning). A run whose times
+//! do not fit in a `u64` of ns (past 584 years) is written at a timescale of 1 µs instead,
+//! with the last value of each variable in each µs. An event at the last representable time
+//! (`u64::MAX` µs) rises and has no fall: there is no later time to put it at. The end of
+//! the run is the last time, written once.
 
 use std::collections::{HashMap, HashSet};
 use std::io::Write;
@@ -105,7 +113,12 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
         "$version rtseq-trace {} $end",
         env!("CARGO_PKG_VERSION")
     )?;
-    writeln!(out, "$timescale 1 us $end")?;
+    let per_us = ns_per_us(run);
+    writeln!(
+        out,
+        "$timescale 1 {} $end",
+        if per_us == 1 { "us" } else { "ns" }
+    )?;
     if let Some(w) = run.lost.warning() {
         // `$end` closes a comment: the warning has no `$`.
         writeln!(out, "$comment {} $end", w.replace('$', "S"))?;
@@ -217,24 +230,115 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
     writeln!(out, "$upscope $end")?;
     writeln!(out, "$enddefinitions $end")?;
 
+    let timed = timed(changes, &mut init, per_us);
     writeln!(out, "#0")?;
     writeln!(out, "$dumpvars")?;
     for (id, v) in &init {
         writeln!(out, "{}", v.line(id))?;
     }
     writeln!(out, "$end")?;
-    // Stable: the changes of one time keep the order of the record.
-    changes.sort_by_key(|c| (c.0, c.1));
-    let mut now = 0;
-    for (t, _, id, v) in &changes {
-        if *t != now {
+    let mut now = Some(0);
+    for (t, id, v) in &timed {
+        if now != Some(*t) {
             writeln!(out, "#{t}")?;
-            now = *t;
+            now = Some(*t);
         }
         writeln!(out, "{}", v.line(id))?;
     }
-    writeln!(out, "#{}", run.end_us.max(now))?;
+    // The end, once (unless a change is there already).
+    let end = run.end_us.saturating_mul(per_us);
+    if now.is_none_or(|n| end > n) {
+        writeln!(out, "#{end}")?;
+    }
     Ok(())
+}
+
+/// The VCD time units per µs: 1000 (a timescale of 1 ns) when every time of the run, its
+/// pulses' falls and their sub-µs steps fit in a `u64` of ns (runs of up to 584 years),
+/// else 1 (1 µs).
+fn ns_per_us(run: &Run) -> u64 {
+    let last = run
+        .transitions
+        .iter()
+        .map(|t| t.time_us)
+        .chain(run.events.iter().map(|e| e.time_us))
+        .chain(run.levels.iter().map(|l| l.time_us))
+        .chain(
+            run.signals
+                .iter()
+                .flat_map(|s| s.samples.iter().map(|p| p.0)),
+        )
+        .fold(run.end_us, u64::max);
+    let fits = last
+        .checked_add(1)
+        .and_then(|t| t.checked_mul(1000))
+        .and_then(|t| t.checked_add(999))
+        .is_some();
+    if fits {
+        1000
+    } else {
+        1
+    }
+}
+
+/// The changes (µs, order within the µs, id, value) at VCD times, in time order, one value
+/// per variable per time: the k-th value a variable takes in one µs is put k units after
+/// the µs (k ns at a timescale of 1 ns), so a state that lasts 0 µs (an abort and a restart
+/// in one tick) is seen for 1 ns and the time of every value is exact to the µs. The
+/// initial values (`$dumpvars`, `init`) are the first values of µs 0. Where there is no
+/// room (a timescale of 1 µs, or more than 1000 values of one variable in one µs), a later
+/// value replaces the one at the same time (a change at 0 µs, the initial value).
+fn timed(
+    mut changes: Vec<(u64, u8, String, Val)>,
+    init: &mut [(String, Val)],
+    per_us: u64,
+) -> Vec<(u64, String, Val)> {
+    /// Where a variable's last value is.
+    #[derive(Clone, Copy)]
+    enum At {
+        Init(usize),
+        Out(usize),
+    }
+    // Stable: the changes of one time keep the order of the record.
+    changes.sort_by_key(|c| (c.0, c.1));
+    let mut out: Vec<(u64, String, Val)> = Vec::with_capacity(changes.len());
+    // Per variable: the µs of its last value, how many values it took in that µs, and
+    // where that value is.
+    let mut last: HashMap<String, (u64, u64, At)> = init
+        .iter()
+        .enumerate()
+        .map(|(i, (id, _))| (id.clone(), (0, 1, At::Init(i))))
+        .collect();
+    for (t, _, id, v) in changes {
+        let base = t.saturating_mul(per_us);
+        if matches!(v, Val::Comment(_)) {
+            out.push((base, id, v));
+            continue;
+        }
+        let (k, before) = match last.get(&id) {
+            Some(&(u, n, at)) if u == t => (n, Some(at)),
+            Some(&(_, _, at)) => (0, Some(at)),
+            None => (0, None),
+        };
+        let time = base + k.min(per_us - 1);
+        let taken = match before {
+            Some(At::Init(i)) if time == 0 => init.get_mut(i).map(|slot| &mut slot.1),
+            Some(At::Out(i)) => out
+                .get_mut(i)
+                .filter(|o| o.0 == time)
+                .map(|slot| &mut slot.2),
+            _ => None,
+        };
+        if let Some(value) = taken {
+            *value = v;
+            continue;
+        }
+        last.insert(id.clone(), (t, k + 1, At::Out(out.len())));
+        out.push((time, id, v));
+    }
+    // Stable: the values of one time keep their order.
+    out.sort_by_key(|c| c.0);
+    out
 }
 
 #[cfg(test)]

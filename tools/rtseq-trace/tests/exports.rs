@@ -48,6 +48,19 @@ fn the_fixture_is_the_following_error_run() {
     assert_eq!(run.signals.len(), 3);
 }
 
+/// The VCD times (ns) of one variable's values at `times` (µs, in order): the k-th value of
+/// one µs k ns after it, the initial value (`$dumpvars`) being the first of µs 0.
+fn ns(times: impl Iterator<Item = u64>) -> Vec<u64> {
+    let mut out: Vec<u64> = Vec::new();
+    let (mut at, mut k) = (0, 1);
+    for t in times {
+        k = if t == at { k + 1 } else { 1 };
+        at = t;
+        out.push(t * 1000 + k - 1);
+    }
+    out
+}
+
 #[test]
 fn vcd_has_every_transition_at_its_time() {
     for (what, run) in sources() {
@@ -55,7 +68,7 @@ fn vcd_has_every_transition_at_its_time() {
         vcd::write(&run, &mut buf).unwrap();
         let mut parser = ::vcd::Parser::new(&buf[..]);
         let header = parser.parse_header().unwrap();
-        assert_eq!(header.timescale, Some((1, ::vcd::TimescaleUnit::US)));
+        assert_eq!(header.timescale, Some((1, ::vcd::TimescaleUnit::NS)));
         let mut names = HashMap::new();
         let mut codes = HashMap::new();
         for s in &run.sequences {
@@ -110,34 +123,35 @@ fn vcd_has_every_transition_at_its_time() {
             }
         }
         for (i, s) in run.sequences.iter().enumerate() {
-            let want: Vec<(u64, String)> = run
-                .transitions
+            let trs: Vec<_> = run.transitions.iter().filter(|t| t.seq == i).collect();
+            let times = ns(trs.iter().map(|t| t.time_us));
+            let want: Vec<(u64, String)> = trs
                 .iter()
-                .filter(|t| t.seq == i)
-                .map(|t| (t.time_us, vcd::sanitize(t.to.name())))
+                .zip(&times)
+                .map(|(t, &ns)| (ns, vcd::sanitize(t.to.name())))
                 .collect();
             let got = changes.remove(&s.name).unwrap_or_default();
             assert_eq!(got, want, "{what}: VCD states of {}", s.name);
-            let want: Vec<(u64, u8)> = run
-                .transitions
+            let want: Vec<(u64, u8)> = trs
                 .iter()
-                .filter(|t| t.seq == i)
-                .map(|t| (t.time_us, t.to.code()))
+                .zip(&times)
+                .map(|(t, &ns)| (ns, t.to.code()))
                 .collect();
             assert_eq!(coded.remove(&s.name).unwrap_or_default(), want);
         }
+        let times = ns(run.levels.iter().map(|l| l.time_us));
         let want: Vec<(u64, String)> = run
             .levels
             .iter()
-            .map(|l| (l.time_us, vcd::sanitize(&l.level)))
+            .zip(times)
+            .map(|(l, ns)| (ns, vcd::sanitize(&l.level)))
             .collect();
         assert_eq!(levels, want, "{what}: levels");
-        let want: Vec<u64> = run
+        let want: Vec<u64> = ns(run
             .events
             .iter()
             .filter(|e| e.kind == EventKind::Monitor && e.name == "following error")
-            .map(|e| e.time_us)
-            .collect();
+            .map(|e| e.time_us));
         assert_eq!(rises, want, "{what}: monitor pulses");
     }
 }
@@ -463,7 +477,7 @@ fn exports_follow_the_records_from_state() {
     assert_eq!(
         comments,
         [(
-            30,
+            30_000,
             String::from(
                 "records lost: 'child' was Paused at 20 us; its next record, at 30 us, starts from Aborted"
             )
@@ -539,4 +553,115 @@ fn exports_follow_the_records_from_state() {
     assert!(page.contains(&tip(
         "child: Paused from 0.000020 s to 0.000030 s (10 µs)\ncause: pause\nrun: started by start; outcome unknown (records lost)\nRECORDS LOST: the next record starts from Aborted, not Paused; what happened between is not known"
     )));
+}
+
+/// An owner restarted by its monitor in one tick (the simulator's `restart_owner`): at
+/// 5000 µs `S` is `Aborting`, `Aborted` and `Running` again, `A` `Restarting` and `Running`.
+/// Each state is seen for 1 ns (a timescale of 1 ns), no variable has two values at one
+/// time, and the end is written once. (At 1 µs, `S` took three values at #5000: a viewer
+/// showed only the last, so the abort and restart were invisible.)
+#[test]
+fn vcd_shows_states_of_0_us() {
+    let text = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":10000,"sequences":[{"id":0,"name":"S","caller":1},{"id":1,"name":"A","caller":null}],"monitors":[{"id":0,"name":"m","owner":1}]}
+{"t":0,"seq":1,"from":"Idle","to":"Running","cause":"start"}
+{"t":0,"seq":0,"from":"Idle","to":"Running","cause":"start"}
+{"t":5000,"event":"monitor","owner":1,"behaviour":"RestartOwner","monitor":0,"text":"monitor 'm' of 'A' fired: RestartOwner"}
+{"t":5000,"seq":0,"from":"Running","to":"Aborting","cause":"monitor","monitor":0}
+{"t":5000,"seq":0,"from":"Aborting","to":"Aborted","cause":"monitor","monitor":0}
+{"t":5000,"seq":1,"from":"Running","to":"Restarting","cause":"monitor","monitor":0}
+{"t":5000,"seq":1,"from":"Restarting","to":"Running","cause":"restart"}
+{"t":5000,"seq":0,"from":"Aborted","to":"Running","cause":"start"}
+{"t":10000,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}
+{"t":10000,"seq":1,"from":"Running","to":"Terminated","cause":"completed"}
+"#;
+    let run = tracefile::read(text).unwrap();
+    let mut buf = Vec::new();
+    vcd::write(&run, &mut buf).unwrap();
+    let mut parser = ::vcd::Parser::new(&buf[..]);
+    let header = parser.parse_header().unwrap();
+    assert_eq!(header.timescale, Some((1, ::vcd::TimescaleUnit::NS)));
+    let var = |scope: &str, name: &str| header.find_var(&["rtseq", scope, name]).unwrap().code;
+    let (s, a, s_code) = (
+        var("sequences", "S"),
+        var("sequences", "A"),
+        var("state_codes", "S"),
+    );
+    let (mut t, mut in_dump) = (0u64, false);
+    let (mut s_states, mut a_states, mut s_codes) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut times, mut set_at) = (Vec::new(), std::collections::HashSet::new());
+    for cmd in parser {
+        let cmd = cmd.unwrap();
+        let id = match &cmd {
+            ::vcd::Command::Timestamp(x) => {
+                times.push(*x);
+                t = *x;
+                None
+            }
+            ::vcd::Command::Begin(::vcd::SimulationCommand::Dumpvars) => {
+                in_dump = true;
+                None
+            }
+            ::vcd::Command::End(::vcd::SimulationCommand::Dumpvars) => {
+                in_dump = false;
+                None
+            }
+            ::vcd::Command::ChangeString(id, v) => {
+                if *id == s && !in_dump {
+                    s_states.push((t, v.clone()));
+                }
+                if *id == a && !in_dump {
+                    a_states.push((t, v.clone()));
+                }
+                Some(*id)
+            }
+            ::vcd::Command::ChangeVector(id, v) => {
+                if *id == s_code && !in_dump {
+                    s_codes.push((t, v.to_string()));
+                }
+                Some(*id)
+            }
+            ::vcd::Command::ChangeScalar(id, _) | ::vcd::Command::ChangeReal(id, _) => Some(*id),
+            _ => None,
+        };
+        if let Some(id) = id {
+            assert!(set_at.insert((t, id)), "{id} twice at #{t}");
+        }
+    }
+    let owned = |v: &[(u64, &str)]| -> Vec<(u64, String)> {
+        v.iter().map(|&(t, s)| (t, s.to_string())).collect()
+    };
+    assert_eq!(
+        s_states,
+        owned(&[
+            (1, "Running"),
+            (5_000_000, "Aborting"),
+            (5_000_001, "Aborted"),
+            (5_000_002, "Running"),
+            (10_000_000, "Terminated"),
+        ])
+    );
+    assert_eq!(
+        s_codes,
+        owned(&[
+            (1, "001"),
+            (5_000_000, "011"),
+            (5_000_001, "100"),
+            (5_000_002, "001"),
+            (10_000_000, "101"),
+        ])
+    );
+    assert_eq!(
+        a_states,
+        owned(&[
+            (1, "Running"),
+            (5_000_000, "Restarting"),
+            (5_000_001, "Running"),
+            (10_000_000, "Terminated"),
+        ])
+    );
+    // Every time once, in order; the last is the end (a change is there).
+    assert_eq!(
+        times,
+        [0, 1, 5_000_000, 5_000_001, 5_000_002, 5_001_000, 10_000_000]
+    );
 }
