@@ -8,8 +8,11 @@
 //! rtseq.events.<kind>_<name> 1 bit a 1 µs pulse per event (monitor, request, fault, input)
 //! rtseq.signals.<name>_<unit> real  position, velocity, current
 //! ```
-//! Names are sanitized (characters other than letters, digits and `_` become `_`). A run
-//! with lost records (see [`Run::lost`]) gets a `$comment` saying so after `$timescale`.
+//! Names are sanitized (characters other than letters, digits and `_` become `_`) and made
+//! unique within their scope: a name an earlier variable has gets `_<n>` appended, `n` the
+//! sequence's index in the header (a pulse's, a signal's number in order of appearance),
+//! then `_2`, `_3`, ... while still taken: sequences `a b` and `a_b` (indexes 0, 1) are
+//! `a_b` and `a_b_1` ([`sequence_names`]). A run with lost records (see [`Run::lost`]) gets a `$comment` saying so after `$timescale`.
 //!
 //! The records decide the states: a sequence starts (`$dumpvars`) in the `from` state of
 //! its first record, and a record whose `from` is not the previous record's `to` (records
@@ -48,6 +51,45 @@ pub fn sanitize(s: &str) -> String {
     } else {
         out
     }
+}
+
+/// The names of one scope's variables, made unique: names that differ only in characters
+/// [`sanitize`] replaces (`a b`, `a_b`; `Achse Ä`, `Achse Ö`) would be one variable in a
+/// viewer.
+#[derive(Default)]
+struct Unique(HashSet<String>);
+
+impl Unique {
+    /// `name` sanitized; when an earlier variable of the scope has that name, with
+    /// `_<suffix>` (the sequence's index, ...) appended, and `_2`, `_3`, ... after that
+    /// while it is still taken.
+    fn name(&mut self, name: &str, suffix: usize) -> String {
+        let base = sanitize(name);
+        let mut candidate = base.clone();
+        let mut n = 1;
+        while self.0.contains(&candidate) {
+            candidate = if n == 1 {
+                format!("{base}_{suffix}")
+            } else {
+                format!("{base}_{suffix}_{n}")
+            };
+            n += 1;
+        }
+        self.0.insert(candidate.clone());
+        candidate
+    }
+}
+
+/// The VCD names of the sequences (in `rtseq.sequences` and `rtseq.state_codes`), by
+/// index into [`Run::sequences`]: sanitized, and a sequence whose name an earlier one has
+/// gets `_<index>` appended (`a b`, `a_b` are `a_b`, `a_b_1`).
+pub fn sequence_names(run: &Run) -> Vec<String> {
+    let mut names = Unique::default();
+    run.sequences
+        .iter()
+        .enumerate()
+        .map(|(i, s)| names.name(&s.name, i))
+        .collect()
 }
 
 /// The n-th short identifier code (`!`, `"`, ..., `!!`, ...).
@@ -138,17 +180,18 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
             .and_then(|&k| run.transitions.get(k))
             .map_or(State::Idle, |t| t.from)
     };
+    let seq_names = sequence_names(run);
     writeln!(out, "$scope module sequences $end")?;
     let seq_ids: Vec<String> = run.sequences.iter().map(|_| next()).collect();
-    for (i, (s, id)) in run.sequences.iter().zip(&seq_ids).enumerate() {
-        writeln!(out, "$var string 1 {id} {} $end", sanitize(&s.name))?;
+    for (i, (name, id)) in seq_names.iter().zip(&seq_ids).enumerate() {
+        writeln!(out, "$var string 1 {id} {name} $end")?;
         init.push((id.clone(), Val::Str(first_state(i).name().into())));
     }
     writeln!(out, "$upscope $end")?;
     writeln!(out, "$scope module state_codes $end")?;
     let code_ids: Vec<String> = run.sequences.iter().map(|_| next()).collect();
-    for (i, (s, id)) in run.sequences.iter().zip(&code_ids).enumerate() {
-        writeln!(out, "$var wire 3 {id} {} $end", sanitize(&s.name))?;
+    for (i, (name, id)) in seq_names.iter().zip(&code_ids).enumerate() {
+        writeln!(out, "$var wire 3 {id} {name} $end")?;
         init.push((id.clone(), Val::Bits(first_state(i).code(), 3)));
     }
     writeln!(out, "$upscope $end")?;
@@ -185,6 +228,7 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
     let events = || run.events.iter().chain(requests.iter());
     // In order of first appearance (`pulse_names`).
     let mut pulse_ids: HashMap<(EventKind, &str), String> = HashMap::new();
+    let mut pulse_names = Unique::default();
     for e in events() {
         if matches!(e.kind, EventKind::Move | EventKind::Note)
             || pulse_ids.contains_key(&(e.kind, e.name.as_str()))
@@ -192,12 +236,9 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
             continue;
         }
         let id = next();
-        writeln!(
-            out,
-            "$var wire 1 {id} {}_{} $end",
-            e.kind.name(),
-            sanitize(&e.name)
-        )?;
+        // Suffixed with the pulse's number (in order of first appearance) when taken.
+        let name = pulse_names.name(&format!("{}_{}", e.kind.name(), e.name), pulse_ids.len());
+        writeln!(out, "$var wire 1 {id} {name} $end")?;
         init.push((id.clone(), Val::Bit(false)));
         pulse_ids.insert((e.kind, e.name.as_str()), id);
     }
@@ -213,12 +254,14 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
     }
 
     writeln!(out, "$scope module signals $end")?;
-    for s in &run.signals {
+    let mut signal_names = Unique::default();
+    for (k, s) in run.signals.iter().enumerate() {
         let id = next();
+        // Suffixed with the signal's index when taken.
         let name = if s.unit.is_empty() {
-            sanitize(&s.name)
+            signal_names.name(&s.name, k)
         } else {
-            format!("{}_{}", sanitize(&s.name), sanitize(&s.unit))
+            signal_names.name(&format!("{}_{}", s.name, s.unit), k)
         };
         writeln!(out, "$var real 64 {id} {name} $end")?;
         init.push((id.clone(), Val::Real(0.0)));
@@ -349,5 +392,36 @@ mod tests {
         assert_eq!(super::code(93), "~");
         assert_eq!(super::code(94), "!!");
         assert_eq!(super::sanitize("power on"), "power_on");
+    }
+
+    /// Names that sanitize to one are made unique: the first keeps it, later ones get the
+    /// suffix, then `_2`, ... while still taken.
+    #[test]
+    fn unique_names() {
+        let mut names = super::Unique::default();
+        let got: Vec<String> = [
+            ("a b", 0),
+            ("a_b", 1),
+            ("Achse Ä", 2),
+            ("Achse Ö", 3),
+            ("a_b_1", 4),
+            ("a b", 5),
+            ("a.b", 1),
+        ]
+        .iter()
+        .map(|&(n, i)| names.name(n, i))
+        .collect();
+        assert_eq!(
+            got,
+            [
+                "a_b",
+                "a_b_1",
+                "Achse__",
+                "Achse___3",
+                "a_b_1_4",
+                "a_b_5",
+                "a_b_1_2"
+            ]
+        );
     }
 }

@@ -665,3 +665,61 @@ fn vcd_shows_states_of_0_us() {
         [0, 1, 5_000_000, 5_000_001, 5_000_002, 5_001_000, 10_000_000]
     );
 }
+
+/// Sequences whose names sanitize to one (`a b`, `a_b`; `Achse Ä`, `Achse Ö`) are distinct
+/// VCD variables, each with its own states; so are faults `jam x` and `jam_x`.
+#[test]
+fn vcd_names_are_unique() {
+    let text = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":100,"sequences":[{"id":0,"name":"a b","caller":null},{"id":1,"name":"a_b","caller":null},{"id":2,"name":"Achse Ä","caller":null},{"id":3,"name":"Achse Ö","caller":null}],"monitors":[]}
+{"t":10,"seq":0,"from":"Idle","to":"Running","cause":"start"}
+{"t":20,"seq":1,"from":"Idle","to":"Running","cause":"start"}
+{"t":30,"seq":2,"from":"Idle","to":"Running","cause":"start"}
+{"t":40,"seq":3,"from":"Idle","to":"Running","cause":"start"}
+{"t":50,"event":"fault","name":"jam x"}
+{"t":60,"event":"fault","name":"jam_x"}
+"#;
+    let run = tracefile::read(text).unwrap();
+    assert_eq!(
+        vcd::sequence_names(&run),
+        ["a_b", "a_b_1", "Achse__", "Achse___3"]
+    );
+    let mut buf = Vec::new();
+    vcd::write(&run, &mut buf).unwrap();
+    let mut parser = ::vcd::Parser::new(&buf[..]);
+    let header = parser.parse_header().unwrap();
+    let mut by_code = HashMap::new();
+    for (name, started) in [
+        ("a_b", 10_000),
+        ("a_b_1", 20_000),
+        ("Achse__", 30_000),
+        ("Achse___3", 40_000),
+    ] {
+        let v = header
+            .find_var(&["rtseq", "sequences", name])
+            .unwrap_or_else(|| panic!("no variable {name}"));
+        assert!(
+            by_code.insert(v.code, started).is_none(),
+            "{name} shares a code"
+        );
+    }
+    let mut pulses = HashMap::new();
+    for (name, at) in [("fault_jam_x", 50_000), ("fault_jam_x_1", 60_000)] {
+        let v = header.find_var(&["rtseq", "events", name]).unwrap();
+        pulses.insert(v.code, at);
+    }
+    let (mut t, mut in_dump) = (0u64, false);
+    for cmd in parser {
+        match cmd.unwrap() {
+            ::vcd::Command::Timestamp(x) => t = x,
+            ::vcd::Command::Begin(::vcd::SimulationCommand::Dumpvars) => in_dump = true,
+            ::vcd::Command::End(::vcd::SimulationCommand::Dumpvars) => in_dump = false,
+            ::vcd::Command::ChangeString(id, s) if !in_dump && by_code.contains_key(&id) => {
+                assert_eq!((s.as_str(), t), ("Running", by_code[&id]));
+            }
+            ::vcd::Command::ChangeScalar(id, ::vcd::Value::V1) if pulses.contains_key(&id) => {
+                assert_eq!(t, pulses[&id]);
+            }
+            _ => {}
+        }
+    }
+}
