@@ -103,6 +103,8 @@ pub fn render(run: &Run, title: &str) -> String {
 
     let mut labels = String::new();
     let mut data = String::new();
+    // Whether some span ends where records were lost (for the legend).
+    let mut gaps = false;
     // Rows.
     for (row, (i, depth)) in order.iter().enumerate() {
         let Some(s) = run.sequences.get(*i) else {
@@ -178,6 +180,7 @@ pub fn render(run: &Run, title: &str) -> String {
             } else {
                 &mut data
             };
+            gaps |= sp.gap.is_some();
             let gap_class = if sp.gap.is_some() { " gap" } else { "" };
             let _ = write!(
                 layer,
@@ -337,6 +340,9 @@ pub fn render(run: &Run, title: &str) -> String {
         );
     }
     legend.push_str(r#"<span class="key"><b class="m-monitor"></b>monitor fired</span><span class="key"><b class="m-request"></b>request</span><span class="key"><b class="m-fault"></b>fault</span><span class="key"><b class="m-input"></b>critical input</span><span class="key"><b class="m-exception"></b>exception not run</span><span class="key"><b class="m-failure"></b>failure</span>"#);
+    if gaps {
+        legend.push_str(r#"<span class="key"><i class="s-running gap"></i>records lost</span>"#);
+    }
 
     let warning = run.lost.warning().map_or_else(String::new, |w| {
         format!(
@@ -366,6 +372,7 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 .s-terminated {{ fill: #c9dcf2; background: #c9dcf2; }} .s-restarting {{ fill: #8a4fd8; background: #8a4fd8; }}
 .s-idle {{ fill: #f3f3f3; background: #f3f3f3; }}
 .gap {{ fill-opacity: 0.35; stroke: #d0021b; stroke-width: 1; stroke-dasharray: 3 2; }}
+.key i.gap {{ opacity: 0.35; outline: 1px dashed #d0021b; }}
 .marker {{ stroke-width: 2; vector-effect: non-scaling-stroke; }}
 .monitor-fire, .m-monitor {{ stroke: #d0021b; background: #d0021b; }}
 .request, .m-request {{ stroke: #0057d8; background: #0057d8; stroke-dasharray: 4 3; }}

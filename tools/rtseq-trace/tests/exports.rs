@@ -550,6 +550,14 @@ fn exports_follow_the_records_from_state() {
         "main: Paused from 0.000000 s to 0.000010 s (10 µs)\ncause: unknown: the state before the sequence's first record\nrun: started by (before the record); outcome completed"
     )));
     assert!(page.contains(r#"<rect class="span s-paused gap" data-t0="20" data-t1="30""#));
+    let key = r#"<span class="key"><i class="s-running gap"></i>records lost</span>"#;
+    assert_eq!(page.matches(key).count(), 1);
+    // Without a gap, no key for one.
+    let whole = MID_RUN_AND_GAP.replace(
+        r#""from":"Aborted","to":"Running""#,
+        r#""from":"Paused","to":"Running""#,
+    );
+    assert!(!html::render(&tracefile::read(&whole).unwrap(), "no gap").contains(key));
     assert!(page.contains(&tip(
         "child: Paused from 0.000020 s to 0.000030 s (10 µs)\ncause: pause\nrun: started by start; outcome unknown (records lost)\nRECORDS LOST: the next record starts from Aborted, not Paused; what happened between is not known"
     )));
