@@ -453,7 +453,7 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
     [1, 2, 5, 10].forEach(function (m) {{ if (p * m <= raw) step = p * m; }});
     var s = '';
     for (var t = Math.ceil(t0 / step) * step; t <= t0 + span; t += step) {{
-      var x = LW + r2((t - t0) / span * PW);
+      var x = r2(LW + (t - t0) / span * PW);
       var d = step >= 1e6 ? 0 : Math.min(6, Math.ceil(6 - Math.log10(step)));
       s += '<line x1="' + x + '" x2="' + x + '" y1="' + (AY - 4) + '" y2="' + H + '"/>' +
            '<text x="' + x + '" y="' + (AY - 7) + '">' + (t / 1e6).toFixed(d) + ' s</text>';

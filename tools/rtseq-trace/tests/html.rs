@@ -435,6 +435,35 @@ fn late_times_are_drawn_where_they_are() {
     assert_eq!(drawn(&end, b_after), at("-4", "1184"));
     assert_eq!(drawn(&end, a), None);
 
+    // The buttons and a drag still move the window: zoom in on 29 s to 40 s is 31.75 s to
+    // 37.25 s; dragged 118 px (1.1 s) to the left, then zoomed out, 24.6 s to 46.6 s.
+    let page = std::fs::read_to_string(&pages[0]).unwrap();
+    let script = |s: &str| page.replace("</body>", &format!("<script>{s}</script></body>"));
+    let zoom_in = dir.join("zoom-in.html");
+    std::fs::write(&zoom_in, script("document.getElementById('zin').click();")).unwrap();
+    let zoomed = dom(&zoom_in, "#t=29,40");
+    assert_eq!(drawn(&zoomed, a), at("482.73", "429.09"));
+    assert_eq!(drawn(&zoomed, b), at("1126.36", "57.64"));
+    let dragged = dir.join("dragged.html");
+    std::fs::write(
+        &dragged,
+        script(
+            "var p = document.getElementById('plot');\
+             p.dispatchEvent(new MouseEvent('mousedown', { clientX: 700, bubbles: true }));\
+             window.dispatchEvent(new MouseEvent('mousemove', { clientX: 582 }));\
+             window.dispatchEvent(new MouseEvent('mouseup'));\
+             document.getElementById('zout').click();",
+        ),
+    )
+    .unwrap();
+    let moved = dom(&dragged, "#t=29,40");
+    let axis: Vec<&str> = tags_with(&moved, r#"y="17">"#)
+        .iter()
+        .filter_map(|t| attr(t, "x"))
+        .collect();
+    assert_eq!(axis.first(), Some(&"265.09"), "the axis's first tick, 26 s");
+    assert_eq!(drawn(&moved, a), at("504.18", "107.27"));
+
     // 10 µs from 2^32 µs.
     let w = r#"class="span s-running" data-t0="4294967301""#;
     let zoomed = dom(&pages[1], "#t=4294.967296,4294.967306");
