@@ -8,17 +8,32 @@
 //! firing (class `marker monitor-fire`), a request (`marker request`), a fault
 //! (`marker fault`), a tripped input (`marker input`). Every span and marker has an SVG
 //! `<title>` with its details (hover); a span shorter than 2 pixels is drawn 2 pixels wide
-//! (its title has the exact times). Zoom: mouse wheel, drag to pan, the buttons; the data
-//! live in an inner `<svg>` whose `viewBox` is the visible time window (in µs), so the
-//! script only changes the `viewBox` and redraws the axis. `page.html#t=2.4,2.8` opens on
-//! the window from 2.4 s to 2.8 s.
+//! (its title has the exact times). Markers of the same µs are drawn side by side, 3 pixels
+//! apart, so that none hides another (a monitor firing and its exception sequence not run).
+//!
+//! Zoom: mouse wheel, drag to pan, the buttons; `page.html#t=2.4,2.8` opens on the window
+//! from 2.4 s to 2.8 s (read to the µs). The inner `<svg id="plot">` is in pixels: every
+//! span and level band carries its times in µs (`data-t0`, `data-t1`), every marker and
+//! sample its time (`data-t`), every signal its samples (`data-pts`), and the script places
+//! them relative to the visible window at each redraw, hiding what lies outside it and
+//! cutting what reaches beyond it 4 pixels past the edge. So no coordinate in the DOM grows
+//! beyond the plot's width, whatever the run's length and time origin: browsers clamp SVG
+//! coordinates (Blink near 2^25), which drew everything after 33.5 s at 33.5 s when the
+//! coordinates were µs. Times are exact to 2^53 µs (JavaScript numbers).
+//!
+//! The records decide the states ([`Run::state_spans_in`]): before a sequence's first record
+//! it is drawn in that record's `from` state (its tooltip's cause: `unknown: the state before
+//! the sequence's first record`), and a span after which the next record starts from another
+//! state is drawn faded with a dashed red outline (class `gap`), its tooltip saying
+//! `RECORDS LOST`.
 //!
 //! A run with lost records ([`Run::lost`]) gets a banner above the chart (class
 //! `lost-warning`): `N records were lost: the trace is incomplete`.
 //!
 //! Linear in the size of the run: the transitions are grouped by sequence once, and the
-//! run of each state span (for its tooltip) is found by walking the sequence's runs and
-//! spans together, both in time order. The run must be in time order ([`Run::finish`];
+//! run of each state span (for its tooltip: the run that holds the transition into the
+//! span, even when it started in the µs the previous run ended) is found by walking the
+//! sequence's runs and spans together, both in time order. The run must be in time order ([`Run::finish`];
 //! both readers do it).
 
 use std::fmt::Write as _;
@@ -66,7 +81,7 @@ pub fn write(run: &Run, title: &str, out: &mut impl Write) -> std::io::Result<()
 
 /// The timeline of `run` as one HTML document.
 pub fn render(run: &Run, title: &str) -> String {
-    let end = run.end_us.max(1) as f64;
+    let end = run.end_us.max(1);
     let order = run.tree_order();
     let by_seq = run.by_sequence();
     let rows = order.len() as f64;
@@ -88,6 +103,8 @@ pub fn render(run: &Run, title: &str) -> String {
 
     let mut labels = String::new();
     let mut data = String::new();
+    // Whether some span ends where records were lost (for the legend).
+    let mut gaps = false;
     // Rows.
     for (row, (i, depth)) in order.iter().enumerate() {
         let Some(s) = run.sequences.get(*i) else {
@@ -103,52 +120,74 @@ pub fn render(run: &Run, title: &str) -> String {
         );
         let _ = write!(
             data,
-            r#"<g class="seq-row" data-seq="{}"><rect class="row-bg" x="0" y="{y:.1}" width="{end}" height="{ROW_H}"/>"#,
+            r#"<g class="seq-row" data-seq="{}"><rect class="row-bg" x="0" y="{y:.1}" width="{PLOT_W}" height="{ROW_H}"/>"#,
             esc(&s.name)
         );
         let trs = by_seq.get(*i).map_or(&[][..], Vec::as_slice);
         let runs = run.run_spans_in(trs);
-        // Spans and runs are both in time order: the run of a span is found by one index
-        // that only moves forward (the first run that has not ended before the span starts).
+        // Spans and runs are both in time order: the run of a span is the one holding the
+        // transition into it (a run may start in the µs the previous one ended), found by
+        // one index that only moves forward. The state before the first record belongs to
+        // the first run if that run was under way.
         let mut r = 0;
-        // Short states (a restart, an abort) are drawn last, on top, at least 2 px wide.
+        // Short states (a restart, an abort) and gaps are drawn last, on top.
         let mut on_top = String::new();
+        let first = trs.first().copied();
         for sp in run.state_spans_in(trs) {
-            if sp.state == State::Idle {
+            if sp.state == State::Idle && sp.gap.is_none() {
                 continue;
             }
-            while runs.get(r).is_some_and(|x| x.end_us < sp.start_us) {
+            let k = sp
+                .transition
+                .or(first.filter(|_| sp.state.is_active()))
+                .unwrap_or(usize::MAX);
+            while runs
+                .get(r)
+                .is_some_and(|x| x.transitions.last().is_some_and(|&l| l < k))
+            {
                 r += 1;
             }
             let outcome = runs
                 .get(r)
-                .filter(|x| x.start_us <= sp.start_us)
+                .filter(|x| x.transitions.first().is_some_and(|&f| f <= k))
                 .map(|x| format!("\nrun: started by {}; outcome {}", x.start_cause, x.outcome))
                 .unwrap_or_default();
+            let cause = match &sp.cause {
+                Some(c) => c.clone(),
+                None if sp.state == State::Idle => String::from("-"),
+                None => String::from("unknown: the state before the sequence's first record"),
+            };
+            let gap = sp.gap.map_or_else(String::new, |to| {
+                format!(
+                    "\nRECORDS LOST: the next record starts from {to}, not {}; what happened between is not known",
+                    sp.state
+                )
+            });
             let tip = format!(
-                "{}: {} from {} s to {} s ({} µs)\ncause: {}{}",
+                "{}: {} from {} s to {} s ({} µs)\ncause: {cause}{outcome}{gap}",
                 s.name,
                 sp.state,
                 secs(sp.start_us),
                 secs(sp.end_us),
                 sp.end_us.saturating_sub(sp.start_us),
-                sp.cause.as_deref().unwrap_or("-"),
-                outcome
             );
-            let layer = if matches!(
-                sp.state,
-                State::Paused | State::Aborting | State::Restarting
-            ) {
+            let layer = if sp.gap.is_some()
+                || matches!(
+                    sp.state,
+                    State::Paused | State::Aborting | State::Restarting
+                ) {
                 &mut on_top
             } else {
                 &mut data
             };
-            let w = sp.end_us.saturating_sub(sp.start_us);
+            gaps |= sp.gap.is_some();
+            let gap_class = if sp.gap.is_some() { " gap" } else { "" };
             let _ = write!(
                 layer,
-                r#"<rect class="span {}" x="{}" y="{y:.1}" width="{w}" data-w="{w}" height="{ROW_H}"><title>{}</title></rect>"#,
+                r#"<rect class="span {}{gap_class}" data-t0="{}" data-t1="{}" x="0" y="{y:.1}" width="0" height="{ROW_H}"><title>{}</title></rect>"#,
                 state_class(sp.state),
                 sp.start_us,
+                sp.end_us,
                 esc(&tip)
             );
         }
@@ -166,9 +205,9 @@ pub fn render(run: &Run, title: &str) -> String {
         let e = run.levels.get(k + 1).map_or(run.end_us, |n| n.time_us);
         let _ = write!(
             data,
-            r#"<rect class="level" x="{}" y="{level_y:.1}" width="{}" height="{ROW_H}" fill="{}"><title>{}</title></rect>"#,
+            r#"<rect class="level" data-t0="{}" data-t1="{}" x="0" y="{level_y:.1}" width="0" height="{ROW_H}" fill="{}"><title>{}</title></rect>"#,
             l.time_us,
-            e.saturating_sub(l.time_us),
+            e.max(l.time_us),
             level_colour(&l.level),
             esc(&format!(
                 "safety level {} from {} s",
@@ -178,23 +217,40 @@ pub fn render(run: &Run, title: &str) -> String {
         );
     }
     data.push_str("</g>");
-    // Markers.
-    for e in run.events.iter().chain(run.requests().iter()) {
-        let class = match e.kind {
-            EventKind::Monitor => "monitor-fire",
-            EventKind::Request => "request",
-            EventKind::Fault => "fault",
-            EventKind::Input => "input",
-            EventKind::Exception => "exception",
-            EventKind::Failure => "failure",
-            EventKind::Move | EventKind::Note => continue,
+    // Markers. Markers of one µs are drawn side by side, 3 px apart, so that none hides
+    // another (a monitor firing and its exception sequence not run).
+    let requests = run.requests();
+    let mut markers: Vec<(&crate::model::Event, &str)> = run
+        .events
+        .iter()
+        .chain(requests.iter())
+        .filter_map(|e| {
+            let class = match e.kind {
+                EventKind::Monitor => "monitor-fire",
+                EventKind::Request => "request",
+                EventKind::Fault => "fault",
+                EventKind::Input => "input",
+                EventKind::Exception => "exception",
+                EventKind::Failure => "failure",
+                EventKind::Move | EventKind::Note => return None,
+            };
+            Some((e, class))
+        })
+        .collect();
+    markers.sort_by_key(|(e, _)| e.time_us);
+    let mut same = 0;
+    for (k, (e, class)) in markers.iter().enumerate() {
+        same = match k.checked_sub(1).and_then(|p| markers.get(p)) {
+            Some((p, _)) if p.time_us == e.time_us => same + 1,
+            _ => 0,
         };
         let _ = write!(
             data,
-            r#"<line class="marker {class}" x1="{t}" x2="{t}" y1="{:.1}" y2="{rows_bottom:.1}"><title>{}</title></line>"#,
+            r#"<line class="marker {class}" data-t="{}" data-dx="{}" x1="0" x2="0" y1="{:.1}" y2="{rows_bottom:.1}"><title>{}</title></line>"#,
+            e.time_us,
+            3 * same,
             TOP - 6.0,
             esc(&format!("{} s  {}", secs(e.time_us), e.text)),
-            t = e.time_us
         );
     }
     // Signals.
@@ -227,12 +283,12 @@ pub fn render(run: &Run, title: &str) -> String {
         );
         let _ = write!(
             data,
-            r#"<rect class="signal-bg" x="0" y="{top:.1}" width="{end}" height="{SIGNAL_H}"/>"#
+            r#"<rect class="signal-bg" x="0" y="{top:.1}" width="{PLOT_W}" height="{SIGNAL_H}"/>"#
         );
         if lo < 0.0 && hi > 0.0 {
             let _ = write!(
                 data,
-                r#"<line class="zero" x1="0" x2="{end}" y1="{z:.2}" y2="{z:.2}"/>"#,
+                r#"<line class="zero" x1="0" x2="{PLOT_W}" y1="{z:.2}" y2="{z:.2}"/>"#,
                 z = y(0.0)
             );
         }
@@ -243,7 +299,7 @@ pub fn render(run: &Run, title: &str) -> String {
             .collect();
         let _ = write!(
             data,
-            r#"<polyline class="signal sig-{}" points="{}"><title>{}</title></polyline>"#,
+            r#"<polyline class="signal sig-{}" data-pts="{}" points=""><title>{}</title></polyline>"#,
             crate::vcd::sanitize(&s.name),
             points.join(" "),
             esc(&format!(
@@ -256,7 +312,7 @@ pub fn render(run: &Run, title: &str) -> String {
         for (t, v) in &s.samples {
             let _ = write!(
                 data,
-                r#"<circle class="sample" cx="{t}" cy="{:.2}" r="1.6"><title>{} s  {} = {} {}</title></circle>"#,
+                r#"<circle class="sample" data-t="{t}" cx="0" cy="{:.2}" r="1.6"><title>{} s  {} = {} {}</title></circle>"#,
                 y(*v),
                 secs(*t),
                 esc(&s.name),
@@ -284,6 +340,9 @@ pub fn render(run: &Run, title: &str) -> String {
         );
     }
     legend.push_str(r#"<span class="key"><b class="m-monitor"></b>monitor fired</span><span class="key"><b class="m-request"></b>request</span><span class="key"><b class="m-fault"></b>fault</span><span class="key"><b class="m-input"></b>critical input</span><span class="key"><b class="m-exception"></b>exception not run</span><span class="key"><b class="m-failure"></b>failure</span>"#);
+    if gaps {
+        legend.push_str(r#"<span class="key"><i class="s-running gap"></i>records lost</span>"#);
+    }
 
     let warning = run.lost.warning().map_or_else(String::new, |w| {
         format!(
@@ -312,6 +371,8 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 .s-aborting {{ fill: #f07c22; background: #f07c22; }} .s-aborted {{ fill: #f1a9a9; background: #f1a9a9; }}
 .s-terminated {{ fill: #c9dcf2; background: #c9dcf2; }} .s-restarting {{ fill: #8a4fd8; background: #8a4fd8; }}
 .s-idle {{ fill: #f3f3f3; background: #f3f3f3; }}
+.gap {{ fill-opacity: 0.35; stroke: #d0021b; stroke-width: 1; stroke-dasharray: 3 2; }}
+.key i.gap {{ opacity: 0.35; outline: 1px dashed #d0021b; }}
 .marker {{ stroke-width: 2; vector-effect: non-scaling-stroke; }}
 .monitor-fire, .m-monitor {{ stroke: #d0021b; background: #d0021b; }}
 .request, .m-request {{ stroke: #0057d8; background: #0057d8; stroke-dasharray: 4 3; }}
@@ -329,25 +390,70 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 <svg id="chart" xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height:.0}">
 <g class="labels">{labels}</g>
 <g class="axis" id="axis"></g>
-<svg id="plot" x="{LABEL_W}" y="0" width="{PLOT_W}" height="{height:.0}" viewBox="0 0 {end} {height:.0}" preserveAspectRatio="none">{data}</svg>
+<svg id="plot" x="{LABEL_W}" y="0" width="{PLOT_W}" height="{height:.0}">{data}</svg>
 </svg>
 <div id="tip"></div>
 <script>
 (function () {{
-  var END = {end}, H = {height:.0}, LW = {LABEL_W}, PW = {PLOT_W}, AY = {axis_y:.1};
+  // Elements carry their times in µs (data-t0/data-t1, data-t, data-pts); each redraw
+  // places them in pixels relative to the visible window and clips what lies beyond it,
+  // so no coordinate grows large (Blink clamps SVG coordinates near 2^25).
+  var END = {end}, H = {height:.0}, LW = {LABEL_W}, PW = {PLOT_W}, AY = {axis_y:.1}, M = 4;
   var plot = document.getElementById('plot'), axis = document.getElementById('axis');
-  var t0 = 0, span = END, spans = Array.prototype.slice.call(plot.querySelectorAll('rect.span'));
+  function all(sel) {{ return Array.prototype.slice.call(plot.querySelectorAll(sel)); }}
+  var bars = all('rect[data-t0]').map(function (r) {{
+    return {{ el: r, a: +r.getAttribute('data-t0'), b: +r.getAttribute('data-t1'), min: r.classList.contains('span') ? 2 : 0 }};
+  }});
+  var marks = all('[data-t]').map(function (m) {{
+    return {{ el: m, t: +m.getAttribute('data-t'), dx: +(m.getAttribute('data-dx') || 0) }};
+  }});
+  var lines = all('polyline[data-pts]').map(function (l) {{
+    var pts = l.getAttribute('data-pts').split(' ').filter(Boolean).map(function (p) {{
+      var c = p.split(','); return [+c[0], +c[1]];
+    }});
+    return {{ el: l, pts: pts }};
+  }});
+  var t0 = 0, span = END;
   function clamp() {{ span = Math.max(10, Math.min(END, span)); t0 = Math.max(0, Math.min(END - span, t0)); }}
+  function px(t) {{ return (t - t0) / span * PW; }}
+  function cut(x) {{ return Math.max(-M, Math.min(PW + M, x)); }}
+  function r2(x) {{ return Math.round(x * 100) / 100; }}
+  function show(el, on) {{ if (on) el.removeAttribute('display'); else el.setAttribute('display', 'none'); }}
   function draw() {{
     clamp();
-    plot.setAttribute('viewBox', t0 + ' 0 ' + span + ' ' + H);
-    var min = 2 * span / PW;
-    spans.forEach(function (r) {{ r.setAttribute('width', Math.max(+r.getAttribute('data-w'), min)); }});
+    bars.forEach(function (s) {{
+      var a = px(s.a), b = Math.max(px(s.b), a + s.min);
+      var on = b >= -M && a <= PW + M;
+      show(s.el, on);
+      if (on) {{ var x = cut(a); s.el.setAttribute('x', r2(x)); s.el.setAttribute('width', r2(Math.max(cut(b) - x, s.min))); }}
+    }});
+    marks.forEach(function (m) {{
+      var x = px(m.t) + m.dx, on = x >= -M && x <= PW + M;
+      show(m.el, on);
+      if (on) {{
+        var a = m.el.tagName === 'circle' ? ['cx'] : ['x1', 'x2'];
+        a.forEach(function (k) {{ m.el.setAttribute(k, r2(x)); }});
+      }}
+    }});
+    lines.forEach(function (l) {{
+      // The visible samples and one on either side, the outer segments cut at the edges.
+      var p = l.pts, lo = 0, hi = p.length, q = [];
+      while (lo < hi) {{ var mid = (lo + hi) >> 1; if (p[mid][0] < t0) lo = mid + 1; else hi = mid; }}
+      for (var i = Math.max(0, lo - 1); i < p.length; i++) {{
+        q.push([px(p[i][0]), p[i][1]]);
+        if (q[q.length - 1][0] > PW + M) break;
+      }}
+      function edge(a, b, e) {{ return [e, a[1] + (b[1] - a[1]) * (e - a[0]) / (b[0] - a[0])]; }}
+      var n = q.length;
+      if (n > 1 && q[0][0] < -M) q[0] = edge(q[0], q[1], -M);
+      if (n > 1 && q[n - 1][0] > PW + M) q[n - 1] = edge(q[n - 2], q[n - 1], PW + M);
+      l.el.setAttribute('points', q.map(function (c) {{ return r2(cut(c[0])) + ',' + c[1]; }}).join(' '));
+    }});
     var raw = span / 8, p = Math.pow(10, Math.floor(Math.log10(raw))), step = p;
     [1, 2, 5, 10].forEach(function (m) {{ if (p * m <= raw) step = p * m; }});
-    var s = '', ns = 'http://www.w3.org/2000/svg';
+    var s = '';
     for (var t = Math.ceil(t0 / step) * step; t <= t0 + span; t += step) {{
-      var x = LW + (t - t0) / span * PW;
+      var x = r2(LW + (t - t0) / span * PW);
       var d = step >= 1e6 ? 0 : Math.min(6, Math.ceil(6 - Math.log10(step)));
       s += '<line x1="' + x + '" x2="' + x + '" y1="' + (AY - 4) + '" y2="' + H + '"/>' +
            '<text x="' + x + '" y="' + (AY - 7) + '">' + (t / 1e6).toFixed(d) + ' s</text>';
@@ -375,9 +481,10 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
   document.getElementById('zin').onclick = function () {{ zoom(0.5, 0.5); }};
   document.getElementById('zout').onclick = function () {{ zoom(2, 0.5); }};
   document.getElementById('zall').onclick = function () {{ t0 = 0; span = END; draw(); }};
-  // `page.html#t=2.4,2.8` opens on that window (seconds).
-  var m = /t=([0-9.]+),([0-9.]+)/.exec(location.hash);
-  if (m) {{ t0 = parseFloat(m[1]) * 1e6; span = parseFloat(m[2]) * 1e6 - t0; }}
+  // `page.html#t=2.4,2.8` opens on that window (seconds; read to the µs exactly).
+  function us(v) {{ var d = v.split('.'); return +d[0] * 1e6 + +((d[1] || '') + '000000').slice(0, 6); }}
+  var m = /t=([0-9]+(?:\.[0-9]*)?),([0-9]+(?:\.[0-9]*)?)/.exec(location.hash);
+  if (m) {{ t0 = us(m[1]); span = us(m[2]) - t0; }}
   draw();
 }})();
 </script>

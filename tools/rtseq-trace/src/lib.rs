@@ -22,7 +22,8 @@ pub mod vcd;
 
 use model::Run;
 
-/// Reads a run from text: a trace file if its first line is a trace header, else a log.
+/// Reads a run from text: a trace file if its first line that is not blank is a trace
+/// header (after a UTF-8 byte order mark, if any: [`tracefile::is_trace`]), else a log.
 pub fn read_run(text: &str, hints: log::Hints) -> Result<Run, String> {
     if tracefile::is_trace(text) {
         tracefile::read(text)

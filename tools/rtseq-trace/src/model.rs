@@ -242,8 +242,16 @@ pub struct StateSpan {
     pub start_us: u64,
     pub end_us: u64,
     pub state: State,
-    /// The cause of the transition into the state (`None` for the initial `Idle`).
+    /// The cause of the transition into the state (`None` for the state before the
+    /// sequence's first record).
     pub cause: Option<String>,
+    /// The index into [`Run::transitions`] of the transition into the state (`None` for
+    /// the state before the sequence's first record).
+    pub transition: Option<usize>,
+    /// Records were lost inside the span: the record that ends it starts from this state,
+    /// not from [`StateSpan::state`]. The sequence was in `state` at the span's start and in
+    /// this one at its end; what happened between is not known.
+    pub gap: Option<State>,
 }
 
 /// One run of one sequence: from leaving an inactive state to entering one.
@@ -251,10 +259,13 @@ pub struct StateSpan {
 pub struct RunSpan {
     pub start_us: u64,
     pub end_us: u64,
-    /// The cause of the start (`start`, `monitor ...` for an exception sequence).
+    /// The cause of the start (`start`, `monitor ...` for an exception sequence);
+    /// `(before the record)` for a run under way at the sequence's first record (it starts
+    /// at 0), `(records lost)` for one whose start was lost.
     pub start_cause: String,
-    /// `completed`, `failed`, `aborted (monitor following error)`, `skipped (...)`, or
-    /// `still running` when the run had not ended at the end of the record.
+    /// `completed`, `failed`, `aborted (monitor following error)`, `skipped (...)`,
+    /// `still running` when the run had not ended at the end of the record, or
+    /// [`LOST_END`] when the next record starts another run (the end was lost).
     pub outcome: String,
     /// Indexes into [`Run::transitions`] of the transitions of this run, in order.
     pub transitions: Vec<usize>,
@@ -420,8 +431,8 @@ impl Run {
             .collect()
     }
 
-    /// The state spans of sequence `seq`, from 0 to `end_us`, starting in `Idle`. (One pass
-    /// over all transitions: for every sequence, use [`Run::by_sequence`] and
+    /// The state spans of sequence `seq`, from 0 to `end_us`. (One pass over all
+    /// transitions: for every sequence, use [`Run::by_sequence`] and
     /// [`Run::state_spans_in`].)
     pub fn state_spans(&self, seq: usize) -> Vec<StateSpan> {
         self.state_spans_in(&self.indexes_of(seq))
@@ -429,24 +440,39 @@ impl Run {
 
     /// The state spans of the sequence whose transitions are `transitions` (indexes into
     /// [`Run::transitions`], in order: an entry of [`Run::by_sequence`]).
+    ///
+    /// The records decide: before its first record the sequence was in that record's
+    /// `from` state (drawn from 0, the trace's start: a trace that begins in the middle of a
+    /// run has no record of how it began; `Idle` for a sequence without records), and a
+    /// record whose `from` is not the previous record's `to` ends a span with a
+    /// [`StateSpan::gap`].
     pub fn state_spans_in(&self, transitions: &[usize]) -> Vec<StateSpan> {
+        let mut trs = transitions
+            .iter()
+            .filter_map(|&k| self.transitions.get(k).map(|t| (k, t)))
+            .peekable();
         let mut spans = Vec::with_capacity(transitions.len() + 1);
         let mut cur = StateSpan {
             start_us: 0,
             end_us: 0,
-            state: State::Idle,
+            state: trs.peek().map_or(State::Idle, |(_, t)| t.from),
             cause: None,
+            transition: None,
+            gap: None,
         };
-        for t in transitions.iter().filter_map(|&k| self.transitions.get(k)) {
-            let mut done = cur.clone();
-            done.end_us = t.time_us;
-            spans.push(done);
-            cur = StateSpan {
+        for (k, t) in trs {
+            let next = StateSpan {
                 start_us: t.time_us,
                 end_us: 0,
                 state: t.to,
                 cause: Some(t.cause.clone()),
+                transition: Some(k),
+                gap: None,
             };
+            let mut done = std::mem::replace(&mut cur, next);
+            done.end_us = t.time_us;
+            done.gap = (t.from != done.state).then_some(t.from);
+            spans.push(done);
         }
         cur.end_us = self.end_us.max(cur.start_us);
         spans.push(cur);
@@ -465,12 +491,19 @@ impl Run {
     pub fn run_spans_in(&self, transitions: &[usize]) -> Vec<RunSpan> {
         let mut runs = Vec::new();
         let mut open: Option<RunSpan> = None;
+        // The previous record's `to` (`None` before the first record).
+        let mut before: Option<State> = None;
         for (k, t) in transitions
             .iter()
             .filter_map(|&k| self.transitions.get(k).map(|t| (k, t)))
         {
+            let gap = before.is_some_and(|b| b != t.from);
+            before = Some(t.to);
             if !t.from.is_active() {
-                if let Some(r) = open.take() {
+                if let Some(mut r) = open.take() {
+                    // Its end is among the records lost.
+                    r.end_us = t.time_us;
+                    r.outcome = String::from(LOST_END);
                     runs.push(r);
                 }
                 open = Some(RunSpan {
@@ -482,10 +515,15 @@ impl Run {
                 });
             }
             let r = open.get_or_insert_with(|| RunSpan {
-                // A record that begins in the middle of a run.
-                start_us: t.time_us,
+                // A run that began before the sequence's first record (from the trace's
+                // start, as its state span), or whose start was lost.
+                start_us: if gap { t.time_us } else { 0 },
                 end_us: t.time_us,
-                start_cause: String::from("(before the record)"),
+                start_cause: String::from(if gap {
+                    "(records lost)"
+                } else {
+                    "(before the record)"
+                }),
                 outcome: String::new(),
                 transitions: Vec::new(),
             });
@@ -543,6 +581,9 @@ impl Run {
             .map(|l| l.level.as_str())
     }
 }
+
+/// The outcome of a run whose end is among the lost records (the next record starts a run).
+pub const LOST_END: &str = "unknown (records lost)";
 
 /// What a run that ended with `t` returns.
 fn outcome_text(t: &Transition) -> String {
@@ -708,6 +749,99 @@ mod tests {
         // Indexes out of range are skipped.
         assert_eq!(run.run_spans_in(&[99]), []);
         assert_eq!(run.state_spans_in(&[99]).len(), 1);
+    }
+
+    /// The records decide: a sequence whose first record starts from `Paused` was paused
+    /// from the start, and a `from` that is not the previous `to` marks a gap (records
+    /// lost) instead of continuing the earlier state.
+    #[test]
+    fn spans_follow_the_records_from_state() {
+        let mut run = seqs(&[None, Some(0)]);
+        let steps = [
+            (10, 0, State::Paused, State::Running, "resume"),
+            (10, 1, State::Idle, State::Running, "start"),
+            (20, 1, State::Running, State::Paused, "pause"),
+            // Lost: the pause ended, the run was aborted.
+            (30, 1, State::Aborted, State::Running, "start"),
+            (40, 1, State::Running, State::Terminated, "completed"),
+            // Lost: another run started.
+            (50, 1, State::Running, State::Terminated, "completed"),
+            (60, 0, State::Running, State::Terminated, "completed"),
+        ];
+        for (t, seq, from, to, cause) in steps {
+            run.transitions.push(Transition {
+                time_us: t,
+                seq,
+                from,
+                to,
+                cause: cause.to_string(),
+            });
+        }
+        run.end_us = 100;
+        run.finish();
+        let spans = |seq| -> Vec<_> {
+            run.state_spans(seq)
+                .into_iter()
+                .map(|s| (s.start_us, s.end_us, s.state, s.gap, s.transition))
+                .collect()
+        };
+        use State::*;
+        assert_eq!(
+            spans(0),
+            [
+                (0, 10, Paused, None, None),
+                (10, 60, Running, None, Some(0)),
+                (60, 100, Terminated, None, Some(6)),
+            ]
+        );
+        assert_eq!(
+            spans(1),
+            [
+                (0, 10, Idle, None, None),
+                (10, 20, Running, None, Some(1)),
+                (20, 30, Paused, Some(Aborted), Some(2)),
+                (30, 40, Running, None, Some(3)),
+                (40, 50, Terminated, Some(Running), Some(4)),
+                (50, 100, Terminated, None, Some(5)),
+            ]
+        );
+        let runs = |seq| -> Vec<_> {
+            run.run_spans(seq)
+                .into_iter()
+                .map(|r| {
+                    (
+                        r.start_us,
+                        r.end_us,
+                        r.start_cause,
+                        r.outcome,
+                        r.transitions,
+                    )
+                })
+                .collect()
+        };
+        let owned = |s: &str| s.to_string();
+        assert_eq!(
+            runs(0),
+            [(
+                0,
+                60,
+                owned("(before the record)"),
+                owned("completed"),
+                vec![0, 6]
+            )]
+        );
+        assert_eq!(
+            runs(1),
+            [
+                (10, 30, owned("start"), owned(LOST_END), vec![1, 2]),
+                (30, 40, owned("start"), owned("completed"), vec![3, 4]),
+                (50, 50, owned("(records lost)"), owned("completed"), vec![5]),
+            ]
+        );
+        // No records: idle throughout.
+        let idle = seqs(&[None]);
+        assert_eq!(idle.state_spans(0).len(), 1);
+        assert_eq!(idle.state_spans(0)[0].state, State::Idle);
     }
 
     #[test]

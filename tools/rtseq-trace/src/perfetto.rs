@@ -7,6 +7,12 @@
 //! track with instant events (monitor firings, requests, faults, tripped inputs, moves);
 //! counters for the signals. Times in µs, as integers.
 //!
+//! The records decide the states (see [`Run::state_spans_in`]): a sequence whose first
+//! record starts from `Paused` was paused from the trace's start, and where a record's
+//! `from` is not the previous record's `to` (records lost), a `records lost` span (category
+//! `gap`) covers the time between the two records, with the states at its ends in `args`;
+//! a run whose end was lost has the outcome `unknown (records lost)`.
+//!
 //! A run with lost records (see [`Run::lost`]) says so twice: in the document's `metadata`
 //! (`"lost_records"`: the count, or `"unknown"`; `"warning"`: the text) and as the
 //! process's label (`process_labels`), which the Perfetto UI shows next to `rtseq`.
@@ -66,6 +72,17 @@ pub fn events(run: &Run) -> Vec<Value> {
                     "ph": "X", "pid": 1, "tid": tid, "name": sp.state.name(), "cat": "state",
                     "ts": sp.start_us, "dur": sp.end_us.saturating_sub(sp.start_us),
                     "args": {"cause": sp.cause},
+                }));
+            }
+            if let Some(to) = sp.gap {
+                ev.push(json!({
+                    "ph": "X", "pid": 1, "tid": tid, "name": "records lost", "cat": "gap",
+                    "ts": sp.start_us, "dur": sp.end_us.saturating_sub(sp.start_us),
+                    "args": {
+                        "state at the start": sp.state.name(),
+                        "state at the end": to.name(),
+                        "note": "records were lost here: what happened between is not known",
+                    },
                 }));
             }
         }

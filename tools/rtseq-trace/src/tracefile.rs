@@ -13,9 +13,22 @@ pub const FORMAT: &str = "rtseq-trace";
 /// The version this tool reads and writes.
 pub const VERSION: u64 = 1;
 
-/// Whether `text` looks like a trace file (its first line is the header).
+/// The lines of `text` that are not blank, numbered from 1 (blank ones counted), without a
+/// UTF-8 byte order mark at the start. The first is the header: [`is_trace`] and [`read`]
+/// agree on where it is.
+fn records(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.strip_prefix('\u{feff}')
+        .unwrap_or(text)
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(n, l)| (n + 1, l))
+}
+
+/// Whether `text` looks like a trace file: its first line that is not blank is the header
+/// (a UTF-8 byte order mark before it is skipped, as [`read`] does).
 pub fn is_trace(text: &str) -> bool {
-    let first = text.lines().next().unwrap_or("");
+    let first = records(text).next().map_or("", |(_, l)| l);
     serde_json::from_str::<Value>(first)
         .ok()
         .and_then(|v| v.get("format").and_then(Value::as_str).map(|f| f == FORMAT))
@@ -49,16 +62,13 @@ fn lost_of(head: &Value, line: usize) -> Result<Lost, String> {
     }
 }
 
-/// Reads a trace file. Malformed input is an `Err` naming the line: a header that is not
+/// Reads a trace file (blank lines and a UTF-8 byte order mark at the start are skipped).
+/// Malformed input is an `Err` naming the line: a header that is not
 /// one, a sequence or monitor id given twice, a record of an unknown sequence, a field of
 /// the wrong type.
 pub fn read(text: &str) -> Result<Run, String> {
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = records(text);
     let (h, head) = lines.next().ok_or("empty trace file")?;
-    let h = h + 1;
     let head: Value = serde_json::from_str(head).map_err(|e| format!("line {h}: {e}"))?;
     if head.get("format").and_then(Value::as_str) != Some(FORMAT) {
         return Err(format!("line {h}: not an {FORMAT} header"));
@@ -114,7 +124,6 @@ pub fn read(text: &str) -> Result<Run, String> {
     run.lost = lost_of(&head, h)?;
 
     for (n, line) in lines {
-        let n = n + 1;
         let v: Value = serde_json::from_str(line).map_err(|e| format!("line {n}: {e}"))?;
         let t = u64_of(&v, "t", n)?;
         if let Some(kind) = v.get("event").and_then(Value::as_str) {
@@ -372,6 +381,35 @@ mod tests {
         assert_eq!(run.sequences[1].caller, Some(0));
         assert_eq!(run.transitions[0].seq, 1);
         assert_eq!(run.transitions[1].cause, "monitor jam");
+    }
+
+    /// A header after blank lines or a UTF-8 byte order mark is a trace file's header for
+    /// the detection as for the reader (the detection looked at the first line only, so
+    /// such a file was read as a log and refused as neither).
+    #[test]
+    fn the_header_after_blank_lines_or_a_bom() {
+        let record = r#"{"t":1000,"seq":3,"from":"Idle","to":"Running","cause":"start"}"#;
+        let plain = format!("{}\n{record}\n", head("", TWO, ""));
+        for text in [
+            plain.clone(),
+            format!("\n  \n{plain}"),
+            format!("\u{feff}{plain}"),
+            format!("\u{feff}\n{plain}"),
+            plain.replace('\n', "\r\n"),
+        ] {
+            assert!(is_trace(&text), "{text:?}");
+            let run = crate::read_run(&text, crate::log::Hints::default()).unwrap();
+            assert_eq!(run.transitions.len(), 1, "{text:?}");
+            assert_eq!(run.sequences[1].name, "moves");
+        }
+        // Line numbers count the blank lines (and the line of the mark).
+        let bad = format!("\u{feff}\n{}\n{{\"t\":-1}}\n", head("", TWO, ""));
+        assert_eq!(
+            read(&bad),
+            Err(String::from("line 3: `t` is not an unsigned integer"))
+        );
+        assert!(!is_trace("\n\nhello\n"));
+        assert!(!is_trace(""));
     }
 
     /// Times up to `u64::MAX` are times (the sequencer's `Instant` is a `u64` of µs).

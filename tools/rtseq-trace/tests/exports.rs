@@ -48,6 +48,19 @@ fn the_fixture_is_the_following_error_run() {
     assert_eq!(run.signals.len(), 3);
 }
 
+/// The VCD times (ns) of one variable's values at `times` (µs, in order): the k-th value of
+/// one µs k ns after it, the initial value (`$dumpvars`) being the first of µs 0.
+fn ns(times: impl Iterator<Item = u64>) -> Vec<u64> {
+    let mut out: Vec<u64> = Vec::new();
+    let (mut at, mut k) = (0, 1);
+    for t in times {
+        k = if t == at { k + 1 } else { 1 };
+        at = t;
+        out.push(t * 1000 + k - 1);
+    }
+    out
+}
+
 #[test]
 fn vcd_has_every_transition_at_its_time() {
     for (what, run) in sources() {
@@ -55,7 +68,7 @@ fn vcd_has_every_transition_at_its_time() {
         vcd::write(&run, &mut buf).unwrap();
         let mut parser = ::vcd::Parser::new(&buf[..]);
         let header = parser.parse_header().unwrap();
-        assert_eq!(header.timescale, Some((1, ::vcd::TimescaleUnit::US)));
+        assert_eq!(header.timescale, Some((1, ::vcd::TimescaleUnit::NS)));
         let mut names = HashMap::new();
         let mut codes = HashMap::new();
         for s in &run.sequences {
@@ -110,34 +123,35 @@ fn vcd_has_every_transition_at_its_time() {
             }
         }
         for (i, s) in run.sequences.iter().enumerate() {
-            let want: Vec<(u64, String)> = run
-                .transitions
+            let trs: Vec<_> = run.transitions.iter().filter(|t| t.seq == i).collect();
+            let times = ns(trs.iter().map(|t| t.time_us));
+            let want: Vec<(u64, String)> = trs
                 .iter()
-                .filter(|t| t.seq == i)
-                .map(|t| (t.time_us, vcd::sanitize(t.to.name())))
+                .zip(&times)
+                .map(|(t, &ns)| (ns, vcd::sanitize(t.to.name())))
                 .collect();
             let got = changes.remove(&s.name).unwrap_or_default();
             assert_eq!(got, want, "{what}: VCD states of {}", s.name);
-            let want: Vec<(u64, u8)> = run
-                .transitions
+            let want: Vec<(u64, u8)> = trs
                 .iter()
-                .filter(|t| t.seq == i)
-                .map(|t| (t.time_us, t.to.code()))
+                .zip(&times)
+                .map(|(t, &ns)| (ns, t.to.code()))
                 .collect();
             assert_eq!(coded.remove(&s.name).unwrap_or_default(), want);
         }
+        let times = ns(run.levels.iter().map(|l| l.time_us));
         let want: Vec<(u64, String)> = run
             .levels
             .iter()
-            .map(|l| (l.time_us, vcd::sanitize(&l.level)))
+            .zip(times)
+            .map(|(l, ns)| (ns, vcd::sanitize(&l.level)))
             .collect();
         assert_eq!(levels, want, "{what}: levels");
-        let want: Vec<u64> = run
+        let want: Vec<u64> = ns(run
             .events
             .iter()
             .filter(|e| e.kind == EventKind::Monitor && e.name == "following error")
-            .map(|e| e.time_us)
-            .collect();
+            .map(|e| e.time_us));
         assert_eq!(rises, want, "{what}: monitor pulses");
     }
 }
@@ -412,4 +426,308 @@ fn vcd_pulse_at_the_last_time() {
         rtseq_trace::model::secs(u64::MAX),
         u64::MAX - 1000
     )));
+}
+
+/// `main`'s first record resumes it (the trace starts mid-run); `child`'s third record starts
+/// from `Aborted` although its second left it `Paused` (records lost).
+const MID_RUN_AND_GAP: &str = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":100,"lost":3,"sequences":[{"id":0,"name":"main","caller":null},{"id":1,"name":"child","caller":0}],"monitors":[]}
+{"t":10,"seq":0,"from":"Paused","to":"Running","cause":"resume"}
+{"t":10,"seq":1,"from":"Idle","to":"Running","cause":"start"}
+{"t":20,"seq":1,"from":"Running","to":"Paused","cause":"pause"}
+{"t":30,"seq":1,"from":"Aborted","to":"Running","cause":"start"}
+{"t":40,"seq":1,"from":"Running","to":"Terminated","cause":"completed"}
+{"t":60,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}
+"#;
+
+/// The exports follow a record's `from`: VCD starts `main` in `Paused` and comments the
+/// gap; Perfetto has `main`'s `Paused` from 0, a `records lost` span over the gap and a
+/// run whose end was lost.
+#[test]
+fn exports_follow_the_records_from_state() {
+    let run = tracefile::read(MID_RUN_AND_GAP).unwrap();
+    let mut buf = Vec::new();
+    vcd::write(&run, &mut buf).unwrap();
+    let mut parser = ::vcd::Parser::new(&buf[..]);
+    let header = parser.parse_header().unwrap();
+    let main = header
+        .find_var(&["rtseq", "sequences", "main"])
+        .unwrap()
+        .code;
+    let main_code = header
+        .find_var(&["rtseq", "state_codes", "main"])
+        .unwrap()
+        .code;
+    let (mut t, mut in_dump) = (0u64, false);
+    let (mut initial, mut initial_code, mut comments) = (None, None, Vec::new());
+    for cmd in parser {
+        match cmd.unwrap() {
+            ::vcd::Command::Timestamp(x) => t = x,
+            ::vcd::Command::Begin(::vcd::SimulationCommand::Dumpvars) => in_dump = true,
+            ::vcd::Command::End(::vcd::SimulationCommand::Dumpvars) => in_dump = false,
+            ::vcd::Command::ChangeString(id, s) if in_dump && id == main => initial = Some(s),
+            ::vcd::Command::ChangeVector(id, v) if in_dump && id == main_code => {
+                initial_code = Some(v.to_string())
+            }
+            ::vcd::Command::Comment(c) => comments.push((t, c.trim().to_string())),
+            _ => {}
+        }
+    }
+    assert_eq!(initial.as_deref(), Some("Paused"));
+    assert_eq!(initial_code.as_deref(), Some("010"));
+    assert_eq!(
+        comments,
+        [(
+            30_000,
+            String::from(
+                "records lost: 'child' was Paused at 20 us; its next record, at 30 us, starts from Aborted"
+            )
+        )]
+    );
+
+    let events = perfetto::events(&run);
+    let on = |tid: usize, cat: &str| -> Vec<(u64, u64, String, Value)> {
+        events
+            .iter()
+            .filter(|e| e["tid"] == tid && e["cat"] == cat)
+            .map(|e| {
+                (
+                    e["ts"].as_u64().unwrap(),
+                    e["dur"].as_u64().unwrap(),
+                    e["name"].as_str().unwrap().to_string(),
+                    e["args"].clone(),
+                )
+            })
+            .collect()
+    };
+    let (main, child) = (perfetto::tid_of(0), perfetto::tid_of(1));
+    let states: Vec<_> = on(main, "state")
+        .into_iter()
+        .map(|e| (e.0, e.1, e.2))
+        .collect();
+    assert_eq!(states, [(0, 10, String::from("Paused"))]);
+    let runs: Vec<_> = on(main, "run")
+        .into_iter()
+        .map(|e| (e.0, e.1, e.3["started by"].clone(), e.3["outcome"].clone()))
+        .collect();
+    assert_eq!(
+        runs,
+        [(
+            0,
+            60,
+            Value::from("(before the record)"),
+            Value::from("completed")
+        )]
+    );
+    assert_eq!(
+        on(child, "gap"),
+        [(
+            20,
+            10,
+            String::from("records lost"),
+            serde_json::json!({
+                "state at the start": "Paused",
+                "state at the end": "Aborted",
+                "note": "records were lost here: what happened between is not known",
+            })
+        )]
+    );
+    let outcomes: Vec<_> = on(child, "run")
+        .into_iter()
+        .map(|e| (e.0, e.1, e.3["outcome"].clone()))
+        .collect();
+    assert_eq!(
+        outcomes,
+        [
+            (10, 20, Value::from("unknown (records lost)")),
+            (30, 10, Value::from("completed"))
+        ]
+    );
+
+    // The HTML timeline: `main` paused from 0, the gap drawn as one (class `gap`).
+    let page = html::render(&run, "gap");
+    let tip = |s: &str| html::esc(s);
+    assert!(page.contains(&tip(
+        "main: Paused from 0.000000 s to 0.000010 s (10 µs)\ncause: unknown: the state before the sequence's first record\nrun: started by (before the record); outcome completed"
+    )));
+    assert!(page.contains(r#"<rect class="span s-paused gap" data-t0="20" data-t1="30""#));
+    let key = r#"<span class="key"><i class="s-running gap"></i>records lost</span>"#;
+    assert_eq!(page.matches(key).count(), 1);
+    // Without a gap, no key for one.
+    let whole = MID_RUN_AND_GAP.replace(
+        r#""from":"Aborted","to":"Running""#,
+        r#""from":"Paused","to":"Running""#,
+    );
+    assert!(!html::render(&tracefile::read(&whole).unwrap(), "no gap").contains(key));
+    assert!(page.contains(&tip(
+        "child: Paused from 0.000020 s to 0.000030 s (10 µs)\ncause: pause\nrun: started by start; outcome unknown (records lost)\nRECORDS LOST: the next record starts from Aborted, not Paused; what happened between is not known"
+    )));
+}
+
+/// An owner restarted by its monitor in one tick (the simulator's `restart_owner`): at
+/// 5000 µs `S` is `Aborting`, `Aborted` and `Running` again, `A` `Restarting` and `Running`.
+/// Each state is seen for 1 ns (a timescale of 1 ns), no variable has two values at one
+/// time, and the end is written once. (At 1 µs, `S` took three values at #5000: a viewer
+/// showed only the last, so the abort and restart were invisible.)
+#[test]
+fn vcd_shows_states_of_0_us() {
+    let text = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":10000,"sequences":[{"id":0,"name":"S","caller":1},{"id":1,"name":"A","caller":null}],"monitors":[{"id":0,"name":"m","owner":1}]}
+{"t":0,"seq":1,"from":"Idle","to":"Running","cause":"start"}
+{"t":0,"seq":0,"from":"Idle","to":"Running","cause":"start"}
+{"t":5000,"event":"monitor","owner":1,"behaviour":"RestartOwner","monitor":0,"text":"monitor 'm' of 'A' fired: RestartOwner"}
+{"t":5000,"seq":0,"from":"Running","to":"Aborting","cause":"monitor","monitor":0}
+{"t":5000,"seq":0,"from":"Aborting","to":"Aborted","cause":"monitor","monitor":0}
+{"t":5000,"seq":1,"from":"Running","to":"Restarting","cause":"monitor","monitor":0}
+{"t":5000,"seq":1,"from":"Restarting","to":"Running","cause":"restart"}
+{"t":5000,"seq":0,"from":"Aborted","to":"Running","cause":"start"}
+{"t":10000,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}
+{"t":10000,"seq":1,"from":"Running","to":"Terminated","cause":"completed"}
+"#;
+    let run = tracefile::read(text).unwrap();
+    let mut buf = Vec::new();
+    vcd::write(&run, &mut buf).unwrap();
+    let mut parser = ::vcd::Parser::new(&buf[..]);
+    let header = parser.parse_header().unwrap();
+    assert_eq!(header.timescale, Some((1, ::vcd::TimescaleUnit::NS)));
+    let var = |scope: &str, name: &str| header.find_var(&["rtseq", scope, name]).unwrap().code;
+    let (s, a, s_code) = (
+        var("sequences", "S"),
+        var("sequences", "A"),
+        var("state_codes", "S"),
+    );
+    let (mut t, mut in_dump) = (0u64, false);
+    let (mut s_states, mut a_states, mut s_codes) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut times, mut set_at) = (Vec::new(), std::collections::HashSet::new());
+    for cmd in parser {
+        let cmd = cmd.unwrap();
+        let id = match &cmd {
+            ::vcd::Command::Timestamp(x) => {
+                times.push(*x);
+                t = *x;
+                None
+            }
+            ::vcd::Command::Begin(::vcd::SimulationCommand::Dumpvars) => {
+                in_dump = true;
+                None
+            }
+            ::vcd::Command::End(::vcd::SimulationCommand::Dumpvars) => {
+                in_dump = false;
+                None
+            }
+            ::vcd::Command::ChangeString(id, v) => {
+                if *id == s && !in_dump {
+                    s_states.push((t, v.clone()));
+                }
+                if *id == a && !in_dump {
+                    a_states.push((t, v.clone()));
+                }
+                Some(*id)
+            }
+            ::vcd::Command::ChangeVector(id, v) => {
+                if *id == s_code && !in_dump {
+                    s_codes.push((t, v.to_string()));
+                }
+                Some(*id)
+            }
+            ::vcd::Command::ChangeScalar(id, _) | ::vcd::Command::ChangeReal(id, _) => Some(*id),
+            _ => None,
+        };
+        if let Some(id) = id {
+            assert!(set_at.insert((t, id)), "{id} twice at #{t}");
+        }
+    }
+    let owned = |v: &[(u64, &str)]| -> Vec<(u64, String)> {
+        v.iter().map(|&(t, s)| (t, s.to_string())).collect()
+    };
+    assert_eq!(
+        s_states,
+        owned(&[
+            (1, "Running"),
+            (5_000_000, "Aborting"),
+            (5_000_001, "Aborted"),
+            (5_000_002, "Running"),
+            (10_000_000, "Terminated"),
+        ])
+    );
+    assert_eq!(
+        s_codes,
+        owned(&[
+            (1, "001"),
+            (5_000_000, "011"),
+            (5_000_001, "100"),
+            (5_000_002, "001"),
+            (10_000_000, "101"),
+        ])
+    );
+    assert_eq!(
+        a_states,
+        owned(&[
+            (1, "Running"),
+            (5_000_000, "Restarting"),
+            (5_000_001, "Running"),
+            (10_000_000, "Terminated"),
+        ])
+    );
+    // Every time once, in order; the last is the end (a change is there).
+    assert_eq!(
+        times,
+        [0, 1, 5_000_000, 5_000_001, 5_000_002, 5_001_000, 10_000_000]
+    );
+}
+
+/// Sequences whose names sanitize to one (`a b`, `a_b`; `Achse Ä`, `Achse Ö`) are distinct
+/// VCD variables, each with its own states; so are faults `jam x` and `jam_x`.
+#[test]
+fn vcd_names_are_unique() {
+    let text = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":100,"sequences":[{"id":0,"name":"a b","caller":null},{"id":1,"name":"a_b","caller":null},{"id":2,"name":"Achse Ä","caller":null},{"id":3,"name":"Achse Ö","caller":null}],"monitors":[]}
+{"t":10,"seq":0,"from":"Idle","to":"Running","cause":"start"}
+{"t":20,"seq":1,"from":"Idle","to":"Running","cause":"start"}
+{"t":30,"seq":2,"from":"Idle","to":"Running","cause":"start"}
+{"t":40,"seq":3,"from":"Idle","to":"Running","cause":"start"}
+{"t":50,"event":"fault","name":"jam x"}
+{"t":60,"event":"fault","name":"jam_x"}
+"#;
+    let run = tracefile::read(text).unwrap();
+    assert_eq!(
+        vcd::sequence_names(&run),
+        ["a_b", "a_b_1", "Achse__", "Achse___3"]
+    );
+    let mut buf = Vec::new();
+    vcd::write(&run, &mut buf).unwrap();
+    let mut parser = ::vcd::Parser::new(&buf[..]);
+    let header = parser.parse_header().unwrap();
+    let mut by_code = HashMap::new();
+    for (name, started) in [
+        ("a_b", 10_000),
+        ("a_b_1", 20_000),
+        ("Achse__", 30_000),
+        ("Achse___3", 40_000),
+    ] {
+        let v = header
+            .find_var(&["rtseq", "sequences", name])
+            .unwrap_or_else(|| panic!("no variable {name}"));
+        assert!(
+            by_code.insert(v.code, started).is_none(),
+            "{name} shares a code"
+        );
+    }
+    let mut pulses = HashMap::new();
+    for (name, at) in [("fault_jam_x", 50_000), ("fault_jam_x_1", 60_000)] {
+        let v = header.find_var(&["rtseq", "events", name]).unwrap();
+        pulses.insert(v.code, at);
+    }
+    let (mut t, mut in_dump) = (0u64, false);
+    for cmd in parser {
+        match cmd.unwrap() {
+            ::vcd::Command::Timestamp(x) => t = x,
+            ::vcd::Command::Begin(::vcd::SimulationCommand::Dumpvars) => in_dump = true,
+            ::vcd::Command::End(::vcd::SimulationCommand::Dumpvars) => in_dump = false,
+            ::vcd::Command::ChangeString(id, s) if !in_dump && by_code.contains_key(&id) => {
+                assert_eq!((s.as_str(), t), ("Running", by_code[&id]));
+            }
+            ::vcd::Command::ChangeScalar(id, ::vcd::Value::V1) if pulses.contains_key(&id) => {
+                assert_eq!(t, pulses[&id]);
+            }
+            _ => {}
+        }
+    }
 }

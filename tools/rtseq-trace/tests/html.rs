@@ -34,6 +34,11 @@ fn chromium() -> PathBuf {
 
 /// Runs headless Chromium with `args` on `page`; returns its stdout.
 fn browse(profile: &Path, args: &[&str], page: &Path) -> String {
+    browse_at(profile, args, page, "")
+}
+
+/// [`browse`] at `page` with `hash` appended to its URL (`#t=29,40`).
+fn browse_at(profile: &Path, args: &[&str], page: &Path, hash: &str) -> String {
     let out = Command::new(chromium())
         .args([
             "--headless",
@@ -45,7 +50,7 @@ fn browse(profile: &Path, args: &[&str], page: &Path) -> String {
         ])
         .arg(format!("--user-data-dir={}", profile.display()))
         .args(args)
-        .arg(format!("file://{}", page.display()))
+        .arg(format!("file://{}{hash}", page.display()))
         .output()
         .expect("running chromium");
     assert!(
@@ -176,17 +181,21 @@ fn many_runs(runs: u64) -> String {
         ));
         text.push('\n');
     };
+    // A run starts from the state the previous one ended in, as the sequencer records it.
+    let mut ended = "Idle";
     for k in 0..runs {
         let t = k * 1000;
-        rec(&mut text, t, "Idle", "Running", "start");
+        rec(&mut text, t, ended, "Running", "start");
         if k + 1 == runs {
             break;
         }
         if k % 1000 == 999 {
             rec(&mut text, t + 500, "Running", "Aborting", "abort");
             rec(&mut text, t + 750, "Aborting", "Aborted", "abort");
+            ended = "Aborted";
         } else {
             rec(&mut text, t + 500, "Running", "Terminated", "completed");
+            ended = "Terminated";
         }
     }
     text
@@ -297,4 +306,191 @@ fn lost_records_banner() {
         .unwrap();
     assert!(out.status.success());
     assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
+}
+
+/// The value of attribute `name` in the tag `tag` (`<rect ...>`), if it has it.
+fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let key = format!(" {name}=\"");
+    let from = tag.find(&key)? + key.len();
+    tag[from..].split('"').next()
+}
+
+/// The opening tags in `dom` that contain `needle`.
+fn tags_with<'a>(dom: &'a str, needle: &str) -> Vec<&'a str> {
+    dom.split('<')
+        .filter(|t| t.contains(needle))
+        .map(|t| t.split('>').next().unwrap_or(""))
+        .collect()
+}
+
+/// Where the script drew the element whose tag contains `needle`: `x` and `width` of a
+/// span, `x1` of a marker; `None` when it is hidden (outside the window).
+fn drawn(dom: &str, needle: &str) -> Option<(String, String)> {
+    let tags = tags_with(dom, needle);
+    assert_eq!(tags.len(), 1, "one element with {needle}: {tags:?}");
+    let tag = tags[0];
+    if attr(tag, "display") == Some("none") {
+        return None;
+    }
+    let (a, b) = if tag.starts_with("line") {
+        ("x1", "x2")
+    } else {
+        ("x", "width")
+    };
+    Some((attr(tag, a)?.to_string(), attr(tag, b)?.to_string()))
+}
+
+fn at(x: &str, w: &str) -> Option<(String, String)> {
+    Some((x.to_string(), w.to_string()))
+}
+
+/// Spans and markers late in a long run, or in a run whose time starts at 2^32 µs, sit
+/// where their times say, at the whole-run view and zoomed to 10 µs. (The data were in an
+/// SVG whose user units were µs; Blink clamps coordinates near 2^25, so everything after
+/// 33.5 s was drawn at 33.5 s.)
+#[test]
+fn late_times_are_drawn_where_they_are() {
+    let dir = common::scratch("late");
+    let head = |end: u64, names: &[&str]| {
+        let seqs: Vec<String> = names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| format!(r#"{{"id":{i},"name":"{n}","caller":null}}"#))
+            .collect();
+        format!(
+            r#"{{"format":"rtseq-trace","version":1,"time_unit":"us","end":{end},"sequences":[{}],"monitors":[{{"id":0,"name":"jam","owner":1}}]}}"#,
+            seqs.join(",")
+        )
+    };
+    let run = |seq: usize, from: u64, to: u64| {
+        format!(
+            "{{\"t\":{from},\"seq\":{seq},\"from\":\"Idle\",\"to\":\"Running\",\"cause\":\"start\"}}\n{{\"t\":{to},\"seq\":{seq},\"from\":\"Running\",\"to\":\"Terminated\",\"cause\":\"completed\"}}\n"
+        )
+    };
+    // 100 s: A 34–36 s, B 37–39 s, C the 5 µs from 99.999990 s; a monitor firing and its
+    // exception sequence not run at 38 s.
+    let long = format!(
+        "{}\n{}{}{}{}\n{}\n",
+        head(100_000_000, &["A", "B", "C"]),
+        run(0, 34_000_000, 36_000_000),
+        run(1, 37_000_000, 39_000_000),
+        run(2, 99_999_990, 99_999_995),
+        r#"{"t":38000000,"event":"monitor","owner":1,"behaviour":"AbortOwner","monitor":0,"text":"jam fired"}"#,
+        r#"{"t":38000000,"event":"exception_not_run","sequence":2,"owner":1,"name":"C","text":"C not run"}"#,
+    );
+    // A run started at 2^32 µs (4294.967296 s): W runs 10 µs from 2^32 + 5.
+    let late = format!(
+        "{}\n{}",
+        head((1 << 32) + 100, &["W"]),
+        run(0, (1 << 32) + 5, (1 << 32) + 15)
+    );
+    let mut pages = Vec::new();
+    for (name, text) in [("long", &long), ("late", &late)] {
+        let input = dir.join(format!("{name}.jsonl"));
+        std::fs::write(&input, text).unwrap();
+        let page = dir.join(format!("{name}.html"));
+        let st = Command::new(env!("CARGO_BIN_EXE_rtseq-trace"))
+            .arg("render")
+            .arg(&input)
+            .arg("--html")
+            .arg(&page)
+            .status()
+            .unwrap();
+        assert!(st.success());
+        pages.push(page);
+    }
+    let dom = |page: &Path, hash: &str| {
+        let profile = dir.join(format!("profile{}", hash.len()));
+        browse_at(&profile, &["--dump-dom"], page, hash)
+    };
+    let a = r#"class="span s-running" data-t0="34000000""#;
+    let b = r#"class="span s-running" data-t0="37000000""#;
+    let b_after = r#"class="span s-terminated" data-t0="39000000""#;
+    let c = r#"class="span s-running" data-t0="99999990""#;
+    let fired = r#"class="marker monitor-fire""#;
+    let not_run = r#"class="marker exception""#;
+
+    // The whole run, 100 s on 1180 px.
+    let whole = dom(&pages[0], "");
+    assert_eq!(drawn(&whole, a), at("401.2", "23.6"));
+    assert_eq!(drawn(&whole, b), at("436.6", "23.6"));
+    // 5 µs: at least 2 px wide.
+    assert_eq!(drawn(&whole, c), at("1180", "2"));
+    // The markers of one µs side by side, 3 px apart.
+    assert_eq!(drawn(&whole, fired), at("448.4", "448.4"));
+    assert_eq!(drawn(&whole, not_run), at("451.4", "451.4"));
+
+    // 29 s to 40 s.
+    let zoomed = dom(&pages[0], "#t=29,40");
+    assert_eq!(drawn(&zoomed, a), at("536.36", "214.55"));
+    assert_eq!(drawn(&zoomed, b), at("858.18", "214.55"));
+    assert_eq!(drawn(&zoomed, fired), at("965.45", "965.45"));
+    assert_eq!(drawn(&zoomed, not_run), at("968.45", "968.45"));
+    assert_eq!(drawn(&zoomed, c), None);
+
+    // The last 20 µs: C in the middle; B's `Terminated`, which began long before, cut 4 px
+    // beyond the left edge, to the end of the run.
+    let end = dom(&pages[0], "#t=99.99998,100");
+    assert_eq!(drawn(&end, c), at("590", "295"));
+    assert_eq!(drawn(&end, b_after), at("-4", "1184"));
+    assert_eq!(drawn(&end, a), None);
+
+    // The buttons and a drag still move the window: zoom in on 29 s to 40 s is 31.75 s to
+    // 37.25 s; dragged 118 px (1.1 s) to the left, then zoomed out, 24.6 s to 46.6 s.
+    let page = std::fs::read_to_string(&pages[0]).unwrap();
+    let script = |s: &str| page.replace("</body>", &format!("<script>{s}</script></body>"));
+    let zoom_in = dir.join("zoom-in.html");
+    std::fs::write(&zoom_in, script("document.getElementById('zin').click();")).unwrap();
+    let zoomed = dom(&zoom_in, "#t=29,40");
+    assert_eq!(drawn(&zoomed, a), at("482.73", "429.09"));
+    assert_eq!(drawn(&zoomed, b), at("1126.36", "57.64"));
+    let dragged = dir.join("dragged.html");
+    std::fs::write(
+        &dragged,
+        script(
+            "var p = document.getElementById('plot');\
+             p.dispatchEvent(new MouseEvent('mousedown', { clientX: 700, bubbles: true }));\
+             window.dispatchEvent(new MouseEvent('mousemove', { clientX: 582 }));\
+             window.dispatchEvent(new MouseEvent('mouseup'));\
+             document.getElementById('zout').click();",
+        ),
+    )
+    .unwrap();
+    let moved = dom(&dragged, "#t=29,40");
+    let axis: Vec<&str> = tags_with(&moved, r#"y="17">"#)
+        .iter()
+        .filter_map(|t| attr(t, "x"))
+        .collect();
+    assert_eq!(axis.first(), Some(&"265.09"), "the axis's first tick, 26 s");
+    assert_eq!(drawn(&moved, a), at("504.18", "107.27"));
+
+    // 10 µs from 2^32 µs.
+    let w = r#"class="span s-running" data-t0="4294967301""#;
+    let zoomed = dom(&pages[1], "#t=4294.967296,4294.967306");
+    assert_eq!(drawn(&zoomed, w), at("590", "594"));
+    let whole = dom(&pages[1], "");
+    assert_eq!(drawn(&whole, w), at("1180", "2"));
+}
+
+/// A run that starts in the µs the previous one ended: each span's tooltip names its own
+/// run (the `Running` after the restart named the aborted run).
+#[test]
+fn a_run_started_when_the_last_ended_is_named() {
+    let text = r#"{"format":"rtseq-trace","version":1,"time_unit":"us","end":40,"sequences":[{"id":0,"name":"move","caller":null}],"monitors":[]}
+{"t":0,"seq":0,"from":"Idle","to":"Running","cause":"start"}
+{"t":10,"seq":0,"from":"Running","to":"Aborting","cause":"abort"}
+{"t":20,"seq":0,"from":"Aborting","to":"Aborted","cause":"abort"}
+{"t":20,"seq":0,"from":"Aborted","to":"Running","cause":"start"}
+{"t":30,"seq":0,"from":"Running","to":"Terminated","cause":"completed"}
+"#;
+    let page = html::render(&tracefile::read(text).unwrap(), "same µs");
+    for want in [
+        tip("Running", 0, 10, "start", "aborted (abort)"),
+        tip("Aborting", 10, 20, "abort", "aborted (abort)"),
+        tip("Aborted", 20, 20, "abort", "aborted (abort)"),
+        tip("Running", 20, 30, "start", "completed"),
+        tip("Terminated", 30, 40, "completed", "completed"),
+    ] {
+        assert_eq!(page.matches(&want).count(), 1, "no span with\n{want}");
+    }
 }
