@@ -300,16 +300,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         self.trace.push(self.now, Entry::Event(event));
     }
 
-    /// Exception sequence `exception` of an exception of `owner` could not start: `why`.
-    pub(crate) fn exception_not_run(&mut self, exception: SeqId, owner: SeqId, why: Error) {
-        self.exceptions_not_run = self.exceptions_not_run.saturating_add(1);
-        self.record(Event::ExceptionNotRun {
-            exception,
-            owner,
-            why,
-        });
-    }
-
     /// THE transition function: every state change goes through here. Makes `change` if
     /// the sequence is in state `change.from`, records it at the current time (the trace,
     /// the counters, the set of changed sequences) and returns the block for the caller's

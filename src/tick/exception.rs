@@ -37,7 +37,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 {
     /// A monitor (or `owner`'s timeout, `Cause::Timeout`) of `owner` fired with `reaction`:
     /// mark the exception, then start the exception sequence (the behaviour waits for its
-    /// end) or apply the behaviour now. Returns false when the owner could not take an
+    /// end) or apply the behaviour now. If the marked run is over, or its stop has begun,
+    /// by the time the exception sequence's start is refused, the exception went with the
+    /// run: nothing more happens. Returns false when the owner could not take an
     /// exception any more (a timeout: unless running, its timeout stays armed and is
     /// checked again at its next poll). A timeout's mark also disarms it.
     #[inline(never)]
@@ -79,11 +81,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     });
                     return true;
                 }
-                // Refused for its starter, the owner: the marked run is not the owner's
-                // any more, or not under way, or being stopped (`open_start` checks what
-                // `takes_exception` does).
-                Err(Error::NotRunning(starter)) if starter == owner => return true,
-                Err(why) => self.with(|s| s.exception_not_run(e, owner, why)),
+                // Refused for whatever reason once the marked run was over, or its
+                // stop had begun: the exception went with its run. Else it could not
+                // run: counted, and the behaviour applies at once.
+                Err(why) => {
+                    if !self.exception_not_run(marked, e, why) {
+                        return true;
+                    }
+                }
             }
         }
         self.apply(control, marked, behaviour, target, cause);
@@ -139,12 +144,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         if let Some(e) = exception {
-            match self.begin(e, Mode::BesidePause { owner: run }, cause) {
-                // A lane of higher priority ended the run, or began its stop, since the
-                // first section: the exception sequence went with it.
-                Err(Error::NotRunning(starter)) if starter == owner => {}
-                Err(why) => self.with(|s| s.exception_not_run(e, owner, why)),
-                Ok(_) => {}
+            // Counted unless a lane of higher priority ended the run, or began its stop,
+            // since the first section: the exception sequence went with it.
+            if let Err(why) = self.begin(e, Mode::BesidePause { owner: run }, cause) {
+                self.exception_not_run(run, e, why);
             }
         }
         if running {
@@ -166,6 +169,31 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         if let Some(run) = released {
             self.resume_tree(run, cause);
         }
+    }
+
+    /// Exception sequence `exception` for the exception of the owner's run `owner` was
+    /// refused (`why`). If that run still takes the exception (under way, not being
+    /// stopped), it is counted (`exceptions_not_run`) in the section that checks the run,
+    /// recorded in the next, and true is returned; else the exception went with its run,
+    /// and nothing is.
+    fn exception_not_run(&self, owner: RunId, exception: SeqId, why: Error) -> bool {
+        let taken = self.with(|s| {
+            let taken = s.takes_exception(owner);
+            if taken {
+                s.exceptions_not_run = s.exceptions_not_run.saturating_add(1);
+            }
+            taken
+        });
+        if taken {
+            self.with(|s| {
+                s.record(Event::ExceptionNotRun {
+                    exception,
+                    owner: owner.seq,
+                    why,
+                });
+            });
+        }
+        taken
     }
 
     /// Applies a behaviour after an exception (and its exception sequence) of the owner's
@@ -195,7 +223,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             // Applied once, it pauses (the tick's `hold` also resumes).
             Behaviour::PauseOwner => self.pause_tree(target, cause),
         }
-        if target.seq != owner.seq && behaviour != Behaviour::PauseOwner {
+        if target.seq != owner.seq && behaviour.targets_caller() {
             self.end_if_still_held(control, owner, cause);
         }
     }
@@ -219,10 +247,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 }
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// Whether `run` is still its sequence's run, under way (running or paused) and not
-    /// being stopped: an exception sequence refused for it was refused for an exception
-    /// it still has (counted, and the behaviour applied at once), not one that went with
-    /// its run.
     /// `behaviour` (with its monitor's restart `limit`) waits for the end of `owner`'s
     /// exception sequence.
     fn set_pending(&mut self, owner: SeqId, behaviour: Behaviour, limit: u8) {
@@ -234,6 +258,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
+    /// Whether `run` is still its sequence's run, under way (running or paused) and not
+    /// being stopped: an exception of it has not gone with its run (its pending behaviour
+    /// is kept; an exception sequence refused for it is counted, and the behaviour
+    /// applied at once).
     fn takes_exception(&self, run: RunId) -> bool {
         self.block(run.seq).is_some_and(|b| {
             b.runs == run.count
@@ -276,8 +304,9 @@ struct Marked<const B: usize> {
 }
 
 /// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
-/// the exception (monitored; for a timeout, running; not handling one already), counts the
-/// restart and marks the exception, skipping the due polls it holds.
+/// the exception (monitored; for a timeout, running; not handling one already; not being
+/// stopped), judges the behaviour on the target's run and marks the exception, skipping
+/// the due polls it holds.
 fn mark<
     C,
     S: Sections<C, N, T, W, B>,
@@ -339,7 +368,7 @@ fn mark<
     let owner_skipped = s.section(|s| {
         let b = s
             .block_mut(owner)
-            .filter(|b| states.has(b.state) && b.runs == owner_runs)?;
+            .filter(|b| states.has(b.state) && b.runs == owner_runs && !b.being_stopped())?;
         b.active_exception = Some(cause);
         if timeout {
             s.sets.put(Set::Armed, owner, false);

@@ -83,6 +83,7 @@ fn name<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
 }
 
 mod coarse;
+mod exceptions_gone_with_their_run;
 mod fine;
 mod holds;
 mod lanes;
@@ -468,9 +469,9 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
             if state != Restarting && self.in_set(Set::Excepting, id) {
                 let handled = self.seq.with(|s| {
                     let b = s.block(id).unwrap();
-                    b.pending().is_some()
-                        || b.has(flag::EXCEPTION_DONE)
-                        || b.being_stopped()
+                    b.has(flag::EXCEPTION_DONE)
+                        || (b.has(crate::sequencer::control_block::request::ABORT)
+                            && s.sets.has(Set::Requested, id))
                         || (0..count).any(|e| {
                             let e = s.block(SeqId::from_index(e)).unwrap();
                             e.has(flag::HANDLES_EXCEPTION) && e.caller.get() == Some(id)
@@ -479,6 +480,13 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
                 assert!(
                     handled,
                     "{what}: {id:?} {state:?} held by an exception that nothing handles"
+                );
+            }
+            // A teardown that placed a sequence moves it before it returns.
+            if state != Restarting {
+                assert!(
+                    !self.has(id, flag::STOPPING),
+                    "{what}: {id:?} {state:?} placed by a teardown that is over"
                 );
             }
             let blocking = self.seq.with(|s| s.block(id).unwrap().lane)

@@ -1,0 +1,314 @@
+//! The rules of session 51's fixes, probed by its cold review: a run whose abort is
+//! requested takes no exception; an exception sequence refused (for any reason) once
+//! its owner's run is over goes with the run, counted nowhere and followed by no
+//! behaviour; an owner started again after its caller's teardown is left alone.
+
+use super::*;
+use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
+use std::cell::Cell;
+
+/// Semantics 10: "A run whose abort is requested takes no exception, as one a teardown has
+/// placed (9)". A handle requests O's abort before section `k` of the firing tick: no
+/// exception of O is marked after the request. (The mark records its `Fired` in the
+/// section after the marking: a request that lands between the two is recorded before
+/// it, for an exception taken before the request.)
+fn no_exception_taken_after_an_abort_request<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    with_e: bool,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let c = w.seq("C");
+        let e = w.seq("E");
+        let o = w.seq("O");
+        w.monitor(
+            o,
+            flag_of(true),
+            Behaviour::AbortCallerOfOwner,
+            with_e.then_some(e),
+        );
+        w.start_taken(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        (w, c, o)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, _c, o) = setup();
+        // Whether O was marked when the request came.
+        let marked = Rc::new(Cell::new(false));
+        let seen = marked.clone();
+        let party = move || {
+            seen.set(w.in_set(Set::Excepting, o));
+            let _ = w.kept(o).abort();
+        };
+        interleaved::at(k, party.clone());
+        w.tick(1);
+        or_after(k, party);
+        let what = name::<L>(layout, format_args!("E {with_e}, k={k} of {count}"));
+        let events: Vec<Event> = w.records().iter().filter_map(|r| r.event()).collect();
+        let requested = events
+            .iter()
+            .position(|e| matches!(e, Event::Requested { sequence, .. } if *sequence == o));
+        let fired = events
+            .iter()
+            .position(|e| matches!(e, Event::Fired { owner, .. } if *owner == o));
+        if let (Some(r), Some(f)) = (requested, fired) {
+            assert!(
+                f < r || marked.get(),
+                "{what}: O took an exception after its abort was requested: {events:?}"
+            );
+        }
+    });
+}
+
+#[test]
+fn a_run_whose_abort_is_requested_takes_no_exception() {
+    let mut failed = Vec::new();
+    for with_e in [false, true] {
+        let r = std::panic::catch_unwind(|| {
+            every_world!(no_exception_taken_after_an_abort_request, with_e);
+        });
+        if let Err(e) = r {
+            let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
+            failed.push(format!(
+                "E {with_e}:\n{}",
+                msg.lines().take(3).collect::<Vec<_>>().join("\n")
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+/// C (main) started O non-blocking; O's monitor (`b`, a caller behaviour, exception
+/// sequence E) fires in the tick at 1 ms, but E is already running (started by a handle):
+/// its start is refused `AlreadyRunning(E)`, which `check_start` finds before
+/// `open_start` looks at O's run. O's lane drops O's run (a handle starts O again, a main
+/// sequence now) before section `k` of that tick. Semantics 10: once O's run is over the
+/// exception went with it (not counted, no behaviour): C is left alone (as 7acc994's
+/// `current` check ensured).
+fn drop_owner_while_its_exception_sequence_is_busy<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+    b: Behaviour,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let c = w.seq("C");
+        let e = w.seq("E");
+        let o = w.seq("O");
+        w.monitor(o, flag_of(true), b, Some(e));
+        w.start_taken(c);
+        w.start_taken(e);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        (w, c, o)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, c, o) = setup();
+        // Only a drop after the mark is of interest: before it, nothing fires for run 1.
+        // The count when the drop came: the refusal counted while the run was under way
+        // is recorded in the section after, which the drop may precede.
+        let counted = Rc::new(Cell::new(0));
+        let seen = counted.clone();
+        let party = move || {
+            seen.set(w.seq.exceptions_not_run());
+            w.replace_run(o);
+        };
+        interleaved::at(k, party.clone());
+        w.tick(1);
+        let late = or_after(k, party);
+        for ms in 2..=3 {
+            w.tick(ms);
+        }
+        let what = name::<L>(
+            layout,
+            format_args!("{b:?}, k={k} of {count}, after {late}"),
+        );
+        if late {
+            return;
+        }
+        let events = || {
+            w.records()
+                .iter()
+                .filter_map(|r| r.event())
+                .collect::<Vec<_>>()
+        };
+        // The exception sequence refused (and the behaviour applied at once) after O's run
+        // was over: the order of the trace says it.
+        let records = w.records();
+        let dropped = records.iter().position(|r| {
+            matches!(r.entry, crate::trace::Entry::Transition { sequence, cause: Cause::Dropped, .. } if sequence == o)
+        });
+        let not_run = records.iter().position(
+            |r| matches!(r.event(), Some(Event::ExceptionNotRun { owner, .. }) if owner == o),
+        );
+        let fired = records
+            .iter()
+            .position(|r| matches!(r.event(), Some(Event::Fired { owner, .. }) if owner == o));
+        // Only run 1's firing (the tick at 1 ms); run 2 fires at 2 ms, legitimately counted.
+        let not_run = not_run.filter(|&n| records[n].time == records[fired.unwrap_or(0)].time);
+        // Run 1 fired (before the drop), then was counted after its drop.
+        if let (Some(f), Some(d), Some(n)) = (fired, dropped, not_run) {
+            assert!(
+                !(f < d && d < n) || counted.get() > 0,
+                "{what}: counted, and applied at once, for a run that was over: C {:?}; events {:?}",
+                w.transitions(c),
+                events()
+            );
+        }
+        let _ = c;
+        w.check_tree(&what);
+    });
+}
+
+#[test]
+fn a_caller_behaviour_of_a_run_dropped_while_its_exception_sequence_is_busy_leaves_the_caller_alone(
+) {
+    let mut failed = Vec::new();
+    for b in [
+        Behaviour::AbortCallerOfOwner,
+        Behaviour::RestartCallerOfOwner,
+    ] {
+        let r = std::panic::catch_unwind(|| {
+            every_world!(drop_owner_while_its_exception_sequence_is_busy, b);
+        });
+        if let Err(e) = r {
+            let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
+            failed.push(format!(
+                "{b:?}:\n{}",
+                msg.lines().take(5).collect::<Vec<_>>().join("\n")
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+/// As `hold_raced` (replaced_runs.rs) with E already running: O's `PauseOwner` monitor
+/// holds from 1 ms; O's lane drops O's run (and a handle starts O again) before section
+/// `k` of that tick. An `ExceptionNotRun` of the hold recorded after O's run was dropped
+/// counts a safe stop "not run" for a run that was over (semantics 10).
+fn hold_of_a_dropped_run_with_busy_exception_sequence<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let o = w.seq("O");
+        let e = w.seq("E");
+        w.monitor(o, flag_of(true), Behaviour::PauseOwner, Some(e));
+        w.start_taken(e);
+        w.start_taken(o);
+        (w, o)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, o) = setup();
+        // As above: the count when the drop came.
+        let counted = Rc::new(Cell::new(0));
+        let seen = counted.clone();
+        let party = move || {
+            seen.set(w.seq.exceptions_not_run());
+            w.replace_run(o);
+        };
+        interleaved::at(k, party.clone());
+        w.tick(1);
+        or_after(k, party);
+        let what = name::<L>(layout, format_args!("k={k} of {count}"));
+        let records = w.records();
+        let fired = records
+            .iter()
+            .position(|r| matches!(r.event(), Some(Event::Fired { owner, .. }) if owner == o));
+        let dropped = records.iter().position(|r| {
+            matches!(r.entry, crate::trace::Entry::Transition { sequence, cause: Cause::Dropped, .. } if sequence == o)
+        });
+        let not_run = records.iter().position(
+            |r| matches!(r.event(), Some(Event::ExceptionNotRun { owner, .. }) if owner == o),
+        );
+        if let (Some(f), Some(d), Some(n)) = (fired, dropped, not_run) {
+            assert!(
+                !(f < d && d < n) || counted.get() > 0,
+                "{what}: counted for a run that was over"
+            );
+        }
+    });
+}
+
+#[test]
+fn a_hold_of_a_run_dropped_while_its_exception_sequence_is_busy_counts_nothing() {
+    every_world!(hold_of_a_dropped_run_with_busy_exception_sequence);
+}
+
+/// C (main) started O non-blocking; O's monitor `b` (a caller behaviour, no exception
+/// sequence) fires at 1 ms and C's teardown takes O down. A handle (lane above the tick)
+/// starts O again as soon as it is over, before section `k` of that tick: the new run is
+/// not the owner `end_if_still_held` names, and is left alone (semantics 9).
+fn owner_started_again_after_its_callers_teardown<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+    b: Behaviour,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let c = w.seq("C");
+        let o = w.seq("O");
+        let on = flag_of(true);
+        w.monitor(o, on, b, None);
+        w.start_taken(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        (w, c, o, on)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, _c, o, on) = setup();
+        let party = move || {
+            if w.state(o) == Aborted && w.handle(o).start().is_ok() {
+                on.store(false, Ordering::Relaxed);
+                w.take(o);
+            }
+        };
+        interleaved::at(k, party);
+        w.tick(1);
+        or_after(k, party);
+        w.tick(2);
+        let what = name::<L>(layout, format_args!("{b:?}, k={k} of {count}"));
+        if w.runs(o) == 2 {
+            SEEN.fetch_add(1, Ordering::Relaxed);
+            assert_eq!(
+                w.state(o),
+                Running,
+                "{what}: O's new run {:?}",
+                w.transitions(o)
+            );
+        }
+        w.check(&what);
+    });
+}
+
+static SEEN: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+#[test]
+fn an_owner_started_again_after_its_callers_teardown_is_left_alone() {
+    for b in [
+        Behaviour::AbortCallerOfOwner,
+        Behaviour::RestartCallerOfOwner,
+    ] {
+        every_world!(owner_started_again_after_its_callers_teardown, b);
+    }
+    assert!(
+        SEEN.load(Ordering::Relaxed) > 8,
+        "{}",
+        SEEN.load(Ordering::Relaxed)
+    );
+}
