@@ -271,19 +271,17 @@ fn of(
 
 /// T (own monitor mT: `RestartOwner`, flag 1) starts O non-blocking and ends on flag 6.
 /// O has mO (`RestartCallerOfOwner`, exception sequence E, `restart_limit(1)`, flag 0).
-///
-/// 1. mT restarts T once: T's run 1 has made 1 restart. T completes; O runs on (a
-///    non-blocking child keeps its link to its ended caller).
-/// 2. mO fires: its target is T, whose run 1 has ended: the limit is judged as for T's
-///    next run, from 0 (`RestartCallerOfOwner` stands). E runs.
-/// 3. T is started again: run 2, 0 restarts; O is below it (semantics 11).
-/// 4. E ends: the behaviour acts on T's run 2 (semantics 11: "the child is below its new
-///    run, which ... a `…CallerOfOwner` behaviour of the child acts on"). That run has made
-///    no restart ("A new run (a start, not a restart) begins at 0", semantics 5), below
-///    mO's limit of 1: T's run 2 is restarted, not aborted (found by an outside probe in
-///    session 50: the firing judged the limit on the ended run 1 and aborted run 2).
-#[test]
-fn a_caller_behaviour_on_an_ended_callers_run_acts_on_its_next_run_from_0() {
+/// mT restarts T once: T's run 1 has made 1 restart, mO's limit. Then mO fires, before T
+/// completes (`fire_first`) or after (O runs on: a non-blocking child keeps its link to
+/// its ended caller); the firing's judgement is `judged_at_firing`. T is started again:
+/// run 2, 0 restarts, O below it (semantics 11). E ends: the behaviour acts on T's run 2
+/// ("the child is below its new run, which ... a `…CallerOfOwner` behaviour of the child
+/// acts on"), which has made no restart ("A new run (a start, not a restart) begins at
+/// 0", semantics 5), below mO's limit: T's run 2 is restarted, not aborted.
+fn caller_started_again_under_a_pending_caller_behaviour(
+    fire_first: bool,
+    judged_at_firing: Behaviour,
+) {
     let seq = Seqr::new();
     let ctrl = Ctrl::default();
     let o = seq
@@ -320,28 +318,43 @@ fn a_caller_behaviour_on_an_ended_callers_run_acts_on_its_next_run_from_0() {
     }
     sim.start(ti).unwrap();
     sim.run_for(Duration::from_millis(2));
-    // 1. T restarted once by its own monitor.
+    // T restarted once by its own monitor.
     ctrl.set(1, true);
     sim.step();
     ctrl.set(1, false);
     sim.run_for(Duration::from_millis(2));
     assert_eq!((sim.state(ti), sim.state(oi)), (Running, Running));
+    sim.take_trace();
+    let fire = |sim: &mut Sim<'_, Ctrl, 8, 64, 2>| {
+        ctrl.set(0, true);
+        sim.step();
+        ctrl.set(0, false);
+        assert_eq!(sim.state(ei), Running);
+    };
+    if fire_first {
+        fire(&mut sim);
+    }
+    // T completes (O runs on, below it).
     ctrl.set(6, true);
     sim.run_for(Duration::from_millis(2));
     ctrl.set(6, false);
     assert_eq!((sim.state(ti), sim.state(oi)), (Terminated, Running));
     assert_eq!(sim.handle(oi).unwrap().caller(), Some(ti));
-    // 2. mO fires, E runs.
-    ctrl.set(0, true);
-    sim.step();
-    ctrl.set(0, false);
-    assert_eq!(sim.state(ei), Running);
-    // 3. T's run 2.
+    if !fire_first {
+        fire(&mut sim);
+    }
+    assert_eq!(
+        firings(&sim).last(),
+        Some(&(oi, judged_at_firing)),
+        "{}",
+        show(sim.trace())
+    );
+    // T's run 2.
     sim.start(ti).unwrap();
     sim.run_for(Duration::from_millis(2));
     assert_eq!(sim.state(ti), Running);
     sim.take_trace();
-    // 4. E ends.
+    // E ends.
     ctrl.set(2, true);
     sim.run_for(Duration::from_millis(3));
     let t_trace = of(sim.trace(), ti);
@@ -354,85 +367,19 @@ fn a_caller_behaviour_on_an_ended_callers_run_acts_on_its_next_run_from_0() {
     );
 }
 
-/// The same tree. This time mO fires while T's run 1 is under way, after mT restarted it
-/// once: at mO's limit of 1, so the firing judges `AbortCallerOfOwner`. E runs; T
-/// completes and is started again (run 2, no restart made). When E ends, the behaviour
-/// acts on run 2 and is judged again there: run 2 has made no restart, so it is restarted
-/// (the judgement made for run 1, an abort, aborted the fresh run 2 until session 51).
+/// mO fires on T's ended run 1: the limit is judged as for T's next run, from 0
+/// (`RestartCallerOfOwner` stands). Found by an outside probe in session 50: the firing
+/// judged the limit on the ended run 1 and aborted run 2.
+#[test]
+fn a_caller_behaviour_on_an_ended_callers_run_acts_on_its_next_run_from_0() {
+    caller_started_again_under_a_pending_caller_behaviour(false, Behaviour::RestartCallerOfOwner);
+}
+
+/// mO fires while T's run 1 is under way, at mO's limit: the firing judges
+/// `AbortCallerOfOwner`. When E ends the behaviour acts on run 2 and is judged again
+/// there: restarted (until session 51 the judgement for run 1, an abort, aborted the
+/// fresh run 2).
 #[test]
 fn a_behaviour_applied_at_its_exception_sequence_s_end_is_judged_on_the_run_it_acts_on() {
-    let seq = Seqr::new();
-    let ctrl = Ctrl::default();
-    let o = seq
-        .add(SeqConfig::new("O"), Node::of(vec![]).until(7))
-        .unwrap();
-    let e = seq
-        .add(SeqConfig::new("E"), Node::of(vec![]).until(2))
-        .unwrap();
-    let (oi, ei) = (o.id(), e.id());
-    let t = seq
-        .add(SeqConfig::new("T"), Node::of(vec![Op::Start(oi)]).until(6))
-        .unwrap();
-    let ti = t.id();
-    let mut c0 = |c: &Ctrl, _: Instant| c.flag(0);
-    let mut c1 = |c: &Ctrl, _: Instant| c.flag(1);
-    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
-    let mo = monitors
-        .add(
-            oi,
-            Monitor::new("mO", &mut c0, Behaviour::RestartCallerOfOwner)
-                .exception(ei)
-                .restart_limit(1),
-        )
-        .unwrap();
-    monitors
-        .add(
-            ti,
-            Monitor::new("mT", &mut c1, Behaviour::RestartOwner).restart_limit(5),
-        )
-        .unwrap();
-    let mut sim = Sim::new(&seq, &ctrl, monitors);
-    for s in [o, e, t] {
-        sim.lane(s);
-    }
-    sim.start(ti).unwrap();
-    sim.run_for(Duration::from_millis(2));
-    // T restarted once by its own monitor: run 1 is at mO's limit.
-    ctrl.set(1, true);
-    sim.step();
-    ctrl.set(1, false);
-    sim.run_for(Duration::from_millis(2));
-    assert_eq!((sim.state(ti), sim.state(oi)), (Running, Running));
-    // mO fires on T's live run 1: judged past the limit.
-    sim.take_trace();
-    ctrl.set(0, true);
-    sim.step();
-    ctrl.set(0, false);
-    assert_eq!(sim.state(ei), Running);
-    assert_eq!(
-        firings(&sim),
-        [(oi, Behaviour::AbortCallerOfOwner)],
-        "{}",
-        show(sim.trace())
-    );
-    // T completes (O runs on, below it) and is started again: run 2.
-    ctrl.set(6, true);
-    sim.run_for(Duration::from_millis(2));
-    ctrl.set(6, false);
-    assert_eq!((sim.state(ti), sim.state(oi)), (Terminated, Running));
-    sim.start(ti).unwrap();
-    sim.run_for(Duration::from_millis(2));
-    assert_eq!(sim.state(ti), Running);
-    sim.take_trace();
-    // E ends: the behaviour acts on run 2, which has made no restart.
-    ctrl.set(2, true);
-    sim.run_for(Duration::from_millis(3));
-    let t_trace = of(sim.trace(), ti);
-    assert!(
-        t_trace
-            .first()
-            .is_some_and(|x| (x.1, x.2, x.3) == (Running, Restarting, Cause::Monitor(mo))),
-        "T's run 2 had made no restart (limit 1): it must be restarted by mO, got {t_trace:?}\n{}",
-        show(sim.trace())
-    );
+    caller_started_again_under_a_pending_caller_behaviour(true, Behaviour::AbortCallerOfOwner);
 }
