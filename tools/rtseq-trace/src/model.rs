@@ -710,6 +710,19 @@ mod tests {
             .all(|(k, &(i, d))| i == k && d == k));
     }
 
+    /// Appends transitions given as (time µs, sequence, from, to, cause).
+    fn push(run: &mut Run, steps: &[(u64, usize, State, State, &str)]) {
+        for &(t, seq, from, to, cause) in steps {
+            run.transitions.push(Transition {
+                time_us: t,
+                seq,
+                from,
+                to,
+                cause: cause.to_string(),
+            });
+        }
+    }
+
     /// Grouped once or filtered per sequence, the spans are the same.
     #[test]
     fn spans_from_the_grouped_transitions() {
@@ -723,15 +736,7 @@ mod tests {
             (12, 0, State::Aborting, State::Aborted, "abort"),
             (20, 1, State::Aborted, State::Running, "start"),
         ];
-        for (t, seq, from, to, cause) in steps {
-            run.transitions.push(Transition {
-                time_us: t,
-                seq,
-                from,
-                to,
-                cause: cause.to_string(),
-            });
-        }
+        push(&mut run, &steps);
         run.finish();
         let by = run.by_sequence();
         assert_eq!(by, [vec![0, 3, 5], vec![1, 2, 4, 6]]);
@@ -768,15 +773,7 @@ mod tests {
             (50, 1, State::Running, State::Terminated, "completed"),
             (60, 0, State::Running, State::Terminated, "completed"),
         ];
-        for (t, seq, from, to, cause) in steps {
-            run.transitions.push(Transition {
-                time_us: t,
-                seq,
-                from,
-                to,
-                cause: cause.to_string(),
-            });
-        }
+        push(&mut run, &steps);
         run.end_us = 100;
         run.finish();
         let spans = |seq| -> Vec<_> {
