@@ -416,7 +416,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// Exceptions whose sequence could not run (it had no lane, was already running, or
-    /// would nest too deep); their behaviour was applied at once.
+    /// would nest too deep) while their owner's run was under way; their behaviour was
+    /// applied at once (a `PauseOwner` monitor's hold pauses without it). One whose run
+    /// ended, or began its stop, first went with the run and is not counted.
     ///
     /// ```
     /// use rtseq::Sequencer;

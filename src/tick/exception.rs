@@ -5,7 +5,7 @@ use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::model::set::SeqSet;
 use crate::model::state::RunningStates;
-use crate::sequencer::control_block::ControlBlock;
+use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::sections::{in_sections, in_sections_then_wake, Sections};
 use crate::sequencer::sets::Set;
 use crate::sequencer::start::Mode;
@@ -74,8 +74,16 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     } else {
                         reaction.behaviour
                     };
+                    // Its start found the run under way and not being stopped; unless a
+                    // lane of higher priority has ended it (or begun its teardown) since,
+                    // the behaviour waits for it. An abort requested since comes after
+                    // it: the behaviour is applied first (semantics 3).
                     self.with(|s| {
-                        if s.takes_exception(marked) {
+                        if s.block(owner).is_some_and(|b| {
+                            b.runs == marked.count
+                                && RunningStates::RUNNING_OR_PAUSED.has(b.state)
+                                && !b.has(flag::STOPPING)
+                        }) {
                             s.set_pending(owner, pending, reaction.limit);
                         }
                     });
@@ -94,10 +102,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.apply(control, marked, behaviour, target, cause);
         if behaviour == Behaviour::Nothing {
             // Handled at once after all (its exception sequence could not start): the
-            // owner was not held, so the polls the mark skipped stand.
+            // owner was not held, so the polls the mark skipped stand, for the marked run
+            // (a lane of higher priority may have begun another, whose polls are its own).
             for id in skipped {
                 self.with(|s| {
-                    if s.sets.has(Set::PollWait, id) {
+                    if s.current_run(owner) == marked && s.sets.has(Set::PollWait, id) {
                         s.sets.put(Set::PollDue, id, true);
                     }
                 });
@@ -259,9 +268,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Whether `run` is still its sequence's run, under way (running or paused) and not
-    /// being stopped: an exception of it has not gone with its run (its pending behaviour
-    /// is kept; an exception sequence refused for it is counted, and the behaviour
-    /// applied at once).
+    /// being stopped: an exception sequence refused for it was refused for an exception
+    /// it still has (counted, and the behaviour applied at once), not one that went with
+    /// its run.
     fn takes_exception(&self, run: RunId) -> bool {
         self.block(run.seq).is_some_and(|b| {
             b.runs == run.count
@@ -410,7 +419,6 @@ fn mark<
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::sequencer::control_block::flag;
     use crate::sequencer::port::Port;
     use crate::{Error, Instant, Monitor, MonitorId, Monitors, Outcome, SeqConfig};
 

@@ -312,3 +312,102 @@ fn an_owner_started_again_after_its_callers_teardown_is_left_alone() {
         SEEN.load(Ordering::Relaxed)
     );
 }
+
+/// C (main) started O in O's lane; O's monitor (`AbortCallerOfOwner`, exception sequence
+/// E) fires in the tick at 1 ms. A handle requests O's abort before section `k` of that
+/// tick, or after it; E's lane then runs E to its end, and the tick at 2 ms comes. Where
+/// E started before the request, the behaviour waits for E and is applied, before the
+/// request, in the tick that reports E's end (semantics 3; `tests/scenarios.rs`,
+/// `a_behaviour_applied_in_the_tick_of_a_requested_abort_comes_first`): C is aborted.
+/// Where the request came first, E is not started (the run's stop has begun) and the
+/// exception goes with the run: C runs on. O ends aborted either way. (Found by the cold
+/// review of session 51: a request made between E's start and the section that makes
+/// the behaviour wait dropped it.)
+fn abort_requested_while_a_behaviour_waits<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let (c, e, o) = (w.seq("C"), w.seq("E"), w.seq("O"));
+        w.monitor(o, flag_of(true), Behaviour::AbortCallerOfOwner, Some(e));
+        w.start_taken(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        (w, c, e, o)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, c, e, o) = setup();
+        // Whether E had started when the request came.
+        let started = Rc::new(Cell::new(false));
+        let seen = started.clone();
+        let party = move || {
+            seen.set(w.has(e, flag::HANDLES_EXCEPTION));
+            let _ = w.kept(o).abort();
+        };
+        interleaved::at(k, party.clone());
+        w.tick(1);
+        or_after(k, party);
+        if w.try_take(e).is_some() || w.state(e) == Running {
+            w.complete(e);
+        }
+        w.tick(2);
+        let what = name::<L>(layout, format_args!("k={k} of {count}"));
+        let c_state = if started.get() { Aborted } else { Running };
+        assert_eq!(w.state(c), c_state, "{what}: C {:?}", w.transitions(c));
+        assert_eq!(w.state(o), Aborted, "{what}");
+        w.check_tree(&what);
+    });
+}
+
+#[test]
+fn an_abort_requested_after_the_exception_sequence_started_comes_after_its_behaviour() {
+    every_world!(abort_requested_while_a_behaviour_waits);
+}
+
+/// O (main, waiting for a poll) has a monitor `Nothing` whose exception sequence E is
+/// already running: E is refused, counted, and `Nothing` applied at once, which gives back
+/// the due poll the mark skipped. A lane of higher priority replaces O's run (the new run
+/// waits for a poll too) before section `k` of that tick: the old run's poll is not given
+/// to the new run, which polls on its own grid. (Found by the cold review of session 51.)
+fn nothing_gives_back_no_poll_to_a_new_run<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let (e, o) = (w.seq("E"), w.seq("O"));
+        w.monitor(o, flag_of(true), Behaviour::Nothing, Some(e));
+        w.start_taken(e);
+        let run = w.start_taken(o);
+        Port::set_poll_wait(w.seq, run, true);
+        (w, o)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, o) = setup();
+        // Whether O was marked when its run was replaced.
+        let marked = Rc::new(Cell::new(false));
+        let seen = marked.clone();
+        let party = move || {
+            seen.set(w.in_set(Set::Excepting, o));
+            w.replace_run(o);
+            Port::set_poll_wait(w.seq, w.run(o), true);
+        };
+        interleaved::at(k, party.clone());
+        w.tick(1);
+        let late = or_after(k, party);
+        let what = name::<L>(layout, format_args!("k={k} of {count}"));
+        if marked.get() && !late && w.seq.exceptions_not_run() == 1 {
+            assert!(
+                !w.in_set(Set::PollDue, o),
+                "{what}: the old run's skipped poll given to O's new run"
+            );
+        }
+        w.check_tree(&what);
+    });
+}
+
+#[test]
+fn nothing_applied_at_once_gives_no_poll_to_a_new_run() {
+    every_world!(nothing_gives_back_no_poll_to_a_new_run);
+}
