@@ -59,8 +59,8 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     pub(crate) clocks: [Micros48; N],
     /// Each sequence's restart limit of the monitor or timeout whose behaviour is pending
     /// (it waits for the end of its exception sequence), set with the pending behaviour:
-    /// the behaviour is judged with it when applied. A byte each beside the blocks rather
-    /// than in them, where it would pad each block by four.
+    /// the behaviour is judged with it when applied. Beside the blocks rather than in
+    /// them: the blocks are full to their alignment (docs/design-decisions.md).
     pub(crate) exception_limits: [u8; N],
     /// The address of the monitor table this sequencer is ticked with (0: none yet): the
     /// first non-empty table a due tick came with. Due ticks with a table elsewhere are

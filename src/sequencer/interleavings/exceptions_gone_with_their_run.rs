@@ -62,22 +62,25 @@ fn no_exception_taken_after_an_abort_request<L: Lock + 'static, const N: usize, 
     });
 }
 
-#[test]
-fn a_run_whose_abort_is_requested_takes_no_exception() {
+/// Runs `f` for each of `cases`, every one even after a failure; fails naming each failed
+/// case with the first lines of its message.
+fn each_case<T: Copy + core::fmt::Debug>(cases: &[T], f: impl Fn(T)) {
     let mut failed = Vec::new();
-    for with_e in [false, true] {
-        let r = std::panic::catch_unwind(|| {
-            every_world!(no_exception_taken_after_an_abort_request, with_e);
-        });
-        if let Err(e) = r {
+    for &case in cases {
+        if let Err(e) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(case))) {
             let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
-            failed.push(format!(
-                "E {with_e}:\n{}",
-                msg.lines().take(3).collect::<Vec<_>>().join("\n")
-            ));
+            let head = msg.lines().take(5).collect::<Vec<_>>().join("\n");
+            failed.push(format!("{case:?}:\n{head}"));
         }
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+#[test]
+fn a_run_whose_abort_is_requested_takes_no_exception() {
+    each_case(&[false, true], |with_e| {
+        every_world!(no_exception_taken_after_an_abort_request, with_e);
+    });
 }
 
 /// C (main) started O non-blocking; O's monitor (`b`, a caller behaviour, exception
@@ -169,23 +172,13 @@ fn drop_owner_while_its_exception_sequence_is_busy<
 #[test]
 fn a_caller_behaviour_of_a_run_dropped_while_its_exception_sequence_is_busy_leaves_the_caller_alone(
 ) {
-    let mut failed = Vec::new();
-    for b in [
+    let behaviours = [
         Behaviour::AbortCallerOfOwner,
         Behaviour::RestartCallerOfOwner,
-    ] {
-        let r = std::panic::catch_unwind(|| {
-            every_world!(drop_owner_while_its_exception_sequence_is_busy, b);
-        });
-        if let Err(e) = r {
-            let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
-            failed.push(format!(
-                "{b:?}:\n{}",
-                msg.lines().take(5).collect::<Vec<_>>().join("\n")
-            ));
-        }
-    }
-    assert!(failed.is_empty(), "{}", failed.join("\n"));
+    ];
+    each_case(&behaviours, |b| {
+        every_world!(drop_owner_while_its_exception_sequence_is_busy, b);
+    });
 }
 
 /// As `hold_raced` (replaced_runs.rs) with E already running: O's `PauseOwner` monitor
