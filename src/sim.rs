@@ -102,6 +102,9 @@ pub enum SimError {
     /// A start time earlier than the sequencer's (it was ticked before): time does not go
     /// back.
     StartBeforeSequencerTime,
+    /// A start time set while a sequence is under way: it was started at the sequencer's
+    /// time then, and its run clock counts from there; set the start time first.
+    SequenceUnderWay,
 }
 
 impl core::fmt::Display for SimError {
@@ -111,6 +114,9 @@ impl core::fmt::Display for SimError {
             SimError::PeriodTooLong => "the tick period must be shorter than 2^31 us (35.8 min)",
             SimError::StartBeforeSequencerTime => {
                 "the simulator cannot start before its sequencer's time"
+            }
+            SimError::SequenceUnderWay => {
+                "the simulator's start time is set before any sequence starts"
             }
         })
     }
@@ -413,7 +419,9 @@ impl<
     /// Starts the simulated clock at `t` instead of the sequencer's time (0 for a sequencer
     /// never ticked), e.g. to run across the wrap of the polling classes' 32-bit
     /// microsecond times at 2^32 µs ≈ 71.6 min. A time earlier than the sequencer's is
-    /// `Err(SimError::StartBeforeSequencerTime)`.
+    /// `Err(SimError::StartBeforeSequencerTime)`; one set while a sequence is under way
+    /// (started at the sequencer's time before, its run clock counting from there) is
+    /// `Err(SimError::SequenceUnderWay)`.
     ///
     /// A 5 ms dwell across the wrap:
     ///
@@ -442,6 +450,9 @@ impl<
     pub fn starting_at(mut self, t: Instant) -> Result<Self, SimError> {
         if t < self.sequencer.now() {
             return Err(SimError::StartBeforeSequencerTime);
+        }
+        if self.any_active() {
+            return Err(SimError::SequenceUnderWay);
         }
         self.now = t;
         self.sequencer.with(|s| s.now = t);

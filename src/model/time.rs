@@ -25,7 +25,7 @@ pub type Duration = fugit::MicrosDurationU64;
 
 /// The longest interval (polling period, timeout) in µs: below 2^31 µs (35 min), so that
 /// [`Stamp`]s compare correctly by wrapping difference.
-const MAX_INTERVAL: u64 = 0x7FFF_FFFF;
+pub(crate) const MAX_INTERVAL: u64 = 0x7FFF_FFFF;
 
 /// A polling period or timeout in the compact form of control blocks and polling classes:
 /// µs, non-zero, at most [`MAX_INTERVAL`]. `None` outside that range.

@@ -25,7 +25,7 @@ use core::sync::atomic::{AtomicBool, Ordering};
 
 use crate::lock::Lock;
 use crate::model::set::Words;
-use crate::model::time::{Stamp, NEVER_AHEAD};
+use crate::model::time::{Stamp, MAX_INTERVAL, NEVER_AHEAD};
 use crate::sequencer::sets::Set;
 use crate::{Cause, Error, Instant, Monitors, Sequencer};
 
@@ -69,10 +69,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// does). A table made anew in the place of the sequencer's is its table.
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
-    /// monotonics do). The sequencer keeps its deadlines as 32-bit µs and compares them by
-    /// wrapping difference, so it runs for any length of time as long as ticks come less
-    /// than 2^31 µs (about 35.8 minutes) apart, which a periodic timer interrupt always
-    /// does; after a longer gap, polls and timeouts that fell due in it may come late. In a
+    /// monotonics do). The sequencer's time is that of its last tick, 0 before the first: a
+    /// sequence started before the first tick starts at 0, and its run clock counts from
+    /// there (with a time base that is not near 0 then, tick once before the start). Run
+    /// clocks keep 48 bits of µs; the polling grids keep 32 and compare them by wrapping
+    /// difference, so a tick 2^31 µs (about 35.8 minutes) or more after the last one (the
+    /// first tick after time 0 included), which a periodic timer interrupt never makes,
+    /// cannot tell their polls ahead from behind: it polls every class at once, and its
+    /// grid starts again from that tick. In a
     /// sequencer of more than 32 sequences (sets of `B > 1` words) the tick visits only the
     /// words of 32 ids that hold a running or paused sequence, lowest first, and in each does what
     /// the tick of a sequencer of 32 does: monitors in table order, then timeouts, then
@@ -114,48 +118,56 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ) -> Result<(), Error> {
         let stamp = Stamp::of(now);
         let me = core::ptr::from_ref(self).addr();
-        let first = self.with(|s| {
-            // One tick at a time: a second one would walk and scan beside the first.
-            if self.ticking.load(Ordering::Relaxed) {
-                return None;
-            }
-            self.ticking.store(true, Ordering::Relaxed);
-            let late = now < s.now;
-            let any_due = stamp.reached(s.polling.next_due);
-            let foreign = any_due && !late && !s.takes_polls(me, monitors);
-            if !late && !foreign {
-                s.now = now;
-                if any_due {
-                    // The scans bring it forward again, and so does a start made meanwhile
-                    // (see `scan`).
-                    s.polling.next_due = stamp.plus(NEVER_AHEAD);
+        // A tick out of step with the last one (see `Opening::out_of_step`) that is a long gap
+        // restarts the polling grids and opens again.
+        let (opening, _turn) = loop {
+            let first = self.with(|s| {
+                // One tick at a time: a second one would walk and scan beside the first.
+                if self.ticking.load(Ordering::Relaxed) {
+                    return None;
                 }
+                self.ticking.store(true, Ordering::Relaxed);
+                let out_of_step = now.as_ticks().wrapping_sub(s.now.as_ticks()) > MAX_INTERVAL;
+                let any_due = stamp.reached(s.polling.next_due);
+                let foreign = any_due && !out_of_step && !s.takes_polls(me, monitors);
+                if !out_of_step && !foreign {
+                    s.now = now;
+                    if any_due {
+                        // The scans bring it forward again, and so does a start made
+                        // meanwhile (see `scan`).
+                        s.polling.next_due = stamp.plus(NEVER_AHEAD);
+                    }
+                }
+                s.changes = s.changes.wrapping_add(1);
+                Some(Opening {
+                    out_of_step,
+                    foreign,
+                    requests: !s.sets.is_empty(Set::Requested),
+                    any_due,
+                    changed: !s.sets.is_empty(Set::Changed),
+                    words: s.sets.words(Set::Monitored),
+                })
+            });
+            let Some(opening) = first else {
+                return Err(Error::TickInProgress);
+            };
+            let turn = TickTurn(&self.ticking);
+            if opening.out_of_step && self.restart_stale_grids(now) {
+                continue;
             }
-            s.changes = s.changes.wrapping_add(1);
-            Some(Opening {
-                late,
-                foreign,
-                requests: !s.sets.is_empty(Set::Requested),
-                any_due,
-                changed: !s.sets.is_empty(Set::Changed),
-                words: s.sets.words(Set::Monitored),
-            })
-        });
-        let Some(Opening {
-            late,
+            break (opening, turn);
+        };
+        let Opening {
+            out_of_step,
             foreign,
             mut requests,
             any_due,
             changed,
             mut words,
-        }) = first
-        else {
-            return Err(Error::TickInProgress);
-        };
-        let _turn = TickTurn(&self.ticking);
-        if late || foreign {
+        } = opening;
+        if out_of_step || foreign {
             self.carry_out_requests(control);
-            return Err(if late {
+            return Err(if out_of_step {
                 Error::TickBeforeLast
             } else {
                 Error::ForeignMonitorTable
@@ -216,6 +228,35 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             self.apply_inbox(control, inbox);
         }
         self.apply_requests(control);
+    }
+
+    /// A tick 2^31 µs or more after the last one (the first after time 0 included): the
+    /// polling grids' 32-bit stamps no longer tell ahead from behind. Moves the time to
+    /// `now` and makes the scan come now; then every class whose next poll is not within
+    /// one period from now is due now, its grid starting again from this tick (one section
+    /// per class; a grid that a start placed meanwhile is within one period). Returns
+    /// whether it did: a tick out of step the other way is late.
+    #[cold]
+    #[inline(never)]
+    fn restart_stale_grids(&self, now: Instant) -> bool {
+        let stamp = Stamp::of(now);
+        let classes = self.with(|s| {
+            let long_gap = now > s.now;
+            if long_gap {
+                s.now = now;
+                s.polling.next_due = stamp;
+                // A start scheduled before this, at the old time, schedules again.
+                s.changes = s.changes.wrapping_add(1);
+            }
+            long_gap.then(|| s.polling.classes.len())
+        });
+        let Some(classes) = classes else {
+            return false;
+        };
+        for index in 0..classes {
+            self.with(|s| s.polling.classes.restart_stale_grid(index, stamp));
+        }
+        true
     }
 
     /// The tick's work in word `w` of the sets: the scan of the polling classes, the
@@ -295,8 +336,9 @@ struct Found {
 
 /// What a tick's first section finds.
 struct Opening {
-    /// The tick's time is before the last tick's.
-    late: bool,
+    /// The tick's time is before the last tick's (a late tick), or 2^31 µs or more after
+    /// it (a long gap, after which the tick opens again).
+    out_of_step: bool,
     /// Polls are due, and the monitor table is not the one the sequencer evaluates.
     foreign: bool,
     /// Some sequence has a request queued (`Set::Requested`).

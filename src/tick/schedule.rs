@@ -170,6 +170,17 @@ impl<const B: usize> Classes<B> {
         }
     }
 
+    /// After a long gap between ticks: class `index` is due now, its grid starting again
+    /// from now, unless its next poll is within one period from now.
+    pub(crate) fn restart_stale_grid(&mut self, index: usize, now: Stamp) {
+        if let Some(c) = self.list.get_mut(index) {
+            let period = c.period.map_or(0, NonZeroU32::get);
+            if now.until(c.next) > period {
+                c.next = now;
+            }
+        }
+    }
+
     /// The scan of class `index` at `now` in the word `monitored` of the monitored sequences
     /// (see [`Class::scan`]).
     #[inline(always)]

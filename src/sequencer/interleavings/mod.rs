@@ -87,6 +87,7 @@ mod exceptions_gone_with_their_run;
 mod fine;
 mod holds;
 mod lanes;
+mod long_gap;
 mod more;
 mod polls;
 mod random;

@@ -167,7 +167,7 @@ mod app {
         let homing = or_exit(SEQ.bind(HOMING, Homing { seek }));
         let safe_stop = or_exit(SEQ.bind(SAFE_STOP, SafeStop));
         let safety = or_exit(SafetySystem::new_validated(&PROPS, SEQ.safety_handle()));
-        or_exit(handle(HOMING).start()); // applied by the first tick
+        or_exit(handle(HOMING).start()); // at the sequencer's time 0
         lanes::spawn().ok();
         let timer = TickTimer::start(cx.device.TIM2, &cx.device.RCC);
         (

@@ -1,0 +1,193 @@
+//! The time of a sequencer before its first tick, and ticks 2^31 µs or more apart.
+//!
+//! A sequencer's time is that of its last tick, 0 before the first: a sequence started in
+//! `init` (before the first tick) starts at 0, and its run clock counts from there. The
+//! polling grids keep 32-bit stamps; a tick 2^31 µs or more after the last one (the first
+//! tick after time 0 included) finds them stale: it polls every class at once and starts
+//! its grid again from that tick. Found by an outside probe: such a first tick used to
+//! evaluate no monitor, timeout or exit condition for 35.7 minutes, silently.
+//!
+//! The ticks here are made by hand (the simulator's tick period is below 2^31 µs); the
+//! lanes are declared and never polled: monitors and timeouts are the tick's work.
+
+mod common;
+use common::*;
+use rtseq::Cause::{Monitor as Mon, Start, Timeout};
+use rtseq::RunningState::*;
+use std::cell::RefCell;
+
+use rtseq::{
+    Behaviour, ConditionFn, Duration, Instant, Monitor, MonitorId, Monitors, SeqConfig, SeqId,
+    Sequencer, Transition,
+};
+
+/// 2^31 µs, about 35.8 minutes.
+const LONG: u64 = 1 << 31;
+
+/// A sequence S (timeout `timeout`, polling period `period`) with a monitor on flag 2
+/// (`AbortOwner`), in a sequencer of its own.
+struct Cell {
+    seq: Sequencer<Ctrl, 2>,
+    ctrl: Ctrl,
+    monitors: RefCell<Monitors<'static, Ctrl, 1, ConditionFn<Ctrl>>>,
+}
+
+fn fault(c: &Ctrl, _: Instant) -> bool {
+    c.flag(2)
+}
+
+impl Cell {
+    fn new(timeout: Option<Duration>, period: Duration) -> Self {
+        let cell = Cell {
+            seq: Sequencer::new(),
+            ctrl: Ctrl::default(),
+            monitors: RefCell::new(Monitors::new()),
+        };
+        let mut config = SeqConfig::new("S").polling(period);
+        if let Some(t) = timeout {
+            config = config.timeout(t);
+        }
+        let s = cell.seq.add(config, Node::of(vec![]).until(1)).unwrap();
+        cell.seq
+            .sequence_by_id(s.id())
+            .unwrap()
+            .declare_lane()
+            .unwrap();
+        let fault = Monitor::with_fn("fault", fault, Behaviour::AbortOwner);
+        cell.monitors.borrow_mut().add(S, fault).unwrap();
+        cell
+    }
+
+    fn start(&self) {
+        self.seq.sequence_by_id(S).unwrap().start().unwrap();
+    }
+
+    /// Ticks at each of `times` (µs) with the monitor's condition true from `fault` on; the
+    /// transitions of S.
+    fn tick_at(&self, times: impl IntoIterator<Item = u64>, fault: u64) -> Vec<Transition> {
+        let monitors = &mut *self.monitors.borrow_mut();
+        for t in times {
+            self.ctrl.set(2, t >= fault);
+            self.seq
+                .tick(Instant::from_ticks(t), &self.ctrl, monitors)
+                .unwrap();
+        }
+        let mut trace = Vec::new();
+        self.seq.drain_trace(|t| trace.push(t));
+        trace
+    }
+}
+
+const S: SeqId = SeqId::from_index(0);
+
+/// A transition of S at `us`.
+fn at(
+    us: u64,
+    from: rtseq::RunningState,
+    to: rtseq::RunningState,
+    cause: rtseq::Cause,
+) -> Transition {
+    Transition {
+        time: Instant::from_ticks(us),
+        sequence: S,
+        from,
+        to,
+        cause,
+    }
+}
+
+/// The monitor's abort of S at `us`.
+fn aborted_at(us: u64) -> [Transition; 2] {
+    let m = Mon(MonitorId::from_index(0));
+    [at(us, Running, Aborting, m), at(us, Aborting, Aborted, m)]
+}
+
+/// Every millisecond from `first` for 100 ms.
+fn every_ms_from(first: u64) -> impl Iterator<Item = u64> {
+    (0..100).map(move |k| first + k * 1_000)
+}
+
+/// The first tick 2^31 µs + 5 s after time 0, S started before it: the monitor is
+/// evaluated at that tick and every millisecond after, and fires 20 ms later.
+#[test]
+fn a_first_tick_2_31_us_after_time_0_evaluates_the_monitors() {
+    let cell = Cell::new(None, Duration::from_millis(1));
+    cell.start();
+    let first = LONG + 5_000_000;
+    let trace = cell.tick_at(every_ms_from(first), first + 20_000);
+    let [aborting, aborted] = aborted_at(first + 20_000);
+    assert_eq!(trace, [at(0, Idle, Running, Start), aborting, aborted]);
+}
+
+/// A gap of 2^31 µs + 5 s between two ticks: the tick after it polls at once (the fault
+/// that came in the gap fires there), and its grid (3 ms) starts again from that tick.
+#[test]
+fn a_tick_after_a_gap_of_2_31_us_polls_at_once_and_restarts_the_grid() {
+    for (fault_after_gap, fires_after_gap) in [(0, 0), (1_000, 3_000), (4_000, 6_000)] {
+        let cell = Cell::new(None, Duration::from_millis(3));
+        cell.start();
+        let late = 10_000 + LONG + 5_000_000;
+        let times = (1..=10).map(|ms| ms * 1_000).chain(every_ms_from(late));
+        let trace = cell.tick_at(times, late + fault_after_gap);
+        let [aborting, aborted] = aborted_at(late + fires_after_gap);
+        assert_eq!(
+            trace,
+            [at(0, Idle, Running, Start), aborting, aborted],
+            "fault {fault_after_gap} µs after the gap"
+        );
+    }
+}
+
+/// A sequence started before a first tick at 5 s is timed from the sequencer's time 0:
+/// its 50 ms timeout has run out at that first tick.
+#[test]
+fn a_start_before_the_first_tick_is_timed_from_time_0() {
+    let cell = Cell::new(Some(Duration::from_millis(50)), Duration::from_millis(1));
+    cell.start();
+    let first = 5_000_000;
+    let trace = cell.tick_at(every_ms_from(first), first + 20_000);
+    assert_eq!(
+        trace,
+        [
+            at(0, Idle, Running, Start),
+            at(first, Running, Aborting, Timeout(S)),
+            at(first, Aborting, Aborted, Timeout(S)),
+        ]
+    );
+}
+
+/// With a time base that is not near 0 in `init`, a tick at its time before the start
+/// times the run from there: the monitor fires 20 ms after the start, the 50 ms timeout
+/// has not run out.
+#[test]
+fn a_tick_in_init_times_a_start_from_the_time_base() {
+    for boot in [5_000_000, LONG + 5_000_000] {
+        let cell = Cell::new(Some(Duration::from_millis(50)), Duration::from_millis(1));
+        assert_eq!(cell.tick_at([boot], u64::MAX), []);
+        cell.start();
+        let trace = cell.tick_at(every_ms_from(boot + 1_000), boot + 20_000);
+        let [aborting, aborted] = aborted_at(boot + 20_000);
+        assert_eq!(
+            trace,
+            [at(boot, Idle, Running, Start), aborting, aborted],
+            "boot at {boot} µs"
+        );
+    }
+}
+
+/// The simulator's start time is set before any sequence starts: one set after a start
+/// (made at the sequencer's time 0, its clock counting from there) is refused.
+#[test]
+fn the_simulator_s_start_time_comes_before_any_start() {
+    let cell = Cell::new(None, Duration::from_millis(1));
+    let monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let later = Instant::from_ticks(LONG + 5_000_000);
+    let sim = rtseq::sim::Sim::new(&cell.seq, &cell.ctrl, monitors);
+    assert!(sim.starting_at(later).is_ok());
+    cell.start();
+    let sim = rtseq::sim::Sim::new(&cell.seq, &cell.ctrl, Monitors::<Ctrl, 1>::new());
+    assert_eq!(
+        sim.starting_at(later).err(),
+        Some(rtseq::sim::SimError::SequenceUnderWay)
+    );
+}
