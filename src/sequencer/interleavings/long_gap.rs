@@ -56,7 +56,11 @@ fn start_during_the_tick_after_a_long_gap<L: Lock + 'static, const N: usize, con
             panic!("{what}: P {p_moves:?}");
         };
         let first_poll = (started.time + Duration::from_millis(3)).max(o_end.time);
-        assert_eq!((aborting.to, aborting.time), (Aborting, first_poll), "{what}");
+        assert_eq!(
+            (aborting.to, aborting.time),
+            (Aborting, first_poll),
+            "{what}"
+        );
         w.check(&what);
     });
 }
