@@ -76,8 +76,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     };
                     // Its start found the run under way and not being stopped; unless a
                     // lane of higher priority has ended it (or begun its teardown) since,
-                    // the behaviour waits for it. An abort requested since comes after
-                    // it: the behaviour is applied first (semantics 3).
+                    // the behaviour waits for it. An abort requested since is carried
+                    // out by the next tick: after the behaviour if the exception sequence
+                    // has ended by then (semantics 3), else it takes the owner and the
+                    // exception sequence down, and the behaviour goes with the run.
                     self.with(|s| {
                         if s.block(owner).is_some_and(|b| {
                             b.runs == marked.count

@@ -72,6 +72,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if let Some(behaviour) = done {
                 // Unless it was stopped meanwhile: the cause and the target.
                 let still = self.with(|s| {
+                    // Still the marked run, still held by the exception: a lane of higher
+                    // priority may have run the restart of this run since the first
+                    // section (the same run count), whose new round begins without it.
+                    if s.current_run(id) != run || !s.sets.has(Set::Excepting, id) {
+                        return None;
+                    }
                     let b = s
                         .block(id)
                         .filter(|b| RunningStates::RUNNING_OR_PAUSED.has(b.state))?;

@@ -470,17 +470,26 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
             if state != Restarting && self.in_set(Set::Excepting, id) {
                 let handled = self.seq.with(|s| {
                     let b = s.block(id).unwrap();
-                    b.has(flag::EXCEPTION_DONE)
+                    (b.has(flag::EXCEPTION_DONE) && b.pending().is_some())
                         || (b.has(crate::sequencer::control_block::request::ABORT)
                             && s.sets.has(Set::Requested, id))
-                        || (0..count).any(|e| {
-                            let e = s.block(SeqId::from_index(e)).unwrap();
-                            e.has(flag::HANDLES_EXCEPTION) && e.caller.get() == Some(id)
-                        })
+                        || (b.pending().is_some()
+                            && (0..count).any(|e| {
+                                let e = s.block(SeqId::from_index(e)).unwrap();
+                                e.has(flag::HANDLES_EXCEPTION) && e.caller.get() == Some(id)
+                            }))
                 });
                 assert!(
                     handled,
                     "{what}: {id:?} {state:?} held by an exception that nothing handles"
+                );
+            }
+            // A behaviour waits only for an exception that holds its run.
+            if state != Restarting {
+                let pending = self.seq.with(|s| s.block(id).unwrap().pending());
+                assert!(
+                    pending.is_none() || self.in_set(Set::Excepting, id),
+                    "{what}: {id:?} {state:?} with {pending:?} pending and no exception"
                 );
             }
             // A teardown that placed a sequence moves it before it returns.

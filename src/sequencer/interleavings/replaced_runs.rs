@@ -740,3 +740,105 @@ fn an_abort_request_during_a_firing_with_an_exception_sequence_counts_no_excepti
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
+
+/// What a lane of higher priority does to C during the tick that applies O's caller
+/// behaviour.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ToCaller {
+    DropAndStart,
+    Drop,
+    Complete,
+    AbortRequest,
+    Pause,
+}
+
+/// C (main) started O non-blocking; O's caller behaviour `b` (exception sequence E
+/// or not); `to_c` done to C before section `k` of the applying tick. Nothing is left held,
+/// and the strengthened invariants hold.
+fn caller_behaviour_against_a_party_on_the_caller<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+    b: Behaviour,
+    with_e: bool,
+    to_c: ToCaller,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let c = w.seq("C");
+        let e = w.seq("E");
+        let o = w.seq("O");
+        w.monitor(o, flag_of(true), b, with_e.then_some(e));
+        w.start_taken(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        if with_e {
+            w.tick(1);
+            w.take(e);
+            assert!(w.complete(e));
+        }
+        (w, c, o, e)
+    };
+    let applying = if with_e { 2 } else { 1 };
+    let count = sections(setup, |(w, ..)| w.tick(applying));
+    every_k(count + 1, |k| {
+        let (w, c, o, e) = setup();
+        let party = move || match to_c {
+            ToCaller::DropAndStart => w.replace_run(c),
+            ToCaller::Drop => Port::abandon(w.seq, c, &()),
+            ToCaller::Complete => {
+                let _ = w.complete(c);
+            }
+            ToCaller::AbortRequest => {
+                let _ = w.kept(c).abort();
+            }
+            ToCaller::Pause => {
+                let _ = w.kept(c).pause();
+            }
+        };
+        interleaved::at(k, party);
+        w.tick(applying);
+        or_after(k, party);
+        for ms in applying + 1..=applying + 3 {
+            if w.try_take(e).is_some() {
+                let _ = w.complete(e);
+            }
+            w.tick(ms);
+        }
+        let what = name::<L>(layout, format_args!("{b:?}, E {with_e}, {to_c:?}, k={k}"));
+        for id in [c, o] {
+            assert!(
+                w.state(id) != Running || !w.in_set(Set::Excepting, id),
+                "{what}: {id:?} left held"
+            );
+        }
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_caller_behaviour_leaves_no_run_held_whatever_a_lane_does_to_the_caller_meanwhile() {
+    for b in [
+        Behaviour::AbortCallerOfOwner,
+        Behaviour::RestartCallerOfOwner,
+    ] {
+        for with_e in [false, true] {
+            for to_c in [
+                ToCaller::DropAndStart,
+                ToCaller::Drop,
+                ToCaller::Complete,
+                ToCaller::AbortRequest,
+                ToCaller::Pause,
+            ] {
+                every_world!(
+                    caller_behaviour_against_a_party_on_the_caller,
+                    b,
+                    with_e,
+                    to_c
+                );
+            }
+        }
+    }
+}

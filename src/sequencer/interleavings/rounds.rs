@@ -16,7 +16,9 @@
 //! Another (found by the random test's liveness check): a start that looked at its
 //! polling class before a member started there keeps that member's grid. The last one
 //! (found by the random test's settled-world check): a restart taken up while the tick
-//! paused its caller is paused with it.
+//! paused its caller is paused with it. And (found by a cold review in session 52): the
+//! end of an exception sequence that a restart of its owner took down leaves the
+//! restarted round alone, though its lane ran the restart between the tick's sections.
 
 use super::*;
 
@@ -451,4 +453,86 @@ fn restart_taken_up_during_a_pause<L: Lock + 'static, const N: usize, const B: u
 #[test]
 fn a_restart_taken_up_during_a_pause_of_its_caller_is_paused_with_it() {
     every_world!(restart_taken_up_during_a_pause);
+}
+
+/// O (main) has a monitor (`b`, exception sequence E) that fires at 1 ms: E runs, the
+/// behaviour waits for E's end. O started X non-blocking; X's `RestartCallerOfOwner`
+/// monitor (no exception sequence) fires at 2 ms and restarts O, taking X and E down.
+/// The tick at 3 ms reports E's (aborted) end to O. O's lane, of higher priority than the
+/// tick, runs O's restart (`Sequencer::restart`) before section `k` of that tick, or
+/// after it. The restart dropped the behaviour that waited for E (`commit_restart`), and
+/// the restarted round begins without the exception: it is left alone, running, whatever
+/// `k` (semantics 4, `Handle::exception_is_active`).
+fn restarted_round_under_a_stale_exception_end<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+    b: Behaviour,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let c = w.seq("C");
+        let o = w.seq("O");
+        let e = w.seq("E");
+        let x = w.seq("X");
+        let fo = flag_of(true);
+        w.monitor(o, fo, b, Some(e));
+        let fx = flag_of(false);
+        w.monitor(x, fx, Behaviour::RestartCallerOfOwner, None);
+        w.start_taken(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        w.in_lane(x, o).unwrap();
+        w.take(x);
+        w.tick(1);
+        fo.store(false, Ordering::Relaxed);
+        w.take(e);
+        assert!(w.in_set(Set::Excepting, o));
+        fx.store(true, Ordering::Relaxed);
+        w.tick(2);
+        assert_eq!(
+            [w.state(o), w.state(e), w.state(x)],
+            [Restarting, Aborted, Aborted],
+            "set-up"
+        );
+        (w, c, o)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(3));
+    every_k(count + 1, |k| {
+        let (w, c, o) = setup();
+        let relaunch = move || {
+            if w.state(o) == Restarting {
+                w.seq.restart(w.run(o));
+            }
+        };
+        interleaved::at(k, relaunch);
+        w.tick(3);
+        or_after(k, relaunch);
+        for ms in 4..=5 {
+            w.tick(ms);
+        }
+        let what = name::<L>(layout, format_args!("{b:?}, k={k} of {count}"));
+        assert_eq!(
+            (w.state(c), w.state(o)),
+            (Running, Running),
+            "{what}: C {:?}, O {:?}",
+            w.transitions(c),
+            w.transitions(o)
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_restarted_round_is_left_alone_by_the_end_of_the_exception_sequence_its_restart_took_down() {
+    for b in [
+        Behaviour::AbortOwner,
+        Behaviour::RestartOwner,
+        Behaviour::AbortCallerOfOwner,
+        Behaviour::RestartCallerOfOwner,
+    ] {
+        every_world!(restarted_round_under_a_stale_exception_end, b);
+    }
 }
