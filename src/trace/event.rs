@@ -62,7 +62,10 @@ pub enum Event {
         behaviour: Behaviour,
     },
     /// The exception sequence of an exception of `owner` could not run, so the behaviour
-    /// was applied at once: `why` says what stopped it (no lane, already running, too deep).
+    /// was applied at once (a `PauseOwner` monitor's hold pauses without it): `why` says
+    /// what stopped it (no lane, already running, too deep). A start refused once the
+    /// owner's run was over or being stopped is not recorded: the exception went with its
+    /// run (semantics 10).
     ExceptionNotRun {
         /// The exception sequence.
         exception: SeqId,
