@@ -138,6 +138,69 @@ fn a_tick_after_a_gap_of_2_31_us_polls_at_once_and_restarts_the_grid() {
     }
 }
 
+/// A gap of 2^32 µs (and of 2^32 µs + 1 ms) after a tick at 10 ms, S polled every 3 ms:
+/// its stale grid point (12 ms) reads as 2 ms (1 ms) ahead, a poll in a moment; the tick
+/// after the gap polls at once all the same (the fault came in the gap), and so does a
+/// 50 ms timeout that ran out in it fire at once. Found by a cold review (session 52):
+/// the first fix kept a grid point that read as within one period.
+#[test]
+fn a_gap_close_to_2_32_us_polls_at_once() {
+    for extra in [0, 1_000] {
+        let late = 10_000 + (1 << 32) + extra;
+        let times = || (1..=10).map(|ms| ms * 1_000).chain(every_ms_from(late));
+        let cell = Cell::new(None, Duration::from_millis(3));
+        cell.start();
+        let [aborting, aborted] = aborted_at(late);
+        let trace = cell.tick_at(times(), late);
+        assert_eq!(
+            trace,
+            [at(0, Idle, Running, Start), aborting, aborted],
+            "+{extra} µs"
+        );
+        let cell = Cell::new(Some(Duration::from_millis(50)), Duration::from_millis(3));
+        cell.start();
+        assert_eq!(
+            cell.tick_at(times(), u64::MAX),
+            [
+                at(0, Idle, Running, Start),
+                at(late, Running, Aborting, Timeout(S)),
+                at(late, Aborting, Aborted, Timeout(S)),
+            ],
+            "timeout, +{extra} µs"
+        );
+    }
+}
+
+/// A gap of 2^31 - 1 µs is not a long gap: the tick after it polls (its grid point has
+/// passed) and the grid (3 ms, from the start at 0) goes on on its own points, not from
+/// that tick: the fault that comes right after it is found at the next grid point.
+#[test]
+fn a_gap_just_below_2_31_us_keeps_the_grid() {
+    let cell = Cell::new(None, Duration::from_millis(3));
+    cell.start();
+    let late = 3_000 + LONG - 1;
+    // The grid's first point after `late`, 353 µs after it.
+    let grid = (late / 3_000 + 1) * 3_000;
+    assert!(grid < late + 3_000);
+    let times = [1_000, 2_000, 3_000, late, grid, late + 3_000];
+    let [aborting, aborted] = aborted_at(grid);
+    let trace = cell.tick_at(times, late + 1);
+    assert_eq!(trace, [at(0, Idle, Running, Start), aborting, aborted]);
+}
+
+/// A tick earlier than the last, near the end of `u64`'s µs: late (the time does not go
+/// back), not a step forward across the end. Found by a cold review (session 52).
+#[test]
+fn a_tick_earlier_than_the_last_near_the_end_of_u64_is_late() {
+    let cell = Cell::new(None, Duration::from_millis(1));
+    let last = u64::MAX - 10;
+    assert_eq!(cell.tick_at([last], u64::MAX), []);
+    let monitors = &mut *cell.monitors.borrow_mut();
+    let early = cell.seq.tick(Instant::from_ticks(5), &cell.ctrl, monitors);
+    assert_eq!(early, Err(rtseq::Error::TickBeforeLast));
+    assert_eq!(cell.seq.now(), Instant::from_ticks(last));
+}
+
 /// A sequence started before a first tick at 5 s is timed from the sequencer's time 0:
 /// its 50 ms timeout has run out at that first tick.
 #[test]

@@ -259,6 +259,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let now = Stamp::of(self.now);
         let class = self.block(id).map_or(0, |b| b.class);
         let next = self.polling.classes.start_grid(class, now);
+        self.polling.stale &= !(1 << (class & 7));
         self.polling.next_due = now.first_of(next, self.polling.next_due);
     }
 

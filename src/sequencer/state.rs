@@ -80,6 +80,10 @@ pub(crate) struct Polling<const B: usize> {
     /// Counts the times `woken` was forgotten: with the portable lock the tick finds the
     /// lanes in sections of their own, and remembers them only if none changed meanwhile.
     pub(crate) forgets: u8,
+    /// The classes whose grid a tick after a long gap has yet to restart (bit `i` for
+    /// class `i`): their 32-bit next poll no longer tells ahead from behind. A start that
+    /// places a class's grid anew clears its bit.
+    pub(crate) stale: u8,
 }
 
 impl<const B: usize> Polling<B> {
@@ -128,6 +132,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
                 next_due: Stamp(0),
                 woken: WakeMemo::NONE,
                 forgets: 0,
+                stale: 0,
             },
             exceptions_not_run: 0,
             count: 0,
@@ -441,6 +446,7 @@ mod tests {
             next_due: Stamp(0),
             woken: WakeMemo::NONE,
             forgets: 0,
+            stale: 0,
         };
         let polls = SetWord::<1>::new(0, 0b101);
         // Nothing remembered: not even for no polls of word 0.

@@ -127,7 +127,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     return None;
                 }
                 self.ticking.store(true, Ordering::Relaxed);
-                let out_of_step = now.as_ticks().wrapping_sub(s.now.as_ticks()) > MAX_INTERVAL;
+                // Back in time, or 2^31 µs or more ahead (not a wrapping difference: near
+                // the end of u64 an earlier time would read as a step forward).
+                let out_of_step = now < s.now || now.as_ticks() - s.now.as_ticks() > MAX_INTERVAL;
                 let any_due = stamp.reached(s.polling.next_due);
                 let foreign = any_due && !out_of_step && !s.takes_polls(me, monitors);
                 if !out_of_step && !foreign {
@@ -231,11 +233,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// A tick 2^31 µs or more after the last one (the first after time 0 included): the
-    /// polling grids' 32-bit stamps no longer tell ahead from behind. Moves the time to
-    /// `now` and makes the scan come now; then every class whose next poll is not within
-    /// one period from now is due now, its grid starting again from this tick (one section
-    /// per class; a grid that a start placed meanwhile is within one period). Returns
-    /// whether it did: a tick out of step the other way is late.
+    /// polling grids' 32-bit stamps no longer tell ahead from behind (a stale one may read
+    /// as due in a moment, or in 35 minutes). Moves the time to `now`, makes the scan come
+    /// now and marks every class's grid stale; then restarts each grid still stale from
+    /// now, one section per class (a start that placed a grid meanwhile, at `now`, cleared
+    /// its mark), so every class is due now. Returns whether it did: a tick out of step
+    /// the other way is late.
     #[cold]
     #[inline(never)]
     fn restart_stale_grids(&self, now: Instant) -> bool {
@@ -245,6 +248,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if long_gap {
                 s.now = now;
                 s.polling.next_due = stamp;
+                s.polling.stale = s.polling.classes.used();
                 // A start scheduled before this, at the old time, schedules again.
                 s.changes = s.changes.wrapping_add(1);
             }
@@ -254,7 +258,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         for index in 0..classes {
-            self.with(|s| s.polling.classes.restart_stale_grid(index, stamp));
+            let bit = 1 << (index & 7);
+            self.with(|s| {
+                if s.polling.stale & bit != 0 {
+                    s.polling.stale &= !bit;
+                    s.polling.classes.restart_grid(index, stamp);
+                }
+            });
         }
         true
     }

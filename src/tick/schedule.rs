@@ -170,15 +170,18 @@ impl<const B: usize> Classes<B> {
         }
     }
 
-    /// After a long gap between ticks: class `index` is due now, its grid starting again
-    /// from now, unless its next poll is within one period from now.
-    pub(crate) fn restart_stale_grid(&mut self, index: usize, now: Stamp) {
+    /// Class `index` is due now, its grid starting again from now (after a long gap
+    /// between ticks).
+    pub(crate) fn restart_grid(&mut self, index: usize, now: Stamp) {
         if let Some(c) = self.list.get_mut(index) {
-            let period = c.period.map_or(0, NonZeroU32::get);
-            if now.until(c.next) > period {
-                c.next = now;
-            }
+            c.next = now;
         }
+    }
+
+    /// The classes in use, bit `i` for class `i`.
+    pub(crate) fn used(&self) -> u8 {
+        // At most eight: `len` fits.
+        (1u16 << self.len).wrapping_sub(1) as u8
     }
 
     /// The scan of class `index` at `now` in the word `monitored` of the monitored sequences
