@@ -344,6 +344,52 @@ enum Replaced {
 }
 
 /// C (main) started O non-blocking. O's monitor (or, `timeout`, its 1 ms timeout) reacts
+/// with the caller behaviour `b`, with exception sequence E or without; with E, the tick
+/// at 1 ms started E and E has completed, so the next tick applies `b`. Returns the world,
+/// C, O and E.
+fn caller_behaviour_set_up<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    b: Behaviour,
+    with_e: bool,
+    timeout: bool,
+) -> (World<L, N, B>, SeqId, SeqId, SeqId) {
+    let w = World::<L, N, B>::new(layout);
+    let c = w.seq("C");
+    let e = w.seq("E");
+    let o = if timeout {
+        let mut config = SeqConfig::new("O")
+            .timeout(Duration::from_millis(1))
+            .timeout_behaviour(b);
+        if with_e {
+            config = config.timeout_exception(e);
+        }
+        w.add(config)
+    } else {
+        let o = w.seq("O");
+        w.monitor(o, flag_of(true), b, with_e.then_some(e));
+        o
+    };
+    w.start_taken(c);
+    w.in_lane(o, c).unwrap();
+    w.take(o);
+    if with_e {
+        w.tick(1);
+        w.take(e);
+        assert!(w.complete(e));
+    }
+    (w, c, o, e)
+}
+
+/// The tick (ms) that applies the caller behaviour of [`caller_behaviour_set_up`].
+fn applying_tick(with_e: bool) -> u64 {
+    if with_e {
+        2
+    } else {
+        1
+    }
+}
+
+/// C (main) started O non-blocking. O's monitor (or, `timeout`, its 1 ms timeout) reacts
 /// with the caller behaviour `b`, with exception sequence E or without. Before section `k`
 /// of the tick that applies `b` (or after it), `who` is replaced. Nothing is left held.
 fn caller_behaviour_raced<L: Lock + 'static, const N: usize, const B: usize>(
@@ -353,34 +399,8 @@ fn caller_behaviour_raced<L: Lock + 'static, const N: usize, const B: usize>(
     timeout: bool,
     who: Replaced,
 ) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let c = w.seq("C");
-        let e = w.seq("E");
-        let o = if timeout {
-            let mut config = SeqConfig::new("O")
-                .timeout(Duration::from_millis(1))
-                .timeout_behaviour(b);
-            if with_e {
-                config = config.timeout_exception(e);
-            }
-            w.add(config)
-        } else {
-            let o = w.seq("O");
-            w.monitor(o, flag_of(true), b, with_e.then_some(e));
-            o
-        };
-        w.start_taken(c);
-        w.in_lane(o, c).unwrap();
-        w.take(o);
-        if with_e {
-            w.tick(1);
-            w.take(e);
-            assert!(w.complete(e));
-        }
-        (w, c, o, e)
-    };
-    let applying = if with_e { 2 } else { 1 };
+    let setup = move || caller_behaviour_set_up::<L, N, B>(layout, b, with_e, timeout);
+    let applying = applying_tick(with_e);
     let count = sections(setup, |(w, ..)| w.tick(applying));
     every_k(count + 1, |k| {
         let (w, c, o, e) = setup();
@@ -765,23 +785,8 @@ fn caller_behaviour_against_a_party_on_the_caller<
     with_e: bool,
     to_c: ToCaller,
 ) {
-    let setup = move || {
-        let w = World::<L, N, B>::new(layout);
-        let c = w.seq("C");
-        let e = w.seq("E");
-        let o = w.seq("O");
-        w.monitor(o, flag_of(true), b, with_e.then_some(e));
-        w.start_taken(c);
-        w.in_lane(o, c).unwrap();
-        w.take(o);
-        if with_e {
-            w.tick(1);
-            w.take(e);
-            assert!(w.complete(e));
-        }
-        (w, c, o, e)
-    };
-    let applying = if with_e { 2 } else { 1 };
+    let setup = move || caller_behaviour_set_up::<L, N, B>(layout, b, with_e, false);
+    let applying = applying_tick(with_e);
     let count = sections(setup, |(w, ..)| w.tick(applying));
     every_k(count + 1, |k| {
         let (w, c, o, e) = setup();
