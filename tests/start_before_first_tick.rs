@@ -254,3 +254,172 @@ fn the_simulator_s_start_time_comes_before_any_start() {
         Some(rtseq::sim::SimError::SequenceUnderWay)
     );
 }
+
+/// Sixteen sequences in eight polling classes, two in each (ids spread over the words of
+/// the sets: a class's members in different words), a monitor each on flag 2
+/// (`AbortOwner`), a 50 ms timeout each or none.
+type Wide<const N: usize, const B: usize> =
+    Sequencer<Ctrl, N, 256, rtseq::lock::CriticalSection, 16, B>;
+
+/// The polling periods of the eight classes (µs).
+const PERIODS: [u64; rtseq::MAX_POLLING_CLASSES] =
+    [1_000, 2_000, 3_000, 5_000, 7_000, 11_000, 13_000, 4_000];
+
+/// Registers the sixteen sequences of [`Wide`] (fillers between them); returns each id
+/// with its polling period.
+fn wide<const N: usize, const B: usize>(
+    seq: &Wide<N, B>,
+    timeout: bool,
+    monitors: &mut Monitors<'static, Ctrl, 16, ConditionFn<Ctrl>>,
+) -> Vec<(SeqId, u64)> {
+    let mut placed = Vec::new();
+    for j in 0..16 {
+        let slot = if N == 16 { j } else { j * N / 16 + j % 3 };
+        while seq.len() < slot {
+            let name: &'static str = Box::leak(format!("filler {}", seq.len()).into_boxed_str());
+            seq.register(SeqConfig::new(name)).unwrap();
+        }
+        // Class order shuffled: a class's two members are far apart.
+        let period = PERIODS[j * 5 % 8];
+        let name: &'static str = Box::leak(format!("S{j}").into_boxed_str());
+        let mut config = SeqConfig::new(name).polling(Duration::from_ticks(period));
+        if timeout {
+            config = config.timeout(Duration::from_millis(50));
+        }
+        let id = seq.register(config).unwrap();
+        assert_eq!(id.index(), slot);
+        seq.sequence_by_id(id).unwrap().declare_lane().unwrap();
+        let fault = Monitor::with_fn("fault", fault, Behaviour::AbortOwner);
+        monitors.add(id, fault).unwrap();
+        placed.push((id, period));
+    }
+    placed
+}
+
+/// The sixteen sequences of [`Wide`] start at 0; ticks at `before` (µs), then a gap of
+/// `gap` µs, then a tick every 500 µs for 30 ms, the fault from `fault_after` µs after the
+/// gap on. Each sequence is aborted at the tick after the gap (its timeout, which ran out
+/// in the gap, or the fault there), or else on its class's grid started again from that
+/// tick: at the first multiple of its period at or after the fault.
+fn every_class_after<const N: usize, const B: usize>(
+    before: &[u64],
+    gap: u64,
+    fault_after: u64,
+    timeout: bool,
+) {
+    let seq: Box<Wide<N, B>> = Box::new(Sequencer::new());
+    let ctrl = Ctrl::default();
+    let mut monitors = Monitors::new();
+    let placed = wide(&seq, timeout, &mut monitors);
+    for &(id, _) in &placed {
+        seq.sequence_by_id(id).unwrap().start().unwrap();
+    }
+    let last = before.last().copied().unwrap_or(0);
+    for &t in before {
+        seq.tick(Instant::from_ticks(t), &ctrl, &mut monitors)
+            .unwrap();
+    }
+    let late = last + gap;
+    for t in (late..=late + 30_000).step_by(500) {
+        ctrl.set(2, t >= late + fault_after);
+        seq.tick(Instant::from_ticks(t), &ctrl, &mut monitors)
+            .unwrap();
+    }
+    let mut trace = Vec::new();
+    seq.drain_trace(|t| trace.push(t));
+    for (id, period) in placed {
+        let what = format!(
+            "N={N}, ticks at {before:?} then {gap:#x} µs later, fault {fault_after} µs after, \
+             timeout {timeout}: {id:?} polled every {period} µs"
+        );
+        let aborting = trace.iter().find(|t| t.sequence == id && t.to == Aborting);
+        let aborting = aborting.unwrap_or_else(|| panic!("{what}: not aborted"));
+        // The monitors fire before the timeouts in a tick.
+        let (at, timed_out) = if fault_after == 0 {
+            (late, false)
+        } else if timeout {
+            (late, true)
+        } else {
+            (late + fault_after.div_ceil(period) * period, false)
+        };
+        assert_eq!(
+            (aborting.time, aborting.cause == Timeout(id)),
+            (Instant::from_ticks(at), timed_out),
+            "{what}: {aborting:?}"
+        );
+    }
+}
+
+/// Gaps of 2^31 µs or more, of every kind of length modulo 2^32 (a stale grid point reads
+/// as behind, as a moment ahead, as a period or more ahead), in sequencers of one word,
+/// of two (64 sequences) and of eight (256), with all eight polling classes, after ticks
+/// that leave the grids at various points: every class with a monitored member polls at
+/// the tick after the gap, and its grid starts again from there; a timeout that ran out
+/// in the gap fires there.
+#[test]
+fn every_class_in_every_word_polls_at_the_tick_after_any_long_gap() {
+    let histories: [&[u64]; 4] = [
+        &[],
+        &[1_000, 2_000, 3_000],
+        &[500, 1_700, 2_500, 9_100],
+        &[(1 << 31) - 1, (1 << 32) - 1_200, (1 << 32) + 100],
+    ];
+    let remainders = [
+        0,
+        1,
+        499,
+        1_000,
+        2_999,
+        6_500,
+        12_999,
+        LONG - 1,
+        LONG,
+        LONG + 1,
+        (1 << 32) - 3_000,
+        (1 << 32) - 1,
+    ];
+    for before in histories {
+        for gap in (0..3u64).flat_map(|k| remainders.map(|r| (k << 32) + r)) {
+            if gap < LONG {
+                continue;
+            }
+            for fault_after in [0, 1, 2_500] {
+                for timeout in [false, true] {
+                    // The timeout would run out before the gap.
+                    if timeout && before.iter().any(|&t| t >= 40_000) {
+                        continue;
+                    }
+                    every_class_after::<16, 1>(before, gap, fault_after, timeout);
+                    every_class_after::<64, 2>(before, gap, fault_after, timeout);
+                    every_class_after::<256, 8>(before, gap, fault_after, timeout);
+                }
+            }
+        }
+    }
+}
+
+/// The tick after a long gap comes with another table (polls are due at once): refused,
+/// as any due tick with it; but it has moved the time and started the grids again, so
+/// the next tick with the sequencer's table, even at the same time, polls at once.
+#[test]
+fn a_foreign_table_at_the_tick_after_a_long_gap_loses_no_poll() {
+    let cell = Cell::new(None, Duration::from_millis(3));
+    cell.start();
+    assert_eq!(
+        cell.tick_at([1_000, 2_000, 3_000], u64::MAX),
+        [at(0, Idle, Running, Start)]
+    );
+    let late = 3_000 + (1 << 32) + 1_000;
+    fn never(_: &Ctrl, _: Instant) -> bool {
+        false
+    }
+    let mut other: Monitors<Ctrl, 1, ConditionFn<Ctrl>> = Monitors::new();
+    let never = Monitor::with_fn("never", never, Behaviour::AbortOwner);
+    other.add(S, never).unwrap();
+    let refused = cell
+        .seq
+        .tick(Instant::from_ticks(late), &cell.ctrl, &mut other);
+    assert_eq!(refused, Err(rtseq::Error::ForeignMonitorTable));
+    assert_eq!(cell.seq.now(), Instant::from_ticks(late));
+    assert_eq!(cell.tick_at([late], late), aborted_at(late));
+}

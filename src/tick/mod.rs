@@ -116,45 +116,30 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         control: &C,
         monitors: &mut Monitors<'_, C, M, K>,
     ) -> Result<(), Error> {
-        let stamp = Stamp::of(now);
         let me = core::ptr::from_ref(self).addr();
-        // A tick out of step with the last one (see `Opening::out_of_step`) that is a long gap
-        // restarts the polling grids and opens again.
+        // A tick out of step with the last one (see `Opening::out_of_step`) that is a long
+        // gap restarts the polling grids and opens again, keeping its turn: a second tick
+        // meanwhile is refused as in any other section of this one.
+        let mut reopening = false;
         let (opening, _turn) = loop {
             let first = self.with(|s| {
                 // One tick at a time: a second one would walk and scan beside the first.
-                if self.ticking.load(Ordering::Relaxed) {
-                    return None;
-                }
-                self.ticking.store(true, Ordering::Relaxed);
-                // Back in time, or 2^31 µs or more ahead (not a wrapping difference: near
-                // the end of u64 an earlier time would read as a step forward).
-                let out_of_step = now < s.now || now.as_ticks() - s.now.as_ticks() > MAX_INTERVAL;
-                let any_due = stamp.reached(s.polling.next_due);
-                let foreign = any_due && !out_of_step && !s.takes_polls(me, monitors);
-                if !out_of_step && !foreign {
-                    s.now = now;
-                    if any_due {
-                        // The scans bring it forward again, and so does a start made
-                        // meanwhile (see `scan`).
-                        s.polling.next_due = stamp.plus(NEVER_AHEAD);
+                if !reopening {
+                    if self.ticking.load(Ordering::Relaxed) {
+                        return None;
                     }
+                    self.ticking.store(true, Ordering::Relaxed);
                 }
-                s.changes = s.changes.wrapping_add(1);
-                Some(Opening {
-                    out_of_step,
-                    foreign,
-                    requests: !s.sets.is_empty(Set::Requested),
-                    any_due,
-                    changed: !s.sets.is_empty(Set::Changed),
-                    words: s.sets.words(Set::Monitored),
-                })
+                Some(s.open_tick(now, me, monitors))
             });
             let Some(opening) = first else {
                 return Err(Error::TickInProgress);
             };
             let turn = TickTurn(&self.ticking);
             if opening.out_of_step && self.restart_stale_grids(now) {
+                // The turn stays taken for the section that opens again.
+                core::mem::forget(turn);
+                reopening = true;
                 continue;
             }
             break (opening, turn);
@@ -329,6 +314,46 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             if !more {
                 return (words, requested || reported);
             }
+        }
+    }
+}
+
+impl<C, const N: usize, const T: usize, const W: usize, const B: usize>
+    crate::sequencer::State<C, N, T, W, B>
+{
+    /// The work of a tick's first section after it took its turn: moves the time to `now`
+    /// unless the tick is out of step or comes with a foreign table (polls due), puts the
+    /// next due time off to the horizon when polls are due, and finds what the tick must
+    /// do.
+    #[inline(always)]
+    fn open_tick<const M: usize, K>(
+        &mut self,
+        now: Instant,
+        me: usize,
+        monitors: &mut Monitors<'_, C, M, K>,
+    ) -> Opening {
+        let stamp = Stamp::of(now);
+        // Back in time, or 2^31 µs or more ahead (not a wrapping difference: near the end
+        // of u64 an earlier time would read as a step forward).
+        let out_of_step = now < self.now || now.as_ticks() - self.now.as_ticks() > MAX_INTERVAL;
+        let any_due = stamp.reached(self.polling.next_due);
+        let foreign = any_due && !out_of_step && !self.takes_polls(me, monitors);
+        if !out_of_step && !foreign {
+            self.now = now;
+            if any_due {
+                // The scans bring it forward again, and so does a start made meanwhile
+                // (see `scan`).
+                self.polling.next_due = stamp.plus(NEVER_AHEAD);
+            }
+        }
+        self.changes = self.changes.wrapping_add(1);
+        Opening {
+            out_of_step,
+            foreign,
+            requests: !self.sets.is_empty(Set::Requested),
+            any_due,
+            changed: !self.sets.is_empty(Set::Changed),
+            words: self.sets.words(Set::Monitored),
         }
     }
 }
