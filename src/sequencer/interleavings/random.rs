@@ -22,7 +22,9 @@
 //! refused (`Error::TickInProgress`) while the tick runs, refused
 //! (`Error::ForeignMonitorTable`) when polls are due, a tick that evaluates nothing
 //! otherwise. Half the runs begin 20 ms before the sequencer's 32-bit µs
-//! stamps wrap.
+//! stamps wrap. With `RTSEQ_LONG_GAPS` set (a sweep's option, not the default run), one
+//! tick in twelve comes after a gap of 2^31 µs or more, some close to a multiple of
+//! 2^32 µs, which the liveness watches count as one millisecond.
 //!
 //! The scheduler follows RTIC's rules for the parties: the application (priority 0), the
 //! lanes (priorities 1 and 3, drawn per lane), the tick (2) and the safety system's
@@ -357,7 +359,34 @@ impl<L: Lock + 'static, const N: usize, const B: usize> Sched<L, N, B> {
 
     /// The next tick, 1 ms after the last.
     fn tick(self) {
-        let ms = self.now.get() + 1;
+        // With RTSEQ_LONG_GAPS: one tick in twelve comes after a gap of 2^31 µs or more
+        // (some close to a multiple of 2^32 µs); the liveness watches count it as one ms.
+        let gap = if std::env::var("RTSEQ_LONG_GAPS").is_ok() && self.chance(12) {
+            const GAPS: [u64; 8] = [
+                2_147_484, 2_147_485, 3_000_000, 4_294_966, 4_294_967, 4_294_968, 6_442_451,
+                8_589_934,
+            ];
+            GAPS[self.below(8) as usize]
+        } else {
+            0
+        };
+        if gap > 0 {
+            let mut live = self.live.borrow_mut();
+            for w in live.timeouts.iter_mut().flatten() {
+                w.since += gap;
+            }
+            for m in &mut live.levels {
+                if let Some(w) = m.watch.as_mut() {
+                    w.0 += gap;
+                }
+            }
+            for p in &mut live.polls {
+                if let Some(since) = p.since.as_mut() {
+                    *since += gap;
+                }
+            }
+        }
+        let ms = self.now.get() + 1 + gap;
         self.now.set(ms);
         self.run_as(TICK, || self.w.tick(ms));
         self.observe();
@@ -482,7 +511,10 @@ impl Liveness {
                 (
                     b.state,
                     s.sets.has(Set::Armed, id),
-                    s.sets.has(Set::Excepting, id) || b.has(flag::STOPPING),
+                    // A run whose abort is requested takes no exception (semantics 10).
+                    s.sets.has(Set::Excepting, id)
+                        || b.has(flag::STOPPING)
+                        || b.has(crate::sequencer::control_block::request::ABORT),
                     b.timeout,
                     b.runs,
                     s.run_time(id),
