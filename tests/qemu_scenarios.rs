@@ -707,23 +707,8 @@ fn firmware_sizes_with_and_without_rtseq() {
     // scenario, each building its tree by value: their moves into `Seq`s are rtseq's lines).
     // Budgets (ceilings, not targets): the sequencer's code 12 KiB, the safety system's
     // 2 KiB. The sequencer's code misses its budget by the defect fixes that followed the
-    // 0.2 core, the split of the teardown and pause walks, the closing of dropped lanes, the
-    // join cycles, the scoped children's abort, the abort-all's hold and teardowns of a
-    // run rather than a sequence (docs/footprint.md lists them with their costs): held to
-    // known ceilings of 18.25 KiB (scenarios) and 19.25 KiB (demo); an action's futures and
-    // blocking runs that keep no waker of their own cost 0.25 KiB of each, the refusal of
-    // starts from condition methods, the join check through an exception's owner's held
-    // children and a context handle's start checked as the context's the next 0.5 KiB, the
-    // hold of blocking children in the poll the tick marked their owner's exception (a
-    // walk up the callers at their await points) the last 0.25 KiB of the scenarios'; a
-    // run's clock of 48 bits and restarts counted in the run they restart (session 50)
-    // the last 0.5 KiB of the scenarios', 0.25 KiB of the demo's; a behaviour judged again
-    // on the target's run where it is applied at its exception sequence's end (session 51)
-    // 0.25 KiB of the demo's, an owner no longer left held when its caller's run is
-    // replaced under its caller behaviour (session 51) 0.25 KiB of each, and exceptions
-    // that go with a run over or being stopped (session 51) the last 0.25 KiB of each;
-    // the polling grids restarted by a tick after a gap of 2^31 µs or more, the first
-    // after time 0 included (session 52), the last 0.25 KiB of each.
+    // 0.2 core; the test holds it to known ceilings so that growth is a decision, not a
+    // drift. docs/footprint.md says what each fix cost and why.
     budget(
         "rtseq's own flash in the scenarios firmware [bytes]",
         scen_code.rtseq,
