@@ -1424,6 +1424,70 @@ fn a_timeout_set_during_a_run_applies_to_that_run_at_once() {
     );
 }
 
+/// A's 5 ms timeout runs out at the tick at 5 ms; a monitor of A (evaluated by that tick,
+/// before its timeouts) changes it there with `Handle::set_timeout`: `change` (at once, as
+/// everywhere else). Returns the result of the change and the trace by 20 ms.
+fn timeout_changed_in_the_tick_it_runs_out(
+    change: Option<Duration>,
+) -> (Option<Result<(), Error>>, Vec<Transition>, SeqId) {
+    let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let a = seq
+        .add(
+            SeqConfig::new("A").timeout(Duration::from_millis(5)),
+            Node::of(vec![]).until(1),
+        )
+        .unwrap();
+    let ai = a.id();
+    let handle = seq.sequence_by_id(ai).unwrap();
+    let changed = std::cell::Cell::new(None);
+    let change_at_5_ms = |_: &Ctrl, now: rtseq::Instant| {
+        if now == rtseq::Instant::from_ticks(5_000) {
+            changed.set(Some(handle.set_timeout(change)));
+        }
+        false
+    };
+    let mut monitors = Monitors::<Ctrl, 1, _>::new();
+    monitors
+        .add(
+            ai,
+            Monitor::with_condition("change", change_at_5_ms, Behaviour::Nothing),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(a);
+    sim.start(ai).unwrap();
+    sim.run_until(rtseq::Instant::from_ticks(20_000));
+    let trace = sim.trace().to_vec();
+    drop(sim);
+    (changed.get(), trace, ai)
+}
+
+/// A timeout switched off in the tick in which it runs out, by a monitor condition of
+/// that tick, does not fire: the tick judges it when it raises it, after the monitors.
+#[test]
+fn a_timeout_switched_off_in_the_tick_it_runs_out_does_not_fire() {
+    let (changed, trace, ai) = timeout_changed_in_the_tick_it_runs_out(None);
+    assert_eq!(changed, Some(Ok(())));
+    assert_trace(&trace, &[tr(0, ai, Idle, Running, Start)]);
+}
+
+/// The same timeout lengthened to 12 ms in that tick fires at 12 ms, not at 5.
+#[test]
+fn a_timeout_lengthened_in_the_tick_it_runs_out_fires_at_its_new_time() {
+    let (changed, trace, ai) =
+        timeout_changed_in_the_tick_it_runs_out(Some(Duration::from_millis(12)));
+    assert_eq!(changed, Some(Ok(())));
+    assert_trace(
+        &trace,
+        &[
+            tr(0, ai, Idle, Running, Start),
+            tr(12, ai, Running, Aborting, Timeout(ai)),
+            tr(12, ai, Aborting, Aborted, Timeout(ai)),
+        ],
+    );
+}
+
 /// What a [`Chain`] asks for, as a task that preempts the lane would while the chain runs
 /// (an HMI's abort button, the safety system).
 #[derive(Clone, Copy)]

@@ -40,8 +40,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// end) or apply the behaviour now. If the marked run is over, or its stop has begun,
     /// by the time the exception sequence's start is refused, the exception went with the
     /// run: nothing more happens. Returns false when the owner could not take an
-    /// exception any more (a timeout: unless running, its timeout stays armed and is
-    /// checked again at its next poll). A timeout's mark also disarms it.
+    /// exception any more, or its timeout has not run out after all (switched off or
+    /// lengthened since the scan): the timeout stays armed and is checked again at its
+    /// next poll. A timeout's mark also disarms it.
     #[inline(never)]
     pub(crate) fn raise(
         &self,
@@ -345,6 +346,12 @@ fn mark<
     // the owner in between: the mark is made only if the owner still runs the run the
     // first section saw, in a state that takes it; then it is counted and recorded.
     let (target, owner_runs, lane) = s.section(|s| {
+        // A timeout is judged here, not by the scan that listed it: a monitor condition
+        // or cleanup hook of this tick (or a lane above it) may have switched it off or
+        // lengthened it since, and that applies at once.
+        if timeout && !s.timed_out(owner) {
+            return None;
+        }
         let b = s.block(owner)?;
         if !states.has(b.state)
             || s.sets.has(Set::Excepting, owner)
