@@ -722,3 +722,87 @@ fn a_firing_the_owner_cannot_take_during_an_exception_waits_for_its_end() {
     assert_eq!((fired, state), (0, Running));
     assert_eq!(lines, warning);
 }
+
+// ---------------------------------------------------------------------------------------
+// A restart keeps the grid of its polling class, also when it is the class's only member
+// and comes at the end of an exception sequence (found in session 53: the grid started
+// again from the restart, one poll was lost and a monitor reacted a period late).
+// ---------------------------------------------------------------------------------------
+
+fn millis(n: u64) -> Duration {
+    Duration::from_millis(n)
+}
+
+/// Caller `c` (polled every 10 ms, alone in its class) runs step `s` (every 1 ms); `s`'s
+/// monitor `jam` (flag 2, at 13 ms only) restarts `c` (`RestartCallerOfOwner`), with a
+/// 3 ms exception sequence or without. `c`'s end-stop monitor (`AbortOwner`, flag 4 from
+/// 11 ms) shows when `c` is polled. Returns the trace of `c`.
+fn caller_restarted_then_end_stop(with_exception: bool) -> (Vec<Transition>, SeqId, MonitorId) {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let s = seq.add(SeqConfig::new("s"), Leaf::until(15)).unwrap();
+    let si = s.id();
+    let c = seq
+        .add(
+            SeqConfig::new("c").polling(millis(10)),
+            Node::of(vec![Op::Step(s)]),
+        )
+        .unwrap();
+    let e = seq
+        .add(SeqConfig::new("e"), Node::of(vec![]).until(3))
+        .unwrap();
+    let (ci, ei) = (c.id(), e.id());
+    let mut jam = |c: &Ctrl, _: rtseq::Instant| c.flag(2);
+    let mut end_stop = |c: &Ctrl, _: rtseq::Instant| c.flag(4);
+    let mut monitors = Monitors::<Ctrl, 2>::new();
+    let mut jam_def = Monitor::new("jam", &mut jam, Behaviour::RestartCallerOfOwner);
+    if with_exception {
+        jam_def = jam_def.exception(ei);
+    }
+    monitors.add(si, jam_def).unwrap();
+    let x = monitors
+        .add(
+            ci,
+            Monitor::new("end stop", &mut end_stop, Behaviour::AbortOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(c);
+    sim.lane(e);
+    sim.before_tick(|t, c: &Ctrl| {
+        c.set(2, ms(t) == 13);
+        c.set(3, ms(t) >= 16);
+        c.set(4, ms(t) >= 11);
+    });
+    sim.start(ci).unwrap();
+    sim.run_until_idle(millis(60)).unwrap();
+    let trace = sim
+        .trace()
+        .iter()
+        .copied()
+        .filter(|t| t.sequence == ci)
+        .collect();
+    (trace, ci, x)
+}
+
+/// The end stop comes true at 11 ms; `c` is restarted at 13 ms (in the firing tick) or at
+/// 17 ms (the tick after the exception sequence ended). Either way `c` keeps its grid
+/// (10, 20, 30 ms) and the end stop aborts it at 20 ms: within one polling period.
+#[test]
+fn a_restart_at_the_end_of_an_exception_sequence_keeps_the_grid_of_its_class() {
+    for (with_exception, restart_at) in [(false, 13), (true, 17)] {
+        let (trace, ci, x) = caller_restarted_then_end_stop(with_exception);
+        let jam = Mon(MonitorId::from_index(0));
+        assert_eq!(
+            trace,
+            [
+                tr(0, ci, Idle, Running, Start),
+                tr(restart_at, ci, Running, Restarting, jam),
+                tr(restart_at, ci, Restarting, Running, Restart),
+                tr(20, ci, Running, Aborting, Mon(x)),
+                tr(20, ci, Aborting, Aborted, Mon(x)),
+            ],
+            "with the exception sequence: {with_exception}"
+        );
+    }
+}

@@ -19,15 +19,16 @@ use crate::SeqId;
 pub(crate) enum Set {
     /// `Running` or `Paused` (`RunningStates::RUNNING_OR_PAUSED`), as of the last fold of `Changed` (the
     /// tick folds before it scans): the sequences whose monitors and timeouts are
-    /// evaluated and whose polling classes keep their grids. Narrower than
+    /// evaluated, and whose polling classes the tick scans. Narrower than
     /// [`RunningState::is_active`](crate::RunningState::is_active), which counts every run
     /// under way (`Live` here).
     Monitored,
     /// `Paused`, as `Monitored`.
     Paused,
-    /// A run is under way (`RunningStates::LIVE`), as `Monitored`: with `Changed`, the sequences a
-    /// teardown or pause may have to visit. Kept only with several words (a teardown in a
-    /// sequencer of at most 32 visits all of them).
+    /// A run is under way (`RunningStates::LIVE`), as `Monitored`: the members that keep
+    /// their polling class's grid (a `Restarting` one too), and, with `Changed`, the
+    /// sequences a teardown or pause may have to visit (with several words; a teardown in
+    /// a sequencer of at most 32 visits all of them).
     Live,
     /// The state changed since the tick last folded it into `Monitored`, `Paused`, `Live`.
     Changed,

@@ -211,9 +211,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         self.sets.put(Set::PollWait, id, false);
     }
 
-    /// For [`class_busy`]: whether a member of `id`'s polling class that was monitored at
-    /// the tick's last fold has not changed since (then its run is still under way and the class
-    /// keeps its grid), and, if none, the members that changed since the fold, whose
+    /// For [`class_busy`]: whether a member of `id`'s polling class whose run was under way
+    /// at the tick's last fold (`Restarting` too: the restart of the class's only member
+    /// keeps its grid) has not changed since (then its run is still under way and the
+    /// class keeps its grid), and, if none, the members that changed since the fold, whose
     /// states must be looked at.
     fn class_activity(&self, id: SeqId) -> ClassActivity<B> {
         let class = self.block(id).map_or(0, |b| b.class);
@@ -221,12 +222,12 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let mut changed = SeqSet::EMPTY;
         let words = self
             .sets
-            .words(Set::Monitored)
+            .words(Set::Live)
             .with(self.sets.words(Set::Changed));
         for w in words {
-            let monitored = self.sets.word(Set::Monitored, w).and(members.word(w));
+            let live = self.sets.word(Set::Live, w).and(members.word(w));
             let since = self.sets.word(Set::Changed, w);
-            if !monitored.minus(since).is_empty() {
+            if !live.minus(since).is_empty() {
                 return ClassActivity::UnderWay;
             }
             changed.insert_all(members.word(w).and(since));

@@ -247,9 +247,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         );
         self.sets
             .put(Set::Paused, id, state == RunningState::Paused);
-        if B > 1 {
-            self.sets.put(Set::Live, id, RunningStates::LIVE.has(state));
-        }
+        self.sets.put(Set::Live, id, RunningStates::LIVE.has(state));
     }
 
     /// Whether `id` is an exception sequence whose run ended: the tick then reports the end

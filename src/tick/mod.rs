@@ -78,7 +78,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// cannot tell their polls ahead from behind: it polls every class at once, and its
     /// grid starts again from that tick. In a
     /// sequencer of more than 32 sequences (sets of `B > 1` words) the tick visits only the
-    /// words of 32 ids that hold a running or paused sequence, lowest first, and in each does what
+    /// words of 32 ids that hold a sequence under way, lowest first, and in each does what
     /// the tick of a sequencer of 32 does: monitors in table order, then timeouts, then
     /// wake-ups. With any number of words, the releases of `PauseOwner` monitors whose
     /// condition cleared come last, once every word's holds are made.
@@ -190,7 +190,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             return Ok(());
         }
-        // With no monitored sequence the first section's horizon stands.
+        // With no sequence under way the first section's horizon stands.
         for w in words {
             self.tick_word(w, now, &mut scan, &mut found, monitors, control);
         }
@@ -284,10 +284,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         found.raised = raised;
     }
 
-    /// Folds the state of the sequences that changed into the sets `Monitored`, `Paused` (and,
-    /// with several words, `live`), one short section per sequence. Returns the words that
-    /// then hold a monitored sequence, and whether any sequence is requested (the owner of
-    /// an exception sequence that ended is).
+    /// Folds the state of the sequences that changed into the sets `Monitored`, `Paused` and
+    /// `Live`, one short section per sequence. Returns the words that then hold a sequence
+    /// under way, and whether any sequence is requested (the owner of an exception
+    /// sequence that ended is).
     fn fold_changed(&self) -> (Words, bool) {
         let mut reported = false;
         loop {
@@ -302,7 +302,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 (
                     ended,
                     more,
-                    s.sets.words(Set::Monitored),
+                    s.sets.words(Set::Live),
                     !s.sets.is_empty(Set::Requested),
                 )
             });
@@ -353,7 +353,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize>
             requests: !self.sets.is_empty(Set::Requested),
             any_due,
             changed: !self.sets.is_empty(Set::Changed),
-            words: self.sets.words(Set::Monitored),
+            words: self.sets.words(Set::Live),
         }
     }
 }
@@ -382,7 +382,8 @@ struct Opening {
     any_due: bool,
     /// Some sequence changed state since the last fold (`Set::Changed`).
     changed: bool,
-    /// The words of the sets that hold a monitored sequence, as of the last fold.
+    /// The words of the sets that hold a sequence under way (the polling classes keep
+    /// their grids there), as of the last fold.
     words: Words,
 }
 

@@ -7,11 +7,11 @@ use crate::model::set::{SeqSet, SetWord, Words};
 use crate::model::time::{Stamp, NEVER_AHEAD};
 use crate::sequencer::callers::blocks_in_lane;
 use crate::sequencer::sections::Sections;
-use crate::sequencer::sets::Set;
+use crate::sequencer::sets::{Set, Sets};
 use crate::sequencer::State;
 use crate::{SeqId, Sequencer};
 
-use super::schedule::Scan;
+use super::schedule::{Scan, Word};
 
 /// What the tick must do for the due polls in one word of the sets (the tick visits the
 /// words that hold a monitored sequence one at a time).
@@ -107,7 +107,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let due = s
                     .polling
                     .classes
-                    .scan_all(now, s.sets.word(Set::Monitored, w), scan);
+                    .scan_all(now, scanned_word(&s.sets, w), scan);
                 s.polling.next_due = next_due(scan, s.polling.next_due);
                 let (polls, timed) = s.take_polls(due);
                 (polls, s.expired(timed))
@@ -119,7 +119,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             due = due.or(self.with(|s| {
                 s.polling
                     .classes
-                    .scan(i, now, s.sets.word(Set::Monitored, w), scan)
+                    .scan(i, now, scanned_word(&s.sets, w), scan)
             }));
         }
         let (polls, timed) = self.with(|s| {
@@ -131,6 +131,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             expired = expired.or(self.with(|s| s.expired(SetWord::of(id))));
         }
         (polls, expired)
+    }
+}
+
+/// Word `w` of the sets the polling classes' scan reads.
+#[inline(always)]
+fn scanned_word<const B: usize>(sets: &Sets<B>, w: usize) -> Word<B> {
+    Word {
+        live: sets.word(Set::Live, w),
+        monitored: sets.word(Set::Monitored, w),
     }
 }
 

@@ -2,10 +2,12 @@
 //!
 //! Each distinct polling period registered with a sequencer is one class with one
 //! schedule, like the cyclic tasks of a PLC. The tick tests one deadline per class, not
-//! one per sequence, and takes the due sequences as a set. While a class has monitored
-//! (running or paused) members its polls keep a fixed grid of its period. A start into an idle class starts
-//! the grid: the first poll comes one period after that start. A start into a busy class
-//! joins its grid: the first poll comes within one period.
+//! one per sequence, and takes the due sequences as a set. While a class has members
+//! whose run is under way (running, paused, restarting) its polls keep a fixed grid of
+//! its period; the monitored (running, paused) ones are polled. A start into an idle
+//! class starts the grid: the first poll comes one period after that start. A start
+//! into a busy class, and a restart, join its grid: the first poll comes within one
+//! period.
 
 use core::num::NonZeroU32;
 
@@ -152,8 +154,8 @@ impl<const B: usize> Classes<B> {
             .map_or(SeqSet::EMPTY, |c| c.members)
     }
 
-    /// The next poll of class `index`, whose grid a start into it joins (a monitored member
-    /// keeps the grid).
+    /// The next poll of class `index`, whose grid a start into it joins (a member whose run
+    /// is under way keeps the grid).
     pub(crate) fn next_poll(&self, index: u8, now: Stamp) -> Stamp {
         self.list.get(usize::from(index)).map_or(now, |c| c.next)
     }
@@ -184,52 +186,57 @@ impl<const B: usize> Classes<B> {
         (1u16 << self.len).wrapping_sub(1) as u8
     }
 
-    /// The scan of class `index` at `now` in the word `monitored` of the monitored sequences
-    /// (see [`Class::scan`]).
+    /// The scan of class `index` at `now` in one word of the sets (see [`Class::scan`]).
     #[inline(always)]
     pub(crate) fn scan(
         &mut self,
         index: usize,
         now: Stamp,
-        monitored: SetWord<B>,
+        word: Word<B>,
         scan: &mut Scan,
     ) -> SetWord<B> {
         // An unused class has no members: no need to test `len`.
         match self.list.get_mut(index) {
-            Some(c) => c.scan(1 << (index & 7), now, monitored, scan),
-            None => SetWord::empty(monitored.index()),
+            Some(c) => c.scan(1 << (index & 7), now, word, scan),
+            None => SetWord::empty(word.live.index()),
         }
     }
 
-    /// The scan of every class at `now` in the word `monitored` of the monitored sequences.
+    /// The scan of every class at `now` in one word of the sets.
     #[inline(always)]
-    pub(crate) fn scan_all(
-        &mut self,
-        now: Stamp,
-        monitored: SetWord<B>,
-        scan: &mut Scan,
-    ) -> SetWord<B> {
+    pub(crate) fn scan_all(&mut self, now: Stamp, word: Word<B>, scan: &mut Scan) -> SetWord<B> {
         let len = self.len();
-        let mut due = SetWord::empty(monitored.index());
+        let mut due = SetWord::empty(word.live.index());
         let mut bit = 1;
         for c in self.list.iter_mut().take(len) {
-            due = due.or(c.scan(bit, now, monitored, scan));
+            due = due.or(c.scan(bit, now, word, scan));
             bit <<= 1;
         }
         due
     }
 }
 
+/// One word of the sets a scan reads.
+#[derive(Clone, Copy)]
+pub(crate) struct Word<const B: usize> {
+    /// The sequences whose run is under way: a class with such a member keeps its grid.
+    pub(crate) live: SetWord<B>,
+    /// The monitored sequences (a subset): a due class's are polled.
+    pub(crate) monitored: SetWord<B>,
+}
+
 impl<const B: usize> Class<B> {
-    /// The due polls of this class (bit `bit` of [`Scan::due_classes`]) in the word
-    /// `monitored` of the monitored sequences. When the class has a monitored member there and its
-    /// poll is due, advances its grid, unless an earlier word of this tick did.
+    /// The due polls of this class (bit `bit` of [`Scan::due_classes`]) in one word of the
+    /// sets: its monitored members there, when its poll is due. When the class has a
+    /// member under way there (a restarting one keeps the grid too) and its poll is due,
+    /// advances its grid, unless an earlier word of this tick did.
     #[inline(always)]
-    fn scan(&mut self, bit: u8, now: Stamp, monitored: SetWord<B>, scan: &mut Scan) -> SetWord<B> {
-        let live = self.members.word(monitored.index()).and(monitored);
+    fn scan(&mut self, bit: u8, now: Stamp, word: Word<B>, scan: &mut Scan) -> SetWord<B> {
+        let members = self.members.word(word.live.index());
+        let live = members.and(word.live);
         // A class with members has a period.
         let (false, Some(period)) = (live.is_empty(), self.period) else {
-            return SetWord::empty(monitored.index());
+            return SetWord::empty(word.live.index());
         };
         let advanced = B > 1 && scan.due_classes & bit != 0;
         let due = advanced || now.reached(self.next);
@@ -243,9 +250,9 @@ impl<const B: usize> Class<B> {
         }
         scan.ahead = scan.ahead.min(now.until(self.next));
         if due {
-            live
+            members.and(word.monitored)
         } else {
-            SetWord::empty(monitored.index())
+            SetWord::empty(word.live.index())
         }
     }
 }
@@ -253,6 +260,14 @@ impl<const B: usize> Class<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Word `w` of the sets with `ids` under way and monitored.
+    fn all_monitored(ids: &SeqSet<8>, w: usize) -> Word<8> {
+        Word {
+            live: ids.word(w),
+            monitored: ids.word(w),
+        }
+    }
 
     fn live(ids: &[u8]) -> SeqSet<8> {
         let mut b = SeqSet::EMPTY;
@@ -278,7 +293,12 @@ mod tests {
             let mut scan = Scan::new();
             let mut due = SetWord::empty(0);
             for i in 0..c.len() {
-                due = due.or(c.scan(i, Stamp(now), live(&[0, 1, 2]).word(0), &mut scan));
+                due = due.or(c.scan(
+                    i,
+                    Stamp(now),
+                    all_monitored(&live(&[0, 1, 2]), 0),
+                    &mut scan,
+                ));
             }
             (due, scan.ahead)
         };
@@ -300,13 +320,41 @@ mod tests {
         let tick = |c: &mut Classes<8>, now| {
             let mut scan = Scan::new();
             let due: [SetWord<8>; 3] =
-                [0, 3, 7].map(|w| c.scan_all(Stamp(now), monitored.word(w), &mut scan));
+                [0, 3, 7].map(|w| c.scan_all(Stamp(now), all_monitored(&monitored, w), &mut scan));
             (due.map(|d| d.count()), scan.ahead)
         };
         // Word 0 advances the grid to 2 000; words 3 and 7 are due in the same tick.
         assert_eq!(tick(&mut c, 1_000), ([1, 1, 1], 1_000));
         assert_eq!(tick(&mut c, 1_500), ([0, 0, 0], 500));
         assert_eq!(tick(&mut c, 2_000), ([1, 1, 1], 1_000));
+    }
+
+    /// A member under way but not monitored (restarting) keeps its class's grid: the scan
+    /// advances it on its points, polling only the monitored members.
+    #[test]
+    fn a_restarting_member_keeps_the_grid_and_is_not_polled() {
+        let mut c = Classes::<1>::new();
+        assert_eq!(c.join(SeqId(0), 10_000), Ok(0));
+        assert_eq!(c.join(SeqId(1), 10_000), Ok(0));
+        assert_eq!(c.start_grid(0, Stamp(0)), Stamp(10_000));
+        let restarting = Word {
+            live: SetWord::new(0, 0b01),
+            monitored: SetWord::empty(0),
+        };
+        let mut scan = Scan::new();
+        assert!(c.scan_all(Stamp(10_000), restarting, &mut scan).is_empty());
+        assert_eq!(
+            (c.next_poll(0, Stamp(14_000)), scan.ahead),
+            (Stamp(20_000), 10_000)
+        );
+        // Running again from 14 000: polled on the grid it kept.
+        let running = Word {
+            live: SetWord::new(0, 0b01),
+            monitored: SetWord::new(0, 0b01),
+        };
+        let mut scan = Scan::new();
+        assert!(c.scan_all(Stamp(15_000), running, &mut scan).is_empty());
+        assert_eq!(c.scan_all(Stamp(20_000), running, &mut scan).bits(), 0b01);
     }
 
     #[test]
