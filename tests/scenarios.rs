@@ -1815,6 +1815,100 @@ fn a_start_while_an_abort_all_waits_holds_before_its_pre_condition() {
     );
 }
 
+thread_local! {
+    /// The sequencer whose cleanup hooks start each other's sequence (hooks are `fn`s).
+    static PING_PONG: std::cell::Cell<Option<&'static Sequencer<Ctrl, 2>>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// A cleanup hook that starts `name`, while flag 0 is set.
+fn start_from_hook(c: &Ctrl, name: &str) {
+    if let Some(seq) = PING_PONG.with(|p| p.get()).filter(|_| c.flag(0)) {
+        let _ = seq.sequence_by_name(name).map(|h| h.start());
+    }
+}
+
+/// A sequence that counts its pre-condition checks and runs until flag 9.
+struct Held(std::rc::Rc<std::cell::Cell<u32>>);
+impl rtseq::Sequence<Ctrl> for Held {
+    fn check_pre_condition(&mut self, _cx: &rtseq::Cx<'_, Ctrl>) -> bool {
+        self.0.set(self.0.get() + 1);
+        true
+    }
+    async fn action(&mut self, cx: &rtseq::Cx<'_, Ctrl>) -> Result<(), Failure> {
+        cx.wait_until(|cx| cx.control().flag(9)).await;
+        Ok(())
+    }
+}
+
+/// x's cleanup hook starts y and y's starts x, so an abort-all's every pass begins runs
+/// and the teardown gives up after its bounded passes. The abort-all then stays asked
+/// for: the runs the hooks began hold before their pre-condition (never checked) and
+/// each tick aborts them again. Once the hooks stop (flag 0 cleared before the tick at
+/// 3 ms) that tick leaves both `Aborted(AbortAll)` and lifts the abort-all. Until
+/// session 53 the abort-all was lifted after the last pass, and the run left went on.
+#[test]
+fn an_abort_all_whose_cleanup_hooks_keep_starting_runs_holds_them_until_it_ends() {
+    let seq: &'static Sequencer<Ctrl, 2> = Box::leak(Box::new(Sequencer::new()));
+    PING_PONG.with(|p| p.set(Some(seq)));
+    let (x_checks, y_checks) = (std::rc::Rc::default(), std::rc::Rc::default());
+    let on_abort_x: fn(&Ctrl) = |c| start_from_hook(c, "y");
+    let on_abort_y: fn(&Ctrl) = |c| start_from_hook(c, "x");
+    let x = seq
+        .add(
+            SeqConfig::new("x").on_abort(on_abort_x),
+            Held(std::rc::Rc::clone(&x_checks)),
+        )
+        .unwrap();
+    let y = seq
+        .add(
+            SeqConfig::new("y").on_abort(on_abort_y),
+            Held(std::rc::Rc::clone(&y_checks)),
+        )
+        .unwrap();
+    let (xi, yi) = (x.id(), y.id());
+    let ctrl = Ctrl::default();
+    ctrl.set(0, true);
+    let mut sim = Sim::new(seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(x);
+    sim.lane(y);
+    sim.start(xi).unwrap();
+    sim.start(yi).unwrap();
+    seq.abort_all();
+    let aborted_at = |sim: &Sim<'_, Ctrl, 2, 64, 1>, id: SeqId| -> Vec<u64> {
+        sim.trace()
+            .iter()
+            .filter(|t| t.sequence == id && t.to == Aborted)
+            .map(|t| ms(t.time))
+            .collect()
+    };
+    for now in 1..=2 {
+        sim.run_for(Duration::from_millis(1));
+        // Each tick carries the abort-all out again and the hooks start the sequences
+        // again: a run is left after the last pass, and it holds.
+        assert!(sim.state(xi) == Running || sim.state(yi) == Running);
+        assert_eq!((x_checks.get(), y_checks.get()), (1, 1), "at {now} ms");
+        assert_eq!(aborted_at(&sim, xi).last(), Some(&now));
+        assert_eq!(aborted_at(&sim, yi).last(), Some(&now));
+    }
+    let left: Vec<SeqId> = [xi, yi]
+        .into_iter()
+        .filter(|&id| sim.state(id) == Running)
+        .collect();
+    ctrl.set(0, false);
+    sim.run_for(Duration::from_millis(1));
+    assert_eq!((sim.state(xi), sim.state(yi)), (Aborted, Aborted));
+    for id in left {
+        let last = sim.trace().iter().rev().find(|t| t.sequence == id).copied();
+        assert_eq!(last, Some(tr(3, id, Aborting, Aborted, Cause::AbortAll)));
+    }
+    // The abort-all is over: a start runs as usual.
+    sim.start(xi).unwrap();
+    sim.run_for(Duration::from_millis(1));
+    assert_eq!((sim.state(xi), x_checks.get()), (Running, 2));
+    PING_PONG.with(|p| p.set(None));
+}
+
 /// An abort-all asked for during the monitor evaluation (after the tick took the inbox)
 /// and, later in the same evaluation, a `PauseOwner` monitor that fires with an exception
 /// sequence: the tick's start of the exception sequence is taken (not refused as a run's

@@ -89,9 +89,29 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             return false;
         };
         let begun = self.with(|s| s.runs_begun);
-        self.apply_abort_all(control, by);
-        self.lift_abort_all(begun);
+        if self.apply_abort_all(control, by) {
+            self.lift_abort_all(begun);
+        } else {
+            self.keep_abort_all();
+        }
         true
+    }
+
+    /// The abort-all taken could not be carried out to its end: cleanup hooks (or parties
+    /// above the tick) began runs during every pass. It is asked for again, for the next
+    /// tick, and the runs keep holding for it: each tick's work stays bounded, and no run
+    /// goes on past an abort-all.
+    #[cold]
+    fn keep_abort_all(&self) {
+        let again = |bits: u8| {
+            let taken = bits & ABORT_ALL_TAKEN;
+            Some((bits & !ABORT_ALL_TAKEN) | (taken >> TAKEN_SHIFT))
+        };
+        // Never `Err`: `again` always gives a value.
+        let _ = self
+            .safety
+            .inbox
+            .fetch_update(Ordering::Release, Ordering::Relaxed, again);
     }
 
     /// The abort-all taken was carried out: it leaves the inbox (one asked for since stays

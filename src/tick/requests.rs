@@ -14,14 +14,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 {
     /// Aborts every active sequence, innermost first, for an abort-all request by `by`,
     /// which is recorded when there is anything to abort (a safety level that demands
-    /// abort-all while it lasts asks at every cycle).
+    /// abort-all while it lasts asks at every cycle). False when runs may be left (see
+    /// [`abort_every_run`](Self::abort_every_run)).
     #[inline(never)]
-    pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) {
+    pub(crate) fn apply_abort_all(&self, control: &C, by: Requester) -> bool {
         if !self.any_under_way() {
-            return;
+            return true;
         }
         self.with(|s| s.record(Event::AbortAll { by }));
-        self.abort_every_run(control);
+        self.abort_every_run(control)
     }
 
     /// Whether a run is under way that an abort-all would abort (`Running`, `Paused`,

@@ -95,9 +95,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.teardown(control, Teardown::Restart(target), cause);
     }
 
-    /// Aborts every active sequence, innermost first ([`Cause::AbortAll`]).
-    pub(crate) fn abort_every_run(&self, control: &C) {
-        self.teardown(control, Teardown::AbortAll, Cause::AbortAll);
+    /// Aborts every active sequence, innermost first ([`Cause::AbortAll`]). False when
+    /// every pass was disturbed (cleanup hooks, or parties above the tick, starting runs
+    /// without a pause): runs may be left, and the abort-all is to be carried out again.
+    pub(crate) fn abort_every_run(&self, control: &C) -> bool {
+        self.teardown(control, Teardown::AbortAll, Cause::AbortAll)
     }
 
     /// A run of `id` was dropped before it ended: it and every sequence below it are
@@ -123,23 +125,24 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// sequence it placed before it gets there (a restart, an end). So it walks again
     /// while a pass was disturbed (see [`Pass`]): nothing started below a sequence outlives
     /// its teardown, and the target moves once, so a restarted target's new round is left
-    /// alone.
-    fn teardown(&self, control: &C, teardown: Teardown, cause: Cause) {
+    /// alone. Returns whether a pass went undisturbed.
+    fn teardown(&self, control: &C, teardown: Teardown, cause: Cause) -> bool {
         // A pass is disturbed by a sequence below the target that its own lane moved (an
         // end, or taking up a restart made before the walk: at most twice per sequence),
         // or by a run begun before the pass had marked what it placed.
         for _ in 0..=2 * N {
             let begun = self.with(|s| s.runs_begun);
             if self.teardown_pass(control, teardown, cause, begun) == Pass::Done {
-                return;
+                return true;
             }
         }
         // Disturbed every time (parties above the walker beginning runs without a pause):
         // the target, which a disturbed pass leaves in place, still moves, so no teardown
-        // is lost.
+        // is lost. An abort-all has no target: its caller carries it out again.
         if let Some(t) = teardown.target() {
             self.stop(control, t.seq, cause, teardown.target_stop());
         }
+        false
     }
 
     /// One pass of a teardown, begun when [`State::runs_begun`] was `begun`.
