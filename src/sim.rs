@@ -1022,7 +1022,9 @@ impl<
         self.now
     }
 
-    /// Every transition so far, in order.
+    /// Every transition so far, in order. The simulator reads them by draining its
+    /// sequencer's records: records drained by anyone else (`Sequencer::drain_records` in
+    /// a condition or a lane) are not in it.
     ///
     /// ```
     /// use rtseq::{sim::Sim, Cause, Cx, Failure, Monitors, RunningState::*, SeqConfig, Sequence,

@@ -253,3 +253,45 @@ fn safety_levels_and_tripped_inputs_are_recorded_by_the_next_tick() {
     tick(5, &mut monitors);
     assert_eq!(drain(), (vec![], 0));
 }
+
+/// A drain whose callback makes a record for each record it reads (a pause or resume
+/// request) returns: it passes at most the buffer's capacity, here 4, and the records
+/// made meanwhile wait for the next call.
+#[test]
+fn a_drain_whose_callback_makes_records_returns() {
+    let seq: Sequencer<(), 2, 4> = Sequencer::new();
+    let a = seq.register(SeqConfig::new("a")).unwrap();
+    let h = seq.sequence_by_id(a).unwrap();
+    h.declare_lane().unwrap();
+    h.start().unwrap();
+    let mut read = Vec::new();
+    let ask = |n: usize| {
+        if n % 2 == 1 {
+            h.pause()
+        } else {
+            h.resume()
+        }
+    };
+    let lost = seq.drain_records(|r| {
+        read.push(r);
+        ask(read.len()).unwrap();
+    });
+    assert_eq!((lost, read.len()), (0, 4));
+    // The start, then the requests the callback made while the drain went on.
+    assert!(read[0].transition().is_some());
+    let requested = |r: &Record| match r.event() {
+        Some(Event::Requested { request, .. }) => Some(request),
+        _ => None,
+    };
+    let requests: Vec<_> = read[1..].iter().map(|r| requested(r).unwrap()).collect();
+    assert_eq!(requests, [Request::Pause, Request::Resume, Request::Pause]);
+    // The next drain passes the one made after those.
+    let mut next = Vec::new();
+    assert_eq!(seq.drain_records(|r| next.push(r)), 0);
+    assert_eq!(
+        next.iter()
+            .map(|r| requested(r).unwrap())
+            .collect::<Vec<_>>(),
+        [Request::Resume]
+    );
+}

@@ -371,7 +371,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// Passes the buffered records (transitions and [`Event`]s), oldest first, to `f` and
-    /// empties the buffer. Returns how many were lost to overflow since the last call:
+    /// empties the buffer; at most `T` records per call (the buffer's capacity: all it
+    /// held), so that a drain returns even while `f` makes records itself (a request for
+    /// each record it reads): those wait for the next call. Returns how many were lost to
+    /// overflow since the last call:
     /// exact while fewer than 2³² records are written between two calls (at 1 000 records
     /// a second, about 50 days). The buffer counts its records in 32 bits and never tests
     /// for a full ring inside a transition's section, so drain at least that often.
@@ -391,12 +394,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ///     request: Request::Pause, by: Requester::Application, .. })));
     /// ```
     pub fn drain_records(&self, mut f: impl FnMut(Record)) -> u32 {
-        loop {
+        for _ in 0..T {
             match self.with(|s| s.trace.pop_or_lost()) {
                 Ok(record) => f(record),
                 Err(lost) => return lost,
             }
         }
+        self.with(|s| s.trace.take_lost())
     }
 
     /// As [`drain_records`](Self::drain_records), passing on the transitions only (the
