@@ -448,7 +448,8 @@ impl<'a, C> Cx<'a, C> {
     /// sequence's id) if the tick stopped this sequence while its action ran on (a tick
     /// preempts the lanes), or its abort is requested or an abort-all waits (the tick has
     /// not carried it out yet): nothing an action starts outlives its abort. From a
-    /// condition (a pre- or exit condition, a polled wait's) it is [`Error::OutsideAction`]. It does outlive this sequence's
+    /// condition (a pre- or exit condition, a polled wait's) it is [`Error::OutsideAction`]
+    /// (with `id`, the sequence whose start was refused). It does outlive this sequence's
     /// end, a failure through `?` included: to end it with the action, start it with
     /// [`start_scoped`](Self::start_scoped).
     ///
