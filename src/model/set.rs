@@ -5,7 +5,7 @@
 //!
 //! A set of a sequencer is `B` words (the sequencer's parameter `B`, `N <= 32 * B`). A
 //! sequencer of up to 32 sequences has one-word sets: exactly a `u32`. The tick of a
-//! sequencer of more words visits only the words that hold a monitored sequence, one at a
+//! sequencer of more words visits only the words that hold a sequence under way, one at a
 //! time, and works on each as a one-word sequencer does: a word of a set is a
 //! [`SetWord`], and a set of words is [`Words`]. The sequencer's own sets are stored a
 //! word of every set together (`sequencer::sets`); a [`SeqSet`] is a set on its own.

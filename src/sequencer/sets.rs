@@ -1,7 +1,7 @@
 //! The sequencer's sets of sequences: monitored, paused, fresh, waiting for a poll, ...
 //!
 //! The tick works on whole sets, a few word operations per tick instead of a visit to
-//! every control block. It visits the words of 32 ids that hold a monitored sequence one
+//! every control block. It visits the words of 32 ids that hold a sequence under way one
 //! at a time and, in each, reads and writes the same word of several sets. So the sets
 //! are stored as a table: a [`Row`] per word of 32 ids, a column per [`Set`]. One word of
 //! every set is then one reference away, whatever word the tick is in. (Stored set by

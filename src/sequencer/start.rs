@@ -386,7 +386,7 @@ fn admit<
     Ok(run)
 }
 
-/// Whether the polling class of `id` has a member whose run is under way: one monitored
+/// Whether the polling class of `id` has a member whose run is under way: one live
 /// (`Running`, `Paused`) at the tick's last fold and unchanged since, or one that changed
 /// since (started, or ended in the same lane poll as this start) whose state is under way
 /// (`Running`, `Paused`, or between them: `Restarting`, `Aborting`). A start of `id` then
@@ -414,7 +414,7 @@ fn class_busy<
 
 /// What a start finds of its polling class's members ([`State::class_activity`]).
 enum ClassActivity<const B: usize> {
-    /// One monitored at the tick's last fold has not changed since: its run is under way.
+    /// One live at the tick's last fold has not changed since: its run is under way.
     UnderWay,
     /// None has: these changed since the fold, and their states tell.
     Changed(SeqSet<B>),
@@ -776,11 +776,11 @@ mod tests {
         (busy, s.taken)
     }
 
-    /// A member monitored at the fold and unchanged since keeps the grid (one section); one
+    /// A member live at the fold and unchanged since keeps the grid (one section); one
     /// that changed is looked at (a section more): still under way it keeps the grid,
     /// ended (in the same lane poll as the start) it does not.
     #[test]
-    fn a_class_is_busy_while_a_member_monitored_at_the_fold_is_under_way() {
+    fn a_class_is_busy_while_a_member_live_at_the_fold_is_under_way() {
         assert_eq!(class_of_three(None), (true, 1));
         assert_eq!(class_of_three(Some(RunningState::Paused)), (true, 2));
         assert_eq!(class_of_three(Some(RunningState::Restarting)), (true, 2));

@@ -72,7 +72,7 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
 pub(crate) struct Polling<const B: usize> {
     /// The polling classes: one schedule per distinct polling period.
     pub(crate) classes: Classes<B>,
-    /// Earliest next poll of a class with a monitored member (`NEVER_AHEAD` after the last
+    /// Earliest next poll of a class with a member under way (`NEVER_AHEAD` after the last
     /// scan when none has one).
     pub(crate) next_due: Stamp,
     /// The lanes the tick's last exit-condition wake-up woke, for reuse.
@@ -236,8 +236,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         LaneSet::of(self.lane_slot(id))
     }
 
-    /// Folds the state of sequence `id` into the sets `Monitored`, `Paused` and (sets of
-    /// several words) `live`.
+    /// Folds the state of sequence `id` into the sets `Monitored`, `Paused` and `Live`.
     pub(crate) fn fold(&mut self, id: SeqId) {
         let state = self.state_of(id);
         self.sets.put(

@@ -105,15 +105,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         self.apply(control, marked, behaviour, target, cause);
         if behaviour == Behaviour::Nothing {
             // Handled at once after all (its exception sequence could not start): the
-            // owner was not held, so the polls the mark skipped stand, for the marked run
-            // (a lane of higher priority may have begun another, whose polls are its own).
-            for id in skipped {
-                self.with(|s| {
-                    if s.current_run(owner) == marked && s.sets.has(Set::PollWait, id) {
-                        s.sets.put(Set::PollDue, id, true);
-                    }
-                });
-            }
+            // owner was not held, so the polls the mark skipped stand.
+            in_sections!(self, |s| give_back_polls(s, marked, skipped));
         }
         true
     }
@@ -383,10 +376,19 @@ fn mark<
     }
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.
-    let owner_skipped = s.section(|s| {
-        let b = s
+    // A timeout is judged again with the mark: a lane above the tick may have switched
+    // it off or lengthened it since the first section.
+    let commit = s.section(|s| {
+        let run_out = !timeout || s.timed_out(owner);
+        let Some(b) = s
             .block_mut(owner)
-            .filter(|b| states.has(b.state) && b.runs == owner_runs && !b.being_stopped())?;
+            .filter(|b| states.has(b.state) && b.runs == owner_runs && !b.being_stopped())
+        else {
+            return Commit::Gone;
+        };
+        if !run_out {
+            return Commit::NotRunOut;
+        }
         b.active_exception = Some(cause);
         if timeout {
             s.sets.put(Set::Armed, owner, false);
@@ -397,10 +399,26 @@ fn mark<
         if skip {
             s.sets.remove(Set::PollDue, owner);
         }
-        Some(skip)
-    })?;
-    if owner_skipped {
-        skipped.insert(owner);
+        Commit::Marked {
+            owner_skipped: skip,
+        }
+    });
+    let owner_run = RunId {
+        seq: owner,
+        count: owner_runs,
+    };
+    match commit {
+        Commit::Marked { owner_skipped } => {
+            if owner_skipped {
+                skipped.insert(owner);
+            }
+        }
+        Commit::NotRunOut => {
+            // Nothing holds the run: the polls skipped for the hold stand.
+            give_back_polls(s, owner_run, skipped);
+            return None;
+        }
+        Commit::Gone => return None,
     }
     s.section(|s| {
         #[cfg(feature = "counters")]
@@ -414,14 +432,46 @@ fn mark<
         });
     });
     Some(Marked {
-        owner: RunId {
-            seq: owner,
-            count: owner_runs,
-        },
+        owner: owner_run,
         target: target_run,
         behaviour,
         skipped,
     })
+}
+
+/// What the section that makes a mark found.
+enum Commit {
+    /// Marked; whether the owner's own due poll was skipped.
+    Marked { owner_skipped: bool },
+    /// The owner's timeout has not run out after all (switched off or lengthened since the
+    /// first section): nothing is marked.
+    NotRunOut,
+    /// The run is over, or being stopped, or no longer in a state that takes the mark.
+    Gone,
+}
+
+/// The due polls `skipped` for a hold of the owner's run `owner` that did not come (or
+/// held nothing) stand again, while that run is the owner's: a lane of higher priority
+/// may have begun another, whose polls are its own. One section per sequence.
+fn give_back_polls<
+    C,
+    S: Sections<C, N, T, W, B>,
+    const N: usize,
+    const T: usize,
+    const W: usize,
+    const B: usize,
+>(
+    s: &mut S,
+    owner: RunId,
+    skipped: SeqSet<B>,
+) {
+    for id in skipped {
+        s.section(|s| {
+            if s.current_run(owner.seq) == owner && s.sets.has(Set::PollWait, id) {
+                s.sets.put(Set::PollDue, id, true);
+            }
+        });
+    }
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@ use crate::{SeqId, Sequencer};
 use super::schedule::{Scan, Word};
 
 /// What the tick must do for the due polls in one word of the sets (the tick visits the
-/// words that hold a monitored sequence one at a time).
+/// words that hold a sequence under way one at a time).
 pub(crate) struct Polls<const B: usize> {
     /// The word of the sets.
     word: usize,

@@ -40,7 +40,7 @@ pub(crate) struct Class<const B: usize> {
     /// The period (µs); `None` (zero bytes, so an empty sequencer is all zeros) only in
     /// an unused class.
     period: Option<NonZeroU32>,
-    /// The next poll while the class has a monitored member.
+    /// The next poll while the class has a member under way.
     next: Stamp,
     members: SeqSet<B>,
 }
@@ -58,9 +58,9 @@ pub(crate) struct Classes<const B: usize> {
 /// of the sets it visits (one word in a sequencer of up to 32 sequences).
 pub(crate) struct Scan {
     /// The classes found due in this tick, bit `i` for class `i`: a class is due once per
-    /// tick, whichever words hold its monitored members.
+    /// tick, whichever words hold its members under way.
     due_classes: u8,
-    /// Time from now to the next poll of a class with a monitored member (µs; `u32::MAX`
+    /// Time from now to the next poll of a class with a member under way (µs; `u32::MAX`
     /// when there is none).
     pub(crate) ahead: u32,
 }
@@ -160,7 +160,7 @@ impl<const B: usize> Classes<B> {
         self.list.get(usize::from(index)).map_or(now, |c| c.next)
     }
 
-    /// Starts the grid of class `index`, which has no monitored member, for a start at `now`:
+    /// Starts the grid of class `index`, which has no member under way, for a start at `now`:
     /// its first poll one period from now. Returns that poll.
     pub(crate) fn start_grid(&mut self, index: u8, now: Stamp) -> Stamp {
         match self.list.get_mut(usize::from(index)) {

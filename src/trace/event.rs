@@ -83,7 +83,9 @@ pub enum Event {
         /// Who asked.
         by: Requester,
     },
-    /// The tick took a request to abort every sequence, made by `by`.
+    /// The tick took a request to abort every sequence, made by `by`. One that a tick
+    /// could not carry out to its end (cleanup hooks that kept starting runs during it)
+    /// stays asked for, and is recorded again by each tick that takes it.
     AbortAll {
         /// Who asked.
         by: Requester,

@@ -82,6 +82,7 @@ fn name<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
     format!("{layout:?}, {}, {rest}", core::any::type_name::<L>())
 }
 
+mod changes_during_the_tick;
 mod coarse;
 mod exceptions_gone_with_their_run;
 mod fine;
