@@ -186,6 +186,209 @@ fn a_waker_that_aborts_its_own_sequence_when_woken_takes_effect_at_the_next_tick
     );
 }
 
+/// A waker whose every wake-up changes its own lane's state again (a start, an abort, and
+/// a tick that carries the abort out), each of which wakes the lane while the waker is
+/// being called: the lane is not polled meanwhile, so the poll its wake-up asked for is
+/// still to come, and the wake returns.
+#[test]
+fn a_waker_whose_wake_up_wakes_its_own_lane_again_is_not_called_for_ever() {
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    static CALLS: AtomicUsize = AtomicUsize::new(0);
+    struct Restarts;
+    impl Wake for Restarts {
+        fn wake(self: Arc<Self>) {
+            self.wake_by_ref();
+        }
+        fn wake_by_ref(self: &Arc<Self>) {
+            if CALLS.fetch_add(1, SeqCst) > 100 {
+                return;
+            }
+            let h = SEQ.sequence_by_name("main").unwrap();
+            let _ = h.start();
+            let _ = h.abort();
+            let mut none: Monitors<(), 1> = Monitors::new();
+            let _ = SEQ.tick(SEQ.now(), &(), &mut none);
+        }
+    }
+    let seq = &SEQ;
+    let once = seq.add(SeqConfig::new("once"), Once).unwrap();
+    let mut main = seq.add(SeqConfig::new("main"), Twice { once }).unwrap();
+    let id = main.id();
+    let mut lane = pin!(rtseq::lane(seq, &(), &mut main));
+    let waker = Waker::from(Arc::new(Restarts));
+    assert!(lane
+        .as_mut()
+        .poll(&mut Context::from_waker(&waker))
+        .is_pending());
+    seq.sequence_by_id(id).unwrap().start().unwrap();
+    // The first call may be repeated once: the lane was polled before it.
+    assert!(CALLS.load(SeqCst) <= 2, "called {CALLS:?} times");
+}
+
+/// An executor of the lane tasks of one thread whose waker polls every ready task inside
+/// the wake-up (unless a run further up the stack is under way, which picks it up): the
+/// waker calls back into the sequencer while its slot's wake holds it.
+mod inline_executor {
+    use std::cell::{Cell, RefCell};
+    use std::convert::Infallible;
+    use std::future::Future;
+    use std::pin::Pin;
+    use std::sync::Arc;
+    use std::task::{Context, Wake, Waker};
+
+    pub type Task = Pin<Box<dyn Future<Output = Infallible>>>;
+
+    thread_local! {
+        static TASKS: [RefCell<Option<Task>>; 2] = const { [RefCell::new(None), RefCell::new(None)] };
+        static READY: [Cell<bool>; 2] = const { [Cell::new(false), Cell::new(false)] };
+        static RUNNING: Cell<bool> = const { Cell::new(false) };
+        /// One waker per task, kept: the same identity at every poll.
+        static WAKERS: [Waker; 2] = [Waker::from(Arc::new(Inline(0))), Waker::from(Arc::new(Inline(1)))];
+    }
+
+    struct Inline(usize);
+    impl Wake for Inline {
+        fn wake(self: Arc<Self>) {
+            self.wake_by_ref();
+        }
+        fn wake_by_ref(self: &Arc<Self>) {
+            READY.with(|r| r[self.0].set(true));
+            run();
+        }
+    }
+
+    /// Makes `tasks` the executor's tasks, each ready.
+    pub fn spawn(tasks: [Task; 2]) {
+        for (i, task) in tasks.into_iter().enumerate() {
+            TASKS.with(|t| *t[i].borrow_mut() = Some(task));
+            READY.with(|r| r[i].set(true));
+        }
+    }
+
+    /// Drops the tasks.
+    pub fn clear() {
+        for i in 0..2 {
+            let task = TASKS.with(|t| t[i].borrow_mut().take());
+            drop(task);
+        }
+    }
+
+    /// Polls ready tasks until none is.
+    pub fn run() {
+        if RUNNING.with(|r| r.replace(true)) {
+            return;
+        }
+        while let Some(i) = READY.with(|r| (0..2).find(|&i| r[i].replace(false))) {
+            let mut task = TASKS.with(|t| t[i].borrow_mut().take()).expect("a task");
+            let waker = WAKERS.with(|w| w[i].clone());
+            let _ = task.as_mut().poll(&mut Context::from_waker(&waker));
+            TASKS.with(|t| *t[i].borrow_mut() = Some(task));
+        }
+        RUNNING.with(|r| r.set(false));
+    }
+}
+
+/// `a` starts `b` and joins it. With an executor that polls inside the wake-up, lane a is
+/// polled inside its start's wake-up, and lane b, polled inside the same wake-up, ends `b`
+/// and wakes lane a for the join while that wake still holds lane a's waker: the wake-up
+/// reaches lane a once the call returns.
+#[test]
+fn a_wake_up_of_a_lane_whose_waker_is_being_called_is_not_lost() {
+    struct StartsAndJoins(SeqId, &'static AtomicBool);
+    impl Sequence<()> for StartsAndJoins {
+        async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            cx.start(self.0)?;
+            let joined = cx.join(self.0).await;
+            assert_eq!(joined, Ok(Outcome::Completed));
+            self.1.store(true, SeqCst);
+            Ok(())
+        }
+    }
+    struct Quick;
+    impl Sequence<()> for Quick {
+        async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            Ok(())
+        }
+    }
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    static JOINED: AtomicBool = AtomicBool::new(false);
+    let seq = &SEQ;
+    let mut b = seq.add(SeqConfig::new("b"), Quick).unwrap();
+    let b_id = b.id();
+    let mut a = seq
+        .add(SeqConfig::new("a"), StartsAndJoins(b_id, &JOINED))
+        .unwrap();
+    let a_id = a.id();
+    inline_executor::spawn([
+        Box::pin(async move { rtseq::lane(seq, &(), &mut a).await }),
+        Box::pin(async move { rtseq::lane(seq, &(), &mut b).await }),
+    ]);
+    inline_executor::run();
+    assert_eq!(seq.check_lanes(), Ok(()));
+    // Wakes lane a, which runs inside the wake-up, and lane b inside that.
+    seq.sequence_by_id(a_id).unwrap().start().unwrap();
+    let state = |id| seq.sequence_by_id(id).unwrap().state();
+    assert_eq!(state(b_id), Terminated);
+    assert!(JOINED.load(SeqCst), "a's join never returned");
+    assert_eq!(state(a_id), Terminated);
+    inline_executor::clear();
+}
+
+/// A waker whose wake-up drops the lane future it belongs to (an executor that cancels
+/// the task when woken): the lane is closed inside the wake, and its slot lets go of the
+/// waker once the call returns.
+#[test]
+fn a_lane_dropped_by_its_own_wake_up_lets_go_of_its_waker() {
+    type Lane = Pin<Box<dyn Future<Output = std::convert::Infallible>>>;
+    thread_local! {
+        static LANE: RefCell<Option<Lane>> = const { RefCell::new(None) };
+    }
+    struct Cancels;
+    impl Wake for Cancels {
+        fn wake(self: Arc<Self>) {
+            self.wake_by_ref();
+        }
+        fn wake_by_ref(self: &Arc<Self>) {
+            let lane = LANE.with(|l| l.borrow_mut().take());
+            drop(lane);
+        }
+    }
+    struct Quick;
+    impl Sequence<()> for Quick {
+        async fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> {
+            Ok(())
+        }
+    }
+    static SEQ: Sequencer<(), 4> = Sequencer::new();
+    let seq = &SEQ;
+    let mut main = seq.add(SeqConfig::new("main"), Quick).unwrap();
+    let id = main.id();
+    let lane: Lane = Box::pin(async move { rtseq::lane(seq, &(), &mut main).await });
+    LANE.with(|l| *l.borrow_mut() = Some(lane));
+    let cancels = Arc::new(Cancels);
+    let waker = Waker::from(cancels.clone());
+    LANE.with(|l| {
+        let mut lane = l.borrow_mut();
+        let lane = lane.as_mut().unwrap().as_mut();
+        assert!(lane.poll(&mut Context::from_waker(&waker)).is_pending());
+    });
+    drop(waker);
+    assert_eq!(Arc::strong_count(&cancels), 2, "ours and the slot's");
+    // The start wakes the lane, and the wake-up drops it: the start is aborted.
+    seq.sequence_by_id(id).unwrap().start().unwrap();
+    assert!(LANE.with(|l| l.borrow().is_none()));
+    assert_eq!(seq.check_lanes(), Err(Error::NoLane(id)));
+    assert_eq!(
+        seq.sequence_by_id(id).unwrap().last_outcome(),
+        Some(Outcome::Aborted(Dropped))
+    );
+    assert_eq!(
+        Arc::strong_count(&cancels),
+        1,
+        "the closed lane's slot kept the waker"
+    );
+}
+
 // ---------------------------------------------------------------------------------------
 // 3. A run whose future is dropped ends, aborted with `Cause::Dropped`.
 // ---------------------------------------------------------------------------------------

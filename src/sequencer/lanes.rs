@@ -81,10 +81,25 @@ impl Iterator for LaneSet {
 }
 
 /// The waker of one lane slot, once its lane has parked.
+///
+/// [`wake`](Self::wake) takes the waker out of its cell while it calls it, and the call may
+/// come back to the slot (an executor that polls inside the wake-up). What reaches the slot
+/// meanwhile is left to that wake as a mark, which it looks at when its call returns: a
+/// wake-up, which it passes on by calling again, and the lane's drop, after which it drops
+/// the waker instead of putting it back. So:
+/// * a waker in the cell: `identity` names it, no mark;
+/// * the cell empty, `identity` a waker's: a wake holds that waker out; marked: woken
+///   meanwhile;
+/// * `identity` [`NO_WAKER`]: the cell empty; marked: forgotten since the last
+///   registration (a wake further up may still hold an older waker).
 pub(crate) struct LaneWaker {
     waker: Cell<Option<Waker>>,
     /// The identity of `waker` (lanes joined in one task share a waker: woken once).
     identity: Cell<WakerId>,
+    /// Woken or forgotten while a wake held the waker out.
+    marked: Cell<bool>,
+    /// The lane was polled (it registers at every poll) since a wake last called again.
+    polled: Cell<bool>,
 }
 
 impl LaneWaker {
@@ -92,42 +107,94 @@ impl LaneWaker {
         LaneWaker {
             waker: Cell::new(None),
             identity: Cell::new(NO_WAKER),
+            marked: Cell::new(false),
+            polled: Cell::new(false),
         }
     }
 
     /// Keeps `waker` as this lane's waker, cloned only when it changed. True when it
     /// changed.
+    ///
+    /// The old waker stays in its cell while the new one is cloned, so a wake-up from the
+    /// clone finds the slot as it was. A new waker clears the mark: this lane is being
+    /// polled (its await point keeps the waker first, then reads the state), so a wake-up
+    /// marked before is answered by that read, and a wake still holding an older waker
+    /// finds the new one in the cell and drops its own. The same waker leaves the cell and
+    /// the mark as they are: a wake that holds it out puts it back, and calls it again if
+    /// woken after this poll.
     fn register(&self, waker: &Waker) -> bool {
+        self.polled.set(true);
         // The same waker as kept (what `Waker::will_wake` compares): nothing to do.
         if self.identity.get() == identity(waker) {
             return false;
         }
-        let kept = self.waker.take();
         let new = waker.clone();
         self.identity.set(identity(&new));
         let displaced = self.waker.replace(Some(new));
-        // Dropped after the cell is consistent again: their `drop` may call back.
+        self.marked.set(false);
+        // Dropped after the cell is consistent again: its `drop` may call back.
         drop(displaced);
-        drop(kept);
         true
     }
 
-    /// Forgets the lane's waker: its lane future was dropped.
+    /// Forgets the lane's waker: its lane future was dropped. Marked for a wake that holds
+    /// the waker out (the drop came from inside its call): it drops the waker.
     fn forget(&self) {
         let kept = self.waker.take();
         self.identity.set(NO_WAKER);
+        self.marked.set(true);
         // Dropped after the cell is consistent again: its `drop` may call back.
         drop(kept);
     }
 
-    /// Wakes the lane (nothing before it first parked).
+    /// Wakes the lane (nothing before it first parked, or once forgotten).
     #[inline]
     fn wake(&self) {
         let Some(waker) = self.waker.take() else {
+            // A wake further up the stack holds the waker: it calls it again if need be.
+            if self.identity.get() != NO_WAKER {
+                self.marked.set(true);
+            }
             return;
         };
         waker.wake_by_ref();
-        // A waker registered meanwhile (by the wake-up itself) is the newer one: keep it.
+        if self.marked.get() {
+            self.wake_again(waker);
+            return;
+        }
+        self.put_back(waker);
+    }
+
+    /// The rest of a wake whose call left the slot marked: calls `waker` again while a
+    /// wake-up came after the lane's poll inside the last call, or drops it once the lane
+    /// is forgotten.
+    #[cold]
+    fn wake_again(&self, waker: Waker) {
+        while self.marked.replace(false) {
+            if self.identity.get() == NO_WAKER {
+                // The mark stays for a wake further up that holds an older waker. The cell
+                // is empty, consistent, before the drop, which may call back.
+                self.marked.set(true);
+                drop(waker);
+                return;
+            }
+            // Not polled since the last call began: the poll it asked for is still to come
+            // and reads what the wake-up announced. (Before the first call `polled` may be
+            // older: one call more at most.) Calling whenever marked would never end with a
+            // waker whose every call changes its own lane's state.
+            if !self.polled.replace(false) {
+                break;
+            }
+            // Marked and a waker named: the cell is empty, `waker` is the one named.
+            waker.wake_by_ref();
+        }
+        self.put_back(waker);
+    }
+
+    /// Puts `waker` back after its call, unless a waker registered meanwhile (by the
+    /// wake-up itself) took its place: that one is the newer, kept.
+    #[inline]
+    fn put_back(&self, waker: Waker) {
         match self.waker.take() {
             None => self.waker.set(Some(waker)),
             Some(newer) => {
