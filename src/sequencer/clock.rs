@@ -9,7 +9,7 @@
 //! start moved on by its pauses).
 
 use crate::model::time::Micros48;
-use crate::sequencer::control_block::flag;
+use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::State;
 use crate::SeqId;
 
@@ -18,7 +18,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// registered).
     #[inline]
     pub(crate) fn run_time(&self, id: SeqId) -> u64 {
-        let (Some(b), Some(clock)) = (self.block(id), self.clocks.get(id.index())) else {
+        self.block(id).map_or(0, |b| self.run_time_of(id, b))
+    }
+
+    /// As [`run_time`](Self::run_time), with `id`'s control block `b` at hand.
+    #[inline]
+    fn run_time_of(&self, id: SeqId, b: &ControlBlock) -> u64 {
+        let Some(clock) = self.clocks.get(id.index()) else {
             return 0;
         };
         if b.has(flag::CLOCK_STOPPED) {
@@ -31,9 +37,17 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// Whether `id`'s armed timeout has run out at the last tick (paused time not counted).
     #[inline]
     pub(crate) fn timed_out(&self, id: SeqId) -> bool {
+        self.run_out_timeout(id).is_some()
+    }
+
+    /// `id`'s timeout (µs) if it has run out at the last tick: a mark compares it with
+    /// the timeout it then finds, so that one changed in between marks nothing.
+    #[inline]
+    pub(crate) fn run_out_timeout(&self, id: SeqId) -> Option<u32> {
         // Switched off during the run (`Handle::set_timeout(None)`): never.
         self.block(id)
-            .is_some_and(|b| b.timeout != 0 && self.run_time(id) >= u64::from(b.timeout))
+            .filter(|b| b.timeout != 0 && self.run_time_of(id, b) >= u64::from(b.timeout))
+            .map(|b| b.timeout)
     }
 
     /// Starts `id`'s clock at the last tick, running (a start or restart).

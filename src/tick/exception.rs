@@ -42,7 +42,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// run: nothing more happens. Returns false when the owner could not take an
     /// exception any more, or its timeout has not run out after all (switched off or
     /// lengthened since the scan): the timeout stays armed and is checked again at its
-    /// next poll. A timeout's mark also disarms it.
+    /// next poll. A timeout that is marked is disarmed.
     #[inline(never)]
     pub(crate) fn raise(
         &self,
@@ -338,13 +338,15 @@ fn mark<
     // Several sections. With the portable lock a lane of higher priority may end or start
     // the owner in between: the mark is made only if the owner still runs the run the
     // first section saw, in a state that takes it; then it is counted and recorded.
+    // A timeout is judged here, not by the scan that listed it: a monitor condition or
+    // cleanup hook of this tick (or a lane above it) may have switched it off or
+    // lengthened it since, and that applies at once.
+    let timeout_judged = if timeout {
+        Some(s.section(|s| s.run_out_timeout(owner))?)
+    } else {
+        None
+    };
     let (target, owner_runs, lane) = s.section(|s| {
-        // A timeout is judged here, not by the scan that listed it: a monitor condition
-        // or cleanup hook of this tick (or a lane above it) may have switched it off or
-        // lengthened it since, and that applies at once.
-        if timeout && !s.timed_out(owner) {
-            return None;
-        }
         let b = s.block(owner)?;
         if !states.has(b.state)
             || s.sets.has(Set::Excepting, owner)
@@ -365,6 +367,19 @@ fn mark<
         seq: target,
         count: target_runs,
     };
+    if let Some(judged) = timeout_judged {
+        // Still the timeout judged, it is disarmed: from here it is this firing's, and a
+        // change made since is the next run's. The run can now only end or be stopped
+        // before the mark, and then its timeout is of no account.
+        s.section(|s| {
+            let b = s.block(owner)?;
+            let unchanged = b.runs == owner_runs && b.timeout == judged;
+            if unchanged {
+                s.sets.put(Set::Armed, owner, false);
+            }
+            unchanged.then_some(())
+        })?;
+    }
     // From the mark on, the owner and its blocking children (in its lane) are held; but an
     // exception handled at once (`Nothing`, no exception sequence) holds nothing: their
     // due polls stand, else a monitor that fires at every poll (a `Level` warning) would
@@ -376,50 +391,26 @@ fn mark<
     }
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.
-    // A timeout is judged again with the mark: a lane above the tick may have switched
-    // it off or lengthened it since the first section.
-    let commit = s.section(|s| {
-        let run_out = !timeout || s.timed_out(owner);
-        let Some(b) = s
+    let owner_skipped = s.section(|s| {
+        let b = s
             .block_mut(owner)
-            .filter(|b| states.has(b.state) && b.runs == owner_runs && !b.being_stopped())
-        else {
-            return Commit::Gone;
-        };
-        if !run_out {
-            return Commit::NotRunOut;
-        }
+            .filter(|b| states.has(b.state) && b.runs == owner_runs && !b.being_stopped())?;
         b.active_exception = Some(cause);
-        if timeout {
-            s.sets.put(Set::Armed, owner, false);
-        }
         s.sets.put(Set::Excepting, owner, true);
         // Held from now on: a due poll its lane has not taken is skipped.
         let skip = holds && s.sets.has(Set::PollDue, owner);
         if skip {
             s.sets.remove(Set::PollDue, owner);
         }
-        Commit::Marked {
-            owner_skipped: skip,
-        }
-    });
+        Some(skip)
+    })?;
+    if owner_skipped {
+        skipped.insert(owner);
+    }
     let owner_run = RunId {
         seq: owner,
         count: owner_runs,
     };
-    match commit {
-        Commit::Marked { owner_skipped } => {
-            if owner_skipped {
-                skipped.insert(owner);
-            }
-        }
-        Commit::NotRunOut => {
-            // Nothing holds the run: the polls skipped for the hold stand.
-            give_back_polls(s, owner_run, skipped);
-            return None;
-        }
-        Commit::Gone => return None,
-    }
     s.section(|s| {
         #[cfg(feature = "counters")]
         if let Some(c) = s.counters.get_mut(owner.index()) {
@@ -437,17 +428,6 @@ fn mark<
         behaviour,
         skipped,
     })
-}
-
-/// What the section that makes a mark found.
-enum Commit {
-    /// Marked; whether the owner's own due poll was skipped.
-    Marked { owner_skipped: bool },
-    /// The owner's timeout has not run out after all (switched off or lengthened since the
-    /// first section): nothing is marked.
-    NotRunOut,
-    /// The run is over, or being stopped, or no longer in a state that takes the mark.
-    Gone,
 }
 
 /// The due polls `skipped` for a hold of the owner's run `owner` that did not come (or

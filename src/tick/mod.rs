@@ -292,19 +292,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let mut reported = false;
         loop {
             // Each section says whether more are left.
-            let (ended, more, words, requested) = self.with(|s| {
+            let (ended, more) = self.with(|s| {
                 let changed = s.sets.pop(Set::Changed);
                 if let Some(id) = changed {
                     s.fold(id);
                 }
                 let ended = changed.filter(|&id| s.exception_run_ended(id));
-                let more = !s.sets.is_empty(Set::Changed);
-                (
-                    ended,
-                    more,
-                    s.sets.words(Set::Live),
-                    !s.sets.is_empty(Set::Requested),
-                )
+                (ended, !s.sets.is_empty(Set::Changed))
             });
             // No lane runs in between: the exception sequence still has its owner.
             if let Some(e) = ended {
@@ -312,9 +306,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 reported = true;
             }
             if !more {
-                return (words, requested || reported);
+                break;
             }
         }
+        self.with(|s| {
+            let requested = !s.sets.is_empty(Set::Requested);
+            (s.sets.words(Set::Live), requested || reported)
+        })
     }
 }
 
