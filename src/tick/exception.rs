@@ -40,9 +40,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// end) or apply the behaviour now. If the marked run is over, or its stop has begun,
     /// by the time the exception sequence's start is refused, the exception went with the
     /// run: nothing more happens. Returns false when the owner could not take an
-    /// exception any more, or its timeout has not run out after all (switched off or
-    /// lengthened since the scan): the timeout stays armed and is checked again at its
-    /// next poll. A timeout that is marked is disarmed.
+    /// exception any more, or its timeout is not run out after all (switched off or
+    /// changed since the scan): the timeout stays armed and is checked again at its next
+    /// poll. A timeout that fires is disarmed.
     #[inline(never)]
     pub(crate) fn raise(
         &self,
@@ -430,9 +430,9 @@ fn mark<
     })
 }
 
-/// The due polls `skipped` for a hold of the owner's run `owner` that did not come (or
-/// held nothing) stand again, while that run is the owner's: a lane of higher priority
-/// may have begun another, whose polls are its own. One section per sequence.
+/// The due polls `skipped` for a hold of the owner's run `owner` that held nothing stand
+/// again, while that run is the owner's: a lane of higher priority may have begun
+/// another, whose polls are its own. One section per sequence.
 fn give_back_polls<
     C,
     S: Sections<C, N, T, W, B>,
