@@ -132,3 +132,36 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Sequencer;
+
+    /// An abort-all kept for the next tick is asked for again by whoever took it, beside
+    /// one asked for meanwhile and the safety system's notes; nothing of it stays taken.
+    #[test]
+    fn a_kept_abort_all_is_asked_for_again_as_it_was_taken() {
+        let seq: Sequencer<(), 2> = Sequencer::new();
+        let inbox = &seq.safety.inbox;
+        for (before, after) in [
+            (
+                ABORT_ALL_BY_APPLICATION << TAKEN_SHIFT,
+                ABORT_ALL_BY_APPLICATION,
+            ),
+            (
+                (ABORT_ALL_BY_SAFETY_SYSTEM << TAKEN_SHIFT) | SAFETY_NOTES,
+                ABORT_ALL_BY_SAFETY_SYSTEM | SAFETY_NOTES,
+            ),
+            (
+                (ABORT_ALL_BY_APPLICATION << TAKEN_SHIFT) | ABORT_ALL_BY_SAFETY_SYSTEM,
+                ABORT_ALL,
+            ),
+        ] {
+            inbox.store(before, Ordering::Relaxed);
+            seq.keep_abort_all();
+            assert_eq!(inbox.load(Ordering::Relaxed), after, "from {before:#010b}");
+            assert!(abort_all_posted(inbox));
+        }
+    }
+}
