@@ -224,6 +224,13 @@ impl<const W: usize> Lanes<W> {
             .get(usize::from(lane))
             .map_or(NO_WAKER, |s| s.identity.get())
     }
+
+    /// Whether one of `lanes` has the waker `waker` (lanes joined in one task share it).
+    /// Only under the sequencer's lock.
+    pub(crate) fn has_waker(&self, lanes: LaneSet, waker: WakerId) -> bool {
+        let mut lanes = lanes;
+        lanes.any(|lane| self.identity(lane) == waker)
+    }
 }
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
@@ -403,18 +410,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// The lanes to wake for the due exit-condition polls `polls`: the lanes found for the
     /// same set last time, or, when the set changed, a walk over the sequences. A lane
-    /// whose waker is the one just found (lanes joined in one task, in id order) is not
-    /// woken again; a task woken twice is still polled once.
+    /// whose waker is already among them (lanes joined in one task) is not woken again.
     #[inline(always)]
     pub(crate) fn lanes_of_polls(&mut self, polls: SetWord<B>, wakers: &Lanes<W>) -> LaneSet {
         if self.polling.woken.polls != polls {
             let mut lanes = LaneSet::EMPTY;
-            let mut woken = NO_WAKER;
             for id in polls {
                 let lane = self.lane_slot(id);
                 let waker = wakers.identity(lane);
-                if waker != NO_WAKER && waker != woken {
-                    woken = waker;
+                if waker != NO_WAKER && !wakers.has_waker(lanes, waker) {
                     lanes = lanes.with(LaneSet::of(lane));
                 }
             }

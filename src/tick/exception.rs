@@ -42,7 +42,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// run: nothing more happens. Returns false when the owner could not take an
     /// exception any more, or its timeout is not run out after all (switched off or
     /// changed since the scan): the timeout stays armed and is checked again at its next
-    /// poll. A timeout that fires is disarmed.
+    /// poll, unless the mark disarmed it and then found the run ended or its stop begun
+    /// (a lane above the tick, between two of the mark's sections): that run's timeout
+    /// is of no account. A timeout that fires is disarmed.
     #[inline(never)]
     pub(crate) fn raise(
         &self,
@@ -309,9 +311,9 @@ struct Marked<const B: usize> {
 }
 
 /// The steps of [`Sequencer::raise`] before the exception sequence: if `owner` can take
-/// the exception (monitored; for a timeout, running; not handling one already; not being
-/// stopped), judges the behaviour on the target's run and marks the exception, skipping
-/// the due polls it holds.
+/// the exception (monitored; for a timeout, running and the timeout still run out, judged
+/// again here; not handling one already; not being stopped), judges the behaviour on the
+/// target's run and marks the exception, skipping the due polls it holds.
 fn mark<
     C,
     S: Sections<C, N, T, W, B>,
@@ -391,7 +393,11 @@ fn mark<
     }
     // Only the tick marks an exception, and outside the tick only a new run (another run
     // count) clears the mark: the count stands for the first section's `Excepting` test.
-    let owner_skipped = s.section(|s| {
+    let owner_run = RunId {
+        seq: owner,
+        count: owner_runs,
+    };
+    let marked = s.section(|s| {
         let b = s
             .block_mut(owner)
             .filter(|b| states.has(b.state) && b.runs == owner_runs && !b.being_stopped())?;
@@ -403,14 +409,16 @@ fn mark<
             s.sets.remove(Set::PollDue, owner);
         }
         Some(skip)
-    })?;
+    });
+    // Not marked after all (a lane above the tick ended the run or began its stop since
+    // the skip): nothing is held, so the polls skipped for the hold stand.
+    let Some(owner_skipped) = marked else {
+        give_back_polls(s, owner_run, skipped);
+        return None;
+    };
     if owner_skipped {
         skipped.insert(owner);
     }
-    let owner_run = RunId {
-        seq: owner,
-        count: owner_runs,
-    };
     s.section(|s| {
         #[cfg(feature = "counters")]
         if let Some(c) = s.counters.get_mut(owner.index()) {

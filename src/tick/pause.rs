@@ -135,10 +135,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         Pass::of(self.with(|s| s.runs_begun) == begun)
     }
 
-    /// Pauses or resumes the run `run` (`how`: from `Running` to `Paused`, or back), and
-    /// wakes its lane.
+    /// Pauses or resumes the run `run` (`how`: from `Running` to `Paused`, or back); a
+    /// resume wakes its lane. A paused run stays at its await point, where its lane
+    /// already waits (a poll of it would find the run held and wait again): only the
+    /// resume gives the lane something to do.
     fn pause_one(&self, run: RunId, cause: Cause, how: Pausing) {
-        if in_sections!(self, |s| leave_for_pause(s, run, cause, how)) {
+        let moved = in_sections!(self, |s| leave_for_pause(s, run, cause, how));
+        if moved && how == Pausing::Resume {
             in_sections_then_wake!(self, |s| s.section(|s| s.lane_of(run.seq)));
         }
     }

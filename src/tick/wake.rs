@@ -124,9 +124,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     /// With a portable lock: the lanes whose polled condition is due (`wake`), except those
-    /// of the sequences that `skip` leaves out, in short sections. A lane whose waker is the
-    /// one just found (lanes joined in one task, in id order) is not woken again; a task
-    /// woken twice is still polled once.
+    /// of the sequences that `skip` leaves out, in short sections. A lane whose waker is
+    /// already among them (lanes joined in one task) is not woken again: its waker is
+    /// compared with theirs one section each.
     #[inline(never)]
     fn lanes_of_polls_in_sections(
         &self,
@@ -134,7 +134,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         mut skip: impl FnMut(SeqId) -> bool,
     ) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
-        let mut woken = NO_WAKER;
         for id in wake {
             if skip(id) {
                 continue;
@@ -143,8 +142,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let lane = s.lane_slot(id);
                 (lane, self.lanes.identity(lane))
             });
-            if waker != NO_WAKER && waker != woken {
-                woken = waker;
+            if waker == NO_WAKER {
+                continue;
+            }
+            let mut chosen = lanes;
+            if !chosen.any(|l| L::lock(|| self.lanes.identity(l)) == waker) {
                 lanes = lanes.with(LaneSet::of(lane));
             }
         }

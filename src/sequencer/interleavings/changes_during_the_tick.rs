@@ -122,3 +122,61 @@ fn restart_taken_up_around_a_tick<L: Lock + 'static, const N: usize, const B: us
 fn a_restart_taken_up_during_a_tick_keeps_the_grid_of_its_class() {
     every_world!(restart_taken_up_around_a_tick);
 }
+
+/// O (a 5 ms timeout) runs from 0 with its blocking child C (polled every ms, waiting for
+/// a polled condition, its lane took every due poll so far). A lane above the tick
+/// requests O's abort before section `k` of the tick at 5 ms, where O's timeout runs out.
+/// Unless the tick marked O's exception (the hold: semantics 1 and 3, a hold skips the
+/// untaken due polls of the held sequence's blocking children), C's poll due at 5 ms
+/// stands, as it does when the request comes before the tick.
+fn child_poll_beside_an_abort_request_during_the_raise<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+) {
+    let setup = || {
+        let w = World::<L, N, B>::new(layout);
+        let o = w.timed("O", 5);
+        let c = w.seq("C");
+        w.start_taken(o);
+        w.blocking(c, o).unwrap();
+        let waits = |w: &World<L, N, B>| {
+            let run = w.run(c);
+            w.seq.with(|s| s.set_poll_wait(run, true));
+        };
+        waits(&w);
+        for ms in 1..=4 {
+            w.tick(ms);
+            waits(&w);
+        }
+        (w, o, c)
+    };
+    let count = sections(setup, |(w, _, _)| w.tick(5));
+    every_k(count + 1, |k| {
+        let (w, o, c) = setup();
+        interleaved::at(k, move || {
+            let _ = w.kept(o).abort();
+        });
+        w.tick(5);
+        or_after(k, move || {
+            let _ = w.kept(o).abort();
+        });
+        let what = name::<L>(layout, format_args!("abort before section {k} of {count}"));
+        // O still running, its abort requested for the next tick, and not held by the tick.
+        let unheld = w.state(o) == Running && !w.in_set(Set::Excepting, o);
+        assert_eq!(
+            (unheld, w.in_set(Set::PollDue, c)),
+            (unheld, unheld),
+            "{what}: fired {}",
+            w.fired(o, Cause::Timeout(o))
+        );
+    });
+}
+
+/// Every world.
+#[test]
+fn a_childs_due_poll_stands_when_its_callers_abort_request_comes_before_the_mark() {
+    every_world!(child_poll_beside_an_abort_request_during_the_raise);
+}
