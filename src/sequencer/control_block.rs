@@ -34,7 +34,8 @@ pub struct Counters {
     pub aborts: u16,
     /// Restarts.
     pub restarts: u16,
-    /// Exceptions raised by this sequence's monitors and timeout.
+    /// Exceptions raised by this sequence's monitors and timeout (a `PauseOwner`
+    /// monitor's hold marks none, and is not counted).
     pub exceptions: u16,
 }
 
