@@ -195,3 +195,156 @@ fn of_a_pause_and_a_resume_before_the_same_tick_the_later_counts() {
         ]
     );
 }
+
+fn at(ms: u64) -> Instant {
+    Instant::from_ticks(ms * 1000)
+}
+
+/// A pause wakes no lane (semantics 15): a run paused before its lane took its start, or
+/// while it waits, waits for its resume, which wakes it. Each ends the time its unpaused
+/// wait took after the resume.
+///
+/// Started through a handle (the lane has not taken the start) and paused at once.
+#[test]
+fn a_pause_before_the_lane_took_its_start() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let other = seq.add(SeqConfig::new("other"), Node::of(vec![])).unwrap();
+    let oi = other.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(other);
+    sim.start(oi).unwrap(); // validates
+    let h = seq.sequence_by_id(mi).unwrap();
+    h.start().unwrap();
+    h.pause().unwrap();
+    sim.run_until(at(10));
+    assert_eq!(sim.state(mi), Paused, "{}", show(sim.trace()));
+    h.resume().unwrap();
+    let end = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
+    assert_eq!(end, Some(at(16)), "{}", show(sim.trace()));
+}
+
+/// A blocking child paused alone (its caller runs on), then resumed.
+#[test]
+fn a_blocking_child_paused_alone() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let wi = w.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    sim.run_until(at(1));
+    sim.pause(wi).unwrap();
+    sim.run_until(at(10));
+    assert_eq!(sim.state(wi), Paused, "{}", show(sim.trace()));
+    assert_eq!(sim.state(mi), Running, "{}", show(sim.trace()));
+    sim.resume(wi).unwrap();
+    let end = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
+    assert_eq!(end, Some(at(14)), "{}", show(sim.trace()));
+}
+
+/// Paused, then aborted while paused; started again at once.
+#[test]
+fn an_abort_during_a_pause() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    sim.run_until(at(1));
+    sim.pause(mi).unwrap();
+    sim.run_until(at(4));
+    sim.abort(mi).unwrap();
+    sim.run_until(at(6));
+    assert_eq!(sim.state(mi), Aborted, "{}", show(sim.trace()));
+    sim.start(mi).unwrap();
+    let end = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
+    assert_eq!(end, Some(at(11)), "{}", show(sim.trace()));
+}
+
+/// J (its own lane) joins main; main is paused and resumed; J gets main's end.
+#[test]
+fn a_joiner_of_a_paused_run() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let j = seq
+        .add(SeqConfig::new("J"), Node::of(vec![Op::Join(mi)]))
+        .unwrap();
+    let ji = j.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(j);
+    sim.start(mi).unwrap();
+    sim.start(ji).unwrap();
+    sim.run_until(at(1));
+    sim.pause(mi).unwrap();
+    sim.run_until(at(10));
+    sim.resume(mi).unwrap();
+    let end = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(
+        (sim.state(mi), sim.state(ji)),
+        (Terminated, Terminated),
+        "{}",
+        show(sim.trace())
+    );
+    assert_eq!(end, Some(at(14)), "{}", show(sim.trace()));
+}
+
+/// Paused and resumed twice in a row.
+#[test]
+fn pause_resume_pause_resume() {
+    let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(mi).unwrap();
+    for k in 0..2u64 {
+        sim.run_until(at(1 + 4 * k));
+        sim.pause(mi).unwrap();
+        sim.run_until(at(3 + 4 * k));
+        sim.resume(mi).unwrap();
+    }
+    let end = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
+    assert!(!sim.stalled());
+    assert_eq!(end, Some(at(9)), "{}", show(sim.trace()));
+}
