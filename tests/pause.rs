@@ -4,9 +4,9 @@
 mod common;
 use common::*;
 use rtseq::sim::Sim;
-use rtseq::Cause::{Completed, Pause, Resume, Start};
+use rtseq::Cause::{Completed, Monitor as Mon, Pause, Restart, Resume, Start};
 use rtseq::RunningState::*;
-use rtseq::{Duration, Instant, Monitors, SeqConfig, Sequencer, Wait};
+use rtseq::{Behaviour, Duration, Error, Instant, Monitor, Monitors, SeqConfig, Sequencer, Wait};
 
 /// Main runs a 1 s `Wait` blocking; it is paused at 0.3 s and resumed at 2.3 s (each request
 /// made just before the tick that applies it).
@@ -347,4 +347,74 @@ fn pause_resume_pause_resume() {
     assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
     assert!(!sim.stalled());
     assert_eq!(end, Some(at(9)), "{}", show(sim.trace()));
+}
+
+/// A pause requested of a run just before the tick that restarts it (the end of its
+/// `RestartOwner` monitor's exception sequence: that behaviour comes before the requests,
+/// semantics 8) ends with the round, as a pause request's pause does when the restart
+/// comes after it: "a restart runs unpaused" (semantics 4 and 7). Main runs a 10 ms `Wait`;
+/// its monitor fires at 3 ms, its exception sequence E runs a 2 ms wait, and the tick at
+/// 6 ms restarts main. The pause asked for at 5 ms is recorded and `Ok`, main is never
+/// paused, and a resume afterwards is `Err(NotPaused)`: the restarted round runs its full
+/// 10 ms wait, from 6 ms.
+#[test]
+fn a_pause_requested_just_before_a_restart_ends_with_the_round() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(10)))
+        .unwrap();
+    let wi = w.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    let ew = seq
+        .add(SeqConfig::new("EW"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let ewi = ew.id();
+    let e = seq
+        .add(SeqConfig::new("E"), Node::of(vec![Op::Wait(ew)]))
+        .unwrap();
+    let ei = e.id();
+    let mut fault = |c: &Ctrl, _: Instant| c.flag(0);
+    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+    let m = monitors
+        .add(
+            mi,
+            Monitor::new("m", &mut fault, Behaviour::RestartOwner).exception(ei),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(e);
+    sim.before_tick(|t, c| c.set(0, ms(t) == 3));
+    sim.start(mi).unwrap();
+    sim.run_until(at(5));
+    let h = sim.handle(mi).unwrap();
+    assert_eq!(h.pause(), Ok(()));
+    sim.step();
+    assert_eq!(sim.state(mi), Running);
+    assert_eq!(h.resume(), Err(Error::NotPaused(mi)));
+    assert_eq!(sim.run_until_idle(Duration::from_millis(30)), Some(at(16)));
+    assert_eq!(
+        sim.trace(),
+        [
+            tr(0, mi, Idle, Running, Start),
+            tr(0, wi, Idle, Running, Start),
+            tr(3, ei, Idle, Running, Mon(m)),
+            tr(3, ewi, Idle, Running, Start),
+            tr(5, ewi, Running, Terminated, Completed),
+            tr(5, ei, Running, Terminated, Completed),
+            tr(6, wi, Running, Aborting, Mon(m)),
+            tr(6, wi, Aborting, Aborted, Mon(m)),
+            tr(6, mi, Running, Restarting, Mon(m)),
+            tr(6, mi, Restarting, Running, Restart),
+            tr(6, wi, Aborted, Running, Start),
+            tr(16, wi, Running, Terminated, Completed),
+            tr(16, mi, Running, Terminated, Completed),
+        ],
+        "\n{}",
+        show(sim.trace())
+    );
 }
