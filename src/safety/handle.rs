@@ -23,7 +23,8 @@ pub(crate) const ABORT_ALL_BY_SAFETY_SYSTEM: u8 = 2;
 /// Everything is a single atomic operation (no lock, no critical
 /// section): triggering is one `fetch_or` on a 32-bit pending-event
 /// bitmask, reading the level is one load. Triggering the same event
-/// several times before the next cycle counts once. Needs 8- and 32-bit
+/// several times before the next cycle counts once (an id ≥ 32, which has
+/// no bit, is an unknown event at each trigger). Needs 8- and 32-bit
 /// atomics with compare-and-swap (Cortex-M3 and up).
 ///
 /// Const-constructible, so it lives in a `static`:
