@@ -3,19 +3,30 @@
 //! the simulator on exact traces (times, sequences, states, causes) and on whether each
 //! request is taken, over scenarios generated from seeds.
 //!
-//! Modelled: one main sequence (a `Node` of 1 to 3 blocking steps, each a `Leaf` whose exit
-//! flag becomes true at a given time, or a `Wait`); polling periods of 1, 2 and 5 ms and
-//! their grids; timeouts (`Nothing`, `AbortOwner`, `RestartOwner` with a limit) of main and
-//! of the steps; 0 to 2 monitors, owned by main or a step, whose condition is true during a
-//! window (`Level`, `RisingEdge`, and with more triggers `FallingEdge` and `Change`), with the
-//! behaviours `Nothing`, `AbortOwner`, `RestartOwner` with a limit and `PauseOwner`, each with
-//! or without an exception sequence (a `Node` running one `Wait`); pause, resume and abort
-//! requests of main made just before given ticks.
+//! Modelled: one main sequence (`MMain`, running 1 to 3 blocking steps in turn, each an
+//! `MLeaf` whose exit flag becomes true at a given time, or a `Wait`); polling periods of 1, 2
+//! and 5 ms and their grids; timeouts (`Nothing`, `AbortOwner`, `RestartOwner` with a limit)
+//! of main and of the steps, with or without an exception sequence; 0 to 2 monitors, owned by
+//! main or a step, whose condition is true during a window (`Level`, `RisingEdge`, and with
+//! more triggers `FallingEdge` and `Change`), with the behaviours `Nothing`, `AbortOwner`,
+//! `RestartOwner` with a limit and `PauseOwner`, each with or without an exception sequence
+//! (a `Node` running one `Wait`); pre-conditions false during a window (of the `MLeaf`s, and
+//! of main, seen by its restarts) and actions failing during a window (of the `MLeaf`s);
+//! pause, resume and abort requests of main or of a step, and abort-alls, made just before
+//! given ticks; ticks 1 ms apart, or 1 to 7 ms apart (late ticks: missed polls, timeouts and
+//! waits falling due between ticks).
 //!
-//! Not modelled: pre-conditions, failures, non-blocking starts and joins, nested `Node`s,
-//! exception sequences of timeouts, caller behaviours, abort-all and the safety system,
-//! lanes of other priorities, late ticks (every tick comes 1 ms after the last), requests of
-//! the steps, the requests' errors (only taken or not), `set_timeout`, events and counters.
+//! Not modelled: non-blocking starts and joins, nested sequences (a sub-sequence between
+//! main and its steps), caller behaviours, the safety system, lanes of other priorities,
+//! requests of exception sequences, the requests' errors (only taken or not),
+//! `set_timeout`, events and counters.
+//!
+//! Every rule the model encodes names its item (or the rustdoc it comes from). It found,
+//! in session 54, that the tick applied a sequence's request before the behaviour of
+//! another's ended exception sequence when its id was lower (now every behaviour comes
+//! first, item 8), and where the documents were silent (the requests of a `Restarting`
+//! blocking child, or of a child paused by its caller alone: now in the rustdoc of
+//! `Error::NotRunning` and `Error::AlreadyPaused`).
 //!
 //! Each sweep compares a range of seeds with one combination of the generator's features;
 //! two rules the sweeps seldom reach have a scenario of their own. `MODEL_N=n` sweeps `n`
@@ -28,8 +39,8 @@ use common::*;
 use rtseq::sim::Sim;
 use rtseq::RunningState::{self, *};
 use rtseq::{
-    Behaviour, Cause, ConditionFn, Duration, Instant, Monitor, MonitorId, Monitors, SeqConfig,
-    SeqId, Sequencer, Transition, Trigger, Wait,
+    Behaviour, Cause, ConditionFn, Cx, Duration, Failure, Instant, Monitor, MonitorId, Monitors,
+    Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Transition, Trigger, Wait,
 };
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -58,6 +69,12 @@ struct StepCfg {
     exit: Exit,
     /// (ms, behaviour).
     timeout: Option<(u64, Beh)>,
+    /// The timeout's exception sequence: a `Node` running a `Wait` of this many ms.
+    timeout_exc: Option<u64>,
+    /// The pre-condition is false for `from <= t < to` (a `Flag` step only).
+    pre_false: Option<(u64, u64)>,
+    /// The action fails (`Err`) when it runs at `from <= t < to` (a `Flag` step only).
+    fail: Option<(u64, u64)>,
 }
 
 #[derive(Clone, Debug)]
@@ -78,6 +95,8 @@ enum Req {
     Pause,
     Resume,
     Abort,
+    /// `Sequencer::abort_all` (its target is ignored).
+    AbortAll,
 }
 
 #[derive(Clone, Debug)]
@@ -85,11 +104,15 @@ struct Scenario {
     steps: Vec<StepCfg>,
     main_period: u64,
     main_timeout: Option<(u64, Beh)>,
+    main_timeout_exc: Option<u64>,
+    /// Main's pre-condition is false for `from <= t < to` (seen by its restarts).
+    main_pre_false: Option<(u64, u64)>,
     monitors: Vec<MonCfg>,
-    /// (time, request): made just before the tick at `time`.
-    requests: Vec<(u64, Req)>,
-    /// The last tick (ms).
-    horizon: u64,
+    /// (time, target, request): the target 0..k is a step, k is main; made just before the
+    /// first tick at or after `time`.
+    requests: Vec<(u64, usize, Req)>,
+    /// The ticks' times (ms), increasing; main starts at 0.
+    ticks: Vec<u64>,
 }
 
 fn exit_flag(t: u64, at: u64) -> bool {
@@ -100,15 +123,36 @@ fn cond(m: &MonCfg, t: u64) -> bool {
     m.from <= t && t < m.to
 }
 
+fn within(w: Option<(u64, u64)>, t: u64) -> bool {
+    w.is_some_and(|(a, b)| a <= t && t < b)
+}
+
 // ---------------------------------------------------------------- model
+
+/// Where an exception comes from: a monitor or a sequence's timeout.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Src {
+    Mon(usize),
+    Timeout(usize),
+}
+
+/// An exception sequence (a `Node` running one `Wait`) of a monitor or a timeout.
+#[derive(Clone, Copy, Debug)]
+struct ExcDef {
+    src: Src,
+    owner: usize,
+    /// The `Node` and its `Wait`.
+    e: usize,
+    w: usize,
+}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
     Step,
     Main,
-    /// The exception sequence of monitor j (a `Node` running one `Wait`).
+    /// Exception sequence x (`Model::excs`).
     Exc(usize),
-    /// The `Wait` of monitor j's exception sequence.
+    /// The `Wait` of exception sequence x.
     ExcWait(usize),
 }
 
@@ -128,10 +172,15 @@ struct MSeq {
     restarts: u8,
     /// `PauseOwner` monitors holding it.
     holds: u32,
-    /// The monitor whose exception (with an exception sequence) is being handled.
-    exc: Option<usize>,
+    /// The exception (with an exception sequence) being handled.
+    exc: Option<Src>,
     /// That exception sequence ended: the next tick applies the behaviour.
     exc_ended: bool,
+    /// A pause request holds it (item 7), and the requests queued for the next tick (8).
+    pause_req: bool,
+    pending_pause: bool,
+    pending_resume: bool,
+    pending_abort: bool,
 }
 
 impl MSeq {
@@ -150,6 +199,10 @@ impl MSeq {
             holds: 0,
             exc: None,
             exc_ended: false,
+            pause_req: false,
+            pending_pause: false,
+            pending_resume: false,
+            pending_abort: false,
         }
     }
 
@@ -169,8 +222,8 @@ struct Model<'s> {
     /// The number of steps, and main's index.
     k: usize,
     seqs: Vec<MSeq>,
-    /// (E, W) of each monitor with an exception sequence.
-    exc_ids: Vec<Option<(usize, usize)>>,
+    /// The exception sequences: the monitors' in table order, then the timeouts' by owner.
+    excs: Vec<ExcDef>,
     /// The step main's action is at.
     pc: usize,
     /// The next grid point of each polling class that has one.
@@ -179,11 +232,8 @@ struct Model<'s> {
     last: Vec<bool>,
     /// Each `PauseOwner` monitor holds its owner.
     holding: Vec<bool>,
-    /// A pause request holds main.
-    pause_req: bool,
-    pending_pause: bool,
-    pending_resume: bool,
-    pending_abort: bool,
+    /// An abort-all was asked for (item 8).
+    pending_abort_all: bool,
     trace: Vec<Transition>,
     /// Whether each request was taken.
     req_ok: Vec<bool>,
@@ -199,33 +249,36 @@ impl<'s> Model<'s> {
             .map(|s| MSeq::new(Kind::Step, s.period, s.timeout, Some(s.exit)))
             .collect();
         seqs.push(MSeq::new(Kind::Main, sc.main_period, sc.main_timeout, None));
-        let mut exc_ids = vec![];
+        // Added W, then E (as `run_rtseq` does): the monitors', then the timeouts'.
+        let mut wanted: Vec<(Src, usize, u64)> = vec![];
         for (j, mc) in sc.monitors.iter().enumerate() {
             if let Some(d) = mc.exception {
-                // Added W, then E (as `run_rtseq` does).
-                let w = seqs.len();
-                seqs.push(MSeq::new(Kind::ExcWait(j), 1, None, Some(Exit::Wait(d))));
-                let e = seqs.len();
-                seqs.push(MSeq::new(Kind::Exc(j), 1, None, None));
-                exc_ids.push(Some((e, w)));
-            } else {
-                exc_ids.push(None);
+                wanted.push((Src::Mon(j), mc.owner, d));
             }
+        }
+        for (i, d) in timeout_excs(sc) {
+            wanted.push((Src::Timeout(i), i, d));
+        }
+        let mut excs = vec![];
+        for (src, owner, d) in wanted {
+            let x = excs.len();
+            let w = seqs.len();
+            seqs.push(MSeq::new(Kind::ExcWait(x), 1, None, Some(Exit::Wait(d))));
+            let e = seqs.len();
+            seqs.push(MSeq::new(Kind::Exc(x), 1, None, None));
+            excs.push(ExcDef { src, owner, e, w });
         }
         let n = sc.monitors.len();
         Model {
             sc,
             k,
             seqs,
-            exc_ids,
+            excs,
             pc: 0,
             grid: BTreeMap::new(),
             last: vec![false; n],
             holding: vec![false; n],
-            pause_req: false,
-            pending_pause: false,
-            pending_resume: false,
-            pending_abort: false,
+            pending_abort_all: false,
             trace: vec![],
             req_ok: vec![],
             t: 0,
@@ -234,6 +287,20 @@ impl<'s> Model<'s> {
 
     fn mon_cause(j: usize) -> Cause {
         Cause::Monitor(MonitorId::from_index(j))
+    }
+
+    fn src_cause(src: Src) -> Cause {
+        match src {
+            Src::Mon(j) => Self::mon_cause(j),
+            Src::Timeout(i) => Cause::Timeout(SeqId::from_index(i)),
+        }
+    }
+
+    fn src_beh(&self, src: Src) -> Beh {
+        match src {
+            Src::Mon(j) => self.sc.monitors[j].beh,
+            Src::Timeout(i) => self.seqs[i].timeout.unwrap().1,
+        }
     }
 
     /// Item 2: every transition is recorded as (time, sequence, from, to, cause).
@@ -268,13 +335,13 @@ impl<'s> Model<'s> {
         }
     }
 
-    /// Item 3: an exception sequence runs with the monitor's owner as its caller.
+    /// Item 3: an exception sequence runs with its owner as its caller.
     fn caller(&self, i: usize) -> Option<usize> {
         match self.seqs[i].kind {
             Kind::Main => None,
             Kind::Step => Some(self.main()),
-            Kind::Exc(j) => Some(self.sc.monitors[j].owner),
-            Kind::ExcWait(j) => self.exc_ids[j].map(|(e, _)| e),
+            Kind::Exc(x) => Some(self.excs[x].owner),
+            Kind::ExcWait(x) => Some(self.excs[x].e),
         }
     }
 
@@ -299,10 +366,10 @@ impl<'s> Model<'s> {
     /// caller it blocks; exception sequences are not blocking children.
     fn paused_hold(&self, i: usize) -> bool {
         let m = self.main();
-        let main_held = self.pause_req || self.seqs[m].holds > 0;
+        let own = self.seqs[i].pause_req || self.seqs[i].holds > 0;
         match self.seqs[i].kind {
-            Kind::Main => main_held,
-            Kind::Step => main_held || self.seqs[i].holds > 0,
+            Kind::Main => own,
+            Kind::Step => own || self.paused_hold(m),
             _ => false,
         }
     }
@@ -379,13 +446,38 @@ impl<'s> Model<'s> {
             }
             let s = self.pc;
             self.start(s, Cause::Start);
-            if self.exit_true(s) {
-                self.mv(s, Terminated, Cause::Completed);
+            if self.step_round(s) {
                 self.pc += 1;
             } else {
                 return;
             }
         }
+    }
+
+    /// Item 1: a step's round from its pre-condition (false: skipped) through its action
+    /// (item 16: `Err` ends the run at once, `Failed`) to the exit condition checked right
+    /// after the action; true if the run ended.
+    fn step_round(&mut self, s: usize) -> bool {
+        let t = self.t;
+        let cfg = &self.sc.steps[s];
+        let end = if within(cfg.pre_false, t) {
+            Cause::PreConditionFalse
+        } else if within(cfg.fail, t) {
+            Cause::Failed
+        } else if self.exit_true(s) {
+            Cause::Completed
+        } else {
+            return false;
+        };
+        self.mv(s, Terminated, end);
+        true
+    }
+
+    /// Item 8: an abort-all aborts every active sequence, innermost first (item 4); every
+    /// sequence here is below main.
+    fn abort_all(&mut self) {
+        let m = self.main();
+        self.abort_below(m, true, Cause::AbortAll);
     }
 
     /// Item 4: aborts the active sequences below `root` (and `root` too if `with_root`),
@@ -400,9 +492,7 @@ impl<'s> Model<'s> {
             self.mv(x, Aborted, cause);
             self.reset_monitors(x);
             // Item 7: the end of the run lifts a pause request.
-            if x == self.main() {
-                self.pause_req = false;
-            }
+            self.seqs[x].pause_req = false;
         }
     }
 
@@ -421,10 +511,8 @@ impl<'s> Model<'s> {
                 // Items 4, 7: a pause ends with the round, carried out or not: a restart
                 // runs unpaused, and a pause asked for just before the tick that applies an
                 // exception sequence's restart is never seen.
-                if i == self.main() {
-                    self.pause_req = false;
-                    self.pending_pause = false;
-                }
+                self.seqs[i].pause_req = false;
+                self.seqs[i].pending_pause = false;
                 self.mv(i, Restarting, cause);
                 self.reset_monitors(i);
             }
@@ -463,59 +551,74 @@ impl<'s> Model<'s> {
         }
     }
 
-    /// A request of main made before the tick at `t` (the state is that after the tick at
-    /// `t - 1`); item 8: the next tick applies it.
-    fn request(&mut self, r: Req) {
-        let m = self.main();
-        let active = self.seqs[m].active();
+    /// A request of sequence `i` made before the tick at `t` (the state is that after the
+    /// tick before); item 8: the next tick applies it.
+    fn request(&mut self, i: usize, r: Req) {
+        // `Handle::pause`'s rustdoc: a pause needs a running or paused sequence, not one
+        // between two rounds (`Restarting`: a blocking child held below a caller that handles
+        // an exception or is paused); a resume too (`Error::NotPaused`). An abort of a
+        // `Restarting` run is taken (item 4: a restart keeps the requests made of its run;
+        // `Error::NotRunning`).
+        let active = match r {
+            Req::Abort => self.seqs[i].active(),
+            _ => matches!(self.seqs[i].state, Running | Paused),
+        };
+        let s = &mut self.seqs[i];
         let ok = match r {
+            // Item 8: an abort-all is a flag, carried out by the next tick.
+            Req::AbortAll => {
+                self.pending_abort_all = true;
+                true
+            }
             // Item 8: an abort of a run under way is taken; of one that ended, `NotRunning`.
             Req::Abort => {
                 if active {
-                    self.pending_abort = true;
+                    s.pending_abort = true;
                 }
                 active
             }
             // Item 7: a pause of a sequence paused by a request, with no resume pending, is
             // `AlreadyPaused`; of a pause and a resume before one tick the later counts.
             Req::Pause => {
-                if !active || (self.pause_req && !self.pending_resume) {
+                if !active || (s.pause_req && !s.pending_resume) {
                     false
                 } else {
-                    self.pending_pause = true;
-                    self.pending_resume = false;
+                    s.pending_pause = true;
+                    s.pending_resume = false;
                     true
                 }
             }
-            // Item 7: a resume while a monitor holds is `HeldByMonitor`; of a sequence no
-            // request paused, `NotPaused`.
+            // Item 7: a resume while a monitor of its own holds is `HeldByMonitor`; `Error`'s
+            // rustdoc: of a sequence not paused (and with no pause pending), `NotPaused`. One
+            // paused only by the caller it blocks is paused: the resume is taken, and it
+            // resumes with that caller (item 7).
             Req::Resume => {
-                if !active || self.seqs[m].holds > 0 {
+                // Of a resume, pause, resume before one tick the last counts: the resume
+                // cancels the pending pause and lifts the request's earlier pause.
+                let paused = s.state == Paused || s.pending_pause || s.pause_req;
+                if !active || s.holds > 0 || !paused {
                     false
-                } else if self.pending_pause {
-                    self.pending_pause = false;
-                    true
-                } else if self.pause_req {
-                    self.pending_resume = true;
-                    true
                 } else {
-                    false
+                    s.pending_pause = false;
+                    s.pending_resume = s.pause_req;
+                    true
                 }
             }
         };
         self.req_ok.push(ok);
     }
 
-    /// Starts monitor j's exception sequence; false if there is none or it cannot start
+    /// Starts the exception sequence of `src`; false if there is none or it cannot start
     /// (item 3: it is another owner's, `AlreadyRunning`).
-    fn start_exception(&mut self, j: usize, cause: Cause) -> bool {
-        let Some((e, _)) = self.exc_ids[j] else {
+    fn start_exception(&mut self, src: Src) -> bool {
+        let Some(x) = self.excs.iter().position(|d| d.src == src) else {
             return false;
         };
+        let e = self.excs[x].e;
         if self.seqs[e].active() {
             return false;
         }
-        self.start(e, cause);
+        self.start(e, Self::src_cause(src));
         true
     }
 
@@ -523,27 +626,39 @@ impl<'s> Model<'s> {
         self.t = t;
         let m = self.main();
         let n = self.seqs.len();
+        // Item 8: an abort-all, before the requests.
+        if std::mem::take(&mut self.pending_abort_all) {
+            self.abort_all();
+        }
         // Item 3: the behaviours of the exception sequences that ended before this tick,
-        // before any monitor, in the order of their owners' ids; item 8: before the requests.
-        for o in 0..n {
-            let Some(j) = self.seqs[o].exc else { continue };
-            if self.seqs[o].exc_ended {
-                self.seqs[o].exc = None;
-                self.seqs[o].exc_ended = false;
-                self.apply(o, self.sc.monitors[j].beh, Self::mon_cause(j));
+        // before any monitor, in the order of their owners' ids; item 8: every one of
+        // them before every request.
+        for i in 0..n {
+            if let (Some(src), true) = (self.seqs[i].exc, self.seqs[i].exc_ended) {
+                self.seqs[i].exc = None;
+                self.seqs[i].exc_ended = false;
+                self.apply(i, self.src_beh(src), Self::src_cause(src));
             }
         }
-        // Item 8: the requests, abort first.
-        if std::mem::take(&mut self.pending_abort) && self.seqs[m].active() {
-            self.abort_below(m, true, Cause::Abort);
-        }
-        if std::mem::take(&mut self.pending_pause) && self.seqs[m].active() {
-            self.pause_req = true;
-            self.pause_tree(m, Cause::Pause);
-        }
-        if std::mem::take(&mut self.pending_resume) && self.seqs[m].active() {
-            self.pause_req = false;
-            self.resume_tree(m, Cause::Resume);
+        for i in 0..n {
+            let s = &mut self.seqs[i];
+            let (abort, pause, resume) = (
+                std::mem::take(&mut s.pending_abort),
+                std::mem::take(&mut s.pending_pause),
+                std::mem::take(&mut s.pending_resume),
+            );
+            if !s.active() {
+                continue;
+            }
+            if abort {
+                self.abort_below(i, true, Cause::Abort);
+            } else if pause {
+                self.seqs[i].pause_req = true;
+                self.pause_tree(i, Cause::Pause);
+            } else if resume {
+                self.seqs[i].pause_req = false;
+                self.resume_tree(i, Cause::Resume);
+            }
         }
         // Item 1: the classes due: those with an active member whose grid point has come.
         let mut due_class: BTreeSet<u64> = BTreeSet::new();
@@ -593,7 +708,7 @@ impl<'s> Model<'s> {
                 // is paused, marks no exception; it releases when the condition clears.
                 self.last[j] = v;
                 if v && !last && !self.holding[j] {
-                    self.start_exception(j, cause);
+                    self.start_exception(Src::Mon(j));
                     self.holding[j] = true;
                     self.seqs[o].holds += 1;
                     self.pause_tree(o, cause);
@@ -615,8 +730,8 @@ impl<'s> Model<'s> {
             if mc.trigger.fires(last, v) {
                 // Items 1, 3: with an exception sequence that starts, the owner handles the
                 // exception until it ends; else the behaviour is applied in the firing tick.
-                if self.start_exception(j, cause) {
-                    self.seqs[o].exc = Some(j);
+                if self.start_exception(Src::Mon(j)) {
+                    self.seqs[o].exc = Some(Src::Mon(j));
                 } else {
                     self.apply(o, mc.beh, cause);
                 }
@@ -636,7 +751,12 @@ impl<'s> Model<'s> {
                 continue;
             }
             self.seqs[i].timeout_fired = true;
-            self.apply(i, beh, Cause::Timeout(SeqId::from_index(i)));
+            // Item 3 (and `SeqConfig::timeout_exception`): as a monitor's.
+            if self.start_exception(Src::Timeout(i)) {
+                self.seqs[i].exc = Some(Src::Timeout(i));
+            } else {
+                self.apply(i, beh, Cause::Timeout(SeqId::from_index(i)));
+            }
         }
         // Item 7: `PauseOwner` releases, once the monitors and timeouts are evaluated; the
         // owner resumes once no other hold (a monitor, a pause request) remains.
@@ -657,17 +777,20 @@ impl<'s> Model<'s> {
         // Item 8: runs end in their lanes, in the order they were added: main's, then the
         // exception sequences'.
         self.lane(&poll_taken);
-        for j in 0..nm {
-            self.exc_lane(j, &poll_taken);
+        for x in 0..self.excs.len() {
+            self.exc_lane(x, &poll_taken);
         }
     }
 
-    /// Monitor j's exception sequence: starts its `Wait` and ends with it; item 3: the next
-    /// tick applies the behaviour.
-    fn exc_lane(&mut self, j: usize, poll_taken: &[bool]) {
-        let Some((e, w)) = self.exc_ids[j] else {
-            return;
-        };
+    /// Exception sequence x: starts its `Wait` and ends with it; item 3: the next tick
+    /// applies the behaviour.
+    fn exc_lane(&mut self, x: usize, poll_taken: &[bool]) {
+        let ExcDef {
+            src,
+            owner: o,
+            e,
+            w,
+        } = self.excs[x];
         if self.seqs[e].state != Running {
             return;
         }
@@ -682,8 +805,7 @@ impl<'s> Model<'s> {
         }
         self.mv(w, Terminated, Cause::Completed);
         self.mv(e, Terminated, Cause::Completed);
-        let o = self.sc.monitors[j].owner;
-        if self.seqs[o].exc == Some(j) {
+        if self.seqs[o].exc == Some(src) {
             self.seqs[o].exc_ended = true;
         }
     }
@@ -699,7 +821,11 @@ impl<'s> Model<'s> {
             self.mv(m, Running, Cause::Restart);
             self.reset_round(m);
             self.pc = 0;
-            self.begin_steps();
+            if within(self.sc.main_pre_false, self.t) {
+                self.mv(m, Terminated, Cause::PreConditionFalse);
+            } else {
+                self.begin_steps();
+            }
             return;
         }
         if self.pc >= self.k {
@@ -714,8 +840,7 @@ impl<'s> Model<'s> {
                 }
                 self.mv(s, Running, Cause::Restart);
                 self.reset_round(s);
-                if self.exit_true(s) {
-                    self.mv(s, Terminated, Cause::Completed);
+                if self.step_round(s) {
                     self.pc += 1;
                     self.begin_steps();
                 }
@@ -748,13 +873,15 @@ impl<'s> Model<'s> {
 fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
     let mut m = Model::new(sc);
     m.start_main();
-    for t in 1..=sc.horizon {
-        for &(rt, r) in &sc.requests {
-            if rt == t {
-                m.request(r);
+    let mut prev = 0;
+    for &t in &sc.ticks {
+        for &(rt, i, r) in &sc.requests {
+            if prev < rt && rt <= t {
+                m.request(i, r);
             }
         }
         m.tick(t);
+        prev = t;
     }
     (m.trace, m.req_ok)
 }
@@ -796,45 +923,151 @@ fn cfg(name: &'static str, period: u64, timeout: Option<(u64, Beh)>) -> SeqConfi
     c
 }
 
+/// The flags: the exit flags of the steps are 0..3 (`Leaf`), the monitors' conditions 8 and 9
+/// (`c_m0`, `c_m1`); these are the pre-conditions (true: it holds) and the failures.
+const PRE: usize = 3;
+const MAIN_PRE: usize = 6;
+const FAIL: usize = 10;
+
+/// A step whose exit condition is flag `i`, whose pre-condition is flag `PRE + i` and whose
+/// action fails while flag `FAIL + i` is set.
+struct MLeaf(usize);
+
+impl Step<Ctrl> for MLeaf {
+    fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        if cx.control().flag(FAIL + self.0) {
+            Err(Failure::App(1))
+        } else {
+            Ok(())
+        }
+    }
+    fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        cx.control().flag(PRE + self.0)
+    }
+    fn check_exit_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        cx.control().flag(self.0)
+    }
+}
+
+enum MOp {
+    Leaf(Seq<MLeaf>),
+    Wait(Seq<Wait>),
+}
+
+/// Main: runs its steps in turn, going on whatever each returned; pre-condition `MAIN_PRE`.
+struct MMain(Vec<MOp>);
+
+impl Sequence<Ctrl> for MMain {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        for op in self.0.iter_mut() {
+            let _ = match op {
+                MOp::Leaf(s) => cx.step(s).await,
+                MOp::Wait(s) => cx.step(s).await,
+            };
+        }
+        Ok(())
+    }
+    fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
+        cx.control().flag(MAIN_PRE)
+    }
+}
+
+/// The sequences with a timeout exception sequence (steps, then main) and its `Wait` (ms).
+fn timeout_excs(sc: &Scenario) -> Vec<(usize, u64)> {
+    let mut v: Vec<(usize, u64)> = sc
+        .steps
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| s.timeout.and(s.timeout_exc).map(|d| (i, d)))
+        .collect();
+    if let Some(d) = sc.main_timeout.and(sc.main_timeout_exc) {
+        v.push((sc.steps.len(), d));
+    }
+    v
+}
+
+/// The flags at `t`.
+fn set_flags(sc: &Scenario, c: &Ctrl, t: u64) {
+    for (i, s) in sc.steps.iter().enumerate() {
+        if let Exit::Flag(at) = s.exit {
+            c.set(i, exit_flag(t, at));
+        }
+        c.set(PRE + i, !within(s.pre_false, t));
+        c.set(FAIL + i, within(s.fail, t));
+    }
+    c.set(MAIN_PRE, !within(sc.main_pre_false, t));
+    for (j, m) in sc.monitors.iter().enumerate() {
+        c.set(8 + j, cond(m, t));
+    }
+}
+
 /// Runs the scenario in the simulator: the trace and whether each request was taken.
 fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let seq: Sequencer<Ctrl, 16, 256> = Sequencer::new();
     let ctrl = Ctrl::default();
     const NAMES: [&str; 3] = ["s0", "s1", "s2"];
+    const EXC: [(&str, &str); 6] = [
+        ("w0", "e0"),
+        ("w1", "e1"),
+        ("w2", "e2"),
+        ("w3", "e3"),
+        ("w4", "e4"),
+        ("w5", "e5"),
+    ];
+    let k = sc.steps.len();
+    let n_mon_exc = sc.monitors.iter().filter(|m| m.exception.is_some()).count();
+    let texcs = timeout_excs(sc);
+    // The id of the timeout exception sequence of `i`: added after main and the monitors'.
+    let texc_id = |i: usize| {
+        texcs
+            .iter()
+            .position(|&(o, _)| o == i)
+            .map(|x| SeqId::from_index(k + 1 + 2 * (n_mon_exc + x) + 1))
+    };
+    let cfg_of = |name, period, timeout, i| {
+        let mut c = cfg(name, period, timeout);
+        if let Some(e) = texc_id(i) {
+            c = c.timeout_exception(e);
+        }
+        c
+    };
     let mut ops = vec![];
     for (i, s) in sc.steps.iter().enumerate() {
-        let c = cfg(NAMES[i], s.period, s.timeout);
+        let c = cfg_of(NAMES[i], s.period, s.timeout, i);
         match s.exit {
-            Exit::Flag(_) => ops.push(Op::Step(seq.add(c, Leaf::until(i)).unwrap())),
-            Exit::Wait(d) => ops.push(Op::Wait(
+            Exit::Flag(_) => ops.push(MOp::Leaf(seq.add(c, MLeaf(i)).unwrap())),
+            Exit::Wait(d) => ops.push(MOp::Wait(
                 seq.add(c, Wait::new(Duration::from_millis(d))).unwrap(),
             )),
         }
     }
-    let k = sc.steps.len();
     let main = seq
-        .add(cfg("main", sc.main_period, sc.main_timeout), Node::of(ops))
+        .add(
+            cfg_of("main", sc.main_period, sc.main_timeout, k),
+            MMain(ops),
+        )
         .unwrap();
     let mi = main.id();
     assert_eq!(mi.index(), k);
     let mut exc_lanes = vec![];
     let mut exc_seq = vec![];
-    for (j, mc) in sc.monitors.iter().enumerate() {
-        if let Some(d) = mc.exception {
-            let w = seq
-                .add(
-                    SeqConfig::new(["w0", "w1"][j]),
-                    Wait::new(Duration::from_millis(d)),
-                )
-                .unwrap();
-            let e = seq
-                .add(SeqConfig::new(["e0", "e1"][j]), Node::of(vec![Op::Wait(w)]))
-                .unwrap();
-            exc_seq.push(Some(e.id()));
-            exc_lanes.push(e);
-        } else {
-            exc_seq.push(None);
-        }
+    let mut add_exc = |d: u64| {
+        let (wn, en) = EXC[exc_lanes.len()];
+        let w = seq
+            .add(SeqConfig::new(wn), Wait::new(Duration::from_millis(d)))
+            .unwrap();
+        let e = seq
+            .add(SeqConfig::new(en), Node::of(vec![Op::Wait(w)]))
+            .unwrap();
+        let id = e.id();
+        exc_lanes.push(e);
+        id
+    };
+    for mc in &sc.monitors {
+        exc_seq.push(mc.exception.map(&mut add_exc));
+    }
+    for &(i, d) in &texcs {
+        assert_eq!(Some(add_exc(d)), texc_id(i));
     }
     let mut monitors: Monitors<Ctrl, 2, ConditionFn<Ctrl>> = Monitors::new();
     for (j, mc) in sc.monitors.iter().enumerate() {
@@ -853,36 +1086,37 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
     for e in exc_lanes {
         sim.lane(e);
     }
-    let steps = sc.steps.clone();
-    let mons = sc.monitors.clone();
-    sim.before_tick(move |now, c: &Ctrl| {
-        let t = ms(now);
-        for (i, s) in steps.iter().enumerate() {
-            if let Exit::Flag(at) = s.exit {
-                c.set(i, exit_flag(t, at));
-            }
-        }
-        for (j, m) in mons.iter().enumerate() {
-            c.set(8 + j, cond(m, t));
-        }
-    });
+    let scc = sc.clone();
+    sim.before_tick(move |now, c: &Ctrl| set_flags(&scc, c, ms(now)));
+    set_flags(sc, &ctrl, 0);
     sim.start(mi).unwrap();
     let mut oks = vec![];
-    for t in 1..=sc.horizon {
-        for &(rt, r) in &sc.requests {
-            if rt == t {
+    let mut prev = 0;
+    for &t in &sc.ticks {
+        for &(rt, i, r) in &sc.requests {
+            if prev < rt && rt <= t {
+                let id = SeqId::from_index(i);
                 let res = match r {
-                    Req::Pause => sim.pause(mi),
-                    Req::Resume => sim.resume(mi),
-                    Req::Abort => sim.abort(mi),
+                    Req::Pause => sim.pause(id),
+                    Req::Resume => sim.resume(id),
+                    Req::Abort => sim.abort(id),
+                    Req::AbortAll => {
+                        sim.abort_all();
+                        Ok(())
+                    }
                 };
                 oks.push(res.is_ok());
             }
         }
+        // A tick at `t`: the simulator's period is the gap since the last tick.
+        sim = sim.with_period(Duration::from_millis(t - prev)).unwrap();
         sim.step();
+        assert_eq!(ms(sim.now()), t);
+        prev = t;
     }
     assert!(!sim.stalled());
     assert_eq!(sim.tick_error(), None);
+    assert_eq!(sim.lost(), 0);
     (sim.take_trace(), oks)
 }
 
@@ -926,6 +1160,15 @@ struct Features {
     pause_owner: bool,
     exceptions: bool,
     requests: bool,
+    /// Ticks 1 to 7 ms apart.
+    late: bool,
+    /// Pre-conditions that are false (of the `Flag` steps and of main's restarts) and
+    /// actions that fail (of the `Flag` steps).
+    pre_fail: bool,
+    /// Pause, resume and abort requests of the steps, and abort-alls.
+    step_requests: bool,
+    /// Exception sequences of the timeouts.
+    timeout_exc: bool,
 }
 
 fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
@@ -939,30 +1182,58 @@ fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
     }
 }
 
+/// A window `from <= t < to` within the first 40 ms, or none.
+fn gen_window(r: &mut Rng, on: bool, pct: u64) -> Option<(u64, u64)> {
+    if on && r.chance(pct) {
+        let a = r.range(1, 30);
+        Some((a, a + r.range(1, 12)))
+    } else {
+        None
+    }
+}
+
+/// A timeout exception sequence's `Wait` (ms), or none.
+fn gen_texc(r: &mut Rng, timeout: bool, f: &Features) -> Option<u64> {
+    (timeout && f.timeout_exc && r.chance(60)).then(|| r.range(1, 6))
+}
+
 fn generate(seed: u64, f: &Features) -> Scenario {
     let mut r = Rng(seed);
     let k = r.range(1, 3) as usize;
     let steps: Vec<StepCfg> = (0..k)
-        .map(|_| StepCfg {
-            period: r.period(),
-            exit: if r.chance(50) {
+        .map(|_| {
+            let period = r.period();
+            let exit = if r.chance(50) {
                 Exit::Flag(r.range(1, 25))
             } else {
                 Exit::Wait(r.range(1, 12))
-            },
-            timeout: if r.chance(25) {
+            };
+            let pct = if f.timeout_exc { 40 } else { 25 };
+            let timeout = if r.chance(pct) {
                 Some((r.range(2, 15), gen_beh(&mut r, true, f)))
             } else {
                 None
-            },
+            };
+            let flag = matches!(exit, Exit::Flag(_)) && f.pre_fail;
+            StepCfg {
+                period,
+                exit,
+                timeout,
+                timeout_exc: gen_texc(&mut r, timeout.is_some(), f),
+                pre_false: gen_window(&mut r, flag, 35),
+                fail: gen_window(&mut r, flag, 35),
+            }
         })
         .collect();
     let main_period = r.period();
-    let main_timeout = if r.chance(20) {
+    let pct = if f.timeout_exc { 40 } else { 20 };
+    let main_timeout = if r.chance(pct) {
         Some((r.range(3, 30), gen_beh(&mut r, true, f)))
     } else {
         None
     };
+    let main_timeout_exc = gen_texc(&mut r, main_timeout.is_some(), f);
+    let main_pre_false = gen_window(&mut r, f.pre_fail, 50);
     let nm = r.below(3) as usize;
     let monitors = (0..nm)
         .map(|_| {
@@ -994,36 +1265,62 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         .collect();
     let mut requests = vec![];
     if f.requests {
+        // Of main, or with `step_requests` of any of the k + 1.
+        let target = |r: &mut Rng| {
+            if f.step_requests {
+                r.below(k as u64 + 1) as usize
+            } else {
+                k
+            }
+        };
         if r.chance(40) {
             let p = r.range(1, 20);
-            requests.push((p, Req::Pause));
+            let who = target(&mut r);
+            requests.push((p, who, Req::Pause));
             if r.chance(75) {
                 let q = p + r.range(1, 10);
-                requests.push((q, Req::Resume));
+                requests.push((q, who, Req::Resume));
                 if f.more && r.chance(50) {
                     let p2 = q + r.range(1, 8);
-                    requests.push((p2, Req::Pause));
+                    let who = target(&mut r);
+                    requests.push((p2, who, Req::Pause));
                     if r.chance(70) {
-                        requests.push((p2 + r.range(1, 8), Req::Resume));
+                        requests.push((p2 + r.range(1, 8), who, Req::Resume));
                     }
                 }
             }
         }
         if r.chance(20) {
             let a = r.range(1, 35);
-            if !requests.iter().any(|&(t, _)| t == a) {
-                requests.push((a, Req::Abort));
+            let who = target(&mut r);
+            if !requests.iter().any(|&(t, _, _)| t == a) {
+                requests.push((a, who, Req::Abort));
             }
         }
-        requests.sort_by_key(|&(t, _)| t);
+        if f.step_requests && r.chance(15) {
+            requests.push((r.range(1, 40), k, Req::AbortAll));
+        }
+        requests.sort_by_key(|&(t, _, _)| t);
+    }
+    let mut ticks = vec![];
+    let mut t = 0;
+    while t < 80 {
+        t += if f.late && r.chance(50) {
+            r.range(2, 7)
+        } else {
+            1
+        };
+        ticks.push(t);
     }
     Scenario {
         steps,
         main_period,
         main_timeout,
+        main_timeout_exc,
+        main_pre_false,
         monitors,
         requests,
-        horizon: 80,
+        ticks,
     }
 }
 
@@ -1046,8 +1343,52 @@ const fn feat(more: bool, pause_owner: bool, exceptions: bool, requests: bool) -
         pause_owner,
         exceptions,
         requests,
+        late: false,
+        pre_fail: false,
+        step_requests: false,
+        timeout_exc: false,
     }
 }
+
+/// The extensions, each on `MORE` (everything before), then all together.
+const LATE: (u64, Features) = (
+    600_000,
+    Features {
+        late: true,
+        ..MORE.1
+    },
+);
+const PRE_FAIL: (u64, Features) = (
+    700_000,
+    Features {
+        pre_fail: true,
+        ..MORE.1
+    },
+);
+const STEP_REQUESTS: (u64, Features) = (
+    800_000,
+    Features {
+        step_requests: true,
+        ..MORE.1
+    },
+);
+const TIMEOUT_EXC: (u64, Features) = (
+    900_000,
+    Features {
+        timeout_exc: true,
+        ..MORE.1
+    },
+);
+const ALL: (u64, Features) = (
+    1_000_000,
+    Features {
+        late: true,
+        pre_fail: true,
+        step_requests: true,
+        timeout_exc: true,
+        ..MORE.1
+    },
+);
 
 fn env(name: &str) -> Option<u64> {
     let v = std::env::var(name).ok()?;
@@ -1134,6 +1475,36 @@ fn with_more_triggers_and_pauses() {
     sweep(MORE, "with_more_triggers_and_pauses");
 }
 
+/// As `with_more_triggers_and_pauses`, with ticks 1 to 7 ms apart.
+#[test]
+fn with_late_ticks() {
+    sweep(LATE, "with_late_ticks");
+}
+
+/// As `with_more_triggers_and_pauses`, with false pre-conditions and failing actions.
+#[test]
+fn with_skips_and_failures() {
+    sweep(PRE_FAIL, "with_skips_and_failures");
+}
+
+/// As `with_more_triggers_and_pauses`, with requests of the steps and abort-alls.
+#[test]
+fn with_requests_of_steps() {
+    sweep(STEP_REQUESTS, "with_requests_of_steps");
+}
+
+/// As `with_more_triggers_and_pauses`, with exception sequences of the timeouts.
+#[test]
+fn with_timeout_exceptions() {
+    sweep(TIMEOUT_EXC, "with_timeout_exceptions");
+}
+
+/// All of the above together.
+#[test]
+fn with_all_extensions() {
+    sweep(ALL, "with_all_extensions");
+}
+
 /// A transition's kind: who (main, a step, an exception sequence or its `Wait`), from, to and
 /// the cause without its monitor or sequence.
 fn kind(sc: &Scenario, t: &Transition) -> String {
@@ -1167,6 +1538,15 @@ fn the_sweeps_reach_every_transition_the_model_covers() {
         "exc Aborting->Aborted Monitor",
         "exc Aborting->Aborted Timeout",
         "exc Idle->Running Monitor",
+        "exc Idle->Running Timeout",
+        "exc Running->Aborting AbortAll",
+        "main Running->Aborting AbortAll",
+        "main Paused->Aborting AbortAll",
+        "main Running->Terminated PreConditionFalse",
+        "step Running->Terminated PreConditionFalse",
+        "step Running->Terminated Failed",
+        "step Running->Aborting AbortAll",
+        "wait Running->Aborting AbortAll",
         "exc Running->Aborting Abort",
         "exc Running->Aborting Monitor",
         "exc Running->Aborting Timeout",
@@ -1226,7 +1606,15 @@ fn the_sweeps_reach_every_transition_the_model_covers() {
         "wait Terminated->Running Start",
     ];
     let mut seen = BTreeSet::new();
-    for (from, f) in [NONE, REQUESTS, PAUSE_OWNER, EXCEPTIONS, EVERYTHING, MORE] {
+    for (from, f) in [
+        NONE,
+        REQUESTS,
+        PAUSE_OWNER,
+        EXCEPTIONS,
+        EVERYTHING,
+        MORE,
+        ALL,
+    ] {
         for seed in from..from + 1000 {
             let sc = generate(seed, &f);
             seen.extend(run_model(&sc).0.iter().map(|t| kind(&sc, t)));
@@ -1249,14 +1637,20 @@ fn one_step(monitors: Vec<MonCfg>, requests: Vec<(u64, Req)>) -> Scenario {
         period: 1,
         exit: Exit::Flag(70),
         timeout: None,
+        timeout_exc: None,
+        pre_false: None,
+        fail: None,
     };
     Scenario {
         steps: vec![step],
         main_period: 1,
         main_timeout: None,
+        main_timeout_exc: None,
+        main_pre_false: None,
         monitors,
-        requests,
-        horizon: 80,
+        // Of main (id 1).
+        requests: requests.into_iter().map(|(t, r)| (t, 1, r)).collect(),
+        ticks: (1..=80).collect(),
     }
 }
 

@@ -6,7 +6,10 @@ use common::*;
 use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Monitor as Mon, Pause, Restart, Resume, Start};
 use rtseq::RunningState::*;
-use rtseq::{Behaviour, Duration, Error, Instant, Monitor, Monitors, SeqConfig, Sequencer, Wait};
+use rtseq::{
+    Behaviour, Cause, ConditionFn, Duration, Error, Instant, Monitor, MonitorId, Monitors,
+    SeqConfig, Sequencer, Wait,
+};
 
 /// Main runs a 1 s `Wait` blocking; it is paused at 0.3 s and resumed at 2.3 s (each request
 /// made just before the tick that applies it).
@@ -417,4 +420,145 @@ fn a_pause_requested_just_before_a_restart_ends_with_the_round() {
         "\n{}",
         show(sim.trace())
     );
+}
+
+fn c8(c: &Ctrl, _: Instant) -> bool {
+    c.flag(8)
+}
+
+/// DEFECT (or a doc that must change). docs/semantics.md:199 (item 8): an abort of a run
+/// comes first when it is "a behaviour the same tick applies before the requests (an
+/// exception sequence that ended, 3)", and :89-90 (item 4): the exception sequence's
+/// behaviour "comes before the requests, 8". Here main's exception sequence ends at 5 ms;
+/// the tick at 6 ms applies its `AbortOwner` and the resume request of main's paused step in
+/// the same tick. Per the docs the behaviour comes first: the step is aborted from `Paused`
+/// and the resume (of a run that has ended) does nothing. rtseq (`Sequencer::apply_requests`
+/// goes by sequence id: each sequence's behaviour, then its request) resumes the step (id 0)
+/// before it aborts main (id 1): `Paused -> Running (Resume)`, then `Running -> Aborting`.
+/// Every behaviour of an ended exception sequence comes before every request of the tick
+/// (semantics 8), whichever ids they are of: main's exception sequence ends at 5 ms, and
+/// the tick at 6 ms applies its `AbortOwner` before the resume request of main's step
+/// (paused by its own request, a lower id). The step is aborted from `Paused`, never let
+/// go for a moment; the resume, of a run that has ended, does nothing. (Until session 54
+/// the tick went by id, each sequence's behaviour then its requests, and resumed the step
+/// first.)
+#[test]
+fn a_behaviour_of_an_ended_exception_sequence_comes_before_the_requests_of_other_sequences() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq.add(SeqConfig::new("step"), Leaf::until(0)).unwrap();
+    let s = step.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(step)]))
+        .unwrap();
+    let m = main.id();
+    let w = seq
+        .add(SeqConfig::new("w"), Wait::new(Duration::from_millis(3)))
+        .unwrap();
+    let wi = w.id();
+    let e = seq
+        .add(SeqConfig::new("e"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let ei = e.id();
+    let mut monitors: Monitors<Ctrl, 1, ConditionFn<Ctrl>> = Monitors::new();
+    let mon = Monitor::with_fn("m", c8 as ConditionFn<Ctrl>, Behaviour::AbortOwner).exception(ei);
+    monitors.add(m, mon).unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.lane(e);
+    sim.before_tick(|now, c: &Ctrl| c.set(8, ms(now) >= 2));
+    sim.start(m).unwrap();
+    sim.pause(s).unwrap(); // carried out at 1 ms
+    sim.run_until(Instant::from_ticks(5_000)); // the exception sequence ends at 5 ms
+    sim.resume(s).unwrap(); // taken: the step is paused by its own request
+    sim.step(); // 6 ms: the behaviour, then (docs) the requests
+    let mc = Cause::Monitor(MonitorId::from_index(0));
+    let want = [
+        tr(0, m, Idle, Running, Cause::Start),
+        tr(0, s, Idle, Running, Cause::Start),
+        tr(1, s, Running, Paused, Cause::Pause),
+        tr(2, ei, Idle, Running, mc),
+        tr(2, wi, Idle, Running, Cause::Start),
+        tr(5, wi, Running, Terminated, Cause::Completed),
+        tr(5, ei, Running, Terminated, Cause::Completed),
+        tr(6, s, Paused, Aborting, mc),
+        tr(6, s, Aborting, Aborted, mc),
+        tr(6, m, Running, Aborting, mc),
+        tr(6, m, Aborting, Aborted, mc),
+    ];
+    assert_eq!(sim.trace(), want, "\n{}", show(sim.trace()));
+}
+
+/// A blocking child left `Restarting` below a paused caller takes an abort request (an
+/// abort is taken of a run under way, `Restarting` included, and tears it down from
+/// there), not a pause (`NotRunning`: it is not running) or a resume (`NotPaused`).
+#[test]
+fn requests_of_a_restarting_child_below_a_paused_caller() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq.add(SeqConfig::new("step"), Leaf::until(0)).unwrap();
+    let s = step.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(step)]))
+        .unwrap();
+    let m = main.id();
+    let mut monitors: Monitors<Ctrl, 1, ConditionFn<Ctrl>> = Monitors::new();
+    monitors
+        .add(
+            s,
+            Monitor::with_fn("m", c8 as ConditionFn<Ctrl>, Behaviour::RestartOwner),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(main);
+    sim.before_tick(|now, c: &Ctrl| c.set(8, ms(now) >= 2));
+    sim.start(m).unwrap();
+    sim.pause(m).unwrap(); // 1 ms: main and the step paused
+    sim.step();
+    sim.step(); // 2 ms: the step's monitor restarts it; its lane is held: it stays Restarting
+    assert_eq!(sim.state(s), Restarting);
+    assert_eq!(sim.pause(s), Err(Error::NotRunning(s)));
+    assert_eq!(sim.resume(s), Err(Error::NotPaused(s)));
+    assert_eq!(sim.abort(s), Ok(()));
+    sim.step();
+    let mc = Cause::Monitor(MonitorId::from_index(0));
+    assert!(
+        sim.trace().ends_with(&[
+            tr(2, s, Paused, Restarting, mc),
+            tr(3, s, Restarting, Aborting, Cause::Abort),
+            tr(3, s, Aborting, Aborted, Cause::Abort),
+        ]),
+        "\n{}",
+        show(sim.trace())
+    );
+}
+
+/// A step paused only because its caller is paused takes a pause request (semantics 7:
+/// "A sequence held paused by something else ... takes a pause request: it stays paused
+/// when that hold ends, until a resume request"), and a resume request, which does
+/// nothing: it resumes with its caller. Paused by its own request then, it stays paused
+/// when its caller resumes.
+#[test]
+fn requests_of_a_step_paused_by_its_caller_only() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq.add(SeqConfig::new("step"), Leaf::until(0)).unwrap();
+    let s = step.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Step(step)]))
+        .unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.start(m).unwrap();
+    sim.pause(m).unwrap();
+    sim.step(); // 1 ms: both paused
+    assert_eq!(sim.resume(s), Ok(()));
+    sim.step();
+    assert_eq!(sim.state(s), Paused);
+    assert_eq!(sim.pause(s), Ok(()));
+    sim.step();
+    sim.resume(m).unwrap();
+    sim.step(); // 4 ms: main resumes; the step stays paused by its own request
+    assert_eq!((sim.state(m), sim.state(s)), (Running, Paused));
 }

@@ -27,8 +27,9 @@ pub enum Error {
     UnknownSequence(SeqId),
     /// The sequence is already running (or paused, aborting, restarting).
     AlreadyRunning(SeqId),
-    /// The request needs a running (or paused) sequence, not one idle, ended or between
-    /// two rounds (`Restarting`, `Aborting`); or a start by a sequence that may begin
+    /// The request needs a sequence under way: running for a pause, and running, paused
+    /// or between two rounds (`Restarting`) for an abort; not one idle, ended or
+    /// `Aborting` (a pause of one `Restarting` too); or a start by a sequence that may begin
     /// nothing more (its id): the tick stopped it while its action ran on, a teardown has
     /// placed it, its abort is requested or an abort-all waits (a start through a handle
     /// of its context included).
@@ -97,9 +98,10 @@ pub enum Error {
     /// nothing (it carried out the requests and abort-alls made since, at the last tick's
     /// time); the due polls wait for a tick with the sequencer's table.
     ForeignMonitorTable,
-    /// A pause was requested of a sequence that is paused already (by a monitor, a
-    /// request, or the paused caller it blocks) and has no resume pending: the request
-    /// would do nothing.
+    /// A pause was requested of a sequence that a pause request paused already, with no
+    /// resume pending: the request would do nothing. (One held paused by something else,
+    /// a `PauseOwner` monitor or the paused caller it blocks, takes the request: it stays
+    /// paused when that hold ends.)
     AlreadyPaused(SeqId),
     /// A start of this sequence ([`Cx::run`](crate::Cx::run), [`Cx::step`](crate::Cx::step),
     /// [`Cx::start`](crate::Cx::start) or [`Cx::start_scoped`](crate::Cx::start_scoped))

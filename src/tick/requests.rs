@@ -7,7 +7,7 @@ use crate::model::state::RunningStates;
 use crate::sequencer::control_block::flag;
 use crate::sequencer::sets::Set;
 use crate::tick::exception::judged;
-use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, Sequencer};
+use crate::{Behaviour, Cause, Event, Request, Requester, RunningState, SeqId, Sequencer};
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
@@ -48,67 +48,25 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             || self.with(|s| s.runs_begun) != begun
     }
 
-    /// Applies the behaviours of finished exception sequences and the pause, resume and
-    /// abort requests of the sequences that have them, in id order (out of line: one copy,
-    /// whatever the monitor tables the tick is instantiated for).
+    /// Applies the behaviours of finished exception sequences, then the pause, resume and
+    /// abort requests of the sequences that have them, each in id order (out of line: one
+    /// copy, whatever the monitor tables the tick is instantiated for). Every behaviour
+    /// comes before every request (semantics 8): a fault's abort of an owner comes before
+    /// an operator's resume of its blocking child, whichever id is lower, so the child is
+    /// never let go for a moment between the two.
     #[inline(never)]
     pub(crate) fn apply_requests(&self, control: &C) {
         let requested = self.with(|s| s.sets.take(Set::Requested));
         for id in requested {
-            // The requests (of the current run: a new run's commit clears them), and the
-            // behaviour pending for an exception sequence that ended.
-            let (req, done, run) = self.with(|s| {
+            self.apply_ended_exception(control, id);
+        }
+        for id in requested {
+            // The requests of the current run: a new run's commit clears them, a
+            // teardown of the behaviours above dropped its pause and resume.
+            let (req, run) = self.with(|s| {
                 let run = s.current_run(id);
-                let Some(b) = s.block_mut(id) else {
-                    return (None, None, run);
-                };
-                let mut done = None;
-                if b.has(flag::EXCEPTION_DONE) {
-                    b.set(flag::EXCEPTION_DONE, false);
-                    done = b.pending();
-                    b.set_pending(None);
-                }
-                (b.take_request(), done, run)
+                (s.block_mut(id).and_then(|b| b.take_request()), run)
             });
-            if let Some(behaviour) = done {
-                // Unless it was stopped meanwhile: the cause and the target.
-                let still = self.with(|s| {
-                    // Still the marked run, still held by the exception: a lane of higher
-                    // priority may have run the restart of this run since the first
-                    // section (the same run count), whose new round begins without it.
-                    if s.current_run(id) != run || !s.sets.has(Set::Excepting, id) {
-                        return None;
-                    }
-                    let b = s
-                        .block(id)
-                        .filter(|b| RunningStates::RUNNING_OR_PAUSED.has(b.state))?;
-                    // One that acts on the caller was kept for an owner that had one
-                    // (`raise`). Without the link now, its caller ended and was started
-                    // again below it (the start cut the link): the owner is aborted, as
-                    // an owner whose caller has ended is.
-                    let (behaviour, target) = match b.caller.get() {
-                        None if behaviour.targets_caller() => (Behaviour::AbortOwner, id),
-                        caller => (behaviour, behaviour.target(id, caller)),
-                    };
-                    // Set by the firing that made the behaviour pending, in the same run.
-                    let cause = b.active_exception?;
-                    Some((behaviour, cause, s.current_run(target)))
-                });
-                // Judged on the target's run now: the one under way at the firing may
-                // have ended and another begun meanwhile (a restart of the target would
-                // have taken this owner down with it). Should a lane of higher priority
-                // replace it before the teardown, `apply` aborts the owner.
-                let judged = still.and_then(|(behaviour, cause, target)| {
-                    self.with(|s| {
-                        let limit = *s.exception_limits.get(id.index())?;
-                        let judged = judged(behaviour, limit, s.block(target.seq)?);
-                        Some((judged, cause, target))
-                    })
-                });
-                if let Some((behaviour, cause, target)) = judged {
-                    self.apply(control, run, behaviour, target, cause);
-                }
-            }
             match req {
                 Some(Request::Abort) => self.tear_down(control, run, Cause::Abort),
                 Some(Request::Pause) => self.pause_tree(run, Cause::Pause),
@@ -119,6 +77,66 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 Some(Request::Resume) => self.resume_tree(run, Cause::Resume),
                 None => {}
             }
+        }
+    }
+
+    /// The behaviour pending for `id`'s exception sequence, if it ended: applied to the
+    /// target's run, unless the marked run was stopped meanwhile. Out of line: inlined
+    /// into the requests' loop, its sections outgrow the portable lock's budget.
+    #[inline(never)]
+    fn apply_ended_exception(&self, control: &C, id: SeqId) {
+        let (done, run) = self.with(|s| {
+            let run = s.current_run(id);
+            let Some(b) = s.block_mut(id) else {
+                return (None, run);
+            };
+            if !b.has(flag::EXCEPTION_DONE) {
+                return (None, run);
+            }
+            b.set(flag::EXCEPTION_DONE, false);
+            let done = b.pending();
+            b.set_pending(None);
+            (done, run)
+        });
+        let Some(behaviour) = done else {
+            return;
+        };
+        // Unless it was stopped meanwhile: the cause and the target.
+        let still = self.with(|s| {
+            // Still the marked run, still held by the exception: a lane of higher
+            // priority may have run the restart of this run since the first section (the
+            // same run count), whose new round begins without it.
+            if s.current_run(id) != run || !s.sets.has(Set::Excepting, id) {
+                return None;
+            }
+            let b = s
+                .block(id)
+                .filter(|b| RunningStates::RUNNING_OR_PAUSED.has(b.state))?;
+            // One that acts on the caller was kept for an owner that had one (`raise`).
+            // Without the link now, its caller ended and was started again below it (the
+            // start cut the link): the owner is aborted, as an owner whose caller has
+            // ended is.
+            let (behaviour, target) = match b.caller.get() {
+                None if behaviour.targets_caller() => (Behaviour::AbortOwner, id),
+                caller => (behaviour, behaviour.target(id, caller)),
+            };
+            // Set by the firing that made the behaviour pending, in the same run.
+            let cause = b.active_exception?;
+            Some((behaviour, cause, s.current_run(target)))
+        });
+        // Judged on the target's run now: the one under way at the firing may have ended
+        // and another begun meanwhile (a restart of the target would have taken this
+        // owner down with it). Should a lane of higher priority replace it before the
+        // teardown, `apply` aborts the owner.
+        let judged = still.and_then(|(behaviour, cause, target)| {
+            self.with(|s| {
+                let limit = *s.exception_limits.get(id.index())?;
+                let judged = judged(behaviour, limit, s.block(target.seq)?);
+                Some((judged, cause, target))
+            })
+        });
+        if let Some((behaviour, cause, target)) = judged {
+            self.apply(control, run, behaviour, target, cause);
         }
     }
 }
