@@ -16,8 +16,17 @@
 //! given ticks; ticks 1 ms apart, or 1 to 7 ms apart (late ticks: missed polls, timeouts and
 //! waits falling due between ticks).
 //!
-//! Not modelled: non-blocking starts and joins, nested sequences (a sub-sequence between
-//! main and its steps), caller behaviours, the safety system, lanes of other priorities,
+//! With `tree` (session 54c): a sub-sequence (id k, after the steps; main is k + 1) between
+//! main and 1 or 2 of the steps, main running a step before and after it or not; it owns
+//! monitors and a timeout (with or without an exception sequence) and takes pause, resume
+//! and abort requests; pauses, resumes, holds and the lane's advance walk the blocking chain
+//! (`child`, `blocking_caller`). With `caller`: `AbortCallerOfOwner` and
+//! `RestartCallerOfOwner` (monitors and timeouts), acting on the owner's blocking caller (the
+//! owner itself for main), the restart limit judged on the target's run (item 5). `MODEL_BREAK`
+//! breaks a named rule for a bite check (`broken`).
+//!
+//! Not modelled: non-blocking starts and joins (so no caller that has ended), deeper trees,
+//! a sub-sequence's pre-condition or failure, the safety system, lanes of other priorities,
 //! requests of exception sequences, the requests' errors (only taken or not),
 //! `set_timeout`, events and counters.
 //!
@@ -39,8 +48,8 @@ use common::*;
 use rtseq::sim::Sim;
 use rtseq::RunningState::{self, *};
 use rtseq::{
-    Behaviour, Cause, ConditionFn, Cx, Duration, Failure, Instant, Monitor, MonitorId, Monitors,
-    Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Transition, Trigger, Wait,
+    Behaviour, Cause, ConditionFn, Cx, Done, Duration, Failure, Instant, Monitor, MonitorId,
+    Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Transition, Trigger, Wait,
 };
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -53,6 +62,10 @@ enum Beh {
     /// `RestartOwner` with this restart limit.
     Restart(u8),
     Pause,
+    /// `AbortCallerOfOwner`.
+    CallerAbort,
+    /// `RestartCallerOfOwner` with this restart limit.
+    CallerRestart(u8),
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -77,9 +90,21 @@ struct StepCfg {
     fail: Option<(u64, u64)>,
 }
 
+/// The sub-sequence (a `Node`-like `MMain` with no pre-condition) between main and the
+/// steps `first..first + len`: main runs the steps before `first`, then the sub-sequence, then
+/// the steps after it. Its id is k (after the steps), main's k + 1.
+#[derive(Clone, Debug)]
+struct SubCfg {
+    period: u64,
+    first: usize,
+    len: usize,
+    timeout: Option<(u64, Beh)>,
+    timeout_exc: Option<u64>,
+}
+
 #[derive(Clone, Debug)]
 struct MonCfg {
-    /// 0..k: step; k: main.
+    /// The owner's id: 0..k a step, then the sub-sequence (if any), then main.
     owner: usize,
     /// The condition is true for `from <= t < to`.
     from: u64,
@@ -102,17 +127,25 @@ enum Req {
 #[derive(Clone, Debug)]
 struct Scenario {
     steps: Vec<StepCfg>,
+    sub: Option<SubCfg>,
     main_period: u64,
     main_timeout: Option<(u64, Beh)>,
     main_timeout_exc: Option<u64>,
     /// Main's pre-condition is false for `from <= t < to` (seen by its restarts).
     main_pre_false: Option<(u64, u64)>,
     monitors: Vec<MonCfg>,
-    /// (time, target, request): the target 0..k is a step, k is main; made just before the
-    /// first tick at or after `time`.
+    /// (time, target, request): the target is a sequence id (as a monitor's owner); made
+    /// just before the first tick at or after `time`.
     requests: Vec<(u64, usize, Req)>,
     /// The ticks' times (ms), increasing; main starts at 0.
     ticks: Vec<u64>,
+}
+
+/// Bite checks: `MODEL_BREAK=name` breaks the rule the model names so (see the final report
+/// of session 54c); the sweeps that reach the rule must then fail.
+fn broken(name: &str) -> bool {
+    static B: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    B.get_or_init(|| std::env::var("MODEL_BREAK").unwrap_or_default()) == name
 }
 
 fn exit_flag(t: u64, at: u64) -> bool {
@@ -149,6 +182,8 @@ struct ExcDef {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
     Step,
+    /// The sub-sequence: runs steps, blocking, and blocks main.
+    Sub,
     Main,
     /// Exception sequence x (`Model::excs`).
     Exc(usize),
@@ -219,13 +254,15 @@ impl MSeq {
 
 struct Model<'s> {
     sc: &'s Scenario,
-    /// The number of steps, and main's index.
+    /// Main's index (k, or k + 1 with a sub-sequence).
     k: usize,
     seqs: Vec<MSeq>,
     /// The exception sequences: the monitors' in table order, then the timeouts' by owner.
     excs: Vec<ExcDef>,
-    /// The step main's action is at.
-    pc: usize,
+    /// What each sequence runs, blocking, in turn (main and the sub-sequence; empty for the
+    /// others), and the op its action is at.
+    ops: Vec<Vec<usize>>,
+    pcs: Vec<usize>,
     /// The next grid point of each polling class that has one.
     grid: BTreeMap<u64, u64>,
     /// Each monitor's last value.
@@ -237,18 +274,36 @@ struct Model<'s> {
     trace: Vec<Transition>,
     /// Whether each request was taken.
     req_ok: Vec<bool>,
+    /// How often each rare case came (`the_sweeps_reach_the_caller_cases`).
+    reached: BTreeMap<&'static str, usize>,
     t: u64,
 }
 
 impl<'s> Model<'s> {
     fn new(sc: &'s Scenario) -> Self {
-        let k = sc.steps.len();
+        let ns = sc.steps.len();
         let mut seqs: Vec<MSeq> = sc
             .steps
             .iter()
             .map(|s| MSeq::new(Kind::Step, s.period, s.timeout, Some(s.exit)))
             .collect();
+        let mut main_ops: Vec<usize> = (0..ns).collect();
+        let mut sub_ops = vec![];
+        if let Some(sub) = &sc.sub {
+            seqs.push(MSeq::new(Kind::Sub, sub.period, sub.timeout, None));
+            sub_ops = (sub.first..sub.first + sub.len).collect();
+            main_ops = (0..sub.first)
+                .chain([ns])
+                .chain(sub.first + sub.len..ns)
+                .collect();
+        }
+        let k = seqs.len();
         seqs.push(MSeq::new(Kind::Main, sc.main_period, sc.main_timeout, None));
+        let mut ops = vec![vec![]; k + 1];
+        ops[k] = main_ops;
+        if sc.sub.is_some() {
+            ops[ns] = sub_ops;
+        }
         // Added W, then E (as `run_rtseq` does): the monitors', then the timeouts'.
         let mut wanted: Vec<(Src, usize, u64)> = vec![];
         for (j, mc) in sc.monitors.iter().enumerate() {
@@ -269,18 +324,22 @@ impl<'s> Model<'s> {
             excs.push(ExcDef { src, owner, e, w });
         }
         let n = sc.monitors.len();
+        ops.resize(seqs.len(), vec![]);
+        let pcs = vec![0; seqs.len()];
         Model {
             sc,
             k,
             seqs,
             excs,
-            pc: 0,
+            ops,
+            pcs,
             grid: BTreeMap::new(),
             last: vec![false; n],
             holding: vec![false; n],
             pending_abort_all: false,
             trace: vec![],
             req_ok: vec![],
+            reached: BTreeMap::new(),
             t: 0,
         }
     }
@@ -326,12 +385,17 @@ impl<'s> Model<'s> {
         self.k
     }
 
-    /// The step main blocks on, if it is active.
-    fn child(&self) -> Option<usize> {
-        if self.pc < self.k && self.seqs[self.pc].active() {
-            Some(self.pc)
-        } else {
-            None
+    /// The sequence `c` (main or the sub-sequence) blocks on, if it is active.
+    fn child(&self, c: usize) -> Option<usize> {
+        let ch = *self.ops[c].get(self.pcs[c])?;
+        self.seqs[ch].active().then_some(ch)
+    }
+
+    /// The blocking caller of a step or of the sub-sequence.
+    fn blocking_caller(&self, i: usize) -> Option<usize> {
+        match self.seqs[i].kind {
+            Kind::Step | Kind::Sub => (0..self.seqs.len()).find(|&c| self.ops[c].contains(&i)),
+            _ => None,
         }
     }
 
@@ -339,7 +403,7 @@ impl<'s> Model<'s> {
     fn caller(&self, i: usize) -> Option<usize> {
         match self.seqs[i].kind {
             Kind::Main => None,
-            Kind::Step => Some(self.main()),
+            Kind::Step | Kind::Sub => self.blocking_caller(i),
             Kind::Exc(x) => Some(self.excs[x].owner),
             Kind::ExcWait(x) => Some(self.excs[x].e),
         }
@@ -365,23 +429,41 @@ impl<'s> Model<'s> {
     /// Item 7: held by a pause (a request or a `PauseOwner` monitor), its own or that of the
     /// caller it blocks; exception sequences are not blocking children.
     fn paused_hold(&self, i: usize) -> bool {
-        let m = self.main();
         let own = self.seqs[i].pause_req || self.seqs[i].holds > 0;
         match self.seqs[i].kind {
             Kind::Main => own,
-            Kind::Step => own || self.paused_hold(m),
+            Kind::Step | Kind::Sub => {
+                own || self.blocking_caller(i).is_some_and(|c| {
+                    if broken("pause_chain") {
+                        self.seqs[c].pause_req || self.seqs[c].holds > 0
+                    } else {
+                        self.paused_hold(c)
+                    }
+                })
+            }
             _ => false,
         }
     }
 
     /// Items 1, 3, 7: may not advance: paused, or handling an exception, or blocking a caller
-    /// that is.
+    /// that is (item 3: the hold is the owner's and that of its blocking children).
     fn held(&self, i: usize) -> bool {
-        let m = self.main();
         match self.seqs[i].kind {
-            Kind::Main => self.paused_hold(m) || self.seqs[m].exc.is_some(),
-            Kind::Step => {
-                self.paused_hold(i) || self.seqs[i].exc.is_some() || self.seqs[m].exc.is_some()
+            Kind::Main | Kind::Step | Kind::Sub => {
+                self.paused_hold(i) || {
+                    let mut x = Some(i);
+                    let mut exc = false;
+                    let mut up = 0;
+                    while let Some(c) = x {
+                        exc |= self.seqs[c].exc.is_some();
+                        x = self.blocking_caller(c);
+                        up += 1;
+                        if broken("exc_hold_chain") && up == 2 {
+                            break;
+                        }
+                    }
+                    exc
+                }
             }
             _ => false,
         }
@@ -422,8 +504,10 @@ impl<'s> Model<'s> {
         }
         self.mv(i, Running, cause);
         self.reset_round(i);
-        // Item 5: a new run begins with no restarts.
-        self.seqs[i].restarts = 0;
+        // Item 5: a new run begins with no restarts (bite check: not the sub-sequence's).
+        if !(broken("new_run_count") && self.seqs[i].kind == Kind::Sub) {
+            self.seqs[i].restarts = 0;
+        }
         self.reset_monitors(i);
     }
 
@@ -435,22 +519,32 @@ impl<'s> Model<'s> {
         }
     }
 
-    /// Main's action from step `pc` on: starts the steps in turn; item 1: a step's exit
-    /// condition is checked right after its action, so one that holds at once ends it.
-    fn begin_steps(&mut self) {
+    /// The action of `c` (main or the sub-sequence) from its op `pcs[c]` on: starts its
+    /// children in turn; item 1: a step's exit condition is checked right after its action,
+    /// so one that holds at once ends it, and so does that of `c` (always true) once its
+    /// last child ended. True if `c` ended.
+    fn begin_steps(&mut self, c: usize) -> bool {
         loop {
-            if self.pc >= self.k {
-                let m = self.main();
-                self.mv(m, Terminated, Cause::Completed);
-                return;
-            }
-            let s = self.pc;
+            let Some(&s) = self.ops[c].get(self.pcs[c]) else {
+                self.mv(c, Terminated, Cause::Completed);
+                return true;
+            };
             self.start(s, Cause::Start);
-            if self.step_round(s) {
-                self.pc += 1;
+            if self.child_round(s) {
+                self.pcs[c] += 1;
             } else {
-                return;
+                return false;
             }
+        }
+    }
+
+    /// A round of a child (a step, or the sub-sequence from its first op); true if it ended.
+    fn child_round(&mut self, s: usize) -> bool {
+        if self.seqs[s].kind == Kind::Sub {
+            self.pcs[s] = 0;
+            self.begin_steps(s)
+        } else {
+            self.step_round(s)
         }
     }
 
@@ -486,7 +580,11 @@ impl<'s> Model<'s> {
         let mut v: Vec<usize> = (0..self.seqs.len())
             .filter(|&x| self.seqs[x].active() && self.below(x, root) && (with_root || x != root))
             .collect();
-        v.sort_by_key(|&x| (std::cmp::Reverse(self.depth(x)), x));
+        if broken("innermost") {
+            v.sort_by_key(|&x| (std::cmp::Reverse(self.depth(x).min(2)), x));
+        } else {
+            v.sort_by_key(|&x| (std::cmp::Reverse(self.depth(x)), x));
+        }
         for x in v {
             self.mv(x, Aborting, cause);
             self.mv(x, Aborted, cause);
@@ -497,12 +595,57 @@ impl<'s> Model<'s> {
     }
 
     fn apply(&mut self, i: usize, beh: Beh, cause: Cause) {
+        // `Behaviour::AbortCallerOfOwner`/`RestartCallerOfOwner`: like `AbortOwner`/
+        // `RestartOwner`, one level up: the owner's caller (the owner itself for a main
+        // sequence); item 5: the limit is judged on the target's run.
+        let owner = i;
+        let caller_beh = matches!(beh, Beh::CallerAbort | Beh::CallerRestart(_));
+        let target = if broken("caller_target") {
+            i
+        } else if broken("caller_main")
+            && self.seqs[i].kind == Kind::Main
+            && matches!(beh, Beh::CallerAbort | Beh::CallerRestart(_))
+        {
+            return;
+        } else {
+            self.blocking_caller(i).unwrap_or(i)
+        };
+        let (i, beh) = match beh {
+            Beh::CallerAbort => (target, Beh::Abort),
+            Beh::CallerRestart(l) => (target, Beh::Restart(l)),
+            b => (i, b),
+        };
+        // Bite check: the limit judged on the owner's run instead of the target's.
+        let judged = if broken("caller_limit") { owner } else { i };
+        if i != owner {
+            let mut hit = |k| *self.reached.entry(k).or_default() += 1;
+            hit("caller behaviour");
+            if self.seqs[i].exc.is_some() {
+                hit("caller behaviour on a target handling its own exception");
+            }
+            if self.seqs[i].pause_req || self.seqs[i].holds > 0 {
+                hit("caller behaviour on a paused target");
+            }
+            if let Beh::Restart(l) = beh {
+                if self.seqs[i].restarts >= l {
+                    hit("caller restart escalated");
+                }
+                if (self.seqs[i].restarts >= l) != (self.seqs[owner].restarts >= l) {
+                    hit("caller restart: target and owner budgets judge differently");
+                }
+            }
+            if self.seqs[i].kind == Kind::Sub {
+                hit("caller behaviour on the sub-sequence");
+            }
+        } else if caller_beh {
+            *self.reached.entry("caller behaviour of main").or_default() += 1;
+        }
         match beh {
-            Beh::Nothing | Beh::Pause => {}
+            Beh::Nothing | Beh::Pause | Beh::CallerAbort | Beh::CallerRestart(_) => {}
             Beh::Abort => self.abort_below(i, true, cause),
             Beh::Restart(limit) => {
                 // Item 5: a restart whose limit the run's count has reached is an abort.
-                if self.seqs[i].restarts >= limit {
+                if self.seqs[judged].restarts >= limit {
                     self.abort_below(i, true, cause);
                     return;
                 }
@@ -525,11 +668,13 @@ impl<'s> Model<'s> {
         if self.seqs[i].state == Running {
             self.mv(i, Paused, cause);
         }
-        if i == self.main() {
-            if let Some(c) = self.child() {
+        if let Some(c) = self.child(i) {
+            if broken("pause_tree_chain") {
                 if self.seqs[c].state == Running {
                     self.mv(c, Paused, cause);
                 }
+            } else {
+                self.pause_tree(c, cause);
             }
         }
     }
@@ -542,11 +687,13 @@ impl<'s> Model<'s> {
         if self.seqs[i].state == Paused {
             self.mv(i, Running, cause);
         }
-        if i == self.main() {
-            if let Some(c) = self.child() {
+        if let Some(c) = self.child(i) {
+            if broken("resume_chain") {
                 if self.seqs[c].state == Paused && !self.paused_hold(c) {
                     self.mv(c, Running, cause);
                 }
+            } else {
+                self.resume_tree(c, cause);
             }
         }
     }
@@ -624,7 +771,6 @@ impl<'s> Model<'s> {
 
     fn tick(&mut self, t: u64) {
         self.t = t;
-        let m = self.main();
         let n = self.seqs.len();
         // Item 8: an abort-all, before the requests.
         if std::mem::take(&mut self.pending_abort_all) {
@@ -637,6 +783,12 @@ impl<'s> Model<'s> {
             if let (Some(src), true) = (self.seqs[i].exc, self.seqs[i].exc_ended) {
                 self.seqs[i].exc = None;
                 self.seqs[i].exc_ended = false;
+                if matches!(self.src_beh(src), Beh::CallerAbort | Beh::CallerRestart(_)) {
+                    *self
+                        .reached
+                        .entry("caller behaviour at its exception sequence's end")
+                        .or_default() += 1;
+                }
                 self.apply(i, self.src_beh(src), Self::src_cause(src));
             }
         }
@@ -768,11 +920,7 @@ impl<'s> Model<'s> {
             self.holding[j] = false;
             self.seqs[o].holds -= 1;
             let cause = Self::mon_cause(j);
-            if o == m {
-                self.resume_tree(m, cause);
-            } else if !self.paused_hold(o) && self.seqs[o].state == Paused {
-                self.mv(o, Running, cause);
-            }
+            self.resume_tree(o, cause);
         }
         // Item 8: runs end in their lanes, in the order they were added: main's, then the
         // exception sequences'.
@@ -820,43 +968,50 @@ impl<'s> Model<'s> {
         if self.seqs[m].state == Restarting {
             self.mv(m, Running, Cause::Restart);
             self.reset_round(m);
-            self.pc = 0;
+            self.pcs[m] = 0;
             if within(self.sc.main_pre_false, self.t) {
                 self.mv(m, Terminated, Cause::PreConditionFalse);
             } else {
-                self.begin_steps();
+                self.begin_steps(m);
             }
             return;
         }
-        if self.pc >= self.k {
-            return;
-        }
-        let s = self.pc;
-        match self.seqs[s].state {
+        self.advance(m, poll_taken);
+    }
+
+    /// The action of `c` (running, not held) at its blocking child; true if `c` ended.
+    fn advance(&mut self, c: usize, poll_taken: &[bool]) -> bool {
+        let Some(&s) = self.ops[c].get(self.pcs[c]) else {
+            return false;
+        };
+        let sub = self.seqs[s].kind == Kind::Sub;
+        let ended = match self.seqs[s].state {
             // Item 7: a blocking child's restart waits while its caller's lane is held.
             Restarting => {
                 if self.held(s) {
-                    return;
+                    return false;
                 }
                 self.mv(s, Running, Cause::Restart);
                 self.reset_round(s);
-                if self.step_round(s) {
-                    self.pc += 1;
-                    self.begin_steps();
+                self.child_round(s)
+            }
+            // Item 4: the aborted child's caller gets `Err` and goes on (`MMain` ignores it).
+            Aborted => true,
+            // Item 1: the exit condition is polled at the step's polls it takes.
+            Running if !sub => {
+                poll_taken[s] && !self.held(s) && self.exit_true(s) && {
+                    self.mv(s, Terminated, Cause::Completed);
+                    true
                 }
             }
-            // Item 4: the aborted child's caller gets `Err` and goes on (`Node` ignores it).
-            Aborted => {
-                self.pc += 1;
-                self.begin_steps();
-            }
-            // Item 1: the exit condition is polled at the step's polls it takes.
-            Running if poll_taken[s] && !self.held(s) && self.exit_true(s) => {
-                self.mv(s, Terminated, Cause::Completed);
-                self.pc += 1;
-                self.begin_steps();
-            }
-            _ => {}
+            Running if sub => !self.held(s) && self.advance(s, poll_taken),
+            _ => false,
+        };
+        if ended {
+            self.pcs[c] += 1;
+            self.begin_steps(c)
+        } else {
+            false
         }
     }
 
@@ -865,11 +1020,10 @@ impl<'s> Model<'s> {
         self.t = 0;
         let m = self.main();
         self.start(m, Cause::Start);
-        self.pc = 0;
-        self.begin_steps();
+        self.pcs[m] = 0;
+        self.begin_steps(m);
     }
 }
-
 fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
     let mut m = Model::new(sc);
     m.start_main();
@@ -889,11 +1043,11 @@ fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
 // ---------------------------------------------------------------- rtseq
 
 fn c_m0(c: &Ctrl, _: Instant) -> bool {
-    c.flag(8)
+    c.flag(MON)
 }
 
 fn c_m1(c: &Ctrl, _: Instant) -> bool {
-    c.flag(9)
+    c.flag(MON + 1)
 }
 
 fn beh(b: Beh) -> Behaviour {
@@ -902,12 +1056,14 @@ fn beh(b: Beh) -> Behaviour {
         Beh::Abort => Behaviour::AbortOwner,
         Beh::Restart(_) => Behaviour::RestartOwner,
         Beh::Pause => Behaviour::PauseOwner,
+        Beh::CallerAbort => Behaviour::AbortCallerOfOwner,
+        Beh::CallerRestart(_) => Behaviour::RestartCallerOfOwner,
     }
 }
 
 fn limit(b: Beh) -> u8 {
     match b {
-        Beh::Restart(l) => l,
+        Beh::Restart(l) | Beh::CallerRestart(l) => l,
         _ => 3,
     }
 }
@@ -923,11 +1079,13 @@ fn cfg(name: &'static str, period: u64, timeout: Option<(u64, Beh)>) -> SeqConfi
     c
 }
 
-/// The flags: the exit flags of the steps are 0..3 (`Leaf`), the monitors' conditions 8 and 9
-/// (`c_m0`, `c_m1`); these are the pre-conditions (true: it holds) and the failures.
-const PRE: usize = 3;
-const MAIN_PRE: usize = 6;
-const FAIL: usize = 10;
+/// The flags: the exit flags of the steps are 0..4 (`Leaf`), the monitors' conditions `MON`
+/// and `MON + 1` (`c_m0`, `c_m1`); these are the pre-conditions (true: it holds) and the
+/// failures.
+const PRE: usize = 4;
+const FAIL: usize = 8;
+const MAIN_PRE: usize = 12;
+const MON: usize = 13;
 
 /// A step whose exit condition is flag `i`, whose pre-condition is flag `PRE + i` and whose
 /// action fails while flag `FAIL + i` is set.
@@ -952,10 +1110,15 @@ impl Step<Ctrl> for MLeaf {
 enum MOp {
     Leaf(Seq<MLeaf>),
     Wait(Seq<Wait>),
+    /// The sub-sequence, run blocking (`Cx::run`).
+    Sub(Seq<MMain>),
 }
 
-/// Main: runs its steps in turn, going on whatever each returned; pre-condition `MAIN_PRE`.
-struct MMain(Vec<MOp>);
+type Boxed<'f> = std::pin::Pin<Box<dyn std::future::Future<Output = Result<Done, Failure>> + 'f>>;
+
+/// Main (pre-condition flag `MAIN_PRE`) or the sub-sequence (none): runs its ops in turn,
+/// going on whatever each returned.
+struct MMain(Vec<MOp>, Option<usize>);
 
 impl Sequence<Ctrl> for MMain {
     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
@@ -963,12 +1126,16 @@ impl Sequence<Ctrl> for MMain {
             let _ = match op {
                 MOp::Leaf(s) => cx.step(s).await,
                 MOp::Wait(s) => cx.step(s).await,
+                MOp::Sub(s) => {
+                    let f: Boxed<'_> = Box::pin(cx.run(s));
+                    f.await
+                }
             };
         }
         Ok(())
     }
     fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
-        cx.control().flag(MAIN_PRE)
+        self.1.is_none_or(|f| cx.control().flag(f))
     }
 }
 
@@ -980,8 +1147,15 @@ fn timeout_excs(sc: &Scenario) -> Vec<(usize, u64)> {
         .enumerate()
         .filter_map(|(i, s)| s.timeout.and(s.timeout_exc).map(|d| (i, d)))
         .collect();
+    let mut k = sc.steps.len();
+    if let Some(sub) = &sc.sub {
+        if let Some(d) = sub.timeout.and(sub.timeout_exc) {
+            v.push((k, d));
+        }
+        k += 1;
+    }
     if let Some(d) = sc.main_timeout.and(sc.main_timeout_exc) {
-        v.push((sc.steps.len(), d));
+        v.push((k, d));
     }
     v
 }
@@ -997,24 +1171,27 @@ fn set_flags(sc: &Scenario, c: &Ctrl, t: u64) {
     }
     c.set(MAIN_PRE, !within(sc.main_pre_false, t));
     for (j, m) in sc.monitors.iter().enumerate() {
-        c.set(8 + j, cond(m, t));
+        c.set(MON + j, cond(m, t));
     }
 }
 
 /// Runs the scenario in the simulator: the trace and whether each request was taken.
 fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
-    let seq: Sequencer<Ctrl, 16, 256> = Sequencer::new();
+    let seq: Sequencer<Ctrl, 32, 256> = Sequencer::new();
     let ctrl = Ctrl::default();
-    const NAMES: [&str; 3] = ["s0", "s1", "s2"];
-    const EXC: [(&str, &str); 6] = [
+    const NAMES: [&str; 4] = ["s0", "s1", "s2", "s3"];
+    const EXC: [(&str, &str); 8] = [
         ("w0", "e0"),
         ("w1", "e1"),
         ("w2", "e2"),
         ("w3", "e3"),
         ("w4", "e4"),
         ("w5", "e5"),
+        ("w6", "e6"),
+        ("w7", "e7"),
     ];
-    let k = sc.steps.len();
+    // Main's id: after the steps and the sub-sequence.
+    let k = sc.steps.len() + sc.sub.is_some() as usize;
     let n_mon_exc = sc.monitors.iter().filter(|m| m.exception.is_some()).count();
     let texcs = timeout_excs(sc);
     // The id of the timeout exception sequence of `i`: added after main and the monitors'.
@@ -1041,10 +1218,20 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
             )),
         }
     }
+    if let Some(sub) = &sc.sub {
+        let ns = sc.steps.len();
+        let mut rest = ops.split_off(sub.first);
+        let after = rest.split_off(sub.len);
+        let c = cfg_of("sub", sub.period, sub.timeout, ns);
+        let s = seq.add(c, MMain(rest, None)).unwrap();
+        assert_eq!(s.id().index(), ns);
+        ops.push(MOp::Sub(s));
+        ops.extend(after);
+    }
     let main = seq
         .add(
             cfg_of("main", sc.main_period, sc.main_timeout, k),
-            MMain(ops),
+            MMain(ops, Some(MAIN_PRE)),
         )
         .unwrap();
     let mi = main.id();
@@ -1169,9 +1356,21 @@ struct Features {
     step_requests: bool,
     /// Exception sequences of the timeouts.
     timeout_exc: bool,
+    /// A sub-sequence between main and 1 or 2 of the steps (main may run a step before and
+    /// after it), owning monitors and a timeout, and a target of requests.
+    tree: bool,
+    /// The caller behaviours `AbortCallerOfOwner` and `RestartCallerOfOwner`.
+    caller: bool,
 }
 
 fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
+    if f.caller && r.chance(45) {
+        return if r.chance(40) {
+            Beh::CallerAbort
+        } else {
+            Beh::CallerRestart(r.below(4) as u8)
+        };
+    }
     // Item 6: a timeout cannot have `PauseOwner`.
     let n = if timeout || !f.pause_owner { 3 } else { 4 };
     match r.below(n) {
@@ -1199,7 +1398,16 @@ fn gen_texc(r: &mut Rng, timeout: bool, f: &Features) -> Option<u64> {
 
 fn generate(seed: u64, f: &Features) -> Scenario {
     let mut r = Rng(seed);
-    let k = r.range(1, 3) as usize;
+    // With a sub-sequence: a step before it, 1 or 2 steps in it, a step after it.
+    let layout = f.tree.then(|| {
+        let before = r.chance(40) as usize;
+        let len = r.range(1, 2) as usize;
+        (before, len, before + len + r.chance(40) as usize)
+    });
+    let k = match layout {
+        Some((_, _, k)) => k,
+        None => r.range(1, 3) as usize,
+    };
     let steps: Vec<StepCfg> = (0..k)
         .map(|_| {
             let period = r.period();
@@ -1225,6 +1433,21 @@ fn generate(seed: u64, f: &Features) -> Scenario {
             }
         })
         .collect();
+    let sub = layout.map(|(first, len, _)| {
+        let period = r.period();
+        let timeout = r
+            .chance(if f.timeout_exc { 45 } else { 35 })
+            .then(|| (r.range(2, 20), gen_beh(&mut r, true, f)));
+        SubCfg {
+            period,
+            first,
+            len,
+            timeout,
+            timeout_exc: gen_texc(&mut r, timeout.is_some(), f),
+        }
+    });
+    // The sequences that may own monitors or take requests: the steps, the sub-sequence, main.
+    let n_tree = k + sub.is_some() as usize + 1;
     let main_period = r.period();
     let pct = if f.timeout_exc { 40 } else { 20 };
     let main_timeout = if r.chance(pct) {
@@ -1239,7 +1462,7 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         .map(|_| {
             let from = r.range(1, 25);
             MonCfg {
-                owner: r.below(k as u64 + 1) as usize,
+                owner: r.below(n_tree as u64) as usize,
                 from,
                 to: from + r.range(1, 10),
                 trigger: if f.more {
@@ -1268,9 +1491,12 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         // Of main, or with `step_requests` of any of the k + 1.
         let target = |r: &mut Rng| {
             if f.step_requests {
-                r.below(k as u64 + 1) as usize
-            } else {
+                r.below(n_tree as u64) as usize
+            } else if f.tree && r.chance(60) {
+                // The sub-sequence.
                 k
+            } else {
+                n_tree - 1
             }
         };
         if r.chance(40) {
@@ -1298,7 +1524,7 @@ fn generate(seed: u64, f: &Features) -> Scenario {
             }
         }
         if f.step_requests && r.chance(15) {
-            requests.push((r.range(1, 40), k, Req::AbortAll));
+            requests.push((r.range(1, 40), n_tree - 1, Req::AbortAll));
         }
         requests.sort_by_key(|&(t, _, _)| t);
     }
@@ -1314,6 +1540,7 @@ fn generate(seed: u64, f: &Features) -> Scenario {
     }
     Scenario {
         steps,
+        sub,
         main_period,
         main_timeout,
         main_timeout_exc,
@@ -1347,6 +1574,8 @@ const fn feat(more: bool, pause_owner: bool, exceptions: bool, requests: bool) -
         pre_fail: false,
         step_requests: false,
         timeout_exc: false,
+        tree: false,
+        caller: false,
     }
 }
 
@@ -1397,6 +1626,39 @@ fn env(name: &str) -> Option<u64> {
             .unwrap_or_else(|_| panic!("{name}={v}: not a number")),
     )
 }
+
+/// The two-level tree (a sub-sequence between main and the steps), on `MORE`; with caller
+/// behaviours; then with every extension.
+const TREE: (u64, Features) = (
+    1_100_000,
+    Features {
+        tree: true,
+        ..MORE.1
+    },
+);
+const TREE_CALLER: (u64, Features) = (
+    1_200_000,
+    Features {
+        tree: true,
+        caller: true,
+        ..MORE.1
+    },
+);
+const TREE_ALL: (u64, Features) = (
+    1_300_000,
+    Features {
+        tree: true,
+        caller: true,
+        ..ALL.1
+    },
+);
+const CALLER: (u64, Features) = (
+    1_400_000,
+    Features {
+        caller: true,
+        ..ALL.1
+    },
+);
 
 /// The scenario's trace and request results in the simulator and in the model, or both
 /// printed.
@@ -1505,13 +1767,39 @@ fn with_all_extensions() {
     sweep(ALL, "with_all_extensions");
 }
 
+/// As `with_more_triggers_and_pauses`, with a sub-sequence between main and the steps.
+#[test]
+fn with_a_sub_sequence() {
+    sweep(TREE, "with_a_sub_sequence");
+}
+
+/// As `with_a_sub_sequence`, with `AbortCallerOfOwner` and `RestartCallerOfOwner`.
+#[test]
+fn with_caller_behaviours() {
+    sweep(TREE_CALLER, "with_caller_behaviours");
+}
+
+/// As `with_all_extensions`, with caller behaviours (one level: main and its steps).
+#[test]
+fn with_caller_behaviours_one_level() {
+    sweep(CALLER, "with_caller_behaviours_one_level");
+}
+
+/// Everything together: the sub-sequence, caller behaviours and every extension.
+#[test]
+fn with_the_tree_and_everything() {
+    sweep(TREE_ALL, "with_the_tree_and_everything");
+}
+
 /// A transition's kind: who (main, a step, an exception sequence or its `Wait`), from, to and
 /// the cause without its monitor or sequence.
 fn kind(sc: &Scenario, t: &Transition) -> String {
     let i = t.sequence.index();
-    let k = sc.steps.len();
-    let who = if i < k {
+    let k = sc.steps.len() + sc.sub.is_some() as usize;
+    let who = if i < sc.steps.len() {
         "step"
+    } else if i < k {
+        "sub"
     } else if i == k {
         "main"
     } else if (i - k) % 2 == 1 {
@@ -1643,6 +1931,7 @@ fn one_step(monitors: Vec<MonCfg>, requests: Vec<(u64, Req)>) -> Scenario {
     };
     Scenario {
         steps: vec![step],
+        sub: None,
         main_period: 1,
         main_timeout: None,
         main_timeout_exc: None,
@@ -1702,4 +1991,91 @@ fn a_pause_asked_for_before_a_restart_ends_with_the_round() {
     let m = SeqId::from_index(1);
     assert!(trace.contains(&tr(9, m, Running, Restarting, Model::mon_cause(0))));
     assert!(trace.iter().all(|t| t.to != Paused), "\n{}", show(&trace));
+}
+
+/// The rare cases of the caller behaviours occur in the first seeds of the tree sweeps.
+#[test]
+fn the_sweeps_reach_the_caller_cases() {
+    let mut reached: BTreeMap<&str, usize> = BTreeMap::new();
+    for (from, f) in [TREE_CALLER, TREE_ALL] {
+        for seed in from..from + 2000 {
+            let sc = generate(seed, &f);
+            let mut m = Model::new(&sc);
+            m.start_main();
+            let mut prev = 0;
+            for &t in &sc.ticks {
+                for &(rt, i, r) in &sc.requests {
+                    if prev < rt && rt <= t {
+                        m.request(i, r);
+                    }
+                }
+                m.tick(t);
+                prev = t;
+            }
+            for (k, v) in m.reached {
+                *reached.entry(k).or_default() += v;
+            }
+        }
+    }
+    assert_eq!(reached.len(), 8, "{reached:#?}");
+}
+
+/// Main (id 2) runs the sub-sequence (id 1), which runs one step (id 0) ending at 70 ms.
+fn sub_scenario(monitors: Vec<MonCfg>, requests: Vec<(u64, usize, Req)>) -> Scenario {
+    let mut sc = one_step(monitors, vec![]);
+    sc.sub = Some(SubCfg {
+        period: 1,
+        first: 0,
+        len: 1,
+        timeout: None,
+        timeout_exc: None,
+    });
+    sc.requests = requests;
+    sc
+}
+
+/// Items 3 and 5 say nothing of it (a silence, followed from rtseq): the step's
+/// `RestartCallerOfOwner` (no exception sequence) fires at 8 ms while its caller, the
+/// sub-sequence, handles an exception of its own (its exception sequence runs 5 to 15 ms): the
+/// sub-sequence is restarted at once, its exception sequence aborted below it, and the
+/// `RestartOwner` its exception would have applied never comes.
+#[test]
+fn a_caller_behaviour_cuts_short_its_target_s_own_exception() {
+    let mut own = fires_at_5(1, Beh::Restart(3));
+    own.exception = Some(10);
+    own.to = 6;
+    let child = MonCfg {
+        owner: 0,
+        from: 8,
+        to: 9,
+        trigger: Trigger::RisingEdge,
+        beh: Beh::CallerRestart(3),
+        exception: None,
+    };
+    let sc = sub_scenario(vec![own, child], vec![]);
+    compare(&sc).unwrap();
+    let (trace, _) = run_model(&sc);
+    let (s, sub, w, e) = (
+        SeqId::from_index(0),
+        SeqId::from_index(1),
+        SeqId::from_index(3),
+        SeqId::from_index(4),
+    );
+    let m1 = Model::mon_cause(1);
+    let at_8: Vec<_> = trace.iter().filter(|t| ms(t.time) == 8).copied().collect();
+    let want = [
+        tr(8, w, Running, Aborting, m1),
+        tr(8, w, Aborting, Aborted, m1),
+        tr(8, s, Running, Aborting, m1),
+        tr(8, s, Aborting, Aborted, m1),
+        tr(8, e, Running, Aborting, m1),
+        tr(8, e, Aborting, Aborted, m1),
+        tr(8, sub, Running, Restarting, m1),
+        tr(8, sub, Restarting, Running, Cause::Restart),
+        tr(8, s, Aborted, Running, Cause::Start),
+    ];
+    assert_eq!(at_8, want, "\n{}", show(&trace));
+    assert!(trace
+        .iter()
+        .all(|t| ms(t.time) <= 8 || t.cause != Model::mon_cause(0)));
 }
