@@ -7,8 +7,8 @@ use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Monitor as Mon, Pause, Restart, Resume, Start};
 use rtseq::RunningState::*;
 use rtseq::{
-    Behaviour, Cause, ConditionFn, Duration, Error, Instant, Monitor, MonitorId, Monitors,
-    SeqConfig, Sequencer, Wait,
+    Behaviour, Cause, ConditionFn, Duration, Error, Instant, Monitor, MonitorId, Monitors, Seq,
+    SeqConfig, SeqId, Sequencer, Wait,
 };
 
 /// Main runs a 1 s `Wait` blocking; it is paused at 0.3 s and resumed at 2.3 s (each request
@@ -203,6 +203,19 @@ fn at(ms: u64) -> Instant {
     Instant::from_ticks(ms * 1000)
 }
 
+/// Main, which runs a 5 ms `Wait` blocking: main, its id and the wait's.
+fn waits_5_ms(seq: &Sequencer<Ctrl, 4>) -> (Seq<Node>, SeqId, SeqId) {
+    let w = seq
+        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let wi = w.id();
+    let main = seq
+        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
+        .unwrap();
+    let mi = main.id();
+    (main, mi, wi)
+}
+
 /// A pause wakes no lane (semantics 15): a run paused before its lane took its start, or
 /// while it waits, waits for its resume, which wakes it. Each ends the time its unpaused
 /// wait took after the resume.
@@ -212,13 +225,7 @@ fn at(ms: u64) -> Instant {
 fn a_pause_before_the_lane_took_its_start() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
-    let w = seq
-        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
-        .unwrap();
-    let mi = main.id();
+    let (main, mi, _) = waits_5_ms(&seq);
     let other = seq.add(SeqConfig::new("other"), Node::of(vec![])).unwrap();
     let oi = other.id();
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
@@ -241,14 +248,7 @@ fn a_pause_before_the_lane_took_its_start() {
 fn a_blocking_child_paused_alone() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
-    let w = seq
-        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let wi = w.id();
-    let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
-        .unwrap();
-    let mi = main.id();
+    let (main, mi, wi) = waits_5_ms(&seq);
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
     sim.start(mi).unwrap();
@@ -268,13 +268,7 @@ fn a_blocking_child_paused_alone() {
 fn an_abort_during_a_pause() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
-    let w = seq
-        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
-        .unwrap();
-    let mi = main.id();
+    let (main, mi, _) = waits_5_ms(&seq);
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
     sim.start(mi).unwrap();
@@ -295,13 +289,7 @@ fn an_abort_during_a_pause() {
 fn a_joiner_of_a_paused_run() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
-    let w = seq
-        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
-        .unwrap();
-    let mi = main.id();
+    let (main, mi, _) = waits_5_ms(&seq);
     let j = seq
         .add(SeqConfig::new("J"), Node::of(vec![Op::Join(mi)]))
         .unwrap();
@@ -330,13 +318,7 @@ fn a_joiner_of_a_paused_run() {
 fn pause_resume_pause_resume() {
     let seq: Sequencer<Ctrl, 4> = Sequencer::new();
     let ctrl = Ctrl::default();
-    let w = seq
-        .add(SeqConfig::new("W"), Wait::new(Duration::from_millis(5)))
-        .unwrap();
-    let main = seq
-        .add(SeqConfig::new("main"), Node::of(vec![Op::Wait(w)]))
-        .unwrap();
-    let mi = main.id();
+    let (main, mi, _) = waits_5_ms(&seq);
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(main);
     sim.start(mi).unwrap();
