@@ -36,7 +36,7 @@
 //! a join waits for the run under way (item 14); the application starts main again
 //! (`Handle::start`, `AlreadyRunning` while it runs, taken and held while an abort-all
 //! waits). With `MODEL_JOIN_CYCLE=1` the child also joins main after its steps (a cycle of
-//! joins, item 14): off by default, as `tests/model54d_findings.rs` fails.
+//! joins, item 14): off by default, as a known defect makes seeds differ (`tests/join_after_restart.rs`).
 //!
 //! Not modelled: joins of runs replaced before the joiner's poll (`OutcomeLost`), deeper trees,
 //! a sub-sequence's pre-condition or failure, the safety system, lanes of other priorities,
