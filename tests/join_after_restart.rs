@@ -16,21 +16,17 @@ fn restart_cond(c: &Ctrl, _: Instant) -> bool {
     c.flag(1)
 }
 
-/// docs/semantics.md item 14 (line 288): "A join that closes a cycle of waits (A joins B
-/// while B joins A ...) is `Err(Error::JoinWouldDeadlock(id))`"; `Cx::join`: a join fails at
-/// once only where it "would wait for itself".
-///
-/// Main (#2) starts B (#1, non-blocking, ending once flag 2 is set, at 5 ms) and joins it; B
-/// joins main. At 0 ms B's join closes the cycle and is refused: right. At 3 ms a
-/// `RestartCallerOfOwner` monitor of B restarts main (B aborted below it); main's new round
-/// starts B again and joins it. B's new run has waited on nothing yet (its lane has not
-/// run), so main's join closes no cycle and must wait; B's join of main then closes it and
-/// is the error. rtseq refuses main's join at once with `JoinWouldDeadlock(#1)` (main
-/// ends at 3 ms), and B's join waits and returns `Ok(Completed)`: the refusal of B's
-/// join in its aborted run seems to be still counted as a wait.
+/// Semantics 14: "A join that closes a cycle of waits (A joins B while B joins A ...) is
+/// `Err(Error::JoinWouldDeadlock(id))`", and of two joins the later is the error. Main (#1)
+/// starts B (#0, non-blocking, ending once flag 2 is set, at 5 ms) and joins it; B joins
+/// main, closing the cycle: refused at 0 ms. At 3 ms a `RestartCallerOfOwner` monitor of
+/// B restarts main (B aborted below it); main's new round starts B again and joins it,
+/// before B's lane has unwound B's aborted run. Main's join closes no cycle and waits; B's
+/// new run's join of main closes it and is the error; B ends at 5 ms, and main's join
+/// returns.
 #[test]
 #[ignore = "known defect (CHANGELOG): a join after a restart is refused as a cycle"]
-fn a_join_after_a_restart_is_refused_for_a_wait_of_the_aborted_run() {
+fn a_join_after_a_restart_waits_while_the_aborted_run_of_its_target_unwinds() {
     let seq: Sequencer<Ctrl, 8, 64> = Sequencer::new();
     let ctrl = Ctrl::default();
     let main_id = SeqId::from_index(1);
