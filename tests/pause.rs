@@ -203,6 +203,13 @@ fn at(ms: u64) -> Instant {
     Instant::from_ticks(ms * 1000)
 }
 
+/// Runs until nothing is left to do, which must be when `id` has completed, at `ms`.
+fn assert_ends_at(sim: &mut Sim<'_, Ctrl, 4, 64, 1>, id: SeqId, ms: u64) {
+    let end = sim.run_until_idle(Duration::from_millis(50));
+    assert_eq!(sim.state(id), Terminated, "{}", show(sim.trace()));
+    assert_eq!(end, Some(at(ms)), "{}", show(sim.trace()));
+}
+
 /// Main, which runs a 5 ms `Wait` blocking: main, its id and the wait's.
 fn waits_5_ms(seq: &Sequencer<Ctrl, 4>) -> (Seq<Node>, SeqId, SeqId) {
     let w = seq
@@ -238,9 +245,7 @@ fn a_pause_before_the_lane_took_its_start() {
     sim.run_until(at(10));
     assert_eq!(sim.state(mi), Paused, "{}", show(sim.trace()));
     h.resume().unwrap();
-    let end = sim.run_until_idle(Duration::from_millis(50));
-    assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
-    assert_eq!(end, Some(at(16)), "{}", show(sim.trace()));
+    assert_ends_at(&mut sim, mi, 16);
 }
 
 /// A blocking child paused alone (its caller runs on), then resumed.
@@ -258,9 +263,7 @@ fn a_blocking_child_paused_alone() {
     assert_eq!(sim.state(wi), Paused, "{}", show(sim.trace()));
     assert_eq!(sim.state(mi), Running, "{}", show(sim.trace()));
     sim.resume(wi).unwrap();
-    let end = sim.run_until_idle(Duration::from_millis(50));
-    assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
-    assert_eq!(end, Some(at(14)), "{}", show(sim.trace()));
+    assert_ends_at(&mut sim, mi, 14);
 }
 
 /// Paused, then aborted while paused; started again at once.
@@ -279,9 +282,7 @@ fn an_abort_during_a_pause() {
     sim.run_until(at(6));
     assert_eq!(sim.state(mi), Aborted, "{}", show(sim.trace()));
     sim.start(mi).unwrap();
-    let end = sim.run_until_idle(Duration::from_millis(50));
-    assert_eq!(sim.state(mi), Terminated, "{}", show(sim.trace()));
-    assert_eq!(end, Some(at(11)), "{}", show(sim.trace()));
+    assert_ends_at(&mut sim, mi, 11);
 }
 
 /// J (its own lane) joins main; main is paused and resumed; J gets main's end.
