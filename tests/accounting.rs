@@ -1033,7 +1033,7 @@ fn safety_cycle_calls_per_cycle() {
 
 /// Three lanes due at the same ticks: `a` and `c` joined in one task (`lanes!`), `b` (whose
 /// ids lie between theirs) in a task of its own. Each due tick wakes the joined task once
-/// and polls it once, and `b`'s task once: "lanes joined in one task (`lanes!`) share a
+/// and polls it once, and `b`'s task once: "lanes joined in one task, `lanes!`, share a
 /// waker and are woken once" (docs/semantics.md item 15), whatever the order of their ids.
 /// With the portable lock (the lanes found in short sections) and a coarse one (in one).
 #[test]
