@@ -121,8 +121,14 @@ mod pending {
     ];
 }
 
-/// What a joiner waits for, kept in its control block: nothing, the end of one
-/// sequence's run, or, while it waits in several joins at once, any end.
+/// What a joiner waits for, kept in its control block: nothing, the end of one run of a
+/// sequence, or, while it waits in several joins at once, any end.
+///
+/// The run is named by the low 7 bits of its count: a run that ended before its future
+/// unwound (aborted, then started again by another lane before its lane ran) releases
+/// only its own joiners, not those of the run that began since, and the cycle check
+/// follows only the waits of the run under way. At most one run begins before the last
+/// one's future unwinds (its lane drives both), so 7 bits tell them apart.
 ///
 /// Its own type rather than a [`Link`]: "any" is no sequence, and
 /// nothing here can be read as one by mistake. All-zero bytes are "nothing", so an empty
@@ -132,16 +138,17 @@ pub(crate) struct JoinWait(u16);
 
 impl JoinWait {
     pub(crate) const NOTHING: JoinWait = JoinWait(0);
-    /// Above every sequence's value (a sequence `i` is `i + 1`, at most 256).
+    /// Above every run's value (a sequence `i` is `i + 1`, at most 256, in the low 9 bits).
     pub(crate) const ANY_END: JoinWait = JoinWait(u16::MAX);
 
-    pub(crate) const fn end_of(target: SeqId) -> JoinWait {
-        JoinWait(target.0 as u16 + 1)
+    /// The end of `target`'s run of count `runs`.
+    pub(crate) const fn end_of(target: SeqId, runs: u16) -> JoinWait {
+        JoinWait((target.0 as u16 + 1) | (runs & 0x7f) << 9)
     }
 
-    /// Whether the end of `target`'s run releases this joiner.
-    pub(crate) fn released_by(self, target: SeqId) -> bool {
-        self == JoinWait::end_of(target) || self == JoinWait::ANY_END
+    /// Whether the end of `target`'s run of count `runs` releases this joiner.
+    pub(crate) fn released_by(self, target: SeqId, runs: u16) -> bool {
+        self == JoinWait::end_of(target, runs) || self == JoinWait::ANY_END
     }
 }
 

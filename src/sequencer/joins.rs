@@ -4,6 +4,7 @@
 //! the end of a run releases every joiner of it and wakes their lanes. So any number of
 //! sequences can join one run.
 
+use crate::model::id::RunId;
 use crate::model::set::SeqSet;
 use crate::model::state::RunningStates;
 use crate::sequencer::control_block::flag;
@@ -14,14 +15,14 @@ use crate::sequencer::State;
 use crate::{Error, Outcome, RunningState, SeqId};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// `joiner` waits for the end of the run of `target`. An action may wait in several
-    /// joins at once (joins raced with `select`, or joined): a joiner already waiting for
-    /// another target waits for any end until it is released, so the end
+    /// `joiner` waits for the end of `target`'s run of count `runs`. An action may wait in
+    /// several joins at once (joins raced with `select`, or joined): a joiner already
+    /// waiting for another run waits for any end until it is released, so the end
     /// of neither run is missed (a spurious wake-up costs one poll).
-    pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId) {
+    pub(crate) fn wait_for_join(&mut self, joiner: SeqId, target: SeqId, runs: u16) {
         let joining = self.sets.has(Set::Joining, joiner);
         if let Some(b) = self.block_mut(joiner) {
-            let wait = JoinWait::end_of(target);
+            let wait = JoinWait::end_of(target, runs);
             b.joins = if joining && b.joins != wait {
                 JoinWait::ANY_END
             } else {
@@ -31,14 +32,24 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
+    /// `joiner`'s wait for the end of `target`'s run `from` is for its run `to` now (the
+    /// first look of a join chose a run begun since the registration).
+    pub(crate) fn move_wait(&mut self, joiner: SeqId, target: SeqId, from: u16, to: u16) {
+        if let Some(b) = self.block_mut(joiner) {
+            if b.joins == JoinWait::end_of(target, from) {
+                b.joins = JoinWait::end_of(target, to);
+            }
+        }
+    }
+
     /// A join of `joiner` of `target` returned: `joiner` no longer waits. A wait that was
     /// not this join's alone (several joins at once, `JoinWait::ANY_END`) is cleared all
     /// the same, and the joiner's lane is returned, to wake, so that its pending joins,
     /// polled again, register anew (one alone as the join of its own run, which the cycle
     /// check follows): else the wait in several joins would stay after a `select` of
     /// joins, and a cycle closed by a later join go unseen.
-    pub(crate) fn join_returned(&mut self, joiner: SeqId, target: SeqId) -> LaneSet {
-        let own = JoinWait::end_of(target);
+    pub(crate) fn join_returned(&mut self, joiner: SeqId, target: SeqId, runs: u16) -> LaneSet {
+        let own = JoinWait::end_of(target, runs);
         self.stop_waiting(joiner, |wait| wait != JoinWait::NOTHING && wait != own)
     }
 
@@ -48,6 +59,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// the joiner's lane is returned, to wake, so that those register anew.
     pub(crate) fn join_dropped(&mut self, joiner: SeqId) -> LaneSet {
         self.stop_waiting(joiner, |wait| wait != JoinWait::NOTHING)
+    }
+
+    /// The run of `joiner` was aborted: its wait in a join, if any, is over (its join's
+    /// future, dropped when the run unwinds, finds nothing left to clear).
+    pub(crate) fn forget_wait(&mut self, joiner: SeqId) {
+        if let Some(b) = self.block_mut(joiner) {
+            b.joins = JoinWait::NOTHING;
+        }
+        self.sets.put(Set::Joining, joiner, false);
     }
 
     /// Clears `joiner`'s wait; its lane, to wake, if `wake` says so of the wait.
@@ -87,15 +107,19 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// The sequences waiting in a join for the end of `target`'s run alone (one waiting in
-    /// several joins at once is left out: it may go on at another end), and still running
-    /// or paused: the join of a run that the tick aborted or restarted is over, although
-    /// its future, which clears the wait when dropped, has not unwound yet.
+    /// The sequences waiting in a join for the end of `target`'s run under way alone (one
+    /// waiting in several joins at once is left out: it may go on at another end), and
+    /// still running or paused: the join of a run that the tick aborted or restarted is
+    /// over, although its future, which clears the wait when dropped, has not unwound yet.
     pub(crate) fn joiners_of(&self, target: SeqId) -> SeqSet<B> {
         let mut out = SeqSet::EMPTY;
+        let Some(runs) = self.block(target).map(|b| b.runs) else {
+            return out;
+        };
         for j in self.sets.members(Set::Joining) {
             if self.block(j).is_some_and(|b| {
-                b.joins == JoinWait::end_of(target) && RunningStates::RUNNING_OR_PAUSED.has(b.state)
+                b.joins == JoinWait::end_of(target, runs)
+                    && RunningStates::RUNNING_OR_PAUSED.has(b.state)
             }) {
                 out.insert(j);
             }
@@ -103,15 +127,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         out
     }
 
-    /// The run of `target` ended: every sequence waiting in a join for it is released.
-    /// Returns their lanes, to wake.
-    pub(crate) fn release_joiners(&mut self, target: SeqId) -> LaneSet {
+    /// The run `run` ended: every sequence waiting in a join for it is released (not those
+    /// of a later run of the same sequence). Returns their lanes, to wake.
+    pub(crate) fn release_joiners(&mut self, run: RunId) -> LaneSet {
         let mut lanes = LaneSet::EMPTY;
         for j in self.sets.members(Set::Joining) {
             let Some(b) = self.block_mut(j) else {
                 continue;
             };
-            if b.joins.released_by(target) {
+            if b.joins.released_by(run.seq, run.count) {
                 b.joins = JoinWait::NOTHING;
                 lanes = lanes.with(LaneSet::of(b.lane));
                 self.sets.put(Set::Joining, j, false);

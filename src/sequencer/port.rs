@@ -218,7 +218,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         in_sections_then_wake!(self, |s| {
             // The run no longer waits for a poll.
             s.section(|s| s.set_poll_wait(run, false));
-            s.section(|s| s.release_joiners(run.seq))
+            s.section(|s| s.release_joiners(run))
         });
     }
 
@@ -279,18 +279,33 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // that close a cycle, the one registered later sees the other's registration (a
         // check before the registration could miss a join registered in between, and both
         // would wait for good); an end in between releases it.
-        self.with(|s| s.wait_for_join(joiner, target));
+        // The wait names the run joined once the first look has chosen it, and until then
+        // the run current at the registration.
+        let registered = self.with(|s| {
+            let runs = run.unwrap_or_else(|| s.block(target).map_or(0, |b| b.runs));
+            s.wait_for_join(joiner, target, runs);
+            runs
+        });
         let ended = if in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
             Err(Error::JoinWouldDeadlock(target))
         } else {
-            self.with(|s| s.joined_outcome(target, run))
+            self.with(|s| {
+                let ended = s.joined_outcome(target, run);
+                // A run begun between the registration and the first look is the one
+                // joined: the wait is moved to it.
+                if let (Ok(None), Some(runs)) = (ended, *run) {
+                    s.move_wait(joiner, target, registered, runs);
+                }
+                ended
+            })
         };
+        let runs = run.unwrap_or(registered);
         let result = match ended {
             Ok(None) => return Poll::Pending,
             Ok(Some(outcome)) => Ok(outcome),
             Err(e) => Err(e),
         };
-        self.update_and_wake(|s| s.join_returned(joiner, target));
+        self.update_and_wake(|s| s.join_returned(joiner, target, runs));
         Poll::Ready(result)
     }
 

@@ -237,7 +237,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     Some(())
                 });
                 if aborted.is_some() {
-                    lanes = s.section(|s| s.release_joiners(id));
+                    // Its joiners are released; its own wait in a join is over with it (its
+                    // future, unwound later, would clear it only then, and a new run of it
+                    // started meanwhile must not be taken for waiting).
+                    lanes = s.section(|s| {
+                        s.forget_wait(id);
+                        s.release_joiners(s.current_run(id))
+                    });
                 }
             }
             lanes.with(s.section(|s| s.lane_of(id)))
