@@ -329,6 +329,21 @@ impl ControlBlock {
 mod tests {
     use super::*;
 
+    /// A wait names the sequence and 7 bits of its run's count, and is never "nothing"
+    /// or "any end", whatever the run (the 128th start's tag is 0).
+    #[test]
+    fn a_join_wait_names_the_sequence_and_the_run() {
+        let wait = JoinWait::end_of;
+        assert_ne!(wait(SeqId(0), 128), JoinWait::NOTHING);
+        assert_ne!(wait(SeqId(255), 127), JoinWait::ANY_END);
+        assert_ne!(wait(SeqId(0), 1), wait(SeqId(1), 1));
+        assert_ne!(wait(SeqId(3), 5), wait(SeqId(3), 6));
+        assert_eq!(wait(SeqId(3), 5), wait(SeqId(3), 133));
+        assert!(wait(SeqId(3), 5).released_by(SeqId(3), 5));
+        assert!(!wait(SeqId(3), 5).released_by(SeqId(3), 6));
+        assert!(JoinWait::ANY_END.released_by(SeqId(7), 9));
+    }
+
     #[test]
     fn pending_behaviour_round_trips_without_touching_the_flags() {
         let mut b = ControlBlock::IDLE;
