@@ -1,9 +1,10 @@
-//! A join after a restart, refused as a cycle that no run under way closed (found in
-//! session 54 by the reference model's non-blocking extension, `tests/model.rs`, seed
-//! 1 500 091): the end of a sequence's aborted run, unwound after the sequence was started
-//! again, released the new run's joiners, and a join made meanwhile missed a cycle. It
-//! depended on the order of the lanes: with the child's lane polled before its caller's in
-//! the tick of the restart, it passed. A join's wait now names its run (CHANGELOG).
+//! Joins and their cycle check (semantics 14). A join after a restart, refused as a cycle
+//! that no run under way closed (found in session 54 by the reference model's non-blocking
+//! extension, `tests/model.rs`, seed 1 500 091): the end of a sequence's aborted run,
+//! unwound after the sequence was started again, released the new run's joiners, and a
+//! join made meanwhile missed a cycle; a join's wait now names its run (CHANGELOG). And a
+//! join not refused for a sequence that waits on another run (a mutant of the check that
+//! session 54's mutation testing found unseen).
 mod common;
 use common::*;
 use rtseq::sim::Sim;
@@ -82,4 +83,65 @@ fn a_join_after_a_restart_waits_while_the_aborted_run_of_its_target_unwinds() {
         (5, main_id, 1, Ok(Done::Completed)),
     ];
     assert_eq!(got, want, "\n{}", show(&sim.take_trace()));
+}
+
+/// A join is refused only for a cycle of waits: main joins B while B's blocking child C
+/// waits in a join of D, which runs on its own. Nothing waits for main, so main's join waits
+/// (the cycle check follows only the joiners of the runs it meets), and returns B's end,
+/// at 5 ms, when D ends.
+#[test]
+fn a_join_of_a_sequence_whose_child_joins_another_waits() {
+    let seq: Sequencer<Ctrl, 8, 64> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let d = seq
+        .add(SeqConfig::new("d"), Node::of(vec![]).until(2))
+        .unwrap();
+    let di = d.id();
+    let c = seq
+        .add(SeqConfig::new("c"), Node::of(vec![Op::Join(di)]))
+        .unwrap();
+    let b = seq
+        .add(SeqConfig::new("b"), Node::of(vec![Op::Run(c)]))
+        .unwrap();
+    let bi = b.id();
+    let w = seq
+        .add(
+            SeqConfig::new("w"),
+            rtseq::Wait::new(rtseq::Duration::from_millis(2)),
+        )
+        .unwrap();
+    let main = seq
+        .add(
+            SeqConfig::new("main"),
+            Node::of(vec![
+                Op::Start(di),
+                Op::Start(bi),
+                Op::Wait(w),
+                Op::Join(bi),
+            ]),
+        )
+        .unwrap();
+    let mi = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(d);
+    sim.lane(b);
+    sim.before_tick(|now, c: &Ctrl| c.set(2, ms(now) >= 5));
+    sim.start(mi).unwrap();
+    for _ in 0..8 {
+        sim.step();
+    }
+    let joined: Vec<(u64, Result<Done, Failure>)> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == mi && r.line == 3)
+        .map(|r| (r.ms, r.result))
+        .collect();
+    assert_eq!(
+        joined,
+        [(5, Ok(Done::Completed))],
+        "\n{}",
+        show(sim.trace())
+    );
 }
