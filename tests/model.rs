@@ -39,9 +39,13 @@
 //! in session 54, joins after a restart refused as cycles that no run under way closed,
 //! `tests/join_after_restart.rs`).
 //!
+//! With `sub_pre_fail` (session 55): the sub-sequence's pre-condition is false during a
+//! window (seen by its starts and restarts, blocking or in its lane), its action and main's
+//! fail at their end during a window. Every request's result is compared exactly (`Ok` or
+//! which `Error`, from the rustdoc of `Error` and `Handle`), not only whether it was taken.
+//!
 //! Not modelled: joins of runs replaced before the joiner's poll (`OutcomeLost`), deeper trees,
-//! a sub-sequence's pre-condition or failure, the safety system, lanes of other priorities,
-//! requests of exception sequences, the requests' errors (only taken or not),
+//! the safety system, lanes of other priorities, requests of exception sequences,
 //! `set_timeout`, events and counters.
 //!
 //! Every rule the model encodes names its item (or the rustdoc it comes from). It found,
@@ -63,7 +67,7 @@ use rtseq::lock::CriticalSection;
 use rtseq::sim::Sim;
 use rtseq::RunningState::{self, *};
 use rtseq::{
-    Behaviour, Cause, ConditionFn, Cx, Done, Duration, Failure, Instant, Monitor, MonitorId,
+    Behaviour, Cause, ConditionFn, Cx, Done, Duration, Error, Failure, Instant, Monitor, MonitorId,
     Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Transition, Trigger, Wait,
 };
 use std::collections::{BTreeMap, BTreeSet};
@@ -115,6 +119,11 @@ struct SubCfg {
     len: usize,
     timeout: Option<(u64, Beh)>,
     timeout_exc: Option<u64>,
+    /// With `sub_pre_fail`: the pre-condition is false for `from <= t < to` (seen by its
+    /// starts and restarts), and the action fails (`Err`) when it ends (after its ops) at
+    /// `from <= t < to`.
+    pre_false: Option<(u64, u64)>,
+    fail: Option<(u64, u64)>,
     /// With `nb` (session 54d): not run blocking but started non-blocking in its own lane
     /// (`Cx::start`, or `Cx::start_scoped` if `scoped`); main's ops are then `main_ops`.
     nb: Option<bool>,
@@ -172,6 +181,8 @@ struct Scenario {
     main_timeout_exc: Option<u64>,
     /// Main's pre-condition is false for `from <= t < to` (seen by its restarts).
     main_pre_false: Option<(u64, u64)>,
+    /// With `sub_pre_fail`: main's action fails (`Err`) when it ends at `from <= t < to`.
+    main_fail: Option<(u64, u64)>,
     monitors: Vec<MonCfg>,
     /// (time, target, request): the target is a sequence id (as a monitor's owner); made
     /// just before the first tick at or after `time`.
@@ -334,7 +345,7 @@ struct Model<'s> {
     bg: Option<usize>,
     trace: Vec<Transition>,
     /// Whether each request was taken.
-    req_ok: Vec<bool>,
+    req_ok: Vec<Result<(), Error>>,
     /// How often each rare case came (`the_sweeps_reach_the_caller_cases`).
     reached: BTreeMap<&'static str, usize>,
     t: u64,
@@ -636,7 +647,14 @@ impl<'s> Model<'s> {
     fn begin_steps(&mut self, c: usize) -> bool {
         loop {
             let Some(&s) = self.ops[c].get(self.pcs[c]) else {
-                self.mv(c, Terminated, Cause::Completed);
+                // Item 16: an action's `Err` ends its run at once, `Failed`; item 1: `Ok`
+                // and the exit condition (always true here) end it `Completed`.
+                let end = if within(self.fail_window(c), self.t) && !broken("sub_fail") {
+                    Cause::Failed
+                } else {
+                    Cause::Completed
+                };
+                self.mv(c, Terminated, end);
                 if c == self.main() && self.bg.is_some_and(|b| self.seqs[b].active()) {
                     self.hit("nb: the child outlives its caller");
                 }
@@ -701,9 +719,15 @@ impl<'s> Model<'s> {
         }
     }
 
-    /// A round of a child (a step, or the sub-sequence from its first op); true if it ended.
+    /// A round of a child (a step, or the sub-sequence from its pre-condition and first
+    /// op); true if it ended.
     fn child_round(&mut self, s: usize) -> bool {
         if self.seqs[s].kind == Kind::Sub {
+            // Item 1: a round begins with the pre-condition; false, the run ends.
+            if within(self.pre_window(s), self.t) && !broken("sub_pre") {
+                self.mv(s, Terminated, Cause::PreConditionFalse);
+                return true;
+            }
             self.pcs[s] = 0;
             self.begin_steps(s)
         } else {
@@ -905,7 +929,12 @@ impl<'s> Model<'s> {
                 self.fresh[m] = true;
                 self.lanes(&vec![false; self.seqs.len()]);
             }
-            self.req_ok.push(ok);
+            let id = SeqId::from_index(m);
+            self.req_ok.push(if ok {
+                Ok(())
+            } else {
+                Err(Error::AlreadyRunning(id))
+            });
             return;
         }
         let active = match r {
@@ -913,29 +942,34 @@ impl<'s> Model<'s> {
             _ => matches!(self.seqs[i].state, Running | Paused),
         };
         let s = &mut self.seqs[i];
-        let ok = match r {
+        let id = SeqId::from_index(i);
+        let res = match r {
             Req::Start => unreachable!(),
             // Item 8: an abort-all is a flag, carried out by the next tick.
             Req::AbortAll => {
                 self.pending_abort_all = true;
-                true
+                Ok(())
             }
             // Item 8: an abort of a run under way is taken; of one that ended, `NotRunning`.
             Req::Abort => {
                 if active {
                     s.pending_abort = true;
+                    Ok(())
+                } else {
+                    Err(Error::NotRunning(id))
                 }
-                active
             }
             // Item 7: a pause of a sequence paused by a request, with no resume pending, is
             // `AlreadyPaused`; of a pause and a resume before one tick the later counts.
             Req::Pause => {
-                if !active || (s.pause_req && !s.pending_resume) {
-                    false
+                if !active {
+                    Err(Error::NotRunning(id))
+                } else if s.pause_req && !s.pending_resume {
+                    Err(Error::AlreadyPaused(id))
                 } else {
                     s.pending_pause = true;
                     s.pending_resume = false;
-                    true
+                    Ok(())
                 }
             }
             // Item 7: a resume while a monitor of its own holds is `HeldByMonitor`; `Error`'s
@@ -946,16 +980,18 @@ impl<'s> Model<'s> {
                 // Of a resume, pause, resume before one tick the last counts: the resume
                 // cancels the pending pause and lifts the request's earlier pause.
                 let paused = s.state == Paused || s.pending_pause || s.pause_req;
-                if !active || s.holds > 0 || !paused {
-                    false
+                if active && s.holds > 0 {
+                    Err(Error::HeldByMonitor(id))
+                } else if !active || !paused {
+                    Err(Error::NotPaused(id))
                 } else {
                     s.pending_pause = false;
                     s.pending_resume = s.pause_req;
-                    true
+                    Ok(())
                 }
             }
         };
-        self.req_ok.push(ok);
+        self.req_ok.push(res);
     }
 
     /// Starts the exception sequence of `src`; false if there is none or it cannot start
@@ -1151,6 +1187,24 @@ impl<'s> Model<'s> {
         }
     }
 
+    /// The window in which the pre-condition of main or the sub-sequence `c` is false.
+    fn pre_window(&self, c: usize) -> Option<(u64, u64)> {
+        if c == self.main() {
+            self.sc.main_pre_false
+        } else {
+            self.sc.sub.as_ref().and_then(|s| s.pre_false)
+        }
+    }
+
+    /// The window in which the action of main or the sub-sequence `c` fails at its end.
+    fn fail_window(&self, c: usize) -> Option<(u64, u64)> {
+        if c == self.main() {
+            self.sc.main_fail
+        } else {
+            self.sc.sub.as_ref().and_then(|s| s.fail)
+        }
+    }
+
     /// Item 14: `i` waits in its join `op` (its action is at it, the future not dropped by a
     /// restart), for a run still under way: a join whose run ended waits no more, though its
     /// joiner, paused or held, has not returned from it yet.
@@ -1212,7 +1266,7 @@ impl<'s> Model<'s> {
         if !self.seqs[m].active() || self.held(m) {
             return;
         }
-        let pre_false = m == self.main() && within(self.sc.main_pre_false, self.t);
+        let pre_false = within(self.pre_window(m), self.t) && !broken("sub_pre");
         if std::mem::take(&mut self.fresh[m]) {
             if self.seqs[m].state != Running {
                 return;
@@ -1306,7 +1360,7 @@ impl<'s> Model<'s> {
         self.lanes(&vec![false; self.seqs.len()]);
     }
 }
-fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
+fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
     let mut m = Model::new(sc);
     m.start_main();
     let mut prev = 0;
@@ -1368,6 +1422,10 @@ const PRE: usize = 4;
 const FAIL: usize = 8;
 const MAIN_PRE: usize = 12;
 const MON: usize = 13;
+/// The sub-sequence's pre-condition and failure, main's failure (`MMain`).
+const SUB_PRE: usize = 15;
+const SUB_FAIL: usize = 16;
+const MAIN_FAIL: usize = 17;
 
 /// A step whose exit condition is flag `i`, whose pre-condition is flag `PRE + i` and whose
 /// action fails while flag `FAIL + i` is set.
@@ -1406,9 +1464,10 @@ enum MOp {
 
 type Boxed<'f> = std::pin::Pin<Box<dyn std::future::Future<Output = Result<Done, Failure>> + 'f>>;
 
-/// Main (pre-condition flag `MAIN_PRE`) or the sub-sequence (none): runs its ops in turn,
-/// going on whatever each returned.
-struct MMain(Vec<MOp>, Option<usize>);
+/// Main (pre-condition flag `MAIN_PRE`, failure flag `MAIN_FAIL`) or the sub-sequence
+/// (`SUB_PRE`, `SUB_FAIL`): runs its ops in turn, going on whatever each returned, then
+/// fails if its failure flag is set.
+struct MMain(Vec<MOp>, usize, usize);
 
 impl Sequence<Ctrl> for MMain {
     async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
@@ -1451,10 +1510,13 @@ impl Sequence<Ctrl> for MMain {
                 }
             };
         }
+        if cx.control().flag(self.2) {
+            return Err(Failure::App(2));
+        }
         Ok(())
     }
     fn check_pre_condition(&mut self, cx: &Cx<'_, Ctrl>) -> bool {
-        self.1.is_none_or(|f| cx.control().flag(f))
+        cx.control().flag(self.1)
     }
 }
 
@@ -1489,13 +1551,18 @@ fn set_flags(sc: &Scenario, c: &Ctrl, t: u64) {
         c.set(FAIL + i, within(s.fail, t));
     }
     c.set(MAIN_PRE, !within(sc.main_pre_false, t));
+    c.set(MAIN_FAIL, within(sc.main_fail, t));
+    if let Some(sub) = &sc.sub {
+        c.set(SUB_PRE, !within(sub.pre_false, t));
+        c.set(SUB_FAIL, within(sub.fail, t));
+    }
     for (j, m) in sc.monitors.iter().enumerate() {
         c.set(MON + j, cond(m, t));
     }
 }
 
 /// Runs the scenario in the simulator: the trace and whether each request was taken.
-fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
+fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
     // Lanes: main's, the non-blocking sub-sequence's and up to 7 exception sequences'.
     let seq: Sequencer<Ctrl, 32, 256, CriticalSection, 16> = Sequencer::new();
     let ctrl = Ctrl::default();
@@ -1550,7 +1617,7 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
         if sc.bg_joins_main {
             mine.push(MOp::Join(SeqId::from_index(k)));
         }
-        let s = seq.add(c, MMain(mine, None)).unwrap();
+        let s = seq.add(c, MMain(mine, SUB_PRE, SUB_FAIL)).unwrap();
         let b = s.id();
         assert_eq!(b.index(), ns);
         bg_lane = Some(s);
@@ -1569,7 +1636,7 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
         let mut rest = ops.split_off(sub.first);
         let after = rest.split_off(sub.len);
         let c = cfg_of("sub", sub.period, sub.timeout, ns);
-        let s = seq.add(c, MMain(rest, None)).unwrap();
+        let s = seq.add(c, MMain(rest, SUB_PRE, SUB_FAIL)).unwrap();
         assert_eq!(s.id().index(), ns);
         ops.push(MOp::Sub(s));
         ops.extend(after);
@@ -1577,7 +1644,7 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
     let main = seq
         .add(
             cfg_of("main", sc.main_period, sc.main_timeout, k),
-            MMain(ops, Some(MAIN_PRE)),
+            MMain(ops, MAIN_PRE, MAIN_FAIL),
         )
         .unwrap();
     let mi = main.id();
@@ -1642,7 +1709,7 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<bool>) {
                     }
                     Req::Start => sim.start(mi),
                 };
-                oks.push(res.is_ok());
+                oks.push(res);
             }
         }
         // A tick at `t`: the simulator's period is the gap since the last tick.
@@ -1715,6 +1782,9 @@ struct Features {
     /// `Cx::start_scoped`), joined, dropped or detached, or left to outlive main; starts of
     /// main by the application.
     nb: bool,
+    /// With `tree`: the sub-sequence's pre-condition false and its action failing (at its
+    /// end) during windows, and main's action failing at its end.
+    sub_pre_fail: bool,
 }
 
 fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
@@ -1798,6 +1868,8 @@ fn generate(seed: u64, f: &Features) -> Scenario {
             len,
             timeout,
             timeout_exc: gen_texc(&mut r, timeout.is_some(), f),
+            pre_false: gen_window(&mut r, f.sub_pre_fail, 35),
+            fail: gen_window(&mut r, f.sub_pre_fail, 35),
             nb: None,
         }
     });
@@ -1842,6 +1914,7 @@ fn generate(seed: u64, f: &Features) -> Scenario {
     };
     let main_timeout_exc = gen_texc(&mut r, main_timeout.is_some(), f);
     let main_pre_false = gen_window(&mut r, f.pre_fail, 50);
+    let main_fail = gen_window(&mut r, f.sub_pre_fail, 35);
     let nm = r.below(3) as usize;
     let monitors = (0..nm)
         .map(|_| {
@@ -1938,6 +2011,7 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         main_timeout,
         main_timeout_exc,
         main_pre_false,
+        main_fail,
         monitors,
         requests,
         ticks,
@@ -1970,6 +2044,7 @@ const fn feat(more: bool, pause_owner: bool, exceptions: bool, requests: bool) -
         tree: false,
         caller: false,
         nb: false,
+        sub_pre_fail: false,
     }
 }
 
@@ -2061,6 +2136,22 @@ const NB_ALL: (u64, Features) = (
         ..TREE_ALL.1
     },
 );
+/// The sub-sequence's false pre-conditions and failures, and main's failures, on
+/// `TREE_ALL` and `NB_ALL`.
+const SUB_PRE_FAIL: (u64, Features) = (
+    1_700_000,
+    Features {
+        sub_pre_fail: true,
+        ..TREE_ALL.1
+    },
+);
+const NB_PRE_FAIL: (u64, Features) = (
+    1_800_000,
+    Features {
+        sub_pre_fail: true,
+        ..NB_ALL.1
+    },
+);
 const CALLER: (u64, Features) = (
     1_400_000,
     Features {
@@ -2076,7 +2167,7 @@ fn compare(sc: &Scenario) -> Result<(), String> {
     let (want, model_oks) = run_model(sc);
     if got != want || oks != model_oks {
         return Err(format!(
-            "{sc:#?}\n rtseq:\n{}\n model:\n{}\n requests taken: rtseq {oks:?}, model {model_oks:?}",
+            "{sc:#?}\n rtseq:\n{}\n model:\n{}\n requests' results: rtseq {oks:?}, model {model_oks:?}",
             show(&got),
             show(&want)
         ));
@@ -2211,6 +2302,22 @@ fn with_a_non_blocking_child() {
 #[test]
 fn with_a_non_blocking_child_and_everything() {
     sweep(NB_ALL, "with_a_non_blocking_child_and_everything");
+}
+
+/// As `with_the_tree_and_everything`, with the sub-sequence's pre-condition false and its
+/// action failing during windows, and main's action failing.
+#[test]
+fn with_a_sub_sequence_that_skips_and_fails() {
+    sweep(SUB_PRE_FAIL, "with_a_sub_sequence_that_skips_and_fails");
+}
+
+/// As `with_a_non_blocking_child_and_everything`, with the same skips and failures.
+#[test]
+fn with_a_non_blocking_child_that_skips_and_fails() {
+    sweep(
+        NB_PRE_FAIL,
+        "with_a_non_blocking_child_that_skips_and_fails",
+    );
 }
 
 /// A transition's kind: who (main, a step, an exception sequence or its `Wait`), from, to and
@@ -2360,6 +2467,7 @@ fn one_step(monitors: Vec<MonCfg>, requests: Vec<(u64, Req)>) -> Scenario {
         main_timeout: None,
         main_timeout_exc: None,
         main_pre_false: None,
+        main_fail: None,
         monitors,
         // Of main (id 1).
         requests: requests.into_iter().map(|(t, r)| (t, 1, r)).collect(),
@@ -2410,9 +2518,9 @@ fn a_pause_asked_for_before_a_restart_ends_with_the_round() {
     let requests = vec![(9, Req::Pause), (10, Req::Resume)];
     let sc = one_step(vec![fires_at_5(1, Beh::Restart(3))], requests);
     compare(&sc).unwrap();
-    let (trace, taken) = run_model(&sc);
-    assert_eq!(taken, [true, false]);
+    let (trace, results) = run_model(&sc);
     let m = SeqId::from_index(1);
+    assert_eq!(results, [Ok(()), Err(Error::NotPaused(m))]);
     assert!(trace.contains(&tr(9, m, Running, Restarting, Model::mon_cause(0))));
     assert!(trace.iter().all(|t| t.to != Paused), "\n{}", show(&trace));
 }
@@ -2482,6 +2590,8 @@ fn sub_scenario(monitors: Vec<MonCfg>, requests: Vec<(u64, usize, Req)>) -> Scen
         len: 1,
         timeout: None,
         timeout_exc: None,
+        pre_false: None,
+        fail: None,
         nb: None,
     });
     sc.requests = requests;
@@ -2532,4 +2642,69 @@ fn a_caller_behaviour_cuts_short_its_target_s_own_exception() {
     assert!(trace
         .iter()
         .all(|t| ms(t.time) <= 8 || t.cause != Model::mon_cause(0)));
+}
+
+/// Every result a request can have in the model occurs in the first seeds of the sweeps
+/// with requests, so the comparison of exact results bites on each.
+#[test]
+fn the_sweeps_reach_every_request_result() {
+    let mut reached: BTreeMap<String, usize> = BTreeMap::new();
+    for (from, f) in [PAUSE_OWNER, STEP_REQUESTS, TREE_ALL, NB] {
+        for seed in from..from + 1000 {
+            for r in run_model(&generate(seed, &f)).1 {
+                let kind = match r {
+                    Ok(()) => "Ok".to_string(),
+                    Err(e) => format!("{e:?}").split('(').next().unwrap().to_string(),
+                };
+                *reached.entry(kind).or_default() += 1;
+            }
+        }
+    }
+    let kinds: Vec<&str> = reached.keys().map(|k| k.as_str()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "AlreadyPaused",
+            "AlreadyRunning",
+            "HeldByMonitor",
+            "NotPaused",
+            "NotRunning",
+            "Ok"
+        ],
+        "{reached:#?}"
+    );
+}
+
+/// The skips and failures of the sub-sequence (blocking and non-blocking, at a start and at
+/// a restart) and main's failures occur in the first seeds of their sweeps.
+#[test]
+fn the_sweeps_reach_the_skips_and_failures_of_the_tree() {
+    const WANT: &[&str] = &[
+        "main Running->Terminated Failed",
+        "sub Restarting->Running Restart",
+        "sub Running->Terminated Failed",
+        "sub Running->Terminated PreConditionFalse",
+    ];
+    for (from, f) in [SUB_PRE_FAIL, NB_PRE_FAIL] {
+        let mut seen = BTreeSet::new();
+        for seed in from..from + 1000 {
+            let sc = generate(seed, &f);
+            let trace = run_model(&sc).0;
+            seen.extend(trace.iter().map(|t| kind(&sc, t)));
+            // A restart whose round the pre-condition ends at once.
+            if trace
+                .windows(2)
+                .any(|w| w[0].cause == Cause::Restart && w[1].cause == Cause::PreConditionFalse)
+            {
+                seen.insert("a restart skipped".to_string());
+            }
+        }
+        let missing: Vec<&str> = WANT
+            .iter()
+            .chain(&["a restart skipped"])
+            .copied()
+            .filter(|w| !seen.contains(*w))
+            .collect();
+        assert!(missing.is_empty(), "{from}: not reached: {missing:?}");
+    }
 }

@@ -35,7 +35,7 @@ pub const END: usize = usize::MAX;
 
 #[derive(Default)]
 pub struct Ctrl {
-    pub flags: [Cell<bool>; 16],
+    pub flags: [Cell<bool>; 20],
     pub lines: RefCell<Vec<Line>>,
     pub returned: RefCell<Vec<Returned>>,
     /// Names recorded by cleanup hooks (`SeqConfig::on_abort`), in call order.
