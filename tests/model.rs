@@ -44,8 +44,11 @@
 //! fail at their end during a window. Every request's result is compared exactly (`Ok` or
 //! which `Error`, from the rustdoc of `Error` and `Handle`), not only whether it was taken.
 //!
+//! With `prios` (session 55): lanes of RTIC priorities 1 to 3, dispatched as the simulator's
+//! module doc says RTIC does (`Model::lanes`).
+//!
 //! Not modelled: joins of runs replaced before the joiner's poll (`OutcomeLost`), deeper trees,
-//! the safety system, lanes of other priorities, requests of exception sequences,
+//! the safety system, lanes above the tick's priority, requests of exception sequences,
 //! `set_timeout`, events and counters.
 //!
 //! Every rule the model encodes names its item (or the rustdoc it comes from). It found,
@@ -64,7 +67,7 @@
 mod common;
 use common::*;
 use rtseq::lock::CriticalSection;
-use rtseq::sim::Sim;
+use rtseq::sim::{Sim, DEFAULT_LANE_PRIORITY};
 use rtseq::RunningState::{self, *};
 use rtseq::{
     Behaviour, Cause, ConditionFn, Cx, Done, Duration, Error, Failure, Instant, Monitor, MonitorId,
@@ -189,6 +192,10 @@ struct Scenario {
     requests: Vec<(u64, usize, Req)>,
     /// The ticks' times (ms), increasing; main starts at 0.
     ticks: Vec<u64>,
+    /// With `prios`: the RTIC priority of each lane in the order they are added (main's,
+    /// the non-blocking sub-sequence's, the exception sequences'); empty: all of
+    /// `DEFAULT_LANE_PRIORITY`.
+    prios: Vec<u8>,
 }
 
 /// Bite checks: `MODEL_BREAK=name` breaks the rule the model names so (see the final report
@@ -196,6 +203,14 @@ struct Scenario {
 fn broken(name: &str) -> bool {
     static B: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     B.get_or_init(|| std::env::var("MODEL_BREAK").unwrap_or_default()) == name
+}
+
+/// A lane of the model: main's, the non-blocking sub-sequence's, or exception sequence x's.
+#[derive(Clone, Copy, Debug)]
+enum Lane {
+    Main,
+    Bg,
+    Exc(usize),
 }
 
 /// Main's non-blocking ops in the model's `ops` (above every sequence id).
@@ -1164,25 +1179,80 @@ impl<'s> Model<'s> {
         self.lanes(&poll_taken);
     }
 
-    /// Item 8: runs end in their lanes, in the order they were added: main's, the
-    /// non-blocking sub-sequence's, then the exception sequences'; passes again while a lane
-    /// moved (the simulator polls woken lanes until none is: a join woken by a later lane).
+    /// Item 8: runs end in their lanes, as RTIC dispatches them (`sim`'s module doc, "The
+    /// order of the lanes"): the highest priority first; in a dispatcher's pass, the lanes
+    /// of its priority in the order they were added, each polled if it can move (a lane
+    /// that can move and is not woken would be a lost wake-up: the comparison finds it);
+    /// a pass again while one moved; a lane that moves lets the lanes above it run first
+    /// (it woke them: preemption).
     fn lanes(&mut self, poll_taken: &[bool]) {
         // Item 8: while an abort-all waits, every await point holds.
         if self.pending_abort_all {
             return;
         }
+        let mut levels: Vec<u8> = self.lane_list().iter().map(|l| l.0).collect();
+        levels.sort_unstable_by(|a, b| b.cmp(a));
+        levels.dedup();
+        for p in levels {
+            self.dispatch(p, poll_taken);
+        }
+    }
+
+    /// The lanes with their priorities, in the order they were added.
+    fn lane_list(&self) -> Vec<(u8, Lane)> {
+        let mut lanes = vec![Lane::Main];
+        lanes.extend(self.bg.map(|_| Lane::Bg));
+        lanes.extend((0..self.excs.len()).map(Lane::Exc));
+        let prio = |i: usize| match self.sc.prios.get(i) {
+            Some(&p) if !broken("lane_priorities") => p,
+            _ => DEFAULT_LANE_PRIORITY,
+        };
+        lanes
+            .into_iter()
+            .enumerate()
+            .map(|(i, l)| (prio(i), l))
+            .collect()
+    }
+
+    /// The dispatcher of priority `p`: passes until none of its lanes moves.
+    fn dispatch(&mut self, p: u8, poll_taken: &[bool]) {
         loop {
-            let n = self.trace.len();
-            self.lane(self.main(), poll_taken);
-            if let Some(bg) = self.bg {
-                self.lane(bg, poll_taken);
+            let mut moved = false;
+            for (q, lane) in self.lane_list() {
+                if q != p || self.pending_abort_all {
+                    continue;
+                }
+                let n = self.trace.len();
+                match lane {
+                    Lane::Main => self.lane(self.main(), poll_taken),
+                    Lane::Bg => self.lane(self.bg.unwrap(), poll_taken),
+                    Lane::Exc(x) => self.exc_lane(x, poll_taken),
+                }
+                if self.trace.len() != n {
+                    moved = true;
+                    if broken("preemption") {
+                        continue;
+                    }
+                    // Preemption: the lanes above it that it woke run now.
+                    let mut above: Vec<u8> = self
+                        .lane_list()
+                        .iter()
+                        .map(|l| l.0)
+                        .filter(|&h| h > p)
+                        .collect();
+                    above.sort_unstable_by(|a, b| b.cmp(a));
+                    above.dedup();
+                    let before = self.trace.len();
+                    for h in above {
+                        self.dispatch(h, poll_taken);
+                    }
+                    if self.trace.len() != before {
+                        self.hit("lanes: a lane above preempts");
+                    }
+                }
             }
-            for x in 0..self.excs.len() {
-                self.exc_lane(x, poll_taken);
-            }
-            if self.trace.len() == n {
-                break;
+            if !moved {
+                return;
             }
         }
     }
@@ -1361,6 +1431,12 @@ impl<'s> Model<'s> {
     }
 }
 fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
+    let m = model_of(sc);
+    (m.trace, m.req_ok)
+}
+
+/// The model after the scenario.
+fn model_of(sc: &Scenario) -> Model<'_> {
     let mut m = Model::new(sc);
     m.start_main();
     let mut prev = 0;
@@ -1373,7 +1449,7 @@ fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
         m.tick(t);
         prev = t;
     }
-    (m.trace, m.req_ok)
+    m
 }
 
 // ---------------------------------------------------------------- rtseq
@@ -1682,12 +1758,14 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
         assert_eq!(id, MonitorId::from_index(j));
     }
     let mut sim = Sim::new(&seq, &ctrl, monitors);
-    sim.lane(main);
+    let prio = |i: usize| sc.prios.get(i).copied().unwrap_or(DEFAULT_LANE_PRIORITY);
+    sim.lane_with_priority(main, prio(0));
+    let n_bg = bg_lane.is_some() as usize;
     if let Some(b) = bg_lane {
-        sim.lane(b);
+        sim.lane_with_priority(b, prio(1));
     }
-    for e in exc_lanes {
-        sim.lane(e);
+    for (x, e) in exc_lanes.into_iter().enumerate() {
+        sim.lane_with_priority(e, prio(1 + n_bg + x));
     }
     let scc = sc.clone();
     sim.before_tick(move |now, c: &Ctrl| set_flags(&scc, c, ms(now)));
@@ -1785,6 +1863,8 @@ struct Features {
     /// With `tree`: the sub-sequence's pre-condition false and its action failing (at its
     /// end) during windows, and main's action failing at its end.
     sub_pre_fail: bool,
+    /// Lanes of RTIC priorities 1 to 3 (`Sim::lane_with_priority`).
+    prios: bool,
 }
 
 fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
@@ -2002,7 +2082,7 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         };
         ticks.push(t);
     }
-    Scenario {
+    let mut sc = Scenario {
         steps,
         sub,
         main_ops,
@@ -2015,7 +2095,16 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         monitors,
         requests,
         ticks,
+        prios: vec![],
+    };
+    if f.prios {
+        // Main's lane, the non-blocking sub-sequence's, the exception sequences'.
+        let bg = sc.sub.as_ref().is_some_and(|s| s.nb.is_some()) as usize;
+        let excs =
+            sc.monitors.iter().filter(|m| m.exception.is_some()).count() + timeout_excs(&sc).len();
+        sc.prios = (0..1 + bg + excs).map(|_| r.range(1, 3) as u8).collect();
     }
+    sc
 }
 
 // ---------------------------------------------------------------- sweeps
@@ -2045,6 +2134,7 @@ const fn feat(more: bool, pause_owner: bool, exceptions: bool, requests: bool) -
         caller: false,
         nb: false,
         sub_pre_fail: false,
+        prios: false,
     }
 }
 
@@ -2150,6 +2240,28 @@ const NB_PRE_FAIL: (u64, Features) = (
     Features {
         sub_pre_fail: true,
         ..NB_ALL.1
+    },
+);
+/// Lanes of priorities 1 to 3, on `ALL`, `TREE_ALL`, `NB_PRE_FAIL`.
+const PRIOS: (u64, Features) = (
+    1_900_000,
+    Features {
+        prios: true,
+        ..ALL.1
+    },
+);
+const TREE_PRIOS: (u64, Features) = (
+    2_000_000,
+    Features {
+        prios: true,
+        ..TREE_ALL.1
+    },
+);
+const NB_PRIOS: (u64, Features) = (
+    2_100_000,
+    Features {
+        prios: true,
+        ..NB_PRE_FAIL.1
     },
 );
 const CALLER: (u64, Features) = (
@@ -2320,6 +2432,27 @@ fn with_a_non_blocking_child_that_skips_and_fails() {
     );
 }
 
+/// As `with_all_extensions`, with lanes of priorities 1 to 3.
+#[test]
+fn with_lanes_of_priorities() {
+    sweep(PRIOS, "with_lanes_of_priorities");
+}
+
+/// As `with_the_tree_and_everything`, with lanes of priorities 1 to 3.
+#[test]
+fn with_the_tree_and_lanes_of_priorities() {
+    sweep(TREE_PRIOS, "with_the_tree_and_lanes_of_priorities");
+}
+
+/// As `with_a_non_blocking_child_that_skips_and_fails`, with lanes of priorities 1 to 3.
+#[test]
+fn with_a_non_blocking_child_and_lanes_of_priorities() {
+    sweep(
+        NB_PRIOS,
+        "with_a_non_blocking_child_and_lanes_of_priorities",
+    );
+}
+
 /// A transition's kind: who (main, a step, an exception sequence or its `Wait`), from, to and
 /// the cause without its monitor or sequence.
 fn kind(sc: &Scenario, t: &Transition) -> String {
@@ -2472,6 +2605,7 @@ fn one_step(monitors: Vec<MonCfg>, requests: Vec<(u64, Req)>) -> Scenario {
         // Of main (id 1).
         requests: requests.into_iter().map(|(t, r)| (t, 1, r)).collect(),
         ticks: (1..=80).collect(),
+        prios: vec![],
     }
 }
 
@@ -2532,18 +2666,7 @@ fn the_sweeps_reach_the_caller_cases() {
     for (from, f) in [TREE_CALLER, TREE_ALL] {
         for seed in from..from + 2000 {
             let sc = generate(seed, &f);
-            let mut m = Model::new(&sc);
-            m.start_main();
-            let mut prev = 0;
-            for &t in &sc.ticks {
-                for &(rt, i, r) in &sc.requests {
-                    if prev < rt && rt <= t {
-                        m.request(i, r);
-                    }
-                }
-                m.tick(t);
-                prev = t;
-            }
+            let m = model_of(&sc);
             for (k, v) in m.reached {
                 *reached.entry(k).or_default() += v;
             }
@@ -2559,18 +2682,7 @@ fn the_sweeps_reach_the_non_blocking_cases() {
     for (from, f) in [NB, NB_ALL] {
         for seed in from..from + 1000 {
             let sc = generate(seed, &f);
-            let mut m = Model::new(&sc);
-            m.start_main();
-            let mut prev = 0;
-            for &t in &sc.ticks {
-                for &(rt, i, r) in &sc.requests {
-                    if prev < rt && rt <= t {
-                        m.request(i, r);
-                    }
-                }
-                m.tick(t);
-                prev = t;
-            }
+            let m = model_of(&sc);
             for (k, v) in m.reached {
                 if k.starts_with("nb:") {
                     *reached.entry(k).or_default() += v;
@@ -2707,4 +2819,18 @@ fn the_sweeps_reach_the_skips_and_failures_of_the_tree() {
             .collect();
         assert!(missing.is_empty(), "{from}: not reached: {missing:?}");
     }
+}
+
+/// A lane of a higher priority woken by a lower lane's poll runs before that lane's pass
+/// goes on, in the first seeds of the sweep with a non-blocking child.
+#[test]
+fn the_sweeps_reach_a_preempting_lane() {
+    let (from, f) = NB_PRIOS;
+    let reached = (from..from + 1000).any(|seed| {
+        let sc = generate(seed, &f);
+        model_of(&sc)
+            .reached
+            .contains_key("lanes: a lane above preempts")
+    });
+    assert!(reached);
 }
