@@ -4,14 +4,19 @@
 //! unwound after the sequence was started again, released the new run's joiners, and a
 //! join made meanwhile missed a cycle; a join's wait now names its run (CHANGELOG). And a
 //! join not refused for a sequence that waits on another run (a mutant of the check that
-//! session 54's mutation testing found unseen).
+//! session 54's mutation testing found unseen). And a join of a run that had ended, whose
+//! sequence ran again and joined back, refused as a cycle although it never waits (found by
+//! session 55's cold review; with it, in `sequencer/interleavings/lanes.rs`, a cycle missed
+//! when the target started again between a join's check and its first look, and a join of
+//! a run 128 starts back read as one of the run under way).
 mod common;
 use common::*;
 use rtseq::sim::Sim;
 use rtseq::{
-    Behaviour, ConditionFn, Done, Error, Failure, Instant, Monitor, Monitors, SeqConfig, SeqId,
-    Sequencer,
+    Behaviour, ConditionFn, Cx, Done, Error, Failure, Instant, Monitor, Monitors, Outcome,
+    SeqConfig, SeqId, Sequence, Sequencer,
 };
+use std::cell::{Cell, RefCell};
 
 fn restart_cond(c: &Ctrl, _: Instant) -> bool {
     c.flag(1)
@@ -143,5 +148,105 @@ fn a_join_of_a_sequence_whose_child_joins_another_waits() {
         [(5, Ok(Done::Completed))],
         "\n{}",
         show(sim.trace())
+    );
+}
+
+// A join of a run that has ended, whose sequence runs again and joins back (session 55's
+// cold review of joins).
+
+/// At which ms, what, and its result.
+type Got = (u64, &'static str, Result<Outcome, Error>);
+
+#[derive(Default)]
+struct JoinLog {
+    got: RefCell<Vec<Got>>,
+    x_runs: Cell<u32>,
+}
+
+impl JoinLog {
+    fn push(&self, cx: &Cx<'_, JoinLog>, what: &'static str, r: Result<Outcome, Error>) {
+        self.got
+            .borrow_mut()
+            .push((cx.now().as_ticks() / 1000, what, r));
+    }
+}
+
+const X_ID: SeqId = SeqId::from_index(0);
+const J_ID: SeqId = SeqId::from_index(1);
+
+/// X: its first run waits until 2 ms; a later run joins J.
+struct Xs;
+impl Sequence<JoinLog> for Xs {
+    async fn action(&mut self, cx: &Cx<'_, JoinLog>) -> Result<(), Failure> {
+        let n = cx.control().x_runs.get() + 1;
+        cx.control().x_runs.set(n);
+        if n == 1 {
+            cx.wait_until(|cx| cx.now().as_ticks() >= 2_000).await;
+        } else {
+            let r = cx.join(J_ID).await;
+            cx.control().push(cx, "x joins j", r);
+        }
+        Ok(())
+    }
+}
+
+/// J joins X.
+struct Js;
+impl Sequence<JoinLog> for Js {
+    async fn action(&mut self, cx: &Cx<'_, JoinLog>) -> Result<(), Failure> {
+        let r = cx.join(X_ID).await;
+        cx.control().push(cx, "j joins x", r);
+        Ok(())
+    }
+}
+
+/// S joins X, then starts it again.
+struct Ss;
+impl Sequence<JoinLog> for Ss {
+    async fn action(&mut self, cx: &Cx<'_, JoinLog>) -> Result<(), Failure> {
+        let r = cx.join(X_ID).await;
+        cx.control().push(cx, "s joins x", r);
+        let started = cx.start(X_ID).map(|()| Outcome::Completed);
+        cx.control().push(cx, "s starts x", started);
+        Ok(())
+    }
+}
+
+/// Semantics 14 / `Cx::join`: "If `id` is started again before this sequence is polled,
+/// the join still gets the joined run's outcome", and `JoinWouldDeadlock` is for a join
+/// that "closes a cycle of waits". J (priority 1) and S (priority 3) join X's run 1
+/// (priority 2), which completes at 2 ms. S, released first, starts X again; X's run 2
+/// (its lane above J's) joins J, which waits for nothing then (released). J's lane then
+/// polls its join of X's run 1: it must get run 1's outcome (`Completed`), not
+/// `JoinWouldDeadlock(X)` (J's join waits for no run under way: no cycle). J ends; X's
+/// join of J returns.
+#[test]
+fn a_join_of_an_ended_run_whose_sequence_runs_again_and_joins_back_gets_the_outcome() {
+    let seq: Sequencer<JoinLog, 4> = Sequencer::new();
+    let log = JoinLog::default();
+    let x = seq.add(SeqConfig::new("x"), Xs).unwrap();
+    let j = seq.add(SeqConfig::new("j"), Js).unwrap();
+    let s = seq.add(SeqConfig::new("s"), Ss).unwrap();
+    assert_eq!((x.id(), j.id()), (X_ID, J_ID));
+    let si = s.id();
+    let mut sim = Sim::new(&seq, &log, Monitors::<JoinLog, 1>::new());
+    sim.lane_with_priority(x, 2);
+    sim.lane_with_priority(j, 1);
+    sim.lane_with_priority(s, 3);
+    sim.start(X_ID).unwrap();
+    sim.start(J_ID).unwrap();
+    sim.start(si).unwrap();
+    for _ in 0..5 {
+        sim.step();
+    }
+    let got = log.got.borrow().clone();
+    assert_eq!(
+        got,
+        [
+            (2, "s joins x", Ok(Outcome::Completed)),
+            (2, "s starts x", Ok(Outcome::Completed)),
+            (2, "j joins x", Ok(Outcome::Completed)),
+            (2, "x joins j", Ok(Outcome::Completed)),
+        ]
     );
 }

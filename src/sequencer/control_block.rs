@@ -128,7 +128,9 @@ mod pending {
 /// unwound (aborted, then started again by another lane before its lane ran) releases
 /// only its own joiners, not those of the run that began since, and the cycle check
 /// follows only the waits of the run under way. At most one run begins before the last
-/// one's future unwinds (its lane drives both), so 7 bits tell them apart.
+/// one's future unwinds (its lane drives both), and a join registers a wait only for the
+/// run under way (a join of an earlier run never waits: `Port::join`), so 7 bits tell
+/// them apart.
 ///
 /// Its own type rather than a [`Link`]: "any" is no sequence, and
 /// nothing here can be read as one by mistake. All-zero bytes are "nothing", so an empty

@@ -33,13 +33,17 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// `joiner`'s wait for the end of `target`'s run `from` is for its run `to` now (the
-    /// first look of a join chose a run begun since the registration).
-    pub(crate) fn move_wait(&mut self, joiner: SeqId, target: SeqId, from: u16, to: u16) {
-        if let Some(b) = self.block_mut(joiner) {
-            if b.joins == JoinWait::end_of(target, from) {
-                b.joins = JoinWait::end_of(target, to);
-            }
+    /// first look of a join chose a run begun since the registration). True when it was
+    /// moved: the cycle check, made for the wait before, is to be made again.
+    pub(crate) fn move_wait(&mut self, joiner: SeqId, target: SeqId, from: u16, to: u16) -> bool {
+        let Some(b) = self.block_mut(joiner) else {
+            return false;
+        };
+        let moved = from != to && b.joins == JoinWait::end_of(target, from);
+        if moved {
+            b.joins = JoinWait::end_of(target, to);
         }
+        moved
     }
 
     /// A join of `joiner` of `target` returned: `joiner` no longer waits. A wait that was
@@ -59,6 +63,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// the joiner's lane is returned, to wake, so that those register anew.
     pub(crate) fn join_dropped(&mut self, joiner: SeqId) -> LaneSet {
         self.stop_waiting(joiner, |wait| wait != JoinWait::NOTHING)
+    }
+
+    /// A run of `run`'s sequence after `run` has begun its action (its lane took its start,
+    /// which it does only once `run` has unwound): a wait of the sequence is that run's.
+    pub(crate) fn began_after(&self, run: RunId) -> bool {
+        self.block(run.seq)
+            .is_some_and(|b| b.runs != run.count && !b.has(flag::START_PENDING))
     }
 
     /// The run of `joiner` was aborted: its wait in a join, if any, is over (its join's

@@ -281,23 +281,38 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // would wait for good); an end in between releases it.
         // The wait names the run joined once the first look has chosen it, and until then
         // the run current at the registration.
-        let registered = self.with(|s| {
-            let runs = run.unwrap_or_else(|| s.block(target).map_or(0, |b| b.runs));
-            s.wait_for_join(joiner, target, runs);
-            runs
+        // A join of a run before the current one never waits (its outcome is kept, or
+        // lost): it registers nothing and closes no cycle.
+        let (registered, waits) = self.with(|s| {
+            let current = s.block(target).map(|b| b.runs);
+            let runs = run.or(current).unwrap_or(0);
+            let waits = current.is_none_or(|c| c == runs);
+            if waits {
+                s.wait_for_join(joiner, target, runs);
+            }
+            (runs, waits)
         });
-        let ended = if in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
+        let ended = if waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
             Err(Error::JoinWouldDeadlock(target))
         } else {
-            self.with(|s| {
+            let (ended, moved) = self.with(|s| {
                 let ended = s.joined_outcome(target, run);
                 // A run begun between the registration and the first look is the one
                 // joined: the wait is moved to it.
-                if let (Ok(None), Some(runs)) = (ended, *run) {
-                    s.move_wait(joiner, target, registered, runs);
-                }
+                let moved = match (ended, *run) {
+                    (Ok(None), Some(runs)) => s.move_wait(joiner, target, registered, runs),
+                    _ => false,
+                };
+                (ended, moved)
+            });
+            // The moved wait is registered only now: a join of that run's made since the
+            // check (it closes a cycle with this one) did not see this one, so this one
+            // checks again.
+            if moved && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
+                Err(Error::JoinWouldDeadlock(target))
+            } else {
                 ended
-            })
+            }
         };
         let runs = run.unwrap_or(registered);
         let result = match ended {

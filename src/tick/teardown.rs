@@ -234,15 +234,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let aborted = s.section(|s| {
                     let b = s.transition(&change)?;
                     b.outcome = Some(crate::Outcome::Aborted(cause));
-                    Some(())
+                    Some(RunId {
+                        seq: id,
+                        count: b.runs,
+                    })
                 });
-                if aborted.is_some() {
+                if let Some(run) = aborted {
                     // Its joiners are released; its own wait in a join is over with it (its
                     // future, unwound later, would clear it only then, and a new run of it
-                    // started meanwhile must not be taken for waiting).
+                    // started meanwhile must not be taken for waiting). Unless a lane above
+                    // the tick has since unwound it and begun the next run, whose wait it
+                    // is then (and whose joiners are not this run's).
                     lanes = s.section(|s| {
-                        s.forget_wait(id);
-                        s.release_joiners(s.current_run(id))
+                        if !s.began_after(run) {
+                            s.forget_wait(id);
+                        }
+                        s.release_joiners(run)
                     });
                 }
             }

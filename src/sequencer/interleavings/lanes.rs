@@ -1559,3 +1559,107 @@ fn start_of_an_exception_sequence_against_its_end<
 fn a_start_of_an_exception_sequence_against_its_end_is_refused_until_reported() {
     every_split_world!(start_of_an_exception_sequence_against_its_end);
 }
+
+/// Joins whose target is started again between the join's registration and its first
+/// look (found by session 55's cold review of joins).
+///
+/// X's run 1 ended (`Completed`); J runs. J's first poll of its join of X (lane A), with
+/// X's lane (of higher priority) before section `k`: a handle starts X again (run 2, taken
+/// by X's lane) and X's new run joins J. Semantics 14: J joins the run current at its
+/// look; if that is run 2, the two joins close a cycle (J waits for X's run 2, X's run 2
+/// waits for J), so exactly one of them is `JoinWouldDeadlock`. Never both pending.
+fn join_against_new_start_that_joins_back<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
+        w.start_taken(x);
+        assert!(w.complete(x));
+        let jx: Shared = Box::leak(Box::new(RefCell::new(Joiner {
+            id: x,
+            run: None,
+            wakes: counter().1.clone(),
+        })));
+        (w, [x, j], [joiner(&w, j), jx])
+    };
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        setup,
+        |(w, [x, _], [jj, _])| jj.borrow_mut().poll(&w, x),
+        |(w, [x, j], [_, jx])| {
+            w.kept(x).start().unwrap();
+            w.take(x);
+            jx.borrow_mut().poll(&w, j)
+        },
+        |what, _, pj, px, (w, [x, j], [jj, jx])| {
+            // Let each lane poll again for any wake-up it got.
+            let pj = jj.borrow_mut().repoll(&w, x, 0, pj);
+            let px = jx.borrow_mut().repoll(&w, j, 0, px);
+            let jrun = jj.borrow().run;
+            match (&pj, &px, jrun) {
+                // J joined run 1 (ended): its outcome; X's join of J waits.
+                (Poll::Ready(Ok(Outcome::Completed)), Poll::Pending, Some(1)) => {}
+                (Poll::Ready(Err(Error::JoinWouldDeadlock(t))), Poll::Pending, _) if *t == x => {}
+                (Poll::Pending, Poll::Ready(Err(Error::JoinWouldDeadlock(t))), Some(2))
+                    if *t == j => {}
+                other => panic!(
+                    "{what}: J {pj:?} (run {jrun:?}), X {px:?}: {other:?}; J joining {}, X joining {}",
+                    jj.borrow().joining(&w),
+                    jx.borrow().joining(&w)
+                ),
+            }
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_join_whose_target_starts_again_and_joins_back_before_the_look_is_one_refusal() {
+    every_split_world!(join_against_new_start_that_joins_back);
+}
+
+/// X's run 129 runs (runs 1 to 128 completed); J runs, and joins X's run 1 (a `Scoped`
+/// kept over 128 starts of X: `Join::of_run`). J's first poll of its join (lane A), with
+/// X's lane (of higher priority) joining J before section `k`. Semantics 14: runs are told
+/// apart by their 16-bit count; J's join is `OutcomeLost` (run 1's outcome is gone) and
+/// waits for nothing, so X's join of J closes no cycle and waits (it is not
+/// `JoinWouldDeadlock`).
+fn a_join_of_a_run_128_starts_back<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
+        for _ in 0..128 {
+            w.start_taken(x);
+            assert!(w.complete(x));
+            let _ = w.records(); // drained as they come: the trace keeps 64
+        }
+        w.start_taken(x);
+        assert_eq!(w.runs(x), 129);
+        let jj = joiner(&w, j);
+        jj.borrow_mut().run = Some(1);
+        let jx: Shared = Box::leak(Box::new(RefCell::new(Joiner {
+            id: x,
+            run: None,
+            wakes: counter().1.clone(),
+        })));
+        (w, [x, j], [jj, jx])
+    };
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        setup,
+        |(w, [x, _], [jj, _])| jj.borrow_mut().poll(&w, x),
+        |(w, [_, j], [_, jx])| jx.borrow_mut().poll(&w, j),
+        |what, _, pj, px, (w, [x, _], [jj, _])| {
+            assert_eq!(pj, Poll::Ready(Err(Error::OutcomeLost(x))), "{what}");
+            assert_eq!(px, Poll::Pending, "{what}: X's join of J");
+            assert!(!jj.borrow().joining(&w), "{what}");
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_join_of_a_run_128_starts_back_is_no_joiner_of_the_run_under_way() {
+    every_split_world!(a_join_of_a_run_128_starts_back);
+}

@@ -483,6 +483,100 @@ fn a_join_around_a_tick_that_ends_or_restarts_the_joined_run_gets_its_outcome() 
     }
 }
 
+/// O and Y run, O's run waiting in a join of Y; the tick at 1 ms aborts O (a request).
+/// Before each section of the tick, once the tick has aborted O, a handle above the tick
+/// starts O again, and (`unwound`) O's lane, above the tick, unwinds the aborted run (its
+/// join dropped, `Port::finished`), takes the start, and O's new run joins Y (pending).
+/// The teardown ends the aborted run's wait, and leaves the new run's alone: when Y ends,
+/// O's new run is released and woken, and gets `Completed` (found by session 55's cold
+/// review of joins: the teardown forgot O's wait, and released the joiners of O's run
+/// current at a look taken after the abort's section, the new run).
+fn join_of_a_new_run_during_the_teardown_of_the_old<const N: usize, const B: usize>(
+    layout: Layout,
+    unwound: bool,
+) {
+    let setup = move || {
+        let w = World::<N, B>::new(layout);
+        let o = w.seq("O");
+        w.split();
+        let y = w.seq("Y");
+        w.start_taken(y);
+        let old = w.start_taken(o);
+        assert_eq!(Port::join(w.seq, o, y, &mut None), Poll::Pending);
+        w.handle(o).abort().unwrap();
+        let (waker, wakes) = counting();
+        (w, o, y, old, waker, wakes)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count, |k| {
+        let (w, o, y, old, waker, wakes) = setup();
+        let what = format!("{layout:?}, unwound: {unwound}, k={k}");
+        let joined = Rc::new(RefCell::new(None));
+        let out = joined.clone();
+        let lane = waker.clone();
+        interleaved::at(k, move || {
+            if w.state(o) != Aborted {
+                return;
+            }
+            w.kept(o).start().unwrap();
+            let mut run = None;
+            if unwound {
+                Port::stop_join(w.seq, o);
+                Port::finished(w.seq, old);
+                Port::take_start(w.seq, o, 0, &lane).unwrap();
+                assert_eq!(Port::join(w.seq, o, y, &mut run), Poll::Pending);
+            }
+            *out.borrow_mut() = Some(run);
+        });
+        w.tick(1);
+        let Some(mut run) = joined.borrow_mut().take() else {
+            // The lane came before the abort: nothing to unwind yet.
+            assert_eq!(w.ended(o), (Aborted, Cause::Abort), "{what}");
+            assert!(
+                !w.in_set(Set::Joining, o),
+                "{what}: the aborted run still waits"
+            );
+            return;
+        };
+        if !unwound {
+            // The aborted run's wait is over; the new run has not begun.
+            assert!(
+                !w.in_set(Set::Joining, o),
+                "{what}: the aborted run still waits"
+            );
+            Port::stop_join(w.seq, o);
+            Port::finished(w.seq, old);
+            Port::take_start(w.seq, o, 0, &waker).unwrap();
+            assert_eq!(Port::join(w.seq, o, y, &mut run), Poll::Pending, "{what}");
+        }
+        assert_eq!(w.state(o), Running, "{what}");
+        assert!(
+            w.in_set(Set::Joining, o),
+            "{what}: O's new run no longer waits for Y"
+        );
+        let before = woken(&wakes);
+        assert!(w.complete(y), "{what}");
+        assert!(
+            woken(&wakes) > before,
+            "{what}: O's lane not woken by Y's end"
+        );
+        assert_eq!(
+            Port::join(w.seq, o, y, &mut run),
+            Poll::Ready(Ok(Outcome::Completed)),
+            "{what}"
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_join_of_a_new_run_begun_during_the_teardown_of_the_old_is_kept() {
+    for unwound in [false, true] {
+        join_of_a_new_run_during_the_teardown_of_the_old::<8, 1>(Layout::One, unwound);
+        join_of_a_new_run_during_the_teardown_of_the_old::<64, 2>(Layout::Split, unwound);
+    }
+}
+
 /// O runs; J2 has joined O's run (pending). O's run is dropped (`Port::abandon`, its
 /// future dropped) while J1 polls its join of O, a lane of higher priority, before each
 /// section of the teardown. Both get `Aborted(Dropped)`; a pending one was released and
