@@ -283,7 +283,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // the run current at the registration.
         // A join of a run before the current one never waits (its outcome is kept, or
         // lost): it registers nothing and closes no cycle.
-        let (registered, waits) = self.with(|s| {
+        let (mut registered, waits) = self.with(|s| {
             let current = s.block(target).map(|b| b.runs);
             let runs = run.or(current).unwrap_or(0);
             let waits = current.is_none_or(|c| c == runs);
@@ -292,9 +292,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             (runs, waits)
         });
-        let ended = if waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
-            Err(Error::JoinWouldDeadlock(target))
-        } else {
+        // A look that moves the wait to a run begun since the check checks again: that
+        // run's joins made since did not see this one (one of them may close a cycle).
+        let ended = loop {
+            if waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
+                break Err(Error::JoinWouldDeadlock(target));
+            }
             let (ended, moved) = self.with(|s| {
                 let ended = s.joined_outcome(target, run);
                 // A run begun between the registration and the first look is the one
@@ -305,13 +308,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 };
                 (ended, moved)
             });
-            // The moved wait is registered only now: a join of that run's made since the
-            // check (it closes a cycle with this one) did not see this one, so this one
-            // checks again.
-            if moved && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
-                Err(Error::JoinWouldDeadlock(target))
-            } else {
-                ended
+            match (moved, *run) {
+                (true, Some(runs)) => registered = runs,
+                _ => break ended,
             }
         };
         let runs = run.unwrap_or(registered);
