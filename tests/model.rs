@@ -47,9 +47,13 @@
 //! With `prios` (session 55): lanes of RTIC priorities 1 to 3, dispatched as the simulator's
 //! module doc says RTIC does (`Model::lanes`).
 //!
+//! With `exc_requests` (session 55): pause, resume and abort requests of the exception
+//! sequences (each pauses or aborts the `Wait` it blocks on with it; an aborted one has
+//! ended, item 3).
+//!
 //! Not modelled: joins of runs replaced before the joiner's poll (`OutcomeLost`), deeper trees,
-//! the safety system, lanes above the tick's priority, requests of exception sequences,
-//! `set_timeout`, events and counters.
+//! the safety system, lanes above the tick's priority, `set_timeout`, events and
+//! counters.
 //!
 //! Every rule the model encodes names its item (or the rustdoc it comes from). It found,
 //! in session 54, that the tick applied a sequence's request before the behaviour of
@@ -505,8 +509,13 @@ impl<'s> Model<'s> {
         self.k
     }
 
-    /// The sequence `c` (main or the sub-sequence) blocks on, if it is active.
+    /// The sequence `c` (main, the sub-sequence or an exception sequence) blocks on, if it
+    /// is active.
     fn child(&self, c: usize) -> Option<usize> {
+        if let Kind::Exc(x) = self.seqs[c].kind {
+            let w = self.excs[x].w;
+            return self.seqs[w].active().then_some(w);
+        }
         let ch = *self.ops[c].get(self.pcs[c])?;
         (ch < OP_JOIN_MAIN && self.seqs[ch].active()).then_some(ch)
     }
@@ -570,7 +579,9 @@ impl<'s> Model<'s> {
                     }
                 })
             }
-            _ => false,
+            // Item 7: the `Wait` an exception sequence blocks on is paused with it.
+            Kind::Exc(_) => own,
+            Kind::ExcWait(x) => own || self.paused_hold(self.excs[x].e),
         }
     }
 
@@ -600,7 +611,12 @@ impl<'s> Model<'s> {
                     exc
                 }
             }
-            _ => false,
+            // Items 7, 8: an exception sequence (and the `Wait` it blocks on) holds while
+            // paused, and from an abort request to the tick that carries it out.
+            Kind::Exc(x) | Kind::ExcWait(x) => {
+                let e = self.excs[x].e;
+                self.paused_hold(i) || self.seqs[e].pending_abort
+            }
         }
     }
 
@@ -1058,6 +1074,15 @@ impl<'s> Model<'s> {
             }
             if abort {
                 self.abort_below(i, true, Cause::Abort);
+                // Item 3: an exception sequence ended (aborted here): the next tick applies
+                // its owner's behaviour.
+                if let Kind::Exc(x) = self.seqs[i].kind {
+                    let ExcDef { src, owner, .. } = self.excs[x];
+                    if self.seqs[owner].exc == Some(src) && !broken("exc_abort_ends") {
+                        self.hit("exc: aborted by a request, the behaviour follows");
+                        self.seqs[owner].exc_ended = true;
+                    }
+                }
             } else if pause {
                 self.seqs[i].pause_req = true;
                 self.pause_tree(i, Cause::Pause);
@@ -1311,7 +1336,7 @@ impl<'s> Model<'s> {
             e,
             w,
         } = self.excs[x];
-        if self.seqs[e].state != Running {
+        if self.seqs[e].state != Running || self.held(e) {
             return;
         }
         let started = self.seqs[w].active() && self.seqs[w].round_start >= self.seqs[e].round_start;
@@ -1320,7 +1345,11 @@ impl<'s> Model<'s> {
             if !self.exit_true(w) {
                 return;
             }
-        } else if !(self.seqs[w].state == Running && poll_taken[w] && self.exit_true(w)) {
+        } else if !(self.seqs[w].state == Running
+            && poll_taken[w]
+            && !self.held(w)
+            && self.exit_true(w))
+        {
             return;
         }
         self.mv(w, Terminated, Cause::Completed);
@@ -1865,6 +1894,8 @@ struct Features {
     sub_pre_fail: bool,
     /// Lanes of RTIC priorities 1 to 3 (`Sim::lane_with_priority`).
     prios: bool,
+    /// Pause, resume and abort requests of the exception sequences.
+    exc_requests: bool,
 }
 
 fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
@@ -2097,11 +2128,25 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         ticks,
         prios: vec![],
     };
+    let excs =
+        sc.monitors.iter().filter(|m| m.exception.is_some()).count() + timeout_excs(&sc).len();
+    if f.exc_requests && excs > 0 {
+        // Exception sequence x is added after main and its `Wait`: main + 2 + 2x.
+        let main = sc.steps.len() + sc.sub.is_some() as usize;
+        for _ in 0..r.range(1, 3) {
+            let e = main + 2 + 2 * r.below(excs as u64) as usize;
+            let req = match r.below(3) {
+                0 => Req::Pause,
+                1 => Req::Resume,
+                _ => Req::Abort,
+            };
+            sc.requests.push((r.range(1, 40), e, req));
+        }
+        sc.requests.sort_by_key(|&(t, _, _)| t);
+    }
     if f.prios {
         // Main's lane, the non-blocking sub-sequence's, the exception sequences'.
         let bg = sc.sub.as_ref().is_some_and(|s| s.nb.is_some()) as usize;
-        let excs =
-            sc.monitors.iter().filter(|m| m.exception.is_some()).count() + timeout_excs(&sc).len();
         sc.prios = (0..1 + bg + excs).map(|_| r.range(1, 3) as u8).collect();
     }
     sc
@@ -2135,6 +2180,7 @@ const fn feat(more: bool, pause_owner: bool, exceptions: bool, requests: bool) -
         nb: false,
         sub_pre_fail: false,
         prios: false,
+        exc_requests: false,
     }
 }
 
@@ -2262,6 +2308,28 @@ const NB_PRIOS: (u64, Features) = (
     Features {
         prios: true,
         ..NB_PRE_FAIL.1
+    },
+);
+/// Requests of the exception sequences, on `ALL`, `TREE_ALL`, `NB_PRIOS`.
+const EXC_REQUESTS: (u64, Features) = (
+    2_200_000,
+    Features {
+        exc_requests: true,
+        ..ALL.1
+    },
+);
+const TREE_EXC_REQUESTS: (u64, Features) = (
+    2_300_000,
+    Features {
+        exc_requests: true,
+        ..TREE_ALL.1
+    },
+);
+const NB_EXC_REQUESTS: (u64, Features) = (
+    2_400_000,
+    Features {
+        exc_requests: true,
+        ..NB_PRIOS.1
     },
 );
 const CALLER: (u64, Features) = (
@@ -2450,6 +2518,31 @@ fn with_a_non_blocking_child_and_lanes_of_priorities() {
     sweep(
         NB_PRIOS,
         "with_a_non_blocking_child_and_lanes_of_priorities",
+    );
+}
+
+/// As `with_all_extensions`, with requests of the exception sequences.
+#[test]
+fn with_requests_of_exception_sequences() {
+    sweep(EXC_REQUESTS, "with_requests_of_exception_sequences");
+}
+
+/// As `with_the_tree_and_everything`, with requests of the exception sequences.
+#[test]
+fn with_the_tree_and_requests_of_exception_sequences() {
+    sweep(
+        TREE_EXC_REQUESTS,
+        "with_the_tree_and_requests_of_exception_sequences",
+    );
+}
+
+/// As `with_a_non_blocking_child_and_lanes_of_priorities`, with requests of the exception
+/// sequences.
+#[test]
+fn with_a_non_blocking_child_and_requests_of_exception_sequences() {
+    sweep(
+        NB_EXC_REQUESTS,
+        "with_a_non_blocking_child_and_requests_of_exception_sequences",
     );
 }
 
@@ -2833,4 +2926,33 @@ fn the_sweeps_reach_a_preempting_lane() {
             .contains_key("lanes: a lane above preempts")
     });
     assert!(reached);
+}
+
+/// Pauses, resumes and aborts of exception sequences (and their `Wait`s with them) occur in
+/// the first seeds of their sweeps, and an aborted one's behaviour follows.
+#[test]
+fn the_sweeps_reach_the_requests_of_exception_sequences() {
+    const WANT: &[&str] = &[
+        "exc Paused->Aborting Abort",
+        "exc Paused->Running Resume",
+        "exc Running->Paused Pause",
+        "wait Paused->Running Resume",
+        "wait Running->Paused Pause",
+    ];
+    for (from, f) in [EXC_REQUESTS, TREE_EXC_REQUESTS, NB_EXC_REQUESTS] {
+        let mut seen = BTreeSet::new();
+        for seed in from..from + 1000 {
+            let sc = generate(seed, &f);
+            let m = model_of(&sc);
+            seen.extend(m.trace.iter().map(|t| kind(&sc, t)));
+            seen.extend(m.reached.keys().map(|k| k.to_string()));
+        }
+        let missing: Vec<&str> = WANT
+            .iter()
+            .chain(&["exc: aborted by a request, the behaviour follows"])
+            .copied()
+            .filter(|w| !seen.contains(*w))
+            .collect();
+        assert!(missing.is_empty(), "{from}: not reached: {missing:?}");
+    }
 }
