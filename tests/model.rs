@@ -51,9 +51,12 @@
 //! sequences (each pauses or aborts the `Wait` it blocks on with it; an aborted one has
 //! ended, item 3).
 //!
+//! With `set_timeout` (session 55): `Handle::set_timeout` of main, the sub-sequence or a
+//! step (a time, or off), at once for a round begun with a timeout, else from the next
+//! start or restart (its rustdoc); the behaviour `AbortOwner` unless configured.
+//!
 //! Not modelled: joins of runs replaced before the joiner's poll (`OutcomeLost`), deeper trees,
-//! the safety system, lanes above the tick's priority, `set_timeout`, events and
-//! counters.
+//! the safety system, lanes above the tick's priority, events and counters.
 //!
 //! Every rule the model encodes names its item (or the rustdoc it comes from). It found,
 //! in session 54, that the tick applied a sequence's request before the behaviour of
@@ -173,6 +176,8 @@ enum Req {
     AbortAll,
     /// `Handle::start` of main by the application (its target is ignored).
     Start,
+    /// `Handle::set_timeout` (ms), at once.
+    SetTimeout(Option<u64>),
 }
 
 #[derive(Clone, Debug)]
@@ -276,7 +281,11 @@ struct MSeq {
     kind: Kind,
     state: RunningState,
     period: u64,
+    /// As configured: its time and behaviour.
     timeout: Option<(u64, Beh)>,
+    /// Its time now (`Handle::set_timeout`), and whether the round began with one (armed).
+    timeout_ms: Option<u64>,
+    armed: bool,
     exit: Option<Exit>,
     /// The start of the round (the run's start or its last restart).
     round_start: u64,
@@ -305,6 +314,8 @@ impl MSeq {
             state: Idle,
             period,
             timeout,
+            timeout_ms: timeout.map(|t| t.0),
+            armed: false,
             exit,
             round_start: 0,
             paused_total: 0,
@@ -479,10 +490,15 @@ impl<'s> Model<'s> {
         }
     }
 
+    /// `SeqConfig::timeout_behaviour`: `AbortOwner` unless configured.
+    fn timeout_beh(&self, i: usize) -> Beh {
+        self.seqs[i].timeout.map_or(Beh::Abort, |t| t.1)
+    }
+
     fn src_beh(&self, src: Src) -> Beh {
         match src {
             Src::Mon(j) => self.sc.monitors[j].beh,
-            Src::Timeout(i) => self.seqs[i].timeout.unwrap().1,
+            Src::Timeout(i) => self.timeout_beh(i),
         }
     }
 
@@ -628,6 +644,8 @@ impl<'s> Model<'s> {
         s.paused_total = 0;
         s.paused_since = None;
         s.timeout_fired = false;
+        // `Handle::set_timeout`: a round begun with a timeout is armed.
+        s.armed = s.timeout_ms.is_some();
     }
 
     /// Items 5, 7: the monitors of a run or a restart start again from "false", holding
@@ -968,6 +986,11 @@ impl<'s> Model<'s> {
             });
             return;
         }
+        if let Req::SetTimeout(to) = r {
+            self.seqs[i].timeout_ms = to;
+            self.req_ok.push(Ok(()));
+            return;
+        }
         let active = match r {
             Req::Abort => self.seqs[i].active(),
             _ => matches!(self.seqs[i].state, Running | Paused),
@@ -975,7 +998,7 @@ impl<'s> Model<'s> {
         let s = &mut self.seqs[i];
         let id = SeqId::from_index(i);
         let res = match r {
-            Req::Start => unreachable!(),
+            Req::Start | Req::SetTimeout(_) => unreachable!(),
             // Item 8: an abort-all is a flag, carried out by the next tick.
             Req::AbortAll => {
                 self.pending_abort_all = true;
@@ -1172,13 +1195,16 @@ impl<'s> Model<'s> {
         // most once per round, not while its run is paused (its clock stands) nor while it
         // handles an exception (it fires at the first poll after).
         for (i, due) in seq_due.into_iter().enumerate() {
-            let Some((to, beh)) = self.seqs[i].timeout else {
+            // `Handle::set_timeout`: a time set during the round counts at once if the
+            // round is armed (`None`: off), else from the next start or restart.
+            let (Some(to), beh) = (self.seqs[i].timeout_ms, self.timeout_beh(i)) else {
                 continue;
             };
             if !due || self.seqs[i].state != Running || self.seqs[i].exc.is_some() {
                 continue;
             }
-            if self.seqs[i].timeout_fired || self.seqs[i].run_time(t) < to {
+            let armed = self.seqs[i].armed || broken("set_timeout_arms");
+            if !armed || self.seqs[i].timeout_fired || self.seqs[i].run_time(t) < to {
                 continue;
             }
             self.seqs[i].timeout_fired = true;
@@ -1815,6 +1841,10 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
                         Ok(())
                     }
                     Req::Start => sim.start(mi),
+                    Req::SetTimeout(to) => seq
+                        .sequence_by_id(id)
+                        .unwrap()
+                        .set_timeout(to.map(Duration::from_millis)),
                 };
                 oks.push(res);
             }
@@ -1896,6 +1926,8 @@ struct Features {
     prios: bool,
     /// Pause, resume and abort requests of the exception sequences.
     exc_requests: bool,
+    /// `Handle::set_timeout` of main, the sub-sequence or a step.
+    set_timeout: bool,
 }
 
 fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
@@ -2144,6 +2176,16 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         }
         sc.requests.sort_by_key(|&(t, _, _)| t);
     }
+    if f.set_timeout {
+        // Of main, the sub-sequence or a step: a time, or off.
+        let n_tree = sc.steps.len() + sc.sub.is_some() as usize + 1;
+        for _ in 0..r.range(1, 3) {
+            let to = (!r.chance(30)).then(|| r.range(1, 20));
+            let who = r.below(n_tree as u64) as usize;
+            sc.requests.push((r.range(1, 40), who, Req::SetTimeout(to)));
+        }
+        sc.requests.sort_by_key(|&(t, _, _)| t);
+    }
     if f.prios {
         // Main's lane, the non-blocking sub-sequence's, the exception sequences'.
         let bg = sc.sub.as_ref().is_some_and(|s| s.nb.is_some()) as usize;
@@ -2181,6 +2223,7 @@ const fn feat(more: bool, pause_owner: bool, exceptions: bool, requests: bool) -
         sub_pre_fail: false,
         prios: false,
         exc_requests: false,
+        set_timeout: false,
     }
 }
 
@@ -2330,6 +2373,21 @@ const NB_EXC_REQUESTS: (u64, Features) = (
     Features {
         exc_requests: true,
         ..NB_PRIOS.1
+    },
+);
+/// `Handle::set_timeout`, on `ALL` and `TREE_EXC_REQUESTS`.
+const SET_TIMEOUT: (u64, Features) = (
+    2_500_000,
+    Features {
+        set_timeout: true,
+        ..ALL.1
+    },
+);
+const TREE_SET_TIMEOUT: (u64, Features) = (
+    2_600_000,
+    Features {
+        set_timeout: true,
+        ..TREE_EXC_REQUESTS.1
     },
 );
 const CALLER: (u64, Features) = (
@@ -2543,6 +2601,22 @@ fn with_a_non_blocking_child_and_requests_of_exception_sequences() {
     sweep(
         NB_EXC_REQUESTS,
         "with_a_non_blocking_child_and_requests_of_exception_sequences",
+    );
+}
+
+/// As `with_all_extensions`, with timeouts set and switched off during runs.
+#[test]
+fn with_timeouts_set_during_runs() {
+    sweep(SET_TIMEOUT, "with_timeouts_set_during_runs");
+}
+
+/// As `with_the_tree_and_requests_of_exception_sequences`, with timeouts set and switched
+/// off during runs.
+#[test]
+fn with_the_tree_and_timeouts_set_during_runs() {
+    sweep(
+        TREE_SET_TIMEOUT,
+        "with_the_tree_and_timeouts_set_during_runs",
     );
 }
 
