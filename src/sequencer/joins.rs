@@ -32,20 +32,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// `joiner`'s wait for the end of `target`'s run `from` is for its run `to` now (the
-    /// first look of a join chose a run begun since the registration). True when it was
-    /// moved: the cycle check, made for the wait before, is to be made again.
-    pub(crate) fn move_wait(&mut self, joiner: SeqId, target: SeqId, from: u16, to: u16) -> bool {
-        let Some(b) = self.block_mut(joiner) else {
-            return false;
-        };
-        let moved = from != to && b.joins == JoinWait::end_of(target, from);
-        if moved {
-            b.joins = JoinWait::end_of(target, to);
-        }
-        moved
-    }
-
     /// A join of `joiner` of `target` returned: `joiner` no longer waits. A wait that was
     /// not this join's alone (several joins at once, `JoinWait::ANY_END`) is cleared all
     /// the same, and the joiner's lane is returned, to wake, so that its pending joins,
@@ -97,8 +83,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// What a join of `target`'s run `run` (the run current at its first look, when
-    /// `None`) sees: `None` while that run is under way, else its outcome, which is kept
+    /// What a join of `target`'s run `run` (the run current now, when `None`) sees: `None` while that run is under way, else its outcome, which is kept
     /// while that run is the last one, ended, or the one before the run under way.
     pub(crate) fn joined_outcome(
         &self,
@@ -122,6 +107,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// waiting in several joins at once is left out: it may go on at another end), and
     /// still running or paused: the join of a run that the tick aborted or restarted is
     /// over, although its future, which clears the wait when dropped, has not unwound yet.
+    /// Nor is one whose start its lane has not taken: its run has not begun its action, and
+    /// a wait is the last run's (registered after the abort of that run, which had
+    /// looked at its clearance just before), until its lane unwinds that run.
     pub(crate) fn joiners_of(&self, target: SeqId) -> SeqSet<B> {
         let mut out = SeqSet::EMPTY;
         let Some(runs) = self.block(target).map(|b| b.runs) else {
@@ -131,6 +119,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             if self.block(j).is_some_and(|b| {
                 b.joins == JoinWait::end_of(target, runs)
                     && RunningStates::RUNNING_OR_PAUSED.has(b.state)
+                    && !b.has(flag::START_PENDING)
             }) {
                 out.insert(j);
             }

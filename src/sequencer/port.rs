@@ -275,51 +275,36 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         target: SeqId,
         run: &mut Option<u16>,
     ) -> Poll<Result<Outcome, Error>> {
+        // The run joined is the one current at the first poll's first section, so the
+        // wait always names the run the look looks at (semantics 14).
         // Registered before the cycle check and the look for the run's end. Of two joins
         // that close a cycle, the one registered later sees the other's registration (a
         // check before the registration could miss a join registered in between, and both
-        // would wait for good); an end in between releases it.
-        // The wait names the run joined once the first look has chosen it, and until then
-        // the run current at the registration.
-        // A join of a run before the current one never waits (its outcome is kept, or
-        // lost): it registers nothing and closes no cycle.
-        let (mut registered, waits) = self.with(|s| {
-            let current = s.block(target).map(|b| b.runs);
-            let runs = run.or(current).unwrap_or(0);
-            let waits = current.is_none_or(|c| c == runs);
+        // would wait for good); an end in between releases it. A join of a run before the
+        // current one never waits (its outcome is kept, or lost): it registers nothing and
+        // closes no cycle.
+        if run.is_none() {
+            *run = self.with(|s| s.block(target).map(|b| b.runs));
+        }
+        let registered = run.unwrap_or(0);
+        let waits = self.with(|s| {
+            let waits = s.block(target).is_some_and(|b| b.runs == registered);
             if waits {
-                s.wait_for_join(joiner, target, runs);
+                s.wait_for_join(joiner, target, registered);
             }
-            (runs, waits)
+            waits
         });
-        // A look that moves the wait to a run begun since the check checks again: that
-        // run's joins made since did not see this one (one of them may close a cycle).
-        let ended = loop {
-            if waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
-                break Err(Error::JoinWouldDeadlock(target));
-            }
-            let (ended, moved) = self.with(|s| {
-                let ended = s.joined_outcome(target, run);
-                // A run begun between the registration and the first look is the one
-                // joined: the wait is moved to it.
-                let moved = match (ended, *run) {
-                    (Ok(None), Some(runs)) => s.move_wait(joiner, target, registered, runs),
-                    _ => false,
-                };
-                (ended, moved)
-            });
-            match (moved, *run) {
-                (true, Some(runs)) => registered = runs,
-                _ => break ended,
-            }
+        let ended = if waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
+            Err(Error::JoinWouldDeadlock(target))
+        } else {
+            self.with(|s| s.joined_outcome(target, run))
         };
-        let runs = run.unwrap_or(registered);
         let result = match ended {
             Ok(None) => return Poll::Pending,
             Ok(Some(outcome)) => Ok(outcome),
             Err(e) => Err(e),
         };
-        self.update_and_wake(|s| s.join_returned(joiner, target, runs));
+        self.update_and_wake(|s| s.join_returned(joiner, target, registered));
         Poll::Ready(result)
     }
 

@@ -1566,8 +1566,9 @@ fn a_start_of_an_exception_sequence_against_its_end_is_refused_until_reported() 
 /// X's run 1 ended (`Completed`); J runs. J's first poll of its join of X (lane A), with
 /// X's lane (of higher priority) before section `k`: a handle starts X again (run 2, taken
 /// by X's lane) and X's new run joins J. Semantics 14: J joins the run current at its
-/// look; if that is run 2, the two joins close a cycle (J waits for X's run 2, X's run 2
-/// waits for J), so exactly one of them is `JoinWouldDeadlock`. Never both pending.
+/// first poll's first section; if that is run 2, the two joins close a cycle (J waits for
+/// X's run 2, X's run 2 waits for J), so exactly one of them is `JoinWouldDeadlock`; if it
+/// is run 1, J gets its outcome. Never both pending.
 fn join_against_new_start_that_joins_back<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,
 ) {

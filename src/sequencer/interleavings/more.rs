@@ -14,7 +14,7 @@
 
 use super::*;
 
-use crate::lock::interleaved::Interleaved;
+use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
 use crate::sequencer::inbox::abort_all_posted;
 
 /// The world every test here uses: the portable interleaving lock, `N` sequences in `B`
@@ -311,9 +311,10 @@ fn end_and_then<const N: usize, const B: usize>(w: &World<N, B>, o: SeqId, then:
 
 /// O runs (run 1); J2 (with `two`) has joined run 1 (pending). J1's first poll of its join
 /// of O comes with O's lane doing `then` before section `k`. J1 joins the run current at
-/// its first look (semantics 14: never a later one): run 1, ended (`Completed`), or run 2,
-/// under way (pending, then `Skipped` once it ends: J1 is released and woken) or ended
-/// (`Skipped`). J2, woken by run 1's end, gets run 1's outcome while run 1 is the last run
+/// the first section of its first poll (semantics 14: never a later one): run 1, ended
+/// (`Completed`, also when run 2 is under way; `OutcomeLost` once run 2 has ended too), or,
+/// with O's lane before that section, run 2, under way (pending, then `Skipped` once it
+/// ends: J1 is released and woken) or ended (`Skipped`). J2, woken by run 1's end, gets run 1's outcome while run 1 is the last run
 /// or the one before the run under way, else `OutcomeLost` (run 2 ended before J2 was
 /// polled). With `k` = the count, the end comes after J1's pending first poll: J1 is as J2.
 fn join_during_end<const N: usize, const B: usize>(layout: Layout, two: bool, then: Then) {
@@ -375,10 +376,19 @@ fn join_during_end<const N: usize, const B: usize>(layout: Layout, two: bool, th
             );
             j2_check(&w);
         } else {
+            // J1 joins the run current at its registration, the first section of its first
+            // poll: run 2 only if O's lane came before it.
+            let joins_run_2 = k == 0;
             match then {
                 Then::End => assert_eq!(first, Poll::Ready(Ok(Outcome::Completed)), "{what}"),
-                Then::EndTwice => {
+                Then::EndTwice if joins_run_2 => {
                     assert_eq!(first, Poll::Ready(Ok(Outcome::Skipped)), "{what}")
+                }
+                Then::EndTwice => {
+                    assert_eq!(first, Poll::Ready(Err(Error::OutcomeLost(o))), "{what}")
+                }
+                Then::EndAndStart if !joins_run_2 => {
+                    assert_eq!(first, Poll::Ready(Ok(Outcome::Completed)), "{what}")
                 }
                 Then::EndAndStart => {
                     assert_eq!(first, Poll::Pending, "{what}: J1 joined run 2");
@@ -880,5 +890,97 @@ fn a_dropped_owner_during_the_report_of_its_exception_sequences_end_is_aborted_o
     for behaviour in [Behaviour::AbortOwner, Behaviour::RestartOwner] {
         drop_into_report::<8, 1>(Layout::One, behaviour);
         drop_into_report::<64, 2>(Layout::Split, behaviour);
+    }
+}
+
+/// A's run 1 and B run; A's `AbortOwner` monitor holds. A's lane polls its action's join
+/// of B (`Cx::join`: the run's clearance, then `Port::join`); before section `k` of that
+/// poll, the tick aborts A, and a handle above A's lane starts A again (run 2, its start
+/// pending until A's lane has unwound run 1) before that section too (`started_in_the_poll`)
+/// or once the poll returned. Run 1 is over, and A's run 2, which has not begun its
+/// action, waits for no one (whatever run 1's join registered). Then B's lane
+/// joins A's run 2: it waits (no cycle), and when A's run 2 ends B gets its outcome.
+/// Found by session 55's audit of decisions re-read by id: the join took the clearance of
+/// run 1 and registered, sections later, a wait that the cycle check took for run 2's, so
+/// B's join of A was refused as a cycle (`JoinWouldDeadlock`) that no run closed.
+fn join_by_a_run_aborted_and_replaced_before_it_registers<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+    started_in_the_poll: bool,
+) {
+    let setup = move || {
+        let w = super::World::<L, N, B>::new(layout);
+        let a = w.seq("A");
+        w.split();
+        let b = w.seq("B");
+        w.start_taken(b);
+        let old = w.start_taken(a);
+        w.monitor(a, flag_of(true), Behaviour::AbortOwner, None);
+        (w, a, b, old)
+    };
+    // A's action's context, acting for run 1, and its join of B, polled once.
+    let poll_join = |w: super::World<L, N, B>, a: SeqId, b: SeqId, old: RunId| {
+        let cx: &'static crate::Cx<'static, ()> =
+            Box::leak(Box::new(crate::Cx::new(w.seq, &(), a)));
+        cx.enter(old);
+        let mut join = Box::pin(cx.join(b));
+        let (waker, _) = counting();
+        let polled =
+            core::future::Future::poll(join.as_mut(), &mut core::task::Context::from_waker(&waker));
+        (polled, join)
+    };
+    // The poll's sections, not those of the join's drop.
+    let count = sections(setup, |&(w, a, b, old)| {
+        core::mem::forget(poll_join(w, a, b, old));
+    });
+    every_k(count, |k| {
+        let (w, a, b, old) = setup();
+        let what = name::<L>(
+            layout,
+            format_args!("started in the poll {started_in_the_poll}, k={k} of {count}"),
+        );
+        interleaved::at(k, move || {
+            w.tick(1);
+            assert_eq!(w.ended(a), (Aborted, M0));
+            if started_in_the_poll {
+                w.kept(a).start().unwrap();
+            }
+        });
+        let (polled, join) = poll_join(w, a, b, old);
+        assert!(inserted(k), "{what}");
+        if !started_in_the_poll {
+            w.kept(a).start().unwrap();
+        }
+        assert_eq!(polled, Poll::Pending, "{what}");
+        // Before A's lane unwinds run 1 (B's lane is above it).
+        let mut run = None;
+        assert_eq!(
+            Port::join(w.seq, b, a, &mut run),
+            Poll::Pending,
+            "{what}: B's join of A's run 2"
+        );
+        // A's lane unwinds run 1 (its join dropped), takes run 2, which completes.
+        drop(join);
+        w.take(a);
+        assert!(w.complete(a), "{what}");
+        assert_eq!(
+            Port::join(w.seq, b, a, &mut run),
+            Poll::Ready(Ok(Outcome::Completed)),
+            "{what}"
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_join_by_a_run_aborted_and_replaced_before_it_registers_waits_for_nothing() {
+    for started_in_the_poll in [true, false] {
+        every_world!(
+            join_by_a_run_aborted_and_replaced_before_it_registers,
+            started_in_the_poll
+        );
     }
 }
