@@ -55,8 +55,11 @@
 //! step (a time, or off), at once for a round begun with a timeout, else from the next
 //! start or restart (its rustdoc); the behaviour `AbortOwner` unless configured.
 //!
-//! Not modelled: joins of runs replaced before the joiner's poll (`OutcomeLost`), deeper trees,
-//! the safety system, lanes above the tick's priority, events and counters.
+//! Every join's result is compared too (at which ms, by whom, `Ok` with the joined run's
+//! outcome or which `Error`), with a scenario of its own for `OutcomeLost` (session 55).
+//!
+//! Not modelled: deeper trees, the safety system, lanes above the tick's priority, events
+//! and counters.
 //!
 //! Every rule the model encodes names its item (or the rustdoc it comes from). It found,
 //! in session 54, that the tick applied a sequence's request before the behaviour of
@@ -78,7 +81,7 @@ use rtseq::sim::{Sim, DEFAULT_LANE_PRIORITY};
 use rtseq::RunningState::{self, *};
 use rtseq::{
     Behaviour, Cause, ConditionFn, Cx, Done, Duration, Error, Failure, Instant, Monitor, MonitorId,
-    Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Transition, Trigger, Wait,
+    Monitors, Outcome, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step, Transition, Trigger, Wait,
 };
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -369,6 +372,10 @@ struct Model<'s> {
     /// The run each sequence's join waits for (main's of the sub-sequence, the
     /// sub-sequence's of main), set when the join begins to wait.
     joined_run: Vec<u32>,
+    /// The outcome of each sequence's last ended run (what its control block keeps).
+    outcome: Vec<Option<Outcome>>,
+    /// What each join returned: at which ms, to which sequence.
+    joins: Joins,
     /// The run of the non-blocking sub-sequence main holds a `Scoped` of.
     scoped: Option<u32>,
     /// The non-blocking sub-sequence's id.
@@ -465,6 +472,8 @@ impl<'s> Model<'s> {
             pending_abort_all: false,
             fresh,
             joined_run: runs.clone(),
+            outcome: vec![None; runs.len()],
+            joins: vec![],
             runs,
             scoped: None,
             bg,
@@ -519,6 +528,44 @@ impl<'s> Model<'s> {
             }
         }
         s.state = to;
+        // `Outcome`: the end of a run (main's and the sub-sequence's failures are
+        // `Failure::App(2)`, the steps' `App(1)`).
+        let fail = if self.seqs[i].kind == Kind::Step {
+            1
+        } else {
+            2
+        };
+        let ended = match (to, cause) {
+            (Terminated, Cause::Completed) => Some(Outcome::Completed),
+            (Terminated, Cause::PreConditionFalse) => Some(Outcome::Skipped),
+            (Terminated, Cause::Failed) => Some(Outcome::Failed(Failure::App(fail))),
+            (Aborted, c) => Some(Outcome::Aborted(c)),
+            _ => None,
+        };
+        if ended.is_some() {
+            self.outcome[i] = ended;
+        }
+    }
+
+    /// A join by `c` returns `r` now.
+    fn joined(&mut self, c: usize, r: Result<Outcome, Error>) {
+        self.joins.push((self.t, SeqId::from_index(c), r));
+    }
+
+    /// Item 14: what a join of `target`'s run `run` gets once that run is no longer the one
+    /// under way: its outcome while it is the last run, ended, or the one before the run
+    /// under way; else `OutcomeLost` (a control block keeps one outcome).
+    fn outcome_of(&self, target: usize, run: u32) -> Result<Outcome, Error> {
+        let kept = match self.runs[target] - run {
+            0 => !self.seqs[target].active(),
+            1 => self.seqs[target].active(),
+            _ => false,
+        };
+        if kept || broken("outcome_lost") {
+            Ok(self.outcome[target].expect("an ended run has an outcome"))
+        } else {
+            Err(Error::OutcomeLost(SeqId::from_index(target)))
+        }
     }
 
     fn main(&self) -> usize {
@@ -717,15 +764,19 @@ impl<'s> Model<'s> {
                 let bg = self.bg.unwrap();
                 match s {
                     OP_JOIN_MAIN => {
-                        if self.seqs[self.main()].active() {
-                            if self.waits_in(self.main(), OP_JOIN) && !broken("join_cycle") {
+                        let m = self.main();
+                        if self.seqs[m].active() {
+                            if self.waits_in(m, OP_JOIN) && !broken("join_cycle") {
                                 // Item 14: a join that closes a cycle of waits is
                                 // `JoinWouldDeadlock`, returned at once.
                                 self.hit("nb: join cycle refused");
+                                self.joined(c, Err(Error::JoinWouldDeadlock(SeqId::from_index(m))));
                             } else {
-                                self.joined_run[c] = self.runs[self.main()];
+                                self.joined_run[c] = self.runs[m];
                                 return false;
                             }
+                        } else {
+                            self.joined(c, self.outcome_of(m, self.runs[m]));
                         }
                     }
                     OP_START => {
@@ -752,6 +803,12 @@ impl<'s> Model<'s> {
                             self.joined_run[c] = self.runs[bg];
                             return false;
                         }
+                        let r = if cycle {
+                            Err(Error::JoinWouldDeadlock(SeqId::from_index(bg)))
+                        } else {
+                            self.outcome_of(bg, self.runs[bg])
+                        };
+                        self.joined(c, r);
                     }
                     OP_DROP => self.drop_scoped(),
                     _ => self.scoped = None,
@@ -1442,6 +1499,12 @@ impl<'s> Model<'s> {
             {
                 return false;
             }
+            if self.runs[target] - self.joined_run[c] > 1
+                || self.runs[target] != self.joined_run[c] && !self.seqs[target].active()
+            {
+                self.hit("nb: a join's outcome lost");
+            }
+            self.joined(c, self.outcome_of(target, self.joined_run[c]));
             self.pcs[c] += 1;
             return self.begin_steps(c);
         }
@@ -1489,6 +1552,9 @@ fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
     let m = model_of(sc);
     (m.trace, m.req_ok)
 }
+
+/// What joins returned: at which ms, to which sequence.
+type Joins = Vec<(u64, SeqId, Result<Outcome, Error>)>;
 
 /// The model after the scenario.
 fn model_of(sc: &Scenario) -> Model<'_> {
@@ -1627,6 +1693,7 @@ impl Sequence<Ctrl> for MMain {
                         Some(s) => s.join().await,
                         None => cx.join(*id).await,
                     };
+                    cx.control().joined(cx, r);
                     r.map_err(Failure::from).and_then(rtseq::Outcome::done)
                 }
                 MOp::Drop => {
@@ -1693,7 +1760,7 @@ fn set_flags(sc: &Scenario, c: &Ctrl, t: u64) {
 }
 
 /// Runs the scenario in the simulator: the trace and whether each request was taken.
-fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
+fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>, Joins) {
     // Lanes: main's, the non-blocking sub-sequence's and up to 7 exception sequences'.
     let seq: Sequencer<Ctrl, 32, 256, CriticalSection, 16> = Sequencer::new();
     let ctrl = Ctrl::default();
@@ -1858,7 +1925,9 @@ fn run_rtseq(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
     assert!(!sim.stalled());
     assert_eq!(sim.tick_error(), None);
     assert_eq!(sim.lost(), 0);
-    (sim.take_trace(), oks)
+    let trace = sim.take_trace();
+    drop(sim);
+    (trace, oks, ctrl.joins.take())
 }
 
 // ---------------------------------------------------------------- generator
@@ -2401,11 +2470,12 @@ const CALLER: (u64, Features) = (
 /// The scenario's trace and request results in the simulator and in the model, or both
 /// printed.
 fn compare(sc: &Scenario) -> Result<(), String> {
-    let (got, oks) = run_rtseq(sc);
-    let (want, model_oks) = run_model(sc);
-    if got != want || oks != model_oks {
+    let (got, oks, joins) = run_rtseq(sc);
+    let m = model_of(sc);
+    let (want, model_oks, model_joins) = (m.trace, m.req_ok, m.joins);
+    if got != want || oks != model_oks || joins != model_joins {
         return Err(format!(
-            "{sc:#?}\n rtseq:\n{}\n model:\n{}\n requests' results: rtseq {oks:?}, model {model_oks:?}",
+            "{sc:#?}\n rtseq:\n{}\n model:\n{}\n requests' results: rtseq {oks:?}, model {model_oks:?}\n joins: rtseq {joins:?}\n model {model_joins:?}",
             show(&got),
             show(&want)
         ));
@@ -3029,4 +3099,81 @@ fn the_sweeps_reach_the_requests_of_exception_sequences() {
             .collect();
         assert!(missing.is_empty(), "{from}: not reached: {missing:?}");
     }
+}
+
+/// Every join result but `OutcomeLost` (a joiner held while its target runs twice, which
+/// `a_join_held_while_its_target_runs_twice_has_lost_the_outcome` makes) comes in the first
+/// seeds of the sweeps with a non-blocking child.
+#[test]
+fn the_sweeps_reach_every_join_result() {
+    let mut reached: BTreeMap<String, usize> = BTreeMap::new();
+    for (from, f) in [NB, NB_ALL, NB_PRE_FAIL, NB_PRIOS, NB_EXC_REQUESTS] {
+        for seed in from..from + 2000 {
+            for (_, _, r) in model_of(&generate(seed, &f)).joins {
+                let kind = match r {
+                    Ok(o) => format!("{o:?}"),
+                    Err(e) => format!("{e:?}"),
+                };
+                let kind = kind.split('(').next().unwrap().to_string();
+                *reached.entry(kind).or_default() += 1;
+            }
+        }
+    }
+    let kinds: Vec<&str> = reached.keys().map(|k| k.as_str()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "Aborted",
+            "Completed",
+            "Failed",
+            "JoinWouldDeadlock",
+            "Skipped"
+        ],
+        "{reached:#?}"
+    );
+}
+
+/// Item 14 and `Error::OutcomeLost`, which the sweeps seldom reach: the non-blocking child
+/// (id 2) runs step 0 until 2 ms, then joins main's run 1 (id 3, which runs step 1 until
+/// 10 ms); the child is paused at 4 ms, so it has not returned when main's run 1 ends. The
+/// application starts main again at 15 ms; run 2 ends at once (step 1's exit holds). Resumed
+/// at 20 ms, the child's join finds run 1's outcome replaced by run 2's: `OutcomeLost`.
+#[test]
+fn a_join_held_while_its_target_runs_twice_has_lost_the_outcome() {
+    let step = |at| StepCfg {
+        period: 1,
+        exit: Exit::Flag(at),
+        timeout: None,
+        timeout_exc: None,
+        pre_false: None,
+        fail: None,
+    };
+    let mut sc = one_step(vec![], vec![]);
+    sc.steps = vec![step(2), step(10)];
+    sc.sub = Some(SubCfg {
+        period: 1,
+        first: 0,
+        len: 1,
+        timeout: None,
+        timeout_exc: None,
+        pre_false: None,
+        fail: None,
+        nb: Some(false),
+    });
+    sc.main_ops = vec![MainOp::Start, MainOp::Step(1)];
+    sc.bg_joins_main = true;
+    sc.requests = vec![
+        (4, 2, Req::Pause),
+        (15, 3, Req::Start),
+        (20, 2, Req::Resume),
+    ];
+    compare(&sc).unwrap();
+    let m = model_of(&sc);
+    let main = SeqId::from_index(3);
+    assert_eq!(
+        m.joins,
+        [(20, SeqId::from_index(2), Err(Error::OutcomeLost(main)))],
+        "\n{}",
+        show(&m.trace)
+    );
 }

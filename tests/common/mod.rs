@@ -40,6 +40,8 @@ pub struct Ctrl {
     pub returned: RefCell<Vec<Returned>>,
     /// Names recorded by cleanup hooks (`SeqConfig::on_abort`), in call order.
     pub hooks: RefCell<Vec<&'static str>>,
+    /// What joins returned, in order: at which ms, to which sequence.
+    pub joins: RefCell<Vec<(u64, SeqId, Result<Outcome, rtseq::Error>)>>,
 }
 
 impl Ctrl {
@@ -66,6 +68,10 @@ impl Ctrl {
             line,
             result,
         });
+    }
+    pub fn joined(&self, cx: &Cx<'_, Ctrl>, result: Result<Outcome, rtseq::Error>) {
+        let ms = cx.now().as_ticks() / 1000;
+        self.joins.borrow_mut().push((ms, cx.id(), result));
     }
     pub fn lines_of(&self, seq: SeqId) -> Vec<(u64, usize)> {
         self.lines
