@@ -1553,8 +1553,8 @@ fn run_model(sc: &Scenario) -> (Vec<Transition>, Vec<Result<(), Error>>) {
     (m.trace, m.req_ok)
 }
 
-/// What joins returned: at which ms, to which sequence.
-type Joins = Vec<(u64, SeqId, Result<Outcome, Error>)>;
+/// What joins returned.
+type Joins = Vec<Joined>;
 
 /// The model after the scenario.
 fn model_of(sc: &Scenario) -> Model<'_> {

@@ -31,6 +31,9 @@ pub struct Returned {
     pub result: Result<Done, Failure>,
 }
 
+/// What a join returned: at which ms, to which sequence.
+pub type Joined = (u64, SeqId, Result<Outcome, rtseq::Error>);
+
 pub const END: usize = usize::MAX;
 
 #[derive(Default)]
@@ -41,7 +44,7 @@ pub struct Ctrl {
     /// Names recorded by cleanup hooks (`SeqConfig::on_abort`), in call order.
     pub hooks: RefCell<Vec<&'static str>>,
     /// What joins returned, in order: at which ms, to which sequence.
-    pub joins: RefCell<Vec<(u64, SeqId, Result<Outcome, rtseq::Error>)>>,
+    pub joins: RefCell<Vec<Joined>>,
 }
 
 impl Ctrl {
