@@ -103,8 +103,9 @@ pub(crate) trait Port<C> {
     /// `joiner` waits for the end of a run of `target`: its outcome once it ended. `run`:
     /// which run, by the target's run count; the first poll of a join sets it to the
     /// current run (or the last one, if it ended), so a join never waits for a later run.
-    /// Set in the same section as the first look: a run read in a section of its own
-    /// could end, and another begin, before the look.
+    /// Set in the first poll's first section, before the registration, the cycle check and
+    /// the look, which are then all of that run: one of a sequence never started is
+    /// `NeverStarted` there, and a cycle found is none once a later run has begun.
     fn join(
         &self,
         joiner: SeqId,
@@ -283,8 +284,20 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // would wait for good); an end in between releases it. A join of a run before the
         // current one never waits (its outcome is kept, or lost): it registers nothing and
         // closes no cycle.
+        // A sequence never started at that section has no run to join: a start of it
+        // after the section is a run begun later, which the join does not wait for.
         if run.is_none() {
-            *run = self.with(|s| s.block(target).map(|b| b.runs));
+            let first = self.with(|s| {
+                let b = s.block(target).ok_or(Error::UnknownSequence(target))?;
+                if b.state == RunningState::Idle {
+                    return Err(Error::NeverStarted(target));
+                }
+                Ok(b.runs)
+            });
+            match first {
+                Ok(runs) => *run = Some(runs),
+                Err(e) => return Poll::Ready(Err(e)),
+            }
         }
         let registered = run.unwrap_or(0);
         let waits = self.with(|s| {
@@ -294,11 +307,19 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             waits
         });
-        let ended = if waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target)) {
-            Err(Error::JoinWouldDeadlock(target))
-        } else {
-            self.with(|s| s.joined_outcome(target, run))
-        };
+        // A cycle found is none once a later run of the target has begun (before the
+        // check, or during it): the joined run ended and released this join, which waits
+        // for nothing then, and the wait the check found is the later run's (semantics 14:
+        // a join of a run before the one under way closes no cycle).
+        let cycle = waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target));
+        let ended = self.with(|s| {
+            let earlier = s.block(target).is_some_and(|b| b.runs != registered);
+            if cycle && !earlier {
+                Err(Error::JoinWouldDeadlock(target))
+            } else {
+                s.joined_outcome(target, run)
+            }
+        });
         let result = match ended {
             Ok(None) => return Poll::Pending,
             Ok(Some(outcome)) => Ok(outcome),

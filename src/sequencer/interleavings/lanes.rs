@@ -1664,3 +1664,164 @@ fn a_join_of_a_run_128_starts_back<L: Lock + 'static, const N: usize, const B: u
 fn a_join_of_a_run_128_starts_back_is_no_joiner_of_the_run_under_way() {
     every_split_world!(a_join_of_a_run_128_starts_back);
 }
+
+// Joins whose target ends or starts during the join's first poll (found by session 55's
+// second cold review of joins).
+
+/// X's run 1 ended (`Completed`); J runs. J's first poll of its join of X (lane A), with
+/// X's lane (of higher priority) before section `k`: a handle starts X again (run 2, taken
+/// by X's lane) and X's new run joins J. Semantics 14: "a join of a run before the one
+/// under way never waits, so it closes no cycle": when J joined run 1 (X's lane came after
+/// J's first section), J gets run 1's outcome (`Completed`), never `JoinWouldDeadlock`;
+/// when it joined run 2, exactly one of the two is the error.
+fn join_of_ended_run_against_new_start_that_joins_back<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
+        w.start_taken(x);
+        assert!(w.complete(x));
+        let jx: Shared = Box::leak(Box::new(RefCell::new(Joiner {
+            id: x,
+            run: None,
+            wakes: counter().1.clone(),
+        })));
+        (w, [x, j], [joiner(&w, j), jx])
+    };
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        setup,
+        |(w, [x, _], [jj, _])| jj.borrow_mut().poll(&w, x),
+        |(w, [x, j], [_, jx])| {
+            w.kept(x).start().unwrap();
+            w.take(x);
+            jx.borrow_mut().poll(&w, j)
+        },
+        |what, _, pj, px, (w, [x, j], [jj, jx])| {
+            let pj = jj.borrow_mut().repoll(&w, x, 0, pj);
+            let px = jx.borrow_mut().repoll(&w, j, 0, px);
+            let jrun = jj.borrow().run;
+            match (&pj, &px, jrun) {
+                (Poll::Ready(Ok(Outcome::Completed)), Poll::Pending, Some(1)) => {}
+                (Poll::Ready(Err(Error::JoinWouldDeadlock(t))), Poll::Pending, Some(2))
+                    if *t == x => {}
+                (Poll::Pending, Poll::Ready(Err(Error::JoinWouldDeadlock(t))), Some(2))
+                    if *t == j => {}
+                other => panic!("{what}: J {pj:?} (run {jrun:?}), X {px:?}: {other:?}"),
+            }
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_join_of_an_ended_run_is_no_cycle_when_the_target_starts_again_and_joins_back() {
+    every_split_world!(join_of_ended_run_against_new_start_that_joins_back);
+}
+
+/// X's run 1 runs; J runs. J's first poll of its join of X (lane A), with X's lane (of
+/// higher priority) before section `k`: X's run 1 completes, a handle starts X again (run
+/// 2, taken by X's lane) and X's new run joins J. When J joined run 1 it gets `Completed`
+/// (pending first, if its look came before the end: then released and woken): run 1 never
+/// waited for J, so no cycle was ever closed. When J joined run 2, exactly one is the
+/// error.
+fn join_of_run_that_ends_and_whose_successor_joins_back<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
+        w.start_taken(x);
+        let jx: Shared = Box::leak(Box::new(RefCell::new(Joiner {
+            id: x,
+            run: None,
+            wakes: counter().1.clone(),
+        })));
+        (w, [x, j], [joiner(&w, j), jx])
+    };
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        setup,
+        |(w, [x, _], [jj, _])| jj.borrow_mut().poll(&w, x),
+        |(w, [x, j], [_, jx])| {
+            assert!(w.complete(x));
+            w.kept(x).start().unwrap();
+            w.take(x);
+            jx.borrow_mut().poll(&w, j)
+        },
+        |what, _, pj, px, (w, [x, j], [jj, jx])| {
+            let pj = jj.borrow_mut().repoll(&w, x, 0, pj);
+            let px = jx.borrow_mut().repoll(&w, j, 0, px);
+            let jrun = jj.borrow().run;
+            match (&pj, &px, jrun) {
+                (Poll::Ready(Ok(Outcome::Completed)), Poll::Pending, Some(1)) => {}
+                (Poll::Ready(Err(Error::JoinWouldDeadlock(t))), Poll::Pending, Some(2))
+                    if *t == x => {}
+                (Poll::Pending, Poll::Ready(Err(Error::JoinWouldDeadlock(t))), Some(2))
+                    if *t == j => {}
+                other => panic!("{what}: J {pj:?} (run {jrun:?}), X {px:?}: {other:?}"),
+            }
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_join_of_a_run_that_ends_is_no_cycle_when_the_next_run_joins_back() {
+    every_split_world!(join_of_run_that_ends_and_whose_successor_joins_back);
+}
+
+/// X was never started; J runs. J's first poll of its join of X (lane A), with X's lane
+/// (higher priority) before section `k`: a handle starts X (run 1), its lane takes it.
+/// Semantics 14 / `Cx::join`: a join of a sequence never started is `NeverStarted`; the
+/// run joined is the one under way at the first poll's first section. So J gets
+/// `NeverStarted` (X idle at that section), or joins run 1 (X's lane came first): then it
+/// waits registered, and X's end releases and wakes it, and it gets `Completed`. Never
+/// pending without a wait (a lost wake-up).
+fn join_of_never_started_against_its_first_start<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
+        (w, x, joiner(&w, j))
+    };
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        setup,
+        |(w, x, jj)| jj.borrow_mut().poll(&w, x),
+        |(w, x, _)| {
+            w.kept(x).start().unwrap();
+            w.take(x);
+        },
+        |what, _, pj, (), (w, x, jj)| {
+            match pj {
+                Poll::Ready(Err(Error::NeverStarted(t))) if t == x => {}
+                Poll::Pending => {
+                    assert!(jj.borrow().joining(&w), "{what}: J pending, not waiting");
+                    let before = wakes(jj);
+                    assert!(w.complete(x), "{what}");
+                    let got = jj.borrow_mut().released(&w, x, before, what);
+                    assert_eq!(got, Ok(Outcome::Completed), "{what}");
+                }
+                other => panic!("{what}: J {other:?} (run {:?})", jj.borrow().run),
+            }
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_join_of_a_sequence_started_during_its_first_poll_is_never_pending_unregistered() {
+    every_split_world!(join_of_never_started_against_its_first_start);
+}
