@@ -310,16 +310,34 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // A cycle found is none once a later run of the target has begun (before the
         // check, or during it): the joined run ended and released this join, which waits
         // for nothing then, and the wait the check found is the later run's (semantics 14:
-        // a join of a run before the one under way closes no cycle).
-        let cycle = waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target));
-        let ended = self.with(|s| {
-            let earlier = s.block(target).is_some_and(|b| b.runs != registered);
-            if cycle && !earlier {
-                Err(Error::JoinWouldDeadlock(target))
-            } else {
-                s.joined_outcome(target, run)
+        // a join of a run before the one under way closes no cycle). The check reads the
+        // waits in several sections: a cycle found while they changed (a run that waited
+        // ended, a new wait was made) may join waits that never stood together, so the
+        // check is made again on the waits as they are.
+        // A registration is a change to a cycle check under way in a lane below, which may
+        // have read the waits before it (that lane resumes only after this poll). The count
+        // after it is the one this check begins with: what came before, the check sees.
+        let mut seen = self.with(|s| {
+            if waits {
+                s.changes = s.changes.wrapping_add(1);
             }
+            s.changes
         });
+        let ended = loop {
+            let cycle = waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target));
+            let look = self.with(|s| {
+                let earlier = s.block(target).is_some_and(|b| b.runs != registered);
+                match (cycle && !earlier, s.changes == seen) {
+                    (true, false) => Err(s.changes),
+                    (true, true) => Ok(Err(Error::JoinWouldDeadlock(target))),
+                    (false, _) => Ok(s.joined_outcome(target, run)),
+                }
+            });
+            match look {
+                Ok(ended) => break ended,
+                Err(changes) => seen = changes,
+            }
+        };
         let result = match ended {
             Ok(None) => return Poll::Pending,
             Ok(Some(outcome)) => Ok(outcome),

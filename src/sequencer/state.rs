@@ -23,9 +23,11 @@ use crate::{Error, Instant, RunningState, SeqId, Sequencer, Transition};
 pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const B: usize> {
     /// The last tick's time.
     pub(crate) now: Instant,
-    /// Counts the ticks, the transitions, a teardown's marks and abort requests (wrapping). A start is scheduled in several
-    /// sections; its commit compares this count with the one its schedule began with, and
-    /// schedules again if anything happened in between that could invalidate its checks.
+    /// Counts the ticks, the transitions, a teardown's marks, abort requests and joins'
+    /// registrations (wrapping). A start is scheduled in several sections; its commit
+    /// compares this count with the one its schedule began with, and schedules again if
+    /// anything happened in between that could invalidate its checks. A join's cycle check
+    /// that found a cycle is made again when the count moved during it.
     pub(crate) changes: u32,
     /// Counts the runs begun (right after a start's or a restart's commit; wrapping): a
     /// teardown or a pause walks again when a run began while it walked.

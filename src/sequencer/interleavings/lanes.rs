@@ -1877,12 +1877,9 @@ fn join_whose_check_meets_a_wait_of_a_run_dropped_meanwhile<
     );
 }
 
-/// Fails today at the sections where the check has read Y's old wait and not yet X's new
-/// one (a false `JoinWouldDeadlock`): the multi-section check reads the waits at different
-/// moments. To fix next (a count of wait and transition changes, the check made again when
-/// it moved during a check that found a cycle); see the note of session 55 on issue 17.
+/// Without the check made again when the waits changed during it, this fails at the
+/// sections where the check has read Y's old wait and not yet X's new one.
 #[test]
-#[ignore = "known defect (session 55): a cycle check that spans a replaced run's wait and a new one"]
 fn a_join_whose_check_meets_a_wait_of_a_run_dropped_meanwhile_is_no_cycle() {
     every_split_world!(join_whose_check_meets_a_wait_of_a_run_dropped_meanwhile);
 }
