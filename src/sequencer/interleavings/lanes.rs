@@ -91,6 +91,16 @@ fn joiner<L: Lock + 'static, const N: usize, const B: usize>(
     Box::leak(Box::new(RefCell::new(Joiner::started(w, id))))
 }
 
+/// A joiner: sequence `id`'s joins, its lane's wake-ups counted; unlike [`joiner`] it does
+/// not start `id` (the scenario starts it itself).
+fn unstarted_joiner(id: SeqId) -> Shared {
+    Box::leak(Box::new(RefCell::new(Joiner {
+        id,
+        run: None,
+        wakes: counter().1.clone(),
+    })))
+}
+
 /// The wake-ups of `j`'s lane so far.
 fn wakes(j: Shared) -> usize {
     woken(&j.borrow().wakes)
@@ -1578,11 +1588,7 @@ fn join_against_new_start_that_joins_back<L: Lock + 'static, const N: usize, con
         let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
         w.start_taken(x);
         assert!(w.complete(x));
-        let jx: Shared = Box::leak(Box::new(RefCell::new(Joiner {
-            id: x,
-            run: None,
-            wakes: counter().1.clone(),
-        })));
+        let jx = unstarted_joiner(x);
         (w, [x, j], [joiner(&w, j), jx])
     };
     interleave(
@@ -1642,11 +1648,7 @@ fn a_join_of_a_run_128_starts_back<L: Lock + 'static, const N: usize, const B: u
         assert_eq!(w.runs(x), 129);
         let jj = joiner(&w, j);
         jj.borrow_mut().run = Some(1);
-        let jx: Shared = Box::leak(Box::new(RefCell::new(Joiner {
-            id: x,
-            run: None,
-            wakes: counter().1.clone(),
-        })));
+        let jx = unstarted_joiner(x);
         (w, [x, j], [jj, jx])
     };
     interleave(
@@ -1687,11 +1689,7 @@ fn join_of_run_that_ends_and_whose_successor_joins_back<
     let setup = move || {
         let (w, [x], [j]) = World::<L, N, B>::of(layout, ["X"], ["J"]);
         w.start_taken(x);
-        let jx: Shared = Box::leak(Box::new(RefCell::new(Joiner {
-            id: x,
-            run: None,
-            wakes: counter().1.clone(),
-        })));
+        let jx = unstarted_joiner(x);
         (w, [x, j], [joiner(&w, j), jx])
     };
     interleave(
