@@ -276,30 +276,32 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         target: SeqId,
         run: &mut Option<u16>,
     ) -> Poll<Result<Outcome, Error>> {
-        // The run joined is the one current at the first poll's first section, so the
-        // wait always names the run the look looks at (semantics 14).
+        // The run joined is the one current at the first poll's first section (semantics
+        // 14), so the wait always names the run the look looks at. A sequence never started
+        // then has no run to join: a start of it after that section is a later run, which
+        // the join does not wait for.
+        let registered = match *run {
+            Some(runs) => runs,
+            None => {
+                let first = self.with(|s| {
+                    let b = s.block(target).ok_or(Error::UnknownSequence(target))?;
+                    if b.state == RunningState::Idle {
+                        return Err(Error::NeverStarted(target));
+                    }
+                    Ok(b.runs)
+                });
+                match first {
+                    Ok(runs) => *run.insert(runs),
+                    Err(e) => return Poll::Ready(Err(e)),
+                }
+            }
+        };
         // Registered before the cycle check and the look for the run's end. Of two joins
         // that close a cycle, the one registered later sees the other's registration (a
         // check before the registration could miss a join registered in between, and both
         // would wait for good); an end in between releases it. A join of a run before the
         // current one never waits (its outcome is kept, or lost): it registers nothing and
         // closes no cycle.
-        // A sequence never started at that section has no run to join: a start of it
-        // after the section is a run begun later, which the join does not wait for.
-        if run.is_none() {
-            let first = self.with(|s| {
-                let b = s.block(target).ok_or(Error::UnknownSequence(target))?;
-                if b.state == RunningState::Idle {
-                    return Err(Error::NeverStarted(target));
-                }
-                Ok(b.runs)
-            });
-            match first {
-                Ok(runs) => *run = Some(runs),
-                Err(e) => return Poll::Ready(Err(e)),
-            }
-        }
-        let registered = run.unwrap_or(0);
         let waits = self.with(|s| {
             let waits = s.block(target).is_some_and(|b| b.runs == registered);
             if waits {
@@ -307,13 +309,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             waits
         });
-        // A cycle found is none once a later run of the target has begun (before the
-        // check, or during it): the joined run ended and released this join, which waits
-        // for nothing then, and the wait the check found is the later run's (semantics 14:
-        // a join of a run before the one under way closes no cycle). The check reads the
-        // waits in several sections: a cycle found while they changed (a run that waited
-        // ended, a new wait was made) may join waits that never stood together, so the
-        // check is made again on the waits as they are.
         // A registration is a change to a cycle check under way in a lane below, which may
         // have read the waits before it (that lane resumes only after this poll). The count
         // after it is the one this check begins with: what came before, the check sees.
@@ -323,11 +318,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             }
             s.changes
         });
+        // A cycle found is none once a later run of the target has begun (before the
+        // check, or during it): the joined run ended and released this join, which waits
+        // for nothing then, and the wait the check found is the later run's. The check
+        // reads the waits in several sections: a cycle found while they changed (a run
+        // that waited ended, a new wait was made) may join waits that never stood
+        // together, so the check is made again on the waits as they are.
         let ended = loop {
             let cycle = waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target));
             let look = self.with(|s| {
-                let earlier = s.block(target).is_some_and(|b| b.runs != registered);
-                match (cycle && !earlier, s.changes == seen) {
+                let later_begun = s.block(target).is_some_and(|b| b.runs != registered);
+                match (cycle && !later_begun, s.changes == seen) {
                     (true, false) => Err(s.changes),
                     (true, true) => Ok(Err(Error::JoinWouldDeadlock(target))),
                     (false, _) => Ok(s.joined_outcome(target, run)),
