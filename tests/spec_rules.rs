@@ -124,6 +124,56 @@ fn exception_is_active_while_handled_and_after_an_abort_a_restart_and_a_start_cl
     assert_eq!(marks(&sim), (Running, false, None));
 }
 
+/// `exceptionIsActive` after a run that an exception held ended otherwise: an abort-all or
+/// an operator's abort during the exception sequence aborts the owner for its own cause,
+/// not because of the monitor, and no exception is handled any more (found by an outside
+/// probe in session 56: the mark stayed until the next start).
+#[test]
+fn an_abort_for_another_cause_during_an_exception_ends_exception_is_active() {
+    for by_operator in [false, true] {
+        let seq: Sequencer<Ctrl, 4> = Sequencer::new();
+        let ctrl = Ctrl::default();
+        let x = seq
+            .add(SeqConfig::new("X"), Node::of(vec![]).until(15))
+            .unwrap();
+        let e = seq
+            .add(SeqConfig::new("E"), Node::of(vec![]).until(15))
+            .unwrap();
+        let (xi, ei) = (x.id(), e.id());
+        let mut c0 = |c: &Ctrl, _| c.flag(0);
+        let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
+        let restart = monitors
+            .add(
+                xi,
+                Monitor::new("restart", &mut c0, Behaviour::RestartOwner).exception(ei),
+            )
+            .unwrap();
+        let mut sim = Sim::new(&seq, &ctrl, monitors);
+        sim.lane(x);
+        sim.lane(e);
+        sim.before_tick(|t, c| c.set(0, ms(t) == 3));
+        sim.start(xi).unwrap();
+        sim.run_for(Duration::from_millis(4));
+        let h = sim.handle(xi).unwrap();
+        assert_eq!((sim.state(ei), h.exception_is_active()), (Running, true));
+        let cause = if by_operator {
+            h.abort().unwrap();
+            Cause::Abort
+        } else {
+            sim.abort_all();
+            Cause::AbortAll
+        };
+        sim.run_for(Duration::from_millis(2));
+        let h = sim.handle(xi).unwrap();
+        assert_eq!(
+            (sim.state(xi), h.exception_is_active(), h.active_exception()),
+            (Aborted, false, Some(Mon(restart))),
+            "aborted by {cause:?}"
+        );
+        assert_eq!(h.last_outcome(), Some(rtseq::Outcome::Aborted(cause)));
+    }
+}
+
 /// A sequence's transitions other than its starts, as (from, to).
 fn moves_of(
     trace: &[rtseq::Transition],

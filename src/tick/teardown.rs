@@ -234,10 +234,17 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let aborted = s.section(|s| {
                     let b = s.transition(&change)?;
                     b.outcome = Some(crate::Outcome::Aborted(cause));
-                    Some(RunId {
+                    let run = RunId {
                         seq: id,
                         count: b.runs,
-                    })
+                    };
+                    // Aborted for a cause of its own exception, the mark stays
+                    // (`exception_is_active`); for any other (an abort-all, a request, a
+                    // teardown from above), no exception is handled any more.
+                    if b.active_exception != Some(cause) {
+                        s.sets.put(Set::Excepting, id, false);
+                    }
+                    Some(run)
                 });
                 if let Some(run) = aborted {
                     // Its joiners are released; its own wait in a join is over with it (its
