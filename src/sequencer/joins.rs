@@ -32,6 +32,13 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
+    /// A join of `joiner` is refused: from now on no cycle check and no end follows its
+    /// wait. [`join_returned`](Self::join_returned)
+    /// clears the wait and wakes, in a section of its own.
+    pub(crate) fn join_decided(&mut self, joiner: SeqId) {
+        self.sets.put(Set::Joining, joiner, false);
+    }
+
     /// A join of `joiner` of `target` returned: `joiner` no longer waits. A wait that was
     /// not this join's alone (several joins at once, `JoinWait::ANY_END`) is cleared all
     /// the same, and the joiner's lane is returned, to wake, so that its pending joins,

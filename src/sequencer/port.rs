@@ -323,14 +323,21 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // for nothing then, and the wait the check found is the later run's. The check
         // reads the waits in several sections: a cycle found while they changed (a run
         // that waited ended, a new wait was made) may join waits that never stood
-        // together, so the check is made again on the waits as they are.
+        // together, so the check is made again on the waits as they are. A refused join
+        // stops counting as a wait in the look's own section: a wait followed until a later
+        // section would be met, in between, by the cycle check of a join of a lane above,
+        // as if this join still waited. (The wait of a join that got an outcome is for a
+        // run that is over: no check follows it.)
         let ended = loop {
             let cycle = waits && in_sections!(self, |s| join_would_deadlock(s, joiner, target));
             let look = self.with(|s| {
                 let later_begun = s.block(target).is_some_and(|b| b.runs != registered);
                 match (cycle && !later_begun, s.changes == seen) {
                     (true, false) => Err(s.changes),
-                    (true, true) => Ok(Err(Error::JoinWouldDeadlock(target))),
+                    (true, true) => {
+                        s.join_decided(joiner);
+                        Ok(Err(Error::JoinWouldDeadlock(target)))
+                    }
                     (false, _) => Ok(s.joined_outcome(target, run)),
                 }
             });

@@ -101,6 +101,21 @@ fn unstarted_joiner(id: SeqId) -> Shared {
     })))
 }
 
+/// Another join of the same action as `j` (its sequence, its lane's waker), not polled yet.
+fn another_join(j: Shared) -> Shared {
+    let j = j.borrow();
+    Box::leak(Box::new(RefCell::new(Joiner {
+        id: j.id,
+        run: None,
+        wakes: j.wakes.clone(),
+    })))
+}
+
+/// A join's poll refused as closing a cycle at `id`.
+fn cycle(id: SeqId) -> Poll<Result<Outcome, Error>> {
+    Poll::Ready(Err(Error::JoinWouldDeadlock(id)))
+}
+
 /// The wake-ups of `j`'s lane so far.
 fn wakes(j: Shared) -> usize {
     woken(&j.borrow().wakes)
@@ -742,7 +757,6 @@ fn crossing_joins<L: Lock + 'static, const N: usize, const B: usize>(layout: Lay
         |(w, [_, b], [ja, _])| ja.borrow_mut().poll(&w, b),
         |(w, [a, _], [_, jb])| jb.borrow_mut().poll(&w, a),
         |what, _, pa, pb, (w, [a, b], [ja, jb])| {
-            let cycle = |id: SeqId| Poll::Ready(Err(Error::JoinWouldDeadlock(id)));
             // The refused one's run, and the joiner that waits for it.
             let (ended, waiting) = match (pa, pb) {
                 (p, Poll::Pending) if p == cycle(b) => (a, jb),
@@ -762,6 +776,133 @@ fn crossing_joins<L: Lock + 'static, const N: usize, const B: usize>(layout: Lay
 #[test]
 fn of_two_joins_that_close_a_cycle_exactly_one_is_refused() {
     every_split_world!(crossing_joins);
+}
+
+/// A and B run; B's run waits in a join of A's run (pending). A's first poll of its join of
+/// B (lane A) is refused: B waits for A (semantics 14). Before section `k` of that poll, B's
+/// lane (higher priority) drops its join of A (the loser of a `select`, a timer won) and
+/// joins A again (a new `Cx::join`). A's join and B's second join are two joins that close
+/// a cycle at the same moment: exactly one of them is `JoinWouldDeadlock`, the other
+/// waits and gets `Completed` when the run it joined completes. (B's first join, dropped,
+/// no longer waits.)
+fn refused_join_against_a_rejoin<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let (w, [a], [b]) = World::<L, N, B>::of(layout, ["A"], ["B"]);
+        let (ja, jb) = (joiner(&w, a), joiner(&w, b));
+        assert_eq!(jb.borrow_mut().poll(&w, a), Poll::Pending);
+        let jb2 = another_join(jb);
+        (w, [a, b], [ja, jb, jb2])
+    };
+    interleave(
+        &named::<L>(layout, format_args!("")),
+        setup,
+        |(w, [_, b], [ja, _, _])| ja.borrow_mut().poll(&w, b),
+        |(w, [a, b], [_, _, jb2])| {
+            Port::stop_join(w.seq, b);
+            jb2.borrow_mut().poll(&w, a)
+        },
+        |what, _, pa, pb, (w, [a, b], [ja, _, jb2])| {
+            let pa = ja.borrow_mut().repoll(&w, b, 0, pa);
+            let pb = jb2.borrow_mut().repoll(&w, a, 0, pb);
+            let (ended, waiting) = match (&pa, &pb) {
+                (p, Poll::Pending) if *p == cycle(b) => (a, jb2),
+                (Poll::Pending, p) if *p == cycle(a) => (b, ja),
+                _ => panic!(
+                    "{what}: A's join {pa:?}, B's second join {pb:?}; A joining {}, B joining {}",
+                    w.in_set(Set::Joining, a),
+                    w.in_set(Set::Joining, b)
+                ),
+            };
+            let before = wakes(waiting);
+            assert!(w.complete(ended), "{what}");
+            let got = waiting.borrow_mut().released(&w, ended, before, what);
+            assert_eq!(got, Ok(Outcome::Completed), "{what}");
+            w.check(what);
+        },
+    );
+}
+
+#[test]
+fn a_join_refused_as_a_cycle_is_no_wait_for_a_join_made_again_before_it_returns() {
+    every_split_world!(refused_join_against_a_rejoin);
+}
+
+/// O runs with an `AbortOwner` monitor whose exception sequence E runs (fired at 1 ms, E's
+/// start taken); J runs. J joins O while E joins J (`e_lower`: E's join is the preempted
+/// poll, J's comes before each of its sections; else the other way round). The two close
+/// a cycle (J waits for O, which E's exception holds until E's end; E waits for J):
+/// exactly one is `JoinWouldDeadlock` (semantics 14), the other waits. If E's was refused,
+/// E ends, the tick at 2 ms reports it and aborts O: J gets `Aborted(M0)`. If J's was
+/// refused, J completes and E gets `Completed`.
+fn crossing_joins_through_an_exception<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    e_lower: bool,
+) {
+    let setup = move || {
+        let (w, [o], [e, j]) = World::<L, N, B>::of(layout, ["O"], ["E", "J"]);
+        w.monitor(o, flag_of(true), Behaviour::AbortOwner, Some(e));
+        w.start_taken(o);
+        w.tick(1);
+        let je = Box::leak(Box::new(RefCell::new(Joiner {
+            id: e,
+            run: None,
+            wakes: counting().1,
+        })));
+        let (waker, wakes) = counting();
+        Port::take_start(w.seq, e, 0, &waker).unwrap();
+        je.borrow_mut().wakes = wakes;
+        let je: Shared = je;
+        assert_eq!((w.state(o), w.state(e)), (Running, Running));
+        (w, [o, e, j], [joiner(&w, j), je])
+    };
+    let join_j = |(w, [o, _, _], [jj, _]): (World<L, N, B>, [SeqId; 3], [Shared; 2])| {
+        jj.borrow_mut().poll(&w, o)
+    };
+    let join_e = |(w, [_, _, j], [_, je]): (World<L, N, B>, [SeqId; 3], [Shared; 2])| {
+        je.borrow_mut().poll(&w, j)
+    };
+    let expect =
+        |what: &str,
+         pj: Poll<Result<Outcome, Error>>,
+         pe: Poll<Result<Outcome, Error>>,
+         (w, [o, e, j], [jj, je]): (World<L, N, B>, [SeqId; 3], [Shared; 2])| {
+            let pj = jj.borrow_mut().repoll(&w, o, 0, pj);
+            let pe = je.borrow_mut().repoll(&w, j, 0, pe);
+            if pj == cycle(o) && pe == Poll::Pending {
+                let before = wakes(je);
+                assert!(w.complete(j), "{what}");
+                let got = je.borrow_mut().released(&w, j, before, what);
+                assert_eq!(got, Ok(Outcome::Completed), "{what}: E");
+            } else if pj == Poll::Pending && pe == cycle(j) {
+                let before = wakes(jj);
+                assert!(w.complete(e), "{what}");
+                w.tick(2);
+                assert_eq!(w.ended(o), (Aborted, M0), "{what}");
+                let got = jj.borrow_mut().released(&w, o, before, what);
+                assert_eq!(got, Ok(Outcome::Aborted(M0)), "{what}: J");
+            } else {
+                panic!("{what}: J's join of O {pj:?}, E's join of J {pe:?}");
+            }
+            w.check_tree(what);
+        };
+    let name = named::<L>(layout, format_args!("E lower {e_lower}"));
+    if e_lower {
+        interleave(&name, setup, join_e, join_j, |what, _, pe, pj, s| {
+            expect(what, pj, pe, s)
+        });
+    } else {
+        interleave(&name, setup, join_j, join_e, |what, _, pj, pe, s| {
+            expect(what, pj, pe, s)
+        });
+    }
+}
+
+#[test]
+fn crossing_joins_through_an_exceptions_hold_are_one_refusal() {
+    every_split_world!(crossing_joins_through_an_exception, true);
+    every_split_world!(crossing_joins_through_an_exception, false);
 }
 
 /// X's run 1 ended (`Completed`). J's first poll of its join of X, with a handle start of
