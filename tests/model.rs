@@ -57,6 +57,8 @@
 //!
 //! Every join's result is compared too (at which ms, by whom, `Ok` with the joined run's
 //! outcome or which `Error`), with a scenario of its own for `OutcomeLost` (session 55).
+//! With `held_joins` (session 56): the child that joins main is paused around the end of
+//! main's run, main started again and the child resumed, so the sweeps reach `OutcomeLost`.
 //!
 //! Not modelled: deeper trees, the safety system, lanes above the tick's priority, events
 //! and counters.
@@ -1997,6 +1999,10 @@ struct Features {
     exc_requests: bool,
     /// `Handle::set_timeout` of main, the sub-sequence or a step.
     set_timeout: bool,
+    /// With `nb` and a child that joins main: the child paused around the end of main's
+    /// run, main started again, the child resumed (a join that may find the outcome of the
+    /// run it joined replaced, `OutcomeLost`).
+    held_joins: bool,
 }
 
 fn gen_beh(r: &mut Rng, timeout: bool, f: &Features) -> Beh {
@@ -2255,6 +2261,24 @@ fn generate(seed: u64, f: &Features) -> Scenario {
         }
         sc.requests.sort_by_key(|&(t, _, _)| t);
     }
+    if f.held_joins && sc.bg_joins_main {
+        // The child (id k) paused, main (id k + 1) started again, the child resumed, each
+        // at a time no other request has.
+        let k = sc.steps.len();
+        let pause = r.range(1, 20);
+        let start = pause + r.range(1, 20);
+        let resume = start + r.range(1, 10);
+        for (t, who, req) in [
+            (pause, k, Req::Pause),
+            (start, k + 1, Req::Start),
+            (resume, k, Req::Resume),
+        ] {
+            if !sc.requests.iter().any(|&(u, _, _)| u == t) {
+                sc.requests.push((t, who, req));
+            }
+        }
+        sc.requests.sort_by_key(|&(t, _, _)| t);
+    }
     if f.prios {
         // Main's lane, the non-blocking sub-sequence's, the exception sequences'.
         let bg = sc.sub.as_ref().is_some_and(|s| s.nb.is_some()) as usize;
@@ -2293,6 +2317,7 @@ const fn feat(more: bool, pause_owner: bool, exceptions: bool, requests: bool) -
         prios: false,
         exc_requests: false,
         set_timeout: false,
+        held_joins: false,
     }
 }
 
@@ -2457,6 +2482,15 @@ const TREE_SET_TIMEOUT: (u64, Features) = (
     Features {
         set_timeout: true,
         ..TREE_EXC_REQUESTS.1
+    },
+);
+/// A child held by a pause while main's run it joins ends and main starts again, on
+/// `NB_EXC_REQUESTS`.
+const HELD_JOINS: (u64, Features) = (
+    2_700_000,
+    Features {
+        held_joins: true,
+        ..NB_EXC_REQUESTS.1
     },
 );
 const CALLER: (u64, Features) = (
@@ -2688,6 +2722,13 @@ fn with_the_tree_and_timeouts_set_during_runs() {
         TREE_SET_TIMEOUT,
         "with_the_tree_and_timeouts_set_during_runs",
     );
+}
+
+/// As `with_a_non_blocking_child_and_requests_of_exception_sequences`, with the child that
+/// joins main paused around the end of main's run, main started again and the child resumed.
+#[test]
+fn with_joins_held_while_their_run_ends() {
+    sweep(HELD_JOINS, "with_joins_held_while_their_run_ends");
 }
 
 /// A transition's kind: who (main, a step, an exception sequence or its `Wait`), from, to and
@@ -3101,13 +3142,19 @@ fn the_sweeps_reach_the_requests_of_exception_sequences() {
     }
 }
 
-/// Every join result but `OutcomeLost` (a joiner held while its target runs twice, which
-/// `a_join_held_while_its_target_runs_twice_has_lost_the_outcome` makes) comes in the first
-/// seeds of the sweeps with a non-blocking child.
+/// Every join result comes in the first seeds of the sweeps with a non-blocking child
+/// (`OutcomeLost`, a joiner held while its target runs twice, in those of `HELD_JOINS`).
 #[test]
 fn the_sweeps_reach_every_join_result() {
     let mut reached: BTreeMap<String, usize> = BTreeMap::new();
-    for (from, f) in [NB, NB_ALL, NB_PRE_FAIL, NB_PRIOS, NB_EXC_REQUESTS] {
+    for (from, f) in [
+        NB,
+        NB_ALL,
+        NB_PRE_FAIL,
+        NB_PRIOS,
+        NB_EXC_REQUESTS,
+        HELD_JOINS,
+    ] {
         for seed in from..from + 2000 {
             for (_, _, r) in model_of(&generate(seed, &f)).joins {
                 let kind = match r {
@@ -3127,13 +3174,14 @@ fn the_sweeps_reach_every_join_result() {
             "Completed",
             "Failed",
             "JoinWouldDeadlock",
+            "OutcomeLost",
             "Skipped"
         ],
         "{reached:#?}"
     );
 }
 
-/// Item 14 and `Error::OutcomeLost`, which the sweeps seldom reach: the non-blocking child
+/// Item 14 and `Error::OutcomeLost`, made on purpose (`HELD_JOINS` sweeps it): the non-blocking child
 /// (id 2) runs step 0 until 2 ms, then joins main's run 1 (id 3, which runs step 1 until
 /// 10 ms); the child is paused at 4 ms, so it has not returned when main's run 1 ends. The
 /// application starts main again at 15 ms; run 2 ends at once (step 1's exit holds). Resumed
