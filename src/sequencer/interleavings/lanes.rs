@@ -845,15 +845,14 @@ fn crossing_joins_through_an_exception<L: Lock + 'static, const N: usize, const 
         w.monitor(o, flag_of(true), Behaviour::AbortOwner, Some(e));
         w.start_taken(o);
         w.tick(1);
-        let je = Box::leak(Box::new(RefCell::new(Joiner {
+        // E's lane takes its start with the waker whose wake-ups E's joins count.
+        let (waker, wakes) = counter();
+        Port::take_start(w.seq, e, 0, waker).unwrap();
+        let je: Shared = Box::leak(Box::new(RefCell::new(Joiner {
             id: e,
             run: None,
-            wakes: counting().1,
+            wakes: wakes.clone(),
         })));
-        let (waker, wakes) = counting();
-        Port::take_start(w.seq, e, 0, &waker).unwrap();
-        je.borrow_mut().wakes = wakes;
-        let je: Shared = je;
         assert_eq!((w.state(o), w.state(e)), (Running, Running));
         (w, [o, e, j], [joiner(&w, j), je])
     };
