@@ -115,9 +115,9 @@ fn restart_with_failing_exception_then_escalation() {
     let end = sim.run_until_idle(Duration::from_millis(50));
     assert!(end.is_some());
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, ei, Idle, Running, k),
             tr(5, ei, Running, Terminated, Cause::Failed),
@@ -128,8 +128,6 @@ fn restart_with_failing_exception_then_escalation() {
             tr(13, oi, Running, Aborting, k),
             tr(13, oi, Aborting, Aborted, k),
         ],
-        "{}",
-        show(sim.trace())
     );
     assert_eq!(
         sim.handle(oi).unwrap().last_outcome(),
@@ -170,9 +168,9 @@ fn restart_with_exception_aborted_by_operator() {
     sim.abort(ei).unwrap();
     sim.run_until(Instant::from_ticks(10_000));
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, ei, Idle, Running, k),
             tr(6, ei, Running, Aborting, Cause::Abort),
@@ -180,8 +178,6 @@ fn restart_with_exception_aborted_by_operator() {
             tr(7, oi, Running, Restarting, k),
             tr(7, oi, Restarting, Running, Cause::Restart),
         ],
-        "{}",
-        show(sim.trace())
     );
     assert_eq!(sim.state(oi), Running);
     assert!(!sim.handle(oi).unwrap().exception_is_active());
@@ -224,9 +220,9 @@ fn second_monitor_during_first_exception_fires_after_restart() {
     let end = sim.run_until_idle(Duration::from_millis(50));
     assert!(end.is_some(), "{}", show(sim.trace()));
     let (k0, k1) = (Cause::Monitor(m0), Cause::Monitor(m1));
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, ei, Idle, Running, k0),
             tr(7, ei, Running, Terminated, Cause::Completed),
@@ -237,8 +233,6 @@ fn second_monitor_during_first_exception_fires_after_restart() {
             tr(9, oi, Running, Aborting, k1),
             tr(9, oi, Aborting, Aborted, k1),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -276,9 +270,9 @@ fn set_timeout_shortened_holds_for_the_restarts() {
     let end = sim.run_until_idle(Duration::from_millis(100));
     assert!(end.is_some(), "{}", show(sim.trace()));
     let t = Cause::Timeout(oi);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(4, oi, Running, Restarting, t),
             tr(4, oi, Restarting, Running, Cause::Restart),
@@ -287,8 +281,6 @@ fn set_timeout_shortened_holds_for_the_restarts() {
             tr(12, oi, Running, Aborting, t),
             tr(12, oi, Aborting, Aborted, t),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -323,16 +315,14 @@ fn set_timeout_none_mid_run_then_restart() {
     sim.handle(oi).unwrap().set_timeout(None).unwrap();
     let end = sim.run_until_idle(Duration::from_millis(100));
     assert!(end.is_some(), "{}", show(sim.trace()));
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(5, oi, Running, Restarting, Cause::Monitor(m)),
             tr(5, oi, Restarting, Running, Cause::Restart),
             tr(40, oi, Running, Terminated, Cause::Completed),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -368,17 +358,15 @@ fn timeout_in_the_tick_a_monitor_fires_waits_for_the_exception() {
     let end = sim.run_until_idle(Duration::from_millis(100));
     assert!(end.is_some(), "{}", show(sim.trace()));
     let t = Cause::Timeout(oi);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(5, ei, Idle, Running, Cause::Monitor(m)),
             tr(8, ei, Running, Terminated, Cause::Completed),
             tr(9, oi, Running, Aborting, t),
             tr(9, oi, Aborting, Aborted, t),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -405,15 +393,13 @@ fn timeout_and_abort_monitor_in_one_tick_the_monitor_wins() {
     sim.before_tick(|t, c| c.set(0, ms(t) == 5));
     sim.start(oi).unwrap();
     sim.run_until_idle(Duration::from_millis(100)).unwrap();
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(5, oi, Running, Aborting, Cause::Monitor(m)),
             tr(5, oi, Aborting, Aborted, Cause::Monitor(m)),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -448,17 +434,15 @@ fn timeout_shortened_while_paused_fires_after_resume() {
     sim.resume(oi).unwrap();
     sim.run_until_idle(Duration::from_millis(100)).unwrap();
     let t = Cause::Timeout(oi);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, oi, Running, Paused, Cause::Pause),
             tr(8, oi, Paused, Running, Cause::Resume),
             tr(8, oi, Running, Aborting, t),
             tr(8, oi, Aborting, Aborted, t),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -514,9 +498,9 @@ fn curtain_hold_with_operator_pause_three_levels() {
     let end = sim.run_until_idle(Duration::from_millis(100));
     assert!(end.is_some(), "{}", show(sim.trace()));
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, ti, Idle, Running, Cause::Start),
             tr(0, mi, Idle, Running, Cause::Start),
             tr(0, li, Idle, Running, Cause::Start),
@@ -530,8 +514,6 @@ fn curtain_hold_with_operator_pause_three_levels() {
             tr(20, mi, Running, Terminated, Cause::Completed),
             tr(20, ti, Running, Terminated, Cause::Completed),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -569,9 +551,9 @@ fn curtain_release_leaves_an_operator_paused_child_paused() {
     let end = sim.run_until_idle(Duration::from_millis(100));
     assert!(end.is_some(), "{}", show(sim.trace()));
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, ti, Idle, Running, Cause::Start),
             tr(0, mi, Idle, Running, Cause::Start),
             tr(0, li, Idle, Running, Cause::Start),
@@ -585,8 +567,6 @@ fn curtain_release_leaves_an_operator_paused_child_paused() {
             tr(20, mi, Running, Terminated, Cause::Completed),
             tr(20, ti, Running, Terminated, Cause::Completed),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -638,9 +618,9 @@ fn abort_during_a_curtain_hold_three_levels() {
     assert!(end.is_some(), "{}", show(sim.trace()));
     let k = Cause::Monitor(m);
     let a = Cause::Abort;
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, ti, Idle, Running, Cause::Start),
             tr(0, mi, Idle, Running, Cause::Start),
             tr(0, li, Idle, Running, Cause::Start),
@@ -654,8 +634,6 @@ fn abort_during_a_curtain_hold_three_levels() {
             tr(8, ti, Paused, Aborting, a),
             tr(8, ti, Aborting, Aborted, a),
         ],
-        "{}",
-        show(sim.trace())
     );
     assert_eq!(*ctrl.hooks.borrow(), ["leaf", "mid", "top"]);
     for i in [ti, mi, li] {
@@ -706,9 +684,9 @@ fn pause_during_a_restarting_exception_ends_with_the_round() {
     sim.pause(oi).unwrap();
     sim.run_until(Instant::from_ticks(10_000));
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, ei, Idle, Running, k),
             tr(5, oi, Running, Paused, Cause::Pause),
@@ -716,8 +694,6 @@ fn pause_during_a_restarting_exception_ends_with_the_round() {
             tr(8, oi, Paused, Restarting, k),
             tr(8, oi, Restarting, Running, Cause::Restart),
         ],
-        "{}",
-        show(sim.trace())
     );
     assert_eq!(sim.resume(oi), Err(Error::NotPaused(oi)));
 }
@@ -746,17 +722,15 @@ fn curtain_hold_stops_the_timeout_clock() {
     sim.start(oi).unwrap();
     sim.run_until_idle(Duration::from_millis(100)).unwrap();
     let (k, t) = (Cause::Monitor(m), Cause::Timeout(oi));
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, oi, Running, Paused, k),
             tr(8, oi, Paused, Running, k),
             tr(15, oi, Running, Aborting, t),
             tr(15, oi, Aborting, Aborted, t),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -788,9 +762,9 @@ fn failure_propagates_two_levels() {
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(top);
     sim.start(ti).unwrap();
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, ti, Idle, Running, Cause::Start),
             tr(0, mi, Idle, Running, Cause::Start),
             tr(0, li, Idle, Running, Cause::Start),
@@ -798,8 +772,6 @@ fn failure_propagates_two_levels() {
             tr(0, mi, Running, Terminated, Cause::Failed),
             tr(0, ti, Running, Terminated, Cause::Failed),
         ],
-        "{}",
-        show(sim.trace())
     );
     for i in [ti, mi, li] {
         assert_eq!(
@@ -834,16 +806,14 @@ fn restart_with_a_false_pre_condition_skips() {
     });
     sim.start(oi).unwrap();
     sim.run_until_idle(Duration::from_millis(100)).unwrap();
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(4, oi, Running, Restarting, Cause::Monitor(m)),
             tr(4, oi, Restarting, Running, Cause::Restart),
             tr(4, oi, Running, Terminated, Cause::PreConditionFalse),
         ],
-        "{}",
-        show(sim.trace())
     );
     assert_eq!(
         sim.handle(oi).unwrap().last_outcome(),
@@ -886,9 +856,9 @@ fn step_pre_condition_false_after_restart_is_skipped() {
     sim.start(oi).unwrap();
     sim.run_until_idle(Duration::from_millis(100)).unwrap();
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(0, li, Idle, Running, Cause::Start),
             tr(4, li, Running, Aborting, k),
@@ -899,8 +869,6 @@ fn step_pre_condition_false_after_restart_is_skipped() {
             tr(4, li, Running, Terminated, Cause::PreConditionFalse),
             tr(4, oi, Running, Terminated, Cause::Completed),
         ],
-        "{}",
-        show(sim.trace())
     );
     let ret: Vec<_> = ctrl
         .returned
@@ -960,16 +928,14 @@ fn polled_wait_and_step_of_different_classes() {
     });
     sim.start(mi).unwrap();
     sim.run_until_idle(Duration::from_millis(100)).unwrap();
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, mi, Idle, Running, Cause::Start),
             tr(20, li, Idle, Running, Cause::Start),
             tr(26, li, Running, Terminated, Cause::Completed),
             tr(30, mi, Running, Terminated, Cause::Completed),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -1071,9 +1037,9 @@ fn safety_stop_raised_by_an_exception_sequence_aborts_all_and_restarts_cleanly()
     sim.run_until(Instant::from_ticks(6_000));
     assert_eq!(seq.safety_handle().level(), EMERGENCY);
     let (k, aa) = (Cause::Monitor(m), Cause::AbortAll);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, o1i, Idle, Running, Cause::Start),
             tr(0, o2i, Idle, Running, Cause::Start),
             tr(2, o2i, Running, Paused, Cause::Pause),
@@ -1085,8 +1051,6 @@ fn safety_stop_raised_by_an_exception_sequence_aborts_all_and_restarts_cleanly()
             tr(4, o2i, Paused, Aborting, aa),
             tr(4, o2i, Aborting, Aborted, aa),
         ],
-        "{}",
-        show(sim.trace())
     );
     for i in [o1i, o2i, ei] {
         assert_eq!(
@@ -1116,9 +1080,9 @@ fn safety_stop_raised_by_an_exception_sequence_aborts_all_and_restarts_cleanly()
     assert_eq!(sim.resume(o2i), Err(Error::NotPaused(o2i)));
     // The monitor fires again in the new run (from "false"): E raises STOP again.
     sim.run_until(Instant::from_ticks(14_000));
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(8, o1i, Aborted, Running, Cause::Start),
             tr(8, o2i, Aborted, Running, Cause::Start),
             tr(12, ei, Aborted, Running, k),
@@ -1129,8 +1093,6 @@ fn safety_stop_raised_by_an_exception_sequence_aborts_all_and_restarts_cleanly()
             tr(13, o2i, Running, Aborting, aa),
             tr(13, o2i, Aborting, Aborted, aa),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -1162,15 +1124,13 @@ fn while_active_level_aborts_each_new_start_at_the_next_tick() {
     assert_eq!(sim.state(oi), Running);
     sim.run_until(Instant::from_ticks(5_000));
     let aa = Cause::AbortAll;
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(3, oi, Idle, Running, Cause::Start),
             tr(4, oi, Running, Aborting, aa),
             tr(4, oi, Aborting, Aborted, aa),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -1334,15 +1294,13 @@ fn restart_limit_zero_escalates_at_the_first_firing() {
     sim.start(oi).unwrap();
     sim.run_until_idle(Duration::from_millis(50)).unwrap();
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, oi, Running, Aborting, k),
             tr(3, oi, Aborting, Aborted, k),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -1378,9 +1336,9 @@ fn exception_sequence_aborted_by_its_own_timeout_still_restarts_the_owner() {
     sim.start(oi).unwrap();
     sim.run_until(Instant::from_ticks(10_000));
     let (k, te) = (Cause::Monitor(m), Cause::Timeout(ei));
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, ei, Idle, Running, k),
             tr(5, ei, Running, Aborting, te),
@@ -1388,8 +1346,6 @@ fn exception_sequence_aborted_by_its_own_timeout_still_restarts_the_owner() {
             tr(6, oi, Running, Restarting, k),
             tr(6, oi, Restarting, Running, Cause::Restart),
         ],
-        "{}",
-        show(sim.trace())
     );
 }
 
@@ -1471,9 +1427,9 @@ fn paused_exception_sequence_holds_its_owner() {
     sim.resume(ei).unwrap();
     sim.run_until(Instant::from_ticks(15_000));
     let k = Cause::Monitor(m);
-    assert_eq!(
+    assert_trace(
         sim.trace(),
-        [
+        &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(3, ei, Idle, Running, k),
             tr(5, ei, Running, Paused, Cause::Pause),
@@ -1482,7 +1438,5 @@ fn paused_exception_sequence_holds_its_owner() {
             tr(11, oi, Running, Restarting, k),
             tr(11, oi, Restarting, Running, Cause::Restart),
         ],
-        "{}",
-        show(sim.trace())
     );
 }

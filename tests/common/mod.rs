@@ -226,6 +226,11 @@ pub fn show(trace: &[Transition]) -> String {
         .collect()
 }
 
+/// Asserts a trace, showing it whole when it differs.
+pub fn assert_trace(got: &[Transition], want: &[Transition]) {
+    assert_eq!(got, want, "\n{}", show(got));
+}
+
 /// The record of a transition at `ms` of the sequence with index `id`.
 pub fn transition_at(
     ms: u64,
