@@ -359,3 +359,54 @@ fn a_dwell_changed_between_runs_waits_its_new_duration() {
         .collect();
     assert_eq!(ends, [2, 7]);
 }
+
+/// Settles within 5 ms of its run's time (flag 0: in position), else fails with code 1:
+/// the firmware guide's wait with a deadline (section 4).
+struct Settle;
+impl Sequence<Ctrl> for Settle {
+    async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+        let deadline = cx.run_time() + Duration::from_millis(5);
+        cx.wait_until(move |cx| cx.control().flag(0) || cx.run_time() >= deadline)
+            .await;
+        if !cx.control().flag(0) {
+            return Err(Failure::App(1));
+        }
+        Ok(())
+    }
+}
+
+/// The wait with a deadline ends when its condition holds, or fails at the deadline of its
+/// run's time, which a pause puts off: paused from 2 to 4 ms, the 5 ms window ends at 7 ms.
+#[test]
+fn a_wait_with_a_deadline_in_its_condition_ends_in_position_or_at_the_deadline_of_run_time() {
+    use rtseq::{Outcome, RunningState::*};
+    for (in_position_at, pause, ends) in [(Some(3), false, 3), (None, false, 5), (None, true, 7)] {
+        let seq: Sequencer<Ctrl, 2> = Sequencer::new();
+        let ctrl = Ctrl::default();
+        let settle = seq.add(SeqConfig::new("settle"), Settle).unwrap();
+        let id = settle.id();
+        let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+        sim.lane(settle);
+        sim.before_tick(move |t, c| c.set(0, in_position_at.is_some_and(|at| ms(t) >= at)));
+        sim.start(id).unwrap();
+        if pause {
+            sim.run_for(Duration::from_millis(2));
+            sim.pause(id).unwrap();
+            sim.run_for(Duration::from_millis(2));
+            sim.resume(id).unwrap();
+        }
+        sim.run_until_idle(Duration::from_millis(20)).unwrap();
+        let end = sim.trace().last().copied().unwrap();
+        let outcome = sim.handle(id).unwrap().last_outcome();
+        let want = match in_position_at {
+            Some(_) => Outcome::Completed,
+            None => Outcome::Failed(Failure::App(1)),
+        };
+        assert_eq!(
+            (ms(end.time), end.to, outcome),
+            (ends, Terminated, Some(want)),
+            "{}",
+            show(sim.trace())
+        );
+    }
+}
