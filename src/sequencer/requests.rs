@@ -43,10 +43,20 @@ impl Request {
     }
 }
 
+/// The round of a run a request is made of: an abort is of the run (a restart keeps it), a
+/// pause or a resume of the round, which a restart ends (semantics 4).
+#[derive(Clone, Copy)]
+struct Round {
+    /// The run's count of starts.
+    run: u16,
+    /// The restarts made of the run before this round.
+    restarts: u8,
+}
+
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
-    /// Whether `req` of `id` can be made now, and if not, why not. `Ok`: the run it is
-    /// made of (its run count).
-    fn check_request(&self, id: SeqId, req: Request) -> Result<u16, Error> {
+    /// Whether `req` of `id` can be made now, and if not, why not. `Ok`: the round it is
+    /// made of.
+    fn check_request(&self, id: SeqId, req: Request) -> Result<Round, Error> {
         let b = self.block(id).ok_or(Error::UnknownSequence(id))?;
         let takes_back = b.flags & req.replaces() != 0;
         // A sequence held paused by something else (a `PauseOwner` monitor, the paused
@@ -65,7 +75,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if req == Request::Resume && b.monitor_holds > 0 {
             return Err(Error::HeldByMonitor(id));
         }
-        Ok(b.runs)
+        Ok(Round {
+            run: b.runs,
+            restarts: b.restarts_made,
+        })
     }
 
     /// Records that `by` asks for `req` of `id` (after [`check_request`](Self::check_request)
@@ -79,14 +92,19 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         });
     }
 
-    /// Queues `req` of `id` for the next tick, if the run it was made of (`run`) is still
-    /// under way: never for a later run, nor for one that ended since the request was
-    /// checked (as if it had ended a moment before). The tick carries it out if the state
-    /// still allows it (a pause may find the run paused by a monitor; a new run's start
-    /// drops it). A queued abort holds the run until then: it begins nothing more and does
-    /// not end (its clearance, `may_end`, `open_start`).
-    fn queue_request(&mut self, id: SeqId, req: Request, run: u16) {
-        let made_of = |b: &&mut ControlBlock| b.runs == run && RunningStates::LIVE.has(b.state);
+    /// Queues `req` of `id` for the next tick, if what it was made of (`round`) is still
+    /// under way: an abort the run, a pause or a resume the round. Never for a later run
+    /// or round, nor for one that ended since the request was checked (as if it had ended
+    /// a moment before). The tick carries it out if the state still allows it (a pause
+    /// may find the run paused by a monitor; a new run's start and a restart drop it). A
+    /// queued abort holds the run until then: it begins nothing more and does not end (its
+    /// clearance, `may_end`, `open_start`).
+    fn queue_request(&mut self, id: SeqId, req: Request, round: Round) {
+        let made_of = |b: &&mut ControlBlock| {
+            b.runs == round.run
+                && RunningStates::LIVE.has(b.state)
+                && (req == Request::Abort || b.restarts_made == round.restarts)
+        };
         if let Some(b) = self.block_mut(id).filter(made_of) {
             b.flags = (b.flags & !req.replaces()) | req.bit();
             self.sets.insert(Set::Requested, id);
@@ -115,8 +133,8 @@ pub(crate) fn ask<
     req: Request,
     by: Requester,
 ) -> Result<(), Error> {
-    let run = s.section(|s| s.check_request(id, req))?;
-    carry_out(s, id, req, by, run);
+    let round = s.section(|s| s.check_request(id, req))?;
+    carry_out(s, id, req, by, round);
     Ok(())
 }
 
@@ -139,21 +157,21 @@ pub(crate) fn abort_child<
     caller: SeqId,
 ) -> Result<(), Error> {
     let id = child.seq;
-    let run = s.section(|s| {
-        let run = s.check_request(id, Request::Abort)?;
+    let round = s.section(|s| {
+        let round = s.check_request(id, Request::Abort)?;
         let ours =
-            run == child.count && s.block(id).is_some_and(|b| b.caller.get() == Some(caller));
+            round.run == child.count && s.block(id).is_some_and(|b| b.caller.get() == Some(caller));
         if ours {
-            Ok(run)
+            Ok(round)
         } else {
             Err(Error::NotRunning(id))
         }
     })?;
-    carry_out(s, id, Request::Abort, Requester::Sequence(caller), run);
+    carry_out(s, id, Request::Abort, Requester::Sequence(caller), round);
     Ok(())
 }
 
-/// The record and the queueing of an accepted request `req` of `id`'s run `run`.
+/// The record and the queueing of an accepted request `req` of `id`'s `round`.
 fn carry_out<
     C,
     S: Sections<C, N, T, W, B>,
@@ -166,10 +184,10 @@ fn carry_out<
     id: SeqId,
     req: Request,
     by: Requester,
-    run: u16,
+    round: Round,
 ) {
     s.section(|s| s.record_request(id, req, by));
-    s.section(|s| s.queue_request(id, req, run));
+    s.section(|s| s.queue_request(id, req, round));
 }
 
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>

@@ -327,9 +327,9 @@ fn leave_for_teardown<
             b.drop_pause_and_resume();
             b.set(flag::START_PENDING, false);
         }
-        Ok((from, b.runs, s.hooks.get(id.index()).copied().flatten()))
+        Ok((from, s.hooks.get(id.index()).copied().flatten()))
     });
-    let (from, runs, hook) = match looked {
+    let (from, hook) = match looked {
         Ok(found) => found,
         Err(other) => return other,
     };
@@ -339,28 +339,24 @@ fn leave_for_teardown<
         // then. (A pause keeps a teardown's mark: the teardown still moves the paused run.)
         let moved = s.transition_if(&change, |b| b.has(flag::STOPPING));
         // A restarted run is no longer being stopped: its new round starts runs. (An
-        // aborted one starts nothing, marked or not, and a new run clears the mark.)
+        // aborted one starts nothing, marked or not, and a new run clears the mark.) The
+        // round ends with the move: its pause and resume requests with it (a request
+        // checked in it and queued later finds the count moved), and the restart is
+        // counted in the run (a monitor's or timeout's limit is checked against it when the
+        // monitor fires, and again where a behaviour that waited for its exception
+        // sequence is applied; a new run begins at 0).
         moved
             .map(|b| {
                 if let Stop::Restart = how {
                     b.set(flag::STOPPING, false);
+                    b.drop_pause_and_resume();
+                    b.restarts_made = b.restarts_made.saturating_add(1);
                 }
             })
             .is_some()
     });
     if !moved {
         return Move::Raced;
-    }
-    // A restart made is counted in the run it restarts (a monitor's or timeout's limit is
-    // checked against it when the monitor fires, and again where a behaviour that waited
-    // for its exception sequence is applied); an abort meanwhile ends the run, and a new
-    // run begins at 0.
-    if let Stop::Restart = how {
-        s.section(|s| {
-            if let Some(b) = s.block_mut(id).filter(|b| b.runs == runs) {
-                b.restarts_made = b.restarts_made.saturating_add(1);
-            }
-        });
     }
     Move::Left(hook)
 }

@@ -536,3 +536,177 @@ fn a_restarted_round_is_left_alone_by_the_end_of_the_exception_sequence_its_rest
         every_world!(restarted_round_under_a_stale_exception_end, b);
     }
 }
+
+// A pause request of one round meets the restart that ends the round (found by a cold
+// review of pauses in session 56): a pause ends with its round, carried out or not, and a
+// restarted run runs unpaused (semantics 4, 7). Three windows: a lane above the tick asks
+// the pause during the tick that restarts the run; the tick restarts the run between a
+// request's check and its queueing; a lane above the tick takes up the restart of an
+// ended exception sequence's behaviour before the tick's requests.
+
+/// O (polled every ms) runs, started at 0, with a `RestartOwner` monitor whose condition
+/// (the returned flag) is true: the tick at 1 ms restarts O.
+fn to_be_restarted<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId, &'static AtomicBool) {
+    let w = World::<L, N, B>::new(layout);
+    let o = w.seq("O");
+    let fault = flag_of(false);
+    w.monitor(o, fault, Behaviour::RestartOwner, None);
+    w.start_taken(o);
+    fault.store(true, Ordering::Relaxed);
+    (w, o, fault)
+}
+
+/// After the tick at 1 ms restarted O (the fault cleared): O's lane takes the restart up,
+/// then the tick at 2 ms. The pause asked for during round 1 ends with that round: O runs
+/// (round 2, never paused) and a resume is `NotPaused`.
+fn round_two_runs_unpaused<L: Lock + 'static, const N: usize, const B: usize>(
+    what: &str,
+    w: &World<L, N, B>,
+    o: SeqId,
+    asked: Result<(), Error>,
+) {
+    assert!(
+        matches!(asked, Ok(()) | Err(Error::NotRunning(_))),
+        "{what}: asked {asked:?}"
+    );
+    assert_eq!(w.ended(o), (Restarting, M0), "{what}");
+    w.seq.restart(w.run(o));
+    assert_eq!(w.state(o), Running, "{what}: restarted");
+    w.tick(2);
+    assert_eq!(
+        w.state(o),
+        Running,
+        "{what}: round 2 paused by round 1's pause request"
+    );
+    assert_eq!(w.moves(o, Restarting, Running), 1, "{what}");
+    assert_eq!(w.kept(o).resume(), Err(Error::NotPaused(o)), "{what}");
+    w.check(what);
+}
+
+/// A lane above the tick asks a pause of O before each section of the tick at 1 ms that
+/// restarts O (or after it).
+fn pause_asked_into_restarting_tick<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    // Under a priority ceiling no lane runs during the tick.
+    if L::COARSE {
+        return;
+    }
+    let setup = move || to_be_restarted::<L, N, B>(layout);
+    let count = sections(setup, |(w, _, _)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, o, fault) = setup();
+        let what = name::<L>(
+            layout,
+            format_args!("pause into restarting tick, k={k}/{count}"),
+        );
+        let asked: Rc<Cell<Option<Result<(), Error>>>> = Rc::new(Cell::new(None));
+        let into = asked.clone();
+        let act = move || into.set(Some(w.kept(o).pause()));
+        interleaved::at(k, act.clone());
+        w.tick(1);
+        or_after(k, act);
+        fault.store(false, Ordering::Relaxed);
+        round_two_runs_unpaused(&what, &w, o, asked.get().unwrap());
+    });
+}
+
+#[test]
+fn a_pause_asked_during_the_tick_that_restarts_the_run_ends_with_the_round() {
+    every_world!(pause_asked_into_restarting_tick);
+}
+
+/// A handle asks a pause of O (three sections) while the tick at 1 ms that restarts O
+/// comes before each of them (or after).
+fn restarting_tick_into_pause_request<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || to_be_restarted::<L, N, B>(layout);
+    let count = sections(setup, |(w, o, _)| {
+        let _ = w.kept(*o).pause();
+    });
+    every_k(count + 1, |k| {
+        let (w, o, fault) = setup();
+        let what = name::<L>(
+            layout,
+            format_args!("restarting tick into pause, k={k}/{count}"),
+        );
+        interleaved::at(k, move || w.tick(1));
+        let asked = w.kept(o).pause();
+        or_after(k, || w.tick(1));
+        fault.store(false, Ordering::Relaxed);
+        round_two_runs_unpaused(&what, &w, o, asked);
+    });
+}
+
+#[test]
+fn a_pause_request_crossing_the_tick_that_restarts_the_run_ends_with_the_round() {
+    every_world!(restarting_tick_into_pause_request);
+}
+
+/// O's `RestartOwner` monitor fired at 1 ms with exception sequence E, which its lane ran
+/// to its end; then a handle asked a pause of O. The tick at 2 ms applies E's behaviour
+/// (the restart of O, before the requests, semantics 8) and O's lane, above the tick,
+/// takes the restart up before each section of that tick (or after it). The pause asked
+/// for just before that tick is never seen (semantics 4): O runs round 2, never paused,
+/// and a resume is `NotPaused`.
+fn relaunch_into_tick_applying_restart<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    // Under a priority ceiling no lane runs during the tick.
+    if L::COARSE {
+        return;
+    }
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let o = w.seq("O");
+        let e = w.seq("E");
+        let fault = flag_of(false);
+        w.monitor(o, fault, Behaviour::RestartOwner, Some(e));
+        w.start_taken(o);
+        fault.store(true, Ordering::Relaxed);
+        w.tick(1);
+        fault.store(false, Ordering::Relaxed);
+        w.take(e);
+        assert!(w.complete(e));
+        assert_eq!(w.kept(o).pause(), Ok(()));
+        (w, o)
+    };
+    let count = sections(setup, |(w, _)| w.tick(2));
+    every_k(count + 1, |k| {
+        let (w, o) = setup();
+        let what = name::<L>(layout, format_args!("relaunch into tick, k={k}/{count}"));
+        let relaunch = move || {
+            if w.state(o) == Restarting {
+                w.seq.restart(w.run(o));
+            }
+        };
+        interleaved::at(k, relaunch);
+        w.tick(2);
+        or_after(k, relaunch);
+        // Inserted before the restart, it found nothing to take up: the lane does after.
+        relaunch();
+        assert_eq!(
+            w.ended(o),
+            (Running, M0),
+            "{what}: round 2 (restarted once) paused by round 1's pause request"
+        );
+        assert_eq!(w.moves(o, Restarting, Running), 1, "{what}");
+        w.tick(3);
+        assert_eq!(
+            w.state(o),
+            Running,
+            "{what}: round 2 paused by round 1's pause request"
+        );
+        assert_eq!(w.moves(o, Running, Paused), 0, "{what}");
+        assert_eq!(w.kept(o).resume(), Err(Error::NotPaused(o)), "{what}");
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_pause_asked_before_the_tick_applying_a_restart_is_unseen_whatever_the_relaunch() {
+    every_world!(relaunch_into_tick_applying_restart);
+}
