@@ -12,6 +12,9 @@
 /// * `pub const ID: SeqId` for every line, with the line's doc comment;
 /// * `pub const COUNT: usize`, the number of lines, and `pub const SET_WORDS: usize`, the
 ///   words of the sets of a sequencer that holds them (its `B`, [`set_words`](crate::set_words));
+/// * `pub type Sequencer<T = 64, L = CriticalSection, W = 8>`, the
+///   [`Sequencer`](crate::Sequencer) of the control type, `COUNT` sequences and sets of
+///   `SET_WORDS` words, the other parameters in `Sequencer`'s order with its defaults;
 /// * `pub const fn table(..) -> Result<Table<C, COUNT>, Error>`, with the parameters given
 ///   after the module's name (none: `table()`), checked as [`Table::new`](crate::Table::new)
 ///   checks it. Evaluate it in a `const` and a bad table is a compile error.
@@ -47,9 +50,11 @@
 ///
 /// fn main() {
 ///     // Sized by the table: `COUNT` sequences, sets of `SET_WORDS` words (here 1).
-///     let seq: Sequencer<Axis, { seqs::COUNT }, 64, CriticalSection, 8, { seqs::SET_WORDS }> =
-///         Sequencer::new();
+///     let seq: seqs::Sequencer = seqs::Sequencer::new();
 ///     seq.install(&TABLE).unwrap();
+///     // The same type, spelt out; another lock or trace capacity: `seqs::Sequencer<16, L>`.
+///     let _: &Sequencer<Axis, { seqs::COUNT }, 64, CriticalSection, 8, { seqs::SET_WORDS }> =
+///         &seq;
 ///     assert_eq!(seqs::HOMING.index(), 1);
 ///     assert_eq!(seq.sequence_by_name("homing").map(|h| h.id()), Some(seqs::HOMING));
 /// }
@@ -81,6 +86,16 @@ macro_rules! sequences {
 
             /// The words of the sets of a sequencer that holds the table (its `B`).
             pub const SET_WORDS: usize = $crate::set_words(COUNT);
+
+            /// A sequencer that holds the table: `COUNT` sequences, sets of `SET_WORDS`
+            /// words; the trace's capacity `T`, the lock `L` and the lanes `W` as
+            /// `rtseq::Sequencer`'s, in its order, with its defaults.
+            #[allow(dead_code)]
+            pub type Sequencer<
+                const T: usize = 64,
+                L = $crate::lock::CriticalSection,
+                const W: usize = 8,
+            > = $crate::Sequencer<$control, COUNT, T, L, W, SET_WORDS>;
 
             /// The sequence table: entry `i` configures the sequence whose id has index `i`.
             ///

@@ -146,6 +146,10 @@ fn a_table_of_33_sizes_a_sequencer_of_two_word_sets() {
     let seq: Sequencer<(), { wide::COUNT }, 64, CriticalSection, 8, { wide::SET_WORDS }> =
         Sequencer::new();
     seq.install(&TABLE).unwrap();
+    // The module's `Sequencer` is that type, another lock and trace capacity given.
+    let _: &wide::Sequencer = &seq;
+    let small: wide::Sequencer<16, rtseq::lock::SingleThread> = wide::Sequencer::single_thread();
+    small.install(&TABLE).unwrap();
     // The last id is in the second word.
     assert_eq!(wide::S32.index(), 32);
     assert_eq!(seq.sequence_by_name("s32").map(|h| h.id()), Some(wide::S32));
