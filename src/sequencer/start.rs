@@ -16,6 +16,7 @@ use crate::model::set::SeqSet;
 use crate::model::state::RunningStates;
 use crate::model::time::Stamp;
 use crate::sequencer::callers::cut_and_depth;
+use crate::sequencer::clearance::stops_soon;
 use crate::sequencer::control_block::{flag, request, ControlBlock};
 use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::lanes::{lane_slot_of, LaneSet};
@@ -183,11 +184,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// Schedules a restart of `run` from now: its clock (and timeout) starts again, with no
     /// pause in force. `None` unless `run` is its sequence's current run and `Restarting`
-    /// (a later run restarts in its own time).
-    fn schedule_restart(&mut self, run: RunId) -> Option<Scheduled> {
-        let b = self
-            .block_mut(run.seq)
-            .filter(|b| b.runs == run.count && b.state == RunningState::Restarting)?;
+    /// (a later run restarts in its own time), and the tick is not to abort it (its abort
+    /// requested, an abort-all posted: a restart its lane has not taken up is not begun,
+    /// semantics 8).
+    fn schedule_restart(&mut self, run: RunId, abort_all_posted: bool) -> Option<Scheduled> {
+        let b = self.block_mut(run.seq).filter(|b| {
+            b.runs == run.count
+                && b.state == RunningState::Restarting
+                && !stops_soon(b, abort_all_posted)
+        })?;
         b.lift_pauses();
         let armed = b.timeout != 0;
         self.start_clock(run.seq);
@@ -489,8 +494,12 @@ fn launch<
 }
 
 /// Schedules and commits a `Restarting` sequence's run again, in its lane with its caller
-/// and flags as they are. Only from `Restarting`, in the same run: if the tick aborted it
-/// since the lane saw that (an abort-all, an abort request), the abort stands.
+/// and flags as they are. Only from `Restarting`, in the same run, and not while the tick
+/// is to abort it: an abort requested or an abort-all posted since the lane saw its
+/// clearance stands (an abort request moves the count of changes, so a commit it came
+/// before is scheduled again, and refused; an abort-all posted after the schedule's
+/// section comes after the restart, as one posted during an end's last section comes
+/// after the end).
 fn relaunch<
     C,
     S: Sections<C, N, T, W, B>,
@@ -501,11 +510,12 @@ fn relaunch<
 >(
     s: &mut S,
     run: RunId,
+    inbox: &AtomicU8,
 ) {
     let id = run.seq;
     loop {
         let seen = s.section(|s| s.changes);
-        let Some(at) = s.section(|s| s.schedule_restart(run)) else {
+        let Some(at) = s.section(|s| s.schedule_restart(run, abort_all_posted(inbox))) else {
             return;
         };
         s.section(|s| s.prepare(id, at.armed));
@@ -556,7 +566,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     /// `run` of a `Restarting` sequence runs again from its pre-condition.
     pub(crate) fn restart(&self, run: RunId) {
-        in_sections!(self, |s| relaunch(s, run));
+        let inbox = &self.safety.inbox;
+        in_sections!(self, |s| relaunch(s, run, inbox));
     }
 }
 
@@ -630,7 +641,7 @@ mod tests {
                 assert!(s.transition(&change).is_some());
             }
         });
-        relaunch(&mut s, RunId { seq: id, count: 0 });
+        relaunch(&mut s, RunId { seq: id, count: 0 }, &NO_INBOX);
         assert_eq!(state.state_of(id), RunningState::Aborted);
     }
 
@@ -652,7 +663,7 @@ mod tests {
         );
         assert!(state.transition(&restart).is_some());
         let mut s = Preempted::new(&mut state, usize::MAX, |_: &mut S| {});
-        relaunch(&mut s, RunId { seq: id, count: 0 });
+        relaunch(&mut s, RunId { seq: id, count: 0 }, &NO_INBOX);
         assert_eq!(state.state_of(id), RunningState::Restarting);
     }
 

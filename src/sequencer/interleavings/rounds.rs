@@ -710,3 +710,308 @@ fn relaunch_into_tick_applying_restart<L: Lock + 'static, const N: usize, const 
 fn a_pause_asked_before_the_tick_applying_a_restart_is_unseen_whatever_the_relaunch() {
     every_world!(relaunch_into_tick_applying_restart);
 }
+
+// Requests against a restart the lane takes up, and against the caller's restart (found
+// by a cold review of requests in session 56: an abort asked while the lane took up its
+// restart let the restart begin; the others held).
+
+/// O (polled every ms) with a `RestartOwner` monitor whose condition (the returned flag)
+/// was true at 1 ms: O is `Restarting`, the flag cleared. Returns the world, O and O's run.
+fn restarted_once<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId, RunId) {
+    let w = World::<L, N, B>::new(layout);
+    let o = w.seq("O");
+    let fault = flag_of(true);
+    w.monitor(o, fault, Behaviour::RestartOwner, None);
+    w.start_taken(o);
+    w.tick(1);
+    assert_eq!(w.state(o), Restarting);
+    fault.store(false, Ordering::Relaxed);
+    (w, o, w.run(o))
+}
+
+/// O's lane got the clearance `Restart` and takes the restart up (`Sequencer::restart`);
+/// a lane of higher priority asks O's abort (a handle), or an abort-all is posted (any
+/// priority), before each section of the restart up to its commit. Semantics 8: from the
+/// request to the tick that carries it out, "a restart its lane has not taken up yet is
+/// not begun (the run is aborted from `Restarting`)". An abort request moves the count of
+/// changes, so any made before the commit stands; an abort-all is read in the schedule's
+/// section (the second; the only one with a coarse lock), and one posted after it comes
+/// after the restart, as one posted during an end's last section comes after the end: the
+/// tick aborts the restarted round.
+fn abort_into_restart<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    all: bool,
+) {
+    let setup = move || restarted_once::<L, N, B>(layout);
+    let count = sections(setup, |(w, _, run)| w.seq.restart(*run));
+    // The restart's last section comes after its commit (the count of runs begun, the
+    // pause with a paused caller): the sections before it are those before the commit.
+    let before_commit = if L::COARSE { count } else { count - 1 };
+    every_k(before_commit, |k| {
+        let (w, o, run) = setup();
+        let what = name::<L>(layout, format_args!("abort-all {all}, k={k}/{count}"));
+        assert_eq!(w.clearance(run), Clearance::Restart, "{what}");
+        let asked: Rc<Cell<Option<Result<(), Error>>>> = Rc::new(Cell::new(None));
+        let into = asked.clone();
+        interleaved::at(k, move || {
+            if all {
+                w.seq.abort_all();
+                into.set(Some(Ok(())));
+            } else {
+                into.set(Some(w.kept(o).abort()));
+            }
+        });
+        w.seq.restart(run);
+        assert_eq!(asked.get(), Some(Ok(())), "{what}: asked");
+        let begun = w.moves(o, Restarting, Running);
+        w.tick(2);
+        let cause = if all { Cause::AbortAll } else { Cause::Abort };
+        assert_eq!(w.ended(o), (Aborted, cause), "{what}");
+        let schedule = if L::COARSE { 0 } else { 1 };
+        assert_eq!(
+            begun,
+            usize::from(all && k > schedule),
+            "{what}: the restart begun, or not, against its abort: {:?}",
+            w.transitions(o)
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn an_abort_asked_before_the_commit_of_the_lanes_restart_is_not_begun() {
+    every_world!(abort_into_restart, false);
+}
+
+#[test]
+fn an_abort_all_posted_before_the_lanes_restart_is_scheduled_is_not_begun() {
+    every_world!(abort_into_restart, true);
+}
+
+/// O's lane takes the restart up while a lane of higher priority asks a pause of O before
+/// each section of the restart (or after it). A pause accepted (`Ok`) of the new round
+/// (the restart committed before the check) is not lost: the tick at 2 ms pauses O. One
+/// refused is `NotRunning` (O `Restarting`). Either way no pause of the old round.
+fn pause_into_restart<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
+    let setup = move || restarted_once::<L, N, B>(layout);
+    let count = sections(setup, |(w, _, run)| w.seq.restart(*run));
+    every_k(count + 1, |k| {
+        let (w, o, run) = setup();
+        let what = name::<L>(layout, format_args!("pause into restart, k={k}/{count}"));
+        let asked: Rc<Cell<Option<(Result<(), Error>, RunningState)>>> = Rc::new(Cell::new(None));
+        let into = asked.clone();
+        let act = move || {
+            let before = w.state(o);
+            into.set(Some((w.kept(o).pause(), before)));
+        };
+        interleaved::at(k, act.clone());
+        w.seq.restart(run);
+        or_after(k, act);
+        let (asked, before) = asked.get().unwrap();
+        assert_eq!(w.state(o), Running, "{what}");
+        w.tick(2);
+        match asked {
+            Ok(()) => {
+                assert_eq!(before, Running, "{what}");
+                assert_eq!(
+                    w.state(o),
+                    Paused,
+                    "{what}: an accepted pause of round 2 lost"
+                );
+                assert_eq!(w.kept(o).pause(), Err(Error::AlreadyPaused(o)), "{what}");
+                w.kept(o).resume().unwrap();
+                w.tick(3);
+                assert_eq!(w.state(o), Running, "{what}");
+            }
+            Err(e) => {
+                assert_eq!(e, Error::NotRunning(o), "{what}");
+                assert_eq!(w.state(o), Running, "{what}");
+            }
+        }
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_pause_asked_during_the_lanes_restart_is_of_the_round_it_was_checked_in() {
+    every_world!(pause_into_restart);
+}
+
+/// O, paused by a pause request at 1 ms, has a `RestartOwner` monitor (flag) that fires
+/// at 2 ms, while O is paused (monitors stay active). A resume of O is asked by a handle
+/// (three sections) while the tick at 2 ms comes before each section (or after). The
+/// resume is of round 1: O's round 2 runs unpaused (semantics 4, 7), and no pause
+/// request stays in force (a later pause is accepted and pauses O; one more is
+/// `AlreadyPaused`).
+fn resume_crossing_restart_of_paused<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let o = w.seq("O");
+        let fault = flag_of(false);
+        w.monitor(o, fault, Behaviour::RestartOwner, None);
+        w.start_taken(o);
+        w.kept(o).pause().unwrap();
+        w.tick(1);
+        assert_eq!(w.state(o), Paused);
+        fault.store(true, Ordering::Relaxed);
+        (w, o, fault)
+    };
+    let count = sections(setup, |(w, o, _)| {
+        let _ = w.kept(*o).resume();
+    });
+    every_k(count + 1, |k| {
+        let (w, o, fault) = setup();
+        let what = name::<L>(
+            layout,
+            format_args!("resume crossing restart, k={k}/{count}"),
+        );
+        interleaved::at(k, move || w.tick(2));
+        let asked = w.kept(o).resume();
+        or_after(k, || w.tick(2));
+        fault.store(false, Ordering::Relaxed);
+        assert!(
+            matches!(asked, Ok(()) | Err(Error::NotPaused(_))),
+            "{what}: {asked:?}"
+        );
+        assert_eq!(w.ended(o), (Restarting, M0), "{what}");
+        w.seq.restart(w.run(o));
+        w.tick(3);
+        assert_eq!(w.state(o), Running, "{what}: round 2 paused");
+        assert_eq!(w.kept(o).resume(), Err(Error::NotPaused(o)), "{what}");
+        w.kept(o).pause().unwrap();
+        w.tick(4);
+        assert_eq!(w.state(o), Paused, "{what}");
+        assert_eq!(w.kept(o).pause(), Err(Error::AlreadyPaused(o)), "{what}");
+        w.kept(o).resume().unwrap();
+        w.tick(5);
+        assert_eq!(w.state(o), Running, "{what}");
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_resume_crossing_a_restart_of_a_paused_run_leaves_round_two_unpaused() {
+    every_world!(resume_crossing_restart_of_paused);
+}
+
+/// O runs X blocking; O has a `RestartOwner` monitor (flag). A pause of X is asked (three
+/// sections); before each section, the tick at 1 ms restarts O (aborting X), O's lane
+/// takes the restart up and O's round 2 runs X again blocking. The pause was of X's first
+/// run: X's second run is not paused (nor O).
+fn child_pause_crossing_caller_restart<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let o = w.seq("O");
+        let x = w.seq("X");
+        let fault = flag_of(false);
+        w.monitor(o, fault, Behaviour::RestartOwner, None);
+        w.start_taken(o);
+        w.blocking(x, o).unwrap();
+        fault.store(true, Ordering::Relaxed);
+        (w, o, x, fault)
+    };
+    let count = sections(setup, |(w, _, x, _)| {
+        let _ = w.kept(*x).pause();
+    });
+    every_k(count + 1, |k| {
+        let (w, o, x, fault) = setup();
+        let what = name::<L>(
+            layout,
+            format_args!("child pause vs caller restart, k={k}/{count}"),
+        );
+        let party = move || {
+            w.tick(1);
+            fault.store(false, Ordering::Relaxed);
+            assert_eq!(w.state(o), Restarting);
+            w.seq.restart(w.run(o));
+            w.blocking(x, o).unwrap();
+        };
+        interleaved::at(k, party.clone());
+        let asked = w.kept(x).pause();
+        or_after(k, party);
+        assert!(
+            matches!(asked, Ok(()) | Err(Error::NotRunning(_))),
+            "{what}: {asked:?}"
+        );
+        assert_eq!((w.state(o), w.state(x)), (Running, Running), "{what}");
+        w.tick(2);
+        // Before section 0 the party came before the check: the pause is of X's second
+        // run, and pauses it.
+        let x_paused = if k == 0 { Paused } else { Running };
+        assert_eq!(
+            (w.state(o), w.state(x)),
+            (Running, x_paused),
+            "{what}: X's new run paused by its old run's pause (or a pause of it lost)"
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_childs_pause_crossing_its_callers_restart_pauses_nothing_new() {
+    every_world!(child_pause_crossing_caller_restart);
+}
+
+/// O runs, its abort asked; the tick at 1 ms restarts O (its `RestartOwner` monitor
+/// cannot fire on a run being stopped, so an exception sequence's behaviour does it).
+/// Here: O's `RestartOwner` monitor fired with exception sequence E at 1 ms; E ended; an
+/// abort of O is asked by a handle (three sections) while the tick at 2 ms (applying E's
+/// restart of O before the requests) comes before each section. The abort is of the run:
+/// a restart keeps it (semantics 4). If accepted, O ends `Aborted(Abort)`.
+fn abort_crossing_restart_by_behaviour<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let o = w.seq("O");
+        let e = w.seq("E");
+        let fault = flag_of(true);
+        w.monitor(o, fault, Behaviour::RestartOwner, Some(e));
+        w.start_taken(o);
+        w.tick(1);
+        fault.store(false, Ordering::Relaxed);
+        w.take(e);
+        assert!(w.complete(e));
+        (w, o)
+    };
+    let count = sections(setup, |(w, o)| {
+        let _ = w.kept(*o).abort();
+    });
+    every_k(count + 1, |k| {
+        let (w, o) = setup();
+        let what = name::<L>(
+            layout,
+            format_args!("abort crossing restart, k={k}/{count}"),
+        );
+        let party = move || {
+            w.tick(2);
+            // O's lane, of higher priority, takes the restart up at once.
+            if w.state(o) == Restarting && w.clearance(w.run(o)) == Clearance::Restart {
+                w.seq.restart(w.run(o));
+            }
+        };
+        interleaved::at(k, party.clone());
+        let asked = w.kept(o).abort();
+        or_after(k, party);
+        assert_eq!(asked, Ok(()), "{what}");
+        w.tick(3);
+        assert_eq!(
+            w.ended(o),
+            (Aborted, Cause::Abort),
+            "{what}: {:?}",
+            w.transitions(o)
+        );
+        w.check(&what);
+    });
+}
+
+#[test]
+fn an_abort_crossing_a_restart_is_carried_out() {
+    every_world!(abort_crossing_restart_by_behaviour);
+}
