@@ -1,7 +1,7 @@
 //! Everything the sequencer's lock guards, and the one way to a control block.
 
 use crate::lock::Lock;
-use crate::model::id::RunId;
+use crate::model::id::{Link, RunId};
 use crate::model::set::{SeqSet, SetWord};
 use crate::model::state::RunningStates;
 use crate::model::time::{Micros48, Stamp};
@@ -282,7 +282,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// The run of exception sequence `id` ended: its owner's pending behaviour is applied
-    /// by this tick or the next.
+    /// by this tick or the next, if it waits for this sequence (else the owner's run or
+    /// round it handled an exception of went down with it, and a later one may wait for
+    /// another).
     pub(crate) fn exception_ended(&mut self, id: SeqId) {
         let Some(b) = self.block_mut(id) else {
             return;
@@ -290,7 +292,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.set(flag::HANDLES_EXCEPTION, false);
         let owner = b.caller.get();
         if let Some(o) = owner {
-            if let Some(ob) = self.block_mut(o) {
+            let this = Link::to(Some(id));
+            if let Some(ob) = self.block_mut(o).filter(|ob| ob.awaited == this) {
                 ob.set(flag::EXCEPTION_DONE, true);
                 self.sets.insert(Set::Requested, o);
             }

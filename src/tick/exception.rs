@@ -2,7 +2,7 @@
 //! while the owner is held, and then the behaviour applies.
 
 use crate::lock::Lock;
-use crate::model::id::RunId;
+use crate::model::id::{Link, RunId};
 use crate::model::set::SeqSet;
 use crate::model::state::RunningStates;
 use crate::sequencer::control_block::{flag, ControlBlock};
@@ -89,7 +89,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                                 && RunningStates::RUNNING_OR_PAUSED.has(b.state)
                                 && !b.has(flag::STOPPING)
                         }) {
-                            s.set_pending(owner, pending, reaction.limit);
+                            s.set_pending(owner, pending, reaction.limit, e);
                         }
                     });
                     return true;
@@ -256,9 +256,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// `behaviour` (with its monitor's restart `limit`) waits for the end of `owner`'s
     /// exception sequence.
-    fn set_pending(&mut self, owner: SeqId, behaviour: Behaviour, limit: u8) {
+    fn set_pending(&mut self, owner: SeqId, behaviour: Behaviour, limit: u8, awaited: SeqId) {
         if let Some(b) = self.block_mut(owner) {
             b.set_pending(Some(behaviour));
+            b.awaited = Link::to(Some(awaited));
         }
         if let Some(l) = self.exception_limits.get_mut(owner.index()) {
             *l = limit;

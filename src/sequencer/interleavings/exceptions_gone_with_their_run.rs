@@ -404,3 +404,211 @@ fn nothing_gives_back_no_poll_to_a_new_run<L: Lock + 'static, const N: usize, co
 fn nothing_applied_at_once_gives_no_poll_to_a_new_run() {
     every_world!(nothing_gives_back_no_poll_to_a_new_run);
 }
+
+// The end of an exception sequence credited to a later run or round of its owner (found by
+// a cold review of exceptions in session 56): the owner's run went down with its exception
+// sequence, a new run or round began and took an exception of its own, and the old
+// exception sequence's end, reported at the next tick's fold, applied the new exception's
+// behaviour before its own exception sequence had ended.
+
+/// O has two monitors: M0 (`AbortOwner`, exception sequence E) and M1 (`AbortOwner`,
+/// exception sequence E2), both conditions true. The tick at 1 ms fires M0 on O's run 1
+/// (M1 is not taken: O handles an exception); E runs in its lane. Before section `k` of
+/// the tick at 2 ms, a lane above the tick drops O's run 1 (E is torn down with it) and a
+/// handle starts O again (run 2); M0's condition is cleared. If O's run 2 takes M1's
+/// exception in that tick, E2 handles it: semantics 3, the behaviour waits for E2's end.
+/// The end of E (run 1's exception sequence, torn down with run 1) must not be credited
+/// to run 2's exception.
+fn old_exception_end_credited_to_new_run<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let (o, e, e2) = (w.seq("O"), w.seq("E"), w.seq("E2"));
+        let f0 = flag_of(true);
+        w.monitor(o, f0, Behaviour::AbortOwner, Some(e));
+        w.monitor(o, flag_of(true), Behaviour::AbortOwner, Some(e2));
+        w.start_taken(o);
+        w.tick(1);
+        assert!(w.has(e, flag::HANDLES_EXCEPTION));
+        w.take(e);
+        (w, o, e, e2, f0)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(2));
+    every_k(count + 1, |k| {
+        let (w, o, e, e2, f0) = setup();
+        let party = move || {
+            if w.runs(o) == 1 {
+                f0.store(false, Ordering::Relaxed);
+                w.replace_run(o);
+            }
+        };
+        interleaved::at(k, party);
+        w.tick(2);
+        let late = or_after(k, party);
+        let what = name::<L>(layout, format_args!("k={k} of {count}, late {late}"));
+        let _ = e;
+        // Run 2 took M1's exception, handled by E2.
+        let by_e2 = w.has(e2, flag::HANDLES_EXCEPTION) && w.caller(e2) == Some(o);
+        if w.runs(o) == 2 && w.in_set(Set::Excepting, o) && by_e2 {
+            SEEN_E2.fetch_add(1, Ordering::Relaxed);
+            w.try_take(e2);
+            w.tick(3);
+            assert_eq!(
+                (w.state(o), w.state(e2)),
+                (Running, Running),
+                "{what}: O's run 2 not held for E2's end: O {:?}",
+                w.transitions(o)
+            );
+            w.complete(e2);
+            w.tick(4);
+            assert_eq!(w.state(o), Aborted, "{what}");
+        }
+        w.check_tree(&what);
+    });
+}
+
+static SEEN_E2: AtomicUsize = AtomicUsize::new(0);
+
+#[test]
+fn old_exception_end_not_credited_to_new_run() {
+    every_world!(old_exception_end_credited_to_new_run);
+    assert!(SEEN_E2.load(Ordering::Relaxed) > 0, "never reached");
+}
+
+std::thread_local! {
+    /// What C's cleanup hook does.
+    static HOOK: RefCell<Option<Box<dyn FnOnce()>>> = RefCell::new(None);
+}
+
+fn hook(_: &()) {
+    if let Some(f) = HOOK.with(|h| h.borrow_mut().take()) {
+        f();
+    }
+}
+
+/// The same without any preemption: C (word 0, `AbortOwner` monitor F, no exception
+/// sequence) started O (word 1) non-blocking; O has M0 (`AbortOwner`, E) and M1
+/// (`AbortOwner`, E2). At 1 ms M0 fires on O's run 1; E runs. At 2 ms F fires: C's
+/// teardown takes O's run 1 and E down; C's cleanup hook (a recovery) starts O again by a
+/// handle (run 2, a main sequence). Word 1 is scanned after word 0's firings, so run 2 is
+/// evaluated in that tick and M1 fires on it: E2 handles run 2's exception, and its
+/// behaviour waits for E2's end (semantics 3). The tick at 3 ms reports E's end (torn
+/// down at 2 ms, after the fold): it is run 1's, not run 2's.
+fn hook_restarts_owner<L: Lock + 'static>() {
+    let w = World::<L, 64, 2>::new(Layout::Split);
+    let c = w.add(SeqConfig::new("C").on_abort(hook));
+    let fc = flag_of(false);
+    w.monitor(c, fc, Behaviour::AbortOwner, None);
+    w.split();
+    let (o, e, e2) = (w.seq("O"), w.seq("E"), w.seq("E2"));
+    assert!(o.index() >= 32 && c.index() < 32);
+    let f0 = flag_of(true);
+    w.monitor(o, f0, Behaviour::AbortOwner, Some(e));
+    w.monitor(o, flag_of(true), Behaviour::AbortOwner, Some(e2));
+    w.start_taken(c);
+    w.in_lane(o, c).unwrap();
+    w.take(o);
+    w.tick(1);
+    assert!(w.has(e, flag::HANDLES_EXCEPTION));
+    w.take(e);
+    HOOK.with(|h| {
+        *h.borrow_mut() = Some(Box::new(move || {
+            f0.store(false, Ordering::Relaxed);
+            w.handle(o).start().unwrap();
+        }))
+    });
+    fc.store(true, Ordering::Relaxed);
+    w.tick(2);
+    let what = core::any::type_name::<L>();
+    assert_eq!(w.runs(o), 2, "{what}");
+    w.try_take(o);
+    let by_e2 = w.has(e2, flag::HANDLES_EXCEPTION) && w.caller(e2) == Some(o);
+    assert!(by_e2, "{what}: M1 did not fire on run 2");
+    w.try_take(e2);
+    w.tick(3);
+    assert_eq!(
+        (w.state(o), w.state(e2)),
+        (Running, Running),
+        "{what}: O's run 2 not held for E2's end: O {:?}",
+        w.transitions(o)
+    );
+    w.complete(e2);
+    w.tick(4);
+    assert_eq!(w.state(o), Aborted, "{what}");
+    w.check_tree(what);
+}
+
+#[test]
+fn old_exception_end_not_credited_to_new_run_started_by_a_hook() {
+    let fine = std::panic::catch_unwind(|| hook_restarts_owner::<Interleaved>());
+    let coarse = std::panic::catch_unwind(|| hook_restarts_owner::<InterleavedCoarse>());
+    assert!(
+        fine.is_ok() && coarse.is_ok(),
+        "fine ok {}, coarse ok {}",
+        fine.is_ok(),
+        coarse.is_ok()
+    );
+}
+
+/// The restart variant, under the portable lock: X (word 0) is O's blocking child, with a
+/// `RestartCallerOfOwner` monitor; O (word 1) has M0 (`AbortOwner`, E) and M1
+/// (`AbortOwner`, E2). M0 fired at 1 ms; E runs. At 2 ms X's monitor restarts O (E and X
+/// are torn down); O's lane, above the tick, takes the restart up before section `k`.
+/// If round 2 takes M1's exception in that tick (word 1 is scanned after word 0's
+/// firings), its behaviour waits for E2's end, not for the report of E's.
+fn old_exception_end_credited_to_restarted_round<L: Lock + 'static>() {
+    let setup = || {
+        let w = World::<L, 64, 2>::new(Layout::Split);
+        let x = w.seq("X");
+        let fx = flag_of(false);
+        w.monitor(x, fx, Behaviour::RestartCallerOfOwner, None);
+        w.split();
+        let (o, e, e2) = (w.seq("O"), w.seq("E"), w.seq("E2"));
+        let f0 = flag_of(true);
+        w.monitor(o, f0, Behaviour::AbortOwner, Some(e));
+        w.monitor(o, flag_of(true), Behaviour::AbortOwner, Some(e2));
+        w.start_taken(o);
+        w.blocking(x, o).unwrap();
+        w.tick(1);
+        assert!(w.has(e, flag::HANDLES_EXCEPTION));
+        w.take(e);
+        fx.store(true, Ordering::Relaxed);
+        (w, o, e2, f0)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(2));
+    every_k(count + 1, |k| {
+        let (w, o, e2, f0) = setup();
+        let party = move || {
+            if w.state(o) == Restarting {
+                f0.store(false, Ordering::Relaxed);
+                w.seq.restart(w.run(o));
+            }
+        };
+        interleaved::at(k, party);
+        w.tick(2);
+        or_after(k, party);
+        let what = format!("{} k={k} of {count}", core::any::type_name::<L>());
+        let by_e2 = w.has(e2, flag::HANDLES_EXCEPTION) && w.caller(e2) == Some(o);
+        if by_e2 {
+            SEEN_ROUND.fetch_add(1, Ordering::Relaxed);
+            w.try_take(e2);
+            w.tick(3);
+            assert_eq!(
+                (w.state(o), w.state(e2)),
+                (Running, Running),
+                "{what}: O's round 2 not held for E2's end: O {:?}",
+                w.transitions(o)
+            );
+        }
+        w.check_tree(&what);
+    });
+}
+
+static SEEN_ROUND: AtomicUsize = AtomicUsize::new(0);
+
+#[test]
+fn old_exception_end_not_credited_to_restarted_round() {
+    old_exception_end_credited_to_restarted_round::<Interleaved>();
+    assert!(SEEN_ROUND.load(Ordering::Relaxed) > 0, "never reached");
+}
