@@ -800,7 +800,9 @@ fn pause_into_restart<L: Lock + 'static, const N: usize, const B: usize>(layout:
     every_k(count + 1, |k| {
         let (w, o, run) = setup();
         let what = name::<L>(layout, format_args!("pause into restart, k={k}/{count}"));
-        let asked: Rc<Cell<Option<(Result<(), Error>, RunningState)>>> = Rc::new(Cell::new(None));
+        // The pause's result, and O's state when it was asked.
+        type Asked = Option<(Result<(), Error>, RunningState)>;
+        let asked: Rc<Cell<Asked>> = Rc::new(Cell::new(None));
         let into = asked.clone();
         let act = move || {
             let before = w.state(o);
@@ -932,7 +934,7 @@ fn child_pause_crossing_caller_restart<L: Lock + 'static, const N: usize, const 
             w.seq.restart(w.run(o));
             w.blocking(x, o).unwrap();
         };
-        interleaved::at(k, party.clone());
+        interleaved::at(k, party);
         let asked = w.kept(x).pause();
         or_after(k, party);
         assert!(
@@ -996,7 +998,7 @@ fn abort_crossing_restart_by_behaviour<L: Lock + 'static, const N: usize, const 
                 w.seq.restart(w.run(o));
             }
         };
-        interleaved::at(k, party.clone());
+        interleaved::at(k, party);
         let asked = w.kept(o).abort();
         or_after(k, party);
         assert_eq!(asked, Ok(()), "{what}");
