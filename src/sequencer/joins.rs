@@ -33,8 +33,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// A join of `joiner` is refused: from now on no cycle check and no end follows its
-    /// wait. [`join_returned`](Self::join_returned)
-    /// clears the wait and wakes, in a section of its own.
+    /// wait. [`join_returned`](Self::join_returned) clears the wait and wakes, in a
+    /// section of its own.
     pub(crate) fn join_decided(&mut self, joiner: SeqId) {
         self.sets.put(Set::Joining, joiner, false);
     }
