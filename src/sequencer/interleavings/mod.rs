@@ -86,6 +86,7 @@ mod changes_during_the_tick;
 mod coarse;
 mod exceptions_gone_with_their_run;
 mod fine;
+mod grids;
 mod holds;
 mod lanes;
 mod long_gap;
