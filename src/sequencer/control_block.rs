@@ -200,11 +200,11 @@ pub(crate) struct ControlBlock {
     /// stays paused. A table holds at most 255 of one sequence (`Monitors::add` and
     /// `Monitors::table` refuse a 256th), so the count cannot overflow.
     pub(crate) monitor_holds: u8,
-    /// While a behaviour is pending (see [`pending`](Self::pending)): the exception
-    /// sequence whose end it waits for, set with it. Only that sequence's end is credited
-    /// to it: the end of one that went down with an earlier run or round of this sequence
-    /// is not (`State::exception_ended`). The sequence names the run: an exception
-    /// sequence starts again only once its last end is reported.
+    /// While a behaviour is pending (see [`pending`](Self::pending); meaningless
+    /// otherwise): the exception sequence whose end it waits for, set with it. Only that
+    /// sequence's end is credited to it: the end of one that went down with an earlier run
+    /// or round of this sequence is not (`State::exception_ended`). The sequence names the
+    /// run: an exception sequence starts again only once its last end is reported.
     pub(crate) awaited: Link,
 }
 

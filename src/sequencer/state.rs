@@ -292,8 +292,15 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.set(flag::HANDLES_EXCEPTION, false);
         let owner = b.caller.get();
         if let Some(o) = owner {
+            // Only to a behaviour pending now: `awaited` stays when a new run or a restart
+            // drops the behaviour, and a credit without one would be taken by the next
+            // behaviour of the owner (with the same exception sequence, started again
+            // once this end is reported) before its own exception sequence ended.
             let this = Link::to(Some(id));
-            if let Some(ob) = self.block_mut(o).filter(|ob| ob.awaited == this) {
+            if let Some(ob) = self
+                .block_mut(o)
+                .filter(|ob| ob.pending().is_some() && ob.awaited == this)
+            {
                 ob.set(flag::EXCEPTION_DONE, true);
                 self.sets.insert(Set::Requested, o);
             }

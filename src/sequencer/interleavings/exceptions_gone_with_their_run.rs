@@ -477,7 +477,7 @@ fn old_exception_end_not_credited_to_new_run() {
 }
 
 std::thread_local! {
-    /// What C's cleanup hook does.
+    /// What the cleanup hook (of C, or of P) does.
     static HOOK: RefCell<Option<Box<dyn FnOnce()>>> = RefCell::new(None);
 }
 
@@ -605,4 +605,144 @@ static SEEN_ROUND: AtomicUsize = AtomicUsize::new(0);
 fn old_exception_end_not_credited_to_restarted_round() {
     old_exception_end_credited_to_restarted_round::<Interleaved>();
     assert!(SEEN_ROUND.load(Ordering::Relaxed) > 0, "never reached");
+}
+
+// A stale credit (found by a cold review of starts, of this session's first fix above):
+// the end of an exception sequence reported, in the second fold of a tick, to an owner
+// whose next run has no behaviour pending yet, then that run's own firing with the same
+// exception sequence: the stale credit applied its behaviour at the next tick.
+
+/// No preemption. O (main) has M0 (`AbortOwner`, exception sequence E), condition true.
+/// At 1 ms M0 fires on O's run 1; E runs. Before 2 ms a handle asks O's abort and P's
+/// (P runs; its cleanup hook starts O again by a handle). The tick at 2 ms carries out
+/// the requests in id order: O's teardown takes O's run 1 and E down; P's hook starts O
+/// (run 2). The fold after the requests reports E's end (run 1's exception sequence):
+/// `awaited` still names E, left over from run 1, so it is credited to run 2
+/// (`EXCEPTION_DONE`), which has no behaviour pending. E may start again now, and M0 fires
+/// on run 2 in the same tick, with E: run 2's behaviour (abort) waits for E's end
+/// (semantics 3). The stale credit must not apply it at 3 ms while E still runs.
+fn stale_credit_same_exception_sequence<L: Lock + 'static>() {
+    let w = World::<L, 8, 1>::new(Layout::One);
+    let (o, e) = (w.seq("O"), w.seq("E"));
+    let p = w.add(SeqConfig::new("P").on_abort(hook));
+    w.monitor(o, flag_of(true), Behaviour::AbortOwner, Some(e));
+    w.start_taken(o);
+    w.start_taken(p);
+    w.tick(1);
+    assert!(w.has(e, flag::HANDLES_EXCEPTION));
+    w.take(e);
+    HOOK.with(|h| {
+        *h.borrow_mut() = Some(Box::new(move || {
+            w.handle(o).start().unwrap();
+        }))
+    });
+    w.handle(o).abort().unwrap();
+    w.handle(p).abort().unwrap();
+    w.tick(2);
+    let what = core::any::type_name::<L>();
+    assert_eq!(w.runs(o), 2, "{what}: O not started again");
+    w.try_take(o);
+    // M0 fired on run 2, with E.
+    let by_e = w.has(e, flag::HANDLES_EXCEPTION) && w.caller(e) == Some(o);
+    assert!(by_e, "{what}: M0 did not fire on run 2 with E");
+    w.try_take(e);
+    w.tick(3);
+    assert_eq!(
+        (w.state(o), w.state(e)),
+        (Running, Running),
+        "{what}: O's run 2 not held for E's end: O {:?}",
+        w.transitions(o)
+    );
+    w.complete(e);
+    w.tick(4);
+    assert_eq!(w.state(o), Aborted, "{what}");
+    w.check_tree(what);
+}
+
+#[test]
+fn a_stale_credit_of_the_same_exception_sequence_is_not_applied_to_a_new_run() {
+    stale_credit_same_exception_sequence::<Interleaved>();
+    stale_credit_same_exception_sequence::<InterleavedCoarse>();
+}
+
+/// The same under preemption (portable lock: a lane above the tick), without hooks. O
+/// (main) has M0 (`AbortOwner`, E), condition true; Q runs, its pause requested before 2 ms
+/// (so the tick folds again after its requests). At 1 ms M0 fires on O's run 1; E runs.
+/// Before section `k` of the tick at 2 ms, O's lane (above the tick) drops O's run 1 (E
+/// torn down with it) and a handle starts O again (run 2). When run 2 takes M0's exception
+/// in that tick with E (its end reported first), run 2's behaviour waits for that E's end.
+fn stale_credit_under_preemption<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let (o, e, q) = (w.seq("O"), w.seq("E"), w.seq("Q"));
+        w.monitor(o, flag_of(true), Behaviour::AbortOwner, Some(e));
+        w.start_taken(o);
+        w.start_taken(q);
+        w.tick(1);
+        assert!(w.has(e, flag::HANDLES_EXCEPTION));
+        w.take(e);
+        w.handle(q).pause().unwrap();
+        (w, o, e)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(2));
+    every_k(count + 1, |k| {
+        let (w, o, e) = setup();
+        let party = move || {
+            if w.runs(o) == 1 {
+                w.replace_run(o);
+            }
+        };
+        interleaved::at(k, party);
+        w.tick(2);
+        let late = or_after(k, party);
+        let what = name::<L>(layout, format_args!("k={k} of {count}, late {late}"));
+        // E started again for run 2 (not run 1's E, aborted and not reported yet, for
+        // which run 2's exception is not run and its behaviour applied at once).
+        let by_e = w.has(e, flag::HANDLES_EXCEPTION) && w.caller(e) == Some(o) && w.pending(e);
+        if w.runs(o) == 2 && w.in_set(Set::Excepting, o) && by_e {
+            SEEN_STALE.fetch_add(1, Ordering::Relaxed);
+            w.try_take(e);
+            w.tick(3);
+            assert_eq!(
+                (w.state(o), w.state(e)),
+                (Running, Running),
+                "{what}: O's run 2 not held for E's end: O {:?}",
+                w.transitions(o)
+            );
+            w.complete(e);
+            w.tick(4);
+            assert_eq!(w.state(o), Aborted, "{what}");
+        }
+        w.check_tree(&what);
+    });
+}
+
+static SEEN_STALE: AtomicUsize = AtomicUsize::new(0);
+
+#[test]
+fn a_stale_credit_under_preemption_is_not_applied_to_a_new_run() {
+    let mut failed = Vec::new();
+    for (world, r) in [
+        (
+            "fine, one word",
+            std::panic::catch_unwind(|| {
+                stale_credit_under_preemption::<Interleaved, 8, 1>(Layout::One)
+            }),
+        ),
+        (
+            "fine, two words",
+            std::panic::catch_unwind(|| {
+                stale_credit_under_preemption::<Interleaved, 64, 2>(Layout::Second)
+            }),
+        ),
+    ] {
+        if let Err(e) = r {
+            let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
+            failed.push(format!("[{world}] {msg}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+    assert!(SEEN_STALE.load(Ordering::Relaxed) > 0, "never reached");
 }
