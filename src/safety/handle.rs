@@ -101,9 +101,15 @@ pub struct SafetyHandle {
     level: AtomicU8,
     bound: AtomicBool,
     cycles: AtomicU32,
-    out_of_range: AtomicU32,
-    last_out_of_range: AtomicU8,
+    /// Public events out of range since the last cycle: their count (saturating at
+    /// 2^24 - 1) above the last one's index, in one word, so that a cycle takes the pair a
+    /// trigger left (one of higher priority between the two halves of a trigger of two
+    /// words would have named its own event beside the other's count).
+    unknown: AtomicU32,
 }
+
+/// The most out-of-range public events a handle counts between two cycles.
+const UNKNOWN_MAX: u32 = (1 << 24) - 1;
 
 impl SafetyHandle {
     /// A handle with no pending events, level 0 (the safest) until a
@@ -122,8 +128,7 @@ impl SafetyHandle {
             level: AtomicU8::new(0),
             bound: AtomicBool::new(false),
             cycles: AtomicU32::new(0),
-            out_of_range: AtomicU32::new(0),
-            last_out_of_range: AtomicU8::new(0),
+            unknown: AtomicU32::new(0),
         }
     }
 
@@ -144,8 +149,14 @@ impl SafetyHandle {
         let index = event.id().index();
         let bit = bit_of(usize::from(index));
         if bit == 0 {
-            self.last_out_of_range.store(index, Ordering::Relaxed);
-            self.out_of_range.fetch_add(1, Ordering::Release);
+            // Lock-free: retried only when a trigger of higher priority came in between.
+            let counted = |word: u32| {
+                let count = (word >> 8).saturating_add(1).min(UNKNOWN_MAX);
+                Some(count << 8 | u32::from(index))
+            };
+            let _ = self
+                .unknown
+                .fetch_update(Ordering::Release, Ordering::Relaxed, counted);
         } else {
             self.pending.fetch_or(bit, Ordering::Release);
         }
@@ -213,8 +224,7 @@ impl SafetyHandle {
     /// was bound to resolve it.
     pub(crate) fn release(&self) {
         self.pending.store(0, Ordering::Relaxed);
-        self.out_of_range.store(0, Ordering::Relaxed);
-        self.last_out_of_range.store(0, Ordering::Relaxed);
+        self.unknown.store(0, Ordering::Relaxed);
         self.cycles.store(0, Ordering::Relaxed);
         self.level
             .store(SafetyLevel::SAFEST.id(), Ordering::Relaxed);
@@ -252,15 +262,14 @@ impl SafetyHandle {
     /// Whether out-of-range public events wait for the next cycle.
     #[inline(always)]
     pub(crate) fn has_out_of_range(&self) -> bool {
-        self.out_of_range.load(Ordering::Relaxed) != 0
+        self.unknown.load(Ordering::Relaxed) != 0
     }
 
     /// (count, last) of out-of-range public events since the last call
     /// (`last` is meaningless for a count of 0).
     pub(crate) fn take_out_of_range(&self) -> (u32, EventId) {
-        let n = self.out_of_range.swap(0, Ordering::Acquire);
-        let last = self.last_out_of_range.load(Ordering::Relaxed);
-        (n, EventId::public(last))
+        let word = self.unknown.swap(0, Ordering::Acquire);
+        (word >> 8, EventId::public(word as u8))
     }
 }
 
