@@ -95,6 +95,7 @@ mod polls;
 mod random;
 mod replaced_runs;
 mod rounds;
+mod safety_cycles;
 
 use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
