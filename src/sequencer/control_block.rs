@@ -327,6 +327,13 @@ impl ControlBlock {
         pending::BEHAVIOURS.get(code.wrapping_sub(1)).copied()
     }
 
+    /// A round ends (a restart's commit): the behaviour it waited to apply goes, and so
+    /// does the credit of an exception sequence's end given to it (`EXCEPTION_DONE`): the
+    /// next round waits for its own.
+    pub(crate) fn drop_pending(&mut self) {
+        self.flags &= !(pending::MASK | flag::EXCEPTION_DONE);
+    }
+
     pub(crate) fn set_pending(&mut self, b: Option<Behaviour>) {
         // Codes 1..=6 (the enum's discriminant + 1); 0 = none.
         let code = b.map_or(0, |b| b as u16 + 1);

@@ -326,7 +326,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// The commit of a restart: as [`commit_new`](Self::commit_new), keeping the run's
-    /// caller and flags; the behaviour it was waiting to apply is dropped.
+    /// caller and flags; the behaviour it was waiting to apply is dropped, with a credit of
+    /// its exception sequence's end (`ControlBlock::drop_pending`).
     #[inline(never)]
     fn commit_restart(&mut self, change: &StateChange, seen: u32) -> bool {
         if self.changes != seen {
@@ -335,7 +336,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let Some(b) = self.transition(change) else {
             return false;
         };
-        b.set_pending(None);
+        b.drop_pending();
         true
     }
 }
