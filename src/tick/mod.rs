@@ -300,7 +300,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 let ended = changed.filter(|&id| s.exception_run_ended(id));
                 (ended, !s.sets.is_empty(Set::Changed))
             });
-            // No lane runs in between: the exception sequence still has its owner.
+            // The exception sequence cannot start again before this report (its
+            // `HANDLES_EXCEPTION`), so its caller link still names its owner; a lane above
+            // may have moved the owner in between, and the report credits only a behaviour
+            // of the owner's that waits for this sequence (`exception_ended`).
             if let Some(e) = ended {
                 self.with(|s| s.exception_ended(e));
                 reported = true;

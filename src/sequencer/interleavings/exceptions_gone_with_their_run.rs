@@ -933,3 +933,165 @@ fn abort_all_during_the_exception<L: Lock + 'static, const N: usize, const B: us
 fn an_abort_all_during_the_exception_leaves_no_credit() {
     every_world!(abort_all_during_the_exception);
 }
+
+// Two more that held (a cold review of the credit's third form): an exception sequence
+// shared by two owners; `Nothing` with a credit from a tick's second fold and a hold
+// beside a pause.
+
+/// Semantics 3 ("a later run of it for another owner is never credited with this end").
+/// O1 and O2 (main) share the exception sequence E: M1 (`AbortOwner`, E) of O1 fires at
+/// 1 ms; M2 (`AbortOwner`, E) of O2 is armed after that. Before 2 ms a handle aborts E and
+/// asks Q's pause (so the tick folds again after its requests): the tick at 2 ms reports
+/// E's end to O1 in its second fold (a credit applied at 3 ms), and M2 fires on O2 in the
+/// same tick with E, which may start again. Before section `k` of the tick at 3 ms (the
+/// one that applies O1's credit) O1's lane, above the tick, drops O1's run and starts it
+/// again (`late`: after the tick). O2 stays held until *its* E ends, then is aborted.
+fn shared_exception_sequence<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    party_on: bool,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let (o1, o2, e, q) = (w.seq("O1"), w.seq("O2"), w.seq("E"), w.seq("Q"));
+        let f2 = flag_of(false);
+        w.monitor(o1, flag_of(true), Behaviour::AbortOwner, Some(e));
+        w.monitor(o2, f2, Behaviour::AbortOwner, Some(e));
+        w.start_taken(o1);
+        w.start_taken(o2);
+        w.start_taken(q);
+        w.tick(1);
+        assert!(w.has(e, flag::HANDLES_EXCEPTION) && w.caller(e) == Some(o1));
+        w.take(e);
+        f2.store(true, Ordering::Relaxed);
+        w.handle(e).abort().unwrap();
+        w.handle(q).pause().unwrap();
+        w.tick(2);
+        assert!(
+            w.has(e, flag::HANDLES_EXCEPTION) && w.caller(e) == Some(o2),
+            "M2 did not fire on O2 with E: {:?}",
+            w.records()
+        );
+        assert!(w.has(o1, flag::EXCEPTION_DONE), "O1 not credited at 2 ms");
+        w.take(e);
+        (w, o1, o2, e)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(3));
+    let ks = if party_on { count + 1 } else { 1 };
+    every_k(ks, |k| {
+        let (w, o1, o2, e) = setup();
+        let party = move || {
+            if w.runs(o1) == 1 {
+                w.replace_run(o1);
+            }
+        };
+        if party_on {
+            interleaved::at(k, party);
+        }
+        w.tick(3);
+        let late = party_on && or_after(k, party);
+        let what = name::<L>(layout, format_args!("k={k} of {count}, late {late}"));
+        assert_eq!(
+            (w.state(o2), w.state(e)),
+            (Running, Running),
+            "{what}: O2 not held for its E: O2 {:?}",
+            w.transitions(o2)
+        );
+        w.tick(4);
+        assert_eq!((w.state(o2), w.state(e)), (Running, Running), "{what}");
+        w.complete(e);
+        w.tick(5);
+        assert_eq!(w.state(o2), Aborted, "{what}: O2's end not applied");
+        w.check_tree(&what);
+    });
+}
+
+#[test]
+fn a_shared_exception_sequences_end_is_credited_to_its_own_owner() {
+    every_world!(shared_exception_sequence, false);
+    let mut failed = Vec::new();
+    for (world, r) in [
+        (
+            "fine, one word",
+            std::panic::catch_unwind(|| {
+                shared_exception_sequence::<Interleaved, 8, 1>(Layout::One, true)
+            }),
+        ),
+        (
+            "fine, two words",
+            std::panic::catch_unwind(|| {
+                shared_exception_sequence::<Interleaved, 64, 2>(Layout::Second, true)
+            }),
+        ),
+    ] {
+        if let Err(e) = r {
+            let msg = e.downcast_ref::<String>().cloned().unwrap_or_default();
+            failed.push(format!("[{world}] {msg}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+/// Liveness (semantics 3, `Nothing`: the owner goes on once its exception sequence ends).
+/// O (main) has M0 (`Nothing`, E) and a `PauseOwner` monitor MP (exception sequence E,
+/// beside the pause) armed after 1 ms. At 1 ms M0 fires, E runs. Before 2 ms a handle
+/// aborts E and pauses Q: the tick at 2 ms credits O in its second fold, then MP holds O
+/// and starts E beside the pause. Before section `k` of the tick at 3 ms (which applies
+/// the credit) a handle asks a pause of O (a lane above; `late`: after the tick). Once
+/// E has ended, MP's condition cleared and O is resumed, O runs unheld.
+fn nothing_with_a_hold<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    party_on: bool,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let (o, e, q) = (w.seq("O"), w.seq("E"), w.seq("Q"));
+        let fp = flag_of(false);
+        w.monitor(o, flag_of(true), Behaviour::Nothing, Some(e));
+        w.monitor(o, fp, Behaviour::PauseOwner, Some(e));
+        w.start_taken(o);
+        w.start_taken(q);
+        w.tick(1);
+        assert!(w.has(e, flag::HANDLES_EXCEPTION) && w.caller(e) == Some(o));
+        w.take(e);
+        fp.store(true, Ordering::Relaxed);
+        w.handle(e).abort().unwrap();
+        w.handle(q).pause().unwrap();
+        w.tick(2);
+        (w, o, e, fp)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(3));
+    let ks = if party_on { count + 1 } else { 1 };
+    every_k(ks, |k| {
+        let (w, o, e, fp) = setup();
+        let party = move || {
+            let _ = w.kept(o).pause();
+        };
+        if party_on {
+            interleaved::at(k, party);
+        }
+        w.tick(3);
+        let late = party_on && or_after(k, party);
+        let what = name::<L>(layout, format_args!("k={k} of {count}, late {late}"));
+        w.try_take(e);
+        w.complete(e);
+        fp.store(false, Ordering::Relaxed);
+        w.tick(4);
+        w.tick(5);
+        let _ = w.handle(o).resume();
+        w.tick(6);
+        w.tick(7);
+        assert!(
+            !w.in_set(Set::Excepting, o),
+            "{what}: O held for good: {:?}",
+            w.transitions(o)
+        );
+        assert_eq!(w.state(o), Running, "{what}: {:?}", w.transitions(o));
+        w.check_tree(&what);
+    });
+}
+
+#[test]
+fn nothing_after_a_second_fold_credit_and_a_hold_lets_the_owner_go_on() {
+    every_world!(nothing_with_a_hold, false);
+    every_world!(nothing_with_a_hold, true);
+}
