@@ -303,9 +303,10 @@ impl<'a, C> Handle<'a, C> {
 
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
     /// sequence was aborted, or is being restarted, because of it. The restarted run begins
-    /// without it (it is not held), and so does a new start; an abort for another cause
-    /// during the exception (an abort-all, an abort request, a teardown from above) ends
-    /// it too. [`active_exception`] keeps naming the last exception until a new start.
+    /// without it (it is not held), and so does a new start (not one refused); an abort
+    /// for another cause during the exception (an abort-all, an abort request, a teardown
+    /// from above) ends it too. [`active_exception`] keeps naming the last exception until
+    /// a new start.
     ///
     /// [`active_exception`]: Handle::active_exception
     ///

@@ -8,7 +8,7 @@ use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::sequencer::callers::join_would_deadlock;
 use crate::sequencer::clearance::{end_run, Clearance};
-use crate::sequencer::control_block::flag;
+use crate::sequencer::control_block::{flag, ControlBlock};
 use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::lanes::declare_lane;
 use crate::sequencer::requests::{abort_child, ask};
@@ -368,7 +368,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 state: b.state,
                 caller: b.caller.get(),
                 lane: b.lane,
-                exception_active: s.sets.has(Set::Excepting, id),
+                exception_active: exception_active(b, s.sets.has(Set::Excepting, id)),
                 active_exception: b.active_exception,
                 #[cfg(feature = "counters")]
                 counters: s.counters.get(id.index()).copied().unwrap_or_default(),
@@ -406,5 +406,17 @@ impl<C> dyn Port<C> + '_ {
             .map_while(|id| Some((id, self.info(id)?.name)))
             .find(|&(_, n)| n == name)
             .map(|(id, _)| id)
+    }
+}
+
+/// `exception_is_active` of a block whose mark of an exception is `excepting`: of a run
+/// under way (or restarting) the mark; of an aborted run whether its exception aborted it
+/// (its outcome's cause is its last exception), which a start refused after its schedule
+/// leaves as it was.
+fn exception_active(b: &ControlBlock, excepting: bool) -> bool {
+    match (b.state, b.outcome, b.active_exception) {
+        (RunningState::Aborted, Some(Outcome::Aborted(cause)), Some(last)) => cause == last,
+        (RunningState::Aborted, _, _) => false,
+        _ => excepting,
     }
 }

@@ -158,8 +158,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// Schedules a new run of `id` from now, before its commit: its clock (and timeout), its
-    /// lane, no pause in force, no last exception yet (the outcome stays the last finished
-    /// run's, which a join of that run may still collect). Only for a sequence that may
+    /// lane, no pause in force (the outcome stays the last finished run's, which a join of
+    /// that run may still collect, and so does its last exception until the commit: a
+    /// start refused after this leaves it). Only for a sequence that may
     /// start ([`ControlBlock::may_start`]; else [`Error::AlreadyRunning`]): the tick
     /// neither scans it nor walks through these fields, and the caller link, flags and
     /// state, which it does read, change in the commit. The checks of the start came
@@ -173,7 +174,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let from = b.state;
         let armed = b.timeout != 0;
         b.lane = lane;
-        b.active_exception = None;
         b.lift_pauses();
         b.restarts_made = 0;
         self.start_clock(id);
@@ -203,8 +203,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// After the schedule, before the commit, for a sequence that is not monitored
-    /// (else nothing): the sets the tick reads of a monitored sequence (fresh, no exception, not
-    /// waiting for a poll, the timeout `armed` or not).
+    /// (else nothing): the sets the tick reads of a monitored sequence (fresh, no exception,
+    /// not waiting for a poll, the timeout `armed` or not). The mark of an exception is of
+    /// a run under way: an ended run's `exception_is_active` comes from its outcome.
     fn prepare(&mut self, id: SeqId, armed: bool) {
         if RunningStates::RUNNING_OR_PAUSED.has(self.state_of(id)) {
             return;
@@ -284,6 +285,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         b.caller = Link::to(run.caller.map(|c| c.seq));
         b.flags = run.flags;
         b.runs = b.runs.wrapping_add(1);
+        // The last run's exception is named until here, not only until the schedule: a
+        // start refused after its schedule leaves `active_exception` as it was.
+        b.active_exception = None;
         Some(RunId {
             seq: change.sequence,
             count: b.runs,

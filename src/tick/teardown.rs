@@ -238,9 +238,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                         seq: id,
                         count: b.runs,
                     };
-                    // Aborted for a cause of its own exception, the mark stays
-                    // (`exception_is_active`); for any other (an abort-all, a request, a
-                    // teardown from above), no exception is handled any more.
+                    // Aborted for a cause of its own exception, the mark stays; for any
+                    // other (an abort-all, a request, a teardown from above), no exception
+                    // is handled any more. (`exception_is_active` of an aborted run reads
+                    // its outcome, `Port::info`, which a start refused later leaves.)
                     if b.active_exception != Some(cause) {
                         s.sets.put(Set::Excepting, id, false);
                     }

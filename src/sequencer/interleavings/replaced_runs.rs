@@ -847,3 +847,137 @@ fn a_caller_behaviour_leaves_no_run_held_whatever_a_lane_does_to_the_caller_mean
         }
     }
 }
+
+// Teardowns after session 56's changes (a cold review): a start refused after its schedule
+// must leave the aborted run's exception as it was; the restart budget with the lane above
+// the tick taking the restart up held.
+
+/// O (main) was aborted at 1 ms by its own `AbortOwner` monitor M0: the exception caused
+/// the abort, so `exception_is_active` stays and `active_exception` names M0 (semantics
+/// 3). P (main) runs. Returns the world, O and P.
+fn aborted_by_its_exception<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId, SeqId) {
+    let w = World::<L, N, B>::new(layout);
+    let o = w.seq("O");
+    let p = w.seq("P");
+    w.monitor(o, flag_of(true), Behaviour::AbortOwner, None);
+    w.start_taken(o);
+    w.start_taken(p);
+    w.tick(1);
+    assert_eq!(w.ended(o), (Aborted, M0));
+    assert!(w.kept(o).exception_is_active());
+    assert_eq!(w.kept(o).active_exception(), Some(M0));
+    assert_eq!(w.state(p), Running);
+    (w, o, p)
+}
+
+/// P starts O in O's lane (`Port::start_child`); before each section of that start a party
+/// above P's lane asks P's abort (a handle of higher priority). A start that is refused
+/// (`NotRunning(P)`) is no new start: O's aborted run keeps its exception, both
+/// `exception_is_active` and `active_exception` (semantics 3; `Handle::exception_is_active`:
+/// "ends with a restart, a new start, or an abort for another cause";
+/// `active_exception` "keeps naming the last exception until a new start").
+fn refused_start_keeps_the_exception<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    let setup = move || aborted_by_its_exception::<L, N, B>(layout);
+    let count = sections(setup, |(w, o, p)| {
+        let _ = Port::start_child(w.seq, *o, w.run(*p));
+    });
+    every_k(count, |k| {
+        let (w, o, p) = setup();
+        let what = name::<L>(layout, format_args!("k={k}/{count}"));
+        interleaved::at(k, move || {
+            let _ = w.kept(p).abort();
+        });
+        let started = Port::start_child(w.seq, o, w.run(p));
+        assert!(inserted(k), "{what}: the party ran");
+        match started {
+            Ok(_) => {
+                assert_eq!(w.state(o), Running, "{what}");
+                assert!(!w.kept(o).exception_is_active(), "{what}");
+            }
+            Err(e) => {
+                assert_eq!(e, Error::NotRunning(p), "{what}");
+                assert_eq!(w.ended(o), (Aborted, M0), "{what}");
+                assert_eq!(
+                    (
+                        w.kept(o).exception_is_active(),
+                        w.kept(o).active_exception()
+                    ),
+                    (true, Some(M0)),
+                    "{what}: a refused start cleared the aborted run's exception"
+                );
+            }
+        }
+        w.tick(2);
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_refused_start_leaves_the_exception_of_the_aborted_run() {
+    every_world!(refused_start_keeps_the_exception);
+}
+
+/// O (main) with a `RestartOwner` monitor M0 of restart limit 2 whose condition stays
+/// true. Returns the world and O.
+fn budgeted<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) -> (World<L, N, B>, SeqId) {
+    let w = World::<L, N, B>::new(layout);
+    let o = w.seq("O");
+    let condition: &'static mut (dyn Condition<()> + Send) =
+        Box::leak(Box::new(|_: &(), _: Instant| true));
+    w.monitors
+        .borrow_mut()
+        .add(
+            o,
+            Monitor::new("m", condition, Behaviour::RestartOwner).restart_limit(2),
+        )
+        .unwrap();
+    w.start_taken(o);
+    (w, o)
+}
+
+/// O's lane, above the tick, takes up O's restart before each section of the tick at
+/// 1 ms that restarts O (or after it). The budget is per run (semantics 5): O restarts
+/// twice (ticks 1 and 2, each restart counted once) and the third firing escalates to an
+/// abort: `Aborted(M0)` by the tick at 3 ms, with two restarts and no more.
+fn restart_budget_with_the_lane_above<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+) {
+    if L::COARSE {
+        return;
+    }
+    let setup = move || budgeted::<L, N, B>(layout);
+    let count = sections(setup, |(w, _)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, o) = setup();
+        let what = name::<L>(layout, format_args!("k={k}/{count}"));
+        let lane = move || {
+            if w.state(o) == Restarting {
+                w.seq.restart(w.run(o));
+            }
+        };
+        interleaved::at(k, lane);
+        w.tick(1);
+        interleaved::at(usize::MAX, || {});
+        lane();
+        assert_eq!(w.state(o), Running, "{what}");
+        for ms in 2..=4 {
+            w.tick(ms);
+            lane();
+        }
+        assert_eq!(w.ended(o), (Aborted, M0), "{what}");
+        assert_eq!(w.moves(o, Running, Restarting), 2, "{what}: restarts");
+        assert!(w.kept(o).exception_is_active(), "{what}");
+        w.check(&what);
+    });
+}
+
+#[test]
+fn a_restart_budget_is_spent_once_per_restart_with_the_lane_above_the_tick() {
+    every_world!(restart_budget_with_the_lane_above);
+}
