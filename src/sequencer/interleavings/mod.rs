@@ -656,12 +656,11 @@ fn restarting<L: Lock + 'static, const N: usize, const B: usize>(
     (w, o, w.run(o))
 }
 
-/// O's `RestartOwner` monitor restarted O at 1 ms, then its condition cleared, and an
-/// abort of O (a request with `by_request`, else an abort-all) is pending. Returns the
-/// world, O and O's run, to be restarted by O's lane.
-fn restarting_then_aborted<L: Lock + 'static, const N: usize, const B: usize>(
+/// O (polled every ms) with a `RestartOwner` monitor whose condition was true at 1 ms: O
+/// is `Restarting`, the condition cleared. Returns the world, O and O's run, to be
+/// restarted by O's lane.
+fn restarted_once<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,
-    by_request: bool,
 ) -> (World<L, N, B>, SeqId, RunId) {
     let w = World::<L, N, B>::new(layout);
     let o = w.seq("O");
@@ -671,12 +670,22 @@ fn restarting_then_aborted<L: Lock + 'static, const N: usize, const B: usize>(
     w.tick(1);
     assert_eq!(w.state(o), Restarting);
     fault.store(false, Ordering::Relaxed);
+    (w, o, w.run(o))
+}
+
+/// As [`restarted_once`], and an abort of O (a request with `by_request`, else an
+/// abort-all) is pending.
+fn restarting_then_aborted<L: Lock + 'static, const N: usize, const B: usize>(
+    layout: Layout,
+    by_request: bool,
+) -> (World<L, N, B>, SeqId, RunId) {
+    let (w, o, run) = restarted_once(layout);
     if by_request {
         w.handle(o).abort().unwrap();
     } else {
         w.seq.abort_all();
     }
-    (w, o, w.run(o))
+    (w, o, run)
 }
 
 /// O's lane obeys `Restart` (`Sequencer::restart`) on a world from

@@ -715,22 +715,6 @@ fn a_pause_asked_before_the_tick_applying_a_restart_is_unseen_whatever_the_relau
 // by a cold review of requests in session 56: an abort asked while the lane took up its
 // restart let the restart begin; the others held).
 
-/// O (polled every ms) with a `RestartOwner` monitor whose condition (the returned flag)
-/// was true at 1 ms: O is `Restarting`, the flag cleared. Returns the world, O and O's run.
-fn restarted_once<L: Lock + 'static, const N: usize, const B: usize>(
-    layout: Layout,
-) -> (World<L, N, B>, SeqId, RunId) {
-    let w = World::<L, N, B>::new(layout);
-    let o = w.seq("O");
-    let fault = flag_of(true);
-    w.monitor(o, fault, Behaviour::RestartOwner, None);
-    w.start_taken(o);
-    w.tick(1);
-    assert_eq!(w.state(o), Restarting);
-    fault.store(false, Ordering::Relaxed);
-    (w, o, w.run(o))
-}
-
 /// O's lane got the clearance `Restart` and takes the restart up (`Sequencer::restart`);
 /// a lane of higher priority asks O's abort (a handle), or an abort-all is posted (any
 /// priority), before each section of the restart up to its commit. Semantics 8: from the

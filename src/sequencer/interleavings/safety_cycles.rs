@@ -104,6 +104,16 @@ static PROPS: SafetyProperties<'static, Io, 3> = SafetyProperties::new(
 );
 
 /// What the trace says of the safety system and abort-alls, in order: `L<id>` a level,
+/// A safety system of `PROPS` built on `w`'s sequencer's handle, shared by every copy of a
+/// scenario.
+fn safety_system_of<L: Lock + 'static, const N: usize, const B: usize>(
+    w: &World<L, N, B>,
+) -> &'static RefCell<SafetySystem<'static, Io, 3>> {
+    Box::leak(Box::new(RefCell::new(
+        SafetySystem::new(&PROPS, &w.seq.safety).unwrap(),
+    )))
+}
+
 /// `A` an abort-all.
 fn safety_records<L: Lock + 'static, const N: usize, const B: usize>(
     w: &World<L, N, B>,
@@ -129,9 +139,7 @@ fn cycle_into_tick<L: Lock + 'static, const N: usize, const B: usize>(layout: La
         let w = World::<L, N, B>::new(layout);
         let o = w.seq("O");
         w.start_taken(o);
-        let safety: &'static RefCell<SafetySystem<'static, Io, 3>> = Box::leak(Box::new(
-            RefCell::new(SafetySystem::new(&PROPS, &w.seq.safety).unwrap()),
-        ));
+        let safety = safety_system_of(&w);
         safety.borrow_mut().cycle(&mut Io, w.seq);
         w.tick(0);
         w.seq.safety.trigger(GO_MID);
@@ -181,9 +189,7 @@ fn cycle_without_sequences_into_tick<L: Lock + 'static, const N: usize, const B:
         let w = World::<L, N, B>::new(layout);
         let o = w.seq("O");
         w.start_taken(o);
-        let safety: &'static RefCell<SafetySystem<'static, Io, 3>> = Box::leak(Box::new(
-            RefCell::new(SafetySystem::new(&PROPS, &w.seq.safety).unwrap()),
-        ));
+        let safety = safety_system_of(&w);
         safety.borrow_mut().cycle(&mut Io, &NoSequences);
         w.tick(0);
         w.seq.safety.trigger(GO_STOP);
