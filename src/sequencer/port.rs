@@ -410,13 +410,15 @@ impl<C> dyn Port<C> + '_ {
 }
 
 /// `exception_is_active` of a block whose mark of an exception is `excepting`: of a run
-/// under way (or restarting) the mark; of an aborted run whether its exception aborted it
-/// (its outcome's cause is its last exception), which a start refused after its schedule
-/// leaves as it was.
+/// under way the mark; of one being stopped or stopped (`Aborting`, `Aborted`,
+/// `Restarting`), whether its last exception is what stops it (the cause of its teardown,
+/// set in its first section), whatever a teardown for another cause or a start refused
+/// after its schedule left of the mark.
 fn exception_active(b: &ControlBlock, excepting: bool) -> bool {
-    match (b.state, b.outcome, b.active_exception) {
-        (RunningState::Aborted, Some(Outcome::Aborted(cause)), Some(last)) => cause == last,
-        (RunningState::Aborted, _, _) => false,
+    match b.state {
+        RunningState::Aborting | RunningState::Aborted | RunningState::Restarting => {
+            b.active_exception == Some(b.last_cause)
+        }
         _ => excepting,
     }
 }

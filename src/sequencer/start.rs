@@ -205,7 +205,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// After the schedule, before the commit, for a sequence that is not monitored
     /// (else nothing): the sets the tick reads of a monitored sequence (fresh, no exception,
     /// not waiting for a poll, the timeout `armed` or not). The mark of an exception is of
-    /// a run under way: an ended run's `exception_is_active` comes from its outcome.
+    /// a run under way: a stopped run's `exception_is_active` comes from its last cause.
     fn prepare(&mut self, id: SeqId, armed: bool) {
         if RunningStates::RUNNING_OR_PAUSED.has(self.state_of(id)) {
             return;

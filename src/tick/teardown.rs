@@ -240,8 +240,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     };
                     // Aborted for a cause of its own exception, the mark stays; for any
                     // other (an abort-all, a request, a teardown from above), no exception
-                    // is handled any more. (`exception_is_active` of an aborted run reads
-                    // its outcome, `Port::info`, which a start refused later leaves.)
+                    // is handled any more. (`exception_is_active` of a stopped run reads
+                    // its last cause, `Port::info`, which a start refused later leaves.)
                     if b.active_exception != Some(cause) {
                         s.sets.put(Set::Excepting, id, false);
                     }
