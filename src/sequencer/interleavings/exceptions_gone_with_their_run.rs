@@ -452,20 +452,32 @@ fn old_exception_end_credited_to_new_run<L: Lock + 'static, const N: usize, cons
         let by_e2 = w.has(e2, flag::HANDLES_EXCEPTION) && w.caller(e2) == Some(o);
         if w.runs(o) == 2 && w.in_set(Set::Excepting, o) && by_e2 {
             SEEN_E2.fetch_add(1, Ordering::Relaxed);
-            w.try_take(e2);
-            w.tick(3);
-            assert_eq!(
-                (w.state(o), w.state(e2)),
-                (Running, Running),
-                "{what}: O's run 2 not held for E2's end: O {:?}",
-                w.transitions(o)
-            );
-            w.complete(e2);
-            w.tick(4);
-            assert_eq!(w.state(o), Aborted, "{what}");
+            held_until_its_own_end(&w, o, e2, &what);
         }
         w.check_tree(&what);
     });
+}
+
+/// O's new run (or round), held by its own exception handled by `e`, which its lane takes:
+/// at 3 ms O is still held and `e` runs; once `e` completes, the tick at 4 ms applies the
+/// `AbortOwner` behaviour that waited for it.
+fn held_until_its_own_end<L: Lock + 'static, const N: usize, const B: usize>(
+    w: &World<L, N, B>,
+    o: SeqId,
+    e: SeqId,
+    what: &str,
+) {
+    w.try_take(e);
+    w.tick(3);
+    assert_eq!(
+        (w.state(o), w.state(e)),
+        (Running, Running),
+        "{what}: O not held for its own exception sequence's end: O {:?}",
+        w.transitions(o)
+    );
+    w.complete(e);
+    w.tick(4);
+    assert_eq!(w.state(o), Aborted, "{what}");
 }
 
 static SEEN_E2: AtomicUsize = AtomicUsize::new(0);
@@ -707,17 +719,7 @@ fn stale_credit_under_preemption<L: Lock + 'static, const N: usize, const B: usi
         let by_e = w.has(e, flag::HANDLES_EXCEPTION) && w.caller(e) == Some(o) && w.pending(e);
         if w.runs(o) == 2 && w.in_set(Set::Excepting, o) && by_e {
             SEEN_STALE.fetch_add(1, Ordering::Relaxed);
-            w.try_take(e);
-            w.tick(3);
-            assert_eq!(
-                (w.state(o), w.state(e)),
-                (Running, Running),
-                "{what}: O's run 2 not held for E's end: O {:?}",
-                w.transitions(o)
-            );
-            w.complete(e);
-            w.tick(4);
-            assert_eq!(w.state(o), Aborted, "{what}");
+            held_until_its_own_end(&w, o, e, &what);
         }
         w.check_tree(&what);
     });
