@@ -84,6 +84,7 @@ fn name<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
 
 mod changes_during_the_tick;
 mod coarse;
+mod drops;
 mod exception_marks;
 mod exceptions_gone_with_their_run;
 mod fine;
