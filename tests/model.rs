@@ -3196,18 +3196,11 @@ fn a_join_held_while_its_target_runs_twice_has_lost_the_outcome() {
         pre_false: None,
         fail: None,
     };
-    let mut sc = one_step(vec![], vec![]);
+    let mut sc = sub_scenario(vec![], vec![]);
     sc.steps = vec![step(2), step(10)];
-    sc.sub = Some(SubCfg {
-        period: 1,
-        first: 0,
-        len: 1,
-        timeout: None,
-        timeout_exc: None,
-        pre_false: None,
-        fail: None,
-        nb: Some(false),
-    });
+    if let Some(sub) = sc.sub.as_mut() {
+        sub.nb = Some(false);
+    }
     sc.main_ops = vec![MainOp::Start, MainOp::Step(1)];
     sc.bg_joins_main = true;
     sc.requests = vec![

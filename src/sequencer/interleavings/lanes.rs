@@ -116,6 +116,21 @@ fn cycle(id: SeqId) -> Poll<Result<Outcome, Error>> {
     Poll::Ready(Err(Error::JoinWouldDeadlock(id)))
 }
 
+/// Of two joins that closed a cycle, the refused one's run `ended` completes: the other,
+/// `waiting`, is released and woken, and gets `Completed`.
+fn the_waiting_join_completes<L: Lock + 'static, const N: usize, const B: usize>(
+    w: &World<L, N, B>,
+    ended: SeqId,
+    waiting: Shared,
+    what: &str,
+) {
+    let before = wakes(waiting);
+    assert!(w.complete(ended), "{what}");
+    let got = waiting.borrow_mut().released(w, ended, before, what);
+    assert_eq!(got, Ok(Outcome::Completed), "{what}");
+    w.check(what);
+}
+
 /// The wake-ups of `j`'s lane so far.
 fn wakes(j: Shared) -> usize {
     woken(&j.borrow().wakes)
@@ -764,11 +779,7 @@ fn crossing_joins<L: Lock + 'static, const N: usize, const B: usize>(layout: Lay
                 other => panic!("{what}: {other:?}"),
             };
             assert!(!w.in_set(Set::Joining, ended), "{what}: left joining");
-            let before = wakes(waiting);
-            assert!(w.complete(ended));
-            let got = waiting.borrow_mut().released(&w, ended, before, what);
-            assert_eq!(got, Ok(Outcome::Completed), "{what}");
-            w.check(what);
+            the_waiting_join_completes(&w, ended, waiting, what);
         },
     );
 }
@@ -815,11 +826,7 @@ fn refused_join_against_a_rejoin<L: Lock + 'static, const N: usize, const B: usi
                     w.in_set(Set::Joining, b)
                 ),
             };
-            let before = wakes(waiting);
-            assert!(w.complete(ended), "{what}");
-            let got = waiting.borrow_mut().released(&w, ended, before, what);
-            assert_eq!(got, Ok(Outcome::Completed), "{what}");
-            w.check(what);
+            the_waiting_join_completes(&w, ended, waiting, what);
         },
     );
 }
