@@ -338,7 +338,13 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
             if !t.event().is_in_range() {
                 return Err(SafetyError::EventOutOfRange { event: t.event() });
             }
-            if !t.from_low().le(t.from_high()) || t.from_low().index() >= L || t.to().index() >= L {
+            // The upper end is a defined level, or 255: `on_level_and_above`'s open end.
+            let open_ended = t.from_high().index() == u8::MAX as usize;
+            if !t.from_low().le(t.from_high())
+                || t.from_low().index() >= L
+                || (t.from_high().index() >= L && !open_ended)
+                || t.to().index() >= L
+            {
                 return Err(SafetyError::InvalidTransition { index });
             }
             // Conflicts with every later row.
