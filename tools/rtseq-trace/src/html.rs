@@ -257,7 +257,9 @@ pub fn render(run: &Run, title: &str) -> String {
     for (k, s) in run.signals.iter().enumerate() {
         let top = sig_top + k as f64 * (SIGNAL_H + SIGNAL_GAP);
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (_, v) in &s.samples {
+        // The scale of the finite samples: NaN and infinities (a failed sensor) are marked
+        // at the plot's middle and edges, and break the line.
+        for (_, v) in s.samples.iter().filter(|(_, v)| v.is_finite()) {
             lo = lo.min(*v);
             hi = hi.max(*v);
         }
@@ -267,7 +269,13 @@ pub fn render(run: &Run, title: &str) -> String {
         if hi - lo < 1e-9 {
             (lo, hi) = (lo - 1.0, hi + 1.0);
         }
-        let y = |v: f64| top + (1.0 - (v - lo) / (hi - lo)) * SIGNAL_H;
+        let y = |v: f64| {
+            if v.is_nan() {
+                top + SIGNAL_H / 2.0
+            } else {
+                top + (1.0 - (v.clamp(lo, hi) - lo) / (hi - lo)) * SIGNAL_H
+            }
+        };
         let _ = write!(
             labels,
             r#"<text class="label" x="8" y="{:.1}">{} [{}]</text><text class="scale" x="{:.1}" y="{:.1}">{}</text><text class="scale" x="{:.1}" y="{:.1}">{}</text>"#,
@@ -292,27 +300,36 @@ pub fn render(run: &Run, title: &str) -> String {
                 z = y(0.0)
             );
         }
-        let points: Vec<String> = s
-            .samples
-            .iter()
-            .map(|(t, v)| format!("{t},{:.2}", y(*v)))
-            .collect();
-        let _ = write!(
-            data,
-            r#"<polyline class="signal sig-{}" data-pts="{}" points=""><title>{}</title></polyline>"#,
-            crate::vcd::sanitize(&s.name),
-            points.join(" "),
-            esc(&format!(
-                "{} [{}], {} samples",
-                s.name,
-                s.unit,
-                s.samples.len()
-            ))
-        );
-        for (t, v) in &s.samples {
+        for piece in s.samples.split(|(_, v)| !v.is_finite()) {
+            if piece.is_empty() {
+                continue;
+            }
+            let points: Vec<String> = piece
+                .iter()
+                .map(|(t, v)| format!("{t},{:.2}", y(*v)))
+                .collect();
             let _ = write!(
                 data,
-                r#"<circle class="sample" data-t="{t}" cx="0" cy="{:.2}" r="1.6"><title>{} s  {} = {} {}</title></circle>"#,
+                r#"<polyline class="signal sig-{}" data-pts="{}" points=""><title>{}</title></polyline>"#,
+                crate::vcd::sanitize(&s.name),
+                points.join(" "),
+                esc(&format!(
+                    "{} [{}], {} samples",
+                    s.name,
+                    s.unit,
+                    s.samples.len()
+                ))
+            );
+        }
+        for (t, v) in &s.samples {
+            let class = if v.is_finite() {
+                "sample"
+            } else {
+                "sample fault"
+            };
+            let _ = write!(
+                data,
+                r#"<circle class="{class}" data-t="{t}" cx="0" cy="{:.2}" r="1.6"><title>{} s  {} = {} {}</title></circle>"#,
                 y(*v),
                 secs(*t),
                 esc(&s.name),
@@ -380,7 +397,7 @@ h1 {{ font-size: 16px; margin: 0 0 6px; }}
 .fault, .m-fault {{ stroke: #000; background: #000; }} .input, .m-input {{ stroke: #ff00aa; background: #ff00aa; }}
 .signal {{ fill: none; stroke: #1565c0; stroke-width: 1.5; vector-effect: non-scaling-stroke; }}
 .zero {{ stroke: #bbb; stroke-width: 1; vector-effect: non-scaling-stroke; }}
-.sample {{ fill: #1565c0; opacity: 0; }} .sample:hover {{ opacity: 1; }}
+.sample {{ fill: #1565c0; opacity: 0; }} .sample:hover {{ opacity: 1; }} .sample.fault {{ fill: #c62828; opacity: 1; }}
 .lost-warning {{ margin: 0 0 8px; padding: 6px 10px; background: #fde2e1; border: 2px solid #d0021b; color: #7a0010; font-size: 14px; }}
 #tip {{ position: fixed; display: none; background: #ffffe8; border: 1px solid #999; padding: 4px 6px; white-space: pre; font-size: 12px; pointer-events: none; }}
 </style></head><body>

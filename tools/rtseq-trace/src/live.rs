@@ -16,7 +16,65 @@ use ratatui::widgets::{Block, Borders, Paragraph};
 use ratatui::{Frame, Terminal};
 
 use crate::log::{Hints, Line, LogParser};
-use crate::model::{secs, State};
+use crate::model::{secs, State, Transition};
+
+/// The exceptions the view shows, per sequence.
+#[derive(Default)]
+struct ExceptionMarks {
+    /// The exception (a monitor or timeout) that holds the sequence, stopped it or is
+    /// restarting it.
+    marks: Vec<Option<String>>,
+    /// The sequence runs as an exception sequence (its caller is the owner).
+    handling: Vec<bool>,
+}
+
+impl ExceptionMarks {
+    /// Follows one transition into the exceptions shown: what a log tells of the library's
+    /// `exception_is_active` (docs/semantics.md, item 3), and of the sequences an exception
+    /// stopped or restarts. The start of an exception sequence (cause the monitor or
+    /// timeout, from a state at rest) marks its caller, the owner, until it ends; the
+    /// exception sequence itself is not marked. A transition the exception causes (an
+    /// abort, a restart, a `PauseOwner` hold, of the owner or of a sequence its behaviour
+    /// reaches) marks its sequence; a hold's release, a restart's new round, a new start,
+    /// an end, and an abort for another cause clear the mark. A pause or resume request
+    /// leaves it.
+    fn note(&mut self, t: &Transition, owner: Option<usize>, sequences: usize) {
+        self.marks.resize(sequences, None);
+        self.handling.resize(sequences, false);
+        let exceptional = t.cause.starts_with("monitor ") || t.cause.starts_with("timeout ");
+        let handling = self.handling.get_mut(t.seq);
+        if exceptional && !t.from.is_active() && t.to == State::Running {
+            if let Some(h) = handling {
+                *h = true;
+            }
+            if let Some(mark) = owner.and_then(|o| self.marks.get_mut(o)) {
+                *mark = Some(t.cause.clone());
+            }
+            return;
+        }
+        if let Some(h) = handling.filter(|h| **h && !t.to.is_active()) {
+            // The exception sequence ended: its owner's exception is handled (a behaviour
+            // that stops the owner marks it again).
+            *h = false;
+            if let Some(mark) = owner.and_then(|o| self.marks.get_mut(o)) {
+                *mark = None;
+            }
+        }
+        if let Some(mark) = self.marks.get_mut(t.seq) {
+            if exceptional {
+                let released = t.from == State::Paused && t.to == State::Running;
+                *mark = (!released).then(|| t.cause.clone());
+            } else if !matches!(t.cause.as_str(), "pause" | "resume") {
+                *mark = None;
+            }
+        }
+    }
+
+    /// The exception shown beside sequence `i`.
+    fn of(&self, i: usize) -> Option<&str> {
+        self.marks.get(i).and_then(Option::as_deref)
+    }
+}
 
 /// How many events the view keeps.
 const LATEST: usize = 200;
@@ -24,9 +82,7 @@ const LATEST: usize = 200;
 /// What the live view knows.
 pub struct Live {
     parser: LogParser,
-    /// Per sequence: the active exception (the monitor or timeout of the last
-    /// exception-caused transition of the current run).
-    exceptions: Vec<Option<String>>,
+    exceptions: ExceptionMarks,
     latest: VecDeque<String>,
     ended: bool,
     title: String,
@@ -37,7 +93,7 @@ impl Live {
     pub fn new(hints: Hints, title: &str) -> Live {
         Live {
             parser: LogParser::new(hints),
-            exceptions: Vec::new(),
+            exceptions: ExceptionMarks::default(),
             latest: VecDeque::new(),
             ended: false,
             title: title.to_string(),
@@ -53,14 +109,8 @@ impl Live {
                 let Some(t) = run.transitions.get(k) else {
                     return;
                 };
-                self.exceptions.resize(run.sequences.len(), None);
-                if let Some(x) = self.exceptions.get_mut(t.seq) {
-                    if t.cause.starts_with("monitor ") || t.cause.starts_with("timeout ") {
-                        *x = Some(t.cause.clone());
-                    } else if t.cause == "start" && !t.from.is_active() {
-                        *x = None;
-                    }
-                }
+                let owner = run.sequences.get(t.seq).and_then(|s| s.caller);
+                self.exceptions.note(t, owner, run.sequences.len());
                 let name = run.sequences.get(t.seq).map_or("?", |s| s.name.as_str());
                 format!(
                     "{} {name}: {} -> {} ({})",
@@ -181,7 +231,7 @@ impl Live {
                 Span::raw(format!("{label:<width$}  ")),
                 Span::styled(format!("{:<10}", state.name()), state_style(state)),
             ];
-            if let Some(Some(x)) = self.exceptions.get(i) {
+            if let Some(x) = self.exceptions.of(i) {
                 spans.push(Span::styled(
                     format!(" exception: {}", x.strip_prefix("monitor ").unwrap_or(x)),
                     Style::default().fg(Color::Red),

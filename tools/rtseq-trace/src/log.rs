@@ -112,6 +112,10 @@ pub struct LogParser {
     pub run: Run,
     hints: Hints,
     time_us: u64,
+    /// The last stamp as the line gave it, and what the wraps of a 32-bit counter seen so
+    /// far add to it.
+    last_stamp: Option<u64>,
+    wrapped_us: u64,
 }
 
 impl LogParser {
@@ -121,6 +125,8 @@ impl LogParser {
             run: Run::default(),
             hints,
             time_us: 0,
+            last_stamp: None,
+            wrapped_us: 0,
         }
     }
 
@@ -144,13 +150,28 @@ impl LogParser {
         self.time_us
     }
 
+    /// The time of a stamp, in µs since the first line's counter was 0. A firmware that
+    /// stamps its lines with a 32-bit counter (`{=u32}ms`, the NUCLEO board's; `{=u32}us`)
+    /// wraps it: a stamp more than half the counter's range before the last one is the
+    /// counter's next turn. A smaller step back (a reset) is taken as it is.
+    fn unwrap(&mut self, stamp: Stamp) -> u64 {
+        if let (Some(range), Some(last)) = (stamp.counter_range_us, self.last_stamp) {
+            if last > stamp.us && last - stamp.us > range / 2 {
+                self.wrapped_us = self.wrapped_us.saturating_add(range);
+            }
+        }
+        self.last_stamp = Some(stamp.us);
+        stamp.us.saturating_add(self.wrapped_us)
+    }
+
     /// Reads one line.
     pub fn line(&mut self, line: &str) -> Line {
         let (time, msg) = split_line(line);
         let Some(msg) = msg else {
             return Line::Other;
         };
-        if let Some(t) = time {
+        if let Some(stamp) = time {
+            let t = self.unwrap(stamp);
             self.time_us = t;
             self.run.end_us = self.run.end_us.max(t);
         }
@@ -340,16 +361,37 @@ impl LogParser {
     }
 }
 
-/// Splits a decoded line into its time (µs) and its message (`None`: not a log message).
-pub fn split_line(line: &str) -> (Option<u64>, Option<&str>) {
+/// A line's time stamp.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stamp {
+    /// As µs.
+    pub us: u64,
+    /// The range of the 32-bit counter a stamp in ms or µs may come from, as µs (2^32 ms or
+    /// 2^32 µs); `None` for seconds (the emulator's 64-bit clock).
+    pub counter_range_us: Option<u64>,
+}
+
+/// Splits a decoded line into its time stamp and its message (`None`: not a log message).
+pub fn split_line(line: &str) -> (Option<Stamp>, Option<&str>) {
     let mut rest = line.trim();
     if rest.is_empty() || rest.starts_with("└─") || rest.starts_with("(HOST)") {
         return (None, None);
     }
     let mut time = None;
     if let Some((w, r)) = first_word(rest) {
-        if let Some(t) = parse_time(w.trim_start_matches('[').trim_end_matches(']')) {
-            time = Some(t);
+        let token = w.trim_start_matches('[').trim_end_matches(']');
+        if let Some(us) = parse_time(token) {
+            let counter_range_us = if token.ends_with("ms") {
+                Some(1000 << 32)
+            } else if token.ends_with("us") {
+                Some(1 << 32)
+            } else {
+                None
+            };
+            time = Some(Stamp {
+                us,
+                counter_range_us,
+            });
             rest = r;
         }
     }
@@ -513,7 +555,10 @@ mod tests {
         assert_eq!(
             split_line("2514ms INFO  seq  move  Running -> Aborted (abort)"),
             (
-                Some(2_514_000),
+                Some(Stamp {
+                    us: 2_514_000,
+                    counter_range_us: Some(1000 << 32)
+                }),
                 Some("seq  move  Running -> Aborted (abort)")
             )
         );

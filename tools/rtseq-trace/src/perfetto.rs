@@ -118,7 +118,16 @@ pub fn events(run: &Run) -> Vec<Value> {
             format!("{} [{}]", s.name, s.unit)
         };
         for (t, v) in &s.samples {
-            ev.push(json!({"ph": "C", "pid": 1, "name": name, "ts": t, "args": {"value": v}}));
+            if v.is_finite() {
+                ev.push(json!({"ph": "C", "pid": 1, "name": name, "ts": t, "args": {"value": v}}));
+            } else {
+                // A counter holds numbers: a NaN or infinite sample (a failed sensor) is an
+                // instant on the events track instead.
+                ev.push(json!({
+                    "ph": "i", "s": "t", "pid": 1, "tid": EVENTS_TID, "cat": "signal",
+                    "name": format!("{name} = {v}"), "ts": t,
+                }));
+            }
         }
     }
     ev

@@ -194,8 +194,7 @@ pub fn read(text: &str) -> Result<Run, String> {
                 level: level.to_string(),
             });
         } else if let Some(name) = v.get("signal").and_then(Value::as_str) {
-            let value = field(&v, "value", n)?
-                .as_f64()
+            let value = sample_of(field(&v, "value", n)?)
                 .ok_or_else(|| format!("line {n}: `value` is not a number"))?;
             let unit = v.get("unit").and_then(Value::as_str).unwrap_or("");
             run.signal_mut(name, unit).samples.push((t, value));
@@ -208,6 +207,33 @@ pub fn read(text: &str) -> Result<Run, String> {
 
 /// The cause as a record's fields (`"cause":"monitor","monitor":0` needs monitor ids: a
 /// run read from a log has names only, so such causes are written with a `name`).
+/// A sample as JSON: a number, or `"NaN"`, `"inf"`, `"-inf"` (JSON has no such numbers; a
+/// log shows them where a sensor failed).
+fn sample_json(v: f64) -> Value {
+    if v.is_finite() {
+        json!(v)
+    } else if v.is_nan() {
+        json!("NaN")
+    } else if v > 0.0 {
+        json!("inf")
+    } else {
+        json!("-inf")
+    }
+}
+
+/// What [`sample_json`] wrote.
+fn sample_of(v: &Value) -> Option<f64> {
+    match v {
+        Value::String(s) => match s.as_str() {
+            "NaN" => Some(f64::NAN),
+            "inf" => Some(f64::INFINITY),
+            "-inf" => Some(f64::NEG_INFINITY),
+            _ => None,
+        },
+        _ => v.as_f64(),
+    }
+}
+
 fn cause_fields(cause: &str, obj: &mut Map<String, Value>) {
     let (kind, name) = match cause.split_once(' ') {
         Some(("monitor", name)) => ("monitor", Some(name)),
@@ -274,7 +300,11 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
     }
     for s in &run.signals {
         for (t, v) in &s.samples {
-            writeln!(out, "{}", json!({"t": t, "signal": s.name, "value": v}))?;
+            writeln!(
+                out,
+                "{}",
+                json!({"t": t, "signal": s.name, "value": sample_json(*v)})
+            )?;
         }
     }
     Ok(())

@@ -494,3 +494,49 @@ fn a_run_started_when_the_last_ended_is_named() {
         assert_eq!(page.matches(&want).count(), 1, "no span with\n{want}");
     }
 }
+
+/// A signal with a failed sample (`NaN`) between good ones: after the page's script ran,
+/// the line is drawn in two pieces with numbers only, and the failed sample is a visible
+/// mark placed on the time axis.
+#[test]
+fn a_failed_sample_breaks_the_line_in_chromium() {
+    let dir = common::scratch("html-nan");
+    let log = "0.000005 INFO  seq       main  Idle -> Running  (start)\n\
+               0.001000 INFO  axis      x 1.0 mm  | x\n\
+               0.002000 INFO  axis      x 2.0 mm  | x\n\
+               0.003000 INFO  axis      x NaN mm  | x\n\
+               0.004000 INFO  axis      x 3.0 mm  | x\n\
+               0.005000 INFO  axis      x 2.5 mm  | x\n\
+               0.006000 INFO  seq       main  Running -> Terminated  (completed)\n";
+    let run = rtseq_trace::read_run(log, Default::default()).unwrap();
+    let page = dir.join("nan.html");
+    std::fs::write(&page, html::render(&run, "nan")).unwrap();
+    let dom = browse(&dir.join("profile-nan"), &["--dump-dom"], &page);
+    let lines: Vec<&str> = dom
+        .split(r#"<polyline class="signal"#)
+        .skip(1)
+        .map(|l| {
+            l.split(r#"points=""#)
+                .nth(1)
+                .and_then(|p| p.split('"').next())
+                .unwrap_or("")
+        })
+        .collect();
+    assert_eq!(lines.len(), 2, "{dom}");
+    for points in &lines {
+        assert_eq!(points.split(' ').count(), 2, "{points}");
+        assert!(!points.contains("NaN"), "{points}");
+    }
+    let fault = dom
+        .split(r#"class="sample fault""#)
+        .nth(1)
+        .expect("the failed sample's mark");
+    let cx = fault
+        .split(r#"cx=""#)
+        .nth(1)
+        .and_then(|c| c.split('"').next());
+    assert!(
+        cx.is_some_and(|c| c.parse::<f64>().is_ok_and(|x| x > 0.0)),
+        "{fault}"
+    );
+}

@@ -115,3 +115,104 @@ fn a_failed_lost_check_shows_in_the_header() {
     // The fixture itself lost nothing.
     assert!(!common::fixture_run().lost.any());
 }
+
+/// The view's exception marks (live.rs, `ExceptionMarks::note`), line by line: the owner is
+/// marked from its exception sequence's start, not the exception sequence; the mark ends
+/// with the exception sequence when its behaviour leaves the owner running, comes back
+/// with a behaviour that stops it, stays through a pause request, and ends with an abort
+/// for another cause, a `PauseOwner` release and a restart's new round.
+#[test]
+fn exception_marks_follow_the_owner() {
+    let hints = rtseq_trace::log::Hints::parse("axis < main\nstop < axis\n").unwrap();
+    let mut live = Live::new(hints, "marks");
+    let marked = |live: &Live, name: &str| {
+        let screen = live.to_text(100, 20);
+        row(&screen, name).contains("exception: jam")
+    };
+    let feed = |live: &mut Live, t: &str, rest: &str| {
+        live.feed(&format!("{t} INFO  seq       {rest}"));
+    };
+    feed(&mut live, "0.001000", "main  Idle -> Running  (start)");
+    feed(&mut live, "0.001001", "axis  Idle -> Running  (start)");
+    assert!(!marked(&live, "axis"));
+    // `jam` fires with an exception sequence and `Nothing`: marked while `stop` runs.
+    feed(
+        &mut live,
+        "0.002000",
+        "stop  Idle -> Running  (monitor jam)",
+    );
+    assert!(marked(&live, "axis"));
+    assert!(!marked(&live, "stop"));
+    feed(
+        &mut live,
+        "0.003000",
+        "stop  Running -> Terminated  (completed)",
+    );
+    assert!(!marked(&live, "axis"), "the owner runs on");
+    // Again, with `AbortOwner`: marked again when the behaviour aborts it, and it stays.
+    feed(
+        &mut live,
+        "0.004000",
+        "stop  Terminated -> Running  (monitor jam)",
+    );
+    feed(
+        &mut live,
+        "0.005000",
+        "stop  Running -> Terminated  (completed)",
+    );
+    feed(
+        &mut live,
+        "0.006000",
+        "axis  Running -> Aborting  (monitor jam)",
+    );
+    feed(
+        &mut live,
+        "0.006001",
+        "axis  Aborting -> Aborted  (monitor jam)",
+    );
+    assert!(marked(&live, "axis"));
+    assert!(!marked(&live, "stop"));
+    // A new start ends it; a `PauseOwner` hold marks, a pause request keeps, the release
+    // ends it.
+    feed(&mut live, "0.007000", "axis  Aborted -> Running  (start)");
+    assert!(!marked(&live, "axis"));
+    feed(
+        &mut live,
+        "0.008000",
+        "axis  Running -> Paused  (monitor jam)",
+    );
+    assert!(marked(&live, "axis"));
+    feed(&mut live, "0.008500", "main  Running -> Paused  (pause)");
+    assert!(marked(&live, "axis"));
+    feed(&mut live, "0.008600", "main  Paused -> Running  (resume)");
+    feed(
+        &mut live,
+        "0.009000",
+        "axis  Paused -> Running  (monitor jam)",
+    );
+    assert!(!marked(&live, "axis"));
+    // A restart marks its target until the new round; an abort for another cause during
+    // an exception ends the mark.
+    feed(
+        &mut live,
+        "0.010000",
+        "main  Running -> Restarting  (monitor jam)",
+    );
+    assert!(marked(&live, "main"));
+    feed(
+        &mut live,
+        "0.010001",
+        "main  Restarting -> Running  (restart)",
+    );
+    assert!(!marked(&live, "main"));
+    feed(
+        &mut live,
+        "0.011000",
+        "stop  Terminated -> Running  (monitor jam)",
+    );
+    assert!(marked(&live, "axis"));
+    feed(&mut live, "0.012000", "stop  Running -> Aborting  (abort)");
+    feed(&mut live, "0.012001", "stop  Aborting -> Aborted  (abort)");
+    feed(&mut live, "0.012002", "axis  Running -> Aborting  (abort)");
+    assert!(!marked(&live, "axis"));
+}
