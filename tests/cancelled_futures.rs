@@ -115,7 +115,7 @@ fn a_dropped_run_whose_child_is_a_blocking_caller_ends_both_and_can_run_again() 
         c.set(1, ms(t) >= 5);
     });
     sim.start(yi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     assert_trace(
         sim.trace(),
         &[
@@ -182,7 +182,7 @@ fn a_run_dropped_while_it_is_paused_by_a_request_ends_and_its_new_run_runs() {
     sim.start(yi).unwrap();
     sim.step();
     sim.pause(xi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     assert_trace(
         sim.trace(),
@@ -229,7 +229,7 @@ fn a_polled_wait_beside_a_blocking_run_waits_out_its_caller_s_pause() {
     sim.run_for(Duration::from_millis(4));
     assert_eq!([yi, xi, zi].map(|i| sim.state(i)), [Paused; 3]);
     sim.resume(yi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     let got = take_got();
     assert_eq!(got[0], (6, "cancelled".to_string()));
@@ -396,7 +396,7 @@ fn an_old_scoped_dropped_after_a_new_scoped_start_leaves_the_new_run_alone() {
         c.set(2, ms(t) >= 4);
     });
     sim.start(oi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     assert_eq!(
         take_got(),
@@ -473,7 +473,7 @@ fn a_scoped_child_of_a_dropped_blocking_run_goes_down_with_it_and_a_new_start_ru
         c.set(1, ms(t) >= 6);
     });
     sim.start(yi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     assert_trace(
         sim.trace(),
@@ -507,13 +507,7 @@ fn exception_of_dropped_run(
     behaviour: Behaviour,
     flags: fn(u64, &Ctrl),
     e_first: bool,
-) -> (
-    Vec<Transition>,
-    Vec<rtseq::Record>,
-    Vec<(u64, String)>,
-    u16,
-    Vec<&'static str>,
-) {
+) -> DroppedRun {
     take_got();
     let seq: Sequencer<Ctrl, 8> = Sequencer::new();
     let ctrl = Ctrl::default();
@@ -548,13 +542,23 @@ fn exception_of_dropped_run(
     sim.run_for(Duration::from_millis(10));
     dump(sim.records());
     let hooks = ctrl.hooks.borrow().clone();
-    (
-        sim.trace().to_vec(),
-        sim.records().to_vec(),
-        take_got(),
-        seq.exceptions_not_run(),
+    DroppedRun {
+        trace: sim.trace().to_vec(),
+        got: take_got(),
+        not_run: seq.exceptions_not_run(),
         hooks,
-    )
+    }
+}
+
+/// What [`exception_of_dropped_run`] saw.
+struct DroppedRun {
+    trace: Vec<Transition>,
+    /// The results Y recorded, with their times (ms).
+    got: Vec<(u64, String)>,
+    /// `Sequencer::exceptions_not_run` at the end.
+    not_run: u16,
+    /// The cleanup hooks, in order.
+    hooks: Vec<&'static str>,
 }
 
 /// E ends at 3 ms in its lane (polled before Y's); in the same pass Y's wait wins and
@@ -565,7 +569,12 @@ fn exception_of_dropped_run(
 /// on that run only). The new run completes at 6 ms.
 #[test]
 fn an_exception_end_of_a_dropped_run_does_not_abort_the_owner_s_new_run() {
-    let (trace, _, got, not_run, _) = exception_of_dropped_run(
+    let DroppedRun {
+        trace,
+        got,
+        not_run,
+        ..
+    } = exception_of_dropped_run(
         Behaviour::AbortOwner,
         |t, c| {
             c.set(0, t >= 3);
@@ -604,7 +613,12 @@ fn an_exception_end_of_a_dropped_run_does_not_abort_the_owner_s_new_run() {
 /// The same with `RestartOwner`: the new run is not restarted by the old run's exception.
 #[test]
 fn an_exception_end_of_a_dropped_run_does_not_restart_the_owner_s_new_run() {
-    let (trace, _, got, not_run, _) = exception_of_dropped_run(
+    let DroppedRun {
+        trace,
+        got,
+        not_run,
+        ..
+    } = exception_of_dropped_run(
         Behaviour::RestartOwner,
         |t, c| {
             c.set(0, t >= 3);
@@ -647,7 +661,12 @@ fn an_exception_end_of_a_dropped_run_does_not_restart_the_owner_s_new_run() {
 /// ending never comes, no behaviour is applied, nothing counts as not run.
 #[test]
 fn a_run_dropped_while_its_exception_sequence_runs_takes_it_down_and_the_new_run_is_free() {
-    let (trace, _, got, not_run, hooks) = exception_of_dropped_run(
+    let DroppedRun {
+        trace,
+        got,
+        not_run,
+        hooks,
+    } = exception_of_dropped_run(
         Behaviour::AbortOwner,
         |t, c| {
             c.set(0, t >= 3);
@@ -719,7 +738,7 @@ fn a_run_dropped_while_a_pause_owner_monitor_holds_its_grandchild_leaves_the_new
         c.set(3, (2..5).contains(&ms(t)));
     });
     sim.start(yi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     assert_eq!(
         take_got(),
@@ -778,7 +797,7 @@ fn a_polled_wait_beside_a_blocking_run_returns_one_period_after_a_pause_owner_re
         c.set(3, (2..6).contains(&ms(t)));
     });
     sim.start(yi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     assert_eq!(take_got()[0], (7, "cancelled".to_string()));
     assert_eq!(idle, Some(9));
@@ -992,7 +1011,7 @@ fn a_timeout_combinator_with_its_own_waker_drops_a_paused_blocking_run() {
     sim.start(yi).unwrap();
     sim.step();
     sim.pause(xi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     assert_trace(
         sim.trace(),
@@ -1055,7 +1074,7 @@ fn a_timeout_combinator_firing_while_the_caller_is_paused_waits_for_the_resume()
     sim.run_for(Duration::from_millis(4));
     assert_eq!([yi, xi, zi].map(|i| sim.state(i)), [Paused; 3]);
     sim.resume(yi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     assert_eq!(
         take_got(),
@@ -1117,7 +1136,7 @@ fn a_scoped_join_dropped_and_made_again_across_the_caller_s_pause_gets_the_outco
     sim.run_for(Duration::from_millis(4));
     assert_eq!((sim.state(oi), sim.state(ci)), (Paused, Terminated));
     sim.resume(oi).unwrap();
-    let idle = sim.run_until_idle(Duration::from_millis(20)).map(|t| ms(t));
+    let idle = sim.run_until_idle(Duration::from_millis(20)).map(ms);
     dump(sim.records());
     let got = take_got();
     assert_eq!(got, [(6, "joined Ok(Completed)".to_string())]);

@@ -117,8 +117,6 @@ fn the_ninth_polling_period_is_refused_and_leaves_nothing_behind() {
 
 #[test]
 fn a_table_of_256_installs_and_its_last_entry_is_found() {
-    #[allow(non_snake_case)]
-    let NAMES = NAMES_BUF;
     let configs: [SeqConfig<()>; 256] = core::array::from_fn(|i| SeqConfig::new(NAMES[i]));
     let table = Table::<(), 256>::new(configs).unwrap();
     assert_eq!(table.id(NAMES[255]), Some(SeqId::from_index(255)));
@@ -139,7 +137,7 @@ fn a_table_of_256_installs_and_its_last_entry_is_found() {
 }
 
 /// Names s000..s255.
-const NAMES_BUF: [&str; 256] = [
+const NAMES: [&str; 256] = [
     "s000", "s001", "s002", "s003", "s004", "s005", "s006", "s007", "s008", "s009", "s010", "s011",
     "s012", "s013", "s014", "s015", "s016", "s017", "s018", "s019", "s020", "s021", "s022", "s023",
     "s024", "s025", "s026", "s027", "s028", "s029", "s030", "s031", "s032", "s033", "s034", "s035",
@@ -190,8 +188,7 @@ fn a_monitor_table_of_256_is_full_at_the_257th() {
 #[test]
 fn thirty_two_lanes_fit_and_the_33rd_is_refused() {
     let seq: Sequencer<(), 64, 64, CriticalSection, 32, 2> = Sequencer::new();
-    for i in 0..32 {
-        let name: &'static str = NAMES_BUF[i];
+    for (i, name) in NAMES.iter().take(32).enumerate() {
         assert!(
             seq.register(SeqConfig::new(name).in_lane()).is_ok(),
             "lane {i}"
@@ -772,7 +769,7 @@ impl rtseq::Condition<Calls> for Counted {
 fn a_full_monitor_table_with_owners_in_two_far_words_evaluates_every_monitor() {
     let seq: Sequencer<Calls, 256, 1024, CriticalSection, 8, 8> = Sequencer::new();
     let mut lanes = Vec::new();
-    for (i, name) in NAMES_BUF.iter().enumerate() {
+    for (i, name) in NAMES.iter().enumerate() {
         if i == 0 || i == 255 || i == 100 {
             lanes.push(seq.add(SeqConfig::new(name), Forever).unwrap());
         } else {
