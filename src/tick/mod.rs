@@ -66,7 +66,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// table, or with the table of another sequencer, would take polls that the
     /// sequencer's table then misses: it returns [`Error::ForeignMonitorTable`] and
     /// evaluates nothing (it carries out the requests and abort-alls, as a late tick
-    /// does). A table made anew in the place of the sequencer's is its table.
+    /// does). A table made anew in the place of the sequencer's is its table, and so is
+    /// its table after the sequencer moved.
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
     /// monotonics do). The sequencer's time is that of its last tick, 0 before the first: a

@@ -8,12 +8,12 @@ use crate::{Monitors, Sequencer};
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// Whether a due tick with `table` may take the due polls: the table is this
     /// sequencer's (it is where the sequencer's table is, and its `ticked_by` is `me`,
-    /// this sequencer's address), or the first non-empty table a due tick came with,
-    /// which is bound here (both ways); or an empty table while none is bound (it
-    /// evaluates nothing, and no table misses the polls). A table that another sequencer
-    /// ticks, or any table at another place once one is bound, may not: the polls it took
-    /// would be lost to the table that holds their monitors. A table made anew in the
-    /// place of the bound one is bound again.
+    /// this sequencer's address, or the address it had when it bound the table), or the
+    /// first non-empty table a due tick came with, which is bound here (both ways); or an
+    /// empty table while none is bound (it evaluates nothing, and no table misses the
+    /// polls). A table that another sequencer ticks, or any table at another place once
+    /// one is bound, may not: the polls it took would be lost to the table that holds
+    /// their monitors. A table made anew in the place of the bound one is bound again.
     #[inline(always)]
     pub(super) fn takes_polls<const M: usize, K>(
         &mut self,
@@ -29,6 +29,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         if !table.is_empty() {
             self.monitor_table = here;
+            self.bound_from = me;
             table.ticked_by = me;
         }
         true
@@ -40,7 +41,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     fn is_foreign<const M: usize, K>(&self, me: usize, table: &Monitors<'_, C, M, K>) -> bool {
         let here = core::ptr::from_ref(table).addr();
         let ours = self.monitor_table == 0 || self.monitor_table == here;
-        !ours || (table.ticked_by != 0 && table.ticked_by != me)
+        // Bound by this sequencer at the address it had then (it moved since).
+        let bound_here = self.monitor_table == here && table.ticked_by == self.bound_from;
+        !ours || (table.ticked_by != 0 && table.ticked_by != me && !bound_here)
     }
 }
 
