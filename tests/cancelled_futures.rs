@@ -563,95 +563,54 @@ struct DroppedRun {
 
 /// E ends at 3 ms in its lane (polled before Y's); in the same pass Y's wait wins and
 /// drops X's run, whose exception E served, and starts X again. The tick at 4 ms reports
-/// E's end: its `AbortOwner` is of the dropped run, never of the new run (item 3: "nor is
-/// a later run or round of the owner [credited with this end], whose own exception waits
-/// for its own exception sequence"; item 9: what the tick decides on a run is carried out
-/// on that run only). The new run completes at 6 ms.
+/// E's end: its behaviour (`AbortOwner`, `RestartOwner`) is of the dropped run, never of
+/// the new run (item 3: "nor is a later run or round of the owner [credited with this
+/// end], whose own exception waits for its own exception sequence"; item 9: what the tick
+/// decides on a run is carried out on that run only). The new run completes at 6 ms.
 #[test]
-fn an_exception_end_of_a_dropped_run_does_not_abort_the_owner_s_new_run() {
-    let DroppedRun {
-        trace,
-        got,
-        not_run,
-        ..
-    } = exception_of_dropped_run(
-        Behaviour::AbortOwner,
-        |t, c| {
-            c.set(0, t >= 3);
-            c.set(1, t >= 6);
-            c.set(2, t >= 3);
-            c.set(3, t == 2);
-        },
-        true,
-    );
-    let [xi, ei, yi] = ids([0, 1, 2]);
-    let m0 = Cause::Monitor(rtseq::MonitorId::from_index(0));
-    assert_trace(
-        &trace,
-        &[
-            tr(0, yi, Idle, Running, Cause::Start),
-            tr(0, xi, Idle, Running, Cause::Start),
-            tr(2, ei, Idle, Running, m0),
-            tr(3, ei, Running, Terminated, Cause::Completed),
-            tr(3, xi, Running, Aborting, Cause::Dropped),
-            tr(3, xi, Aborting, Aborted, Cause::Dropped),
-            tr(3, xi, Aborted, Running, Cause::Start),
-            tr(6, xi, Running, Terminated, Cause::Completed),
-            tr(6, yi, Running, Terminated, Cause::Completed),
-        ],
-    );
-    assert_eq!(
-        got,
-        [
-            (3, "cancelled".to_string()),
-            (6, "second run Ok(Completed)".to_string())
-        ]
-    );
-    assert_eq!(not_run, 0);
-}
-
-/// The same with `RestartOwner`: the new run is not restarted by the old run's exception.
-#[test]
-fn an_exception_end_of_a_dropped_run_does_not_restart_the_owner_s_new_run() {
-    let DroppedRun {
-        trace,
-        got,
-        not_run,
-        ..
-    } = exception_of_dropped_run(
-        Behaviour::RestartOwner,
-        |t, c| {
-            c.set(0, t >= 3);
-            c.set(1, t >= 6);
-            c.set(2, t >= 3);
-            c.set(3, t == 2);
-        },
-        true,
-    );
-    let [xi, ei, yi] = ids([0, 1, 2]);
-    let m0 = Cause::Monitor(rtseq::MonitorId::from_index(0));
-    assert_trace(
-        &trace,
-        &[
-            tr(0, yi, Idle, Running, Cause::Start),
-            tr(0, xi, Idle, Running, Cause::Start),
-            tr(2, ei, Idle, Running, m0),
-            tr(3, ei, Running, Terminated, Cause::Completed),
-            tr(3, xi, Running, Aborting, Cause::Dropped),
-            tr(3, xi, Aborting, Aborted, Cause::Dropped),
-            tr(3, xi, Aborted, Running, Cause::Start),
-            tr(6, xi, Running, Terminated, Cause::Completed),
-            tr(6, yi, Running, Terminated, Cause::Completed),
-        ],
-    );
-    assert_eq!(
-        got,
-        [
-            (3, "cancelled".to_string()),
-            (6, "second run Ok(Completed)".to_string())
-        ]
-    );
-    assert_eq!(not_run, 0);
+fn an_exception_end_of_a_dropped_run_leaves_the_owner_s_new_run_alone() {
+    for behaviour in [Behaviour::AbortOwner, Behaviour::RestartOwner] {
+        let DroppedRun {
+            trace,
+            got,
+            not_run,
+            ..
+        } = exception_of_dropped_run(
+            behaviour,
+            |t, c| {
+                c.set(0, t >= 3);
+                c.set(1, t >= 6);
+                c.set(2, t >= 3);
+                c.set(3, t == 2);
+            },
+            true,
+        );
+        let [xi, ei, yi] = ids([0, 1, 2]);
+        let m0 = Cause::Monitor(rtseq::MonitorId::from_index(0));
+        assert_trace(
+            &trace,
+            &[
+                tr(0, yi, Idle, Running, Cause::Start),
+                tr(0, xi, Idle, Running, Cause::Start),
+                tr(2, ei, Idle, Running, m0),
+                tr(3, ei, Running, Terminated, Cause::Completed),
+                tr(3, xi, Running, Aborting, Cause::Dropped),
+                tr(3, xi, Aborting, Aborted, Cause::Dropped),
+                tr(3, xi, Aborted, Running, Cause::Start),
+                tr(6, xi, Running, Terminated, Cause::Completed),
+                tr(6, yi, Running, Terminated, Cause::Completed),
+            ],
+        );
+        assert_eq!(
+            got,
+            [
+                (3, "cancelled".to_string()),
+                (6, "second run Ok(Completed)".to_string())
+            ],
+            "{behaviour:?}"
+        );
+        assert_eq!(not_run, 0, "{behaviour:?}");
+    }
 }
 
 /// X handles an exception (E running, its `AbortOwner` pending) when Y's wait wins at 3
