@@ -236,8 +236,8 @@ pub struct Reaction {
     /// When the fault was injected.
     pub injected: Option<Instant>,
     /// When the application reacted: the safe stop started (following error), the moves
-    /// were aborted (end stop), the safety system withdrew the drive permit (over-current,
-    /// e-stop).
+    /// were aborted (end stop), the safety system tripped to emergency, which withdraws
+    /// the drive permit (over-current, e-stop).
     pub reacted: Option<Instant>,
     /// When the motor was first stopped after the reaction (|v| ≤ 5 mm/s, |i| ≤ 0.3 A).
     pub stopped: Option<Instant>,
@@ -508,7 +508,9 @@ rtseq::sequences! {
     /// polling 1 ms unless noted; `status` and its `blink` 5 ms; `homing` with timeout
     /// `homing_timeout`, exception `safe stop`, `AbortOwner`; `move` with timeout
     /// `move_timeout`; `homing`, `moves` and `move` stop the axis when aborted
-    /// ([`ControlSystem::abort_hook`]). Errors if a duration is out of range.
+    /// ([`ControlSystem::abort_hook`]); aborted `main` ends in phase fault
+    /// ([`Main::aborted`]), aborted `status` switches the LED off ([`StatusBlink::aborted`]).
+    /// Errors if a duration is out of range.
     pub mod seq_ids(config: &AppConfig) for ControlSystem {
         /// Quick stop (step of safe stop).
         QUICK_STOP = SeqConfig::new("quick stop"),
@@ -517,7 +519,10 @@ rtseq::sequences! {
         /// Blink wait (step of status).
         BLINK = SeqConfig::new("blink").polling(Duration::from_millis(5)),
         /// Status.
-        STATUS = SeqConfig::new("status").polling(Duration::from_millis(5)).in_lane(),
+        STATUS = SeqConfig::new("status")
+            .polling(Duration::from_millis(5))
+            .in_lane()
+            .on_abort(StatusBlink::aborted),
         /// Power on.
         POWER_ON = SeqConfig::new("power on"),
         /// Seek end stop.
@@ -551,7 +556,7 @@ rtseq::sequences! {
         /// Power off.
         POWER_OFF = SeqConfig::new("power off"),
         /// Main.
-        MAIN = SeqConfig::new("main").in_lane(),
+        MAIN = SeqConfig::new("main").in_lane().on_abort(Main::aborted),
     }
 }
 

@@ -648,21 +648,22 @@ impl ControlSystem {
     // ---- safety system outputs -----------------------------------------------------------
 
     /// The safety system's drive-enable output: without the permit the power stage is off
-    /// whatever the sequences command. Default: permitted (no safety system). A permit
-    /// withdrawn while an over-current or e-stop fault is injected records the reaction.
+    /// whatever the sequences command. Default: permitted (no safety system).
     pub fn set_drive_permit(&self, on: bool) {
-        let was = critical_section::with(|cs| {
+        critical_section::with(|cs| {
             let cell = self.io.borrow(cs);
             let mut io = cell.get();
-            let was = io.drive_permit;
             io.drive_permit = on;
             cell.set(io);
-            was
         });
-        if was && !on {
-            self.record_reaction(crate::app::FaultKind::OverCurrent);
-            self.record_reaction(crate::app::FaultKind::EStop);
-        }
+    }
+
+    /// The safety system tripped (entered emergency: drive permit withdrawn, brake on):
+    /// records the reaction to an injected over-current or e-stop. Only the trip counts;
+    /// the permit is withdrawn at power off and at start-up too.
+    pub fn safety_tripped(&self) {
+        self.record_reaction(crate::app::FaultKind::OverCurrent);
+        self.record_reaction(crate::app::FaultKind::EStop);
     }
 
     /// The safety system's brake output (true: brake forced on).

@@ -260,7 +260,8 @@ impl SafetyIo for DriveIo {
     }
 }
 
-/// One safety cycle on the control system: sample, cycle, apply. Call it from the safety
+/// One safety cycle on the control system: sample, cycle, apply; a cycle that entered
+/// `EMERGENCY` is the trip ([`ControlSystem::safety_tripped`]). Call it from the safety
 /// task (highest priority) at the safety period; `sequences` is the sequencer (abort-all).
 pub fn safety_cycle<const L: usize, A: Sequences + ?Sized>(
     cs: &ControlSystem,
@@ -270,5 +271,8 @@ pub fn safety_cycle<const L: usize, A: Sequences + ?Sized>(
     let mut io = DriveIo::sample(cs);
     let report = system.cycle(&mut io, sequences);
     io.apply(cs);
+    if report.change.is_some_and(|c| c.to == EMERGENCY) {
+        cs.safety_tripped();
+    }
     report
 }

@@ -306,13 +306,21 @@ impl Sequence<ControlSystem> for FeedResume {
 
 /// Non-blocking status sequence: toggles the status LED every half period of the current
 /// phase ([`StatusBlink::half_period_ms`]), until the application has ended (LED steady on
-/// when done, off after a fault).
+/// when done, off after a fault; aborted, its cleanup hook [`StatusBlink::aborted`] turns
+/// it off).
 pub struct StatusBlink {
     /// The wait between two toggles.
     pub blink: Seq<Wait>,
 }
 
 impl StatusBlink {
+    /// The status sequence's cleanup hook ([`SeqConfig::on_abort`](rtseq::SeqConfig::on_abort)):
+    /// only the safety system's abort-all (emergency) aborts it, mid-blink, so the LED is
+    /// switched off as after any fault.
+    pub fn aborted(cs: &ControlSystem) {
+        cs.set_led(false);
+    }
+
     /// Half blink period per phase, ms: power on / homing 4 Hz, moving 2 Hz, paused 1 Hz,
     /// safe stop 10 Hz.
     pub const fn half_period_ms(phase: Phase) -> u64 {
@@ -344,7 +352,9 @@ impl Sequence<ControlSystem> for StatusBlink {
     }
 }
 
-/// The main sequence: status on, power on, homing, the moves, power off.
+/// The main sequence: status on, power on, homing, the moves, power off; ends in phase
+/// [`Phase::Done`], or [`Phase::Fault`] after a failure or when aborted
+/// ([`Main::aborted`]).
 pub struct Main {
     /// The status sequence (started non-blocking).
     pub status: SeqId,
@@ -358,6 +368,15 @@ pub struct Main {
     pub halt: Seq<QuickStop>,
     /// Power off at the end.
     pub power_off: Seq<PowerOff>,
+}
+
+impl Main {
+    /// Main's cleanup hook ([`SeqConfig::on_abort`](rtseq::SeqConfig::on_abort)): only the
+    /// safety system's abort-all (emergency) aborts main, which ends the application
+    /// before main could set a final phase.
+    pub fn aborted(cs: &ControlSystem) {
+        cs.set_phase(Phase::Fault);
+    }
 }
 
 impl Sequence<ControlSystem> for Main {

@@ -75,3 +75,22 @@ fn an_over_current_at_the_power_off_tick_is_not_a_zero_latency_trip() {
          by the power off, not by the trip (which takes one safety cycle)"
     );
 }
+
+/// The control system starts with the drive permitted (no safety system yet); the safety
+/// system's first cycle enters level off and withdraws the permit. An over-current from
+/// power-up is detected in that cycle and trips in the next: the reaction is the trip, not
+/// the start-up's withdrawal (the QEMU demo printed a 1 ms reaction for
+/// `./x demo --fault overcurrent@0s`, whose `level off -> emergency` comes at 2 ms).
+#[test]
+fn an_over_current_at_power_up_is_timed_from_the_trip() {
+    let mut w = World::new(FaultPlan::NONE.with(Fault::OverCurrent { at: ms(0) }), true);
+    let mut tripped = None;
+    w.run_sampling(|w| {
+        if tripped.is_none() && w.safety.unwrap().level() == safety::EMERGENCY {
+            tripped = Some(w.sim.now());
+        }
+    });
+    let r = w.cs.summary().over_current;
+    assert!(tripped.is_some());
+    assert_eq!(r.reacted, tripped, "the reaction is the trip to emergency");
+}
