@@ -1120,7 +1120,9 @@ impl Log {
 fn reaction_text(k: FaultKind) -> &'static str {
     match k {
         FaultKind::FollowingError => "safe stop started",
-        FaultKind::OverCurrent | FaultKind::EStop => "drive permit withdrawn by the safety system",
+        FaultKind::OverCurrent | FaultKind::EStop => {
+            "the safety system tripped (level emergency, drive permit off)"
+        }
         FaultKind::EndStop => "moves aborted, quick stop",
     }
 }
