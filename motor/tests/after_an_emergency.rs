@@ -1,9 +1,8 @@
-//! Review E (cold review of the motor-controller demo): host tests that fail on the code
-//! as reviewed. Each test quotes the promise it checks.
-//!
-//! The defects of the QEMU demo's *expected-outcome model* (`boards/qemu-f405/src/bin/demo.rs`,
-//! `expectation` and `Log::finish`) are firmware code that this crate's tests cannot reach;
-//! they are in the review report with `./x demo` reproduction commands.
+//! What the controller shows after an emergency (a cold review of the demo, session 57):
+//! the phase is final, the status LED off, and the over-current and e-stop reactions are
+//! timed from the safety system's trip, not from another withdrawal of the drive permit.
+//! Each test quotes the promise it checks. The demo's expected-outcome model is checked
+//! by the QEMU suite (`tests/qemu_demo.rs`).
 
 mod common;
 use common::*;
