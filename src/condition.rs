@@ -22,6 +22,33 @@ pub trait Condition<C> {
     /// Evaluates the condition. Must be short and must not block: it runs in the tick.
     fn validate(&mut self, control: &C, now: Instant) -> bool;
 
+    /// A monitor's condition: its owner begins a run (a start, or a round of a restart),
+    /// and this is called right before the run's first evaluation, as the monitor's edge
+    /// detection starts again from "false". A condition that keeps state of its own (a
+    /// window, a count) starts it again here, so that what it saw in one run does not fire
+    /// in the next ([`Stable`] does). Nothing by default.
+    ///
+    /// ```
+    /// use rtseq::{Condition, Instant};
+    /// /// True at the third evaluation of a run.
+    /// struct Third(u8);
+    /// impl Condition<()> for Third {
+    ///     fn validate(&mut self, _: &(), _: Instant) -> bool {
+    ///         self.0 = self.0.saturating_add(1);
+    ///         self.0 >= 3
+    ///     }
+    ///     fn begin_run(&mut self) {
+    ///         self.0 = 0;
+    ///     }
+    /// }
+    /// let mut third = Third(0);
+    /// let t = Instant::from_ticks(0);
+    /// assert!(!third.validate(&(), t) && !third.validate(&(), t) && third.validate(&(), t));
+    /// third.begin_run();
+    /// assert!(!third.validate(&(), t));
+    /// ```
+    fn begin_run(&mut self) {}
+
     /// The seed's `isTrue()`: evaluates the condition now.
     ///
     /// Not callable on a bare `dyn Condition` (call it on the `&mut dyn Condition`, which is
@@ -109,7 +136,10 @@ impl<C, F: FnMut(&C) -> bool> Condition<C> for Toggle<F> {
 }
 
 /// True once a value has stayed within `tolerance` of where it was for at least `window`
-/// (seed §1.6: "the robot has not moved in the last 5 seconds").
+/// (seed §1.6: "the robot has not moved in the last 5 seconds"). As a monitor's condition,
+/// the window is of the owner's run: it starts again with each run
+/// ([`Condition::begin_run`]), so an axis that stood still between two moves does not
+/// read as stalled at the next move's start.
 ///
 /// ```
 /// use rtseq::{Condition, Duration, Instant, Stable};
@@ -161,5 +191,9 @@ impl<C, F: FnMut(&C) -> f32> Condition<C> for Stable<F> {
                 false
             }
         }
+    }
+
+    fn begin_run(&mut self) {
+        self.anchor = None;
     }
 }

@@ -355,6 +355,11 @@ impl<'a, C> Condition<C> for &'a mut (dyn Condition<C> + Send + 'a) {
     fn validate(&mut self, control: &C, now: crate::Instant) -> bool {
         (**self).validate(control, now)
     }
+
+    #[inline]
+    fn begin_run(&mut self) {
+        (**self).begin_run();
+    }
 }
 
 impl<'a, C> Monitor<'a, C> {

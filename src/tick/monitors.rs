@@ -10,9 +10,12 @@ use crate::tick::Polls;
 use crate::{Behaviour, Cause, Instant, MonitorId, Monitors, Sequencer};
 
 /// The conditions of those `members` (a group, bits as in [`Group`]) whose owner is due;
-/// the others keep their `last` values. The edge detection of the monitors of fresh
-/// owners (all due) starts again from "false": their bits of `last` are cleared. Returns
-/// the values and the bits evaluated.
+/// the others keep their `last` values. The monitors of fresh owners (all due) begin their
+/// owner's run: their conditions are told ([`Condition::begin_run`]) and their edge
+/// detection starts again from "false" (their bits of `last` are cleared). Returns the
+/// values and the bits evaluated.
+///
+/// [`Condition::begin_run`]: crate::Condition::begin_run
 #[inline(never)]
 fn evaluate_due<C, K: crate::Condition<C>, const B: usize>(
     members: &mut [OwnedMonitor<'_, C, K>],
@@ -31,6 +34,7 @@ fn evaluate_due<C, K: crate::Condition<C>, const B: usize>(
             evaluated |= bit;
             if fresh.has(m.owner) {
                 renewed |= bit;
+                m.def.condition.begin_run();
             }
             if m.def.condition.validate(control, now) {
                 values |= bit;
