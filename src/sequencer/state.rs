@@ -68,10 +68,6 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// first non-empty table a due tick came with. Due ticks with a table elsewhere are
     /// refused.
     pub(crate) monitor_table: usize,
-    /// This sequencer's address when it bound its monitor table, which the table keeps
-    /// (its `ticked_by`): a sequencer moved since (it is `Send`, and nothing borrows it
-    /// between ticks) knows its table by it.
-    pub(crate) bound_from: usize,
 }
 
 /// When the tick must look again, and whom it woke last time.
@@ -153,7 +149,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             clocks: [Micros48::ZERO; N],
             exception_limits: [0; N],
             monitor_table: 0,
-            bound_from: 0,
         }
     }
 

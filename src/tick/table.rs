@@ -7,13 +7,14 @@ use crate::{Monitors, Sequencer};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// Whether a due tick with `table` may take the due polls: the table is this
-    /// sequencer's (it is where the sequencer's table is, and its `ticked_by` is `me`,
-    /// this sequencer's address, or the address it had when it bound the table), or the
-    /// first non-empty table a due tick came with, which is bound here (both ways); or an
-    /// empty table while none is bound (it evaluates nothing, and no table misses the
-    /// polls). A table that another sequencer ticks, or any table at another place once
-    /// one is bound, may not: the polls it took would be lost to the table that holds
-    /// their monitors. A table made anew in the place of the bound one is bound again.
+    /// sequencer's (it is where the sequencer bound its table), or the first non-empty
+    /// table a due tick came with, which is bound here (both ways); or an empty table
+    /// while none is bound (it evaluates nothing, and no table misses the polls). A table
+    /// that another sequencer ticks, or any table at another place once one is bound, may
+    /// not: the polls it took would be lost to the table that holds their monitors. A
+    /// table made anew in the place of the bound one is bound again. The table keeps the
+    /// address of the sequencer it is bound to (`ticked_by`), which a sequencer moved
+    /// since its binding (it is `Send`, and nothing borrows it between ticks) updates.
     #[inline(always)]
     pub(super) fn takes_polls<const M: usize, K>(
         &mut self,
@@ -21,7 +22,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         table: &mut Monitors<'_, C, M, K>,
     ) -> bool {
         let here = core::ptr::from_ref(table).addr();
-        if self.monitor_table == here && table.ticked_by == me {
+        if self.monitor_table == here {
+            table.ticked_by = me;
             return true;
         }
         if self.is_foreign(me, table) {
@@ -29,21 +31,21 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
         if !table.is_empty() {
             self.monitor_table = here;
-            self.bound_from = me;
             table.ticked_by = me;
         }
         true
     }
 
     /// Whether `table` may not be ticked by this sequencer (`me`, its address): another
-    /// table is bound here, or `table` is bound to another sequencer.
+    /// table is bound here, or `table` is bound to another sequencer (unless this one bound
+    /// it where it is: then it is this one's, moved since).
     #[inline(always)]
     fn is_foreign<const M: usize, K>(&self, me: usize, table: &Monitors<'_, C, M, K>) -> bool {
         let here = core::ptr::from_ref(table).addr();
-        let ours = self.monitor_table == 0 || self.monitor_table == here;
-        // Bound by this sequencer at the address it had then (it moved since).
-        let bound_here = self.monitor_table == here && table.ticked_by == self.bound_from;
-        !ours || (table.ticked_by != 0 && table.ticked_by != me && !bound_here)
+        if self.monitor_table == here {
+            return false;
+        }
+        self.monitor_table != 0 || (table.ticked_by != 0 && table.ticked_by != me)
     }
 }
 
