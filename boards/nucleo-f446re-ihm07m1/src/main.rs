@@ -200,8 +200,10 @@ mod app {
     static SWITCHES: AtomicU32 = AtomicU32::new(0);
     /// Every declared lane has a task that polls it (`idle` checks once): B1 may start.
     static LANES_READY: AtomicBool = AtomicBool::new(false);
-    /// What the control task has to report, logged by `idle`: a log in an interrupt may
-    /// wait for the host (an RTT channel in blocking mode) with the power stage live.
+    /// What the control task has to report, logged by `idle`: a log is formatted and copied
+    /// into the RTT buffer inside a critical section that masks every interrupt, so it
+    /// stays out of the control and safety tasks (and `defmt-rtt`'s `disable-blocking-mode`
+    /// keeps a full buffer from holding them off while the host is slow or gone).
     static REPORT: Mutex<Cell<Report>> = Mutex::new(Cell::new(Report::NONE));
 
     /// See [`REPORT`].
@@ -254,11 +256,17 @@ mod app {
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
-        // Debugging: keep the debug port alive in `wfi`, freeze the watchdog at a breakpoint.
+        // Debugging: keep the debug port alive in `wfi`, freeze the watchdog at a breakpoint,
+        // and stop TIM1 there too: a halted core runs no control loop, no safety task and no
+        // watchdog, and a stopped advanced timer disables its outputs as if MOE were cleared
+        // (RM0390, TIM1 "Debug mode"), so the bridge does not keep switching at the last duty.
         dp.DBGMCU.cr().modify(|_, w| w.dbg_sleep().set_bit());
         dp.DBGMCU
             .apb1_fz()
             .modify(|_, w| w.dbg_iwdg_stop().set_bit());
+        dp.DBGMCU
+            .apb2_fz()
+            .modify(|_, w| w.dbg_tim1_stop().set_bit());
 
         // 84 MHz from the internal oscillator (no dependence on the ST-LINK's MCO): APB2
         // timers (TIM1) at 84 MHz, APB1 timers (TIM2, TIM6) at 84 MHz, ADC at 84 / 4 MHz.
