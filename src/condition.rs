@@ -24,9 +24,12 @@ pub trait Condition<C> {
 
     /// A monitor's condition: its owner begins a run (a start, or a round of a restart),
     /// and this is called right before the run's first evaluation, as the monitor's edge
-    /// detection starts again from "false". A condition that keeps state of its own (a
-    /// window, a count) starts it again here, so that what it saw in one run does not fire
-    /// in the next ([`Stable`] does). Nothing by default.
+    /// detection starts again from "false". A condition that keeps state of its own for
+    /// the run (a window, a count) starts it again here, so that what it saw in one run
+    /// does not fire in the next ([`Stable`] does; [`Toggle`], an operator's latch, does
+    /// not). Nothing by default. A table the sequencer takes up while the run is under way
+    /// (its first due tick with a non-empty table) evaluates it from then on without this
+    /// call: its conditions are new.
     ///
     /// ```
     /// use rtseq::{Condition, Instant};
@@ -81,7 +84,10 @@ where
 
 /// A toggle-button condition (seed §1.6): true after the first press, false after the next.
 ///
-/// `pressed` reads the raw button; a press is a rising edge of it.
+/// `pressed` reads the raw button; a press is a rising edge of it. Its state is the
+/// operator's latch, not a run's: as a monitor's condition it carries over from one run of
+/// the owner to the next (it keeps [`Condition::begin_run`]'s default), so a feed hold
+/// switched on stays on when the owner starts again.
 ///
 /// ```
 /// use rtseq::{Condition, Instant, Toggle};

@@ -825,11 +825,12 @@ pub struct Monitors<'a, C, const M: usize, K = DynCondition<'a, C>> {
     /// The groups over `entries`, in table order (room for the most monitors a table
     /// holds: the length cannot follow `M` on stable Rust).
     pub(crate) groups: Groups,
-    /// The address of the sequencer whose due ticks this table takes (0: none yet). Set by
-    /// that sequencer's first due tick with it, if the table is not empty: a sequencer is
-    /// ticked with one table, and a table belongs to one sequencer (its owners are that
+    /// The tag of the sequencer whose due ticks this table takes (0: none yet; a
+    /// sequencer's tag is given at its first registration and moves with it). Set by that
+    /// sequencer's first due tick with it, if the table is not empty: a sequencer is ticked
+    /// with one table, and a table belongs to one sequencer (its owners are that
     /// sequencer's ids). The sequencer keeps the table's address.
-    pub(crate) ticked_by: usize,
+    pub(crate) ticked_by: u16,
 }
 
 impl<C, const M: usize, K> Default for Monitors<'_, C, M, K> {

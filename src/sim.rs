@@ -669,8 +669,9 @@ impl<
     /// (`Err(Error::ForeignMonitorTable)`): this one's ticks would evaluate nothing. A
     /// simulator's table goes with it, so simulators of one sequencer can take turns; the
     /// lanes go with it too (a lane given by value is closed when its simulator drops it,
-    /// and a run still under way in it is aborted, `Dropped`: records the dropped
-    /// simulator takes with it, not the next one's trace), so a later simulator is given
+    /// and a run still under way in it is aborted, `Dropped`: records left in the
+    /// sequencer, which `Sequencer::drain_records` reads, or else the next simulator's
+    /// first step, at the head of its trace), so a later simulator is given
     /// every declared lane again: keep the `Seq`s and give
     /// [`task_with_priority`](Self::task_with_priority) an [`rtseq::lane`](crate::lane()) of
     /// each.
@@ -1365,11 +1366,6 @@ where
     L: Lock,
 {
     fn drop(&mut self) {
-        // The lanes go first: the teardowns of their runs (aborted, `Dropped`) are this
-        // simulator's records, which a later simulator of the sequencer must not read as
-        // its own.
-        self.lanes.clear();
-        self.sequencer.drain_records(|_| {});
         self.sequencer.release_table(&self.monitors);
     }
 }

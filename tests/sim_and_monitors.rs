@@ -823,21 +823,32 @@ fn an_abort_all_while_idle_does_not_abort_a_run_started_after_the_next_tick() {
 }
 
 /// A simulator dropped while its sequence runs: the lane's future is dropped and the run
-/// is aborted (`Cause::Dropped`, semantics 13). A second simulator of the sequencer starts
-/// at the sequencer's time; its trace is its own (the dropped simulator took its run's
-/// teardown with it, `Sim::start`).
+/// is aborted (`Cause::Dropped`, semantics 13). The teardown's records stay in the
+/// sequencer (`Sim::start`): drained there, a second simulator of the sequencer, which
+/// starts at the sequencer's time, has a trace of its own; not drained, they head the
+/// next simulator's trace.
 #[test]
 fn a_simulator_dropped_mid_run_and_a_second_one() {
     let seq: Sequencer<(), 2> = Sequencer::new();
     let id = seq.register(SeqConfig::new("main").in_lane()).unwrap();
     let mut main = seq.bind(id, Forever).unwrap();
-    {
+    let run_dropped_after_3_ms = |main: &mut rtseq::Seq<Forever>| {
         let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
-        sim.task_with_priority(rtseq::lane(&seq, &(), &mut main), 1);
+        sim.task_with_priority(rtseq::lane(&seq, &(), main), 1);
         sim.start(id).unwrap();
         sim.run_for(Duration::from_millis(3));
-    }
+    };
+    run_dropped_after_3_ms(&mut main);
     assert_eq!(seq.sequence_by_id(id).unwrap().state(), Aborted);
+    let mut teardown = Vec::new();
+    assert_eq!(seq.drain_trace(|t| teardown.push(t)), 0);
+    assert_eq!(
+        teardown,
+        [
+            tr(3, id, Running, Aborting, Cause::Dropped),
+            tr(3, id, Aborting, Aborted, Cause::Dropped)
+        ]
+    );
     let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     assert_eq!(sim.now(), Instant::from_ticks(3_000));
     sim.task_with_priority(rtseq::lane(&seq, &(), &mut main), 1);
@@ -846,6 +857,20 @@ fn a_simulator_dropped_mid_run_and_a_second_one() {
     assert_eq!(
         sim.trace(),
         &[tr(3, id, Aborted, Running, Cause::Start)],
+        "{}",
+        show(sim.trace())
+    );
+    drop(sim);
+    // Not drained: the next simulator's first step reads the teardown first.
+    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
+    sim.task_with_priority(rtseq::lane(&seq, &(), &mut main), 1);
+    sim.run_for(Duration::from_millis(1));
+    assert_eq!(
+        sim.trace(),
+        &[
+            tr(5, id, Running, Aborting, Cause::Dropped),
+            tr(5, id, Aborting, Aborted, Cause::Dropped)
+        ],
         "{}",
         show(sim.trace())
     );

@@ -186,7 +186,8 @@ pub enum SafetyError {
     },
     /// LevelTransition row `index` has `from_low > from_high` or a source or
     /// destination level that is not defined (a range's upper end included, unless it is
-    /// the open end of [`LevelTransition::on_level_and_above`](super::LevelTransition::on_level_and_above)).
+    /// 255, the open end of every level above, as in
+    /// [`LevelTransition::on_level_and_above`](super::LevelTransition::on_level_and_above)).
     InvalidTransition {
         /// Position in the transition table.
         index: usize,

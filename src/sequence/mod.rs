@@ -158,7 +158,7 @@ pub trait Step<C> {
 /// that made it: another sequencer refuses it (started blocking there the child's result
 /// is `Err(Failure::NotStarted(Error::ForeignSequence(id)))`; as a lane there it never runs,
 /// so a start of its id says `NoLane`), even when the id names a sequence there too.
-/// Sequencers are told apart by a 16-bit tag given at their first bind, so among more than
+/// Sequencers are told apart by a 16-bit tag given at their first registration, so among more than
 /// 65 535 sequencers made in one program two may share one.
 ///
 /// ```

@@ -276,6 +276,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         L::lock(|| self.borrow_state(f))
     }
 
+    /// This sequencer's tag (what its sequence objects carry): tests that drive the port
+    /// by hand pass it as a lane's or a blocking start's maker.
+    #[cfg(test)]
+    pub(crate) fn tag(&self) -> u16 {
+        self.with(|s| s.tag)
+    }
+
     /// Runs `f` on the state; the caller holds the lock. The borrow ends when `f` returns.
     #[inline(always)]
     fn borrow_state<R>(&self, f: impl FnOnce(&mut State<C, N, T, W, B>) -> R) -> R {

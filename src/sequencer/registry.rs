@@ -29,6 +29,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     pub fn register(&self, config: SeqConfig<C>) -> Result<SeqId, Error> {
         let mut checked = CheckedConfig::checked(&config)?;
+        self.take_tag();
         self.with(|s| {
             if let Some(first) = s.registered().position(|b| b.name == Some(config.name)) {
                 return Err(Error::DuplicateName(SeqId::from_index(first)));
@@ -89,6 +90,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         configs: &[CheckedConfig<C>],
         classes: &Classes<B>,
     ) -> Result<(), Error> {
+        self.take_tag();
         // The lanes of the table take the first slots, in table order.
         let mut lanes: u8 = 0;
         for (i, config) in configs.iter().enumerate() {
@@ -167,18 +169,13 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// bound and makes its object's head, which carries this sequencer's tag.
     #[inline(never)]
     fn claim(&self, id: SeqId) -> Result<SeqHead, Error> {
-        // A sequencer's tag is set once, at its first bind (taken outside the section: the
-        // tag counter's critical section is the platform's code).
-        let fresh = (self.with(|s| s.tag) == 0).then(next_tag);
+        // A registered id: the sequencer has its tag.
         let maker = self.with(|s| {
             s.block(id).ok_or(Error::UnknownSequence(id))?;
             if s.sets.has(Set::Bound, id) {
                 return Err(Error::AlreadyBound(id));
             }
             s.sets.insert(Set::Bound, id);
-            if let (0, Some(tag)) = (s.tag, fresh) {
-                s.tag = tag;
-            }
             Ok(s.tag)
         })?;
         Ok(SeqHead {
@@ -186,6 +183,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             maker,
             result: Cell::new(None),
         })
+    }
+
+    /// Gives this sequencer its tag, if it has none yet (at its first registration): the
+    /// identity its sequence objects and its monitor table know it by, which moves with
+    /// it. Taken outside the section: the tag counter's critical section is the platform's
+    /// code.
+    pub(crate) fn take_tag(&self) {
+        if self.with(|s| s.tag) != 0 {
+            return;
+        }
+        let tag = next_tag();
+        self.with(|s| {
+            if s.tag == 0 {
+                s.tag = tag;
+            }
+        });
     }
 
     /// The seed's `getSequenceByID`.

@@ -935,7 +935,7 @@ mod tests {
             .is_some_and(|b| b.has(flag::HANDLES_EXCEPTION) && b.caller.get() == Some(o))));
         // E's lane (above L) takes the start and E completes.
         let waker = core::task::Waker::noop();
-        let run = Port::take_start(&seq, e, 0, waker).unwrap();
+        let run = Port::take_start(&seq, e, seq.tag(), waker).unwrap();
         assert!(Port::end(&seq, run, Outcome::Completed));
         Port::finished(&seq, run);
         // L goes on: its schedule and commit.

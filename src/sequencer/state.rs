@@ -46,9 +46,10 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// The lane slots whose lane future was dropped (bit `l` for slot `l`): their sequence
     /// takes no start until a lane future waits in the slot again.
     pub(crate) lanes_closed: u32,
-    /// This sequencer's tag, given when its first sequence object is bound (0: none yet),
-    /// unique among the first 65 535 sequencers of a program. A sequence object carries
-    /// it, so that a lane or a blocking start refuses the object of another sequencer.
+    /// This sequencer's tag, given at its first registration (0: none yet), unique among
+    /// the first 65 535 sequencers of a program, and moving with it. A sequence object
+    /// carries it, so that a lane or a blocking start refuses the object of another
+    /// sequencer; so does the monitor table bound to it.
     pub(crate) tag: u16,
     blocks: [ControlBlock; N],
     /// Each sequence's cleanup hook (`SeqConfig::on_abort`).

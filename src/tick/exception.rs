@@ -613,7 +613,7 @@ mod tests {
         restart_then_abort_all(&seq, o);
         // Its lane, when it runs at last, finds the run over.
         let waker = core::task::Waker::noop();
-        let run = Port::take_start(&seq, o, 0, waker);
+        let run = Port::take_start(&seq, o, seq.tag(), waker);
         assert_eq!(run, None);
     }
 

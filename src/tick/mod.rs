@@ -67,7 +67,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// sequencer's table then misses: it returns [`Error::ForeignMonitorTable`] and
     /// evaluates nothing (it carries out the requests and abort-alls, as a late tick
     /// does). A table made anew in the place of the sequencer's is its table, and so is
-    /// its table after the sequencer moved.
+    /// its table after the sequencer moved (a table knows its sequencer by a tag, given at
+    /// the first registration, not by its address).
     ///
     /// `now` is a monotonic 64-bit count of µs (extend a 32-bit hardware timer, as RTIC's
     /// monotonics do). The sequencer's time is that of its last tick, 0 before the first: a
@@ -117,7 +118,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         control: &C,
         monitors: &mut Monitors<'_, C, M, K>,
     ) -> Result<(), Error> {
-        let me = core::ptr::from_ref(self).addr();
         // A tick out of step with the last one (see `Opening::out_of_step`) that is a long
         // gap restarts the polling grids and opens again, keeping its turn: a second tick
         // meanwhile is refused as in any other section of this one.
@@ -131,7 +131,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     }
                     self.ticking.store(true, Ordering::Relaxed);
                 }
-                Some(s.open_tick(now, me, monitors))
+                Some(s.open_tick(now, monitors))
             });
             let Some(opening) = first else {
                 return Err(Error::TickInProgress);
@@ -331,7 +331,6 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize>
     fn open_tick<const M: usize, K>(
         &mut self,
         now: Instant,
-        me: usize,
         monitors: &mut Monitors<'_, C, M, K>,
     ) -> Opening {
         let stamp = Stamp::of(now);
@@ -339,7 +338,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize>
         // of u64 an earlier time would read as a step forward).
         let out_of_step = now < self.now || now.as_ticks() - self.now.as_ticks() > MAX_INTERVAL;
         let any_due = stamp.reached(self.polling.next_due);
-        let foreign = any_due && !out_of_step && !self.takes_polls(me, monitors);
+        let foreign = any_due && !out_of_step && !self.takes_polls(monitors);
         if !out_of_step && !foreign {
             self.now = now;
             if any_due {

@@ -7,45 +7,39 @@ use crate::{Monitors, Sequencer};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// Whether a due tick with `table` may take the due polls: the table is this
-    /// sequencer's (it is where the sequencer bound its table), or the first non-empty
-    /// table a due tick came with, which is bound here (both ways); or an empty table
-    /// while none is bound (it evaluates nothing, and no table misses the polls). A table
-    /// that another sequencer ticks, or any table at another place once one is bound, may
-    /// not: the polls it took would be lost to the table that holds their monitors. A
-    /// table made anew in the place of the bound one is bound again. The table keeps the
-    /// address of the sequencer it is bound to (`ticked_by`), which a sequencer moved
-    /// since its binding (it is `Send`, and nothing borrows it between ticks) updates.
+    /// sequencer's (it is where the sequencer's table is, and bound to this sequencer's
+    /// tag, which moves with the sequencer), or the first non-empty table a due tick came
+    /// with, which is bound here (both ways); or an empty table while none is bound (it
+    /// evaluates nothing, and no table misses the polls). A table that another sequencer
+    /// ticks, or any table at another place once one is bound, may not: the polls it took
+    /// would be lost to the table that holds their monitors. A table made anew in the
+    /// place of the bound one is bound again.
     #[inline(always)]
     pub(super) fn takes_polls<const M: usize, K>(
         &mut self,
-        me: usize,
         table: &mut Monitors<'_, C, M, K>,
     ) -> bool {
         let here = core::ptr::from_ref(table).addr();
-        if self.monitor_table == here {
-            table.ticked_by = me;
+        if table.ticked_by == self.tag && self.monitor_table == here {
             return true;
         }
-        if self.is_foreign(me, table) {
+        if self.is_foreign(table) {
             return false;
         }
         if !table.is_empty() {
             self.monitor_table = here;
-            table.ticked_by = me;
+            table.ticked_by = self.tag;
         }
         true
     }
 
-    /// Whether `table` may not be ticked by this sequencer (`me`, its address): another
-    /// table is bound here, or `table` is bound to another sequencer (unless this one bound
-    /// it where it is: then it is this one's, moved since).
+    /// Whether `table` may not be ticked by this sequencer: another table is bound here,
+    /// or `table` is bound to another sequencer.
     #[inline(always)]
-    fn is_foreign<const M: usize, K>(&self, me: usize, table: &Monitors<'_, C, M, K>) -> bool {
+    fn is_foreign<const M: usize, K>(&self, table: &Monitors<'_, C, M, K>) -> bool {
         let here = core::ptr::from_ref(table).addr();
-        if self.monitor_table == here {
-            return false;
-        }
-        self.monitor_table != 0 || (table.ticked_by != 0 && table.ticked_by != me)
+        let ours = self.monitor_table == 0 || self.monitor_table == here;
+        !ours || (table.ticked_by != 0 && table.ticked_by != self.tag)
     }
 }
 
@@ -60,8 +54,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         &self,
         table: &Monitors<'_, C, M, K>,
     ) -> bool {
-        let me = core::ptr::from_ref(self).addr();
-        self.with(|s| s.is_foreign(me, table))
+        self.with(|s| s.is_foreign(table))
     }
 
     /// `table`, bound to this sequencer, is dropped (with the simulator that owned it):

@@ -413,7 +413,7 @@ mod tests {
             x,
             Mode::Blocking {
                 caller: run(y),
-                maker: 0,
+                maker: seq.tag(),
             },
             Cause::Start,
         )
@@ -468,7 +468,7 @@ mod tests {
         }
         seq.sequence_by_id(o).unwrap().start().unwrap();
         let waker = core::task::Waker::noop();
-        assert!(Port::take_start(seq, o, 0, waker).is_some());
+        assert!(Port::take_start(seq, o, seq.tag(), waker).is_some());
         // The tick, between the walk's first section (nothing linked) and O's stop.
         interleaved::at(1, move || {
             let mut fault = |_: &(), _: Instant| true;

@@ -886,14 +886,14 @@ fn an_abort_all_anywhere_in_a_tick_that_preempts_a_dropped_runs_teardown_leaves_
 fn tick_into_exception_take<const N: usize, const B: usize>(layout: Layout, all: bool) {
     let setup = move || exception_pending_owner_aborted::<InterleavedCoarse, N, B>(layout, all);
     let count = sections(setup, |(w, _, e)| {
-        Port::take_start(w.seq, *e, 0, Waker::noop());
+        Port::take_start(w.seq, *e, w.tag, Waker::noop());
     });
     every_k(count + 1, |k| {
         let (w, o, e) = setup();
         let what = format!("{layout:?}, abort-all {all}, k={k}");
         let (waker, wakes) = counting();
         interleaved::at(k, move || w.tick(2));
-        let taken = Port::take_start(w.seq, e, 0, &waker);
+        let taken = Port::take_start(w.seq, e, w.tag, &waker);
         let after = or_after(k, || w.tick(2));
         let cause = if all { Cause::AbortAll } else { Cause::Abort };
         match taken {

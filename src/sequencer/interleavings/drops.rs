@@ -73,7 +73,7 @@ fn chain3<L: Lock + 'static, const N: usize, const B: usize>(
                 id,
                 Mode::Blocking {
                     caller: w.run(caller),
-                    maker: 0,
+                    maker: w.tag,
                 },
                 Cause::Start,
             )
@@ -319,8 +319,8 @@ fn tick_into_abandon_start<L: Lock + 'static, const N: usize, const B: usize>(
         (w, o, x)
     };
     let op = |w: &World<L, N, B>, x: SeqId| {
-        Port::close_lane(w.seq, x, 0);
-        Port::abandon_start(w.seq, x, 0, &());
+        Port::close_lane(w.seq, x, w.tag);
+        Port::abandon_start(w.seq, x, w.tag, &());
     };
     let count = sections(setup, |(w, _, x)| op(w, *x));
     every_k(count + 1, |k| {

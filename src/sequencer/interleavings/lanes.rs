@@ -854,7 +854,7 @@ fn crossing_joins_through_an_exception<L: Lock + 'static, const N: usize, const 
         w.tick(1);
         // E's lane takes its start with the waker whose wake-ups E's joins count.
         let (waker, wakes) = counter();
-        Port::take_start(w.seq, e, 0, waker).unwrap();
+        Port::take_start(w.seq, e, w.tag, waker).unwrap();
         let je: Shared = Box::leak(Box::new(RefCell::new(Joiner {
             id: e,
             run: None,
@@ -1431,7 +1431,7 @@ fn take_against_start<L: Lock + 'static, const N: usize, const B: usize>(
         &named::<L>(layout, format_args!("take first {take_first}")),
         take_first,
         setup,
-        |(w, x, (waker, _))| Port::take_start(w.seq, x, 0, waker),
+        |(w, x, (waker, _))| Port::take_start(w.seq, x, w.tag, waker),
         |(w, x, _)| w.kept(x).start(),
         move |what, at, taken, started, (w, x, (waker, count))| {
             assert_eq!(started, Ok(()), "{what}");
@@ -1445,7 +1445,11 @@ fn take_against_start<L: Lock + 'static, const N: usize, const B: usize>(
                     if take_first || !at.after {
                         assert!(woken(count) > 0, "{what}: the lane not woken");
                     }
-                    assert_eq!(Port::take_start(w.seq, x, 0, waker), Some(run), "{what}");
+                    assert_eq!(
+                        Port::take_start(w.seq, x, w.tag, waker),
+                        Some(run),
+                        "{what}"
+                    );
                 }
             }
             assert!(!w.pending(x), "{what}");
@@ -1524,7 +1528,7 @@ fn abandon_start_against_start<L: Lock + 'static, const N: usize, const B: usize
     interleave(
         &named::<L>(layout, format_args!("pending {pending}")),
         move || lone::<L, N, B>(layout, pending, false),
-        |(w, x)| Port::abandon_start(w.seq, x, 0, &()),
+        |(w, x)| Port::abandon_start(w.seq, x, w.tag, &()),
         |(w, x)| w.kept(x).start(),
         move |what, at, (), started, (w, x)| {
             let before_look = at.k == 0 && !at.after;
@@ -1576,8 +1580,8 @@ fn drop_lane_against_start<L: Lock + 'static, const N: usize, const B: usize>(
         drop_first,
         move || lone::<L, N, B>(layout, pending, false),
         |(w, x)| {
-            Port::close_lane(w.seq, x, 0);
-            Port::abandon_start(w.seq, x, 0, &());
+            Port::close_lane(w.seq, x, w.tag);
+            Port::abandon_start(w.seq, x, w.tag, &());
         },
         |(w, x)| w.kept(x).start(),
         move |what, _, (), started, (w, x)| {

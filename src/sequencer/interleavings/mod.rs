@@ -82,6 +82,7 @@ fn name<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
     format!("{layout:?}, {}, {rest}", core::any::type_name::<L>())
 }
 
+mod begin_run;
 mod changes_during_the_tick;
 mod coarse;
 mod drops;
@@ -182,6 +183,9 @@ struct World<L: Lock + 'static, const N: usize, const B: usize> {
     monitors: &'static RefCell<Monitors<'static, (), 4>>,
     log: &'static RefCell<Vec<Record>>,
     layout: Layout,
+    /// The sequencer's tag, given before any operation: the lanes' and blocking starts'
+    /// maker, passed without a section of its own.
+    tag: u16,
 }
 
 impl<L: Lock + 'static, const N: usize, const B: usize> Clone for World<L, N, B> {
@@ -197,11 +201,14 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
         // Nothing left over from an earlier test on this thread.
         interleaved::at(usize::MAX, || {});
         COARSE.with(|c| c.set(L::COARSE));
+        let seq: &'static Sq<L, N, B> = Box::leak(Box::new(Sequencer::empty()));
+        seq.take_tag();
         let w = World {
-            seq: Box::leak(Box::new(Sequencer::empty())),
+            seq,
             monitors: Box::leak(Box::new(RefCell::new(Monitors::new()))),
             log: Box::leak(Box::new(RefCell::new(Vec::new()))),
             layout,
+            tag: seq.tag(),
         };
         if layout == Layout::Second {
             w.pad();
@@ -349,7 +356,7 @@ impl<L: Lock + 'static, const N: usize, const B: usize> World<L, N, B> {
 
     /// `id`'s lane takes its pending start, if any.
     fn try_take(&self, id: SeqId) -> Option<RunId> {
-        Port::take_start(self.seq, id, 0, Waker::noop())
+        Port::take_start(self.seq, id, self.tag, Waker::noop())
     }
 
     /// `id` started blocking by `caller`'s current run (in `caller`'s lane).
@@ -797,7 +804,7 @@ fn start_child<L: Lock + 'static, const N: usize, const B: usize>(
                 c,
                 Mode::Blocking {
                     caller: by,
-                    maker: 0,
+                    maker: w.tag,
                 },
                 Cause::Start,
             )
@@ -963,7 +970,7 @@ fn chain<L: Lock + 'static, const N: usize, const B: usize>(
             x,
             Mode::Blocking {
                 caller: w.run(y),
-                maker: 0,
+                maker: w.tag,
             },
             Cause::Start,
         )
@@ -1386,7 +1393,7 @@ impl Joiner {
     ) -> Joiner {
         let (waker, wakes) = counting();
         w.handle(id).start().unwrap();
-        Port::take_start(w.seq, id, 0, &waker).unwrap();
+        Port::take_start(w.seq, id, w.tag, &waker).unwrap();
         Joiner {
             id,
             run: None,
@@ -1634,7 +1641,7 @@ fn take_during_tick<L: Lock + 'static, const N: usize, const B: usize>(layout: L
     let count = sections(
         || pending_start::<L, N, B>(layout, tick),
         |(w, o, _, _)| {
-            Port::take_start(w.seq, *o, 0, Waker::noop());
+            Port::take_start(w.seq, *o, w.tag, Waker::noop());
         },
     );
     every_k(count + 1, |k| {
@@ -1642,7 +1649,7 @@ fn take_during_tick<L: Lock + 'static, const N: usize, const B: usize>(layout: L
         let what = format!("{layout:?}, {tick:?}, k={k}");
         let (waker, wakes) = counting();
         interleaved::at(k, move || w.tick(1));
-        let taken = Port::take_start(w.seq, o, 0, &waker);
+        let taken = Port::take_start(w.seq, o, w.tag, &waker);
         let after = !inserted(k);
         if after {
             interleaved::at(usize::MAX, || {});
@@ -1725,13 +1732,13 @@ fn abandon_during_tick<L: Lock + 'static, const N: usize, const B: usize>(
 ) {
     let count = sections(
         || pending_start::<L, N, B>(layout, tick),
-        |(w, o, _, _)| Port::abandon_start(w.seq, *o, 0, &()),
+        |(w, o, _, _)| Port::abandon_start(w.seq, *o, w.tag, &()),
     );
     every_k(count, |k| {
         let (w, o, e, _) = pending_start::<L, N, B>(layout, tick);
         let what = format!("{layout:?}, {tick:?}, k={k}");
         interleaved::at(k, move || w.tick(1));
-        Port::abandon_start(w.seq, o, 0, &());
+        Port::abandon_start(w.seq, o, w.tag, &());
         assert!(inserted(k), "{what}: the tick ran");
         let by_tick = matches!(
             tick,
@@ -1789,7 +1796,7 @@ fn caller_and_blocked<L: Lock + 'static, const N: usize, const B: usize>(
             x,
             Mode::Blocking {
                 caller: w.run(r),
-                maker: 0,
+                maker: w.tag,
             },
             Cause::Start,
         )

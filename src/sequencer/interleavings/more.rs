@@ -70,7 +70,7 @@ fn an_exception_sequences_start_taken_while_the_tick_aborts_its_owner() {
             let taken = Rc::new(RefCell::new(None));
             let out = taken.clone();
             interleaved::at(k, move || {
-                *out.borrow_mut() = Some(Port::take_start(w.seq, e, 0, Waker::noop()));
+                *out.borrow_mut() = Some(Port::take_start(w.seq, e, w.tag, Waker::noop()));
             });
             w.tick(2);
             let cause = if all { Cause::AbortAll } else { Cause::Abort };
@@ -533,7 +533,7 @@ fn join_of_a_new_run_during_the_teardown_of_the_old<const N: usize, const B: usi
             if unwound {
                 Port::stop_join(w.seq, o);
                 Port::finished(w.seq, old);
-                Port::take_start(w.seq, o, 0, &lane).unwrap();
+                Port::take_start(w.seq, o, w.tag, &lane).unwrap();
                 assert_eq!(Port::join(w.seq, o, y, &mut run), Poll::Pending);
             }
             *out.borrow_mut() = Some(run);
@@ -556,7 +556,7 @@ fn join_of_a_new_run_during_the_teardown_of_the_old<const N: usize, const B: usi
             );
             Port::stop_join(w.seq, o);
             Port::finished(w.seq, old);
-            Port::take_start(w.seq, o, 0, &waker).unwrap();
+            Port::take_start(w.seq, o, w.tag, &waker).unwrap();
             assert_eq!(Port::join(w.seq, o, y, &mut run), Poll::Pending, "{what}");
         }
         assert_eq!(w.state(o), Running, "{what}");
@@ -658,7 +658,7 @@ fn start_into_lone_abort_all<const N: usize, const B: usize>(layout: Layout) {
         let first_poll = polled.clone();
         interleaved::at(k, move || {
             h.start().unwrap();
-            let run = Port::take_start(seq, g, 0, &waker).unwrap();
+            let run = Port::take_start(seq, g, seq.tag(), &waker).unwrap();
             let held = Port::clearance(seq, run, &waker);
             *first_poll.lock().unwrap() = Some((run, held, woken(&wakes), wakes));
         });
