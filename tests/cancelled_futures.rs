@@ -250,11 +250,9 @@ impl Sequence<Ctrl> for ScopedThenWait {
     }
 }
 
-/// C (scoped child of O) restarted by its own `RestartOwner` monitor at 2 ms; O returns
-/// at 4 ms: the run, restarts included, is aborted by the tick at 5 ms (item 11: "The run
-/// includes its restarts").
-#[test]
-fn a_dropped_scoped_aborts_its_child_after_the_child_restarted() {
+/// O starts C scoped and returns at 4 ms (dropping the `Scoped`); C's `RestartOwner`
+/// monitor fires at `fault_ms`. Returns the trace and the cleanup hooks that ran.
+fn scoped_child_restarted_at(fault_ms: u64) -> (Vec<Transition>, Vec<&'static str>) {
     let seq: Sequencer<Ctrl, 8> = Sequencer::new();
     let ctrl = Ctrl::default();
     let o = seq
@@ -269,7 +267,7 @@ fn a_dropped_scoped_aborts_its_child_after_the_child_restarted() {
     let c = seq
         .add(SeqConfig::new("C").on_abort(hook_c), Until(9))
         .unwrap();
-    let [oi, ci] = ids([0, 1]);
+    let [_, ci] = ids([0, 1]);
     let mut fault = |c: &Ctrl, _| c.flag(1);
     let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
     monitors
@@ -278,19 +276,30 @@ fn a_dropped_scoped_aborts_its_child_after_the_child_restarted() {
             Monitor::new("fault", &mut fault, Behaviour::RestartOwner),
         )
         .unwrap();
-    let m0 = Cause::Monitor(rtseq::MonitorId::from_index(0));
     let mut sim = Sim::new(&seq, &ctrl, monitors);
     sim.lane(o);
     sim.lane(c);
-    sim.before_tick(|t, c| {
+    sim.before_tick(move |t, c| {
         c.set(0, ms(t) >= 4);
-        c.set(1, ms(t) == 2);
+        c.set(1, ms(t) == fault_ms);
     });
-    sim.start(oi).unwrap();
+    sim.start(SeqId::from_index(0)).unwrap();
     sim.run_for(Duration::from_millis(8));
     dump(sim.records());
+    let hooks = ctrl.hooks.borrow().clone();
+    (sim.trace().to_vec(), hooks)
+}
+
+/// C (scoped child of O) restarted by its own `RestartOwner` monitor at 2 ms; O returns
+/// at 4 ms: the run, restarts included, is aborted by the tick at 5 ms (item 11: "The run
+/// includes its restarts").
+#[test]
+fn a_dropped_scoped_aborts_its_child_after_the_child_restarted() {
+    let [oi, ci] = ids([0, 1]);
+    let m0 = Cause::Monitor(rtseq::MonitorId::from_index(0));
+    let (trace, _) = scoped_child_restarted_at(2);
     assert_trace(
-        sim.trace(),
+        &trace,
         &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(0, ci, Idle, Running, Cause::Start),
@@ -309,42 +318,11 @@ fn a_dropped_scoped_aborts_its_child_after_the_child_restarted() {
 /// lane has not taken up yet is not begun (the run is aborted from `Restarting`)".
 #[test]
 fn a_scoped_dropped_while_its_child_is_restarting_aborts_it_from_restarting() {
-    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
-    let ctrl = Ctrl::default();
-    let o = seq
-        .add(
-            SeqConfig::new("O"),
-            ScopedThenWait {
-                c: SeqId::from_index(1),
-                until: 0,
-            },
-        )
-        .unwrap();
-    let c = seq
-        .add(SeqConfig::new("C").on_abort(hook_c), Until(9))
-        .unwrap();
     let [oi, ci] = ids([0, 1]);
-    let mut fault = |c: &Ctrl, _| c.flag(1);
-    let mut monitors: Monitors<Ctrl, 1> = Monitors::new();
-    monitors
-        .add(
-            ci,
-            Monitor::new("fault", &mut fault, Behaviour::RestartOwner),
-        )
-        .unwrap();
     let m0 = Cause::Monitor(rtseq::MonitorId::from_index(0));
-    let mut sim = Sim::new(&seq, &ctrl, monitors);
-    sim.lane(o);
-    sim.lane(c);
-    sim.before_tick(|t, c| {
-        c.set(0, ms(t) >= 4);
-        c.set(1, ms(t) == 4);
-    });
-    sim.start(oi).unwrap();
-    sim.run_for(Duration::from_millis(8));
-    dump(sim.records());
+    let (trace, hooks) = scoped_child_restarted_at(4);
     assert_trace(
-        sim.trace(),
+        &trace,
         &[
             tr(0, oi, Idle, Running, Cause::Start),
             tr(0, ci, Idle, Running, Cause::Start),
@@ -355,7 +333,7 @@ fn a_scoped_dropped_while_its_child_is_restarting_aborts_it_from_restarting() {
         ],
     );
     assert_eq!(
-        *ctrl.hooks.borrow(),
+        hooks,
         ["C", "C"],
         "one hook per move into Restarting/Aborting"
     );
