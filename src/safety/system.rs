@@ -39,8 +39,9 @@ pub trait Sequences {
     /// Requests that every running sequence be aborted.
     fn abort_all(&self);
 
-    /// The safety system entered `level` (in the first cycle, the entry level). Called at
-    /// the start of the cycle, before [`abort_all`](Self::abort_all) of the same cycle.
+    /// The safety system entered `level` (in the first cycle, the entry level). Called in
+    /// the cycle that changes the level, after the old level's exit action and the new
+    /// level's entry action, before [`abort_all`](Self::abort_all) of the same cycle.
     fn level_entered(&self, level: SafetyLevel) {
         let _ = level;
     }
