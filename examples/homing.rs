@@ -9,8 +9,8 @@ use core::cell::Cell;
 
 use rtseq::sim::Sim;
 use rtseq::{
-    Behaviour, Cx, Done, Duration, Failure, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer,
-    Step, WithNames,
+    Behaviour, Cx, Duration, Failure, Monitors, Outcome, Seq, SeqConfig, Sequence, Sequencer, Step,
+    WithNames,
 };
 
 /// The application's control system: what sequences command and conditions read.
@@ -95,13 +95,11 @@ pub struct Homing {
 
 impl Sequence<Axis> for Homing {
     async fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
-        if cx.step(&mut self.seek).await != Ok(Done::Completed) {
-            return Ok(());
-        }
-        if cx.step(&mut self.zero).await != Ok(Done::Completed) {
-            return Ok(());
-        }
-        let _ = cx.step(&mut self.back_off).await;
+        // `?`: a step aborted (by a monitor of its own, say) or failed ends homing with
+        // the same failure, so homing never reads as completed without its zero.
+        cx.step(&mut self.seek).await?;
+        cx.step(&mut self.zero).await?;
+        cx.step(&mut self.back_off).await?;
         Ok(())
     }
 }

@@ -28,7 +28,7 @@
 //! # #[cfg(feature = "std")] {
 //! use core::cell::Cell;
 //! use rtseq::sim::Sim;
-//! use rtseq::{Behaviour, Cx, Done, Duration, Failure, Instant, Monitor, Monitors, Outcome, Seq,
+//! use rtseq::{Behaviour, Cx, Duration, Failure, Instant, Monitor, Monitors, Outcome, Seq,
 //!             SeqConfig, Sequence, Sequencer, Step};
 //!
 //! /// The control system: what steps command and conditions read.
@@ -59,9 +59,9 @@
 //! struct Homing { seek: Seq<SeekEndStop>, zero: Seq<SetZero> }
 //! impl Sequence<Axis> for Homing {
 //!     async fn action(&mut self, cx: &Cx<'_, Axis>) -> Result<(), Failure> {
-//!         if cx.step(&mut self.seek).await == Ok(Done::Completed) {
-//!             let _ = cx.step(&mut self.zero).await;
-//!         }
+//!         // `?`: an aborted or failed step ends homing with the same failure.
+//!         cx.step(&mut self.seek).await?;
+//!         cx.step(&mut self.zero).await?;
 //!         Ok(())
 //!     }
 //! }

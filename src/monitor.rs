@@ -57,7 +57,9 @@ use crate::{Condition, Error, MonitorId, SeqId};
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
 pub enum Behaviour {
-    /// The owner continues where it was.
+    /// The owner continues where it was: at once without an exception sequence; with one,
+    /// once it ended (the owner is held meanwhile, as in EEROS, where the exception
+    /// sequence runs to its end before the owner goes on).
     Nothing,
     /// The owner and all its sub-sequences (blocking and non-blocking) are aborted; the
     /// owner's blocking caller gets [`Failure::Aborted`](crate::Failure::Aborted) and continues.
@@ -89,7 +91,12 @@ pub enum Behaviour {
     /// runs in its lane from the firing tick on, the owner already paused. Nothing runs
     /// when the condition clears but that wait, so let the hold go in its cleanup hook
     /// ([`SeqConfig::on_abort`](crate::SeqConfig::on_abort)) too, for an abort that comes
-    /// while the condition holds.
+    /// while the condition holds. To act at the release before the owner goes on (issue
+    /// the held move again, re-enable a drive), add a second monitor of the same condition
+    /// with [`Trigger::FallingEdge`], `Nothing` and an exception sequence: the owner,
+    /// resumed in that tick, is held until the exception sequence has ended
+    /// (`a_falling_edge_monitor_with_an_exception_sequence_acts_at_the_release` in
+    /// `tests/pause_owner.rs`).
     PauseOwner,
 }
 

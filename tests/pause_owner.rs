@@ -636,3 +636,75 @@ fn an_operators_pause_of_a_feed_frozen_by_its_paused_cycle_outlasts_the_cycles_h
         ]
     );
 }
+
+/// Acting at the release (a feed hold's "re-issue the move"): a second monitor on the
+/// curtain, `Trigger::FallingEdge`, `Behaviour::Nothing`, with an exception sequence (`re-arm`,
+/// a 2 ms dwell). The curtain is broken from 5 ms to 10 ms. At 10 ms the release resumes
+/// the cycle and its move, and the falling edge starts `re-arm`, which holds them: the move
+/// takes no poll until `re-arm` has ended (12 ms) and its `Nothing` is applied (13 ms).
+#[test]
+fn a_falling_edge_monitor_with_an_exception_sequence_acts_at_the_release() {
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let step = seq.add(SeqConfig::new("move"), Leaf::until(1)).unwrap();
+    let s = step.id();
+    let cycle = seq
+        .add(SeqConfig::new("cycle"), Node::of(vec![Op::Step(step)]))
+        .unwrap();
+    let c = cycle.id();
+    let wait = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(2)))
+        .unwrap();
+    let w = wait.id();
+    let rearm = seq
+        .add(SeqConfig::new("re-arm"), Node::of(vec![Op::Wait(wait)]))
+        .unwrap();
+    let r = rearm.id();
+    let mut broken = |c: &Ctrl, _| c.flag(2);
+    let mut cleared = |c: &Ctrl, _| c.flag(2);
+    let mut monitors: Monitors<Ctrl, 2> = Monitors::new();
+    let m0 = monitors
+        .add(
+            c,
+            Monitor::new("curtain", &mut broken, Behaviour::PauseOwner),
+        )
+        .unwrap();
+    let m1 = monitors
+        .add(
+            c,
+            Monitor::new("curtain cleared", &mut cleared, Behaviour::Nothing)
+                .trigger(Trigger::FallingEdge)
+                .exception(r),
+        )
+        .unwrap();
+    let mut sim = Sim::new(&seq, &ctrl, monitors);
+    sim.lane(cycle);
+    sim.lane(rearm);
+    sim.before_tick(move |t, c| {
+        // The move's exit condition holds from 11 ms: taken at the first poll after the hold.
+        c.set(1, ms(t) >= 11);
+        c.set(2, (5..10).contains(&ms(t)));
+    });
+    sim.start(c).unwrap();
+    assert!(sim.run_until_idle(Duration::from_millis(100)).is_some());
+    let (k0, k1) = (Mon(m0), Mon(m1));
+    assert_trace(
+        sim.trace(),
+        &[
+            tr(0, c, Idle, Running, Start),
+            tr(0, s, Idle, Running, Start),
+            tr(5, c, Running, Paused, k0),
+            tr(5, s, Running, Paused, k0),
+            // The tick: the falling edge's exception sequence, then the release; then
+            // re-arm's lane runs its dwell.
+            tr(10, r, Idle, Running, k1),
+            tr(10, c, Paused, Running, k0),
+            tr(10, s, Paused, Running, k0),
+            tr(10, w, Idle, Running, Start),
+            tr(12, w, Running, Terminated, Completed),
+            tr(12, r, Running, Terminated, Completed),
+            tr(13, s, Running, Terminated, Completed),
+            tr(13, c, Running, Terminated, Completed),
+        ],
+    );
+}

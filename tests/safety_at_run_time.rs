@@ -71,7 +71,8 @@ impl SafetyIo for Io {
 }
 
 fn published(io: &Io) -> String {
-    io.handle.map_or(String::from("-"), |h| h.level().id().to_string())
+    io.handle
+        .map_or(String::from("-"), |h| h.level().id().to_string())
 }
 
 fn entry(ctx: &mut SafetyContext<'_>, io: &mut Io) {
@@ -211,13 +212,28 @@ fn four_sources_in_one_cycle_the_safest_wins_and_the_losers_vanish() {
     H.trigger(STOP); // -> READY, from a sequence
     let told = Told::default();
     let r = safety.cycle(&mut io, &told);
-    assert_eq!(r.change, Some(LevelChange { from: Some(RUN), to: EMERG }));
+    assert_eq!(
+        r.change,
+        Some(LevelChange {
+            from: Some(RUN),
+            to: EMERG
+        })
+    );
     assert_eq!((r.unknown_events, r.aborted), (0, true));
     assert_eq!(safety.stats(READY).unwrap().activations, 1);
-    assert_eq!(safety.stats(EMERG).unwrap(), LevelStats { activations: 1, cycles: 1 });
+    assert_eq!(
+        safety.stats(EMERG).unwrap(),
+        LevelStats {
+            activations: 1,
+            cycles: 1
+        }
+    );
     assert_eq!(told.take(), ["level 0", "abort"]);
     // EMERG ignores both inputs: not read; the lamp toggles from low; enable off.
-    assert_eq!(io.writes[io.writes.len() - 2..], [(0, b(false)), (1, b(false))]);
+    assert_eq!(
+        io.writes[io.writes.len() - 2..],
+        [(0, b(false)), (1, b(false))]
+    );
     assert_eq!(io.reads, [0, 1]); // only the cycle in RUN read them
 }
 
@@ -235,7 +251,13 @@ fn a_trigger_during_the_cycle_waits_for_the_next_one() {
     let r = safety.cycle(&mut io, &NoSequences);
     assert_eq!((r.level, H.pending_events()), (READY, 1 << GO.id().index()));
     let r = safety.cycle(&mut io, &NoSequences);
-    assert_eq!(r.change, Some(LevelChange { from: Some(READY), to: RUN }));
+    assert_eq!(
+        r.change,
+        Some(LevelChange {
+            from: Some(READY),
+            to: RUN
+        })
+    );
     assert_eq!(H.pending_events(), 0);
 }
 
@@ -249,7 +271,10 @@ fn a_trigger_during_the_cycle_waits_for_the_next_one() {
 #[test]
 fn an_event_valid_in_the_level_seen_when_triggered_is_resolved_against_the_next_level() {
     static H: SafetyHandle = SafetyHandle::new();
-    let mut io = Io { handle: Some(&H), ..Io::default() };
+    let mut io = Io {
+        handle: Some(&H),
+        ..Io::default()
+    };
     let mut safety = SafetySystem::new_validated(&PROPS, &H).unwrap();
     safety.cycle(&mut io, &NoSequences); // OFF
     H.trigger(START);
@@ -271,7 +296,10 @@ fn an_event_valid_in_the_level_seen_when_triggered_is_resolved_against_the_next_
     assert_eq!((r.level, r.change, r.unknown_events), (RUN, None, 1));
     assert_eq!(
         safety.last_unknown_event(),
-        Some(UnknownEvent { event: DISARM.id(), level: RUN })
+        Some(UnknownEvent {
+            event: DISARM.id(),
+            level: RUN
+        })
     );
 }
 
@@ -280,18 +308,30 @@ fn an_event_valid_in_the_level_seen_when_triggered_is_resolved_against_the_next_
 #[test]
 fn entry_action_event_of_the_first_cycle_and_early_handle_events_meet_in_the_second() {
     static H: SafetyHandle = SafetyHandle::new();
-    let mut io = Io { entry_trigger: Some(START), ..Io::default() };
+    let mut io = Io {
+        entry_trigger: Some(START),
+        ..Io::default()
+    };
     let mut safety = SafetySystem::new_validated(&PROPS, &H).unwrap();
     H.trigger(RESET); // no row from OFF
     let r = safety.cycle(&mut io, &NoSequences);
     assert_eq!((r.level, r.unknown_events), (OFF, 0));
     assert_eq!(H.pending_events(), 1 << RESET.id().index());
     let r = safety.cycle(&mut io, &NoSequences);
-    assert_eq!(r.change, Some(LevelChange { from: Some(OFF), to: READY }));
+    assert_eq!(
+        r.change,
+        Some(LevelChange {
+            from: Some(OFF),
+            to: READY
+        })
+    );
     assert_eq!(r.unknown_events, 1);
     assert_eq!(
         safety.last_unknown_event(),
-        Some(UnknownEvent { event: RESET.id(), level: OFF })
+        Some(UnknownEvent {
+            event: RESET.id(),
+            level: OFF
+        })
     );
 }
 
@@ -312,8 +352,20 @@ fn entry_action_chains_move_one_level_per_cycle() {
     assert_eq!(r.level, RUN);
     let r = safety.cycle(&mut io, &NoSequences);
     assert_eq!(r.level, READY);
-    assert_eq!(safety.stats(READY).unwrap(), LevelStats { activations: 2, cycles: 2 });
-    assert_eq!(safety.stats(RUN).unwrap(), LevelStats { activations: 1, cycles: 1 });
+    assert_eq!(
+        safety.stats(READY).unwrap(),
+        LevelStats {
+            activations: 2,
+            cycles: 2
+        }
+    );
+    assert_eq!(
+        safety.stats(RUN).unwrap(),
+        LevelStats {
+            activations: 1,
+            cycles: 1
+        }
+    );
 }
 
 // ---------------------------------------------------------------------------------------
@@ -334,7 +386,7 @@ fn outputs_exact_writes_per_cycle_leave_keeps_the_old_value() {
         io.writes.clone()
     };
     assert_eq!(cycle(&mut io, None), [(0, b(false)), (1, b(false))]); // OFF
-    // READY: enable is `leave` (never written), the lamp toggles low, high, low ...
+                                                                      // READY: enable is `leave` (never written), the lamp toggles low, high, low ...
     assert_eq!(cycle(&mut io, Some(START)), [(1, b(false))]);
     assert_eq!(cycle(&mut io, None), [(1, b(true))]);
     // a "stay" event that wins is no change: the toggle goes on with its phase
@@ -348,7 +400,13 @@ fn outputs_exact_writes_per_cycle_leave_keeps_the_old_value() {
     // docs/semantics.md, "Outputs").
     assert_eq!(cycle(&mut io, Some(STOP)), [(1, b(false))]);
     assert_eq!(cycle(&mut io, None), [(1, b(true))]);
-    assert_eq!(safety.stats(READY).unwrap(), LevelStats { activations: 2, cycles: 6 });
+    assert_eq!(
+        safety.stats(READY).unwrap(),
+        LevelStats {
+            activations: 2,
+            cycles: 6
+        }
+    );
 }
 
 // ---------------------------------------------------------------------------------------
@@ -431,15 +489,42 @@ fn counters_exact_after_a_walk() {
     safety.cycle(&mut io, &NoSequences);
     assert_eq!(
         io.log,
-        ["exit (handle level -)", "entry 0 (activations 1, cycles 0, handle level -)"]
+        [
+            "exit (handle level -)",
+            "entry 0 (activations 1, cycles 0, handle level -)"
+        ]
     );
     H.trigger(RESET);
     safety.cycle(&mut io, &NoSequences);
     assert_eq!(H.cycles(), 6);
-    assert_eq!(safety.stats(OFF).unwrap(), LevelStats { activations: 2, cycles: 2 });
-    assert_eq!(safety.stats(READY).unwrap(), LevelStats { activations: 1, cycles: 1 });
-    assert_eq!(safety.stats(RUN).unwrap(), LevelStats { activations: 1, cycles: 2 });
-    assert_eq!(safety.stats(EMERG).unwrap(), LevelStats { activations: 1, cycles: 1 });
+    assert_eq!(
+        safety.stats(OFF).unwrap(),
+        LevelStats {
+            activations: 2,
+            cycles: 2
+        }
+    );
+    assert_eq!(
+        safety.stats(READY).unwrap(),
+        LevelStats {
+            activations: 1,
+            cycles: 1
+        }
+    );
+    assert_eq!(
+        safety.stats(RUN).unwrap(),
+        LevelStats {
+            activations: 1,
+            cycles: 2
+        }
+    );
+    assert_eq!(
+        safety.stats(EMERG).unwrap(),
+        LevelStats {
+            activations: 1,
+            cycles: 1
+        }
+    );
 }
 
 // ---------------------------------------------------------------------------------------
@@ -460,7 +545,10 @@ fn open_ended_row_from_the_highest_and_the_lowest_level() {
     assert_eq!((r.level, r.aborted), (EMERG, true));
     H.trigger(HALT);
     let r = safety.cycle(&mut io, &told);
-    assert_eq!((r.level, r.change, r.aborted, r.unknown_events), (EMERG, None, false, 0));
+    assert_eq!(
+        (r.level, r.change, r.aborted, r.unknown_events),
+        (EMERG, None, false, 0)
+    );
     assert_eq!(safety.stats(EMERG).unwrap().activations, 1);
     assert_eq!(told.take(), ["level 0", "abort"]);
 }
@@ -480,7 +568,10 @@ fn an_out_of_range_event_beside_a_valid_one() {
     assert_eq!((r.level, r.unknown_events), (READY, 2));
     assert_eq!(
         safety.last_unknown_event(),
-        Some(UnknownEvent { event: EventId::public(40), level: OFF })
+        Some(UnknownEvent {
+            event: EventId::public(40),
+            level: OFF
+        })
     );
 }
 
@@ -584,7 +675,10 @@ fn sequence_event_and_cleanup_hook_event_exact_times() {
     let machine: &'static Machine = Box::leak(Box::default());
     machine.handle.set(Some(seq.safety_handle()));
     let halt = seq
-        .add(SeqConfig::new("halt").on_abort(reset_on_abort), Trigger(Some(HALT)))
+        .add(
+            SeqConfig::new("halt").on_abort(reset_on_abort),
+            Trigger(Some(HALT)),
+        )
         .unwrap();
     let later = seq.add(SeqConfig::new("later"), Trigger(None)).unwrap();
     let (halt_id, later_id) = (halt.id(), later.id());
@@ -597,7 +691,8 @@ fn sequence_event_and_cleanup_hook_event_exact_times() {
     sim.before_tick(move |now, _| {
         let mut io = SimIo(machine);
         let r = safety.cycle(&mut io, seq);
-        l2.borrow_mut().push((now.as_ticks() / 1000, r.level.id(), r.aborted));
+        l2.borrow_mut()
+            .push((now.as_ticks() / 1000, r.level.id(), r.aborted));
     });
     sim.start(halt_id).unwrap();
     sim.run_for(Duration::from_millis(3));
@@ -610,7 +705,11 @@ fn sequence_event_and_cleanup_hook_event_exact_times() {
     sim.run_for(Duration::from_millis(2));
     assert_eq!(sim.state(later_id), rtseq::RunningState::Running);
     let names = (seq, SIM_PROPS.properties());
-    let got: Vec<String> = sim.records().iter().map(|r| r.named(&names).to_string()).collect();
+    let got: Vec<String> = sim
+        .records()
+        .iter()
+        .map(|r| r.named(&names).to_string())
+        .collect();
     assert_eq!(
         got,
         [
@@ -646,7 +745,11 @@ fn while_active_aborts_a_sequence_started_in_the_level_at_the_next_tick() {
     sim.start(id).unwrap(); // in OFF, at 3 ms: refused? accepted, aborted at 4 ms
     sim.run_for(Duration::from_millis(2));
     let names = (seq, WHILE_PROPS.properties());
-    let got: Vec<String> = sim.records().iter().map(|r| r.named(&names).to_string()).collect();
+    let got: Vec<String> = sim
+        .records()
+        .iter()
+        .map(|r| r.named(&names).to_string())
+        .collect();
     assert_eq!(
         got,
         [
@@ -684,7 +787,11 @@ fn level_trip_and_abort_in_one_cycle_are_recorded_in_that_order() {
     sim.start(id).unwrap();
     sim.run_for(Duration::from_millis(4));
     let names = (seq, SIM_PROPS.properties());
-    let got: Vec<String> = sim.records().iter().map(|r| r.named(&names).to_string()).collect();
+    let got: Vec<String> = sim
+        .records()
+        .iter()
+        .map(|r| r.named(&names).to_string())
+        .collect();
     // 2 ms: current trips in RUN; 3 ms: READY entered (OVERCUR), estop trips in READY;
     // 4 ms: EMERG entered, aborts.
     assert_eq!(
@@ -739,7 +846,11 @@ fn an_abort_all_posted_before_the_drop_is_carried_out_after_it() {
     assert!(seq.safety_system().is_none());
     sim.step(); // 2 ms
     let names = (seq, ONE_PROPS.properties());
-    let got: Vec<String> = sim.records().iter().map(|r| r.named(&names).to_string()).collect();
+    let got: Vec<String> = sim
+        .records()
+        .iter()
+        .map(|r| r.named(&names).to_string())
+        .collect();
     assert_eq!(
         got,
         [

@@ -76,8 +76,11 @@ pub enum Error {
     /// runs, so a start of that id says [`NoLane`](Error::NoLane).
     ForeignSequence(SeqId),
     /// Resume was requested for a sequence that a [`PauseOwner`](crate::Behaviour::PauseOwner)
-    /// monitor holds paused (its condition still holds): it resumes when the condition
-    /// clears.
+    /// monitor holds paused (its condition still holds). The request is refused and takes
+    /// nothing back: held by the monitor alone, the sequence resumes when the condition
+    /// clears; paused by a pause request as well (or with one pending), it stays paused
+    /// then, until a resume request after the release (an operator's resume must come
+    /// once the interlock has cleared, as a PLC's cycle start).
     HeldByMonitor(SeqId),
     /// A join whose run ended, and a later run of the same sequence ended too, before the
     /// joiner was polled: a control block keeps one outcome, the later run's, so the

@@ -56,6 +56,22 @@ pub enum Cause {
     Failed,
 }
 
+impl Cause {
+    /// An exception: a monitor or a timeout fired (`Monitor`, `Timeout`). What it aborts
+    /// or restarts as its behaviour's target has [`exception_is_active`] set.
+    ///
+    /// [`exception_is_active`]: crate::Handle::exception_is_active
+    ///
+    /// ```
+    /// use rtseq::{Cause, SeqId};
+    /// assert!(Cause::Timeout(SeqId::from_index(0)).is_exception());
+    /// assert!(!Cause::AbortAll.is_exception());
+    /// ```
+    pub const fn is_exception(self) -> bool {
+        matches!(self, Cause::Monitor(_) | Cause::Timeout(_))
+    }
+}
+
 /// The result of one run: how it ended ([`Handle::last_outcome`], [`Cx::join`]).
 ///
 /// A blocking caller gets it as a `Result` ([`Outcome::done`]): [`Done`] when the run

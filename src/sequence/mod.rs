@@ -36,7 +36,7 @@ use crate::{Done, Failure, SeqId};
 /// ([`lane`](fn@crate::lane)). It must not block: wait with steps and their exit conditions.
 ///
 /// ```
-/// use rtseq::{Cx, Done, Failure, Seq, Sequence, Step};
+/// use rtseq::{Cx, Failure, Seq, Sequence, Step};
 /// struct Enable;
 /// impl Step<()> for Enable {
 ///     fn action(&mut self, _cx: &Cx<'_, ()>) -> Result<(), Failure> { Ok(()) }
@@ -44,9 +44,7 @@ use crate::{Done, Failure, SeqId};
 /// struct PowerOn { enable: Seq<Enable> }
 /// impl Sequence<()> for PowerOn {
 ///     async fn action(&mut self, cx: &Cx<'_, ()>) -> Result<(), Failure> {
-///         if cx.step(&mut self.enable).await != Ok(Done::Completed) {
-///             return Ok(());
-///         }
+///         cx.step(&mut self.enable).await?;
 ///         Ok(())
 ///     }
 /// }

@@ -302,7 +302,10 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
-    /// sequence was aborted, or is being restarted, because of it. The restarted run begins
+    /// sequence was aborted, or is being restarted, because of it: the owner of the monitor,
+    /// and its caller when the behaviour is one of the `…CallerOfOwner` (while the
+    /// exception sequence runs only the owner's is set; sequences below the behaviour's
+    /// target are aborted by the teardown from above, not marked). The restarted run begins
     /// without it (it is not held), and so does a new start (not one refused); an abort
     /// for another cause during the exception (an abort-all, an abort request, a teardown
     /// from above) ends it too. [`active_exception`] keeps naming the last exception until
@@ -477,7 +480,8 @@ impl<'a, C> Handle<'a, C> {
 
     /// Requests a pause of the sequence and its blocking children (next tick). Of a pause
     /// and a resume requested before the same tick, the later counts: a pause while a
-    /// resume is pending takes it back. A sequence paused by a pause request already, with
+    /// resume is pending takes it back (but a resume while a `PauseOwner` monitor holds
+    /// the sequence is refused, [`Error::HeldByMonitor`], and takes back nothing). A sequence paused by a pause request already, with
     /// no resume pending, gives [`Error::AlreadyPaused`]. One held paused by something else
     /// (a `PauseOwner` monitor, the paused caller it blocks) takes the request: it stays
     /// paused when that hold ends, until a resume request. A sequence that is not running
@@ -528,7 +532,11 @@ impl<'a, C> Handle<'a, C> {
     }
 
     /// Requests that a paused sequence resume where it stopped (next tick). A resume while a
-    /// pause is pending takes the pause back (the sequence does not pause).
+    /// pause is pending takes the pause back (the sequence does not pause). While a
+    /// `PauseOwner` monitor holds the sequence a resume is refused
+    /// ([`Error::HeldByMonitor`]) and takes back nothing, not even a pending pause: a
+    /// pause requested before keeps the sequence paused after the release, until a resume
+    /// then.
     ///
     /// ```
     /// # #[cfg(feature = "std")] {

@@ -166,6 +166,18 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     return None;
                 }
                 s.mark_stopping(t.seq);
+                // Stopped because of an exception: `exceptionIsActive` (specification
+                // 1.3.1) of the behaviour's target, the owner's caller as well as the
+                // owner (which its firing marked already). Not of a run that is being
+                // stopped already: this teardown does not move it.
+                if cause.is_exception() {
+                    if let Some(b) = s
+                        .block_mut(t.seq)
+                        .filter(|b| RunningStates::RUNNING_OR_PAUSED.has(b.state))
+                    {
+                        b.active_exception = Some(cause);
+                    }
+                }
                 Some(s.sets.none_but(Set::Called, t.seq))
             });
             match alone {

@@ -1,7 +1,10 @@
 //! `exception_is_active` of a run stopped during its exception (a cold review of session
-//! 56's fixes, the last one): restarted or aborted for another cause, the mark is gone; for
-//! its own (an escalated restart, a caller behaviour of its own monitor), it stays. And a
-//! refused join beside another join of the same action.
+//! 56's fixes, the last one): restarted or aborted for another exception (a child's
+//! `…CallerOfOwner` monitor), the mark names that one; for its own (an escalated restart,
+//! a caller behaviour of its own monitor), it stays. The caller a `…CallerOfOwner`
+//! behaviour stops is marked too (the specification's 1.3.1, as EEROS's
+//! `setActiveException`; session 58). And a refused join beside another join of the same
+//! action.
 
 use super::*;
 
@@ -10,11 +13,19 @@ use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
 /// O (its monitor M0, `AbortOwner`, with exception sequence E) runs C blocking; C's
 /// monitor M1 (`RestartCallerOfOwner`, no exception sequence) is armed by `c_fault`.
 /// The tick at 1 ms fires M0: E is started and taken, O is held. Returns the world, O, C,
-/// E, C's flag.
+/// E, C's flag, M1's cause.
+#[allow(clippy::type_complexity)]
 fn owner_excepting_child_restarts<L: Lock + 'static, const N: usize, const B: usize>(
     layout: Layout,
     c_behaviour: Behaviour,
-) -> (World<L, N, B>, SeqId, SeqId, SeqId, &'static AtomicBool) {
+) -> (
+    World<L, N, B>,
+    SeqId,
+    SeqId,
+    SeqId,
+    &'static AtomicBool,
+    Cause,
+) {
     let w = World::<L, N, B>::new(layout);
     let o = w.seq("O");
     let c = w.seq("C");
@@ -22,7 +33,7 @@ fn owner_excepting_child_restarts<L: Lock + 'static, const N: usize, const B: us
     let o_fault = flag_of(true);
     let c_fault = flag_of(false);
     w.monitor(o, o_fault, Behaviour::AbortOwner, Some(e));
-    w.monitor(c, c_fault, c_behaviour, None);
+    let m1 = w.monitor(c, c_fault, c_behaviour, None);
     w.start_taken(o);
     w.blocking(c, o).unwrap();
     w.tick(1);
@@ -30,17 +41,16 @@ fn owner_excepting_child_restarts<L: Lock + 'static, const N: usize, const B: us
     let _ = w.try_take(e);
     assert_eq!(w.state(e), Running, "E runs");
     assert!(w.handle(o).exception_is_active(), "O excepting");
-    (w, o, c, e, c_fault)
+    (w, o, c, e, c_fault, m1)
 }
 
 /// C's monitor restarts O (C's caller) while O's own exception (M0) is handled. O is
 /// `Restarting` for C's monitor, not for its own exception, and M0 is no longer handled
-/// (E went down with O's round, or its end no longer applies anything). Rustdoc of
-/// `Handle::exception_is_active`: "a monitor of this sequence fired and is being handled,
-/// or this sequence was aborted, or is being restarted, because of it"; the aborted twin
-/// (an abort for another cause) was made false today.
+/// (E went down with O's round, or its end no longer applies anything): O's active
+/// exception is M1, which restarts it (`Handle::exception_is_active`: the caller a
+/// `…CallerOfOwner` behaviour restarts is marked).
 fn restarted_for_another_cause<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
-    let (w, o, c, _e, c_fault) =
+    let (w, o, c, _e, c_fault, m1) =
         owner_excepting_child_restarts::<L, N, B>(layout, Behaviour::RestartCallerOfOwner);
     c_fault.store(true, Ordering::Relaxed);
     w.tick(2);
@@ -49,35 +59,36 @@ fn restarted_for_another_cause<L: Lock + 'static, const N: usize, const B: usize
     assert_eq!(w.state(o), Restarting, "{what}: O restarting");
     assert_ne!(w.ended(o).1, M0, "{what}: O restarted for C's monitor");
     assert!(
-        !h.exception_is_active(),
-        "{what}: O is Restarting for another cause, its exception {:?} no longer handled (E {:?})",
-        h.active_exception(),
+        h.exception_is_active(),
+        "{what}: O is Restarting for C's monitor (E {:?})",
         w.state(_e),
     );
+    assert_eq!(h.active_exception(), Some(m1), "{what}");
     let _ = c;
 }
 
 #[test]
-fn a_run_restarted_for_another_cause_during_its_exception_has_no_active_exception() {
+fn a_run_restarted_by_a_child_s_monitor_during_its_exception_names_that_one() {
     every_world!(restarted_for_another_cause);
 }
 
-/// The same with C's monitor aborting O (`AbortCallerOfOwner`): O `Aborted` for M1,
-/// `exception_is_active` false (today's fix), checked as the twin's reference.
+/// The same with C's monitor aborting O (`AbortCallerOfOwner`): O `Aborted` for M1, its
+/// active exception M1.
 fn aborted_for_another_cause<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
-    let (w, o, _c, _e, c_fault) =
+    let (w, o, _c, _e, c_fault, m1) =
         owner_excepting_child_restarts::<L, N, B>(layout, Behaviour::AbortCallerOfOwner);
     c_fault.store(true, Ordering::Relaxed);
     w.tick(2);
     let h = w.handle(o);
     let what = name::<L>(layout, format_args!("abort for C's monitor"));
     assert_eq!(w.state(o), Aborted, "{what}");
-    assert!(!h.exception_is_active(), "{what}");
+    assert!(h.exception_is_active(), "{what}");
+    assert_eq!(h.active_exception(), Some(m1), "{what}");
     w.check(&what);
 }
 
 #[test]
-fn a_run_aborted_for_another_cause_during_its_exception_has_no_active_exception() {
+fn a_run_aborted_by_a_child_s_monitor_during_its_exception_names_that_one() {
     every_world!(aborted_for_another_cause);
 }
 
@@ -117,7 +128,8 @@ fn a_run_aborted_by_an_escalated_restart_keeps_its_exception_active() {
 
 /// P runs O blocking; O's `AbortCallerOfOwner` monitor fires (no exception sequence): P
 /// is torn down for O's monitor, O with it as its blocking child, for its own exception:
-/// O's `exception_is_active` stays; P's monitors never fired: P's is false.
+/// O's `exception_is_active` stays; P, the behaviour's target, is marked with O's monitor
+/// (the specification's 1.3.1: aborted because of an exception).
 fn caller_of_owner<L: Lock + 'static, const N: usize, const B: usize>(layout: Layout) {
     let w = World::<L, N, B>::new(layout);
     let p = w.seq("P");
@@ -130,7 +142,8 @@ fn caller_of_owner<L: Lock + 'static, const N: usize, const B: usize>(layout: La
     assert_eq!(w.ended(o), (Aborted, cause), "{what}: O");
     assert_eq!(w.ended(p), (Aborted, cause), "{what}: P");
     assert!(w.handle(o).exception_is_active(), "{what}: O");
-    assert!(!w.handle(p).exception_is_active(), "{what}: P");
+    assert!(w.handle(p).exception_is_active(), "{what}: P");
+    assert_eq!(w.handle(p).active_exception(), Some(cause), "{what}: P");
     w.check(&what);
 }
 
