@@ -122,7 +122,10 @@ macro_rules! sequences {
 ///   with the parameters given after the module's name; `M` < `COUNT` does not compile;
 /// * `pub const fn validate<const N: usize>(sequences: &Table<C, N>, ..) -> Result<(),
 ///   ConfigError>`: [`Table::validate`](crate::Table::validate) of the monitors with a
-///   sequence table, in a `const` item a compile-time check of the whole configuration.
+///   sequence table, in a `const` item a compile-time check of the whole configuration;
+/// * `pub const fn names(..) -> MonitorNames<COUNT>`: the monitors' names by id
+///   ([`MonitorNames`](crate::MonitorNames)), to print records where the table is out of
+///   reach (`static NAMES: MonitorNames<{ monitor_ids::COUNT }> = monitor_ids::names(..);`).
 ///
 /// The monitors see the module's ids and, through `use super::*`, everything in the module
 /// around the macro (the sequence ids, typically).
@@ -179,6 +182,11 @@ macro_rules! sequences {
 ///     let monitors: Monitors<'static, Axis, 4, AxisCondition> = monitor_ids::table().unwrap();
 ///     assert_eq!(monitors.name(monitor_ids::OVER_TRAVEL), Some("over-travel"));
 ///     assert_eq!(monitors.owner(monitor_ids::OVER_TRAVEL), Some(HOMING));
+///     // The names alone, for a task that drains the records (the tick's owns the table):
+///     const NAMES: rtseq::MonitorNames<{ monitor_ids::COUNT }> = monitor_ids::names();
+///     use rtseq::{Cause, WithNames};
+///     let cause = Cause::Monitor(monitor_ids::OVER_TRAVEL);
+///     assert_eq!(cause.named(&NAMES).to_string(), "monitor `over-travel`");
 /// }
 /// ```
 #[macro_export]
@@ -234,6 +242,19 @@ macro_rules! monitors {
                 #[allow(clippy::forget_non_drop)]
                 ::core::mem::forget(monitors);
                 checked
+            }
+
+            /// The monitors' names by id, apart from the table (for printing records
+            /// where the table is out of reach).
+            pub const fn names(
+                $( $($param: $param_ty),* )?
+            ) -> $crate::MonitorNames<COUNT> {
+                let monitors: [$crate::OwnedMonitor<'static, $control, $condition>; COUNT] =
+                    [$($monitor),+];
+                let names = $crate::MonitorNames::of(&monitors);
+                #[allow(clippy::forget_non_drop)]
+                ::core::mem::forget(monitors);
+                names
             }
         }
     };

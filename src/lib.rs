@@ -154,7 +154,7 @@ pub use monitor::{
     Behaviour, ConditionFn, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger,
     DEFAULT_RESTART_LIMIT,
 };
-pub use names::{Failures, Named, Names, WithNames};
+pub use names::{Failures, MonitorNames, Named, Names, WithNames};
 pub use sequence::{lane, Cx, Scoped, Seq, Sequence, Step, Wait};
 #[cfg_attr(docsrs, doc(cfg(feature = "counters")))]
 #[cfg(feature = "counters")]

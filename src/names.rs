@@ -35,8 +35,8 @@ use core::fmt;
 use crate::lock::Lock;
 use crate::safety::{InputId, SafetyLevel, SafetyProperties};
 use crate::{
-    Cause, Entry, Error, Event, Failure, MonitorId, Monitors, Outcome, Record, Requester, SeqId,
-    Sequencer, Transition,
+    Cause, Entry, Error, Event, Failure, MonitorId, Monitors, Outcome, OwnedMonitor, Record,
+    Requester, SeqId, Sequencer, Transition,
 };
 
 /// A source of names for printing with [`WithNames::named`]. Each method answers `None`
@@ -181,6 +181,48 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 impl<C, const M: usize, K> Names for Monitors<'_, C, M, K> {
     fn monitor(&self, id: MonitorId) -> Option<&'static str> {
         self.name(id)
+    }
+}
+
+/// The monitors' names by id, apart from their table: for printing where the tick's table
+/// is out of reach (on the chip, the `idle` task that drains the records while the control
+/// task owns the table). `rtseq::monitors!` makes them at compile time (`names`); a few
+/// bytes of flash per monitor, no copy of the conditions.
+///
+/// ```
+/// use rtseq::{Behaviour, Cause, ConditionFn, Instant, Monitor, MonitorNames, OwnedMonitor,
+///             SeqId, WithNames};
+/// fn jammed(_: &(), _: Instant) -> bool { false }
+/// const MOVE: SeqId = SeqId::from_index(0);
+/// const NAMES: MonitorNames<1> = MonitorNames::of(&[
+///     Monitor::with_fn("jam", jammed, Behaviour::AbortOwner).owned_by(MOVE),
+/// ]);
+/// let jam = Cause::Monitor(rtseq::MonitorId::from_index(0));
+/// assert_eq!(jam.named(&NAMES).to_string(), "monitor `jam`");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MonitorNames<const M: usize>(pub [&'static str; M]);
+
+impl<const M: usize> MonitorNames<M> {
+    /// The names of `monitors`, in table order (monitor `i` is the table's entry `i`).
+    pub const fn of<C, K>(monitors: &[OwnedMonitor<'_, C, K>; M]) -> Self {
+        let mut names = [""; M];
+        let mut slots: &mut [&'static str] = &mut names;
+        let mut rest: &[OwnedMonitor<'_, C, K>] = monitors;
+        while let (Some((slot, more)), Some((monitor, tail))) =
+            (slots.split_first_mut(), rest.split_first())
+        {
+            *slot = monitor.def.name;
+            slots = more;
+            rest = tail;
+        }
+        MonitorNames(names)
+    }
+}
+
+impl<const M: usize> Names for MonitorNames<M> {
+    fn monitor(&self, id: MonitorId) -> Option<&'static str> {
+        self.0.get(id.index()).copied()
     }
 }
 

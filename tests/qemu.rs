@@ -11,9 +11,12 @@
 //! an ELF in QEMU through `qemu_run` (tools/qemu-run, the same code as the cargo runner)
 //! and returns the decoded [`Outcome`].
 //!
-//! Adding a scenario: add a binary `boards/qemu-f405/src/bin/NAME.rs` (or a mode of an
+//! Adding a scenario: add a binary `boards/qemu-f405/src/bin/NAME.rs` with its `[[bin]]`
+//! entry (`test = false`, as the others) in `boards/qemu-f405/Cargo.toml` (or a mode of an
 //! existing one, read from its command line with `board::args`), then a test here:
-//! `let out = run("NAME", &["ARGS"]); expect_exit(&out, 0); expect_line(&out, "...");`.
+//! `let out = run("NAME", &["ARGS"]); expect_exit(&out, 0); expect_line(&out, "...");`. A
+//! QEMU suite of its own is a file `tests/qemu_*.rs`: the published package leaves those
+//! out (Cargo.toml's `exclude`), with the harness they share; they need no `[[test]]`.
 
 mod qemu_harness;
 

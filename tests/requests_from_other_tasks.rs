@@ -14,6 +14,11 @@ use rtseq::{
     SeqConfig, SeqId, Sequence, Sequencer, Transition,
 };
 
+/// A request made from user code: the time in ms, what asked, the answer.
+type Asked = (u64, &'static str, Result<(), Error>);
+/// A request made from a waker: the time in ms, the answer, the state it saw.
+type WakerAsked = (u64, Result<(), Error>, RunningState);
+
 type Sq = Sequencer<Ctl, 8>;
 type Mons = Monitors<'static, Ctl, 4, ConditionFn<Ctl>>;
 
@@ -27,7 +32,7 @@ struct Ctl {
     /// (ms, sequence name, what)
     log: RefCell<Vec<(u64, &'static str, &'static str)>>,
     /// Results of requests made from user code: (ms, what, result).
-    asked: RefCell<Vec<(u64, &'static str, Result<(), Error>)>>,
+    asked: RefCell<Vec<Asked>>,
 }
 
 impl Ctl {
@@ -1653,7 +1658,7 @@ use std::task::{Context, Poll, Wake, Waker};
 thread_local! {
     static WAKER_SEQ: Cell<Option<&'static Sq>> = const { Cell::new(None) };
     /// (ms, result of the waker's pause of sequence 1, state of sequence 0 seen then)
-    static WAKER_LOG: RefCell<Vec<(u64, Result<(), Error>, RunningState)>> =
+    static WAKER_LOG: RefCell<Vec<WakerAsked>> =
         const { RefCell::new(Vec::new()) };
     static INNER: RefCell<Option<Waker>> = const { RefCell::new(None) };
 }

@@ -137,6 +137,12 @@ impl RunningStates {
         .with(RunningState::Restarting)
         .with(RunningState::Aborting);
 
+    /// The states a teardown leaves a run in: being aborted, aborted, or between two
+    /// rounds.
+    pub(crate) const STOPPED_BY_TEARDOWN: RunningStates = RunningStates::of(RunningState::Aborting)
+        .with(RunningState::Aborted)
+        .with(RunningState::Restarting);
+
     /// The states a start may leave (`Idle`, `Terminated`, `Aborted`: not active).
     pub(crate) const STARTABLE: RunningStates = RunningStates::of(RunningState::Idle)
         .with(RunningState::Terminated)

@@ -74,8 +74,16 @@ impl Counters {
 /// paused, fresh, timeout armed, exception active, waiting for a poll) is kept as sets in
 /// the sequencer instead (`sequencer::sets::Sets`).
 pub(crate) mod flag {
-    // Bits 0, 4, 7 and 8 are free; bits 10 to 15 are the requests and the pending
-    // behaviour.
+    // Bits 7 and 8 are free; bits 10 to 15 are the requests and the pending behaviour.
+    /// An exception marked this run or round: as the owner of the monitor or timeout that
+    /// fired, or as the target of its behaviour (the owner's caller, for a
+    /// `…CallerOfOwner`). A run stopped for that exception reads `exception_is_active`
+    /// (`Port::info`); a new run and a new round begin without it.
+    pub const EXCEPTION_MARKED: u16 = 1 << 0;
+    /// A teardown for an exception placed this run as its target (the behaviour's): once
+    /// moved, it is marked (`EXCEPTION_MARKED`) and names the exception. A run its lane
+    /// ends first, or one a teardown for another cause moves, is not.
+    pub const EXCEPTION_TARGET: u16 = 1 << 4;
     /// A non-blocking start waits for the lane to pick it up.
     pub const START_PENDING: u16 = 1 << 1;
     /// A pause request paused it: a `PauseOwner` monitor whose condition clears does not
@@ -328,10 +336,13 @@ impl ControlBlock {
     }
 
     /// A round ends (a restart's commit): the behaviour it waited to apply goes, and so
-    /// does the credit of an exception sequence's end given to it (`EXCEPTION_DONE`): the
-    /// next round waits for its own.
-    pub(crate) fn drop_pending(&mut self) {
-        self.flags &= !(pending::MASK | flag::EXCEPTION_DONE);
+    /// do the credit of an exception sequence's end given to it (`EXCEPTION_DONE`), for
+    /// the next round waits for its own, and its exception's mark (`EXCEPTION_MARKED`),
+    /// for the next round begins without it (a target's mark still to be made after its
+    /// move, `EXCEPTION_TARGET`, names the exception that restarted it, and marks
+    /// nothing).
+    pub(crate) fn end_round(&mut self) {
+        self.flags &= !(pending::MASK | flag::EXCEPTION_DONE | flag::EXCEPTION_MARKED);
     }
 
     pub(crate) fn set_pending(&mut self, b: Option<Behaviour>) {

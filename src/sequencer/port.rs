@@ -411,13 +411,14 @@ impl<C> dyn Port<C> + '_ {
 
 /// `exception_is_active` of a block whose mark of an exception is `excepting`: of a run
 /// under way the mark; of one being stopped or stopped (`Aborting`, `Aborted`,
-/// `Restarting`), whether its last exception is what stops it (the cause of its teardown,
-/// set in its first section), whatever a teardown for another cause or a start refused
-/// after its schedule left of the mark.
+/// `Restarting`), whether an exception marked this run or round (as its owner, or as its
+/// behaviour's target) and is what stops it (the cause of its teardown, set in its first
+/// section), whatever a teardown for another cause, or from above for an exception that
+/// marked an earlier round, or a start refused after its schedule left of the mark.
 fn exception_active(b: &ControlBlock, excepting: bool) -> bool {
     match b.state {
         RunningState::Aborting | RunningState::Aborted | RunningState::Restarting => {
-            b.active_exception == Some(b.last_cause)
+            b.has(flag::EXCEPTION_MARKED) && b.active_exception == Some(b.last_cause)
         }
         _ => excepting,
     }

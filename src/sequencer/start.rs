@@ -331,7 +331,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
 
     /// The commit of a restart: as [`commit_new`](Self::commit_new), keeping the run's
     /// caller and flags; the behaviour it was waiting to apply is dropped, with a credit of
-    /// its exception sequence's end (`ControlBlock::drop_pending`).
+    /// its exception sequence's end, and its mark (`ControlBlock::end_round`).
     #[inline(never)]
     fn commit_restart(&mut self, change: &StateChange, seen: u32) -> bool {
         if self.changes != seen {
@@ -340,7 +340,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         let Some(b) = self.transition(change) else {
             return false;
         };
-        b.drop_pending();
+        b.end_round();
         true
     }
 }

@@ -217,7 +217,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             Behaviour::Nothing => {
                 let id = owner.seq;
                 in_sections_then_wake!(self, |s| {
-                    s.section(|s| s.sets.put(Set::Excepting, id, false));
+                    s.section(|s| {
+                        s.sets.put(Set::Excepting, id, false);
+                        if let Some(b) = s.block_mut(id) {
+                            b.set(flag::EXCEPTION_MARKED, false);
+                        }
+                    });
                     s.section(|s| s.lane_of(id))
                 });
             }
@@ -403,6 +408,7 @@ fn mark<
             .block_mut(owner)
             .filter(|b| states.has(b.state) && b.runs == owner_runs && !b.being_stopped())?;
         b.active_exception = Some(cause);
+        b.set(flag::EXCEPTION_MARKED, true);
         s.sets.put(Set::Excepting, owner, true);
         // Held from now on: a due poll its lane has not taken is skipped.
         let skip = holds && s.sets.has(Set::PollDue, owner);

@@ -140,9 +140,22 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // the target, which a disturbed pass leaves in place, still moves, so no teardown
         // is lost. An abort-all has no target: its caller carries it out again.
         if let Some(t) = teardown.target() {
-            self.stop(control, t.seq, cause, teardown.target_stop());
+            self.stop_target(control, t.seq, cause, teardown.target_stop());
         }
         false
+    }
+
+    /// Stops the teardown's target `id` as [`stop`](Self::stop) does; then, if it was
+    /// placed as the target of an exception's behaviour (`teardown_pass`) and is stopped
+    /// now, marks it: `exceptionIsActive` (specification 1.3.1) of the owner's caller
+    /// that a `…CallerOfOwner` behaviour stops, as of the owner (which its firing marked
+    /// already). Once moved, not before: its lane may end the run first.
+    fn stop_target(&self, control: &C, id: SeqId, cause: Cause, how: Stop) -> bool {
+        let raced = self.stop(control, id, cause, how);
+        if cause.is_exception() {
+            self.with(|s| s.mark_exception_target(id, cause, how));
+        }
+        raced
     }
 
     /// One pass of a teardown, begun when [`State::runs_begun`] was `begun`.
@@ -154,7 +167,10 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
         // sequences below it.
         let move_one = |id: SeqId| match teardown {
-            Teardown::Restart(t) if id == t.seq => self.stop(control, id, cause, Stop::Restart),
+            Teardown::Restart(t) if id == t.seq => {
+                self.stop_target(control, id, cause, Stop::Restart)
+            }
+            Teardown::Abort(t) if id == t.seq => self.stop_target(control, id, cause, Stop::Abort),
             _ => self.stop(control, id, cause, Stop::Abort),
         };
         // The target is marked first (it starts nothing from now on), unless its run is
@@ -166,16 +182,15 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                     return None;
                 }
                 s.mark_stopping(t.seq);
-                // Stopped because of an exception: `exceptionIsActive` (specification
-                // 1.3.1) of the behaviour's target, the owner's caller as well as the
-                // owner (which its firing marked already). Not of a run that is being
-                // stopped already: this teardown does not move it.
+                // Placed as the target of an exception's behaviour, to be marked once
+                // moved (`stop_target`). Not a run that is being stopped already: this
+                // teardown does not move it.
                 if cause.is_exception() {
                     if let Some(b) = s
                         .block_mut(t.seq)
                         .filter(|b| RunningStates::RUNNING_OR_PAUSED.has(b.state))
                     {
-                        b.active_exception = Some(cause);
+                        b.set(flag::EXCEPTION_TARGET, true);
                     }
                 }
                 Some(s.sets.none_but(Set::Called, t.seq))
@@ -291,6 +306,30 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             self.mark_stopping(id);
         }
         placed
+    }
+
+    /// `id`, placed as the target of an exception's behaviour (`teardown_pass`), was
+    /// stopped as `how` says for the exception `cause`: stopped because of it, it names it
+    /// (`activeException`) and, while it is still stopped (`Aborting`, `Aborted`,
+    /// `Restarting`), is marked (`exceptionIsActive`). A lane of higher priority may have
+    /// taken up the restart since (the new round is named, and begins unmarked). Nothing
+    /// for a run its lane ended before the move (its last cause is this one, its state an
+    /// end), or a new run (which began without the placing).
+    fn mark_exception_target(&mut self, id: SeqId, cause: Cause, how: Stop) {
+        let Some(b) = self.block_mut(id).filter(|b| b.has(flag::EXCEPTION_TARGET)) else {
+            return;
+        };
+        b.set(flag::EXCEPTION_TARGET, false);
+        if b.last_cause != cause {
+            return;
+        }
+        let stopped = RunningStates::STOPPED_BY_TEARDOWN.has(b.state);
+        let round_taken_up =
+            matches!(how, Stop::Restart) && RunningStates::RUNNING_OR_PAUSED.has(b.state);
+        if stopped || round_taken_up {
+            b.active_exception = Some(cause);
+            b.set(flag::EXCEPTION_MARKED, stopped);
+        }
     }
 
     /// A teardown placed `id`: it starts nothing until it is moved ([`flag::STOPPING`]).

@@ -148,7 +148,7 @@ mod app {
 
     use rtseq::lock::PriorityCeiling;
     use rtseq::safety::SafetySystem;
-    use rtseq::{SeqId, Sequencer, WithNames};
+    use rtseq::{MonitorNames, SeqId, Sequencer, WithNames};
     use rtseq_motor::app::seq_ids::MAIN;
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
     use rtseq_motor::control_system::ControlSystem;
@@ -191,6 +191,9 @@ mod app {
     static CS: ControlSystem = ControlSystem::new(AppConfig::DEFAULT.start_position);
     /// The sequence table, checked by the compiler: `init` only copies it in.
     static SETUP: app::Setup = app::Setup::DEFAULT;
+    /// The monitors' names, for the records `idle` prints (the control task owns the table).
+    static MONITOR_NAMES: MonitorNames<{ app::monitor_ids::COUNT }> =
+        app::monitor_ids::names(&AppConfig::DEFAULT);
     /// Control periods since start, wrapping (the defmt timestamp and the idle loop's
     /// pace; the sequencer's clock counts them in 64 bits).
     pub static TICKS: AtomicU32 = AtomicU32::new(0);
@@ -411,7 +414,9 @@ mod app {
         loop {
             // The run as the sequencer recorded it, by name, and what went wrong without a
             // panic (firmware guide, section 5).
-            let lost = SEQ.drain_records(|r| defmt::info!("{}", r.named(&SEQ)));
+            let lost = SEQ.drain_records(|r| {
+                defmt::info!("{}", r.named(&(&SEQ, &MONITOR_NAMES)));
+            });
             if lost != 0 {
                 defmt::warn!("trace: {=u32} records lost", lost);
             }

@@ -87,6 +87,7 @@ mod changes_during_the_tick;
 mod coarse;
 mod drops;
 mod exception_marks;
+mod exception_marks_of_callers;
 mod exceptions_gone_with_their_run;
 mod fine;
 mod grids;
