@@ -81,8 +81,8 @@ pub(crate) mod flag {
     /// (`Port::info`); a new run and a new round begin without it.
     pub const EXCEPTION_MARKED: u16 = 1 << 0;
     /// A teardown for an exception placed this run as its target (the behaviour's): once
-    /// moved, it is marked (`EXCEPTION_MARKED`) and names the exception. A run its lane
-    /// ends first, or one a teardown for another cause moves, is not.
+    /// stopped (after its cleanup hook), it names the exception and, still stopped, is
+    /// marked (`EXCEPTION_MARKED`). A run its lane ends before the move is not.
     pub const EXCEPTION_TARGET: u16 = 1 << 4;
     /// A non-blocking start waits for the lane to pick it up.
     pub const START_PENDING: u16 = 1 << 1;

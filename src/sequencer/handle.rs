@@ -304,9 +304,10 @@ impl<'a, C> Handle<'a, C> {
     /// `exceptionIsActive`: a monitor of this sequence fired and is being handled, or this
     /// sequence was aborted, or is being restarted, because of it: the owner of the monitor,
     /// and its caller when the behaviour is one of the `…CallerOfOwner` (once stopped,
-    /// after its cleanup hook; while the exception sequence runs only the owner's is set;
-    /// sequences below the behaviour's target are aborted by the teardown from above, not
-    /// marked). The restarted run begins
+    /// right after its cleanup hook, before the lanes its stop wakes run: a lane of
+    /// higher priority than the tick that runs during the hook reads it stopped and not
+    /// yet marked; while the exception sequence runs only the owner's is set; sequences
+    /// below the behaviour's target are aborted by the teardown from above, not marked). The restarted run begins
     /// without it (it is not held), and so does a new start (not one refused); an abort
     /// for another cause during the exception (an abort-all, an abort request, a teardown
     /// from above) ends it too. [`active_exception`] keeps naming the last exception until

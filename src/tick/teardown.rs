@@ -140,22 +140,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // the target, which a disturbed pass leaves in place, still moves, so no teardown
         // is lost. An abort-all has no target: its caller carries it out again.
         if let Some(t) = teardown.target() {
-            self.stop_target(control, t.seq, cause, teardown.target_stop());
+            self.stop(control, t.seq, cause, teardown.target_stop());
         }
         false
-    }
-
-    /// Stops the teardown's target `id` as [`stop`](Self::stop) does; then, if it was
-    /// placed as the target of an exception's behaviour (`teardown_pass`) and is stopped
-    /// now, marks it: `exceptionIsActive` (specification 1.3.1) of the owner's caller
-    /// that a `…CallerOfOwner` behaviour stops, as of the owner (which its firing marked
-    /// already). Once moved, not before: its lane may end the run first.
-    fn stop_target(&self, control: &C, id: SeqId, cause: Cause, how: Stop) -> bool {
-        let raced = self.stop(control, id, cause, how);
-        if cause.is_exception() {
-            self.with(|s| s.mark_exception_target(id, cause, how));
-        }
-        raced
     }
 
     /// One pass of a teardown, begun when [`State::runs_begun`] was `begun`.
@@ -167,10 +154,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // A restart restarts its target (from `Running` or `Paused`) and aborts the
         // sequences below it.
         let move_one = |id: SeqId| match teardown {
-            Teardown::Restart(t) if id == t.seq => {
-                self.stop_target(control, id, cause, Stop::Restart)
-            }
-            Teardown::Abort(t) if id == t.seq => self.stop_target(control, id, cause, Stop::Abort),
+            Teardown::Restart(t) if id == t.seq => self.stop(control, id, cause, Stop::Restart),
             _ => self.stop(control, id, cause, Stop::Abort),
         };
         // The target is marked first (it starts nothing from now on), unless its run is
@@ -183,8 +167,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 }
                 s.mark_stopping(t.seq);
                 // Placed as the target of an exception's behaviour, to be marked once
-                // moved (`stop_target`). Not a run that is being stopped already: this
-                // teardown does not move it.
+                // stopped (`stop`). Not a run that is being stopped already: this teardown
+                // does not move it.
                 if cause.is_exception() {
                     if let Some(b) = s
                         .block_mut(t.seq)
@@ -244,6 +228,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     fn stop(&self, control: &C, id: SeqId, cause: Cause, how: Stop) -> bool {
         // With a coarse lock, the steps before the hook in one section and those after it
         // in another: the tick runs at the ceiling, so a longer section delays no one.
+        let exception = cause.is_exception();
         let hook = match in_sections!(self, |s| leave_for_teardown(s, id, cause, how)) {
             Move::Left(hook) => hook,
             Move::Stays => return false,
@@ -253,6 +238,11 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             h(control);
         }
         in_sections_then_wake!(self, |s| {
+            // The target of an exception's behaviour (placed as such by `teardown_pass`) is
+            // marked once stopped, before any lane this wakes runs.
+            if exception {
+                s.section(|s| s.mark_exception_target(id, cause));
+            }
             let mut lanes = LaneSet::EMPTY;
             if let Stop::Abort = how {
                 // A blocking sequence's run is dropped by its aborted caller and
@@ -309,27 +299,19 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     }
 
     /// `id`, placed as the target of an exception's behaviour (`teardown_pass`), was
-    /// stopped as `how` says for the exception `cause`: stopped because of it, it names it
-    /// (`activeException`) and, while it is still stopped (`Aborting`, `Aborted`,
-    /// `Restarting`), is marked (`exceptionIsActive`). A lane of higher priority may have
-    /// taken up the restart since (the new round is named, and begins unmarked). Nothing
-    /// for a run its lane ended before the move (its last cause is this one, its state an
-    /// end), or a new run (which began without the placing).
-    fn mark_exception_target(&mut self, id: SeqId, cause: Cause, how: Stop) {
+    /// stopped for the exception `cause` (this runs only after the move): stopped because
+    /// of it, it names it (`activeException`) and, while it is still stopped for it
+    /// (`Aborting`, `Aborted`, `Restarting`), is marked (`exceptionIsActive`). A lane of
+    /// higher priority may have taken up the restart since, and even ended the new round:
+    /// named, not marked. A new run began without the placing: nothing.
+    fn mark_exception_target(&mut self, id: SeqId, cause: Cause) {
         let Some(b) = self.block_mut(id).filter(|b| b.has(flag::EXCEPTION_TARGET)) else {
             return;
         };
         b.set(flag::EXCEPTION_TARGET, false);
-        if b.last_cause != cause {
-            return;
-        }
-        let stopped = RunningStates::STOPPED_BY_TEARDOWN.has(b.state);
-        let round_taken_up =
-            matches!(how, Stop::Restart) && RunningStates::RUNNING_OR_PAUSED.has(b.state);
-        if stopped || round_taken_up {
-            b.active_exception = Some(cause);
-            b.set(flag::EXCEPTION_MARKED, stopped);
-        }
+        b.active_exception = Some(cause);
+        let stopped = RunningStates::STOPPED_BY_TEARDOWN.has(b.state) && b.last_cause == cause;
+        b.set(flag::EXCEPTION_MARKED, stopped);
     }
 
     /// A teardown placed `id`: it starts nothing until it is moved ([`flag::STOPPING`]).

@@ -88,6 +88,7 @@ mod coarse;
 mod drops;
 mod exception_marks;
 mod exception_marks_of_callers;
+mod exception_marks_once_stopped;
 mod exceptions_gone_with_their_run;
 mod fine;
 mod grids;
