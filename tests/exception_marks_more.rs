@@ -12,6 +12,10 @@ use rtseq::{
     Behaviour, ConditionFn, Duration, Monitor, MonitorId, MonitorNames, Monitors, Names, Outcome,
     OwnedMonitor, SeqConfig, SeqId, Sequencer,
 };
+
+/// What the joiner read: its join's result, the caller's `exception_is_active` and
+/// `active_exception`.
+type JoinerRead = (Result<Outcome, rtseq::Error>, bool, Option<Cause>);
 use std::cell::RefCell;
 
 fn millis(n: u64) -> Duration {
@@ -152,7 +156,7 @@ fn a_paused_caller_restarted_by_a_child_s_caller_behaviour_names_it_in_its_new_r
 }
 
 thread_local! {
-    static READ: RefCell<Vec<(Result<Outcome, rtseq::Error>, bool, Option<Cause>)>> =
+    static READ: RefCell<Vec<JoinerRead>> =
         const { RefCell::new(Vec::new()) };
 }
 

@@ -7,6 +7,10 @@
 use super::*;
 use crate::lock::interleaved::{Interleaved, InterleavedCoarse};
 
+/// What a reader above the tick found: C's state and last cause, `exception_is_active`,
+/// `active_exception`.
+type Read = (RunningState, Cause, bool, Option<Cause>);
+
 /// C (main) started O in O's lane; O's monitor M (`behaviour`, no exception sequence) fires
 /// in the tick at 1 ms and stops C. Returns the world, C, O and M.
 fn caller_and_owner<L: Lock + 'static, const N: usize, const B: usize>(
@@ -42,8 +46,7 @@ fn read_between_move_and_mark<L: Lock + 'static, const N: usize, const B: usize>
     let mut seen_unmarked = Vec::new();
     for k in 0..count {
         let (w, c, _o, m) = caller_and_owner::<L, N, B>(layout, behaviour);
-        let read: Rc<RefCell<Option<(RunningState, Cause, bool, Option<Cause>)>>> =
-            Rc::new(RefCell::new(None));
+        let read: Rc<RefCell<Option<Read>>> = Rc::new(RefCell::new(None));
         let r = read.clone();
         interleaved::at(k, move || {
             let h = w.kept(c);
