@@ -205,6 +205,18 @@ pub struct MonitorNames<const M: usize>(pub [&'static str; M]);
 
 impl<const M: usize> MonitorNames<M> {
     /// The names of `monitors`, in table order (monitor `i` is the table's entry `i`).
+    ///
+    /// ```
+    /// use rtseq::{Behaviour, Instant, Monitor, MonitorId, MonitorNames, Names, SeqId};
+    /// fn never(_: &(), _: Instant) -> bool { false }
+    /// const RUN: SeqId = SeqId::from_index(0);
+    /// const NAMES: MonitorNames<2> = MonitorNames::of(&[
+    ///     Monitor::with_fn("jam", never, Behaviour::AbortOwner).owned_by(RUN),
+    ///     Monitor::with_fn("door", never, Behaviour::PauseOwner).owned_by(RUN),
+    /// ]);
+    /// assert_eq!(NAMES.monitor(MonitorId::from_index(1)), Some("door"));
+    /// assert_eq!(NAMES.monitor(MonitorId::from_index(2)), None);
+    /// ```
     pub const fn of<C, K>(monitors: &[OwnedMonitor<'_, C, K>; M]) -> Self {
         let mut names = [""; M];
         let mut slots: &mut [&'static str] = &mut names;
