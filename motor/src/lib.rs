@@ -8,6 +8,7 @@
 //! |---|---|
 //! | [`plant`] | the simulated machine: DC servo motor, lead screw, carriage; encoder, current sensor, end stops, e-stop; fault hooks |
 //! | [`controller`] | trapezoidal setpoint generator; cascaded P → PI (anti-windup) → current servo |
+//! | [`bringup`] | an open-loop jog that checks a real drive's motor direction and current legs before the first closed loop |
 //! | [`hardware`] | the hardware boundary: [`Measurements`](hardware::Measurements) in, [`DriveCommand`](hardware::DriveCommand) out — the simulated plant or a real drive |
 //! | [`control_system`] | [`ControlSystem`](control_system::ControlSystem): the `C` of the sequencer, shared by the control interrupt, the safety task, the tick and the lanes |
 //! | [`sequences`] | main (power on → homing → moves → power off), status LED, safe stop, feed hold / resume |
@@ -26,6 +27,7 @@
 )]
 
 pub mod app;
+pub mod bringup;
 pub mod control_system;
 pub mod controller;
 pub mod hardware;

@@ -11,6 +11,9 @@
 //! | `idle` | 0 | — | logs the status four times a second, sleeps (`wfi`) |
 //!
 //! Nothing moves until the user button B1 is pressed; from then on B1 is the pause button.
+//! With B1 held at reset the firmware is in bring-up mode instead: B1 runs the open-loop
+//! jog ([`rtseq_motor::bringup`]), which checks the motor's direction and the current
+//! legs, and the application never starts.
 //! Pins and jumpers: [`pins`]. Safe state everywhere an error can happen: bridge off, brake
 //! engaged (init errors, a panic, a hard fault, a stopped control loop via the watchdog).
 #![no_std]
@@ -25,6 +28,7 @@ pub mod pins;
 pub mod sensors;
 
 use rtseq::safety::ValidProperties;
+use rtseq_motor::bringup::{Direction, JogStep, Legs};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_motor::safety::{DriveIo, Watches};
 
@@ -121,6 +125,52 @@ defmt::timestamp!(
     app::TICKS.load(core::sync::atomic::Ordering::Relaxed)
 );
 
+/// What to do about the motor's direction the jog found.
+fn direction_advice(d: Direction) -> &'static str {
+    match d {
+        Direction::Correct => "correct",
+        Direction::Reversed => "reversed: swap the motor wires on OUT1 / OUT2",
+        Direction::NoMotion => {
+            "the motor did not turn: check the motor wiring and the brake, or raise JogConfig::volts"
+        }
+        Direction::Inconsistent => "one way only: check the mechanics, then jog again",
+    }
+}
+
+/// What to do about the current legs the jog found.
+fn legs_advice(l: Legs) -> &'static str {
+    match l {
+        Legs::Correct => "correct",
+        Legs::SignInverted => "sign inverted: set sensors::CURRENT_SIGN = -1.0",
+        Legs::Swapped => {
+            "swapped: swap CurrentU / CurrentV in src/pins.rs (and their pins in init)"
+        }
+        Legs::NoCurrent => {
+            "no current: check the motor circuit and the three-shunt jumpers J5 / J6"
+        }
+        Legs::Inconsistent => "inconsistent: check the jumpers and the amplifiers, then jog again",
+    }
+}
+
+/// Logs how a jog ended.
+fn log_jog(end: JogStep) {
+    match end {
+        JogStep::Done(report) => {
+            defmt::info!("jog: {}", report);
+            defmt::info!(
+                "jog: motor direction {}",
+                direction_advice(report.direction())
+            );
+            defmt::info!("jog: current legs {}", legs_advice(report.legs()));
+            if report.is_correct() {
+                defmt::info!("jog: wiring correct: reset without B1 to run the application");
+            }
+        }
+        JogStep::Stopped(why) => defmt::warn!("jog stopped: {}", why),
+        JogStep::AskPermit | JogStep::Drive(_) | JogStep::Coast => {}
+    }
+}
+
 /// The status line of the idle loop.
 fn log_status(cs: &ControlSystem, level: u8, sw: sensors::Switches) {
     let s = cs.status();
@@ -151,9 +201,10 @@ mod app {
     use rtseq::{MonitorNames, SeqId, Sequencer, WithNames};
     use rtseq_motor::app::seq_ids::MAIN;
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
+    use rtseq_motor::bringup::{Jog, JogConfig, JogSample, JogStep};
     use rtseq_motor::control_system::ControlSystem;
     use rtseq_motor::hardware::DriveCommand;
-    use rtseq_motor::safety::{safety_cycle, DriveIo};
+    use rtseq_motor::safety::{self as levels, safety_cycle, DriveIo};
     use stm32f4xx_hal::adc::config::{AdcConfig, Clock};
     use stm32f4xx_hal::adc::Adc;
     use stm32f4xx_hal::gpio::PinState;
@@ -168,7 +219,7 @@ mod app {
     use super::pins;
     use super::sensors::{Sensors, Switches};
     use super::{control_time, CONTROL_HZ};
-    use super::{log_status, DT, PROPERTIES, WATCHDOG_MS};
+    use super::{log_jog, log_status, DT, PROPERTIES, WATCHDOG_MS};
 
     /// The power stage with this board's pins.
     pub type Power = Bridge<
@@ -217,6 +268,8 @@ mod app {
         /// Failed ticks since the last report, and the last one's error.
         tick_errors: u32,
         last_tick_error: Option<rtseq::Error>,
+        /// How the bring-up jog ended (`Done` or `Stopped`).
+        jog: Option<JogStep>,
     }
 
     impl Report {
@@ -224,8 +277,24 @@ mod app {
             start: None,
             tick_errors: 0,
             last_tick_error: None,
+            jog: None,
         };
     }
+
+    /// What the power stage gets in a control period.
+    enum Output {
+        /// The command, at this duty, if the safety system permits driving.
+        Drive(DriveCommand, f32),
+        /// The safe state.
+        Off,
+    }
+
+    /// What the bring-up jog commands while it drives: enabled, brake released.
+    const JOG_COMMAND: DriveCommand = DriveCommand {
+        current: 0.0,
+        enable: true,
+        brake: false,
+    };
 
     /// Changes what the control task has to report (a short critical section).
     fn report(f: impl FnOnce(&mut Report)) {
@@ -254,6 +323,8 @@ mod app {
         watchdog: IndependentWatchdog,
         led: pins::Led,
         model: MotorModel,
+        /// B1 was held at reset: B1 runs the jog, not the application.
+        bringup: bool,
     }
 
     #[init]
@@ -326,6 +397,7 @@ mod app {
             gpioc.pc13.into_floating_input(),
             gpioa.pa1.into_analog(),
         );
+        let bringup = sensors.switches(false).button;
         let (off_u, off_v) = sensors.calibrate();
         defmt::info!(
             "current offsets: U {=f32} V {=f32} ADC counts (expected near 2048)",
@@ -338,7 +410,7 @@ mod app {
         }
         // The first safety cycle, before the first control step, reads these (a pressed
         // e-stop, an end stop), not the control system's simulated plant.
-        let (first, _) = sensors.sample(true, false, false);
+        let (first, ..) = sensors.sample(true, false, false);
         CS.update_measurements(&first);
 
         // The application, its safety system, its lanes.
@@ -375,9 +447,15 @@ mod app {
                 if lanes::spawn().is_err() {
                     defmt::error!("init: the lanes task could not be spawned");
                 }
-                defmt::info!(
-                    "ready: press B1 (blue button) to power on, home and move; B1 again pauses / resumes"
-                );
+                if bringup {
+                    defmt::info!(
+                        "bring-up (B1 held at reset): press B1 to jog the motor open-loop, motor uncoupled"
+                    );
+                } else {
+                    defmt::info!(
+                        "ready: press B1 (blue button) to power on, home and move; B1 again pauses / resumes"
+                    );
+                }
             } else {
                 defmt::error!("init: the 1 kHz control timer cannot be set; drive stays off");
             }
@@ -397,6 +475,7 @@ mod app {
                 watchdog,
                 led,
                 model: MotorModel::DEFAULT,
+                bringup,
             },
         )
     }
@@ -421,6 +500,9 @@ mod app {
                 defmt::warn!("trace: {=u32} records lost", lost);
             }
             let r = critical_section::with(|cs| REPORT.borrow(cs).replace(Report::NONE));
+            if let Some(end) = r.jog {
+                log_jog(end);
+            }
             match r.start {
                 Some(Ok(())) => defmt::info!("B1: main started"),
                 Some(Err(e)) => defmt::error!("B1: main cannot start: {}", e.named(&SEQ)),
@@ -454,9 +536,9 @@ mod app {
     /// The control loop, 1 kHz: sensors → controller → power stage, then the sequencer's
     /// heartbeat.
     #[task(binds = TIM6_DAC, priority = 2, shared = [bridge],
-           local = [timer, sensors, monitors, main, watchdog, led, model,
+           local = [timer, sensors, monitors, main, watchdog, led, model, bringup,
                     started: bool = false, button_was: bool = true, periods: u64 = 0,
-                    tick_errors: u32 = 0])]
+                    tick_errors: u32 = 0, jog: Option<Jog> = None])]
     fn control(mut cx: control::Context) {
         cx.local.timer.clear_flags(Flag::Update);
         *cx.local.periods += 1;
@@ -469,28 +551,59 @@ mod app {
         rtic::pend(pac::Interrupt::SPI4);
 
         let (forward, driver_fault) = cx.shared.bridge.lock(|b| (b.forward(), b.driver_fault()));
-        let (m, sw) = cx
-            .local
-            .sensors
-            .sample(forward, *cx.local.started, driver_fault);
+        let bringup = *cx.local.bringup;
+        let (m, sw, shunts) =
+            cx.local
+                .sensors
+                .sample(forward, *cx.local.started && !bringup, driver_fault);
         cx.local.model.supply_v = cx.local.sensors.vbus();
         let cmd: DriveCommand = CS.control_step_measured(&m, DT);
-        let duty = cx
-            .local
-            .model
-            .duty(cmd.current, m.current, CS.status().velocity);
-        cx.shared.bridge.lock(|b| {
+        let output = match cx.local.jog.as_mut() {
+            // The jog drives instead of the application (which is not started).
+            Some(jog) => {
+                let sample = JogSample {
+                    counts: cx.local.sensors.counts(),
+                    shunts,
+                    supply_v: cx.local.model.supply_v,
+                    permit: CS.drive_permit(),
+                };
+                match jog.step(&sample) {
+                    JogStep::Drive(duty) => Output::Drive(JOG_COMMAND, duty),
+                    JogStep::AskPermit | JogStep::Coast => Output::Off,
+                    end @ (JogStep::Done(_) | JogStep::Stopped(_)) => {
+                        // The permit back; B1 jogs again.
+                        SEQ.safety_handle().trigger(levels::SWITCH_OFF);
+                        report(|r| r.jog = Some(end));
+                        *cx.local.jog = None;
+                        *cx.local.started = false;
+                        Output::Off
+                    }
+                }
+            }
+            None => {
+                let duty = cx
+                    .local
+                    .model
+                    .duty(cmd.current, m.current, CS.status().velocity);
+                Output::Drive(cmd, duty)
+            }
+        };
+        cx.shared.bridge.lock(|b| match output {
             // The safety task may have withdrawn the permit since the control step: never
             // switch on against it.
-            if CS.drive_permit() {
-                b.apply(&cmd, duty);
-            } else {
-                b.off();
-            }
+            Output::Drive(cmd, duty) if CS.drive_permit() => b.apply(&cmd, duty),
+            Output::Drive(..) | Output::Off => b.off(),
         });
 
+        // In bring-up mode B1 starts a jog: the safety system's permit first (it stays in
+        // charge: an e-stop or over-current ends the jog).
+        if bringup && !*cx.local.started && sw.button && !*cx.local.button_was {
+            SEQ.safety_handle().trigger(levels::SWITCH_ON);
+            *cx.local.jog = Some(Jog::new(JogConfig::DEFAULT));
+            *cx.local.started = true;
+        }
         // Start on the first press of B1 (a falling edge of the raw button).
-        if !*cx.local.started && sw.button && !*cx.local.button_was {
+        if !bringup && !*cx.local.started && sw.button && !*cx.local.button_was {
             let ready = LANES_READY.load(Ordering::Relaxed);
             if let Some(h) = cx
                 .local

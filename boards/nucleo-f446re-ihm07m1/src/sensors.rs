@@ -7,6 +7,7 @@
 use core::convert::Infallible;
 
 use embedded_hal::digital::InputPin;
+use rtseq_motor::bringup::Shunts;
 use rtseq_motor::hardware::Measurements;
 use rtseq_motor::plant::M_PER_COUNT;
 use stm32f4xx_hal::adc::config::SampleTime;
@@ -171,16 +172,17 @@ impl Sensors {
         }
     }
 
-    /// One sample of everything. `forward`: the bridge's last duty was ≥ 0, so leg V's low
-    /// side carries the motor current continuously (otherwise leg U's, reversed).
-    /// `with_button`: report the user button as the pause button (not while it still
-    /// serves as the start button). `driver_fault`: the bridge's reading of DIAG/EN.
+    /// One sample of everything, and both leg currents as read (for the bring-up jog).
+    /// `forward`: the bridge's last duty was ≥ 0, so leg V's low side carries the motor
+    /// current continuously (otherwise leg U's, reversed). `with_button`: report the user
+    /// button as the pause button (not while it still serves as the start button).
+    /// `driver_fault`: the bridge's reading of DIAG/EN.
     pub fn sample(
         &mut self,
         forward: bool,
         with_button: bool,
         driver_fault: bool,
-    ) -> (Measurements, Switches) {
+    ) -> (Measurements, Switches, Shunts) {
         let counts = self.counts();
         let raw_u = f32::from(self.adc.convert(&self.current_u, SAMPLE_TIME));
         let raw_v = f32::from(self.adc.convert(&self.current_v, SAMPLE_TIME));
@@ -198,6 +200,10 @@ impl Sensors {
             estop: sw.estop || sw.driver_fault,
             pause_button: with_button && sw.button,
         };
-        (m, sw)
+        let shunts = Shunts {
+            u: shunt_u,
+            v: shunt_v,
+        };
+        (m, sw, shunts)
     }
 }
