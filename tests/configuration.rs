@@ -563,10 +563,13 @@ mod safety_config {
     #[test]
     fn a_row_from_an_undefined_level_is_refused() {
         static ROWS: [LevelTransition; 1] = [LevelTransition::on(SafetyLevel::new(2), GO, LOW)];
-        assert!(matches!(
+        assert_eq!(
             props(&ROWS).validate(),
-            Err(SafetyError::InvalidTransition { index: 0 })
-        ));
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 0,
+                level: SafetyLevel::new(2)
+            })
+        );
     }
 
     /// semantics.md, Completeness: "transitions between defined levels". A range of
@@ -581,10 +584,13 @@ mod safety_config {
             GO,
             LOW,
         )];
-        assert!(matches!(
+        assert_eq!(
             props(&ROWS).validate(),
-            Err(SafetyError::InvalidTransition { index: 0 })
-        ));
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 0,
+                level: SafetyLevel::new(5)
+            })
+        );
         static UP_TO_THE_LAST: [LevelTransition; 1] =
             [LevelTransition::on_levels_between(LOW, HIGH, GO, LOW)];
         assert!(props(&UP_TO_THE_LAST).validate().is_ok());

@@ -1600,7 +1600,10 @@ mod errors {
         );
         assert_eq!(
             BAD_DEST.validate(),
-            Err(SafetyError::InvalidTransition { index: 1 })
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 1,
+                level: SafetyLevel::new(2)
+            })
         );
         const BAD_BAND: P<2> = P::new(
             [level(A, "a"), level(B, "b")],
@@ -1622,7 +1625,10 @@ mod errors {
         );
         assert_eq!(
             BAD_SOURCE.validate(),
-            Err(SafetyError::InvalidTransition { index: 0 })
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 0,
+                level: SafetyLevel::new(5)
+            })
         );
     }
 

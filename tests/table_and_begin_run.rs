@@ -839,7 +839,7 @@ mod safety_ranges {
         .validate()
     }
 
-    /// SafetyError::InvalidTransition: an undefined upper end is refused "unless it is 255,
+    /// SafetyError::UndefinedTransitionLevel: an undefined upper end is refused "unless it is 255,
     /// the open end of every level above": `on_level_and_below(SafetyLevel::new(255), ..)`
     /// covers every level, as `on_level_and_above(LOW)` does.
     #[test]
@@ -853,7 +853,10 @@ mod safety_ranges {
         )];
         assert_eq!(
             two(&below_2),
-            Err(SafetyError::InvalidTransition { index: 0 })
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 0,
+                level: SafetyLevel::new(2)
+            })
         );
     }
 
@@ -867,7 +870,10 @@ mod safety_ranges {
         let past = LevelTransition::on_levels_between(HIGH, SafetyLevel::new(254), GO, LOW);
         assert_eq!(
             two(&[past]),
-            Err(SafetyError::InvalidTransition { index: 0 })
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 0,
+                level: SafetyLevel::new(254)
+            })
         );
     }
 
@@ -901,11 +907,17 @@ mod safety_ranges {
         );
         assert_eq!(
             one(&[LevelTransition::on_levels_between(LOW, HIGH, GO, LOW)]),
-            Err(SafetyError::InvalidTransition { index: 0 })
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 0,
+                level: HIGH
+            })
         );
         assert_eq!(
             one(&[LevelTransition::on_level_and_below(HIGH, GO, LOW)]),
-            Err(SafetyError::InvalidTransition { index: 0 })
+            Err(SafetyError::UndefinedTransitionLevel {
+                index: 0,
+                level: HIGH
+            })
         );
     }
 }

@@ -110,7 +110,10 @@ pub enum SafetyError {
         /// The input's name.
         input_name: &'static str,
     },
-    /// A `range` / `off_range` action with `min > max` or a NaN bound.
+    /// A `range` action with `min > max` or a NaN bound, an `off_range` action whose band
+    /// `(min, max)` holds no value (it would catch only NaN readings) or has a NaN bound,
+    /// or a `check` whose expected value is NaN (no reading equals it: it would fire in
+    /// every cycle).
     InvalidRange {
         /// The level.
         level: SafetyLevel,
@@ -134,6 +137,19 @@ pub enum SafetyError {
         /// The input's name.
         input_name: &'static str,
         /// The event without transition.
+        event: EventId,
+    },
+    /// A level's input action triggers an event whose id is `>= 32`.
+    InputEventOutOfRange {
+        /// The level.
+        level: SafetyLevel,
+        /// The level's name.
+        level_name: &'static str,
+        /// The input.
+        input: InputId,
+        /// The input's name.
+        input_name: &'static str,
+        /// The event.
         event: EventId,
     },
     /// A level has no action for a critical output.
@@ -179,18 +195,37 @@ pub enum SafetyError {
         /// The output's name.
         output_name: &'static str,
     },
-    /// An event id is `>= 32` (does not fit the pending-event bitmask).
+    /// A level's output action writes NaN (`set`, or either value of a `toggle`).
+    NanOutputValue {
+        /// The level.
+        level: SafetyLevel,
+        /// The level's name.
+        level_name: &'static str,
+        /// The output.
+        output: OutputId,
+        /// The output's name.
+        output_name: &'static str,
+    },
+    /// The event of transition row `index` has an id `>= 32` (does not fit the
+    /// pending-event bitmask).
     EventOutOfRange {
         /// The event.
         event: EventId,
     },
-    /// LevelTransition row `index` has `from_low > from_high` or a source or
-    /// destination level that is not defined (a range's upper end included, unless it is
-    /// 255, the open end of every level above, as in
-    /// [`LevelTransition::on_level_and_above`](super::LevelTransition::on_level_and_above)).
+    /// LevelTransition row `index` has `from_low > from_high`: it covers no level.
     InvalidTransition {
         /// Position in the transition table.
         index: usize,
+    },
+    /// LevelTransition row `index` names a level that is not defined: as its source
+    /// range's lower or upper end (unless that is 255, the open end of every level above,
+    /// as in [`LevelTransition::on_level_and_above`](super::LevelTransition::on_level_and_above)),
+    /// or as its destination.
+    UndefinedTransitionLevel {
+        /// Position in the transition table.
+        index: usize,
+        /// The undefined level.
+        level: SafetyLevel,
     },
     /// Two transition rows cover the same event in the same level.
     ConflictingTransition {
@@ -268,7 +303,16 @@ impl fmt::Display for SafetyError {
                 ..
             } => write!(
                 f,
-                "level '{level_name}': range for input '{input_name}' has min > max or NaN"
+                "level '{level_name}': the check of input '{input_name}' has min > max, an empty band or a NaN value"
+            ),
+            SafetyError::InputEventOutOfRange {
+                level_name,
+                input_name,
+                event,
+                ..
+            } => write!(
+                f,
+                "level '{level_name}': input '{input_name}' triggers {event}, whose id is out of range (max 31)"
             ),
             SafetyError::InputEventWithoutTransition {
                 level_name,
@@ -310,12 +354,25 @@ impl fmt::Display for SafetyError {
                 f,
                 "level '{level_name}': action for output '{output_name}' has the wrong type"
             ),
+            SafetyError::NanOutputValue {
+                level_name,
+                output_name,
+                ..
+            } => write!(
+                f,
+                "level '{level_name}': action for critical output '{output_name}' writes NaN"
+            ),
             SafetyError::EventOutOfRange { event } => {
                 write!(f, "{event}: id out of range (max 31)")
             }
             SafetyError::InvalidTransition { index } => {
-                write!(f, "transition row {index} has an invalid level range")
+                write!(f, "transition row {index} covers no level (from_low > from_high)")
             }
+            SafetyError::UndefinedTransitionLevel { index, level } => write!(
+                f,
+                "transition row {index} names level {}, which is not defined",
+                level.id()
+            ),
             SafetyError::ConflictingTransition { level, event } => {
                 write!(f, "two transitions for {event} in {level}")
             }

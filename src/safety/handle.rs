@@ -137,7 +137,8 @@ impl SafetyHandle {
     /// Cortex-M (one `LDREX`/`STREX` loop), callable from any priority.
     ///
     /// An event with an id `>= 32` cannot be in any valid table; it is
-    /// counted as an unknown event in the next cycle.
+    /// counted as an unknown event in the next cycle (each trigger, up to
+    /// 2^24 - 1 between two cycles).
     ///
     /// ```
     /// use rtseq::safety::{PublicEvent, SafetyHandle};

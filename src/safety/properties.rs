@@ -10,7 +10,7 @@ use super::input::{CriticalInputInfo, InputAction, InputCheck};
 use super::io::{IoValue, OutputId};
 use super::level::SafetyLevel;
 use super::level_def::LevelDef;
-use super::output::{CriticalOutputInfo, OutputAction};
+use super::output::{CriticalOutputInfo, OutputAction, OutputMode};
 use super::transition::LevelTransition;
 use super::{MAX_INPUTS, MAX_OUTPUTS};
 
@@ -332,21 +332,35 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
     }
 
     const fn validate_transitions(&self) -> Result<(), SafetyError> {
+        // Every row on its own first: a conflict is only looked for between valid rows.
         let mut rest = self.transitions;
         let mut index = 0usize;
         while let [t, tail @ ..] = rest {
             if !t.event().is_in_range() {
                 return Err(SafetyError::EventOutOfRange { event: t.event() });
             }
-            // The upper end is a defined level, or 255: `on_level_and_above`'s open end.
-            let open_ended = t.from_high().index() == u8::MAX as usize;
-            if !t.from_low().le(t.from_high())
-                || t.from_low().index() >= L
-                || (t.from_high().index() >= L && !open_ended)
-                || t.to().index() >= L
-            {
+            if !t.from_low().le(t.from_high()) {
                 return Err(SafetyError::InvalidTransition { index });
             }
+            // The upper end is a defined level, or 255: `on_level_and_above`'s open end.
+            let open_ended = t.from_high().index() == u8::MAX as usize;
+            let undefined = if t.from_low().index() >= L {
+                Some(t.from_low())
+            } else if t.from_high().index() >= L && !open_ended {
+                Some(t.from_high())
+            } else if t.to().index() >= L {
+                Some(t.to())
+            } else {
+                None
+            };
+            if let Some(level) = undefined {
+                return Err(SafetyError::UndefinedTransitionLevel { index, level });
+            }
+            index = index.saturating_add(1);
+            rest = tail;
+        }
+        let mut rest = self.transitions;
+        while let [t, tail @ ..] = rest {
             // Conflicts with every later row.
             let mut others = tail;
             while let [u, more @ ..] = others {
@@ -370,7 +384,6 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
                 }
                 others = more;
             }
-            index = index.saturating_add(1);
             rest = tail;
         }
         Ok(())
@@ -425,10 +438,12 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
             }
             let check = action.check();
             let well_formed = match check {
-                InputCheck::Range { min, max, .. } | InputCheck::OffRange { min, max, .. } => {
-                    ordered(min, max)
-                }
-                InputCheck::Ignore | InputCheck::Check { .. } => true,
+                InputCheck::Range { min, max, .. } => ordered(min, max),
+                // A band with no value inside would catch only NaN readings.
+                InputCheck::OffRange { min, max, .. } => has_inside(min, max),
+                // A NaN expected value differs from every reading: it would fire always.
+                InputCheck::Check { expected, .. } => !is_nan(expected),
+                InputCheck::Ignore => true,
             };
             if !well_formed {
                 return Err(SafetyError::InvalidRange {
@@ -440,7 +455,13 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
             }
             if let Some(event) = check.event() {
                 if !event.is_in_range() {
-                    return Err(SafetyError::EventOutOfRange { event });
+                    return Err(SafetyError::InputEventOutOfRange {
+                        level,
+                        level_name,
+                        input,
+                        input_name,
+                        event,
+                    });
                 }
                 if !self.has_transition(level, event) {
                     return Err(SafetyError::InputEventWithoutTransition {
@@ -500,6 +521,19 @@ impl<'a, IO, const L: usize> SafetyProperties<'a, IO, L> {
             // The typed constructors give an action's values the action's kind.
             if !info.kind().same(action.kind()) {
                 return Err(SafetyError::OutputKindMismatch {
+                    level,
+                    level_name,
+                    output,
+                    output_name,
+                });
+            }
+            let writes_nan = match action.mode() {
+                OutputMode::Set(value) => is_nan(value),
+                OutputMode::Toggle { low, high } => is_nan(low) || is_nan(high),
+                OutputMode::Leave => false,
+            };
+            if writes_nan {
+                return Err(SafetyError::NanOutputValue {
                     level,
                     level_name,
                     output,
@@ -596,6 +630,24 @@ const fn ordered(min: IoValue, max: IoValue) -> bool {
         (IoValue::Int(a), IoValue::Int(b)) => a <= b,
         (IoValue::Float(a), IoValue::Float(b)) => a <= b,
         _ => false,
+    }
+}
+
+/// Some value of the kind of `min` and `max` lies strictly between them (false for NaN,
+/// bools and mixed kinds).
+const fn has_inside(min: IoValue, max: IoValue) -> bool {
+    match (min, max) {
+        (IoValue::Int(a), IoValue::Int(b)) => (b as i64) - (a as i64) >= 2,
+        (IoValue::Float(a), IoValue::Float(b)) => a < b,
+        _ => false,
+    }
+}
+
+/// A float that is NaN.
+const fn is_nan(v: IoValue) -> bool {
+    match v {
+        IoValue::Float(f) => f.is_nan(),
+        IoValue::Bool(_) | IoValue::Int(_) => false,
     }
 }
 
