@@ -744,12 +744,16 @@ pub(crate) struct Groups {
     /// The first `used` are in use.
     pub(crate) list: [Group; MAX_GROUPS],
     pub(crate) used: u8,
+    /// The words of every owner: a sequencer whose sets have fewer words is not the
+    /// table's (`State::takes_polls`).
+    pub(crate) owner_words: Words,
 }
 
 impl Groups {
     const EMPTY: Groups = Groups {
         list: [Group::starting_at(0); MAX_GROUPS],
         used: 0,
+        owner_words: Words::EMPTY,
     };
 
     /// Appends the monitor at `index` of a table of capacity `capacity`, owned by `owner`
@@ -775,6 +779,7 @@ impl Groups {
         if let Some(g) = group_mut(&mut self.list, (self.used as usize).wrapping_sub(1)) {
             g.push(owner, trigger);
         }
+        self.owner_words = self.owner_words.with(Words::of(owner));
     }
 }
 

@@ -374,12 +374,10 @@ fn a_monitor_on_an_id_beyond_the_sequencer_is_refused_by_validate() {
 }
 
 /// Without `validate` (ticked by hand), a monitor owned by id 40 in a sequencer of 16 (one
-/// word of sets) has its condition asked at every poll of sequence 8 (40 mod 32), which
-/// is running: the condition of a monitor whose owner does not exist runs, with its side
-/// effects (a debounce counts), and the monitor never fires.
-// DEFECT: a monitor owned by an id of 32 or more in a one-word sequencer aliases sequence id % 32 and its condition is evaluated while that sequence runs.
+/// word of sets) would read as owned by sequence 8 (40 mod 32), which is running: its
+/// condition asked at every poll of 8, with its side effects (a debounce counts). The
+/// table is refused as another sequencer's, and the condition never runs.
 #[test]
-#[ignore = "defect: a monitor owner >= 32 aliases owner % 32 in a one-word sequencer"]
 fn a_monitor_on_an_id_beyond_a_one_word_sequencer_is_never_evaluated() {
     let seq: Sequencer<Cell<u32>, 16> = Sequencer::new();
     for name in ["s0", "s1", "s2", "s3", "s4", "s5", "s6", "s7", "s8"] {
@@ -401,7 +399,11 @@ fn a_monitor_on_an_id_beyond_a_one_word_sequencer_is_never_evaluated() {
         .unwrap();
     let calls = Cell::new(0);
     for ms in 1..=5 {
-        let _ = seq.tick(Instant::from_ticks(ms * 1_000), &calls, &mut monitors);
+        // Not this sequencer's table: its owner is no id of a sequencer of one word.
+        assert_eq!(
+            seq.tick(Instant::from_ticks(ms * 1_000), &calls, &mut monitors),
+            Err(Error::ForeignMonitorTable)
+        );
     }
     assert_eq!(monitors.fired(ghost), 0);
     assert_eq!(s8.state(), Running);
@@ -479,13 +481,10 @@ fn zero_capacities_refuse_the_first_entry() {
     );
 }
 
-/// A lane given to the simulator when all `W` lane slots are taken never runs: the start
-/// of its sequence is refused as `NoLane` ("sequence 1 has no lane", though the user gave
-/// it one) and `check_lanes` finds nothing wrong. The error that says what to fix is the
-/// capacity.
-// DEFECT: a lane future beyond the W lane slots is dropped silently; its start says NoLane and check_lanes passes, instead of LaneCapacityExceeded.
+/// A lane given to the simulator when all `W` lane slots are taken never runs. The
+/// simulator's first start (`check_lanes`) names it with the capacity, and so does a
+/// start of its sequence: the error says what to fix.
 #[test]
-#[ignore = "defect: a lane beyond W is silently dead; the start says NoLane"]
 fn a_lane_beyond_the_lane_slots_is_an_error_naming_the_capacity() {
     let seq: Sequencer<(), 4, 64, CriticalSection, 1> = Sequencer::new();
     let a = seq.add(SeqConfig::new("a"), Forever).unwrap();
@@ -494,30 +493,17 @@ fn a_lane_beyond_the_lane_slots_is_an_error_naming_the_capacity() {
     let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     sim.lane(a);
     sim.lane(b);
-    // Today: start(a) Ok, start(b) Err(NoLane(b)), check_lanes Ok.
-    let first = sim.start(ia);
-    let second = sim.start(ib);
-    assert!(
-        first == Err(Error::LaneCapacityExceeded(ib))
-            || second == Err(Error::LaneCapacityExceeded(ib)),
-        "first start {first:?}, second {second:?}"
+    assert_eq!(sim.start(ia), Err(Error::LaneCapacityExceeded(ib)));
+    assert_eq!(seq.check_lanes(), Err(Error::LaneCapacityExceeded(ib)));
+    assert_eq!(seq.sequence_by_id(ia).unwrap().start(), Ok(()));
+    assert_eq!(
+        seq.sequence_by_id(ib).unwrap().start(),
+        Err(Error::LaneCapacityExceeded(ib))
     );
-}
-
-/// What happens today with a lane beyond `W` (the behaviour the defect above is about).
-#[test]
-fn today_a_lane_beyond_the_lane_slots_makes_its_start_no_lane() {
-    let seq: Sequencer<(), 4, 64, CriticalSection, 1> = Sequencer::new();
-    let a = seq.add(SeqConfig::new("a"), Forever).unwrap();
-    let b = seq.add(SeqConfig::new("b"), Forever).unwrap();
-    let (ia, ib) = (a.id(), b.id());
-    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
-    sim.lane(a);
-    sim.lane(b);
-    assert_eq!(sim.start(ia), Ok(()));
-    assert_eq!(sim.start(ib), Err(Error::NoLane(ib)));
-    assert_eq!(seq.check_lanes(), Ok(()));
-    assert_eq!(sim.state(ib), Idle);
+    assert_eq!(
+        Error::LaneCapacityExceeded(ib).to_string(),
+        "no lane slot left for sequence 1"
+    );
 }
 
 // ---------------------------------------------------------------------------------------

@@ -97,7 +97,9 @@ pub enum Error {
     TickInProgress,
     /// A [`tick`](crate::Sequencer::tick) with polls due and a monitor table that is not
     /// this sequencer's: a sequencer is ticked with one table (the first non-empty one a
-    /// due tick came with), and a table belongs to one sequencer. Such a tick evaluated
+    /// due tick came with), and a table belongs to one sequencer (a table with an owner
+    /// id beyond the sequencer's sets, 32 or more in a sequencer of up to 32, is another
+    /// sequencer's, and is never bound). Such a tick evaluated
     /// nothing (it carried out the requests and abort-alls made since, at the last tick's
     /// time); the due polls wait for a tick with the sequencer's table.
     ForeignMonitorTable,

@@ -202,6 +202,12 @@ impl Words {
         Words(1 << (id.0 >> 5))
     }
 
+    /// Words `0..count` (`count <= 8`).
+    #[inline(always)]
+    pub(crate) const fn below(count: usize) -> Words {
+        Words(((1u16 << (count & 15)) - 1) as u8)
+    }
+
     /// Word `w` alone (`w < 8`).
     #[inline(always)]
     pub(crate) const fn single(w: usize) -> Words {

@@ -34,10 +34,11 @@ use crate::{Cx, Seq, Sequence, Sequencer};
 /// On the host, `sim::Sim::lane` (feature `std`) does the same.
 ///
 /// A sequencer has `W` lane slots (its fifth type parameter, default 8). A lane beyond them
-/// never runs its sequence: starting it is `Err(Error::NoLane)`, and an exception sequence in
-/// it is counted in `Sequencer::exceptions_not_run`. Declare the lanes at start-up with
-/// [`Handle::declare_lane`](crate::Handle::declare_lane) to get
-/// [`Error::LaneCapacityExceeded`](crate::Error::LaneCapacityExceeded) there instead.
+/// never runs its sequence: starting it is
+/// [`Err(Error::LaneCapacityExceeded)`](crate::Error::LaneCapacityExceeded), an exception
+/// sequence in it is counted in `Sequencer::exceptions_not_run`, and
+/// [`Sequencer::check_lanes`] names the first such lane. Declare the lanes at start-up with
+/// [`Handle::declare_lane`](crate::Handle::declare_lane) to get the error there.
 ///
 /// The lane is the sequence's run itself (see `sequence/run.rs`): between runs it waits for
 /// the next non-blocking start. Dropping the lane's future (the loser of a `select`, a

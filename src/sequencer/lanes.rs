@@ -11,6 +11,7 @@ use core::cell::Cell;
 use core::task::{RawWakerVTable, Waker};
 
 use crate::lock::Lock;
+use crate::model::id::Link;
 use crate::model::set::SetWord;
 use crate::sequencer::control_block::NO_LANE;
 use crate::sequencer::sections::{in_sections, Sections};
@@ -241,7 +242,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// [`Handle::declare_lane`](crate::Handle::declare_lane) whose future no task polls takes
     /// no start: a non-blocking start of its sequence (a monitor's safe stop) would be
     /// `Running` for good, and its owner held by the exception it never handles.
-    /// Returns [`Error::NoLane`] with the first such sequence.
+    /// Returns [`Error::NoLane`] with the first such sequence, or first
+    /// [`Error::LaneCapacityExceeded`] with the first sequence whose lane future found all
+    /// `W` lane slots taken (that lane never runs either).
     ///
     /// Call it once every lane task has been polled: in RTIC, at the top of `idle` (the
     /// tasks spawned in `init` run up to their first wait before `idle` starts). The host
@@ -266,6 +269,9 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// assert_eq!(seq.check_lanes(), Ok(()));
     /// ```
     pub fn check_lanes(&self) -> Result<(), Error> {
+        if let Some(id) = self.with(|s| s.lane_refused.get()) {
+            return Err(Error::LaneCapacityExceeded(id));
+        }
         // A closed lane's waker is forgotten too.
         let never_run = self.with(|s| {
             s.registered().enumerate().find_map(|(i, b)| {
@@ -401,6 +407,25 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// A lane future waits in slot `lane`: the lane is open (again).
     pub(crate) fn open_lane(&mut self, lane: u8) {
         self.lanes_closed &= !(1 << (lane & 31));
+    }
+
+    /// A lane future of `id` found all `W` lane slots taken: the first such is remembered.
+    pub(crate) fn refuse_lane(&mut self, id: SeqId) {
+        if self.block(id).is_some() && self.lane_refused.get().is_none() {
+            self.lane_refused = Link::to(Some(id));
+        }
+    }
+
+    /// Why `id` has no open lane to start in: all `W` slots were taken before one was
+    /// declared for it ([`Error::LaneCapacityExceeded`]), or none was declared or its lane
+    /// future was dropped ([`Error::NoLane`]).
+    pub(crate) fn no_lane(&self, id: SeqId) -> Error {
+        let unslotted = self.block(id).is_some_and(|b| b.own_lane == NO_LANE);
+        if unslotted && usize::from(self.lanes_declared) >= W {
+            Error::LaneCapacityExceeded(id)
+        } else {
+            Error::NoLane(id)
+        }
     }
 
     /// Whether `lane` is open: no lane future in it was dropped since one last waited.

@@ -245,10 +245,14 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
 
     fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> Option<RunId> {
         // Another sequencer's object declares nothing here; with no slot left the lane
-        // never runs (see `lane`).
+        // never runs (see `lane`), and is remembered for `check_lanes`.
         let declared = in_sections!(self, |s| {
             if s.section(|s| s.tag == maker) {
-                declare_lane(s, id)
+                let lane = declare_lane(s, id);
+                if lane.is_none() {
+                    s.section(|s| s.refuse_lane(id));
+                }
+                lane
             } else {
                 None
             }

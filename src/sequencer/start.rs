@@ -374,7 +374,10 @@ fn admit<
         Mode::Lane { .. }
         | Mode::MainBy { .. }
         | Mode::Exception { .. }
-        | Mode::BesidePause { .. } => lane_slot_of(s, id).ok_or(Error::NoLane(id))?,
+        | Mode::BesidePause { .. } => match lane_slot_of(s, id) {
+            Some(lane) => lane,
+            None => return Err(s.section(|s| s.no_lane(id))),
+        },
     };
     let run = NewRun {
         seq: id,

@@ -43,6 +43,9 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// The lane slots declared so far: slots `0..lanes_declared` (their wakers are in
     /// [`Sequencer::lanes`]).
     pub(crate) lanes_declared: u8,
+    /// The first sequence whose lane future found all `W` lane slots taken: that lane
+    /// never runs ([`Sequencer::check_lanes`](crate::Sequencer::check_lanes) names it).
+    pub(crate) lane_refused: Link,
     /// The lane slots whose lane future was dropped (bit `l` for slot `l`): their sequence
     /// takes no start until a lane future waits in the slot again.
     pub(crate) lanes_closed: u32,
@@ -140,6 +143,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             exceptions_not_run: 0,
             count: 0,
             lanes_declared: 0,
+            lane_refused: Link::NONE,
             lanes_closed: 0,
             tag: 0,
             blocks: [ControlBlock::UNREGISTERED; N],

@@ -2,6 +2,7 @@
 //! brings is bound to the sequencer (both ways), and a tick with another is refused.
 
 use crate::lock::Lock;
+use crate::model::set::Words;
 use crate::sequencer::State;
 use crate::{Monitors, Sequencer};
 
@@ -12,8 +13,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// with, which is bound here (both ways); or an empty table while none is bound (it
     /// evaluates nothing, and no table misses the polls). A table that another sequencer
     /// ticks, or any table at another place once one is bound, may not: the polls it took
-    /// would be lost to the table that holds their monitors. A table made anew in the
-    /// place of the bound one is bound again.
+    /// would be lost to the table that holds their monitors. Nor may a table with an
+    /// owner beyond this sequencer's sets (an id of 32 or more in a sequencer of one
+    /// word): its owners are another sequencer's ids, and in this one's sets they would
+    /// read as the ids of the same bit in a lower word. A table made anew in the place of
+    /// the bound one is bound again.
     #[inline(always)]
     pub(super) fn takes_polls<const M: usize, K>(
         &mut self,
@@ -27,6 +31,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             return false;
         }
         if !table.is_empty() {
+            if !table.groups.owner_words.without(Words::below(B)).is_empty() {
+                return false;
+            }
             self.monitor_table = here;
             table.ticked_by = self.tag;
         }
