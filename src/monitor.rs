@@ -945,7 +945,10 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// Adds a monitor owned by `owner`. Errors on an empty name, a full table, or a 256th
     /// `PauseOwner` monitor of one sequence (at most 255 can hold it paused); that the
     /// owner and the exception sequence are registered is checked by
-    /// [`Sequencer::validate`](crate::Sequencer::validate).
+    /// [`Sequencer::validate`](crate::Sequencer::validate), which a monitor added after it
+    /// has not passed (nor has one added after the first start of the host simulator,
+    /// which validates then). Names need not be unique: a firing's record names the
+    /// monitor's owner too.
     ///
     /// The tick evaluates monitors in this order (the order of their ids), in groups of
     /// 32 that share one due test.

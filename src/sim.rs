@@ -227,8 +227,9 @@ pub struct Sim<
     stalled: bool,
     /// The first error a tick returned (the sequencer was ticked past the simulator).
     tick_error: Option<Error>,
-    /// The configuration was validated (before the first start).
-    validated: bool,
+    /// The numbers of sequences and monitors the configuration was last validated with
+    /// (none before the first start): a start after registrations validates again.
+    validated: Option<(usize, usize)>,
     /// The before-tick hooks, in the order they were added.
     before_tick: Vec<BeforeTick<'a, C>>,
     /// Shuffles the order of each pass (`shuffle_equal_priorities`).
@@ -295,7 +296,7 @@ impl<
             lost: 0,
             stalled: false,
             tick_error: None,
-            validated: false,
+            validated: None,
             before_tick: Vec::new(),
             shuffle: None,
             safety_names: SafetyNames::default(),
@@ -658,7 +659,9 @@ impl<
 
     /// Starts `id` non-blocking as a main sequence and lets the lanes run at the current time.
     ///
-    /// The first start validates the configuration ([`Sequencer::validate`]): an exception
+    /// The first start validates the configuration ([`Sequencer::validate`]), and so does a
+    /// start after sequences or monitors were added since (a start through a
+    /// [`Handle`](crate::Handle) does not): an exception
     /// sequence without a lane, for example, is an `Err(Error::InvalidConfig)` here, and
     /// `seq.validate(sim.monitors())` ([`Sequencer::validate`]) names the monitor and the
     /// reason. It also checks that every declared lane ([`SeqConfig::in_lane`](crate::SeqConfig::in_lane),
@@ -698,7 +701,8 @@ impl<
     /// assert_eq!(sim.start(id), Err(Error::AlreadyRunning(id)));
     /// ```
     pub fn start(&mut self, id: SeqId) -> Result<(), Error> {
-        if !self.validated {
+        let counts = (self.sequencer.len(), self.monitors.len());
+        if self.validated != Some(counts) {
             self.sequencer
                 .validate(&self.monitors)
                 .map_err(|_| Error::InvalidConfig)?;
@@ -710,7 +714,7 @@ impl<
             if self.sequencer.is_foreign_table(&self.monitors) {
                 return Err(Error::ForeignMonitorTable);
             }
-            self.validated = true;
+            self.validated = Some(counts);
         }
         self.sequencer
             .sequence_by_id(id)

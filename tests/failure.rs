@@ -330,11 +330,11 @@ fn a_refused_start_is_a_not_started_failure() {
     // the name.
     assert_eq!(
         failure.named(&FAILURES).to_string(),
-        "not started: sequence 0 has no lane"
+        "not started: sequence 0 has no lane that a task polls"
     );
     assert_eq!(
         failure.named(&(&seq, &FAILURES)).to_string(),
-        "not started: sequence `blink` has no lane"
+        "not started: sequence `blink` has no lane that a task polls"
     );
 }
 

@@ -152,7 +152,7 @@ fn a_lane_no_task_polls_is_named_at_the_top_of_idle() {
     expect_exit(&out, 1);
     expect_line(
         &out,
-        "panic firmware: sequence `safe stop` has no lane: no task polls it",
+        "panic firmware: sequence `safe stop` has no lane that a task polls",
     );
 }
 
@@ -278,7 +278,7 @@ fn names_print_on_the_target_as_on_the_host() {
     assert_eq!(host[11], "not started: sequence `main` is already running");
     assert_eq!(
         host[18],
-        "exception sequence `safe stop` of `main` not run: sequence `safe stop` has no lane"
+        "exception sequence `safe stop` of `main` not run: sequence `safe stop` has no lane that a task polls"
     );
     let target: Vec<&str> = out
         .lines

@@ -434,7 +434,7 @@ fn a_declared_lane_that_no_task_polls_is_named_by_check_lanes() {
     assert_eq!(seq.check_lanes(), Err(Error::NoLane(m)));
     assert_eq!(
         Error::NoLane(m).message().as_str(),
-        "sequence 0 has no lane"
+        "sequence 0 has no lane that a task polls"
     );
     // What the check prevents: the start is taken, the sequence is `Running`, and no lane
     // runs it.

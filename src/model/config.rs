@@ -134,7 +134,9 @@ impl<C> SeqConfig<C> {
         self
     }
 
-    /// Exception sequence of the timeout monitor.
+    /// Exception sequence of the timeout monitor. Without a timeout (`.timeout(..)`, or
+    /// [`Handle::set_timeout`](crate::Handle::set_timeout) later) it never runs: nothing
+    /// checks that a configuration with one has a timeout.
     ///
     /// The timeout starts `recover` (in its lane) while `main` is held:
     ///

@@ -203,7 +203,7 @@ impl Error {
             Error::NotRunning(id) => ("sequence ", Some(id), " is not running"),
             Error::NotPaused(id) => ("sequence ", Some(id), " is not paused"),
             Error::CallerDepthExceeded(id) => ("starting sequence ", Some(id), " exceeds the caller depth"),
-            Error::NoLane(id) => ("sequence ", Some(id), " has no lane"),
+            Error::NoLane(id) => ("sequence ", Some(id), " has no lane that a task polls"),
             Error::LaneCapacityExceeded(id) => ("no lane slot left for sequence ", Some(id), ""),
             Error::DurationOutOfRange => ("duration is zero or too long", None, ""),
             Error::NeverStarted(id) => ("sequence ", Some(id), " was never started"),
@@ -225,6 +225,8 @@ impl Error {
         }
     }
 }
+
+impl core::error::Error for Error {}
 
 impl core::fmt::Display for Error {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {

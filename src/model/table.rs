@@ -147,7 +147,9 @@ impl<C, const N: usize> Table<C, N> {
     /// other (empty or duplicate names, durations, distinct polling periods), plus what
     /// only a whole table can show: the table fits a sequencer (at most
     /// [`MAX_SEQUENCES`](crate::MAX_SEQUENCES)) and every timeout exception is one of its
-    /// entries.
+    /// entries. How the entries relate (a timeout exception that is its own entry or has no
+    /// lane) is [`validate`](Self::validate)'s to check, with the monitors: call it in a
+    /// `const` too, with `&[]` when there are none.
     ///
     /// Every timeout exception must be an entry of the table:
     ///

@@ -160,7 +160,7 @@ mod lanes {
     /// the first id, was polled: the check names the second).
     pub fn check() -> ! {
         match SEQ.check_lanes() {
-            Err(e) => defmt::error!("panic firmware: {}: no task polls it", e.named(&SEQ)),
+            Err(e) => defmt::error!("panic firmware: {}", e.named(&SEQ)),
             Ok(()) => defmt::error!("panic firmware: every lane was polled"),
         }
         board::exit_failure()
