@@ -670,21 +670,19 @@ mod start_after_stop {
     };
 }
 
-/// semantics.md, safety: "The losing events are dropped without a record or a count: an
-/// application that raises `START` right after `STOP` (a new run after the last) waits
-/// until the handle shows the level `STOP` leads to, or its `START` may lose to the `STOP`
-/// of the same cycle." In RUN, STOP then START before one cycle:
+/// In RUN, STOP then START before one cycle:
 /// * with a "stay" row for START in RUN, STOP's IDLE wins and START is dropped: no count,
 ///   no record (the sequencer's records show the level IDLE only), the level stays IDLE;
-/// * without a row for START in RUN (the natural table), START does not "lose": it is an
-///   unknown event of RUN and counted as one (the "Unknown events" rule), IDLE entered too.
+/// * without a row for START in RUN (the natural table), START is an unknown event of RUN
+///   and counted as one (the "Unknown events" rule), IDLE entered too.
 ///
 /// Waiting until the handle shows IDLE, the START of the next cycle enters RUN.
-// DOC IMPRECISE: docs/semantics.md (safety): "its `START` may lose to the `STOP` of the
-// same cycle" under "The losing events are dropped without a record or a count" — with
-// no START row in the running level (the usual table) START does not lose, it is an
-// unknown event and counted (`unknown_events` 1); only with a "stay" row is it dropped
-// uncounted. Either way it has no effect, as the advice says.
+///
+/// docs/semantics.md (safety): "A losing event with a row from the level is dropped
+/// without a record or a count (one without a row is unknown, below): ... its `START` loses
+/// to the `STOP` of the same cycle, or is counted unknown there; either way it has no
+/// effect." (The review found the first wording, "the losing events are dropped without a
+/// record or a count", true only with a "stay" row.)
 #[test]
 fn a_start_right_after_a_stop_is_lost_unless_it_waits_for_the_stop_s_level() {
     use rtseq::safety::*;
