@@ -9,7 +9,7 @@
 //! [`Error`], a [`Transition`], an [`Event`], a [`Record`], a [`SafetyLevel`]) with a source
 //! for printing: a run's records print as the lines of the run ("4 ms monitor `jam` of
 //! `cycle` fired: AbortOwner"), an error as its message with the sequence's name ("sequence
-//! `safe stop` has no lane"). The `defmt` forms read as the `Display` forms.
+//! `safe stop` has no lane that a task polls"). The `defmt` forms read as the `Display` forms.
 //!
 //! ```
 //! use rtseq::{Behaviour, Cause, Instant, Monitor, Monitors, RunningState, SeqConfig, Sequencer,
@@ -25,7 +25,7 @@
 //! assert_eq!(t.named(&names).to_string(), "12 ms homing: Running -> Aborting (monitor `jam`)");
 //! assert_eq!(Cause::Timeout(homing).named(&names).to_string(), "timeout of `homing`");
 //! assert_eq!(rtseq::Error::NoLane(homing).named(&names).to_string(),
-//!            "sequence `homing` has no lane");
+//!            "sequence `homing` has no lane that a task polls");
 //! // Without a name: the number.
 //! assert_eq!(rtseq::SeqId::from_index(7).named(&names).to_string(), "#7");
 //! ```
@@ -332,7 +332,7 @@ impl<V: Copy, N: Names + ?Sized> Named<'_, V, N> {
 /// let timed_out = Outcome::Aborted(Cause::Timeout(belt));
 /// assert_eq!(timed_out.named(&names).to_string(), "aborted (timeout of `belt`)");
 /// let refused = Failure::NotStarted(Error::NoLane(belt));
-/// assert_eq!(refused.named(&names).to_string(), "not started: sequence `belt` has no lane");
+/// assert_eq!(refused.named(&names).to_string(), "not started: sequence `belt` has no lane that a task polls");
 /// ```
 pub trait WithNames: Copy {
     /// This value with `names`, for `Display` and `defmt::Format`.

@@ -1213,8 +1213,8 @@ fn misuse_gives_clear_errors() {
 }
 
 /// A sequencer with one lane slot and two lanes given to the simulator: the second never
-/// runs; its start must be a clear `Err` (lane.rs: "starting it is `Err(Error::NoLane)`"),
-/// not a hang.
+/// runs; its start must be a clear `Err` (lane.rs: "starting it is
+/// `Err(Error::LaneCapacityExceeded)`", and `check_lanes` names it), not a hang.
 #[test]
 fn a_lane_beyond_the_slots_is_a_clear_error() {
     use rtseq::lock::CriticalSection;
@@ -1227,9 +1227,13 @@ fn a_lane_beyond_the_slots_is_a_clear_error() {
     sim.lane(a);
     sim.lane(b);
     sim.step();
-    assert_eq!(sim.start(ai), Ok(()));
-    assert_eq!(sim.start(bi), Err(Error::NoLane(bi)));
-    assert_eq!(seq.check_lanes(), Ok(()));
+    assert_eq!(sim.start(ai), Err(Error::LaneCapacityExceeded(bi)));
+    assert_eq!(seq.check_lanes(), Err(Error::LaneCapacityExceeded(bi)));
+    assert_eq!(sim.handle(ai).unwrap().start(), Ok(()));
+    assert_eq!(
+        sim.handle(bi).unwrap().start(),
+        Err(Error::LaneCapacityExceeded(bi))
+    );
     assert!(sim.run_until_idle(Duration::from_millis(10)).is_some());
 }
 

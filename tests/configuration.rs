@@ -655,9 +655,9 @@ mod safety_config {
 // Odd but allowed shapes: W = 0, T = 0, B larger than N needs.
 
 #[test]
-fn a_sequencer_without_lane_slots_refuses_the_start_with_no_lane() {
+fn a_sequencer_without_lane_slots_refuses_the_start_with_lane_capacity_exceeded() {
     // firmware-guide: "A lane future polled when all slots are taken never runs: starts of
-    // its sequence give `Error::NoLane`".
+    // its sequence and `check_lanes` give `Error::LaneCapacityExceeded`".
     let seq: Sequencer<(), 2, 64, CriticalSection, 0> = Sequencer::new();
     let main = seq.add(SeqConfig::new("main"), Nop).unwrap();
     let id = main.id();
@@ -667,7 +667,11 @@ fn a_sequencer_without_lane_slots_refuses_the_start_with_no_lane() {
     );
     let mut sim = Sim::new(&seq, &(), Monitors::<(), 1>::new());
     sim.lane(main);
-    assert_eq!(sim.start(id), Err(Error::NoLane(id)));
+    assert_eq!(sim.start(id), Err(Error::LaneCapacityExceeded(id)));
+    assert_eq!(
+        sim.handle(id).unwrap().start(),
+        Err(Error::LaneCapacityExceeded(id))
+    );
     sim.run_for(Duration::from_millis(3));
     assert_eq!(sim.state(id), rtseq::RunningState::Idle);
 }

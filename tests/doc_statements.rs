@@ -1395,9 +1395,9 @@ fn an_overflowing_ring_keeps_the_newest_and_counts_the_oldest_lost() {
 }
 
 /// firmware-guide 1: "A lane future polled when all slots are taken never runs: starts of
-/// its sequence give Error::NoLane".
+/// its sequence and `check_lanes` give `Error::LaneCapacityExceeded`".
 #[test]
-fn a_lane_without_a_slot_never_runs_and_its_starts_are_no_lane() {
+fn a_lane_without_a_slot_never_runs_and_its_starts_say_so() {
     let seq: Sequencer<Ctrl, 4, 64, rtseq::lock::CriticalSection, 1> = Sequencer::new();
     let ctrl = Ctrl::default();
     let a = seq
@@ -1412,8 +1412,14 @@ fn a_lane_without_a_slot_never_runs_and_its_starts_are_no_lane() {
     let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
     sim.lane(a);
     sim.lane(b);
-    assert_eq!(sim.start(ai), Ok(()));
-    assert_eq!(sim.start(bi), Err(Error::NoLane(bi)));
+    // The simulator's first start checks the lanes.
+    assert_eq!(sim.start(ai), Err(Error::LaneCapacityExceeded(bi)));
+    assert_eq!(seq.check_lanes(), Err(Error::LaneCapacityExceeded(bi)));
+    assert_eq!(sim.handle(ai).unwrap().start(), Ok(()));
+    assert_eq!(
+        sim.handle(bi).unwrap().start(),
+        Err(Error::LaneCapacityExceeded(bi))
+    );
 }
 
 /// Sequencer::tick: "The first non-empty table that comes with a due tick becomes the

@@ -101,7 +101,7 @@ fn lane_slots_are_a_checked_capacity() {
         h(2).declare_lane(),
         Err(Error::LaneCapacityExceeded(ids[2]))
     );
-    assert_eq!(h(2).start(), Err(Error::NoLane(ids[2])));
+    assert_eq!(h(2).start(), Err(Error::LaneCapacityExceeded(ids[2])));
     assert_eq!(h(0).start(), Ok(()));
 }
 

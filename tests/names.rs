@@ -406,7 +406,7 @@ fn every_event_prints_with_names_or_numbers() {
         [
             "monitor `jam` of `main` fired: AbortOwner",
             "timeout of `main` ran out: RestartOwner",
-            "exception sequence `safe stop` of `main` not run: sequence `safe stop` has no lane",
+            "exception sequence `safe stop` of `main` not run: sequence `safe stop` has no lane that a task polls",
             "abort of `main` requested by `safe stop`",
             "abort-all requested by the safety system",
             "`main` failed: part lost",

@@ -140,7 +140,7 @@ impl Error {
             Error::NotRunning(_) => "sequence not running",
             Error::NotPaused(_) => "sequence not paused",
             Error::CallerDepthExceeded(_) => "caller depth exceeded",
-            Error::NoLane(_) => "sequence has no lane",
+            Error::NoLane(_) => "sequence has no lane a task polls",
             Error::LaneCapacityExceeded(_) => "lane capacity exceeded",
             Error::DurationOutOfRange => "duration is zero or too long",
             Error::NeverStarted(_) => "sequence never started",
