@@ -987,6 +987,9 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             .push(entry)
             .map_err(|_| Error::MonitorCapacityExceeded)?;
         self.groups.push(id, owner, trigger, M);
+        // A table bound to a sequencer is bound again, with its owners checked, by the
+        // next due tick (`State::takes_polls`): the new owner may not be that sequencer's.
+        self.ticked_by = 0;
         Ok(MonitorId(id))
     }
 

@@ -227,9 +227,10 @@ pub struct Sim<
     stalled: bool,
     /// The first error a tick returned (the sequencer was ticked past the simulator).
     tick_error: Option<Error>,
-    /// The numbers of sequences and monitors the configuration was last validated with
-    /// (none before the first start): a start after registrations validates again.
-    validated: Option<(usize, usize)>,
+    /// The numbers of sequences, monitors and declared lanes the configuration was last
+    /// validated with (none before the first start): a start after registrations or lane
+    /// declarations validates again.
+    validated: Option<(usize, usize, u8)>,
     /// The before-tick hooks, in the order they were added.
     before_tick: Vec<BeforeTick<'a, C>>,
     /// Shuffles the order of each pass (`shuffle_equal_priorities`).
@@ -660,8 +661,8 @@ impl<
     /// Starts `id` non-blocking as a main sequence and lets the lanes run at the current time.
     ///
     /// The first start validates the configuration ([`Sequencer::validate`]), and so does a
-    /// start after sequences or monitors were added since (a start through a
-    /// [`Handle`](crate::Handle) does not): an exception
+    /// start after sequences or lanes were added since (a start through a
+    /// [`Handle`] does not): an exception
     /// sequence without a lane, for example, is an `Err(Error::InvalidConfig)` here, and
     /// `seq.validate(sim.monitors())` ([`Sequencer::validate`]) names the monitor and the
     /// reason. It also checks that every declared lane ([`SeqConfig::in_lane`](crate::SeqConfig::in_lane),
@@ -701,7 +702,11 @@ impl<
     /// assert_eq!(sim.start(id), Err(Error::AlreadyRunning(id)));
     /// ```
     pub fn start(&mut self, id: SeqId) -> Result<(), Error> {
-        let counts = (self.sequencer.len(), self.monitors.len());
+        let counts = (
+            self.sequencer.len(),
+            self.monitors.len(),
+            self.sequencer.with(|s| s.lanes_declared),
+        );
         if self.validated != Some(counts) {
             self.sequencer
                 .validate(&self.monitors)

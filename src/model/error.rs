@@ -73,7 +73,8 @@ pub enum Error {
     PauseOnTimeout,
     /// A sequence object ([`Seq`](crate::Seq)) made by another sequencer was started
     /// blocking here (its id names a sequence of this one too). As a lane here it never
-    /// runs, so a start of that id says [`NoLane`](Error::NoLane).
+    /// runs, so a start of that id says [`NoLane`](Error::NoLane) (or
+    /// [`LaneCapacityExceeded`](Error::LaneCapacityExceeded) once every slot is declared).
     ForeignSequence(SeqId),
     /// Resume was requested for a sequence that a [`PauseOwner`](crate::Behaviour::PauseOwner)
     /// monitor holds paused (its condition still holds). The request is refused and takes

@@ -637,8 +637,8 @@ const fn ordered(min: IoValue, max: IoValue) -> bool {
 /// bools and mixed kinds).
 const fn has_inside(min: IoValue, max: IoValue) -> bool {
     match (min, max) {
-        (IoValue::Int(a), IoValue::Int(b)) => (b as i64) - (a as i64) >= 2,
-        (IoValue::Float(a), IoValue::Float(b)) => a < b,
+        (IoValue::Int(a), IoValue::Int(b)) => (b as i64).saturating_sub(a as i64) >= 2,
+        (IoValue::Float(a), IoValue::Float(b)) => a.next_up() < b,
         _ => false,
     }
 }

@@ -155,7 +155,8 @@ pub trait Step<C> {
 /// [`Sequencer::bind`](crate::Sequencer::bind), once per id. It belongs to the sequencer
 /// that made it: another sequencer refuses it (started blocking there the child's result
 /// is `Err(Failure::NotStarted(Error::ForeignSequence(id)))`; as a lane there it never runs,
-/// so a start of its id says `NoLane`), even when the id names a sequence there too.
+/// so a start of its id says `NoLane`, or `LaneCapacityExceeded` once every slot is
+/// declared), even when the id names a sequence there too.
 /// Sequencers are told apart by a 16-bit tag given at their first registration, so among more than
 /// 65 535 sequencers made in one program two may share one.
 ///

@@ -248,7 +248,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     ///
     /// Call it once every lane task has been polled: in RTIC, at the top of `idle` (the
     /// tasks spawned in `init` run up to their first wait before `idle` starts). The host
-    /// simulator makes the same check at its first start.
+    /// simulator makes the same check at its first start (and again after sequences or
+    /// lanes were added).
     ///
     /// ```
     /// use core::pin::pin;
@@ -391,6 +392,10 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         if self.tag != maker {
             return None;
         }
+        // A refused lane future (no slot) is gone with it.
+        if self.lane_refused.get() == Some(id) {
+            self.lane_refused = Link::NONE;
+        }
         let lane = self
             .block(id)
             .map(|b| b.own_lane)
@@ -409,7 +414,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         self.lanes_closed &= !(1 << (lane & 31));
     }
 
-    /// A lane future of `id` found all `W` lane slots taken: the first such is remembered.
+    /// A lane future of `id` found all `W` lane slots taken: the first such is remembered,
+    /// until it is dropped (`close_lane`).
     pub(crate) fn refuse_lane(&mut self, id: SeqId) {
         if self.block(id).is_some() && self.lane_refused.get().is_none() {
             self.lane_refused = Link::to(Some(id));

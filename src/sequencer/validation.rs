@@ -207,7 +207,8 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// naming the monitor or sequence.
     ///
     /// Call it once at start-up, after the lanes are declared (in RTIC: in `init`); the
-    /// host simulator calls it before its first start. Once the lane tasks have run,
+    /// host simulator calls it before its first start (and again after sequences or lanes
+    /// were added). Once the lane tasks have run,
     /// [`check_lanes`](Self::check_lanes) checks that a task polls each declared lane.
     ///
     /// ```

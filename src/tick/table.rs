@@ -17,7 +17,8 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     /// owner beyond this sequencer's sets (an id of 32 or more in a sequencer of one
     /// word): its owners are another sequencer's ids, and in this one's sets they would
     /// read as the ids of the same bit in a lower word. A table made anew in the place of
-    /// the bound one is bound again.
+    /// the bound one is bound again, and so is the bound one after a monitor was added to
+    /// it (`Monitors::add` unbinds it), its owners checked again.
     #[inline(always)]
     pub(super) fn takes_polls<const M: usize, K>(
         &mut self,
