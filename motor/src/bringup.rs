@@ -3,14 +3,22 @@
 //!
 //! A current loop with a wrong current sign is positive feedback, and a position loop
 //! with a reversed motor runs away: both must be right before the application drives the
-//! motor. The jog needs no loop: it applies a small voltage one way, lets the motor coast,
-//! applies it the other way, lets it coast again, and compares what the encoder and the
-//! two leg shunts read with what a correctly wired sign-magnitude bridge gives:
+//! motor. The jog needs no loop: it applies a small voltage one way, switches the bridge
+//! off, applies it the other way, switches off again, and compares what the encoder and
+//! the two leg shunts read with what a correctly wired sign-magnitude bridge gives:
 //!
-//! | duty | switching leg | leg whose low side carries the current | reading expected |
+//! | duty | switching leg | idle leg (low side on throughout) | reading expected |
 //! |---|---|---|---|
-//! | positive | U (IN1) | V | shunt V positive, shunt U near zero, encoder counting up |
-//! | negative | V (IN2) | U | shunt U positive, shunt V near zero, encoder counting down |
+//! | positive | U (IN1) | V | shunt V positive; encoder counting up |
+//! | negative | V (IN2) | U | shunt U positive; encoder counting down |
+//!
+//! The idle leg's shunt is the one the current loop reads (the board's sensors take V for
+//! a positive duty, U reversed for a negative one), so the verdict rests on it. The
+//! switching leg's shunt reads nothing during the on-time and, its low side conducting the
+//! freewheeling current in the off-time, the current reversed then; a sample taken once per
+//! control period falls at a fixed point of the PWM period (both timers run from one
+//! clock), so it reads either. That makes swapped current inputs and inverted amplifiers
+//! look alike when the sample falls in the off-time ([`Legs::SwappedOrInverted`]).
 //!
 //! [`Jog::step`] is called once per control period with that period's [`JogSample`] and
 //! returns what to apply ([`JogStep`]); the safety system stays in charge throughout (the
@@ -61,14 +69,23 @@ pub struct JogConfig {
     pub min_counts: u32,
     /// The least mean shunt current, A, that counts as current flowing in a leg.
     pub min_amps: f32,
+    /// The first and the last period of a drive phase (from 1) whose shunt readings are
+    /// averaged: early in the phase, where a voltage-driven motor's current is largest (it
+    /// starts near V/R and falls as the motor speeds up), after it has risen.
+    pub average: (u32, u32),
+    /// The jog's own current limit, A: a shunt reading above it stops the jog at once.
+    /// The safety system's over-current check reads the one leg the loop uses, which
+    /// wrongly wired inputs may not be.
+    pub trip_amps: f32,
     /// The lowest supply voltage the jog drives at, V.
     pub min_supply_v: f32,
 }
 
 impl JogConfig {
-    /// 1.5 V for 0.3 s each way at a 1 kHz control rate, coasting 0.3 s after each: a
-    /// small motor turns slowly, at a current far below the bridge's limit; a reading
-    /// counts from 20 encoder counts and 0.05 A.
+    /// 1.5 V for 0.3 s each way at a 1 kHz control rate, the bridge off for 0.3 s after
+    /// each: a small motor turns slowly (one of 2 Ω draws at most 0.75 A; lower `volts`
+    /// for one of less); a reading counts from 20 encoder counts and 0.05 A, averaged over
+    /// periods 3 to 50 of a drive; the jog stops above 1.4 A in either shunt.
     pub const DEFAULT: JogConfig = JogConfig {
         volts: 1.5,
         drive_periods: 300,
@@ -76,6 +93,8 @@ impl JogConfig {
         permit_periods: 100,
         min_counts: 20,
         min_amps: 0.05,
+        average: (3, 50),
+        trip_amps: 1.4,
         min_supply_v: 8.0,
     };
 }
@@ -112,7 +131,7 @@ pub enum JogStep {
     AskPermit,
     /// Drive the bridge at this duty (−1 … 1, sign-magnitude).
     Drive(f32),
-    /// Bridge off (the motor coasts).
+    /// Bridge off (the motor runs down; a holding brake, if there is one, engages).
     Coast,
     /// The jog is over: bridge off, give the permit back; what it found.
     Done(JogReport),
@@ -130,6 +149,10 @@ pub enum JogStop {
     PermitWithdrawn,
     /// The supply is below [`JogConfig::min_supply_v`].
     SupplyTooLow,
+    /// A shunt read more than [`JogConfig::trip_amps`].
+    OverCurrent,
+    /// [`JogConfig::volts`] is not a positive, finite voltage: nothing is driven.
+    InvalidVolts,
 }
 
 /// What one drive phase and the coast after it read.
@@ -140,7 +163,7 @@ pub struct PhaseReading {
     pub duty: f32,
     /// Encoder travel from the drive's start to the coast's end, counts.
     pub counts: i32,
-    /// Mean shunt currents over the drive's second half (the current settled).
+    /// Mean shunt currents over [`JogConfig::average`]'s periods of the drive.
     pub shunts: Shunts,
 }
 
@@ -159,21 +182,29 @@ pub enum Direction {
     Inconsistent,
 }
 
-/// Which leg measured the motor current, against the duty's sign.
+/// What the idle legs (V for a positive duty, U for a negative one: the legs the current
+/// loop reads) measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Legs {
-    /// V for a positive duty, U for a negative one, both positive.
+    /// Both idle legs read the current, positive.
     Correct,
-    /// The right legs, negative: the amplifiers' polarity is the other one
-    /// (`CURRENT_SIGN = -1`).
+    /// Both idle legs read it negative while the switching legs read nothing: the
+    /// amplifiers' polarity is the other one (`CURRENT_SIGN = -1`).
     SignInverted,
-    /// U for a positive duty, V for a negative one: the two current inputs are swapped.
+    /// The idle legs read nothing while the switching legs read the current: the two
+    /// current inputs are swapped.
     Swapped,
-    /// No leg read the least current in a drive phase: the motor circuit is open, or the
+    /// Both idle legs read the current negative and the switching legs positive: the
+    /// inputs are swapped, or the amplifiers inverted, and a sample in the switching leg's
+    /// off-time cannot tell which (check the order of the inputs against the board's
+    /// manual, then jog again).
+    SwappedOrInverted,
+    /// In a drive phase no leg read the least current: the motor circuit is open, or the
     /// shunt amplifiers are not configured (three-shunt jumpers).
     NoCurrent,
-    /// Neither of the above: check the jumpers and the amplifiers.
+    /// None of the above (one amplifier inverted, the same leg both ways): check the
+    /// jumpers and the amplifiers.
     Inconsistent,
 }
 
@@ -207,22 +238,34 @@ impl JogReport {
         }
     }
 
-    /// Which leg measured the current, and its sign.
+    /// What the idle legs measured (see [`Legs`]).
     pub fn legs(&self) -> Legs {
         let min = self.min_amps;
         let (f, b) = (self.forward.shunts, self.backward.shunts);
-        // The leg that carried the current in each phase: the one reading more.
         let moved = |s: Shunts| s.u.abs().max(s.v.abs()) >= min;
         if !moved(f) || !moved(b) {
             return Legs::NoCurrent;
         }
-        let f_on_v = f.v.abs() > f.u.abs();
-        let b_on_u = b.u.abs() > b.v.abs();
-        match (f_on_v, b_on_u) {
-            (true, true) if f.v > 0.0 && b.u > 0.0 => Legs::Correct,
-            (true, true) if f.v < 0.0 && b.u < 0.0 => Legs::SignInverted,
-            (false, false) => Legs::Swapped,
-            _ => Legs::Inconsistent,
+        // Each phase's idle leg and switching leg.
+        let (idle_f, switching_f) = (f.v, f.u);
+        let (idle_b, switching_b) = (b.u, b.v);
+        let positive = |a: f32| a >= min;
+        let negative = |a: f32| a <= -min;
+        let quiet = |a: f32| a.abs() < min;
+        if positive(idle_f) && positive(idle_b) {
+            Legs::Correct
+        } else if negative(idle_f) && negative(idle_b) {
+            if quiet(switching_f) && quiet(switching_b) {
+                Legs::SignInverted
+            } else if positive(switching_f) && positive(switching_b) {
+                Legs::SwappedOrInverted
+            } else {
+                Legs::Inconsistent
+            }
+        } else if quiet(idle_f) && quiet(idle_b) {
+            Legs::Swapped
+        } else {
+            Legs::Inconsistent
         }
     }
 
@@ -296,11 +339,29 @@ impl Jog {
     /// step); returns what to apply until the next. After `Done` or `Stopped` it keeps
     /// returning the same.
     pub fn step(&mut self, sample: &JogSample) -> JogStep {
-        let step = self.next(sample);
+        let volts = self.config.volts;
+        let step = if !(volts.is_finite() && volts > 0.0) {
+            JogStep::Stopped(JogStop::InvalidVolts)
+        } else if self.drives() && self.over_current(sample.shunts) {
+            JogStep::Stopped(JogStop::OverCurrent)
+        } else {
+            self.next(sample)
+        };
         if let JogStep::Done(_) | JogStep::Stopped(_) = step {
             self.phase = Phase::Over(step);
         }
         step
+    }
+
+    /// Whether the bridge was on, or is still running down from it.
+    fn drives(&self) -> bool {
+        matches!(self.phase, Phase::Drive | Phase::Coast)
+    }
+
+    /// A shunt reads more than the jog's limit (or NaN).
+    fn over_current(&self, shunts: Shunts) -> bool {
+        let within = |a: f32| a.abs() <= self.config.trip_amps;
+        !(within(shunts.u) && within(shunts.v))
     }
 
     /// What `step` returns, the end not yet kept.
@@ -322,7 +383,8 @@ impl Jog {
                     return JogStep::Stopped(JogStop::PermitWithdrawn);
                 }
                 self.periods = self.periods.saturating_add(1);
-                if self.periods > self.config.drive_periods / 2 {
+                let (first, last) = self.config.average;
+                if (first..=last).contains(&self.periods) {
                     self.sum.u += sample.shunts.u;
                     self.sum.v += sample.shunts.v;
                     self.summed = self.summed.saturating_add(1);
@@ -543,8 +605,9 @@ mod tests {
     }
 
     #[test]
-    fn the_first_half_of_a_drive_phase_is_not_averaged() {
-        // The current rises over the first half (0 A), then settles (0.25 A: sums exact).
+    fn periods_3_to_50_of_a_drive_phase_are_averaged() {
+        // 0.5 A in periods 3 to 50 (the window), 1 A in periods 1 and 2 (the current still
+        // rising: not in it) and 0.25 A after (not in it either).
         let mut jog = Jog::new(JogConfig::DEFAULT);
         let mut sample = JogSample {
             counts: 0,
@@ -554,7 +617,11 @@ mod tests {
         };
         assert_eq!(jog.step(&sample), JogStep::Drive(0.125));
         for period in 1..=300 {
-            sample.shunts.v = if period > 150 { 0.25 } else { 0.0 };
+            sample.shunts.v = match period {
+                1 | 2 => 1.0,
+                3..=50 => 0.5,
+                _ => 0.25,
+            };
             sample.counts = period;
             jog.step(&sample);
         }
@@ -565,8 +632,33 @@ mod tests {
         }
         // The coast's last period began the backward phase.
         assert_eq!(last, JogStep::Drive(-0.125));
-        assert_eq!(jog.forward.shunts, Shunts { u: 0.0, v: 0.25 });
+        assert_eq!(jog.forward.shunts, Shunts { u: 0.0, v: 0.5 });
         assert_eq!(jog.forward.counts, 300);
+    }
+
+    #[test]
+    fn a_shunt_over_the_limit_stops_the_jog_at_once() {
+        let mut jog = Jog::new(JogConfig::DEFAULT);
+        let mut sample = JogSample {
+            counts: 0,
+            shunts: Shunts::default(),
+            supply_v: 12.0,
+            permit: true,
+        };
+        assert_eq!(jog.step(&sample), JogStep::Drive(0.125));
+        sample.shunts.u = -1.4;
+        assert_eq!(jog.step(&sample), JogStep::Drive(0.125));
+        sample.shunts.u = -1.41;
+        assert_eq!(jog.step(&sample), JogStep::Stopped(JogStop::OverCurrent));
+        assert_eq!(jog.duty(), 0.0);
+        sample.shunts.u = 0.0;
+        assert_eq!(jog.step(&sample), JogStep::Stopped(JogStop::OverCurrent));
+        // A NaN reading too.
+        let mut jog = Jog::new(JogConfig::DEFAULT);
+        sample.shunts = Shunts::default();
+        jog.step(&sample);
+        sample.shunts.v = f32::NAN;
+        assert_eq!(jog.step(&sample), JogStep::Stopped(JogStop::OverCurrent));
     }
 
     #[test]

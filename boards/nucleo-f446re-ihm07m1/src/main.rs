@@ -28,7 +28,7 @@ pub mod pins;
 pub mod sensors;
 
 use rtseq::safety::ValidProperties;
-use rtseq_motor::bringup::{Direction, JogStep, Legs};
+use rtseq_motor::bringup::{Direction, JogConfig, JogStep, JogStop, Legs};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_motor::safety::{DriveIo, Watches};
 
@@ -125,6 +125,12 @@ defmt::timestamp!(
     app::TICKS.load(core::sync::atomic::Ordering::Relaxed)
 );
 
+/// The bring-up jog: the defaults, its own current limit the bridge's.
+pub const JOG: JogConfig = JogConfig {
+    trip_amps: drive::I_LIMIT,
+    ..JogConfig::DEFAULT
+};
+
 /// What to do about the motor's direction the jog found.
 fn direction_advice(d: Direction) -> &'static str {
     match d {
@@ -133,7 +139,9 @@ fn direction_advice(d: Direction) -> &'static str {
         Direction::NoMotion => {
             "the motor did not turn: check the motor wiring and the brake, or raise JogConfig::volts"
         }
-        Direction::Inconsistent => "one way only: check the mechanics, then jog again",
+        Direction::Inconsistent => {
+            "not one way and back (one way only, or the same way twice): check the mechanics, then jog again"
+        }
     }
 }
 
@@ -144,6 +152,9 @@ fn legs_advice(l: Legs) -> &'static str {
         Legs::SignInverted => "sign inverted: set sensors::CURRENT_SIGN = -1.0",
         Legs::Swapped => {
             "swapped: swap CurrentU / CurrentV in src/pins.rs (and their pins in init)"
+        }
+        Legs::SwappedOrInverted => {
+            "read negative: the inputs swapped (src/pins.rs) or the amplifiers inverted (sensors::CURRENT_SIGN); this jog cannot tell which: check PA0 / PC1 against UM1943"
         }
         Legs::NoCurrent => {
             "no current: check the motor circuit and the three-shunt jumpers J5 / J6"
@@ -166,7 +177,14 @@ fn log_jog(end: JogStep) {
                 defmt::info!("jog: wiring correct: reset without B1 to run the application");
             }
         }
-        JogStep::Stopped(why) => defmt::warn!("jog stopped: {}", why),
+        JogStep::Stopped(why) => {
+            defmt::warn!("jog stopped: {}", why);
+            if let JogStop::PermitWithdrawn | JogStop::OverCurrent = why {
+                defmt::warn!(
+                    "jog: an e-stop, over-current or driver fault leaves the safety system in emergency: reset with B1 held to jog again"
+                );
+            }
+        }
         JogStep::AskPermit | JogStep::Drive(_) | JogStep::Coast => {}
     }
 }
@@ -201,7 +219,7 @@ mod app {
     use rtseq::{MonitorNames, SeqId, Sequencer, WithNames};
     use rtseq_motor::app::seq_ids::MAIN;
     use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
-    use rtseq_motor::bringup::{Jog, JogConfig, JogSample, JogStep};
+    use rtseq_motor::bringup::{Jog, JogSample, JogStep};
     use rtseq_motor::control_system::ControlSystem;
     use rtseq_motor::hardware::DriveCommand;
     use rtseq_motor::safety::{self as levels, safety_cycle, DriveIo};
@@ -599,7 +617,7 @@ mod app {
         // charge: an e-stop or over-current ends the jog).
         if bringup && !*cx.local.started && sw.button && !*cx.local.button_was {
             SEQ.safety_handle().trigger(levels::SWITCH_ON);
-            *cx.local.jog = Some(Jog::new(JogConfig::DEFAULT));
+            *cx.local.jog = Some(Jog::new(super::JOG));
             *cx.local.started = true;
         }
         // Start on the first press of B1 (a falling edge of the raw button).
