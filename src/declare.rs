@@ -15,7 +15,7 @@
 /// * `pub type Sequencer<T = 64, L = CriticalSection, W = 8>`, the
 ///   [`Sequencer`](crate::Sequencer) of the control type, `COUNT` sequences and sets of
 ///   `SET_WORDS` words, the other parameters in `Sequencer`'s order with its defaults;
-/// * `pub const fn table(..) -> Result<Table<C, COUNT>, Error>`, with the parameters given
+/// * `pub const fn table(..) -> Result<Table<C, COUNT>, TableError>`, with the parameters given
 ///   after the module's name (none: `table()`), checked as [`Table::new`](crate::Table::new)
 ///   checks it. Evaluate it in a `const` and a bad table is a compile error.
 ///
@@ -102,7 +102,7 @@ macro_rules! sequences {
             /// Errors as `rtseq::Table::new`.
             pub const fn table(
                 $( $($param: $param_ty),* )?
-            ) -> ::core::result::Result<$crate::Table<$control, COUNT>, $crate::Error> {
+            ) -> ::core::result::Result<$crate::Table<$control, COUNT>, $crate::TableError> {
                 $crate::Table::new([$($config),+])
             }
         }
@@ -224,7 +224,7 @@ macro_rules! monitors {
                 $( $($param: $param_ty),* )?
             ) -> ::core::result::Result<
                 $crate::Monitors<'static, $control, M, $condition>,
-                $crate::Error,
+                $crate::TableError,
             > {
                 $crate::Monitors::table([$($monitor),+])
             }

@@ -148,7 +148,7 @@ pub mod sim;
 pub use condition::{Condition, Stable, Toggle};
 pub use model::{
     set_words, Cause, Done, Duration, Error, ErrorMessage, Failure, Instant, MonitorId, Outcome,
-    RunningState, SeqConfig, SeqId, Table, MAX_SEQUENCES,
+    RunningState, SeqConfig, SeqId, Table, TableError, MAX_SEQUENCES,
 };
 pub use monitor::{
     Behaviour, ConditionFn, DynCondition, Monitor, Monitors, OwnedMonitor, Trigger,

@@ -4,7 +4,7 @@ use core::marker::PhantomData;
 use core::mem::ManuallyDrop;
 
 use crate::model::set::Words;
-use crate::{Condition, Error, MonitorId, SeqId};
+use crate::{Condition, Error, MonitorId, SeqId, TableError};
 
 /// What happens after a monitor fired and its exception sequence (if any) ended.
 ///
@@ -872,7 +872,8 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// A table of `monitors`, in this order, checked by a `const fn` like
     /// [`Table`](crate::Table): built in a `const` item, its checks run in the compiler
     /// and the firmware holds no set-up code for monitors. Errors like
-    /// [`add`](Self::add); more monitors than `M` does not compile.
+    /// [`add`](Self::add), as a [`TableError`] naming the entry; more monitors than `M`
+    /// does not compile.
     ///
     /// ```
     /// use rtseq::{Behaviour, Condition, Instant, Monitor, MonitorId, Monitors, SeqId};
@@ -897,7 +898,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// use rtseq::{Behaviour, Monitor, Monitors, SeqId};
     /// fn never(_: &(), _: rtseq::Instant) -> bool { false }
     /// const S: SeqId = SeqId::from_index(0);
-    /// const TWO: Result<Monitors<'static, (), 1, rtseq::ConditionFn<()>>, rtseq::Error> =
+    /// const TWO: Result<Monitors<'static, (), 1, rtseq::ConditionFn<()>>, rtseq::TableError> =
     ///     Monitors::table([
     ///         Monitor::with_condition("a", never as rtseq::ConditionFn<()>, Behaviour::Nothing).owned_by(S),
     ///         Monitor::with_condition("b", never as rtseq::ConditionFn<()>, Behaviour::Nothing).owned_by(S),
@@ -906,7 +907,7 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// ```
     pub const fn table<const L: usize>(
         monitors: [OwnedMonitor<'a, C, K>; L],
-    ) -> Result<Self, Error> {
+    ) -> Result<Self, TableError> {
         const { assert!(M <= MAX_MONITORS, "at most 256 monitors") };
         const {
             assert!(
@@ -915,12 +916,16 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             )
         };
         let overflow = match monitors.split_last() {
-            Some((last, before)) if holds_overflow(before, last) => Some(last.owner),
+            Some((last, before)) if holds_overflow(before, last) => Some(TableError {
+                entry: before.len(),
+                name: last.def.name,
+                error: Error::PauseOwnerMonitorsExceeded(last.owner),
+            }),
             _ => None,
         };
-        if let Some(owner) = overflow {
+        if let Some(refused) = overflow {
             core::mem::forget(monitors);
-            return Err(Error::PauseOwnerMonitorsExceeded(owner));
+            return Err(refused);
         }
         let mut groups = Groups::EMPTY;
         let mut rest: &[OwnedMonitor<'a, C, K>] = &monitors;
@@ -929,7 +934,11 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
             if e.def.name.is_empty() {
                 // A `const fn` may not drop a `K`.
                 core::mem::forget(monitors);
-                return Err(Error::EmptyName);
+                return Err(TableError {
+                    entry: at as usize,
+                    name: "",
+                    error: Error::EmptyName,
+                });
             }
             groups.push(at, e.owner, e.def.watched(), M);
             at = at.wrapping_add(1);
@@ -1193,8 +1202,16 @@ mod tests {
 
     #[test]
     fn a_table_checks_names() {
+        let named = Monitor::with_condition("a", Never, Behaviour::Nothing).owned_by(SeqId(0));
         let nameless = Monitor::with_condition("", Never, Behaviour::Nothing).owned_by(SeqId(0));
-        let t: Result<Monitors<'_, (), 2, Never>, _> = Monitors::table([nameless]);
-        assert!(matches!(t, Err(Error::EmptyName)));
+        let t: Result<Monitors<'_, (), 2, Never>, _> = Monitors::table([named, nameless]);
+        assert!(matches!(
+            t,
+            Err(TableError {
+                entry: 1,
+                name: "",
+                error: Error::EmptyName
+            })
+        ));
     }
 }

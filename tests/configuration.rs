@@ -6,7 +6,7 @@ use rtseq::lock::CriticalSection;
 use rtseq::sim::Sim;
 use rtseq::{
     Behaviour, Cause, ConfigError, Cx, Duration, Error, Failure, Instant, Monitor, Monitors,
-    Outcome, Raiser, Seq, SeqConfig, SeqId, Sequence, Sequencer, Table, Wait,
+    Outcome, Raiser, Seq, SeqConfig, SeqId, Sequence, Sequencer, Table, TableError, Wait,
 };
 
 /// A sequence that runs a blocking `Wait` of `ms` and completes.
@@ -71,7 +71,11 @@ fn durations_at_the_documented_limits() {
     assert!(Table::<(), 1>::new([SeqConfig::new("a").polling(longest)]).is_ok());
     assert_eq!(
         Table::<(), 1>::new([SeqConfig::new("a").polling(too_long)]).err(),
-        Some(Error::DurationOutOfRange)
+        Some(TableError {
+            entry: 0,
+            name: "a",
+            error: Error::DurationOutOfRange
+        })
     );
 }
 

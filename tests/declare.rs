@@ -72,7 +72,7 @@ fn ids_are_the_lines_positions_and_the_table_follows_them() {
 fn a_table_with_a_duplicate_name_is_the_error_table_new_gives() {
     assert_eq!(twice::table("b").map(|_| ()), Ok(()));
     assert_eq!(
-        twice::table("a").map(|_| ()),
+        twice::table("a").map(|_| ()).map_err(|e| e.error),
         Err(Error::DuplicateName(twice::A))
     );
 }

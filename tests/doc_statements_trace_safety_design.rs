@@ -611,20 +611,20 @@ fn a_restart_limit_of_zero_aborts_at_the_first_firing() {
 /// `Table::id(name)` is a `const fn`".
 #[test]
 fn a_table_makes_registration_s_checks_and_numbers_by_place() {
-    type T<const K: usize> = Result<Table<(), K>, Error>;
+    type T<const K: usize> = Result<Table<(), K>, rtseq::TableError>;
     let empty: T<1> = Table::new([SeqConfig::new("")]);
-    assert_eq!(empty.err(), Some(Error::EmptyName));
+    assert_eq!(empty.err().map(|e| e.error), Some(Error::EmptyName));
     let twice: T<3> = Table::new([
         SeqConfig::new("a"),
         SeqConfig::new("b"),
         SeqConfig::new("a"),
     ]);
     assert_eq!(
-        twice.err(),
+        twice.err().map(|e| e.error),
         Some(Error::DuplicateName(SeqId::from_index(0)))
     );
     let zero: T<1> = Table::new([SeqConfig::new("a").polling(Duration::from_micros(0))]);
-    assert_eq!(zero.err(), Some(Error::DurationOutOfRange));
+    assert_eq!(zero.err().map(|e| e.error), Some(Error::DurationOutOfRange));
     let periods: T<9> = Table::new([
         SeqConfig::new("1").polling(ms(1)),
         SeqConfig::new("2").polling(ms(2)),
@@ -636,12 +636,15 @@ fn a_table_makes_registration_s_checks_and_numbers_by_place() {
         SeqConfig::new("8").polling(ms(8)),
         SeqConfig::new("9").polling(ms(9)),
     ]);
-    assert_eq!(periods.err(), Some(Error::PollingClassesExceeded));
+    assert_eq!(
+        periods.err().map(|e| e.error),
+        Some(Error::PollingClassesExceeded)
+    );
     let unknown: T<1> = Table::new([SeqConfig::new("a")
         .timeout(ms(5))
         .timeout_exception(SeqId::from_index(4))]);
     assert_eq!(
-        unknown.err(),
+        unknown.err().map(|e| e.error),
         Some(Error::UnknownSequence(SeqId::from_index(4)))
     );
     const TABLE: Table<(), 3> = match Table::new([
@@ -673,10 +676,10 @@ fn a_monitor_table_refuses_an_empty_name_as_add_does() {
         false
     }
     let owner = SeqId::from_index(0);
-    let table: Result<Monitors<'static, (), 1, Cond>, Error> = Monitors::table([
+    let table: Result<Monitors<'static, (), 1, Cond>, rtseq::TableError> = Monitors::table([
         Monitor::with_condition("", never as Cond, Behaviour::AbortOwner).owned_by(owner),
     ]);
-    assert_eq!(table.err(), Some(Error::EmptyName));
+    assert_eq!(table.err().map(|e| e.error), Some(Error::EmptyName));
     let mut c = |_: &(), _: Instant| false;
     let mut m: Monitors<(), 1> = Monitors::new();
     assert_eq!(

@@ -168,7 +168,9 @@ fn a_timeout_cannot_pause_its_sequence() {
     };
     assert_eq!(seq.register(config()), Err(Error::PauseOnTimeout));
     assert_eq!(
-        rtseq::Table::<Ctrl, 1>::new([config()]).err(),
+        rtseq::Table::<Ctrl, 1>::new([config()])
+            .err()
+            .map(|e| e.error),
         Some(Error::PauseOnTimeout)
     );
     assert_eq!(

@@ -403,7 +403,9 @@ fn a_table_of_256_pause_owner_monitors_of_one_sequence_is_refused() {
         let mut entries = [HOLD_A; 256];
         entries[0] = first;
         entries[255] = last;
-        Monitors::<Ctrl, 256, Cond>::table(entries).map(|_| ())
+        Monitors::<Ctrl, 256, Cond>::table(entries)
+            .map(|_| ())
+            .map_err(|e| e.error)
     };
     assert_eq!(
         table(HOLD_A, HOLD_A),

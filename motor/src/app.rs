@@ -594,7 +594,7 @@ impl Setup {
     };
 
     /// The set-up of `config`: its table is [`seq_ids::table`].
-    pub const fn new(config: AppConfig) -> Result<Setup, rtseq::Error> {
+    pub const fn new(config: AppConfig) -> Result<Setup, rtseq::TableError> {
         match seq_ids::table(&config) {
             Ok(table) => Ok(Setup { config, table }),
             Err(e) => Err(e),

@@ -175,7 +175,7 @@ impl Error {
     /// use rtseq::{Error, SeqConfig, Table};
     /// const E: Error = match Table::<(), 2>::new([SeqConfig::new("move"), SeqConfig::new("move")]) {
     ///     Ok(_) => panic!("a duplicate name is refused"),
-    ///     Err(e) => e,
+    ///     Err(e) => e.error,
     /// };
     /// assert_eq!(E.message().as_str(), "duplicate name: sequence 0 has it");
     /// assert_eq!(E.to_string(), E.message().as_str());
@@ -245,5 +245,67 @@ mod tests {
     fn an_error_is_an_id_and_a_tag() {
         assert_eq!(core::mem::size_of::<Error>(), 2);
         assert_eq!(core::mem::size_of::<crate::Outcome>(), 4);
+    }
+}
+
+/// Why a table refused one of its entries ([`Table::new`](crate::Table::new),
+/// [`Monitors::table`](crate::Monitors::table), and the `table()` of
+/// [`sequences!`](crate::sequences) and [`monitors!`](crate::monitors)): which entry, by
+/// position and name, and what is wrong with it. Its message says both, so a `const` item
+/// that fails to compile with it names the line to fix.
+///
+/// ```
+/// use rtseq::{Duration, Error, SeqConfig, Table, TableError};
+/// const E: TableError = match Table::<(), 3>::new([
+///     SeqConfig::new("power on"),
+///     SeqConfig::new("homing").timeout(Duration::from_ticks(0)),
+///     SeqConfig::new("move"),
+/// ]) {
+///     Ok(_) => panic!("a zero timeout is refused"),
+///     Err(e) => e,
+/// };
+/// assert_eq!(E, TableError { entry: 1, name: "homing", error: Error::DurationOutOfRange });
+/// assert_eq!(E.message().as_str(), "entry 1 (`homing`): duration is zero or too long");
+/// assert_eq!(E.to_string(), E.message().as_str());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TableError {
+    /// The entry's position in the table: the index of its id.
+    pub entry: usize,
+    /// The entry's name (empty when that is what is wrong).
+    pub name: &'static str,
+    /// What is wrong with it.
+    pub error: Error,
+}
+
+impl TableError {
+    /// What went wrong, and where: "entry 1 (`homing`): duration is zero or too long"
+    /// ("entry 1: empty name" for an entry without a name), made by a `const fn` like
+    /// [`Error::message`].
+    ///
+    /// ```
+    /// use rtseq::{Error, TableError};
+    /// const E: TableError = TableError { entry: 4, name: "", error: Error::EmptyName };
+    /// const MESSAGE: rtseq::ErrorMessage = E.message();
+    /// assert_eq!(MESSAGE.as_str(), "entry 4: empty name");
+    /// ```
+    pub const fn message(&self) -> ErrorMessage {
+        let error = self.error.message();
+        let entry = ErrorMessage::new().with("entry ").with_number(self.entry);
+        let named = if self.name.is_empty() {
+            entry
+        } else {
+            entry.with(" (`").with(self.name).with("`)")
+        };
+        named.with(": ").with(error.as_str())
+    }
+}
+
+impl core::error::Error for TableError {}
+
+impl core::fmt::Display for TableError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.message().as_str())
     }
 }

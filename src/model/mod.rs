@@ -17,7 +17,7 @@ pub(crate) mod table;
 pub(crate) mod time;
 
 pub use config::SeqConfig;
-pub use error::Error;
+pub use error::{Error, TableError};
 pub use id::{MonitorId, SeqId};
 pub use message::ErrorMessage;
 pub use outcome::{Cause, Done, Failure, Outcome};

@@ -17,10 +17,13 @@ use crate::SeqId;
 /// A [`Table`](crate::Table) longer than that is refused:
 ///
 /// ```
-/// use rtseq::{Error, SeqConfig, Table, MAX_SEQUENCES};
+/// use rtseq::{Error, SeqConfig, Table, TableError, MAX_SEQUENCES};
 /// assert_eq!(MAX_SEQUENCES, 256);
 /// let too_many = Table::<(), 257>::new(core::array::from_fn(|_| SeqConfig::new("s")));
-/// assert!(matches!(too_many, Err(Error::SequenceCapacityExceeded)));
+/// assert!(matches!(
+///     too_many,
+///     Err(TableError { entry: 256, error: Error::SequenceCapacityExceeded, .. })
+/// ));
 /// ```
 pub const MAX_SEQUENCES: usize = 256;
 

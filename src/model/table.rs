@@ -11,7 +11,7 @@ use crate::model::id::Link;
 use crate::model::set::WORDS_MAX;
 use crate::sequencer::control_block::ControlBlock;
 use crate::tick::schedule::Classes;
-use crate::{Behaviour, Error, SeqConfig, SeqId};
+use crate::{Behaviour, Error, SeqConfig, SeqId, TableError};
 
 /// One checked configuration: what a control block takes from it.
 pub(crate) struct CheckedConfig<C> {
@@ -147,21 +147,32 @@ impl<C, const N: usize> Table<C, N> {
     /// other (empty or duplicate names, durations, distinct polling periods), plus what
     /// only a whole table can show: the table fits a sequencer (at most
     /// [`MAX_SEQUENCES`](crate::MAX_SEQUENCES)) and every timeout exception is one of its
-    /// entries. How the entries relate (a timeout exception that is its own entry or has no
+    /// entries. An error is a [`TableError`]: the entry refused, by position and name, and
+    /// the [`Error`] `register` would give. How the entries relate (a timeout exception that is its own entry or has no
     /// lane) is [`validate`](Self::validate)'s to check, with the monitors: call it in a
     /// `const` too, with `&[]` when there are none.
     ///
     /// Every timeout exception must be an entry of the table:
     ///
     /// ```
-    /// use rtseq::{Error, SeqConfig, SeqId, Table};
+    /// use rtseq::{Error, SeqConfig, SeqId, Table, TableError};
     /// let outside = SeqId::from_index(5);
     /// let table = Table::<(), 1>::new([SeqConfig::new("main").timeout_exception(outside)]);
-    /// assert!(matches!(table, Err(Error::UnknownSequence(id)) if id == outside));
+    /// assert!(matches!(
+    ///     table,
+    ///     Err(TableError { entry: 0, name: "main", error: Error::UnknownSequence(id) }) if id == outside
+    /// ));
     /// ```
-    pub const fn new(configs: [SeqConfig<C>; N]) -> Result<Self, Error> {
-        if N > crate::MAX_SEQUENCES {
-            return Err(Error::SequenceCapacityExceeded);
+    pub const fn new(configs: [SeqConfig<C>; N]) -> Result<Self, TableError> {
+        // The first entry beyond the capacity is the one refused.
+        if let Some((_, beyond)) = configs.split_at_checked(crate::MAX_SEQUENCES) {
+            if let Some(first) = beyond.first() {
+                return Err(TableError {
+                    entry: crate::MAX_SEQUENCES,
+                    name: first.name,
+                    error: Error::SequenceCapacityExceeded,
+                });
+            }
         }
         let mut table = Table {
             configs: [const { CheckedConfig::UNUSED }; N],
@@ -173,24 +184,16 @@ impl<C, const N: usize> Table<C, N> {
         while let (Some((slot, more_slots)), Some((config, more))) =
             (entries.split_first_mut(), rest.split_first())
         {
-            let mut entry = match CheckedConfig::checked(config) {
+            *slot = match entry_of(&configs, config, SeqId(id), &mut table.classes) {
                 Ok(entry) => entry,
-                Err(e) => return Err(e),
-            };
-            if let Some(exception) = config.timeout_exception {
-                if exception.index() >= N {
-                    return Err(Error::UnknownSequence(exception));
+                Err(error) => {
+                    return Err(TableError {
+                        entry: id as usize,
+                        name: config.name,
+                        error,
+                    })
                 }
-            }
-            let first = position(&configs, config.name);
-            if first.0 != id {
-                return Err(Error::DuplicateName(first));
-            }
-            entry.class = match table.classes.join(SeqId(id), entry.polling) {
-                Ok(class) => class,
-                Err(e) => return Err(e),
             };
-            *slot = entry;
             entries = more_slots;
             rest = more;
             id = id.saturating_add(1);
@@ -301,6 +304,35 @@ const fn str_eq(a: &str, b: &str) -> bool {
     true
 }
 
+/// `config`, entry `id` of `configs`, checked (as `register` checks a configuration, its
+/// timeout exception one of the entries, its name the first of its kind), with its polling
+/// class joined in `classes`.
+const fn entry_of<C>(
+    configs: &[SeqConfig<C>],
+    config: &SeqConfig<C>,
+    id: SeqId,
+    classes: &mut Classes<WORDS_MAX>,
+) -> Result<CheckedConfig<C>, Error> {
+    let mut entry = match CheckedConfig::checked(config) {
+        Ok(entry) => entry,
+        Err(e) => return Err(e),
+    };
+    if let Some(exception) = config.timeout_exception {
+        if exception.index() >= configs.len() {
+            return Err(Error::UnknownSequence(exception));
+        }
+    }
+    let first = position(configs, config.name);
+    if first.0 != id.0 {
+        return Err(Error::DuplicateName(first));
+    }
+    entry.class = match classes.join(id, entry.polling) {
+        Ok(class) => class,
+        Err(e) => return Err(e),
+    };
+    Ok(entry)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -333,23 +365,27 @@ mod tests {
     }
 
     #[test]
-    fn a_bad_table_is_the_error_register_would_give() {
+    fn a_bad_table_is_the_error_register_would_give_naming_the_entry() {
+        let refused = |entry, name, error| Some(TableError { entry, name, error });
         assert_eq!(
             Table::new([cfg("a"), cfg("b"), cfg("a")]).err(),
-            Some(Error::DuplicateName(SeqId(0)))
+            refused(2, "a", Error::DuplicateName(SeqId(0)))
         );
-        assert_eq!(Table::new([cfg("")]).err(), Some(Error::EmptyName));
+        assert_eq!(
+            Table::new([cfg("")]).err(),
+            refused(0, "", Error::EmptyName)
+        );
         assert_eq!(
             Table::new([cfg("a").polling(Duration::from_ticks(0))]).err(),
-            Some(Error::DurationOutOfRange)
+            refused(0, "a", Error::DurationOutOfRange)
         );
         assert_eq!(
-            Table::new([cfg("a").timeout(Duration::from_secs(3_000))]).err(),
-            Some(Error::DurationOutOfRange)
+            Table::new([cfg("z"), cfg("a").timeout(Duration::from_secs(3_000))]).err(),
+            refused(1, "a", Error::DurationOutOfRange)
         );
         assert_eq!(
             Table::new([cfg("a").timeout_exception(SeqId(1))]).err(),
-            Some(Error::UnknownSequence(SeqId(1)))
+            refused(0, "a", Error::UnknownSequence(SeqId(1)))
         );
         let names = ["0", "1", "2", "3", "4", "5", "6", "7", "8"];
         let mut period = 0;
@@ -359,9 +395,12 @@ mod tests {
         });
         assert_eq!(
             Table::new(periods).err(),
-            Some(Error::PollingClassesExceeded)
+            refused(8, "8", Error::PollingClassesExceeded)
         );
         let too_many: Result<Table<(), 257>, _> = Table::new([const { SeqConfig::new("x") }; 257]);
-        assert_eq!(too_many.err(), Some(Error::SequenceCapacityExceeded));
+        assert_eq!(
+            too_many.err(),
+            refused(256, "x", Error::SequenceCapacityExceeded)
+        );
     }
 }

@@ -82,7 +82,9 @@ mod config {
 
     /// Builds the configuration and validates it: the error is logged, the firmware ends.
     pub fn check() -> ! {
-        let registered = seqs::table().and_then(|t| SEQ.install(&t));
+        let registered = seqs::table()
+            .map_err(|e| e.error)
+            .and_then(|t| SEQ.install(&t));
         match (registered, monitor_ids::table::<{ monitor_ids::COUNT }>()) {
             (Ok(()), Ok(monitors)) => match SEQ.validate(&monitors) {
                 Err(e) => defmt::error!("panic firmware: invalid configuration: {}", e),
@@ -234,7 +236,9 @@ mod names {
 
     pub fn print() -> ! {
         let (Ok(()), Ok(monitors)) = (
-            config::seqs::table().and_then(|t| config::SEQ.install(&t)),
+            config::seqs::table()
+                .map_err(|e| e.error)
+                .and_then(|t| config::SEQ.install(&t)),
             config::monitor_ids::table::<{ config::monitor_ids::COUNT }>(),
         ) else {
             defmt::error!("panic firmware: the tables could not be built");
