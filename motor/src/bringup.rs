@@ -604,18 +604,25 @@ mod tests {
         }
     }
 
-    #[test]
-    fn periods_3_to_50_of_a_drive_phase_are_averaged() {
-        // 0.5 A in periods 3 to 50 (the window), 1 A in periods 1 and 2 (the current still
-        // rising: not in it) and 0.25 A after (not in it either).
+    /// A jog in the first period of its forward drive (12 V: duty 0.125), and the sample
+    /// that began it.
+    fn driving_forward() -> (Jog, JogSample) {
         let mut jog = Jog::new(JogConfig::DEFAULT);
-        let mut sample = JogSample {
+        let sample = JogSample {
             counts: 0,
             shunts: Shunts::default(),
             supply_v: 12.0,
             permit: true,
         };
         assert_eq!(jog.step(&sample), JogStep::Drive(0.125));
+        (jog, sample)
+    }
+
+    #[test]
+    fn periods_3_to_50_of_a_drive_phase_are_averaged() {
+        // 0.5 A in periods 3 to 50 (the window), 1 A in periods 1 and 2 (the current still
+        // rising: not in it) and 0.25 A after (not in it either).
+        let (mut jog, mut sample) = driving_forward();
         for period in 1..=300 {
             sample.shunts.v = match period {
                 1 | 2 => 1.0,
@@ -638,14 +645,7 @@ mod tests {
 
     #[test]
     fn a_shunt_over_the_limit_stops_the_jog_at_once() {
-        let mut jog = Jog::new(JogConfig::DEFAULT);
-        let mut sample = JogSample {
-            counts: 0,
-            shunts: Shunts::default(),
-            supply_v: 12.0,
-            permit: true,
-        };
-        assert_eq!(jog.step(&sample), JogStep::Drive(0.125));
+        let (mut jog, mut sample) = driving_forward();
         sample.shunts.u = -1.4;
         assert_eq!(jog.step(&sample), JogStep::Drive(0.125));
         sample.shunts.u = -1.41;
@@ -654,9 +654,7 @@ mod tests {
         sample.shunts.u = 0.0;
         assert_eq!(jog.step(&sample), JogStep::Stopped(JogStop::OverCurrent));
         // A NaN reading too.
-        let mut jog = Jog::new(JogConfig::DEFAULT);
-        sample.shunts = Shunts::default();
-        jog.step(&sample);
+        let (mut jog, mut sample) = driving_forward();
         sample.shunts.v = f32::NAN;
         assert_eq!(jog.step(&sample), JogStep::Stopped(JogStop::OverCurrent));
     }
