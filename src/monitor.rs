@@ -955,9 +955,9 @@ impl<'a, C, const M: usize, K> Monitors<'a, C, M, K> {
     /// `PauseOwner` monitor of one sequence (at most 255 can hold it paused); that the
     /// owner and the exception sequence are registered is checked by
     /// [`Sequencer::validate`](crate::Sequencer::validate), which a monitor added after it
-    /// has not passed (nor has one added after the first start of the host simulator,
-    /// which validates then). Names need not be unique: a firing's record names the
-    /// monitor's owner too.
+    /// has not passed. A table a sequencer was ticked with is checked again by its next due
+    /// tick (an owner beyond the sequencer's ids is refused there). Names need not be
+    /// unique: a firing's record names the monitor's owner too.
     ///
     /// The tick evaluates monitors in this order (the order of their ids), in groups of
     /// 32 that share one due test.
