@@ -164,17 +164,28 @@ fn run(cli: Cli) -> Result<(), String> {
             title,
         } => {
             let view = live::Live::new(hints(tree.as_deref())?, &title);
-            let (w, h) = size
-                .split_once('x')
-                .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
-                .ok_or_else(|| format!("--size {size}: expected WIDTHxHEIGHT"))?;
-            let reader: Box<dyn std::io::BufRead + Send> = match input.as_deref() {
+            let (w, h) = plain_size(&size)?;
+            let name = input
+                .as_deref()
+                .filter(|p| *p != Path::new("-"))
+                .map_or_else(|| "standard input".to_string(), |p| p.display().to_string());
+            let mut reader: Box<dyn std::io::BufRead + Send> = match input.as_deref() {
                 Some(p) if p != Path::new("-") => Box::new(std::io::BufReader::new(
                     std::fs::File::open(p)
                         .map_err(|e| format!("cannot read {}: {e}", p.display()))?,
                 )),
                 _ => Box::new(std::io::BufReader::new(std::io::stdin())),
             };
+            // A firmware's log line never begins with `{`; a trace file (JSON Lines) does.
+            let head = reader
+                .fill_buf()
+                .map_err(|e| format!("cannot read {name}: {e}"))?;
+            if head.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{') {
+                return Err(format!(
+                    "{name}: a trace file (JSON Lines); the live view reads a firmware's log \
+                     (render a trace file with `rtseq-trace render`)"
+                ));
+            }
             let result = if plain || !std::io::stdout().is_terminal() {
                 live::run_plain(view, reader, w, h)
             } else {
@@ -182,6 +193,27 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             result.map_err(|e| format!("live view: {e}"))
         }
+    }
+}
+
+/// The most columns and rows of the `--plain` view (its text is drawn in memory).
+const PLAIN_MAX: u16 = 1000;
+
+/// `--size WxH` of the `--plain` view: 1 to [`PLAIN_MAX`] each.
+fn plain_size(size: &str) -> Result<(u16, u16), String> {
+    let (w, h) = size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u64>().ok()?, h.parse::<u64>().ok()?)))
+        .ok_or_else(|| format!("--size {size}: expected WIDTHxHEIGHT"))?;
+    let fits = |n: u64| (1..=u64::from(PLAIN_MAX)).contains(&n);
+    if w == 0 || h == 0 {
+        return Err(format!("--size {size}: too small (at least 1x1)"));
+    }
+    match (u16::try_from(w), u16::try_from(h)) {
+        (Ok(w), Ok(h)) if fits(u64::from(w)) && fits(u64::from(h)) => Ok((w, h)),
+        _ => Err(format!(
+            "--size {size}: too large (at most {PLAIN_MAX}x{PLAIN_MAX})"
+        )),
     }
 }
 

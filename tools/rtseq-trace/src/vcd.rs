@@ -17,7 +17,9 @@
 //! The records decide the states: a sequence starts (`$dumpvars`) in the `from` state of
 //! its first record, and a record whose `from` is not the previous record's `to` (records
 //! were lost between) gets a `$comment` at its time: `records lost: 'child' was Paused at
-//! 20 us; its next record, at 30 us, starts from Aborted`.
+//! 20 us; its next record, at 30 us, starts from Aborted`, and the state code is unknown
+//! (`bxxx`) between the two records (the state's name stays the earlier one's). A signal
+//! has no value before its first sample.
 //!
 //! One value per variable per time, none lost: a variable's k-th value within one µs is
 //! written k ns after the µs (the `$dumpvars` value is the first of µs 0), so a state that
@@ -108,6 +110,8 @@ fn code(mut n: usize) -> String {
 enum Val {
     Str(String),
     Bits(u8, usize),
+    /// `x` in every one of this many bits.
+    Unknown(usize),
     Bit(bool),
     Real(f64),
     /// A `$comment` among the changes (its id is unused).
@@ -121,6 +125,7 @@ impl Val {
             Val::Comment(c) => format!("$comment {} $end", c.replace('$', "S")),
             Val::Str(s) => format!("s{} {id}", sanitize(s)),
             Val::Bits(v, w) => format!("b{:0w$b} {id}", v, w = *w),
+            Val::Unknown(w) => format!("b{} {id}", "x".repeat(*w)),
             Val::Bit(b) => format!("{}{id}", u8::from(*b)),
             Val::Real(r) => format!("r{r} {id}"),
         }
@@ -196,9 +201,12 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
     }
     writeln!(out, "$upscope $end")?;
     // A record whose `from` is not the previous record's `to`: records were lost between.
-    for (s, trs) in run.sequences.iter().zip(&by_seq) {
+    // The state code is unknown from right after the earlier record to the later one (the
+    // state's name stays the earlier record's, and a comment says what is known).
+    for ((s, trs), code) in run.sequences.iter().zip(&by_seq).zip(&code_ids) {
         for sp in run.state_spans_in(trs) {
             if let Some(to) = sp.gap {
+                changes.push((sp.start_us, 2, code.clone(), Val::Unknown(3)));
                 let text = format!(
                     "records lost: '{}' was {} at {} us; its next record, at {} us, starts from {to}",
                     s.name, sp.state, sp.start_us, sp.end_us
@@ -263,8 +271,8 @@ pub fn write(run: &Run, out: &mut impl Write) -> std::io::Result<()> {
         } else {
             signal_names.name(&format!("{}_{}", s.name, s.unit), k)
         };
+        // No value before its first sample (none in `$dumpvars`: unknown until then).
         writeln!(out, "$var real 64 {id} {name} $end")?;
-        init.push((id.clone(), Val::Real(0.0)));
         for (t, v) in &s.samples {
             changes.push((*t, 1, id.clone(), Val::Real(*v)));
         }
