@@ -8,8 +8,7 @@
 //! A simulator drives a sequencer with any lock. A sequencer made with
 //! [`Sequencer::single_thread`] (no lock, [`SingleThread`](crate::lock::SingleThread))
 //! gives the same traces faster than the default's critical sections, which on the host
-//! are a global mutex (`./x bench`: 9.4 M against 3.2 M ticks/s for 8 sequences × 4
-//! monitors; the ratio depends on the host's mutex).
+//! are a global mutex (`./x bench` prints both rates).
 //!
 //! # The order of the lanes
 //!

@@ -11,10 +11,16 @@ use super::level_def::LevelStats;
 pub(crate) struct PendingEvents {
     pub(crate) public: u32,
     pub(crate) private: u32,
-    /// Events whose id does not fit the bitmask (always unknown): how
-    /// many, and the last one (meaningless while the count is 0).
-    pub(crate) out_of_range: u32,
-    pub(crate) last_out_of_range: EventId,
+    /// Events whose id does not fit the bitmask (always unknown).
+    pub(crate) out_of_range: Option<OutOfRange>,
+}
+
+/// Events triggered with an id that does not fit the bitmask of pending events (always
+/// unknown): how many, and the last one.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct OutOfRange {
+    pub(crate) count: u32,
+    pub(crate) last: EventId,
 }
 
 impl PendingEvents {
@@ -22,8 +28,7 @@ impl PendingEvents {
         Self {
             public: 0,
             private: 0,
-            out_of_range: 0,
-            last_out_of_range: EventId::public(0),
+            out_of_range: None,
         }
     }
 
@@ -32,8 +37,11 @@ impl PendingEvents {
     pub(crate) fn add(&mut self, event: EventId) {
         let bit = bit_of(usize::from(event.index()));
         if bit == 0 {
-            self.out_of_range = self.out_of_range.saturating_add(1);
-            self.last_out_of_range = event;
+            let before = self.out_of_range.map_or(0, |o| o.count);
+            self.out_of_range = Some(OutOfRange {
+                count: before.saturating_add(1),
+                last: event,
+            });
             return;
         }
         match event.kind() {

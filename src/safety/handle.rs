@@ -3,6 +3,7 @@
 use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
 use super::bits::bit_of;
+use super::context::OutOfRange;
 use super::event::{EventId, PublicEvent};
 use super::level::SafetyLevel;
 
@@ -266,11 +267,14 @@ impl SafetyHandle {
         self.unknown.load(Ordering::Relaxed) != 0
     }
 
-    /// (count, last) of out-of-range public events since the last call
-    /// (`last` is meaningless for a count of 0).
-    pub(crate) fn take_out_of_range(&self) -> (u32, EventId) {
+    /// The out-of-range public events since the last call, if any.
+    pub(crate) fn take_out_of_range(&self) -> Option<OutOfRange> {
         let word = self.unknown.swap(0, Ordering::Acquire);
-        (word >> 8, EventId::public(word as u8))
+        let count = word >> 8;
+        (count != 0).then_some(OutOfRange {
+            count,
+            last: EventId::public(word as u8),
+        })
     }
 }
 

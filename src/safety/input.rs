@@ -428,15 +428,23 @@ fn key(value: IoValue) -> Option<(Pass, i32)> {
     }
 }
 
-/// The key of a bound; a float zero takes the key of `-0.0` if `low` (so
-/// `-0.0` and `+0.0` are both at or above it), of `+0.0` otherwise.
-const fn bound_key(v: IoValue, low: bool) -> i32 {
+/// The key of a lower bound; a float zero takes the key of `-0.0`, so `-0.0` and `+0.0`
+/// are both at or above it.
+const fn low_bound_key(v: IoValue) -> i32 {
+    match v {
+        IoValue::Float(f) if f == 0.0 => float_key(-0.0),
+        _ => high_bound_key(v),
+    }
+}
+
+/// The key of an upper bound; a float zero takes the key of `+0.0`, so `-0.0` and `+0.0`
+/// are both at or below it.
+const fn high_bound_key(v: IoValue) -> i32 {
     match v {
         IoValue::Bool(b) => b as i32,
         IoValue::Int(i) => i,
-        IoValue::Float(f) if f != 0.0 => float_key(f),
-        IoValue::Float(_) if low => float_key(-0.0),
-        IoValue::Float(_) => 0,
+        IoValue::Float(f) if f == 0.0 => float_key(0.0),
+        IoValue::Float(f) => float_key(f),
     }
 }
 
@@ -464,17 +472,17 @@ impl InputAction {
             // (A NaN `expected` leaves only NaN keys, which no reading
             // reaches: NaN readings fire before the compare.)
             InputCheck::Check { expected, .. } => {
-                between(pass, bound_key(expected, true), bound_key(expected, false))
+                between(pass, low_bound_key(expected), high_bound_key(expected))
             }
             InputCheck::Range { min, max, .. } => {
-                between(pass, bound_key(min, true), bound_key(max, false))
+                between(pass, low_bound_key(min), high_bound_key(max))
             }
             // Healthy: up to `min` and from `max` on, which wraps around
             // from `i32::MAX` to `i32::MIN`; everything if nothing lies
             // strictly between.
             InputCheck::OffRange { min, max, .. } => {
-                let up_to = bound_key(min, false);
-                let from = bound_key(max, true);
+                let up_to = high_bound_key(min);
+                let from = low_bound_key(max);
                 if from <= up_to.saturating_add(1) {
                     (pass, 0, u32::MAX)
                 } else {

@@ -3,7 +3,7 @@
 use core::fmt;
 
 use super::bits::bit_of;
-use super::context::{PendingEvents, SafetyContext};
+use super::context::{OutOfRange, PendingEvents, SafetyContext};
 use super::error::SafetyError;
 use super::event::{EventId, EventKind};
 use super::handle::SafetyHandle;
@@ -462,7 +462,8 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
     fn events_pending(&self) -> bool {
         self.handle.has_pending()
             | self.handle.has_out_of_range()
-            | (self.pending.public | self.pending.private | self.pending.out_of_range != 0)
+            | (self.pending.public | self.pending.private != 0)
+            | self.pending.out_of_range.is_some()
     }
 
     /// Resolves every pending event against the current level; returns
@@ -481,10 +482,13 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         };
         found.resolve(EventKind::Public, public);
         found.resolve(EventKind::Private, private);
-        let (count, event) = self.handle.take_out_of_range();
-        found.add_unknown(count, event);
-        let count = core::mem::take(&mut self.pending.out_of_range);
-        found.add_unknown(count, self.pending.last_out_of_range);
+        let out_of_range = [
+            self.handle.take_out_of_range(),
+            self.pending.out_of_range.take(),
+        ];
+        for OutOfRange { count, last } in out_of_range.into_iter().flatten() {
+            found.add_unknown(count, last);
+        }
         if let Some(event) = found.last_unknown {
             self.unknown_count = self.unknown_count.saturating_add(found.unknown);
             *unknown = found.unknown;
@@ -522,12 +526,10 @@ impl Resolution<'_> {
         }
     }
 
-    /// Counts `count` events without a transition, `event` the last of them.
-    fn add_unknown(&mut self, count: u32, event: EventId) {
-        if count != 0 {
-            self.unknown = self.unknown.saturating_add(count);
-            self.last_unknown = Some(event);
-        }
+    /// Counts `count` events without a transition, `last` the last of them.
+    fn add_unknown(&mut self, count: u32, last: EventId) {
+        self.unknown = self.unknown.saturating_add(count);
+        self.last_unknown = Some(last);
     }
 }
 
@@ -840,7 +842,11 @@ mod tests {
                     .pending
                     .add(EventId::private(32 + rng.below(10) as u8));
             }
-            out_of_range.push((own_extra, system.pending.last_out_of_range));
+            let own_last = system
+                .pending
+                .out_of_range
+                .map_or(EventId::public(0), |o| o.last);
+            out_of_range.push((own_extra, own_last));
             let want = reference(&props, system.current, public, private, &out_of_range);
 
             let mut unknown = 0;

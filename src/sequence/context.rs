@@ -613,8 +613,7 @@ impl<'a, C> Cx<'a, C> {
         Join {
             port: self.port,
             me: self.run_id(),
-            target: id,
-            run: None,
+            joined: Joined::CurrentRunOf(id),
             waiting: false,
         }
     }
@@ -906,11 +905,19 @@ impl<C, F> Drop for WaitUntil<'_, '_, C, F> {
 pub(crate) struct Join<'a, C> {
     port: &'a dyn Port<C>,
     me: RunId,
-    target: SeqId,
-    /// The run joined, set at the first poll unless the join was made of one run.
-    run: Option<u16>,
+    joined: Joined,
     /// The last poll left the sequence marked as joining.
     waiting: bool,
+}
+
+/// What a join waits for.
+#[derive(Clone, Copy)]
+enum Joined {
+    /// The run of this sequence that is current at the join's first poll (or its last,
+    /// if it ended): [`Cx::join`].
+    CurrentRunOf(SeqId),
+    /// This run.
+    Run(RunId),
 }
 
 impl<'a, C> Join<'a, C> {
@@ -919,8 +926,7 @@ impl<'a, C> Join<'a, C> {
         Join {
             port,
             me,
-            target: target.seq,
-            run: Some(target.count),
+            joined: Joined::Run(target),
             waiting: false,
         }
     }
@@ -937,9 +943,16 @@ impl<C> Future for Join<'_, C> {
         if self.port.clearance_of(self.me) != Clearance::Go {
             return Poll::Pending;
         }
-        let this = &mut *self;
-        let result = this.port.join(this.me.seq, this.target, &mut this.run);
-        this.waiting = result.is_pending();
+        let run = match self.joined {
+            Joined::Run(run) => run,
+            Joined::CurrentRunOf(target) => match self.port.join_run(target) {
+                Ok(run) => run,
+                Err(e) => return Poll::Ready(Err(e)),
+            },
+        };
+        self.joined = Joined::Run(run);
+        let result = self.port.join(self.me.seq, run);
+        self.waiting = result.is_pending();
         result
     }
 }

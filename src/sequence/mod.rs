@@ -11,8 +11,6 @@
 //! | `scoped.rs` | [`Scoped`]: a non-blocking child that ends with its caller's action |
 //! | `wait.rs` | [`Wait`], the dwell-time step |
 
-use core::cell::Cell;
-
 pub(crate) mod context;
 pub(crate) mod erased;
 pub(crate) mod lane;
@@ -25,7 +23,7 @@ pub use lane::lane;
 pub use scoped::Scoped;
 pub use wait::Wait;
 
-use crate::{Done, Failure, SeqId};
+use crate::{Failure, SeqId};
 
 /// A sequence: an `async` action made of steps and sub-sequences, plus the optional pre- and
 /// exit conditions.
@@ -178,9 +176,6 @@ pub(crate) struct SeqHead {
     /// The tag of the sequencer that made it ([`State::tag`](crate::sequencer::state::State)):
     /// a lane or a blocking start refuses the object of another sequencer.
     pub(crate) maker: u16,
-    /// Where a blocking run leaves its result for the future that started it (set and
-    /// taken in the same poll).
-    pub(crate) result: Cell<Option<Result<Done, Failure>>>,
 }
 
 impl<S> Seq<S> {

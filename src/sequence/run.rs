@@ -104,8 +104,18 @@ enum Stage {
     Done(Outcome),
 }
 
-/// The body-independent part of a run: the sequence's context, where its result goes, who
-/// waits for it and where the run stands. Generic only over the control system `C`: one
+/// Where [`Run::drive`] left the run.
+enum Driven {
+    /// At the action: advance it now.
+    Act,
+    /// It must wait for a wake-up.
+    Wait,
+    /// A blocking run's result, for the caller's action that awaits it.
+    HandOver(Result<Done, Failure>),
+}
+
+/// The body-independent part of a run: the sequence's context, what drives the run (a
+/// lane, or the caller that waits for its result) and where the run stands. Generic only over the control system `C`: one
 /// copy serves every sequence and step type, started blocking or in a lane.
 pub(crate) struct Run<'a, C> {
     pub(crate) cx: Cx<'a, C>,
@@ -210,15 +220,15 @@ impl<'a, C> Run<'a, C> {
         }
     }
 
-    /// Runs the stages up to the action (`Ready`: advance it now), or until it must
-    /// wait (`Pending`).
-    fn drive(&self, w: &mut Context<'_>, head: &SeqHead, body: &mut ErasedBody<'_, C>) -> Poll<()> {
+    /// Runs the stages up to the action, until the run must wait, or until a blocking
+    /// run hands its result over.
+    fn drive(&self, w: &mut Context<'_>, head: &SeqHead, body: &mut ErasedBody<'_, C>) -> Driven {
         let (port, id) = (self.port(), self.cx.id());
         loop {
             match self.stage.get() {
                 Stage::Idle => {
                     let Some(run) = port.take_start(id, head.maker, w.waker()) else {
-                        return Poll::Pending;
+                        return Driven::Wait;
                     };
                     self.cx.enter(run);
                     self.stage.set(Stage::PreCondition);
@@ -245,14 +255,14 @@ impl<'a, C> Run<'a, C> {
                     Clearance::Go => {
                         if body.pre(&self.cx) {
                             self.stage.set(Stage::Action);
-                            return Poll::Ready(());
+                            return Driven::Act;
                         }
                         let _ = self.try_end(Outcome::Skipped, w);
                     }
-                    Clearance::Hold => return Poll::Pending,
+                    Clearance::Hold => return Driven::Wait,
                     other => self.obey(other),
                 },
-                Stage::Action => return Poll::Ready(()),
+                Stage::Action => return Driven::Act,
                 // The tick may have stopped or paused the run while its action ran: the
                 // exit condition is checked only with the clearance `Go`.
                 Stage::ActionDone => {
@@ -262,7 +272,7 @@ impl<'a, C> Run<'a, C> {
                     port.set_poll_wait(self.run(), true);
                     match self.clearance(w) {
                         Clearance::Go => self.stage.set(Stage::ExitCondition),
-                        Clearance::Hold => return Poll::Pending,
+                        Clearance::Hold => return Driven::Wait,
                         other => self.obey(other),
                     }
                 }
@@ -271,10 +281,10 @@ impl<'a, C> Run<'a, C> {
                     // change between the two): wait for the next wake-up, do not spin.
                     Clearance::Go => {
                         if !self.try_end(outcome, w) {
-                            return Poll::Pending;
+                            return Driven::Wait;
                         }
                     }
-                    Clearance::Hold => return Poll::Pending,
+                    Clearance::Hold => return Driven::Wait,
                     other => self.obey(other),
                 },
                 Stage::ExitCondition => {
@@ -282,13 +292,13 @@ impl<'a, C> Run<'a, C> {
                     if !body.exit(&self.cx) {
                         // The due poll was taken and the waker is kept: the next due poll,
                         // or any change of this run, wakes the lane.
-                        return Poll::Pending;
+                        return Driven::Wait;
                     }
                     let _ = self.try_end(Outcome::Completed, w);
                 }
                 Stage::AwaitPoll => match self.due_poll(w) {
                     Clearance::Go => self.stage.set(Stage::ExitCondition),
-                    Clearance::Hold => return Poll::Pending,
+                    Clearance::Hold => return Driven::Wait,
                     other => self.obey(other),
                 },
                 Stage::Ended(outcome) => {
@@ -303,18 +313,15 @@ impl<'a, C> Run<'a, C> {
                 Stage::HandOver(outcome) => {
                     if let Driver::Blocking { caller } = self.driver {
                         if port.clearance_of(caller.run_id()) == Clearance::Go {
-                            head.result.set(Some(outcome.done()));
                             self.stage.set(Stage::Done(outcome));
+                            return Driven::HandOver(outcome.done());
                         }
                     }
-                    return Poll::Pending;
+                    return Driven::Wait;
                 }
                 // Polled again after it returned its result (a misuse of a future): the
                 // same result again, rather than waiting for good.
-                Stage::Done(outcome) => {
-                    head.result.set(Some(outcome.done()));
-                    return Poll::Pending;
-                }
+                Stage::Done(outcome) => return Driven::HandOver(outcome.done()),
             }
         }
     }
@@ -384,8 +391,7 @@ impl<'a, C> Run<'a, C> {
     }
 
     /// A run's whole poll; `Ready` with a blocking run's result once it is handed over.
-    /// `head` is the sequence object's head (the tag of the sequencer that made it, and
-    /// where a blocking run leaves its result); the future that borrows the object passes
+    /// `head` is the sequence object's head (the tag of the sequencer that made it); the future that borrows the object passes
     /// it with the body, so the run itself keeps no pointer into the object.
     #[inline(never)]
     pub(crate) fn poll(
@@ -400,18 +406,14 @@ impl<'a, C> Run<'a, C> {
             }
         }
         loop {
-            let ready = if matches!(self.stage.get(), Stage::Action) {
-                self.act(w, &mut body)
-            } else {
-                self.drive(w, head, &mut body)
-            };
-            if ready.is_pending() {
-                break;
+            if matches!(self.stage.get(), Stage::Action) && self.act(w, &mut body).is_pending() {
+                return Poll::Pending;
             }
-        }
-        match head.result.take() {
-            Some(result) => Poll::Ready(result),
-            None => Poll::Pending,
+            match self.drive(w, head, &mut body) {
+                Driven::Act => {}
+                Driven::Wait => return Poll::Pending,
+                Driven::HandOver(result) => return Poll::Ready(result),
+            }
         }
     }
 }

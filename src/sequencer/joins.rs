@@ -12,7 +12,7 @@ use crate::sequencer::control_block::JoinWait;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
-use crate::{Error, Outcome, RunningState, SeqId};
+use crate::{Error, Outcome, SeqId};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// `joiner` waits for the end of `target`'s run of count `runs`. An action may wait in
@@ -90,20 +90,14 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
         }
     }
 
-    /// What a join of `target`'s run `run` (the run current now, when `None`) sees: `None` while that run is under way, else its outcome, which is kept
-    /// while that run is the last one, ended, or the one before the run under way.
-    pub(crate) fn joined_outcome(
-        &self,
-        target: SeqId,
-        run: &mut Option<u16>,
-    ) -> Result<Option<Outcome>, Error> {
+    /// What a join of `run` sees: `None` while that run is under way, else its outcome,
+    /// which is kept while that run is the last one, ended, or the one before the run
+    /// under way.
+    pub(crate) fn joined_outcome(&self, run: RunId) -> Result<Option<Outcome>, Error> {
+        let target = run.seq;
         let b = self.block(target).ok_or(Error::UnknownSequence(target))?;
-        if b.state == RunningState::Idle {
-            return Err(Error::NeverStarted(target));
-        }
-        let joined = *run.get_or_insert(b.runs);
         let under_way = b.state.is_active() || b.has(flag::START_PENDING);
-        match (b.runs.wrapping_sub(joined), under_way) {
+        match (b.runs.wrapping_sub(run.count), under_way) {
             (0, true) => Ok(None),
             (0, false) | (1, true) => Ok(b.outcome),
             _ => Err(Error::OutcomeLost(target)),

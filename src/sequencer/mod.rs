@@ -33,6 +33,7 @@ pub(crate) mod callers;
 pub(crate) mod clearance;
 mod clock;
 pub(crate) mod control_block;
+pub(crate) mod end;
 pub(crate) mod handle;
 pub(crate) mod inbox;
 #[cfg(test)]

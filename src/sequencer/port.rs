@@ -7,8 +7,9 @@ use core::task::{Poll, Waker};
 use crate::lock::Lock;
 use crate::model::id::RunId;
 use crate::sequencer::callers::join_would_deadlock;
-use crate::sequencer::clearance::{end_run, Clearance};
+use crate::sequencer::clearance::Clearance;
 use crate::sequencer::control_block::{flag, ControlBlock};
+use crate::sequencer::end::end_run;
 use crate::sequencer::inbox::abort_all_posted;
 use crate::sequencer::lanes::declare_lane;
 use crate::sequencer::requests::{abort_child, ask};
@@ -100,18 +101,14 @@ pub(crate) trait Port<C> {
     /// non-blocking start: its run. The lane of another sequencer's object declares
     /// nothing and never runs here (a start of `id` finds no lane).
     fn take_start(&self, id: SeqId, maker: u16, waker: &Waker) -> Option<RunId>;
-    /// `joiner` waits for the end of a run of `target`: its outcome once it ended. `run`:
-    /// which run, by the target's run count; the first poll of a join sets it to the
-    /// current run (or the last one, if it ended), so a join never waits for a later run.
-    /// Set in the first poll's first section, before the registration, the cycle check and
-    /// the look, which are then all of that run: one of a sequence never started is
-    /// `NeverStarted` there, and a cycle found is none once a later run has begun.
-    fn join(
-        &self,
-        joiner: SeqId,
-        target: SeqId,
-        run: &mut Option<u16>,
-    ) -> Poll<Result<Outcome, Error>>;
+    /// The run of `target` that a join made now waits for: the current run, or the last
+    /// one if it ended, so a join never waits for a later run. Taken in the join's first
+    /// poll, before its registration, cycle check and look, which are then all of that
+    /// run. `NeverStarted` for a sequence that has no run yet.
+    fn join_run(&self, target: SeqId) -> Result<RunId, Error>;
+    /// `joiner` waits for the end of `run`: its outcome once it ended. A cycle found is
+    /// none once a later run of its sequence has begun.
+    fn join(&self, joiner: SeqId, run: RunId) -> Poll<Result<Outcome, Error>>;
     /// A join of `joiner` was dropped while it waited (the loser of a `select`, an action
     /// aborted or restarted): it no longer waits.
     fn stop_join(&self, joiner: SeqId);
@@ -148,12 +145,12 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     }
 
     fn start_main(&self, id: SeqId) -> Result<RunId, Error> {
-        self.begin(id, Mode::Lane { caller: None }, Cause::Start)
+        self.begin(id, Mode::NonBlocking { caller: None }, Cause::Start)
     }
 
     fn start_child(&self, id: SeqId, caller: RunId) -> Result<RunId, Error> {
         let caller = Some(caller);
-        self.begin(id, Mode::Lane { caller }, Cause::Start)
+        self.begin(id, Mode::NonBlocking { caller }, Cause::Start)
     }
 
     fn start_main_by(&self, id: SeqId, by: RunId) -> Result<RunId, Error> {
@@ -274,32 +271,28 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         )
     }
 
-    fn join(
-        &self,
-        joiner: SeqId,
-        target: SeqId,
-        run: &mut Option<u16>,
-    ) -> Poll<Result<Outcome, Error>> {
+    fn join_run(&self, target: SeqId) -> Result<RunId, Error> {
         // The run joined is the one current at the first poll's first section (semantics
         // 14), so the wait always names the run the look looks at. A sequence never started
         // then has no run to join: a start of it after that section is a later run, which
         // the join does not wait for.
-        let registered = match *run {
-            Some(runs) => runs,
-            None => {
-                let first = self.with(|s| {
-                    let b = s.block(target).ok_or(Error::UnknownSequence(target))?;
-                    if b.state == RunningState::Idle {
-                        return Err(Error::NeverStarted(target));
-                    }
-                    Ok(b.runs)
-                });
-                match first {
-                    Ok(runs) => *run.insert(runs),
-                    Err(e) => return Poll::Ready(Err(e)),
-                }
+        self.with(|s| {
+            let b = s.block(target).ok_or(Error::UnknownSequence(target))?;
+            if b.state == RunningState::Idle {
+                return Err(Error::NeverStarted(target));
             }
-        };
+            Ok(RunId {
+                seq: target,
+                count: b.runs,
+            })
+        })
+    }
+
+    fn join(&self, joiner: SeqId, run: RunId) -> Poll<Result<Outcome, Error>> {
+        let RunId {
+            seq: target,
+            count: registered,
+        } = run;
         // Registered before the cycle check and the look for the run's end. Of two joins
         // that close a cycle, the one registered later sees the other's registration (a
         // check before the registration could miss a join registered in between, and both
@@ -342,7 +335,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                         s.join_decided(joiner);
                         Ok(Err(Error::JoinWouldDeadlock(target)))
                     }
-                    (false, _) => Ok(s.joined_outcome(target, run)),
+                    (false, _) => Ok(s.joined_outcome(run)),
                 }
             });
             match look {

@@ -48,7 +48,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 NO_LANE
             };
             checked.class = s.polling.classes.join(id, checked.polling)?;
-            let id = s.push_block(checked.block(own_lane), checked.on_abort())?;
+            let id = s.push_block(checked.to_control_block(own_lane), checked.on_abort())?;
             if own_lane != NO_LANE {
                 s.lanes_declared = own_lane.saturating_add(1);
             }
@@ -109,7 +109,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
                 if s.count() != 0 {
                     return Err(Error::NotEmpty);
                 }
-                s.prepare_block(id, config.block(own_lane), config.on_abort());
+                s.prepare_block(id, config.to_control_block(own_lane), config.on_abort());
                 Ok(())
             })?;
         }
@@ -178,11 +178,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
             s.sets.insert(Set::Bound, id);
             Ok(s.tag)
         })?;
-        Ok(SeqHead {
-            id,
-            maker,
-            result: Cell::new(None),
-        })
+        Ok(SeqHead { id, maker })
     }
 
     /// Gives this sequencer its tag, if it has none yet (at its first registration): the

@@ -134,7 +134,7 @@ pub(crate) fn ask<
     by: Requester,
 ) -> Result<(), Error> {
     let round = s.section(|s| s.check_request(id, req))?;
-    carry_out(s, id, req, by, round);
+    record_and_queue(s, id, req, by, round);
     Ok(())
 }
 
@@ -167,12 +167,12 @@ pub(crate) fn abort_child<
             Err(Error::NotRunning(id))
         }
     })?;
-    carry_out(s, id, Request::Abort, Requester::Sequence(caller), round);
+    record_and_queue(s, id, Request::Abort, Requester::Sequence(caller), round);
     Ok(())
 }
 
 /// The record and the queueing of an accepted request `req` of `id`'s `round`.
-fn carry_out<
+fn record_and_queue<
     C,
     S: Sections<C, N, T, W, B>,
     const N: usize,

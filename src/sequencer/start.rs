@@ -34,7 +34,7 @@ pub(crate) enum Mode {
     Blocking { caller: RunId, maker: u16 },
     /// In the sequence's own lane, started by the run `caller` (none: a main sequence),
     /// which continues.
-    Lane { caller: Option<RunId> },
+    NonBlocking { caller: Option<RunId> },
     /// In the sequence's own lane as a main sequence (no caller), started by the run `by`
     /// through a handle of its context: refused as that run's own starts are.
     MainBy { by: RunId },
@@ -53,7 +53,7 @@ impl Mode {
             Mode::Blocking { caller, .. }
             | Mode::Exception { owner: caller }
             | Mode::BesidePause { owner: caller } => Some(caller),
-            Mode::Lane { caller } => caller,
+            Mode::NonBlocking { caller } => caller,
             Mode::MainBy { .. } => None,
         }
     }
@@ -79,7 +79,7 @@ impl Mode {
     const fn flags(self) -> u16 {
         match self {
             Mode::Blocking { .. } => 0,
-            Mode::Lane { .. } | Mode::MainBy { .. } | Mode::BesidePause { .. } => {
+            Mode::NonBlocking { .. } | Mode::MainBy { .. } | Mode::BesidePause { .. } => {
                 flag::START_PENDING
             }
             Mode::Exception { .. } => flag::START_PENDING | flag::HANDLES_EXCEPTION,
@@ -371,7 +371,7 @@ fn admit<
         Mode::Blocking { caller, .. } => s.section(|s| s.lane_slot(caller.seq)),
         // A sequence has a lane once one was declared for it (`rtseq::lane`,
         // `Handle::declare_lane`).
-        Mode::Lane { .. }
+        Mode::NonBlocking { .. }
         | Mode::MainBy { .. }
         | Mode::Exception { .. }
         | Mode::BesidePause { .. } => match lane_slot_of(s, id) {
@@ -557,7 +557,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         let (new, lane) = in_sections!(self, |s| {
             let new = launch(s, id, run, cause, inbox)?;
             let lane = match mode {
-                Mode::Lane { .. }
+                Mode::NonBlocking { .. }
                 | Mode::MainBy { .. }
                 | Mode::Exception { .. }
                 | Mode::BesidePause { .. } => s.section(|s| s.lane_of(id)),
@@ -918,7 +918,7 @@ mod tests {
         let checked = admit(
             &mut EachStep(&seq),
             e,
-            Mode::Lane { caller: None },
+            Mode::NonBlocking { caller: None },
             &seq.safety.inbox,
         )
         .unwrap();

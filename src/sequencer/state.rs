@@ -9,8 +9,8 @@ use crate::sequencer::control_block::{flag, ControlBlock, NO_LANE};
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::{Set, Sets};
 use crate::tick::schedule::Classes;
-use crate::trace::{Entry, Event, Record, Ring, StateChange};
-use crate::{Error, Instant, RunningState, SeqId, Sequencer, Transition};
+use crate::trace::{Entry, Event, Ring, StateChange};
+use crate::{Error, Instant, RunningState, SeqId, Sequencer};
 
 /// The sequencer's state: reached only through `Sequencer::borrow_state` (from
 /// [`Sequencer::with`], `update_and_wake`, `park_in_then` and `close_lane`), under the
@@ -67,7 +67,7 @@ pub(crate) struct State<C, const N: usize, const T: usize, const W: usize, const
     /// (it waits for the end of its exception sequence), set with the pending behaviour:
     /// the behaviour is judged with it when applied. Beside the blocks rather than in
     /// them: the blocks are full to their alignment (docs/design-decisions.md).
-    pub(crate) exception_limits: [u8; N],
+    pub(crate) pending_restart_limits: [u8; N],
     /// The address of the monitor table this sequencer is ticked with (0: none yet): the
     /// first non-empty table a due tick came with. Due ticks with a table elsewhere are
     /// refused.
@@ -152,7 +152,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             counters: [crate::Counters::ZERO; N],
             trace: Ring::new(),
             clocks: [Micros48::ZERO; N],
-            exception_limits: [0; N],
+            pending_restart_limits: [0; N],
             monitor_table: 0,
         }
     }
@@ -346,7 +346,9 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     ) -> Option<&mut ControlBlock> {
         let id = change.sequence;
         // The field itself, not `block_mut`: the block stays borrowed while the sets and
-        // the trace, the state's other fields, are written.
+        // the trace, the state's other fields, are written. `block_mut`'s registration
+        // check is not needed: an unregistered slot is `Idle`, which no change leaves
+        // but a start's, and a start checks registration (see above).
         let b = self.blocks.get_mut(id.index())?;
         if b.state != change.from || !allowed(b) {
             return None;
@@ -384,58 +386,6 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     /// ```
     pub fn now(&self) -> Instant {
         self.with(|s| s.now)
-    }
-
-    /// Passes the buffered records (transitions and [`Event`]s), oldest first, to `f` and
-    /// empties the buffer; at most `T` records per call (the buffer's capacity: all it
-    /// held), so that a drain returns even while `f` makes records itself (a request for
-    /// each record it reads): those wait for the next call. Returns how many were lost to
-    /// overflow since the last call:
-    /// exact while fewer than 2³² records are written between two calls (at 1 000 records
-    /// a second, about 50 days). The buffer counts its records in 32 bits and never tests
-    /// for a full ring inside a transition's section, so drain at least that often.
-    ///
-    /// ```
-    /// use rtseq::{Event, Request, Requester, SeqConfig, Sequencer};
-    /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// let id = seq.register(SeqConfig::new("a")).unwrap();
-    /// let h = seq.sequence_by_id(id).unwrap();
-    /// h.declare_lane().unwrap();
-    /// h.start().unwrap();
-    /// h.pause().unwrap();
-    /// let mut records = Vec::new();
-    /// assert_eq!(seq.drain_records(|r| records.push(r)), 0);
-    /// assert!(records[0].transition().is_some()); // the start
-    /// assert!(matches!(records[1].event(), Some(Event::Requested {
-    ///     request: Request::Pause, by: Requester::Application, .. })));
-    /// ```
-    pub fn drain_records(&self, mut f: impl FnMut(Record)) -> u32 {
-        for _ in 0..T {
-            match self.with(|s| s.trace.pop_or_lost()) {
-                Ok(record) => f(record),
-                Err(lost) => return lost,
-            }
-        }
-        self.with(|s| s.trace.take_lost())
-    }
-
-    /// As [`drain_records`](Self::drain_records), passing on the transitions only (the
-    /// events are dropped).
-    ///
-    /// ```
-    /// use rtseq::{SeqConfig, Sequencer};
-    /// let seq: Sequencer<(), 2> = Sequencer::new();
-    /// seq.register(SeqConfig::new("a")).unwrap();
-    /// let mut n = 0;
-    /// assert_eq!(seq.drain_trace(|_| n += 1), 0);
-    /// assert_eq!(n, 0); // nothing ran yet
-    /// ```
-    pub fn drain_trace(&self, mut f: impl FnMut(Transition)) -> u32 {
-        self.drain_records(|r| {
-            if let Some(t) = r.transition() {
-                f(t)
-            }
-        })
     }
 
     /// Exceptions whose sequence could not run (it had no lane, was already running, or

@@ -266,7 +266,7 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
             b.set_pending(Some(behaviour));
             b.awaited = Link::to(Some(awaited));
         }
-        if let Some(l) = self.exception_limits.get_mut(owner.index()) {
+        if let Some(l) = self.pending_restart_limits.get_mut(owner.index()) {
             *l = limit;
         }
     }

@@ -130,7 +130,7 @@ impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
         // teardown, `apply` aborts the owner.
         let judged = still.and_then(|(behaviour, cause, target)| {
             self.with(|s| {
-                let limit = *s.exception_limits.get(id.index())?;
+                let limit = *s.pending_restart_limits.get(id.index())?;
                 let judged = judged(behaviour, limit, s.block(target.seq)?);
                 Some((judged, cause, target))
             })

@@ -1,6 +1,7 @@
 //! The trace: one record per state change and per event (a monitor fired, an exception
 //! that could not run, a request, a run's outcome), in the order the sequencer made them.
 
+mod drain;
 mod event;
 pub(crate) mod ring;
 

@@ -427,7 +427,7 @@ fn tick_into_join<const N: usize, const B: usize>(layout: Layout, tick: JoinTick
     let setup = move || joined::<InterleavedCoarse, N, B>(layout, tick);
     let count = sections(setup, |(w, o, js)| {
         let mut run = None;
-        let _ = Port::join(w.seq, js[0].id, *o, &mut run);
+        let _ = port_join(w.seq, js[0].id, *o, &mut run);
     });
     every_k(count + 1, |k| {
         let (w, o, [mut j1, mut j2]) = setup();

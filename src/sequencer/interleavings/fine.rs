@@ -498,13 +498,13 @@ fn a_join_during_the_abort_of_the_joined_run_gets_its_outcome() {
         (w, o, j)
     };
     let count = sections(setup, |(w, o, j)| {
-        let _ = Port::join(w.seq, *j, *o, &mut None);
+        let _ = port_join(w.seq, *j, *o, &mut None);
     });
     every_k(count, |k| {
         let (w, o, j) = setup();
         interleaved::at(k, move || w.tick(1));
         let mut run = None;
-        let first = Port::join(w.seq, j, o, &mut run);
+        let first = port_join(w.seq, j, o, &mut run);
         let outcome = match first {
             core::task::Poll::Ready(r) => r,
             core::task::Poll::Pending => {
@@ -512,7 +512,7 @@ fn a_join_during_the_abort_of_the_joined_run_gets_its_outcome() {
                     !w.seq.with(|s| s.sets.has(Set::Joining, j)),
                     "k={k}: released"
                 );
-                match Port::join(w.seq, j, o, &mut run) {
+                match port_join(w.seq, j, o, &mut run) {
                     core::task::Poll::Ready(r) => r,
                     core::task::Poll::Pending => panic!("k={k}: still pending"),
                 }

@@ -134,7 +134,7 @@ fn op_against_hold<L: Lock + 'static, const N: usize, const B: usize>(
     let act = move |w: &World<L, N, B>, o: SeqId, c: SeqId, run: &mut Option<u16>| match op {
         Op::Begin => Some(w.blocking(c, o)),
         Op::Join => {
-            assert!(Port::join(w.seq, o, c, run).is_pending());
+            assert!(port_join(w.seq, o, c, run).is_pending());
             None
         }
     };
@@ -197,7 +197,7 @@ fn op_against_hold<L: Lock + 'static, const N: usize, const B: usize>(
         assert_eq!(w.moves(c, Paused, Aborting), 0, "{what}");
         if op == Op::Join {
             Port::finished(w.seq, RunId { seq: c, count: 1 });
-            match Port::join(w.seq, o, c, &mut run) {
+            match port_join(w.seq, o, c, &mut run) {
                 Poll::Ready(r) => {
                     assert_eq!(r, Ok(Outcome::Aborted(Cause::Timeout(c))), "{what}")
                 }

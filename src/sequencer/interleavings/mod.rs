@@ -78,6 +78,25 @@ macro_rules! every_world {
 }
 
 /// The name of a world and a case, for failure messages.
+/// A poll of a join as the `Join` future makes it: the run joined is taken at the first
+/// poll (`run` keeps its count for the later ones), then the join proper.
+fn port_join<C, P: Port<C> + ?Sized>(
+    port: &P,
+    joiner: SeqId,
+    target: SeqId,
+    run: &mut Option<u16>,
+) -> Poll<Result<Outcome, Error>> {
+    let joined = match *run {
+        Some(count) => RunId { seq: target, count },
+        None => match port.join_run(target) {
+            Ok(joined) => joined,
+            Err(e) => return Poll::Ready(Err(e)),
+        },
+    };
+    *run = Some(joined.count);
+    port.join(joiner, joined)
+}
+
 fn name<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
     format!("{layout:?}, {}, {rest}", core::any::type_name::<L>())
 }
@@ -1408,7 +1427,7 @@ impl Joiner {
         w: &World<L, N, B>,
         target: SeqId,
     ) -> Poll<Result<Outcome, Error>> {
-        Port::join(w.seq, self.id, target, &mut self.run)
+        port_join(w.seq, self.id, target, &mut self.run)
     }
 
     /// What an executor does after a poll that began at `wakes_before` wake-ups and gave

@@ -430,7 +430,7 @@ fn join_around_tick<const N: usize, const B: usize>(layout: Layout, tick: JoinTi
     let count = match into {
         Into::TickIntoRequest => sections(setup, |(w, o, js)| {
             let mut run = None;
-            let _ = Port::join(w.seq, js[0].id, *o, &mut run);
+            let _ = port_join(w.seq, js[0].id, *o, &mut run);
         }),
         Into::RequestIntoTick => sections(setup, |(w, _, _)| w.tick(1)),
     };
@@ -512,7 +512,7 @@ fn join_of_a_new_run_during_the_teardown_of_the_old<const N: usize, const B: usi
         let y = w.seq("Y");
         w.start_taken(y);
         let old = w.start_taken(o);
-        assert_eq!(Port::join(w.seq, o, y, &mut None), Poll::Pending);
+        assert_eq!(port_join(w.seq, o, y, &mut None), Poll::Pending);
         w.handle(o).abort().unwrap();
         let (waker, wakes) = counting();
         (w, o, y, old, waker, wakes)
@@ -534,7 +534,7 @@ fn join_of_a_new_run_during_the_teardown_of_the_old<const N: usize, const B: usi
                 Port::stop_join(w.seq, o);
                 Port::finished(w.seq, old);
                 Port::take_start(w.seq, o, w.tag, &lane).unwrap();
-                assert_eq!(Port::join(w.seq, o, y, &mut run), Poll::Pending);
+                assert_eq!(port_join(w.seq, o, y, &mut run), Poll::Pending);
             }
             *out.borrow_mut() = Some(run);
         });
@@ -557,7 +557,7 @@ fn join_of_a_new_run_during_the_teardown_of_the_old<const N: usize, const B: usi
             Port::stop_join(w.seq, o);
             Port::finished(w.seq, old);
             Port::take_start(w.seq, o, w.tag, &waker).unwrap();
-            assert_eq!(Port::join(w.seq, o, y, &mut run), Poll::Pending, "{what}");
+            assert_eq!(port_join(w.seq, o, y, &mut run), Poll::Pending, "{what}");
         }
         assert_eq!(w.state(o), Running, "{what}");
         assert!(
@@ -571,7 +571,7 @@ fn join_of_a_new_run_during_the_teardown_of_the_old<const N: usize, const B: usi
             "{what}: O's lane not woken by Y's end"
         );
         assert_eq!(
-            Port::join(w.seq, o, y, &mut run),
+            port_join(w.seq, o, y, &mut run),
             Poll::Ready(Ok(Outcome::Completed)),
             "{what}"
         );
@@ -958,7 +958,7 @@ fn join_by_a_run_aborted_and_replaced_before_it_registers<
         // Before A's lane unwinds run 1 (B's lane is above it).
         let mut run = None;
         assert_eq!(
-            Port::join(w.seq, b, a, &mut run),
+            port_join(w.seq, b, a, &mut run),
             Poll::Pending,
             "{what}: B's join of A's run 2"
         );
@@ -967,7 +967,7 @@ fn join_by_a_run_aborted_and_replaced_before_it_registers<
         w.take(a);
         assert!(w.complete(a), "{what}");
         assert_eq!(
-            Port::join(w.seq, b, a, &mut run),
+            port_join(w.seq, b, a, &mut run),
             Poll::Ready(Ok(Outcome::Completed)),
             "{what}"
         );
