@@ -118,6 +118,9 @@ macro_rules! sequences {
 ///
 /// * `pub const ID: MonitorId` for every line, with the line's doc comment;
 /// * `pub const COUNT: usize`, the number of lines;
+/// * `pub type Monitors<const M: usize = COUNT>`: the table's type,
+///   `rtseq::Monitors<'static, C, M, K>`, with room for `M` monitors (by default these), for
+///   a `static` or an RTIC resource;
 /// * `pub const fn table<const M: usize>(..) -> Result<Monitors<'static, C, M, K>, Error>`
 ///   with the parameters given after the module's name; `M` < `COUNT` does not compile;
 /// * `pub const fn validate<const N: usize>(sequences: &Table<C, N>, ..) -> Result<(),
@@ -131,7 +134,7 @@ macro_rules! sequences {
 /// around the macro (the sequence ids, typically).
 ///
 /// ```
-/// use rtseq::{Behaviour, Condition, Instant, Monitor, Monitors, SeqConfig, Sequencer};
+/// use rtseq::{Behaviour, Condition, Instant, Monitor, SeqConfig};
 ///
 /// struct Axis { over_travel: bool }
 ///
@@ -179,7 +182,8 @@ macro_rules! sequences {
 /// };
 ///
 /// fn main() {
-///     let monitors: Monitors<'static, Axis, 4, AxisCondition> = monitor_ids::table().unwrap();
+///     // Room for these monitors only; `monitor_ids::Monitors<4>` has room for 4.
+///     let monitors: monitor_ids::Monitors = monitor_ids::table().unwrap();
 ///     assert_eq!(monitors.name(monitor_ids::OVER_TRAVEL), Some("over-travel"));
 ///     assert_eq!(monitors.owner(monitor_ids::OVER_TRAVEL), Some(HOMING));
 ///     // The names alone, for a task that drains the records (the tick's owns the table):
@@ -215,6 +219,10 @@ macro_rules! monitors {
 
             /// How many monitors the table holds.
             pub const COUNT: usize = [$(Line::$id),+].len();
+
+            /// The table's type, with room for `M` monitors (by default these).
+            pub type Monitors<const M: usize = COUNT> =
+                $crate::Monitors<'static, $control, M, $condition>;
 
             /// The monitor table, with room for `M` monitors: entry `i` is the monitor whose
             /// id has index `i`.

@@ -96,6 +96,24 @@ fn monitor_ids_are_the_lines_positions_with_their_owners() {
     assert_eq!(seq.validate(&m), Ok(()));
 }
 
+/// `mons::Monitors` is the table's type without spelling out the control system and the
+/// condition type: room for the declared monitors, or for `M` of them.
+#[test]
+fn the_monitor_module_names_the_tables_type() {
+    let exact: mons::Monitors = mons::table().unwrap();
+    let _: &Monitors<'static, Cell_, 2, Cond> = &exact;
+    let mut roomy: mons::Monitors<5> = mons::table().unwrap();
+    let _: &Monitors<'static, Cell_, 5, Cond> = &roomy;
+    assert_eq!((exact.len(), roomy.len()), (2, 2));
+    roomy
+        .add(
+            seqs::CYCLE,
+            Monitor::with_condition("extra", Cond::Never, Behaviour::Nothing),
+        )
+        .unwrap();
+    assert_eq!(roomy.name(rtseq::MonitorId::from_index(2)), Some("extra"));
+}
+
 rtseq::sequences! {
     /// One more than a word of 32: the sets need two.
     mod wide for () {

@@ -491,6 +491,12 @@ impl<'a, C> Handle<'a, C> {
     /// [`Error::NotRunning`]; a `Restarting` blocking child below a paused caller begins
     /// its next round paused anyway.
     ///
+    /// A pause is of the round it was asked in: one accepted while the sequence handles an
+    /// exception whose behaviour then restarts it goes with that round, and the restarted
+    /// round runs unpaused (the trace shows the request and no pause; a resume then gives
+    /// [`Error::NotPaused`]). To hold a sequence across its restarts, ask again once it
+    /// runs, or hold it with a `PauseOwner` monitor, which evaluates every round.
+    ///
     /// A pause holds the sequences, not the machine: their actions stop at their next
     /// await point, but what their steps commanded goes on (a speed, a trajectory). A feed
     /// hold holds the motion in the control system too, before the pause: the motor demo's
