@@ -6,7 +6,7 @@ use core::sync::atomic::{AtomicBool, AtomicI32, Ordering::Relaxed};
 use rtseq::safety::*;
 use rtseq::Table;
 use rtseq::{lock::PriorityCeiling, Behaviour, ConditionFn, Cx, Duration, Failure, Instant};
-use rtseq::{Error, Handle, Monitor, Monitors, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
+use rtseq::{Error, Handle, Monitor, Seq, SeqConfig, SeqId, Sequence, Sequencer, Step};
 use rtseq_qemu_f405 as board;
 
 /// The machine: position in µm, speed in µm per tick, the e-stop, the drive's enable.
@@ -148,7 +148,7 @@ mod app {
     #[local]
     struct Local {
         timer: TickTimer,
-        monitors: Monitors<'static, Axis, 1, ConditionFn<Axis>>,
+        monitors: monitor_ids::Monitors,
         safety: SafetySystem<'static, Io, 2>,
         homing: Seq<Homing>,
         safe_stop: Seq<SafeStop>,
