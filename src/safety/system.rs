@@ -482,11 +482,10 @@ impl<'a, IO, const L: usize> SafetySystem<'a, IO, L> {
         };
         found.resolve(EventKind::Public, public);
         found.resolve(EventKind::Private, private);
-        let out_of_range = [
-            self.handle.take_out_of_range(),
-            self.pending.out_of_range.take(),
-        ];
-        for OutOfRange { count, last } in out_of_range.into_iter().flatten() {
+        if let Some(OutOfRange { count, last }) = self.handle.take_out_of_range() {
+            found.add_unknown(count, last);
+        }
+        if let Some(OutOfRange { count, last }) = self.pending.out_of_range.take() {
             found.add_unknown(count, last);
         }
         if let Some(event) = found.last_unknown {
