@@ -110,8 +110,9 @@ enum Driven {
     Act,
     /// It must wait for a wake-up.
     Wait,
-    /// A blocking run's result, for the caller's action that awaits it.
-    HandOver(Result<Done, Failure>),
+    /// A blocking run is done: its result, in its stage, goes to the caller's action that
+    /// awaits it.
+    Done,
 }
 
 /// The body-independent part of a run: the sequence's context, what drives the run (a
@@ -314,14 +315,14 @@ impl<'a, C> Run<'a, C> {
                     if let Driver::Blocking { caller } = self.driver {
                         if port.clearance_of(caller.run_id()) == Clearance::Go {
                             self.stage.set(Stage::Done(outcome));
-                            return Driven::HandOver(outcome.done());
+                            return Driven::Done;
                         }
                     }
                     return Driven::Wait;
                 }
                 // Polled again after it returned its result (a misuse of a future): the
                 // same result again, rather than waiting for good.
-                Stage::Done(outcome) => return Driven::HandOver(outcome.done()),
+                Stage::Done(_) => return Driven::Done,
             }
         }
     }
@@ -366,6 +367,13 @@ impl<'a, C> Run<'a, C> {
                 self.stage.set(Stage::Done(Outcome::Failed(refused)));
                 Poll::Ready(Err(refused))
             }
+            _ => self.result(),
+        }
+    }
+
+    /// A done run's result (pending in any other stage).
+    fn result(&self) -> Poll<Result<Done, Failure>> {
+        match self.stage.get() {
             Stage::Done(outcome) => Poll::Ready(outcome.done()),
             _ => Poll::Pending,
         }
@@ -412,7 +420,7 @@ impl<'a, C> Run<'a, C> {
             match self.drive(w, head, &mut body) {
                 Driven::Act => {}
                 Driven::Wait => return Poll::Pending,
-                Driven::HandOver(result) => return Poll::Ready(result),
+                Driven::Done => return self.result(),
             }
         }
     }
