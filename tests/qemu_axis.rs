@@ -60,7 +60,11 @@ fn has(recs: &[String], line: &str) -> bool {
 fn expect_records(out: &Outcome, lines: &[&str]) {
     let recs = records(out);
     for l in lines {
-        assert!(has(&recs, l), "no record {l:?}; records:\n{}", recs.join("\n"));
+        assert!(
+            has(&recs, l),
+            "no record {l:?}; records:\n{}",
+            recs.join("\n")
+        );
     }
 }
 
@@ -199,7 +203,10 @@ fn axis_homing_timeout_excludes_paused_time() {
             "551 ms homing: Aborting -> Aborted (timeout of `homing`)",
         ],
     );
-    assert!(!has(&records(&out), "500 ms timeout of `homing` ran out: AbortOwner"));
+    assert!(!has(
+        &records(&out),
+        "500 ms timeout of `homing` ran out: AbortOwner"
+    ));
 }
 
 /// Monitors polled every 10 ms: the grid starts one period after the start into an idle
@@ -248,7 +255,10 @@ fn axis_abort_during_the_exception_aborts_from_restarting() {
         "{}",
         out.transcript()
     );
-    assert!(!recs.iter().any(|r| r.starts_with("342 ms")), "no second firing");
+    assert!(
+        !recs.iter().any(|r| r.starts_with("342 ms")),
+        "no second firing"
+    );
 }
 
 /// The axis stays on the end stop: a move started there (500 ms) is aborted at its first
@@ -275,11 +285,21 @@ fn axis_move_started_on_a_closed_end_stop_is_aborted_at_its_first_poll() {
 fn axis_pause_during_the_exception_is_dropped_by_the_restart() {
     let out = run("pause-in-exception");
     expect_line(&out, "cmd: 330 ms pause ok");
-    expect_line(&out, "cmd: 340 ms resume refused: sequence `move` is not paused");
+    expect_line(
+        &out,
+        "cmd: 340 ms resume refused: sequence `move` is not paused",
+    );
     let recs = records(&out);
-    assert!(has(&recs, "330 ms pause of `move` requested by the application"));
+    assert!(has(
+        &recs,
+        "330 ms pause of `move` requested by the application"
+    ));
     let paused_after_330 = recs.iter().any(|r| {
-        let ms: u64 = r.split(' ').next().and_then(|t| t.parse().ok()).unwrap_or(0);
+        let ms: u64 = r
+            .split(' ')
+            .next()
+            .and_then(|t| t.parse().ok())
+            .unwrap_or(0);
         ms >= 330 && r.contains("-> Paused")
     });
     assert!(!paused_after_330, "{}", recs.join("\n"));
