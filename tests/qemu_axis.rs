@@ -14,10 +14,6 @@ use qemu_harness::{expect_exit, expect_line, FirmwareSet, Outcome, RUN_TIMEOUT};
 
 static AXIS: FirmwareSet = FirmwareSet::new(&["axis"], "qemu-axis");
 
-fn run_once(mode: &str) -> Outcome {
-    AXIS.run_with("axis", &[mode], RUN_TIMEOUT, true)
-}
-
 /// The `rec:` lines of a run, without the prefix.
 fn records(out: &Outcome) -> Vec<String> {
     out.lines
@@ -35,22 +31,14 @@ fn drained(out: &Outcome) -> usize {
         .unwrap_or_else(|| panic!("no `final: records` line:\n{}", out.transcript()))
 }
 
-/// Runs `mode`, again (up to 3 runs) when log frames were lost on the way to the host.
-///
-/// The board's semihosting logger drops a whole frame when the host side does not take it
-/// (observed under host load: a run printed 30 of the 63 records it drained, with 0
-/// malformed frames reported); see `log_frames_are_never_lost_silently` below.
+/// Runs `mode`: exit 0 (the board exits with 104 instead when its logger lost bytes), no
+/// malformed frame, and every record the firmware drained reached the host.
 fn run(mode: &str) -> Outcome {
-    for attempt in 1..=3 {
-        let out = run_once(mode);
-        expect_exit(&out, 0);
-        assert_eq!(out.malformed, 0, "{}", out.transcript());
-        if records(&out).len() == drained(&out) {
-            return out;
-        }
-        eprintln!("qemu_axis: {mode}: log frames lost (attempt {attempt}), running again");
-    }
-    panic!("qemu_axis: {mode}: log frames lost in 3 runs");
+    let out = AXIS.run_with("axis", &[mode], RUN_TIMEOUT, true);
+    expect_exit(&out, 0);
+    assert_eq!(out.malformed, 0, "{}", out.transcript());
+    assert_eq!(records(&out).len(), drained(&out), "{}", out.transcript());
+    out
 }
 
 fn has(recs: &[String], line: &str) -> bool {
@@ -305,20 +293,42 @@ fn axis_pause_during_the_exception_is_dropped_by_the_restart() {
     assert!(!paused_after_330, "{}", recs.join("\n"));
 }
 
-/// DEFECT (board / harness, not the sequencer): the QEMU board's defmt logger
-/// (`boards/qemu-f405/src/logger.rs`) ignores the result of its semihosting `SYS_WRITE`,
-/// so when the host side does not take a frame (seen under host load, right after a
-/// build) whole frames vanish: a run drained 63 records and printed about 30, and
-/// `qemu_run`'s `Outcome::malformed` was 0. A log-asserting test then fails on a missing
-/// line that the firmware did log. Expected: a lost frame is counted and reported (as
-/// `drain_records` reports lost records). This test repeats a run and asserts no loss; it
-/// fails only intermittently, hence ignored.
+/// The board's logger (`boards/qemu-f405/src/logger.rs`) loses no frame silently: every
+/// record the firmware drains reaches the host, run after run (`run` checks the count).
 #[test]
-#[ignore = "defect: the board's semihosting logger drops whole frames silently under host load"]
 fn log_frames_are_never_lost_silently() {
     for _ in 0..5 {
-        let out = run_once("main");
-        expect_exit(&out, 0);
-        assert_eq!(records(&out).len(), drained(&out), "{}", out.transcript());
+        run("main");
     }
+}
+
+/// A host that refuses the log (here: QEMU's stdout is a pipe whose reader has gone, so
+/// each `SYS_WRITE` fails with `EPIPE`) makes the run fail: the logger gives up after about
+/// a second, counts the bytes, and the firmware's successful exit becomes exit code 104.
+#[test]
+fn log_bytes_the_host_refuses_fail_the_run() {
+    let elf = AXIS.path("axis");
+    let cfg = qemu_harness::Config {
+        firmware_args: vec!["main".into()],
+        ..qemu_harness::Config::default()
+    };
+    let mut child = qemu_run::qemu_command(&elf, &cfg)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start QEMU");
+    drop(child.stdout.take()); // nobody reads the log
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait for QEMU") {
+            break s;
+        }
+        if start.elapsed() > RUN_TIMEOUT {
+            let _ = child.kill();
+            panic!("QEMU did not end within {RUN_TIMEOUT:?}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    assert_eq!(status.code(), Some(qemu_run::EXIT_LOG_LOST), "{status:?}");
 }

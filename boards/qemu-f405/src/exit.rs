@@ -8,6 +8,7 @@
 //! | 101 | [`ExitCode::Panic`]: a Rust panic (message logged first) |
 //! | 102 | [`ExitCode::HardFault`] |
 //! | 103 | [`ExitCode::UnexpectedInterrupt`]: an interrupt without handler fired |
+//! | 104 | [`ExitCode::LogLost`]: the firmware ended with success, but the host refused log bytes ([`crate::logger`]) |
 //!
 //! The host runner (`tools/qemu-run`) adds 124 (time limit hit) and 125 (QEMU could not be
 //! started / killed by a signal).
@@ -29,11 +30,24 @@ pub enum ExitCode {
     Panic = 101,
     HardFault = 102,
     UnexpectedInterrupt = 103,
+    LogLost = 104,
 }
 
-/// Ends QEMU with `code` as its exit status.
+/// Ends QEMU with `code` as its exit status; with [`ExitCode::LogLost`] instead of
+/// [`ExitCode::Success`] if the logger could not hand some bytes to the host (a log that
+/// misses lines must not pass for a complete one). Other codes are kept: they fail anyway.
 #[inline]
 pub fn exit(code: ExitCode) -> ! {
+    let lost = crate::logger::lost_bytes();
+    if lost == 0 {
+        crate::semihost::exit(code as i32)
+    }
+    // Probably lost as well, but says why if the host takes it.
+    defmt::error!("logger: the host refused {=u32} log bytes", lost);
+    let code = match code {
+        ExitCode::Success => ExitCode::LogLost,
+        other => other,
+    };
     crate::semihost::exit(code as i32)
 }
 

@@ -4,7 +4,18 @@
 //! Why not `defmt-semihosting`: it `panic!`s when the logger is re-entered, so every
 //! firmware that logs keeps a panic path and the no-panic proof (feature `no-panic`) could
 //! never link. This logger has no panic path: a re-entrant frame (only possible from a
-//! fault handler interrupting a frame) is dropped, and write errors are ignored.
+//! fault handler interrupting a frame) is dropped.
+//!
+//! No byte is lost silently: `SYS_WRITE` returns the number of bytes the host did NOT
+//! write; the logger writes the remainder again until all of it is taken. QEMU writes to
+//! its stdout with a blocking `write(2)` and reports an error as "nothing written", so a
+//! remainder only comes from a host error: a pipe whose reader has gone (`EPIPE`), a
+//! non-blocking stdout that is full (`EAGAIN`), an interrupted write (`EINTR`). After
+//! [`MAX_TRIES`] attempts in a row without progress the logger gives up on the frame and
+//! counts its bytes in [`lost_bytes`]; later frames get one attempt each until one goes
+//! through. [`crate::exit::exit`] turns a successful exit into
+//! [`ExitCode::LogLost`](crate::exit::ExitCode::LogLost) (104) when any byte was lost, so
+//! a host that checks the exit code notices.
 //!
 //! Frames are encoded (rzCOBS) into a RAM buffer and handed to the host with one
 //! semihosting `SYS_WRITE` per frame (or per [`BUF_LEN`] bytes), which keeps the number of
@@ -12,12 +23,25 @@
 //! `defmt` requires of a global logger; its length is bounded by the frame size.
 
 use core::cell::UnsafeCell;
-use core::sync::atomic::{AtomicU8, Ordering};
+use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
 
 use crate::semihost;
 
 /// Bytes buffered before a semihosting write.
 pub const BUF_LEN: usize = 256;
+
+/// Semihosting writes in a row that take nothing before a frame is given up: about one
+/// second of host time (a refused write costs QEMU about 1 µs), time for a descheduled
+/// reader of a non-blocking stdout to catch up; no virtual time passes meanwhile.
+pub const MAX_TRIES: u32 = 1_000_000;
+
+/// Bytes the host did not take (frames given up, see the module docs).
+static LOST_BYTES: AtomicU32 = AtomicU32::new(0);
+
+/// How many log bytes the host refused so far (0: every frame reached it whole).
+pub fn lost_bytes() -> u32 {
+    LOST_BYTES.load(Ordering::Relaxed)
+}
 
 struct State {
     restore: critical_section::RestoreState,
@@ -30,6 +54,8 @@ struct Sink {
     out: Option<usize>,
     buf: [u8; BUF_LEN],
     len: usize,
+    /// The last write was given up: one attempt per write until one goes through.
+    refused: bool,
 }
 
 struct Cell(UnsafeCell<State>);
@@ -44,6 +70,7 @@ static STATE: Cell = Cell(UnsafeCell::new(State {
         out: None,
         buf: [0; BUF_LEN],
         len: 0,
+        refused: false,
     },
 }));
 
@@ -69,12 +96,38 @@ impl Sink {
         if self.out.is_none() {
             self.out = semihost::open_stdout();
         }
-        let (Some(out), Some(bytes)) = (self.out, self.buf.get(..len)) else {
+        let Some(mut rest) = self.buf.get(..len) else {
             return;
         };
-        // A short write is not retried: the host console does not do partial writes.
-        let _not_written = semihost::write(out, bytes);
+        let Some(out) = self.out else {
+            return count_lost(rest.len());
+        };
+        let max_tries = if self.refused { 1 } else { MAX_TRIES };
+        let mut tries = 0;
+        while !rest.is_empty() {
+            let not_written = semihost::write(out, rest);
+            let written = rest.len().saturating_sub(not_written);
+            if written == 0 {
+                tries += 1;
+                if tries >= max_tries {
+                    self.refused = true;
+                    return count_lost(rest.len());
+                }
+            } else {
+                tries = 0;
+            }
+            rest = rest.get(written..).unwrap_or_default();
+        }
+        self.refused = false;
     }
+}
+
+fn count_lost(bytes: usize) {
+    let bytes = u32::try_from(bytes).unwrap_or(u32::MAX);
+    // Saturating: a wrapped count could read 0 ("nothing lost").
+    let _ = LOST_BYTES.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| {
+        Some(n.saturating_add(bytes))
+    });
 }
 
 #[defmt::global_logger]

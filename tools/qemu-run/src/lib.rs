@@ -22,6 +22,9 @@ use defmt_decoder::{DecodeError, Locations, Table};
 pub const EXIT_TIMEOUT: i32 = 124;
 /// Exit code reported when QEMU ended without an exit status (killed by a signal).
 pub const EXIT_SIGNAL: i32 = 125;
+/// Exit code of a board firmware that ended with success but whose logger could not hand
+/// some log bytes to the host (`boards/qemu-f405/src/logger.rs`): the log is incomplete.
+pub const EXIT_LOG_LOST: i32 = 104;
 /// Default host-time limit for one run.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(60);
 
@@ -172,6 +175,9 @@ impl Outcome {
             "-- status: {:?}, {} malformed, wall {:?}\n",
             self.status, self.malformed, self.wall
         ));
+        if self.status == Status::Exited(EXIT_LOG_LOST) {
+            s.push_str("-- exit code 104: the host refused log bytes, this log is incomplete\n");
+        }
         if !self.qemu_stderr.is_empty() {
             s.push_str("-- qemu stderr:\n");
             s.push_str(&self.qemu_stderr);

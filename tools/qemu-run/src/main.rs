@@ -91,6 +91,10 @@ fn main() -> ExitCode {
     }
     match outcome.status {
         Status::Exited(0) => {}
+        Status::Exited(qemu_run::EXIT_LOG_LOST) => eprintln!(
+            "qemu-run: firmware exited with code 104: the host refused some of its log bytes, \
+             the log above is incomplete"
+        ),
         Status::Exited(c) => eprintln!("qemu-run: firmware exited with code {c}"),
         Status::TimedOut => eprintln!("qemu-run: time limit of {:?} hit, QEMU killed", cfg.timeout),
         Status::Signaled => eprintln!("qemu-run: QEMU was killed by a signal"),
