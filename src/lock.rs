@@ -124,13 +124,21 @@ impl Lock for SingleThread {
 ///
 /// Only the sequencer's users at or below the ceiling are kept out, which is why a
 /// sequencer with this lock is created with the `unsafe`
-/// [`Sequencer::with_priority_ceiling`](crate::Sequencer::with_priority_ceiling).
+/// [`Sequencer::with_priority_ceiling`](crate::Sequencer::with_priority_ceiling). Its
+/// contract (the "# Safety" of that constructor, and the first row of the table in
+/// section 3, "Priorities and the lock", of `docs/firmware-guide.md`): above the ceiling,
+/// only [`abort_all`](crate::Sequencer::abort_all),
+/// [`safety_handle`](crate::Sequencer::safety_handle),
+/// [`safety_system`](crate::Sequencer::safety_system) and the
+/// [`Sequences`](crate::safety::Sequences) methods (those a safety system's `cycle` calls)
+/// are called; they take no lock.
 ///
 /// ```
 /// use rtseq::lock::PriorityCeiling;
 /// use rtseq::Sequencer;
 /// // The tick runs at RTIC priority 2 on an STM32 (4 priority bits).
-/// // SAFETY: nothing above priority 2 calls a method of SEQ other than `abort_all`.
+/// // SAFETY: no method but `abort_all`, `safety_handle`, `safety_system` and those of
+/// // `Sequences` is called above priority 2.
 /// static SEQ: Sequencer<(), 8, 64, PriorityCeiling<2>> =
 ///     unsafe { Sequencer::with_priority_ceiling() };
 /// ```

@@ -7,7 +7,10 @@
 //! commands and faults at fixed milliseconds. `tests/qemu_axis.rs` asserts the log.
 //!
 //! Modes (command line): `main` (default), `homing-timeout` (the reference switch is
-//! broken: homing runs into its timeout).
+//! broken: homing runs into its timeout), `homing-pause` (the same, homing paused for
+//! 50 ms), `slow-poll` (the moves' monitors polled every 10 ms), `abort-in-exception` and
+//! `pause-in-exception` (an operator's request while the safe stop runs), `endstop-held`
+//! (a move started on a closed end stop).
 #![no_std]
 #![no_main]
 
@@ -504,13 +507,4 @@ mod app {
             cortex_m::asm::wfi();
         }
     }
-}
-
-// boards/qemu-f405/README.md says "`Monitors` is not `Send` (it holds `&mut dyn
-// Condition`), so it cannot be a `#[local]` returned by `init`". It is `Send`: this
-// compiles (`DynCondition` is `&mut (dyn Condition<C> + Send)`).
-#[allow(dead_code)]
-fn monitors_of_dyn_conditions_are_send() {
-    fn send<T: Send>() {}
-    send::<Monitors<'static, Axis, 2>>();
 }
