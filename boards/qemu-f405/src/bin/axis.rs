@@ -17,7 +17,7 @@
 use core::sync::atomic::{AtomicBool, AtomicI32, AtomicU32, AtomicU8, Ordering::Relaxed};
 use rtseq::safety::*;
 use rtseq::{lock::PriorityCeiling, Behaviour, ConditionFn, Cx, Duration, Failure, Instant};
-use rtseq::{Error, Handle, Monitor, MonitorNames, Monitors, Seq, SeqConfig, SeqId, Sequence};
+use rtseq::{Error, Handle, Monitor, MonitorNames, Seq, SeqConfig, SeqId, Sequence};
 use rtseq::{Sequencer, Step, Table, WithNames};
 use rtseq_qemu_f405 as board;
 
@@ -369,7 +369,7 @@ mod app {
     #[local]
     struct Local {
         timer: TickTimer,
-        monitors: Monitors<'static, Axis, 2, ConditionFn<Axis>>,
+        monitors: monitor_ids::Monitors,
         safety: SafetySystem<'static, Io, 2>,
         homing: Seq<Homing>,
         moving: Seq<Move>,
