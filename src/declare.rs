@@ -20,7 +20,9 @@
 ///   checks it. Evaluate it in a `const` and a bad table is a compile error.
 ///
 /// The configurations see the module's ids and, through `use super::*`, everything in the
-/// module around the macro.
+/// module around the macro; the module's own names (the ids, `COUNT`, `SET_WORDS`,
+/// `Sequencer`, `table`) hide items of the same name from around it: write `super::Name`
+/// for those.
 ///
 /// ```
 /// use rtseq::{lock::CriticalSection, Behaviour, Duration, SeqConfig, Sequencer, Table};
@@ -118,7 +120,7 @@ macro_rules! sequences {
 ///
 /// * `pub const ID: MonitorId` for every line, with the line's doc comment;
 /// * `pub const COUNT: usize`, the number of lines;
-/// * `pub type Monitors<const M: usize = COUNT>`: the table's type,
+/// * `pub type MonitorTable<const M: usize = COUNT>`: the table's type,
 ///   `rtseq::Monitors<'static, C, M, K>`, with room for `M` monitors (by default these), for
 ///   a `static` or an RTIC resource;
 /// * `pub const fn table<const M: usize>(..) -> Result<Monitors<'static, C, M, K>, Error>`
@@ -131,7 +133,9 @@ macro_rules! sequences {
 ///   reach (`static NAMES: MonitorNames<{ monitor_ids::COUNT }> = monitor_ids::names(..);`).
 ///
 /// The monitors see the module's ids and, through `use super::*`, everything in the module
-/// around the macro (the sequence ids, typically).
+/// around the macro (the sequence ids, typically); the module's own names (the ids,
+/// `COUNT`, `MonitorTable`, `table`, `validate`, `names`) hide items of the same name from
+/// around it: write `super::Name` for those.
 ///
 /// ```
 /// use rtseq::{Behaviour, Condition, Instant, Monitor, SeqConfig};
@@ -182,8 +186,8 @@ macro_rules! sequences {
 /// };
 ///
 /// fn main() {
-///     // Room for these monitors only; `monitor_ids::Monitors<4>` has room for 4.
-///     let monitors: monitor_ids::Monitors = monitor_ids::table().unwrap();
+///     // Room for these monitors only; `monitor_ids::MonitorTable<4>` has room for 4.
+///     let monitors: monitor_ids::MonitorTable = monitor_ids::table().unwrap();
 ///     assert_eq!(monitors.name(monitor_ids::OVER_TRAVEL), Some("over-travel"));
 ///     assert_eq!(monitors.owner(monitor_ids::OVER_TRAVEL), Some(HOMING));
 ///     // The names alone, for a task that drains the records (the tick's owns the table):
@@ -221,7 +225,7 @@ macro_rules! monitors {
             pub const COUNT: usize = [$(Line::$id),+].len();
 
             /// The table's type, with room for `M` monitors (by default these).
-            pub type Monitors<const M: usize = COUNT> =
+            pub type MonitorTable<const M: usize = COUNT> =
                 $crate::Monitors<'static, $control, M, $condition>;
 
             /// The monitor table, with room for `M` monitors: entry `i` is the monitor whose

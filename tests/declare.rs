@@ -96,13 +96,13 @@ fn monitor_ids_are_the_lines_positions_with_their_owners() {
     assert_eq!(seq.validate(&m), Ok(()));
 }
 
-/// `mons::Monitors` is the table's type without spelling out the control system and the
+/// `mons::MonitorTable` is the table's type without spelling out the control system and the
 /// condition type: room for the declared monitors, or for `M` of them.
 #[test]
 fn the_monitor_module_names_the_tables_type() {
-    let exact: mons::Monitors = mons::table().unwrap();
+    let exact: mons::MonitorTable = mons::table().unwrap();
     let _: &Monitors<'static, Cell_, 2, Cond> = &exact;
-    let mut roomy: mons::Monitors<5> = mons::table().unwrap();
+    let mut roomy: mons::MonitorTable<5> = mons::table().unwrap();
     let _: &Monitors<'static, Cell_, 5, Cond> = &roomy;
     assert_eq!((exact.len(), roomy.len()), (2, 2));
     roomy

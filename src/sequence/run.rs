@@ -116,8 +116,9 @@ enum Driven {
 }
 
 /// The body-independent part of a run: the sequence's context, what drives the run (a
-/// lane, or the caller that waits for its result) and where the run stands. Generic only over the control system `C`: one
-/// copy serves every sequence and step type, started blocking or in a lane.
+/// lane, or the caller that waits for its result) and where the run stands. Generic only
+/// over the control system `C`: one copy serves every sequence and step type, started
+/// blocking or in a lane.
 pub(crate) struct Run<'a, C> {
     pub(crate) cx: Cx<'a, C>,
     driver: Driver<'a, C>,
@@ -399,8 +400,9 @@ impl<'a, C> Run<'a, C> {
     }
 
     /// A run's whole poll; `Ready` with a blocking run's result once it is handed over.
-    /// `head` is the sequence object's head (the tag of the sequencer that made it); the future that borrows the object passes
-    /// it with the body, so the run itself keeps no pointer into the object.
+    /// `head` is the sequence object's head (the tag of the sequencer that made it); the
+    /// future that borrows the object passes it with the body, so the run itself keeps no
+    /// pointer into the object.
     #[inline(never)]
     pub(crate) fn poll(
         &self,

@@ -483,8 +483,9 @@ impl<'a, C> Handle<'a, C> {
     /// Requests a pause of the sequence and its blocking children (next tick). Of a pause
     /// and a resume requested before the same tick, the later counts: a pause while a
     /// resume is pending takes it back (but a resume while a `PauseOwner` monitor holds
-    /// the sequence is refused, [`Error::HeldByMonitor`], and takes back nothing). A sequence paused by a pause request already, with
-    /// no resume pending, gives [`Error::AlreadyPaused`]. One held paused by something else
+    /// the sequence is refused, [`Error::HeldByMonitor`], and takes back nothing). A
+    /// sequence paused by a pause request already, with no resume pending, gives
+    /// [`Error::AlreadyPaused`]. One held paused by something else
     /// (a `PauseOwner` monitor, the paused caller it blocks) takes the request: it stays
     /// paused when that hold ends, until a resume request. A sequence that is not running
     /// or paused (idle, ended, or between two rounds: `Restarting`, `Aborting`) gives

@@ -12,7 +12,7 @@ use crate::sequencer::control_block::JoinWait;
 use crate::sequencer::lanes::LaneSet;
 use crate::sequencer::sets::Set;
 use crate::sequencer::State;
-use crate::{Error, Outcome, SeqId};
+use crate::{Error, Outcome, RunningState, SeqId};
 
 impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C, N, T, W, B> {
     /// `joiner` waits for the end of `target`'s run of count `runs`. An action may wait in
@@ -96,6 +96,11 @@ impl<C, const N: usize, const T: usize, const W: usize, const B: usize> State<C,
     pub(crate) fn joined_outcome(&self, run: RunId) -> Result<Option<Outcome>, Error> {
         let target = run.seq;
         let b = self.block(target).ok_or(Error::UnknownSequence(target))?;
+        // Never with a run taken by `join_run` or a scoped start; a wait here would be for
+        // good.
+        if b.state == RunningState::Idle {
+            return Err(Error::NeverStarted(target));
+        }
         let under_way = b.state.is_active() || b.has(flag::START_PENDING);
         match (b.runs.wrapping_sub(run.count), under_way) {
             (0, true) => Ok(None),

@@ -32,8 +32,8 @@ pub(crate) enum Mode {
     /// Inside the future of the run `caller`, which waits. `maker`: the tag of the sequencer
     /// that made the started sequence object (a blocking start is of an object in hand).
     Blocking { caller: RunId, maker: u16 },
-    /// In the sequence's own lane, started by the run `caller` (none: a main sequence),
-    /// which continues.
+    /// A plain non-blocking start: in the sequence's own lane, started by the run `caller`
+    /// (none: a main sequence started by the application), which continues.
     NonBlocking { caller: Option<RunId> },
     /// In the sequence's own lane as a main sequence (no caller), started by the run `by`
     /// through a handle of its context: refused as that run's own starts are.

@@ -77,7 +77,6 @@ macro_rules! every_world {
     }};
 }
 
-/// The name of a world and a case, for failure messages.
 /// A poll of a join as the `Join` future makes it: the run joined is taken at the first
 /// poll (`run` keeps its count for the later ones), then the join proper.
 fn port_join<C, P: Port<C> + ?Sized>(
@@ -97,6 +96,7 @@ fn port_join<C, P: Port<C> + ?Sized>(
     port.join(joiner, joined)
 }
 
+/// The name of a world and a case, for failure messages.
 fn name<L>(layout: Layout, rest: core::fmt::Arguments) -> String {
     format!("{layout:?}, {}, {rest}", core::any::type_name::<L>())
 }

@@ -369,7 +369,7 @@ mod app {
     #[local]
     struct Local {
         timer: TickTimer,
-        monitors: monitor_ids::Monitors,
+        monitors: monitor_ids::MonitorTable,
         safety: SafetySystem<'static, Io, 2>,
         homing: Seq<Homing>,
         moving: Seq<Move>,

@@ -148,7 +148,7 @@ mod app {
     #[local]
     struct Local {
         timer: TickTimer,
-        monitors: monitor_ids::Monitors,
+        monitors: monitor_ids::MonitorTable,
         safety: SafetySystem<'static, Io, 2>,
         homing: Seq<Homing>,
         safe_stop: Seq<SafeStop>,
