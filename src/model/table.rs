@@ -71,7 +71,7 @@ impl<C> CheckedConfig<C> {
     }
 
     /// The control block of a registered sequence that never ran.
-    pub(crate) const fn to_control_block(&self, own_lane: u8) -> ControlBlock {
+    pub(crate) const fn to_control_block(self, own_lane: u8) -> ControlBlock {
         ControlBlock {
             own_lane,
             name: Some(self.name),

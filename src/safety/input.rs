@@ -432,7 +432,8 @@ fn key(value: IoValue) -> Option<(Pass, i32)> {
 /// are both at or above it.
 const fn low_bound_key(v: IoValue) -> i32 {
     match v {
-        IoValue::Float(f) if f == 0.0 => float_key(-0.0),
+        // A float pattern compares with `==`: `0.0` matches `-0.0` too.
+        IoValue::Float(0.0) => float_key(-0.0),
         _ => high_bound_key(v),
     }
 }
@@ -443,7 +444,7 @@ const fn high_bound_key(v: IoValue) -> i32 {
     match v {
         IoValue::Bool(b) => b as i32,
         IoValue::Int(i) => i,
-        IoValue::Float(f) if f == 0.0 => float_key(0.0),
+        IoValue::Float(0.0) => float_key(0.0),
         IoValue::Float(f) => float_key(f),
     }
 }
