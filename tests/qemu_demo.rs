@@ -23,7 +23,9 @@ use qemu_harness::{expect_exit, require_tools, root, try_build, Config, Echo, Ou
 use rtseq::safety::SafetySystem;
 use rtseq::sim::Sim;
 use rtseq::{Cause, Instant, Outcome as SeqOutcome, RunningState, SeqId, Sequencer};
-use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
+use rtseq_motor::app::monitor_ids::{
+    END_STOP, FOLLOWING_ERROR, HOMING_END_STOP, HOMING_FOLLOWING_ERROR, PAUSE, RESUME,
+};
 use rtseq_motor::app::seq_ids::{BLINK, HOMING, MAIN, MOVES};
 use rtseq_motor::app::{self, AppConfig, Fault, FaultKind, FaultPlan};
 use rtseq_motor::control_system::{ControlSystem, Phase};
@@ -177,6 +179,8 @@ fn phase_name(p: Phase) -> &'static str {
 fn monitor_name(m: rtseq::MonitorId) -> &'static str {
     [
         (FOLLOWING_ERROR, "following error"),
+        (HOMING_FOLLOWING_ERROR, "homing following error"),
+        (HOMING_END_STOP, "homing end stop"),
         (END_STOP, "end stop"),
         (PAUSE, "pause"),
         (RESUME, "resume"),
@@ -702,6 +706,24 @@ fn demo_jam_within_the_back_off_tolerance_lets_homing_complete() {
     assert_eq!(d.num("fired_fe"), 4);
     let d = demo_equals_host(&["--fault", "fe@1123ms"], FaultPlan::NONE.with(fe(1123)));
     assert_eq!(d.get("homing"), "aborted (timeout of homing)");
+}
+
+#[test]
+fn demo_jam_or_wrong_end_stop_while_homing_aborts_homing_at_once() {
+    // Domain review S1: homing is supervised. A jam during the seek trips homing's
+    // following-error monitor (2 mm at 20 mm/s: ~0.1 s), the positive end stop (the wrong
+    // one for homing) its end-stop monitor in the tick it closes; the moves never run.
+    let d = demo_equals_host(&["--fault", "fe@500ms"], FaultPlan::NONE.with(fe(500)));
+    assert_eq!(d.get("homing"), "aborted (monitor homing following error)");
+    assert_eq!(d.get("moves"), "none");
+    assert_eq!(d.get("phase"), "fault");
+    let latency = d.num("fe.reacted_ms") - 500;
+    assert!((0..=150).contains(&latency), "{latency}");
+    assert_motor_stopped(&d);
+    let d = demo_equals_host(&["--fault", "endstop@500ms"], FaultPlan::NONE.with(es(500)));
+    assert_eq!(d.get("homing"), "aborted (monitor homing end stop)");
+    assert_eq!(d.get("moves"), "none");
+    assert_motor_stopped(&d);
 }
 
 #[test]

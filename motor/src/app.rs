@@ -78,7 +78,49 @@ pub struct AppConfig {
     pub following_error_limit: f32,
     /// Restart limit of the following-error monitor.
     pub restart_limit: u8,
+    /// Soft travel limits, m (homed coordinates): a move whose target lies outside is
+    /// refused ([`MoveTo`], [`TARGET_OUTSIDE_TRAVEL`]).
+    pub travel: Travel,
 }
+
+/// Soft travel limits in homed coordinates, m: `min ≤ target ≤ max`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Travel {
+    /// Lowest accepted target, m.
+    pub min: f32,
+    /// Highest accepted target, m.
+    pub max: f32,
+}
+
+impl Travel {
+    /// The simulated axis' soft limits: the switches' span (homing zeroes at the negative
+    /// switch, the positive one is [`END_STOP_POS`](crate::plant::END_STOP_POS) −
+    /// [`END_STOP_NEG`](crate::plant::END_STOP_NEG) further) minus 4 mm at each end, at
+    /// least the [`STOPPING_DISTANCE`](crate::controller::STOPPING_DISTANCE) from full
+    /// speed (3.53 mm): a healthy axis never reaches a switch, and an axis that does
+    /// (run away, a lost zero) still stops before the hard stop.
+    pub const AXIS: Travel = Travel {
+        min: SOFT_LIMIT_INSET,
+        max: crate::plant::END_STOP_POS - crate::plant::END_STOP_NEG - SOFT_LIMIT_INSET,
+    };
+
+    /// True if `target` lies within the limits (NaN does not).
+    pub fn contains(&self, target: f32) -> bool {
+        target >= self.min && target <= self.max
+    }
+}
+
+/// Distance of the soft travel limits inside the end-stop switches, m.
+const SOFT_LIMIT_INSET: f32 = 0.004;
+const _: () = assert!(SOFT_LIMIT_INSET >= crate::controller::STOPPING_DISTANCE);
+
+/// [`rtseq::Failure::App`] code of a [`MoveTo`] whose target lies outside the soft travel
+/// limits ([`AppConfig::travel`]): the step fails at once, nothing moves.
+pub const TARGET_OUTSIDE_TRAVEL: u16 = 1;
+/// [`rtseq::Failure::App`] code of a [`MoveTo`] on an axis that is not homed: its targets
+/// are in homed coordinates, so the soft limits mean nothing yet.
+pub const NOT_HOMED: u16 = 2;
 
 impl AppConfig {
     /// 20 mm from the end stop; homing at 20 mm/s (5 s timeout), back off to 5 mm; three
@@ -95,6 +137,7 @@ impl AppConfig {
         move_timeout: Duration::from_secs(3),
         following_error_limit: 0.002,
         restart_limit: 3,
+        travel: Travel::AXIS,
     };
 
     /// The QEMU demo's program (`./x demo`): [`DEFAULT`](Self::DEFAULT) with eight moves
@@ -356,6 +399,17 @@ impl Condition<ControlSystem> for FollowingErrorAbove {
 /// Monitor condition: an end-stop switch is closed.
 pub struct EndStopHit;
 
+/// Monitor condition of homing: the **positive** end-stop switch is closed. Homing seeks
+/// the negative one; reaching the other end means the axis moved the wrong way (a motor or
+/// encoder wired in reverse, a wrong sign in the configuration) or started beyond it.
+pub struct PositiveEndStopHit;
+
+impl Condition<ControlSystem> for PositiveEndStopHit {
+    fn validate(&mut self, cs: &ControlSystem, _now: Instant) -> bool {
+        cs.status().end_stop_pos
+    }
+}
+
 impl Condition<ControlSystem> for EndStopHit {
     fn validate(&mut self, cs: &ControlSystem, _now: Instant) -> bool {
         cs.any_end_stop()
@@ -391,6 +445,8 @@ pub enum AppCondition {
     FollowingError(FollowingErrorAbove),
     /// The end-stop monitor's.
     EndStop(EndStopHit),
+    /// The homing end-stop monitor's.
+    PositiveEndStop(PositiveEndStopHit),
     /// The pause monitor's.
     Pause(PauseToggle),
     /// The resume monitor's.
@@ -402,6 +458,7 @@ impl Condition<ControlSystem> for AppCondition {
         match self {
             AppCondition::FollowingError(c) => c.validate(cs, now),
             AppCondition::EndStop(c) => c.validate(cs, now),
+            AppCondition::PositiveEndStop(c) => c.validate(cs, now),
             AppCondition::Pause(c) => c.validate(cs, now),
             AppCondition::Resume(c) => c.validate(cs, now),
         }
@@ -420,6 +477,8 @@ rtseq::monitors! {
     ///
     /// | monitor | owner | condition | exception | behaviour |
     /// |---|---|---|---|---|
+    /// | `homing following error` | `homing` | \|setpoint − position\| > limit | `safe stop` | `AbortOwner` |
+    /// | `homing end stop` | `homing` | the positive end-stop switch closed | — | `AbortOwner` |
     /// | `following error` | `move` | \|setpoint − position\| > limit | `safe stop` | `RestartCallerOfOwner`, limit `restart_limit` |
     /// | `end stop` | `moves` | an end-stop switch closed | — | `AbortOwner` |
     /// | `pause` | `moves` | [`Toggle`] of the pause button | `feed hold` | `Nothing` |
@@ -428,7 +487,32 @@ rtseq::monitors! {
     /// The end-stop monitor belongs to the whole move loop, not to one move: hitting a limit
     /// must end the motion program (the moves and the move in progress are aborted, main gets
     /// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.
+    ///
+    /// Homing is supervised too: the closed loop runs during the seek, the halt and the
+    /// back off, and a jam (or a switch that never closes and the hard stop) would
+    /// otherwise let the jog setpoint run away with the drive at its current limit until
+    /// the homing timeout. Its own following-error monitor stops the axis and aborts
+    /// homing (no retry: homing has not established the machine's position yet); the
+    /// positive end stop while homing (the axis went the wrong way) aborts it too. The
+    /// negative end stop is the one homing seeks, so only the positive one is a fault.
     pub mod monitor_ids(config: &AppConfig) for ControlSystem, AppCondition {
+        /// Following error during homing.
+        HOMING_FOLLOWING_ERROR = Monitor::with_condition(
+            "homing following error",
+            AppCondition::FollowingError(FollowingErrorAbove {
+                limit: config.following_error_limit,
+            }),
+            Behaviour::AbortOwner,
+        )
+        .exception(seq_ids::SAFE_STOP)
+        .owned_by(seq_ids::HOMING),
+        /// The positive end stop during homing.
+        HOMING_END_STOP = Monitor::with_condition(
+            "homing end stop",
+            AppCondition::PositiveEndStop(PositiveEndStopHit),
+            Behaviour::AbortOwner,
+        )
+        .owned_by(seq_ids::HOMING),
         /// Following error.
         FOLLOWING_ERROR = Monitor::with_condition(
             "following error",
@@ -635,10 +719,17 @@ pub fn register<const N: usize, const T: usize, L: Lock, const W: usize>(
             BACK_OFF,
             MoveTo {
                 target: config.back_off,
+                travel: config.travel,
             },
         )?,
     };
-    let move_step = s.bind(MOVE, MoveTo { target: 0.0 })?;
+    let move_step = s.bind(
+        MOVE,
+        MoveTo {
+            target: 0.0,
+            travel: config.travel,
+        },
+    )?;
     let dwell = s.bind(DWELL, Wait::new(config.dwell))?;
     let moves = MoveLoop::new(move_step, dwell, config.targets, config.move_count);
     let main = Main {

@@ -120,13 +120,35 @@ pub enum Motion {
 }
 
 /// The command mailbox (written by lanes, taken by the control step).
+///
+/// Stop requests have a slot of their own, latched with priority over motion until the
+/// next control step applies them: a stop (the abort hook in the tick, the safe stop's
+/// lane) is never replaced by a move or jog another lane asks for in the same period —
+/// while the axis moves, that motion is dropped (domain review F3). Only if the axis
+/// already stands still, so the stop has nothing to stop, does a motion asked for after
+/// it follow it in the same period (a restarted move right after its predecessor's abort
+/// hook). A motion asked for before a stop is replaced by it. Between stops the stronger
+/// one wins: quick stop over stop over feed hold.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Requests {
     enable: Option<bool>,
     brake: Option<bool>,
     zero: bool,
+    /// Move, jog or feed resume: last writer wins; with `stop` set, one asked for after it.
     motion: Option<Motion>,
+    /// Quick stop, stop or feed hold: the strongest one asked for.
+    stop: Option<Motion>,
     issued: u32,
+}
+
+/// The strength of a stop request (higher wins in the mailbox).
+fn stop_rank(m: Option<Motion>) -> u8 {
+    match m {
+        Some(Motion::QuickStop) => 3,
+        Some(Motion::Stop) => 2,
+        Some(Motion::FeedHold) => 1,
+        _ => 0,
+    }
 }
 
 /// Plant and controller: written only by the control step.
@@ -247,6 +269,7 @@ impl ControlSystem {
                 brake: None,
                 zero: false,
                 motion: None,
+                stop: None,
                 issued: 0,
             })),
             io: Mutex::new(Cell::new(Io {
@@ -488,20 +511,38 @@ impl ControlSystem {
         self.request(|r| r.motion = Some(Motion::Jog(velocity)));
     }
 
-    /// Decelerates to a standstill and holds.
+    /// Decelerates to a standstill and holds (a stop request: see [`quick_stop`](Self::quick_stop)).
     pub fn stop(&self) {
-        self.request(|r| r.motion = Some(Motion::Stop));
+        self.request_stop(Motion::Stop);
     }
 
     /// Quick stop: setpoint re-synchronised with the axis, ramp down at the quick-stop
     /// deceleration, integrator emptied. The safe stop of this application.
+    ///
+    /// Stop requests are latched with priority over motion until the next control step:
+    /// a move or jog requested after it in the same period is dropped (still
+    /// acknowledged by [`commands_done`](Self::commands_done); [`MoveTo`](crate::sequences::MoveTo)
+    /// therefore also checks that the setpoint is at its target) unless the axis already
+    /// stands still, and of several stops the strongest is applied (quick stop, stop,
+    /// feed hold).
     pub fn quick_stop(&self) {
-        self.request(|r| r.motion = Some(Motion::QuickStop));
+        self.request_stop(Motion::QuickStop);
     }
 
-    /// Feed hold: decelerate the current move and keep it for [`feed_resume`](Self::feed_resume).
+    /// Feed hold: decelerate the current move and keep it for [`feed_resume`](Self::feed_resume)
+    /// (a stop request: see [`quick_stop`](Self::quick_stop)).
     pub fn feed_hold(&self) {
-        self.request(|r| r.motion = Some(Motion::FeedHold));
+        self.request_stop(Motion::FeedHold);
+    }
+
+    fn request_stop(&self, stop: Motion) {
+        self.request(|r| {
+            // A motion asked for earlier is stopped, whatever it was.
+            r.motion = None;
+            if stop_rank(Some(stop)) > stop_rank(r.stop) {
+                r.stop = Some(stop);
+            }
+        });
     }
 
     /// Resumes a held move.
@@ -781,7 +822,14 @@ fn regulate(c: &mut Core, req: Requests, io: &Io, m: &Measurements, dt: f32) -> 
         c.servo.reset();
     }
     let measured = m.position - c.zero;
-    if let Some(motion) = req.motion {
+    // A pending stop has priority over a motion asked for after it in the same period,
+    // unless the axis already stands still (see `Requests`).
+    let at_rest = c.servo.velocity().abs() <= STANDSTILL_VELOCITY && c.profile.velocity() == 0.0;
+    let motion = match req.stop {
+        Some(_) if !at_rest => None,
+        _ => req.motion,
+    };
+    for motion in [req.stop, motion].into_iter().flatten() {
         match motion {
             Motion::MoveTo(t) => c.profile.move_to(t),
             Motion::Jog(v) => c.profile.jog(v),

@@ -85,6 +85,15 @@ impl Limits {
     pub const QUICK_STOP_DECEL: f32 = 6.0;
 }
 
+/// Distance the axis needs to stop from full speed ([`Limits::MOVE`]`.v_max`) at
+/// [`Limits::QUICK_STOP_DECEL`] when the stop is detected one 1 ms control period late,
+/// m: `v²/(2a) + v·t` = 3.33 + 0.2 = 3.53 mm. The soft travel limits lie at least this far
+/// inside the end-stop switches, the hard stops at least this far beyond them
+/// ([`HARD_STOP_MARGIN`](crate::plant::HARD_STOP_MARGIN)).
+pub const STOPPING_DISTANCE: f32 = Limits::MOVE.v_max * Limits::MOVE.v_max
+    / (2.0 * Limits::QUICK_STOP_DECEL)
+    + Limits::MOVE.v_max * 0.001;
+
 /// What the setpoint generator is doing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -75,8 +75,13 @@ pub const M_PER_COUNT: f32 = LEAD / COUNTS_PER_REV as f32;
 pub const END_STOP_NEG: f32 = 0.0;
 /// Machine position at which the positive end-stop switch closes, m.
 pub const END_STOP_POS: f32 = 0.300;
-/// Distance of the hard (mechanical) stops beyond the switches, m.
-pub const HARD_STOP_MARGIN: f32 = 0.003;
+/// Distance of the hard (mechanical) stops beyond the switches, m: at least the axis'
+/// stopping distance from full speed after a switch closes (quick stop from 0.2 m/s at
+/// 6 m/s², detected one 1 ms period late: 3.53 mm,
+/// [`STOPPING_DISTANCE`](crate::controller::STOPPING_DISTANCE)) plus a reserve of 1.5 mm
+/// for the current loop's lag and a dirty switch. (It was 3 mm, less than the stopping
+/// distance: domain review S2.)
+pub const HARD_STOP_MARGIN: f32 = 0.005;
 /// Integration sub-steps per [`Plant::step`].
 pub const SUB_STEPS: u32 = 10;
 

@@ -23,14 +23,24 @@
 
 use rtseq::{Cx, Done, Failure, Seq, SeqId, Sequence, Step, Wait};
 
-use crate::app::{FaultKind, MAX_MOVES};
-use crate::control_system::{ControlSystem, Phase};
+use crate::app::{FaultKind, Travel, MAX_MOVES, NOT_HOMED, TARGET_OUTSIDE_TRAVEL};
+use crate::control_system::{ControlSystem, Phase, POSITION_TOLERANCE};
 use crate::safety;
 
 type Ctx<'a> = Cx<'a, ControlSystem>;
 
 fn completed(r: Result<Done, Failure>) -> bool {
     r == Ok(Done::Completed)
+}
+
+/// A step's own refusal ([`Failure::App`], e.g. a target outside the soft limits) fails the
+/// sequence that ran it with the same code, so the caller sees why; any other end of the
+/// step (aborted, timed out) leaves the sequence to its exit condition as before.
+fn refused(r: Result<Done, Failure>) -> Result<(), Failure> {
+    match r {
+        Err(f @ Failure::App(_)) => Err(f),
+        _ => Ok(()),
+    }
 }
 
 /// Step: release the brake, enable the drive, and ask the safety system (if connected) for
@@ -112,18 +122,36 @@ impl Step<ControlSystem> for SetZero {
 }
 
 /// Step: point-to-point move to `target` (m); ends in position and settled.
+///
+/// Soft travel limits: a target outside `travel` fails the step at once with
+/// [`TARGET_OUTSIDE_TRAVEL`] (and on an axis that is not homed with [`NOT_HOMED`]),
+/// before anything moves. Without them a mistyped target drove the axis at full speed into
+/// the end-stop switch (domain review S2).
 pub struct MoveTo {
     /// Target position, m (homed coordinates).
     pub target: f32,
+    /// The accepted targets, m (homed coordinates).
+    pub travel: Travel,
 }
 
 impl Step<ControlSystem> for MoveTo {
     fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
+        if !cx.control().status().homed {
+            return Err(Failure::App(NOT_HOMED));
+        }
+        if !self.travel.contains(self.target) {
+            return Err(Failure::App(TARGET_OUTSIDE_TRAVEL));
+        }
         cx.control().move_to(self.target);
         Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
-        cx.control().commands_done() && cx.control().in_position()
+        // In position at *this* target: a move the mailbox dropped for a pending stop
+        // leaves the axis in position elsewhere.
+        let c = cx.control();
+        c.commands_done()
+            && c.in_position()
+            && (c.status().setpoint - self.target).abs() <= POSITION_TOLERANCE
     }
 }
 
@@ -164,8 +192,7 @@ impl Sequence<ControlSystem> for Homing {
         if !completed(cx.step(&mut self.zero).await) {
             return Ok(());
         }
-        let _ = cx.step(&mut self.back_off).await;
-        Ok(())
+        refused(cx.step(&mut self.back_off).await)
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
         // Completed only when the axis really is homed and off the switch.
@@ -228,8 +255,9 @@ impl Sequence<ControlSystem> for MoveLoop {
                 return Ok(());
             };
             self.step.body_mut().target = target;
-            if !completed(cx.step(&mut self.step).await) {
-                return Ok(());
+            let r = cx.step(&mut self.step).await;
+            if !completed(r) {
+                return refused(r);
             }
             cx.control().record_move_done(self.next);
             self.next = self.next.saturating_add(1);

@@ -11,7 +11,7 @@ use std::cell::Cell;
 use std::rc::Rc;
 
 use common::*;
-use rtseq_motor::app::{AppConfig, Fault, FaultPlan};
+use rtseq_motor::app::{self, AppConfig, Fault, FaultPlan};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_motor::controller::Limits;
 use rtseq_motor::hardware::Measurements;
@@ -29,15 +29,14 @@ fn ms_at_peak_current(w: &mut World) -> u32 {
     n
 }
 
-// DEFECT: no supervision of the closed loop during homing. The following-error monitor is
-// owned by `move` only (app.rs:442), the end-stop monitor by `moves` (app.rs:449), and the
-// safety levels OFF/POWER_ON ignore both end stops (safety.rs:121-126). A jam (or a failed
-// switch and the hard stop) during the seek lets the jog setpoint run away: the following
-// error grows to ~90 mm and the drive pushes at its peak current for ~4.5 s, until the 5 s
-// homing timeout. Expected: following-error supervision in every closed-loop mode
-// (homing seek and back-off included), tripping within ~0.1 s at 20 mm/s and a 2 mm limit.
+// Was a DEFECT (fixed): no supervision of the closed loop during homing. The
+// following-error monitor was owned by `move` only, the end-stop monitor by `moves`, and
+// the safety levels OFF/POWER_ON ignore both end stops. A jam (or a failed switch and the
+// hard stop) during the seek let the jog setpoint run away: the following error grew to
+// ~90 mm and the drive pushed at its peak current for ~4.5 s, until the 5 s homing
+// timeout. Now homing has its own following-error monitor (safe stop, abort homing):
+// the drive is at its peak current for a few tens of ms.
 #[test]
-#[ignore = "defect: homing is not following-error supervised; the drive stalls at I_MAX for ~4.5 s"]
 fn a_jam_during_homing_is_detected_quickly() {
     let mut w = World::new(
         FaultPlan::NONE.with(Fault::FollowingError { at: ms(500) }),
@@ -48,6 +47,45 @@ fn a_jam_during_homing_is_detected_quickly() {
         stalled <= 200,
         "the drive pushed at its peak current for {stalled} ms during homing"
     );
+    assert_eq!(
+        w.outcome(HOMING),
+        Some(rtseq::Outcome::Aborted(rtseq::Cause::Monitor(
+            HOMING_FOLLOWING_ERROR
+        )))
+    );
+    let r = w.cs.summary().following_error;
+    assert!(
+        r.latency().unwrap() <= rtseq::Duration::from_millis(150),
+        "{r:?}"
+    );
+    assert_eq!(w.cs.phase(), rtseq_motor::control_system::Phase::Fault);
+}
+
+/// The positive end stop while homing seeks the negative one (what a motor wired in
+/// reverse gives): homing is aborted at once and the axis stopped, instead of the switch
+/// being ignored by the safety levels below `HOMED` and the jog running on into the hard
+/// stop.
+#[test]
+fn the_opposite_end_stop_during_homing_aborts_it() {
+    let mut w = World::new(FaultPlan::NONE.with(Fault::EndStop { at: ms(500) }), true);
+    w.run();
+    assert_eq!(
+        w.outcome(HOMING),
+        Some(rtseq::Outcome::Aborted(rtseq::Cause::Monitor(
+            HOMING_END_STOP
+        )))
+    );
+    let aborted = w
+        .of(HOMING)
+        .into_iter()
+        .find(|t| t.to == rtseq::RunningState::Aborted)
+        .unwrap();
+    assert_eq!(to_ms(aborted.time), 500);
+    assert_eq!(w.outcome(MOVES), None, "the moves never ran");
+    assert_eq!(w.cs.phase(), rtseq_motor::control_system::Phase::Fault);
+    w.settle(100);
+    let p = w.cs.plant();
+    assert!(p.velocity().abs() < 1e-6 && !w.cs.status().enabled);
 }
 
 // DEFECT: the over-current trip (safety.rs:67, 6 A) lies above the simulated drive's
@@ -115,16 +153,15 @@ fn the_homed_zero_does_not_depend_on_where_the_axis_started() {
     );
 }
 
-// DEFECT: no software travel limits. `MoveTo` accepts any target (sequences.rs:120-128,
-// controller.rs:132); a target beyond the travel (here 350 mm on a 300 mm axis) is driven
-// at full speed into the positive limit switch, and the quick stop after the end-stop
-// monitor fires (6 m/s² from 0.2 m/s: 3.3 mm, plus detection) needs more than the 3 mm
-// between switch and hard stop (plant.rs:73): the carriage hits the hard stop at ~73 mm/s.
-// Expected: a homed axis rejects (or clamps) targets outside soft limits placed at least
-// the full-speed stopping distance inside the switches; and switch-to-hard-stop margin ≥
-// v_max²/(2·a_stop) + v_max·t_detect.
+// Was a DEFECT (fixed): no software travel limits. `MoveTo` accepted any target; a
+// target beyond the travel (here 350 mm on a 300 mm axis) was driven at full speed into
+// the positive limit switch, and the quick stop after the end-stop monitor fired (6 m/s²
+// from 0.2 m/s: 3.3 mm, plus detection) needed more than the 3 mm between switch and hard
+// stop: the carriage hit the hard stop at ~73 mm/s. Now `MoveTo` refuses a target outside
+// `AppConfig::travel` (the switches' span minus 4 mm at each end) with
+// `Failure::App(TARGET_OUTSIDE_TRAVEL)` before anything moves, and main stops in phase
+// fault.
 #[test]
-#[ignore = "defect: a target beyond the travel crashes into the hard stop at ~73 mm/s"]
 fn a_target_beyond_the_travel_never_reaches_the_hard_stop() {
     let mut targets = [0.0; 8];
     targets[0] = 0.350;
@@ -141,16 +178,50 @@ fn a_target_beyond_the_travel_never_reaches_the_hard_stop() {
         "the carriage reached the hard stop at {:.3} mm",
         max_x * 1e3
     );
+    // Refused by the soft limit: nothing moved towards it, not even to the switch.
+    assert!(max_x < 0.03, "moved to {:.3} mm", max_x * 1e3);
+    assert_eq!(
+        w.outcome(MOVE),
+        Some(rtseq::Outcome::Failed(rtseq::Failure::App(
+            app::TARGET_OUTSIDE_TRAVEL
+        )))
+    );
+    assert_eq!(w.cs.phase(), rtseq_motor::control_system::Phase::Fault);
 }
 
-// DEFECT (same root cause as above, on the mechanics' side): the stopping distance of the
-// application's own end-stop reaction at v_max exceeds the over-travel margin.
+/// The soft limits' edges: the first and the last target accepted, with the axis stopping
+/// in position there and never touching a switch.
 #[test]
-#[ignore = "defect: quick-stop distance from v_max (≈3.5 mm) > switch-to-hard-stop margin (3 mm)"]
+fn targets_at_the_soft_limits_are_accepted() {
+    let travel = app::Travel::AXIS;
+    let mut targets = [0.0; 8];
+    targets[0] = travel.max;
+    targets[1] = travel.min;
+    let config = AppConfig {
+        targets,
+        move_count: 2,
+        ..AppConfig::DEFAULT
+    };
+    let mut w = World::with_config(FaultPlan::NONE, true, config);
+    let mut switch = false;
+    w.run_sampling(|w| {
+        let s = w.cs.status();
+        switch |= w.cs.summary().homed_at.is_some() && (s.end_stop_pos || s.end_stop_neg);
+    });
+    assert_eq!(w.cs.summary().moves_done, 2);
+    assert!(!switch, "a switch closed after homing");
+    assert!(!travel.contains(travel.max + 1e-4) && !travel.contains(f32::NAN));
+}
+
+// Was a DEFECT (fixed, same root cause as above, on the mechanics' side): the stopping
+// distance of the application's own end-stop reaction at v_max (3.53 mm) exceeded the
+// 3 mm over-travel margin; the margin is 5 mm now.
+#[test]
 fn the_end_stop_reaction_stops_within_the_overtravel_margin() {
     let v = Limits::MOVE.v_max;
     let detect = 0.001; // one tick
     let distance = v * v / (2.0 * Limits::QUICK_STOP_DECEL) + v * detect;
+    assert!((distance - rtseq_motor::controller::STOPPING_DISTANCE).abs() < 1e-6);
     assert!(
         distance <= HARD_STOP_MARGIN,
         "stopping distance {:.2} mm > margin {:.2} mm",
@@ -239,15 +310,12 @@ fn on_a_1_4_amp_drive_the_controller_stays_within_the_drive_limit() {
     );
 }
 
-// DEFECT (latent): the command mailbox holds one motion request, last writer wins
-// (control_system.rs:122-130, 481-510). A stop requested by one context (the abort hook in
-// the tick, the safe-stop lane) is silently replaced by a motion requested by another lane
-// before the next control step, and both are acknowledged (`commands_done`). The current
-// tree happens not to issue them in the same period, but the API of a reference design
-// invites it. Expected: stop/quick-stop latched with priority over motion until applied
-// (a motion request while a stop is pending is refused or deferred).
+// Was a DEFECT (latent, fixed): the command mailbox held one motion request, last writer
+// wins. A stop requested by one context (the abort hook in the tick, the safe-stop lane)
+// was silently replaced by a motion requested by another lane before the next control
+// step, and both were acknowledged (`commands_done`). Now stop requests have their own
+// slot, latched with priority over motion until applied.
 #[test]
-#[ignore = "defect: a pending quick stop is overwritten by a later move request"]
 fn a_pending_quick_stop_is_not_overwritten_by_a_move() {
     let cs = ControlSystem::new(0.02);
     cs.brake(false);
@@ -269,6 +337,17 @@ fn a_pending_quick_stop_is_not_overwritten_by_a_move() {
         "the axis kept moving to {:?}",
         cs.status().target
     );
+    // A feed hold after the quick stop does not weaken it; a move after the stop has been
+    // applied is obeyed.
+    cs.move_to(0.05);
+    cs.control_step(0.001);
+    cs.quick_stop();
+    cs.feed_hold();
+    cs.control_step(0.001);
+    assert_eq!(cs.status().target, None, "quick stop, not a feed hold");
+    cs.move_to(0.03);
+    cs.control_step(0.001);
+    assert_eq!(cs.status().target, Some(0.03));
 }
 
 // ---- confirmed behaviour ----------------------------------------------------------------

@@ -10,7 +10,9 @@ use rtseq_motor::safety::{self, PROPERTIES};
 
 /// The application's ids, for the tests.
 #[allow(unused_imports)]
-pub use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
+pub use rtseq_motor::app::monitor_ids::{
+    END_STOP, FOLLOWING_ERROR, HOMING_END_STOP, HOMING_FOLLOWING_ERROR, PAUSE, RESUME,
+};
 pub use rtseq_motor::app::seq_ids::*;
 
 pub const N: usize = app::SEQUENCES;

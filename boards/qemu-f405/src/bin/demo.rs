@@ -36,7 +36,9 @@ use rtseq::{
     Behaviour, Cause, Entry, Failure, Instant, MonitorId, Outcome, Request, Requester,
     RunningState, SeqId, Sequencer, Transition,
 };
-use rtseq_motor::app::monitor_ids::{END_STOP, FOLLOWING_ERROR, PAUSE, RESUME};
+use rtseq_motor::app::monitor_ids::{
+    END_STOP, FOLLOWING_ERROR, HOMING_END_STOP, HOMING_FOLLOWING_ERROR, PAUSE, RESUME,
+};
 use rtseq_motor::app::seq_ids::{
     BLINK, FEED_HOLD, FEED_RESUME, HOMING, MAIN, MOVE, MOVES, POWER_OFF, SAFE_STOP, STATUS,
 };
@@ -565,6 +567,10 @@ fn seq_name(id: SeqId) -> &'static str {
 fn monitor_name(m: MonitorId) -> &'static str {
     if m == FOLLOWING_ERROR {
         "following error"
+    } else if m == HOMING_FOLLOWING_ERROR {
+        "homing following error"
+    } else if m == HOMING_END_STOP {
+        "homing end stop"
     } else if m == END_STOP {
         "end stop"
     } else if m == PAUSE {
@@ -580,6 +586,10 @@ fn monitor_name(m: MonitorId) -> &'static str {
 fn monitor_effect(m: MonitorId) -> &'static str {
     if m == FOLLOWING_ERROR {
         "safe stop, then restart the moves (at most 3 times, then abort)"
+    } else if m == HOMING_FOLLOWING_ERROR {
+        "safe stop, abort homing"
+    } else if m == HOMING_END_STOP {
+        "abort homing (the wrong end stop)"
     } else if m == END_STOP {
         "abort the moves"
     } else if m == PAUSE {
@@ -833,8 +843,10 @@ fn fault_key(k: FaultKind) -> &'static str {
 enum Expect {
     /// No effect on the sequences (nothing moves any more, or an earlier fault is handled).
     Nothing,
-    /// Jammed before homing completed: the homing timeout fires, homing is aborted.
-    HomingTimeout,
+    /// Jammed, or the positive end stop closed, before homing completed: homing is
+    /// aborted, by its following-error monitor (jammed while the setpoint moves), its
+    /// end-stop monitor (the positive switch) or its timeout (jammed at rest).
+    HomingAborted,
     /// Jammed with moves left: safe stop and restart of the moves 3 times, then abort.
     FollowingErrorAbort,
     /// End stop while the moves sequence has not ended (a move or a dwell runs, the last
@@ -872,7 +884,8 @@ fn expectation(kind: FaultKind, s: &Snapshot, config: &AppConfig) -> Expect {
             main_active: (s.main_active && !s.powering_off) || !s.main_started,
         },
         _ if s.main_started && !s.main_active => Expect::Nothing,
-        FaultKind::FollowingError if !s.homed && !homing_completes => Expect::HomingTimeout,
+        FaultKind::FollowingError if !s.homed && !homing_completes => Expect::HomingAborted,
+        FaultKind::EndStop if !s.homed => Expect::HomingAborted,
         FaultKind::FollowingError if moves_left => Expect::FollowingErrorAbort,
         FaultKind::EndStop if moves_ahead && !fe_abort_due => Expect::EndStopAbort {
             moves_done: s.moves_done,
@@ -889,9 +902,6 @@ fn overtakes(earlier: Option<Expect>, later: Expect) -> bool {
         // The end stop aborts the moves at once; the following error's restarts run them
         // again.
         (Some(Expect::FollowingErrorAbort), Expect::EndStopAbort { .. }) => true,
-        // The end stop closed before the moves started, and the jam times homing out: the
-        // moves never run.
-        (Some(Expect::EndStopAbort { .. }), Expect::HomingTimeout) => true,
         _ => false,
     }
 }
@@ -1335,10 +1345,16 @@ impl Log {
         if let Some((kind, e)) = decided {
             let r = s.reaction(kind);
             match e {
-                Expect::HomingTimeout => {
+                Expect::HomingAborted => {
                     ok &= check(
-                        outcome_of(HOMING) == Some(Outcome::Aborted(Cause::Timeout(HOMING))),
-                        "jammed while homing: the homing timeout aborted homing",
+                        matches!(
+                            outcome_of(HOMING),
+                            Some(Outcome::Aborted(Cause::Timeout(HOMING)))
+                        ) || outcome_of(HOMING)
+                            == Some(Outcome::Aborted(Cause::Monitor(HOMING_FOLLOWING_ERROR)))
+                            || outcome_of(HOMING)
+                                == Some(Outcome::Aborted(Cause::Monitor(HOMING_END_STOP))),
+                        "fault while homing: homing was aborted (its monitors or its timeout)",
                     );
                     ok &= check(
                         CS.phase() == Phase::Fault,
