@@ -484,6 +484,17 @@ rtseq::monitors! {
     /// | `pause` | `moves` | [`Toggle`] of the pause button | `feed hold` | `Nothing` |
     /// | `resume` | `moves` | toggle off again while paused | `feed resume` | `Nothing` |
     ///
+    /// The following-error monitor of the moves restarts them (`RestartCallerOfOwner`,
+    /// at most `restart_limit` times, then the moves are aborted): the demo shows EEROS'
+    /// restart behaviour with it. Each retry starts only after the safe stop has brought
+    /// the axis to a standstill, with the setpoint re-synchronised (no following error)
+    /// and the integrator emptied, so each push into a jam lasts tens of ms. An automatic
+    /// retry is acceptable only for a cause known to be transient (a momentary overload)
+    /// on a machine nobody can reach while it runs (guarded, interlocked). A production
+    /// drive latches a following error and waits for an operator's acknowledge before
+    /// any motion (IEC 60204-1 restart, ISO 14118 unexpected start-up): there, use
+    /// `AbortOwner` and a reset sequence started by the acknowledge (domain review S3).
+    ///
     /// The end-stop monitor belongs to the whole move loop, not to one move: hitting a limit
     /// must end the motion program (the moves and the move in progress are aborted, main gets
     /// `Aborted` and powers off), which `AbortOwner` on `moves` expresses directly.

@@ -64,6 +64,15 @@ pub const LIMIT: PrivateEvent = PrivateEvent::new(1);
 /// Over-current trip level of the current input of the simulated drive, A (its current
 /// limit is 4 A), in [`PROPERTIES`]. A real drive trips where its sensor can still
 /// measure: build its table with [`Watches::new`] and [`properties`].
+///
+/// Above the drive's own limit, this is a **sensor-plausibility check**: the simulated
+/// machine cannot make 6 A, so only a faulty reading (the demo's injected +12 A offset)
+/// trips it. It is not a thermal or stall protection: there is no I²t or stall
+/// supervision (domain review S4). A stall the following-error monitors cannot see — a jam
+/// at rest within the following-error limit — holds the drive at its current limit until
+/// a sequence's timeout ends it (≈1.4 s at 4 A when jammed at the end of the homing back
+/// off); a production drive adds an i²·t trip or foldback (e.g. |i| at the limit at
+/// standstill for more than a few hundred ms → emergency) as a critical input.
 pub const CURRENT_TRIP: f32 = 6.0;
 
 /// Critical input: e-stop button pressed.

@@ -3,7 +3,8 @@
 //! ```text
 //! main ─┬─ start (non-blocking) ─ status        blink the LED at the rate of the phase
 //!       ├─ step power on                         brake off, drive on, safety SWITCH_ON
-//!       ├─ run  homing ─┬─ step seek end stop    jog to the negative end stop (timeout)
+//!       ├─ run  homing ─┬─ step seek end stop    jog to the negative end stop (timeout;
+//!       │               │                        monitors: following error, + end stop)
 //!       │               ├─ step halt             stop, wait for standstill
 //!       │               ├─ step set zero
 //!       │               └─ step back off         move to +back-off, in position and settled
@@ -12,7 +13,8 @@
 //!       └─ step power off                        drive off, brake on
 //!
 //! exception sequences (own lanes):
-//!   safe stop  ─ step quick stop                 following error (restart the moves, ≤ 3×)
+//!   safe stop  ─ step quick stop                 following error (restart the moves, ≤ 3×;
+//!                                                in homing: abort homing), homing timeout
 //!   feed hold                                    pause button: hold the profile, pause moves
 //!   feed resume                                  pause button again: resume both
 //! ```

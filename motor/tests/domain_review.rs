@@ -88,18 +88,21 @@ fn the_opposite_end_stop_during_homing_aborts_it() {
     assert!(p.velocity().abs() < 1e-6 && !w.cs.status().enabled);
 }
 
-// DEFECT: the over-current trip (safety.rs:67, 6 A) lies above the simulated drive's
-// current limit (plant.rs I_MAX = 4 A), and there is no I²t / stall supervision: no
-// physical condition of the simulated machine can trip it, only the injected sensor offset
-// of +12 A. A 4.5 s stall at peak current (the homing jam above) leaves the safety system
-// in its normal levels. The demo's "over-current" scenario therefore only proves that a
-// fake reading is detected. Expected: a trip/foldback on i²·t (or on |i| ≥ I_peak for more
-// than a few hundred ms at standstill), which this stall would exceed.
+// DEFECT (left, documented): the over-current trip (safety.rs, 6 A) lies above the
+// simulated drive's current limit (plant.rs I_MAX = 4 A), and there is no I²t / stall
+// supervision: no physical condition of the simulated machine can trip it, only the
+// injected sensor offset of +12 A. The 6 A trip is a sensor-plausibility check (safety.rs
+// says so now). With homing supervised (S1) a jam while the setpoint moves is caught by
+// the following-error monitors within ~0.1 s; what is left is a jam at rest within the
+// following-error limit: jammed 21 µm short of the back-off target (1123 ms), the servo's
+// integrator winds up to I_MAX and the drive stalls at its peak current for ~1.4 s until the
+// 5 s homing timeout. Expected: a trip/foldback on i²·t (or on |i| ≥ I_peak for more than
+// a few hundred ms at standstill), which this stall would exceed.
 #[test]
-#[ignore = "defect: a multi-second stall at peak current never trips the safety system"]
+#[ignore = "defect: a multi-second stall at peak current (jam at rest, within the following-error limit) never trips the safety system"]
 fn a_long_stall_at_peak_current_trips_the_safety_system() {
     let mut w = World::new(
-        FaultPlan::NONE.with(Fault::FollowingError { at: ms(500) }),
+        FaultPlan::NONE.with(Fault::FollowingError { at: ms(1123) }),
         true,
     );
     let mut emergency = false;
@@ -238,8 +241,16 @@ fn the_end_stop_reaction_stops_within_the_overtravel_margin() {
 // deliberate action; ISO 14118 unexpected start-up). Expected: one push, then stop and
 // wait for an acknowledge; automatic retries only for documented transient causes and
 // never with the full torque limit.
+//
+// Decision (kept, documented): the demo exists to show the EEROS sequencer's behaviours,
+// and a monitor whose behaviour restarts the caller within a restart limit is one of
+// them. The retries stay, bounded and documented as a demonstration (app.rs monitor
+// table, README): a production drive latches the following error and waits for an
+// acknowledge. The test below (`following_error_retries_are_bounded_and_start_from_rest`)
+// holds what the retries must keep to; this one stays ignored as the statement of the
+// production requirement.
 #[test]
-#[ignore = "defect: after a following-error stop the drive pushes into the obstacle 3 more times by itself"]
+#[ignore = "by design in the demo: the EEROS restart behaviour retries up to restart_limit (3) times; a production drive latches (README)"]
 fn after_a_following_error_the_drive_does_not_push_again_without_an_acknowledge() {
     let mut w = World::new(
         FaultPlan::NONE.with(Fault::FollowingError { at: ms(1500) }),
@@ -257,6 +268,54 @@ fn after_a_following_error_the_drive_does_not_push_again_without_an_acknowledge(
         episodes, 1,
         "{episodes} pushes at peak current into the jam"
     );
+}
+
+/// What keeps the demo's automatic retries honest: each retry starts only after the safe
+/// stop has brought the axis to a standstill with the current off its limit and the
+/// following error cleared (the quick stop re-synchronises the setpoint with the axis),
+/// each push into the jam lasts a few tens of ms, and there are at most `restart_limit`
+/// retries before the moves are aborted for good.
+#[test]
+fn following_error_retries_are_bounded_and_start_from_rest() {
+    let config = AppConfig::DEFAULT;
+    let mut w = World::new(
+        FaultPlan::NONE.with(Fault::FollowingError { at: ms(1500) }),
+        false,
+    );
+    let (mut episodes, mut high, mut longest, mut run) = (0, false, 0, 0);
+    let mut at_restart = Vec::new();
+    let mut seen = 0;
+    w.run_sampling(|w| {
+        let now_high = w.cs.plant().current().abs() >= 0.975 * I_MAX;
+        if now_high && !high {
+            episodes += 1;
+        }
+        run = if now_high { run + 1 } else { 0 };
+        longest = longest.max(run);
+        high = now_high;
+        let restarts = w
+            .of(MOVES)
+            .iter()
+            .filter(|t| t.to == rtseq::RunningState::Restarting)
+            .count();
+        if restarts > seen {
+            seen = restarts;
+            // The state the restart found (this tick's control step ran before it).
+            let s = w.cs.status();
+            at_restart.push((s.velocity, s.following_error, s.current_command));
+        }
+    });
+    assert_eq!(episodes, usize::from(config.restart_limit) + 1);
+    assert!(longest <= 60, "a push lasted {longest} ms");
+    assert_eq!(at_restart.len(), usize::from(config.restart_limit));
+    for (v, fe, i) in at_restart {
+        assert!(v.abs() <= 5e-3, "restarted at {v} m/s");
+        assert!(
+            fe.abs() <= config.following_error_limit / 10.0,
+            "restarted with {fe} m following error"
+        );
+        assert!(i.abs() < 0.5 * I_MAX, "restarted at {i} A");
+    }
 }
 
 // DEFECT (real board): the board drives the same controller as the simulation — its
