@@ -108,6 +108,11 @@ pub enum Motion {
     MoveTo(f32),
     /// Jog at a velocity, m/s.
     Jog(f32),
+    /// Homing seek towards the negative end stop at a speed, m/s (the magnitude is used):
+    /// if its switch is closed, first leave it in the positive direction until it opens,
+    /// then approach it; the encoder position where the switch closes during the approach
+    /// is latched as the home edge ([`ControlSystem::seek_home`]).
+    Seek(f32),
     /// Decelerate to a standstill at the normal deceleration, then hold.
     Stop,
     /// Re-synchronise the setpoint with the measured state and stop at the quick-stop
@@ -151,6 +156,17 @@ fn stop_rank(m: Option<Motion>) -> u8 {
     }
 }
 
+/// Where the homing seek is ([`Motion::Seek`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Seek {
+    /// No seek (any other motion ends it).
+    Off,
+    /// The negative switch was closed at the start: jogging off it (+) at this speed, m/s.
+    Leaving(f32),
+    /// Jogging towards the negative switch (−); its closing edge is latched.
+    Approaching,
+}
+
 /// Plant and controller: written only by the control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Core {
@@ -160,6 +176,13 @@ struct Core {
     gains: Gains,
     /// Encoder position of the homed zero, m.
     zero: f32,
+    /// The homing seek's state.
+    seek: Seek,
+    /// The negative end-stop switch in the previous sample (edge detection).
+    switch_neg: bool,
+    /// Encoder position (raw, m) latched at the negative switch's closing edge during the
+    /// last homing seek's approach: the home position [`ControlSystem::set_zero`] takes.
+    home_edge: Option<f32>,
     homed: bool,
     enabled: bool,
     brake: bool,
@@ -256,6 +279,9 @@ impl ControlSystem {
                 servo: Servo::new(),
                 gains: Gains::DEFAULT,
                 zero: 0.0,
+                seek: Seek::Off,
+                switch_neg: false,
+                home_edge: None,
                 homed: false,
                 enabled: false,
                 brake: true,
@@ -511,6 +537,24 @@ impl ControlSystem {
         self.request(|r| r.motion = Some(Motion::Jog(velocity)));
     }
 
+    /// Homing seek towards the negative end stop at `speed` (m/s, the magnitude is used),
+    /// the way a drive's homing mode does it: if the negative switch is closed when the
+    /// seek starts, the axis first jogs off it in the positive direction until it opens
+    /// ([`leaving_end_stop`](Self::leaving_end_stop)), then jogs towards it; the encoder
+    /// position of the control period in which the switch input changes from open to
+    /// closed during that approach is latched as the home edge, which
+    /// [`set_zero`](Self::set_zero) takes as zero (wherever the axis then comes to rest).
+    ///
+    /// The edge is found in software, in the sampled switch input: the latched position is
+    /// the first sample that reads closed, up to one control period's travel at the
+    /// approach speed beyond the true edge (20 µm at 20 mm/s and 1 kHz), plus the encoder's
+    /// resolution. On a real board a timer's input capture of the encoder count on the
+    /// switch edge would remove the sampling error. Any other motion command ends the seek
+    /// (a latched edge stays).
+    pub fn seek_home(&self, speed: f32) {
+        self.request(|r| r.motion = Some(Motion::Seek(speed)));
+    }
+
     /// Decelerates to a standstill and holds (a stop request: see [`quick_stop`](Self::quick_stop)).
     pub fn stop(&self) {
         self.request_stop(Motion::Stop);
@@ -550,7 +594,10 @@ impl ControlSystem {
         self.request(|r| r.motion = Some(Motion::FeedResume));
     }
 
-    /// Takes the current encoder position as zero (homing) and holds there.
+    /// Sets the zero (homing) and holds where the axis is: at the home edge latched by the
+    /// last [`seek_home`](Self::seek_home), or without one at the current encoder
+    /// position. The setpoint is re-synchronised with the axis (in the new coordinates),
+    /// so the axis does not move.
     pub fn set_zero(&self) {
         self.request(|r| r.zero = true);
     }
@@ -660,6 +707,20 @@ impl ControlSystem {
     /// Negative end-stop switch closed.
     pub fn end_stop_neg(&self) -> bool {
         self.status().end_stop_neg
+    }
+
+    /// True while the homing seek ([`seek_home`](Self::seek_home)) is still jogging off a
+    /// negative switch that was closed at its start: the switch reads closed, but it has
+    /// not been found yet.
+    pub fn leaving_end_stop(&self) -> bool {
+        let c = critical_section::with(|cs| self.core.borrow(cs).get());
+        matches!(c.seek, Seek::Leaving(_))
+    }
+
+    /// The home edge latched by the last homing seek: the encoder position (machine
+    /// coordinates of the encoder, m) where the negative switch closed during its approach.
+    pub fn home_edge(&self) -> Option<f32> {
+        critical_section::with(|cs| self.core.borrow(cs).get()).home_edge
     }
 
     /// Either end-stop switch closed.
@@ -815,10 +876,25 @@ fn regulate(c: &mut Core, req: Requests, io: &Io, m: &Measurements, dt: f32) -> 
     if let Some(on) = req.brake {
         c.brake = on;
     }
+    // The homing seek, on this period's sample of the negative switch: off the switch,
+    // turn towards it; approaching it, latch the position where it closes.
+    let switch = m.end_stop_neg;
+    match c.seek {
+        Seek::Leaving(v) if !switch => {
+            c.seek = Seek::Approaching;
+            c.profile.jog(-v);
+        }
+        Seek::Approaching if switch && !c.switch_neg && c.home_edge.is_none() => {
+            c.home_edge = Some(m.position);
+        }
+        _ => {}
+    }
+    c.switch_neg = switch;
     if req.zero {
-        c.zero = m.position;
+        c.zero = c.home_edge.unwrap_or(m.position);
         c.homed = true;
-        c.profile.reset(0.0);
+        // At rest where the axis is, in the new coordinates.
+        c.profile.reset(m.position - c.zero);
         c.servo.reset();
     }
     let measured = m.position - c.zero;
@@ -830,9 +906,23 @@ fn regulate(c: &mut Core, req: Requests, io: &Io, m: &Measurements, dt: f32) -> 
         _ => req.motion,
     };
     for motion in [req.stop, motion].into_iter().flatten() {
+        if !matches!(motion, Motion::Seek(_)) {
+            c.seek = Seek::Off;
+        }
         match motion {
             Motion::MoveTo(t) => c.profile.move_to(t),
             Motion::Jog(v) => c.profile.jog(v),
+            Motion::Seek(v) => {
+                let v = v.abs();
+                c.home_edge = None;
+                if switch {
+                    c.seek = Seek::Leaving(v);
+                    c.profile.jog(v);
+                } else {
+                    c.seek = Seek::Approaching;
+                    c.profile.jog(-v);
+                }
+            }
             Motion::Stop | Motion::FeedHold => c.profile.stop(),
             Motion::FeedResume => c.profile.resume(),
             Motion::QuickStop => {

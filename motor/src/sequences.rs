@@ -3,10 +3,12 @@
 //! ```text
 //! main ─┬─ start (non-blocking) ─ status        blink the LED at the rate of the phase
 //!       ├─ step power on                         brake off, drive on, safety SWITCH_ON
-//!       ├─ run  homing ─┬─ step seek end stop    jog to the negative end stop (timeout;
+//!       ├─ run  homing ─┬─ step seek end stop    jog to the negative end stop (off it
+//!       │               │                        first if closed; the control system
+//!       │               │                        latches the closing edge) (timeout;
 //!       │               │                        monitors: following error, + end stop)
 //!       │               ├─ step halt             stop, wait for standstill
-//!       │               ├─ step set zero
+//!       │               ├─ step set zero         zero at the latched edge
 //!       │               └─ step back off         move to +back-off, in position and settled
 //!       ├─ run  moves ──┬─ step move  (× N)      in position and settled
 //!       │               └─ step dwell (× N)      monitors: following error, end stop, pause
@@ -81,7 +83,9 @@ impl Step<ControlSystem> for PowerOff {
     }
 }
 
-/// Step: jog towards the negative end stop at `speed` (m/s) until its switch closes.
+/// Step: the homing seek ([`ControlSystem::seek_home`]): towards the negative end stop at
+/// `speed` (m/s) until its switch closes — after first jogging off it (+) if it was closed
+/// at the start; the control system latches the position of the closing edge.
 pub struct SeekEndStop {
     /// Jog speed, m/s (positive; the direction is negative).
     pub speed: f32,
@@ -89,11 +93,13 @@ pub struct SeekEndStop {
 
 impl Step<ControlSystem> for SeekEndStop {
     fn action(&mut self, cx: &Ctx<'_>) -> Result<(), Failure> {
-        cx.control().jog(-self.speed.abs());
+        cx.control().seek_home(self.speed);
         Ok(())
     }
     fn check_exit_condition(&mut self, cx: &Ctx<'_>) -> bool {
-        cx.control().commands_done() && cx.control().end_stop_neg()
+        // A switch closed at the start is not "found": the seek leaves it first.
+        let c = cx.control();
+        c.commands_done() && c.end_stop_neg() && !c.leaving_end_stop()
     }
 }
 
@@ -110,7 +116,7 @@ impl Step<ControlSystem> for Halt {
     }
 }
 
-/// Step: take the current position as zero.
+/// Step: take the home edge the seek latched as zero ([`ControlSystem::set_zero`]).
 pub struct SetZero;
 
 impl Step<ControlSystem> for SetZero {
@@ -177,7 +183,7 @@ pub struct Homing {
     pub seek: Seq<SeekEndStop>,
     /// Stop on the switch.
     pub halt: Seq<Halt>,
-    /// Zero there.
+    /// Zero at the switch's latched edge.
     pub zero: Seq<SetZero>,
     /// Move off the switch.
     pub back_off: Seq<MoveTo>,

@@ -65,9 +65,9 @@ const MAX_EVENT_MS: u64 = 15_000;
 /// simulator): homing ends and the moves start in the tick of `HOMED_MS`; the last move is
 /// done in the tick of `LAST_MOVE_DONE_MS`. A pause window's first press must come in
 /// between, while a move is left to hold.
-const HOMED_MS: u64 = 1143;
+const HOMED_MS: u64 = 1140;
 /// See [`HOMED_MS`].
-const LAST_MOVE_DONE_MS: u64 = 6440;
+const LAST_MOVE_DONE_MS: u64 = 6437;
 /// Interval of the axis status lines, ms.
 const STATUS_EVERY_MS: u64 = 250;
 /// "Motor stopped" at the end: |true velocity| (m/s) and |true current| (A) below these.
@@ -199,13 +199,13 @@ fn parse_pause(v: &str) -> Result<(Instant, Instant), ArgError<'_>> {
     }
     if a <= HOMED_MS {
         return arg_err(
-            "the pause window must start after homing: the moves run from 1.144s to 6.439s",
+            "the pause window must start after homing: the moves run from 1.141s to 6.436s",
             v,
         );
     }
     if a >= LAST_MOVE_DONE_MS {
         return arg_err(
-            "the pause window must start before the run's last move is done: the moves run from 1.144s to 6.439s",
+            "the pause window must start before the run's last move is done: the moves run from 1.141s to 6.436s",
             v,
         );
     }
@@ -282,7 +282,7 @@ fn usage() {
     );
     defmt::info!("  times: 3s, 2.5s, 1500ms (virtual time since reset, at most 15s); the fault-free run lasts about 6.6 s");
     defmt::info!(
-        "  a pause window starts while the moves run (1.144s to 6.439s) and before any fault"
+        "  a pause window starts while the moves run (1.141s to 6.436s) and before any fault"
     );
     defmt::info!("  e.g. ./x demo --fault following-error@3s   ./x demo --fault overcurrent@5s   ./x demo --pause 4s..6s");
 }
