@@ -53,7 +53,7 @@ use critical_section::Mutex;
 use rtseq::{Duration, Instant};
 
 use crate::app::{Fault, FaultPlan, Reaction, Summary, MAX_FAULTS};
-use crate::controller::{Gains, Limits, Profile, Servo};
+use crate::controller::{DriveLimits, Gains, Limits, Profile, Servo};
 use crate::hardware::{DriveCommand, Measurements};
 use crate::plant::{Plant, PlantFaults};
 
@@ -174,6 +174,8 @@ struct Core {
     profile: Profile,
     servo: Servo,
     gains: Gains,
+    /// The quick stop's deceleration, m/s² ([`DriveLimits::quick_stop_decel`]).
+    quick_stop_decel: f32,
     /// Encoder position of the homed zero, m.
     zero: f32,
     /// The homing seek's state.
@@ -270,14 +272,26 @@ pub struct ControlSystem {
 
 impl ControlSystem {
     /// A machine at rest at machine position `start` (m; the negative end stop is at 0),
-    /// drive disabled, brake engaged, no faults planned. `const`: can be a `static`.
+    /// drive disabled, brake engaged, no faults planned, with the simulated drive's limits
+    /// ([`DriveLimits::SIMULATED`]). `const`: can be a `static`.
     pub const fn new(start: f32) -> Self {
+        Self::with_drive(start, DriveLimits::SIMULATED)
+    }
+
+    /// Like [`new`](Self::new), for a drive with the limits `drive`: the servo's current
+    /// limit ([`Gains::i_max`]) is `drive.i_max`, quick stops decelerate at
+    /// `drive.quick_stop_decel`. A real board sets its power stage's (domain review F2).
+    pub const fn with_drive(start: f32, drive: DriveLimits) -> Self {
         ControlSystem {
             core: Mutex::new(Cell::new(Core {
                 plant: Plant::new(start),
                 profile: Profile::new(0.0, Limits::MOVE),
                 servo: Servo::new(),
-                gains: Gains::DEFAULT,
+                gains: Gains {
+                    i_max: drive.i_max,
+                    ..Gains::DEFAULT
+                },
+                quick_stop_decel: drive.quick_stop_decel,
                 zero: 0.0,
                 seek: Seek::Off,
                 switch_neg: false,
@@ -462,6 +476,16 @@ impl ControlSystem {
         let mut v = cell.get();
         v.hw_pause_button = on;
         cell.set(v);
+    }
+
+    /// The drive's limits this control system was built with
+    /// ([`with_drive`](Self::with_drive)).
+    pub fn drive_limits(&self) -> DriveLimits {
+        let c = critical_section::with(|cs| self.core.borrow(cs).get());
+        DriveLimits {
+            i_max: c.gains.i_max,
+            quick_stop_decel: c.quick_stop_decel,
+        }
     }
 
     /// The last command the control step sent to the power stage.
@@ -926,7 +950,8 @@ fn regulate(c: &mut Core, req: Requests, io: &Io, m: &Measurements, dt: f32) -> 
             Motion::Stop | Motion::FeedHold => c.profile.stop(),
             Motion::FeedResume => c.profile.resume(),
             Motion::QuickStop => {
-                c.profile.quick_stop(measured, c.servo.velocity());
+                c.profile
+                    .quick_stop_at(measured, c.servo.velocity(), c.quick_stop_decel);
                 c.servo.clear_integral();
             }
         }

@@ -85,6 +85,63 @@ impl Limits {
     pub const QUICK_STOP_DECEL: f32 = 6.0;
 }
 
+/// What the fitted drive can deliver: the servo's current limit and the quick-stop
+/// deceleration. Part of the control system's construction
+/// ([`ControlSystem::with_drive`](crate::control_system::ControlSystem::with_drive)), so a
+/// board with a weaker power stage than the simulated one configures its own (domain
+/// review F2: with the simulated 4 A and 6 m/s² on a 1.4 A bridge the servo commanded
+/// currents the bridge clipped, its integrator winding, and a quick stop took twice the
+/// distance it planned).
+///
+/// ```
+/// use rtseq_motor::controller::{DriveLimits, Limits, KF, M_EQ};
+/// use rtseq_motor::plant::{COULOMB, I_MAX, M_PER_RAD};
+/// let sim = DriveLimits::SIMULATED;
+/// assert_eq!((sim.i_max, sim.quick_stop_decel), (I_MAX, Limits::QUICK_STOP_DECEL));
+/// // A 1.4 A drive on the same axis: 2.25 m/s².
+/// let a = DriveLimits::max_quick_stop_decel(1.4, KF, M_EQ, COULOMB / M_PER_RAD);
+/// assert!((a - 2.245).abs() < 1e-3);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DriveLimits {
+    /// Current limit of the servo's command (and of its integrator), A: the drive's.
+    pub i_max: f32,
+    /// Deceleration of a quick stop ([`Profile::quick_stop_at`]), m/s²: at most what the
+    /// drive can hold ([`max_quick_stop_decel`](Self::max_quick_stop_decel)).
+    pub quick_stop_decel: f32,
+}
+
+impl DriveLimits {
+    /// The simulated drive of [`crate::plant`]: [`I_MAX`] (4 A) and
+    /// [`Limits::QUICK_STOP_DECEL`] (6 m/s²).
+    pub const SIMULATED: DriveLimits = DriveLimits {
+        i_max: I_MAX,
+        quick_stop_decel: Limits::QUICK_STOP_DECEL,
+    };
+
+    /// The highest quick-stop deceleration, m/s², a drive limited to `i_max` (A) holds on
+    /// an axis of force constant `kf` (N/A), equivalent mass `m_eq` (kg) and Coulomb
+    /// friction force `friction` (N): `(kf·i_max − friction) / m_eq`. Conservative:
+    /// friction in fact helps a stop; the current it saves (twice the friction current)
+    /// is left to the servo's correction on top of the profile's feed-forward.
+    pub const fn max_quick_stop_decel(i_max: f32, kf: f32, m_eq: f32, friction: f32) -> f32 {
+        (kf * i_max - friction) / m_eq
+    }
+
+    /// Distance to stop from `v` (m/s) at [`quick_stop_decel`](Self::quick_stop_decel)
+    /// when the stop starts `late` seconds after the cause, m: `v²/(2a) + v·late`.
+    pub const fn stopping_distance(&self, v: f32, late: f32) -> f32 {
+        v * v / (2.0 * self.quick_stop_decel) + v * late
+    }
+}
+
+// The simulated drive holds its own quick stop (7.1 m/s² ≥ 6).
+const _: () = assert!(
+    DriveLimits::SIMULATED.quick_stop_decel
+        <= DriveLimits::max_quick_stop_decel(I_MAX, KF, M_EQ, COULOMB / M_PER_RAD)
+);
+
 /// Distance the axis needs to stop from full speed ([`Limits::MOVE`]`.v_max`) at
 /// [`Limits::QUICK_STOP_DECEL`] when the stop is detected one 1 ms control period late,
 /// m: `v²/(2a) + v·t` = 3.33 + 0.2 = 3.53 mm. The soft travel limits lie at least this far
@@ -175,11 +232,17 @@ impl Profile {
     /// Re-synchronises the setpoint with the measured state (`pos`, `vel`) and decelerates
     /// from there at [`Limits::QUICK_STOP_DECEL`]; the interrupted move is forgotten.
     pub fn quick_stop(&mut self, pos: f32, vel: f32) {
+        self.quick_stop_at(pos, vel, Limits::QUICK_STOP_DECEL);
+    }
+
+    /// [`quick_stop`](Self::quick_stop) at the deceleration `decel` (m/s², the drive's:
+    /// [`DriveLimits::quick_stop_decel`]).
+    pub fn quick_stop_at(&mut self, pos: f32, vel: f32, decel: f32) {
         self.pos = pos;
         self.vel = vel;
         self.acc = 0.0;
         self.mode = ProfileMode::Stop {
-            decel: Limits::QUICK_STOP_DECEL,
+            decel,
             resume: None,
         };
     }

@@ -30,6 +30,8 @@ pub mod sensors;
 use rtseq::safety::ValidProperties;
 use rtseq_motor::bringup::{Direction, JogConfig, JogStep, JogStop, Legs};
 use rtseq_motor::control_system::ControlSystem;
+use rtseq_motor::controller::{DriveLimits, Limits, M_EQ};
+use rtseq_motor::plant::{COULOMB, M_PER_RAD};
 use rtseq_motor::safety::{DriveIo, Watches};
 
 /// Control rate, Hz: TIM6's update rate and the sequencer's tick.
@@ -124,6 +126,36 @@ defmt::timestamp!(
     "{=u32}ms",
     app::TICKS.load(core::sync::atomic::Ordering::Relaxed)
 );
+
+/// The controller's drive limits on this board (domain review F2): the servo's current
+/// limit is the bridge's [`drive::I_LIMIT`] (not the simulated drive's 4 A, which the
+/// bridge would clip while the servo's integrator kept winding), and a quick stop
+/// decelerates at what the bridge holds on the axis: `(KF·I_LIMIT − friction) / M_EQ`
+/// ([`DriveLimits::max_quick_stop_decel`]) ≈ 2.25 m/s², from the motor constants the
+/// duty conversion uses ([`drive::MotorModel::DEFAULT`]'s `ke`, the torque constant in
+/// SI units) and the axis the controller is tuned for ([`rtseq_motor::controller::M_EQ`],
+/// [`rtseq_motor::plant::M_PER_RAD`], [`rtseq_motor::plant::COULOMB`]). Change them with
+/// the motor and the mechanics.
+pub const DRIVE: DriveLimits = {
+    let kf = drive::MotorModel::DEFAULT.ke / M_PER_RAD;
+    let friction = COULOMB / M_PER_RAD;
+    DriveLimits {
+        i_max: drive::I_LIMIT,
+        quick_stop_decel: DriveLimits::max_quick_stop_decel(drive::I_LIMIT, kf, M_EQ, friction),
+    }
+};
+// The bridge holds the quick stop, and a quick stop is no gentler than the moves' own ramp
+// (else a feed hold would stop sooner than the safe stop).
+const _: () = {
+    let kf = drive::MotorModel::DEFAULT.ke / M_PER_RAD;
+    assert!(DRIVE.i_max <= drive::I_LIMIT);
+    assert!(M_EQ * DRIVE.quick_stop_decel + COULOMB / M_PER_RAD <= kf * DRIVE.i_max);
+    assert!(DRIVE.quick_stop_decel >= Limits::MOVE.a_max);
+};
+/// Distance a quick stop from full speed needs with [`DRIVE`], detected one control period
+/// late, m (≈ 9.1 mm): the hard stops must sit at least this far (plus a reserve) beyond
+/// the end-stop switches, or `Limits::MOVE.v_max` be lowered.
+pub const STOPPING_DISTANCE: f32 = DRIVE.stopping_distance(Limits::MOVE.v_max, DT);
 
 /// The bring-up jog: the defaults, its own current limit the bridge's.
 pub const JOG: JogConfig = JogConfig {
@@ -237,7 +269,7 @@ mod app {
     use super::pins;
     use super::sensors::{Sensors, Switches};
     use super::{control_time, CONTROL_HZ};
-    use super::{log_jog, log_status, DT, PROPERTIES, WATCHDOG_MS};
+    use super::{log_jog, log_status, DRIVE, DT, PROPERTIES, WATCHDOG_MS};
 
     /// The power stage with this board's pins.
     pub type Power = Bridge<
@@ -256,8 +288,9 @@ mod app {
     // only calls the `Sequences` methods, through `safety_cycle`, which take no lock.
     static SEQ: Sequencer<ControlSystem, { app::SEQUENCES }, 64, PriorityCeiling<2>> =
         unsafe { Sequencer::with_priority_ceiling() };
-    /// The control system (its simulated plant is not used: the sensors are the truth).
-    static CS: ControlSystem = ControlSystem::new(AppConfig::DEFAULT.start_position);
+    /// The control system (its simulated plant is not used: the sensors are the truth),
+    /// with this board's drive limits ([`DRIVE`]).
+    static CS: ControlSystem = ControlSystem::with_drive(AppConfig::DEFAULT.start_position, DRIVE);
     /// The sequence table, checked by the compiler: `init` only copies it in.
     static SETUP: app::Setup = app::Setup::DEFAULT;
     /// The monitors' names, for the records `idle` prints (the control task owns the table).

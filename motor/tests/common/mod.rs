@@ -42,6 +42,23 @@ pub fn app_sim(
     (sim, seq, cs)
 }
 
+/// Like [`app_sim`], with a control system for a drive with the limits `drive`
+/// (`ControlSystem::with_drive`).
+pub fn app_sim_with_drive(
+    plan: FaultPlan,
+    config: AppConfig,
+    drive: rtseq_motor::controller::DriveLimits,
+) -> (AppSim, &'static Seqr, &'static ControlSystem) {
+    let cs = ControlSystem::with_drive(config.start_position, drive);
+    let (mut sim, seq, cs, app) = registered_with(plan, config, cs);
+    sim.lane(app.main);
+    sim.lane(app.status);
+    sim.lane(app.safe_stop);
+    sim.lane(app.feed_hold);
+    sim.lane(app.feed_resume);
+    (sim, seq, cs)
+}
+
 /// Like [`app_sim`], with the five lanes joined in one task (`App::run`, `rtseq::lanes!`).
 pub fn app_sim_joined(
     plan: FaultPlan,
@@ -60,8 +77,17 @@ fn registered(
     plan: FaultPlan,
     config: AppConfig,
 ) -> (AppSim, &'static Seqr, &'static ControlSystem, app::App) {
+    registered_with(plan, config, ControlSystem::new(config.start_position))
+}
+
+/// [`registered`] with the control system `cs`.
+fn registered_with(
+    plan: FaultPlan,
+    config: AppConfig,
+    cs: ControlSystem,
+) -> (AppSim, &'static Seqr, &'static ControlSystem, app::App) {
     let seq: &'static Seqr = Box::leak(Box::new(Sequencer::new()));
-    let cs: &'static ControlSystem = Box::leak(Box::new(ControlSystem::new(config.start_position)));
+    let cs: &'static ControlSystem = Box::leak(Box::new(cs));
     cs.set_fault_plan(plan);
     let monitors: app::AppMonitors<M> = app::monitor_ids::table(&config).unwrap();
     let setup = app::Setup::new(config).unwrap();
