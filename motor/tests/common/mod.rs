@@ -6,6 +6,7 @@ use rtseq::sim::Sim;
 use rtseq::{Duration, Instant, Outcome, RunningState, SeqId, Sequencer, Transition};
 use rtseq_motor::app::{self, AppConfig, FaultPlan};
 use rtseq_motor::control_system::ControlSystem;
+use rtseq_motor::controller::DriveLimits;
 use rtseq_motor::safety::{self, PROPERTIES};
 
 /// The application's ids, for the tests.
@@ -33,13 +34,7 @@ pub fn app_sim(
     plan: FaultPlan,
     config: AppConfig,
 ) -> (AppSim, &'static Seqr, &'static ControlSystem) {
-    let (mut sim, seq, cs, app) = registered(plan, config);
-    sim.lane(app.main);
-    sim.lane(app.status);
-    sim.lane(app.safe_stop);
-    sim.lane(app.feed_hold);
-    sim.lane(app.feed_resume);
-    (sim, seq, cs)
+    app_sim_with_drive(plan, config, DriveLimits::SIMULATED)
 }
 
 /// Like [`app_sim`], with a control system for a drive with the limits `drive`
@@ -47,7 +42,7 @@ pub fn app_sim(
 pub fn app_sim_with_drive(
     plan: FaultPlan,
     config: AppConfig,
-    drive: rtseq_motor::controller::DriveLimits,
+    drive: DriveLimits,
 ) -> (AppSim, &'static Seqr, &'static ControlSystem) {
     let cs = ControlSystem::with_drive(config.start_position, drive);
     let (mut sim, seq, cs, app) = registered_with(plan, config, cs);
