@@ -28,10 +28,11 @@ pub mod pins;
 pub mod sensors;
 
 use rtseq::safety::ValidProperties;
+use rtseq_motor::app::{AppConfig, Travel};
 use rtseq_motor::bringup::{Direction, JogConfig, JogStep, JogStop, Legs};
 use rtseq_motor::control_system::ControlSystem;
 use rtseq_motor::controller::{DriveLimits, Limits, M_EQ};
-use rtseq_motor::plant::{COULOMB, M_PER_RAD};
+use rtseq_motor::plant::{COULOMB, END_STOP_NEG, END_STOP_POS, M_PER_RAD};
 use rtseq_motor::safety::{DriveIo, Watches};
 
 /// Control rate, Hz: TIM6's update rate and the sequencer's tick.
@@ -157,6 +158,22 @@ const _: () = {
 /// the end-stop switches, or `Limits::MOVE.v_max` be lowered.
 pub const STOPPING_DISTANCE: f32 = DRIVE.stopping_distance(Limits::MOVE.v_max, DT);
 
+/// Reserve between a soft travel limit and the stopping distance, m.
+const TRAVEL_RESERVE: f32 = 0.0005;
+/// The soft travel limits on this board: the axis' switch span (set it to the real axis),
+/// inset at each end by this bridge's [`STOPPING_DISTANCE`] plus a reserve, so a move that
+/// runs away from a soft limit at full speed stops before the switch.
+pub const TRAVEL: Travel = Travel {
+    min: STOPPING_DISTANCE + TRAVEL_RESERVE,
+    max: (END_STOP_POS - END_STOP_NEG) - STOPPING_DISTANCE - TRAVEL_RESERVE,
+};
+const _: () = assert!(TRAVEL.min < TRAVEL.max);
+/// The application's parameters on this board: the defaults with [`TRAVEL`].
+pub const CONFIG: AppConfig = AppConfig {
+    travel: TRAVEL,
+    ..AppConfig::DEFAULT
+};
+
 /// The bring-up jog: the defaults, its own current limit the bridge's.
 pub const JOG: JogConfig = JogConfig {
     trip_amps: drive::I_LIMIT,
@@ -250,7 +267,7 @@ mod app {
     use rtseq::safety::SafetySystem;
     use rtseq::{MonitorNames, SeqId, Sequencer, WithNames};
     use rtseq_motor::app::seq_ids::MAIN;
-    use rtseq_motor::app::{self, App, AppConfig, FaultPlan};
+    use rtseq_motor::app::{self, App, FaultPlan, Setup};
     use rtseq_motor::bringup::{Jog, JogSample, JogStep};
     use rtseq_motor::control_system::ControlSystem;
     use rtseq_motor::hardware::DriveCommand;
@@ -269,7 +286,7 @@ mod app {
     use super::pins;
     use super::sensors::{Sensors, Switches};
     use super::{control_time, CONTROL_HZ};
-    use super::{log_jog, log_status, DRIVE, DT, PROPERTIES, WATCHDOG_MS};
+    use super::{log_jog, log_status, CONFIG, DRIVE, DT, PROPERTIES, WATCHDOG_MS};
 
     /// The power stage with this board's pins.
     pub type Power = Bridge<
@@ -290,12 +307,18 @@ mod app {
         unsafe { Sequencer::with_priority_ceiling() };
     /// The control system (its simulated plant is not used: the sensors are the truth),
     /// with this board's drive limits ([`DRIVE`]).
-    static CS: ControlSystem = ControlSystem::with_drive(AppConfig::DEFAULT.start_position, DRIVE);
-    /// The sequence table, checked by the compiler: `init` only copies it in.
-    static SETUP: app::Setup = app::Setup::DEFAULT;
+    static CS: ControlSystem = ControlSystem::with_drive(CONFIG.start_position, DRIVE);
+    /// The sequence table of [`CONFIG`], checked by the compiler: `init` only copies it in.
+    static SETUP: Setup = match Setup::new(CONFIG) {
+        Ok(setup) => match setup.validate() {
+            Ok(()) => setup,
+            Err(e) => panic!("{}", e.message().as_str()),
+        },
+        Err(e) => panic!("{}", e.message().as_str()),
+    };
     /// The monitors' names, for the records `idle` prints (the control task owns the table).
     static MONITOR_NAMES: MonitorNames<{ app::monitor_ids::COUNT }> =
-        app::monitor_ids::names(&AppConfig::DEFAULT);
+        app::monitor_ids::names(&CONFIG);
     /// Control periods since start, wrapping (the defmt timestamp and the idle loop's
     /// pace; the sequencer's clock counts them in 64 bits).
     pub static TICKS: AtomicU32 = AtomicU32::new(0);
@@ -468,7 +491,7 @@ mod app {
         CS.set_fault_plan(FaultPlan::NONE);
         // Built by the compiler: no monitor set-up code in the firmware.
         let monitors = const {
-            match app::monitor_ids::table(&AppConfig::DEFAULT) {
+            match app::monitor_ids::table(&CONFIG) {
                 Ok(m) => m,
                 Err(e) => panic!("{}", e.message().as_str()),
             }
