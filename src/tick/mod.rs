@@ -15,7 +15,8 @@
 //! | `polls.rs` | which polls are due in a word, their expired timeouts; the due polls a hold skips |
 //! | `wake.rs` | the wake-ups of due exit-condition polls, without the held sequences and those the tick changed |
 //! | `monitors.rs` | monitor evaluation in groups, edges and triggers; the firings (`fire_group`, `fire`, `hold_owner`, `release_pending`) |
-//! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour; a `PauseOwner` monitor's hold and release |
+//! | `exception.rs` | a firing: the mark, the exception sequence, the behaviour |
+//! | `hold.rs` | a `PauseOwner` monitor's hold and release |
 //! | `requests.rs` | abort-all, pause, resume and abort requests, ended exception sequences' behaviours |
 //! | `teardown.rs` | aborts and restarts of a sequence and those below it, abort-all, dropped runs |
 //! | `pause.rs` | pauses and resumes of a sequence and its blocking children |
@@ -30,6 +31,7 @@ use crate::sequencer::sets::Set;
 use crate::{Cause, Error, Instant, Monitors, Sequencer};
 
 mod exception;
+mod hold;
 mod monitors;
 mod pause;
 mod polls;

@@ -35,7 +35,7 @@ fn run_e<L: Lock + 'static, const N: usize, const B: usize>(w: &World<L, N, B>, 
 }
 
 // =======================================================================================
-// A `PauseOwner` monitor's hold (tick/exception.rs `hold`): section 1 reads O's run, then
+// A `PauseOwner` monitor's hold (tick/hold.rs `hold`): section 1 reads O's run, then
 // the exception sequence starts for it and `pause_tree` pauses it.
 // =======================================================================================
 
