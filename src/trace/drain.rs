@@ -8,13 +8,12 @@ use crate::Sequencer;
 impl<C, const N: usize, const T: usize, L: Lock, const W: usize, const B: usize>
     Sequencer<C, N, T, L, W, B>
 {
-    /// Passes the buffered records (transitions and [`Event`]s), oldest first, to `f` and
-    /// empties the buffer; at most `T` records per call (the buffer's capacity: all it
-    /// held), so that a drain returns even while `f` makes records itself (a request for
-    /// each record it reads): those wait for the next call. Returns how many were lost to
-    /// overflow since the last call:
-    /// exact while fewer than 2³² records are written between two calls (at 1 000 records
-    /// a second, about 50 days). The buffer counts its records in 32 bits and never tests
+    /// Passes the buffered records (transitions and [`Event`](crate::Event)s), oldest
+    /// first, to `f` and empties the buffer; at most `T` records per call (the buffer's
+    /// capacity: all it held), so that a drain returns even while `f` makes records itself
+    /// (a request for each record it reads): those wait for the next call. Returns how many
+    /// were lost to overflow since the last call: exact while fewer than 2³² records are
+    /// written between two calls (at 1 000 records a second, about 50 days). The buffer counts its records in 32 bits and never tests
     /// for a full ring inside a transition's section, so drain at least that often.
     ///
     /// ```
