@@ -190,3 +190,70 @@ fn new_run_before_the_mark<L: Lock + 'static, const N: usize, const B: usize>(la
 fn a_caller_started_again_before_the_mark_begins_unmarked_and_unnamed() {
     every_world!(new_run_before_the_mark);
 }
+
+/// P (main) started C in C's lane, C started O in O's. O's monitor M
+/// (`RestartCallerOfOwner`) restarts C in the tick at 1 ms; C's lane, above the tick, takes
+/// the restart up before section `k` of that tick, if C is restarting then, or else after
+/// the tick. Then P starts O again, and
+/// in the tick at 2 ms M restarts P, aborting C from above for M. C's new round was never
+/// marked, so aborted for M from above it is not marked either: `exception_is_active` is
+/// false (`exception_active`: a teardown from above for an exception that marked an
+/// earlier round), whatever `k`. A mark made after the new round began would make it true
+/// (a mutant of `mark_exception_target` that mutation testing found unpinned, session 64).
+fn round_taken_up_before_the_mark_stays_unmarked<
+    L: Lock + 'static,
+    const N: usize,
+    const B: usize,
+>(
+    layout: Layout,
+) {
+    let setup = move || {
+        let w = World::<L, N, B>::new(layout);
+        let [p, c, o] = ["P", "C", "O"].map(|n| w.seq(n));
+        let m = w.monitor(o, flag_of(true), Behaviour::RestartCallerOfOwner, None);
+        w.start_taken(p);
+        w.in_lane(c, p).unwrap();
+        w.take(c);
+        w.in_lane(o, c).unwrap();
+        w.take(o);
+        (w, p, c, o, m)
+    };
+    let count = sections(setup, |(w, ..)| w.tick(1));
+    every_k(count + 1, |k| {
+        let (w, p, c, o, m) = setup();
+        let take_up = move || {
+            if w.state(c) == Restarting {
+                w.seq.restart(w.run(c));
+            }
+        };
+        interleaved::at(k, take_up);
+        w.tick(1);
+        interleaved::at(usize::MAX, || {});
+        // Before section `k` C may not be restarting yet: its lane takes the restart up
+        // after the tick then.
+        let during = w.state(c) == Running;
+        take_up();
+        let what = name::<L>(layout, format_args!("k={k} of {count}, during: {during}"));
+        assert_eq!(w.moves(c, Running, Restarting), 1, "{what}");
+        assert_eq!(w.state(c), Running, "{what}: the new round");
+        assert_eq!(w.ended(o), (Aborted, m), "{what}");
+        w.in_lane(o, p).unwrap();
+        w.take(o);
+        w.tick(2);
+        assert_eq!(w.ended(p), (Restarting, m), "{what}");
+        assert_eq!(w.ended(c), (Aborted, m), "{what}");
+        let h = w.handle(c);
+        assert_eq!(
+            (h.exception_is_active(), h.active_exception()),
+            (false, Some(m)),
+            "{what}"
+        );
+        w.check_tree(&what);
+    });
+}
+
+#[test]
+fn a_round_taken_up_before_the_mark_is_not_marked_when_aborted_from_above() {
+    round_taken_up_before_the_mark_stays_unmarked::<Interleaved, 8, 1>(Layout::One);
+    round_taken_up_before_the_mark_stays_unmarked::<Interleaved, 64, 2>(Layout::Second);
+}
