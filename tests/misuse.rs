@@ -15,6 +15,7 @@ use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering::SeqCst};
 use std::sync::Arc;
 use std::task::{Context, Poll, Wake, Waker};
 
+use embassy_futures::join::join;
 use embassy_futures::select::{select, Either};
 use rtseq::sim::Sim;
 use rtseq::Cause::{Completed, Dropped, Start};
@@ -789,6 +790,88 @@ fn three_joiners_of_one_run_all_get_its_outcome() {
             (5, m, Ok(Done::Completed)),
             (5, b, Ok(Done::Completed)),
         ]
+    );
+}
+
+/// Two joiners in one lane: main joins C while it runs B blocking, and B joins C too. C's
+/// end names main's lane once for each joiner; the lane is woken, and both joins return
+/// (then B ends, then main).
+#[test]
+fn a_caller_and_its_blocking_child_joining_one_run_both_get_its_outcome() {
+    struct JoinBesideChild {
+        c: SeqId,
+        b: Seq<Node>,
+    }
+    impl Sequence<Ctrl> for JoinBesideChild {
+        async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
+            cx.start(self.c)?;
+            let (joined, ran) = join(cx.join(self.c), cx.run(&mut self.b)).await;
+            let joined = joined.map_err(Failure::from).and_then(Outcome::done);
+            cx.control().returned.borrow_mut().push(Returned {
+                ms: cx.now().as_ticks() / 1000,
+                seq: cx.id(),
+                line: 1,
+                result: joined,
+            });
+            ran.map(|_| ())
+        }
+    }
+    let seq: Sequencer<Ctrl, 8> = Sequencer::new();
+    let ctrl = Ctrl::default();
+    let dwell = seq
+        .add(SeqConfig::new("dwell"), Wait::new(Duration::from_millis(5)))
+        .unwrap();
+    let di = dwell.id();
+    let c = seq
+        .add(SeqConfig::new("C"), Node::of(vec![Op::Wait(dwell)]))
+        .unwrap();
+    let ci = c.id();
+    let b = seq
+        .add(SeqConfig::new("B"), Node::of(vec![Op::Join(ci)]))
+        .unwrap();
+    let bi = b.id();
+    let main = seq
+        .add(SeqConfig::new("main"), JoinBesideChild { c: ci, b })
+        .unwrap();
+    let m = main.id();
+    let mut sim = Sim::new(&seq, &ctrl, Monitors::<Ctrl, 1>::new());
+    sim.lane(main);
+    sim.lane(c);
+    sim.start(m).unwrap();
+    assert_eq!(
+        sim.run_until_idle(Duration::from_millis(20)),
+        Some(ms_at(5))
+    );
+    let trace = sim.take_trace();
+    drop(sim);
+    let joins: Vec<_> = ctrl
+        .returned
+        .borrow()
+        .iter()
+        .filter(|r| r.seq == m || r.seq == bi)
+        .map(|r| (r.ms, r.seq, r.line, r.result))
+        .collect();
+    assert_eq!(
+        joins,
+        [
+            (5, bi, 0, Ok(Done::Completed)),
+            (5, m, 1, Ok(Done::Completed))
+        ]
+    );
+    assert_eq!(
+        trace,
+        [
+            tr(0, m, Idle, Running, Start),
+            tr(0, ci, Idle, Running, Start),
+            tr(0, bi, Idle, Running, Start),
+            tr(0, di, Idle, Running, Start),
+            tr(5, di, Running, Terminated, Completed),
+            tr(5, ci, Running, Terminated, Completed),
+            tr(5, bi, Running, Terminated, Completed),
+            tr(5, m, Running, Terminated, Completed),
+        ],
+        "{}",
+        show(&trace)
     );
 }
 
