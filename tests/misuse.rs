@@ -793,6 +793,17 @@ fn three_joiners_of_one_run_all_get_its_outcome() {
     );
 }
 
+/// Records what a join written by hand (not an `Op::Join`) returned, as `line` of `cx`'s
+/// sequence.
+fn record_join(cx: &Cx<'_, Ctrl>, line: usize, r: Result<Outcome, Error>) {
+    cx.control().returned.borrow_mut().push(Returned {
+        ms: cx.now().as_ticks() / 1000,
+        seq: cx.id(),
+        line,
+        result: r.map_err(Failure::from).and_then(Outcome::done),
+    });
+}
+
 /// Two joiners in one lane: main joins C while it runs B blocking, and B joins C too. C's
 /// end names main's lane once for each joiner; the lane is woken, and both joins return
 /// (then B ends, then main).
@@ -806,13 +817,7 @@ fn a_caller_and_its_blocking_child_joining_one_run_both_get_its_outcome() {
         async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
             cx.start(self.c)?;
             let (joined, ran) = join(cx.join(self.c), cx.run(&mut self.b)).await;
-            let joined = joined.map_err(Failure::from).and_then(Outcome::done);
-            cx.control().returned.borrow_mut().push(Returned {
-                ms: cx.now().as_ticks() / 1000,
-                seq: cx.id(),
-                line: 1,
-                result: joined,
-            });
+            record_join(cx, 1, joined);
             ran.map(|_| ())
         }
     }
@@ -1266,15 +1271,6 @@ fn a_join_dropped_by_a_select_is_no_longer_a_wait() {
 /// wait until some other run's end (X's, at 20 ms) happens to wake A.
 #[test]
 fn a_cycle_closed_after_a_select_of_two_joins_is_an_error_at_once() {
-    /// Records what a join returned.
-    fn record(cx: &Cx<'_, Ctrl>, r: Result<Outcome, Error>) {
-        cx.control().returned.borrow_mut().push(Returned {
-            ms: cx.now().as_ticks() / 1000,
-            seq: cx.id(),
-            line: 0,
-            result: r.map_err(Failure::from).and_then(Outcome::done),
-        });
-    }
     struct SelectThenJoin {
         x: SeqId,
         y: SeqId,
@@ -1285,7 +1281,7 @@ fn a_cycle_closed_after_a_select_of_two_joins_is_an_error_at_once() {
             cx.start(self.x)?;
             cx.start(self.y)?;
             let _ = select(cx.join(self.x), cx.join(self.y)).await;
-            record(cx, cx.join(self.b).await);
+            record_join(cx, 0, cx.join(self.b).await);
             Ok(())
         }
     }
@@ -1296,7 +1292,7 @@ fn a_cycle_closed_after_a_select_of_two_joins_is_an_error_at_once() {
     impl Sequence<Ctrl> for JoinOnFlag {
         async fn action(&mut self, cx: &Cx<'_, Ctrl>) -> Result<(), Failure> {
             cx.wait_until(|cx| cx.control().flag(0)).await;
-            record(cx, cx.join(self.a).await);
+            record_join(cx, 0, cx.join(self.a).await);
             Ok(())
         }
     }
