@@ -507,6 +507,47 @@ fn a_lane_beyond_the_lane_slots_is_an_error_naming_the_capacity() {
     );
 }
 
+/// A refused lane is named until its own lane future is dropped, and no other drop forgets
+/// it: a firmware engineer who removes the extra lane task sees the error go, and one who
+/// stops another lane still sees the shortage of slots named, not that other lane.
+#[test]
+fn a_refusal_is_forgotten_with_its_own_lane_future_and_no_other() {
+    let seq: Sequencer<(), 4, 64, CriticalSection, 1> = Sequencer::new();
+    let mut a = seq.add(SeqConfig::new("a"), Forever).unwrap();
+    let mut b = seq.add(SeqConfig::new("b"), Forever).unwrap();
+    let (ia, ib) = (a.id(), b.id());
+    let mut a_lane = Box::pin(rtseq::lane(&seq, &(), &mut a));
+    poll_once(a_lane.as_mut());
+    {
+        // The only slot is `a`'s: `b`'s lane is refused, then dropped.
+        let mut b_lane = Box::pin(rtseq::lane(&seq, &(), &mut b));
+        poll_once(b_lane.as_mut());
+        assert_eq!(seq.check_lanes(), Err(Error::LaneCapacityExceeded(ib)));
+    }
+    assert_eq!(seq.check_lanes(), Ok(()));
+    // Refused again; then `a`'s lane is dropped: the refusal is still the first thing named.
+    let mut b_lane = Box::pin(rtseq::lane(&seq, &(), &mut b));
+    poll_once(b_lane.as_mut());
+    drop(a_lane);
+    assert_eq!(seq.check_lanes(), Err(Error::LaneCapacityExceeded(ib)));
+    assert_eq!(
+        seq.sequence_by_id(ia).unwrap().start(),
+        Err(Error::NoLane(ia))
+    );
+    drop(b_lane);
+    assert_eq!(seq.check_lanes(), Err(Error::NoLane(ia)));
+}
+
+/// Polls a lane future once, as its task's first run does (a lane never ends).
+fn poll_once(
+    lane: core::pin::Pin<&mut dyn core::future::Future<Output = core::convert::Infallible>>,
+) {
+    let waker = core::task::Waker::noop();
+    assert!(lane
+        .poll(&mut core::task::Context::from_waker(waker))
+        .is_pending());
+}
+
 // ---------------------------------------------------------------------------------------
 // Names.
 
